@@ -1,0 +1,14 @@
+#!/usr/bin/env bash
+# Installs missing Debian packages, then configures and builds Plumage (Release, with
+# ccache when present) in ${PLUMAGE_BUILD_DIR:-build}.
+set -euo pipefail
+root=$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)
+"$root/scripts/install-deps.sh"
+build_dir=${PLUMAGE_BUILD_DIR:-$root/build}
+generator=()
+command -v ninja >/dev/null && generator=(-G Ninja)
+if [[ ! -f "$build_dir/CMakeCache.txt" ]]; then
+  cmake -S "$root" -B "$build_dir" "${generator[@]}" -DCMAKE_BUILD_TYPE=Release >&2
+fi
+# Two jobs: the machines we target have 2 cores; more only thrashes.
+cmake --build "$build_dir" --parallel "${PLUMAGE_JOBS:-2}" >&2

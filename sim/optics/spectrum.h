@@ -1,0 +1,38 @@
+// Wavelength grids and sampled spectra. Wavelengths are in nanometres (vacuum).
+//
+// A grid is any strictly increasing list of finite positive wavelengths. It is not
+// restricted to the visible range (birds see UV); only colour conversion (colour.h)
+// requires the grid to lie within the colour-matching functions' 360–830 nm.
+#pragma once
+
+#include <cstddef>
+#include <span>
+#include <vector>
+
+namespace plumage::optics {
+
+class WavelengthGrid {
+public:
+    // Throws InputError naming the first offending entry if the list is empty, not
+    // finite, not positive or not strictly increasing.
+    explicit WavelengthGrid(std::vector<double> wavelengths_nm);
+
+    // first, first + step, ..., up to last (inclusive when last − first is a whole
+    // number of steps, to within 1e-9 of a step).
+    static WavelengthGrid uniform(double first_nm, double last_nm, double step_nm);
+
+    std::size_t size() const { return nm_.size(); }
+    double operator[](std::size_t i) const { return nm_[i]; }
+    std::span<const double> nm() const { return nm_; }
+    double first() const { return nm_.front(); }
+    double last() const { return nm_.back(); }
+
+private:
+    std::vector<double> nm_;
+};
+
+// Linear interpolation in a table sampled at first_nm + i * step_nm; zero outside.
+double interpolate_uniform_table(std::span<const double> table, double first_nm, double step_nm,
+                                 double lambda_nm);
+
+}  // namespace plumage::optics

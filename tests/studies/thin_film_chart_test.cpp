@@ -1,0 +1,90 @@
+// The thin-film study end to end (coarse grid, no matplotlib): rock-dove film colours
+// and the written record.
+#include "studies/thin_film_chart.h"
+
+#include <unistd.h>
+
+#include <filesystem>
+
+#include <gtest/gtest.h>
+
+#include "tests/test_util.h"
+#include "virtual_gonio/hdf5_file.h"
+
+namespace plumage::studies {
+namespace {
+
+std::filesystem::path scratch_root() {
+    return std::filesystem::temp_directory_path() / ("plumage_study_test_" + std::to_string(::getpid()));
+}
+
+ThinFilmChartOptions quick_options(const std::filesystem::path& dir) {
+    ThinFilmChartOptions o;
+    o.output_dir = dir;
+    o.thickness_step_nm = 5.0;
+    o.angle_step_deg = 5.0;
+    o.plots = false;
+    o.progress = false;
+    return o;
+}
+
+const FilmColour& colour_of(const ThinFilmChartResult& r, double d, bool background) {
+    for (const FilmColour& c : r.normal_incidence) {
+        if (c.thickness_nm == d && c.with_melanin_background == background) return c;
+    }
+    throw std::runtime_error("film colour missing");
+}
+
+TEST(ThinFilmStudy, RockDoveFilmsAreGreenAndPurpleAtNormalIncidence) {
+    const auto dir = scratch_root() / "thin_film";
+    const ThinFilmChartResult result = run_thin_film_chart(quick_options(dir));
+    // CIELAB hue angle: green occupies roughly 120–180° (a* < 0 < b*, towards −a*),
+    // purple/magenta roughly 290–350° (a* > 0 > b*). Yin et al. 2006 / Huang 2022:
+    // the 595 nm upper-neck film is green, the 530 nm lower-neck film purple.
+    for (bool background : {false, true}) {
+        const FilmColour& green = colour_of(result, 595.0, background);
+        const FilmColour& purple = colour_of(result, 530.0, background);
+        EXPECT_GT(green.hue_deg, 120.0);
+        EXPECT_LT(green.hue_deg, 180.0);
+        EXPECT_GT(purple.hue_deg, 290.0);
+        EXPECT_LT(purple.hue_deg, 350.0);
+        // Saturated enough to be called a colour, and the melanin background only
+        // desaturates (Huang: it "mainly decreases the color saturation").
+        EXPECT_GT(green.chroma, 15.0);
+        EXPECT_GT(purple.chroma, 15.0);
+        // The 5 nm chart grid resolves these colours well below a visible difference.
+        EXPECT_LT(green.delta_e00_chart_grid, 0.1);
+        EXPECT_LT(purple.delta_e00_chart_grid, 0.1);
+    }
+    EXPECT_LT(colour_of(result, 595.0, true).chroma, colour_of(result, 595.0, false).chroma);
+
+    // The record holds the chart with the stated shape, and the CSV and PNG exist.
+    const auto h5 = dir / "thin_film_chart.h5";
+    const auto xyz = record::read_dataset(h5, "chart/xyz");
+    EXPECT_EQ(xyz.dims, (std::vector<std::uint64_t>{19, 201, 3}));
+    const auto reflectance = record::read_dataset(h5, "chart/reflectance");
+    for (double r : reflectance.values) {
+        ASSERT_TRUE(r >= 0.0 && r <= 1.0);
+    }
+    // Zero thickness is the bare-interface pair, no film colour: R ≈ 0 at normal incidence.
+    EXPECT_LT(reflectance.values[0], 1e-7);
+    EXPECT_EQ(record::read_string_attribute(h5, "/chart", "illuminant"), "D65");
+    EXPECT_TRUE(std::filesystem::exists(dir / "spectra_normal_incidence.csv"));
+    EXPECT_TRUE(std::filesystem::exists(dir / "thin_film_chart_pixels.png"));
+    EXPECT_TRUE(std::filesystem::exists(dir / "report.md"));
+    std::filesystem::remove_all(scratch_root());
+}
+
+TEST(ThinFilmStudy, BadOptionsWriteNothing) {
+    const auto dir = scratch_root() / "bad";
+    ThinFilmChartOptions o = quick_options(dir);
+    o.thickness_step_nm = 0.0;
+    EXPECT_NE(plumage::testing::input_error_message([&] { run_thin_film_chart(o); })
+                  .find("thickness_step_nm = 0"),
+              std::string::npos);
+    EXPECT_FALSE(std::filesystem::exists(dir));
+    std::filesystem::remove_all(scratch_root());
+}
+
+}  // namespace
+}  // namespace plumage::studies

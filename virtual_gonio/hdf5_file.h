@@ -1,0 +1,71 @@
+// Writing records in HDF5 that h5py and MATLAB open directly.
+//
+// A record is written under a temporary name beside its final path and renamed when
+// commit() is called, so a crash or an exception never leaves a half-written record:
+// a Hdf5Writer destroyed without commit() deletes its temporary file.
+//
+// Datasets are row-major (C order) as h5py reads them; MATLAB's h5read shows the
+// dimensions reversed, as it does for every C-written file. Each dataset may carry
+// string attributes such as "units" and "description".
+#pragma once
+
+#include <cstdint>
+#include <filesystem>
+#include <span>
+#include <string>
+#include <utility>
+#include <vector>
+
+namespace plumage::record {
+
+using Attributes = std::vector<std::pair<std::string, std::string>>;
+
+class Hdf5Writer {
+public:
+    explicit Hdf5Writer(std::filesystem::path final_path);
+    ~Hdf5Writer();
+    Hdf5Writer(const Hdf5Writer&) = delete;
+    Hdf5Writer& operator=(const Hdf5Writer&) = delete;
+
+    // dataset_path like "chart/xyz"; intermediate groups are created. The product of
+    // dims must equal data.size(). Large datasets are chunked and deflate-compressed.
+    void write(const std::string& dataset_path, std::span<const double> data,
+               const std::vector<std::uint64_t>& dims, const Attributes& attributes = {});
+    void write(const std::string& dataset_path, std::span<const float> data,
+               const std::vector<std::uint64_t>& dims, const Attributes& attributes = {});
+    void write(const std::string& dataset_path, std::span<const std::uint8_t> data,
+               const std::vector<std::uint64_t>& dims, const Attributes& attributes = {});
+    // Attributes on a group or dataset ("/" is the file's root group).
+    void set_attribute(const std::string& object_path, const std::string& name,
+                       const std::string& value);
+    void set_attribute(const std::string& object_path, const std::string& name, double value);
+
+    // Flush, close and rename to the final path. After commit the writer is inert.
+    void commit();
+
+    const std::filesystem::path& final_path() const { return final_path_; }
+
+private:
+    template <typename T>
+    void write_typed(const std::string& dataset_path, std::span<const T> data,
+                     const std::vector<std::uint64_t>& dims, const Attributes& attributes,
+                     std::int64_t memory_type, std::int64_t file_type);
+    void ensure_parent_groups(const std::string& dataset_path);
+    void close();
+
+    std::filesystem::path final_path_;
+    std::filesystem::path temporary_path_;
+    std::int64_t file_ = -1;
+};
+
+// Read a whole dataset as doubles (any numeric type) and its dimensions; for tests
+// and for resuming runs.
+struct Dataset {
+    std::vector<double> values;
+    std::vector<std::uint64_t> dims;
+};
+Dataset read_dataset(const std::filesystem::path& file, const std::string& dataset_path);
+std::string read_string_attribute(const std::filesystem::path& file, const std::string& object_path,
+                                  const std::string& name);
+
+}  // namespace plumage::record
