@@ -118,25 +118,10 @@ TriangleMesh BarbuleCell::tessellate(const TessellationTolerance& tolerance, boo
         return arc_.radius_of_curvature(phi) + std::min(0.0, sign * sag) - depth;
     };
 
-    std::vector<double> phis = {params_.phi0};
     double max_chord = 0.0;
-    while (phis.back() < params_.phi1) {
-        const double phi = phis.back();
-        double step = tolerance.max_angular_step(transversal_radius(phi));
-        // The radius changes along the step: shrink until the whole step meets the bound.
-        for (int i = 0; i < 30; ++i) {
-            const double rho = std::min({transversal_radius(phi), transversal_radius(phi + 0.5 * step),
-                                         transversal_radius(std::min(phi + step, params_.phi1))});
-            const double allowed = tolerance.max_angular_step(rho);
-            if (allowed >= step) break;
-            step = allowed;
-        }
-        const double next = std::min(phi + step, params_.phi1);
-        const double rho = std::min({transversal_radius(phi), transversal_radius(0.5 * (phi + next)),
-                                     transversal_radius(next)});
-        max_chord = std::max(max_chord, rho * (1.0 - std::cos(0.5 * (next - phi))));
-        phis.push_back(params_.phi1 - next < 1e-12 ? params_.phi1 : next);
-    }
+    const std::vector<double> phis = sample_normal_azimuths(
+        params_.phi0, params_.phi1, transversal_radius,
+        [&](double rho) { return tolerance.max_angular_step(rho); }, &max_chord);
 
     // Longitudinal samples: uniform in θ (constant curvature r_θ ∓ depth).
     std::vector<double> thetas;

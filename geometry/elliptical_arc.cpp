@@ -68,4 +68,29 @@ double EllipticalArc::projected_width(double psi) const {
     return hi - lo;
 }
 
+std::vector<double> sample_normal_azimuths(double phi0, double phi1,
+                                           const std::function<double(double)>& radius,
+                                           const std::function<double(double)>& step_bound,
+                                           double* chord_error) {
+    std::vector<double> phis = {phi0};
+    double max_chord = 0.0;
+    while (phis.back() < phi1) {
+        const double phi = phis.back();
+        double step = step_bound(radius(phi));
+        // The radius changes along the step: shrink until the whole step meets the bound.
+        for (int i = 0; i < 30; ++i) {
+            const double rho = std::min({radius(phi), radius(phi + 0.5 * step), radius(std::min(phi + step, phi1))});
+            const double allowed = step_bound(rho);
+            if (allowed >= step) break;
+            step = allowed;
+        }
+        const double next = std::min(phi + step, phi1);
+        const double rho = std::min({radius(phi), radius(0.5 * (phi + next)), radius(next)});
+        max_chord = std::max(max_chord, rho * (1.0 - std::cos(0.5 * (next - phi))));
+        phis.push_back(phi1 - next < 1e-12 ? phi1 : next);
+    }
+    if (chord_error != nullptr) *chord_error = max_chord;
+    return phis;
+}
+
 }  // namespace plumage::geometry

@@ -10,6 +10,9 @@
 // With A = 1, B = b this is Huang's Eq. 5: D_φ(φ) = ρ(φ) / H.
 #pragma once
 
+#include <functional>
+#include <vector>
+
 #include <Eigen/Core>
 
 namespace plumage::geometry {
@@ -41,5 +44,13 @@ public:
 private:
     double a_, b_, phi0_, phi1_;
 };
+
+// Normal azimuths from φ0 to φ1 (both included) such that every step Δ meets
+// step_bound(ρ) for the smallest radius of curvature radius(φ) along it; returns the
+// largest chord error made, ρ(1 − cos(Δ/2)), through chord_error.
+std::vector<double> sample_normal_azimuths(double phi0, double phi1,
+                                           const std::function<double(double)>& radius,
+                                           const std::function<double(double)>& step_bound,
+                                           double* chord_error);
 
 }  // namespace plumage::geometry

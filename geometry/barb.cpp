@@ -1,0 +1,323 @@
+#include "geometry/barb.h"
+
+#include <algorithm>
+#include <cmath>
+#include <numbers>
+
+#include <fmt/format.h>
+
+#include "common/error.h"
+#include "geometry/elliptical_arc.h"
+
+namespace plumage::geometry {
+namespace {
+
+constexpr double kPi = std::numbers::pi;
+
+void require(bool ok, const char* key, double value, const std::string& expected) {
+    if (!ok) throw InputError(fmt::format("barb patch: {} = {}: expected {}", key, value, expected));
+}
+
+struct Outline {
+    std::vector<Eigen::Vector2d> points;   // counter-clockwise in (y, z)
+    std::vector<Eigen::Vector2d> normals;  // outward unit normals
+};
+
+// Rotated ellipse: semi-axis `along` in the direction at angle rotation from +z towards
+// +y, semi-axis `across` perpendicular to it, centred at centre.
+Outline ellipse_outline(double along, double across, double rotation, const Eigen::Vector2d& centre,
+                        const TessellationTolerance& tolerance) {
+    const EllipticalArc arc(across, along, -kPi, kPi);  // arc x ↦ across (y), arc z ↦ along (z)
+    const std::vector<double> phis = sample_normal_azimuths(
+        -kPi, kPi, [&](double phi) { return arc.radius_of_curvature(phi); },
+        [&](double rho) { return tolerance.max_angular_step(rho); }, nullptr);
+    const double c = std::cos(rotation), s = std::sin(rotation);
+    auto rotate = [&](const Eigen::Vector2d& v) { return Eigen::Vector2d(v.x() * c + v.y() * s, -v.x() * s + v.y() * c); };
+    Outline out;
+    // The arc runs clockwise in (y, z) (top, then +y side); walk it backwards for
+    // counter-clockwise, without the duplicated closing point.
+    for (std::size_t i = phis.size() - 1; i-- > 0;) {
+        out.points.push_back(centre + rotate(arc.point(phis[i])));
+        out.normals.push_back(rotate(arc.normal(phis[i])));
+    }
+    return out;
+}
+
+double eccentric_minor(double major, double eccentricity) {
+    return major * std::sqrt(1.0 - eccentricity * eccentricity);
+}
+
+}  // namespace
+
+Barb::Barb(const BarbParams& p) : params_(p) {
+    require(std::isfinite(p.barb_width_um) && p.barb_width_um > 0.0, "barb_width_um", p.barb_width_um,
+            "a finite width > 0 (um)");
+    require(std::isfinite(p.barb_eccentricity) && p.barb_eccentricity >= 0.0 && p.barb_eccentricity <= 0.999,
+            "barb_eccentricity", p.barb_eccentricity, "a value in [0, 0.999]");
+    require(std::isfinite(p.barb_rotation_rad), "barb_rotation_rad", p.barb_rotation_rad, "a finite angle");
+    require(std::isfinite(p.medulla_scale) && p.medulla_scale >= 0.0 && p.medulla_scale <= 0.95,
+            "medulla_scale", p.medulla_scale, "a value in [0, 0.95] (0: no medulla)");
+    require(std::isfinite(p.medulla_offset_y_um) && std::isfinite(p.medulla_offset_z_um), "medulla_offset",
+            p.medulla_offset_y_um, "finite offsets (um)");
+    if (has_medulla()) {
+        // Every medulla point must lie inside the cortex ellipse, with a wall of at least
+        // 0.1 % of the barb width (zero wall leaves coincident surfaces).
+        const Outline medulla = ellipse_outline(p.medulla_scale * semi_major_um(), p.medulla_scale * semi_minor_um(),
+                                                p.barb_rotation_rad,
+                                                {p.medulla_offset_y_um, p.medulla_offset_z_um}, {1e-3 * semi_major_um(), 0.05});
+        const double c = std::cos(p.barb_rotation_rad), s = std::sin(p.barb_rotation_rad);
+        for (const Eigen::Vector2d& q : medulla.points) {
+            // Back into the cortex's axis frame: along (major) and across (minor).
+            const double along = q.x() * s + q.y() * c, across = q.x() * c - q.y() * s;
+            const double level = std::hypot(along / semi_major_um(), across / semi_minor_um());
+            require(level < 1.0 - 2e-3, "medulla_offset", std::hypot(p.medulla_offset_y_um, p.medulla_offset_z_um),
+                    fmt::format("a medulla strictly inside the cortex (scale {} with this offset reaches "
+                                "{:.3f} of the cortex radius)",
+                                p.medulla_scale, level));
+        }
+    }
+}
+
+double Barb::semi_minor_um() const { return eccentric_minor(semi_major_um(), params_.barb_eccentricity); }
+
+std::vector<Eigen::Vector2d> Barb::cortex_outline(const TessellationTolerance& tolerance) const {
+    return ellipse_outline(semi_major_um(), semi_minor_um(), params_.barb_rotation_rad, {0.0, 0.0}, tolerance).points;
+}
+
+std::vector<Eigen::Vector2d> Barb::medulla_outline(const TessellationTolerance& tolerance) const {
+    if (!has_medulla()) return {};
+    return ellipse_outline(params_.medulla_scale * semi_major_um(), params_.medulla_scale * semi_minor_um(),
+                           params_.barb_rotation_rad, {params_.medulla_offset_y_um, params_.medulla_offset_z_um},
+                           tolerance)
+        .points;
+}
+
+namespace {
+
+TriangleMesh sweep(const Outline& outline, double length_um, double axis_radius_um,
+                   const TessellationTolerance& tolerance) {
+    require(std::isfinite(length_um) && length_um > 0.0, "length_um", length_um, "a finite length > 0");
+    require(std::isfinite(axis_radius_um) && axis_radius_um >= 0.0, "axis_radius_um", axis_radius_um,
+            "0 (straight) or a bend radius > 0 (um)");
+    double extent = 0.0;
+    for (const auto& p : outline.points) extent = std::max(extent, std::abs(p.y()));
+    std::vector<double> alphas;  // bend angle of each ring (or axial fraction when straight)
+    const bool bent = axis_radius_um > 0.0;
+    if (bent) {
+        require(axis_radius_um > extent, "axis_radius_um", axis_radius_um,
+                fmt::format("a bend radius larger than the cross-section's reach {:.4g} um (else the tube "
+                            "folds on its inner side)",
+                            extent));
+        const double half = 0.5 * length_um / axis_radius_um;
+        require(half < kPi, "length_um", length_um, "a bent barb shorter than a full turn");
+        const double step = tolerance.max_angular_step(axis_radius_um - extent);
+        const int segments = std::max(1, static_cast<int>(std::ceil(2.0 * half / step)));
+        for (int k = 0; k <= segments; ++k) alphas.push_back(-half + 2.0 * half * k / segments);
+    } else {
+        alphas = {-0.5, 0.5};
+    }
+    auto place = [&](double alpha, const Eigen::Vector2d& yz) -> Vec3 {
+        if (!bent) return {alpha * length_um, yz.x(), yz.y()};
+        const double r = axis_radius_um + yz.y();
+        return {r * std::sin(alpha), yz.x(), r * std::cos(alpha) - axis_radius_um};
+    };
+    auto place_normal = [&](double alpha, const Eigen::Vector2d& n) -> Vec3 {
+        if (!bent) return {0.0, n.x(), n.y()};
+        return {n.y() * std::sin(alpha), n.x(), n.y() * std::cos(alpha)};
+    };
+    auto axis_tangent = [&](double alpha) -> Vec3 {
+        return bent ? Vec3(std::cos(alpha), 0.0, -std::sin(alpha)) : Vec3(1.0, 0.0, 0.0);
+    };
+
+    TriangleMesh mesh;
+    const auto m = static_cast<std::uint32_t>(outline.points.size());
+    for (double alpha : alphas) {
+        for (std::uint32_t i = 0; i < m; ++i) {
+            mesh.positions.push_back(place(alpha, outline.points[i]));
+            mesh.shading_normals.push_back(place_normal(alpha, outline.normals[i]));
+        }
+    }
+    for (std::uint32_t k = 0; k + 1 < alphas.size(); ++k) {
+        for (std::uint32_t i = 0; i < m; ++i) {
+            const std::uint32_t j = (i + 1) % m;
+            const std::uint32_t a = k * m + i, b = k * m + j, c = (k + 1) * m + j, d = (k + 1) * m + i;
+            mesh.triangles.push_back({a, c, b});
+            mesh.triangles.push_back({a, d, c});
+        }
+    }
+    // End caps: fans around the outline's centroid, with their own flat-normal vertices.
+    Eigen::Vector2d centroid = Eigen::Vector2d::Zero();
+    for (const auto& p : outline.points) centroid += p;
+    centroid /= static_cast<double>(m);
+    for (int end = 0; end < 2; ++end) {
+        const double alpha = end == 0 ? alphas.front() : alphas.back();
+        const Vec3 normal = (end == 0 ? -1.0 : 1.0) * axis_tangent(alpha);
+        const auto base = static_cast<std::uint32_t>(mesh.positions.size());
+        mesh.positions.push_back(place(alpha, centroid));
+        mesh.shading_normals.push_back(normal);
+        for (std::uint32_t i = 0; i < m; ++i) {
+            mesh.positions.push_back(place(alpha, outline.points[i]));
+            mesh.shading_normals.push_back(normal);
+        }
+        for (std::uint32_t i = 0; i < m; ++i) {
+            const std::uint32_t a = base + 1 + i, b = base + 1 + (i + 1) % m;
+            mesh.triangles.push_back(end == 0 ? Triangle{base, a, b} : Triangle{base, b, a});
+        }
+    }
+    // Make the winding outward: positive enclosed volume (divergence theorem).
+    double volume = 0.0;
+    for (const Triangle& t : mesh.triangles) {
+        volume += mesh.positions[t[0]].dot(mesh.positions[t[1]].cross(mesh.positions[t[2]])) / 6.0;
+    }
+    if (volume < 0.0) {
+        for (Triangle& t : mesh.triangles) std::swap(t[1], t[2]);
+    }
+    return mesh;
+}
+
+}  // namespace
+
+TriangleMesh Barb::cortex_mesh(double length_um, double axis_radius_um, const TessellationTolerance& tolerance) const {
+    tolerance.validate();
+    return sweep(ellipse_outline(semi_major_um(), semi_minor_um(), params_.barb_rotation_rad, {0.0, 0.0}, tolerance),
+                 length_um, axis_radius_um, tolerance);
+}
+
+TriangleMesh Barb::medulla_mesh(double length_um, double axis_radius_um, const TessellationTolerance& tolerance) const {
+    tolerance.validate();
+    if (!has_medulla()) return {};
+    return sweep(ellipse_outline(params_.medulla_scale * semi_major_um(), params_.medulla_scale * semi_minor_um(),
+                                 params_.barb_rotation_rad, {params_.medulla_offset_y_um, params_.medulla_offset_z_um},
+                                 tolerance),
+                 length_um, axis_radius_um, tolerance);
+}
+
+TriangleMesh sweep_closed_outline(const std::vector<Eigen::Vector2d>& outline, double length_um,
+                                  double axis_radius_um, const TessellationTolerance& tolerance) {
+    require(outline.size() >= 3, "outline points", static_cast<double>(outline.size()), "at least 3");
+    Outline o{outline, {}};
+    const std::size_t m = outline.size();
+    for (std::size_t i = 0; i < m; ++i) {
+        const Eigen::Vector2d edge = outline[(i + 1) % m] - outline[(i + m - 1) % m];
+        o.normals.emplace_back(Eigen::Vector2d(edge.y(), -edge.x()).normalized());  // CCW: right of the edge is out
+    }
+    return sweep(o, length_um, axis_radius_um, tolerance);
+}
+
+namespace {
+
+struct BarbuleFibre {
+    double semi_major, semi_minor;
+    // Half-thickness of the fibre's cut through its own axis, perpendicular to the axis
+    // within the y–z plane (the strip seen in the cross-section).
+    double strip_half_thickness(double rotation) const {
+        return 1.0 / std::sqrt(std::pow(std::cos(rotation) / semi_major, 2) + std::pow(std::sin(rotation) / semi_minor, 2));
+    }
+};
+
+void validate_patch(const BarbulePatchParams& p) {
+    require(std::isfinite(p.barbule_width_um) && p.barbule_width_um > 0.0, "barbule_width_um", p.barbule_width_um,
+            "a finite width > 0 (um)");
+    require(std::isfinite(p.barbule_eccentricity) && p.barbule_eccentricity >= 0.0 && p.barbule_eccentricity <= 0.999,
+            "barbule_eccentricity", p.barbule_eccentricity, "a value in [0, 0.999]");
+    require(std::isfinite(p.barbule_rotation_rad), "barbule_rotation_rad", p.barbule_rotation_rad, "a finite angle");
+    require(std::isfinite(p.barbule_inclination_rad) && std::abs(p.barbule_inclination_rad) < 0.5 * kPi,
+            "barbule_inclination_rad", p.barbule_inclination_rad, "an angle in (-pi/2, pi/2)");
+    require(std::isfinite(p.barbule_length) && p.barbule_length > 0.0, "barbule_length", p.barbule_length,
+            "a length > 0 in barb widths");
+    require(std::isfinite(p.barbule_separation) && p.barbule_separation >= 1.0, "barbule_separation",
+            p.barbule_separation, "a spacing >= 1 barbule width (closer barbules would overlap)");
+    require(std::isfinite(p.barb_spacing) && (p.barb_spacing == 0.0 || p.barb_spacing >= 1.0), "barb_spacing",
+            p.barb_spacing, "0 (automatic: neighbouring barbules meet) or >= 1 barb width");
+}
+
+// Where the distal barbule leaves the barb: the cortex point furthest along +y.
+Eigen::Vector2d distal_root(const std::vector<Eigen::Vector2d>& cortex) {
+    return *std::max_element(cortex.begin(), cortex.end(),
+                             [](const auto& a, const auto& b) { return a.x() < b.x(); });
+}
+
+double patch_period(const BarbulePatchParams& p, const std::vector<Eigen::Vector2d>& cortex) {
+    if (p.barb_spacing > 0.0) return p.barb_spacing * p.barb.barb_width_um;
+    const double reach = distal_root(cortex).x() + p.barbule_length * p.barb.barb_width_um * std::cos(p.barbule_inclination_rad);
+    return 2.0 * reach;
+}
+
+}  // namespace
+
+PatchCrossSection build_patch_cross_section(const BarbulePatchParams& params, const TessellationTolerance& tolerance) {
+    tolerance.validate();
+    validate_patch(params);
+    const Barb barb(params.barb);
+    PatchCrossSection section;
+    const auto cortex = barb.cortex_outline(tolerance);
+    section.shapes.push_back({SurfaceRole::barb_cortex, cortex});
+    if (barb.has_medulla()) section.shapes.push_back({SurfaceRole::barb_medulla, barb.medulla_outline(tolerance)});
+    const BarbuleFibre fibre{0.5 * params.barbule_width_um,
+                             eccentric_minor(0.5 * params.barbule_width_um, params.barbule_eccentricity)};
+    const double half = fibre.strip_half_thickness(params.barbule_rotation_rad);
+    const double length = params.barbule_length * params.barb.barb_width_um;
+    const Eigen::Vector2d root = distal_root(cortex);
+    for (double side : {1.0, -1.0}) {
+        const Eigen::Vector2d start(side * root.x(), root.y());
+        const Eigen::Vector2d d(side * std::cos(params.barbule_inclination_rad), std::sin(params.barbule_inclination_rad));
+        const Eigen::Vector2d m(-d.y(), d.x());
+        std::vector<Eigen::Vector2d> strip = {start - half * m, start + length * d - half * m,
+                                              start + length * d + half * m, start + half * m};
+        // Right edge out, left edge back: counter-clockwise for either direction of d.
+        section.shapes.push_back({SurfaceRole::barbule, strip});
+    }
+    section.period_um = patch_period(params, cortex);
+    return section;
+}
+
+std::size_t BarbulePatch::memory_bytes() const {
+    return sizeof(*this) + barb_cortex.memory_bytes() + barb_medulla.memory_bytes() + barbule.memory_bytes() +
+           (barb_instances.capacity() + barbule_instances.capacity()) * sizeof(Eigen::Affine3d);
+}
+
+BarbulePatch build_barbule_patch(const BarbulePatchParams& params, double length_x_um, int barbs,
+                                 const TessellationTolerance& tolerance) {
+    tolerance.validate();
+    validate_patch(params);
+    require(barbs >= 1 && barbs <= 10000, "barbs", barbs, "1..10000");
+    const Barb barb(params.barb);
+    BarbulePatch patch;
+    patch.params = params;
+    patch.barb_cortex = barb.cortex_mesh(length_x_um, 0.0, tolerance);
+    patch.barb_medulla = barb.medulla_mesh(length_x_um, 0.0, tolerance);
+
+    // One barbule: its elliptical fibre swept along local +x, then turned to run along +y
+    // and tilted up by the inclination.
+    const double semi_major = 0.5 * params.barbule_width_um;
+    const Outline fibre = ellipse_outline(semi_major, eccentric_minor(semi_major, params.barbule_eccentricity),
+                                          params.barbule_rotation_rad, {0.0, 0.0}, tolerance);
+    const double length = params.barbule_length * params.barb.barb_width_um;
+    TriangleMesh barbule = sweep(fibre, length, 0.0, tolerance);
+    const Eigen::Affine3d orient = Eigen::AngleAxisd(params.barbule_inclination_rad, Vec3::UnitX()) *
+                                   Eigen::AngleAxisd(0.5 * kPi, Vec3::UnitZ()) *
+                                   Eigen::Translation3d(0.5 * length, 0.0, 0.0);
+    for (Vec3& p : barbule.positions) p = orient * p;
+    for (Vec3& n : barbule.shading_normals) n = orient.linear() * n;
+    patch.barbule = std::move(barbule);
+
+    const auto cortex = barb.cortex_outline(tolerance);
+    const Eigen::Vector2d root = distal_root(cortex);
+    const double period = patch_period(params, cortex);
+    const double pitch = params.barbule_separation * params.barbule_width_um;
+    const int per_side = std::max(1, static_cast<int>(std::floor(length_x_um / pitch)));
+    for (int k = 0; k < barbs; ++k) {
+        const double y = (k - 0.5 * (barbs - 1)) * period;
+        patch.barb_instances.emplace_back(Eigen::Translation3d(0.0, y, 0.0));
+        for (int j = 0; j < per_side; ++j) {
+            const double x = (j - 0.5 * (per_side - 1)) * pitch;
+            patch.barbule_instances.emplace_back(Eigen::Translation3d(x, y + root.x(), root.y()));
+            // Proximal: the distal barbule turned by π about z (runs towards −y, still rising).
+            patch.barbule_instances.emplace_back(Eigen::Translation3d(x, y - root.x(), root.y()) *
+                                                 Eigen::AngleAxisd(kPi, Vec3::UnitZ()));
+        }
+    }
+    return patch;
+}
+
+}  // namespace plumage::geometry

@@ -1,0 +1,150 @@
+// Barbs and barb + barbule patches: ellipse outlines, closed outward tubes with the
+// right volume (straight and bent: Pappus), medulla placement, cross-sections.
+#include "geometry/barb.h"
+
+#include <cmath>
+#include <map>
+#include <numbers>
+
+#include <gtest/gtest.h>
+
+#include "tests/test_util.h"
+
+namespace plumage::geometry {
+namespace {
+
+constexpr double kPi = std::numbers::pi;
+using plumage::testing::input_error_message;
+
+double signed_area(const std::vector<Eigen::Vector2d>& polygon) {
+    double area = 0.0;
+    for (std::size_t i = 0; i < polygon.size(); ++i) {
+        const auto& a = polygon[i];
+        const auto& b = polygon[(i + 1) % polygon.size()];
+        area += 0.5 * (a.x() * b.y() - b.x() * a.y());
+    }
+    return area;
+}
+
+double enclosed_volume(const TriangleMesh& mesh) {
+    double volume = 0.0;
+    for (const Triangle& t : mesh.triangles) {
+        volume += mesh.positions[t[0]].dot(mesh.positions[t[1]].cross(mesh.positions[t[2]])) / 6.0;
+    }
+    return volume;
+}
+
+// Closed and consistently oriented: every directed edge appears once and its reverse
+// once (vertices compared by position: caps have their own vertices).
+bool closed_and_oriented(const TriangleMesh& mesh) {
+    std::map<std::pair<std::array<double, 3>, std::array<double, 3>>, int> edges;
+    auto key = [&](std::uint32_t v) {
+        const Vec3& p = mesh.positions[v];
+        return std::array<double, 3>{p.x(), p.y(), p.z()};
+    };
+    for (const Triangle& t : mesh.triangles) {
+        for (int e = 0; e < 3; ++e) ++edges[{key(t[e]), key(t[(e + 1) % 3])}];
+    }
+    for (const auto& [edge, count] : edges) {
+        if (count != 1) return false;
+        const auto reverse = edges.find({edge.second, edge.first});
+        if (reverse == edges.end() || reverse->second != 1) return false;
+    }
+    return true;
+}
+
+TEST(BarbGeometry, CortexOutlineIsTheRotatedEllipseCounterClockwise) {
+    BarbParams p;
+    p.barb_rotation_rad = 0.4;
+    const Barb barb(p);
+    const double a = barb.semi_major_um(), b = barb.semi_minor_um();
+    EXPECT_NEAR(b, a * std::sqrt(1.0 - 0.36), 1e-12);
+    for (double chord : {0.1, 0.01, 0.001}) {
+        const auto outline = barb.cortex_outline({chord, 0.1});
+        for (const auto& q : outline) {
+            const double along = q.x() * std::sin(0.4) + q.y() * std::cos(0.4);
+            const double across = q.x() * std::cos(0.4) - q.y() * std::sin(0.4);
+            EXPECT_NEAR(std::pow(along / a, 2) + std::pow(across / b, 2), 1.0, 1e-12);
+        }
+        // Inscribed polygon: area short of πab by at most chord × perimeter.
+        const double area = signed_area(outline);
+        EXPECT_GT(area, 0.0);
+        EXPECT_LT(kPi * a * b - area, chord * 2.0 * kPi * a);
+        EXPECT_GE(kPi * a * b - area, 0.0);
+    }
+}
+
+TEST(BarbGeometry, TubesAreClosedOutwardAndHoldTheirVolume) {
+    const Barb barb({});
+    const double a = barb.semi_major_um(), b = barb.semi_minor_um(), length = 200.0;
+    for (double bend : {0.0, 150.0}) {
+        const TriangleMesh tube = barb.cortex_mesh(length, bend, {0.005, 0.05});
+        EXPECT_TRUE(closed_and_oriented(tube)) << "bend " << bend;
+        // Pappus: a bent tube whose section's centroid is on the axis holds area × length.
+        const double expected = kPi * a * b * length;
+        EXPECT_NEAR(enclosed_volume(tube), expected, 0.005 * 2.0 * kPi * a * length + 0.01 * expected * (bend > 0))
+            << "bend " << bend;
+        EXPECT_GT(enclosed_volume(tube), 0.0);
+    }
+    EXPECT_NE(input_error_message([&] { barb.cortex_mesh(100.0, 5.0, {0.01, 0.05}); }).find("folds"),
+              std::string::npos);
+}
+
+TEST(BarbGeometry, OffCentreMedullaSitsInsideTheCortex) {
+    BarbParams p;
+    p.medulla_scale = 0.6;
+    p.medulla_offset_z_um = 3.0;
+    const Barb barb(p);
+    const TriangleMesh medulla = barb.medulla_mesh(50.0, 0.0, {0.01, 0.05});
+    EXPECT_TRUE(closed_and_oriented(medulla));
+    const double a = barb.semi_major_um(), b = barb.semi_minor_um();
+    for (const Vec3& v : medulla.positions) {
+        EXPECT_LT(std::pow(v.z() / a, 2) + std::pow(v.y() / b, 2), 1.0);
+    }
+    EXPECT_NEAR(enclosed_volume(medulla), kPi * 0.36 * a * b * 50.0, 0.01 * 2.0 * kPi * a * 50.0);
+    p.medulla_offset_z_um = 10.0;
+    EXPECT_NE(input_error_message([&] { Barb{p}; }).find("medulla strictly inside"), std::string::npos);
+    p.medulla_scale = 0.99;
+    EXPECT_NE(input_error_message([&] { Barb{p}; }).find("medulla_scale = 0.99"), std::string::npos);
+    BarbParams round;
+    round.barb_eccentricity = 1.0;
+    EXPECT_NE(input_error_message([&] { Barb{round}; }).find("barb_eccentricity = 1"), std::string::npos);
+}
+
+TEST(BarbGeometry, PatchCrossSectionHasBarbAndInclinedBarbules) {
+    BarbulePatchParams p;
+    const PatchCrossSection s = build_patch_cross_section(p, {0.01, 0.05});
+    ASSERT_EQ(s.shapes.size(), 3u);
+    EXPECT_EQ(s.shapes[0].role, SurfaceRole::barb_cortex);
+    for (const auto& shape : s.shapes) EXPECT_GT(signed_area(shape.polygon), 0.0);
+    // Barbule strips: length ℓ = 3 barb widths, rising by the inclination, thickness the
+    // fibre's major diameter (rotation 0: major axis out of the vane).
+    const auto& strip = s.shapes[1].polygon;
+    const Eigen::Vector2d axis = 0.5 * (strip[1] + strip[2]) - 0.5 * (strip[0] + strip[3]);
+    EXPECT_NEAR(axis.norm(), 90.0, 1e-9);
+    EXPECT_NEAR(std::atan2(axis.y(), axis.x()), 0.35, 1e-12);
+    EXPECT_NEAR((strip[3] - strip[0]).norm(), 8.0, 1e-9);
+    // Automatic spacing: the tips of neighbouring barbs' barbules meet.
+    const double b = 15.0 * std::sqrt(1.0 - 0.36);
+    // (The root is the outline vertex furthest along y: within the chord tolerance.)
+    EXPECT_NEAR(s.period_um, 2.0 * (b + 90.0 * std::cos(0.35)), 2.0 * 0.01);
+    BarbulePatchParams bad = p;
+    bad.barbule_separation = 0.5;
+    EXPECT_NE(input_error_message([&] { build_patch_cross_section(bad, {0.01, 0.05}); }).find("overlap"),
+              std::string::npos);
+}
+
+TEST(BarbGeometry, PatchInstancesBarbulesOnBothSides) {
+    BarbulePatchParams p;
+    const BarbulePatch patch = build_barbule_patch(p, 120.0, 3, {0.05, 0.05});
+    EXPECT_EQ(patch.barb_instances.size(), 3u);
+    EXPECT_EQ(patch.barbule_instances.size(), 3u * 2u * 10u);  // 120 µm / (1.5 × 8 µm) per side
+    EXPECT_TRUE(closed_and_oriented(patch.barbule));
+    // The barbule runs along +y, rising by the inclination.
+    const auto box = patch.barbule.bounds();
+    EXPECT_NEAR(box[1].y() - box[0].y(), 90.0 * std::cos(0.35) + 8.0 * std::sin(0.35), 0.1);
+    EXPECT_LT(patch.memory_bytes(), 10u * 1000u * 1000u);
+}
+
+}  // namespace
+}  // namespace plumage::geometry
