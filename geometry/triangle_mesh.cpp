@@ -90,3 +90,23 @@ void write_ply(const TriangleMesh& mesh, const std::filesystem::path& path) {
 }
 
 }  // namespace plumage::geometry
+
+namespace plumage::geometry {
+
+std::vector<Segment3> slice(const TriangleMesh& mesh, int axis, double value) {
+    std::vector<Segment3> segments;
+    for (const Triangle& t : mesh.triangles) {
+        Vec3 crossings[3];
+        int count = 0;
+        for (int e = 0; e < 3 && count < 2; ++e) {
+            const Vec3& p = mesh.positions[t[e]];
+            const Vec3& q = mesh.positions[t[(e + 1) % 3]];
+            const double dp = p[axis] - value, dq = q[axis] - value;
+            if ((dp < 0.0) != (dq < 0.0)) crossings[count++] = p + (q - p) * (dp / (dp - dq));
+        }
+        if (count == 2) segments.push_back({crossings[0], crossings[1]});
+    }
+    return segments;
+}
+
+}  // namespace plumage::geometry

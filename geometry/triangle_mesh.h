@@ -45,3 +45,14 @@ struct TriangleMesh {
 void write_ply(const TriangleMesh& mesh, const std::filesystem::path& path);
 
 }  // namespace plumage::geometry
+
+namespace plumage::geometry {
+
+// Cut of a mesh with the plane {p : p[axis] = value}: one segment per crossed triangle,
+// for cross-section previews.
+struct Segment3 {
+    Vec3 a, b;
+};
+std::vector<Segment3> slice(const TriangleMesh& mesh, int axis, double value);
+
+}  // namespace plumage::geometry
