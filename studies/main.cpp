@@ -8,6 +8,7 @@
 
 #include "common/error.h"
 #include "common/version.h"
+#include "studies/geometry_study.h"
 #include "studies/thin_film_chart.h"
 
 namespace {
@@ -50,6 +51,12 @@ int main(int argc, char** argv) {
         ->capture_default_str()->check(CLI::PositiveNumber);
     thin_film_cmd->add_flag("!--no-plots", thin_film.plots, "skip the matplotlib figures");
 
+    std::string geometry_study;
+    auto* geometry_cmd = app.add_subcommand(
+        "geometry", "build the geometry of a study file; write PLY/VDB, a PNG preview and a report");
+    geometry_cmd->add_option("STUDY", geometry_study, "study file (TOML), e.g. studies/geometry/rock_dove_row.toml")
+        ->required();
+
     try {
         app.parse(argc, argv);
     } catch (const CLI::ParseError& e) {
@@ -58,6 +65,13 @@ int main(int argc, char** argv) {
     if (threads > 0) omp_set_num_threads(threads);
 
     try {
+        if (geometry_cmd->parsed()) {
+            const auto result = plumage::studies::run_geometry_study(geometry_study, output);
+            std::cout << fmt::format("plumage: wrote {} ({}: {} triangles, {} instances, {:.2f} MB) in {:.1f} s\n",
+                                     result.output_dir.string(), result.kind, result.triangles, result.instances,
+                                     static_cast<double>(result.memory_bytes) / 1e6, result.wall_seconds);
+            return 0;
+        }
         thin_film.output_dir = std::filesystem::path(output) / "thin_film";
         // thin-film is also the default study until the rock-dove study arrives.
         return run_thin_film(thin_film);

@@ -2,6 +2,9 @@
 
 #include <unistd.h>
 
+#include <algorithm>
+#include <cmath>
+
 #include <fmt/format.h>
 #include <stb/stb_image_write.h>
 
@@ -20,6 +23,47 @@ void RgbImage::set(int x, int y, std::uint8_t r, std::uint8_t g, std::uint8_t b)
     pixels[i] = r;
     pixels[i + 1] = g;
     pixels[i + 2] = b;
+}
+
+void RgbImage::fill(std::uint8_t r, std::uint8_t g, std::uint8_t b) {
+    for (std::size_t i = 0; i < pixels.size(); i += 3) {
+        pixels[i] = r;
+        pixels[i + 1] = g;
+        pixels[i + 2] = b;
+    }
+}
+
+void RgbImage::draw_line(double x0, double y0, double x1, double y1, const std::array<std::uint8_t, 3>& rgb) {
+    // Sample the segment at half-pixel steps: simple, and thin lines stay connected.
+    const double length = std::hypot(x1 - x0, y1 - y0);
+    const int steps = std::max(1, static_cast<int>(std::ceil(2.0 * length)));
+    for (int i = 0; i <= steps; ++i) {
+        const double t = static_cast<double>(i) / steps;
+        const int x = static_cast<int>(std::lround(x0 + t * (x1 - x0)));
+        const int y = static_cast<int>(std::lround(y0 + t * (y1 - y0)));
+        if (x >= 0 && y >= 0 && x < width && y < height) set(x, y, rgb[0], rgb[1], rgb[2]);
+    }
+}
+
+void RgbImage::fill_polygon(const std::vector<std::array<double, 2>>& polygon,
+                            const std::array<std::uint8_t, 3>& rgb) {
+    const std::size_t n = polygon.size();
+    if (n < 3) return;
+    for (int y = 0; y < height; ++y) {
+        const double yc = y + 0.5;
+        std::vector<double> xs;
+        for (std::size_t i = 0; i < n; ++i) {
+            const auto& a = polygon[i];
+            const auto& b = polygon[(i + 1) % n];
+            if ((a[1] <= yc) != (b[1] <= yc)) xs.push_back(a[0] + (yc - a[1]) * (b[0] - a[0]) / (b[1] - a[1]));
+        }
+        std::sort(xs.begin(), xs.end());
+        for (std::size_t k = 0; k + 1 < xs.size(); k += 2) {
+            const int from = std::max(0, static_cast<int>(std::ceil(xs[k] - 0.5)));
+            const int to = std::min(width - 1, static_cast<int>(std::floor(xs[k + 1] - 0.5)));
+            for (int x = from; x <= to; ++x) set(x, y, rgb[0], rgb[1], rgb[2]);
+        }
+    }
 }
 
 void write_png(const std::filesystem::path& path, const RgbImage& image) {

@@ -1,0 +1,117 @@
+// Huang et al. 2022, "Rendering Iridescent Rock Dove Neck Feathers": the elliptical
+// barbule BSDF with thin-film interference, R + TRT + T lobes (Eqs. 1–3, 5–7, 13–17,
+// Algorithm 1), as a Scatterer.
+//
+// Frames: the model lives in Huang's barbule frame (y along the barbule, direction
+// ω = (sin φ cos θ, sin θ, cos φ cos θ)); the Scatterer interface uses the patch frame
+// (+z barb-plane normal, +x barb axis). patch = R_y(μ) · barbule, as in
+// geometry/barbule.h, so ⟨ω, n⟩ = ω_patch.z = cos θ cos(φ + μ) (Eq. 13).
+//
+// Lobes:
+//  R    thin-film reflection, Eq. 14: f_R = I_R D(ω_m) G / (4 ⟨ω_i,n⟩⟨ω_o,n⟩), ω_m the
+//       half vector, D of Eq. 7, G exact binary visibility of the arc point with
+//       normal ω_m from ω_i and ω_o (2D, against every neighbouring barbule that can
+//       reach, not only the two adjacent ones of the paper: at grazing angles the
+//       second neighbours matter for H = 1.25).
+//  TRT  background through the film, off the melanin, back out, Eqs. 3, 16–17:
+//       f_TRT = P_hit ⟨T(ω_i·ω_m) R_m T(ω_o·ω_m) 1[ω_o·ω_m > 0]⟩ / π, the average taken
+//       over the illuminated visible area (the paper's ρ, Eq. 17, computed by
+//       quadrature instead of one random h, l per evaluation), multiplied by the
+//       fraction P_hit = Δh'/Δh of the light that hits a barbule at all (the paper's
+//       A_i normalisation leaves this implicit; without it the lobe would reflect
+//       light that passed between the barbules). Not reciprocal (as published): the
+//       average is weighted by visibility from ω_i only.
+//  T    light passing between barbules unchanged, Eq. 15: a Dirac lobe at ω_o = −ω_i
+//       with mass 1 − Δh'/Δh. eval() cannot return a Dirac; sample() produces it.
+//
+// Choices the paper leaves open:
+//  - Polarisation: unpolarised light; I_R and the film transmittance T are the means of
+//    the s and p intensities (Airy film of sim/optics, air | keratin d | air).
+//  - The melanin reflectance R_m: the unpolarised Fresnel reflectance of air → melanin
+//    at normal incidence (the granules' orientation is random; ≈ 0.07 with DESIGN.md's
+//    melanin dispersion, the paper quotes about 5 %).
+//  - Longitudinal hits: within a cell, the hit density in θ_m is the projected-area
+//    weight ⟨ω_i, ω_m⟩ (clipped at 0) under D_θ uniform in θ_m.
+//
+// Parameter table (defaults: the published rock-dove fit):
+//  | name     | unit | default | valid range                         |
+//  |----------|------|---------|-------------------------------------|
+//  | b        | 1    | 0.25    | [1e-3, 1] semi-minor / semi-major   |
+//  | phi0     | rad  | −0.37   | phi0 < phi1 <= phi0 + 2π            |
+//  | phi1     | rad  | 2.64    |                                     |
+//  | H        | 1    | 1.25    | > 0, spacing / semi-major axis      |
+//  | d        | µm   | 0.59    | [0, 50] keratin film thickness      |
+//  | theta_d  | rad  | 0.0785  | (0, π/4] longitudinal half-opening  |
+//  | mu       | rad  | −0.35   | (−π/2, π/2) barb-plane tilt         |
+#pragma once
+
+#include <array>
+#include <cstdint>
+#include <functional>
+#include <vector>
+
+#include "sim/scatterer.h"
+
+namespace plumage::analysis {
+
+struct Huang2022Params {
+    double b = 0.25;
+    double phi0 = -0.37;
+    double phi1 = 2.64;
+    double H = 1.25;
+    double d_um = 0.59;
+    double theta_d = 0.0785;
+    double mu = -0.35;
+};
+
+class Huang2022Bsdf final : public Scatterer {
+public:
+    enum Lobe : int { kR = 0, kTRT = 1, kT = 2 };
+
+    explicit Huang2022Bsdf(const Huang2022Params& params);  // InputError names the parameter
+
+    std::string name() const override { return "huang2022"; }
+    const std::vector<std::string>& lobe_names() const override;
+    std::optional<ScatterEvent> sample(const Vec3d& wi, double lambda_nm, const Vec2& position_um,
+                                       Rng& rng) const override;
+    bool can_evaluate() const override { return true; }
+    double eval(const Vec3d& wi, const Vec3d& wo, double lambda_nm,
+                std::span<double> per_lobe = {}) const override;
+    // Density of sample()'s non-Dirac directions (R and TRT), including samples that
+    // come back with weight 0 (blocked); the T lobe's mass is t_lobe_mass().
+    double pdf(const Vec3d& wi, const Vec3d& wo, double lambda_nm) const override;
+
+    // Fraction of light from wi that passes between the barbules: 1 − Δh'/Δh (Eq. 15).
+    double t_lobe_mass(const Vec3d& wi) const;
+    // Fraction that reaches the concave underside of an arc (possible only when the
+    // barbules leave gaps, H > the arc's width, at oblique light): Eq. 15 counts it as
+    // hit, Eq. 14's front-facing NDF cannot reflect it, so the model absorbs it.
+    double back_hit_fraction(const Vec3d& wi) const;
+    // Δh' / Δh from the closed form: min(W(φ), Δh(φ)) / Δh(φ).
+    double hit_fraction_closed_form(const Vec3d& wi) const;
+    // The same fraction by quadrature of the visible NDF: ∫ D ⟨ω_i, ω_m⟩ G_1 dω_m / ⟨ω_i, n⟩.
+    double hit_fraction_by_quadrature(const Vec3d& wi) const;
+    // ∫ D(ω_m) ⟨ω_m, n⟩ dω_m over the whole arc (no visibility): exceeds 1 when the arc's
+    // projected width exceeds H (the rock-dove case).
+    double ndf_projected_integral() const;
+    // Eq. 7 in the barbule frame; 0 outside the arc's (φ, θ) range.
+    double ndf(double phi_m, double theta_m) const;
+    const Huang2022Params& params() const { return params_; }
+
+private:
+    struct Frame;  // ω_i-dependent quantities (barbule frame, visible intervals)
+    Frame compute_frame(const Vec3d& wi_patch) const;
+    const Frame& frame_for(const Vec3d& wi_patch) const;  // per-thread cache of the last ω_i
+    void build_nodes(Frame& f) const;
+    double film_reflectance(double cos_theta, double lambda_nm) const;
+    double film_transmittance(double cos_theta, double lambda_nm) const;
+    double melanin_reflectance(double lambda_nm) const;
+    bool visible(double phi_m, double dir_x, double dir_z) const;
+    // Per-wavelength film factors at the frame's quadrature nodes of q(ω_m).
+    void prepare_nodes(const Frame& f, double lambda_nm) const;
+
+    Huang2022Params params_;
+    std::uint64_t generation_;  // distinguishes objects that reuse an address, for the cache
+};
+
+}  // namespace plumage::analysis

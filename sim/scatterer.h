@@ -1,0 +1,64 @@
+// The one contract every scatterer meets: the ray tracer over explicit geometry and
+// every analytic feather model. Instruments (virtual_gonio/) measure a Scatterer and do
+// not care which kind it is, so simulated and analytic records compare cell by cell.
+//
+// Conventions (read before implementing):
+//  - Patch frame: +z is the patch (barb-plane) normal, +x the barb axis, +y the
+//    barbules' direction; azimuth φ is measured from +x towards +y.
+//  - Directions are unit vectors pointing AWAY from the patch: ω_i towards the light,
+//    ω_o towards the detector (pbrt's convention). Reflection: ω_o.z > 0; light passing
+//    through the patch: ω_o.z < 0. The unhindered "T" lobe of Huang is ω_o = −ω_i.
+//  - Wavelengths in nm (vacuum); positions on the patch in µm, in the z = 0 plane.
+//  - f(ω_i, ω_o, λ) is the BSDF in 1/sr per unit projected patch area (radiance out per
+//    irradiance on the patch plane); the cosine ⟨ω_o, z⟩ is NOT included.
+//  - sample() plays one quantum of light: it returns where the quantum leaves and a
+//    weight such that E[weight · 1{ω_o ∈ Ω}] = ∫_Ω f(ω_i, ω_o) |cos θ_o| dω_o, i.e. the
+//    fraction of the power incident on the patch that leaves into Ω. With a density,
+//    weight = f |cos θ_o| / pdf. No return value means the quantum was absorbed.
+//  - Lobes: each scatterer names its lobes (lobe_names()); a sample carries the index
+//    of the lobe that produced it, so records keep per-lobe values.
+#pragma once
+
+#include <optional>
+#include <span>
+#include <string>
+#include <vector>
+
+#include <Eigen/Core>
+
+#include "sim/random.h"
+
+namespace plumage {
+
+using Vec2 = Eigen::Vector2d;
+using Vec3d = Eigen::Vector3d;
+
+struct ScatterEvent {
+    Vec3d wo;               // unit, away from the patch
+    double weight;          // see the conventions above; >= 0, finite
+    int lobe;               // index into lobe_names()
+    Vec2 exit_position_um;  // where the light leaves the patch (entry point for models)
+};
+
+class Scatterer {
+public:
+    virtual ~Scatterer() = default;
+    virtual std::string name() const = 0;
+    virtual const std::vector<std::string>& lobe_names() const = 0;
+
+    // One quantum of wavelength lambda_nm arriving from wi at position_um.
+    virtual std::optional<ScatterEvent> sample(const Vec3d& wi, double lambda_nm, const Vec2& position_um,
+                                               Rng& rng) const = 0;
+
+    // Whether eval() and pdf() are available (analytic models: yes; the tracer: no).
+    virtual bool can_evaluate() const { return false; }
+    // f(ωi, ωo, λ) in 1/sr, summed over lobes; per-lobe values into per_lobe when given
+    // (size lobe_names().size()).
+    virtual double eval(const Vec3d& wi, const Vec3d& wo, double lambda_nm,
+                        std::span<double> per_lobe = {}) const;
+    // Solid-angle density of sample()'s ωo (including any discrete T lobe's share as a
+    // separate mass, which pdf() does not report).
+    virtual double pdf(const Vec3d& wi, const Vec3d& wo, double lambda_nm) const;
+};
+
+}  // namespace plumage

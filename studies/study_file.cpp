@@ -1,0 +1,210 @@
+#include "studies/study_file.h"
+
+#include <cmath>
+#include <algorithm>
+#include <fstream>
+#include <sstream>
+
+#include <fmt/format.h>
+#include <toml++/toml.h>
+
+#include "common/error.h"
+
+namespace plumage::studies {
+
+Range positive() { return {0.0, 1e300, true, false}; }
+Range non_negative() { return {0.0, 1e300, false, false}; }
+Range between(double lo, double hi) { return {lo, hi, false, false}; }
+
+namespace {
+
+std::string describe(const Range& r) {
+    const bool has_min = r.min > -1e299, has_max = r.max < 1e299;
+    if (has_min && has_max) {
+        return fmt::format("a number in {}{}, {}{}", r.min_exclusive ? "(" : "[", r.min, r.max,
+                           r.max_exclusive ? ")" : "]");
+    }
+    if (has_min) return fmt::format("a number {} {}", r.min_exclusive ? ">" : ">=", r.min);
+    if (has_max) return fmt::format("a number {} {}", r.max_exclusive ? "<" : "<=", r.max);
+    return "a finite number";
+}
+
+bool within(const Range& r, double v) {
+    if (!std::isfinite(v)) return false;
+    if (r.min_exclusive ? !(v > r.min) : !(v >= r.min)) return false;
+    if (r.max_exclusive ? !(v < r.max) : !(v <= r.max)) return false;
+    return true;
+}
+
+std::string type_name(const toml::node& node) {
+    switch (node.type()) {
+        case toml::node_type::table: return "a table";
+        case toml::node_type::array: return "an array";
+        case toml::node_type::string: return "a string";
+        case toml::node_type::integer: return "an integer";
+        case toml::node_type::floating_point: return "a number";
+        case toml::node_type::boolean: return "a boolean";
+        default: return "a date or time";
+    }
+}
+
+}  // namespace
+
+ParameterTable::ParameterTable(std::shared_ptr<const StudyFile> file, const toml::table* table, std::string path)
+    : file_(std::move(file)), table_(table), path_(std::move(path)) {}
+
+std::string ParameterTable::full_key(std::string_view key) const {
+    return path_.empty() ? std::string(key) : path_ + "." + std::string(key);
+}
+
+std::string ParameterTable::location(std::string_view key) const {
+    const toml::node* node = nullptr;
+    if (table_ != nullptr && !key.empty()) node = table_->get(key);
+    if (node == nullptr) node = table_;
+    const std::string file = file_->path().string();
+    if (node == nullptr || !node->source().begin) return file;
+    return fmt::format("{}:{}:{}", file, node->source().begin.line, node->source().begin.column);
+}
+
+void ParameterTable::fail(std::string_view key, const std::string& message) const {
+    throw InputError(fmt::format("{}: {} {}", location(key), full_key(key), message));
+}
+
+const toml::node* ParameterTable::find(std::string_view key) {
+    file_->used_.insert(full_key(key));
+    return table_ != nullptr ? table_->get(key) : nullptr;
+}
+
+bool ParameterTable::has(std::string_view key) const { return table_ != nullptr && table_->contains(key); }
+
+double ParameterTable::number(std::string_view key, double default_value, Range range, std::string_view what) {
+    const toml::node* node = find(key);
+    if (node == nullptr) return default_value;
+    std::optional<double> value;
+    if (const auto* f = node->as_floating_point()) value = f->get();
+    if (const auto* i = node->as_integer()) value = static_cast<double>(i->get());
+    if (!value) fail(key, fmt::format("is {}: expected {} ({})", type_name(*node), describe(range), what));
+    if (!within(range, *value)) fail(key, fmt::format("= {}: expected {} ({})", *value, describe(range), what));
+    return *value;
+}
+
+double ParameterTable::required_number(std::string_view key, Range range, std::string_view what) {
+    if (!has(key)) {
+        file_->used_.insert(full_key(key));
+        fail(key, fmt::format("is missing: expected {} ({})", describe(range), what));
+    }
+    return number(key, 0.0, range, what);
+}
+
+double ParameterTable::angle_deg(std::string_view key, double default_radians, Range range_deg, std::string_view what) {
+    PLUMAGE_CHECK(key.ends_with("_deg"), std::string(key));
+    constexpr double kDeg = 3.14159265358979323846 / 180.0;
+    return number(key, default_radians / kDeg, range_deg, what) * kDeg;
+}
+
+long ParameterTable::integer(std::string_view key, long default_value, long min, long max, std::string_view what) {
+    const toml::node* node = find(key);
+    if (node == nullptr) return default_value;
+    const auto* i = node->as_integer();
+    if (i == nullptr) fail(key, fmt::format("is {}: expected an integer in [{}, {}] ({})", type_name(*node), min, max, what));
+    if (i->get() < min || i->get() > max) {
+        fail(key, fmt::format("= {}: expected an integer in [{}, {}] ({})", i->get(), min, max, what));
+    }
+    return static_cast<long>(i->get());
+}
+
+bool ParameterTable::boolean(std::string_view key, bool default_value, std::string_view what) {
+    const toml::node* node = find(key);
+    if (node == nullptr) return default_value;
+    const auto* b = node->as_boolean();
+    if (b == nullptr) fail(key, fmt::format("is {}: expected true or false ({})", type_name(*node), what));
+    return b->get();
+}
+
+std::string ParameterTable::string(std::string_view key, std::string_view default_value,
+                                   const std::vector<std::string>& allowed, std::string_view what) {
+    const toml::node* node = find(key);
+    if (node == nullptr) return std::string(default_value);
+    const auto* s = node->as_string();
+    std::string choices;
+    for (const auto& a : allowed) choices += (choices.empty() ? "" : ", ") + ("\"" + a + "\"");
+    if (s == nullptr) {
+        fail(key, fmt::format("is {}: expected a string{} ({})", type_name(*node),
+                              allowed.empty() ? "" : " among " + choices, what));
+    }
+    if (!allowed.empty() && std::find(allowed.begin(), allowed.end(), s->get()) == allowed.end()) {
+        fail(key, fmt::format("= \"{}\": expected one of {} ({})", s->get(), choices, what));
+    }
+    return s->get();
+}
+
+std::string ParameterTable::required_string(std::string_view key, const std::vector<std::string>& allowed,
+                                            std::string_view what) {
+    if (!has(key)) {
+        file_->used_.insert(full_key(key));
+        fail(key, fmt::format("is missing: expected a string ({})", what));
+    }
+    return string(key, "", allowed, what);
+}
+
+ParameterTable ParameterTable::table(std::string_view key) {
+    const toml::node* node = find(key);
+    if (node != nullptr && !node->is_table()) {
+        fail(key, fmt::format("is {}: expected a table ([{}])", type_name(*node), full_key(key)));
+    }
+    return ParameterTable(file_, node != nullptr ? node->as_table() : nullptr, full_key(key));
+}
+
+namespace {
+
+void collect_unused(const toml::table& table, const std::string& prefix, const std::set<std::string, std::less<>>& used,
+                    const std::string& file, std::string& out) {
+    for (const auto& [key, node] : table) {
+        const std::string full = prefix.empty() ? std::string(key.str()) : prefix + "." + std::string(key.str());
+        if (!used.contains(full)) {
+            const auto& begin = key.source().begin ? key.source().begin : node.source().begin;
+            out += fmt::format("\n  {}:{}:{}: unknown key '{}'", file, begin.line, begin.column, full);
+        } else if (const auto* sub = node.as_table()) {
+            collect_unused(*sub, full, used, file, out);
+        }
+    }
+}
+
+}  // namespace
+
+void ParameterTable::reject_unused() const {
+    if (table_ == nullptr) return;
+    std::string unknown;
+    collect_unused(*table_, path_, file_->used_, file_->path().string(), unknown);
+    if (!unknown.empty()) {
+        throw InputError(fmt::format("{}: unknown keys (misspelt, or not used by this study):{}",
+                                     file_->path().string(), unknown));
+    }
+}
+
+StudyFile::~StudyFile() = default;
+
+std::shared_ptr<StudyFile> StudyFile::parse(std::string_view text, const std::filesystem::path& name) {
+    auto file = std::shared_ptr<StudyFile>(new StudyFile());
+    file->path_ = name;
+    file->text_ = std::string(text);
+    try {
+        file->table_ = std::make_unique<toml::table>(toml::parse(file->text_, name.string()));
+    } catch (const toml::parse_error& e) {
+        throw InputError(fmt::format("{}:{}:{}: not valid TOML: {}", name.string(), e.source().begin.line,
+                                     e.source().begin.column, e.description()));
+    }
+    return file;
+}
+
+std::shared_ptr<StudyFile> StudyFile::load(const std::filesystem::path& path) {
+    std::ifstream in(path);
+    if (!in) throw InputError(fmt::format("{}: cannot open the study file (does it exist?)", path.string()));
+    std::ostringstream text;
+    text << in.rdbuf();
+    return parse(text.str(), path);
+}
+
+ParameterTable StudyFile::root() { return ParameterTable(shared_from_this(), table_.get(), ""); }
+
+}  // namespace plumage::studies
