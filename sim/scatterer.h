@@ -25,6 +25,7 @@
 #include <vector>
 
 #include <Eigen/Core>
+#include <Eigen/Geometry>  // cross products are part of every direction computation
 
 #include "sim/random.h"
 

@@ -91,6 +91,11 @@ void Hdf5Writer::ensure_parent_groups(const std::string& dataset_path) {
     }
 }
 
+void Hdf5Writer::create_group(const std::string& group_path) {
+    if (file_ < 0) fail(final_path_, "write after commit()");
+    ensure_parent_groups(group_path + "/x");
+}
+
 template <typename T>
 void Hdf5Writer::write_typed(const std::string& dataset_path, std::span<const T> data,
                              const std::vector<std::uint64_t>& dims, const Attributes& attributes,
@@ -208,6 +213,18 @@ std::string read_string_attribute(const std::filesystem::path& file, const std::
     std::string value(H5Tget_size(type.get()), '\0');
     check(H5Aread(attribute.get(), type.get(), value.data()), file, "cannot read attribute " + name);
     value.erase(value.find_last_not_of('\0') + 1);
+    return value;
+}
+
+double read_number_attribute(const std::filesystem::path& file, const std::string& object_path,
+                             const std::string& name) {
+    Handle f(H5Fopen(file.c_str(), H5F_ACC_RDONLY, H5P_DEFAULT), H5Fclose);
+    if (!f.valid()) fail(file, "cannot open for reading");
+    Handle attribute(H5Aopen_by_name(f.get(), object_path.c_str(), name.c_str(), H5P_DEFAULT, H5P_DEFAULT),
+                     H5Aclose);
+    if (!attribute.valid()) fail(file, "no attribute " + object_path + "@" + name);
+    double value = 0.0;
+    check(H5Aread(attribute.get(), H5T_NATIVE_DOUBLE, &value), file, "cannot read attribute " + name);
     return value;
 }
 

@@ -35,6 +35,8 @@ public:
                const std::vector<std::uint64_t>& dims, const Attributes& attributes = {});
     void write(const std::string& dataset_path, std::span<const std::uint8_t> data,
                const std::vector<std::uint64_t>& dims, const Attributes& attributes = {});
+    // Creates a group (and its parents) if missing, e.g. for attribute-only groups.
+    void create_group(const std::string& group_path);
     // Attributes on a group or dataset ("/" is the file's root group).
     void set_attribute(const std::string& object_path, const std::string& name,
                        const std::string& value);
@@ -67,5 +69,7 @@ struct Dataset {
 Dataset read_dataset(const std::filesystem::path& file, const std::string& dataset_path);
 std::string read_string_attribute(const std::filesystem::path& file, const std::string& object_path,
                                   const std::string& name);
+double read_number_attribute(const std::filesystem::path& file, const std::string& object_path,
+                             const std::string& name);
 
 }  // namespace plumage::record

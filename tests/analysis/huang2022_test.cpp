@@ -11,6 +11,7 @@
 
 #include "sim/optics/material.h"
 #include "sim/optics/thin_film.h"
+#include "tests/analysis/chi_square.h"
 #include "tests/test_util.h"
 
 namespace plumage::analysis {
@@ -316,6 +317,30 @@ TEST(Huang2022, RejectsOutOfRangeParameters) {
     const Huang2022Bsdf model({});
     EXPECT_NE(input_error_message([&] { model.t_lobe_mass({0.0, 0.0, -1.0}); }).find("above the barb plane"),
               std::string::npos);
+}
+
+}  // namespace
+}  // namespace plumage::analysis
+
+namespace plumage::analysis {
+namespace {
+
+TEST(Huang2022, SamplingMatchesPdfChiSquare) {
+    // pbrt-style: directions drawn by sample() against pdf() integrated over sphere bins;
+    // the T lobe (a Dirac) and quanta absorbed at undersides fill the extra cell.
+    const Huang2022Bsdf model({});
+    const std::vector<Vec3d> incident = {direction(0.0, 0.0), direction(35.0, 60.0), direction(70.0, 180.0)};
+    for (std::size_t i = 0; i < incident.size(); ++i) {
+        plumage::testing::ChiSquareOptions options;
+        options.samples = 100000;
+        options.quadrature_cells = 8;  // the R lobe is only 2θ_d ≈ 9° wide longitudinally
+        options.tests_in_family = static_cast<int>(incident.size());
+        options.stream = i;
+        options.name = "huang2022";
+        options.outside_density = [](const ScatterEvent& e) { return e.lobe == Huang2022Bsdf::kT; };
+        const auto result = plumage::testing::chi_square_test(model, incident[i], 550.0, options);
+        EXPECT_GT(result.p_value, result.threshold) << "wi " << incident[i].transpose() << ": " << result.summary();
+    }
 }
 
 }  // namespace

@@ -1,0 +1,438 @@
+#include "virtual_gonio/goniometer.h"
+
+#include <omp.h>
+
+#include <chrono>
+#include <cmath>
+#include <iostream>
+#include <map>
+#include <numbers>
+
+#include <fmt/format.h>
+
+#include "common/error.h"
+#include "common/version.h"
+#include "sim/optics/colour.h"
+#include "virtual_gonio/hdf5_file.h"
+
+namespace plumage::gonio {
+namespace {
+
+constexpr double kPi = std::numbers::pi;
+constexpr std::uint64_t kChunk = 2048;  // quanta per work item: the unit of reduction order
+
+void require(bool ok, const std::string& message) {
+    if (!ok) throw InputError("goniometer: " + message);
+}
+
+// FNV-1a: a stable hash of the configuration, to refuse resuming a different run.
+std::uint64_t fnv1a(const std::string& text) {
+    std::uint64_t h = 1469598103934665603ULL;
+    for (unsigned char c : text) h = (h ^ c) * 1099511628211ULL;
+    return h;
+}
+
+std::string canonical(const GoniometerConfig& c, const std::string& scatterer, Estimator estimator) {
+    std::string s = fmt::format("{}|{}|{:.17g}|{:.17g}|{}|{}|{}|", scatterer, c.direction_set, c.detector_half_angle_rad,
+                                c.beam_radius_um, c.seed, c.quanta_per_pass, static_cast<int>(estimator));
+    for (double l : c.wavelengths_nm) s += fmt::format("{:.17g},", l);
+    for (const auto& p : c.pairs) {
+        s += fmt::format("{:.17g},{:.17g},{:.17g},{:.17g},{:.17g},{:.17g};", p.wi.x(), p.wi.y(), p.wi.z(), p.wo.x(),
+                         p.wo.y(), p.wo.z());
+    }
+    return s;
+}
+
+// Orthonormal frame around a unit axis.
+void frame_around(const Vec3d& a, Vec3d& e1, Vec3d& e2) {
+    e1 = (std::abs(a.z()) < 0.9 ? Vec3d::UnitZ() : Vec3d::UnitX()).cross(a).normalized();
+    e2 = a.cross(e1);
+}
+
+struct Group {  // pairs sharing one light direction
+    Vec3d wi;
+    std::vector<std::size_t> pairs;
+};
+
+std::vector<Group> group_by_light(const std::vector<DirectionPair>& pairs) {
+    std::vector<Group> groups;
+    std::map<std::array<double, 3>, std::size_t> index;
+    for (std::size_t p = 0; p < pairs.size(); ++p) {
+        const std::array<double, 3> key{pairs[p].wi.x(), pairs[p].wi.y(), pairs[p].wi.z()};
+        auto [it, inserted] = index.emplace(key, groups.size());
+        if (inserted) groups.push_back({pairs[p].wi, {}});
+        groups[it->second].pairs.push_back(p);
+    }
+    return groups;
+}
+
+// Accumulators of the photon estimator, per (pair, wavelength): Σx, Σx², and Σx per lobe.
+struct Sums {
+    std::vector<double> sum, sum_sq, lobe_sum;
+};
+
+double relative_rms(const std::vector<double>& value, const std::vector<double>& error) {
+    double acc = 0.0;
+    std::size_t n = 0;
+    for (std::size_t i = 0; i < value.size(); ++i) {
+        if (value[i] > 0.0) {
+            acc += std::pow(error[i] / value[i], 2);
+            ++n;
+        }
+    }
+    return n > 0 ? std::sqrt(acc / static_cast<double>(n)) : std::numeric_limits<double>::infinity();
+}
+
+void write_checkpoint(const std::filesystem::path& path, const Sums& sums, const BrdfRecord& r, std::uint64_t hash) {
+    record::Hdf5Writer h5(path);
+    using Dims = std::vector<std::uint64_t>;
+    h5.write("sum", std::span<const double>(sums.sum), Dims{sums.sum.size()});
+    h5.write("sum_sq", std::span<const double>(sums.sum_sq), Dims{sums.sum_sq.size()});
+    h5.write("lobe_sum", std::span<const double>(sums.lobe_sum), Dims{sums.lobe_sum.size()});
+    std::vector<double> table;
+    for (const auto& row : r.convergence) {
+        table.insert(table.end(), {static_cast<double>(row.pass), row.wall_time_s, static_cast<double>(row.quanta),
+                                   row.estimated_relative_rms_error});
+    }
+    h5.write("convergence", std::span<const double>(table), Dims{r.convergence.size(), 4});
+    h5.set_attribute("/", "config_hash", fmt::format("{}", hash));
+    h5.set_attribute("/", "passes", static_cast<double>(r.passes));
+    h5.set_attribute("/", "wall_time_s", r.wall_time_s);
+    h5.commit();
+}
+
+bool read_checkpoint(const std::filesystem::path& path, Sums& sums, BrdfRecord& r, std::uint64_t hash) {
+    if (path.empty() || !std::filesystem::exists(path)) return false;
+    if (record::read_string_attribute(path, "/", "config_hash") != fmt::format("{}", hash)) {
+        throw InputError(fmt::format("goniometer: checkpoint '{}' belongs to a different measurement (its "
+                                     "configuration differs); remove it to start afresh",
+                                     path.string()));
+    }
+    sums.sum = record::read_dataset(path, "sum").values;
+    sums.sum_sq = record::read_dataset(path, "sum_sq").values;
+    sums.lobe_sum = record::read_dataset(path, "lobe_sum").values;
+    const auto table = record::read_dataset(path, "convergence");
+    for (std::size_t i = 0; i + 3 < table.values.size(); i += 4) {
+        r.convergence.push_back({static_cast<int>(table.values[i]), table.values[i + 1],
+                                 static_cast<std::uint64_t>(table.values[i + 2]), table.values[i + 3]});
+    }
+    r.passes = static_cast<int>(record::read_number_attribute(path, "/", "passes"));
+    r.wall_time_s = record::read_number_attribute(path, "/", "wall_time_s");
+    return true;
+}
+
+}  // namespace
+
+void GoniometerConfig::validate() const {
+    require(!pairs.empty(), "no direction pairs: expected at least one (light, view) pair");
+    for (std::size_t i = 0; i < pairs.size(); ++i) {
+        const auto& p = pairs[i];
+        require(std::abs(p.wi.norm() - 1.0) < 1e-9 && std::abs(p.wo.norm() - 1.0) < 1e-9,
+                fmt::format("pair {}: light and view must be unit vectors", i));
+        require(p.wi.z() > 0.0, fmt::format("pair {}: the light must be above the patch (z > 0)", i));
+        require(p.wo.z() > std::sin(detector_half_angle_rad),
+                fmt::format("pair {}: view direction at {:.2f} deg from the normal: its detector cone must stay "
+                            "above the patch plane",
+                            i, std::acos(std::clamp(p.wo.z(), -1.0, 1.0)) * 180.0 / kPi));
+    }
+    require(!wavelengths_nm.empty(), "no wavelengths");
+    for (double l : wavelengths_nm) require(std::isfinite(l) && l > 0.0, fmt::format("wavelength {} nm", l));
+    require(std::isfinite(detector_half_angle_rad) && detector_half_angle_rad > 0.0 && detector_half_angle_rad < 0.5,
+            fmt::format("detector half-angle {} rad: expected (0, 0.5)", detector_half_angle_rad));
+    require(std::isfinite(beam_radius_um) && beam_radius_um >= 0.0, "beam radius must be finite and >= 0 um");
+    require(quanta_per_pass >= 1, "quanta_per_pass must be >= 1");
+    require(max_passes >= 1, "max_passes must be >= 1");
+    require(time_budget_s > 0.0, "time budget must be > 0 s");
+    require(target_relative_error >= 0.0, "target relative error must be >= 0");
+}
+
+namespace {
+
+BrdfRecord measure_by_eval(const Scatterer& scatterer, const GoniometerConfig& c, BrdfRecord r,
+                           std::chrono::steady_clock::time_point start) {
+    const std::size_t nl = c.wavelengths_nm.size(), nlobes = r.lobes.size();
+    const double alpha = c.detector_half_angle_rad, s2 = std::pow(std::sin(alpha), 2);
+    // Cosine-weighted cone cubatures: points at area fraction u of the projected disc
+    // (sin²β = u sin²α), weight ∝ cos θ / cos β (dω = sin²α du dγ / (2 cos β)).
+    struct Node {
+        double u, gamma, w;
+    };
+    std::vector<Node> fine, coarse = {{0.0, 0.0, 1.0}};
+    for (int k = 0; k < 6; ++k) coarse.push_back({0.5, 2.0 * kPi * k / 6.0, 1.0});
+    const std::array<double, 4> gl_u = {0.0694318442029737, 0.3300094782075719, 0.6699905217924281,
+                                        0.9305681557970263};
+    const std::array<double, 4> gl_w = {0.1739274225687269, 0.3260725774312731, 0.3260725774312731,
+                                        0.1739274225687269};
+    for (int i = 0; i < 4; ++i)
+        for (int k = 0; k < 8; ++k) fine.push_back({gl_u[i], 2.0 * kPi * (k + 0.5 * (i % 2)) / 8.0, gl_w[i]});
+    auto cone_average = [&](const DirectionPair& p, double lambda, const std::vector<Node>& rule,
+                            std::vector<double>* lobes) {
+        Vec3d e1, e2;
+        frame_around(p.wo, e1, e2);
+        double num = 0.0, den = 0.0;
+        std::vector<double> per_lobe(nlobes, 0.0), acc(nlobes, 0.0);
+        for (const Node& n : rule) {
+            const double sin_b = std::sqrt(n.u * s2), cos_b = std::sqrt(1.0 - n.u * s2);
+            const Vec3d w = cos_b * p.wo + sin_b * (std::cos(n.gamma) * e1 + std::sin(n.gamma) * e2);
+            const double weight = n.w * w.z() / cos_b;
+            num += weight * scatterer.eval(p.wi, w, lambda, per_lobe);
+            for (std::size_t l = 0; l < nlobes; ++l) acc[l] += weight * per_lobe[l];
+            den += weight;
+        }
+        if (lobes) {
+            for (std::size_t l = 0; l < nlobes; ++l) (*lobes)[l] = acc[l] / den;
+        }
+        return num / den;
+    };
+    r.value.assign(c.pairs.size() * nl, 0.0);
+    r.standard_error.assign(c.pairs.size() * nl, 0.0);
+    r.lobe_values.assign(nlobes * c.pairs.size() * nl, 0.0);
+#pragma omp parallel for schedule(dynamic, 4)
+    for (std::size_t p = 0; p < c.pairs.size(); ++p) {
+        std::vector<double> lobes(nlobes);
+        for (std::size_t k = 0; k < nl; ++k) {
+            const double fine_value = cone_average(c.pairs[p], c.wavelengths_nm[k], fine, &lobes);
+            const double coarse_value = cone_average(c.pairs[p], c.wavelengths_nm[k], coarse, nullptr);
+            r.value[p * nl + k] = fine_value;
+            r.standard_error[p * nl + k] = std::abs(fine_value - coarse_value);
+            for (std::size_t l = 0; l < nlobes; ++l) r.lobe_values[(l * c.pairs.size() + p) * nl + k] = lobes[l];
+        }
+    }
+    r.passes = 1;
+    r.quanta = 0;
+    r.wall_time_s = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+    r.convergence.push_back({1, r.wall_time_s, 0, relative_rms(r.value, r.standard_error)});
+    return r;
+}
+
+}  // namespace
+
+BrdfRecord measure_brdf(const Scatterer& scatterer, const GoniometerConfig& config, const RunControl& control) {
+    config.validate();
+    const auto start = std::chrono::steady_clock::now();
+    BrdfRecord r;
+    r.config = config;
+    r.scatterer = scatterer.name();
+    r.lobes = scatterer.lobe_names();
+    r.threads = omp_get_max_threads();
+    r.detector_solid_angle_sr = 2.0 * kPi * (1.0 - std::cos(config.detector_half_angle_rad));
+    r.estimator_used = config.estimator == Estimator::automatic
+                           ? (scatterer.can_evaluate() ? Estimator::eval : Estimator::photon)
+                           : config.estimator;
+    if (r.estimator_used == Estimator::eval) {
+        if (!scatterer.can_evaluate()) {
+            throw InputError(fmt::format("goniometer: estimator 'eval' needs a scatterer that evaluates f; {} does "
+                                         "not (use 'photon')",
+                                         scatterer.name()));
+        }
+        return measure_by_eval(scatterer, config, std::move(r), start);
+    }
+
+    const std::size_t nl = config.wavelengths_nm.size(), np = config.pairs.size(), nlobes = r.lobes.size();
+    const std::vector<Group> groups = group_by_light(config.pairs);
+    const double alpha = config.detector_half_angle_rad, cos_alpha = std::cos(alpha);
+    const double projected = kPi * std::pow(std::sin(alpha), 2);  // × cos θ_v per pair
+    const std::uint64_t hash = fnv1a(canonical(config, r.scatterer, r.estimator_used));
+
+    Sums sums{std::vector<double>(np * nl, 0.0), std::vector<double>(np * nl, 0.0),
+              std::vector<double>(nlobes * np * nl, 0.0)};
+    const bool resumed = read_checkpoint(control.checkpoint, sums, r, hash);
+    const double previous_wall = resumed ? r.wall_time_s : 0.0;
+
+    // Work items: (group, wavelength, chunk) — reduced in this order.
+    struct Item {
+        std::size_t group, wavelength;
+        std::uint64_t first, count;
+    };
+    const std::uint64_t chunks = (config.quanta_per_pass + kChunk - 1) / kChunk;
+    auto finish_row = [&](int pass) {
+        const std::uint64_t n = static_cast<std::uint64_t>(pass) * config.quanta_per_pass;
+        r.value.assign(np * nl, 0.0);
+        r.standard_error.assign(np * nl, 0.0);
+        r.lobe_values.assign(nlobes * np * nl, 0.0);
+        const double dn = static_cast<double>(n);
+        for (std::size_t i = 0; i < np * nl; ++i) {
+            const double mean = sums.sum[i] / dn;
+            r.value[i] = mean;
+            r.standard_error[i] = std::sqrt(std::max(0.0, sums.sum_sq[i] / dn - mean * mean) / std::max(1.0, dn - 1.0));
+        }
+        for (std::size_t i = 0; i < r.lobe_values.size(); ++i) r.lobe_values[i] = sums.lobe_sum[i] / dn;
+        r.quanta = n;
+        r.wall_time_s = previous_wall + std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+        return ConvergenceRow{pass, r.wall_time_s, n, relative_rms(r.value, r.standard_error)};
+    };
+    if (resumed && r.passes > 0) finish_row(r.passes);
+
+    while (r.passes < config.max_passes) {
+        if (!r.convergence.empty()) {
+            const ConvergenceRow& last = r.convergence.back();
+            if (last.estimated_relative_rms_error <= config.target_relative_error) break;
+            if (last.wall_time_s >= config.time_budget_s) break;
+        }
+        const int pass = r.passes;  // 0-based index of the pass being run
+        std::vector<Item> items;
+        for (std::size_t g = 0; g < groups.size(); ++g)
+            for (std::size_t k = 0; k < nl; ++k)
+                for (std::uint64_t c = 0; c < chunks; ++c) {
+                    const std::uint64_t first = static_cast<std::uint64_t>(pass) * config.quanta_per_pass + c * kChunk;
+                    items.push_back({g, k, first, std::min(kChunk, config.quanta_per_pass - c * kChunk)});
+                }
+        // Per item: its cells' partial sums, in the group's pair order.
+        std::vector<std::vector<double>> partial(items.size());
+        std::atomic<bool> abandoned{false};
+#pragma omp parallel for schedule(dynamic, 1)
+        for (std::size_t it = 0; it < items.size(); ++it) {
+            if (abandoned.load(std::memory_order_relaxed)) continue;
+            if (control.interrupt != nullptr && control.interrupt->load()) {
+                abandoned.store(true);
+                continue;
+            }
+            const Item& item = items[it];
+            const Group& group = groups[item.group];
+            const std::size_t m = group.pairs.size();
+            std::vector<double>& acc = partial[it];
+            acc.assign(m * (2 + nlobes), 0.0);
+            Vec3d e1, e2;
+            frame_around(group.wi, e1, e2);
+            const std::uint64_t stream = (item.group * nl + item.wavelength) << 40;
+            for (std::uint64_t q = item.first; q < item.first + item.count; ++q) {
+                Rng rng(config.seed, stream + q);
+                // Beam position: uniform over the beam's cross-section, projected along ω_i
+                // onto the patch plane.
+                const double radius = config.beam_radius_um * std::sqrt(rng.uniform());
+                const double angle = 2.0 * kPi * rng.uniform();
+                const Vec3d offset = radius * (std::cos(angle) * e1 + std::sin(angle) * e2);
+                const Vec2 position(offset.x() - offset.z() * group.wi.x() / group.wi.z(),
+                                    offset.y() - offset.z() * group.wi.y() / group.wi.z());
+                const auto event = scatterer.sample(group.wi, config.wavelengths_nm[item.wavelength], position, rng);
+                if (!event || !(event->weight > 0.0)) continue;
+                PLUMAGE_CHECK(std::isfinite(event->weight), "non-finite quantum weight from " + scatterer.name());
+                for (std::size_t j = 0; j < m; ++j) {
+                    const Vec3d& wo = config.pairs[group.pairs[j]].wo;
+                    if (event->wo.dot(wo) < cos_alpha) continue;
+                    const double x = event->weight / (projected * wo.z());
+                    acc[j] += x;
+                    acc[m + j] += x * x;
+                    if (event->lobe >= 0 && static_cast<std::size_t>(event->lobe) < nlobes) {
+                        acc[(2 + static_cast<std::size_t>(event->lobe)) * m + j] += x;
+                    }
+                }
+            }
+        }
+        if (abandoned.load()) {
+            r.interrupted = true;
+            break;  // the unfinished pass is discarded; the checkpoint holds the last one
+        }
+        for (std::size_t it = 0; it < items.size(); ++it) {
+            const Item& item = items[it];
+            const Group& group = groups[item.group];
+            const std::size_t m = group.pairs.size();
+            for (std::size_t j = 0; j < m; ++j) {
+                const std::size_t cell = group.pairs[j] * nl + item.wavelength;
+                sums.sum[cell] += partial[it][j];
+                sums.sum_sq[cell] += partial[it][m + j];
+                for (std::size_t l = 0; l < nlobes; ++l) sums.lobe_sum[l * np * nl + cell] += partial[it][(2 + l) * m + j];
+            }
+        }
+        r.passes = pass + 1;
+        r.convergence.push_back(finish_row(r.passes));
+        if (!control.checkpoint.empty()) write_checkpoint(control.checkpoint, sums, r, hash);
+        if (control.progress) {
+            const auto& row = r.convergence.back();
+            std::cerr << fmt::format("\r  {}: pass {} of at most {}, {} quanta per direction, est. error {:.3g} %, "
+                                     "{:.1f} s   ",
+                                     scatterer.name(), row.pass, config.max_passes, row.quanta,
+                                     100.0 * row.estimated_relative_rms_error, row.wall_time_s)
+                      << std::flush;
+        }
+        if (control.on_pass) control.on_pass(r.convergence.back());
+    }
+    if (control.progress) std::cerr << '\n';
+    return r;
+}
+
+record::RgbImage brdf_fingerprint(const BrdfRecord& r, int lights, int views, int block, double exposure) {
+    const std::size_t nl = r.config.wavelengths_nm.size();
+    PLUMAGE_CHECK(lights > 0 && views > 0 && block > 0 &&
+                      static_cast<std::size_t>(lights) * static_cast<std::size_t>(views) == r.config.pairs.size(),
+                  fmt::format("fingerprint {} x {} of {} pairs", lights, views, r.config.pairs.size()));
+    const optics::ReflectanceToXyz to_xyz(optics::WavelengthGrid(r.config.wavelengths_nm), optics::Illuminant::d65);
+    std::vector<optics::Rgb> rgb(r.config.pairs.size());
+    double peak = 0.0;
+    for (std::size_t p = 0; p < rgb.size(); ++p) {
+        optics::Xyz xyz = to_xyz(std::span<const double>(r.value.data() + p * nl, nl));
+        xyz.x *= 0.95047 / to_xyz.white().x;
+        xyz.z *= 1.08883 / to_xyz.white().z;
+        peak = std::max(peak, xyz.y);
+        rgb[p] = optics::linear_srgb_from_xyz(xyz);
+    }
+    if (exposure <= 0.0) exposure = peak > 0.0 ? 1.0 / peak : 1.0;
+    record::RgbImage image(views * block, lights * block);
+    for (int l = 0; l < lights; ++l) {
+        for (int v = 0; v < views; ++v) {
+            optics::Rgb c = rgb[static_cast<std::size_t>(l) * views + v];
+            for (double& x : c) x = std::max(0.0, x * exposure);
+            const double top = std::max({c[0], c[1], c[2]});
+            if (top > 1.0)
+                for (double& x : c) x /= top;
+            auto byte = [](double x) { return static_cast<std::uint8_t>(std::lround(optics::srgb_encode(x) * 255.0)); };
+            for (int dy = 0; dy < block; ++dy)
+                for (int dx = 0; dx < block; ++dx) image.set(v * block + dx, l * block + dy, byte(c[0]), byte(c[1]), byte(c[2]));
+        }
+    }
+    return image;
+}
+
+void write_brdf_record(const BrdfRecord& r, const std::filesystem::path& path) {
+    const auto& c = r.config;
+    const std::size_t np = c.pairs.size(), nl = c.wavelengths_nm.size();
+    record::Hdf5Writer h5(path);
+    using Dims = std::vector<std::uint64_t>;
+    std::vector<double> light, view, angles;
+    for (const auto& p : c.pairs) {
+        light.insert(light.end(), {p.wi.x(), p.wi.y(), p.wi.z()});
+        view.insert(view.end(), {p.wo.x(), p.wo.y(), p.wo.z()});
+        auto deg = [](double v) { return v * 180.0 / kPi; };
+        angles.insert(angles.end(), {deg(std::acos(p.wi.z())), deg(std::atan2(p.wi.y(), p.wi.x())),
+                                     deg(std::acos(p.wo.z())), deg(std::atan2(p.wo.y(), p.wo.x()))});
+    }
+    h5.set_attribute("/", "format", "plumage record 1 (virtual_gonio/RECORD.md)");
+    h5.write("instrument/light_directions", std::span<const double>(light), Dims{np, 3},
+             {{"description", "unit vectors towards the light, patch frame (+z normal, +x barb axis)"}});
+    h5.write("instrument/view_directions", std::span<const double>(view), Dims{np, 3},
+             {{"description", "unit vectors towards the detector centres, patch frame"}});
+    h5.write("instrument/angles_deg", std::span<const double>(angles), Dims{np, 4},
+             {{"description", "theta_light, phi_light, theta_view, phi_view (deg; phi from +x)"}});
+    h5.set_attribute("/instrument", "kind", "goniometer");
+    h5.set_attribute("/instrument", "direction_set", c.direction_set);
+    h5.set_attribute("/instrument", "detector_half_angle_deg", c.detector_half_angle_rad * 180.0 / kPi);
+    h5.set_attribute("/instrument", "detector_solid_angle_sr", r.detector_solid_angle_sr);
+    h5.set_attribute("/instrument", "beam_radius_um", c.beam_radius_um);
+    h5.set_attribute("/instrument", "estimator", r.estimator_used == Estimator::eval ? "eval" : "photon");
+    h5.write("wavelength_nm", std::span<const double>(c.wavelengths_nm), Dims{nl}, {{"units", "nm"}});
+    h5.write("brdf/value", std::span<const double>(r.value), Dims{np, nl},
+             {{"units", "1/sr"}, {"description", "BRDF averaged over each detector cone (cosine-weighted)"}});
+    h5.write("brdf/standard_error", std::span<const double>(r.standard_error), Dims{np, nl}, {{"units", "1/sr"}});
+    for (std::size_t l = 0; l < r.lobes.size(); ++l) {
+        h5.write("brdf/lobes/" + r.lobes[l],
+                 std::span<const double>(r.lobe_values.data() + l * np * nl, np * nl), Dims{np, nl},
+                 {{"units", "1/sr"}});
+    }
+    std::vector<double> table;
+    for (const auto& row : r.convergence) {
+        table.insert(table.end(), {static_cast<double>(row.pass), row.wall_time_s, static_cast<double>(row.quanta),
+                                   row.estimated_relative_rms_error});
+    }
+    h5.write("convergence", std::span<const double>(table), Dims{r.convergence.size(), 4},
+             {{"columns", "pass, wall_time_s, quanta_per_direction_and_wavelength, estimated_relative_rms_error"}});
+    h5.create_group("provenance");
+    h5.set_attribute("/provenance", "scatterer", r.scatterer);
+    h5.set_attribute("/provenance", "plumage_version", kVersion);
+    h5.set_attribute("/provenance", "seed", fmt::format("{}", c.seed));
+    h5.set_attribute("/provenance", "threads", static_cast<double>(r.threads));
+    h5.set_attribute("/provenance", "wall_time_s", r.wall_time_s);
+    h5.set_attribute("/provenance", "config", c.config_text);
+    h5.commit();
+}
+
+}  // namespace plumage::gonio

@@ -1,0 +1,334 @@
+#include "virtual_gonio/scatterometer.h"
+
+#include <omp.h>
+
+#include <chrono>
+#include <cmath>
+#include <iostream>
+#include <numbers>
+
+#include <fmt/format.h>
+
+#include "common/error.h"
+#include "common/version.h"
+#include "sim/optics/colour.h"
+#include "virtual_gonio/hdf5_file.h"
+
+namespace plumage::gonio {
+namespace {
+
+constexpr double kPi = std::numbers::pi;
+constexpr std::uint64_t kChunk = 4096;
+
+void require(bool ok, const std::string& message) {
+    if (!ok) throw InputError("scatterometer: " + message);
+}
+
+void frame_around(const Vec3d& a, Vec3d& e1, Vec3d& e2) {
+    e1 = (std::abs(a.z()) < 0.9 ? Vec3d::UnitZ() : Vec3d::UnitX()).cross(a).normalized();
+    e2 = a.cross(e1);
+}
+
+// Pixel index of a direction in the upper hemisphere (−1 if outside the image).
+long pixel_of(const Vec3d& w, int n) {
+    if (!(w.z() > 0.0)) return -1;
+    const double r = std::acos(std::min(1.0, w.z())) / (0.5 * kPi);
+    const double phi = std::atan2(w.y(), w.x());
+    const double u = r * std::cos(phi), v = r * std::sin(phi);
+    const int column = static_cast<int>(std::floor((u + 1.0) * 0.5 * n));
+    const int row = static_cast<int>(std::floor((1.0 - v) * 0.5 * n));
+    if (column < 0 || row < 0 || column >= n || row >= n) return -1;
+    return static_cast<long>(row) * n + column;
+}
+
+}  // namespace
+
+void ScatterometerConfig::validate() const {
+    require(std::abs(beam_direction.norm() - 1.0) < 1e-9 && beam_direction.z() > 0.0,
+            "beam_direction must be a unit vector above the patch (z > 0)");
+    require(std::isfinite(cone_aperture_rad) && cone_aperture_rad > 0.0 && cone_aperture_rad < kPi,
+            fmt::format("cone aperture {} rad: expected (0, pi)", cone_aperture_rad));
+    require(illumination != Illumination::cone ||
+                std::acos(beam_direction.z()) + 0.5 * cone_aperture_rad < 0.5 * kPi,
+            "the illumination cone must stay above the patch plane");
+    require(image_size >= 9 && image_size <= 4096, fmt::format("image_size {}: expected 9..4096", image_size));
+    require(!wavelengths_nm.empty(), "no wavelengths");
+    for (double l : wavelengths_nm) require(std::isfinite(l) && l > 0.0, fmt::format("wavelength {} nm", l));
+    require(std::isfinite(beam_radius_um) && beam_radius_um >= 0.0, "beam radius must be >= 0 um");
+    require(quanta_per_pass >= 1 && max_passes >= 1, "quanta_per_pass and max_passes must be >= 1");
+}
+
+std::optional<Vec3d> Scatterogram::direction(int column, int row) const {
+    const int n = config.image_size;
+    const double u = (column + 0.5) * 2.0 / n - 1.0, v = 1.0 - (row + 0.5) * 2.0 / n;
+    const double r = std::hypot(u, v);
+    if (r > 1.0) return std::nullopt;
+    const double theta = 0.5 * kPi * r, phi = std::atan2(v, u);
+    return Vec3d(std::sin(theta) * std::cos(phi), std::sin(theta) * std::sin(phi), std::cos(theta));
+}
+
+Scatterogram measure_scatterogram(const Scatterer& scatterer, const ScatterometerConfig& config,
+                                  const RunControl& control) {
+    config.validate();
+    const auto start = std::chrono::steady_clock::now();
+    Scatterogram s;
+    s.config = config;
+    s.scatterer = scatterer.name();
+    s.lobes = scatterer.lobe_names();
+    const int n = config.image_size;
+    const std::size_t np = s.pixels(), nl = config.wavelengths_nm.size(), nlobes = s.lobes.size();
+    s.solid_angle_sr.assign(np, 0.0);
+    const double pixel = 2.0 / n;
+    for (int row = 0; row < n; ++row) {
+        for (int column = 0; column < n; ++column) {
+            const double u = (column + 0.5) * pixel - 1.0, v = 1.0 - (row + 0.5) * pixel;
+            const double r = std::hypot(u, v);
+            if (r > 1.0) continue;
+            // Equidistant map: dω = (π/2) sin(πr/2)/r du dv (→ π²/4 at the centre).
+            const double jacobian = r > 1e-12 ? 0.5 * kPi * std::sin(0.5 * kPi * r) / r : 0.25 * kPi * kPi;
+            s.solid_angle_sr[static_cast<std::size_t>(row) * n + column] = jacobian * pixel * pixel;
+        }
+    }
+    std::vector<double> sum(np * nl, 0.0), sum_sq(np * nl, 0.0), lobe_sum(nlobes * np * nl, 0.0);
+    std::vector<double> below(nl, 0.0), below_lobes(nlobes * nl, 0.0);
+    Vec3d e1, e2;
+    frame_around(config.beam_direction, e1, e2);
+    const double half_aperture = 0.5 * config.cone_aperture_rad;
+
+    struct Hit {
+        long pixel;
+        int lobe;
+        double weight;
+    };
+    while (s.passes < config.max_passes) {
+        if (!s.convergence.empty()) {
+            const auto& last = s.convergence.back();
+            if (last.estimated_relative_rms_error <= config.target_relative_error || last.wall_time_s >= config.time_budget_s) {
+                break;
+            }
+        }
+        const std::uint64_t chunks = (config.quanta_per_pass + kChunk - 1) / kChunk;
+        const std::size_t items = nl * chunks;
+        std::vector<std::vector<Hit>> hits(items);
+        std::vector<double> item_below(items * (nlobes + 1), 0.0);  // total, then per lobe
+        std::atomic<bool> abandoned{false};
+#pragma omp parallel for schedule(dynamic, 1)
+        for (std::size_t it = 0; it < items; ++it) {
+            if (abandoned.load(std::memory_order_relaxed)) continue;
+            if (control.interrupt != nullptr && control.interrupt->load()) {
+                abandoned.store(true);
+                continue;
+            }
+            const std::size_t k = it / chunks;
+            const std::uint64_t c = it % chunks;
+            const std::uint64_t first = static_cast<std::uint64_t>(s.passes) * config.quanta_per_pass + c * kChunk;
+            const std::uint64_t count = std::min(kChunk, config.quanta_per_pass - c * kChunk);
+            auto& out = hits[it];
+            for (std::uint64_t q = first; q < first + count; ++q) {
+                Rng rng(config.seed, (static_cast<std::uint64_t>(k) << 44) + q);
+                Vec3d wi = config.beam_direction;
+                if (config.illumination == Illumination::cone) {
+                    // Uniform radiance in the cone: uniform in solid angle, accepted ∝ cos θ_i.
+                    do {
+                        const double cos_b = 1.0 - rng.uniform() * (1.0 - std::cos(half_aperture));
+                        const double sin_b = std::sqrt(std::max(0.0, 1.0 - cos_b * cos_b)), g = 2.0 * kPi * rng.uniform();
+                        wi = cos_b * config.beam_direction + sin_b * (std::cos(g) * e1 + std::sin(g) * e2);
+                    } while (rng.uniform() > wi.z());
+                } else if (config.illumination == Illumination::hemisphere) {
+                    const double r = std::sqrt(rng.uniform()), g = 2.0 * kPi * rng.uniform();
+                    wi = Vec3d(r * std::cos(g), r * std::sin(g), std::sqrt(std::max(1e-12, 1.0 - r * r))).normalized();
+                }
+                Vec3d f1, f2;
+                frame_around(wi, f1, f2);
+                const double radius = config.beam_radius_um * std::sqrt(rng.uniform()), angle = 2.0 * kPi * rng.uniform();
+                const Vec3d offset = radius * (std::cos(angle) * f1 + std::sin(angle) * f2);
+                const Vec2 position(offset.x() - offset.z() * wi.x() / wi.z(), offset.y() - offset.z() * wi.y() / wi.z());
+                const auto event = scatterer.sample(wi, config.wavelengths_nm[k], position, rng);
+                if (!event || !(event->weight > 0.0)) continue;
+                PLUMAGE_CHECK(std::isfinite(event->weight), "non-finite quantum weight from " + scatterer.name());
+                if (event->wo.z() <= 0.0) {
+                    item_below[it * (nlobes + 1)] += event->weight;
+                    if (event->lobe >= 0 && static_cast<std::size_t>(event->lobe) < nlobes) {
+                        item_below[it * (nlobes + 1) + 1 + static_cast<std::size_t>(event->lobe)] += event->weight;
+                    }
+                    continue;
+                }
+                const long p = pixel_of(event->wo, n);
+                if (p >= 0 && s.solid_angle_sr[static_cast<std::size_t>(p)] > 0.0) out.push_back({p, event->lobe, event->weight});
+            }
+        }
+        if (abandoned.load()) {
+            s.interrupted = true;
+            break;
+        }
+        for (std::size_t it = 0; it < items; ++it) {
+            const std::size_t k = it / chunks;
+            below[k] += item_below[it * (nlobes + 1)];
+            for (std::size_t l = 0; l < nlobes; ++l) below_lobes[l * nl + k] += item_below[it * (nlobes + 1) + 1 + l];
+            for (const Hit& h : hits[it]) {
+                const std::size_t cell = static_cast<std::size_t>(h.pixel) * nl + k;
+                const double x = h.weight / s.solid_angle_sr[static_cast<std::size_t>(h.pixel)];
+                sum[cell] += x;
+                sum_sq[cell] += x * x;
+                if (h.lobe >= 0 && static_cast<std::size_t>(h.lobe) < nlobes) lobe_sum[static_cast<std::size_t>(h.lobe) * np * nl + cell] += x;
+            }
+        }
+        ++s.passes;
+        const double quanta = static_cast<double>(s.passes) * static_cast<double>(config.quanta_per_pass);
+        s.intensity.assign(np * nl, 0.0);
+        s.standard_error.assign(np * nl, 0.0);
+        s.lobe_intensity.assign(nlobes * np * nl, 0.0);
+        double power = 0.0, variance = 0.0;
+        for (std::size_t i = 0; i < np * nl; ++i) {
+            const double mean = sum[i] / quanta;
+            s.intensity[i] = mean;
+            s.standard_error[i] = std::sqrt(std::max(0.0, sum_sq[i] / quanta - mean * mean) / std::max(1.0, quanta - 1.0));
+            // Power-weighted relative error: Σ Ω σ / Σ Ω I (bright pixels dominate).
+            power += mean * s.solid_angle_sr[i / nl];
+            variance += s.standard_error[i] * s.solid_angle_sr[i / nl];
+        }
+        for (std::size_t i = 0; i < lobe_sum.size(); ++i) s.lobe_intensity[i] = lobe_sum[i] / quanta;
+        s.transmitted.assign(nl, 0.0);
+        for (std::size_t k = 0; k < nl; ++k) s.transmitted[k] = below[k] / quanta;
+        s.transmitted_lobes.assign(nlobes * nl, 0.0);
+        for (std::size_t i = 0; i < below_lobes.size(); ++i) s.transmitted_lobes[i] = below_lobes[i] / quanta;
+        s.quanta = static_cast<std::uint64_t>(quanta);
+        s.wall_time_s = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+        s.convergence.push_back({s.passes, s.wall_time_s, s.quanta, power > 0.0 ? variance / power : 1.0});
+        if (control.progress) {
+            std::cerr << fmt::format("\r  scatterogram of {}: pass {} of at most {}, est. error {:.3g} %, {:.1f} s   ",
+                                     scatterer.name(), s.passes, config.max_passes,
+                                     100.0 * s.convergence.back().estimated_relative_rms_error, s.wall_time_s)
+                      << std::flush;
+        }
+        if (control.on_pass) control.on_pass(s.convergence.back());
+    }
+    if (control.progress) std::cerr << '\n';
+    return s;
+}
+
+namespace {
+
+std::vector<double> luminance_and_rgb(const Scatterogram& s, std::vector<optics::Rgb>* rgb) {
+    const auto grid = optics::WavelengthGrid(s.config.wavelengths_nm);
+    const optics::ReflectanceToXyz to_xyz(grid, optics::Illuminant::d65);
+    const std::size_t nl = grid.size();
+    std::vector<double> y(s.pixels(), 0.0);
+    if (rgb) rgb->assign(s.pixels(), optics::Rgb{0.0, 0.0, 0.0});
+    for (std::size_t p = 0; p < s.pixels(); ++p) {
+        if (s.solid_angle_sr[p] <= 0.0) continue;
+        optics::Xyz xyz = to_xyz(std::span<const double>(s.intensity.data() + p * nl, nl));
+        // A few wavelengths do not span the visible: scale XYZ so that a flat spectrum
+        // maps to D65 white (x 0.3127, y 0.3290) on any grid, and colour casts are the
+        // scatterer's, not the sampling's.
+        xyz.x *= 0.95047 / to_xyz.white().x;
+        xyz.z *= 1.08883 / to_xyz.white().z;
+        y[p] = xyz.y;
+        if (rgb) (*rgb)[p] = optics::linear_srgb_from_xyz(xyz);
+    }
+    return y;
+}
+
+std::uint8_t byte(double v) { return static_cast<std::uint8_t>(std::lround(std::clamp(v, 0.0, 1.0) * 255.0)); }
+
+void draw_rings(record::RgbImage& image) {
+    const int n = image.width;
+    for (double deg : {5.0, 30.0, 60.0, 90.0}) {
+        const double r = deg / 90.0 * 0.5 * n;
+        const int steps = static_cast<int>(8 * r) + 16;
+        for (int i = 0; i < steps; ++i) {
+            const double a = 2.0 * kPi * i / steps, b = 2.0 * kPi * (i + 1) / steps;
+            image.draw_line(0.5 * n + r * std::cos(a), 0.5 * n - r * std::sin(a), 0.5 * n + r * std::cos(b),
+                            0.5 * n - r * std::sin(b), {128, 128, 128});
+        }
+    }
+}
+
+}  // namespace
+
+record::RgbImage scatterogram_srgb(const Scatterogram& s, double exposure, bool rings) {
+    std::vector<optics::Rgb> rgb;
+    const std::vector<double> y = luminance_and_rgb(s, &rgb);
+    if (exposure <= 0.0) {
+        const double peak = *std::max_element(y.begin(), y.end());
+        exposure = peak > 0.0 ? 1.0 / peak : 1.0;
+    }
+    const int n = s.config.image_size;
+    record::RgbImage image(n, n);
+    for (std::size_t p = 0; p < s.pixels(); ++p) {
+        optics::Rgb c = rgb[p];
+        for (double& v : c) v = std::max(0.0, v * exposure);
+        const double top = std::max({c[0], c[1], c[2]});
+        if (top > 1.0)
+            for (double& v : c) v /= top;  // keep the hue when over-exposed
+        image.set(static_cast<int>(p % n), static_cast<int>(p / n), byte(optics::srgb_encode(c[0])),
+                  byte(optics::srgb_encode(c[1])), byte(optics::srgb_encode(c[2])));
+    }
+    if (rings) draw_rings(image);
+    return image;
+}
+
+record::RgbImage scatterogram_difference(const Scatterogram& a, const Scatterogram& b) {
+    PLUMAGE_CHECK(a.pixels() == b.pixels() && a.config.wavelengths_nm == b.config.wavelengths_nm,
+                  "scatterograms differ in size or wavelengths");
+    const std::vector<double> ya = luminance_and_rgb(a, nullptr), yb = luminance_and_rgb(b, nullptr);
+    const double peak = std::max(1e-300, *std::max_element(ya.begin(), ya.end()));
+    const int n = a.config.image_size;
+    record::RgbImage image(n, n);
+    for (std::size_t p = 0; p < a.pixels(); ++p) {
+        const std::uint8_t g = byte(std::abs(ya[p] - yb[p]) / peak);
+        image.set(static_cast<int>(p % n), static_cast<int>(p / n), g, g, g);
+    }
+    draw_rings(image);
+    return image;
+}
+
+void write_scatterogram_record(const Scatterogram& s, const std::filesystem::path& path) {
+    const auto& c = s.config;
+    const std::uint64_t n = static_cast<std::uint64_t>(c.image_size), nl = c.wavelengths_nm.size();
+    record::Hdf5Writer h5(path);
+    using Dims = std::vector<std::uint64_t>;
+    h5.set_attribute("/", "format", "plumage record 1 (virtual_gonio/RECORD.md)");
+    h5.create_group("instrument");
+    h5.set_attribute("/instrument", "kind", "imaging_scatterometer");
+    h5.set_attribute("/instrument", "illumination",
+                     c.illumination == Illumination::beam ? "beam" : c.illumination == Illumination::cone ? "cone" : "hemisphere");
+    h5.set_attribute("/instrument", "beam_direction",
+                     fmt::format("{:.9f} {:.9f} {:.9f}", c.beam_direction.x(), c.beam_direction.y(), c.beam_direction.z()));
+    h5.set_attribute("/instrument", "cone_aperture_deg", c.cone_aperture_rad * 180.0 / kPi);
+    h5.set_attribute("/instrument", "beam_radius_um", c.beam_radius_um);
+    h5.set_attribute("/instrument", "mapping",
+                     "azimuthal equidistant: theta = 90 deg * hypot(u, v), phi = atan2(v, u) from +x; row 0 at the top");
+    h5.write("wavelength_nm", std::span<const double>(c.wavelengths_nm), Dims{nl}, {{"units", "nm"}});
+    h5.write("image/solid_angle_sr", std::span<const double>(s.solid_angle_sr), Dims{n, n}, {{"units", "sr"}});
+    h5.write("image/intensity", std::span<const double>(s.intensity), Dims{n, n, nl},
+             {{"units", "1/sr"}, {"description", "radiant intensity per unit incident power, [row, column, wavelength]"}});
+    h5.write("image/standard_error", std::span<const double>(s.standard_error), Dims{n, n, nl}, {{"units", "1/sr"}});
+    for (std::size_t l = 0; l < s.lobes.size(); ++l) {
+        h5.write("image/lobes/" + s.lobes[l], std::span<const double>(s.lobe_intensity.data() + l * n * n * nl, n * n * nl),
+                 Dims{n, n, nl}, {{"units", "1/sr"}});
+    }
+    h5.write("transmitted_fraction", std::span<const double>(s.transmitted), Dims{nl},
+             {{"description", "fraction of the incident power leaving below the patch"}});
+    for (std::size_t l = 0; l < s.lobes.size(); ++l) {
+        h5.write("transmitted_lobes/" + s.lobes[l], std::span<const double>(s.transmitted_lobes.data() + l * nl, nl),
+                 Dims{nl});
+    }
+    std::vector<double> table;
+    for (const auto& row : s.convergence) {
+        table.insert(table.end(), {static_cast<double>(row.pass), row.wall_time_s, static_cast<double>(row.quanta),
+                                   row.estimated_relative_rms_error});
+    }
+    h5.write("convergence", std::span<const double>(table), Dims{s.convergence.size(), 4},
+             {{"columns", "pass, wall_time_s, quanta_per_wavelength, power_weighted_relative_error"}});
+    h5.create_group("provenance");
+    h5.set_attribute("/provenance", "scatterer", s.scatterer);
+    h5.set_attribute("/provenance", "plumage_version", kVersion);
+    h5.set_attribute("/provenance", "seed", fmt::format("{}", c.seed));
+    h5.set_attribute("/provenance", "threads", static_cast<double>(omp_get_max_threads()));
+    h5.set_attribute("/provenance", "wall_time_s", s.wall_time_s);
+    h5.set_attribute("/provenance", "config", c.config_text);
+    h5.commit();
+}
+
+}  // namespace plumage::gonio

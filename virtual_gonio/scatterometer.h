@@ -1,0 +1,91 @@
+// The virtual imaging scatterometer (Stavenga et al. 2009, as used by Huang et al.
+// 2022, Fig. 6): a spot of light on the patch, the scattered light of the whole upper
+// hemisphere imaged at once as a disc, spectrally.
+//
+// Illumination (ω_i points towards the light, sim/scatterer.h):
+//  - beam: a collimated beam from `beam_direction`;
+//  - cone: uniform radiance within a cone of full aperture `cone_aperture_rad` (16° in
+//    Huang's setup) around `beam_direction` (irradiance ∝ cos θ_i within it);
+//  - hemisphere: uniform radiance from the whole upper hemisphere ("omnidirectional",
+//    diaphragm D2 removed).
+// The spot is a disc of radius beam_radius_um in the beam's cross-section, projected
+// on the patch.
+//
+// Image: an azimuthal equidistant map of the hemisphere. Pixel centre (u, v) ∈ [−1, 1]²
+// (u right, v up; row 0 at the top) maps to polar angle ϑ = (π/2)·hypot(u, v) and
+// azimuth φ = atan2(v, u) from +x (the barb axis) towards +y; the rim is ϑ = 90°.
+// Rings in previews mark ϑ = 5°, 30°, 60°, 90°. A pixel of side 2/N spans
+// Ω = (π/2) sin(πr/2)/r · (2/N)² sr.
+//
+// Value per pixel and wavelength: radiant intensity per unit incident power,
+// I(ω_o) = dP/dω / P_in (1/sr) = the mean over the illumination of f(ω_i, ω_o) cos θ_o,
+// estimated by quanta counted into the pixel: mean(weight · 1[pixel]) / Ω_pixel, with
+// its standard error. Deterministic streams (seed, wavelength, quantum), reduced in
+// a fixed order.
+#pragma once
+
+#include <array>
+#include <cstdint>
+#include <filesystem>
+#include <limits>
+#include <string>
+#include <vector>
+
+#include "sim/scatterer.h"
+#include "virtual_gonio/goniometer.h"  // ConvergenceRow, RunControl
+#include "virtual_gonio/png_image.h"
+
+namespace plumage::gonio {
+
+enum class Illumination { beam, cone, hemisphere };
+
+struct ScatterometerConfig {
+    Illumination illumination = Illumination::beam;
+    Vec3d beam_direction = Vec3d::UnitZ();
+    double cone_aperture_rad = 0.2792526803190927;  // 16°
+    int image_size = 129;                           // pixels across the disc
+    std::vector<double> wavelengths_nm = {450.0, 500.0, 550.0, 600.0, 650.0};
+    double beam_radius_um = 60.0;
+    std::uint64_t seed = kDefaultSeed;
+    std::uint64_t quanta_per_pass = 200000;  // per wavelength
+    int max_passes = 10;
+    double time_budget_s = std::numeric_limits<double>::infinity();
+    double target_relative_error = 0.0;  // on the image's power-weighted relative error
+    std::string config_text;
+
+    void validate() const;
+};
+
+struct Scatterogram {
+    ScatterometerConfig config;
+    std::string scatterer;
+    std::vector<std::string> lobes;
+    // Row-major [row][column][wavelength]; lobe_intensity [lobe][row][column][wavelength].
+    std::vector<double> intensity, standard_error, lobe_intensity;
+    std::vector<double> solid_angle_sr;  // per pixel; 0 outside the disc
+    std::vector<ConvergenceRow> convergence;
+    std::vector<double> transmitted;        // per wavelength: fraction leaving below the patch
+    std::vector<double> transmitted_lobes;  // [lobe][wavelength]
+    int passes = 0;
+    std::uint64_t quanta = 0;
+    double wall_time_s = 0.0;
+    bool interrupted = false;
+
+    std::size_t pixels() const { return static_cast<std::size_t>(config.image_size) * config.image_size; }
+    // Direction of a pixel's centre, or nullopt outside the disc.
+    std::optional<Vec3d> direction(int column, int row) const;
+};
+
+Scatterogram measure_scatterogram(const Scatterer& scatterer, const ScatterometerConfig& config,
+                                  const RunControl& control = {});
+
+// The image under D65 (CIE 1931), each pixel's spectrum integrated over the record's
+// wavelengths; exposure scales the luminance (exposure ≤ 0: brightest pixel → Y = 1).
+// The ϑ rings are drawn in grey.
+record::RgbImage scatterogram_srgb(const Scatterogram& s, double exposure = 0.0, bool rings = true);
+// Pixel-wise |a − b| luminance, normalised to a's brightest pixel (white = 100 %).
+record::RgbImage scatterogram_difference(const Scatterogram& a, const Scatterogram& b);
+
+void write_scatterogram_record(const Scatterogram& s, const std::filesystem::path& path);
+
+}  // namespace plumage::gonio
