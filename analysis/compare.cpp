@@ -1,0 +1,116 @@
+#include "analysis/compare.h"
+
+#include <algorithm>
+#include <cmath>
+#include <numbers>
+
+#include <fmt/format.h>
+
+#include "common/error.h"
+#include "sim/optics/colour.h"
+
+namespace plumage::analysis {
+namespace {
+
+ErrorMeasures measures(const std::vector<double>& a, const std::vector<double>& b, const gonio::BrdfRecord& r,
+                       std::size_t offset) {
+    const std::size_t np = r.config.pairs.size(), nl = r.config.wavelengths_nm.size();
+    double sq = 0.0, diff = 0.0, ref = 0.0, wsq = 0.0, wsum = 0.0;
+    for (std::size_t p = 0; p < np; ++p) {
+        const double w = r.config.pairs[p].wi.z() * r.config.pairs[p].wo.z();
+        for (std::size_t k = 0; k < nl; ++k) {
+            const double d = a[offset + p * nl + k] - b[offset + p * nl + k];
+            sq += d * d;
+            diff += std::abs(d);
+            ref += std::abs(b[offset + p * nl + k]);
+            wsq += w * d * d;
+            wsum += w;
+        }
+    }
+    const double n = static_cast<double>(np * nl);
+    return {std::sqrt(sq / n), ref > 0.0 ? diff / ref : (diff > 0.0 ? INFINITY : 0.0), std::sqrt(wsq / wsum)};
+}
+
+}  // namespace
+
+RecordComparison compare_records(const gonio::BrdfRecord& a, const gonio::BrdfRecord& b, std::size_t worst_count) {
+    const auto& ca = a.config;
+    const auto& cb = b.config;
+    if (ca.pairs.size() != cb.pairs.size() || ca.wavelengths_nm != cb.wavelengths_nm) {
+        throw InputError(fmt::format("compare: the records differ in direction pairs ({} vs {}) or wavelengths; "
+                                     "measure both on the same instrument",
+                                     ca.pairs.size(), cb.pairs.size()));
+    }
+    for (std::size_t p = 0; p < ca.pairs.size(); ++p) {
+        if ((ca.pairs[p].wi - cb.pairs[p].wi).norm() > 1e-12 || (ca.pairs[p].wo - cb.pairs[p].wo).norm() > 1e-12) {
+            throw InputError(fmt::format("compare: direction pair {} differs between the records", p));
+        }
+    }
+    const std::size_t np = ca.pairs.size(), nl = ca.wavelengths_nm.size();
+    RecordComparison c;
+    c.total = measures(a.value, b.value, a, 0);
+    for (std::size_t la = 0; la < a.lobes.size(); ++la) {
+        const auto it = std::find(b.lobes.begin(), b.lobes.end(), a.lobes[la]);
+        if (it == b.lobes.end()) continue;
+        const std::size_t lb = static_cast<std::size_t>(it - b.lobes.begin());
+        // Views of one lobe each, aligned at offset 0.
+        const std::vector<double> va(a.lobe_values.begin() + static_cast<long>(la * np * nl),
+                                     a.lobe_values.begin() + static_cast<long>((la + 1) * np * nl));
+        const std::vector<double> vb(b.lobe_values.begin() + static_cast<long>(lb * np * nl),
+                                     b.lobe_values.begin() + static_cast<long>((lb + 1) * np * nl));
+        c.lobes.emplace_back(a.lobes[la], measures(va, vb, a, 0));
+    }
+    c.colour_available = nl >= 2 && ca.wavelengths_nm.front() >= optics::kCmfMinNm &&
+                         ca.wavelengths_nm.back() <= optics::kCmfMaxNm;
+    if (c.colour_available) {
+        const optics::ReflectanceToXyz to_xyz(optics::WavelengthGrid(ca.wavelengths_nm), optics::Illuminant::d65);
+        std::vector<double> fa(nl), fb(nl);
+        double total = 0.0;
+        for (std::size_t p = 0; p < np; ++p) {
+            for (std::size_t k = 0; k < nl; ++k) {
+                fa[k] = std::numbers::pi * a.value[p * nl + k];
+                fb[k] = std::numbers::pi * b.value[p * nl + k];
+            }
+            const double de = optics::ciede2000(optics::lab_from_xyz(to_xyz(fb), to_xyz.white()),
+                                                optics::lab_from_xyz(to_xyz(fa), to_xyz.white()));
+            total += de;
+            c.max_delta_e00 = std::max(c.max_delta_e00, de);
+        }
+        c.mean_delta_e00 = total / static_cast<double>(np);
+    }
+    std::vector<CellDifference> cells;
+    for (std::size_t p = 0; p < np; ++p)
+        for (std::size_t k = 0; k < nl; ++k)
+            cells.push_back({p, k, a.value[p * nl + k], b.value[p * nl + k],
+                             a.standard_error.empty() ? 0.0 : a.standard_error[p * nl + k]});
+    const std::size_t keep = std::min(worst_count, cells.size());
+    std::partial_sort(cells.begin(), cells.begin() + static_cast<long>(keep), cells.end(),
+                      [](const auto& x, const auto& y) { return std::abs(x.test - x.reference) > std::abs(y.test - y.reference); });
+    c.worst.assign(cells.begin(), cells.begin() + static_cast<long>(keep));
+    return c;
+}
+
+std::string comparison_markdown(const RecordComparison& c, const gonio::BrdfRecord& r, const std::string& test_name,
+                                const std::string& reference_name) {
+    std::string md = fmt::format("| {} against {} | RMSE (1/sr) | relative L1 | cos-weighted RMSE (1/sr) |\n|---|---|---|---|\n",
+                                 test_name, reference_name);
+    md += fmt::format("| all lobes | {:.4g} | {:.4g} | {:.4g} |\n", c.total.rmse, c.total.relative_l1, c.total.cosine_weighted_rmse);
+    for (const auto& [name, m] : c.lobes) {
+        md += fmt::format("| {} | {:.4g} | {:.4g} | {:.4g} |\n", name, m.rmse, m.relative_l1, m.cosine_weighted_rmse);
+    }
+    if (c.colour_available) {
+        md += fmt::format("\nColour (π·f under D65): mean ΔE00 {:.2f}, max ΔE00 {:.2f}.\n", c.mean_delta_e00, c.max_delta_e00);
+    }
+    md += "\nWorst cells:\n\n| pair | θ_i, φ_i (deg) | θ_o, φ_o (deg) | λ (nm) | test | reference | test σ |\n|---|---|---|---|---|---|---|\n";
+    for (const auto& w : c.worst) {
+        const auto& p = r.config.pairs[w.pair];
+        auto deg = [](double v) { return v * 180.0 / std::numbers::pi; };
+        md += fmt::format("| {} | {:.1f}, {:.1f} | {:.1f}, {:.1f} | {} | {:.4g} | {:.4g} | {:.2g} |\n", w.pair,
+                          deg(std::acos(p.wi.z())), deg(std::atan2(p.wi.y(), p.wi.x())), deg(std::acos(p.wo.z())),
+                          deg(std::atan2(p.wo.y(), p.wo.x())), r.config.wavelengths_nm[w.wavelength], w.test,
+                          w.reference, w.standard_error);
+    }
+    return md;
+}
+
+}  // namespace plumage::analysis

@@ -1,0 +1,46 @@
+// Comparison of two BRDF records measured on the same instrument (same direction
+// pairs and wavelengths): the numbers an appearance researcher asks of a model
+// against ground truth.
+//
+//  rmse                  sqrt(mean (a − b)²) over cells, 1/sr
+//  relative_l1           Σ|a − b| / Σ|b| (b is the reference)
+//  cosine_weighted_rmse  as rmse with weights cos θ_i cos θ_o (what reaches a sensor)
+//  ΔE00                  per pair, between the colours of π·f (the reflectance factor: 1
+//                        for a white Lambertian) under D65, CIE 1931 2°; mean and max
+//  per lobe              the same three numbers for every lobe name both records have
+//  worst                 the cells with the largest |a − b|, with their directions
+#pragma once
+
+#include <string>
+#include <vector>
+
+#include "virtual_gonio/goniometer.h"
+
+namespace plumage::analysis {
+
+struct CellDifference {
+    std::size_t pair, wavelength;
+    double test, reference, standard_error;  // standard error of the test (if Monte Carlo)
+};
+
+struct ErrorMeasures {
+    double rmse = 0.0, relative_l1 = 0.0, cosine_weighted_rmse = 0.0;
+};
+
+struct RecordComparison {
+    ErrorMeasures total;
+    std::vector<std::pair<std::string, ErrorMeasures>> lobes;
+    double mean_delta_e00 = 0.0, max_delta_e00 = 0.0;
+    bool colour_available = false;  // wavelengths inside 360–830 nm and at least two
+    std::vector<CellDifference> worst;
+};
+
+// InputError if the records' pairs or wavelengths differ.
+RecordComparison compare_records(const gonio::BrdfRecord& test, const gonio::BrdfRecord& reference,
+                                 std::size_t worst_count = 10);
+
+// Markdown: a summary table and the worst cells.
+std::string comparison_markdown(const RecordComparison& c, const gonio::BrdfRecord& test,
+                                const std::string& test_name, const std::string& reference_name);
+
+}  // namespace plumage::analysis
