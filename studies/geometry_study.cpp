@@ -72,6 +72,8 @@ struct Preview {
     }
 };
 
+}  // namespace
+
 geometry::TessellationTolerance read_tolerance(ParameterTable t) {
     geometry::TessellationTolerance tol;
     tol.max_chord_um = t.number("max_chord_um", 0.01, positive(), "largest facet-to-surface distance, um");
@@ -80,26 +82,7 @@ geometry::TessellationTolerance read_tolerance(ParameterTable t) {
     return tol;
 }
 
-void write_instances_csv(const std::filesystem::path& path, const std::vector<Eigen::Affine3d>& instances) {
-    std::ofstream out(path);
-    out << "# row-major 3x4 affine transforms, unit mesh coordinates -> patch frame (um)\n"
-        << "m00,m01,m02,m03,m10,m11,m12,m13,m20,m21,m22,m23\n";
-    for (const auto& t : instances) {
-        for (int r = 0; r < 3; ++r)
-            for (int c = 0; c < 4; ++c) out << fmt::format("{}{:.17g}", r + c == 0 ? "" : ",", t.matrix()(r, c));
-        out << '\n';
-    }
-    if (!out) throw IoError(fmt::format("cannot write {}", path.string()));
-}
-
-struct Built {
-    std::vector<std::string> files;  // written outputs, for the report
-    std::vector<std::string> facts;  // report lines
-    std::size_t triangles = 0, instances = 0, memory = 0;
-    Preview preview;
-};
-
-Built build_barbule_row(ParameterTable geometry, const std::filesystem::path& dir) {
+geometry::BarbuleRowParams read_barbule_row_params(ParameterTable& geometry) {
     geometry::BarbuleRowParams p;
     ParameterTable cell = geometry.table("cell");
     p.cell.b = cell.number("b", p.cell.b, between(1e-3, 1.0), "semi-minor / semi-major axis");
@@ -121,6 +104,32 @@ Built build_barbule_row(ParameterTable geometry, const std::filesystem::path& di
     p.jitter_phi_rad = row.angle_deg("jitter_phi_deg", 0.0, between(0.0, 28.0), "per-cell azimuthal tilt, standard deviation");
     p.jitter_theta_rad = row.angle_deg("jitter_theta_deg", 0.0, between(0.0, 28.0), "per-cell longitudinal tilt, standard deviation");
     p.seed = static_cast<std::uint64_t>(row.integer("seed", 1, 0, 1L << 62, "random seed"));
+    return p;
+}
+
+namespace {
+
+void write_instances_csv(const std::filesystem::path& path, const std::vector<Eigen::Affine3d>& instances) {
+    std::ofstream out(path);
+    out << "# row-major 3x4 affine transforms, unit mesh coordinates -> patch frame (um)\n"
+        << "m00,m01,m02,m03,m10,m11,m12,m13,m20,m21,m22,m23\n";
+    for (const auto& t : instances) {
+        for (int r = 0; r < 3; ++r)
+            for (int c = 0; c < 4; ++c) out << fmt::format("{}{:.17g}", r + c == 0 ? "" : ",", t.matrix()(r, c));
+        out << '\n';
+    }
+    if (!out) throw IoError(fmt::format("cannot write {}", path.string()));
+}
+
+struct Built {
+    std::vector<std::string> files;  // written outputs, for the report
+    std::vector<std::string> facts;  // report lines
+    std::size_t triangles = 0, instances = 0, memory = 0;
+    Preview preview;
+};
+
+Built build_barbule_row(ParameterTable geometry, const std::filesystem::path& dir) {
+    const geometry::BarbuleRowParams p = read_barbule_row_params(geometry);
     const auto tolerance = read_tolerance(geometry.table("tessellation"));
 
     geometry::BarbuleRow built;

@@ -29,6 +29,9 @@
 #include <filesystem>
 #include <string>
 
+#include "geometry/barbule.h"
+#include "studies/study_file.h"
+
 namespace plumage::studies {
 
 struct GeometryStudyResult {
@@ -39,6 +42,11 @@ struct GeometryStudyResult {
     std::size_t memory_bytes = 0;
     double wall_seconds = 0.0;
 };
+
+// Readers shared by the studies that build barbule rows ([geometry.cell], [geometry.row],
+// [geometry.tessellation]).
+geometry::BarbuleRowParams read_barbule_row_params(ParameterTable& geometry);
+geometry::TessellationTolerance read_tolerance(ParameterTable tessellation);
 
 GeometryStudyResult run_geometry_study(const std::filesystem::path& study_file,
                                        const std::filesystem::path& results_root);

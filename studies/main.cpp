@@ -1,14 +1,19 @@
 // The plumage command line. With no arguments it runs the default study.
 #include <omp.h>
 
+#include <fstream>
 #include <iostream>
+#include <sstream>
 
 #include <CLI/CLI.hpp>
 #include <fmt/format.h>
 
 #include "common/error.h"
 #include "common/version.h"
+#include "studies/default_study.h"
 #include "studies/geometry_study.h"
+#include "studies/rock_dove_study.h"
+#include "studies/study_file.h"
 #include "studies/thin_film_chart.h"
 
 namespace {
@@ -31,7 +36,8 @@ int run_thin_film(const plumage::studies::ThinFilmChartOptions& options) {
 
 int main(int argc, char** argv) {
     CLI::App app{"Plumage: light scattering by bird-feather microstructures.\n"
-                 "With no subcommand, runs the default study (thin-film colour chart)."};
+                 "With no subcommand, runs the default study: explicit rock-dove barbules against\n"
+                 "Huang et al. 2022 (studies/rock_dove.toml), into results/rock_dove/."};
     app.set_version_flag("--version", std::string("plumage ") + plumage::kVersion);
     int threads = 0;
     app.add_option("--threads", threads, "worker threads (default: all cores)")
@@ -50,6 +56,10 @@ int main(int argc, char** argv) {
     thin_film_cmd->add_option("--max-thickness-nm", thin_film.max_thickness_nm)
         ->capture_default_str()->check(CLI::PositiveNumber);
     thin_film_cmd->add_flag("!--no-plots", thin_film.plots, "skip the matplotlib figures");
+
+    std::string run_study;
+    auto* run_cmd = app.add_subcommand("run", "run a study file (TOML; studies/*.toml)");
+    run_cmd->add_option("STUDY", run_study, "study file, e.g. studies/rock_dove_quick.toml")->required();
 
     std::string geometry_study;
     auto* geometry_cmd = app.add_subcommand(
@@ -72,9 +82,29 @@ int main(int argc, char** argv) {
                                      static_cast<double>(result.memory_bytes) / 1e6, result.wall_seconds);
             return 0;
         }
-        thin_film.output_dir = std::filesystem::path(output) / "thin_film";
-        // thin-film is also the default study until the rock-dove study arrives.
-        return run_thin_film(thin_film);
+        if (thin_film_cmd->parsed()) {
+            thin_film.output_dir = std::filesystem::path(output) / "thin_film";
+            return run_thin_film(thin_film);
+        }
+        std::string text = plumage::studies::kDefaultStudy;
+        std::filesystem::path source = "rock_dove.toml (built in)";
+        if (run_cmd->parsed()) {
+            std::ifstream in(run_study);
+            if (!in) throw plumage::InputError(run_study + ": cannot open the study file (does it exist?)");
+            std::ostringstream buffer;
+            buffer << in.rdbuf();
+            text = buffer.str();
+            source = run_study;
+            // Which study: the top-level `study` key (geometry files use `plumage geometry`).
+            auto file = plumage::studies::StudyFile::parse(text, source);
+            auto root = file->root();
+            const std::string kind = root.required_string("study", {"rock_dove"}, "which study this file describes");
+            (void)kind;
+        }
+        const auto result = plumage::studies::run_rock_dove_study(text, source, output);
+        std::cout << fmt::format("plumage: wrote {} in {:.0f} s (open report.md)\n", result.output_dir.string(),
+                                 result.wall_seconds);
+        return 0;
     } catch (const plumage::InputError& e) {
         std::cerr << "plumage: error: " << e.what() << '\n';
         return 2;

@@ -68,7 +68,7 @@ std::vector<Group> group_by_light(const std::vector<DirectionPair>& pairs) {
 
 // Accumulators of the photon estimator, per (pair, wavelength): Σx, Σx², and Σx per lobe.
 struct Sums {
-    std::vector<double> sum, sum_sq, lobe_sum;
+    std::vector<double> sum, sum_sq, lobe_sum, lobe_sum_sq;
 };
 
 double relative_rms(const std::vector<double>& value, const std::vector<double>& error) {
@@ -89,6 +89,7 @@ void write_checkpoint(const std::filesystem::path& path, const Sums& sums, const
     h5.write("sum", std::span<const double>(sums.sum), Dims{sums.sum.size()});
     h5.write("sum_sq", std::span<const double>(sums.sum_sq), Dims{sums.sum_sq.size()});
     h5.write("lobe_sum", std::span<const double>(sums.lobe_sum), Dims{sums.lobe_sum.size()});
+    h5.write("lobe_sum_sq", std::span<const double>(sums.lobe_sum_sq), Dims{sums.lobe_sum_sq.size()});
     std::vector<double> table;
     for (const auto& row : r.convergence) {
         table.insert(table.end(), {static_cast<double>(row.pass), row.wall_time_s, static_cast<double>(row.quanta),
@@ -111,6 +112,7 @@ bool read_checkpoint(const std::filesystem::path& path, Sums& sums, BrdfRecord& 
     sums.sum = record::read_dataset(path, "sum").values;
     sums.sum_sq = record::read_dataset(path, "sum_sq").values;
     sums.lobe_sum = record::read_dataset(path, "lobe_sum").values;
+    sums.lobe_sum_sq = record::read_dataset(path, "lobe_sum_sq").values;
     const auto table = record::read_dataset(path, "convergence");
     for (std::size_t i = 0; i + 3 < table.values.size(); i += 4) {
         r.convergence.push_back({static_cast<int>(table.values[i]), table.values[i + 1],
@@ -144,6 +146,7 @@ void GoniometerConfig::validate() const {
     require(max_passes >= 1, "max_passes must be >= 1");
     require(time_budget_s > 0.0, "time budget must be > 0 s");
     require(target_relative_error >= 0.0, "target relative error must be >= 0");
+    require(eval_rings >= 1 && eval_rings <= 64, fmt::format("eval_rings = {}: expected 1..64", eval_rings));
 }
 
 namespace {
@@ -157,14 +160,36 @@ BrdfRecord measure_by_eval(const Scatterer& scatterer, const GoniometerConfig& c
     struct Node {
         double u, gamma, w;
     };
-    std::vector<Node> fine, coarse = {{0.0, 0.0, 1.0}};
-    for (int k = 0; k < 6; ++k) coarse.push_back({0.5, 2.0 * kPi * k / 6.0, 1.0});
-    const std::array<double, 4> gl_u = {0.0694318442029737, 0.3300094782075719, 0.6699905217924281,
-                                        0.9305681557970263};
-    const std::array<double, 4> gl_w = {0.1739274225687269, 0.3260725774312731, 0.3260725774312731,
-                                        0.1739274225687269};
-    for (int i = 0; i < 4; ++i)
-        for (int k = 0; k < 8; ++k) fine.push_back({gl_u[i], 2.0 * kPi * (k + 0.5 * (i % 2)) / 8.0, gl_w[i]});
+    // Product rule: Gauss–Legendre in u (area fraction of the projected disc), uniform in
+    // azimuth (rotated by half a step on alternate rings).
+    auto product_rule = [](int rings) {
+        std::vector<Node> rule;
+        const int azimuths = 2 * rings;
+        // Gauss–Legendre nodes on [0, 1] by Newton iteration on P_n.
+        for (int i = 0; i < rings; ++i) {
+            double x = std::cos(kPi * (i + 0.75) / (rings + 0.5));
+            double dp = 0.0;
+            for (int it = 0; it < 100; ++it) {
+                double p0 = 1.0, p1 = x;
+                for (int k = 2; k <= rings; ++k) {
+                    const double p2 = ((2.0 * k - 1.0) * x * p1 - (k - 1.0) * p0) / k;
+                    p0 = p1;
+                    p1 = p2;
+                }
+                dp = rings * (x * p1 - p0) / (x * x - 1.0);
+                const double dx = p1 / dp;
+                x -= dx;
+                if (std::abs(dx) < 1e-15) break;
+            }
+            const double weight = 2.0 / ((1.0 - x * x) * dp * dp);
+            for (int k = 0; k < azimuths; ++k) {
+                rule.push_back({0.5 * (x + 1.0), 2.0 * kPi * (k + 0.5 * (i % 2)) / azimuths, 0.5 * weight});
+            }
+        }
+        return rule;
+    };
+    const std::vector<Node> fine = product_rule(std::max(1, c.eval_rings));
+    const std::vector<Node> coarse = product_rule(std::max(1, c.eval_rings / 2));
     auto cone_average = [&](const DirectionPair& p, double lambda, const std::vector<Node>& rule,
                             std::vector<double>* lobes) {
         Vec3d e1, e2;
@@ -187,6 +212,7 @@ BrdfRecord measure_by_eval(const Scatterer& scatterer, const GoniometerConfig& c
     r.value.assign(c.pairs.size() * nl, 0.0);
     r.standard_error.assign(c.pairs.size() * nl, 0.0);
     r.lobe_values.assign(nlobes * c.pairs.size() * nl, 0.0);
+    r.lobe_standard_error.assign(nlobes * c.pairs.size() * nl, 0.0);
 #pragma omp parallel for schedule(dynamic, 4)
     for (std::size_t p = 0; p < c.pairs.size(); ++p) {
         std::vector<double> lobes(nlobes);
@@ -235,7 +261,7 @@ BrdfRecord measure_brdf(const Scatterer& scatterer, const GoniometerConfig& conf
     const std::uint64_t hash = fnv1a(canonical(config, r.scatterer, r.estimator_used));
 
     Sums sums{std::vector<double>(np * nl, 0.0), std::vector<double>(np * nl, 0.0),
-              std::vector<double>(nlobes * np * nl, 0.0)};
+              std::vector<double>(nlobes * np * nl, 0.0), std::vector<double>(nlobes * np * nl, 0.0)};
     const bool resumed = read_checkpoint(control.checkpoint, sums, r, hash);
     const double previous_wall = resumed ? r.wall_time_s : 0.0;
 
@@ -256,7 +282,12 @@ BrdfRecord measure_brdf(const Scatterer& scatterer, const GoniometerConfig& conf
             r.value[i] = mean;
             r.standard_error[i] = std::sqrt(std::max(0.0, sums.sum_sq[i] / dn - mean * mean) / std::max(1.0, dn - 1.0));
         }
-        for (std::size_t i = 0; i < r.lobe_values.size(); ++i) r.lobe_values[i] = sums.lobe_sum[i] / dn;
+        r.lobe_standard_error.assign(nlobes * np * nl, 0.0);
+        for (std::size_t i = 0; i < r.lobe_values.size(); ++i) {
+            r.lobe_values[i] = sums.lobe_sum[i] / dn;
+            r.lobe_standard_error[i] = std::sqrt(std::max(0.0, sums.lobe_sum_sq[i] / dn - r.lobe_values[i] * r.lobe_values[i]) /
+                                                 std::max(1.0, dn - 1.0));
+        }
         r.quanta = n;
         r.wall_time_s = previous_wall + std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
         return ConvergenceRow{pass, r.wall_time_s, n, relative_rms(r.value, r.standard_error)};
@@ -291,7 +322,7 @@ BrdfRecord measure_brdf(const Scatterer& scatterer, const GoniometerConfig& conf
             const Group& group = groups[item.group];
             const std::size_t m = group.pairs.size();
             std::vector<double>& acc = partial[it];
-            acc.assign(m * (2 + nlobes), 0.0);
+            acc.assign(m * (2 + 2 * nlobes), 0.0);  // Σx, Σx², then Σx and Σx² per lobe
             Vec3d e1, e2;
             frame_around(group.wi, e1, e2);
             const std::uint64_t stream = (item.group * nl + item.wavelength) << 40;
@@ -315,6 +346,7 @@ BrdfRecord measure_brdf(const Scatterer& scatterer, const GoniometerConfig& conf
                     acc[m + j] += x * x;
                     if (event->lobe >= 0 && static_cast<std::size_t>(event->lobe) < nlobes) {
                         acc[(2 + static_cast<std::size_t>(event->lobe)) * m + j] += x;
+                        acc[(2 + nlobes + static_cast<std::size_t>(event->lobe)) * m + j] += x * x;
                     }
                 }
             }
@@ -331,7 +363,10 @@ BrdfRecord measure_brdf(const Scatterer& scatterer, const GoniometerConfig& conf
                 const std::size_t cell = group.pairs[j] * nl + item.wavelength;
                 sums.sum[cell] += partial[it][j];
                 sums.sum_sq[cell] += partial[it][m + j];
-                for (std::size_t l = 0; l < nlobes; ++l) sums.lobe_sum[l * np * nl + cell] += partial[it][(2 + l) * m + j];
+                for (std::size_t l = 0; l < nlobes; ++l) {
+                    sums.lobe_sum[l * np * nl + cell] += partial[it][(2 + l) * m + j];
+                    sums.lobe_sum_sq[l * np * nl + cell] += partial[it][(2 + nlobes + l) * m + j];
+                }
             }
         }
         r.passes = pass + 1;
@@ -346,6 +381,7 @@ BrdfRecord measure_brdf(const Scatterer& scatterer, const GoniometerConfig& conf
                       << std::flush;
         }
         if (control.on_pass) control.on_pass(r.convergence.back());
+        if (control.on_pass_record) control.on_pass_record(r);
     }
     if (control.progress) std::cerr << '\n';
     return r;
@@ -417,6 +453,11 @@ void write_brdf_record(const BrdfRecord& r, const std::filesystem::path& path) {
         h5.write("brdf/lobes/" + r.lobes[l],
                  std::span<const double>(r.lobe_values.data() + l * np * nl, np * nl), Dims{np, nl},
                  {{"units", "1/sr"}});
+        if (r.lobe_standard_error.size() == r.lobe_values.size()) {
+            h5.write("brdf/lobe_standard_errors/" + r.lobes[l],
+                     std::span<const double>(r.lobe_standard_error.data() + l * np * nl, np * nl), Dims{np, nl},
+                     {{"units", "1/sr"}});
+        }
     }
     std::vector<double> table;
     for (const auto& row : r.convergence) {

@@ -16,8 +16,10 @@
 //    direction, wavelength, quantum index), and partial sums are combined in a fixed
 //    order: results do not depend on thread count, and a resumed run equals an
 //    uninterrupted one bit for bit.
-//  - eval: for scatterers that can evaluate f, the cone average by a 19-point cubature
-//    (cosine-weighted); its error is estimated against a 7-point rule. Deterministic.
+//  - eval: for scatterers that can evaluate f, the cone average by a product cubature
+//    (cosine-weighted; `eval_rings` Gauss rings in projected area × 2·rings azimuths);
+//    its error is estimated against the rule with half the rings. Deterministic. Narrow
+//    lobes (Huang's R) need more rings than smooth ones.
 //  automatic picks eval when available.
 #pragma once
 
@@ -49,6 +51,7 @@ struct GoniometerConfig {
     int max_passes = 100;
     double time_budget_s = std::numeric_limits<double>::infinity();
     double target_relative_error = 0.0;  // stop once the estimated relative RMS error is below
+    int eval_rings = 4;                  // eval estimator: cubature rings (see above)
     std::string config_text;             // the study text, for provenance
 
     void validate() const;  // InputError naming the field
@@ -67,7 +70,7 @@ struct BrdfRecord {
     std::vector<std::string> lobes;
     Estimator estimator_used = Estimator::photon;
     // Row-major [pair][wavelength]; lobe_values [lobe][pair][wavelength], 1/sr.
-    std::vector<double> value, standard_error, lobe_values;
+    std::vector<double> value, standard_error, lobe_values, lobe_standard_error;
     std::vector<ConvergenceRow> convergence;
     int passes = 0;
     std::uint64_t quanta = 0;
@@ -87,6 +90,7 @@ struct BrdfRecord {
 struct RunControl {
     const std::atomic<bool>* interrupt = nullptr;  // e.g. ScopedInterruptHandler::flag()
     std::function<void(const ConvergenceRow&)> on_pass;  // after each completed pass
+    std::function<void(const BrdfRecord&)> on_pass_record;  // the same moment, with the values
     std::filesystem::path checkpoint;  // empty: none; else resumed from and written after each pass
     bool progress = false;             // progress line on stderr
 };

@@ -11,6 +11,8 @@
 // The spot is a disc of radius beam_radius_um in the beam's cross-section, projected
 // on the patch.
 //
+// Stratified illumination: see ScatterometerConfig::illumination_strata.
+//
 // Image: an azimuthal equidistant map of the hemisphere. Pixel centre (u, v) ∈ [−1, 1]²
 // (u right, v up; row 0 at the top) maps to polar angle ϑ = (π/2)·hypot(u, v) and
 // azimuth φ = atan2(v, u) from +x (the barb axis) towards +y; the rim is ϑ = 90°.
@@ -48,6 +50,12 @@ struct ScatterometerConfig {
     double beam_radius_um = 60.0;
     std::uint64_t seed = kDefaultSeed;
     std::uint64_t quanta_per_pass = 200000;  // per wavelength
+    // Cone and hemisphere light: each pass draws this many illumination directions,
+    // one per stratum of the (cosine-weighted) illumination, jittered anew every pass,
+    // and sends quanta_per_pass / strata quanta along each. Unbiased over passes, and
+    // a scatterer that prepares per incident direction (the Huang model's visibility)
+    // prepares once per stratum instead of once per quantum.
+    int illumination_strata = 256;
     int max_passes = 10;
     double time_budget_s = std::numeric_limits<double>::infinity();
     double target_relative_error = 0.0;  // on the image's power-weighted relative error

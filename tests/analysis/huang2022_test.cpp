@@ -106,7 +106,9 @@ TEST(Huang2022, HitFractionsAgreeWithRayCastingAndNdfQuadrature) {
                         2e-5);
             EXPECT_NEAR(model.t_lobe_mass(wi), 1.0 - all, 2e-3);
             largest_back = std::max(largest_back, model.back_hit_fraction(wi));
-            if (h <= 1.25) EXPECT_LT(model.back_hit_fraction(wi), 2e-5) << "overlapping barbules hide the undersides";
+            if (h <= 1.25) {
+                EXPECT_LT(model.back_hit_fraction(wi), 2e-5) << "overlapping barbules hide the undersides";
+            }
         }
     }
     RecordProperty("largest_back_hit_fraction_H2.5", std::to_string(largest_back));

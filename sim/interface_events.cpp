@@ -1,0 +1,199 @@
+#include "sim/interface_events.h"
+
+#include <algorithm>
+#include <cmath>
+#include <numbers>
+#include <span>
+
+#include <fmt/format.h>
+
+#include "common/error.h"
+
+namespace plumage::sim {
+namespace {
+
+// The specular geometry of one event, with the normal that was accepted.
+struct SpecularGeometry {
+    Vec3d normal;  // unit, facing the incidence side
+    double cos_i;  // in (0, 1]
+    Vec3d reflected;
+    Vec3d transmitted;
+    bool can_transmit;
+    bool geometric;
+};
+
+bool specular_geometry_with(const Vec3d& direction, const Vec3d& normal, const Vec3d& facet,
+                            double eta, bool geometric, SpecularGeometry* out) {
+    const double cos_i = -direction.dot(normal);
+    if (!(cos_i > 0.0)) return false;
+    out->normal = normal;
+    out->cos_i = std::min(cos_i, 1.0);
+    out->geometric = geometric;
+    out->reflected = reflect(direction, normal);
+    if (!geometric && !(out->reflected.dot(facet) > 0.0)) return false;
+    out->can_transmit = refract(direction, normal, eta, &out->transmitted);
+    if (!geometric && out->can_transmit && !(out->transmitted.dot(facet) < 0.0)) return false;
+    return true;
+}
+
+// `facet` is the geometric normal turned to face the incidence side.
+SpecularGeometry specular_geometry(const Vec3d& direction, const Vec3d& shading, const Vec3d& facet,
+                                   double eta) {
+    SpecularGeometry g;
+    if (specular_geometry_with(direction, shading, facet, eta, false, &g)) return g;
+    const bool ok = specular_geometry_with(direction, facet, facet, eta, true, &g);
+    PLUMAGE_CHECK(ok, "a hit whose direction is parallel to its facet");
+    return g;
+}
+
+struct Incidence {
+    bool from_outside;
+    Vec3d facet;    // geometric normal facing the incidence side
+    Vec3d shading;  // shading normal turned the same way
+};
+
+Incidence incidence(const Vec3d& direction, const SurfaceNormals& normals) {
+    const double dg = direction.dot(normals.geometric);
+    PLUMAGE_CHECK(
+        dg != 0.0 && std::isfinite(dg),
+        fmt::format("direction . geometric normal = {}: expected a nonzero finite value", dg));
+    const bool from_outside = dg < 0.0;
+    const double sign = from_outside ? 1.0 : -1.0;
+    return {from_outside, sign * normals.geometric, sign * normals.shading};
+}
+
+InterfaceEvent choose(const SpecularGeometry& g, bool from_outside, FilmResponse r,
+                      EventKind reflect_kind, EventKind transmit_kind, Rng& rng) {
+    const double reflectance = std::max(0.0, r.reflectance);
+    const double transmittance = g.can_transmit ? std::max(0.0, r.transmittance) : 0.0;
+    const double total = reflectance + transmittance;
+    if (!(total > 0.0)) {
+        return {EventKind::absorb, Vec3d::Zero(), 0.0, from_outside, g.geometric};
+    }
+    const double throughput = std::min(total, 1.0);
+    if (rng.uniform() * total < reflectance) {
+        return {reflect_kind, g.reflected, throughput, from_outside, g.geometric};
+    }
+    return {transmit_kind, g.transmitted, throughput, !from_outside, g.geometric};
+}
+
+}  // namespace
+
+const char* to_string(EventKind kind) {
+    switch (kind) {
+        case EventKind::film_reflect:
+            return "film_reflect";
+        case EventKind::film_transmit:
+            return "film_transmit";
+        case EventKind::specular_reflect:
+            return "specular_reflect";
+        case EventKind::refract:
+            return "refract";
+        case EventKind::total_internal_reflection:
+            return "total_internal_reflection";
+        case EventKind::diffuse_reflect:
+            return "diffuse_reflect";
+        case EventKind::absorb:
+            return "absorb";
+        case EventKind::medium_scatter:
+            return "medium_scatter";
+    }
+    return "unknown";
+}
+
+Vec3d reflect(const Vec3d& direction, const Vec3d& normal) {
+    return direction - 2.0 * direction.dot(normal) * normal;
+}
+
+bool refract(const Vec3d& direction, const Vec3d& normal, double eta, Vec3d* refracted) {
+    // Orient the normal against the direction: cos_i > 0.
+    double cos_i = -direction.dot(normal);
+    const Vec3d n = cos_i >= 0.0 ? normal : Vec3d(-normal);
+    cos_i = std::abs(cos_i);
+    if (eta == 1.0) {
+        *refracted = direction;  // index-matched: exactly straight on
+        return true;
+    }
+    const double sin2_t = eta * eta * std::max(0.0, 1.0 - cos_i * cos_i);
+    if (sin2_t >= 1.0) return false;
+    const double cos_t = std::sqrt(1.0 - sin2_t);
+    *refracted = (eta * direction + (eta * cos_i - cos_t) * n).normalized();
+    return true;
+}
+
+Vec3d sample_cosine_hemisphere(const Vec3d& normal, Rng& rng) {
+    const double u1 = rng.uniform(), u2 = rng.uniform();
+    const double r = std::sqrt(u1), phi = 2.0 * std::numbers::pi * u2;
+    const double x = r * std::cos(phi), y = r * std::sin(phi), z = std::sqrt(1.0 - u1);
+    // Orthonormal basis about the normal without a branch on the tangent choice
+    // (Duff et al. 2017, "Building an orthonormal basis, revisited").
+    const double sign = std::copysign(1.0, normal.z());
+    const double a = -1.0 / (sign + normal.z());
+    const double b = normal.x() * normal.y() * a;
+    const Vec3d t1(1.0 + sign * normal.x() * normal.x() * a, sign * b, -sign * normal.x());
+    const Vec3d t2(b, sign + normal.y() * normal.y() * a, -normal.y());
+    return (x * t1 + y * t2 + z * normal).normalized();
+}
+
+FilmResponse film_response(const FilmOptics& film, bool from_outside, double lambda_nm,
+                           double cos_theta) {
+    const double incident = (from_outside ? film.outside : film.inside).real();
+    const optics::Complex exit = from_outside ? film.inside : film.outside;
+    const double c = std::clamp(cos_theta, 0.0, 1.0);
+    if (film.coherence == optics::Coherence::coherent) {
+        const optics::FilmIntensities i = optics::airy_film_intensities_unpolarised(
+            {incident, film.film, exit}, film.thickness_um, lambda_nm, c);
+        return {i.reflectance, i.transmittance};
+    }
+    const optics::StackLayer layer{film.film, film.thickness_um, optics::Coherence::incoherent};
+    const optics::StackIntensities i = optics::transfer_matrix_intensities_unpolarised(
+        {incident, std::span(&layer, 1), exit}, lambda_nm, c);
+    return {i.reflectance, i.transmittance};
+}
+
+InterfaceEvent thin_film_event(const Vec3d& direction, const SurfaceNormals& normals,
+                               const FilmOptics& film, const FilmResponseSource& source, Rng& rng) {
+    const Incidence in = incidence(direction, normals);
+    const double n_in = (in.from_outside ? film.outside : film.inside).real();
+    const double n_out = (in.from_outside ? film.inside : film.outside).real();
+    const SpecularGeometry g = specular_geometry(direction, in.shading, in.facet, n_in / n_out);
+    const FilmResponse r = source.response(in.from_outside, g.cos_i);
+    return choose(g, in.from_outside, r, EventKind::film_reflect, EventKind::film_transmit, rng);
+}
+
+InterfaceEvent thin_film_event(const Vec3d& direction, const SurfaceNormals& normals,
+                               const FilmOptics& film, double lambda_nm, Rng& rng) {
+    return thin_film_event(direction, normals, film, DirectFilmResponse(film, lambda_nm), rng);
+}
+
+InterfaceEvent dielectric_event(const Vec3d& direction, const SurfaceNormals& normals,
+                                optics::Complex outside, optics::Complex inside, Rng& rng) {
+    const Incidence in = incidence(direction, normals);
+    const optics::Complex n_in = in.from_outside ? outside : inside;
+    const optics::Complex n_out = in.from_outside ? inside : outside;
+    const SpecularGeometry g =
+        specular_geometry(direction, in.shading, in.facet, n_in.real() / n_out.real());
+    if (!g.can_transmit) {
+        return {EventKind::total_internal_reflection, g.reflected, 1.0, in.from_outside,
+                g.geometric};
+    }
+    const optics::FresnelIntensities f =
+        optics::fresnel_intensities_unpolarised(n_in.real(), n_out, g.cos_i);
+    return choose(g, in.from_outside, {f.reflectance, f.transmittance}, EventKind::specular_reflect,
+                  EventKind::refract, rng);
+}
+
+InterfaceEvent diffuse_event(const Vec3d& direction, const SurfaceNormals& normals, double albedo,
+                             Rng& rng) {
+    const Incidence in = incidence(direction, normals);
+    if (!(albedo > 0.0)) return {EventKind::absorb, Vec3d::Zero(), 0.0, in.from_outside, true};
+    return {EventKind::diffuse_reflect, sample_cosine_hemisphere(in.facet, rng),
+            std::min(albedo, 1.0), in.from_outside, true};
+}
+
+InterfaceEvent absorber_event(const Vec3d& direction, const SurfaceNormals& normals) {
+    const Incidence in = incidence(direction, normals);
+    return {EventKind::absorb, Vec3d::Zero(), 0.0, in.from_outside, true};
+}
+
+}  // namespace plumage::sim

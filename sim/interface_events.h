@@ -1,0 +1,151 @@
+// What light does when it meets a surface: pure functions of the incoming direction, the
+// surface normals and the optics at one wavelength (no Embree, no scene), so that each
+// can be tested alone. The tracer (sim/tracer.h) calls them at every hit.
+//
+// Conventions:
+//  - `direction` is the PROPAGATION direction (where the light travels), a unit vector;
+//    it is not the Scatterer's "away from the patch" ω. Outgoing directions likewise.
+//  - The geometric normal is the facet's unit normal; it points to the surface's
+//    OUTSIDE (sim/scene.h: the side of the outward winding normal of
+//    geometry/triangle_mesh.h; "above" for a film). Light arrives from the outside when
+//    direction · geometric < 0.
+//  - The shading normal (interpolated from the analytic surface) sets the local angle of
+//    incidence and the specular directions. It is rejected in favour of the geometric
+//    normal when it would be inconsistent with the facet: when it faces away from the
+//    light while the facet faces it, or when a specular direction it gives would leave
+//    on the wrong side of the facet (reflection into it, transmission back out). The
+//    event is then evaluated entirely with the geometric normal (probabilities and
+//    directions), so the choice stays unbiased for the facet actually hit.
+//  - Indices are complex n + ik (sim/optics/fresnel.h). Fresnel and Airy need a lossless
+//    incidence medium; when the light arrives from inside an absorbing medium the real
+//    part of its index is used (exact as k → 0; with large k no light gets that far).
+//    Directions of refraction use the real parts (Snell).
+//
+// Polarisation. The light is unpolarised and no polarisation state is carried along a
+// path: at each interface the reflection and transmission probabilities are the means of
+// the s and p intensities. This neglects the partial polarisation that one reflection or
+// refraction imprints on the light and that changes the next interface's response
+// (e.g. light refracted near Brewster's angle is mostly p-polarised and reflects less
+// at the second surface of a slab than the unpolarised mean says). For single-event
+// lobes (R) it is exact; for TRT the error is second order in the s–p difference, which
+// is small at the near-normal angles where films are bright; multi-bounce paths in
+// dielectric bodies are where it matters most. A Stokes/Mueller path state would fix it
+// at 4–16× the cost per event.
+//
+// Choosing events: the reflection and transmission probabilities R and T are used as
+// R/(R+T) and T/(R+T), and the path weight is multiplied by R+T (the part that neither
+// the film nor the interface absorbs). For lossless interfaces R+T = 1 and the walk is
+// analog; with absorption no path is killed at random for it.
+#pragma once
+
+#include <Eigen/Core>
+
+#include "sim/optics/fresnel.h"
+#include "sim/optics/multilayer.h"
+#include "sim/optics/thin_film.h"
+#include "sim/random.h"
+
+namespace plumage::sim {
+
+using Vec3d = Eigen::Vector3d;
+
+enum class EventKind : unsigned char {
+    film_reflect,               // reflected by a thin-film-coated interface
+    film_transmit,              // through a thin-film-coated interface
+    specular_reflect,           // partial reflection at a bare dielectric interface
+    refract,                    // transmission through a bare dielectric interface
+    total_internal_reflection,  // at a bare dielectric interface beyond the critical angle
+    diffuse_reflect,            // Lambertian layer
+    absorb,                     // absorber, or nothing left to reflect or transmit
+    medium_scatter,             // scattering inside a participating medium (sim/medium.h)
+};
+
+const char* to_string(EventKind kind);
+
+struct SurfaceNormals {
+    Vec3d shading;    // unit; may differ from geometric (see above)
+    Vec3d geometric;  // unit; points to the surface's outside
+};
+
+struct InterfaceEvent {
+    EventKind kind;
+    Vec3d direction;             // propagation direction after the event (zero when absorbed)
+    double throughput;           // factor on the path weight, in [0, 1]
+    bool to_outside;             // the light continues on the outside of the facet (spawn side)
+    bool used_geometric_normal;  // the shading normal was rejected (see above)
+};
+
+// A thin film (Airy, or by intensity when incoherent) at one wavelength: indices of the
+// medium on the outside (above the film), of the film and of the inside (below it).
+struct FilmOptics {
+    optics::Complex outside;
+    optics::Complex film;
+    optics::Complex inside;
+    double thickness_um;
+    optics::Coherence coherence = optics::Coherence::coherent;
+};
+
+struct FilmResponse {
+    double reflectance;    // unpolarised
+    double transmittance;  // unpolarised, normal-flux ratio (fresnel.h)
+};
+
+// Unpolarised R and T of the film for light arriving from the outside (or the inside) at
+// cos θ ∈ [0, 1]: Airy (sim/optics/thin_film.h) when coherent, the transfer-matrix
+// solver with the film flagged incoherent (sim/optics/multilayer.h) otherwise.
+FilmResponse film_response(const FilmOptics& film, bool from_outside, double lambda_nm,
+                           double cos_theta);
+
+// Source of film responses: direct evaluation, or a table (sim/film_table.h).
+class FilmResponseSource {
+public:
+    virtual ~FilmResponseSource() = default;
+    virtual FilmResponse response(bool from_outside, double cos_theta) const = 0;
+};
+
+class DirectFilmResponse final : public FilmResponseSource {
+public:
+    DirectFilmResponse(const FilmOptics& film, double lambda_nm)
+        : film_(film), lambda_nm_(lambda_nm) {}
+    FilmResponse response(bool from_outside, double cos_theta) const override {
+        return film_response(film_, from_outside, lambda_nm_, cos_theta);
+    }
+
+private:
+    FilmOptics film_;
+    double lambda_nm_;
+};
+
+// Thin-film-coated interface. The film has no geometric thickness: the transmitted light
+// leaves from the hit point, refracted as between the outside and inside media (parallel
+// film faces conserve the tangential wavevector), straight on when they are equal.
+InterfaceEvent thin_film_event(const Vec3d& direction, const SurfaceNormals& normals,
+                               const FilmOptics& film, const FilmResponseSource& source, Rng& rng);
+// Convenience: direct evaluation at lambda_nm.
+InterfaceEvent thin_film_event(const Vec3d& direction, const SurfaceNormals& normals,
+                               const FilmOptics& film, double lambda_nm, Rng& rng);
+
+// Bare dielectric interface between the outside and inside media: unpolarised Fresnel
+// reflection or refraction; total internal reflection when no refracted direction exists.
+InterfaceEvent dielectric_event(const Vec3d& direction, const SurfaceNormals& normals,
+                                optics::Complex outside, optics::Complex inside, Rng& rng);
+
+// Lambertian reflection with the given albedo, on whichever side the light arrives.
+// Cosine-distributed about the geometric normal: a diffuse layer has no preferred
+// direction within a facet, and sampling about the facet normal keeps every sample on the
+// correct side (the shading normal differs from it by the tessellation's normal error).
+InterfaceEvent diffuse_event(const Vec3d& direction, const SurfaceNormals& normals, double albedo,
+                             Rng& rng);
+
+// Opaque black surface.
+InterfaceEvent absorber_event(const Vec3d& direction, const SurfaceNormals& normals);
+
+// Geometry helpers, exposed for tests.
+Vec3d reflect(const Vec3d& direction, const Vec3d& normal);
+// Refraction of `direction` through a surface with unit `normal` (either orientation),
+// eta = n_incident / n_transmitted; false when totally internally reflected.
+bool refract(const Vec3d& direction, const Vec3d& normal, double eta, Vec3d* refracted);
+// Cosine-weighted direction about the unit normal (density cos θ / π).
+Vec3d sample_cosine_hemisphere(const Vec3d& normal, Rng& rng);
+
+}  // namespace plumage::sim

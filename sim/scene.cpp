@@ -1,0 +1,415 @@
+#include "sim/scene.h"
+
+#include <algorithm>
+#include <cmath>
+#include <map>
+
+#include <fmt/format.h>
+
+#include "common/error.h"
+#include "sim/optics/fresnel.h"
+
+namespace plumage::sim {
+namespace {
+
+constexpr double kFloatRoundoff = 0x1p-24;
+
+void require_material(const std::shared_ptr<const optics::Material>& m, const std::string& where,
+                      const char* side) {
+    if (!m)
+        throw InputError(fmt::format("{}: {} material is null: expected a material", where, side));
+}
+
+void validate_mesh(const geometry::TriangleMesh& mesh, const std::string& where) {
+    if (mesh.triangles.empty()) {
+        throw InputError(
+            fmt::format("{}: the mesh has no triangles: expected at least one", where));
+    }
+    if (mesh.positions.size() >= std::numeric_limits<std::uint32_t>::max()) {
+        throw InputError(
+            fmt::format("{}: {} vertices: expected fewer than 2^32", where, mesh.positions.size()));
+    }
+    for (std::size_t i = 0; i < mesh.positions.size(); ++i) {
+        if (!mesh.positions[i].allFinite()) {
+            throw InputError(fmt::format(
+                "{}: vertex {} is not finite: expected finite coordinates (um)", where, i));
+        }
+    }
+    for (std::size_t t = 0; t < mesh.triangles.size(); ++t) {
+        for (std::uint32_t v : mesh.triangles[t]) {
+            if (v >= mesh.positions.size()) {
+                throw InputError(
+                    fmt::format("{}: triangle {} refers to vertex {}: expected an index below {}",
+                                where, t, v, mesh.positions.size()));
+            }
+        }
+    }
+    if (!mesh.shading_normals.empty()) {
+        if (mesh.shading_normals.size() != mesh.positions.size()) {
+            throw InputError(fmt::format(
+                "{}: {} shading normals for {} vertices: expected none or one per vertex", where,
+                mesh.shading_normals.size(), mesh.positions.size()));
+        }
+        for (std::size_t i = 0; i < mesh.shading_normals.size(); ++i) {
+            const double norm = mesh.shading_normals[i].norm();
+            if (!std::isfinite(norm) || std::abs(norm - 1.0) > 1e-6) {
+                throw InputError(fmt::format(
+                    "{}: shading normal {} has length {}: expected a unit vector", where, i, norm));
+            }
+        }
+    }
+}
+
+double max_abs(const Vec3d& v) { return v.cwiseAbs().maxCoeff(); }
+
+}  // namespace
+
+AlbedoSpectrum constant_albedo(double albedo) {
+    if (!std::isfinite(albedo) || albedo < 0.0 || albedo > 1.0) {
+        throw InputError(fmt::format("albedo = {}: expected a value in [0, 1]", albedo));
+    }
+    return [albedo](double) { return albedo; };
+}
+
+AlbedoSpectrum melanin_albedo() {
+    return [melanin = optics::melanin()](double lambda_nm) {
+        return optics::fresnel_intensities_unpolarised(1.0, melanin->index(lambda_nm), 1.0)
+            .reflectance;
+    };
+}
+
+void SurfaceMaterial::validate(const std::string& where) const {
+    require_material(outside, where, "outside");
+    require_material(inside, where, "inside");
+    if (const auto* film = std::get_if<ThinFilmInterface>(&layer)) {
+        require_material(film->film, where, "film");
+        if (!std::isfinite(film->thickness_um) || film->thickness_um < 0.0) {
+            throw InputError(fmt::format("{}: film thickness = {} um: expected a finite value >= 0",
+                                         where, film->thickness_um));
+        }
+    }
+    if (const auto* diffuse = std::get_if<DiffuseLayer>(&layer)) {
+        if (!diffuse->albedo) {
+            throw InputError(fmt::format("{}: diffuse layer without an albedo spectrum", where));
+        }
+    }
+}
+
+SurfaceMaterial thin_film_interface(std::shared_ptr<const optics::Material> film,
+                                    double thickness_um,
+                                    std::shared_ptr<const optics::Material> above,
+                                    std::shared_ptr<const optics::Material> below,
+                                    optics::Coherence coherence) {
+    SurfaceMaterial m;
+    m.layer = ThinFilmInterface{std::move(film), thickness_um, coherence};
+    m.outside = std::move(above);
+    m.inside = std::move(below);
+    m.validate("thin film interface");
+    return m;
+}
+
+SurfaceMaterial dielectric_interface(std::shared_ptr<const optics::Material> inside,
+                                     std::shared_ptr<const optics::Material> outside) {
+    SurfaceMaterial m;
+    m.layer = DielectricInterface{};
+    m.outside = std::move(outside);
+    m.inside = std::move(inside);
+    m.validate("dielectric interface");
+    return m;
+}
+
+SurfaceMaterial diffuse_layer(AlbedoSpectrum albedo,
+                              std::shared_ptr<const optics::Material> outside,
+                              std::shared_ptr<const optics::Material> inside) {
+    SurfaceMaterial m;
+    m.layer = DiffuseLayer{std::move(albedo)};
+    m.outside = std::move(outside);
+    m.inside = std::move(inside);
+    m.validate("diffuse layer");
+    return m;
+}
+
+SurfaceMaterial absorber() {
+    SurfaceMaterial m;
+    m.layer = Absorber{};
+    return m;
+}
+
+SurfaceMaterial spongy_keratin_interface(std::shared_ptr<const optics::Material> keratin) {
+    return dielectric_interface(std::move(keratin), optics::air());
+}
+
+void SceneDescription::validate() const {
+    if (!ambient) throw InputError("scene: ambient material is null: expected a material (air)");
+    for (std::size_t u = 0; u < units.size(); ++u) {
+        const UnitMesh& unit = units[u];
+        if (unit.surfaces.empty()) {
+            throw InputError(fmt::format("scene unit {} '{}': no surfaces: expected at least one",
+                                         u, unit.name));
+        }
+        for (std::size_t s = 0; s < unit.surfaces.size(); ++s) {
+            const std::string where = fmt::format("scene unit {} '{}', surface {} '{}'", u,
+                                                  unit.name, s, unit.surfaces[s].name);
+            validate_mesh(unit.surfaces[s].mesh, where);
+            unit.surfaces[s].material.validate(where);
+        }
+    }
+    for (std::size_t i = 0; i < instances.size(); ++i) {
+        const Instance& instance = instances[i];
+        if (instance.unit >= units.size()) {
+            throw InputError(fmt::format("scene instance {}: unit {}: expected an index below {}",
+                                         i, instance.unit, units.size()));
+        }
+        const Eigen::Matrix4d& m = instance.transform.matrix();
+        const double det = instance.transform.linear().determinant();
+        if (!m.allFinite() || !std::isfinite(det) || std::abs(det) < 1e-300) {
+            throw InputError(fmt::format(
+                "scene instance {}: transform is not finite and invertible (det = {})", i, det));
+        }
+    }
+}
+
+Eigen::AlignedBox3d SceneDescription::bounds() const {
+    std::vector<Eigen::AlignedBox3d> unit_boxes(units.size());
+    for (std::size_t u = 0; u < units.size(); ++u) {
+        for (const Surface& s : units[u].surfaces) {
+            for (const Vec3d& p : s.mesh.positions) unit_boxes[u].extend(p);
+        }
+    }
+    Eigen::AlignedBox3d box;
+    for (const Instance& instance : instances) {
+        const Eigen::AlignedBox3d& local = unit_boxes.at(instance.unit);
+        if (local.isEmpty()) continue;
+        for (int corner = 0; corner < 8; ++corner) {
+            box.extend(instance.transform *
+                       local.corner(static_cast<Eigen::AlignedBox3d::CornerType>(corner)));
+        }
+    }
+    return box;
+}
+
+bool SceneDescription::has_film() const {
+    for (const UnitMesh& unit : units) {
+        for (const Surface& s : unit.surfaces) {
+            if (s.material.has_film()) return true;
+        }
+    }
+    return false;
+}
+
+SceneDescription barbule_row_scene(const geometry::BarbuleRow& row,
+                                   const BarbuleRowMaterials& materials) {
+    SceneDescription scene;
+    UnitMesh cell{"barbule cell", {}};
+    cell.surfaces.push_back(
+        {"film", row.cell_film,
+         thin_film_interface(materials.film, row.params.cell.film_thickness_um, optics::air(),
+                             optics::air(), materials.film_coherence)});
+    cell.surfaces.push_back({"melanin", row.cell_melanin, diffuse_layer(materials.melanin)});
+    scene.units.push_back(std::move(cell));
+    scene.instances.reserve(row.instances.size());
+    for (const Eigen::Affine3d& t : row.instances) scene.instances.push_back({0, t});
+    scene.validate();
+    return scene;
+}
+
+SceneDescription barbule_patch_scene(const geometry::BarbulePatch& patch,
+                                     const BarbulePatchMaterials& materials) {
+    SceneDescription scene;
+    UnitMesh barb{"barb", {}};
+    barb.surfaces.push_back({"cortex", patch.barb_cortex, dielectric_interface(materials.keratin)});
+    if (!patch.barb_medulla.triangles.empty()) {
+        barb.surfaces.push_back(
+            {"medulla", patch.barb_medulla,
+             diffuse_layer(materials.medulla, materials.keratin, materials.keratin)});
+    }
+    UnitMesh barbule{"barbule", {}};
+    barbule.surfaces.push_back(
+        {"barbule", patch.barbule,
+         materials.barbule ? *materials.barbule : dielectric_interface(materials.keratin)});
+    scene.units.push_back(std::move(barb));
+    scene.units.push_back(std::move(barbule));
+    for (const Eigen::Affine3d& t : patch.barb_instances) scene.instances.push_back({0, t});
+    for (const Eigen::Affine3d& t : patch.barbule_instances) scene.instances.push_back({1, t});
+    scene.validate();
+    return scene;
+}
+
+SceneDescription single_mesh_scene(geometry::TriangleMesh mesh, SurfaceMaterial material,
+                                   std::string name) {
+    SceneDescription scene;
+    UnitMesh unit{name, {}};
+    unit.surfaces.push_back({std::move(name), std::move(mesh), std::move(material)});
+    scene.units.push_back(std::move(unit));
+    scene.instances.push_back({0, Eigen::Affine3d::Identity()});
+    scene.validate();
+    return scene;
+}
+
+Scene::Scene(SceneDescription description, std::shared_ptr<const EmbreeDevice> device)
+    : description_(std::move(description)), device_(std::move(device)) {
+    PLUMAGE_CHECK(device_ != nullptr, "Scene needs an Embree device");
+    description_.validate();
+    bounds_ = description_.bounds();
+    const EmbreeDevice& dev = *device_;
+
+    // Media: one Beer–Lambert medium per distinct material, unless a side names its own.
+    std::map<const optics::Material*, std::shared_ptr<const Medium>> absorbing;
+    auto medium_for = [&](const std::shared_ptr<const optics::Material>& material,
+                          const std::shared_ptr<const Medium>& given) {
+        if (given) return given;
+        auto& m = absorbing[material.get()];
+        if (!m) m = std::make_shared<HomogeneousAbsorbingMedium>(material);
+        return m;
+    };
+
+    // One Embree scene per unit, one triangle geometry per surface (geomID = its index).
+    for (const UnitMesh& unit : description_.units) {
+        unit_first_surface_.push_back(static_cast<std::uint32_t>(surfaces_.size()));
+        EmbreeScene unit_scene(dev, RTC_SCENE_FLAG_ROBUST, RTC_BUILD_QUALITY_HIGH);
+        for (std::size_t s = 0; s < unit.surfaces.size(); ++s) {
+            const Surface& surface = unit.surfaces[s];
+            surfaces_.push_back(
+                {&surface, medium_for(surface.material.outside, surface.material.outside_medium),
+                 medium_for(surface.material.inside, surface.material.inside_medium)});
+            std::vector<float> xyz;
+            xyz.reserve(3 * surface.mesh.positions.size());
+            for (const Vec3d& p : surface.mesh.positions) {
+                xyz.insert(xyz.end(), {static_cast<float>(p.x()), static_cast<float>(p.y()),
+                                       static_cast<float>(p.z())});
+            }
+            vertex_buffers_.push_back(padded_vertex_buffer(xyz));
+            EmbreeGeometry geometry(dev, RTC_GEOMETRY_TYPE_TRIANGLE);
+            rtcSetSharedGeometryBuffer(geometry.get(), RTC_BUFFER_TYPE_VERTEX, 0, RTC_FORMAT_FLOAT3,
+                                       vertex_buffers_.back().data(), 0, 3 * sizeof(float),
+                                       surface.mesh.positions.size());
+            dev.check("rtcSetSharedGeometryBuffer (vertices)");
+            static_assert(sizeof(geometry::Triangle) == 3 * sizeof(std::uint32_t));
+            rtcSetSharedGeometryBuffer(geometry.get(), RTC_BUFFER_TYPE_INDEX, 0, RTC_FORMAT_UINT3,
+                                       surface.mesh.triangles.data(), 0, sizeof(geometry::Triangle),
+                                       surface.mesh.triangles.size());
+            dev.check("rtcSetSharedGeometryBuffer (indices)");
+            const unsigned id = geometry.commit_and_attach(dev, unit_scene);
+            PLUMAGE_CHECK(id == s, "Embree geometry IDs are assigned in attach order");
+        }
+        unit_scene.commit(dev);
+        unit_scenes_.push_back(std::move(unit_scene));
+    }
+
+    top_.emplace(dev, RTC_SCENE_FLAG_ROBUST, RTC_BUILD_QUALITY_HIGH);
+    instances_.reserve(description_.instances.size());
+    for (std::size_t i = 0; i < description_.instances.size(); ++i) {
+        const Instance& instance = description_.instances[i];
+        const Eigen::Matrix3d linear = instance.transform.linear();
+        instances_.push_back({instance.transform, linear.inverse().transpose(),
+                              linear.cwiseAbs().rowwise().sum().maxCoeff(),
+                              max_abs(instance.transform.translation()),
+                              static_cast<std::uint32_t>(instance.unit)});
+        EmbreeGeometry geometry(dev, RTC_GEOMETRY_TYPE_INSTANCE);
+        rtcSetGeometryInstancedScene(geometry.get(), unit_scenes_[instance.unit].get());
+        // Column-major 3×4: the three columns of L, then t.
+        float m[12];
+        for (int c = 0; c < 3; ++c) {
+            for (int r = 0; r < 3; ++r) m[3 * c + r] = static_cast<float>(linear(r, c));
+        }
+        for (int r = 0; r < 3; ++r)
+            m[9 + r] = static_cast<float>(instance.transform.translation()(r));
+        rtcSetGeometryTransform(geometry.get(), 0, RTC_FORMAT_FLOAT3X4_COLUMN_MAJOR, m);
+        dev.check("rtcSetGeometryInstancedScene / rtcSetGeometryTransform");
+        const unsigned id = geometry.commit_and_attach(dev, *top_);
+        PLUMAGE_CHECK(id == i, "Embree instance IDs are assigned in attach order");
+    }
+    top_->commit(dev);
+}
+
+Scene::~Scene() = default;
+
+RTCScene Scene::embree_scene() const { return top_->get(); }
+
+const SurfaceMaterial& Scene::surface_material(std::size_t surface) const {
+    return surfaces_.at(surface).surface->material;
+}
+
+const std::string& Scene::surface_name(std::size_t surface) const {
+    return surfaces_.at(surface).surface->name;
+}
+
+const Medium& Scene::medium(std::size_t surface, bool outside) const {
+    const SurfaceData& s = surfaces_.at(surface);
+    return outside ? *s.outside_medium : *s.inside_medium;
+}
+
+std::optional<SurfaceHit> Scene::intersect(const Vec3d& origin, const Vec3d& direction,
+                                           const PrimitiveRef& skip, int* skipped) const {
+    RTCIntersectContext context;
+    rtcInitIntersectContext(&context);
+    RTCRayHit rh;
+    rh.ray.org_x = static_cast<float>(origin.x());
+    rh.ray.org_y = static_cast<float>(origin.y());
+    rh.ray.org_z = static_cast<float>(origin.z());
+    rh.ray.dir_x = static_cast<float>(direction.x());
+    rh.ray.dir_y = static_cast<float>(direction.y());
+    rh.ray.dir_z = static_cast<float>(direction.z());
+    rh.ray.tnear = 0.0f;
+    rh.ray.time = 0.0f;
+    rh.ray.mask = 0xFFFFFFFFu;
+    rh.ray.id = 0;
+    rh.ray.flags = 0;
+    // A rejected hit moves tnear strictly past it, so each facet is rejected at most once
+    // and the loop ends.
+    for (;;) {
+        rh.ray.tfar = std::numeric_limits<float>::infinity();
+        rh.hit.geomID = RTC_INVALID_GEOMETRY_ID;
+        rh.hit.instID[0] = RTC_INVALID_GEOMETRY_ID;
+        rtcIntersect1(top_->get(), &context, &rh);
+        if (rh.hit.geomID == RTC_INVALID_GEOMETRY_ID) return std::nullopt;
+
+        const PrimitiveRef primitive{rh.hit.instID[0], rh.hit.geomID, rh.hit.primID};
+        if (primitive == skip) {
+            // The facet the ray left: a straight ray cannot meet its plane again.
+            if (skipped != nullptr) ++*skipped;
+            rh.ray.tnear = std::nextafter(rh.ray.tfar, std::numeric_limits<float>::infinity());
+            continue;
+        }
+        const InstanceData& instance = instances_[primitive.instance];
+        const std::uint32_t global = unit_first_surface_[instance.unit] + primitive.surface;
+        const geometry::TriangleMesh& mesh = surfaces_[global].surface->mesh;
+        const geometry::Triangle& tri = mesh.triangles[primitive.triangle];
+        const Vec3d& a = mesh.positions[tri[0]];
+        const Vec3d& b = mesh.positions[tri[1]];
+        const Vec3d& c = mesh.positions[tri[2]];
+        const Vec3d normal_local = (b - a).cross(c - a);
+        const Vec3d geometric = (instance.normal_matrix * normal_local).normalized();
+        // A facet with no orientation (zero area) is not a surface.
+        if (!geometric.allFinite()) {
+            rh.ray.tnear = std::nextafter(rh.ray.tfar, std::numeric_limits<float>::infinity());
+            continue;
+        }
+        const double u = rh.hit.u, v = rh.hit.v, w = 1.0 - u - v;
+        const Vec3d local = w * a + u * b + v * c;
+        const Vec3d position = instance.transform * local;
+        Vec3d shading = geometric;
+        if (!mesh.shading_normals.empty()) {
+            const Vec3d interpolated = (instance.normal_matrix * (w * mesh.shading_normals[tri[0]] +
+                                                                  u * mesh.shading_normals[tri[1]] +
+                                                                  v * mesh.shading_normals[tri[2]]))
+                                           .normalized();
+            if (interpolated.allFinite() && interpolated.dot(geometric) > 0.0) {
+                shading = interpolated;
+            }
+        }
+        const double vertex_extent = std::max({max_abs(a), max_abs(b), max_abs(c)});
+        const double offset =
+            kSpawnOffsetUlps * kFloatRoundoff *
+            (max_abs(position) + instance.linear_norm * vertex_extent + instance.translation_norm);
+        return SurfaceHit{
+            (position - origin).norm(), position, {shading, geometric}, global, primitive, offset};
+    }
+}
+
+Vec3d Scene::spawn_point(const SurfaceHit& hit, bool to_outside) const {
+    return hit.position +
+           (to_outside ? hit.spawn_offset_um : -hit.spawn_offset_um) * hit.normals.geometric;
+}
+
+}  // namespace plumage::sim

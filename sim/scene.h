@@ -1,0 +1,265 @@
+// Scenes for the tracer: a SceneDescription (meshes with surface materials, instanced)
+// and the Embree scene built from it.
+//
+// Description. A UnitMesh is a group of surfaces (each a geometry::TriangleMesh with one
+// SurfaceMaterial) that share one acceleration structure: a barbule cell's film sheet and
+// the melanin sheet 0.3 µm beneath it are one unit, since they overlap in space and two
+// overlapping instances would make every ray traverse both. Instances place units
+// (unit-local → patch frame, any invertible affine map); Embree builds one BVH per unit
+// and a top-level BVH over the instances (single-level instancing, Embree 3).
+//
+// Sides of a surface. The OUTSIDE of a surface is where its geometric normal points
+// (geometry/triangle_mesh.h: counter-clockwise winding seen from outside; for the
+// barbule film, the side facing away from the melanin; for a closed body, the exterior).
+// Every surface names the material on each side; their indices drive Fresnel, Airy and
+// refraction, and their k drives Beer–Lambert attenuation of light travelling on that side
+// (sim/medium.h: a segment's medium is that of the side of the surface it ends on).
+//
+// Surface materials (the `layer`):
+//  | kind                | what happens (sim/interface_events.h)                           |
+//  |---------------------|-----------------------------------------------------------------|
+//  | ThinFilmInterface   | film of material/thickness between outside (above) and inside  |
+//  |                     | (below) media: Airy R/T at the local angle; coherent or by      |
+//  |                     | intensity (incoherent, for films ≫ coherence length)            |
+//  | DielectricInterface | bare interface outside|inside: Fresnel, refraction, TIR         |
+//  | DiffuseLayer        | Lambertian reflector with an albedo spectrum in [0, 1], either  |
+//  |                     | side (melanin granules: albedo = normal-incidence Fresnel       |
+//  |                     | reflectance air → melanin, as analysis/huang2022.h)             |
+//  | Absorber            | opaque black                                                    |
+//
+// Parameter ranges (InputError names the unit, the surface and the value): film thickness
+// finite and >= 0 µm; every material non-null; meshes with finite vertices, indices in
+// range, shading normals empty or one finite unit vector per vertex; instance transforms
+// finite and invertible, unit index in range. Albedo values are checked when evaluated
+// (finite, in [0, 1]).
+//
+// Numerical robustness (Scene::intersect, Scene::spawn_point). Embree intersects in
+// single precision; the hit point is recomputed in double from Embree's barycentrics on
+// the double-precision mesh, so it lies on the facet to double rounding. The next ray
+// starts from that point moved off the facet along its geometric normal, to the side the
+// light continues on (the incidence side after a reflection, the other after a
+// transmission), by
+//     δ = kSpawnOffsetUlps · 2⁻²⁴ · (|p_world|∞ + ‖L‖∞ |v_local|∞ + |t|∞)
+// where 2⁻²⁴ is float's unit round-off, p_world the hit point, v_local the facet's
+// largest vertex coordinate in its unit, and L, t the instance transform. The three terms
+// bound the float rounding of the ray origin in the patch frame, of the vertices Embree
+// stores, and of Embree's world → instance transform of the ray. Along the normal they
+// amount to about √3 + √3 + 3 units of 2⁻²⁴ times those magnitudes (rounding of each
+// coordinate, and a few operations for the transform), and the float intersection test
+// adds a few more: kSpawnOffsetUlps = 16 covers them with a margin (the tests count
+// self-intersections and leaks through thin shells and find none).
+// For a 1 mm patch δ ≈ 1·10⁻³ µm, two orders below the 0.3 µm film–melanin gap; in
+// general δ ≈ 2·10⁻⁶ × the distance from the patch origin (the instance's translation
+// plus the hit's position), and gaps or shells thinner than δ cannot be resolved (10⁻⁴ µm
+// at 500 µm from the origin, where a float only resolves 3·10⁻⁵ µm, is beyond any
+// single-precision tracer): they give finite, energy-bounded but geometrically wrong
+// paths, which PathResult::medium_mismatches reports. Besides the offset, a ray never accepts the
+// facet it left (a straight ray cannot meet a plane twice), which costs nothing when the offset
+// works and stops self-intersection when it would not. Scenes are built with Embree's
+// ROBUST flag (robust traversal, no accuracy-reducing optimisations: Embree's remedy for
+// rays slipping through the shared edge of two facets). It is not a watertightness
+// guarantee (Embree issue 387), so the tracer counts a ray that arrives on a side it did
+// not leave into as a medium mismatch; the closed-body tests find none.
+#pragma once
+
+#include <cstdint>
+#include <functional>
+#include <limits>
+#include <memory>
+#include <optional>
+#include <string>
+#include <variant>
+#include <vector>
+
+#include <Eigen/Geometry>
+
+#include "geometry/barb.h"
+#include "geometry/barbule.h"
+#include "geometry/triangle_mesh.h"
+#include "sim/embree_device.h"
+#include "sim/interface_events.h"
+#include "sim/medium.h"
+#include "sim/optics/material.h"
+#include "sim/optics/multilayer.h"
+
+namespace plumage::sim {
+
+// Albedo as a function of the vacuum wavelength in nm; values must lie in [0, 1].
+using AlbedoSpectrum = std::function<double(double lambda_nm)>;
+AlbedoSpectrum constant_albedo(double albedo);  // InputError outside [0, 1]
+// Normal-incidence unpolarised Fresnel reflectance air → melanin (sim/optics/material.h),
+// ≈ 0.07 across the visible: Huang 2022's melanin layer as analysis/huang2022.h models it.
+AlbedoSpectrum melanin_albedo();
+
+struct ThinFilmInterface {
+    std::shared_ptr<const optics::Material> film;
+    double thickness_um = 0.0;
+    optics::Coherence coherence = optics::Coherence::coherent;
+};
+struct DielectricInterface {};
+struct DiffuseLayer {
+    AlbedoSpectrum albedo;
+};
+struct Absorber {};
+
+struct SurfaceMaterial {
+    std::variant<ThinFilmInterface, DielectricInterface, DiffuseLayer, Absorber> layer;
+    std::shared_ptr<const optics::Material> outside = optics::air();
+    std::shared_ptr<const optics::Material> inside = optics::air();
+    // Media of the two sides. Null: Beer–Lambert in that side's material
+    // (HomogeneousAbsorbingMedium, inactive at wavelengths where k = 0). A volume
+    // treated as a medium (the seam of sim/medium.h) is given here.
+    std::shared_ptr<const Medium> outside_medium;
+    std::shared_ptr<const Medium> inside_medium;
+
+    bool has_film() const { return std::holds_alternative<ThinFilmInterface>(layer); }
+    // InputError naming `where` and the offending value.
+    void validate(const std::string& where) const;
+};
+
+// Film between `above` (outside) and `below` (inside), e.g. air | keratin d | air.
+SurfaceMaterial thin_film_interface(std::shared_ptr<const optics::Material> film,
+                                    double thickness_um,
+                                    std::shared_ptr<const optics::Material> above = optics::air(),
+                                    std::shared_ptr<const optics::Material> below = optics::air(),
+                                    optics::Coherence coherence = optics::Coherence::coherent);
+SurfaceMaterial dielectric_interface(
+    std::shared_ptr<const optics::Material> inside,
+    std::shared_ptr<const optics::Material> outside = optics::air());
+SurfaceMaterial diffuse_layer(AlbedoSpectrum albedo,
+                              std::shared_ptr<const optics::Material> outside = optics::air(),
+                              std::shared_ptr<const optics::Material> inside = optics::air());
+SurfaceMaterial absorber();
+// The keratin/air interface of a spongy volume's mesh (geometry/spongy_volume.h:
+// normals point from keratin into air, so keratin is inside).
+SurfaceMaterial spongy_keratin_interface(
+    std::shared_ptr<const optics::Material> keratin = optics::keratin());
+
+struct Surface {
+    std::string name;
+    geometry::TriangleMesh mesh;
+    SurfaceMaterial material;
+};
+
+struct UnitMesh {
+    std::string name;
+    std::vector<Surface> surfaces;  // one BVH over all of them
+};
+
+struct Instance {
+    std::size_t unit = 0;
+    Eigen::Affine3d transform = Eigen::Affine3d::Identity();  // unit-local → patch frame
+};
+
+struct SceneDescription {
+    std::vector<UnitMesh> units;
+    std::vector<Instance> instances;
+    std::shared_ptr<const optics::Material> ambient = optics::air();  // around the scene
+
+    void validate() const;               // InputError naming the unit, surface or instance
+    Eigen::AlignedBox3d bounds() const;  // patch frame, µm; empty when nothing is placed
+    bool has_film() const;
+};
+
+// Builders.
+struct BarbuleRowMaterials {
+    std::shared_ptr<const optics::Material> film = optics::keratin();
+    optics::Coherence film_coherence = optics::Coherence::coherent;
+    AlbedoSpectrum melanin = melanin_albedo();
+};
+// One unit per cell: the film sheet (air | keratin d | air, d = the cell's
+// film_thickness_um, above = the outward side) and the melanin sheet (diffuse), placed by
+// the row's instances.
+SceneDescription barbule_row_scene(const geometry::BarbuleRow& row,
+                                   const BarbuleRowMaterials& materials = {});
+
+// Barb + barbule patch (geometry/barb.h). The medulla albedo has no published value in
+// DESIGN.md: a study sets it; the default 0.8 stands for a whitish scattering medulla.
+struct BarbulePatchMaterials {
+    std::shared_ptr<const optics::Material> keratin = optics::keratin();
+    AlbedoSpectrum medulla = constant_albedo(0.8);
+    std::optional<SurfaceMaterial> barbule;  // default: keratin/air dielectric
+};
+// Units: "barb" (cortex: keratin/air dielectric; medulla: diffuse, keratin on its outside)
+// and "barbule"; instances from the patch. Barbule roots meet the cortex surface; where a
+// barbule's surface lies inside the cortex it still declares air outside (no nested
+// dielectric priorities), a small error confined to the roots.
+SceneDescription barbule_patch_scene(const geometry::BarbulePatch& patch,
+                                     const BarbulePatchMaterials& materials = {});
+
+// One mesh, one material, placed once (identity), e.g. a spongy volume's mesh with
+// spongy_keratin_interface().
+SceneDescription single_mesh_scene(geometry::TriangleMesh mesh, SurfaceMaterial material,
+                                   std::string name = "mesh");
+
+// Identifies a facet: instance, surface within its unit, triangle.
+struct PrimitiveRef {
+    static constexpr std::uint32_t kNone = std::numeric_limits<std::uint32_t>::max();
+    std::uint32_t instance = kNone;
+    std::uint32_t surface = kNone;
+    std::uint32_t triangle = kNone;
+    bool operator==(const PrimitiveRef&) const = default;
+};
+
+struct SurfaceHit {
+    double distance_um;      // from the ray origin along the unit direction
+    Vec3d position;          // on the facet, patch frame (double precision)
+    SurfaceNormals normals;  // patch frame, unit; geometric points to the outside
+    std::size_t surface;     // global surface index (Scene::surface_material)
+    PrimitiveRef primitive;
+    double spawn_offset_um;  // δ above
+};
+
+class Scene {
+public:
+    static constexpr double kSpawnOffsetUlps = 16.0;
+
+    explicit Scene(SceneDescription description,
+                   std::shared_ptr<const EmbreeDevice> device = default_embree_device());
+    ~Scene();
+    Scene(const Scene&) = delete;
+    Scene& operator=(const Scene&) = delete;
+
+    // Nearest hit along origin + t direction (direction unit, t > 0), never on `skip`.
+    // skipped (optional) counts hits rejected because they were on `skip`.
+    std::optional<SurfaceHit> intersect(const Vec3d& origin, const Vec3d& direction,
+                                        const PrimitiveRef& skip = {},
+                                        int* skipped = nullptr) const;
+    // Where a ray leaving the hit continues from (see above).
+    Vec3d spawn_point(const SurfaceHit& hit, bool to_outside) const;
+
+    const SceneDescription& description() const { return description_; }
+    std::size_t surface_count() const { return surfaces_.size(); }
+    const SurfaceMaterial& surface_material(std::size_t surface) const;
+    const std::string& surface_name(std::size_t surface) const;
+    // The resolved media of a surface's sides (never null; may be inactive).
+    const Medium& medium(std::size_t surface, bool outside) const;
+    Eigen::AlignedBox3d bounds() const { return bounds_; }
+    // The top-level Embree scene, for benchmarks against bare rtcIntersect1.
+    RTCScene embree_scene() const;
+
+private:
+    struct SurfaceData {
+        const Surface* surface;
+        std::shared_ptr<const Medium> outside_medium, inside_medium;
+    };
+    struct InstanceData {
+        Eigen::Affine3d transform;
+        Eigen::Matrix3d normal_matrix;  // inverse transpose of the linear part
+        double linear_norm;             // ‖L‖∞
+        double translation_norm;        // |t|∞
+        std::uint32_t unit;
+    };
+
+    SceneDescription description_;
+    std::shared_ptr<const EmbreeDevice> device_;
+    std::vector<SurfaceData> surfaces_;
+    std::vector<std::uint32_t> unit_first_surface_;
+    std::vector<InstanceData> instances_;
+    std::vector<std::vector<float>> vertex_buffers_;  // shared with Embree; padded
+    std::vector<EmbreeScene> unit_scenes_;
+    std::optional<EmbreeScene> top_;
+    Eigen::AlignedBox3d bounds_;
+};
+
+}  // namespace plumage::sim

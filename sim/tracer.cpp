@@ -1,0 +1,362 @@
+#include "sim/tracer.h"
+
+#include <algorithm>
+#include <cmath>
+#include <cstring>
+#include <exception>
+#include <limits>
+
+#include <fmt/format.h>
+#include <omp.h>
+
+#include "common/error.h"
+
+namespace plumage::sim {
+
+struct ExplicitScatterer::Spectral {
+    enum class Kind { film, dielectric, diffuse, absorber };
+    struct Surface {
+        Kind kind;
+        optics::Complex outside, inside;  // indices of the two sides at λ
+        FilmOptics film{};
+        std::optional<FilmTable> table_outside, table_inside;
+        double albedo = 0.0;
+        const Medium* medium_outside = nullptr;  // null when inactive at λ
+        const Medium* medium_inside = nullptr;
+    };
+    double lambda_nm;
+    optics::Complex ambient;
+    std::vector<Surface> surfaces;
+};
+
+namespace {
+
+std::atomic<std::uint64_t> next_scatterer_id{1};
+
+constexpr std::size_t kMaxCachedWavelengths = 512;
+
+std::uint64_t wavelength_key(double lambda_nm) {
+    std::uint64_t bits;
+    static_assert(sizeof(bits) == sizeof(lambda_nm));
+    std::memcpy(&bits, &lambda_nm, sizeof(bits));
+    return bits;
+}
+
+int lobe_of(const PathResult& path) {
+    using K = EventKind;
+    if (path.events == 0) return ExplicitScatterer::kT;
+    if (path.events == 1 && path.kinds[0] == K::film_reflect) return ExplicitScatterer::kR;
+    if (path.events == 3 && path.kinds[0] == K::film_transmit &&
+        path.kinds[1] == K::diffuse_reflect && path.kinds[2] == K::film_transmit) {
+        return ExplicitScatterer::kTRT;
+    }
+    return ExplicitScatterer::kMulti;
+}
+
+void record(PathResult& path, EventKind kind) {
+    if (path.events < PathResult::kRecordedEvents) path.kinds[path.events] = kind;
+    ++path.events;
+}
+
+}  // namespace
+
+void TracerOptions::validate() const {
+    if (max_events < 1 || max_events > 1'000'000) {
+        throw InputError(
+            fmt::format("tracer: max_events = {}: expected 1..1000000 (1: single-event lobes only)",
+                        max_events));
+    }
+    if (roulette_after_events < 1) {
+        throw InputError(fmt::format("tracer: roulette_after_events = {}: expected >= 1",
+                                     roulette_after_events));
+    }
+    if (!std::isfinite(film_table_tolerance) || !(film_table_tolerance > 0.0) ||
+        film_table_tolerance > 0.01) {
+        throw InputError(
+            fmt::format("tracer: film_table_tolerance = {}: expected an absolute reflectance error "
+                        "in (0, 0.01]",
+                        film_table_tolerance));
+    }
+}
+
+ExplicitScatterer::ExplicitScatterer(std::shared_ptr<const Scene> scene,
+                                     const TracerOptions& options)
+    : scene_(std::move(scene)), options_(options), id_(next_scatterer_id++) {
+    if (!scene_) throw InputError("tracer: scene is null: expected a scene");
+    options_.validate();
+    const Eigen::AlignedBox3d box = scene_->bounds();
+    const double extent = box.isEmpty() ? 0.0 : box.diagonal().norm();
+    // The entry planes sit just outside the geometry, far enough that float rounding of
+    // the start point cannot put it inside a surface.
+    const double margin = 1e-3 + 1e-6 * extent;
+    top_z_ = (box.isEmpty() ? 0.0 : box.max().z()) + margin;
+    bottom_z_ = (box.isEmpty() ? 0.0 : box.min().z()) - margin;
+}
+
+ExplicitScatterer::ExplicitScatterer(SceneDescription description, const TracerOptions& options)
+    : ExplicitScatterer(std::make_shared<const Scene>(std::move(description)), options) {}
+
+const std::vector<std::string>& ExplicitScatterer::lobe_names() const {
+    static const std::vector<std::string> names = {"R", "TRT", "T", "multi"};
+    return names;
+}
+
+std::shared_ptr<const ExplicitScatterer::Spectral> ExplicitScatterer::build_spectral(
+    double lambda_nm) const {
+    auto s = std::make_shared<Spectral>();
+    s->lambda_nm = lambda_nm;
+    s->ambient = scene_->description().ambient->index(lambda_nm);
+    s->surfaces.reserve(scene_->surface_count());
+    for (std::size_t i = 0; i < scene_->surface_count(); ++i) {
+        const SurfaceMaterial& m = scene_->surface_material(i);
+        Spectral::Surface out;
+        out.outside = m.outside->index(lambda_nm);
+        out.inside = m.inside->index(lambda_nm);
+        const Medium& outside = scene_->medium(i, true);
+        const Medium& inside = scene_->medium(i, false);
+        out.medium_outside = outside.active(lambda_nm) ? &outside : nullptr;
+        out.medium_inside = inside.active(lambda_nm) ? &inside : nullptr;
+        if (const auto* film = std::get_if<ThinFilmInterface>(&m.layer)) {
+            out.kind = Spectral::Kind::film;
+            out.film = {out.outside, film->film->index(lambda_nm), out.inside, film->thickness_um,
+                        film->coherence};
+            if (options_.tabulate_films) {
+                out.table_outside =
+                    FilmTable::build(out.film, true, lambda_nm, options_.film_table_tolerance);
+                out.table_inside =
+                    FilmTable::build(out.film, false, lambda_nm, options_.film_table_tolerance);
+            }
+        } else if (const auto* diffuse = std::get_if<DiffuseLayer>(&m.layer)) {
+            out.kind = Spectral::Kind::diffuse;
+            out.albedo = diffuse->albedo(lambda_nm);
+            if (!std::isfinite(out.albedo) || out.albedo < 0.0 || out.albedo > 1.0) {
+                throw InputError(fmt::format("surface '{}': albedo = {} at {} nm: expected [0, 1]",
+                                             scene_->surface_name(i), out.albedo, lambda_nm));
+            }
+        } else if (std::holds_alternative<DielectricInterface>(m.layer)) {
+            out.kind = Spectral::Kind::dielectric;
+        } else {
+            out.kind = Spectral::Kind::absorber;
+        }
+        s->surfaces.push_back(std::move(out));
+    }
+    return s;
+}
+
+const ExplicitScatterer::Spectral& ExplicitScatterer::spectral(double lambda_nm) const {
+    // Per thread, the last wavelength: instruments trace many paths per wavelength, so
+    // this is the common case and takes no lock.
+    struct Last {
+        std::uint64_t owner = 0;
+        double lambda_nm = 0.0;
+        std::shared_ptr<const Spectral> data;
+    };
+    thread_local Last last;
+    if (last.owner == id_ && last.lambda_nm == lambda_nm) return *last.data;
+
+    const std::uint64_t key = wavelength_key(lambda_nm);
+    std::shared_ptr<const Spectral> data;
+    {
+        std::lock_guard lock(cache_mutex_);
+        if (auto it = cache_.find(key); it != cache_.end()) data = it->second;
+    }
+    if (!data) {
+        // Built outside the lock (tables take up to milliseconds); the contents depend on
+        // λ alone, so a duplicate built by another thread is identical.
+        data = build_spectral(lambda_nm);
+        std::lock_guard lock(cache_mutex_);
+        if (cache_.size() >= kMaxCachedWavelengths) cache_.clear();
+        data = cache_.try_emplace(key, data).first->second;
+    }
+    last = {id_, lambda_nm, std::move(data)};
+    return *last.data;
+}
+
+std::optional<ScatterEvent> ExplicitScatterer::sample(const Vec3d& wi, double lambda_nm,
+                                                      const Vec2& position_um, Rng& rng) const {
+    return trace(wi, lambda_nm, position_um, rng).event;
+}
+
+PathResult ExplicitScatterer::trace(const Vec3d& wi, double lambda_nm, const Vec2& position_um,
+                                    Rng& rng, std::vector<RaySegment>* rays) const {
+    if (!wi.allFinite() || std::abs(wi.norm() - 1.0) > 1e-9 || wi.z() == 0.0) {
+        throw InputError(fmt::format(
+            "tracer: wi = ({}, {}, {}): expected a unit direction off the patch plane (wi.z != 0)",
+            wi.x(), wi.y(), wi.z()));
+    }
+    optics::require_wavelength(lambda_nm);
+    if (!position_um.allFinite()) {
+        throw InputError(fmt::format("tracer: position = ({}, {}) um: expected finite values",
+                                     position_um.x(), position_um.y()));
+    }
+    const Spectral& spectral_data = spectral(lambda_nm);
+
+    PathResult path;
+    Vec3d origin(position_um.x(), position_um.y(), wi.z() > 0.0 ? top_z_ : bottom_z_);
+    Vec3d direction = -wi;
+    double weight = 1.0;
+    PrimitiveRef skip;
+    optics::Complex expected = spectral_data.ambient;  // index of the side the light is on
+
+    auto escape = [&]() {
+        if (expected != spectral_data.ambient) ++path.medium_mismatches;
+        Vec2 exit = origin.head<2>();
+        if (direction.z() != 0.0) {
+            const double plane = direction.z() > 0.0 ? top_z_ : bottom_z_;
+            const double t = (plane - origin.z()) / direction.z();
+            if (t > 0.0) exit += t * direction.head<2>();
+        }
+        PLUMAGE_CHECK(std::isfinite(weight) && weight >= 0.0,
+                      fmt::format("path weight {} after {} events", weight, path.events));
+        path.event = ScatterEvent{direction.normalized(), weight, lobe_of(path), exit};
+    };
+
+    // Russian roulette once the path is long: survive with q = weight (<= 1), weight / q.
+    auto survives_roulette = [&]() {
+        if (path.events < options_.roulette_after_events || !(weight < 1.0)) return true;
+        if (rng.uniform() >= weight) {
+            path.ended_by_roulette = true;
+            return false;
+        }
+        weight = 1.0;
+        return true;
+    };
+
+    for (;;) {
+        if (rays != nullptr) rays->push_back({origin, direction});
+        ++path.rays;
+        const std::optional<SurfaceHit> hit =
+            scene_->intersect(origin, direction, skip, &path.self_hits_rejected);
+        if (!hit) {
+            escape();
+            return path;
+        }
+        const Spectral::Surface& surface = spectral_data.surfaces[hit->surface];
+        const double facing = direction.dot(hit->normals.geometric);
+        if (facing == 0.0) {
+            // Exactly parallel to the facet: it has no projected area for this ray.
+            skip = hit->primitive;
+            continue;
+        }
+        const bool from_outside = facing < 0.0;
+        if ((from_outside ? surface.outside : surface.inside) != expected) ++path.medium_mismatches;
+
+        // The medium between the last event and this surface.
+        if (const Medium* medium = from_outside ? surface.medium_outside : surface.medium_inside) {
+            const MediumFlight flight = medium->fly(hit->distance_um, lambda_nm, rng);
+            weight *= flight.weight;
+            if (flight.scattered) {
+                if (path.events >= options_.max_events) {
+                    path.reached_max_events = true;
+                    return path;
+                }
+                record(path, EventKind::medium_scatter);
+                const MediumScatter scatter = medium->scatter(direction, lambda_nm, rng);
+                weight *= scatter.weight;
+                origin += flight.distance_um * direction;
+                direction = scatter.direction;
+                skip = {};
+                if (!(weight > 0.0) || !survives_roulette()) return path;
+                continue;
+            }
+            if (!(weight > 0.0)) return path;
+        }
+
+        if (path.events >= options_.max_events) {
+            path.reached_max_events = true;
+            return path;
+        }
+        const InterfaceEvent event = [&]() -> InterfaceEvent {
+            switch (surface.kind) {
+                case Spectral::Kind::film: {
+                    const TabulatedFilmResponse source(
+                        surface.film, lambda_nm,
+                        surface.table_outside ? &*surface.table_outside : nullptr,
+                        surface.table_inside ? &*surface.table_inside : nullptr);
+                    return thin_film_event(direction, hit->normals, surface.film, source, rng);
+                }
+                case Spectral::Kind::dielectric:
+                    return dielectric_event(direction, hit->normals, surface.outside,
+                                            surface.inside, rng);
+                case Spectral::Kind::diffuse:
+                    return diffuse_event(direction, hit->normals, surface.albedo, rng);
+                case Spectral::Kind::absorber:
+                    break;
+            }
+            return absorber_event(direction, hit->normals);
+        }();
+        record(path, event.kind);
+        weight *= event.throughput;
+        if (event.kind == EventKind::absorb || !(weight > 0.0)) return path;
+
+        expected = event.to_outside ? surface.outside : surface.inside;
+        origin = scene_->spawn_point(*hit, event.to_outside);
+        direction = event.direction;
+        skip = hit->primitive;
+        if (!survives_roulette()) return path;
+    }
+}
+
+std::vector<std::optional<ScatterEvent>> trace_many(const Scatterer& scatterer, const Vec3d& wi,
+                                                    double lambda_nm,
+                                                    const BeamFootprint& footprint,
+                                                    std::uint64_t seed, std::uint64_t first_index,
+                                                    std::size_t count, int threads) {
+    if (threads < 1) {
+        throw InputError(fmt::format("trace_many: threads = {}: expected >= 1", threads));
+    }
+    if (!footprint.min_um.allFinite() || !footprint.max_um.allFinite() ||
+        (footprint.max_um.array() < footprint.min_um.array()).any()) {
+        throw InputError("trace_many: footprint: expected finite corners with min <= max");
+    }
+    std::vector<std::optional<ScatterEvent>> out(count);
+    std::exception_ptr error;
+    std::mutex error_mutex;
+    const auto n = static_cast<std::int64_t>(count);
+    const Vec2 size = footprint.max_um - footprint.min_um;
+#pragma omp parallel for num_threads(threads) schedule(dynamic, 256)
+    for (std::int64_t i = 0; i < n; ++i) {
+        try {
+            Rng rng(seed, first_index + static_cast<std::uint64_t>(i));
+            const double u = rng.uniform(), v = rng.uniform();
+            const Vec2 position = footprint.min_um + Vec2(u * size.x(), v * size.y());
+            out[static_cast<std::size_t>(i)] = scatterer.sample(wi, lambda_nm, position, rng);
+        } catch (...) {
+            std::lock_guard lock(error_mutex);
+            if (!error) error = std::current_exception();
+        }
+    }
+    if (error) std::rethrow_exception(error);
+    return out;
+}
+
+double LobeTally::mean(int lobe) const {
+    return weight.at(static_cast<std::size_t>(lobe)) / static_cast<double>(samples);
+}
+
+double LobeTally::standard_error(int lobe) const {
+    const auto n = static_cast<double>(samples);
+    const double m = mean(lobe);
+    const double second = weight_sq.at(static_cast<std::size_t>(lobe)) / n;
+    return std::sqrt(std::max(0.0, second - m * m) / std::max(1.0, n - 1.0));
+}
+
+LobeTally tally(const std::vector<std::optional<ScatterEvent>>& samples, std::size_t lobes) {
+    LobeTally t;
+    t.samples = samples.size();
+    t.weight.assign(lobes, 0.0);
+    t.weight_sq.assign(lobes, 0.0);
+    t.count.assign(lobes, 0);
+    for (const auto& s : samples) {
+        if (!s) continue;
+        const auto lobe = static_cast<std::size_t>(s->lobe);
+        PLUMAGE_CHECK(lobe < lobes, fmt::format("lobe index {} of {}", lobe, lobes));
+        t.weight[lobe] += s->weight;
+        t.weight_sq[lobe] += s->weight * s->weight;
+        ++t.count[lobe];
+        (s->wo.z() > 0.0 ? t.up : t.down) += s->weight;
+    }
+    return t;
+}
+
+}  // namespace plumage::sim

@@ -1,0 +1,174 @@
+// The spectral path tracer over explicit microgeometry: a Scatterer (sim/scatterer.h)
+// whose answers come from tracing light through a Scene (sim/scene.h).
+//
+// One path. sample(ω_i, λ, position, rng): the light enters on the plane just above the
+// scene's bounds (z = top_z_um(), the "top plane") at `position` and travels along −ω_i
+// (light from below the patch, ω_i.z < 0, enters on the bottom plane instead). At each
+// surface it meets, the surface's event (sim/interface_events.h) decides what happens;
+// between surfaces the medium on the arriving side may absorb or scatter (sim/medium.h).
+// The path ends when the light escapes (no surface ahead: upward if ω_o.z > 0, downward
+// otherwise), is absorbed, is ended by Russian roulette, or would need more than
+// max_events events (its light is then dropped: the estimate of what leaves is low by the
+// power of such paths; PathResult::reached_max_events reports them. In the test scenes
+// none reach the default limit except rays that TIR traps for good inside a faceted
+// sphere, 4 in 50 000).
+//
+// The returned ScatterEvent follows the Scatterer contract: ω_o the escape direction
+// (away from the patch), weight the product of the events' throughputs (and roulette's
+// 1/q): unbiased, E[weight · 1{ω_o ∈ Ω}] = fraction of the incident power leaving into Ω.
+// exit_position_um is where the escaping light crosses the top plane (upward) or the
+// bottom plane (downward); the rare path leaving exactly horizontally keeps the (x, y) of
+// its last event.
+//
+// Lobes, by the path's event sequence (Huang 2022's names):
+//   "R"     exactly one film reflection, nothing else
+//   "TRT"   film transmission, diffuse (melanin) reflection, film transmission — nothing else
+//   "T"     no event at all (passed between the barbules)
+//   "multi" everything else (including single reflections at bare dielectric interfaces)
+//
+// One wavelength per path: the instruments average over wavelength grids and keep
+// per-wavelength records (spectra, then colour), so each path answers for the one λ it
+// was asked about. A hero-wavelength set would carry several λ along a path chosen for
+// one of them; every other λ's weight then needs the ratio of its event probabilities
+// (and dispersion bends its rays differently, which a shared path cannot follow), and
+// per-λ records would receive correlated, re-weighted samples. Not worth it here.
+//
+// Leaving out what the scene does not need: a scene without films never evaluates Airy;
+// surfaces whose media do not absorb at λ (k = 0) run no medium code; max_events = 1 (an
+// "R only" request) stops every path at its first event (a path that would meet a second
+// surface is dropped; what is returned is exactly the single-event lobes with their
+// masking). Per wavelength, the materials' indices, albedos, media activity and the film
+// tables are computed once and cached (thread-safe), so a path does no per-λ set-up.
+//
+// Russian roulette after `roulette_after_events` events: the path survives with
+// probability q = min(1, weight) and its weight is divided by q (unbiased). Lossless
+// scenes keep weight 1 (to round-off) and practically never lose a path to it.
+//
+// Determinism: sample() draws only from the Rng it is given, so a path depends on
+// (scene, ω_i, λ, position, rng state) alone; trace_many() seeds one stream per sample
+// index, so results are bit-identical for any thread count.
+//
+// Parameter table:
+//  | name                  | default | valid range   | meaning                                 |
+//  |-----------------------|---------|---------------|-----------------------------------------|
+//  | max_events            | 1000    | [1, 10⁶]      | events per path (1: single-event lobes) |
+//  | roulette_after_events | 8       | >= 1          | events before Russian roulette starts   |
+//  | tabulate_films        | true    |               | per-λ film tables (sim/film_table.h)    |
+//  | film_table_tolerance  | 1e-5    | (0, 0.01]     | absolute R, T error of the tables       |
+#pragma once
+
+#include <array>
+#include <atomic>
+#include <cstdint>
+#include <memory>
+#include <mutex>
+#include <optional>
+#include <string>
+#include <unordered_map>
+#include <vector>
+
+#include "sim/film_table.h"
+#include "sim/interface_events.h"
+#include "sim/scatterer.h"
+#include "sim/scene.h"
+
+namespace plumage::sim {
+
+struct TracerOptions {
+    int max_events = 1000;
+    int roulette_after_events = 8;
+    bool tabulate_films = true;
+    double film_table_tolerance = FilmTable::kDefaultTolerance;
+
+    void validate() const;  // InputError naming the option
+};
+
+// One ray cast by the tracer (for benchmarks that replay the same rays on bare Embree).
+struct RaySegment {
+    Vec3d origin;
+    Vec3d direction;
+};
+
+// Everything about one path, for tests and diagnostics; sample() keeps only `event`.
+struct PathResult {
+    static constexpr int kRecordedEvents = 8;
+
+    std::optional<ScatterEvent> event;  // empty: absorbed, dropped or ended by roulette
+    int events = 0;
+    std::array<EventKind, kRecordedEvents> kinds{};  // the first events, in order
+    int rays = 0;                                    // Embree queries
+    int self_hits_rejected = 0;  // hits on the facet just left (Scene::intersect)
+    int medium_mismatches = 0;   // arrived on a side whose index is not the one it left into
+    bool reached_max_events = false;
+    bool ended_by_roulette = false;
+};
+
+class ExplicitScatterer final : public Scatterer {
+public:
+    enum Lobe : int { kR = 0, kTRT = 1, kT = 2, kMulti = 3 };
+
+    ExplicitScatterer(std::shared_ptr<const Scene> scene, const TracerOptions& options = {});
+    explicit ExplicitScatterer(SceneDescription description, const TracerOptions& options = {});
+
+    std::string name() const override { return "explicit"; }
+    const std::vector<std::string>& lobe_names() const override;
+    std::optional<ScatterEvent> sample(const Vec3d& wi, double lambda_nm, const Vec2& position_um,
+                                       Rng& rng) const override;
+
+    // The same path as sample(), with its diagnostics; `rays` (optional) receives every
+    // ray cast.
+    PathResult trace(const Vec3d& wi, double lambda_nm, const Vec2& position_um, Rng& rng,
+                     std::vector<RaySegment>* rays = nullptr) const;
+
+    const Scene& scene() const { return *scene_; }
+    const TracerOptions& options() const { return options_; }
+    double top_z_um() const { return top_z_; }
+    double bottom_z_um() const { return bottom_z_; }
+
+    struct Spectral;  // per-wavelength optics of every surface
+
+private:
+    const Spectral& spectral(double lambda_nm) const;
+    std::shared_ptr<const Spectral> build_spectral(double lambda_nm) const;
+
+    std::shared_ptr<const Scene> scene_;
+    TracerOptions options_;
+    double top_z_ = 0.0, bottom_z_ = 0.0;
+    std::uint64_t id_;  // distinguishes scatterers in the per-thread wavelength cache
+    mutable std::mutex cache_mutex_;
+    mutable std::unordered_map<std::uint64_t, std::shared_ptr<const Spectral>> cache_;
+};
+
+// Positions drawn uniformly over an axis-aligned rectangle of the patch (µm).
+struct BeamFootprint {
+    Vec2 min_um;
+    Vec2 max_um;
+};
+
+// count samples of any scatterer: sample i (i = 0 … count−1) uses Rng(seed, first_index + i),
+// draws its position from the footprint with that stream, then calls sample(). OpenMP
+// over samples with `threads` threads; the result is indexed by sample, so it is the same
+// for any thread count. The first exception thrown by any sample is rethrown.
+std::vector<std::optional<ScatterEvent>> trace_many(const Scatterer& scatterer, const Vec3d& wi,
+                                                    double lambda_nm,
+                                                    const BeamFootprint& footprint,
+                                                    std::uint64_t seed, std::uint64_t first_index,
+                                                    std::size_t count, int threads);
+
+// Per-lobe sums of weights, in sample order (so they are bit-identical whenever the
+// samples are). Absorbed samples count in `samples` and nowhere else.
+struct LobeTally {
+    std::size_t samples = 0;
+    std::vector<double> weight;     // Σ weight per lobe
+    std::vector<double> weight_sq;  // Σ weight² per lobe
+    std::vector<std::size_t> count;
+    double up = 0.0, down = 0.0;  // Σ weight with ω_o.z > 0 and < 0
+
+    // Fraction of the incident power in a lobe, and its standard error (sample variance).
+    double mean(int lobe) const;
+    double standard_error(int lobe) const;
+    double total() const { return (up + down) / static_cast<double>(samples); }
+};
+LobeTally tally(const std::vector<std::optional<ScatterEvent>>& samples, std::size_t lobes);
+
+}  // namespace plumage::sim

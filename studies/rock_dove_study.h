@@ -1,0 +1,45 @@
+// The rock-dove study (the main job): explicit rock-dove barbules, traced, against
+// Huang et al. 2022's analytic model, measured by the same virtual instruments.
+//
+//  1. Scatterograms under a narrow beam, a 16° cone and hemispheric light, simulation
+//     and model side by side with a difference image and per-lobe relative errors.
+//  2. The 61 × 60 Filip BRDF of both, BRDF fingerprints, the per-lobe error table with
+//     the worst cells, and the in-plane sweep as curves with error bars.
+//  3. Where the assumptions of the model hold exactly (R lobe only, cells short enough
+//     that Eq. 7 is exact), simulation against model in standard errors.
+//  4. Where and why the model departs: interreflection (the "multi" lobe), light passing
+//     between barbules (T), the curved film of real-length cells (Eq. 7's coupling).
+//  5. Error against run time: estimated and true error of the R lobe against wall time.
+//
+// Everything goes to <results>/<name>/ (replaced atomically) with report.md on top.
+// Study file keys: see studies/rock_dove.toml (the default study, embedded in the binary)
+// and studies/rock_dove_quick.toml (seconds; used by the tests).
+#pragma once
+
+#include <filesystem>
+#include <string>
+#include <vector>
+
+namespace plumage::studies {
+
+struct RockDoveResult {
+    std::filesystem::path output_dir;
+    double wall_seconds = 0.0;
+    // Power-weighted relative L1 difference of the scatterograms (simulation vs model),
+    // per illumination mode: beam, cone, hemisphere.
+    std::vector<double> scatterogram_relative_l1;
+    // R lobe where the model's assumptions hold: largest |sim − model| / σ over the
+    // validation cells with signal, and the number of such cells.
+    double validation_max_sigma = 0.0;
+    int validation_cells = 0;
+    double brdf_relative_l1 = 0.0;      // total BRDF, simulation against model
+    double simulated_multi_share = 0.0;  // of the reflected power, hemispheric light
+    double simulated_t = 0.0, model_t = 0.0;  // T lobe at the beam's incidence
+    double eq7_edge_coupling = 0.0;      // r_θ(1 − cos θ_d)/(b² A) of the simulated cells
+};
+
+// `study_text` is the TOML; `source_name` names it in errors (a path or "<default>").
+RockDoveResult run_rock_dove_study(const std::string& study_text, const std::filesystem::path& source_name,
+                                   const std::filesystem::path& results_root, bool progress = true);
+
+}  // namespace plumage::studies

@@ -1,0 +1,91 @@
+// The rock-dove study in its quick form: it runs end to end, and its numbers say what
+// they must (simulation and model agree where the model is exact; power is accounted
+// for; the error falls with run time).
+#include "studies/rock_dove_study.h"
+
+#include <unistd.h>
+
+#include <cmath>
+#include <filesystem>
+#include <fstream>
+#include <sstream>
+
+#include <gtest/gtest.h>
+
+#include "tests/test_util.h"
+#include "virtual_gonio/hdf5_file.h"
+
+namespace plumage::studies {
+namespace {
+
+std::string read(const std::filesystem::path& p) {
+    std::ifstream in(p);
+    std::ostringstream s;
+    s << in.rdbuf();
+    return s.str();
+}
+
+TEST(RockDoveStudy, QuickVariantRunsAndItsNumbersHold) {
+    const auto root = std::filesystem::temp_directory_path() / ("plumage_rock_dove_" + std::to_string(::getpid()));
+    const std::filesystem::path study = std::filesystem::path(PLUMAGE_SOURCE_DIR) / "studies" / "rock_dove_quick.toml";
+    const RockDoveResult r = run_rock_dove_study(read(study), study, root, false);
+    const auto dir = root / "rock_dove_quick";
+    ASSERT_EQ(r.output_dir, dir);
+    // Where the model's assumptions hold (R only, short cells), simulation and model
+    // agree within Monte Carlo error: the largest deviation over n cells stays below
+    // the family-wise 0.1 % Gaussian bound sqrt(2 ln(n / 0.001)).
+    ASSERT_GT(r.validation_cells, 30);
+    EXPECT_LT(r.validation_max_sigma, std::sqrt(2.0 * std::log(r.validation_cells / 1e-3)));
+    // The T lobe under the beam: simulation and model agree within binomial error of the
+    // quick run's quanta (both ~0 at normal incidence for overlapping barbules).
+    EXPECT_NEAR(r.simulated_t, r.model_t, 0.01);
+    // Interreflection exists but is a minor share (a few per cent) of the reflected light.
+    EXPECT_GT(r.simulated_multi_share, 0.0);
+    EXPECT_LT(r.simulated_multi_share, 0.2);
+    // Real 20 µm cells depart from Eq. 7 at the edges by r_θ(1 − cos θ_d)/(b²A) = 0.63.
+    EXPECT_NEAR(r.eq7_edge_coupling, 127.6 * (1.0 - std::cos(0.0785398)) / 0.625, 0.01);
+    // Scatterograms and BRDF: close but not equal (noise of the quick run, plus the
+    // departures above); bounded so a broken instrument or frame mix-up shows.
+    ASSERT_EQ(r.scatterogram_relative_l1.size(), 3u);
+    for (double l1 : r.scatterogram_relative_l1) EXPECT_LT(l1, 0.8);
+    EXPECT_LT(r.brdf_relative_l1, 0.5);
+    // The error-vs-time table: the estimated error falls like 1/√(passes).
+    const auto csv = read(dir / "convergence" / "error_vs_time.csv");
+    std::istringstream lines(csv);
+    std::string line;
+    std::getline(lines, line);
+    std::vector<double> estimated;
+    while (std::getline(lines, line)) {
+        if (line.rfind("Huang", 0) != 0) continue;
+        std::vector<std::string> cells;
+        std::stringstream ss(line);
+        std::string cell;
+        while (std::getline(ss, cell, ',')) cells.push_back(cell);
+        estimated.push_back(std::stod(cells[2]));
+    }
+    ASSERT_EQ(estimated.size(), 3u);
+    EXPECT_NEAR(estimated.back() / estimated.front(), 1.0 / std::sqrt(3.0), 0.2);
+    // The report and its figures exist; the records are readable.
+    const std::string report = read(dir / "report.md");
+    for (const char* figure : {"scatterograms/beam_comparison.png", "scatterograms/cone_comparison.png",
+                               "scatterograms/hemisphere_comparison.png", "brdf/in_plane.png", "validation/r_lobe.png",
+                               "convergence/error_vs_time.png"}) {
+        EXPECT_NE(report.find(figure), std::string::npos) << figure;
+        EXPECT_TRUE(std::filesystem::exists(dir / figure)) << figure;
+    }
+    const auto values = record::read_dataset(dir / "brdf" / "simulation.h5", "brdf/value");
+    EXPECT_EQ(values.dims[0], 55u);
+    std::filesystem::remove_all(root);
+}
+
+TEST(RockDoveStudy, BadStudyTextWritesNothing) {
+    const auto root = std::filesystem::temp_directory_path() / ("plumage_rock_dove_bad_" + std::to_string(::getpid()));
+    const std::string message = plumage::testing::input_error_message(
+        [&] { run_rock_dove_study("study = \"rock_dove\"\n[goniometer]\npasses = 0\n", "bad.toml", root, false); });
+    EXPECT_NE(message.find("bad.toml:3:10: goniometer.passes = 0: expected an integer in [1, 1000]"), std::string::npos)
+        << message;
+    EXPECT_FALSE(std::filesystem::exists(root / "bad"));
+}
+
+}  // namespace
+}  // namespace plumage::studies
