@@ -7,7 +7,9 @@
 
 #include <benchmark/benchmark.h>
 
+#include "analysis/fibre_baseline.h"
 #include "analysis/filip2024.h"
+#include "analysis/padrongriffe2024.h"
 #include "sim/random.h"
 
 namespace plumage::analysis {
@@ -91,6 +93,79 @@ void BM_Filip2024Sample(benchmark::State& state) {
     state.SetItemsProcessed(state.iterations());
 }
 BENCHMARK(BM_Filip2024Sample);
+
+// The fibre models build their azimuthal tables (and Padrón-Griffe its masking
+// partition) once per incident direction and keep the last one per thread.
+// "Random" changes ωi at every call (the worst case: a rebuild each time);
+// "FixedIncident" keeps ωi and sweeps ωo, as a goniometer does.
+template <typename Model>
+void eval_random(benchmark::State& state, const Model& model) {
+    const Pairs& p = pairs();
+    std::size_t i = 0;
+    for (auto _ : state) {
+        const std::size_t k = i++ & 1023U;
+        benchmark::DoNotOptimize(model.eval(p.wi[k], p.wo[k], p.lambda[k]));
+    }
+    state.SetItemsProcessed(state.iterations());
+}
+
+template <typename Model>
+void eval_fixed_incident(benchmark::State& state, const Model& model) {
+    const Pairs& p = pairs();
+    std::size_t i = 0;
+    for (auto _ : state) {
+        const std::size_t k = i++ & 1023U;
+        benchmark::DoNotOptimize(model.eval(p.wi[0], p.wo[k], p.lambda[0]));
+    }
+    state.SetItemsProcessed(state.iterations());
+}
+
+template <typename Model>
+void sample_fixed_incident(benchmark::State& state, const Model& model) {
+    const Pairs& p = pairs();
+    Rng rng(kDefaultSeed, 2);
+    const Vec2 position(0.0, 0.0);
+    for (auto _ : state)
+        benchmark::DoNotOptimize(model.sample(p.wi[0], p.lambda[0], position, rng));
+    state.SetItemsProcessed(state.iterations());
+}
+
+void BM_FibreBaselineEvalRandom(benchmark::State& state) {
+    eval_random(state, FibreBaselineBsdf({}));
+}
+BENCHMARK(BM_FibreBaselineEvalRandom);
+void BM_FibreBaselineEvalFixedIncident(benchmark::State& state) {
+    eval_fixed_incident(state, FibreBaselineBsdf({}));
+}
+BENCHMARK(BM_FibreBaselineEvalFixedIncident);
+void BM_FibreBaselineSampleFixedIncident(benchmark::State& state) {
+    sample_fixed_incident(state, FibreBaselineBsdf({}));
+}
+BENCHMARK(BM_FibreBaselineSampleFixedIncident);
+
+void BM_PadronGriffe2024EvalRandom(benchmark::State& state) {
+    eval_random(state, PadronGriffe2024Bsdf({}));
+}
+BENCHMARK(BM_PadronGriffe2024EvalRandom);
+void BM_PadronGriffe2024EvalFixedIncident(benchmark::State& state) {
+    eval_fixed_incident(state, PadronGriffe2024Bsdf({}));
+}
+BENCHMARK(BM_PadronGriffe2024EvalFixedIncident);
+void BM_PadronGriffe2024SampleFixedIncident(benchmark::State& state) {
+    sample_fixed_incident(state, PadronGriffe2024Bsdf({}));
+}
+BENCHMARK(BM_PadronGriffe2024SampleFixedIncident);
+
+// The analytic masking term alone (the exact upper-envelope partition), for
+// random directions.
+void BM_PadronGriffe2024Masking(benchmark::State& state) {
+    const PadronGriffe2024Masking masking(geometry::BarbulePatchParams{});
+    const Pairs& p = pairs();
+    std::size_t i = 0;
+    for (auto _ : state) benchmark::DoNotOptimize(masking(p.wi[i++ & 1023U]).barb);
+    state.SetItemsProcessed(state.iterations());
+}
+BENCHMARK(BM_PadronGriffe2024Masking);
 
 }  // namespace
 }  // namespace plumage::analysis

@@ -259,7 +259,10 @@ PatchCrossSection build_patch_cross_section(const BarbulePatchParams& params, co
     const double length = params.barbule_length * params.barb.barb_width_um;
     const Eigen::Vector2d root = distal_root(cortex);
     for (double side : {1.0, -1.0}) {
-        const Eigen::Vector2d start(side * root.x(), root.y());
+        // The proximal root is the cortex point furthest along −y: the distal one
+        // reflected through the centre (an ellipse is point-symmetric), which differs
+        // from its mirror image in y when the barb is rotated.
+        const Eigen::Vector2d start = side * root;
         const Eigen::Vector2d d(side * std::cos(params.barbule_inclination_rad), std::sin(params.barbule_inclination_rad));
         const Eigen::Vector2d m(-d.y(), d.x());
         std::vector<Eigen::Vector2d> strip = {start - half * m, start + length * d - half * m,
@@ -313,7 +316,7 @@ BarbulePatch build_barbule_patch(const BarbulePatchParams& params, double length
             const double x = (j - 0.5 * (per_side - 1)) * pitch;
             patch.barbule_instances.emplace_back(Eigen::Translation3d(x, y + root.x(), root.y()));
             // Proximal: the distal barbule turned by π about z (runs towards −y, still rising).
-            patch.barbule_instances.emplace_back(Eigen::Translation3d(x, y - root.x(), root.y()) *
+            patch.barbule_instances.emplace_back(Eigen::Translation3d(x, y - root.x(), -root.y()) *
                                                  Eigen::AngleAxisd(kPi, Vec3::UnitZ()));
         }
     }

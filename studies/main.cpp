@@ -11,6 +11,7 @@
 #include "common/error.h"
 #include "common/version.h"
 #include "studies/default_study.h"
+#include "virtual_gonio/interrupt.h"
 #include "studies/geometry_study.h"
 #include "studies/rock_dove_study.h"
 #include "studies/study_file.h"
@@ -45,6 +46,13 @@ int main(int argc, char** argv) {
 
     plumage::studies::ThinFilmChartOptions thin_film;
     std::string output = "results";
+    plumage::studies::RunLimits limits;
+    app.add_option("--time-budget", limits.time_budget_s,
+                   "wall-time budget in seconds for each progressive measurement of a study")
+        ->check(CLI::PositiveNumber);
+    app.add_option("--target-error", limits.target_relative_error,
+                   "stop each measurement once its estimated relative RMS error is below this (e.g. 0.05)")
+        ->check(CLI::Range(0.0, 1.0));
     app.add_option("--out", output, "results root folder")->capture_default_str();
 
     auto* thin_film_cmd = app.add_subcommand(
@@ -101,10 +109,15 @@ int main(int argc, char** argv) {
             const std::string kind = root.required_string("study", {"rock_dove"}, "which study this file describes");
             (void)kind;
         }
-        const auto result = plumage::studies::run_rock_dove_study(text, source, output);
+        const plumage::gonio::ScopedInterruptHandler interrupt;
+        limits.interrupt = &interrupt.flag();
+        const auto result = plumage::studies::run_rock_dove_study(text, source, output, true, limits);
         std::cout << fmt::format("plumage: wrote {} in {:.0f} s (open report.md)\n", result.output_dir.string(),
                                  result.wall_seconds);
         return 0;
+    } catch (const plumage::studies::Interrupted& e) {
+        std::cerr << "plumage: " << e.what() << '\n';
+        return 130;
     } catch (const plumage::InputError& e) {
         std::cerr << "plumage: error: " << e.what() << '\n';
         return 2;

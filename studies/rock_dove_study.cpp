@@ -4,6 +4,7 @@
 #include <cmath>
 #include <fstream>
 #include <iostream>
+#include <limits>
 #include <numbers>
 
 #include <fmt/format.h>
@@ -47,6 +48,8 @@ struct Settings {
     double detector_half_angle = 5.0 * kDeg;
     std::uint64_t gonio_quanta = 20000;
     int gonio_passes = 2;
+    double time_budget_s = std::numeric_limits<double>::infinity();  // per measurement
+    double target_relative_error = 0.0;
     // validation and convergence
     double validation_cell_coupling = 0.01;
     double validation_light_theta = 30.0 * kDeg;
@@ -85,7 +88,9 @@ Settings read_settings(StudyFile& file, std::string& name, const fs::path& sourc
     s.direction_set = go.string("direction_set", s.direction_set, {"filip2024_btf", "filip2024_in_plane"}, "direction set");
     s.detector_half_angle = go.angle_deg("detector_half_angle_deg", s.detector_half_angle, {0.0, 20.0, true, false}, "detector cone half-angle");
     s.gonio_quanta = static_cast<std::uint64_t>(go.integer("quanta_per_pass", static_cast<long>(s.gonio_quanta), 100, 100000000, "quanta per light direction, wavelength and pass"));
-    s.gonio_passes = static_cast<int>(go.integer("passes", s.gonio_passes, 1, 1000, "passes"));
+    s.gonio_passes = static_cast<int>(go.integer("passes", s.gonio_passes, 1, 1000, "passes (at most)"));
+    s.time_budget_s = root.number("time_budget_s", s.time_budget_s, positive(), "wall-time budget per measurement, s (progressive passes stop when it is spent)");
+    s.target_relative_error = root.number("target_relative_error", 0.0, between(0.0, 1.0), "stop a measurement's passes once its estimated relative error is below this");
     ParameterTable va = root.table("validation");
     s.validation_cell_coupling = va.number("cell_coupling", s.validation_cell_coupling, {0.0, 0.1, true, false}, "r_theta (1 - cos theta_d) / (b^2 A) of the short cells");
     s.validation_light_theta = va.angle_deg("light_theta_deg", s.validation_light_theta, between(0.0, 70.0), "light polar angle, transversal plane");
@@ -158,11 +163,13 @@ Vec3d polar(double theta, double phi) {
 }  // namespace
 
 RockDoveResult run_rock_dove_study(const std::string& study_text, const fs::path& source_name,
-                                   const fs::path& results_root, bool progress) {
+                                   const fs::path& results_root, bool progress, const RunLimits& limits) {
     const auto start = std::chrono::steady_clock::now();
     auto file = StudyFile::parse(study_text, source_name);
     std::string name;
-    const Settings s = read_settings(*file, name, source_name);
+    Settings s = read_settings(*file, name, source_name);
+    if (limits.time_budget_s > 0.0) s.time_budget_s = limits.time_budget_s;
+    if (limits.target_relative_error > 0.0) s.target_relative_error = limits.target_relative_error;
     auto say = [&](const std::string& what) {
         if (progress) std::cerr << fmt::format("plumage: [{:6.1f} s] {}\n", std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count(), what);
     };
@@ -207,6 +214,8 @@ RockDoveResult run_rock_dove_study(const std::string& study_text, const fs::path
         c.seed = s.seed;
         c.quanta_per_pass = s.scatter_quanta;
         c.max_passes = s.scatter_passes;
+        c.time_budget_s = s.time_budget_s;
+        c.target_relative_error = s.target_relative_error;
         c.illumination_strata = s.strata;
         c.config_text = study_text;
         say("scatterogram (" + label + "): simulation");
@@ -274,13 +283,25 @@ RockDoveResult run_rock_dove_study(const std::string& study_text, const fs::path
     g.seed = s.seed;
     g.quanta_per_pass = s.gonio_quanta;
     g.max_passes = s.gonio_passes;
+    g.time_budget_s = s.time_budget_s;
+    g.target_relative_error = s.target_relative_error;
     g.config_text = study_text;
     g.estimator = gonio::Estimator::photon;
     say(fmt::format("BRDF on {} ({} pairs): simulation", g.direction_set, g.pairs.size()));
     gonio::RunControl control;
+    control.progress = progress;
+    control.interrupt = limits.interrupt;
+    const fs::path checkpoints = results_root / ".checkpoints" / name;
+    fs::create_directories(checkpoints);
+    control.checkpoint = checkpoints / "brdf_simulation.checkpoint";
     std::vector<gonio::ConvergenceRow> sim_rows;
     control.on_pass = [&](const gonio::ConvergenceRow& r) { sim_rows.push_back(r); };
     const gonio::BrdfRecord sim_b = gonio::measure_brdf(simulation, g, control);
+    if (sim_b.interrupted) {
+        throw Interrupted(fmt::format("interrupted after {} completed BRDF passes; run the same command again to "
+                                      "resume from {}",
+                                      sim_b.passes, control.checkpoint.string()));
+    }
     say("BRDF: Huang model");
     g.estimator = gonio::Estimator::eval;
     const gonio::BrdfRecord mod_b = gonio::measure_brdf(model, g);
@@ -474,6 +495,9 @@ RockDoveResult run_rock_dove_study(const std::string& study_text, const fs::path
         if (!report) throw IoError("cannot write report.md");
     }
     out.commit();
+    std::error_code ignored;
+    fs::remove_all(checkpoints, ignored);  // the finished record supersedes the checkpoint
+    if (fs::is_empty(results_root / ".checkpoints", ignored)) fs::remove(results_root / ".checkpoints", ignored);
     result.output_dir = out.final_path();
     say("done: " + (result.output_dir / "report.md").string());
     return result;

@@ -16,7 +16,9 @@
 // and studies/rock_dove_quick.toml (seconds; used by the tests).
 #pragma once
 
+#include <atomic>
 #include <filesystem>
+#include <stdexcept>
 #include <string>
 #include <vector>
 
@@ -38,8 +40,25 @@ struct RockDoveResult {
     double eq7_edge_coupling = 0.0;      // r_θ(1 − cos θ_d)/(b² A) of the simulated cells
 };
 
+// Limits from the command line (--time-budget, --target-error); when set they override
+// the study file's, for each progressive measurement (scatterograms and BRDF).
+struct RunLimits {
+    double time_budget_s = 0.0;          // 0: the study file's (default: none)
+    double target_relative_error = 0.0;  // 0: the study file's (default: none)
+    // Set by SIGINT/SIGTERM (gonio::ScopedInterruptHandler): the study stops after the
+    // current pass and throws Interrupted; the long BRDF measurement keeps its
+    // checkpoint in <results>/.checkpoints/<name>/, so running again resumes it.
+    const std::atomic<bool>* interrupt = nullptr;
+};
+
+class Interrupted final : public std::runtime_error {
+public:
+    using std::runtime_error::runtime_error;
+};
+
 // `study_text` is the TOML; `source_name` names it in errors (a path or "<default>").
 RockDoveResult run_rock_dove_study(const std::string& study_text, const std::filesystem::path& source_name,
-                                   const std::filesystem::path& results_root, bool progress = true);
+                                   const std::filesystem::path& results_root, bool progress = true,
+                                   const RunLimits& limits = {});
 
 }  // namespace plumage::studies

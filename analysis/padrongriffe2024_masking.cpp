@@ -1,0 +1,421 @@
+#include "analysis/padrongriffe2024_masking.h"
+
+#include <algorithm>
+#include <cmath>
+#include <limits>
+#include <numbers>
+#include <string>
+
+#include <fmt/format.h>
+
+#include "common/error.h"
+
+namespace plumage::analysis {
+namespace {
+
+constexpr double kPi = std::numbers::pi;
+
+void require(bool ok, const char* name, double value, const char* expected) {
+    if (!ok) {
+        throw InputError(
+            fmt::format("Padrón-Griffe 2024 masking: {} = {}: expected {}", name, value, expected));
+    }
+}
+
+void validate(const geometry::BarbulePatchParams& p) {
+    auto finite = [](double v) { return std::isfinite(v); };
+    require(finite(p.barb.barb_width_um) && p.barb.barb_width_um > 0.0, "barb_width_um",
+            p.barb.barb_width_um, "a finite width > 0 (um)");
+    require(finite(p.barb.barb_eccentricity) && p.barb.barb_eccentricity >= 0.0 &&
+                p.barb.barb_eccentricity <= 0.999,
+            "barb_eccentricity", p.barb.barb_eccentricity, "a value in [0, 0.999]");
+    require(finite(p.barb.barb_rotation_rad), "barb_rotation_rad", p.barb.barb_rotation_rad,
+            "a finite angle (rad)");
+    require(finite(p.barbule_width_um) && p.barbule_width_um > 0.0, "barbule_width_um",
+            p.barbule_width_um, "a finite width > 0 (um)");
+    require(finite(p.barbule_eccentricity) && p.barbule_eccentricity >= 0.0 &&
+                p.barbule_eccentricity <= 0.999,
+            "barbule_eccentricity", p.barbule_eccentricity, "a value in [0, 0.999]");
+    require(finite(p.barbule_rotation_rad), "barbule_rotation_rad", p.barbule_rotation_rad,
+            "a finite angle (rad)");
+    require(finite(p.barbule_inclination_rad) && std::abs(p.barbule_inclination_rad) < 0.5 * kPi,
+            "barbule_inclination_rad", p.barbule_inclination_rad, "an angle in (-pi/2, pi/2)");
+    require(finite(p.barbule_length) && p.barbule_length >= 0.0 && p.barbule_length <= 1000.0,
+            "barbule_length", p.barbule_length,
+            "a length in [0, 1000] barb widths (0: no barbules)");
+    require(finite(p.barb_spacing) && (p.barb_spacing == 0.0 || p.barb_spacing >= 1.0),
+            "barb_spacing", p.barb_spacing,
+            "0 (automatic: neighbouring barbules meet) or >= 1 barb width");
+}
+
+struct Box {
+    double y0, y1, z0, z1;
+    bool overlaps(const Box& o, double dy, double margin) const {
+        return y0 <= o.y1 + dy + margin && o.y0 + dy <= y1 + margin && z0 <= o.z1 + margin &&
+               o.z0 <= z1 + margin;
+    }
+};
+
+Box corners_box(const std::array<Eigen::Vector2d, 4>& c) {
+    Box b{c[0].x(), c[0].x(), c[0].y(), c[0].y()};
+    for (const auto& p : c) {
+        b.y0 = std::min(b.y0, p.x());
+        b.y1 = std::max(b.y1, p.x());
+        b.z0 = std::min(b.z0, p.y());
+        b.z1 = std::max(b.z1, p.y());
+    }
+    return b;
+}
+
+}  // namespace
+
+double MaskingFractions::operator[](MaskingComponent c) const {
+    switch (c) {
+        case MaskingComponent::kBarb:
+            return barb;
+        case MaskingComponent::kDistalBarbule:
+            return distal_barbule;
+        case MaskingComponent::kProximalBarbule:
+            return proximal_barbule;
+        case MaskingComponent::kGap:
+            return gap;
+    }
+    throw InvariantError("MaskingFractions: unknown component");
+}
+
+// A shape's image in (u, t) for one direction: its interval of u and its upper boundary, either
+// the closed-form elliptic arc or the upper hull of a parallelogram (u increasing).
+struct PadronGriffe2024Masking::ShapeImage {
+    MaskingComponent component;
+    double lo, hi;
+    bool elliptic;
+    double uc = 0.0, tc = 0.0, s11 = 0.0, s12 = 0.0, det = 0.0;  // ellipse
+    std::vector<Eigen::Vector2d> hull;                           // parallelogram
+
+    // Upper boundary at u for the copy shifted by (du, dt); false when u is outside.
+    bool front(double u, double du, double dt, double& t) const {
+        const double x = u - du;
+        if (x < lo || x > hi) return false;
+        if (elliptic) {
+            const double v = x - uc;
+            t = dt + tc + (s12 * v + std::sqrt(std::max(0.0, det * (s11 - v * v)))) / s11;
+            return true;
+        }
+        for (std::size_t j = 0; j + 1 < hull.size(); ++j) {
+            const double ua = hull[j].x(), ub = hull[j + 1].x();
+            if (x <= ub || j + 2 == hull.size()) {
+                const double w = ub > ua ? std::clamp((x - ua) / (ub - ua), 0.0, 1.0) : 1.0;
+                t = dt + hull[j].y() + w * (hull[j + 1].y() - hull[j].y());
+                return true;
+            }
+        }
+        t = dt + hull.front().y();  // a single point
+        return true;
+    }
+};
+
+PadronGriffe2024Masking::PadronGriffe2024Masking(const geometry::BarbulePatchParams& params)
+    : params_(params) {
+    validate(params_);
+    const double e = params_.barb.barb_eccentricity;
+    semi_major_ = 0.5 * params_.barb.barb_width_um;
+    semi_minor_ = semi_major_ * std::sqrt(1.0 - e * e);
+    const double s = std::sin(params_.barb.barb_rotation_rad);
+    const double c = std::cos(params_.barb.barb_rotation_rad);
+    const double a2 = semi_major_ * semi_major_, b2 = semi_minor_ * semi_minor_;
+    // The point of the ellipse furthest along +y: where its normal is +y. With the support
+    // function h(n) = √(a² (n·u_a)² + b² (n·u_b)²), r = ∇h(ŷ) = (a² sρ u_a + b² cρ u_b) / h(ŷ).
+    const double ry = std::sqrt(a2 * s * s + b2 * c * c);
+    root_ = Eigen::Vector2d(ry, (a2 - b2) * s * c / ry);
+
+    // The barbule's cut through its own axis (geometry/barb.cpp, strip_half_thickness): the
+    // radius of its cross-section ellipse in the direction at barbule_rotation from the major axis.
+    const double major = 0.5 * params_.barbule_width_um;
+    const double minor =
+        major * std::sqrt(1.0 - params_.barbule_eccentricity * params_.barbule_eccentricity);
+    const double r = params_.barbule_rotation_rad;
+    half_thickness_ =
+        1.0 / std::sqrt(std::pow(std::cos(r) / major, 2) + std::pow(std::sin(r) / minor, 2));
+    length_ = params_.barbule_length * params_.barb.barb_width_um;
+    const double ci = std::cos(params_.barbule_inclination_rad);
+    const double si = std::sin(params_.barbule_inclination_rad);
+    period_um_ = params_.barb_spacing > 0.0 ? params_.barb_spacing * params_.barb.barb_width_um
+                                            : 2.0 * (ry + length_ * ci);
+
+    for (double side : {1.0, -1.0}) {
+        const Eigen::Vector2d start = side * root_;  // proximal root: point reflection (geometry/barb.cpp)
+        const Eigen::Vector2d d(side * ci, si);
+        const Eigen::Vector2d m(-d.y(), d.x());
+        const std::array<Eigen::Vector2d, 4> corners = {
+            start - half_thickness_ * m, start + length_ * d - half_thickness_ * m,
+            start + length_ * d + half_thickness_ * m, start + half_thickness_ * m};
+        (side > 0.0 ? distal_corners_ : proximal_corners_) = corners;
+    }
+
+    // Pairs of base shapes whose upper boundaries may cross: bounding boxes that overlap.
+    if (has_barbules()) {
+        const double z_extent = std::sqrt(a2 * c * c + b2 * s * s);
+        const std::array<Box, 3> boxes = {Box{-ry, ry, -z_extent, z_extent},
+                                          corners_box(distal_corners_),
+                                          corners_box(proximal_corners_)};
+        double reach = 0.0;
+        for (const Box& b : boxes) reach = std::max({reach, std::abs(b.y0), std::abs(b.y1)});
+        const int max_offset = static_cast<int>(std::ceil(2.0 * reach / period_um_)) + 1;
+        const double margin = 1e-9 * (period_um_ + length_ + semi_major_);
+        for (int i = 0; i < 3; ++i) {
+            for (int j = i; j < 3; ++j) {
+                for (int dk = -max_offset; dk <= max_offset; ++dk) {
+                    if (i == j && dk <= 0) continue;  // a shape against itself, or counted twice
+                    if (i == 0 && j == 0)
+                        continue;  // barb ellipses never overlap (spacing >= width)
+                    if (boxes[i].overlaps(boxes[j], dk * period_um_, margin))
+                        overlapping_.push_back({i, j, dk});
+                }
+            }
+        }
+    }
+}
+
+std::vector<PadronGriffe2024Masking::ShapeImage> PadronGriffe2024Masking::images(
+    double theta) const {
+    const double sn = std::sin(theta), cs = std::cos(theta), tn = sn / cs;
+    auto map = [&](const Eigen::Vector2d& p) {
+        return Eigen::Vector2d(p.x() - p.y() * tn, p.x() * sn + p.y() * cs);
+    };
+    std::vector<ShapeImage> out;
+
+    // The barb: image of the semi-axis vectors a u_a and b u_b (the map's linear part).
+    const double rs = std::sin(params_.barb.barb_rotation_rad),
+                 rc = std::cos(params_.barb.barb_rotation_rad);
+    const Eigen::Vector2d col1 = map(Eigen::Vector2d(semi_major_ * rs, semi_major_ * rc));
+    const Eigen::Vector2d col2 = map(Eigen::Vector2d(semi_minor_ * rc, -semi_minor_ * rs));
+    ShapeImage barb{MaskingComponent::kBarb, 0.0, 0.0, true, 0.0, 0.0, 0.0, 0.0, 0.0, {}};
+    barb.s11 = col1.x() * col1.x() + col2.x() * col2.x();
+    barb.s12 = col1.x() * col1.y() + col2.x() * col2.y();
+    const double det_m = col1.x() * col2.y() - col2.x() * col1.y();
+    barb.det = det_m * det_m;
+    const double half_width = std::sqrt(barb.s11);
+    barb.lo = -half_width;
+    barb.hi = half_width;
+    out.push_back(barb);
+
+    if (!has_barbules()) return out;
+    for (int side = 0; side < 2; ++side) {
+        const auto& corners = side == 0 ? distal_corners_ : proximal_corners_;
+        std::vector<Eigen::Vector2d> pts;
+        for (const auto& p : corners) pts.push_back(map(p));
+        // Upper hull (monotone chain) in (u, t): among equal u keep the highest t.
+        std::sort(pts.begin(), pts.end(), [](const auto& p, const auto& q) {
+            return p.x() < q.x() || (p.x() == q.x() && p.y() > q.y());
+        });
+        std::vector<Eigen::Vector2d> hull;
+        for (const auto& p : pts) {
+            if (!hull.empty() && p.x() == hull.back().x()) continue;
+            while (hull.size() >= 2) {
+                const Eigen::Vector2d& o = hull[hull.size() - 2];
+                const Eigen::Vector2d& a = hull.back();
+                const double cross =
+                    (a.x() - o.x()) * (p.y() - o.y()) - (a.y() - o.y()) * (p.x() - o.x());
+                if (cross >= 0.0)
+                    hull.pop_back();  // a lies on or below o→p
+                else
+                    break;
+            }
+            hull.push_back(p);
+        }
+        ShapeImage strip{
+            side == 0 ? MaskingComponent::kDistalBarbule : MaskingComponent::kProximalBarbule,
+            hull.front().x(),
+            hull.back().x(),
+            false,
+            0.0,
+            0.0,
+            0.0,
+            0.0,
+            0.0,
+            std::move(hull)};
+        out.push_back(std::move(strip));
+    }
+    return out;
+}
+
+namespace {
+
+// Where two upper boundaries are equal, within [lo, hi]: each piece is a line or an elliptic arc.
+struct Line {
+    double u0, u1, alpha, beta;  // t = alpha + beta u on [u0, u1]
+};
+
+void line_line(const Line& a, const Line& b, double lo, double hi, std::vector<double>& out) {
+    const double db = a.beta - b.beta;
+    if (std::abs(db) < 1e-14 * (1.0 + std::abs(a.beta) + std::abs(b.beta))) return;  // parallel
+    const double u = (b.alpha - a.alpha) / db;
+    if (u >= std::max({a.u0, b.u0, lo}) && u <= std::min({a.u1, b.u1, hi})) out.push_back(u);
+}
+
+// Line t = alpha + beta u against the upper arc t = tc + (s12 v + √(det (s11 − v²)))/s11, v = u −
+// uc. Squaring s11 g + q v = √(det (s11 − v²)) (g = alpha + beta uc − tc, q = s11 beta − s12) gives
+// (q² + det) v² + 2 s11 g q v + s11² g² − det s11 = 0; roots on the lower branch are harmless
+// extra breakpoints.
+void line_arc(const Line& a, double uc, double tc, double s11, double s12, double det, double lo,
+              double hi, std::vector<double>& out) {
+    const double g = a.alpha + a.beta * uc - tc;
+    const double q = s11 * a.beta - s12;
+    const double r = s11 * g;
+    const double qa = q * q + det;
+    const double disc = det * (q * q * s11 - r * r + det * s11);
+    if (disc < 0.0) return;
+    const double root = std::sqrt(disc);
+    const double w = std::sqrt(s11);
+    for (double v : {(-r * q + root) / qa, (-r * q - root) / qa}) {
+        const double u = uc + v;
+        if (std::abs(v) <= w && u >= std::max(a.u0, lo) && u <= std::min(a.u1, hi))
+            out.push_back(u);
+    }
+}
+
+}  // namespace
+
+std::vector<MaskingSegment> PadronGriffe2024Masking::partition(double theta) const {
+    const double cs = std::cos(theta);
+    if (!std::isfinite(theta) || std::abs(cs) < kMinimumCosine * (1.0 - 1e-9)) {
+        throw InputError(
+            fmt::format("Padrón-Griffe 2024 masking: view angle = {} rad: expected a finite angle "
+                        "at least 0.1 deg "
+                        "away from the patch plane (|cos| >= {:.6g})",
+                        theta, kMinimumCosine));
+    }
+    const double p = period_um_;
+    const double shift_t = p * std::sin(theta);  // a barb further along +y, seen in (u, t)
+    const std::vector<ShapeImage> shapes = images(theta);
+
+    // Copies that reach u ∈ [0, P]: barb k of shape s for k in [k_lo[s], k_hi[s]].
+    std::vector<int> k_lo(shapes.size()), k_hi(shapes.size());
+    for (std::size_t s = 0; s < shapes.size(); ++s) {
+        k_lo[s] = static_cast<int>(std::ceil(-shapes[s].hi / p));
+        k_hi[s] = static_cast<int>(std::floor((p - shapes[s].lo) / p));
+    }
+
+    std::vector<double> breaks = {0.0, p};
+    auto add_break = [&](double u) {
+        if (u > 0.0 && u < p) breaks.push_back(u);
+    };
+    for (std::size_t s = 0; s < shapes.size(); ++s) {
+        for (int k = k_lo[s]; k <= k_hi[s]; ++k) {
+            add_break(shapes[s].lo + k * p);
+            add_break(shapes[s].hi + k * p);
+        }
+    }
+    // Crossings of upper boundaries, for pairs that can overlap.
+    auto lines_of = [&](const ShapeImage& shape, int k) {
+        std::vector<Line> lines;
+        const double du = k * p, dt = k * shift_t;
+        for (std::size_t j = 0; j + 1 < shape.hull.size(); ++j) {
+            const Eigen::Vector2d& a = shape.hull[j];
+            const Eigen::Vector2d& b = shape.hull[j + 1];
+            if (!(b.x() > a.x())) continue;
+            const double beta = (b.y() - a.y()) / (b.x() - a.x());
+            lines.push_back({a.x() + du, b.x() + du, a.y() + dt - beta * (a.x() + du), beta});
+        }
+        return lines;
+    };
+    for (const OverlappingPair& pair : overlapping_) {
+        const ShapeImage& first = shapes[pair.first];
+        const ShapeImage& second = shapes[pair.second];
+        for (int k = k_lo[pair.first]; k <= k_hi[pair.first]; ++k) {
+            const int k2 = k + pair.barb_offset;
+            if (k2 < k_lo[pair.second] || k2 > k_hi[pair.second]) continue;
+            const double lo = std::max({first.lo + k * p, second.lo + k2 * p, 0.0});
+            const double hi = std::min({first.hi + k * p, second.hi + k2 * p, p});
+            if (lo >= hi) continue;
+            const std::vector<Line> b_lines = lines_of(second, k2);  // second is always a strip
+            if (first.elliptic) {
+                for (const Line& line : b_lines) {
+                    line_arc(line, first.uc + k * p, first.tc + k * shift_t, first.s11, first.s12,
+                             first.det, lo, hi, breaks);
+                }
+            } else {
+                for (const Line& a : lines_of(first, k)) {
+                    for (const Line& b : b_lines) line_line(a, b, lo, hi, breaks);
+                }
+            }
+        }
+    }
+    std::sort(breaks.begin(), breaks.end());
+
+    std::vector<MaskingSegment> segments;
+    for (std::size_t j = 0; j + 1 < breaks.size(); ++j) {
+        const double u0 = std::max(0.0, breaks[j]), u1 = std::min(p, breaks[j + 1]);
+        if (!(u1 > u0)) continue;
+        const double mid = 0.5 * (u0 + u1);
+        double best = -std::numeric_limits<double>::infinity();
+        MaskingComponent owner = MaskingComponent::kGap;
+        for (std::size_t s = 0; s < shapes.size(); ++s) {
+            // Only copies whose interval holds mid: k with lo + kP <= mid <= hi + kP.
+            const int ka = std::max(k_lo[s], static_cast<int>(std::ceil((mid - shapes[s].hi) / p)));
+            const int kb =
+                std::min(k_hi[s], static_cast<int>(std::floor((mid - shapes[s].lo) / p)));
+            for (int k = ka; k <= kb; ++k) {
+                double t;
+                if (shapes[s].front(mid, k * p, k * shift_t, t) && t > best) {
+                    best = t;
+                    owner = shapes[s].component;
+                }
+            }
+        }
+        if (!segments.empty() && segments.back().component == owner &&
+            segments.back().u1_um == u0) {
+            segments.back().u1_um = u1;
+        } else {
+            segments.push_back({u0, u1, owner});
+        }
+    }
+    return segments;
+}
+
+std::vector<MaskingSegment> PadronGriffe2024Masking::segments(double theta_rad) const {
+    return partition(theta_rad);
+}
+
+MaskingFractions PadronGriffe2024Masking::in_plane(double theta_rad) const {
+    std::array<double, kMaskingComponentCount> length{};
+    for (const MaskingSegment& s : partition(theta_rad))
+        length[static_cast<int>(s.component)] += s.u1_um - s.u0_um;
+    const double total = length[0] + length[1] + length[2] + length[3];  // P up to round-off
+    return {length[0] / total, length[1] / total, length[2] / total, length[3] / total};
+}
+
+double PadronGriffe2024Masking::projected_angle(const Vec3d& w) {
+    if (std::hypot(w.y(), w.z()) < 1e-300) return 0.0;
+    double psi = std::atan2(w.y(), w.z());
+    const double limit = std::acos(kMinimumCosine);
+    if (std::abs(std::cos(psi)) < kMinimumCosine) {
+        const double sign = psi < 0.0 ? -1.0 : 1.0;
+        psi = std::cos(psi) >= 0.0 ? sign * limit : sign * (kPi - limit);
+    }
+    return psi;
+}
+
+MaskingFractions PadronGriffe2024Masking::operator()(const Vec3d& direction) const {
+    return in_plane(projected_angle(direction));
+}
+
+MaskingFractions PadronGriffe2024Masking::unoccluded(double theta_rad) const {
+    if (!std::isfinite(theta_rad) ||
+        std::abs(std::cos(theta_rad)) < kMinimumCosine * (1.0 - 1e-9)) {
+        throw InputError(fmt::format(
+            "Padrón-Griffe 2024 masking: view angle = {} rad: expected a finite angle at "
+            "least 0.1 deg away from the patch plane",
+            theta_rad));
+    }
+    const auto shapes = images(theta_rad);
+    MaskingFractions f;
+    f.barb = (shapes[0].hi - shapes[0].lo) / period_um_;
+    if (shapes.size() == 3) {
+        f.distal_barbule = (shapes[1].hi - shapes[1].lo) / period_um_;
+        f.proximal_barbule = (shapes[2].hi - shapes[2].lo) / period_um_;
+    }
+    return f;
+}
+
+}  // namespace plumage::analysis

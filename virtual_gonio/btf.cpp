@@ -1,0 +1,173 @@
+#include "virtual_gonio/btf.h"
+
+#include <omp.h>
+
+#include <chrono>
+#include <cmath>
+#include <numbers>
+#include <optional>
+
+#include <fmt/format.h>
+
+#include "common/error.h"
+#include "common/version.h"
+#include "sim/optics/colour.h"
+#include "virtual_gonio/hdf5_file.h"
+
+namespace plumage::gonio {
+namespace {
+
+constexpr double kPi = std::numbers::pi;
+constexpr std::uint64_t kChunk = 8192;
+
+void require(bool ok, const std::string& message) {
+    if (!ok) throw InputError("btf: " + message);
+}
+
+}  // namespace
+
+void BtfConfig::validate() const {
+    require(!pairs.empty(), "no direction pairs");
+    for (std::size_t i = 0; i < pairs.size(); ++i) {
+        require(pairs[i].wi.z() > 0.0 && pairs[i].wo.z() > std::sin(detector_half_angle_rad),
+                fmt::format("pair {}: light and detector cone must be above the patch", i));
+    }
+    require(!wavelengths_nm.empty(), "no wavelengths");
+    require(std::isfinite(patch_size_um) && patch_size_um > 0.0, "patch size must be > 0 um");
+    require(pixels >= 1 && pixels <= 1024, fmt::format("pixels = {}: expected 1..1024", pixels));
+    require(detector_half_angle_rad > 0.0 && detector_half_angle_rad < 0.5, "detector half-angle must be in (0, 0.5) rad");
+    require(quanta_per_pair >= 1, "quanta_per_pair must be >= 1");
+}
+
+BtfRecord measure_btf(const Scatterer& scatterer, const BtfConfig& config) {
+    config.validate();
+    const auto start = std::chrono::steady_clock::now();
+    BtfRecord r;
+    r.config = config;
+    r.scatterer = scatterer.name();
+    const std::size_t np = config.pairs.size(), nl = config.wavelengths_nm.size();
+    const int n = config.pixels;
+    const std::size_t cells = np * static_cast<std::size_t>(n) * n * nl;
+    std::vector<double> sum(cells, 0.0), sum_sq(cells, 0.0);
+    const double half = 0.5 * config.patch_size_um, pixel = config.patch_size_um / n;
+    const double cos_alpha = std::cos(config.detector_half_angle_rad);
+    const double projected = kPi * std::pow(std::sin(config.detector_half_angle_rad), 2);
+    const std::uint64_t chunks = (config.quanta_per_pair + kChunk - 1) / kChunk;
+    const std::size_t items = np * nl * chunks;
+    struct Hit {
+        std::size_t cell;
+        double x;
+    };
+    std::vector<std::vector<Hit>> hits(items);
+#pragma omp parallel for schedule(dynamic, 1)
+    for (std::size_t it = 0; it < items; ++it) {
+        const std::size_t p = it / (nl * chunks), k = (it / chunks) % nl;
+        const std::uint64_t c = it % chunks;
+        const DirectionPair& pair = config.pairs[p];
+        const double weight_scale = 1.0 / (projected * pair.wo.z());
+        for (std::uint64_t q = c * kChunk; q < std::min(config.quanta_per_pair, (c + 1) * kChunk); ++q) {
+            Rng rng(config.seed, (static_cast<std::uint64_t>(p * nl + k) << 40) + q);
+            // Uniform over the patch plane: what a wide, collimated beam deposits.
+            const Vec2 position((rng.uniform() - 0.5) * config.patch_size_um, (rng.uniform() - 0.5) * config.patch_size_um);
+            const auto event = scatterer.sample(pair.wi, config.wavelengths_nm[k], position, rng);
+            if (!event || !(event->weight > 0.0) || event->wo.dot(pair.wo) < cos_alpha) continue;
+            const Vec2& exit = event->exit_position_um;
+            if (std::abs(exit.x()) >= half || std::abs(exit.y()) >= half) continue;
+            const int column = std::min(n - 1, static_cast<int>((exit.x() + half) / pixel));
+            const int row = std::min(n - 1, static_cast<int>((half - exit.y()) / pixel));
+            hits[it].push_back({r.index(p, row, column, k), event->weight * weight_scale});
+        }
+    }
+    for (const auto& list : hits) {
+        for (const Hit& h : list) {
+            sum[h.cell] += h.x;
+            sum_sq[h.cell] += h.x * h.x;
+        }
+    }
+    // Each pixel receives a fraction 1/n² of the quanta's entry area: the pixel's share.
+    const double per_pixel = static_cast<double>(config.quanta_per_pair) / (static_cast<double>(n) * n);
+    r.value.assign(cells, 0.0);
+    r.standard_error.assign(cells, 0.0);
+    for (std::size_t i = 0; i < cells; ++i) {
+        const double mean = sum[i] / per_pixel;
+        r.value[i] = mean;
+        // Poisson-like: Var(Σx)/per_pixel² with Var(Σx) ≈ Σx² (sparse hits).
+        r.standard_error[i] = std::sqrt(sum_sq[i]) / per_pixel;
+    }
+    r.wall_time_s = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+    return r;
+}
+
+record::RgbImage btf_image(const BtfRecord& r, std::size_t pair, double exposure) {
+    const int n = r.config.pixels;
+    const std::size_t nl = r.config.wavelengths_nm.size();
+    record::RgbImage image(n, n);
+    std::vector<optics::Rgb> rgb(static_cast<std::size_t>(n) * n, optics::Rgb{0.0, 0.0, 0.0});
+    double peak = 0.0;
+    const bool colour = nl >= 2 && r.config.wavelengths_nm.front() >= optics::kCmfMinNm &&
+                        r.config.wavelengths_nm.back() <= optics::kCmfMaxNm;
+    std::optional<optics::ReflectanceToXyz> to_xyz;
+    if (colour) to_xyz.emplace(optics::WavelengthGrid(r.config.wavelengths_nm), optics::Illuminant::d65);
+    for (int row = 0; row < n; ++row) {
+        for (int column = 0; column < n; ++column) {
+            const std::size_t base = r.index(pair, row, column, 0);
+            optics::Xyz xyz{0.0, 0.0, 0.0};
+            if (to_xyz) {
+                xyz = (*to_xyz)(std::span<const double>(r.value.data() + base, nl));
+                xyz.x *= 0.95047 / to_xyz->white().x;
+                xyz.z *= 1.08883 / to_xyz->white().z;
+            } else {
+                double mean = 0.0;
+                for (std::size_t k = 0; k < nl; ++k) mean += r.value[base + k] / static_cast<double>(nl);
+                xyz = {0.95047 * mean, mean, 1.08883 * mean};
+            }
+            peak = std::max(peak, xyz.y);
+            rgb[static_cast<std::size_t>(row) * n + column] = optics::linear_srgb_from_xyz(xyz);
+        }
+    }
+    if (exposure <= 0.0) exposure = peak > 0.0 ? 1.0 / peak : 1.0;
+    for (int row = 0; row < n; ++row) {
+        for (int column = 0; column < n; ++column) {
+            optics::Rgb c = rgb[static_cast<std::size_t>(row) * n + column];
+            for (double& v : c) v = std::max(0.0, v * exposure);
+            const double top = std::max({c[0], c[1], c[2]});
+            if (top > 1.0)
+                for (double& v : c) v /= top;
+            auto byte = [](double v) { return static_cast<std::uint8_t>(std::lround(optics::srgb_encode(v) * 255.0)); };
+            image.set(column, row, byte(c[0]), byte(c[1]), byte(c[2]));
+        }
+    }
+    return image;
+}
+
+void write_btf_record(const BtfRecord& r, const std::filesystem::path& path) {
+    const auto& c = r.config;
+    const std::uint64_t np = c.pairs.size(), n = static_cast<std::uint64_t>(c.pixels), nl = c.wavelengths_nm.size();
+    record::Hdf5Writer h5(path);
+    using Dims = std::vector<std::uint64_t>;
+    std::vector<double> light, view;
+    for (const auto& p : c.pairs) {
+        light.insert(light.end(), {p.wi.x(), p.wi.y(), p.wi.z()});
+        view.insert(view.end(), {p.wo.x(), p.wo.y(), p.wo.z()});
+    }
+    h5.set_attribute("/", "format", "plumage record 1 (virtual_gonio/RECORD.md)");
+    h5.write("instrument/light_directions", std::span<const double>(light), Dims{np, 3});
+    h5.write("instrument/view_directions", std::span<const double>(view), Dims{np, 3});
+    h5.set_attribute("/instrument", "kind", "btf_camera");
+    h5.set_attribute("/instrument", "patch_size_um", c.patch_size_um);
+    h5.set_attribute("/instrument", "detector_half_angle_deg", c.detector_half_angle_rad * 180.0 / kPi);
+    h5.set_attribute("/instrument", "image", "rectified to the patch plane: column along +x, row 0 at +y");
+    h5.write("wavelength_nm", std::span<const double>(c.wavelengths_nm), Dims{nl}, {{"units", "nm"}});
+    h5.write("btf/value", std::span<const double>(r.value), Dims{np, n, n, nl},
+             {{"units", "1/sr"}, {"description", "per-pixel BRDF, [pair, row, column, wavelength]"}});
+    h5.write("btf/standard_error", std::span<const double>(r.standard_error), Dims{np, n, n, nl}, {{"units", "1/sr"}});
+    h5.create_group("provenance");
+    h5.set_attribute("/provenance", "scatterer", r.scatterer);
+    h5.set_attribute("/provenance", "plumage_version", kVersion);
+    h5.set_attribute("/provenance", "seed", fmt::format("{}", c.seed));
+    h5.set_attribute("/provenance", "threads", static_cast<double>(omp_get_max_threads()));
+    h5.set_attribute("/provenance", "wall_time_s", r.wall_time_s);
+    h5.commit();
+}
+
+}  // namespace plumage::gonio
