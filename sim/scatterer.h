@@ -19,6 +19,7 @@
 //    of the lobe that produced it, so records keep per-lobe values.
 #pragma once
 
+#include <cmath>
 #include <optional>
 #include <span>
 #include <string>
@@ -40,6 +41,12 @@ struct ScatterEvent {
     int lobe;               // index into lobe_names()
     Vec2 exit_position_um;  // where the light leaves the patch (entry point for models)
 };
+
+// Two unit vectors completing the unit vector a to a right-handed orthonormal frame.
+inline void orthonormal_frame(const Vec3d& a, Vec3d& e1, Vec3d& e2) {
+    e1 = (std::abs(a.z()) < 0.9 ? Vec3d::UnitZ() : Vec3d::UnitX()).cross(a).normalized();
+    e2 = a.cross(e1);
+}
 
 class Scatterer {
 public:

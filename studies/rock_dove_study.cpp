@@ -225,14 +225,7 @@ RockDoveResult run_rock_dove_study(const std::string& study_text, const fs::path
         gonio::write_scatterogram_record(sim_s, dir / "scatterograms" / (label + "_simulation.h5"));
         gonio::write_scatterogram_record(mod_s, dir / "scatterograms" / (label + "_model.h5"));
         // One exposure for both, from the model's brightest pixel, so brightness compares.
-        const record::RgbImage a = gonio::scatterogram_srgb(mod_s);
-        double peak = 0.0;
-        {
-            const optics::ReflectanceToXyz to_xyz(optics::WavelengthGrid(s.wavelengths), optics::Illuminant::d65);
-            for (std::size_t p = 0; p < mod_s.pixels(); ++p) {
-                peak = std::max(peak, to_xyz(std::span<const double>(mod_s.intensity.data() + p * s.wavelengths.size(), s.wavelengths.size())).y);
-            }
-        }
+        const double peak = gonio::scatterogram_peak_luminance(mod_s);
         const double exposure = peak > 0.0 ? 1.0 / peak : 1.0;
         const record::RgbImage sim_img = gonio::scatterogram_srgb(sim_s, exposure), mod_img = gonio::scatterogram_srgb(mod_s, exposure);
         const record::RgbImage diff_img = gonio::scatterogram_difference(mod_s, sim_s);

@@ -11,7 +11,7 @@
 
 #include "common/error.h"
 #include "common/version.h"
-#include "sim/optics/colour.h"
+#include "virtual_gonio/display_colour.h"
 #include "virtual_gonio/hdf5_file.h"
 
 namespace plumage::gonio {
@@ -101,40 +101,22 @@ BtfRecord measure_btf(const Scatterer& scatterer, const BtfConfig& config) {
 record::RgbImage btf_image(const BtfRecord& r, std::size_t pair, double exposure) {
     const int n = r.config.pixels;
     const std::size_t nl = r.config.wavelengths_nm.size();
-    record::RgbImage image(n, n);
-    std::vector<optics::Rgb> rgb(static_cast<std::size_t>(n) * n, optics::Rgb{0.0, 0.0, 0.0});
+    const SpectrumToDisplay display(r.config.wavelengths_nm);
+    std::vector<optics::Xyz> xyz(static_cast<std::size_t>(n) * n);
     double peak = 0.0;
-    const bool colour = nl >= 2 && r.config.wavelengths_nm.front() >= optics::kCmfMinNm &&
-                        r.config.wavelengths_nm.back() <= optics::kCmfMaxNm;
-    std::optional<optics::ReflectanceToXyz> to_xyz;
-    if (colour) to_xyz.emplace(optics::WavelengthGrid(r.config.wavelengths_nm), optics::Illuminant::d65);
     for (int row = 0; row < n; ++row) {
         for (int column = 0; column < n; ++column) {
-            const std::size_t base = r.index(pair, row, column, 0);
-            optics::Xyz xyz{0.0, 0.0, 0.0};
-            if (to_xyz) {
-                xyz = (*to_xyz)(std::span<const double>(r.value.data() + base, nl));
-                xyz.x *= 0.95047 / to_xyz->white().x;
-                xyz.z *= 1.08883 / to_xyz->white().z;
-            } else {
-                double mean = 0.0;
-                for (std::size_t k = 0; k < nl; ++k) mean += r.value[base + k] / static_cast<double>(nl);
-                xyz = {0.95047 * mean, mean, 1.08883 * mean};
-            }
-            peak = std::max(peak, xyz.y);
-            rgb[static_cast<std::size_t>(row) * n + column] = optics::linear_srgb_from_xyz(xyz);
+            auto& c = xyz[static_cast<std::size_t>(row) * n + column];
+            c = display.xyz(std::span<const double>(r.value.data() + r.index(pair, row, column, 0), nl));
+            peak = std::max(peak, c.y);
         }
     }
     if (exposure <= 0.0) exposure = peak > 0.0 ? 1.0 / peak : 1.0;
+    record::RgbImage image(n, n);
     for (int row = 0; row < n; ++row) {
         for (int column = 0; column < n; ++column) {
-            optics::Rgb c = rgb[static_cast<std::size_t>(row) * n + column];
-            for (double& v : c) v = std::max(0.0, v * exposure);
-            const double top = std::max({c[0], c[1], c[2]});
-            if (top > 1.0)
-                for (double& v : c) v /= top;
-            auto byte = [](double v) { return static_cast<std::uint8_t>(std::lround(optics::srgb_encode(v) * 255.0)); };
-            image.set(column, row, byte(c[0]), byte(c[1]), byte(c[2]));
+            const auto rgb = display_bytes(xyz[static_cast<std::size_t>(row) * n + column], exposure);
+            image.set(column, row, rgb[0], rgb[1], rgb[2]);
         }
     }
     return image;

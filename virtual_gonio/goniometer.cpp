@@ -12,7 +12,7 @@
 
 #include "common/error.h"
 #include "common/version.h"
-#include "sim/optics/colour.h"
+#include "virtual_gonio/display_colour.h"
 #include "virtual_gonio/hdf5_file.h"
 
 namespace plumage::gonio {
@@ -41,12 +41,6 @@ std::string canonical(const GoniometerConfig& c, const std::string& scatterer, E
                          p.wo.y(), p.wo.z());
     }
     return s;
-}
-
-// Orthonormal frame around a unit axis.
-void frame_around(const Vec3d& a, Vec3d& e1, Vec3d& e2) {
-    e1 = (std::abs(a.z()) < 0.9 ? Vec3d::UnitZ() : Vec3d::UnitX()).cross(a).normalized();
-    e2 = a.cross(e1);
 }
 
 struct Group {  // pairs sharing one light direction
@@ -193,7 +187,7 @@ BrdfRecord measure_by_eval(const Scatterer& scatterer, const GoniometerConfig& c
     auto cone_average = [&](const DirectionPair& p, double lambda, const std::vector<Node>& rule,
                             std::vector<double>* lobes) {
         Vec3d e1, e2;
-        frame_around(p.wo, e1, e2);
+        orthonormal_frame(p.wo, e1, e2);
         double num = 0.0, den = 0.0;
         std::vector<double> per_lobe(nlobes, 0.0), acc(nlobes, 0.0);
         for (const Node& n : rule) {
@@ -324,7 +318,7 @@ BrdfRecord measure_brdf(const Scatterer& scatterer, const GoniometerConfig& conf
             std::vector<double>& acc = partial[it];
             acc.assign(m * (2 + 2 * nlobes), 0.0);  // Σx, Σx², then Σx and Σx² per lobe
             Vec3d e1, e2;
-            frame_around(group.wi, e1, e2);
+            orthonormal_frame(group.wi, e1, e2);
             const std::uint64_t stream = (item.group * nl + item.wavelength) << 40;
             for (std::uint64_t q = item.first; q < item.first + item.count; ++q) {
                 Rng rng(config.seed, stream + q);
@@ -392,28 +386,20 @@ record::RgbImage brdf_fingerprint(const BrdfRecord& r, int lights, int views, in
     PLUMAGE_CHECK(lights > 0 && views > 0 && block > 0 &&
                       static_cast<std::size_t>(lights) * static_cast<std::size_t>(views) == r.config.pairs.size(),
                   fmt::format("fingerprint {} x {} of {} pairs", lights, views, r.config.pairs.size()));
-    const optics::ReflectanceToXyz to_xyz(optics::WavelengthGrid(r.config.wavelengths_nm), optics::Illuminant::d65);
-    std::vector<optics::Rgb> rgb(r.config.pairs.size());
+    const SpectrumToDisplay display(r.config.wavelengths_nm);
+    std::vector<optics::Xyz> xyz(r.config.pairs.size());
     double peak = 0.0;
-    for (std::size_t p = 0; p < rgb.size(); ++p) {
-        optics::Xyz xyz = to_xyz(std::span<const double>(r.value.data() + p * nl, nl));
-        xyz.x *= 0.95047 / to_xyz.white().x;
-        xyz.z *= 1.08883 / to_xyz.white().z;
-        peak = std::max(peak, xyz.y);
-        rgb[p] = optics::linear_srgb_from_xyz(xyz);
+    for (std::size_t p = 0; p < xyz.size(); ++p) {
+        xyz[p] = display.xyz(std::span<const double>(r.value.data() + p * nl, nl));
+        peak = std::max(peak, xyz[p].y);
     }
     if (exposure <= 0.0) exposure = peak > 0.0 ? 1.0 / peak : 1.0;
     record::RgbImage image(views * block, lights * block);
     for (int l = 0; l < lights; ++l) {
         for (int v = 0; v < views; ++v) {
-            optics::Rgb c = rgb[static_cast<std::size_t>(l) * views + v];
-            for (double& x : c) x = std::max(0.0, x * exposure);
-            const double top = std::max({c[0], c[1], c[2]});
-            if (top > 1.0)
-                for (double& x : c) x /= top;
-            auto byte = [](double x) { return static_cast<std::uint8_t>(std::lround(optics::srgb_encode(x) * 255.0)); };
+            const auto rgb = display_bytes(xyz[static_cast<std::size_t>(l) * views + v], exposure);
             for (int dy = 0; dy < block; ++dy)
-                for (int dx = 0; dx < block; ++dx) image.set(v * block + dx, l * block + dy, byte(c[0]), byte(c[1]), byte(c[2]));
+                for (int dx = 0; dx < block; ++dx) image.set(v * block + dx, l * block + dy, rgb[0], rgb[1], rgb[2]);
         }
     }
     return image;

@@ -11,7 +11,7 @@
 
 #include "common/error.h"
 #include "common/version.h"
-#include "sim/optics/colour.h"
+#include "virtual_gonio/display_colour.h"
 #include "virtual_gonio/hdf5_file.h"
 
 namespace plumage::gonio {
@@ -22,11 +22,6 @@ constexpr std::uint64_t kChunk = 4096;
 
 void require(bool ok, const std::string& message) {
     if (!ok) throw InputError("scatterometer: " + message);
-}
-
-void frame_around(const Vec3d& a, Vec3d& e1, Vec3d& e2) {
-    e1 = (std::abs(a.z()) < 0.9 ? Vec3d::UnitZ() : Vec3d::UnitX()).cross(a).normalized();
-    e2 = a.cross(e1);
 }
 
 // Pixel index of a direction in the upper hemisphere (−1 if outside the image).
@@ -92,7 +87,7 @@ Scatterogram measure_scatterogram(const Scatterer& scatterer, const Scatteromete
     std::vector<double> sum(np * nl, 0.0), sum_sq(np * nl, 0.0), lobe_sum(nlobes * np * nl, 0.0);
     std::vector<double> below(nl, 0.0), below_lobes(nlobes * nl, 0.0);
     Vec3d e1, e2;
-    frame_around(config.beam_direction, e1, e2);
+    orthonormal_frame(config.beam_direction, e1, e2);
     const double half_aperture = 0.5 * config.cone_aperture_rad;
 
     struct Hit {
@@ -156,7 +151,7 @@ Scatterogram measure_scatterogram(const Scatterer& scatterer, const Scatteromete
             for (std::uint64_t q = first; q < first + count; ++q) {
                 Rng rng(config.seed, (static_cast<std::uint64_t>(k) << 52) + (static_cast<std::uint64_t>(stratum) << 36) + q);
                 Vec3d f1, f2;
-                frame_around(wi, f1, f2);
+                orthonormal_frame(wi, f1, f2);
                 const double radius = config.beam_radius_um * std::sqrt(rng.uniform()), angle = 2.0 * kPi * rng.uniform();
                 const Vec3d offset = radius * (std::cos(angle) * f1 + std::sin(angle) * f2);
                 const Vec2 position(offset.x() - offset.z() * wi.x() / wi.z(), offset.y() - offset.z() * wi.y() / wi.z());
@@ -226,24 +221,14 @@ Scatterogram measure_scatterogram(const Scatterer& scatterer, const Scatteromete
 
 namespace {
 
-std::vector<double> luminance_and_rgb(const Scatterogram& s, std::vector<optics::Rgb>* rgb) {
-    const auto grid = optics::WavelengthGrid(s.config.wavelengths_nm);
-    const optics::ReflectanceToXyz to_xyz(grid, optics::Illuminant::d65);
-    const std::size_t nl = grid.size();
-    std::vector<double> y(s.pixels(), 0.0);
-    if (rgb) rgb->assign(s.pixels(), optics::Rgb{0.0, 0.0, 0.0});
+std::vector<optics::Xyz> pixel_colours(const Scatterogram& s) {
+    const SpectrumToDisplay display(s.config.wavelengths_nm);
+    const std::size_t nl = s.config.wavelengths_nm.size();
+    std::vector<optics::Xyz> xyz(s.pixels(), optics::Xyz{0.0, 0.0, 0.0});
     for (std::size_t p = 0; p < s.pixels(); ++p) {
-        if (s.solid_angle_sr[p] <= 0.0) continue;
-        optics::Xyz xyz = to_xyz(std::span<const double>(s.intensity.data() + p * nl, nl));
-        // A few wavelengths do not span the visible: scale XYZ so that a flat spectrum
-        // maps to D65 white (x 0.3127, y 0.3290) on any grid, and colour casts are the
-        // scatterer's, not the sampling's.
-        xyz.x *= 0.95047 / to_xyz.white().x;
-        xyz.z *= 1.08883 / to_xyz.white().z;
-        y[p] = xyz.y;
-        if (rgb) (*rgb)[p] = optics::linear_srgb_from_xyz(xyz);
+        if (s.solid_angle_sr[p] > 0.0) xyz[p] = display.xyz(std::span<const double>(s.intensity.data() + p * nl, nl));
     }
-    return y;
+    return xyz;
 }
 
 std::uint8_t byte(double v) { return static_cast<std::uint8_t>(std::lround(std::clamp(v, 0.0, 1.0) * 255.0)); }
@@ -264,22 +249,17 @@ void draw_rings(record::RgbImage& image) {
 }  // namespace
 
 record::RgbImage scatterogram_srgb(const Scatterogram& s, double exposure, bool rings) {
-    std::vector<optics::Rgb> rgb;
-    const std::vector<double> y = luminance_and_rgb(s, &rgb);
+    const std::vector<optics::Xyz> xyz = pixel_colours(s);
     if (exposure <= 0.0) {
-        const double peak = *std::max_element(y.begin(), y.end());
+        double peak = 0.0;
+        for (const auto& c : xyz) peak = std::max(peak, c.y);
         exposure = peak > 0.0 ? 1.0 / peak : 1.0;
     }
     const int n = s.config.image_size;
     record::RgbImage image(n, n);
     for (std::size_t p = 0; p < s.pixels(); ++p) {
-        optics::Rgb c = rgb[p];
-        for (double& v : c) v = std::max(0.0, v * exposure);
-        const double top = std::max({c[0], c[1], c[2]});
-        if (top > 1.0)
-            for (double& v : c) v /= top;  // keep the hue when over-exposed
-        image.set(static_cast<int>(p % n), static_cast<int>(p / n), byte(optics::srgb_encode(c[0])),
-                  byte(optics::srgb_encode(c[1])), byte(optics::srgb_encode(c[2])));
+        const auto rgb = display_bytes(xyz[p], exposure);
+        image.set(static_cast<int>(p % n), static_cast<int>(p / n), rgb[0], rgb[1], rgb[2]);
     }
     if (rings) draw_rings(image);
     return image;
@@ -288,16 +268,23 @@ record::RgbImage scatterogram_srgb(const Scatterogram& s, double exposure, bool 
 record::RgbImage scatterogram_difference(const Scatterogram& a, const Scatterogram& b) {
     PLUMAGE_CHECK(a.pixels() == b.pixels() && a.config.wavelengths_nm == b.config.wavelengths_nm,
                   "scatterograms differ in size or wavelengths");
-    const std::vector<double> ya = luminance_and_rgb(a, nullptr), yb = luminance_and_rgb(b, nullptr);
-    const double peak = std::max(1e-300, *std::max_element(ya.begin(), ya.end()));
+    const std::vector<optics::Xyz> xa = pixel_colours(a), xb = pixel_colours(b);
+    double peak = 1e-300;
+    for (const auto& c : xa) peak = std::max(peak, c.y);
     const int n = a.config.image_size;
     record::RgbImage image(n, n);
     for (std::size_t p = 0; p < a.pixels(); ++p) {
-        const std::uint8_t g = byte(std::abs(ya[p] - yb[p]) / peak);
+        const std::uint8_t g = byte(std::abs(xa[p].y - xb[p].y) / peak);
         image.set(static_cast<int>(p % n), static_cast<int>(p / n), g, g, g);
     }
     draw_rings(image);
     return image;
+}
+
+double scatterogram_peak_luminance(const Scatterogram& s) {
+    double peak = 0.0;
+    for (const auto& c : pixel_colours(s)) peak = std::max(peak, c.y);
+    return peak;
 }
 
 void write_scatterogram_record(const Scatterogram& s, const std::filesystem::path& path) {

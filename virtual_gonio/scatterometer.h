@@ -91,6 +91,8 @@ Scatterogram measure_scatterogram(const Scatterer& scatterer, const Scatteromete
 // wavelengths; exposure scales the luminance (exposure ≤ 0: brightest pixel → Y = 1).
 // The ϑ rings are drawn in grey.
 record::RgbImage scatterogram_srgb(const Scatterogram& s, double exposure = 0.0, bool rings = true);
+// Largest pixel luminance Y (D65): a common exposure for images that must compare.
+double scatterogram_peak_luminance(const Scatterogram& s);
 // Pixel-wise |a − b| luminance, normalised to a's brightest pixel (white = 100 %).
 record::RgbImage scatterogram_difference(const Scatterogram& a, const Scatterogram& b);
 
