@@ -7,6 +7,8 @@
 
 #include <benchmark/benchmark.h>
 
+#include "analysis/huang2022.h"
+
 #include "analysis/fibre_baseline.h"
 #include "analysis/filip2024.h"
 #include "analysis/padrongriffe2024.h"
@@ -158,6 +160,19 @@ BENCHMARK(BM_PadronGriffe2024SampleFixedIncident);
 
 // The analytic masking term alone (the exact upper-envelope partition), for
 // random directions.
+// Huang 2022: the visibility intervals are built once per incident direction (kept per
+// thread), then eval integrates the TRT lobe over the hit normals.
+void BM_Huang2022EvalRandom(benchmark::State& state) { eval_random(state, analysis::Huang2022Bsdf({})); }
+BENCHMARK(BM_Huang2022EvalRandom);
+void BM_Huang2022EvalFixedIncident(benchmark::State& state) {
+    eval_fixed_incident(state, analysis::Huang2022Bsdf({}));
+}
+BENCHMARK(BM_Huang2022EvalFixedIncident);
+void BM_Huang2022SampleFixedIncident(benchmark::State& state) {
+    sample_fixed_incident(state, analysis::Huang2022Bsdf({}));
+}
+BENCHMARK(BM_Huang2022SampleFixedIncident);
+
 void BM_PadronGriffe2024Masking(benchmark::State& state) {
     const PadronGriffe2024Masking masking(geometry::BarbulePatchParams{});
     const Pairs& p = pairs();
