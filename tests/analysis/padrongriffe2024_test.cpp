@@ -286,40 +286,9 @@ TEST(PadronGriffe2024Bsdf, ComponentsAreWeightedByTheMaskingFractions) {
               a.fibre_albedos(Bsdf::kBarb, wi, 700.0)[0]);
 }
 
-// Awkward directions: along and across every axis, in the patch plane, and random ones from both
-// hemispheres; every answer must be finite and non-negative, and sample() must stay on the sphere.
-template <typename Model>
-void expect_finite_everywhere(const Model& model) {
-    std::vector<Vec3d> directions = {Vec3d::UnitX(),
-                                     -Vec3d::UnitX(),
-                                     Vec3d::UnitY(),
-                                     -Vec3d::UnitY(),
-                                     Vec3d::UnitZ(),
-                                     -Vec3d::UnitZ(),
-                                     Vec3d(1, 1, 0).normalized(),
-                                     Vec3d(0, 1, 1e-9).normalized()};
-    Rng rng(kDefaultSeed, 990);
-    for (int k = 0; k < 40; ++k)
-        directions.push_back(dir(std::acos(1.0 - 2.0 * rng.uniform()), 2.0 * kPi * rng.uniform()));
-    for (const Vec3d& wi : directions) {
-        const double lambda = 380.0 + 400.0 * rng.uniform();
-        for (const Vec3d& wo : directions) {
-            const double f = model.eval(wi, wo, lambda), p = model.pdf(wi, wo, lambda);
-            ASSERT_TRUE(std::isfinite(f) && f >= 0.0) << wi.transpose() << " | " << wo.transpose();
-            ASSERT_TRUE(std::isfinite(p) && p >= 0.0) << wi.transpose() << " | " << wo.transpose();
-        }
-        for (int k = 0; k < 200; ++k) {
-            const auto e = model.sample(wi, lambda, Vec2(0, 0), rng);
-            if (!e) continue;
-            ASSERT_NEAR(e->wo.norm(), 1.0, 1e-12);
-            ASSERT_TRUE(std::isfinite(e->weight) && e->weight >= 0.0);
-        }
-    }
-}
-
 TEST(PadronGriffe2024Bsdf, FiniteAndNonNegativeForAwkwardDirections) {
     const auto model = Bsdf({});
-    expect_finite_everywhere(model);
+    plumage::testing::expect_finite_everywhere(model);
 }
 
 TEST(PadronGriffe2024Bsdf, RejectsBadParameters) {
