@@ -13,6 +13,8 @@
 #include "studies/default_study.h"
 #include "virtual_gonio/interrupt.h"
 #include "studies/geometry_study.h"
+#include "studies/ablation_study.h"
+#include "studies/extremes_study.h"
 #include "studies/rock_dove_study.h"
 #include "studies/study_file.h"
 #include "studies/thin_film_chart.h"
@@ -68,6 +70,7 @@ int main(int argc, char** argv) {
     std::string run_study;
     auto* run_cmd = app.add_subcommand("run", "run a study file (TOML; studies/*.toml)");
     run_cmd->add_option("STUDY", run_study, "study file, e.g. studies/rock_dove_quick.toml")->required();
+    run_cmd->fallthrough();  // `plumage run FILE --out DIR` as well as `plumage --out DIR run FILE`
 
     std::string geometry_study;
     auto* geometry_cmd = app.add_subcommand(
@@ -106,8 +109,22 @@ int main(int argc, char** argv) {
             // Which study: the top-level `study` key (geometry files use `plumage geometry`).
             auto file = plumage::studies::StudyFile::parse(text, source);
             auto root = file->root();
-            const std::string kind = root.required_string("study", {"rock_dove"}, "which study this file describes");
-            (void)kind;
+            const std::string kind = root.required_string("study", {"rock_dove", "ablation", "extremes"},
+                                                          "which study this file describes");
+            if (kind == "ablation") {
+                const auto r = plumage::studies::run_ablation_study(text, source, output);
+                std::cout << fmt::format("plumage: wrote {} in {:.0f} s ({} values skipped; open report.md)\n",
+                                         r.output_dir.string(), r.wall_seconds, r.skipped);
+                return 0;
+            }
+            if (kind == "extremes") {
+                const auto r = plumage::studies::run_extremes_study(text, source, output);
+                std::cout << fmt::format("plumage: wrote {} in {:.0f} s: numerical violations {}, energy > 1 {}, "
+                                         "energy > 1 by the published model's construction {} (open report.md)\n",
+                                         r.output_dir.string(), r.wall_seconds, r.numerical_violations,
+                                         r.energy_violations, r.by_construction);
+                return 0;
+            }
         }
         const plumage::gonio::ScopedInterruptHandler interrupt;
         limits.interrupt = &interrupt.flag();

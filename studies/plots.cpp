@@ -4,6 +4,7 @@
 
 #include <cstdio>
 #include <cstring>
+#include <fstream>
 
 #include <fmt/format.h>
 
@@ -45,6 +46,22 @@ void run_plot(const std::string& kind, const std::filesystem::path& input,
             "scripts/install-deps.sh installs them)",
             kind, input.string(), WIFEXITED(status) ? WEXITSTATUS(status) : -1, kPython));
     }
+}
+
+void run_plots(const std::vector<PlotJob>& jobs, const std::filesystem::path& job_list) {
+    if (jobs.empty()) return;
+    auto quoted = [](const std::string& s) {
+        std::string q = "\"";
+        for (char c : s) q += c == '"' ? std::string("\"\"") : std::string(1, c);
+        return q + "\"";
+    };
+    {
+        std::ofstream out(job_list);
+        out << "kind,input,png\n";
+        for (const PlotJob& j : jobs) out << quoted(j.kind) << ',' << quoted(j.input.string()) << ',' << quoted(j.png.string()) << '\n';
+        if (!out) throw IoError(fmt::format("cannot write the plot list {}", job_list.string()));
+    }
+    run_plot("batch", job_list, jobs.front().png);
 }
 
 }  // namespace plumage::studies

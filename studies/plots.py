@@ -4,6 +4,10 @@
   plots.py chart H5 PNG          thin-film colour chart with axes (Huang 2022 Fig. 3 style)
   plots.py convergence CSV PNG   estimated and true error against wall time, log-log
   plots.py curves CSV PNG        BRDF against an angle: columns x, then name, name_err pairs
+  plots.py contact_sheet CSV PNG rows of images: columns label, simulation, model (PNG paths), note
+  plots.py sweep_error CSV PNG   model error against a swept parameter: x, error, noise floor, is_base
+  plots.py energy_bars CSV PNG   largest energy per case and scatterer: label, energy, error, status
+  plots.py batch CSV PNG         every plot a CSV lists (columns kind, input, png; PNG unused)
 """
 import csv
 import sys
@@ -12,6 +16,8 @@ import matplotlib
 
 matplotlib.use("Agg")
 import matplotlib.pyplot as plt  # noqa: E402
+
+KINDS = {}  # filled below: kind name -> function(input, png)
 
 
 def spectra(csv_path, png_path):
@@ -100,8 +106,93 @@ def curves(csv_path, png_path):
     fig.savefig(png_path, dpi=120)
 
 
+def contact_sheet(csv_path, png_path):
+    import textwrap
+
+    import matplotlib.image as mpimg
+
+    with open(csv_path, newline="") as f:
+        rows = list(csv.DictReader(f))
+    fig, axes = plt.subplots(len(rows), 2, figsize=(5.2, 2.5 * len(rows)), squeeze=False)
+    for row, (a, b) in zip(rows, axes):
+        for ax, key, title in ((a, "simulation", "simulation"), (b, "model", "Huang model")):
+            ax.set_xticks([])
+            ax.set_yticks([])
+            if row[key]:
+                ax.imshow(mpimg.imread(row[key]), interpolation="nearest")
+            else:
+                for side in ax.spines.values():
+                    side.set_visible(False)
+            if row is rows[0]:
+                ax.set_title(title, fontsize=9)
+        a.set_ylabel(row["label"], fontsize=9)
+        note = row["note"] if row["simulation"] else "\n".join(textwrap.wrap(row["note"], 60))
+        if row["simulation"]:
+            b.set_xlabel(note, fontsize=8)
+        else:
+            a.text(0.02, 0.5, note, transform=a.transAxes, fontsize=7, va="center", ha="left", wrap=True)
+    fig.tight_layout()
+    fig.savefig(png_path, dpi=110)
+
+
+def sweep_error(csv_path, png_path):
+    with open(csv_path, newline="") as f:
+        reader = csv.reader(f)
+        header = next(reader)
+        rows = [[float(v) for v in r] for r in reader]
+    skipped = [r[0] for r in rows if r[1] != r[1]]  # NaN: the value was rejected
+    rows = [r for r in rows if r[1] == r[1]]
+    x = [r[0] for r in rows]
+    fig, ax = plt.subplots(figsize=(6, 3.8))
+    ax.plot(x, [r[1] for r in rows], "o-", label="model error e (simulation as reference)")
+    ax.plot(x, [r[2] for r in rows], "s--", color="grey", ms=3, label="noise floor (perfect model)")
+    if skipped:
+        ax.plot(skipped, [0.0] * len(skipped), "x", color="tab:red", ms=9, mew=2, clip_on=False,
+                label="skipped (geometry or model rejects it)")
+    for r in rows:
+        if r[3] > 0:
+            ax.axvline(r[0], color="k", ls=":", lw=0.8, label="base value")
+    ax.set_xlabel(header[0])
+    ax.set_ylabel("power-weighted relative L1")
+    ax.set_ylim(bottom=0)
+    ax.grid(alpha=0.3)
+    ax.legend(fontsize=8)
+    fig.tight_layout()
+    fig.savefig(png_path, dpi=120)
+
+
+def energy_bars(csv_path, png_path):
+    with open(csv_path, newline="") as f:
+        rows = list(csv.DictReader(f))
+    colours = {"ok": "tab:blue", "by construction": "tab:orange", "violation": "tab:red"}
+    fig, ax = plt.subplots(figsize=(8, 0.22 * len(rows) + 1.2))
+    y = list(range(len(rows)))[::-1]
+    ax.barh(y, [float(r["energy"]) for r in rows], xerr=[float(r["error"]) for r in rows],
+            color=[colours.get(r["status"], "grey") for r in rows], height=0.7, capsize=2)
+    ax.axvline(1.0, color="k", lw=1)
+    ax.set_yticks(y)
+    ax.set_yticklabels([r["label"] for r in rows], fontsize=6)
+    ax.set_xlabel("largest energy, reflected + transmitted (error bars: 4 sigma or quadrature error)")
+    from matplotlib.patches import Patch
+
+    ax.legend(handles=[Patch(color=c, label=s) for s, c in colours.items()], fontsize=7, loc="lower right")
+    ax.grid(alpha=0.3, axis="x")
+    fig.tight_layout()
+    fig.savefig(png_path, dpi=110)
+
+
+def batch(csv_path, _png_path):
+    with open(csv_path, newline="") as f:
+        jobs = list(csv.DictReader(f))
+    for job in jobs:
+        KINDS[job["kind"]](job["input"], job["png"])
+        plt.close("all")
+
+
 if __name__ == "__main__":
-    kinds = {"spectra": spectra, "chart": chart, "convergence": convergence, "curves": curves}
-    if len(sys.argv) != 4 or sys.argv[1] not in kinds:
-        sys.exit("usage: plots.py " + "|".join(kinds) + " INPUT PNG")
-    kinds[sys.argv[1]](sys.argv[2], sys.argv[3])
+    KINDS.update({"spectra": spectra, "chart": chart, "convergence": convergence, "curves": curves,
+                  "contact_sheet": contact_sheet, "sweep_error": sweep_error,
+                  "energy_bars": energy_bars, "batch": batch})
+    if len(sys.argv) != 4 or sys.argv[1] not in KINDS:
+        sys.exit("usage: plots.py " + "|".join(KINDS) + " INPUT PNG")
+    KINDS[sys.argv[1]](sys.argv[2], sys.argv[3])

@@ -1,0 +1,502 @@
+#include "studies/ablation_study.h"
+
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+#include <fstream>
+#include <functional>
+#include <iostream>
+#include <limits>
+#include <map>
+#include <numbers>
+#include <optional>
+
+#include <fmt/format.h>
+
+#include "analysis/huang2022.h"
+#include "common/error.h"
+#include "common/version.h"
+#include "geometry/barbule.h"
+#include "sim/optics/colour.h"
+#include "sim/optics/spectrum.h"
+#include "sim/tracer.h"
+#include "studies/geometry_study.h"
+#include "studies/plots.h"
+#include "studies/staged_directory.h"
+#include "studies/study_file.h"
+#include "virtual_gonio/hdf5_file.h"
+#include "virtual_gonio/scatterometer.h"
+
+namespace plumage::studies {
+namespace {
+
+constexpr double kPi = std::numbers::pi;
+constexpr double kDeg = kPi / 180.0;
+namespace fs = std::filesystem;
+using geometry::BarbuleRowParams;
+
+// One parameter of the sweep: its study-file key, how it reads and writes a row, its
+// valid range (study-file units) and the full variant's default range.
+struct Parameter {
+    const char* key;
+    const char* label;  // for tables and plots
+    const char* what;
+    Range range;
+    double from, to;  // defaults
+    std::function<double(const BarbuleRowParams&)> get;
+    std::function<void(BarbuleRowParams&, double)> set;
+};
+
+const std::vector<Parameter>& parameters() {
+    static const std::vector<Parameter> list = {
+        {"b", "b", "semi-minor / semi-major axis", between(1e-3, 1.0), 0.19, 0.31,
+         [](const BarbuleRowParams& p) { return p.cell.b; }, [](BarbuleRowParams& p, double v) { p.cell.b = v; }},
+        {"phi0_deg", "φ0 (deg)", "arc start, normal azimuth, degrees", between(-360.0, 360.0), -41.2, -1.2,
+         [](const BarbuleRowParams& p) { return p.cell.phi0 / kDeg; },
+         [](BarbuleRowParams& p, double v) { p.cell.phi0 = v * kDeg; }},
+        {"phi1_deg", "φ1 (deg)", "arc end, normal azimuth, degrees", between(-360.0, 360.0), 131.26, 171.26,
+         [](const BarbuleRowParams& p) { return p.cell.phi1 / kDeg; },
+         [](BarbuleRowParams& p, double v) { p.cell.phi1 = v * kDeg; }},
+        {"H", "H", "barbule spacing, in semi-major axes", positive(), 0.95, 2.15,
+         [](const BarbuleRowParams& p) { return p.H; }, [](BarbuleRowParams& p, double v) { p.H = v; }},
+        {"film_thickness_um", "d (µm)", "keratin film thickness, um", between(0.0, 50.0), 0.39, 0.79,
+         [](const BarbuleRowParams& p) { return p.cell.film_thickness_um; },
+         [](BarbuleRowParams& p, double v) { p.cell.film_thickness_um = v; }},
+        {"theta_d_deg", "θ_d (deg)", "longitudinal half-opening, degrees (the model needs > 0)",
+         {0.0, 45.0, true, false}, 0.5, 8.5, [](const BarbuleRowParams& p) { return p.cell.theta_d / kDeg; },
+         [](BarbuleRowParams& p, double v) { p.cell.theta_d = v * kDeg; }},
+        {"mu_deg", "μ (deg)", "barb-plane tilt, degrees", {-90.0, 90.0, true, true}, -40.05, -20.05,
+         [](const BarbuleRowParams& p) { return p.mu / kDeg; }, [](BarbuleRowParams& p, double v) { p.mu = v * kDeg; }},
+    };
+    return list;
+}
+
+struct Sweep {
+    const Parameter* parameter;
+    std::vector<double> values;
+};
+
+struct Settings {
+    BarbuleRowParams row;
+    geometry::TessellationTolerance tolerance;
+    std::vector<double> wavelengths;
+    int image_size = 65;
+    std::uint64_t quanta = 50000;
+    int passes = 1;
+    double beam_incidence = 0.0, beam_azimuth = 0.0, beam_radius_um = 60.0;
+    std::uint64_t seed = kDefaultSeed;
+    std::vector<Sweep> sweeps;
+};
+
+Settings read_settings(StudyFile& file, std::string& name, const fs::path& source) {
+    Settings s;
+    ParameterTable root = file.root();
+    name = root.string("name", source.stem().string(), {}, "results folder name");
+    root.string("study", "ablation", {"ablation"}, "which study this file describes");
+    s.seed = static_cast<std::uint64_t>(root.integer("seed", static_cast<long>(kDefaultSeed), 0, 1L << 62, "random seed"));
+    ParameterTable geometry = root.table("geometry");
+    s.row = read_barbule_row_params(geometry);
+    s.tolerance = read_tolerance(geometry.table("tessellation"));
+    ParameterTable spectrum = root.table("spectrum");
+    const double first = spectrum.number("first_nm", 400.0, between(360.0, 830.0), "first wavelength, nm");
+    const double last = spectrum.number("last_nm", 700.0, between(360.0, 830.0), "last wavelength, nm");
+    const double step = spectrum.number("step_nm", 50.0, positive(), "wavelength step, nm");
+    if (last < first) {
+        throw InputError(fmt::format("{}: spectrum.last_nm = {} is below first_nm = {}", spectrum.location("last_nm"), last, first));
+    }
+    for (double l = first; l <= last + 1e-9; l += step) s.wavelengths.push_back(l);
+    if (s.wavelengths.size() < 2) {
+        throw InputError(fmt::format("{}: [spectrum] gives {} wavelength: expected at least 2 for colour",
+                                     spectrum.location(), s.wavelengths.size()));
+    }
+    ParameterTable sc = root.table("scatterometer");
+    s.image_size = static_cast<int>(sc.integer("image_size", s.image_size, 17, 1025, "pixels across the scatterogram"));
+    s.quanta = static_cast<std::uint64_t>(sc.integer("quanta_per_pass", static_cast<long>(s.quanta), 1000, 100000000, "quanta per wavelength and pass"));
+    s.passes = static_cast<int>(sc.integer("passes", s.passes, 1, 1000, "passes"));
+    s.beam_incidence = sc.angle_deg("beam_incidence_deg", s.beam_incidence, between(0.0, 80.0), "beam polar angle");
+    s.beam_azimuth = sc.angle_deg("beam_azimuth_deg", s.beam_azimuth, between(-360.0, 360.0), "beam azimuth from the barb axis");
+    s.beam_radius_um = sc.number("beam_radius_um", s.beam_radius_um, positive(), "beam radius, um");
+    ParameterTable sweep = root.table("sweep");
+    const long default_values = sweep.integer("values", 5, 0, 50, "values per parameter (0: no sweeps)");
+    for (const Parameter& p : parameters()) {
+        ParameterTable t = sweep.table(p.key);
+        const double from = t.number("from", p.from, p.range, p.what);
+        const double to = t.number("to", p.to, p.range, p.what);
+        const long n = t.integer("values", default_values, 0, 50, "values of this parameter (0: leave it out)");
+        if (to < from) {
+            throw InputError(fmt::format("{}: sweep.{}.to = {} is below from = {}: expected from <= to", t.location("to"),
+                                         p.key, to, from));
+        }
+        if (n == 0) continue;
+        Sweep w{&p, {}};
+        for (long i = 0; i < n; ++i) w.values.push_back(n == 1 ? from : from + (to - from) * static_cast<double>(i) / static_cast<double>(n - 1));
+        s.sweeps.push_back(std::move(w));
+    }
+    root.reject_unused();
+    return s;
+}
+
+analysis::Huang2022Params model_params(const BarbuleRowParams& row) {
+    analysis::Huang2022Params p;
+    p.b = row.cell.b;
+    p.phi0 = row.cell.phi0;
+    p.phi1 = row.cell.phi1;
+    p.theta_d = row.cell.theta_d;
+    p.H = row.H;
+    p.mu = row.mu;
+    p.d_um = row.cell.film_thickness_um;
+    return p;
+}
+
+// The numbers of one simulation–model pair of scatterograms.
+AblationPoint compare(const gonio::Scatterogram& sim, const gonio::Scatterogram& mod) {
+    AblationPoint r;
+    const std::size_t nl = sim.config.wavelengths_nm.size();
+    double diff = 0.0, power_sim = 0.0, power_mod = 0.0, noise = 0.0;
+    for (std::size_t i = 0; i < sim.pixels() * nl; ++i) {
+        const double omega = sim.solid_angle_sr[i / nl];
+        diff += std::abs(mod.intensity[i] - sim.intensity[i]) * omega;
+        power_sim += sim.intensity[i] * omega;
+        power_mod += mod.intensity[i] * omega;
+        noise += sim.standard_error[i] * omega;
+    }
+    // A perfect model differs from the simulation by its noise alone: E|N(0, σ)| = σ √(2/π).
+    r.relative_l1 = power_sim > 0.0 ? diff / power_sim : std::numeric_limits<double>::infinity();
+    r.relative_l1_model_reference = power_mod > 0.0 ? diff / power_mod : std::numeric_limits<double>::infinity();
+    r.noise_floor = power_sim > 0.0 ? std::sqrt(2.0 / kPi) * noise / power_sim : 0.0;
+    r.simulated_reflected = power_sim / static_cast<double>(nl);
+    r.model_reflected = power_mod / static_cast<double>(nl);
+    for (std::size_t k = 0; k < nl; ++k) {
+        r.simulated_transmitted += sim.transmitted[k] / static_cast<double>(nl);
+        r.model_transmitted += mod.transmitted[k] / static_cast<double>(nl);
+    }
+    return r;
+}
+
+double peak_luminance(const gonio::Scatterogram& s) {
+    const std::size_t nl = s.config.wavelengths_nm.size();
+    const optics::ReflectanceToXyz to_xyz(optics::WavelengthGrid(s.config.wavelengths_nm), optics::Illuminant::d65);
+    double peak = 0.0;
+    for (std::size_t p = 0; p < s.pixels(); ++p) {
+        if (s.solid_angle_sr[p] <= 0.0) continue;
+        peak = std::max(peak, to_xyz(std::span<const double>(s.intensity.data() + p * nl, nl)).y);
+    }
+    return peak;
+}
+
+std::string csv_field(const std::string& s) {
+    std::string quoted = "\"";
+    for (char c : s) quoted += c == '"' ? std::string("\"\"") : std::string(1, c);
+    return quoted + "\"";
+}
+
+std::string format_value(double v) { return fmt::format("{:.4g}", v); }
+
+// Folder-safe name of a value: "0.22", "-31.2".
+std::string file_tag(std::size_t index, double v) { return fmt::format("{:02d}_{:.4g}", index, v); }
+
+}  // namespace
+
+const AblationPoint* AblationResult::base() const {
+    for (const auto& p : points)
+        if (p.is_base) return &p;
+    return nullptr;
+}
+
+AblationResult run_ablation_study(const std::string& study_text, const fs::path& source_name,
+                                  const fs::path& results_root, bool progress) {
+    const auto start = std::chrono::steady_clock::now();
+    auto file = StudyFile::parse(study_text, source_name);
+    std::string name;
+    const Settings s = read_settings(*file, name, source_name);
+    auto elapsed = [&] { return std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count(); };
+    auto say = [&](const std::string& what) {
+        if (progress) std::cerr << fmt::format("plumage: [{:6.1f} s] {}\n", elapsed(), what);
+    };
+
+    gonio::ScatterometerConfig config;
+    config.illumination = gonio::Illumination::beam;
+    config.beam_direction = {std::sin(s.beam_incidence) * std::cos(s.beam_azimuth),
+                             std::sin(s.beam_incidence) * std::sin(s.beam_azimuth), std::cos(s.beam_incidence)};
+    config.image_size = s.image_size;
+    config.wavelengths_nm = s.wavelengths;
+    config.beam_radius_um = s.beam_radius_um;
+    config.seed = s.seed;
+    config.quanta_per_pass = s.quanta;
+    config.max_passes = s.passes;
+    config.config_text = study_text;
+
+    // One value: the explicit patch and the model of the same parameters, or the reason
+    // the geometry or the model refuses them.
+    struct Measured {
+        std::optional<gonio::Scatterogram> sim, mod;
+        std::string reason;
+    };
+    auto measure = [&](const BarbuleRowParams& params) {
+        Measured m;
+        geometry::BarbuleRow row;
+        try {
+            row = geometry::build_barbule_row(params, s.tolerance);
+        } catch (const InputError& e) {
+            m.reason = fmt::format("the geometry rejects it: {}", e.what());
+            return m;
+        }
+        std::optional<analysis::Huang2022Bsdf> model;
+        try {
+            model.emplace(model_params(params));
+        } catch (const InputError& e) {
+            m.reason = fmt::format("the model rejects it: {}", e.what());
+            return m;
+        }
+        // The beam's footprint must lie on the patch, or the simulation loses light off its edge.
+        const Eigen::AlignedBox3d box = row.bounds();
+        const double footprint = s.beam_radius_um / std::cos(s.beam_incidence);
+        const double half_width = 0.5 * std::min(box.sizes().x(), box.sizes().y());
+        if (footprint > 0.8 * half_width) {
+            m.reason = fmt::format("the beam's footprint ({:.0f} um) overfills the patch ({:.0f} x {:.0f} um): "
+                                   "more barbules or cells, or a narrower beam",
+                                   footprint, box.sizes().x(), box.sizes().y());
+            return m;
+        }
+        const sim::ExplicitScatterer simulation(sim::barbule_row_scene(row));
+        m.sim = gonio::measure_scatterogram(simulation, config);
+        m.mod = gonio::measure_scatterogram(*model, config);
+        return m;
+    };
+
+    StagedDirectory out(results_root / name);
+    const fs::path dir = out.path();
+    fs::create_directories(dir / "base");
+
+    // The base values first: every sweep passes through them, and their model's
+    // brightest pixel sets the one exposure of every image.
+    say("base values (the study's [geometry]): simulation and model");
+    Measured base = measure(s.row);
+    if (!base.sim) throw InputError(fmt::format("{}: [geometry] (the base of every sweep): {}", source_name.string(), base.reason));
+    AblationPoint base_point = compare(*base.sim, *base.mod);
+    const double peak = peak_luminance(*base.mod);
+    const double exposure = peak > 0.0 ? 1.0 / peak : 1.0;
+    record::write_png(dir / "base" / "simulation.png", gonio::scatterogram_srgb(*base.sim, exposure));
+    record::write_png(dir / "base" / "model.png", gonio::scatterogram_srgb(*base.mod, exposure));
+    gonio::write_scatterogram_record(*base.sim, dir / "base" / "simulation.h5");
+    gonio::write_scatterogram_record(*base.mod, dir / "base" / "model.h5");
+    const double base_seconds = elapsed();
+    base.sim.reset();
+    base.mod.reset();
+
+    AblationResult result;
+    std::string sections, summary =
+        "| parameter | values | skipped | e at the base value | smallest e | largest e |\n|---|---|---|---|---|---|\n";
+    std::string skipped_list;
+    // One line per parameter for "What the sweeps show", ordered by the largest excess of
+    // the error over its noise floor.
+    std::vector<std::pair<double, std::string>> findings;
+    std::ofstream all_csv(dir / "errors.csv");
+    all_csv << "parameter,value,is_base,skipped,relative_l1,noise_floor,relative_l1_model_reference,simulated_reflected,"
+               "model_reflected,simulated_transmitted,model_transmitted,reason\n";
+    record::Hdf5Writer h5(dir / "ablation.h5");
+    h5.set_attribute("/", "description",
+                     "Huang 2022 model against the explicit barbule patch, one parameter at a time: per parameter the "
+                     "swept values and the model's power-weighted relative L1 error of the beam scatterogram, "
+                     "simulation as reference (NaN: value skipped)");
+    h5.set_attribute("/", "plumage_version", kVersion);
+
+    std::vector<PlotJob> plots;  // drawn at the end, with one interpreter start
+    for (const Sweep& sweep : s.sweeps) {
+        const Parameter& p = *sweep.parameter;
+        const double base_value = p.get(s.row);
+        const fs::path pdir = dir / p.key;
+        fs::create_directories(pdir);
+        std::ofstream sheet(pdir / "sheet.csv"), error_csv(pdir / "error.csv");
+        sheet << "label,simulation,model,note\n";
+        error_csv << csv_field(p.label) << ",relative L1 (simulation reference),noise floor,is_base\n";
+        std::string table = fmt::format("| {} | e | noise floor | e (model reference) | reflected, simulation | "
+                                        "reflected, model | below, simulation | below, model |\n|---|---|---|---|---|---|---|---|\n",
+                                        p.label);
+        std::vector<double> h5_values, h5_l1, h5_floor;
+        const AblationPoint* smallest = nullptr;
+        const AblationPoint* largest = nullptr;
+        const AblationPoint* at_base = nullptr;
+        int skipped = 0;
+        const std::size_t first_point = result.points.size();
+        for (std::size_t i = 0; i < sweep.values.size(); ++i) {
+            const double v = sweep.values[i];
+            AblationPoint point;
+            std::string sim_png, mod_png;
+            // The base value, up to the rounding of a study file's decimals (Huang's
+            // −0.37 rad is −21.1994°, 0.0785 rad 4.4977°; a file that writes −21.2 or 4.5
+            // means them): within 1 % of the sweep's step.
+            const double step = sweep.values.size() > 1 ? sweep.values[1] - sweep.values[0] : 0.0;
+            if (std::abs(v - base_value) <= std::max(0.01 * step, 1e-9 * std::max(1.0, std::abs(base_value)))) {
+                point = base_point;
+                point.is_base = true;
+                sim_png = (dir / "base" / "simulation.png").string();
+                mod_png = (dir / "base" / "model.png").string();
+            } else {
+                BarbuleRowParams params = s.row;
+                p.set(params, v);
+                say(fmt::format("{} = {}: simulation and model", p.key, format_value(v)));
+                const Measured m = measure(params);
+                if (m.sim) {
+                    point = compare(*m.sim, *m.mod);
+                    const std::string tag = file_tag(i, v);
+                    sim_png = (pdir / (tag + "_simulation.png")).string();
+                    mod_png = (pdir / (tag + "_model.png")).string();
+                    record::write_png(sim_png, gonio::scatterogram_srgb(*m.sim, exposure));
+                    record::write_png(mod_png, gonio::scatterogram_srgb(*m.mod, exposure));
+                } else {
+                    point.skipped = true;
+                    point.reason = m.reason;
+                    say(fmt::format("{} = {}: skipped ({})", p.key, format_value(v), m.reason));
+                }
+            }
+            point.parameter = p.key;
+            point.value = point.is_base ? base_value : v;
+            result.points.push_back(point);
+            const std::string label = fmt::format("{} = {}{}", p.label, format_value(point.value), point.is_base ? " (base)" : "");
+            all_csv << fmt::format("{},{:.9g},{},{},{:.6g},{:.6g},{:.6g},{:.6g},{:.6g},{:.6g},{:.6g},{}\n", p.key, point.value,
+                                   point.is_base ? 1 : 0, point.skipped ? 1 : 0, point.relative_l1, point.noise_floor,
+                                   point.relative_l1_model_reference, point.simulated_reflected, point.model_reflected,
+                                   point.simulated_transmitted, point.model_transmitted, csv_field(point.reason));
+            h5_values.push_back(point.value);
+            if (point.skipped) {
+                ++skipped;
+                sheet << fmt::format("{},,,{}\n", csv_field(label), csv_field("skipped: " + point.reason));
+                error_csv << fmt::format("{:.9g},nan,nan,0\n", v);
+                table += fmt::format("| {} | skipped: {} | | | | | | |\n", format_value(v), point.reason);
+                skipped_list += fmt::format("- {} = {}: {}\n", p.label, format_value(v), point.reason);
+                h5_l1.push_back(std::numeric_limits<double>::quiet_NaN());
+                h5_floor.push_back(std::numeric_limits<double>::quiet_NaN());
+                continue;
+            }
+            sheet << fmt::format("{},{},{},{}\n", csv_field(label), csv_field(sim_png), csv_field(mod_png),
+                                 csv_field(fmt::format("e = {:.3f} (noise floor {:.3f})", point.relative_l1, point.noise_floor)));
+            error_csv << fmt::format("{:.9g},{:.6g},{:.6g},{}\n", point.value, point.relative_l1, point.noise_floor, point.is_base ? 1 : 0);
+            table += fmt::format("| {}{} | {:.3f} | {:.3f} | {:.3f} | {:.4f} | {:.4f} | {:.4f} | {:.4f} |\n", format_value(point.value),
+                                 point.is_base ? " (base)" : "", point.relative_l1, point.noise_floor,
+                                 point.relative_l1_model_reference, point.simulated_reflected, point.model_reflected,
+                                 point.simulated_transmitted, point.model_transmitted);
+            h5_l1.push_back(point.relative_l1);
+            h5_floor.push_back(point.noise_floor);
+        }
+        sheet.close();
+        error_csv.close();
+        for (std::size_t k = first_point; k < result.points.size(); ++k) {
+            const AblationPoint& q = result.points[k];
+            if (q.skipped) continue;
+            if (!smallest || q.relative_l1 < smallest->relative_l1) smallest = &q;
+            if (!largest || q.relative_l1 > largest->relative_l1) largest = &q;
+            if (q.is_base) at_base = &q;
+        }
+        result.skipped += skipped;
+        h5.write(std::string(p.key) + "/value", std::span<const double>(h5_values), {h5_values.size()},
+                 {{"units", "study-file units (degrees for angles, um for the film)"}});
+        h5.write(std::string(p.key) + "/relative_l1", std::span<const double>(h5_l1), {h5_l1.size()},
+                 {{"description", "sum |I_model - I_sim| Omega / sum I_sim Omega over pixels and wavelengths"}});
+        h5.write(std::string(p.key) + "/noise_floor", std::span<const double>(h5_floor), {h5_floor.size()},
+                 {{"description", "relative L1 a perfect model would show: sqrt(2/pi) sum sigma_sim Omega / sum I_sim Omega"}});
+        if (smallest) {
+            plots.push_back({"contact_sheet", pdir / "sheet.csv", pdir / "contact_sheet.png"});
+            plots.push_back({"sweep_error", pdir / "error.csv", pdir / "error.png"});
+        }
+        if (smallest) {
+            const AblationPoint* most = nullptr;
+            double t_sim_lo = 1.0, t_sim_hi = 0.0, t_mod_lo = 1.0, t_mod_hi = 0.0;
+            for (std::size_t k = first_point; k < result.points.size(); ++k) {
+                const AblationPoint& q = result.points[k];
+                if (q.skipped) continue;
+                if (!most || q.relative_l1 - q.noise_floor > most->relative_l1 - most->noise_floor) most = &q;
+                t_sim_lo = std::min(t_sim_lo, q.simulated_transmitted), t_sim_hi = std::max(t_sim_hi, q.simulated_transmitted);
+                t_mod_lo = std::min(t_mod_lo, q.model_transmitted), t_mod_hi = std::max(t_mod_hi, q.model_transmitted);
+            }
+            std::string line = fmt::format("- **{}**: e {:.3f} at {} to {:.3f} at {} (noise floors {:.3f} and {:.3f});", p.label,
+                                           smallest->relative_l1, format_value(smallest->value), largest->relative_l1,
+                                           format_value(largest->value), smallest->noise_floor, largest->noise_floor);
+            if (at_base) line += fmt::format(" e − floor {:.3f} at the base value,", at_base->relative_l1 - at_base->noise_floor);
+            line += fmt::format(" largest {:.3f} at {}.", most->relative_l1 - most->noise_floor, format_value(most->value));
+            if (std::max(t_sim_hi, t_mod_hi) > 0.01) {
+                line += fmt::format(" Light below the patch: simulation {:.3f}–{:.3f}, model {:.3f}–{:.3f}.", t_sim_lo,
+                                    t_sim_hi, t_mod_lo, t_mod_hi);
+            }
+            findings.emplace_back(most->relative_l1 - most->noise_floor, line);
+        }
+        auto at = [&](const AblationPoint* q) {
+            return q ? fmt::format("{:.3f} at {}", q->relative_l1, format_value(q->value)) : std::string("—");
+        };
+        summary += fmt::format("| [{}](#{}) | {}–{} ({}) | {} | {} | {} | {} |\n", p.label, p.key, format_value(sweep.values.front()),
+                               format_value(sweep.values.back()), sweep.values.size(), skipped,
+                               at_base ? fmt::format("{:.3f}", at_base->relative_l1) : std::string("(not swept)"),
+                               at(smallest), at(largest));
+        sections += fmt::format("<a id=\"{}\"></a>\n## {} ({})\n\n", p.key, p.label, p.what);
+        if (smallest) {
+            sections += fmt::format("![model error against {}]({}/error.png)\n\n"
+                                    "Rows: values of {}; columns: simulation | Huang model (one exposure for every image: "
+                                    "white = the brightest pixel of the base model).\n\n![contact sheet]({}/contact_sheet.png)\n\n",
+                                    p.label, p.key, p.label, p.key);
+        } else {
+            sections += "Every value was skipped; nothing to plot.\n\n";
+        }
+        sections += table + "\n";
+    }
+    all_csv.close();
+    h5.commit();
+    say(fmt::format("plots: {} figures", plots.size()));
+    run_plots(plots, dir / "plots.csv");
+    fs::remove(dir / "plots.csv");
+
+    result.wall_seconds = elapsed();
+    {
+        const auto& c = s.row.cell;
+        std::ofstream report(dir / "report.md");
+        report << "# Ablation: Huang et al. 2022 against explicit barbules, one parameter at a time\n\n"
+               << fmt::format("Each parameter of the barbule model is swept alone; all others keep the base values "
+                              "(the study's [geometry], Huang's rock-dove fit unless changed): b = {}, φ0 = {:.2f}°, "
+                              "φ1 = {:.2f}°, H = {}, d = {} µm, θ_d = {:.2f}°, μ = {:.2f}°; cells {} µm long, semi-major "
+                              "axis {} µm, melanin {} µm under the film; {} barbules × {} cells. For every value the "
+                              "explicit patch is traced and the model evaluated under the same beam (incidence {:.0f}°, "
+                              "azimuth {:.0f}°, radius {} µm), imaged by the same scatterometer ({} × {} pixels, {} "
+                              "wavelengths {}–{} nm, {} quanta per wavelength).\n\n",
+                              c.b, c.phi0 / kDeg, c.phi1 / kDeg, s.row.H, c.film_thickness_um, c.theta_d / kDeg,
+                              s.row.mu / kDeg, c.cell_length_um, c.semi_major_um, c.melanin_depth_um, s.row.barbules,
+                              s.row.cells_per_barbule, s.beam_incidence / kDeg, s.beam_azimuth / kDeg, s.beam_radius_um,
+                              s.image_size, s.image_size, s.wavelengths.size(), s.wavelengths.front(), s.wavelengths.back(),
+                              s.quanta * static_cast<std::uint64_t>(s.passes))
+               << "**Model error** e = Σ|I_model − I_sim| Ω / Σ I_sim Ω over pixels and wavelengths: the power-weighted "
+                  "relative L1 difference of the two scatterograms with the simulation as reference (0: identical; 1: "
+                  "as large as all the simulated light). The **noise floor** is the e a perfect model would show "
+                  "against this many simulated quanta, √(2/π) Σ σ_sim Ω / Σ I_sim Ω; an e near it is Monte Carlo noise, "
+                  "not model error. *e (model reference)* divides by the model's power instead, as the rock-dove "
+                  "study's tables do.\n\n"
+               << fmt::format("Base values: e = {:.3f} (noise floor {:.3f}); reflected {:.4f} (simulation) and {:.4f} "
+                              "(model) of the beam's power.\n\n![base: simulation](base/simulation.png) "
+                              "![base: model](base/model.png)\n\n",
+                              base_point.relative_l1, base_point.noise_floor, base_point.simulated_reflected,
+                              base_point.model_reflected)
+               << "## Summary\n\n" << summary << "\n";
+        std::sort(findings.begin(), findings.end(), [](const auto& a, const auto& b) { return a.first > b.first; });
+        report << "## What the sweeps show\n\nParameters in order of the largest excess of the model error over its "
+                  "noise floor, e − floor (a rough gauge, not a bound, of the part of the error that more quanta would not remove):\n\n";
+        for (const auto& f : findings) report << f.second << "\n";
+        report << "\nWhere e − floor stays near its base value across a sweep, the model follows the parameter as the "
+                  "explicit barbules do; where it grows, the model's approximations (one film reflection and one melanin "
+                  "bounce, Eq. 7's normal distribution of short cells, no light between neighbours but the straight T "
+                  "lobe) lose accuracy in that direction. The tables below give every value.\n\n";
+        if (!skipped_list.empty()) {
+            report << "**Skipped values** (the geometry or the model refuses them; the sweep goes on without them):\n\n"
+                   << skipped_list << "\n";
+        } else {
+            report << "No value was skipped.\n\n";
+        }
+        report << sections
+               << fmt::format("---\nRun time {:.0f} s (base values {:.1f} s; plumage {}). Every number is in errors.csv "
+                              "and ablation.h5; the base scatterograms as records (virtual_gonio/RECORD.md) in base/.\n",
+                              result.wall_seconds, base_seconds, kVersion);
+        if (!report) throw IoError("cannot write report.md");
+    }
+    out.commit();
+    result.output_dir = out.final_path();
+    say("done: " + (result.output_dir / "report.md").string());
+    return result;
+}
+
+}  // namespace plumage::studies

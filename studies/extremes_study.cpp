@@ -1,0 +1,681 @@
+#include "studies/extremes_study.h"
+
+#include <omp.h>
+
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+#include <fstream>
+#include <functional>
+#include <iostream>
+#include <memory>
+#include <numbers>
+
+#include <fmt/format.h>
+
+#include "analysis/energy.h"
+#include "analysis/filip2024.h"
+#include "analysis/huang2022.h"
+#include "analysis/lambertian.h"
+#include "common/error.h"
+#include "common/version.h"
+#include "geometry/barbule.h"
+#include "sim/optics/material.h"
+#include "sim/tracer.h"
+#include "studies/plots.h"
+#include "studies/staged_directory.h"
+#include "studies/study_file.h"
+#include "virtual_gonio/hdf5_file.h"
+
+namespace plumage::studies {
+namespace {
+
+constexpr double kPi = std::numbers::pi;
+constexpr double kDeg = kPi / 180.0;
+namespace fs = std::filesystem;
+using geometry::BarbuleRowParams;
+
+// Energy > 1 must exceed these many standard errors of the sampled mean to count.
+constexpr double kEnergySigmas = 4.0;
+// A quadrature energy counts when its error estimate is at most this share of max(1, value).
+constexpr double kResolvedQuadrature = 0.05;
+
+struct Settings {
+    std::uint64_t seed = kDefaultSeed;
+    std::uint64_t quanta = 20000;
+    double polar_step = 40.0 * kDeg, max_polar = 80.0 * kDeg, azimuth_step = 90.0 * kDeg;
+    std::vector<double> wavelengths;
+    int grid_rings = 8;
+    int albedo_polar_cells = 16;
+    int barbules = 16, cells_per_barbule = 8;
+    double relative_chord = 0.002;
+    double max_normal_error = 2.0 * kDeg;
+};
+
+Settings read_settings(StudyFile& file, std::string& name, const fs::path& source) {
+    Settings s;
+    ParameterTable root = file.root();
+    name = root.string("name", source.stem().string(), {}, "results folder name");
+    root.string("study", "extremes", {"extremes"}, "which study this file describes");
+    s.seed = static_cast<std::uint64_t>(root.integer("seed", static_cast<long>(kDefaultSeed), 0, 1L << 62, "random seed"));
+    ParameterTable sampling = root.table("sampling");
+    s.quanta = static_cast<std::uint64_t>(sampling.integer("quanta", static_cast<long>(s.quanta), 100, 100000000,
+                                                           "quanta per case, scatterer, incident direction and wavelength"));
+    ParameterTable incidence = root.table("incidence");
+    s.polar_step = incidence.angle_deg("polar_step_deg", s.polar_step, {0.0, 90.0, true, false}, "step of the incident polar angles");
+    s.max_polar = incidence.angle_deg("max_polar_deg", s.max_polar, {0.0, 90.0, false, true}, "largest regular incident polar angle (grazing cases add 89 and 89.9)");
+    s.azimuth_step = incidence.angle_deg("azimuth_step_deg", s.azimuth_step, {0.0, 360.0, true, false}, "step of the incident azimuths");
+    ParameterTable spectrum = root.table("spectrum");
+    const double first = spectrum.number("first_nm", 450.0, between(380.0, 780.0), "first wavelength, nm (Filip 2024 is defined on 380-780 nm)");
+    const double last = spectrum.number("last_nm", 650.0, between(380.0, 780.0), "last wavelength, nm");
+    const double step = spectrum.number("step_nm", 100.0, positive(), "wavelength step, nm");
+    if (last < first) throw InputError(fmt::format("{}: spectrum.last_nm = {} is below first_nm = {}", spectrum.location("last_nm"), last, first));
+    for (double l = first; l <= last + 1e-9; l += step) s.wavelengths.push_back(l);
+    ParameterTable evaluation = root.table("evaluation");
+    s.grid_rings = static_cast<int>(evaluation.integer("grid_rings", s.grid_rings, 1, 256, "polar rings of the eval()/pdf() check grid per hemisphere"));
+    s.albedo_polar_cells = static_cast<int>(evaluation.integer("albedo_polar_cells", s.albedo_polar_cells, 2, 256, "polar cells of the albedo quadrature (analysis/energy.h)"));
+    ParameterTable tracer = root.table("tracer");
+    s.barbules = static_cast<int>(tracer.integer("barbules", s.barbules, 1, 10000, "barbules in each explicit row"));
+    s.cells_per_barbule = static_cast<int>(tracer.integer("cells_per_barbule", s.cells_per_barbule, 1, 10000, "cells along each barbule"));
+    s.relative_chord = tracer.number("relative_chord", s.relative_chord, {0.0, 0.1, true, false}, "largest facet-to-surface distance, in semi-major axes");
+    s.max_normal_error = tracer.angle_deg("max_normal_error_deg", s.max_normal_error, {0.0, 28.0, true, false}, "largest facet-normal error");
+    root.reject_unused();
+    return s;
+}
+
+Vec3d polar(double theta, double phi) {
+    return {std::sin(theta) * std::cos(phi), std::sin(theta) * std::sin(phi), std::cos(theta)};
+}
+
+// A scatterer of one case, built on demand (building may throw InputError: rejected).
+struct Built {
+    std::shared_ptr<const Scatterer> scatterer;
+    // Where quanta are aimed (µm): points uniform in this box; each enters the tracer's
+    // top plane (at entry_z) upstream of its point, so that grazing light reaches the
+    // structure instead of skimming over it. Models: a point at the origin.
+    Eigen::Vector3d lo = Eigen::Vector3d::Zero(), hi = Eigen::Vector3d::Zero();
+    double entry_z = 0.0;
+};
+struct Entry {
+    std::string label;
+    std::function<Built()> build;
+    bool published_model = false;  // Filip's published presets: energy > 1 by construction
+};
+struct Case {
+    std::string name;
+    std::string description;
+    std::vector<Vec3d> incidence;
+    std::vector<Entry> entries;
+};
+
+// Per (incident direction, wavelength): what sampling found.
+struct SampleTally {
+    double sum = 0.0, sum_sq = 0.0;
+    long nan = 0, inf = 0, negative = 0, malformed = 0, mismatches = 0, max_events = 0;
+    std::string failure;
+    void add(const SampleTally& o) {
+        sum += o.sum, sum_sq += o.sum_sq, nan += o.nan, inf += o.inf, negative += o.negative;
+        malformed += o.malformed, mismatches += o.mismatches, max_events += o.max_events;
+        if (failure.empty()) failure = o.failure;
+    }
+};
+
+void count_value(double v, long& nan, long& inf, long& negative) {
+    if (std::isnan(v)) ++nan;
+    else if (std::isinf(v)) ++inf;
+    else if (v < 0.0) ++negative;
+}
+
+void count_vector(const Eigen::Ref<const Eigen::VectorXd>& v, long& nan, long& inf) {
+    for (Eigen::Index i = 0; i < v.size(); ++i) {
+        if (std::isnan(v[i])) return void(++nan);
+        if (std::isinf(v[i])) return void(++inf);
+    }
+}
+
+std::string exception_text(const std::exception& e) {
+    if (dynamic_cast<const InputError*>(&e)) return std::string("InputError: ") + e.what();
+    if (dynamic_cast<const InvariantError*>(&e)) return std::string("InvariantError: ") + e.what();
+    return e.what();
+}
+
+// `count` quanta from wi at λ, stream (seed, first + q), aimed at points uniform in b's
+// box and entering the top plane upstream of them. Fixed chunks summed in order: the
+// same numbers for any thread count.
+SampleTally play(const Built& b, const Vec3d& wi, double lambda, std::uint64_t seed, std::uint64_t first,
+                 std::uint64_t count) {
+    const Scatterer& scatterer = *b.scatterer;
+    const auto* tracer = dynamic_cast<const sim::ExplicitScatterer*>(&scatterer);
+    const long lobes = static_cast<long>(scatterer.lobe_names().size());
+    constexpr std::uint64_t kChunk = 256;
+    const long chunks = static_cast<long>((count + kChunk - 1) / kChunk);
+    std::vector<SampleTally> parts(static_cast<std::size_t>(chunks));
+#pragma omp parallel for schedule(dynamic)
+    for (long c = 0; c < chunks; ++c) {
+        SampleTally& t = parts[static_cast<std::size_t>(c)];
+        try {
+            const std::uint64_t end = std::min(count, (static_cast<std::uint64_t>(c) + 1) * kChunk);
+            for (std::uint64_t q = static_cast<std::uint64_t>(c) * kChunk; q < end; ++q) {
+                Rng rng(seed, first + q);
+                Eigen::Vector3d aim;
+                for (int k = 0; k < 3; ++k) aim[k] = b.lo[k] + rng.uniform() * (b.hi[k] - b.lo[k]);
+                const double climb = (b.entry_z - aim.z()) / wi.z();
+                const Vec2 position(aim.x() + climb * wi.x(), aim.y() + climb * wi.y());
+                std::optional<ScatterEvent> event;
+                if (tracer) {
+                    const sim::PathResult path = tracer->trace(wi, lambda, position, rng);
+                    t.mismatches += path.medium_mismatches;
+                    t.max_events += path.reached_max_events ? 1 : 0;
+                    event = path.event;
+                } else {
+                    event = scatterer.sample(wi, lambda, position, rng);
+                }
+                if (!event) continue;  // absorbed: weight 0
+                const double w = event->weight;
+                const long bad = t.nan + t.inf + t.negative;
+                count_value(w, t.nan, t.inf, t.negative);
+                if (t.nan + t.inf + t.negative == bad) t.sum += w, t.sum_sq += w * w;
+                const long before = t.nan + t.inf;
+                count_vector(event->wo, t.nan, t.inf);
+                count_vector(event->exit_position_um, t.nan, t.inf);
+                if (t.nan + t.inf == before && std::abs(event->wo.norm() - 1.0) > 1e-6) ++t.malformed;
+                if (event->lobe < 0 || event->lobe >= lobes) ++t.malformed;
+            }
+        } catch (const std::exception& e) {
+            t.failure = exception_text(e);
+        }
+    }
+    SampleTally total;
+    for (const auto& p : parts) total.add(p);
+    return total;
+}
+
+// Per (incident direction, wavelength): eval() and pdf() on the check grid, and the
+// energy by quadrature (+ the discrete T lobe of the Huang model).
+struct EvalTally {
+    long values = 0, nan = 0, inf = 0, negative = 0;
+    double energy = 0.0, energy_error = 0.0;
+    std::string failure;
+};
+
+std::vector<Vec3d> check_directions(const Vec3d& wi, int rings) {
+    std::vector<Vec3d> out;
+    for (double sign : {1.0, -1.0}) {
+        for (int r = 0; r < rings; ++r) {
+            const double theta = (r + 0.5) / rings * 0.5 * kPi;
+            for (int a = 0; a < 2 * rings; ++a) {
+                Vec3d w = polar(theta, (a + 0.25) * kPi / rings);
+                w.z() *= sign;
+                out.push_back(w);
+            }
+        }
+    }
+    // Where lobes are narrow or the formulas divide: mirror, retro, straight through,
+    // the normals and the horizon.
+    const double phi_i = std::atan2(wi.y(), wi.x());
+    out.push_back(Vec3d(-wi.x(), -wi.y(), wi.z()));
+    out.push_back(wi);
+    out.push_back(-wi);
+    out.push_back(Vec3d::UnitZ());
+    out.push_back(-Vec3d::UnitZ());
+    out.push_back(Vec3d(std::cos(phi_i + kPi), std::sin(phi_i + kPi), 1e-9).normalized());
+    out.push_back(Vec3d(std::cos(phi_i), std::sin(phi_i), 1e-9).normalized());
+    return out;
+}
+
+EvalTally evaluate(const Scatterer& scatterer, const Vec3d& wi, double lambda, const Settings& s) {
+    EvalTally t;
+    try {
+        std::vector<double> per_lobe(scatterer.lobe_names().size());
+        for (const Vec3d& wo : check_directions(wi, s.grid_rings)) {
+            const double f = scatterer.eval(wi, wo, lambda, per_lobe);
+            count_value(f, t.nan, t.inf, t.negative);
+            for (double v : per_lobe) count_value(v, t.nan, t.inf, t.negative);
+            count_value(scatterer.pdf(wi, wo, lambda), t.nan, t.inf, t.negative);
+            t.values += 2 + static_cast<long>(per_lobe.size());
+        }
+        const analysis::AlbedoEstimate a = analysis::directional_albedo(scatterer, wi, lambda, s.albedo_polar_cells);
+        double discrete = 0.0;
+        if (const auto* huang = dynamic_cast<const analysis::Huang2022Bsdf*>(&scatterer)) discrete = huang->t_lobe_mass(wi);
+        t.energy = a.value + discrete;
+        t.energy_error = a.error_estimate;
+        count_value(t.energy, t.nan, t.inf, t.negative);
+        count_value(t.energy_error, t.nan, t.inf, t.negative);
+        ++t.values;
+    } catch (const std::exception& e) {
+        t.failure = exception_text(e);
+    }
+    return t;
+}
+
+analysis::Huang2022Params huang_params(const BarbuleRowParams& row) {
+    analysis::Huang2022Params p;
+    p.b = row.cell.b;
+    p.phi0 = row.cell.phi0;
+    p.phi1 = row.cell.phi1;
+    p.theta_d = row.cell.theta_d;
+    p.H = row.H;
+    p.mu = row.mu;
+    p.d_um = row.cell.film_thickness_um;
+    return p;
+}
+
+// A spacing just clear of interpenetration (at least the rock dove's 1.25).
+double clear_spacing(const geometry::BarbuleCellParams& cell, double mu) {
+    return std::max(1.25, 1.02 * geometry::minimum_spacing(cell, mu));
+}
+
+}  // namespace
+
+ExtremesResult run_extremes_study(const std::string& study_text, const fs::path& source_name,
+                                  const fs::path& results_root, bool progress) {
+    const auto start = std::chrono::steady_clock::now();
+    auto file = StudyFile::parse(study_text, source_name);
+    std::string name;
+    const Settings s = read_settings(*file, name, source_name);
+    auto elapsed = [&] { return std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count(); };
+    auto say = [&](const std::string& what) {
+        if (progress) std::cerr << fmt::format("plumage: [{:6.1f} s] {}\n", elapsed(), what);
+    };
+
+    // Incident directions: the regular grid, and the grazing ones at its azimuths.
+    const std::vector<Vec3d> regular = analysis::hemisphere_grid(s.polar_step, s.max_polar, s.azimuth_step);
+    auto grazing = [&](double theta_deg) {
+        std::vector<Vec3d> out;
+        for (double phi = 0.0; phi < 2.0 * kPi - 1e-9; phi += s.azimuth_step) out.push_back(polar(theta_deg * kDeg, phi));
+        return out;
+    };
+
+    // The scatterers.
+    BarbuleRowParams rock_dove;  // Huang's rock-dove fit (geometry/barbule.h defaults)
+    rock_dove.barbules = s.barbules;
+    rock_dove.cells_per_barbule = s.cells_per_barbule;
+    auto huang = [](const BarbuleRowParams& p) {
+        return Entry{"Huang 2022", [p] { return Built{std::make_shared<analysis::Huang2022Bsdf>(huang_params(p))}; }};
+    };
+    auto tracer = [&s](const BarbuleRowParams& p, sim::BarbuleRowMaterials materials = {}, std::string label = "explicit barbules") {
+        return Entry{std::move(label), [p, materials, &s] {
+                         geometry::TessellationTolerance tolerance;
+                         tolerance.max_chord_um = s.relative_chord * p.cell.semi_major_um;
+                         tolerance.max_normal_error_rad = s.max_normal_error;
+                         const geometry::BarbuleRow row = geometry::build_barbule_row(p, tolerance);
+                         const Eigen::AlignedBox3d box = row.bounds();
+                         auto traced = std::make_shared<sim::ExplicitScatterer>(sim::barbule_row_scene(row, materials));
+                         // Aimed at the middle half of the patch (away from its edges), at
+                         // every height of the structure.
+                         Eigen::Vector3d half = 0.25 * box.sizes();
+                         half.z() = 0.5 * box.sizes().z();
+                         return Built{traced, box.center() - half, box.center() + half, traced->top_z_um()};
+                     }};
+    };
+    auto filip = [](const std::string& preset) {
+        return Entry{"Filip 2024 " + preset,
+                     [preset] {
+                         return Built{std::make_shared<analysis::Filip2024Brdf>(analysis::filip2024_preset(preset),
+                                                                                "filip2024 " + preset)};
+                     },
+                     true};
+    };
+    auto lambertian = [](double albedo) {
+        return Entry{fmt::format("Lambertian ρ = {}", albedo),
+                     [albedo] { return Built{std::make_shared<analysis::LambertianScatterer>(albedo)}; }};
+    };
+    auto every_scatterer = [&](const BarbuleRowParams& p) {
+        std::vector<Entry> list = {huang(p)};
+        for (std::string_view preset : analysis::filip2024_preset_names()) list.push_back(filip(std::string(preset)));
+        list.push_back(lambertian(0.8));
+        list.push_back(lambertian(1.0));
+        list.push_back(tracer(p));
+        return list;
+    };
+    auto with = [&](const std::function<void(BarbuleRowParams&)>& change) {
+        BarbuleRowParams p = rock_dove;
+        change(p);
+        return p;
+    };
+
+    std::vector<Case> cases;
+    cases.push_back({"reference", "the rock dove (Huang's fit), the Filip presets, Lambertian reflectors", regular, every_scatterer(rock_dove)});
+    cases.push_back({"grazing 89°", "light at 89° from the normal", grazing(89.0), every_scatterer(rock_dove)});
+    cases.push_back({"grazing 89.9°", "light at 89.9° from the normal", grazing(89.9), every_scatterer(rock_dove)});
+    {
+        const auto p = with([](BarbuleRowParams& q) { q.cell.film_thickness_um = 0.0; });
+        cases.push_back({"film d = 0", "no keratin film: the film reflects nothing", regular, {huang(p), tracer(p)}});
+    }
+    {
+        const auto p = with([](BarbuleRowParams& q) { q.cell.film_thickness_um = 50.0; });
+        cases.push_back({"film d = 50 µm", "a thick coherent film: dense Airy fringes", regular, {huang(p), tracer(p)}});
+    }
+    {
+        // A strip: the arc's smallest radius of curvature b²A = 1e-5 µm leaves no room
+        // for a longitudinal arc or a deeper melanin layer in the explicit cell.
+        const auto p = with([](BarbuleRowParams& q) { q.cell.b = 1e-3; });
+        const auto strip = with([](BarbuleRowParams& q) {
+            q.cell.b = 1e-3;
+            q.cell.theta_d = 0.0;
+            q.cell.melanin_depth_um = 0.5e-6 * q.cell.semi_major_um;
+        });
+        cases.push_back({"b = 1e-3", "a flat strip. Explicit cells straight (θ_d = 0) with the melanin 5e-6 µm "
+                                     "under the film: the edges' radius of curvature b²A = 1e-5 µm leaves no room for "
+                                     "more. That gap is below the tracer's spawn offset (about 1e-4 µm at 50 µm from "
+                                     "the origin, sim/scene.h): light crosses the melanin unseen and leaves below, "
+                                     "finite and energy-bounded but geometrically wrong, where the model keeps its TRT",
+                         regular, {huang(p), tracer(strip)}});
+    }
+    {
+        auto p = with([](BarbuleRowParams& q) { q.cell.b = 1.0; });
+        p.H = clear_spacing(p.cell, p.mu);
+        cases.push_back({"b = 1", fmt::format("circular arcs (H = {:.3f}: clear of interpenetration)", p.H), regular,
+                         {huang(p), tracer(p)}});
+    }
+    {
+        const auto p = with([](BarbuleRowParams& q) { q.cell.phi1 = q.cell.phi0 + 1e-4; });
+        cases.push_back({"φ1 − φ0 = 1e-4 rad", "a sliver of arc: almost all light passes", regular, {huang(p), tracer(p)}});
+    }
+    for (double span : {kPi, 2.0 * kPi}) {
+        auto p = with([span](BarbuleRowParams& q) { q.cell.phi1 = q.cell.phi0 + span; });
+        p.H = clear_spacing(p.cell, p.mu);
+        cases.push_back({span < 4.0 ? "φ1 − φ0 = π" : "φ1 − φ0 = 2π",
+                         fmt::format("{} (H = {:.3f})", span < 4.0 ? "half an ellipse" : "a closed ellipse", p.H), regular,
+                         {huang(p), tracer(p)}});
+    }
+    {
+        const auto p = with([](BarbuleRowParams& q) { q.H = 0.3; });
+        cases.push_back({"H = 0.3 (overlap)", "barbules closer than their width: the model takes it, the geometry "
+                                              "refuses interpenetrating barbules",
+                         regular, {huang(p), tracer(p)}});
+        auto limit = rock_dove;
+        limit.H = 1.001 * geometry::minimum_spacing(limit.cell, limit.mu);
+        cases.push_back({"H at the interpenetration limit", fmt::format("H = {:.4f}, 1.001 × the smallest spacing", limit.H),
+                         regular, {huang(limit), tracer(limit)}});
+    }
+    {
+        const auto p = with([](BarbuleRowParams& q) { q.H = 20.0; });
+        cases.push_back({"H = 20 (gaps)", "barbules far apart: most light passes between them", regular, {huang(p), tracer(p)}});
+    }
+    {
+        const auto p = with([](BarbuleRowParams& q) { q.cell.theta_d = 1e-4; });
+        cases.push_back({"θ_d = 1e-4 rad", "an almost flat longitudinal profile: a needle-thin lobe in θ", regular,
+                         {huang(p), tracer(p)}});
+    }
+    for (double mu_deg : {80.0, -80.0}) {
+        const auto p = with([mu_deg](BarbuleRowParams& q) { q.mu = mu_deg * kDeg; });
+        cases.push_back({fmt::format("μ = {:+.0f}°", mu_deg), "the barb plane tilted almost on edge", regular, {huang(p), tracer(p)}});
+    }
+    {
+        sim::BarbuleRowMaterials dark;
+        dark.film = std::make_shared<optics::ConstantMaterial>("n = 1.55 + 10i", std::complex<double>(1.55, 10.0));
+        dark.melanin = sim::constant_albedo(0.0);
+        cases.push_back({"strong absorption", "a k = 10 film over black melanin (the Huang model has no absorption "
+                                              "parameter); a black Lambertian reflector",
+                         regular, {tracer(rock_dove, dark, "explicit barbules, k = 10 film"), lambertian(0.0)}});
+    }
+    for (double a : {0.5, 500.0}) {
+        auto p = rock_dove;
+        p.cell.semi_major_um = a;
+        p.cell.cell_length_um = 2.0 * a;
+        p.cell.melanin_depth_um = 0.03 * a;
+        cases.push_back({fmt::format("semi-major axis {} µm", a),
+                         "every length scaled but the film's 0.59 µm (the Huang model is scale-free: not applicable)",
+                         regular, {tracer(p)}});
+    }
+    {
+        analysis::Filip2024Parameters edge = analysis::filip2024_preset("parrot");
+        edge.d_w = 0.001;
+        edge.gamma = 50.0;
+        edge.theta_max_rad = 1.0 * kDeg;
+        cases.push_back({"Filip at its range edges", "the parrot preset with a hard mask (d_w = 0.001), γ = 50, θmax = 1°",
+                         regular,
+                         {Entry{"Filip 2024 parrot, edges", [edge] {
+                                    return Built{std::make_shared<analysis::Filip2024Brdf>(edge, "filip2024 edges")};
+                                }}}});
+    }
+
+    ExtremesResult result;
+    std::uint64_t stream = 0;
+    for (const Case& c : cases) {
+        for (const Entry& e : c.entries) {
+            ExtremesRow row;
+            row.case_name = c.name;
+            row.scatterer = e.label;
+            say(fmt::format("{}: {}", c.name, e.label));
+            Built built;
+            try {
+                built = e.build();
+            } catch (const InputError& err) {
+                row.rejected = true;
+                row.rejection = err.what();
+                result.rows.push_back(row);
+                continue;
+            }
+            const Scatterer& sc = *built.scatterer;
+            const std::size_t items = c.incidence.size() * s.wavelengths.size();
+            // Sampling: parallel over quanta inside play().
+            bool first_energy = true;
+            std::vector<double> item_mean(items), item_se(items);
+            for (std::size_t it = 0; it < items; ++it) {
+                const Vec3d& wi = c.incidence[it / s.wavelengths.size()];
+                const double lambda = s.wavelengths[it % s.wavelengths.size()];
+                const SampleTally t = play(built, wi, lambda, s.seed, (++stream) << 32, s.quanta);
+                row.samples += s.quanta;
+                row.nan += t.nan, row.inf += t.inf, row.negative += t.negative, row.malformed += t.malformed;
+                row.medium_mismatches += t.mismatches, row.reached_max_events += t.max_events;
+                if (row.failure.empty() && !t.failure.empty()) row.failure = t.failure;
+                const double n = static_cast<double>(s.quanta);
+                const double mean = t.sum / n;
+                const double se = std::sqrt(std::max(0.0, t.sum_sq / n - mean * mean) / (n - 1.0));
+                item_mean[it] = mean, item_se[it] = se;
+                if (mean - kEnergySigmas * se - 1e-9 > 1.0) row.energy_excess = true;
+                if (first_energy || mean > row.energy) {
+                    first_energy = false;
+                    row.energy = mean, row.energy_error = se, row.energy_lambda_nm = lambda;
+                    row.energy_theta_deg = std::acos(std::clamp(wi.z(), -1.0, 1.0)) / kDeg;
+                    row.energy_phi_deg = std::atan2(wi.y(), wi.x()) / kDeg;
+                }
+            }
+            // Evaluation: parallel over (direction, wavelength).
+            if (sc.can_evaluate()) {
+                row.evaluated = true;
+                std::vector<EvalTally> evals(items);
+#pragma omp parallel for schedule(dynamic)
+                for (long it = 0; it < static_cast<long>(items); ++it) {
+                    const std::size_t i = static_cast<std::size_t>(it);
+                    evals[i] = evaluate(sc, c.incidence[i / s.wavelengths.size()], s.wavelengths[i % s.wavelengths.size()], s);
+                }
+                bool first = true;
+                for (std::size_t it = 0; it < items; ++it) {
+                    const EvalTally& t = evals[it];
+                    row.evaluations += static_cast<std::uint64_t>(t.values);
+                    row.nan += t.nan, row.inf += t.inf, row.negative += t.negative;
+                    if (row.failure.empty() && !t.failure.empty()) row.failure = t.failure;
+                    if (!t.failure.empty() || !std::isfinite(t.energy)) continue;
+                    ++row.eval_items;
+                    if (t.energy_error > kResolvedQuadrature * std::max(1.0, t.energy)) {
+                        ++row.eval_unresolved;
+                        continue;
+                    }
+                    if (t.energy - t.energy_error - 1e-6 > 1.0) row.energy_excess = true;
+                    if (std::abs(t.energy - item_mean[it]) <= kEnergySigmas * item_se[it] + t.energy_error + 0.01) ++row.eval_agreeing;
+                    if (first || t.energy > row.eval_energy) {
+                        first = false;
+                        const Vec3d& wi = c.incidence[it / s.wavelengths.size()];
+                        row.eval_energy = t.energy, row.eval_energy_error = t.energy_error;
+                        row.eval_lambda_nm = s.wavelengths[it % s.wavelengths.size()];
+                        row.eval_theta_deg = std::acos(std::clamp(wi.z(), -1.0, 1.0)) / kDeg;
+                        row.eval_phi_deg = std::atan2(wi.y(), wi.x()) / kDeg;
+                    }
+                }
+            }
+            row.by_construction = row.energy_excess && e.published_model;
+            result.rows.push_back(row);
+        }
+    }
+    for (const auto& r : result.rows) {
+        result.numerical_violations += r.numerical_violation() ? 1 : 0;
+        result.energy_violations += r.energy_violation() ? 1 : 0;
+        result.by_construction += r.energy_excess && r.by_construction ? 1 : 0;
+        result.rejected += r.rejected ? 1 : 0;
+    }
+
+    // Outputs.
+    StagedDirectory out(results_root / name);
+    const fs::path dir = out.path();
+    auto status = [](const ExtremesRow& r) -> std::string {
+        if (r.rejected) return "rejected (input)";
+        if (r.numerical_violation()) return "**NUMERICAL FAILURE**";
+        if (r.energy_violation()) return "**ENERGY > 1**";
+        if (r.by_construction) return "energy > 1 by construction";
+        return "ok";
+    };
+    auto resolved = [](const ExtremesRow& r) { return !r.rejected && r.evaluated && r.eval_items > r.eval_unresolved; };
+    auto where = [](double theta, double phi, double lambda) {
+        return fmt::format("θ {:.1f}°, φ {:.0f}°, {:.0f} nm", theta, phi, lambda);
+    };
+    std::string table =
+        "| case | scatterer | status | quanta | values checked | NaN | Inf | negative | malformed | energy, sampled ± σ "
+        "(where) | energy, eval ± quadrature error (where) | tracer: medium mismatches, max-event paths |\n"
+        "|---|---|---|---|---|---|---|---|---|---|---|---|\n";
+    std::ofstream csv(dir / "extremes.csv");
+    csv << "case,scatterer,status,quanta,values_checked,nan,inf,negative,malformed,energy,energy_error,theta_deg,phi_deg,"
+           "lambda_nm,eval_energy,eval_energy_error,medium_mismatches,max_event_paths,failure_or_rejection\n";  // -1: n/a
+    std::ofstream bars(dir / "energy.csv");
+    bars << "label,energy,error,status\n";
+    std::vector<double> h5_energy, h5_error, h5_eval, h5_eval_error, h5_flags;
+    auto quote = [](const std::string& t) {
+        std::string q = "\"";
+        for (char ch : t) q += ch == '"' ? std::string("\"\"") : std::string(1, ch);
+        return q + "\"";
+    };
+    for (const auto& r : result.rows) {
+        const std::string st = status(r);
+        if (r.rejected) {
+            table += fmt::format("| {} | {} | {} | — | — | — | — | — | — | {} | | |\n", r.case_name, r.scatterer, st, r.rejection);
+        } else {
+            table += fmt::format(
+                "| {} | {} | {} | {} | {} | {} | {} | {} | {} | {:.4f} ± {:.4f} ({}) | {} | {} |\n", r.case_name, r.scatterer,
+                st, r.samples, r.evaluations, r.nan, r.inf, r.negative, r.malformed, r.energy, r.energy_error,
+                where(r.energy_theta_deg, r.energy_phi_deg, r.energy_lambda_nm),
+                !r.evaluated ? std::string("— (no eval)")
+                : r.eval_unresolved == r.eval_items
+                    ? fmt::format("unresolved ({} of {})", r.eval_unresolved, r.eval_items)
+                    : fmt::format("{:.4f} ± {:.4f} ({}); agrees with sampling in {} of {}{}", r.eval_energy,
+                                  r.eval_energy_error, where(r.eval_theta_deg, r.eval_phi_deg, r.eval_lambda_nm),
+                                  r.eval_agreeing, r.eval_items - r.eval_unresolved,
+                                  r.eval_unresolved > 0 ? fmt::format(", {} unresolved", r.eval_unresolved) : std::string()),
+                r.scatterer.rfind("explicit", 0) == 0 ? fmt::format("{}, {}", r.medium_mismatches, r.reached_max_events)
+                                                      : std::string("—"));
+            if (!r.failure.empty()) table += fmt::format("| | ↳ failure: {} | | | | | | | | | | |\n", r.failure);
+            const double quadrature = resolved(r) ? r.eval_energy : 0.0;
+            bars << fmt::format("{},{:.6g},{:.6g},{}\n", quote(r.case_name + " · " + r.scatterer), std::max(r.energy, quadrature),
+                                r.energy >= quadrature ? kEnergySigmas * r.energy_error : r.eval_energy_error,
+                                r.energy_violation() ? "violation" : r.by_construction ? "by construction" : "ok");
+        }
+        csv << fmt::format("{},{},{},{},{},{},{},{},{},{:.9g},{:.3g},{:.3f},{:.3f},{:.1f},{:.9g},{:.3g},{},{},{}\n",
+                           quote(r.case_name), quote(r.scatterer), quote(st), r.samples, r.evaluations, r.nan, r.inf,
+                           r.negative, r.malformed, r.energy, r.energy_error, r.energy_theta_deg, r.energy_phi_deg,
+                           r.energy_lambda_nm, resolved(r) ? r.eval_energy : -1.0, resolved(r) ? r.eval_energy_error : -1.0,
+                           r.medium_mismatches, r.reached_max_events, quote(r.rejected ? r.rejection : r.failure));
+        h5_energy.push_back(r.rejected ? std::nan("") : r.energy);
+        h5_error.push_back(r.rejected ? std::nan("") : r.energy_error);
+        h5_eval.push_back(resolved(r) ? r.eval_energy : std::nan(""));
+        h5_eval_error.push_back(resolved(r) ? r.eval_energy_error : std::nan(""));
+        h5_flags.push_back(r.rejected ? -1.0 : r.numerical_violation() ? 1.0 : r.energy_violation() ? 2.0 : r.by_construction ? 3.0 : 0.0);
+    }
+    csv.close();
+    bars.close();
+    run_plot("energy_bars", dir / "energy.csv", dir / "energy.png");
+    {
+        record::Hdf5Writer h5(dir / "extremes.h5");
+        const std::vector<std::uint64_t> dims = {h5_energy.size()};
+        h5.write("energy/sampled", std::span<const double>(h5_energy), dims, {{"description", "largest mean quantum weight over incident directions and wavelengths, per row of extremes.csv (NaN: rejected)"}});
+        h5.write("energy/sampled_standard_error", std::span<const double>(h5_error), dims, {{"description", "its standard error"}});
+        h5.write("energy/evaluated", std::span<const double>(h5_eval), dims, {{"description", "largest resolved directional albedo by quadrature plus discrete lobes (NaN: no eval, none resolved, or rejected)"}});
+        h5.write("energy/evaluated_error", std::span<const double>(h5_eval_error), dims, {{"description", "quadrature error estimate"}});
+        h5.write("status", std::span<const double>(h5_flags), dims, {{"description", "0 ok, 1 numerical failure, 2 energy > 1, 3 energy > 1 by the published model's construction, -1 rejected input"}});
+        h5.set_attribute("/", "rows", "in the order of extremes.csv (case, scatterer)");
+        h5.set_attribute("/", "plumage_version", kVersion);
+        h5.commit();
+    }
+
+    std::string numerical = "none", energy = "none", construction, rejected;
+    if (result.numerical_violations > 0) {
+        numerical = fmt::format("{} (see the rows marked NUMERICAL FAILURE)", result.numerical_violations);
+    }
+    if (result.energy_violations > 0) energy = fmt::format("{} (see the rows marked ENERGY > 1)", result.energy_violations);
+    for (const auto& r : result.rows) {
+        if (r.by_construction) {
+            construction += fmt::format("- {}, {}: sampled {:.3f} ± {:.3f} ({}){}\n", r.scatterer, r.case_name, r.energy,
+                                        r.energy_error, where(r.energy_theta_deg, r.energy_phi_deg, r.energy_lambda_nm),
+                                        resolved(r) ? fmt::format("; by quadrature {:.3f} ± {:.3f} ({})", r.eval_energy, r.eval_energy_error,
+                                                                  where(r.eval_theta_deg, r.eval_phi_deg, r.eval_lambda_nm))
+                                                    : std::string());
+        }
+        if (r.rejected) rejected += fmt::format("- {}, {}: {}\n", r.scatterer, r.case_name, r.rejection);
+    }
+    std::string case_list;
+    for (const Case& c : cases) {
+        std::string who;
+        for (const Entry& e : c.entries) who += (who.empty() ? "" : ", ") + e.label;
+        case_list += fmt::format("- **{}** — {}; {} incident directions. Scatterers: {}.\n", c.name, c.description,
+                                 c.incidence.size(), who);
+    }
+    result.wall_seconds = elapsed();
+    {
+        std::ofstream report(dir / "report.md");
+        report << "# Extremes: stiff and extreme parameters through every scatterer\n\n"
+               << fmt::format("**Numerical violations** (NaN, Inf, negative values, malformed events, unexpected "
+                              "exceptions): {}.\n\n**Energy > 1** beyond its error, other than by a published model's "
+                              "construction: {}.\n\n",
+                              numerical, energy)
+               << "**Energy > 1 by construction of the published parameters** (the model's, not a numerical failure; "
+                  "analysis/filip2024.h explains why: the Filip 2024 BRDF has no energy normalisation, and the "
+                  "flamingo and stork presets add a retro-reflective term the size of the background, the rooster's "
+                  "specular highlight grows as E^12 at grazing light):\n\n"
+               << (construction.empty() ? std::string("none\n") : construction) << "\n"
+               << "**Rejected inputs** (InputError naming the parameter, as designed; not failures):\n\n"
+               << (rejected.empty() ? std::string("none\n") : rejected) << "\n"
+               << "## Method\n\n"
+               << fmt::format("For every case, scatterer, incident direction and wavelength ({} wavelengths, {}–{} nm): "
+                              "{} quanta through sample(), each event checked (finite weight ≥ 0, unit direction, lobe in "
+                              "range, finite exit position); energy = mean weight (absorbed quanta count 0) ± its standard "
+                              "error σ. Scatterers that evaluate f: eval() per lobe and pdf() on {} × {} directions per "
+                              "hemisphere plus the mirror, retro, straight-through, normal and horizon directions, every "
+                              "value checked; energy by quadrature = directional albedo (analysis/energy.h, {} polar cells) "
+                              "plus the Huang model's discrete T lobe, ± the quadrature's error estimate (the change from "
+                              "half the cells). Energy > 1 counts when it exceeds 1 by more than {:.0f} σ (sampled) or the "
+                              "quadrature error (evaluated). The table shows the largest energy over the directions and "
+                              "wavelengths and where it occurs. The quadrature resolves smooth f (Filip, Lambertian) but not "
+                              "the Huang model's R lobe where it narrows to a spike (grazing light, θ_d → 0, the b = 1e-3 "
+                              "strip): a quadrature counts only when its error estimate is at most {:.0f} % of max(1, value); "
+                              "the others are counted as unresolved and the sampled energy is the measure there. Per row, "
+                              "the table counts the resolved items whose quadrature energy agrees with the sampled one "
+                              "(within 4 σ + the quadrature error + 0.01): a coarse grid can miss a narrow lobe at both "
+                              "resolutions and look resolved while under-estimating it (the Huang R lobe at grazing light "
+                              "with few cells); with cells enough, the Huang model's sample() and eval() agree "
+                              "(tests/analysis/huang2022_test.cpp). "
+                              "Explicit rows: {} barbules "
+                              "× {} cells, facets within {} semi-major axes of the surface; quanta are aimed at points "
+                              "spread over the middle half of the patch and the structure's whole height, entering the "
+                              "tracer's top plane upstream of them, so that grazing light reaches the barbules instead of "
+                              "skimming over the patch.\n\n",
+                              s.wavelengths.size(), s.wavelengths.front(), s.wavelengths.back(), s.quanta, s.grid_rings,
+                              2 * s.grid_rings, s.albedo_polar_cells, kEnergySigmas, 100.0 * kResolvedQuadrature,
+                              s.barbules, s.cells_per_barbule,
+                              s.relative_chord)
+               << "## Cases\n\n" << case_list << "\n"
+               << "## Results\n\n![largest energy per case and scatterer](energy.png)\n\n" << table << "\n"
+               << "Medium mismatches (explicit rows) count rays that arrived on a side of a surface they did not leave "
+                  "into: where features are thinner than the tracer's single-precision spawn offset (the 5e-6 µm "
+                  "melanin gap of the b = 1e-3 strip, the 500 µm barbules far from the origin), paths are geometrically "
+                  "approximate but stay finite and energy-bounded (sim/scene.h); they are reported, not failures.\n\n"
+               << fmt::format("---\nRun time {:.0f} s (plumage {}). Every number: extremes.csv, extremes.h5.\n",
+                              result.wall_seconds, kVersion);
+        if (!report) throw IoError("cannot write report.md");
+    }
+    out.commit();
+    result.output_dir = out.final_path();
+    say("done: " + (result.output_dir / "report.md").string());
+    return result;
+}
+
+}  // namespace plumage::studies
