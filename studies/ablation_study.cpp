@@ -23,6 +23,7 @@
 #include "studies/geometry_study.h"
 #include "studies/plots.h"
 #include "studies/staged_directory.h"
+#include "studies/study_common.h"
 #include "studies/study_file.h"
 #include "virtual_gonio/hdf5_file.h"
 #include "virtual_gonio/scatterometer.h"
@@ -136,17 +137,6 @@ Settings read_settings(StudyFile& file, std::string& name, const fs::path& sourc
     return s;
 }
 
-analysis::Huang2022Params model_params(const BarbuleRowParams& row) {
-    analysis::Huang2022Params p;
-    p.b = row.cell.b;
-    p.phi0 = row.cell.phi0;
-    p.phi1 = row.cell.phi1;
-    p.theta_d = row.cell.theta_d;
-    p.H = row.H;
-    p.mu = row.mu;
-    p.d_um = row.cell.film_thickness_um;
-    return p;
-}
 
 // The numbers of one simulation–model pair of scatterograms.
 AblationPoint compare(const gonio::Scatterogram& sim, const gonio::Scatterogram& mod) {
@@ -171,17 +161,6 @@ AblationPoint compare(const gonio::Scatterogram& sim, const gonio::Scatterogram&
         r.model_transmitted += mod.transmitted[k] / static_cast<double>(nl);
     }
     return r;
-}
-
-double peak_luminance(const gonio::Scatterogram& s) {
-    const std::size_t nl = s.config.wavelengths_nm.size();
-    const optics::ReflectanceToXyz to_xyz(optics::WavelengthGrid(s.config.wavelengths_nm), optics::Illuminant::d65);
-    double peak = 0.0;
-    for (std::size_t p = 0; p < s.pixels(); ++p) {
-        if (s.solid_angle_sr[p] <= 0.0) continue;
-        peak = std::max(peak, to_xyz(std::span<const double>(s.intensity.data() + p * nl, nl)).y);
-    }
-    return peak;
 }
 
 std::string csv_field(const std::string& s) {
@@ -243,7 +222,7 @@ AblationResult run_ablation_study(const std::string& study_text, const fs::path&
         }
         std::optional<analysis::Huang2022Bsdf> model;
         try {
-            model.emplace(model_params(params));
+            model.emplace(huang_params_of(params));
         } catch (const InputError& e) {
             m.reason = fmt::format("the model rejects it: {}", e.what());
             return m;
@@ -274,7 +253,7 @@ AblationResult run_ablation_study(const std::string& study_text, const fs::path&
     Measured base = measure(s.row);
     if (!base.sim) throw InputError(fmt::format("{}: [geometry] (the base of every sweep): {}", source_name.string(), base.reason));
     AblationPoint base_point = compare(*base.sim, *base.mod);
-    const double peak = peak_luminance(*base.mod);
+    const double peak = gonio::scatterogram_peak_luminance(*base.mod);
     const double exposure = peak > 0.0 ? 1.0 / peak : 1.0;
     record::write_png(dir / "base" / "simulation.png", gonio::scatterogram_srgb(*base.sim, exposure));
     record::write_png(dir / "base" / "model.png", gonio::scatterogram_srgb(*base.mod, exposure));

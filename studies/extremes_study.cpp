@@ -24,6 +24,7 @@
 #include "sim/tracer.h"
 #include "studies/plots.h"
 #include "studies/staged_directory.h"
+#include "studies/study_common.h"
 #include "studies/study_file.h"
 #include "virtual_gonio/hdf5_file.h"
 
@@ -83,9 +84,6 @@ Settings read_settings(StudyFile& file, std::string& name, const fs::path& sourc
     return s;
 }
 
-Vec3d polar(double theta, double phi) {
-    return {std::sin(theta) * std::cos(phi), std::sin(theta) * std::sin(phi), std::cos(theta)};
-}
 
 // A scatterer of one case, built on demand (building may throw InputError: rejected).
 struct Built {
@@ -248,19 +246,6 @@ EvalTally evaluate(const Scatterer& scatterer, const Vec3d& wi, double lambda, c
     return t;
 }
 
-analysis::Huang2022Params huang_params(const BarbuleRowParams& row) {
-    analysis::Huang2022Params p;
-    p.b = row.cell.b;
-    p.phi0 = row.cell.phi0;
-    p.phi1 = row.cell.phi1;
-    p.theta_d = row.cell.theta_d;
-    p.H = row.H;
-    p.mu = row.mu;
-    p.d_um = row.cell.film_thickness_um;
-    return p;
-}
-
-// A spacing just clear of interpenetration (at least the rock dove's 1.25).
 double clear_spacing(const geometry::BarbuleCellParams& cell, double mu) {
     return std::max(1.25, 1.02 * geometry::minimum_spacing(cell, mu));
 }
@@ -291,7 +276,7 @@ ExtremesResult run_extremes_study(const std::string& study_text, const fs::path&
     rock_dove.barbules = s.barbules;
     rock_dove.cells_per_barbule = s.cells_per_barbule;
     auto huang = [](const BarbuleRowParams& p) {
-        return Entry{"Huang 2022", [p] { return Built{std::make_shared<analysis::Huang2022Bsdf>(huang_params(p))}; }};
+        return Entry{"Huang 2022", [p] { return Built{std::make_shared<analysis::Huang2022Bsdf>(huang_params_of(p))}; }};
     };
     auto tracer = [&s](const BarbuleRowParams& p, sim::BarbuleRowMaterials materials = {}, std::string label = "explicit barbules") {
         return Entry{std::move(label), [p, materials, &s] {

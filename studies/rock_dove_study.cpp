@@ -19,6 +19,7 @@
 #include "studies/geometry_study.h"
 #include "studies/plots.h"
 #include "studies/staged_directory.h"
+#include "studies/study_common.h"
 #include "studies/study_file.h"
 #include "virtual_gonio/direction_sets.h"
 #include "virtual_gonio/goniometer.h"
@@ -104,62 +105,6 @@ Settings read_settings(StudyFile& file, std::string& name, const fs::path& sourc
     return s;
 }
 
-analysis::Huang2022Params model_params(const geometry::BarbuleRowParams& row) {
-    analysis::Huang2022Params p;
-    p.b = row.cell.b;
-    p.phi0 = row.cell.phi0;
-    p.phi1 = row.cell.phi1;
-    p.theta_d = row.cell.theta_d;
-    p.H = row.H;
-    p.mu = row.mu;
-    p.d_um = row.cell.film_thickness_um;
-    return p;
-}
-
-record::RgbImage side_by_side(const std::vector<const record::RgbImage*>& images) {
-    int width = 0, height = 0;
-    for (const auto* im : images) width += im->width + 6, height = std::max(height, im->height);
-    record::RgbImage out(width - 6, height);
-    out.fill(255, 255, 255);
-    int x0 = 0;
-    for (const auto* im : images) {
-        for (int y = 0; y < im->height; ++y)
-            for (int x = 0; x < im->width; ++x) {
-                const std::size_t i = (static_cast<std::size_t>(y) * im->width + x) * 3;
-                out.set(x0 + x, y, im->pixels[i], im->pixels[i + 1], im->pixels[i + 2]);
-            }
-        x0 += im->width + 6;
-    }
-    return out;
-}
-
-// Σ|a − b| Ω / Σ b Ω over pixels and wavelengths, for one lobe (or all when lobe < 0).
-double image_relative_l1(const gonio::Scatterogram& a, const gonio::Scatterogram& b, int lobe_a, int lobe_b) {
-    const std::size_t n = a.pixels() * a.config.wavelengths_nm.size();
-    const auto& va = lobe_a < 0 ? a.intensity : a.lobe_intensity;
-    const auto& vb = lobe_b < 0 ? b.intensity : b.lobe_intensity;
-    const std::size_t oa = lobe_a < 0 ? 0 : static_cast<std::size_t>(lobe_a) * n;
-    const std::size_t ob = lobe_b < 0 ? 0 : static_cast<std::size_t>(lobe_b) * n;
-    double diff = 0.0, ref = 0.0;
-    const std::size_t nl = a.config.wavelengths_nm.size();
-    for (std::size_t i = 0; i < n; ++i) {
-        const double omega = a.solid_angle_sr[i / nl];
-        diff += std::abs(va[oa + i] - vb[ob + i]) * omega;
-        ref += vb[ob + i] * omega;
-    }
-    return ref > 0.0 ? diff / ref : 0.0;
-}
-
-int lobe_index(const std::vector<std::string>& lobes, const std::string& name) {
-    for (std::size_t i = 0; i < lobes.size(); ++i)
-        if (lobes[i] == name) return static_cast<int>(i);
-    return -1;
-}
-
-Vec3d polar(double theta, double phi) {
-    return {std::sin(theta) * std::cos(phi), std::sin(theta) * std::sin(phi), std::cos(theta)};
-}
-
 }  // namespace
 
 RockDoveResult run_rock_dove_study(const std::string& study_text, const fs::path& source_name,
@@ -187,7 +132,7 @@ RockDoveResult run_rock_dove_study(const std::string& study_text, const fs::path
     result.eq7_edge_coupling = cell.longitudinal_radius_um() * (1.0 - std::cos(s.row.cell.theta_d)) /
                                (s.row.cell.b * s.row.cell.b * s.row.cell.semi_major_um);
     const sim::ExplicitScatterer simulation(sim::barbule_row_scene(row));
-    const analysis::Huang2022Bsdf model(model_params(s.row));
+    const analysis::Huang2022Bsdf model(huang_params_of(s.row));
 
     StagedDirectory out(results_root / name);
     const fs::path dir = out.path();

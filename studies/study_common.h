@@ -1,0 +1,29 @@
+// Pieces the model-against-simulation studies share (rock_dove, ablation, extremes).
+#pragma once
+
+#include <string>
+#include <vector>
+
+#include "analysis/huang2022.h"
+#include "geometry/barbule.h"
+#include "virtual_gonio/png_image.h"
+#include "virtual_gonio/scatterometer.h"
+
+namespace plumage::studies {
+
+// The Huang model of the same barbules: b, φ0, φ1, θ_d, H, μ and the film thickness.
+analysis::Huang2022Params huang_params_of(const geometry::BarbuleRowParams& row);
+
+// Images left to right on white, 6 px apart, top-aligned.
+record::RgbImage side_by_side(const std::vector<const record::RgbImage*>& images);
+
+// Σ|a − b| Ω / Σ b Ω over pixels and wavelengths, for one lobe of each (or all: −1).
+double image_relative_l1(const gonio::Scatterogram& a, const gonio::Scatterogram& b, int lobe_a, int lobe_b);
+
+// Index of a lobe name, or −1.
+int lobe_index(const std::vector<std::string>& lobes, const std::string& name);
+
+// Unit vector at polar θ from +z and azimuth φ from +x (patch frame).
+Vec3d polar(double theta, double phi);
+
+}  // namespace plumage::studies
