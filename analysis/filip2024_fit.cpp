@@ -9,6 +9,7 @@
 #include <Eigen/Eigenvalues>
 #include <unsupported/Eigen/NonLinearOptimization>
 
+#include "analysis/levenberg_marquardt.h"
 #include "common/error.h"
 
 namespace plumage::analysis {
@@ -154,50 +155,6 @@ struct Residuals {
         return 0;
     }
 };
-
-std::string describe(Eigen::LevenbergMarquardtSpace::Status status) {
-    using namespace Eigen::LevenbergMarquardtSpace;
-    switch (status) {
-        case ImproperInputParameters:
-            return "improper input parameters";
-        case RelativeReductionTooSmall:
-            return "relative reduction of the sum of squares below tolerance";
-        case RelativeErrorTooSmall:
-            return "relative change of the parameters below tolerance";
-        case RelativeErrorAndReductionTooSmall:
-            return "both sum of squares and parameters converged";
-        case CosinusTooSmall:
-            return "residuals orthogonal to the Jacobian (stationary point)";
-        case TooManyFunctionEvaluation:
-            return "too many function evaluations";
-        case FtolTooSmall:
-            return "no further reduction of the sum of squares possible";
-        case XtolTooSmall:
-            return "no further improvement of the parameters possible";
-        case GtolTooSmall:
-            return "gradient orthogonal to the Jacobian columns";
-        case UserAsked:
-            return "stopped by the residual function";
-        default:
-            return "unknown status";
-    }
-}
-
-bool converged(Eigen::LevenbergMarquardtSpace::Status status) {
-    using namespace Eigen::LevenbergMarquardtSpace;
-    switch (status) {
-        case RelativeReductionTooSmall:
-        case RelativeErrorTooSmall:
-        case RelativeErrorAndReductionTooSmall:
-        case CosinusTooSmall:
-        case FtolTooSmall:
-        case XtolTooSmall:
-        case GtolTooSmall:
-            return true;
-        default:
-            return false;
-    }
-}
 
 }  // namespace
 

@@ -1,0 +1,857 @@
+#include "analysis/huang2022_fit.h"
+
+#include <omp.h>
+
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+#include <exception>
+#include <limits>
+#include <numbers>
+#include <optional>
+
+#include <fmt/format.h>
+#include <Eigen/Eigenvalues>
+#include <unsupported/Eigen/NonLinearOptimization>
+
+#include "analysis/levenberg_marquardt.h"
+#include "common/error.h"
+
+namespace plumage::analysis {
+namespace {
+
+constexpr double kPi = std::numbers::pi;
+// How far inside its range a starting value on a bound is moved (fraction of the range): the
+// logistic map reaches a bound only at infinity.
+constexpr double kStartInset = 1e-9;
+// The logistic is kept this far from 0 and 1 so that open bounds (θ_d > 0, |μ| < π/2, w > 0)
+// stay open in floating point.
+constexpr double kLogisticFloor = 1e-15;
+// A fitted value this close to a bound (fraction of the range) is reported at_bound; H (no upper
+// bound) below this value.
+constexpr double kAtBoundFraction = 1e-6;
+// Relative eigenvalue below which JᵀJ (after unit-diagonal scaling) counts as singular.
+constexpr double kSingularRatio = 1e-12;
+// A requested wavelength matches the record's within this (nm).
+constexpr double kWavelengthMatch = 1e-6;
+
+[[noreturn]] void fail(const std::string& what) { throw InputError("Huang 2022 fit: " + what); }
+
+struct Range {
+    double min, max;
+};
+// Logistic ranges: b, d_um, θ_d, μ and the arc's width w = φ1 − φ0.
+constexpr Range kRangeB{1e-3, 1.0};
+constexpr Range kRangeD{0.0, 50.0};
+constexpr Range kRangeThetaD{0.0, 0.25 * kPi};
+constexpr Range kRangeMu{-0.5 * kPi, 0.5 * kPi};
+constexpr Range kRangeWidth{0.0, 2.0 * kPi};
+
+double logistic(double u) {
+    return std::clamp(1.0 / (1.0 + std::exp(-u)), kLogisticFloor, 1.0 - kLogisticFloor);
+}
+double logit(double p, Range r) {
+    const double t = std::clamp((p - r.min) / (r.max - r.min), kStartInset, 1.0 - kStartInset);
+    return std::log(t / (1.0 - t));
+}
+bool near_edge(double p, Range r) {
+    const double margin = kAtBoundFraction * (r.max - r.min);
+    return p - r.min < margin || r.max - p < margin;
+}
+
+// The optimiser's variables u ↔ the parameters p (see the header). φ0 precedes φ1 in the index
+// order, so φ1 = φ0 + w can use the current φ0.
+struct ParameterMap {
+    std::array<double, kHuang2022ParameterCount> base{};  // fixed parameters' values
+    std::array<bool, kHuang2022ParameterCount> is_free{};
+    std::vector<int> free;
+
+    // Which variable carries the arc's width: φ1's when φ1 is free, else φ0's.
+    bool carries_width(int index) const {
+        return index == kHuangPhi1 || (index == kHuangPhi0 && !is_free[kHuangPhi1]);
+    }
+    static const Range* logistic_range(int index) {
+        switch (index) {
+            case kHuangB:
+                return &kRangeB;
+            case kHuangD:
+                return &kRangeD;
+            case kHuangThetaD:
+                return &kRangeThetaD;
+            case kHuangMu:
+                return &kRangeMu;
+            default:
+                return nullptr;
+        }
+    }
+
+    std::array<double, kHuang2022ParameterCount> parameters(const Eigen::VectorXd& u) const {
+        auto v = base;
+        for (std::size_t j = 0; j < free.size(); ++j) {
+            const int i = free[j];
+            const double x = u[static_cast<Eigen::Index>(j)];
+            if (const Range* r = logistic_range(i)) {
+                v[i] = r->min + (r->max - r->min) * logistic(x);
+            } else if (i == kHuangH) {
+                v[i] = std::exp(std::clamp(x, -700.0, 700.0));
+            } else if (carries_width(i)) {
+                const double w = kRangeWidth.max * logistic(x);
+                if (i == kHuangPhi1) {
+                    v[i] = v[kHuangPhi0] + w;
+                } else {
+                    v[i] = v[kHuangPhi1] - w;
+                }
+            } else {
+                v[i] = x;  // φ0 while φ1 is free
+            }
+        }
+        return v;
+    }
+
+    Eigen::VectorXd variables(const std::array<double, kHuang2022ParameterCount>& v) const {
+        Eigen::VectorXd u(static_cast<Eigen::Index>(free.size()));
+        for (std::size_t j = 0; j < free.size(); ++j) {
+            const int i = free[j];
+            double x = v[i];
+            if (const Range* r = logistic_range(i)) {
+                x = logit(v[i], *r);
+            } else if (i == kHuangH) {
+                x = std::log(v[i]);
+            } else if (carries_width(i)) {
+                x = logit(v[kHuangPhi1] - v[kHuangPhi0], kRangeWidth);
+            }
+            u[static_cast<Eigen::Index>(j)] = x;
+        }
+        return u;
+    }
+
+    // M = ∂p/∂u over the free parameters (rows p, columns u).
+    Eigen::MatrixXd derivative(const Eigen::VectorXd& u) const {
+        const auto n = static_cast<Eigen::Index>(free.size());
+        Eigen::MatrixXd m = Eigen::MatrixXd::Zero(n, n);
+        for (Eigen::Index j = 0; j < n; ++j) {
+            const int i = free[static_cast<std::size_t>(j)];
+            const double s = logistic(u[j]);
+            if (const Range* r = logistic_range(i)) {
+                m(j, j) = (r->max - r->min) * s * (1.0 - s);
+            } else if (i == kHuangH) {
+                m(j, j) = std::exp(std::clamp(u[j], -700.0, 700.0));
+            } else if (carries_width(i)) {
+                const double dw = kRangeWidth.max * s * (1.0 - s);
+                m(j, j) = i == kHuangPhi1 ? dw : -dw;
+                if (i == kHuangPhi1 && is_free[kHuangPhi0]) {
+                    const auto phi0_slot =
+                        std::find(free.begin(), free.end(), kHuangPhi0) - free.begin();
+                    m(j, static_cast<Eigen::Index>(phi0_slot)) = 1.0;  // φ1 = φ0 + w
+                }
+            } else {
+                m(j, j) = 1.0;
+            }
+        }
+        return m;
+    }
+
+    bool at_bound(int index, const std::array<double, kHuang2022ParameterCount>& v) const {
+        if (!is_free[index]) return false;
+        if (const Range* r = logistic_range(index)) return near_edge(v[index], *r);
+        if (index == kHuangH) return v[index] < kAtBoundFraction;
+        if (carries_width(index)) return near_edge(v[kHuangPhi1] - v[kHuangPhi0], kRangeWidth);
+        return false;
+    }
+};
+
+// Gauss–Legendre nodes and weights on [0, 1] (Golub–Welsch: eigenvalues of the Jacobi matrix).
+std::vector<std::pair<double, double>> gauss_legendre_unit(int n) {
+    Eigen::MatrixXd jacobi = Eigen::MatrixXd::Zero(n, n);
+    for (int k = 1; k < n; ++k) {
+        const double beta = k / std::sqrt(4.0 * k * k - 1.0);
+        jacobi(k, k - 1) = jacobi(k - 1, k) = beta;
+    }
+    const Eigen::SelfAdjointEigenSolver<Eigen::MatrixXd> eigen(jacobi);
+    std::vector<std::pair<double, double>> nodes;
+    for (int k = 0; k < n; ++k) {
+        const double v0 = eigen.eigenvectors()(0, k);
+        nodes.emplace_back(0.5 * (eigen.eigenvalues()[k] + 1.0), v0 * v0);  // weights sum to 1
+    }
+    return nodes;
+}
+
+// Illumination directions and weights (summing to 1), see the header.
+std::vector<std::pair<Vec3d, double>> illumination_nodes(const gonio::ScatterometerConfig& config,
+                                                         int radial, int azimuthal) {
+    if (config.illumination == gonio::Illumination::beam) return {{config.beam_direction, 1.0}};
+    const bool cone = config.illumination == gonio::Illumination::cone;
+    const Vec3d axis = cone ? config.beam_direction : Vec3d::UnitZ();
+    const double radius = cone ? std::sin(0.5 * config.cone_aperture_rad) : 1.0;
+    const Vec3d e1 =
+        (std::abs(axis.z()) < 0.9 ? Vec3d::UnitZ() : Vec3d::UnitX()).cross(axis).normalized();
+    const Vec3d e2 = axis.cross(e1);
+    std::vector<std::pair<Vec3d, double>> nodes;
+    for (const auto& [fraction, weight] : gauss_legendre_unit(radial)) {
+        const double r = radius * std::sqrt(fraction);
+        const double along = std::sqrt(std::max(0.0, 1.0 - r * r));
+        for (int j = 0; j < azimuthal; ++j) {
+            const double g = 2.0 * kPi * (j + 0.5) / azimuthal;
+            const Vec3d wi =
+                (along * axis + r * (std::cos(g) * e1 + std::sin(g) * e2)).normalized();
+            PLUMAGE_CHECK(wi.z() > 0.0, "illumination node below the patch");
+            nodes.emplace_back(wi, weight / azimuthal);
+        }
+    }
+    return nodes;
+}
+
+// The forward model's layout: the image, the pixels fitted (used) and, per used pixel and
+// chosen wavelength, the observation it feeds (−1: none).
+struct Layout {
+    int n = 0;                           // image size
+    std::vector<double> wavelengths_nm;  // chosen; the first is the reference for R's support
+    std::vector<std::pair<Vec3d, double>> illumination;
+    std::vector<std::size_t> disc;            // image pixels whose centre is inside the disc
+    std::vector<std::size_t> used;            // image pixels fitted
+    std::vector<double> centre_weight;        // per used pixel: J(centre) · area / Ω_pixel
+    std::vector<double> omega;                // per used pixel: Ω_pixel (sr)
+    std::vector<bool> force_edge;             // per used pixel: integrate by lines regardless
+    std::vector<std::ptrdiff_t> observation;  // [used pixel][wavelength]
+    std::size_t observations = 0;
+    int edge_lines = 0;
+    int edge_bisections = 0;
+};
+
+// Direction of image-plane point (u, v), or nullopt beyond the rim; jacobian = dω / (du dv).
+std::optional<Vec3d> image_direction(double u, double v, double& jacobian) {
+    const double r = std::hypot(u, v);
+    if (r > 1.0) return std::nullopt;
+    const double theta = 0.5 * kPi * r, phi = std::atan2(v, u);
+    jacobian = r > 1e-12 ? 0.5 * kPi * std::sin(theta) / r : 0.25 * kPi * kPi;
+    return Vec3d(std::sin(theta) * std::cos(phi), std::sin(theta) * std::sin(phi), std::cos(theta));
+}
+
+// Whether pixel (row, column)'s whole square lies inside the disc (r <= 1 at its farthest
+// corner).
+bool inside_rim(int n, int row, int column) {
+    const double pixel = 2.0 / n;
+    const double u0 = column * pixel - 1.0, v0 = 1.0 - row * pixel;
+    const double u = std::max(std::abs(u0), std::abs(u0 + pixel));
+    const double v = std::max(std::abs(v0), std::abs(v0 - pixel));
+    return std::hypot(u, v) <= 1.0;
+}
+
+// Composite Simpson weights on [0, 1] for m (odd) equally spaced nodes.
+std::vector<double> simpson_weights(int m) {
+    std::vector<double> w(static_cast<std::size_t>(m), 0.0);
+    const double h = 1.0 / (m - 1);
+    for (int i = 0; i < m; ++i) {
+        w[static_cast<std::size_t>(i)] =
+            (i == 0 || i == m - 1) ? h / 3.0 : (i % 2 == 1 ? 4.0 * h / 3.0 : 2.0 * h / 3.0);
+    }
+    return w;
+}
+
+// R's support at the reference wavelength: −1 beyond the rim, 0 no R, 1 R > 0. The support is
+// geometric (NDF box, arc, visibility), the same at every wavelength.
+struct SupportProbe {
+    const Huang2022Bsdf& model;
+    const Vec3d& wi;
+    double lambda_nm;
+    int operator()(double u, double v) const {
+        double jacobian = 0.0;
+        const auto wo = image_direction(u, v, jacobian);
+        if (!wo) return -1;
+        std::array<double, 3> lobes{};
+        model.eval(wi, *wo, lambda_nm, lobes);
+        return lobes[Huang2022Bsdf::kR] > 0.0 ? 1 : 0;
+    }
+};
+
+// Where the support changes between t_lo (status `first`) and t_hi along a segment of the
+// pixel, by bisection.
+template <typename Status>
+double locate_change(const Status& status_at, double lo, double hi, int first, int bisections) {
+    for (int b = 0; b < bisections; ++b) {
+        const double mid = 0.5 * (lo + hi);
+        (status_at(mid) == first ? lo : hi) = mid;
+    }
+    return 0.5 * (lo + hi);
+}
+
+// Cubature points of an edge pixel (see the header). Support nodes on an m × m grid of the
+// pixel's square (m = edge_lines, corners included). Lines run along the direction with more
+// support changes; each line is cut where the support changes (bisection from its m nodes) into
+// segments integrated by their midpoint. Across the lines: composite Simpson on the m grid lines,
+// or, when the support also changes across (a corner of the R band, where a visibility end meets
+// the NDF's θ_d edge), the across range is cut where the grid rows change support (bisection)
+// and each piece gets 2-point Gauss–Legendre lines. Weights include J · cos θ_o / Ω_pixel.
+void edge_pixel_points(const SupportProbe& support, int n, int row, int column, int lines,
+                       int bisections, double omega, std::vector<std::pair<Vec3d, double>>& out) {
+    out.clear();
+    const double pixel = 2.0 / n;
+    const double u0 = column * pixel - 1.0, v0 = 1.0 - row * pixel;
+    const auto m = static_cast<std::size_t>(lines);
+    auto node_position = [lines](std::size_t k) { return static_cast<double>(k) / (lines - 1); };
+    // Local (a, c) ∈ [0, 1]²: u = u0 + a·pixel, v = v0 − c·pixel.
+    auto status_ac = [&](double a, double c) { return support(u0 + pixel * a, v0 - pixel * c); };
+    std::vector<int> grid(m * m);  // [a index][c index]
+    for (std::size_t i = 0; i < m; ++i) {
+        for (std::size_t j = 0; j < m; ++j)
+            grid[i * m + j] = status_ac(node_position(i), node_position(j));
+    }
+    int along_c = 0, along_a = 0;
+    for (std::size_t i = 0; i < m; ++i) {
+        for (std::size_t j = 0; j + 1 < m; ++j) {
+            along_c += grid[i * m + j] != grid[i * m + j + 1];
+            along_a += grid[j * m + i] != grid[(j + 1) * m + i];
+        }
+    }
+    // Lines at fixed x (the across coordinate), cut along t; (x, t) = (a, c) or (c, a).
+    const bool lines_along_c = along_c >= along_a;
+    auto status_xt = [&](double x, double t) {
+        return lines_along_c ? status_ac(x, t) : status_ac(t, x);
+    };
+    auto grid_xt = [&](std::size_t x, std::size_t t) {
+        return lines_along_c ? grid[x * m + t] : grid[t * m + x];
+    };
+    // The lines: across position, weight, and the grid column if it is one.
+    struct Line {
+        double x, weight;
+        std::ptrdiff_t grid_index;
+    };
+    std::vector<Line> line_set;
+    if ((lines_along_c ? along_a : along_c) == 0) {
+        const std::vector<double> w = simpson_weights(lines);
+        for (std::size_t i = 0; i < m; ++i)
+            line_set.push_back({node_position(i), w[i], static_cast<std::ptrdiff_t>(i)});
+    } else {
+        std::vector<double> across_cuts = {0.0, 1.0};
+        for (std::size_t t = 0; t < m; ++t) {
+            for (std::size_t x = 0; x + 1 < m; ++x) {
+                const int first = grid_xt(x, t);
+                if (first == grid_xt(x + 1, t)) continue;
+                const double fixed_t = node_position(t);
+                across_cuts.push_back(
+                    locate_change([&](double xx) { return status_xt(xx, fixed_t); },
+                                  node_position(x), node_position(x + 1), first, bisections));
+            }
+        }
+        std::sort(across_cuts.begin(), across_cuts.end());
+        constexpr double kGauss = 0.28867513459481287;  // 1 / (2√3)
+        for (std::size_t k = 0; k + 1 < across_cuts.size(); ++k) {
+            const double lo = across_cuts[k], hi = across_cuts[k + 1], length = hi - lo;
+            if (!(length > 0.0)) continue;
+            const double mid = 0.5 * (lo + hi);
+            line_set.push_back({mid - kGauss * length, 0.5 * length, -1});
+            line_set.push_back({mid + kGauss * length, 0.5 * length, -1});
+        }
+    }
+    std::vector<int> nodes(m);
+    std::vector<double> cuts;
+    for (const Line& line : line_set) {
+        for (std::size_t t = 0; t < m; ++t) {
+            nodes[t] = line.grid_index >= 0 ? grid_xt(static_cast<std::size_t>(line.grid_index), t)
+                                            : status_xt(line.x, node_position(t));
+        }
+        cuts.assign(1, 0.0);
+        for (std::size_t t = 0; t + 1 < m; ++t) {
+            if (nodes[t] == nodes[t + 1]) continue;
+            cuts.push_back(locate_change([&](double tt) { return status_xt(line.x, tt); },
+                                         node_position(t), node_position(t + 1), nodes[t],
+                                         bisections));
+        }
+        cuts.push_back(1.0);
+        for (std::size_t k = 0; k + 1 < cuts.size(); ++k) {
+            const double length = cuts[k + 1] - cuts[k];
+            if (!(length > 0.0)) continue;
+            const double t = 0.5 * (cuts[k] + cuts[k + 1]);
+            const double a = lines_along_c ? line.x : t, c = lines_along_c ? t : line.x;
+            double jacobian = 0.0;
+            const auto wo = image_direction(u0 + pixel * a, v0 - pixel * c, jacobian);
+            if (!wo) continue;  // beyond the rim: no quanta land there
+            out.emplace_back(*wo,
+                             line.weight * length * pixel * pixel * jacobian * wo->z() / omega);
+        }
+    }
+}
+
+// Predictions for every observation of the layout (indexed by observation). Each pixel is
+// computed by one thread in a fixed order: the result does not depend on the thread count.
+void predict(const Huang2022Params& params, const Layout& layout, int threads,
+             std::vector<double>& out) {
+    const Huang2022Bsdf model(params);
+    const int n = layout.n;
+    const double pixel = 2.0 / n;
+    const std::size_t nw = layout.wavelengths_nm.size();
+    const double reference = layout.wavelengths_nm.front();
+    out.assign(layout.observations, 0.0);
+    std::vector<int> status(static_cast<std::size_t>(n) * n, -1);
+    std::vector<double> centre_value(static_cast<std::size_t>(n) * n, 0.0);
+    std::vector<bool> edge(layout.used.size(), false);
+    std::exception_ptr error;
+    auto guarded = [&error](auto&& body) {
+        try {
+            body();
+        } catch (...) {
+#pragma omp critical(huang2022_fit_error)
+            if (!error) error = std::current_exception();
+        }
+    };
+    auto centre_of = [&](std::size_t p) {
+        const int row = static_cast<int>(p / n), column = static_cast<int>(p % n);
+        return std::pair{(column + 0.5) * pixel - 1.0, 1.0 - (row + 0.5) * pixel};
+    };
+    for (const auto& [wi, node_weight] : layout.illumination) {
+        const SupportProbe support{model, wi, reference};
+        // A: every disc pixel's centre at the reference wavelength: R's support and f cos θ_o.
+        const auto disc_count = static_cast<std::ptrdiff_t>(layout.disc.size());
+#pragma omp parallel for schedule(dynamic, 16) num_threads(threads)
+        for (std::ptrdiff_t k = 0; k < disc_count; ++k) {
+            guarded([&] {
+                const std::size_t p = layout.disc[static_cast<std::size_t>(k)];
+                const auto [u, v] = centre_of(p);
+                double jacobian = 0.0;
+                const Vec3d wo = *image_direction(u, v, jacobian);
+                std::array<double, 3> lobes{};
+                centre_value[p] = model.eval(wi, wo, reference, lobes) * wo.z();
+                status[p] = lobes[Huang2022Bsdf::kR] > 0.0 ? 1 : 0;
+            });
+        }
+        if (error) std::rethrow_exception(error);
+        // B: a used pixel is an edge pixel when R's support differs between its centre and a
+        // neighbour's (any edge lies between two such centres), or when forced (the rim).
+        for (std::size_t i = 0; i < layout.used.size(); ++i) {
+            const std::size_t p = layout.used[i];
+            const int row = static_cast<int>(p / n), column = static_cast<int>(p % n);
+            bool differs = layout.force_edge[i];
+            for (int dr = -1; dr <= 1 && !differs; ++dr) {
+                for (int dc = -1; dc <= 1 && !differs; ++dc) {
+                    const int r2 = row + dr, c2 = column + dc;
+                    if (r2 < 0 || c2 < 0 || r2 >= n || c2 >= n) continue;
+                    const int s = status[static_cast<std::size_t>(r2) * n + c2];
+                    differs = s >= 0 && s != status[p];
+                }
+            }
+            edge[i] = differs;
+        }
+        // C: edge pixels by lines; D: the others by their centre.
+        const auto used_count = static_cast<std::ptrdiff_t>(layout.used.size());
+#pragma omp parallel for schedule(dynamic, 1) num_threads(threads)
+        for (std::ptrdiff_t k = 0; k < used_count; ++k) {
+            const auto i = static_cast<std::size_t>(k);
+            if (!edge[i]) continue;
+            guarded([&] {
+                const std::size_t p = layout.used[i];
+                thread_local std::vector<std::pair<Vec3d, double>> points;
+                edge_pixel_points(support, n, static_cast<int>(p / n), static_cast<int>(p % n),
+                                  layout.edge_lines, layout.edge_bisections, layout.omega[i],
+                                  points);
+                for (std::size_t w = 0; w < nw; ++w) {
+                    const std::ptrdiff_t o = layout.observation[i * nw + w];
+                    if (o < 0) continue;
+                    double sum = 0.0;
+                    for (const auto& [wo, weight] : points) {
+                        sum += weight * model.eval(wi, wo, layout.wavelengths_nm[w]);
+                    }
+                    out[static_cast<std::size_t>(o)] += node_weight * sum;
+                }
+            });
+        }
+        if (error) std::rethrow_exception(error);
+        for (std::size_t w = 0; w < nw; ++w) {
+#pragma omp parallel for schedule(dynamic, 16) num_threads(threads)
+            for (std::ptrdiff_t k = 0; k < used_count; ++k) {
+                const auto i = static_cast<std::size_t>(k);
+                const std::ptrdiff_t o = layout.observation[i * nw + w];
+                if (edge[i] || o < 0) continue;
+                guarded([&] {
+                    const std::size_t p = layout.used[i];
+                    double value = centre_value[p];
+                    if (w != 0) {
+                        const auto [u, v] = centre_of(p);
+                        double jacobian = 0.0;
+                        const Vec3d wo = *image_direction(u, v, jacobian);
+                        value = model.eval(wi, wo, layout.wavelengths_nm[w]) * wo.z();
+                    }
+                    out[static_cast<std::size_t>(o)] +=
+                        node_weight * layout.centre_weight[i] * value;
+                });
+            }
+            if (error) std::rethrow_exception(error);
+        }
+    }
+}
+
+void validate_options(const HuangFitOptions& o) {
+    auto require = [](bool ok, const std::string& what) {
+        if (!ok) fail(what);
+    };
+    require(o.edge_lines >= 3 && o.edge_lines <= 15 && o.edge_lines % 2 == 1 &&
+                o.edge_bisections >= 0 && o.edge_bisections <= 30,
+            fmt::format("edge_lines = {}, edge_bisections = {}: expected an odd number in 3..15 "
+                        "and 0..30",
+                        o.edge_lines, o.edge_bisections));
+    require(o.pixel_stride >= 1 && o.pixel_stride <= 64,
+            fmt::format("pixel_stride = {}: expected 1..64", o.pixel_stride));
+    require(
+        std::isfinite(o.max_relative_error) && o.max_relative_error > 0.0,
+        fmt::format("max_relative_error = {}: expected a finite value > 0", o.max_relative_error));
+    require(std::isfinite(o.relative_error_floor) && o.relative_error_floor >= 0.0,
+            fmt::format("relative_error_floor = {}: expected a finite value >= 0",
+                        o.relative_error_floor));
+    require(o.illumination_nodes_radial >= 1 && o.illumination_nodes_radial <= 64 &&
+                o.illumination_nodes_azimuthal >= 1 && o.illumination_nodes_azimuthal <= 256,
+            fmt::format("illumination_nodes_radial = {}, illumination_nodes_azimuthal = {}: "
+                        "expected 1..64 and 1..256",
+                        o.illumination_nodes_radial, o.illumination_nodes_azimuthal));
+    require(std::isfinite(o.finite_difference_step) && o.finite_difference_step > 0.0 &&
+                o.finite_difference_step <= 1.0,
+            fmt::format("finite_difference_step = {}: expected a value in (0, 1]",
+                        o.finite_difference_step));
+    require(o.max_function_evaluations >= 1 && std::isfinite(o.relative_tolerance) &&
+                o.relative_tolerance > 0.0,
+            fmt::format("max_function_evaluations = {}, relative_tolerance = {}: expected >= 1 "
+                        "and > 0",
+                        o.max_function_evaluations, o.relative_tolerance));
+    require(o.threads >= 0,
+            fmt::format("threads = {}: expected >= 0 (0: OpenMP's default)", o.threads));
+}
+
+int thread_count(const HuangFitOptions& o) {
+    return o.threads > 0 ? o.threads : std::max(1, omp_get_max_threads());
+}
+
+// The image's geometry shared by the fit and huang2022_scatterogram: the disc's pixels.
+void set_image(Layout& layout, const gonio::ScatterometerConfig& config,
+               const HuangFitOptions& options) {
+    layout.n = config.image_size;
+    layout.edge_lines = options.edge_lines;
+    layout.edge_bisections = options.edge_bisections;
+    const double pixel = 2.0 / layout.n;
+    for (int row = 0; row < layout.n; ++row) {
+        for (int column = 0; column < layout.n; ++column) {
+            if (std::hypot((column + 0.5) * pixel - 1.0, 1.0 - (row + 0.5) * pixel) <= 1.0)
+                layout.disc.push_back(static_cast<std::size_t>(row) * layout.n + column);
+        }
+    }
+    layout.illumination = illumination_nodes(config, options.illumination_nodes_radial,
+                                             options.illumination_nodes_azimuthal);
+}
+
+// Adds a used pixel; its observations are set by the caller.
+void add_used(Layout& layout, std::size_t p, double omega, bool force_edge) {
+    const double pixel = 2.0 / layout.n;
+    const int row = static_cast<int>(p / layout.n), column = static_cast<int>(p % layout.n);
+    double jacobian = 0.0;
+    PLUMAGE_CHECK(
+        image_direction((column + 0.5) * pixel - 1.0, 1.0 - (row + 0.5) * pixel, jacobian),
+        "a used pixel's centre lies inside the disc");
+    layout.used.push_back(p);
+    layout.omega.push_back(omega);
+    layout.centre_weight.push_back(jacobian * pixel * pixel / omega);
+    layout.force_edge.push_back(force_edge);
+    layout.observation.resize(layout.used.size() * layout.wavelengths_nm.size(), -1);
+}
+
+struct Problem {
+    Layout layout;
+    std::vector<double> data;           // per observation
+    std::vector<double> inverse_sigma;  // per observation
+};
+
+Problem prepare(const gonio::Scatterogram& s, const HuangFitOptions& options) {
+    const int n = s.config.image_size;
+    const std::size_t nl = s.config.wavelengths_nm.size();
+    if (n <= 0 || nl == 0 || s.intensity.empty()) {
+        fail(
+            fmt::format("the scatterogram is empty ({} × {} pixels, {} wavelengths, {} values): "
+                        "expected a measured record",
+                        n, n, nl, s.intensity.size()));
+    }
+    s.config.validate();
+    const std::size_t np = s.pixels();
+    if (s.intensity.size() != np * nl || s.standard_error.size() != np * nl ||
+        s.solid_angle_sr.size() != np) {
+        fail(
+            fmt::format("intensity has {} values, standard_error {}, solid_angle_sr {}: expected "
+                        "{} ({} × {} pixels × {} wavelengths), the same, and {}",
+                        s.intensity.size(), s.standard_error.size(), s.solid_angle_sr.size(),
+                        np * nl, n, n, nl, np));
+    }
+    for (std::size_t i = 0; i < np * nl; ++i) {
+        if (!(std::isfinite(s.intensity[i]) && s.intensity[i] >= 0.0 &&
+              std::isfinite(s.standard_error[i]) && s.standard_error[i] >= 0.0)) {
+            fail(
+                fmt::format("pixel {} (row {}, column {}), wavelength {} nm: intensity = {}, "
+                            "standard_error = {}: expected finite values >= 0",
+                            i / nl, i / nl / n, i / nl % n, s.config.wavelengths_nm[i % nl],
+                            s.intensity[i], s.standard_error[i]));
+        }
+    }
+    for (std::size_t p = 0; p < np; ++p) {
+        if (!(std::isfinite(s.solid_angle_sr[p]) && s.solid_angle_sr[p] >= 0.0)) {
+            fail(fmt::format("pixel {}: solid_angle_sr = {}: expected a finite value >= 0", p,
+                             s.solid_angle_sr[p]));
+        }
+    }
+
+    // Wavelengths: indices into the record.
+    std::vector<std::size_t> chosen;
+    if (options.wavelengths_nm.empty()) {
+        for (std::size_t k = 0; k < nl; ++k) chosen.push_back(k);
+    } else {
+        for (double lambda : options.wavelengths_nm) {
+            std::size_t k = 0;
+            while (k < nl && !(std::abs(s.config.wavelengths_nm[k] - lambda) <= kWavelengthMatch))
+                ++k;
+            if (k == nl) {
+                fail(fmt::format("wavelength {} nm: expected one of the record's ({} nm)", lambda,
+                                 fmt::join(s.config.wavelengths_nm, ", ")));
+            }
+            if (std::find(chosen.begin(), chosen.end(), k) != chosen.end())
+                fail(fmt::format("wavelength {} nm is listed twice", lambda));
+            chosen.push_back(k);
+        }
+    }
+
+    Problem problem;
+    Layout& layout = problem.layout;
+    for (std::size_t k : chosen) layout.wavelengths_nm.push_back(s.config.wavelengths_nm[k]);
+    set_image(layout, s.config, options);
+    const std::size_t nw = chosen.size();
+    for (std::size_t p : layout.disc) {
+        const int row = static_cast<int>(p / n), column = static_cast<int>(p % n);
+        if ((row + column) % options.pixel_stride != 0 || !inside_rim(n, row, column) ||
+            !(s.solid_angle_sr[p] > 0.0)) {
+            continue;
+        }
+        std::vector<std::ptrdiff_t> observations(nw, -1);
+        bool any = false;
+        for (std::size_t w = 0; w < nw; ++w) {
+            const std::size_t cell = p * nl + chosen[w];
+            const double value = s.intensity[cell], se = s.standard_error[cell];
+            if (!(value > 0.0) || se > options.max_relative_error * value) continue;
+            const double sigma = std::hypot(se, options.relative_error_floor * value);
+            if (!(sigma > 0.0)) continue;
+            observations[w] = static_cast<std::ptrdiff_t>(layout.observations++);
+            problem.data.push_back(value);
+            problem.inverse_sigma.push_back(1.0 / sigma);
+            any = true;
+        }
+        if (!any) continue;
+        add_used(layout, p, s.solid_angle_sr[p], false);
+        std::copy(observations.begin(), observations.end(),
+                  layout.observation.end() - static_cast<std::ptrdiff_t>(nw));
+    }
+    return problem;
+}
+
+// The functor interface of Eigen's LevenbergMarquardt: weighted residuals, and their Jacobian in
+// u by central differences (df returns the number of residual evaluations it made, which the
+// optimiser adds to nfev).
+struct Residuals {
+    const Problem& problem;
+    const ParameterMap& map;
+    double step;
+    int threads;
+    mutable int evaluations = 0;
+    mutable int jacobians = 0;
+    mutable std::vector<double> prediction;
+
+    int values() const { return static_cast<int>(problem.data.size()); }
+
+    int operator()(const Eigen::VectorXd& u, Eigen::VectorXd& r) const {
+        predict(huang2022_params(map.parameters(u)), problem.layout, threads, prediction);
+        ++evaluations;
+        for (std::size_t k = 0; k < problem.data.size(); ++k) {
+            r[static_cast<Eigen::Index>(k)] =
+                (prediction[k] - problem.data[k]) * problem.inverse_sigma[k];
+        }
+        return 0;
+    }
+
+    int df(const Eigen::VectorXd& u, Eigen::MatrixXd& jacobian) const {
+        Eigen::VectorXd plus(values()), minus(values());
+        for (Eigen::Index j = 0; j < u.size(); ++j) {
+            Eigen::VectorXd shifted = u;
+            shifted[j] = u[j] + step;
+            (*this)(shifted, plus);
+            shifted[j] = u[j] - step;
+            (*this)(shifted, minus);
+            jacobian.col(j) = (plus - minus) / (2.0 * step);
+        }
+        ++jacobians;
+        return static_cast<int>(2 * u.size());
+    }
+};
+
+}  // namespace
+
+std::array<double, kHuang2022ParameterCount> huang2022_values(const Huang2022Params& p) {
+    return {p.b, p.phi0, p.phi1, p.H, p.d_um, p.theta_d, p.mu};
+}
+
+Huang2022Params huang2022_params(const std::array<double, kHuang2022ParameterCount>& v) {
+    Huang2022Params p;
+    p.b = v[kHuangB];
+    p.phi0 = v[kHuangPhi0];
+    p.phi1 = v[kHuangPhi1];
+    p.H = v[kHuangH];
+    p.d_um = v[kHuangD];
+    p.theta_d = v[kHuangThetaD];
+    p.mu = v[kHuangMu];
+    return p;
+}
+
+gonio::Scatterogram huang2022_scatterogram(const Huang2022Params& params,
+                                           const gonio::ScatterometerConfig& config,
+                                           const HuangFitOptions& options) {
+    config.validate();
+    validate_options(options);
+    gonio::Scatterogram s;
+    s.config = config;
+    s.scatterer = "huang2022";
+    const int n = config.image_size;
+    const std::size_t np = s.pixels(), nl = config.wavelengths_nm.size();
+    Layout layout;
+    layout.wavelengths_nm = config.wavelengths_nm;
+    set_image(layout, config, options);
+    s.solid_angle_sr.assign(np, 0.0);
+    const double pixel = 2.0 / n;
+    for (std::size_t p : layout.disc) {
+        const int row = static_cast<int>(p / n), column = static_cast<int>(p % n);
+        const double r = std::hypot((column + 0.5) * pixel - 1.0, 1.0 - (row + 0.5) * pixel);
+        // As measure_scatterogram: Ω = (π/2) sin(πr/2)/r · (2/N)², the centre's Jacobian.
+        s.solid_angle_sr[p] =
+            (r > 1e-12 ? 0.5 * kPi * std::sin(0.5 * kPi * r) / r : 0.25 * kPi * kPi) * pixel *
+            pixel;
+        // Pixels across the rim are integrated by lines (the rim is an edge of the image).
+        add_used(layout, p, s.solid_angle_sr[p], !inside_rim(n, row, column));
+        for (std::size_t w = 0; w < nl; ++w) {
+            layout.observation[(layout.used.size() - 1) * nl + w] =
+                static_cast<std::ptrdiff_t>(p * nl + w);
+        }
+    }
+    layout.observations = np * nl;
+    predict(params, layout, thread_count(options), s.intensity);
+    s.standard_error.assign(np * nl, 0.0);
+    return s;
+}
+
+double huang2022_fit_chi_square(const gonio::Scatterogram& data, const Huang2022Params& params,
+                                const HuangFitOptions& options) {
+    validate_options(options);
+    const Huang2022Bsdf validated(params);
+    const Problem problem = prepare(data, options);
+    std::vector<double> prediction;
+    predict(params, problem.layout, thread_count(options), prediction);
+    double sum = 0.0;
+    for (std::size_t k = 0; k < prediction.size(); ++k) {
+        const double r = (prediction[k] - problem.data[k]) * problem.inverse_sigma[k];
+        sum += r * r;
+    }
+    return sum;
+}
+
+HuangFitResult fit_huang2022(const gonio::Scatterogram& data, const Huang2022Params& start,
+                             const HuangFitOptions& options) {
+    const auto clock_start = std::chrono::steady_clock::now();
+    validate_options(options);
+    ParameterMap map;
+    map.is_free.fill(true);
+    for (const std::string& name : options.fixed) {
+        const auto it =
+            std::find(kHuang2022ParameterNames.begin(), kHuang2022ParameterNames.end(), name);
+        if (it == kHuang2022ParameterNames.end()) {
+            fail(fmt::format("fixed parameter '{}': expected one of {}", name,
+                             fmt::join(kHuang2022ParameterNames, ", ")));
+        }
+        map.is_free[static_cast<std::size_t>(it - kHuang2022ParameterNames.begin())] = false;
+    }
+    const Huang2022Bsdf validated(start);  // InputError names a parameter out of range
+    map.base = huang2022_values(start);
+    for (int i = 0; i < kHuang2022ParameterCount; ++i) {
+        if (map.is_free[i]) map.free.push_back(i);
+    }
+    const int n_free = static_cast<int>(map.free.size());
+    if (n_free == 0) fail("every parameter is fixed: nothing to fit");
+
+    const Problem problem = prepare(data, options);
+    const int n_obs = static_cast<int>(problem.data.size());
+    if (n_obs <= n_free) {
+        fail(
+            fmt::format("{} observations with signal for {} free parameters: expected more "
+                        "observations than free parameters (max_relative_error = {}, "
+                        "pixel_stride = {})",
+                        n_obs, n_free, options.max_relative_error, options.pixel_stride));
+    }
+
+    const int threads = thread_count(options);
+    Eigen::VectorXd u = map.variables(map.base);
+    Residuals residuals{problem, map, options.finite_difference_step, threads, 0, 0, {}};
+    Eigen::LevenbergMarquardt<Residuals> lm(residuals);
+    lm.parameters.maxfev = options.max_function_evaluations;
+    lm.parameters.ftol = options.relative_tolerance;
+    lm.parameters.xtol = options.relative_tolerance;
+    const auto status = lm.minimize(u);
+
+    HuangFitResult result;
+    result.iterations = residuals.jacobians;
+    result.converged = converged(status);
+    result.termination = describe(status);
+    result.values = map.parameters(u);
+    result.parameters = huang2022_params(result.values);
+    result.free_parameters = map.free;
+    result.observations = n_obs;
+    result.pixels = static_cast<int>(problem.layout.used.size());
+    result.wavelengths_nm = problem.layout.wavelengths_nm;
+    result.degrees_of_freedom = n_obs - n_free;
+
+    // Residuals and the Jacobian in u at the optimum.
+    Eigen::VectorXd r(n_obs);
+    residuals(u, r);
+    double plain_sum = 0.0;
+    for (int k = 0; k < n_obs; ++k) {
+        const double d = r[k] / problem.inverse_sigma[static_cast<std::size_t>(k)];
+        plain_sum += d * d;
+    }
+    result.residual_rms = std::sqrt(plain_sum / n_obs);
+    result.reduced_chi_square = r.squaredNorm() / result.degrees_of_freedom;
+    Eigen::MatrixXd jacobian(n_obs, n_free);
+    residuals.df(u, jacobian);
+    result.function_evaluations = residuals.evaluations;
+
+    for (int i = 0; i < kHuang2022ParameterCount; ++i) {
+        result.standard_errors[i] = std::numeric_limits<double>::quiet_NaN();
+        result.at_bound[i] = map.at_bound(i, result.values);
+    }
+
+    // covariance_u = s² (J_uᵀJ_u)⁻¹, inverted after scaling to a unit diagonal so that the
+    // singularity test does not depend on the variables' scales; then M covariance_u Mᵀ.
+    const Eigen::MatrixXd normal = jacobian.transpose() * jacobian;
+    const Eigen::VectorXd diagonal = normal.diagonal();
+    result.covariance =
+        Eigen::MatrixXd::Constant(n_free, n_free, std::numeric_limits<double>::quiet_NaN());
+    if ((diagonal.array() > 0.0).all() && jacobian.allFinite()) {
+        const Eigen::VectorXd scale = diagonal.array().rsqrt();
+        const Eigen::MatrixXd scaled = scale.asDiagonal() * normal * scale.asDiagonal();
+        const Eigen::SelfAdjointEigenSolver<Eigen::MatrixXd> eigen(scaled);
+        const Eigen::VectorXd lambda = eigen.eigenvalues();
+        if (eigen.info() == Eigen::Success &&
+            lambda.minCoeff() > kSingularRatio * lambda.maxCoeff()) {
+            const Eigen::MatrixXd inverse = eigen.eigenvectors() *
+                                            lambda.cwiseInverse().asDiagonal() *
+                                            eigen.eigenvectors().transpose();
+            const Eigen::MatrixXd covariance_u =
+                result.reduced_chi_square * scale.asDiagonal() * inverse * scale.asDiagonal();
+            const Eigen::MatrixXd m = map.derivative(u);
+            result.covariance = m * covariance_u * m.transpose();
+            result.covariance_available = true;
+            for (int j = 0; j < n_free; ++j) {
+                result.standard_errors[map.free[j]] = std::sqrt(result.covariance(j, j));
+            }
+        }
+    }
+    result.wall_time_s =
+        std::chrono::duration<double>(std::chrono::steady_clock::now() - clock_start).count();
+    return result;
+}
+
+}  // namespace plumage::analysis
