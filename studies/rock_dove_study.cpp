@@ -174,7 +174,9 @@ RockDoveResult run_rock_dove_study(const std::string& study_text, const fs::path
         const double exposure = peak > 0.0 ? 1.0 / peak : 1.0;
         const record::RgbImage sim_img = gonio::scatterogram_srgb(sim_s, exposure), mod_img = gonio::scatterogram_srgb(mod_s, exposure);
         const record::RgbImage diff_img = gonio::scatterogram_difference(mod_s, sim_s);
-        record::write_png(dir / "scatterograms" / (label + "_comparison.png"), side_by_side({&sim_img, &mod_img, &diff_img}));
+        // Enlarged ×3 (nearest neighbour) for reading; the records hold the values.
+        record::write_png(dir / "scatterograms" / (label + "_comparison.png"),
+                          record::upscaled(side_by_side({&sim_img, &mod_img, &diff_img}), 3));
         const double l1 = image_relative_l1(sim_s, mod_s, -1, -1);
         const double l1_r = image_relative_l1(sim_s, mod_s, lobe_index(sim_s.lobes, "R"), lobe_index(mod_s.lobes, "R"));
         const double l1_trt = image_relative_l1(sim_s, mod_s, lobe_index(sim_s.lobes, "TRT"), lobe_index(mod_s.lobes, "TRT"));

@@ -66,6 +66,18 @@ void RgbImage::fill_polygon(const std::vector<std::array<double, 2>>& polygon,
     }
 }
 
+RgbImage upscaled(const RgbImage& image, int factor) {
+    PLUMAGE_CHECK(factor >= 1, fmt::format("upscale factor {}", factor));
+    RgbImage out(image.width * factor, image.height * factor);
+    for (int y = 0; y < out.height; ++y) {
+        for (int x = 0; x < out.width; ++x) {
+            const std::size_t i = (static_cast<std::size_t>(y / factor) * image.width + x / factor) * 3;
+            out.set(x, y, image.pixels[i], image.pixels[i + 1], image.pixels[i + 2]);
+        }
+    }
+    return out;
+}
+
 void write_png(const std::filesystem::path& path, const RgbImage& image) {
     std::filesystem::path temporary = path;
     temporary += fmt::format(".partial-{}", ::getpid());

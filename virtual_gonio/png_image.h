@@ -23,6 +23,10 @@ struct RgbImage {
     void fill_polygon(const std::vector<std::array<double, 2>>& polygon, const std::array<std::uint8_t, 3>& rgb);
 };
 
+// Nearest-neighbour enlargement by an integer factor, so small instrument images are
+// readable without resampling their values.
+RgbImage upscaled(const RgbImage& image, int factor);
+
 // Written to a temporary name and renamed, like records; IoError on failure.
 void write_png(const std::filesystem::path& path, const RgbImage& image);
 
