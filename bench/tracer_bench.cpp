@@ -104,21 +104,7 @@ BENCHMARK(BM_TracerROnly)->MinTime(2.0);
 void intersect(RTCScene scene, const Vec3d& origin, const Vec3d& direction) {
     RTCIntersectContext context;
     rtcInitIntersectContext(&context);
-    RTCRayHit rh;
-    rh.ray.org_x = static_cast<float>(origin.x());
-    rh.ray.org_y = static_cast<float>(origin.y());
-    rh.ray.org_z = static_cast<float>(origin.z());
-    rh.ray.dir_x = static_cast<float>(direction.x());
-    rh.ray.dir_y = static_cast<float>(direction.y());
-    rh.ray.dir_z = static_cast<float>(direction.z());
-    rh.ray.tnear = 0.0f;
-    rh.ray.tfar = std::numeric_limits<float>::infinity();
-    rh.ray.time = 0.0f;
-    rh.ray.mask = 0xFFFFFFFFu;
-    rh.ray.id = 0;
-    rh.ray.flags = 0;
-    rh.hit.geomID = RTC_INVALID_GEOMETRY_ID;
-    rh.hit.instID[0] = RTC_INVALID_GEOMETRY_ID;
+    RTCRayHit rh = make_ray_hit(origin, direction);
     rtcIntersect1(scene, &context, &rh);
     benchmark::DoNotOptimize(rh.hit.primID);
 }

@@ -15,10 +15,12 @@
 // Every wrapper is move-only; moved-from wrappers own nothing.
 #pragma once
 
+#include <limits>
 #include <memory>
 #include <string>
 #include <vector>
 
+#include <Eigen/Core>
 #include <embree3/rtcore.h>
 
 namespace plumage::sim {
@@ -85,5 +87,28 @@ private:
 
 // xyz triples followed by one padding float (see above).
 std::vector<float> padded_vertex_buffer(const std::vector<float>& xyz);
+
+// A ray–hit record for rtcIntersect1 from a double-precision ray: origin and direction
+// rounded to float, tnear 0, tfar ∞, no hit yet. The tracer and the bare-Embree baseline
+// of bench/tracer_bench.cpp start from the same record, so the benchmark compares like
+// with like.
+inline RTCRayHit make_ray_hit(const Eigen::Vector3d& origin, const Eigen::Vector3d& direction) {
+    RTCRayHit rh{};
+    rh.ray.org_x = static_cast<float>(origin.x());
+    rh.ray.org_y = static_cast<float>(origin.y());
+    rh.ray.org_z = static_cast<float>(origin.z());
+    rh.ray.dir_x = static_cast<float>(direction.x());
+    rh.ray.dir_y = static_cast<float>(direction.y());
+    rh.ray.dir_z = static_cast<float>(direction.z());
+    rh.ray.tnear = 0.0f;
+    rh.ray.tfar = std::numeric_limits<float>::infinity();
+    rh.ray.time = 0.0f;
+    rh.ray.mask = 0xFFFFFFFFu;
+    rh.ray.id = 0;
+    rh.ray.flags = 0;
+    rh.hit.geomID = RTC_INVALID_GEOMETRY_ID;
+    rh.hit.instID[0] = RTC_INVALID_GEOMETRY_ID;
+    return rh;
+}
 
 }  // namespace plumage::sim

@@ -343,18 +343,7 @@ std::optional<SurfaceHit> Scene::intersect(const Vec3d& origin, const Vec3d& dir
                                            const PrimitiveRef& skip, int* skipped) const {
     RTCIntersectContext context;
     rtcInitIntersectContext(&context);
-    RTCRayHit rh;
-    rh.ray.org_x = static_cast<float>(origin.x());
-    rh.ray.org_y = static_cast<float>(origin.y());
-    rh.ray.org_z = static_cast<float>(origin.z());
-    rh.ray.dir_x = static_cast<float>(direction.x());
-    rh.ray.dir_y = static_cast<float>(direction.y());
-    rh.ray.dir_z = static_cast<float>(direction.z());
-    rh.ray.tnear = 0.0f;
-    rh.ray.time = 0.0f;
-    rh.ray.mask = 0xFFFFFFFFu;
-    rh.ray.id = 0;
-    rh.ray.flags = 0;
+    RTCRayHit rh = make_ray_hit(origin, direction);
     // A rejected hit moves tnear strictly past it, so each facet is rejected at most once
     // and the loop ends.
     for (;;) {
