@@ -18,9 +18,10 @@
 //    axis, h = 1/√((cos r / A)² + (sin r / B)²)), starting at the barb's extreme point along +y,
 //    r₊ = (r_y, r_z) with r_y = √(a² sin² ρ + b² cos² ρ), r_z = (a² − b²) sin ρ cos ρ / r_y;
 //    its end faces are perpendicular to d;
-//  - the proximal barbule: the mirror image of the distal strip in y (start (−r_y, r_z),
-//    direction (−cos i, sin i)), as build_patch_cross_section places it (for a rotated barb
-//    that start is not on the cortex: the strip floats beside the barb);
+//  - the proximal barbule: the distal strip turned by π about the barb's centre and then about
+//    the vertical (start −r₊ = (−r_y, −r_z), the point reflection of the distal root, so it lies
+//    on the cortex for any rotation; direction (−cos i, sin i): it still rises), as
+//    build_patch_cross_section places it;
 //  - period P = barb_spacing × barb_width, or (barb_spacing = 0) 2 (r_y + L cos i): the tips
 //    of neighbouring barbules meet.
 //

@@ -7,7 +7,6 @@
 #include <array>
 #include <cmath>
 #include <cstdio>
-#include <limits>
 #include <numbers>
 #include <string>
 #include <vector>
@@ -15,6 +14,7 @@
 #include <fmt/format.h>
 #include <gtest/gtest.h>
 
+#include "analysis/cross_section_masking_mc.h"
 #include "common/error.h"
 #include "geometry/barb.h"
 #include "sim/random.h"
@@ -72,119 +72,11 @@ std::vector<Configuration> configurations() {
 
 // ---------------------------------------------------------------------------------------------
 // Monte Carlo: parallel rays against the polygons of build_patch_cross_section, tiled with the
-// period, one ray at a random position in each of N equal slices of the period (jittered
-// stratification: each fraction's variance is at most the binomial p(1 − p)/N, and a slice can only
-// be misclassified if a boundary of the partition falls inside it). A ray at u (where it crosses z
-// = 0) along −ω meets first the boundary point of largest depth t = p·ω on its line; every polygon
-// edge that the line crosses is tested (no convexity is assumed), through a per-polygon bucket grid
-// over u so that 15 000-edge ellipses stay cheap.
+// period, one ray at a random position in each of N equal slices of the period
+// (analysis/cross_section_masking_mc.h, shared with the masking study: jittered stratification,
+// each fraction's variance is at most the binomial p(1 − p)/N, and a slice can only be
+// misclassified if a boundary of the partition falls inside it).
 
-struct PolygonInView {
-    SurfaceRole role;
-    double lo, hi;                       // u-range
-    std::vector<Eigen::Vector2d> uv;     // vertices in (u, t)
-    std::vector<std::vector<int>> bins;  // edges by u bucket
-    double bin_width;
-};
-
-constexpr int kBuckets = 256;
-
-std::vector<PolygonInView> view_polygons(const PatchCrossSection& section, double theta) {
-    const double sn = std::sin(theta), cs = std::cos(theta), tn = sn / cs;
-    std::vector<PolygonInView> out;
-    for (const auto& shape : section.shapes) {
-        PolygonInView v{shape.role,
-                        std::numeric_limits<double>::infinity(),
-                        -std::numeric_limits<double>::infinity(),
-                        {},
-                        std::vector<std::vector<int>>(kBuckets),
-                        0.0};
-        for (const auto& p : shape.polygon) {
-            v.uv.emplace_back(p.x() - p.y() * tn, p.x() * sn + p.y() * cs);
-            v.lo = std::min(v.lo, v.uv.back().x());
-            v.hi = std::max(v.hi, v.uv.back().x());
-        }
-        v.bin_width = (v.hi - v.lo) / kBuckets;
-        const int n = static_cast<int>(v.uv.size());
-        for (int e = 0; e < n; ++e) {
-            const double a = v.uv[e].x(), b = v.uv[(e + 1) % n].x();
-            const int b0 = std::clamp(static_cast<int>((std::min(a, b) - v.lo) / v.bin_width), 0,
-                                      kBuckets - 1);
-            const int b1 = std::clamp(static_cast<int>((std::max(a, b) - v.lo) / v.bin_width), 0,
-                                      kBuckets - 1);
-            for (int k = b0; k <= b1; ++k) v.bins[k].push_back(e);
-        }
-        out.push_back(std::move(v));
-    }
-    return out;
-}
-
-// Largest depth at which the line u = const crosses the polygon's boundary (false: it misses).
-bool polygon_front(const PolygonInView& v, double u, double& t) {
-    if (u < v.lo || u > v.hi) return false;
-    const int bin = std::clamp(static_cast<int>((u - v.lo) / v.bin_width), 0, kBuckets - 1);
-    const int n = static_cast<int>(v.uv.size());
-    bool hit = false;
-    for (int e : v.bins[bin]) {
-        const Eigen::Vector2d& a = v.uv[e];
-        const Eigen::Vector2d& b = v.uv[(e + 1) % n];
-        if ((u < a.x() && u < b.x()) || (u > a.x() && u > b.x())) continue;
-        const double w = b.x() != a.x() ? (u - a.x()) / (b.x() - a.x()) : 0.0;
-        const double depth = b.x() != a.x() ? a.y() + w * (b.y() - a.y()) : std::max(a.y(), b.y());
-        if (!hit || depth > t) t = depth;
-        hit = true;
-    }
-    return hit;
-}
-
-struct McFractions {
-    std::array<double, 3> value{};  // barb, barbule (both sides), gap
-};
-
-McFractions monte_carlo(const PatchCrossSection& section, double theta, int rays, Rng& rng) {
-    const auto polygons = view_polygons(section, theta);
-    const double p = section.period_um;
-    const double shift_t = p * std::sin(theta);
-    std::array<long, 3> count{};
-    for (int r = 0; r < rays; ++r) {
-        // Jittered strata: one ray uniformly inside each of `rays` equal slices of the period.
-        const double u = p * (r + rng.uniform()) / rays;
-        double best = -std::numeric_limits<double>::infinity();
-        int owner = 2;
-        for (const auto& poly : polygons) {
-            const int ka = static_cast<int>(std::ceil((u - poly.hi) / p));
-            const int kb = static_cast<int>(std::floor((u - poly.lo) / p));
-            for (int k = ka; k <= kb; ++k) {
-                double t = 0.0;
-                if (polygon_front(poly, u - k * p, t) && t + k * shift_t > best) {
-                    best = t + k * shift_t;
-                    owner =
-                        poly.role == SurfaceRole::barbule ? 1 : 0;  // cortex and medulla are barb
-                }
-            }
-        }
-        ++count[owner];
-    }
-    McFractions f;
-    for (int c = 0; c < 3; ++c) f.value[c] = static_cast<double>(count[c]) / rays;
-    return f;
-}
-
-// How far the explicit polygons sit from the analytic shapes (µm): the cortex's chord error, and
-// the offset of the barbule roots (the tessellated cortex's furthest vertex along +y, not the
-// ellipse's extreme point).
-double geometric_offset_um(const PatchCrossSection& section, const PadronGriffe2024Masking& masking,
-                           double max_chord_um) {
-    double root_offset = 0.0;
-    for (const auto& shape : section.shapes) {
-        if (shape.role != SurfaceRole::barbule) continue;
-        const Eigen::Vector2d start = 0.5 * (shape.polygon[0] + shape.polygon[3]);
-        const Eigen::Vector2d root = masking.distal_root_um();
-        const Eigen::Vector2d analytic(start.x() > 0.0 ? root.x() : -root.x(), root.y());
-        root_offset = std::max(root_offset, (start - analytic).norm());
-    }
-    return max_chord_um + root_offset;
-}
 
 TEST(PadronGriffe2024Masking, AgreesWithMonteCarloOnTheExplicitCrossSection) {
     // Rays per angle: binomial standard error <= 0.5/√N = 0.0025 per fraction.
@@ -202,7 +94,7 @@ TEST(PadronGriffe2024Masking, AgreesWithMonteCarloOnTheExplicitCrossSection) {
             geometry::build_patch_cross_section(config.params, tolerance);
         ASSERT_NEAR(section.period_um, masking.period_um(), 1e-6 * masking.period_um())
             << config.name;
-        const double offset = geometric_offset_um(section, masking, tolerance.max_chord_um);
+        const double offset = cross_section_offset_um(section, masking, tolerance.max_chord_um);
         Rng rng(kDefaultSeed, stream++);
         double worst = 0.0, worst_ratio = 0.0, worst_angle = 0.0, worst_tolerance = 0.0;
         double worst_strict_ratio = 0.0;
@@ -213,7 +105,8 @@ TEST(PadronGriffe2024Masking, AgreesWithMonteCarloOnTheExplicitCrossSection) {
         for (int deg = -89; deg <= 89; deg += 2) {
             const double theta = deg * kDeg;
             const MaskingFractions analytic = masking.in_plane(theta);
-            const McFractions mc = monte_carlo(section, theta, kRays, rng);
+            const CrossSectionMaskingEstimate mc =
+                estimate_cross_section_masking(section, theta, kRays, rng);
             // Geometry: each boundary of the partition can move by the polygons' offset from the
             // analytic shapes measured across the rays, i.e. offset / |cos θ| along u.
             const auto segments = masking.segments(theta);
@@ -222,8 +115,9 @@ TEST(PadronGriffe2024Masking, AgreesWithMonteCarloOnTheExplicitCrossSection) {
                 boundaries * offset / (masking.period_um() * std::abs(std::cos(theta)));
             const std::array<double, 3> expected = {analytic.barb, analytic.barbule(),
                                                     analytic.gap};
-            naive_worst = std::max(
-                naive_worst, std::abs(std::min(1.0, masking.unoccluded(theta).barb) - mc.value[0]));
+            naive_worst =
+                std::max(naive_worst,
+                         std::abs(std::min(1.0, masking.unoccluded(theta).barb) - mc.fraction[0]));
             for (int c = 0; c < 3; ++c) {
                 const double f = expected[c];
                 const double sigma = std::sqrt(std::max(f * (1.0 - f), 1.0 / kRays) / kRays);
@@ -232,9 +126,9 @@ TEST(PadronGriffe2024Masking, AgreesWithMonteCarloOnTheExplicitCrossSection) {
                 // Stratification's own bound: only slices holding a boundary can be wrong, by 1/N
                 // each (plus one slice of round-off either side).
                 const double strict = (boundaries + 2.0) / kRays + geometric;
-                const double error = std::abs(mc.value[c] - f);
+                const double error = std::abs(mc.fraction[c] - f);
                 EXPECT_LE(error, tol) << config.name << " θ = " << deg << "° component " << c
-                                      << ": analytic " << f << ", Monte Carlo " << mc.value[c];
+                                      << ": analytic " << f << ", Monte Carlo " << mc.fraction[c];
                 EXPECT_LE(error, strict) << config.name << " θ = " << deg << "° component " << c;
                 if (error > worst) {
                     worst = error;
