@@ -107,6 +107,26 @@ geometry::BarbuleRowParams read_barbule_row_params(ParameterTable& geometry) {
     return p;
 }
 
+geometry::BarbulePatchParams read_barb_patch_params(ParameterTable& geometry) {
+    geometry::BarbulePatchParams p;
+    ParameterTable barb = geometry.table("barb");
+    p.barb.barb_width_um = barb.number("width_um", p.barb.barb_width_um, positive(), "barb major diameter, um");
+    p.barb.barb_eccentricity = barb.number("eccentricity", p.barb.barb_eccentricity, between(0.0, 0.999), "barb cross-section eccentricity");
+    p.barb.barb_rotation_rad = barb.angle_deg("rotation_deg", 0.0, between(-180.0, 180.0), "major axis from +z towards +y");
+    p.barb.medulla_scale = barb.number("medulla_scale", 0.0, between(0.0, 0.95), "medulla size relative to the cortex, 0 = none");
+    p.barb.medulla_offset_y_um = barb.number("medulla_offset_y_um", 0.0, {}, "medulla offset along y, um");
+    p.barb.medulla_offset_z_um = barb.number("medulla_offset_z_um", 0.0, {}, "medulla offset along z, um");
+    ParameterTable barbules = geometry.table("barbules");
+    p.barbule_width_um = barbules.number("width_um", p.barbule_width_um, positive(), "barbule major diameter, um");
+    p.barbule_eccentricity = barbules.number("eccentricity", p.barbule_eccentricity, between(0.0, 0.999), "barbule eccentricity");
+    p.barbule_rotation_rad = barbules.angle_deg("rotation_deg", 0.0, between(-180.0, 180.0), "barbule rotation about its axis");
+    p.barbule_inclination_rad = barbules.angle_deg("inclination_deg", p.barbule_inclination_rad, {-90.0, 90.0, true, true}, "barbule rise out of the vane");
+    p.barbule_length = barbules.number("length", p.barbule_length, positive(), "barbule length, in barb widths");
+    p.barbule_separation = barbules.number("separation", p.barbule_separation, between(1.0, 1e6), "barbule pitch, in barbule widths");
+    p.barb_spacing = barbules.number("barb_spacing", 0.0, non_negative(), "barb pitch in barb widths, 0 = barbules meet");
+    return p;
+}
+
 namespace {
 
 void write_instances_csv(const std::filesystem::path& path, const std::vector<Eigen::Affine3d>& instances) {
@@ -169,22 +189,7 @@ Built build_barbule_row(ParameterTable geometry, const std::filesystem::path& di
 }
 
 Built build_barb_patch(ParameterTable geometry, const std::filesystem::path& dir) {
-    geometry::BarbulePatchParams p;
-    ParameterTable barb = geometry.table("barb");
-    p.barb.barb_width_um = barb.number("width_um", p.barb.barb_width_um, positive(), "barb major diameter, um");
-    p.barb.barb_eccentricity = barb.number("eccentricity", p.barb.barb_eccentricity, between(0.0, 0.999), "barb cross-section eccentricity");
-    p.barb.barb_rotation_rad = barb.angle_deg("rotation_deg", 0.0, between(-180.0, 180.0), "major axis from +z towards +y");
-    p.barb.medulla_scale = barb.number("medulla_scale", 0.0, between(0.0, 0.95), "medulla size relative to the cortex, 0 = none");
-    p.barb.medulla_offset_y_um = barb.number("medulla_offset_y_um", 0.0, {}, "medulla offset along y, um");
-    p.barb.medulla_offset_z_um = barb.number("medulla_offset_z_um", 0.0, {}, "medulla offset along z, um");
-    ParameterTable barbules = geometry.table("barbules");
-    p.barbule_width_um = barbules.number("width_um", p.barbule_width_um, positive(), "barbule major diameter, um");
-    p.barbule_eccentricity = barbules.number("eccentricity", p.barbule_eccentricity, between(0.0, 0.999), "barbule eccentricity");
-    p.barbule_rotation_rad = barbules.angle_deg("rotation_deg", 0.0, between(-180.0, 180.0), "barbule rotation about its axis");
-    p.barbule_inclination_rad = barbules.angle_deg("inclination_deg", p.barbule_inclination_rad, {-90.0, 90.0, true, true}, "barbule rise out of the vane");
-    p.barbule_length = barbules.number("length", p.barbule_length, positive(), "barbule length, in barb widths");
-    p.barbule_separation = barbules.number("separation", p.barbule_separation, between(1.0, 1e6), "barbule pitch, in barbule widths");
-    p.barb_spacing = barbules.number("barb_spacing", 0.0, non_negative(), "barb pitch in barb widths, 0 = barbules meet");
+    const geometry::BarbulePatchParams p = read_barb_patch_params(geometry);
     ParameterTable patch = geometry.table("patch");
     const double length = patch.number("length_um", 200.0, positive(), "patch length along the barbs, um");
     const int barbs = static_cast<int>(patch.integer("barbs", 3, 1, 10000, "barbs in the patch"));

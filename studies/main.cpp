@@ -15,7 +15,9 @@
 #include "studies/geometry_study.h"
 #include "studies/ablation_study.h"
 #include "studies/extremes_study.h"
+#include "studies/masking_study.h"
 #include "studies/rock_dove_study.h"
+#include "studies/species_study.h"
 #include "studies/study_file.h"
 #include "studies/thin_film_chart.h"
 
@@ -109,12 +111,38 @@ int main(int argc, char** argv) {
             // Which study: the top-level `study` key (geometry files use `plumage geometry`).
             auto file = plumage::studies::StudyFile::parse(text, source);
             auto root = file->root();
-            const std::string kind = root.required_string("study", {"rock_dove", "ablation", "extremes"},
+            const std::string kind = root.required_string("study", {"rock_dove", "ablation", "extremes", "species", "masking"},
                                                           "which study this file describes");
             if (kind == "ablation") {
                 const auto r = plumage::studies::run_ablation_study(text, source, output);
                 std::cout << fmt::format("plumage: wrote {} in {:.0f} s ({} values skipped; open report.md)\n",
                                          r.output_dir.string(), r.wall_seconds, r.skipped);
+                return 0;
+            }
+            if (kind == "species") {
+                const plumage::gonio::ScopedInterruptHandler interrupt;
+                limits.interrupt = &interrupt.flag();
+                const auto r = plumage::studies::run_species_study(text, source, output, true, limits);
+                std::cout << fmt::format("plumage: wrote {} in {:.0f} s (open report.md)\n", r.output_dir.string(),
+                                         r.wall_seconds);
+                for (const auto& o : r.species) {
+                    std::cout << fmt::format("  {}: Filip fit reduced chi2 {:.2f}, relative L1 {:.1f} % (Table 1: {:.1f} %), "
+                                             "reciprocity chi2/dof {:.2f}\n",
+                                             o.species, o.reduced_chi_square, 100.0 * o.fit_relative_l1,
+                                             100.0 * o.table1_relative_l1,
+                                             o.reciprocity_chi_square / std::max(1, o.reciprocity_dof));
+                }
+                return 0;
+            }
+            if (kind == "masking") {
+                const auto r = plumage::studies::run_masking_study(text, source, output);
+                std::cout << fmt::format(
+                    "plumage: wrote {} in {:.0f} s: {} configuration(s) x {} angles, max "
+                    "|analytic - MC| {:.2e}, max |z| {:.3f} (Sidak bound {:.2f}): {} (open "
+                    "report.md)\n",
+                    r.output_dir.string(), r.wall_seconds, r.configurations.size(),
+                    r.angles_deg.size(), r.max_abs_difference, r.max_abs_z, r.z_bound,
+                    r.agrees ? "agrees" : "DISAGREES");
                 return 0;
             }
             if (kind == "extremes") {

@@ -7,6 +7,8 @@
   plots.py contact_sheet CSV PNG rows of images: columns label, simulation, model (PNG paths), note
   plots.py sweep_error CSV PNG   model error against a swept parameter: x, error, noise floor, is_base
   plots.py energy_bars CSV PNG   largest energy per case and scatterer: label, energy, error, status
+  plots.py luminance CSV PNG     in-plane L* per species (Filip 2024 Fig. 6a): x, then name, name error, name fit
+  plots.py masking H5 PNG         masking study: fractions against angle (analytic, MC +- sigma) and z
   plots.py batch CSV PNG         every plot a CSV lists (columns kind, input, png; PNG unused)
 """
 import csv
@@ -181,6 +183,90 @@ def energy_bars(csv_path, png_path):
     fig.savefig(png_path, dpi=110)
 
 
+def luminance(csv_path, png_path):
+    with open(csv_path, newline="") as f:
+        reader = csv.reader(f)
+        header = next(reader)
+        rows = [[float(v) for v in r] for r in reader]
+    x = [r[0] for r in rows]
+    fig, ax = plt.subplots(figsize=(7, 4.2))
+    colours = {"parrot": "tab:blue", "rooster": "tab:green", "flamingo": "tab:pink", "stork": "0.45"}
+    for i in range(1, len(header), 3):
+        name = header[i]
+        c = colours.get(name, None)
+        ax.errorbar(x, [r[i] for r in rows], yerr=[r[i + 1] for r in rows], fmt="o-", ms=3, capsize=2,
+                    color=c, label=name + " (simulation)")
+        ax.plot(x, [r[i + 2] for r in rows], "--", color=c, lw=1, label=name + " (fitted Filip model)")
+    for angle, text in ((-45, "specular"), (45, "retro")):
+        ax.axvline(angle, color="k", lw=0.6, ls=":")
+        ax.text(angle, ax.get_ylim()[1], text, ha="center", va="bottom", fontsize=8)
+    ax.set_xlabel(header[0])
+    ax.set_ylabel("CIE L* (D65)")
+    ax.grid(alpha=0.3)
+    ax.legend(fontsize=7, ncol=2)
+    fig.tight_layout()
+    fig.savefig(png_path, dpi=120)
+
+
+def masking(h5_path, png_path):
+    """One row per configuration: barb, barbule and gap fractions against the in-plane angle
+    (analytic lines, Monte Carlo points with +-sigma bars); the residuals z in sigma with the
+    Sidak bound of the whole comparison; and |MC - analytic| on a log scale beside sigma and the
+    deterministic bound of stratified sampling (studies/masking_study.h)."""
+    import h5py
+    import numpy as np
+
+    with h5py.File(h5_path, "r") as f:
+        angles = np.asarray(f["angles_deg"])
+        analytic = np.asarray(f["analytic"])
+        mc = np.asarray(f["mc"])
+        se = np.asarray(f["mc_standard_error"])
+        z = np.asarray(f["z"])
+        bound = np.asarray(f["stratified_bound"])
+        names = f.attrs["configurations"]
+        z_bound = float(f.attrs["z_bound"])
+    names = (names.decode() if hasattr(names, "decode") else str(names)).split(",")
+    colours = ("tab:brown", "tab:blue", "0.45")
+    labels = ("barb", "barbule", "gap")
+    fig, axes = plt.subplots(len(names), 3, figsize=(15, 2.6 * len(names) + 0.4), squeeze=False,
+                             gridspec_kw={"width_ratios": (3, 2, 2)})
+    zmax = max(1.15 * z_bound, 1.1 * float(np.nanmax(np.abs(z))))
+    floor = 0.3 / max(1.0, float(np.nanmax(1.0 / se)))  # below one ray's worth: drawn at the axis
+    for k, name in enumerate(names):
+        left, middle, right = axes[k]
+        for c in range(3):
+            left.plot(angles, analytic[k, :, c], "-", color=colours[c], lw=1.2,
+                      label=f"{labels[c]}: analytic")
+            left.errorbar(angles, mc[k, :, c], yerr=se[k, :, c], fmt="o", ms=2.4, mfc="none",
+                          mew=0.6, elinewidth=0.6, color=colours[c], label=f"{labels[c]}: MC +- sigma")
+            middle.plot(angles, z[k, :, c], "o", ms=2.2, color=colours[c], label=labels[c])
+            diff = np.maximum(np.abs(mc[k, :, c] - analytic[k, :, c]), floor)
+            right.semilogy(angles, diff, "o", ms=2.2, color=colours[c], label=labels[c])
+        right.semilogy(angles, se[k].max(axis=1), "-", color="tab:green", lw=0.8, label="largest sigma")
+        right.semilogy(angles, bound[k], "--", color="tab:red", lw=0.8, label="stratified bound")
+        left.set_ylim(-0.03, 1.03)
+        left.set_ylabel("fraction")
+        left.set_title(name, fontsize=9, loc="left")
+        for sign in (-1, 1):
+            middle.axhline(sign * z_bound, color="tab:red", ls="--", lw=0.8,
+                           label="Sidak bound" if sign > 0 else None)
+        middle.axhline(0.0, color="k", lw=0.5)
+        middle.set_ylim(-zmax, zmax)
+        middle.set_ylabel("z = (MC - analytic) / sigma", fontsize=8)
+        right.set_ylim(bottom=0.8 * floor)
+        right.set_ylabel("|MC - analytic|", fontsize=8)
+        for ax in axes[k]:
+            ax.grid(alpha=0.3)
+        if k == 0:
+            left.legend(fontsize=6, ncol=3, loc="upper center")
+            middle.legend(fontsize=6, ncol=4, loc="lower center")
+            right.legend(fontsize=6, ncol=3, loc="upper center")
+    for ax in axes[-1]:
+        ax.set_xlabel("in-plane view angle (deg from +z towards +y)")
+    fig.tight_layout()
+    fig.savefig(png_path, dpi=100)
+
+
 def batch(csv_path, _png_path):
     with open(csv_path, newline="") as f:
         jobs = list(csv.DictReader(f))
@@ -192,7 +278,8 @@ def batch(csv_path, _png_path):
 if __name__ == "__main__":
     KINDS.update({"spectra": spectra, "chart": chart, "convergence": convergence, "curves": curves,
                   "contact_sheet": contact_sheet, "sweep_error": sweep_error,
-                  "energy_bars": energy_bars, "batch": batch})
+                  "energy_bars": energy_bars, "luminance": luminance, "batch": batch})
+    KINDS["masking"] = masking
     if len(sys.argv) != 4 or sys.argv[1] not in KINDS:
         sys.exit("usage: plots.py " + "|".join(KINDS) + " INPUT PNG")
     KINDS[sys.argv[1]](sys.argv[2], sys.argv[3])

@@ -1,0 +1,48 @@
+#include "sim/mounted_scatterer.h"
+
+#include <cmath>
+
+#include "common/error.h"
+
+namespace plumage {
+
+MountedScatterer::MountedScatterer(std::shared_ptr<const Scatterer> inner, double azimuth_rad)
+    : inner_(std::move(inner)), azimuth_rad_(azimuth_rad) {
+    if (!inner_) throw InputError("MountedScatterer: no scatterer to mount");
+    if (!std::isfinite(azimuth_rad)) {
+        throw InputError("MountedScatterer: mount azimuth must be finite (rad)");
+    }
+    cos_ = std::cos(azimuth_rad);
+    sin_ = std::sin(azimuth_rad);
+}
+
+Vec3d MountedScatterer::to_sample(const Vec3d& w) const {
+    return {cos_ * w.x() + sin_ * w.y(), -sin_ * w.x() + cos_ * w.y(), w.z()};
+}
+
+Vec3d MountedScatterer::to_instrument(const Vec3d& w) const {
+    return {cos_ * w.x() - sin_ * w.y(), sin_ * w.x() + cos_ * w.y(), w.z()};
+}
+
+std::optional<ScatterEvent> MountedScatterer::sample(const Vec3d& wi, double lambda_nm,
+                                                     const Vec2& position_um, Rng& rng) const {
+    const Vec3d p = to_sample(Vec3d(position_um.x(), position_um.y(), 0.0));
+    auto event = inner_->sample(to_sample(wi), lambda_nm, Vec2(p.x(), p.y()), rng);
+    if (!event) return event;
+    event->wo = to_instrument(event->wo);
+    const Vec3d exit =
+        to_instrument(Vec3d(event->exit_position_um.x(), event->exit_position_um.y(), 0.0));
+    event->exit_position_um = Vec2(exit.x(), exit.y());
+    return event;
+}
+
+double MountedScatterer::eval(const Vec3d& wi, const Vec3d& wo, double lambda_nm,
+                              std::span<double> per_lobe) const {
+    return inner_->eval(to_sample(wi), to_sample(wo), lambda_nm, per_lobe);
+}
+
+double MountedScatterer::pdf(const Vec3d& wi, const Vec3d& wo, double lambda_nm) const {
+    return inner_->pdf(to_sample(wi), to_sample(wo), lambda_nm);
+}
+
+}  // namespace plumage

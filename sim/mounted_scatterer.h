@@ -1,0 +1,50 @@
+// A sample mounted on the goniometer turned about its normal: the Scatterer of another
+// Scatterer whose patch frame (sim/scatterer.h: +x the barb axis) is rotated by an azimuth ψ
+// about +z in the instrument's frame.
+//
+// Real captures place a feather at whatever azimuth it lies on the stage; Filip et al. 2024
+// report its orientation only through the fitted anisotropy direction φa. A measurement of a
+// mounted sample equals a measurement of the unmounted one with every direction (and the beam
+// position) turned by −ψ:
+//   f_mounted(ω_i, ω_o) = f(R(−ψ) ω_i, R(−ψ) ω_o),   R(α) the rotation by α about +z,
+// and sampled directions and exit positions are turned back by +ψ. The rotation is exact in
+// double precision up to round-off; no resampling, so the wrapped scatterer's statistics carry
+// over unchanged (unbiased weights, same lobes).
+#pragma once
+
+#include <memory>
+#include <string>
+#include <vector>
+
+#include "sim/scatterer.h"
+
+namespace plumage {
+
+class MountedScatterer final : public Scatterer {
+public:
+    // azimuth_rad: the angle from the instrument's +x to the sample's +x (barb axis), about
+    // +z, counter-clockwise seen from above. InputError when not finite or `inner` is null.
+    MountedScatterer(std::shared_ptr<const Scatterer> inner, double azimuth_rad);
+
+    std::string name() const override { return inner_->name(); }
+    const std::vector<std::string>& lobe_names() const override { return inner_->lobe_names(); }
+    std::optional<ScatterEvent> sample(const Vec3d& wi, double lambda_nm, const Vec2& position_um,
+                                       Rng& rng) const override;
+    bool can_evaluate() const override { return inner_->can_evaluate(); }
+    double eval(const Vec3d& wi, const Vec3d& wo, double lambda_nm,
+                std::span<double> per_lobe = {}) const override;
+    double pdf(const Vec3d& wi, const Vec3d& wo, double lambda_nm) const override;
+
+    double azimuth_rad() const { return azimuth_rad_; }
+    const Scatterer& inner() const { return *inner_; }
+
+private:
+    Vec3d to_sample(const Vec3d& w) const;      // instrument → sample frame: R(−ψ)
+    Vec3d to_instrument(const Vec3d& w) const;  // sample → instrument frame: R(+ψ)
+
+    std::shared_ptr<const Scatterer> inner_;
+    double azimuth_rad_;
+    double cos_, sin_;
+};
+
+}  // namespace plumage

@@ -1,0 +1,1152 @@
+#include "studies/species_study.h"
+
+#include <omp.h>
+
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+#include <fstream>
+#include <iostream>
+#include <memory>
+#include <numbers>
+#include <optional>
+
+#include <fmt/format.h>
+
+#include "analysis/filip2024_fit.h"
+#include "common/error.h"
+#include "common/version.h"
+#include "geometry/barb.h"
+#include "sim/mounted_scatterer.h"
+#include "sim/optics/colour.h"
+#include "sim/optics/material.h"
+#include "sim/optics/spectrum.h"
+#include "sim/tracer.h"
+#include "studies/geometry_study.h"
+#include "studies/plots.h"
+#include "studies/staged_directory.h"
+#include "studies/study_common.h"
+#include "studies/study_file.h"
+#include "virtual_gonio/btf.h"
+#include "virtual_gonio/direction_sets.h"
+#include "virtual_gonio/display_colour.h"
+#include "virtual_gonio/goniometer.h"
+#include "virtual_gonio/hdf5_file.h"
+#include "virtual_gonio/png_image.h"
+
+namespace plumage::studies {
+namespace {
+
+namespace fs = std::filesystem;
+using analysis::Filip2024Parameters;
+using analysis::kFilip2024ParameterCount;
+using analysis::kFilip2024ParameterTable;
+
+constexpr double kPi = std::numbers::pi;
+constexpr double kDeg = kPi / 180.0;
+// The largest polar angle of the paper's capture (Sect. 4): the beam footprint and the
+// light's lateral travel through the patch at this angle decide whether a patch is big enough.
+constexpr double kLargestPolarRad = 75.0 * kDeg;
+
+// The sample under a wide, uniform beam. A patch of barbs is periodic: with period P across
+// the barbs (y) and the barbule pitch p along them (x). The BRDF of a beam much wider than
+// P is the average over entry points in one period cell, so the light enters uniformly in
+// the central cell instead of within a finite beam: a beam a few periods wide covers 1.3 or
+// 1.7 periods depending on the light's elevation (its footprint stretches by 1/cos θi), and
+// that partial coverage makes the measured BRDF of a striped sample depend on the geometry
+// of the footprint — not reciprocal, not the sample's. Exit points stay where the light
+// leaves (every exit is collected by the detector's cone). Directions are not touched: the
+// wrapper goes inside MountedScatterer, in the sample's own frame.
+class PeriodCellEntry final : public Scatterer {
+public:
+    PeriodCellEntry(std::shared_ptr<const Scatterer> inner, double pitch_x_um, double period_y_um,
+                    double y0_um)
+        : inner_(std::move(inner)), pitch_x_(pitch_x_um), period_y_(period_y_um), y0_(y0_um) {}
+    std::string name() const override { return inner_->name(); }
+    const std::vector<std::string>& lobe_names() const override { return inner_->lobe_names(); }
+    std::optional<ScatterEvent> sample(const Vec3d& wi, double lambda_nm,
+                                       const Vec2& /*beam position*/, Rng& rng) const override {
+        return inner_->sample(wi, lambda_nm, draw_entry(rng), rng);
+    }
+    Vec2 draw_entry(Rng& rng) const {
+        const double x = (rng.uniform() - 0.5) * pitch_x_;
+        const double y = y0_ + (rng.uniform() - 0.5) * period_y_;
+        return {x, y};
+    }
+
+private:
+    std::shared_ptr<const Scatterer> inner_;
+    double pitch_x_, period_y_, y0_;
+};
+
+// The medulla of a barb: a white scatterer, or spongy keratin with a structural colour.
+struct MedullaSpec {
+    bool spongy = false;
+    double albedo = 0.8;            // white: constant; spongy: at the band's peak
+    double base_albedo = 0.05;      // spongy: away from the band (melanin beneath absorbs)
+    double spacing_um = 0.184;      // spongy: dominant spacing Λ of the keratin/air network
+    double keratin_fraction = 0.5;  // spongy: filling fraction of keratin
+    double band_width_nm = 30.0;    // spongy: Gaussian standard deviation of the band
+
+    // First-order Bragg peak λ = 2 n̄ Λ (n̄ the volume-averaged index at that λ: solved
+    // by fixed-point iteration, keratin's dispersion is weak).
+    double peak_nm() const {
+        double lambda = 2.0 * 1.3 * spacing_um * 1e3;
+        for (int k = 0; k < 20; ++k) {
+            const double n_keratin =
+                optics::keratin()->index(std::clamp(lambda, 300.0, 1000.0)).real();
+            lambda =
+                2.0 * (keratin_fraction * n_keratin + (1.0 - keratin_fraction)) * spacing_um * 1e3;
+        }
+        return lambda;
+    }
+};
+
+struct SpeciesSpec {
+    std::string name;         // one of Filip's four: selects the Table 1 column
+    std::string description;  // how the geometry resembles the sample (the study file says)
+    std::string oriented_by;  // "barbs" or "barbules": which fibres Filip's U(φa) follows
+    double mount_rad = 0.0;   // azimuth of the barb axis in the instrument frame
+    geometry::BarbulePatchParams patch;
+    double length_um = 3000.0;
+    int barbs = 10;
+    int layers = 1;
+    double layer_gap_um = 2.0;  // between the lowest point of a layer and the top of the next
+    double layer_shift = 0.5;   // lateral shift of each layer, in barb periods
+    // Materials.
+    bool melanin_core = false;  // barbules: keratin cortex film over a melanin core
+    double cortex_um = 0.0;     // that film's thickness (0: bare keratin | melanin)
+    bool cortex_coherent = true;
+    double pigment_peak_nm = 480.0, pigment_width_nm = 40.0, pigment_k = 0.0;  // keratin
+    MedullaSpec medulla;
+};
+
+struct Settings {
+    std::vector<double> wavelengths;
+    std::uint64_t seed = kDefaultSeed;
+    geometry::TessellationTolerance tolerance;
+    double detector_half_angle = 5.0 * kDeg;
+    std::uint64_t quanta = 20000;
+    int passes = 1;
+    double time_budget_s = std::numeric_limits<double>::infinity();
+    double target_relative_error = 0.0;
+    std::uint64_t in_plane_quanta = 50000;
+    std::uint64_t albedo_quanta = 200000;
+    int btf_pixels = 48;
+    double btf_patch_um = 900.0;
+    std::uint64_t btf_quanta = 400000;
+    double btf_detector_half_angle = 10.0 * kDeg;
+    int fit_evaluations = 3000;
+    std::vector<SpeciesSpec> species;
+};
+
+SpeciesSpec read_species(ParameterTable table, const std::string& name) {
+    SpeciesSpec s;
+    s.name = name;
+    s.description = table.string("description", "", {}, "how the geometry resembles the sample");
+    s.oriented_by =
+        table.required_string("oriented_by", {"barbs", "barbules"},
+                              "the fibres Filip's anisotropy direction U(phi_a) follows");
+    const double phi_a = analysis::filip2024_preset(name).phi_a_rad;
+    // U(φa) = (sin φa, cos φa, 0) is the fibre axis of the anisotropic highlight (H ⟂ U).
+    // Turning the sample by ψ takes its +x (barb axis) to (cos ψ, sin ψ) and its +y (barbules)
+    // to (−sin ψ, cos ψ); equating with U gives ψ = π/2 − φa (barbs) or ψ = −φa (barbules).
+    const double derived = s.oriented_by == "barbs" ? 0.5 * kPi - phi_a : -phi_a;
+    s.mount_rad =
+        table.angle_deg("mount_deg", std::remainder(derived, 2.0 * kPi), between(-360.0, 360.0),
+                        "azimuth of the barb axis on the stage (default: from Table 1's phi_a)");
+    s.layers = static_cast<int>(
+        table.integer("layers", 1, 1, 8, "vane layers stacked (overlapping feathers)"));
+    s.layer_gap_um =
+        table.number("layer_gap_um", 2.0, non_negative(), "gap between stacked layers, um");
+    s.layer_shift = table.number("layer_shift", 0.5, between(0.0, 1.0),
+                                 "lateral shift of each layer, barb periods");
+    s.patch = read_barb_patch_params(table);
+    ParameterTable patch = table.table("patch");
+    s.length_um = patch.number("length_um", 3000.0, positive(), "patch length along the barbs, um");
+    s.barbs = static_cast<int>(patch.integer("barbs", 10, 1, 10000, "barbs in the patch"));
+
+    ParameterTable m = table.table("materials");
+    s.melanin_core = m.string("barbule_core", "keratin", {"keratin", "melanin"},
+                              "what the barbule cortex encloses") == "melanin";
+    s.cortex_um = m.number("cortex_film_um", 0.0, between(0.0, 10.0),
+                           "keratin cortex over the melanin core, um");
+    s.cortex_coherent =
+        m.boolean("cortex_coherent", true, "interference in the cortex film (false: by intensity)");
+    s.pigment_k = m.number("pigment_k", 0.0, between(0.0, 1.0),
+                           "peak extinction coefficient of the keratin's pigment");
+    s.pigment_peak_nm =
+        m.number("pigment_peak_nm", 480.0, between(360.0, 830.0), "pigment absorption peak, nm");
+    s.pigment_width_nm = m.number("pigment_width_nm", 40.0, between(1.0, 500.0),
+                                  "pigment band standard deviation, nm");
+    s.medulla.spongy =
+        m.string("medulla", "white", {"white", "spongy"}, "the barb medulla") == "spongy";
+    s.medulla.albedo = m.number("medulla_albedo", s.medulla.albedo, between(0.0, 1.0),
+                                "medulla albedo (spongy: at the band's peak)");
+    s.medulla.base_albedo = m.number("medulla_base_albedo", s.medulla.base_albedo,
+                                     between(0.0, 1.0), "spongy medulla albedo away from its band");
+    s.medulla.spacing_um = m.number("spongy_spacing_um", s.medulla.spacing_um, between(0.05, 1.0),
+                                    "spongy keratin spacing, um");
+    s.medulla.keratin_fraction = m.number("spongy_keratin_fraction", s.medulla.keratin_fraction,
+                                          between(0.05, 0.95), "spongy keratin filling fraction");
+    s.medulla.band_width_nm = m.number("spongy_band_width_nm", s.medulla.band_width_nm,
+                                       between(1.0, 300.0), "spongy band standard deviation, nm");
+    if (s.medulla.spongy && s.medulla.base_albedo > s.medulla.albedo) {
+        throw InputError(fmt::format(
+            "{}: medulla_base_albedo = {} exceeds medulla_albedo = {}: expected the band's peak to "
+            "be the largest albedo",
+            m.location("medulla_base_albedo"), s.medulla.base_albedo, s.medulla.albedo));
+    }
+    return s;
+}
+
+Settings read_settings(StudyFile& file, std::string& name, const fs::path& source) {
+    Settings s;
+    ParameterTable root = file.root();
+    name = root.string("name", source.stem().string(), {}, "results folder name");
+    root.string("study", "species", {"species"}, "which study this file describes");
+    s.seed = static_cast<std::uint64_t>(
+        root.integer("seed", static_cast<long>(kDefaultSeed), 0, 1L << 62, "random seed"));
+    s.time_budget_s = root.number("time_budget_s", s.time_budget_s, positive(),
+                                  "wall-time budget per BRDF measurement, s");
+    s.target_relative_error =
+        root.number("target_relative_error", 0.0, between(0.0, 1.0),
+                    "stop a BRDF's passes once its estimated relative error is below this");
+    ParameterTable spectrum = root.table("spectrum");
+    const double first =
+        spectrum.number("first_nm", 400.0, between(380.0, 780.0),
+                        "first wavelength, nm (Filip 2024's bands cover 380-780 nm)");
+    const double last =
+        spectrum.number("last_nm", 700.0, between(380.0, 780.0), "last wavelength, nm");
+    const double step = spectrum.number("step_nm", 50.0, positive(), "wavelength step, nm");
+    if (last <= first)
+        throw InputError(fmt::format("{}: spectrum.last_nm = {} is not above first_nm = {}",
+                                     spectrum.location("last_nm"), last, first));
+    const optics::WavelengthGrid grid = optics::WavelengthGrid::uniform(first, last, step);
+    s.wavelengths.assign(grid.nm().begin(), grid.nm().end());
+    bool bands[3] = {false, false, false};
+    for (double l : s.wavelengths) bands[static_cast<int>(analysis::filip2024_channel(l))] = true;
+    if (!(bands[0] && bands[1] && bands[2])) {
+        throw InputError(
+            fmt::format("{}: [spectrum] must put a wavelength in each of Filip's bands (blue "
+                        "380-490, green 490-580, red 580-780 nm) for the RGB fit",
+                        spectrum.location()));
+    }
+    s.tolerance = read_tolerance(root.table("tessellation"));
+
+    ParameterTable go = root.table("goniometer");
+    s.detector_half_angle = go.angle_deg("detector_half_angle_deg", s.detector_half_angle,
+                                         {0.0, 20.0, true, false}, "detector cone half-angle");
+    s.quanta = static_cast<std::uint64_t>(
+        go.integer("quanta_per_pass", static_cast<long>(s.quanta), 100, 100000000,
+                   "quanta per light direction, wavelength and pass"));
+    s.passes = static_cast<int>(go.integer("passes", s.passes, 1, 1000, "passes (at most)"));
+    s.in_plane_quanta = static_cast<std::uint64_t>(
+        go.integer("in_plane_quanta", static_cast<long>(s.in_plane_quanta), 100, 100000000,
+                   "in-plane sweep: quanta per light direction and wavelength"));
+    s.albedo_quanta = static_cast<std::uint64_t>(
+        go.integer("albedo_quanta", static_cast<long>(s.albedo_quanta), 100, 1000000000,
+                   "albedo at normal incidence: quanta per wavelength"));
+    ParameterTable btf = root.table("btf");
+    s.btf_pixels =
+        static_cast<int>(btf.integer("pixels", s.btf_pixels, 4, 1024, "BTF image pixels per side"));
+    s.btf_patch_um =
+        btf.number("patch_size_um", s.btf_patch_um, positive(), "BTF imaged square, um");
+    s.btf_quanta = static_cast<std::uint64_t>(
+        btf.integer("quanta_per_pair", static_cast<long>(s.btf_quanta), 1000, 1000000000,
+                    "BTF quanta per pair and wavelength"));
+    s.btf_detector_half_angle =
+        btf.angle_deg("detector_half_angle_deg", s.btf_detector_half_angle,
+                      {0.0, 30.0, true, false}, "BTF detector cone half-angle");
+    ParameterTable fit = root.table("fit");
+    s.fit_evaluations =
+        static_cast<int>(fit.integer("max_function_evaluations", s.fit_evaluations, 50, 1000000,
+                                     "Levenberg-Marquardt function evaluations"));
+
+    const auto all = analysis::filip2024_preset_names();
+    const std::vector<std::string> allowed(all.begin(), all.end());
+    ParameterTable species = root.table("species");
+    const std::string list = species.string("run", "parrot,rooster,flamingo,stork", {},
+                                            "comma-separated species to run");
+    std::vector<std::string> names;
+    for (std::size_t a = 0; a <= list.size();) {
+        std::size_t b = list.find(',', a);
+        if (b == std::string::npos) b = list.size();
+        std::string one = list.substr(a, b - a);
+        one.erase(0, one.find_first_not_of(' '));
+        one.erase(one.find_last_not_of(' ') + 1);
+        if (std::find(allowed.begin(), allowed.end(), one) == allowed.end()) {
+            throw InputError(
+                fmt::format("{}: species.run names '{}': expected a comma-separated list of "
+                            "parrot, rooster, flamingo, stork",
+                            species.location("run"), one));
+        }
+        names.push_back(one);
+        a = b + 1;
+    }
+    for (const std::string& n : names) {
+        if (!species.has(n))
+            throw InputError(
+                fmt::format("{}: species.run lists '{}' but there is no [species.{}] table",
+                            species.location("run"), n, n));
+        s.species.push_back(read_species(species.table(n), n));
+    }
+    // Tables of species left out of `run` are still checked (a typo there is still a typo).
+    for (const std::string& n : allowed) {
+        if (species.has(n) && std::find(names.begin(), names.end(), n) == names.end())
+            read_species(species.table(n), n);
+    }
+    root.reject_unused();
+    return s;
+}
+
+// Keratin with a pigment absorption band k(λ) = k_peak exp(−(λ − λ_p)²/(2w²)) (carotenoids in
+// the flamingo's keratin), tabulated at 1 nm; without pigment, Debian-plain keratin.
+std::shared_ptr<const optics::Material> keratin_of(const SpeciesSpec& s) {
+    if (s.pigment_k <= 0.0) return optics::keratin();
+    std::vector<double> lambda, n, k;
+    for (double l = 360.0; l <= 830.0 + 1e-9; l += 1.0) {
+        lambda.push_back(l);
+        n.push_back(optics::keratin()->index(l).real());
+        const double u = (l - s.pigment_peak_nm) / s.pigment_width_nm;
+        k.push_back(s.pigment_k * std::exp(-0.5 * u * u));
+    }
+    return std::make_shared<optics::TabulatedMaterial>("pigmented keratin", lambda, n, k);
+}
+
+sim::AlbedoSpectrum medulla_albedo(const MedullaSpec& m) {
+    if (!m.spongy) return sim::constant_albedo(m.albedo);
+    const double peak = m.peak_nm();
+    return [m, peak](double lambda) {
+        const double u = (lambda - peak) / m.band_width_nm;
+        return m.base_albedo + (m.albedo - m.base_albedo) * std::exp(-0.5 * u * u);
+    };
+}
+
+bool inside_polygon(const std::vector<Eigen::Vector2d>& polygon, const Eigen::Vector2d& p) {
+    bool inside = false;
+    for (std::size_t i = 0, j = polygon.size() - 1; i < polygon.size(); j = i++) {
+        const Eigen::Vector2d& a = polygon[i];
+        const Eigen::Vector2d& b = polygon[j];
+        if ((a.y() > p.y()) != (b.y() > p.y()) &&
+            p.x() < (b.x() - a.x()) * (p.y() - a.y()) / (b.y() - a.y()) + a.x()) {
+            inside = !inside;
+        }
+    }
+    return inside;
+}
+
+// How far a barbule must be moved out along its own axis so that its root face clears the
+// barb cortex. build_barbule_patch starts barbules at the cortex's extreme point, so the part
+// of the root face on the inner side of the curve reaches into the cortex; the tracer has no
+// nested media (sim/scene.h), and light inside the cortex meeting that surface would be
+// refracted as if it came from air (a "medium mismatch": wrong and not reciprocal). In the
+// cross-section (the cut through the barbule's axis, where it is thickest) the root face's two
+// corners must lie outside the cortex polygon; bisection on the shift, then 1 % + 0.01 µm margin.
+double barbule_root_clearance_um(const geometry::PatchCrossSection& section) {
+    const std::vector<Eigen::Vector2d>* cortex = nullptr;
+    const std::vector<Eigen::Vector2d>* strip = nullptr;
+    for (const auto& shape : section.shapes) {
+        if (shape.role == geometry::SurfaceRole::barb_cortex) cortex = &shape.polygon;
+        if (shape.role == geometry::SurfaceRole::barbule && strip == nullptr &&
+            shape.polygon[0].x() > 0.0)
+            strip = &shape.polygon;
+    }
+    PLUMAGE_CHECK(cortex != nullptr && strip != nullptr && strip->size() == 4,
+                  "patch cross-section has a cortex and a distal strip");
+    const Eigen::Vector2d d = ((*strip)[1] - (*strip)[0]).normalized();
+    auto clear = [&](double shift) {
+        return !inside_polygon(*cortex, (*strip)[0] + shift * d) &&
+               !inside_polygon(*cortex, (*strip)[3] + shift * d);
+    };
+    if (clear(0.0)) return 0.0;
+    double lo = 0.0, hi = 1.0;
+    while (!clear(hi)) hi *= 2.0;
+    for (int k = 0; k < 60; ++k) (clear(0.5 * (lo + hi)) ? hi : lo) = 0.5 * (lo + hi);
+    return 1.01 * hi + 0.01;
+}
+
+struct BuiltSpecies {
+    sim::SceneDescription scene;
+    double period_um = 0.0;
+    double root_clearance_um =
+        0.0;  // barbules moved out along their axis (barbule_root_clearance_um)
+    double layer_thickness_um = 0.0;
+    std::size_t instances = 0, triangles = 0;
+};
+
+BuiltSpecies build_species(const SpeciesSpec& s, const geometry::TessellationTolerance& tolerance,
+                           const std::string& where) {
+    BuiltSpecies out;
+    geometry::BarbulePatch patch;
+    geometry::PatchCrossSection section;
+    try {
+        patch = geometry::build_barbule_patch(s.patch, s.length_um, s.barbs, tolerance);
+        section = geometry::build_patch_cross_section(s.patch, tolerance);
+    } catch (const InputError& e) {
+        throw InputError(fmt::format("{}: {}", where, e.what()));
+    }
+    out.period_um = section.period_um;
+    out.root_clearance_um = barbule_root_clearance_um(section);
+    {
+        // The moved tips must still not meet the neighbouring barb's (conservatively: ignoring
+        // any height difference between them).
+        const double c = std::cos(s.patch.barbule_inclination_rad),
+                     sn = std::abs(std::sin(s.patch.barbule_inclination_rad));
+        const geometry::Barb barb(s.patch.barb);
+        double ry = 0.0;
+        for (const auto& v : barb.cortex_outline(tolerance)) ry = std::max(ry, v.x());
+        double half_thickness = 0.0;  // of the barbule strip in the cut through its axis
+        for (const auto& shape : section.shapes) {
+            if (shape.role == geometry::SurfaceRole::barbule)
+                half_thickness = 0.5 * (shape.polygon[3] - shape.polygon[0]).norm();
+        }
+        const double reach =
+            ry + (out.root_clearance_um + s.patch.barbule_length * s.patch.barb.barb_width_um) * c +
+            half_thickness * sn;
+        if (2.0 * reach > out.period_um) {
+            throw InputError(
+                fmt::format("{}: barbules moved {:.2f} um out of the cortex (so the tracer sees no "
+                            "barbule inside "
+                            "the barb) reach {:.1f} um from the barb axis, more than half the barb "
+                            "period {:.1f} um: "
+                            "expected a larger barbules.barb_spacing (at least {:.2f} barb widths)",
+                            where, out.root_clearance_um, reach, out.period_um,
+                            2.0 * reach / s.patch.barb.barb_width_um));
+        }
+    }
+    sim::BarbulePatchMaterials materials;
+    materials.keratin = keratin_of(s);
+    materials.medulla = medulla_albedo(s.medulla);
+    if (s.melanin_core) {
+        materials.barbule =
+            s.cortex_um > 0.0
+                ? sim::thin_film_interface(materials.keratin, s.cortex_um, optics::air(),
+                                           optics::melanin(),
+                                           s.cortex_coherent ? optics::Coherence::coherent
+                                                             : optics::Coherence::incoherent)
+                : sim::dielectric_interface(optics::melanin());
+    }
+    sim::SceneDescription one = sim::barbule_patch_scene(patch, materials);
+    // Barbules (unit 1) out along their own axis, which runs along (0, cos i, sin i) in the unit.
+    const Eigen::Translation3d clearance(
+        0.0, out.root_clearance_um * std::cos(s.patch.barbule_inclination_rad),
+        out.root_clearance_um * std::sin(s.patch.barbule_inclination_rad));
+    for (sim::Instance& i : one.instances) {
+        if (i.unit == 1) i.transform = i.transform * clearance;
+    }
+    const Eigen::AlignedBox3d box = one.bounds();
+    out.layer_thickness_um = box.max().z() - box.min().z();
+    // Stacked layers: each one lower by the layer's thickness plus the gap, so no two
+    // layers' surfaces intersect, and shifted sideways by a fraction of the barb period.
+    out.scene = one;
+    out.scene.instances.clear();
+    for (int layer = 0; layer < s.layers; ++layer) {
+        const Eigen::Translation3d shift(0.0, std::fmod(layer * s.layer_shift, 1.0) * out.period_um,
+                                         -layer * (out.layer_thickness_um + s.layer_gap_um));
+        for (const sim::Instance& i : one.instances)
+            out.scene.instances.push_back({i.unit, shift * i.transform});
+    }
+    out.scene.validate();
+    out.instances = out.scene.instances.size();
+    for (const auto& u : out.scene.units) {
+        for (const auto& surface : u.surfaces) out.triangles += surface.mesh.triangles.size();
+    }
+    return out;
+}
+
+// L* (D65) of the reflectance factor π f(λ) of one pair, with its standard error.
+struct Luminance {
+    const optics::ReflectanceToXyz& to_xyz;
+    std::vector<double> y_weights;  // Y = Σ w_k R_k
+    explicit Luminance(const optics::ReflectanceToXyz& t, std::size_t n) : to_xyz(t) {
+        std::vector<double> e(n, 0.0);
+        for (std::size_t k = 0; k < n; ++k) {
+            e[k] = 1.0;
+            y_weights.push_back(to_xyz(e).y);
+            e[k] = 0.0;
+        }
+    }
+    std::pair<double, double> operator()(const gonio::BrdfRecord& r, std::size_t pair) const {
+        const std::size_t n = y_weights.size();
+        std::vector<double> reflectance(n);
+        double var = 0.0;
+        for (std::size_t k = 0; k < n; ++k) {
+            reflectance[k] = kPi * r.at(pair, k);
+            var += std::pow(y_weights[k] * kPi * r.error_at(pair, k), 2);
+        }
+        const optics::Lab lab = optics::lab_from_xyz(to_xyz(reflectance), to_xyz.white());
+        const double y = to_xyz(reflectance).y / to_xyz.white().y;
+        // dL*/dY = 116/3 Y^(−2/3) above CIE's linear toe (Y > 0.008856), 903.3 below.
+        const double slope = y > 0.008856 ? 116.0 / 3.0 * std::pow(y, -2.0 / 3.0) : 903.3;
+        return {lab.l, slope * std::sqrt(var) / to_xyz.white().y};
+    }
+};
+
+double relative_l1(const gonio::BrdfRecord& model, const gonio::BrdfRecord& data) {
+    double sum_abs = 0.0, sum = 0.0;
+    for (std::size_t i = 0; i < data.value.size(); ++i) {
+        sum_abs += std::abs(model.value[i] - data.value[i]);
+        sum += data.value[i];
+    }
+    return sum_abs / std::max(sum, 1e-300);
+}
+
+double relative_rms(const gonio::BrdfRecord& model, const gonio::BrdfRecord& data) {
+    double sum_sq = 0.0, sum = 0.0;
+    for (std::size_t i = 0; i < data.value.size(); ++i) {
+        sum_sq += std::pow(model.value[i] - data.value[i], 2);
+        sum += data.value[i];
+    }
+    const double n = static_cast<double>(data.value.size());
+    return std::sqrt(sum_sq / n) / std::max(sum / n, 1e-300);
+}
+
+std::string parameter_cell(double value, double error, std::string_view unit) {
+    const bool angle = unit == "rad";
+    const double v = angle ? value / kDeg : value;
+    if (!std::isfinite(error)) return fmt::format("{:.3g}", v);
+    return fmt::format("{:.3g} ± {:.2g}", v, angle ? error / kDeg : error);
+}
+
+}  // namespace
+
+SpeciesResult run_species_study(const std::string& study_text, const fs::path& source_name,
+                                const fs::path& results_root, bool progress,
+                                const RunLimits& limits) {
+    const auto start = std::chrono::steady_clock::now();
+    auto file = StudyFile::parse(study_text, source_name);
+    std::string name;
+    Settings s = read_settings(*file, name, source_name);
+    if (limits.time_budget_s > 0.0) s.time_budget_s = limits.time_budget_s;
+    if (limits.target_relative_error > 0.0) s.target_relative_error = limits.target_relative_error;
+    auto elapsed = [&] {
+        return std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+    };
+    auto say = [&](const std::string& what) {
+        if (progress) std::cerr << fmt::format("plumage: [{:6.1f} s] {}\n", elapsed(), what);
+    };
+
+    // Build every scene first: a geometry the study file gets wrong stops the run before
+    // anything is written.
+    std::vector<BuiltSpecies> built;
+    for (const SpeciesSpec& sp : s.species) {
+        say(fmt::format("building the {} patch", sp.name));
+        built.push_back(build_species(
+            sp, s.tolerance, fmt::format("{}: [species.{}]", source_name.string(), sp.name)));
+        const BuiltSpecies& b = built.back();
+        const Eigen::AlignedBox3d box = b.scene.bounds();
+        const double depth = box.max().z() - box.min().z();
+        const double cell =
+            0.5 * std::max(b.period_um, sp.patch.barbule_separation * sp.patch.barbule_width_um);
+        const double half = std::max(cell, 0.5 * std::sqrt(2.0) * s.btf_patch_um) +
+                            depth * std::tan(kLargestPolarRad);
+        const double half_x = 0.5 * (box.max().x() - box.min().x()),
+                     half_y = 0.5 * (box.max().y() - box.min().y());
+        if (std::min(half_x, half_y) < half) {
+            throw InputError(fmt::format(
+                "{}: [species.{}.patch] gives a patch of {:.0f} x {:.0f} um; light entering the "
+                "central period cell "
+                "or the BTF square and crossing the {:.0f} um deep stack at 75 deg needs {:.0f} um "
+                "on every side of the centre: "
+                "expected a larger length_um or more barbs",
+                source_name.string(), sp.name, 2.0 * half_x, 2.0 * half_y, depth, half));
+        }
+    }
+
+    StagedDirectory out(results_root / name);
+    const fs::path dir = out.path();
+    SpeciesResult result;
+    result.wavelengths_nm = s.wavelengths;
+    const std::size_t nl = s.wavelengths.size();
+    const optics::WavelengthGrid grid(s.wavelengths);
+    const optics::ReflectanceToXyz to_xyz(grid, optics::Illuminant::d65);
+    const Luminance luminance(to_xyz, nl);
+    for (double a : gonio::filip2024_in_plane_light_angles())
+        result.in_plane_angles_deg.push_back(a / kDeg);
+
+    std::string md = fmt::format(
+        "# Species study: four feathers of Filip et al. 2024, explicit and fitted\n\n"
+        "Plumage {}, study file `{}`. The macaw parrot, Cochin cock (rooster), greater flamingo "
+        "and white stork "
+        "of Filip, Maile and Vávra 2024 as explicit barb + barbule patches (geometry/barb.h), "
+        "traced "
+        "(sim/tracer.h) and measured like the paper's capture: the BRDF on its 61 × 60 set, the "
+        "in-plane "
+        "sweep, BTF images; then the paper's analytic BRDF fitted to each simulated BRDF. The "
+        "simulation "
+        "is a hypothesis about each feather's structure, not a measurement: where the fit departs "
+        "from "
+        "Table 1, either the structure or the model is missing something, and the report says "
+        "which it can tell.\n\n",
+        kVersion, source_name.string());
+    md +=
+        "## How each patch resembles its sample\n\n"
+        "The paper shows the samples only in photographs and says, per sample, which structures "
+        "dominate "
+        "(Sects. 3 and 5.2). Each patch encodes those statements; the mount azimuth on the stage "
+        "comes from "
+        "Table 1's φa: U(φa) = (sin φa, cos φa, 0) is the axis of the fibres whose highlight the "
+        "model's "
+        "anisotropic term describes, so the barb axis (oriented_by = barbs) or the barbules' "
+        "direction "
+        "(oriented_by = barbules) is turned onto U.\n\n"
+        "| species | barb width, ecc. | medulla | barbules (width, ecc., length, rise) | barb "
+        "period | layers | materials | mount |\n"
+        "|---|---|---|---|---|---|---|---|\n";
+    for (std::size_t i = 0; i < s.species.size(); ++i) {
+        const SpeciesSpec& sp = s.species[i];
+        const auto& p = sp.patch;
+        std::string materials;
+        if (sp.melanin_core) {
+            materials = sp.cortex_um > 0.0
+                            ? fmt::format("barbules: {:.3f} µm keratin cortex ({}) over melanin",
+                                          sp.cortex_um,
+                                          sp.cortex_coherent ? "coherent film" : "by intensity")
+                            : "barbules: melanin";
+        } else {
+            materials = "clear keratin barbules";
+        }
+        if (sp.pigment_k > 0.0) {
+            materials += fmt::format("; keratin pigment k = {:.3g} at {:.0f} nm (σ {:.0f} nm)",
+                                     sp.pigment_k, sp.pigment_peak_nm, sp.pigment_width_nm);
+        }
+        const std::string medulla =
+            p.barb.medulla_scale <= 0.0 ? "none"
+            : sp.medulla.spongy
+                ? fmt::format(
+                      "spongy, scale {:.2f}: band at 2 n̄ Λ = {:.0f} nm (Λ = {:.3f} µm, f = "
+                      "{:.2f}), albedo {:.2f} on {:.2f}",
+                      p.barb.medulla_scale, sp.medulla.peak_nm(), sp.medulla.spacing_um,
+                      sp.medulla.keratin_fraction, sp.medulla.albedo, sp.medulla.base_albedo)
+                : fmt::format("white, scale {:.2f}, albedo {:.2f}", p.barb.medulla_scale,
+                              sp.medulla.albedo);
+        md += fmt::format(
+            "| {} | {:.0f} µm, {:.2f} | {} | {:.0f} µm, {:.2f}, {:.1f} barb widths, {:.0f}° | "
+            "{:.0f} µm | {} | {} | {:.0f}° (by {}) |\n",
+            sp.name, p.barb.barb_width_um, p.barb.barb_eccentricity, medulla, p.barbule_width_um,
+            p.barbule_eccentricity, p.barbule_length, p.barbule_inclination_rad / kDeg,
+            built[i].period_um, sp.layers, materials, sp.mount_rad / kDeg, sp.oriented_by);
+    }
+    md += "\n";
+    for (const SpeciesSpec& sp : s.species) {
+        if (!sp.description.empty()) md += fmt::format("- **{}**: {}\n", sp.name, sp.description);
+    }
+    md +=
+        "\nNot modelled: the rachis, barbule hooks, curvature of the vane, the sample's backing "
+        "(light leaving "
+        "below the stack is lost, as on a black stage), the spongy keratin's scattering itself "
+        "(its measured "
+        "effect enters as the medulla's albedo band), polarisation.\n\n";
+
+    const std::vector<gonio::DirectionPair> pairs = gonio::filip2024_btf_pairs();
+
+    record::Hdf5Writer h5(dir / "species.h5");
+    h5.write("wavelength_nm", std::span<const double>(s.wavelengths), {nl}, {{"units", "nm"}});
+    h5.write("in_plane/light_angle_deg", std::span<const double>(result.in_plane_angles_deg),
+             {result.in_plane_angles_deg.size()},
+             {{"units", "deg"},
+              {"meaning",
+               "signed light angle; view at 45 deg in the plane across the barbs; +45 = retro"}});
+    std::vector<PlotJob> plots;
+
+    for (std::size_t si = 0; si < s.species.size(); ++si) {
+        const SpeciesSpec& sp = s.species[si];
+        SpeciesOutcome o;
+        o.species = sp.name;
+        o.mount_deg = sp.mount_rad / kDeg;
+        const fs::path sdir = dir / sp.name;
+        fs::create_directories(sdir);
+        auto tracer = std::make_shared<const sim::ExplicitScatterer>(built[si].scene);
+        // The goniometer's sample: lit over one period cell (a barb's axis is at y = 0 for an
+        // odd number of barbs, at P/2 for an even one), mounted. The BTF camera images the
+        // real patch (its own uniform illumination of the imaged square).
+        const double y0 = sp.barbs % 2 == 1 ? 0.0 : 0.5 * built[si].period_um;
+        const double pitch_x = sp.patch.barbule_separation * sp.patch.barbule_width_um;
+        const auto cell =
+            std::make_shared<const PeriodCellEntry>(tracer, pitch_x, built[si].period_um, y0);
+        const MountedScatterer sample(cell, sp.mount_rad);
+        const MountedScatterer imaged(tracer, sp.mount_rad);
+
+        // 1. The BRDF on the 61 × 60 set.
+        gonio::GoniometerConfig g;
+        g.direction_set = "filip2024_btf";
+        g.pairs = pairs;
+        g.wavelengths_nm = s.wavelengths;
+        g.detector_half_angle_rad = s.detector_half_angle;
+        g.beam_radius_um = 0.5 * built[si].period_um;  // unused: PeriodCellEntry draws the entry
+        g.seed = s.seed + si;
+        g.quanta_per_pass = s.quanta;
+        g.max_passes = s.passes;
+        g.time_budget_s = s.time_budget_s;
+        g.target_relative_error = s.target_relative_error;
+        g.config_text = study_text;
+        g.estimator = gonio::Estimator::photon;
+        say(
+            fmt::format("{}: BRDF on the 61 x 60 set ({} quanta per light direction and "
+                        "wavelength, {} wavelengths)",
+                        sp.name, s.quanta * static_cast<std::uint64_t>(s.passes), nl));
+        gonio::RunControl control;
+        control.progress = progress;
+        control.interrupt = limits.interrupt;
+        const fs::path checkpoints = results_root / ".checkpoints" / name;
+        fs::create_directories(checkpoints);
+        control.checkpoint = checkpoints / (sp.name + "_brdf.checkpoint");
+        const gonio::BrdfRecord sim_brdf = gonio::measure_brdf(sample, g, control);
+        if (sim_brdf.interrupted) {
+            throw Interrupted(
+                fmt::format("interrupted in the {} BRDF after {} completed passes; run the same "
+                            "command again to resume "
+                            "from {}",
+                            sp.name, sim_brdf.passes, control.checkpoint.string()));
+        }
+        o.brdf_seconds = sim_brdf.wall_time_s;
+        gonio::write_brdf_record(sim_brdf, sdir / "brdf.h5");
+        for (std::size_t p = 0; p < pairs.size(); ++p) {
+            for (std::size_t k = 0; k < nl; ++k) {
+                o.mean_brdf_rgb[static_cast<int>(analysis::filip2024_channel(s.wavelengths[k]))] +=
+                    sim_brdf.at(p, k);
+            }
+        }
+        {
+            std::array<int, 3> count{};
+            for (double l : s.wavelengths)
+                ++count[static_cast<int>(analysis::filip2024_channel(l))];
+            for (int c = 0; c < 3; ++c)
+                o.mean_brdf_rgb[c] /= static_cast<double>(count[c] * pairs.size());
+        }
+
+        // 2. Reciprocity: pairs the set holds both ways (both polar angles ≥ 15°).
+        {
+            double chi2 = 0.0, max_z = 0.0;
+            int dof = 0;
+            const auto lights = gonio::filip2024_light_directions();
+            const auto views = gonio::filip2024_view_directions();
+            for (std::size_t li = 0; li < lights.size(); ++li) {
+                for (std::size_t vi = 0; vi < views.size(); ++vi) {
+                    // The swapped pair: the light at this view direction, the view at this light.
+                    auto same = [](const Vec3d& a, const Vec3d& b) {
+                        return (a - b).norm() < 1e-9;
+                    };
+                    std::size_t l2 = lights.size(), v2 = views.size();
+                    for (std::size_t k = 0; k < lights.size(); ++k)
+                        if (same(lights[k], views[vi])) l2 = k;
+                    for (std::size_t k = 0; k < views.size(); ++k)
+                        if (same(views[k], lights[li])) v2 = k;
+                    if (l2 == lights.size() || v2 == views.size()) continue;
+                    const std::size_t a = li * views.size() + vi, b = l2 * views.size() + v2;
+                    if (b <= a) continue;  // each couple once; a == b is the same cell
+                    for (std::size_t k = 0; k < nl; ++k) {
+                        const double var = std::pow(sim_brdf.error_at(a, k), 2) +
+                                           std::pow(sim_brdf.error_at(b, k), 2);
+                        if (var <= 0.0) continue;
+                        const double z = (sim_brdf.at(a, k) - sim_brdf.at(b, k)) / std::sqrt(var);
+                        chi2 += z * z;
+                        max_z = std::max(max_z, std::abs(z));
+                        ++dof;
+                    }
+                }
+            }
+            o.reciprocity_chi_square = chi2;
+            o.reciprocity_dof = dof;
+            o.reciprocity_max_z = max_z;
+        }
+
+        // 3. The fit: Filip's model to the simulated BRDF, from the species' Table 1 column.
+        const Filip2024Parameters table1 = analysis::filip2024_preset(sp.name);
+        o.table1 = analysis::to_vector(table1);
+        // Photon counts make a cell's standard error grow with its own value (σ² ≈ c f for the
+        // cells of one light direction and wavelength), so weighting by the measured σ pulls
+        // the fit low (upward fluctuations get small weights, empty cells σ = 0). Two steps:
+        // an unweighted fit, then a refit with the variance model σ_k² = c f_fit,k, c per
+        // (light, wavelength) from Σσ² / Σf over its views (Pearson's χ²).
+        const std::size_t views = gonio::kFilip2024ViewDirections;
+        std::vector<double> variance_per_value(pairs.size() / views * nl, 0.0);
+        for (std::size_t l = 0; l < pairs.size() / views; ++l) {
+            for (std::size_t k = 0; k < nl; ++k) {
+                double var = 0.0, sum = 0.0;
+                for (std::size_t v = 0; v < views; ++v) {
+                    var += std::pow(sim_brdf.error_at(l * views + v, k), 2);
+                    sum += sim_brdf.at(l * views + v, k);
+                }
+                variance_per_value[l * nl + k] = sum > 0.0 ? var / sum : 0.0;
+            }
+        }
+        std::vector<analysis::BrdfObservation> obs;
+        for (std::size_t p = 0; p < pairs.size(); ++p) {
+            for (std::size_t k = 0; k < nl; ++k) {
+                obs.push_back({pairs[p].wi, pairs[p].wo, std::nullopt, s.wavelengths[k],
+                               sim_brdf.at(p, k), std::nullopt});
+            }
+        }
+        say(fmt::format("{}: fitting Filip 2024 to {} observations", sp.name, obs.size()));
+        analysis::Filip2024FitOptions fit_options;
+        fit_options.max_function_evaluations = s.fit_evaluations;
+        const analysis::Filip2024FitResult first_fit =
+            analysis::fit_filip2024(obs, table1, fit_options);
+        {
+            const analysis::Filip2024Brdf first_model(first_fit.parameters);
+            // Floor: the variance of one quantum's worth in the cell (f ≥ the smallest nonzero
+            // value).
+            double smallest = std::numeric_limits<double>::infinity();
+            for (double v : sim_brdf.value)
+                if (v > 0.0) smallest = std::min(smallest, v);
+            if (!std::isfinite(smallest)) smallest = 1e-6;
+            for (std::size_t p = 0; p < pairs.size(); ++p) {
+                for (std::size_t k = 0; k < nl; ++k) {
+                    const double c = variance_per_value[(p / views) * nl + k];
+                    const double f = std::max(
+                        first_model.eval(pairs[p].wi, pairs[p].wo, s.wavelengths[k]), smallest);
+                    obs[p * nl + k].standard_error =
+                        c > 0.0 ? std::sqrt(c * f) : std::sqrt(f * smallest);
+                }
+            }
+        }
+        const analysis::Filip2024FitResult fit =
+            analysis::fit_filip2024(obs, first_fit.parameters, fit_options);
+        o.fitted = fit.values;
+        o.fitted_error = fit.standard_errors;
+        o.reduced_chi_square = fit.reduced_chi_square;
+        o.fit_converged = fit.converged;
+
+        gonio::GoniometerConfig ge = g;
+        ge.estimator = gonio::Estimator::eval;
+        const analysis::Filip2024Brdf fitted_model(fit.parameters, "filip2024 fit");
+        const analysis::Filip2024Brdf table1_model(table1, "filip2024 table 1");
+        const gonio::BrdfRecord fit_brdf = gonio::measure_brdf(fitted_model, ge);
+        const gonio::BrdfRecord table1_brdf = gonio::measure_brdf(table1_model, ge);
+        gonio::write_brdf_record(fit_brdf, sdir / "fit.h5");
+        o.fit_relative_rms = relative_rms(fit_brdf, sim_brdf);
+        o.table1_relative_rms = relative_rms(table1_brdf, sim_brdf);
+        o.fit_relative_l1 = relative_l1(fit_brdf, sim_brdf);
+        o.table1_relative_l1 = relative_l1(table1_brdf, sim_brdf);
+        o.at_bound = fit.at_bound;
+        {
+            const record::RgbImage a = gonio::brdf_fingerprint(sim_brdf, 61, 60, 4);
+            const record::RgbImage b = gonio::brdf_fingerprint(fit_brdf, 61, 60, 4);
+            const record::RgbImage c = gonio::brdf_fingerprint(table1_brdf, 61, 60, 4);
+            record::write_png(sdir / "fingerprints.png", side_by_side({&a, &b, &c}));
+        }
+
+        // 4. In-plane sweep in the plane across the barbs (turned with the sample).
+        {
+            gonio::GoniometerConfig ip = g;
+            ip.direction_set = "filip2024_in_plane";
+            ip.pairs = gonio::filip2024_in_plane_pairs(sp.mount_rad + gonio::kPlaneAcrossBarbsRad);
+            ip.quanta_per_pass = s.in_plane_quanta;
+            ip.max_passes = 1;
+            ip.seed = s.seed + 100 + si;
+            say(fmt::format("{}: in-plane sweep", sp.name));
+            const gonio::BrdfRecord a = gonio::measure_brdf(sample, ip);
+            ip.estimator = gonio::Estimator::eval;
+            const gonio::BrdfRecord b = gonio::measure_brdf(fitted_model, ip);
+            gonio::write_brdf_record(a, sdir / "in_plane.h5");
+            double peak = -1.0;
+            for (std::size_t p = 0; p < ip.pairs.size(); ++p) {
+                const auto [l, e] = luminance(a, p);
+                o.in_plane_lstar.push_back(l);
+                o.in_plane_lstar_error.push_back(e);
+                o.in_plane_fit_lstar.push_back(luminance(b, p).first);
+                if (l > peak) {
+                    peak = l;
+                    o.in_plane_peak_deg = result.in_plane_angles_deg[p];
+                }
+            }
+        }
+
+        // 5. Albedo at normal incidence, over the period cell.
+        {
+            say(fmt::format("{}: albedo at normal incidence", sp.name));
+            o.albedo.assign(nl, 0.0);
+            o.albedo_error.assign(nl, 0.0);
+            const Vec3d wi(0.0, 0.0, 1.0);
+            for (std::size_t k = 0; k < nl; ++k) {
+                const std::int64_t n = static_cast<std::int64_t>(s.albedo_quanta);
+                double sum = 0.0, sum_sq = 0.0, mismatched = 0.0, mismatched_weight = 0.0;
+#pragma omp parallel for schedule(static) reduction(+ : sum, sum_sq, mismatched, mismatched_weight)
+                for (std::int64_t q = 0; q < n; ++q) {
+                    Rng rng(s.seed + 7000 + 131 * si + k, static_cast<std::uint64_t>(q));
+                    const Vec2 entry = cell->draw_entry(rng);
+                    const sim::PathResult path = tracer->trace(wi, s.wavelengths[k], entry, rng);
+                    const double w =
+                        path.event && path.event->wo.z() > 0.0 ? path.event->weight : 0.0;
+                    sum += w;
+                    sum_sq += w * w;
+                    if (path.medium_mismatches > 0) {
+                        mismatched += 1.0;
+                        mismatched_weight += w;
+                    }
+                }
+                const double mean = sum / static_cast<double>(n);
+                o.albedo[k] = mean;
+                o.mismatched_paths += mismatched / static_cast<double>(n) / static_cast<double>(nl);
+                o.mismatched_albedo +=
+                    mismatched_weight / static_cast<double>(n) / static_cast<double>(nl);
+                o.albedo_error[k] =
+                    std::sqrt(std::max(0.0, sum_sq / static_cast<double>(n) - mean * mean) /
+                              static_cast<double>(n));
+            }
+        }
+
+        // 6. BTF images of Fig. 9: light and view at 30°, the view at azimuth 0, the light
+        //    going round in 30° steps (the 12 geometries in the red frame of Fig. 7).
+        {
+            gonio::BtfConfig bc;
+            for (int k = 0; k < 12; ++k) {
+                bc.pairs.push_back({gonio::direction_from_angles(30.0 * kDeg, k * 30.0 * kDeg),
+                                    gonio::direction_from_angles(30.0 * kDeg, 0.0)});
+            }
+            bc.wavelengths_nm = s.wavelengths;
+            bc.patch_size_um = s.btf_patch_um;
+            bc.pixels = s.btf_pixels;
+            bc.detector_half_angle_rad = s.btf_detector_half_angle;
+            bc.quanta_per_pair = s.btf_quanta;
+            bc.seed = s.seed + 200 + si;
+            say(fmt::format("{}: BTF images of the 12 geometries of Fig. 9", sp.name));
+            const gonio::BtfRecord btf = gonio::measure_btf(imaged, bc);
+            gonio::write_btf_record(btf, sdir / "btf.h5");
+            // One exposure for all 12 (the brightest pixel of the set → Y = 1), so they compare.
+            std::vector<record::RgbImage> images;
+            double exposure = 0.0;
+            {
+                const gonio::SpectrumToDisplay display(s.wavelengths);
+                for (std::size_t p = 0; p < bc.pairs.size(); ++p) {
+                    for (int row = 0; row < bc.pixels; ++row) {
+                        for (int col = 0; col < bc.pixels; ++col) {
+                            const auto xyz = display.xyz(std::span<const double>(
+                                btf.value.data() + btf.index(p, row, col, 0), nl));
+                            exposure = std::max(exposure, xyz.y);
+                        }
+                    }
+                }
+            }
+            for (std::size_t p = 0; p < bc.pairs.size(); ++p)
+                images.push_back(btf_image(btf, p, exposure > 0.0 ? 1.0 / exposure : 1.0));
+            std::vector<const record::RgbImage*> top, bottom;
+            for (std::size_t p = 0; p < 6; ++p) top.push_back(&images[p]);
+            for (std::size_t p = 6; p < 12; ++p) bottom.push_back(&images[p]);
+            const record::RgbImage a = side_by_side(top), b = side_by_side(bottom);
+            record::RgbImage both(std::max(a.width, b.width), a.height + b.height + 6);
+            both.fill(255, 255, 255);
+            auto paste = [&both](const record::RgbImage& from, int row_offset) {
+                for (int y = 0; y < from.height; ++y) {
+                    for (int x = 0; x < from.width; ++x) {
+                        const std::size_t i = 3 * (static_cast<std::size_t>(y) * from.width + x);
+                        both.set(x, row_offset + y, from.pixels[i], from.pixels[i + 1], from.pixels[i + 2]);
+                    }
+                }
+            };
+            paste(a, 0);
+            paste(b, a.height + 6);
+            record::write_png(sdir / "btf.png",
+                              record::upscaled(both, std::max(1, 192 / bc.pixels)));
+        }
+
+        // HDF5 and report section.
+        const std::string g5 = "/" + sp.name;
+        h5.write(
+            g5 + "/fit/values", std::span<const double>(o.fitted),
+            {static_cast<std::uint64_t>(kFilip2024ParameterCount)},
+            {{"meaning",
+              "Filip 2024 parameters fitted to the simulated BRDF, order of parameter_names"}});
+        h5.write(g5 + "/fit/standard_errors", std::span<const double>(o.fitted_error),
+                 {static_cast<std::uint64_t>(kFilip2024ParameterCount)});
+        h5.write(g5 + "/fit/table1", std::span<const double>(o.table1),
+                 {static_cast<std::uint64_t>(kFilip2024ParameterCount)},
+                 {{"meaning", "Filip 2024 Table 1 column of this species"}});
+        h5.set_attribute(g5 + "/fit/values", "reduced_chi_square", o.reduced_chi_square);
+        h5.set_attribute(g5 + "/fit/values", "relative_rms", o.fit_relative_rms);
+        h5.write(g5 + "/albedo", std::span<const double>(o.albedo), {nl},
+                 {{"meaning", "directional albedo at normal incidence"}});
+        h5.write(g5 + "/albedo_standard_error", std::span<const double>(o.albedo_error), {nl});
+        h5.write(g5 + "/in_plane/lstar", std::span<const double>(o.in_plane_lstar),
+                 {o.in_plane_lstar.size()},
+                 {{"meaning", "CIE L* (D65) of the reflectance factor pi f, simulation"}});
+        h5.write(g5 + "/in_plane/lstar_standard_error",
+                 std::span<const double>(o.in_plane_lstar_error), {o.in_plane_lstar.size()});
+        h5.write(g5 + "/in_plane/fit_lstar", std::span<const double>(o.in_plane_fit_lstar),
+                 {o.in_plane_lstar.size()});
+        h5.set_attribute(g5, "mount_deg", o.mount_deg);
+
+        md += fmt::format("## {}\n\n", sp.name);
+        md += fmt::format(
+            "Patch: {} barbs × {:.0f} µm, {} layer(s), {} instances of {} triangles; mounted at "
+            "{:.0f}°; barbules "
+            "start {:.2f} µm out of the cortex (their root faces would otherwise reach into "
+            "it).\n\n",
+            sp.barbs, sp.length_um, sp.layers, built[si].instances, built[si].triangles,
+            o.mount_deg, built[si].root_clearance_um);
+        md += fmt::format(
+            "BTF images (Fig. 9's geometries: light and view at 30°, view at azimuth 0°; light "
+            "azimuth 0°, 30°, …, 150° "
+            "on the top row, 180° … 330° below; {} µm square, one exposure for "
+            "all):\n\n![btf]({}/btf.png)\n\n",
+            s.btf_patch_um, sp.name);
+        md += fmt::format(
+            "Fingerprints (Fig. 7 layout; simulation | fitted model | Table 1 model, each with its "
+            "own exposure):\n\n"
+            "![fingerprints]({}/fingerprints.png)\n\n",
+            sp.name);
+        md += fmt::format(
+            "BRDF: {} quanta per light direction and wavelength, estimated relative RMS error "
+            "{:.1f} %, {:.0f} s. "
+            "Fit: reduced χ² {:.2f} over {} observations ({} free parameters; {}), relative "
+            "residual Σ|Δf|/Σf {:.1f} %, "
+            "RMS/mean {:.1f} % (Table 1's parameters: {:.1f} %, {:.1f} %).\n\n",
+            sim_brdf.quanta, 100.0 * sim_brdf.convergence.back().estimated_relative_rms_error,
+            sim_brdf.wall_time_s, fit.reduced_chi_square, fit.observations,
+            fit.free_parameters.size(), fit.termination, 100.0 * o.fit_relative_l1,
+            100.0 * o.fit_relative_rms, 100.0 * o.table1_relative_l1,
+            100.0 * o.table1_relative_rms);
+        std::string albedo_line;
+        for (std::size_t k = 0; k < nl; ++k)
+            albedo_line += fmt::format(" {:.0f} nm {:.3f}±{:.3f};", s.wavelengths[k], o.albedo[k],
+                                       o.albedo_error[k]);
+        md += fmt::format("Albedo at normal incidence:{}\n\n", albedo_line);
+        md += fmt::format(
+            "Paths that met a surface from a side other than the one they travelled in (medium "
+            "mismatches: barbule roots inside the barb cortex, where the barbule surface still "
+            "declares "
+            "air outside): {:.2f} % of the paths at normal incidence, carrying {:.2f} % of the "
+            "incident power "
+            "out of the albedo above.\n\n",
+            100.0 * o.mismatched_paths, 100.0 * o.mismatched_albedo);
+        const double dof = std::max(1, o.reciprocity_dof);
+        md += fmt::format(
+            "Reciprocity over the {} (pair, wavelength) cells the set holds both ways: χ²/dof = "
+            "{:.2f}, largest |z| = {:.2f}. "
+            "The tracer's physics is reciprocal, but the instrument is not exactly: a cell is the "
+            "BRDF averaged over the "
+            "detector cone around ω_o with ω_i exact, so a lobe narrower than the cone "
+            "(mirror-like barbule faces) "
+            "is averaged differently in f(ω_i, ω_o) and f(ω_o, ω_i); the difference shrinks with "
+            "the cone "
+            "(detector_half_angle_deg).\n\n",
+            o.reciprocity_dof, o.reciprocity_chi_square / dof, o.reciprocity_max_z);
+        result.species.push_back(o);
+    }
+
+    // Fitted parameters beside Table 1.
+    {
+        std::ofstream csv(dir / "fits.csv");
+        csv << "parameter,unit";
+        for (const auto& o : result.species)
+            csv << fmt::format(",{0} fit,{0} fit error,{0} table 1", o.species);
+        csv << "\n";
+        md +=
+            "## Fitted parameters beside Table 1\n\nEach cell: fit ± standard error | Table 1. "
+            "Angles in degrees. θmax and the "
+            "units scale are held fixed (analysis/filip2024_fit.h). The model's colours are "
+            "camera-RGB bands "
+            "(blue 380–490, green 490–580, red 580–780 nm); every simulated wavelength is an "
+            "observation of its band.\n\n"
+            "| parameter |";
+        for (const auto& o : result.species) md += fmt::format(" {} |", o.species);
+        md += "\n|---|";
+        for (std::size_t i = 0; i < result.species.size(); ++i) md += "---|";
+        md += "\n";
+        for (int p = 0; p < kFilip2024ParameterCount; ++p) {
+            const auto& info = kFilip2024ParameterTable[p];
+            const bool angle = info.unit == "rad";
+            csv << fmt::format("{},{}", info.name, angle ? "deg" : info.unit);
+            md += fmt::format("| {} |", info.name);
+            for (const auto& o : result.species) {
+                const double scale = angle ? 1.0 / kDeg : 1.0;
+                csv << fmt::format(",{:.6g},{:.6g},{:.6g}", o.fitted[p] * scale,
+                                   o.fitted_error[p] * scale, o.table1[p] * scale);
+                md += fmt::format(" {}{} \\| {:.3g} |",
+                                  parameter_cell(o.fitted[p], o.fitted_error[p], info.unit),
+                                  o.at_bound[p] ? " (bound)" : "", o.table1[p] * scale);
+            }
+            csv << "\n";
+            md += "\n";
+        }
+        md += "| reduced χ² |";
+        for (const auto& o : result.species) md += fmt::format(" {:.2f} |", o.reduced_chi_square);
+        md += "\n| relative L1: fit \\| Table 1 |";
+        for (const auto& o : result.species)
+            md += fmt::format(" {:.1f} % \\| {:.1f} % |", 100.0 * o.fit_relative_l1,
+                              100.0 * o.table1_relative_l1);
+        md += "\n| relative RMS: fit \\| Table 1 |";
+        for (const auto& o : result.species)
+            md += fmt::format(" {:.1f} % \\| {:.1f} % |", 100.0 * o.fit_relative_rms,
+                              100.0 * o.table1_relative_rms);
+        md += "\n| mean BRDF R, G, B (1/sr) |";
+        for (const auto& o : result.species)
+            md += fmt::format(" {:.3f}, {:.3f}, {:.3f} |", o.mean_brdf_rgb[0], o.mean_brdf_rgb[1],
+                              o.mean_brdf_rgb[2]);
+        md += "\n\n";
+    }
+
+    // In-plane luminance, Fig. 6a.
+    {
+        std::ofstream csv(dir / "in_plane_luminance.csv");
+        csv << "light angle (deg)";
+        for (const auto& o : result.species)
+            csv << fmt::format(",{0},{0} error,{0} fit", o.species);
+        csv << "\n";
+        for (std::size_t p = 0; p < result.in_plane_angles_deg.size(); ++p) {
+            csv << fmt::format("{:.1f}", result.in_plane_angles_deg[p]);
+            for (const auto& o : result.species) {
+                csv << fmt::format(",{:.5g},{:.5g},{:.5g}", o.in_plane_lstar[p],
+                                   o.in_plane_lstar_error[p], o.in_plane_fit_lstar[p]);
+            }
+            csv << "\n";
+        }
+        plots.push_back(
+            {"luminance", dir / "in_plane_luminance.csv", dir / "in_plane_luminance.png"});
+        md +=
+            "## In-plane luminance (Filip Fig. 6a)\n\nView at 45° in the plane across the barbs, "
+            "light from −81° to 81° "
+            "(+45° retro-reflection, −45° the mirror direction); CIE L* (D65) of the reflectance "
+            "factor π f; "
+            "simulation with 1σ error bars, fitted model dashed.\n\n![in-plane "
+            "luminance](in_plane_luminance.png)\n\n"
+            "| species | L* at −45° (specular) | L* at 0° | L* at +45° (retro) | peak at "
+            "|\n|---|---|---|---|---|\n";
+        auto at = [&](const SpeciesOutcome& o, double angle) {
+            for (std::size_t p = 0; p < result.in_plane_angles_deg.size(); ++p) {
+                if (std::abs(result.in_plane_angles_deg[p] - angle) < 0.5)
+                    return fmt::format("{:.1f} ± {:.1f}", o.in_plane_lstar[p],
+                                       o.in_plane_lstar_error[p]);
+            }
+            return std::string("–");
+        };
+        for (const auto& o : result.species) {
+            md += fmt::format("| {} | {} | {} | {} | {:.0f}° |\n", o.species, at(o, -45.0),
+                              at(o, 0.0), at(o, 45.0), o.in_plane_peak_deg);
+        }
+        md += "\n";
+    }
+    run_plots(plots, dir / "plots.csv");
+
+    std::vector<std::string> names;
+    for (int p = 0; p < kFilip2024ParameterCount; ++p)
+        names.emplace_back(kFilip2024ParameterTable[p].name);
+    std::string joined;
+    for (const auto& n : names) joined += (joined.empty() ? "" : ",") + n;
+    h5.set_attribute("/", "parameter_names", joined);
+    h5.set_attribute("/", "study", std::string(study_text));
+    h5.commit();
+
+    result.wall_seconds = elapsed();
+    md += fmt::format(
+        "## Run\n\n{:.0f} s on {} threads. Records: `species.h5` (fits, albedo, in-plane L*), "
+        "`fits.csv`, "
+        "`in_plane_luminance.csv`, per species `brdf.h5` (simulation), `fit.h5` (fitted model), "
+        "`in_plane.h5`, "
+        "`btf.h5` (virtual_gonio/RECORD.md).\n",
+        result.wall_seconds, omp_get_max_threads());
+    {
+        std::ofstream report(dir / "report.md");
+        report << md;
+    }
+    out.commit();
+    result.output_dir = out.final_path();
+    fs::remove_all(results_root / ".checkpoints" / name);
+    std::error_code ignored;
+    fs::remove(results_root / ".checkpoints", ignored);  // only when empty
+    return result;
+}
+
+}  // namespace plumage::studies

@@ -1,0 +1,178 @@
+// The species study in its quick form. Its numbers are checked against what each patch is
+// built to do, independently of the fit:
+//  - colour by construction, from the albedo at normal incidence (period-averaged): the
+//    flamingo's carotenoid band absorbs blue (albedo rises with λ), the stork's clear keratin
+//    and white medulla are neutral (flat within Monte Carlo error), the parrot's spongy
+//    medulla reflects blue (450 nm above 650 nm), the rooster's 0.174 µm cortex over melanin
+//    has its first-order film maximum in the green (550 nm above 450 and 650 nm);
+//  - the fit: Filip's anisotropy axis U(φa) must come out along the fibres each sample was
+//    mounted to put there (modulo 180°: |H·U| does not see the sign), and the fitted
+//    parameters must describe the simulation at least as well as Table 1's;
+//  - reciprocity of the simulated BRDF over the pairs the set holds both ways;
+//  - the records: species.h5 holds what the run returned.
+#include "studies/species_study.h"
+
+#include <unistd.h>
+
+#include <cmath>
+#include <filesystem>
+#include <fstream>
+#include <numbers>
+#include <sstream>
+
+#include <gtest/gtest.h>
+
+#include "common/error.h"
+#include "tests/test_util.h"
+#include "virtual_gonio/hdf5_file.h"
+
+namespace plumage::studies {
+namespace {
+
+constexpr double kDeg = std::numbers::pi / 180.0;
+
+std::string read(const std::filesystem::path& p) {
+    std::ifstream in(p);
+    std::ostringstream s;
+    s << in.rdbuf();
+    return s.str();
+}
+
+const SpeciesOutcome& find(const SpeciesResult& r, const std::string& name) {
+    for (const auto& o : r.species)
+        if (o.species == name) return o;
+    throw std::runtime_error("no species " + name);
+}
+
+// erfc⁻¹ by bisection (monotone), enough for a test bound.
+double inverse_erfc(double p) {
+    double lo = 0.0, hi = 10.0;
+    for (int k = 0; k < 200; ++k) {
+        const double mid = 0.5 * (lo + hi);
+        (std::erfc(mid) > p ? lo : hi) = mid;
+    }
+    return 0.5 * (lo + hi);
+}
+
+// a − b in units of their combined standard error.
+double z(const SpeciesOutcome& o, std::size_t a, std::size_t b) {
+    return (o.albedo[a] - o.albedo[b]) / std::hypot(o.albedo_error[a], o.albedo_error[b]);
+}
+
+TEST(SpeciesStudy, QuickVariantReproducesEachPatchsColourAndOrientation) {
+    const auto root =
+        std::filesystem::temp_directory_path() / ("plumage_species_" + std::to_string(::getpid()));
+    const std::filesystem::path study =
+        std::filesystem::path(PLUMAGE_SOURCE_DIR) / "studies" / "species_quick.toml";
+    const SpeciesResult r = run_species_study(read(study), study, root, false);
+    const auto dir = root / "species_quick";
+    ASSERT_EQ(r.output_dir, dir);
+    ASSERT_EQ(r.species.size(), 4u);
+    ASSERT_EQ(r.wavelengths_nm, (std::vector<double>{450.0, 550.0, 650.0}));
+    ASSERT_EQ(r.in_plane_angles_deg.size(), 55u);
+
+    // Colour by construction; 4σ one-sided (family of 6 comparisons: p < 2e-4).
+    const auto& flamingo = find(r, "flamingo");
+    EXPECT_GT(z(flamingo, 2, 0), 4.0)
+        << "flamingo albedo " << flamingo.albedo[0] << " -> " << flamingo.albedo[2];
+    const auto& stork = find(r, "stork");
+    EXPECT_LT(std::abs(z(stork, 2, 0)), 4.0)
+        << "stork albedo " << stork.albedo[0] << " -> " << stork.albedo[2];
+    EXPECT_GT(stork.albedo[1], 2.0 * flamingo.albedo[0]);  // white against pink's blue
+    const auto& parrot = find(r, "parrot");
+    EXPECT_GT(z(parrot, 0, 2), 4.0)
+        << "parrot albedo " << parrot.albedo[0] << " -> " << parrot.albedo[2];
+    const auto& rooster = find(r, "rooster");
+    EXPECT_GT(z(rooster, 1, 0), 4.0)
+        << "rooster albedo " << rooster.albedo[0] << ", " << rooster.albedo[1];
+    EXPECT_GT(z(rooster, 1, 2), 4.0)
+        << "rooster albedo " << rooster.albedo[1] << ", " << rooster.albedo[2];
+
+    for (const auto& o : r.species) {
+        SCOPED_TRACE(o.species);
+        for (std::size_t k = 0; k < o.albedo.size(); ++k) {
+            EXPECT_GE(o.albedo[k], 0.0);
+            EXPECT_LE(o.albedo[k], 1.0 + 4.0 * o.albedo_error[k]);  // a passive scene
+        }
+        // The anisotropy axis along the mounted fibres: within 4σ of the fit plus 5° (the
+        // fibres' own spread: inclined, elliptical, their highlights are cones, not lines).
+        const double table1 = o.table1[analysis::kFilipPhiA],
+                     fitted = o.fitted[analysis::kFilipPhiA];
+        const double difference = std::abs(std::remainder(fitted - table1, std::numbers::pi));
+        // Without a covariance (a parameter at its bound makes JᵀJ singular) the 5° alone.
+        const double sigma = std::isfinite(o.fitted_error[analysis::kFilipPhiA])
+                                 ? o.fitted_error[analysis::kFilipPhiA]
+                                 : 0.0;
+        EXPECT_LT(difference, 4.0 * sigma + 5.0 * kDeg)
+            << "phi_a fitted " << fitted / kDeg << " deg";
+        // Reciprocity of the simulated BRDF (the tracer's physics is reciprocal; the patch
+        // average over a beam covering a barb period is then too): the largest |z| over the
+        // cells held both ways stays below the Šidák bound for a 1 % family-wise error.
+        ASSERT_GT(o.reciprocity_dof, 1000);
+        const double single = 1.0 - std::pow(0.99, 1.0 / o.reciprocity_dof);
+        const double bound = std::sqrt(2.0) * inverse_erfc(single);
+        EXPECT_LT(o.reciprocity_max_z, bound) << "over " << o.reciprocity_dof << " cells";
+        // Least squares from Table 1's start cannot end worse than its start by much: the
+        // final (variance-weighted) fit is compared by the unweighted RMS, hence the 5 % slack.
+        EXPECT_LT(o.fit_relative_rms, 1.05 * o.table1_relative_rms);
+        EXPECT_TRUE(std::isfinite(o.reduced_chi_square));
+        EXPECT_EQ(o.in_plane_lstar.size(), 55u);
+        for (double l : o.in_plane_lstar) EXPECT_TRUE(std::isfinite(l) && l >= 0.0);
+    }
+
+    // Records: what the run returned, read back.
+    for (const auto& o : r.species) {
+        const auto fit = record::read_dataset(dir / "species.h5", o.species + "/fit/values");
+        ASSERT_EQ(fit.values.size(), static_cast<std::size_t>(analysis::kFilip2024ParameterCount));
+        for (int p = 0; p < analysis::kFilip2024ParameterCount; ++p)
+            EXPECT_DOUBLE_EQ(fit.values[p], o.fitted[p]);
+        const auto albedo = record::read_dataset(dir / "species.h5", o.species + "/albedo");
+        EXPECT_EQ(albedo.values, o.albedo);
+        for (const char* f :
+             {"brdf.h5", "fit.h5", "in_plane.h5", "btf.h5", "btf.png", "fingerprints.png"}) {
+            EXPECT_TRUE(std::filesystem::exists(dir / o.species / f)) << o.species << "/" << f;
+        }
+    }
+    const std::string report = read(dir / "report.md");
+    EXPECT_NE(report.find("## Fitted parameters beside Table 1"), std::string::npos);
+    EXPECT_NE(report.find("in_plane_luminance.png"), std::string::npos);
+    EXPECT_TRUE(std::filesystem::exists(dir / "in_plane_luminance.png"));
+    EXPECT_TRUE(std::filesystem::exists(dir / "fits.csv"));
+    EXPECT_FALSE(std::filesystem::exists(root / ".checkpoints"));
+    std::filesystem::remove_all(root);
+}
+
+TEST(SpeciesStudy, BadFilesNameTheKeyAndWriteNothing) {
+    const auto root = std::filesystem::temp_directory_path() /
+                      ("plumage_species_bad_" + std::to_string(::getpid()));
+    const std::string base =
+        read(std::filesystem::path(PLUMAGE_SOURCE_DIR) / "studies" / "species_quick.toml");
+    auto message = [&](const std::string& text) {
+        return testing::input_error_message(
+            [&] { run_species_study(text, "bad.toml", root, false); });
+    };
+    // Unknown key, with its line.
+    std::string typo = base;
+    typo.replace(typo.find("layers = 2"), 10, "layer = 2");
+    EXPECT_NE(message(typo).find("unknown key 'species.flamingo.layer'"), std::string::npos)
+        << message(typo);
+    EXPECT_NE(message(typo).find("bad.toml:"), std::string::npos);
+    // A species Filip did not capture.
+    std::string unknown = base;
+    unknown.replace(unknown.find("parrot, rooster"), 15, "parrot, peacock");
+    EXPECT_NE(message(unknown).find("peacock"), std::string::npos) << message(unknown);
+    // A patch too small for light crossing the stack at 75°.
+    std::string small = base;
+    small.replace(small.find("length_um = 3200"), 16, "length_um = 500");
+    EXPECT_NE(message(small).find("expected a larger length_um or more barbs"), std::string::npos)
+        << message(small);
+    // Out of range.
+    std::string range = base;
+    range.replace(range.find("pigment_k = 0.002"), 17, "pigment_k = -0.01");
+    EXPECT_NE(message(range).find("pigment_k"), std::string::npos) << message(range);
+    EXPECT_FALSE(std::filesystem::exists(root / "species_quick"));
+    std::filesystem::remove_all(root);
+}
+
+}  // namespace
+}  // namespace plumage::studies
