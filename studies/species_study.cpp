@@ -132,9 +132,10 @@ struct Settings {
     double target_relative_error = 0.0;
     std::uint64_t in_plane_quanta = 50000;
     std::uint64_t albedo_quanta = 200000;
-    int btf_pixels = 48;
+    int btf_pixels = 16;
     double btf_patch_um = 900.0;
-    std::uint64_t btf_quanta = 400000;
+    std::uint64_t btf_quanta = 100000;
+    std::vector<double> btf_wavelengths = {450.0, 550.0, 650.0};
     double btf_detector_half_angle = 10.0 * kDeg;
     int fit_evaluations = 3000;
     std::vector<SpeciesSpec> species;
@@ -253,8 +254,23 @@ Settings read_settings(StudyFile& file, std::string& name, const fs::path& sourc
     s.btf_patch_um =
         btf.number("patch_size_um", s.btf_patch_um, positive(), "BTF imaged square, um");
     s.btf_quanta = static_cast<std::uint64_t>(
-        btf.integer("quanta_per_pair", static_cast<long>(s.btf_quanta), 1000, 1000000000,
-                    "BTF quanta per pair and wavelength"));
+        btf.integer("quanta_per_light", static_cast<long>(s.btf_quanta), 1000, 1000000000,
+                    "BTF quanta per light direction and wavelength"));
+    {
+        // A few wavelengths: the BTF holds 3660 images, each pixels² × wavelengths values.
+        const double b_first =
+            btf.number("first_nm", 450.0, between(380.0, 780.0), "first BTF wavelength, nm");
+        const double b_last =
+            btf.number("last_nm", 650.0, between(380.0, 780.0), "last BTF wavelength, nm");
+        const double b_step = btf.number("step_nm", 100.0, positive(), "BTF wavelength step, nm");
+        if (b_last < b_first) {
+            throw InputError(fmt::format("{}: btf.last_nm = {} is below first_nm = {}",
+                                         btf.location("last_nm"), b_last, b_first));
+        }
+        const optics::WavelengthGrid b_grid =
+            optics::WavelengthGrid::uniform(b_first, b_last, b_step);
+        s.btf_wavelengths.assign(b_grid.nm().begin(), b_grid.nm().end());
+    }
     s.btf_detector_half_angle =
         btf.angle_deg("detector_half_angle_deg", s.btf_detector_half_angle,
                       {0.0, 30.0, true, false}, "BTF detector cone half-angle");
@@ -888,39 +904,50 @@ SpeciesResult run_species_study(const std::string& study_text, const fs::path& s
             }
         }
 
-        // 6. BTF images of Fig. 9: light and view at 30°, the view at azimuth 0, the light
-        //    going round in 30° steps (the 12 geometries in the red frame of Fig. 7).
+        // 6. The virtual BTF on the 61 × 60 set (every pair an image of the patch), and of it
+        //    the 12 geometries of Fig. 9: light and view at 30°, the view at azimuth 0, the light
+        //    going round in 30° steps (the red frame of Fig. 7).
         {
             gonio::BtfConfig bc;
-            for (int k = 0; k < 12; ++k) {
-                bc.pairs.push_back({gonio::direction_from_angles(30.0 * kDeg, k * 30.0 * kDeg),
-                                    gonio::direction_from_angles(30.0 * kDeg, 0.0)});
-            }
-            bc.wavelengths_nm = s.wavelengths;
+            bc.pairs = pairs;
+            bc.wavelengths_nm = s.btf_wavelengths;
             bc.patch_size_um = s.btf_patch_um;
             bc.pixels = s.btf_pixels;
             bc.detector_half_angle_rad = s.btf_detector_half_angle;
-            bc.quanta_per_pair = s.btf_quanta;
+            bc.quanta_per_light = s.btf_quanta;
             bc.seed = s.seed + 200 + si;
-            say(fmt::format("{}: BTF images of the 12 geometries of Fig. 9", sp.name));
+            say(fmt::format("{}: BTF on the 61 x 60 set ({} x {} pixels, {} wavelengths)", sp.name,
+                            bc.pixels, bc.pixels, bc.wavelengths_nm.size()));
             const gonio::BtfRecord btf = gonio::measure_btf(imaged, bc);
+            o.btf_seconds = btf.wall_time_s;
             gonio::write_btf_record(btf, sdir / "btf.h5");
+            std::vector<std::size_t> figure9;
+            const Vec3d view = gonio::direction_from_angles(30.0 * kDeg, 0.0);
+            for (int k = 0; k < 12; ++k) {
+                const Vec3d light = gonio::direction_from_angles(30.0 * kDeg, k * 30.0 * kDeg);
+                for (std::size_t p = 0; p < pairs.size(); ++p) {
+                    if ((pairs[p].wi - light).norm() < 1e-9 && (pairs[p].wo - view).norm() < 1e-9)
+                        figure9.push_back(p);
+                }
+            }
+            PLUMAGE_CHECK(figure9.size() == 12, "the Filip set holds Fig. 9's 12 geometries");
+            const std::size_t bl = bc.wavelengths_nm.size();
             // One exposure for all 12 (the brightest pixel of the set → Y = 1), so they compare.
             std::vector<record::RgbImage> images;
             double exposure = 0.0;
             {
-                const gonio::SpectrumToDisplay display(s.wavelengths);
-                for (std::size_t p = 0; p < bc.pairs.size(); ++p) {
+                const gonio::SpectrumToDisplay display(bc.wavelengths_nm);
+                for (const std::size_t p : figure9) {
                     for (int row = 0; row < bc.pixels; ++row) {
                         for (int col = 0; col < bc.pixels; ++col) {
                             const auto xyz = display.xyz(std::span<const double>(
-                                btf.value.data() + btf.index(p, row, col, 0), nl));
+                                btf.value.data() + btf.index(p, row, col, 0), bl));
                             exposure = std::max(exposure, xyz.y);
                         }
                     }
                 }
             }
-            for (std::size_t p = 0; p < bc.pairs.size(); ++p)
+            for (const std::size_t p : figure9)
                 images.push_back(btf_image(btf, p, exposure > 0.0 ? 1.0 / exposure : 1.0));
             std::vector<const record::RgbImage*> top, bottom;
             for (std::size_t p = 0; p < 6; ++p) top.push_back(&images[p]);
@@ -932,7 +959,8 @@ SpeciesResult run_species_study(const std::string& study_text, const fs::path& s
                 for (int y = 0; y < from.height; ++y) {
                     for (int x = 0; x < from.width; ++x) {
                         const std::size_t i = 3 * (static_cast<std::size_t>(y) * from.width + x);
-                        both.set(x, row_offset + y, from.pixels[i], from.pixels[i + 1], from.pixels[i + 2]);
+                        both.set(x, row_offset + y, from.pixels[i], from.pixels[i + 1],
+                                 from.pixels[i + 2]);
                     }
                 }
             };
@@ -977,11 +1005,16 @@ SpeciesResult run_species_study(const std::string& study_text, const fs::path& s
             sp.barbs, sp.length_um, sp.layers, built[si].instances, built[si].triangles,
             o.mount_deg, built[si].root_clearance_um);
         md += fmt::format(
-            "BTF images (Fig. 9's geometries: light and view at 30°, view at azimuth 0°; light "
-            "azimuth 0°, 30°, …, 150° "
-            "on the top row, 180° … 330° below; {} µm square, one exposure for "
-            "all):\n\n![btf]({}/btf.png)\n\n",
-            s.btf_patch_um, sp.name);
+            "Virtual BTF on the 61 × 60 set (`btf.h5`: 3660 images of {0} × {0} pixels over a "
+            "{1:.0f} µm "
+            "square, {2} wavelengths, detector half-angle {3:.0f}°, {4} quanta per light direction "
+            "and "
+            "wavelength, {5:.0f} s). Fig. 9's geometries: light and view at 30°, view at azimuth "
+            "0°; light "
+            "azimuth 0°, 30°, …, 150° on the top row, 180° … 330° below; one exposure for all:\n\n"
+            "![btf]({6}/btf.png)\n\n",
+            s.btf_pixels, s.btf_patch_um, s.btf_wavelengths.size(),
+            s.btf_detector_half_angle / kDeg, s.btf_quanta, o.btf_seconds, sp.name);
         md += fmt::format(
             "Fingerprints (Fig. 7 layout; simulation | fitted model | Table 1 model, each with its "
             "own exposure):\n\n"
@@ -998,6 +1031,58 @@ SpeciesResult run_species_study(const std::string& study_text, const fs::path& s
             fit.free_parameters.size(), fit.termination, 100.0 * o.fit_relative_l1,
             100.0 * o.fit_relative_rms, 100.0 * o.table1_relative_l1,
             100.0 * o.table1_relative_rms);
+        {
+            // What the numbers can tell apart: the model against the simulation (the fit's
+            // residuals in units of the simulation's errors), and the simulated structure
+            // against the real feather (the Table 1 model standing in for its measurement).
+            std::vector<std::pair<double, std::size_t>> residuals;
+            for (std::size_t c = 0; c < obs.size(); ++c) {
+                const double sigma = obs[c].standard_error.value_or(1.0);
+                residuals.emplace_back(std::abs(fit_brdf.value[c] - sim_brdf.value[c]) / sigma, c);
+            }
+            std::partial_sort(residuals.begin(),
+                              residuals.begin() + std::min<std::size_t>(3, residuals.size()),
+                              residuals.end(), std::greater<>());
+            auto angles = [](const Vec3d& w) {
+                return fmt::format("{:.0f}°/{:.0f}°",
+                                   std::acos(std::clamp(w.z(), -1.0, 1.0)) / kDeg,
+                                   std::atan2(w.y(), w.x()) / kDeg);
+            };
+            std::string worst;
+            for (std::size_t r = 0; r < std::min<std::size_t>(3, residuals.size()); ++r) {
+                const std::size_t c = residuals[r].second, p = c / nl, k = c % nl;
+                worst += fmt::format(
+                    "{}light {} → view {} at {:.0f} nm: simulation {:.3g}, fit {:.3g} ({:.0f}σ)",
+                    r == 0 ? "" : "; ", angles(pairs[p].wi), angles(pairs[p].wo), s.wavelengths[k],
+                    sim_brdf.value[c], fit_brdf.value[c], residuals[r].first);
+            }
+            std::array<double, 3> sim_sum{}, table1_sum{};
+            for (std::size_t c = 0; c < obs.size(); ++c) {
+                const int band =
+                    static_cast<int>(analysis::filip2024_channel(s.wavelengths[c % nl]));
+                sim_sum[band] += sim_brdf.value[c];
+                table1_sum[band] += table1_brdf.value[c];
+            }
+            md += fmt::format(
+                "**Reading.** Model against simulation: reduced χ² {:.1f}: {}. Largest residuals: "
+                "{}. "
+                "Simulation against the feather (Table 1's model standing in for the measurement): "
+                "the "
+                "simulated patch reflects {:.2f}, {:.2f}, {:.2f} times Table 1's R, G, B over the "
+                "61 × 60 set, "
+                "a difference of structure and materials (our hypothesis of the feather) that no "
+                "fit of the "
+                "model can remove.\n\n",
+                fit.reduced_chi_square,
+                fit.reduced_chi_square < 2.0
+                    ? "Filip's five terms describe this simulated BRDF within its Monte Carlo error"
+                    : "the five terms cannot follow this simulated BRDF to its Monte Carlo "
+                      "precision (sharper "
+                      "or differently placed features than the model's lobes)",
+                worst, sim_sum[0] / std::max(table1_sum[0], 1e-300),
+                sim_sum[1] / std::max(table1_sum[1], 1e-300),
+                sim_sum[2] / std::max(table1_sum[2], 1e-300));
+        }
         std::string albedo_line;
         for (std::size_t k = 0; k < nl; ++k)
             albedo_line += fmt::format(" {:.0f} nm {:.3f}±{:.3f};", s.wavelengths[k], o.albedo[k],

@@ -14,9 +14,10 @@
 //    first-order Bragg wavelength of the spongy keratin; the ray tracer cannot produce the
 //    coherent scattering itself, so the medulla surface carries its result);
 //  - measurements: the BRDF on the paper's 61 × 60 set (photon estimator, per wavelength),
-//    the in-plane sweep (view 45° in the plane across the barbs, light −81°…81°), BTF images
-//    of the 12 geometries of Fig. 9 (light and view at 30°, light azimuth in 30° steps), and
-//    the directional albedo at normal incidence;
+//    the in-plane sweep (view 45° in the plane across the barbs, light −81°…81°), the virtual
+//    BTF on the same set (an image of the patch per pair; the 12 geometries of Fig. 9 shown:
+//    light and view at 30°, light azimuth in 30° steps), and the directional albedo at normal
+//    incidence;
 //  - the fit: Filip's model (analysis/filip2024_fit.h) fitted to the simulated 61 × 60 BRDF,
 //    starting from the species' Table 1 column; fitted parameters with standard errors beside
 //    Table 1; fingerprints of simulation | fit | Table 1;
@@ -72,6 +73,7 @@ struct SpeciesOutcome {
     // Light angle (deg) of the in-plane peak of L*.
     double in_plane_peak_deg = 0.0;
     double brdf_seconds = 0.0;  // wall time of the 61 × 60 measurement
+    double btf_seconds = 0.0;   // wall time of the 61 × 60 BTF
 };
 
 struct SpeciesResult {

@@ -2,6 +2,7 @@
 
 #include <omp.h>
 
+#include <algorithm>
 #include <chrono>
 #include <cmath>
 #include <numbers>
@@ -35,8 +36,9 @@ void BtfConfig::validate() const {
     require(!wavelengths_nm.empty(), "no wavelengths");
     require(std::isfinite(patch_size_um) && patch_size_um > 0.0, "patch size must be > 0 um");
     require(pixels >= 1 && pixels <= 1024, fmt::format("pixels = {}: expected 1..1024", pixels));
-    require(detector_half_angle_rad > 0.0 && detector_half_angle_rad < 0.5, "detector half-angle must be in (0, 0.5) rad");
-    require(quanta_per_pair >= 1, "quanta_per_pair must be >= 1");
+    require(detector_half_angle_rad > 0.0 && detector_half_angle_rad < 0.5,
+            "detector half-angle must be in (0, 0.5) rad");
+    require(quanta_per_light >= 1, "quanta_per_light must be >= 1");
 }
 
 BtfRecord measure_btf(const Scatterer& scatterer, const BtfConfig& config) {
@@ -52,8 +54,22 @@ BtfRecord measure_btf(const Scatterer& scatterer, const BtfConfig& config) {
     const double half = 0.5 * config.patch_size_um, pixel = config.patch_size_um / n;
     const double cos_alpha = std::cos(config.detector_half_angle_rad);
     const double projected = kPi * std::pow(std::sin(config.detector_half_angle_rad), 2);
-    const std::uint64_t chunks = (config.quanta_per_pair + kChunk - 1) / kChunk;
-    const std::size_t items = np * nl * chunks;
+    // Pairs that share a light direction share its quanta: each quantum counts for every
+    // detector cone it enters (the 61 × 60 set costs 61 light directions, not 3660 pairs).
+    std::vector<std::vector<std::size_t>> lights;  // pair indices per distinct light direction
+    for (std::size_t p = 0; p < np; ++p) {
+        auto same = [&](const std::vector<std::size_t>& g) {
+            return config.pairs[g.front()].wi == config.pairs[p].wi;
+        };
+        auto it = std::find_if(lights.begin(), lights.end(), same);
+        if (it == lights.end()) {
+            lights.push_back({p});
+        } else {
+            it->push_back(p);
+        }
+    }
+    const std::uint64_t chunks = (config.quanta_per_light + kChunk - 1) / kChunk;
+    const std::size_t items = lights.size() * nl * chunks;
     struct Hit {
         std::size_t cell;
         double x;
@@ -61,21 +77,27 @@ BtfRecord measure_btf(const Scatterer& scatterer, const BtfConfig& config) {
     std::vector<std::vector<Hit>> hits(items);
 #pragma omp parallel for schedule(dynamic, 1)
     for (std::size_t it = 0; it < items; ++it) {
-        const std::size_t p = it / (nl * chunks), k = (it / chunks) % nl;
+        const std::size_t l = it / (nl * chunks), k = (it / chunks) % nl;
         const std::uint64_t c = it % chunks;
-        const DirectionPair& pair = config.pairs[p];
-        const double weight_scale = 1.0 / (projected * pair.wo.z());
-        for (std::uint64_t q = c * kChunk; q < std::min(config.quanta_per_pair, (c + 1) * kChunk); ++q) {
-            Rng rng(config.seed, (static_cast<std::uint64_t>(p * nl + k) << 40) + q);
+        const Vec3d& wi = config.pairs[lights[l].front()].wi;
+        for (std::uint64_t q = c * kChunk; q < std::min(config.quanta_per_light, (c + 1) * kChunk);
+             ++q) {
+            Rng rng(config.seed, (static_cast<std::uint64_t>(l * nl + k) << 40) + q);
             // Uniform over the patch plane: what a wide, collimated beam deposits.
-            const Vec2 position((rng.uniform() - 0.5) * config.patch_size_um, (rng.uniform() - 0.5) * config.patch_size_um);
-            const auto event = scatterer.sample(pair.wi, config.wavelengths_nm[k], position, rng);
-            if (!event || !(event->weight > 0.0) || event->wo.dot(pair.wo) < cos_alpha) continue;
+            const Vec2 position((rng.uniform() - 0.5) * config.patch_size_um,
+                                (rng.uniform() - 0.5) * config.patch_size_um);
+            const auto event = scatterer.sample(wi, config.wavelengths_nm[k], position, rng);
+            if (!event || !(event->weight > 0.0)) continue;
             const Vec2& exit = event->exit_position_um;
             if (std::abs(exit.x()) >= half || std::abs(exit.y()) >= half) continue;
             const int column = std::min(n - 1, static_cast<int>((exit.x() + half) / pixel));
             const int row = std::min(n - 1, static_cast<int>((half - exit.y()) / pixel));
-            hits[it].push_back({r.index(p, row, column, k), event->weight * weight_scale});
+            for (const std::size_t p : lights[l]) {
+                const Vec3d& wo = config.pairs[p].wo;
+                if (event->wo.dot(wo) < cos_alpha) continue;
+                hits[it].push_back(
+                    {r.index(p, row, column, k), event->weight / (projected * wo.z())});
+            }
         }
     }
     for (const auto& list : hits) {
@@ -85,7 +107,8 @@ BtfRecord measure_btf(const Scatterer& scatterer, const BtfConfig& config) {
         }
     }
     // Each pixel receives a fraction 1/n² of the quanta's entry area: the pixel's share.
-    const double per_pixel = static_cast<double>(config.quanta_per_pair) / (static_cast<double>(n) * n);
+    const double per_pixel =
+        static_cast<double>(config.quanta_per_light) / (static_cast<double>(n) * n);
     r.value.assign(cells, 0.0);
     r.standard_error.assign(cells, 0.0);
     for (std::size_t i = 0; i < cells; ++i) {
@@ -107,7 +130,8 @@ record::RgbImage btf_image(const BtfRecord& r, std::size_t pair, double exposure
     for (int row = 0; row < n; ++row) {
         for (int column = 0; column < n; ++column) {
             auto& c = xyz[static_cast<std::size_t>(row) * n + column];
-            c = display.xyz(std::span<const double>(r.value.data() + r.index(pair, row, column, 0), nl));
+            c = display.xyz(
+                std::span<const double>(r.value.data() + r.index(pair, row, column, 0), nl));
             peak = std::max(peak, c.y);
         }
     }
@@ -115,7 +139,8 @@ record::RgbImage btf_image(const BtfRecord& r, std::size_t pair, double exposure
     record::RgbImage image(n, n);
     for (int row = 0; row < n; ++row) {
         for (int column = 0; column < n; ++column) {
-            const auto rgb = display_bytes(xyz[static_cast<std::size_t>(row) * n + column], exposure);
+            const auto rgb =
+                display_bytes(xyz[static_cast<std::size_t>(row) * n + column], exposure);
             image.set(column, row, rgb[0], rgb[1], rgb[2]);
         }
     }
@@ -124,7 +149,8 @@ record::RgbImage btf_image(const BtfRecord& r, std::size_t pair, double exposure
 
 void write_btf_record(const BtfRecord& r, const std::filesystem::path& path) {
     const auto& c = r.config;
-    const std::uint64_t np = c.pairs.size(), n = static_cast<std::uint64_t>(c.pixels), nl = c.wavelengths_nm.size();
+    const std::uint64_t np = c.pairs.size(), n = static_cast<std::uint64_t>(c.pixels),
+                        nl = c.wavelengths_nm.size();
     record::Hdf5Writer h5(path);
     using Dims = std::vector<std::uint64_t>;
     std::vector<double> light, view;
@@ -137,12 +163,17 @@ void write_btf_record(const BtfRecord& r, const std::filesystem::path& path) {
     h5.write("instrument/view_directions", std::span<const double>(view), Dims{np, 3});
     h5.set_attribute("/instrument", "kind", "btf_camera");
     h5.set_attribute("/instrument", "patch_size_um", c.patch_size_um);
-    h5.set_attribute("/instrument", "detector_half_angle_deg", c.detector_half_angle_rad * 180.0 / kPi);
-    h5.set_attribute("/instrument", "image", "rectified to the patch plane: column along +x, row 0 at +y");
-    h5.write("wavelength_nm", std::span<const double>(c.wavelengths_nm), Dims{nl}, {{"units", "nm"}});
-    h5.write("btf/value", std::span<const double>(r.value), Dims{np, n, n, nl},
-             {{"units", "1/sr"}, {"description", "per-pixel BRDF, [pair, row, column, wavelength]"}});
-    h5.write("btf/standard_error", std::span<const double>(r.standard_error), Dims{np, n, n, nl}, {{"units", "1/sr"}});
+    h5.set_attribute("/instrument", "detector_half_angle_deg",
+                     c.detector_half_angle_rad * 180.0 / kPi);
+    h5.set_attribute("/instrument", "image",
+                     "rectified to the patch plane: column along +x, row 0 at +y");
+    h5.write("wavelength_nm", std::span<const double>(c.wavelengths_nm), Dims{nl},
+             {{"units", "nm"}});
+    h5.write(
+        "btf/value", std::span<const double>(r.value), Dims{np, n, n, nl},
+        {{"units", "1/sr"}, {"description", "per-pixel BRDF, [pair, row, column, wavelength]"}});
+    h5.write("btf/standard_error", std::span<const double>(r.standard_error), Dims{np, n, n, nl},
+             {{"units", "1/sr"}});
     h5.create_group("provenance");
     h5.set_attribute("/provenance", "scatterer", r.scatterer);
     h5.set_attribute("/provenance", "plumage_version", kVersion);

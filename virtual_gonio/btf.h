@@ -7,7 +7,10 @@
 // light; a quantum counts for pixel p and pair (ω_i, ω_o) when it leaves through the top
 // plane inside p's square and within the detector cone around ω_o:
 //   f̂_p = Σ weight / (N · (A_p / A) · π sin²α cos θ_o),
-// so a uniform patch images as its BRDF in every pixel (a Lambertian plate as ρ/π).
+// so a uniform patch images as its BRDF in every pixel (a Lambertian plate as ρ/π). N quanta
+// are played per light direction and wavelength and each counts for every pair of that light
+// whose detector cone it enters (as the goniometer's photon estimator): a set of L light and
+// V view directions costs L × N quanta, not L × V × N; cells of one light are correlated.
 // Analytic models have no spatial structure (they return the entry point): their images
 // are flat, which is the comparison a BTF makes visible.
 #pragma once
@@ -25,10 +28,11 @@ namespace plumage::gonio {
 struct BtfConfig {
     std::vector<DirectionPair> pairs;
     std::vector<double> wavelengths_nm = {450.0, 550.0, 650.0};
-    double patch_size_um = 3000.0;  // square, centred on the origin
-    int pixels = 32;                // per side
+    double patch_size_um = 3000.0;            // square, centred on the origin
+    int pixels = 32;                          // per side
     double detector_half_angle_rad = 0.1745;  // 10°: a BTF trades angular for spatial resolution
-    std::uint64_t quanta_per_pair = 2000000;  // per wavelength
+    // Per light direction and wavelength; pairs sharing a light direction share its quanta.
+    std::uint64_t quanta_per_light = 2000000;
     std::uint64_t seed = kDefaultSeed;
     void validate() const;
 };

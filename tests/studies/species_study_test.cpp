@@ -135,6 +135,7 @@ TEST(SpeciesStudy, QuickVariantReproducesEachPatchsColourAndOrientation) {
     }
     const std::string report = read(dir / "report.md");
     EXPECT_NE(report.find("## Fitted parameters beside Table 1"), std::string::npos);
+    EXPECT_NE(report.find("**Reading.**"), std::string::npos);
     EXPECT_NE(report.find("in_plane_luminance.png"), std::string::npos);
     EXPECT_TRUE(std::filesystem::exists(dir / "in_plane_luminance.png"));
     EXPECT_TRUE(std::filesystem::exists(dir / "fits.csv"));

@@ -21,7 +21,7 @@ TEST(BtfCamera, LambertianPlateIsFlatAndErrorsAreHonest) {
     c.wavelengths_nm = {550.0};
     c.pixels = 16;
     c.patch_size_um = 100.0;
-    c.quanta_per_pair = 2000000;
+    c.quanta_per_light = 2000000;
     const BtfRecord r = measure_btf(plate, c);
     const double truth = 0.6 / std::numbers::pi;
     int inside = 0, total = 0;
