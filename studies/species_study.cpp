@@ -317,7 +317,7 @@ Settings read_settings(StudyFile& file, std::string& name, const fs::path& sourc
 }
 
 // Keratin with a pigment absorption band k(λ) = k_peak exp(−(λ − λ_p)²/(2w²)) (carotenoids in
-// the flamingo's keratin), tabulated at 1 nm; without pigment, Debian-plain keratin.
+// the flamingo's keratin), tabulated at 1 nm; without pigment, plain keratin (sim/optics/material.h).
 std::shared_ptr<const optics::Material> keratin_of(const SpeciesSpec& s) {
     if (s.pigment_k <= 0.0) return optics::keratin();
     std::vector<double> lambda, n, k;
@@ -361,32 +361,34 @@ bool inside_polygon(const std::vector<Eigen::Vector2d>& polygon, const Eigen::Ve
 // corners must lie outside the cortex polygon; bisection on the shift, then 1 % + 0.01 µm margin.
 double barbule_root_clearance_um(const geometry::PatchCrossSection& section) {
     const std::vector<Eigen::Vector2d>* cortex = nullptr;
-    const std::vector<Eigen::Vector2d>* strip = nullptr;
     for (const auto& shape : section.shapes) {
         if (shape.role == geometry::SurfaceRole::barb_cortex) cortex = &shape.polygon;
-        if (shape.role == geometry::SurfaceRole::barbule && strip == nullptr &&
-            shape.polygon[0].x() > 0.0)
-            strip = &shape.polygon;
     }
-    PLUMAGE_CHECK(cortex != nullptr && strip != nullptr && strip->size() == 4,
-                  "patch cross-section has a cortex and a distal strip");
-    const Eigen::Vector2d d = ((*strip)[1] - (*strip)[0]).normalized();
-    auto clear = [&](double shift) {
-        return !inside_polygon(*cortex, (*strip)[0] + shift * d) &&
-               !inside_polygon(*cortex, (*strip)[3] + shift * d);
-    };
-    if (clear(0.0)) return 0.0;
-    double lo = 0.0, hi = 1.0;
-    while (!clear(hi)) hi *= 2.0;
-    for (int k = 0; k < 60; ++k) (clear(0.5 * (lo + hi)) ? hi : lo) = 0.5 * (lo + hi);
-    return 1.01 * hi + 0.01;
+    PLUMAGE_CHECK(cortex != nullptr, "patch cross-section has a cortex");
+    double clearance = 0.0;
+    for (const auto& shape : section.shapes) {  // distal and proximal strips
+        if (shape.role != geometry::SurfaceRole::barbule) continue;
+        const auto& strip = shape.polygon;
+        PLUMAGE_CHECK(strip.size() == 4, "a barbule strip has four corners");
+        const Eigen::Vector2d d = (strip[1] - strip[0]).normalized();
+        auto clear = [&](double shift) {
+            return !inside_polygon(*cortex, strip[0] + shift * d) &&
+                   !inside_polygon(*cortex, strip[3] + shift * d);
+        };
+        if (clear(0.0)) continue;
+        double lo = 0.0, hi = 1.0;
+        while (!clear(hi)) hi *= 2.0;
+        for (int k = 0; k < 60; ++k) (clear(0.5 * (lo + hi)) ? hi : lo) = 0.5 * (lo + hi);
+        clearance = std::max(clearance, 1.01 * hi + 0.01);
+    }
+    return clearance;
 }
 
 struct BuiltSpecies {
     sim::SceneDescription scene;
     double period_um = 0.0;
-    double root_clearance_um =
-        0.0;  // barbules moved out along their axis (barbule_root_clearance_um)
+    // Barbules moved out along their axis (barbule_root_clearance_um).
+    double root_clearance_um = 0.0;
     double layer_thickness_um = 0.0;
     std::size_t instances = 0, triangles = 0;
 };
@@ -444,12 +446,12 @@ BuiltSpecies build_species(const SpeciesSpec& s, const geometry::TessellationTol
                 : sim::dielectric_interface(optics::melanin());
     }
     sim::SceneDescription one = sim::barbule_patch_scene(patch, materials);
-    // Barbules (unit 1) out along their own axis, which runs along (0, cos i, sin i) in the unit.
+    // Barbules out along their own axis, which runs along (0, cos i, sin i) in their unit.
     const Eigen::Translation3d clearance(
         0.0, out.root_clearance_um * std::cos(s.patch.barbule_inclination_rad),
         out.root_clearance_um * std::sin(s.patch.barbule_inclination_rad));
     for (sim::Instance& i : one.instances) {
-        if (i.unit == 1) i.transform = i.transform * clearance;
+        if (one.units[i.unit].name == "barbule") i.transform = i.transform * clearance;
     }
     const Eigen::AlignedBox3d box = one.bounds();
     out.layer_thickness_um = box.max().z() - box.min().z();

@@ -36,6 +36,9 @@ std::string canonical(const GoniometerConfig& c, const std::string& scatterer, E
     std::string s = fmt::format("{}|{}|{:.17g}|{:.17g}|{}|{}|{}|", scatterer, c.direction_set, c.detector_half_angle_rad,
                                 c.beam_radius_um, c.seed, c.quanta_per_pass, static_cast<int>(estimator));
     for (double l : c.wavelengths_nm) s += fmt::format("{:.17g},", l);
+    // The study text describes the scene the scatterer was built from (its name alone does not:
+    // a changed geometry under the same instrument must not resume another run's sums).
+    s += c.config_text + "|";
     for (const auto& p : c.pairs) {
         s += fmt::format("{:.17g},{:.17g},{:.17g},{:.17g},{:.17g},{:.17g};", p.wi.x(), p.wi.y(), p.wi.z(), p.wo.x(),
                          p.wo.y(), p.wo.z());

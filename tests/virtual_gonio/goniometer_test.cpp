@@ -12,6 +12,8 @@
 
 #include <gtest/gtest.h>
 
+#include "tests/test_util.h"
+
 #include "common/error.h"
 #include "analysis/lambertian.h"
 #include "virtual_gonio/hdf5_file.h"
@@ -131,6 +133,15 @@ TEST(Goniometer, InterruptedRunLeavesNoRecordAndResumesToTheSameResult) {
     const BrdfRecord first = run(true);
     EXPECT_TRUE(first.interrupted);
     EXPECT_EQ(first.passes, 2);
+    // A different study (another scene under the same instrument) must not resume these sums.
+    {
+        GoniometerConfig other = c;
+        other.config_text = c.config_text + "\n# the scene changed";
+        RunControl control;
+        control.checkpoint = checkpoint;
+        const std::string message = testing::input_error_message([&] { measure_brdf(plate, other, control); });
+        EXPECT_NE(message.find("belongs to a different measurement"), std::string::npos) << message;
+    }
     EXPECT_FALSE(std::filesystem::exists(record_path));  // no partial record
     EXPECT_TRUE(std::filesystem::exists(checkpoint));
     for (const auto& entry : std::filesystem::directory_iterator(dir)) {
