@@ -19,6 +19,7 @@
 
 #include "analysis/cross_section_masking_mc.h"
 #include "analysis/padrongriffe2024_masking.h"
+#include "analysis/statistics.h"
 #include "common/error.h"
 #include "common/version.h"
 #include "sim/random.h"
@@ -154,56 +155,6 @@ Settings read_settings(const std::string& text, const fs::path& source) {
     return s;
 }
 
-// Q(a, x) = Γ(a, x) / Γ(a): the power series of P = 1 − Q below x = a + 1, Legendre's continued
-// fraction (modified Lentz) above, each converging fast in its region.
-double regularized_gamma_q(double a, double x) {
-    if (x <= 0.0) return 1.0;
-    const double log_prefactor = -x + a * std::log(x) - std::lgamma(a);
-    constexpr double kEpsilon = 1e-16;
-    constexpr int kMaxTerms = 100000;
-    if (x < a + 1.0) {
-        double term = 1.0 / a, sum = term;
-        for (int n = 1; n < kMaxTerms; ++n) {
-            term *= x / (a + n);
-            sum += term;
-            if (std::abs(term) < std::abs(sum) * kEpsilon) break;
-        }
-        return std::clamp(1.0 - sum * std::exp(log_prefactor), 0.0, 1.0);
-    }
-    constexpr double kTiny = 1e-300;
-    double b = x + 1.0 - a, c = 1.0 / kTiny, d = 1.0 / b, h = d;
-    for (int i = 1; i < kMaxTerms; ++i) {
-        const double an = -i * (i - a);
-        b += 2.0;
-        d = an * d + b;
-        if (std::abs(d) < kTiny) d = kTiny;
-        c = b + an / c;
-        if (std::abs(c) < kTiny) c = kTiny;
-        d = 1.0 / d;
-        const double delta = d * c;
-        h *= delta;
-        if (std::abs(delta - 1.0) < kEpsilon) break;
-    }
-    return std::clamp(std::exp(log_prefactor) * h, 0.0, 1.0);
-}
-
-double chi_square_p_value(double statistic, int dof) {
-    return dof > 0 ? regularized_gamma_q(0.5 * dof, 0.5 * statistic) : 1.0;
-}
-
-// The per-test significance that keeps the family-wise one at `alpha` over m independent tests.
-double sidak(double alpha, int m) { return -std::expm1(std::log1p(-alpha) / std::max(m, 1)); }
-
-// |z| with two-sided tail probability p for a standard normal: erfc(z/√2) = p, by bisection.
-double two_sided_normal_quantile(double p) {
-    double lo = 0.0, hi = 40.0;
-    for (int i = 0; i < 200; ++i) {
-        const double mid = 0.5 * (lo + hi);
-        (std::erfc(mid / std::numbers::sqrt2) > p ? lo : hi) = mid;
-    }
-    return 0.5 * (lo + hi);
-}
-
 MaskingTriple triple(const analysis::MaskingFractions& f) { return {f.barb, f.barbule(), f.gap}; }
 
 std::string csv_number(double v) { return fmt::format("{:.17g}", v); }
@@ -295,7 +246,7 @@ MaskingConfigurationResult compare(const Configuration& config, const Settings& 
         }
     }
     for (std::size_t c = 0; c < kMaskingComponentCount; ++c) {
-        r.chi_square_p_value[c] = chi_square_p_value(r.chi_square[c], r.degrees_of_freedom);
+        r.chi_square_p_value[c] = analysis::chi_square_p_value(r.chi_square[c], r.degrees_of_freedom);
     }
     for (const auto& d : r.directions) {
         for (std::size_t c = 0; c < kMaskingComponentCount; ++c) {
@@ -654,8 +605,8 @@ MaskingStudyResult run_masking_study(const std::string& study_text, const fs::pa
 
     result.comparisons = static_cast<int>(s.configurations.size() * items_per_configuration *
                                           kMaskingComponentCount);
-    result.z_bound = two_sided_normal_quantile(sidak(kFamilySignificance, result.comparisons));
-    result.chi_square_significance = sidak(
+    result.z_bound = analysis::two_sided_normal_quantile(analysis::sidak_significance(kFamilySignificance, result.comparisons));
+    result.chi_square_significance = analysis::sidak_significance(
         kFamilySignificance, static_cast<int>(s.configurations.size() * kMaskingComponentCount));
     int above_bound = 0, chi_failures = 0;
     double extrusion_mismatch = 0.0;

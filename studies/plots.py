@@ -22,6 +22,15 @@ import matplotlib.pyplot as plt  # noqa: E402
 KINDS = {}  # filled below: kind name -> function(input, png)
 
 
+def numeric_csv(csv_path):
+    """The header and the rows (as floats) of a CSV whose every value is a number."""
+    with open(csv_path, newline="") as f:
+        reader = csv.reader(f)
+        header = next(reader)
+        rows = [[float(v) for v in r] for r in reader]
+    return header, rows
+
+
 def spectra(csv_path, png_path):
     with open(csv_path, newline="") as f:
         rows = list(csv.DictReader(f))
@@ -90,10 +99,7 @@ def convergence(csv_path, png_path):
 
 
 def curves(csv_path, png_path):
-    with open(csv_path, newline="") as f:
-        reader = csv.reader(f)
-        header = next(reader)
-        rows = [[float(v) for v in r] for r in reader]
+    header, rows = numeric_csv(csv_path)
     x = [r[0] for r in rows]
     fig, ax = plt.subplots(figsize=(7, 4.2))
     for i in range(1, len(header), 2):
@@ -138,10 +144,7 @@ def contact_sheet(csv_path, png_path):
 
 
 def sweep_error(csv_path, png_path):
-    with open(csv_path, newline="") as f:
-        reader = csv.reader(f)
-        header = next(reader)
-        rows = [[float(v) for v in r] for r in reader]
+    header, rows = numeric_csv(csv_path)
     skipped = [r[0] for r in rows if r[1] != r[1]]  # NaN: the value was rejected
     rows = [r for r in rows if r[1] == r[1]]
     x = [r[0] for r in rows]
@@ -184,10 +187,7 @@ def energy_bars(csv_path, png_path):
 
 
 def luminance(csv_path, png_path):
-    with open(csv_path, newline="") as f:
-        reader = csv.reader(f)
-        header = next(reader)
-        rows = [[float(v) for v in r] for r in reader]
+    header, rows = numeric_csv(csv_path)
     x = [r[0] for r in rows]
     fig, ax = plt.subplots(figsize=(7, 4.2))
     colours = {"parrot": "tab:blue", "rooster": "tab:green", "flamingo": "tab:pink", "stork": "0.45"}

@@ -39,6 +39,7 @@
 #include <fmt/format.h>
 #include <gtest/gtest.h>
 
+#include "analysis/statistics.h"
 #include "sim/random.h"
 #include "sim/scatterer.h"
 
@@ -52,57 +53,10 @@ inline constexpr int kChiSquarePhiBins = 40;            // over [0, 2π)
 inline constexpr std::int64_t kChiSquareSamples = 400'000;
 inline constexpr double kConsistencySigmas = 4.0;
 
-// Q(a, x) = Γ(a, x) / Γ(a), the upper regularized incomplete gamma function, a > 0, x ≥ 0:
-// the power series of P = 1 − Q for x < a + 1, Legendre's continued fraction for Q otherwise
-// (evaluated with the modified Lentz method), each converging fast in its region.
-inline double regularized_gamma_q(double a, double x) {
-    if (!(a > 0.0) || !(x >= 0.0)) return std::numeric_limits<double>::quiet_NaN();
-    if (x == 0.0) return 1.0;
-    const double log_prefactor = -x + a * std::log(x) - std::lgamma(a);
-    constexpr double kEpsilon = 1e-16;
-    constexpr int kMaxTerms = 100'000;
-    if (x < a + 1.0) {
-        // P(a, x) = x^a e^−x / Γ(a + 1) Σ_n x^n / ((a + 1) ... (a + n)).
-        double term = 1.0 / a;
-        double sum = term;
-        for (int n = 1; n < kMaxTerms; ++n) {
-            term *= x / (a + n);
-            sum += term;
-            if (std::abs(term) < std::abs(sum) * kEpsilon) break;
-        }
-        return 1.0 - sum * std::exp(log_prefactor);
-    }
-    // Q(a, x) = x^a e^−x / Γ(a) · 1 / (x + 1 − a − 1 (1 − a) / (x + 3 − a − 2 (2 − a) / ...)).
-    constexpr double kTiny = 1e-300;
-    double b = x + 1.0 - a;
-    double c = 1.0 / kTiny;
-    double d = 1.0 / b;
-    double h = d;
-    for (int i = 1; i < kMaxTerms; ++i) {
-        const double an = -i * (i - a);
-        b += 2.0;
-        d = an * d + b;
-        if (std::abs(d) < kTiny) d = kTiny;
-        c = b + an / c;
-        if (std::abs(c) < kTiny) c = kTiny;
-        d = 1.0 / d;
-        const double delta = d * c;
-        h *= delta;
-        if (std::abs(delta - 1.0) < kEpsilon) break;
-    }
-    return std::exp(log_prefactor) * h;
-}
-
-// P(χ²_dof ≥ statistic).
-inline double chi_square_p_value(double statistic, int dof) {
-    return regularized_gamma_q(0.5 * dof, 0.5 * statistic);
-}
-
-// Per-test significance that keeps the family-wise one at `family` over `tests` independent
-// tests.
-inline double sidak_significance(double family, int tests) {
-    return 1.0 - std::pow(1.0 - family, 1.0 / tests);
-}
+// The distribution functions live in analysis/statistics.h (the studies use them too).
+using analysis::chi_square_p_value;
+using analysis::regularized_gamma_q;
+using analysis::sidak_significance;
 
 namespace detail {
 

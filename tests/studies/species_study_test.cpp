@@ -22,6 +22,7 @@
 
 #include <gtest/gtest.h>
 
+#include "analysis/statistics.h"
 #include "common/error.h"
 #include "tests/test_util.h"
 #include "virtual_gonio/hdf5_file.h"
@@ -42,16 +43,6 @@ const SpeciesOutcome& find(const SpeciesResult& r, const std::string& name) {
     for (const auto& o : r.species)
         if (o.species == name) return o;
     throw std::runtime_error("no species " + name);
-}
-
-// erfc⁻¹ by bisection (monotone), enough for a test bound.
-double inverse_erfc(double p) {
-    double lo = 0.0, hi = 10.0;
-    for (int k = 0; k < 200; ++k) {
-        const double mid = 0.5 * (lo + hi);
-        (std::erfc(mid) > p ? lo : hi) = mid;
-    }
-    return 0.5 * (lo + hi);
 }
 
 // a − b in units of their combined standard error.
@@ -109,8 +100,8 @@ TEST(SpeciesStudy, QuickVariantReproducesEachPatchsColourAndOrientation) {
         // average over a beam covering a barb period is then too): the largest |z| over the
         // cells held both ways stays below the Šidák bound for a 1 % family-wise error.
         ASSERT_GT(o.reciprocity_dof, 1000);
-        const double single = 1.0 - std::pow(0.99, 1.0 / o.reciprocity_dof);
-        const double bound = std::sqrt(2.0) * inverse_erfc(single);
+        const double bound = analysis::two_sided_normal_quantile(
+            analysis::sidak_significance(0.01, o.reciprocity_dof));
         EXPECT_LT(o.reciprocity_max_z, bound) << "over " << o.reciprocity_dof << " cells";
         // Least squares from Table 1's start cannot end worse than its start by much: the
         // final (variance-weighted) fit is compared by the unweighted RMS, hence the 5 % slack.
