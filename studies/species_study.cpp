@@ -317,7 +317,8 @@ Settings read_settings(StudyFile& file, std::string& name, const fs::path& sourc
 }
 
 // Keratin with a pigment absorption band k(λ) = k_peak exp(−(λ − λ_p)²/(2w²)) (carotenoids in
-// the flamingo's keratin), tabulated at 1 nm; without pigment, plain keratin (sim/optics/material.h).
+// the flamingo's keratin), tabulated at 1 nm; without pigment, plain keratin
+// (sim/optics/material.h).
 std::shared_ptr<const optics::Material> keratin_of(const SpeciesSpec& s) {
     if (s.pigment_k <= 0.0) return optics::keratin();
     std::vector<double> lambda, n, k;
@@ -800,8 +801,23 @@ SpeciesResult run_species_study(const std::string& study_text, const fs::path& s
         say(fmt::format("{}: fitting Filip 2024 to {} observations", sp.name, obs.size()));
         analysis::Filip2024FitOptions fit_options;
         fit_options.max_function_evaluations = s.fit_evaluations;
-        const analysis::Filip2024FitResult first_fit =
-            analysis::fit_filip2024(obs, table1, fit_options);
+        // Least squares is local, and φa is where this fit's local minima are (each fibre
+        // family of the patch is a candidate highlight axis): start from Table 1 with φa turned
+        // by 0°, 45°, 90° and 135° (φa is periodic in π) and keep the best unweighted fit.
+        std::optional<analysis::Filip2024FitResult> best_start;
+        double best_start_phi = 0.0;
+        for (int turn = 0; turn < 4; ++turn) {
+            Filip2024Parameters trial = table1;
+            trial.phi_a_rad = std::remainder(table1.phi_a_rad + turn * 0.25 * kPi, kPi);
+            analysis::Filip2024FitResult candidate =
+                analysis::fit_filip2024(obs, trial, fit_options);
+            if (!best_start || candidate.residual_rms < best_start->residual_rms) {
+                best_start = std::move(candidate);
+                best_start_phi = trial.phi_a_rad;
+            }
+        }
+        const analysis::Filip2024FitResult& first_fit = *best_start;
+        o.fit_start_phi_a_deg = best_start_phi / kDeg;
         {
             const analysis::Filip2024Brdf first_model(first_fit.parameters);
             // Floor: the variance of one quantum's worth in the cell (f ≥ the smallest nonzero
@@ -1025,11 +1041,12 @@ SpeciesResult run_species_study(const std::string& study_text, const fs::path& s
         md += fmt::format(
             "BRDF: {} quanta per light direction and wavelength, estimated relative RMS error "
             "{:.1f} %, {:.0f} s. "
-            "Fit: reduced χ² {:.2f} over {} observations ({} free parameters; {}), relative "
+            "Fit (best of 4 starts in φa, from {:.0f}°): reduced χ² {:.2f} over {} observations "
+            "({} free parameters; {}), relative "
             "residual Σ|Δf|/Σf {:.1f} %, "
             "RMS/mean {:.1f} % (Table 1's parameters: {:.1f} %, {:.1f} %).\n\n",
             sim_brdf.quanta, 100.0 * sim_brdf.convergence.back().estimated_relative_rms_error,
-            sim_brdf.wall_time_s, fit.reduced_chi_square, fit.observations,
+            sim_brdf.wall_time_s, o.fit_start_phi_a_deg, fit.reduced_chi_square, fit.observations,
             fit.free_parameters.size(), fit.termination, 100.0 * o.fit_relative_l1,
             100.0 * o.fit_relative_rms, 100.0 * o.table1_relative_l1,
             100.0 * o.table1_relative_rms);
@@ -1065,8 +1082,24 @@ SpeciesResult run_species_study(const std::string& study_text, const fs::path& s
                 sim_sum[band] += sim_brdf.value[c];
                 table1_sum[band] += table1_brdf.value[c];
             }
+            // U(φa) = (sin φa, cos φa): the barb axis of the mounted patch is at φa = 90° − ψ, the
+            // barbules at φa = −ψ; angles between axes are taken modulo 180°.
+            auto axis_angle = [](double a, double b) {
+                return std::abs(std::remainder(a - b, kPi)) / kDeg;
+            };
+            const double fitted_phi = o.fitted[analysis::kFilipPhiA];
+            o.fit_axis_from_barbs_deg = axis_angle(fitted_phi, 0.5 * kPi - sp.mount_rad);
+            o.fit_axis_from_barbules_deg = axis_angle(fitted_phi, -sp.mount_rad);
             md += fmt::format(
-                "**Reading.** Model against simulation: reduced χ² {:.1f}: {}. Largest residuals: "
+                "**Reading.** The fitted anisotropy axis U(φa = {:.1f}°) lies {:.1f}° from the "
+                "barb axis "
+                "and {:.1f}° from the barbules of the mounted patch (Table 1's: {:.1f}° and "
+                "{:.1f}°). ",
+                fitted_phi / kDeg, o.fit_axis_from_barbs_deg, o.fit_axis_from_barbules_deg,
+                axis_angle(table1.phi_a_rad, 0.5 * kPi - sp.mount_rad),
+                axis_angle(table1.phi_a_rad, -sp.mount_rad));
+            md += fmt::format(
+                "Model against simulation: reduced χ² {:.1f}: {}. Largest residuals: "
                 "{}. "
                 "Simulation against the feather (Table 1's model standing in for the measurement): "
                 "the "

@@ -56,6 +56,9 @@ struct SpeciesOutcome {
     std::array<bool, analysis::kFilip2024ParameterCount>
         at_bound{};  // fitted value on its range's edge
     bool fit_converged = false;
+    double fit_start_phi_a_deg = 0.0;  // the φa start (of four) whose fit was best
+    // Angle (0–90°) between the fitted axis U(φa) and the patch's barb axis and barbules.
+    double fit_axis_from_barbs_deg = 0.0, fit_axis_from_barbules_deg = 0.0;
     // Channel means (R, G, B) of the simulated BRDF over the 61 × 60 set, 1/sr.
     std::array<double, 3> mean_brdf_rgb{};
     // Directional albedo at normal incidence, per wavelength, with its standard error.
