@@ -184,14 +184,10 @@ const AblationPoint* AblationResult::base() const {
 
 AblationResult run_ablation_study(const std::string& study_text, const fs::path& source_name,
                                   const fs::path& results_root, bool progress) {
-    const auto start = std::chrono::steady_clock::now();
+    const StudyProgress clock(progress);
     auto file = StudyFile::parse(study_text, source_name);
     std::string name;
     const Settings s = read_settings(*file, name, source_name);
-    auto elapsed = [&] { return std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count(); };
-    auto say = [&](const std::string& what) {
-        if (progress) std::cerr << fmt::format("plumage: [{:6.1f} s] {}\n", elapsed(), what);
-    };
 
     gonio::ScatterometerConfig config;
     config.illumination = gonio::Illumination::beam;
@@ -249,7 +245,7 @@ AblationResult run_ablation_study(const std::string& study_text, const fs::path&
 
     // The base values first: every sweep passes through them, and their model's
     // brightest pixel sets the one exposure of every image.
-    say("base values (the study's [geometry]): simulation and model");
+    clock.say("base values (the study's [geometry]): simulation and model");
     Measured base = measure(s.row);
     if (!base.sim) throw InputError(fmt::format("{}: [geometry] (the base of every sweep): {}", source_name.string(), base.reason));
     AblationPoint base_point = compare(*base.sim, *base.mod);
@@ -259,7 +255,7 @@ AblationResult run_ablation_study(const std::string& study_text, const fs::path&
     record::write_png(dir / "base" / "model.png", gonio::scatterogram_srgb(*base.mod, exposure));
     gonio::write_scatterogram_record(*base.sim, dir / "base" / "simulation.h5");
     gonio::write_scatterogram_record(*base.mod, dir / "base" / "model.h5");
-    const double base_seconds = elapsed();
+    const double base_seconds = clock.elapsed_s();
     base.sim.reset();
     base.mod.reset();
 
@@ -314,7 +310,7 @@ AblationResult run_ablation_study(const std::string& study_text, const fs::path&
             } else {
                 BarbuleRowParams params = s.row;
                 p.set(params, v);
-                say(fmt::format("{} = {}: simulation and model", p.key, format_value(v)));
+                clock.say(fmt::format("{} = {}: simulation and model", p.key, format_value(v)));
                 const Measured m = measure(params);
                 if (m.sim) {
                     point = compare(*m.sim, *m.mod);
@@ -326,7 +322,7 @@ AblationResult run_ablation_study(const std::string& study_text, const fs::path&
                 } else {
                     point.skipped = true;
                     point.reason = m.reason;
-                    say(fmt::format("{} = {}: skipped ({})", p.key, format_value(v), m.reason));
+                    clock.say(fmt::format("{} = {}: skipped ({})", p.key, format_value(v), m.reason));
                 }
             }
             point.parameter = p.key;
@@ -419,11 +415,11 @@ AblationResult run_ablation_study(const std::string& study_text, const fs::path&
     }
     all_csv.close();
     h5.commit();
-    say(fmt::format("plots: {} figures", plots.size()));
+    clock.say(fmt::format("plots: {} figures", plots.size()));
     run_plots(plots, dir / "plots.csv");
     fs::remove(dir / "plots.csv");
 
-    result.wall_seconds = elapsed();
+    result.wall_seconds = clock.elapsed_s();
     {
         const auto& c = s.row.cell;
         std::ofstream report(dir / "report.md");
@@ -474,7 +470,7 @@ AblationResult run_ablation_study(const std::string& study_text, const fs::path&
     }
     out.commit();
     result.output_dir = out.final_path();
-    say("done: " + (result.output_dir / "report.md").string());
+    clock.say("done: " + (result.output_dir / "report.md").string());
     return result;
 }
 

@@ -254,14 +254,10 @@ double clear_spacing(const geometry::BarbuleCellParams& cell, double mu) {
 
 ExtremesResult run_extremes_study(const std::string& study_text, const fs::path& source_name,
                                   const fs::path& results_root, bool progress) {
-    const auto start = std::chrono::steady_clock::now();
+    const StudyProgress clock(progress);
     auto file = StudyFile::parse(study_text, source_name);
     std::string name;
     const Settings s = read_settings(*file, name, source_name);
-    auto elapsed = [&] { return std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count(); };
-    auto say = [&](const std::string& what) {
-        if (progress) std::cerr << fmt::format("plumage: [{:6.1f} s] {}\n", elapsed(), what);
-    };
 
     // Incident directions: the regular grid, and the grazing ones at its azimuths.
     const std::vector<Vec3d> regular = analysis::hemisphere_grid(s.polar_step, s.max_polar, s.azimuth_step);
@@ -423,7 +419,7 @@ ExtremesResult run_extremes_study(const std::string& study_text, const fs::path&
             ExtremesRow row;
             row.case_name = c.name;
             row.scatterer = e.label;
-            say(fmt::format("{}: {}", c.name, e.label));
+            clock.say(fmt::format("{}: {}", c.name, e.label));
             Built built;
             try {
                 built = e.build();
@@ -604,7 +600,7 @@ ExtremesResult run_extremes_study(const std::string& study_text, const fs::path&
         case_list += fmt::format("- **{}** — {}; {} incident directions. Scatterers: {}.\n", c.name, c.description,
                                  c.incidence.size(), who);
     }
-    result.wall_seconds = elapsed();
+    result.wall_seconds = clock.elapsed_s();
     {
         std::ofstream report(dir / "report.md");
         report << "# Extremes: stiff and extreme parameters through every scatterer\n\n"
@@ -659,7 +655,7 @@ ExtremesResult run_extremes_study(const std::string& study_text, const fs::path&
     }
     out.commit();
     result.output_dir = out.final_path();
-    say("done: " + (result.output_dir / "report.md").string());
+    clock.say("done: " + (result.output_dir / "report.md").string());
     return result;
 }
 

@@ -26,6 +26,7 @@
 #include "studies/geometry_study.h"
 #include "studies/plots.h"
 #include "studies/staged_directory.h"
+#include "studies/study_common.h"
 #include "studies/study_file.h"
 #include "virtual_gonio/hdf5_file.h"
 
@@ -576,13 +577,7 @@ void write_report(const fs::path& path, const MaskingStudyResult& result, const 
 
 MaskingStudyResult run_masking_study(const std::string& study_text, const fs::path& source_name,
                                      const fs::path& results_root, bool progress) {
-    const auto start = std::chrono::steady_clock::now();
-    auto elapsed = [&] {
-        return std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
-    };
-    auto say = [&](const std::string& what) {
-        if (progress) std::cerr << fmt::format("plumage: [{:6.1f} s] {}\n", elapsed(), what);
-    };
+    const StudyProgress clock(progress);
     const Settings s = read_settings(study_text, source_name);
 
     MaskingStudyResult result;
@@ -590,7 +585,7 @@ MaskingStudyResult run_masking_study(const std::string& study_text, const fs::pa
     result.rays = s.rays;
     result.angles_deg = s.angles_deg;
     result.family_significance = kFamilySignificance;
-    say(fmt::format("masking: {} configurations × {} angles + {} 3D directions, {} rays each",
+    clock.say(fmt::format("masking: {} configurations × {} angles + {} 3D directions, {} rays each",
                     s.configurations.size(), s.angles_deg.size(), kMaskingCheckDirections.size(),
                     s.rays));
     const std::uint64_t items_per_configuration =
@@ -599,7 +594,7 @@ MaskingStudyResult run_masking_study(const std::string& study_text, const fs::pa
         result.configurations.push_back(
             compare(s.configurations[k], s, k * items_per_configuration));
         const auto& c = result.configurations.back();
-        say(fmt::format("{}: max abs(analytic − MC) {:.2e}, max abs(z) {:.3f} ({:.1f} s)", c.name,
+        clock.say(fmt::format("{}: max abs(analytic − MC) {:.2e}, max abs(z) {:.3f} ({:.1f} s)", c.name,
                         c.max_abs_difference, c.max_abs_z, c.wall_seconds));
     }
 
@@ -624,14 +619,14 @@ MaskingStudyResult run_masking_study(const std::string& study_text, const fs::pa
     StagedDirectory out(results_root / s.name);
     const fs::path dir = out.path();
     write_csv(dir / "masking.csv", result);
-    result.wall_seconds = elapsed();  // the computation; writing and plotting take a second more
+    result.wall_seconds = clock.elapsed_s();  // the computation; writing and plotting take a second more
     write_hdf5(dir / "masking.h5", result, study_text);
-    say("plot");
+    clock.say("plot");
     run_plot("masking", dir / "masking.h5", dir / "masking.png");
     write_report(dir / "report.md", result, s, study_text);
     out.commit();
     result.output_dir = out.final_path();
-    say("done: " + (result.output_dir / "report.md").string());
+    clock.say("done: " + (result.output_dir / "report.md").string());
     return result;
 }
 

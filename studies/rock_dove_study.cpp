@@ -109,19 +109,16 @@ Settings read_settings(StudyFile& file, std::string& name, const fs::path& sourc
 
 RockDoveResult run_rock_dove_study(const std::string& study_text, const fs::path& source_name,
                                    const fs::path& results_root, bool progress, const RunLimits& limits) {
-    const auto start = std::chrono::steady_clock::now();
+    const StudyProgress clock(progress);
     auto file = StudyFile::parse(study_text, source_name);
     std::string name;
     Settings s = read_settings(*file, name, source_name);
     if (limits.time_budget_s > 0.0) s.time_budget_s = limits.time_budget_s;
     if (limits.target_relative_error > 0.0) s.target_relative_error = limits.target_relative_error;
-    auto say = [&](const std::string& what) {
-        if (progress) std::cerr << fmt::format("plumage: [{:6.1f} s] {}\n", std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count(), what);
-    };
     RockDoveResult result;
 
     // The explicit patch and the analytic model of the same parameters.
-    say("building the explicit rock-dove barbule patch");
+    clock.say("building the explicit rock-dove barbule patch");
     geometry::BarbuleRow row;
     try {
         row = geometry::build_barbule_row(s.row, s.tolerance);
@@ -163,9 +160,9 @@ RockDoveResult run_rock_dove_study(const std::string& study_text, const fs::path
         c.target_relative_error = s.target_relative_error;
         c.illumination_strata = s.strata;
         c.config_text = study_text;
-        say("scatterogram (" + label + "): simulation");
+        clock.say("scatterogram (" + label + "): simulation");
         const gonio::Scatterogram sim_s = gonio::measure_scatterogram(simulation, c);
-        say("scatterogram (" + label + "): Huang model");
+        clock.say("scatterogram (" + label + "): Huang model");
         const gonio::Scatterogram mod_s = gonio::measure_scatterogram(model, c);
         gonio::write_scatterogram_record(sim_s, dir / "scatterograms" / (label + "_simulation.h5"));
         gonio::write_scatterogram_record(mod_s, dir / "scatterograms" / (label + "_model.h5"));
@@ -227,7 +224,7 @@ RockDoveResult run_rock_dove_study(const std::string& study_text, const fs::path
     g.target_relative_error = s.target_relative_error;
     g.config_text = study_text;
     g.estimator = gonio::Estimator::photon;
-    say(fmt::format("BRDF on {} ({} pairs): simulation", g.direction_set, g.pairs.size()));
+    clock.say(fmt::format("BRDF on {} ({} pairs): simulation", g.direction_set, g.pairs.size()));
     gonio::RunControl control;
     control.progress = progress;
     control.interrupt = limits.interrupt;
@@ -242,7 +239,7 @@ RockDoveResult run_rock_dove_study(const std::string& study_text, const fs::path
                                       "resume from {}",
                                       sim_b.passes, control.checkpoint.string()));
     }
-    say("BRDF: Huang model");
+    clock.say("BRDF: Huang model");
     g.estimator = gonio::Estimator::eval;
     const gonio::BrdfRecord mod_b = gonio::measure_brdf(model, g);
     gonio::write_brdf_record(sim_b, dir / "brdf" / "simulation.h5");
@@ -273,7 +270,7 @@ RockDoveResult run_rock_dove_study(const std::string& study_text, const fs::path
         ip.wavelengths_nm = {s.wavelengths[s.wavelengths.size() / 2]};
         ip.estimator = gonio::Estimator::photon;
         ip.quanta_per_pass = s.gonio_quanta * 4;
-        say("in-plane sweep: simulation and model");
+        clock.say("in-plane sweep: simulation and model");
         const gonio::BrdfRecord a = gonio::measure_brdf(simulation, ip);
         ip.estimator = gonio::Estimator::eval;
         const gonio::BrdfRecord b = gonio::measure_brdf(model, ip);
@@ -300,7 +297,7 @@ RockDoveResult run_rock_dove_study(const std::string& study_text, const fs::path
         const double length_y = std::max(200.0, 4.0 * std::max(s.beam_radius_um, 5.0 * short_row.H * short_row.cell.semi_major_um));
         short_row.barbules = std::max(short_row.barbules, static_cast<int>(std::ceil(length_y / (short_row.H * short_row.cell.semi_major_um))));
         short_row.cells_per_barbule = static_cast<int>(std::ceil(length_y / short_row.cell.cell_length_um));
-        say(fmt::format("validation: {} short cells ({:.3f} um) per barbule, R lobe only", short_row.cells_per_barbule,
+        clock.say(fmt::format("validation: {} short cells ({:.3f} um) per barbule, R lobe only", short_row.cells_per_barbule,
                         short_row.cell.cell_length_um));
         const geometry::BarbuleRow vrow = geometry::build_barbule_row(short_row, s.tolerance);
         sim::TracerOptions single;
@@ -388,7 +385,7 @@ RockDoveResult run_rock_dove_study(const std::string& study_text, const fs::path
             }
             csv << fmt::format("Huang R lobe (photon estimator),{:.6g},{:.6g},{:.6g}\n", r.wall_time_s, std::sqrt(est / n), std::sqrt(tru / n));
         };
-        say("error against run time: Huang R lobe, photon estimator against exact values");
+        clock.say("error against run time: Huang R lobe, photon estimator against exact values");
         gonio::measure_brdf(model, c, rc);
         for (const auto& r : sim_rows) {
             // No exact values exist for the simulation: its true error is unknown (−1, not plotted).
@@ -417,7 +414,7 @@ RockDoveResult run_rock_dove_study(const std::string& study_text, const fs::path
         100.0 * result.simulated_multi_share, s.beam_incidence / kDeg, result.simulated_t, result.model_t,
         s.row.cell.cell_length_um, result.eq7_edge_coupling, s.validation_cell_coupling);
 
-    result.wall_seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+    result.wall_seconds = clock.elapsed_s();
     {
         std::ofstream report(dir / "report.md");
         report << "# Rock dove: explicit barbules against Huang et al. 2022\n\n"
@@ -439,7 +436,7 @@ RockDoveResult run_rock_dove_study(const std::string& study_text, const fs::path
     fs::remove_all(checkpoints, ignored);  // the finished record supersedes the checkpoint
     if (fs::is_empty(results_root / ".checkpoints", ignored)) fs::remove(results_root / ".checkpoints", ignored);
     result.output_dir = out.final_path();
-    say("done: " + (result.output_dir / "report.md").string());
+    clock.say("done: " + (result.output_dir / "report.md").string());
     return result;
 }
 

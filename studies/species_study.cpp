@@ -533,24 +533,18 @@ std::string parameter_cell(double value, double error, std::string_view unit) {
 SpeciesResult run_species_study(const std::string& study_text, const fs::path& source_name,
                                 const fs::path& results_root, bool progress,
                                 const RunLimits& limits) {
-    const auto start = std::chrono::steady_clock::now();
+    const StudyProgress clock(progress);
     auto file = StudyFile::parse(study_text, source_name);
     std::string name;
     Settings s = read_settings(*file, name, source_name);
     if (limits.time_budget_s > 0.0) s.time_budget_s = limits.time_budget_s;
     if (limits.target_relative_error > 0.0) s.target_relative_error = limits.target_relative_error;
-    auto elapsed = [&] {
-        return std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
-    };
-    auto say = [&](const std::string& what) {
-        if (progress) std::cerr << fmt::format("plumage: [{:6.1f} s] {}\n", elapsed(), what);
-    };
 
     // Build every scene first: a geometry the study file gets wrong stops the run before
     // anything is written.
     std::vector<BuiltSpecies> built;
     for (const SpeciesSpec& sp : s.species) {
-        say(fmt::format("building the {} patch", sp.name));
+        clock.say(fmt::format("building the {} patch", sp.name));
         built.push_back(build_species(
             sp, s.tolerance, fmt::format("{}: [species.{}]", source_name.string(), sp.name)));
         const BuiltSpecies& b = built.back();
@@ -701,7 +695,7 @@ SpeciesResult run_species_study(const std::string& study_text, const fs::path& s
         g.target_relative_error = s.target_relative_error;
         g.config_text = study_text;
         g.estimator = gonio::Estimator::photon;
-        say(
+        clock.say(
             fmt::format("{}: BRDF on the 61 x 60 set ({} quanta per light direction and "
                         "wavelength, {} wavelengths)",
                         sp.name, s.quanta * static_cast<std::uint64_t>(s.passes), nl));
@@ -798,7 +792,7 @@ SpeciesResult run_species_study(const std::string& study_text, const fs::path& s
                                sim_brdf.at(p, k), std::nullopt});
             }
         }
-        say(fmt::format("{}: fitting Filip 2024 to {} observations", sp.name, obs.size()));
+        clock.say(fmt::format("{}: fitting Filip 2024 to {} observations", sp.name, obs.size()));
         analysis::Filip2024FitOptions fit_options;
         fit_options.max_function_evaluations = s.fit_evaluations;
         // Least squares is local, and φa is where this fit's local minima are (each fibre
@@ -870,7 +864,7 @@ SpeciesResult run_species_study(const std::string& study_text, const fs::path& s
             ip.quanta_per_pass = s.in_plane_quanta;
             ip.max_passes = 1;
             ip.seed = s.seed + 100 + si;
-            say(fmt::format("{}: in-plane sweep", sp.name));
+            clock.say(fmt::format("{}: in-plane sweep", sp.name));
             const gonio::BrdfRecord a = gonio::measure_brdf(sample, ip);
             ip.estimator = gonio::Estimator::eval;
             const gonio::BrdfRecord b = gonio::measure_brdf(fitted_model, ip);
@@ -890,7 +884,7 @@ SpeciesResult run_species_study(const std::string& study_text, const fs::path& s
 
         // 5. Albedo at normal incidence, over the period cell.
         {
-            say(fmt::format("{}: albedo at normal incidence", sp.name));
+            clock.say(fmt::format("{}: albedo at normal incidence", sp.name));
             o.albedo.assign(nl, 0.0);
             o.albedo_error.assign(nl, 0.0);
             const Vec3d wi(0.0, 0.0, 1.0);
@@ -934,7 +928,7 @@ SpeciesResult run_species_study(const std::string& study_text, const fs::path& s
             bc.detector_half_angle_rad = s.btf_detector_half_angle;
             bc.quanta_per_light = s.btf_quanta;
             bc.seed = s.seed + 200 + si;
-            say(fmt::format("{}: BTF on the 61 x 60 set ({} x {} pixels, {} wavelengths)", sp.name,
+            clock.say(fmt::format("{}: BTF on the 61 x 60 set ({} x {} pixels, {} wavelengths)", sp.name,
                             bc.pixels, bc.pixels, bc.wavelengths_nm.size()));
             const gonio::BtfRecord btf = gonio::measure_btf(imaged, bc);
             o.btf_seconds = btf.wall_time_s;
@@ -1249,7 +1243,7 @@ SpeciesResult run_species_study(const std::string& study_text, const fs::path& s
     h5.set_attribute("/", "study", std::string(study_text));
     h5.commit();
 
-    result.wall_seconds = elapsed();
+    result.wall_seconds = clock.elapsed_s();
     md += fmt::format(
         "## Run\n\n{:.0f} s on {} threads. Records: `species.h5` (fits, albedo, in-plane L*), "
         "`fits.csv`, "

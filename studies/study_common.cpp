@@ -1,5 +1,9 @@
 #include "studies/study_common.h"
 
+#include <iostream>
+
+#include <fmt/format.h>
+
 #include <algorithm>
 #include <cmath>
 
@@ -59,6 +63,14 @@ int lobe_index(const std::vector<std::string>& lobes, const std::string& name) {
 
 Vec3d polar(double theta, double phi) {
     return {std::sin(theta) * std::cos(phi), std::sin(theta) * std::sin(phi), std::cos(theta)};
+}
+
+double StudyProgress::elapsed_s() const {
+    return std::chrono::duration<double>(std::chrono::steady_clock::now() - start_).count();
+}
+
+void StudyProgress::say(const std::string& what) const {
+    if (enabled_) std::cerr << fmt::format("plumage: [{:6.1f} s] {}\n", elapsed_s(), what);
 }
 
 }  // namespace plumage::studies

@@ -1,6 +1,7 @@
 // Pieces the model-against-simulation studies share (rock_dove, ablation, extremes).
 #pragma once
 
+#include <chrono>
 #include <string>
 #include <vector>
 
@@ -22,6 +23,18 @@ double image_relative_l1(const gonio::Scatterogram& a, const gonio::Scatterogram
 
 // Index of a lobe name, or −1.
 int lobe_index(const std::vector<std::string>& lobes, const std::string& name);
+
+// A study's wall clock and its progress lines on stderr, "plumage: [  12.3 s] what".
+class StudyProgress {
+public:
+    explicit StudyProgress(bool enabled) : enabled_(enabled) {}
+    double elapsed_s() const;
+    void say(const std::string& what) const;  // nothing when disabled
+
+private:
+    std::chrono::steady_clock::time_point start_ = std::chrono::steady_clock::now();
+    bool enabled_;
+};
 
 // Unit vector at polar θ from +z and azimuth φ from +x (patch frame).
 Vec3d polar(double theta, double phi);
