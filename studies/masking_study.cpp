@@ -15,7 +15,6 @@
 #include <utility>
 
 #include <fmt/format.h>
-#include <toml++/toml.h>
 
 #include "analysis/cross_section_masking_mc.h"
 #include "analysis/padrongriffe2024_masking.h"
@@ -61,25 +60,6 @@ struct Settings {
     geometry::TessellationTolerance tolerance;
     std::vector<Configuration> configurations;
 };
-
-// The names under [configurations], in the order the file gives them. The checked reader asks
-// for keys by name and cannot list a table, so the names come from the parsed TOML (already
-// known to be valid: StudyFile parsed the same text); every key below them is still read, and
-// checked, through ParameterTable.
-std::vector<std::string> configuration_names(const std::string& text, const fs::path& source) {
-    const toml::table root = toml::parse(text, source.string());
-    const toml::table* table = root["configurations"].as_table();
-    if (table == nullptr) return {};
-    std::vector<std::pair<std::pair<std::uint32_t, std::uint32_t>, std::string>> keyed;
-    for (const auto& [key, node] : *table) {
-        const auto& at = key.source().begin ? key.source().begin : node.source().begin;
-        keyed.push_back({{at.line, at.column}, std::string(key.str())});
-    }
-    std::sort(keyed.begin(), keyed.end());
-    std::vector<std::string> names;
-    for (auto& k : keyed) names.push_back(std::move(k.second));
-    return names;
-}
 
 bool plain_name(const std::string& name) {
     return !name.empty() && name.size() <= 64 && std::all_of(name.begin(), name.end(), [](char c) {
@@ -135,7 +115,7 @@ Settings read_settings(const std::string& text, const fs::path& source) {
     s.tolerance = read_tolerance(root.table("tessellation"));
 
     ParameterTable configurations = root.table("configurations");
-    for (const std::string& name : configuration_names(text, source)) {
+    for (const std::string& name : configurations.keys()) {
         if (!plain_name(name)) {
             throw InputError(fmt::format(
                 "{}: configurations.\"{}\": expected a name of letters, digits, '_' or '-' (at "

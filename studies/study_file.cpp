@@ -1,7 +1,7 @@
 #include "studies/study_file.h"
 
-#include <cmath>
 #include <algorithm>
+#include <cmath>
 #include <fstream>
 #include <sstream>
 
@@ -76,6 +76,19 @@ const toml::node* ParameterTable::find(std::string_view key) {
 }
 
 bool ParameterTable::has(std::string_view key) const { return table_ != nullptr && table_->contains(key); }
+
+std::vector<std::string> ParameterTable::keys() const {
+    if (table_ == nullptr) return {};
+    std::vector<std::pair<std::pair<std::uint32_t, std::uint32_t>, std::string>> keyed;
+    for (const auto& [key, node] : *table_) {
+        const auto& at = key.source().begin ? key.source().begin : node.source().begin;
+        keyed.push_back({{at.line, at.column}, std::string(key.str())});
+    }
+    std::sort(keyed.begin(), keyed.end());
+    std::vector<std::string> names;
+    for (auto& k : keyed) names.push_back(std::move(k.second));
+    return names;
+}
 
 double ParameterTable::number(std::string_view key, double default_value, Range range, std::string_view what) {
     const toml::node* node = find(key);

@@ -52,6 +52,9 @@ public:
     std::string required_string(std::string_view key, const std::vector<std::string>& allowed,
                                 std::string_view what);
     bool has(std::string_view key) const;
+    // The keys of this table in the order the file writes them (for tables of named entries,
+    // e.g. [configurations.NAME]); listing does not mark them as used.
+    std::vector<std::string> keys() const;
     // A sub-table (section); empty table if absent. Marks the key as used.
     ParameterTable table(std::string_view key);
 
