@@ -279,6 +279,53 @@ std::size_t BarbulePatch::memory_bytes() const {
            (barb_instances.capacity() + barbule_instances.capacity()) * sizeof(Eigen::Affine3d);
 }
 
+namespace {
+
+bool inside_polygon(const std::vector<Eigen::Vector2d>& polygon, const Eigen::Vector2d& p) {
+    bool inside = false;
+    for (std::size_t i = 0, j = polygon.size() - 1; i < polygon.size(); j = i++) {
+        const Eigen::Vector2d& a = polygon[i];
+        const Eigen::Vector2d& b = polygon[j];
+        if ((a.y() > p.y()) != (b.y() > p.y()) &&
+            p.x() < (b.x() - a.x()) * (p.y() - a.y()) / (b.y() - a.y()) + a.x()) {
+            inside = !inside;
+        }
+    }
+    return inside;
+}
+
+}  // namespace
+
+double barbule_root_clearance_um(const PatchCrossSection& section) {
+    const std::vector<Eigen::Vector2d>* cortex = nullptr;
+    for (const auto& shape : section.shapes) {
+        if (shape.role == SurfaceRole::barb_cortex) cortex = &shape.polygon;
+    }
+    PLUMAGE_CHECK(cortex != nullptr, "a patch cross-section has a cortex");
+    double clearance = 0.0;
+    for (const auto& shape : section.shapes) {  // distal and proximal strips
+        if (shape.role != SurfaceRole::barbule) continue;
+        const auto& strip = shape.polygon;
+        PLUMAGE_CHECK(strip.size() == 4, "a barbule strip has four corners");
+        const Eigen::Vector2d d = (strip[1] - strip[0]).normalized();
+        // The whole root face, not only its corners: a chord between two outside points can
+        // still cut a convex outline.
+        auto clear = [&](double shift) {
+            for (int k = 0; k <= 32; ++k) {
+                const Eigen::Vector2d p = strip[0] + (k / 32.0) * (strip[3] - strip[0]) + shift * d;
+                if (inside_polygon(*cortex, p)) return false;
+            }
+            return true;
+        };
+        if (clear(0.0)) continue;
+        double lo = 0.0, hi = 1.0;
+        while (!clear(hi)) hi *= 2.0;
+        for (int k = 0; k < 60; ++k) (clear(0.5 * (lo + hi)) ? hi : lo) = 0.5 * (lo + hi);
+        clearance = std::max(clearance, 1.01 * hi + 0.01);
+    }
+    return clearance;
+}
+
 BarbulePatch build_barbule_patch(const BarbulePatchParams& params, double length_x_um, int barbs,
                                  const TessellationTolerance& tolerance) {
     tolerance.validate();
@@ -306,7 +353,28 @@ BarbulePatch build_barbule_patch(const BarbulePatchParams& params, double length
 
     const auto cortex = barb.cortex_outline(tolerance);
     const Eigen::Vector2d root = distal_root(cortex);
-    const double period = patch_period(params, cortex);
+    const PatchCrossSection section = build_patch_cross_section(params, tolerance);
+    patch.root_clearance_um = barbule_root_clearance_um(section);
+    const double ci = std::cos(params.barbule_inclination_rad);
+    const double si = std::sin(params.barbule_inclination_rad);
+    // Furthest y a barbule axis reaches from its barb's axis (root, clearance, length), and
+    // with the inclined tip face leaning out by half the strip's thickness.
+    const auto& strip = section.shapes.back().polygon;
+    const double half_thickness = 0.5 * (strip[3] - strip[0]).norm();
+    const double reach = root.x() + (patch.root_clearance_um + length) * ci;
+    const double tip = reach + half_thickness * std::abs(si);
+    const double period = params.barb_spacing > 0.0 ? section.period_um : 2.0 * reach;
+    if (params.barb_spacing > 0.0 && 2.0 * tip > period) {
+        // Conservative: tips at different heights (a rotated barb) might still pass each other.
+        throw InputError(fmt::format(
+            "barb patch: barb_spacing = {} barb widths ({:.2f} um) lets the barbule tips of neighbouring barbs "
+            "overlap (each reaches {:.2f} um from its barb's axis, {:.2f} um of it root clearance): expected 0 "
+            "(automatic) or at least {:.3f}",
+            params.barb_spacing, period, tip, patch.root_clearance_um, 2.0 * tip / params.barb.barb_width_um));
+    }
+    patch.period_um = period;
+    // Each barbule moved out along its own axis, (0, cos i, sin i) in the unit mesh.
+    const Eigen::Translation3d clearance(0.0, patch.root_clearance_um * ci, patch.root_clearance_um * si);
     const double pitch = params.barbule_separation * params.barbule_width_um;
     const int per_side = std::max(1, static_cast<int>(std::floor(length_x_um / pitch)));
     for (int k = 0; k < barbs; ++k) {
@@ -314,10 +382,10 @@ BarbulePatch build_barbule_patch(const BarbulePatchParams& params, double length
         patch.barb_instances.emplace_back(Eigen::Translation3d(0.0, y, 0.0));
         for (int j = 0; j < per_side; ++j) {
             const double x = (j - 0.5 * (per_side - 1)) * pitch;
-            patch.barbule_instances.emplace_back(Eigen::Translation3d(x, y + root.x(), root.y()));
+            patch.barbule_instances.emplace_back(Eigen::Translation3d(x, y + root.x(), root.y()) * clearance);
             // Proximal: the distal barbule turned by π about z (runs towards −y, still rising).
             patch.barbule_instances.emplace_back(Eigen::Translation3d(x, y - root.x(), -root.y()) *
-                                                 Eigen::AngleAxisd(kPi, Vec3::UnitZ()));
+                                                 Eigen::AngleAxisd(kPi, Vec3::UnitZ()) * clearance);
         }
     }
     return patch;

@@ -81,8 +81,10 @@ public:
     std::vector<Eigen::Vector2d> medulla_outline(const TessellationTolerance& tolerance) const;
     // Closed tube of the cortex (and of the medulla, when present) along +x, of the given
     // length, straight or bent with radius axis_radius_um in the x–z plane (0: straight).
-    TriangleMesh cortex_mesh(double length_um, double axis_radius_um, const TessellationTolerance& tolerance) const;
-    TriangleMesh medulla_mesh(double length_um, double axis_radius_um, const TessellationTolerance& tolerance) const;
+    TriangleMesh cortex_mesh(double length_um, double axis_radius_um,
+                             const TessellationTolerance& tolerance) const;
+    TriangleMesh medulla_mesh(double length_um, double axis_radius_um,
+                              const TessellationTolerance& tolerance) const;
     bool has_medulla() const { return params_.medulla_scale > 0.0; }
 
 private:
@@ -95,14 +97,33 @@ PatchCrossSection build_patch_cross_section(const BarbulePatchParams& params,
 // The patch in 3D: barbs along x (spaced along y), barbules as instanced fibres.
 struct BarbulePatch {
     BarbulePatchParams params;
-    TriangleMesh barb_cortex;    // one barb, in its own frame (axis along x through 0)
-    TriangleMesh barb_medulla;   // empty without a medulla
-    TriangleMesh barbule;        // one distal barbule (axis from the origin outwards)
+    TriangleMesh barb_cortex;   // one barb, in its own frame (axis along x through 0)
+    TriangleMesh barb_medulla;  // empty without a medulla
+    TriangleMesh barbule;       // one distal barbule (axis from the origin outwards)
     std::vector<Eigen::Affine3d> barb_instances;
     std::vector<Eigen::Affine3d> barbule_instances;
+    // Barbules start this far out along their own axis from the cortex point the
+    // cross-section roots them at (barbule_root_clearance_um), so that no barbule surface lies
+    // inside the cortex: a tracer without nested media needs disjoint closed bodies (light in
+    // the cortex meeting a barbule surface would refract as if it came from air). Sub-micron
+    // for the usual barbules; the 2D cross-section (and the masking term built on it) keeps the
+    // root on the cortex.
+    double root_clearance_um = 0.0;
+    // Barb spacing along y of this 3D patch: the cross-section's, or with automatic spacing
+    // 2 (r_y + (clearance + ℓ) cos i), so the moved tips still just meet.
+    double period_um = 0.0;
     std::size_t memory_bytes() const;
 };
 
+// How far barbules must move out along their axes so that the root faces of both strips of
+// the cross-section (33 points across each) clear the cortex polygon (0 when they already do):
+// bisection on the shift,
+// then 1 % + 0.01 µm of margin. The cut through the barbule's axis is where the fibre is
+// thickest, so clearing it clears the 3D fibre.
+double barbule_root_clearance_um(const PatchCrossSection& section);
+
+// InputError also when an explicit barb_spacing leaves the moved barbule tips of neighbouring
+// barbs overlapping.
 BarbulePatch build_barbule_patch(const BarbulePatchParams& params, double length_x_um, int barbs,
                                  const TessellationTolerance& tolerance);
 

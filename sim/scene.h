@@ -181,9 +181,9 @@ struct BarbulePatchMaterials {
     std::optional<SurfaceMaterial> barbule;  // default: keratin/air dielectric
 };
 // Units: "barb" (cortex: keratin/air dielectric; medulla: diffuse, keratin on its outside)
-// and "barbule"; instances from the patch. Barbule roots meet the cortex surface; where a
-// barbule's surface lies inside the cortex it still declares air outside (no nested
-// dielectric priorities), a small error confined to the roots.
+// and "barbule"; instances from the patch. The patch starts its barbules just outside the
+// cortex (geometry::BarbulePatch::root_clearance_um): with no nested dielectric priorities
+// here, every closed body must be disjoint from the others.
 SceneDescription barbule_patch_scene(const geometry::BarbulePatch& patch,
                                      const BarbulePatchMaterials& materials = {});
 

@@ -340,56 +340,10 @@ sim::AlbedoSpectrum medulla_albedo(const MedullaSpec& m) {
     };
 }
 
-bool inside_polygon(const std::vector<Eigen::Vector2d>& polygon, const Eigen::Vector2d& p) {
-    bool inside = false;
-    for (std::size_t i = 0, j = polygon.size() - 1; i < polygon.size(); j = i++) {
-        const Eigen::Vector2d& a = polygon[i];
-        const Eigen::Vector2d& b = polygon[j];
-        if ((a.y() > p.y()) != (b.y() > p.y()) &&
-            p.x() < (b.x() - a.x()) * (p.y() - a.y()) / (b.y() - a.y()) + a.x()) {
-            inside = !inside;
-        }
-    }
-    return inside;
-}
-
-// How far a barbule must be moved out along its own axis so that its root face clears the
-// barb cortex. build_barbule_patch starts barbules at the cortex's extreme point, so the part
-// of the root face on the inner side of the curve reaches into the cortex; the tracer has no
-// nested media (sim/scene.h), and light inside the cortex meeting that surface would be
-// refracted as if it came from air (a "medium mismatch": wrong and not reciprocal). In the
-// cross-section (the cut through the barbule's axis, where it is thickest) the root face's two
-// corners must lie outside the cortex polygon; bisection on the shift, then 1 % + 0.01 µm margin.
-double barbule_root_clearance_um(const geometry::PatchCrossSection& section) {
-    const std::vector<Eigen::Vector2d>* cortex = nullptr;
-    for (const auto& shape : section.shapes) {
-        if (shape.role == geometry::SurfaceRole::barb_cortex) cortex = &shape.polygon;
-    }
-    PLUMAGE_CHECK(cortex != nullptr, "patch cross-section has a cortex");
-    double clearance = 0.0;
-    for (const auto& shape : section.shapes) {  // distal and proximal strips
-        if (shape.role != geometry::SurfaceRole::barbule) continue;
-        const auto& strip = shape.polygon;
-        PLUMAGE_CHECK(strip.size() == 4, "a barbule strip has four corners");
-        const Eigen::Vector2d d = (strip[1] - strip[0]).normalized();
-        auto clear = [&](double shift) {
-            return !inside_polygon(*cortex, strip[0] + shift * d) &&
-                   !inside_polygon(*cortex, strip[3] + shift * d);
-        };
-        if (clear(0.0)) continue;
-        double lo = 0.0, hi = 1.0;
-        while (!clear(hi)) hi *= 2.0;
-        for (int k = 0; k < 60; ++k) (clear(0.5 * (lo + hi)) ? hi : lo) = 0.5 * (lo + hi);
-        clearance = std::max(clearance, 1.01 * hi + 0.01);
-    }
-    return clearance;
-}
-
 struct BuiltSpecies {
     sim::SceneDescription scene;
     double period_um = 0.0;
-    // Barbules moved out along their axis (barbule_root_clearance_um).
-    double root_clearance_um = 0.0;
+    double root_clearance_um = 0.0;  // geometry::BarbulePatch::root_clearance_um
     double layer_thickness_um = 0.0;
     std::size_t instances = 0, triangles = 0;
 };
@@ -398,42 +352,14 @@ BuiltSpecies build_species(const SpeciesSpec& s, const geometry::TessellationTol
                            const std::string& where) {
     BuiltSpecies out;
     geometry::BarbulePatch patch;
-    geometry::PatchCrossSection section;
     try {
         patch = geometry::build_barbule_patch(s.patch, s.length_um, s.barbs, tolerance);
-        section = geometry::build_patch_cross_section(s.patch, tolerance);
     } catch (const InputError& e) {
         throw InputError(fmt::format("{}: {}", where, e.what()));
     }
-    out.period_um = section.period_um;
-    out.root_clearance_um = barbule_root_clearance_um(section);
-    {
-        // The moved tips must still not meet the neighbouring barb's (conservatively: ignoring
-        // any height difference between them).
-        const double c = std::cos(s.patch.barbule_inclination_rad),
-                     sn = std::abs(std::sin(s.patch.barbule_inclination_rad));
-        const geometry::Barb barb(s.patch.barb);
-        double ry = 0.0;
-        for (const auto& v : barb.cortex_outline(tolerance)) ry = std::max(ry, v.x());
-        double half_thickness = 0.0;  // of the barbule strip in the cut through its axis
-        for (const auto& shape : section.shapes) {
-            if (shape.role == geometry::SurfaceRole::barbule)
-                half_thickness = 0.5 * (shape.polygon[3] - shape.polygon[0]).norm();
-        }
-        const double reach =
-            ry + (out.root_clearance_um + s.patch.barbule_length * s.patch.barb.barb_width_um) * c +
-            half_thickness * sn;
-        if (2.0 * reach > out.period_um) {
-            throw InputError(
-                fmt::format("{}: barbules moved {:.2f} um out of the cortex (so the tracer sees no "
-                            "barbule inside "
-                            "the barb) reach {:.1f} um from the barb axis, more than half the barb "
-                            "period {:.1f} um: "
-                            "expected a larger barbules.barb_spacing (at least {:.2f} barb widths)",
-                            where, out.root_clearance_um, reach, out.period_um,
-                            2.0 * reach / s.patch.barb.barb_width_um));
-        }
-    }
+    // The 3D patch's spacing and barbule root clearance (geometry/barb.h).
+    out.period_um = patch.period_um;
+    out.root_clearance_um = patch.root_clearance_um;
     sim::BarbulePatchMaterials materials;
     materials.keratin = keratin_of(s);
     materials.medulla = medulla_albedo(s.medulla);
@@ -447,13 +373,6 @@ BuiltSpecies build_species(const SpeciesSpec& s, const geometry::TessellationTol
                 : sim::dielectric_interface(optics::melanin());
     }
     sim::SceneDescription one = sim::barbule_patch_scene(patch, materials);
-    // Barbules out along their own axis, which runs along (0, cos i, sin i) in their unit.
-    const Eigen::Translation3d clearance(
-        0.0, out.root_clearance_um * std::cos(s.patch.barbule_inclination_rad),
-        out.root_clearance_um * std::sin(s.patch.barbule_inclination_rad));
-    for (sim::Instance& i : one.instances) {
-        if (one.units[i.unit].name == "barbule") i.transform = i.transform * clearance;
-    }
     const Eigen::AlignedBox3d box = one.bounds();
     out.layer_thickness_um = box.max().z() - box.min().z();
     // Stacked layers: each one lower by the layer's thickness plus the gap, so no two
@@ -928,8 +847,8 @@ SpeciesResult run_species_study(const std::string& study_text, const fs::path& s
             bc.detector_half_angle_rad = s.btf_detector_half_angle;
             bc.quanta_per_light = s.btf_quanta;
             bc.seed = s.seed + 200 + si;
-            clock.say(fmt::format("{}: BTF on the 61 x 60 set ({} x {} pixels, {} wavelengths)", sp.name,
-                            bc.pixels, bc.pixels, bc.wavelengths_nm.size()));
+            clock.say(fmt::format("{}: BTF on the 61 x 60 set ({} x {} pixels, {} wavelengths)",
+                                  sp.name, bc.pixels, bc.pixels, bc.wavelengths_nm.size()));
             const gonio::BtfRecord btf = gonio::measure_btf(imaged, bc);
             o.btf_seconds = btf.wall_time_s;
             gonio::write_btf_record(btf, sdir / "btf.h5");

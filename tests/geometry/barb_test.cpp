@@ -146,5 +146,58 @@ TEST(BarbGeometry, PatchInstancesBarbulesOnBothSides) {
     EXPECT_LT(patch.memory_bytes(), 10u * 1000u * 1000u);
 }
 
+// The tracer has no nested media: no barbule vertex may lie inside the cortex it grows from
+// (the patch moves barbules out by root_clearance_um), and automatic spacing still lets the
+// moved tips just meet. Upright, flat, rotated and steep barbules.
+TEST(BarbGeometry, BarbulesStartOutsideTheCortex) {
+    const TessellationTolerance tolerance{0.05, 0.05};
+    for (const double rotation : {0.0, 0.5}) {
+        for (const double barbule_rotation : {0.0, 1.5707963267948966}) {
+            for (const double inclination : {0.1, 0.35, 0.9}) {
+                BarbulePatchParams p;
+                p.barb.barb_rotation_rad = rotation;
+                p.barbule_rotation_rad = barbule_rotation;
+                p.barbule_inclination_rad = inclination;
+                p.barbule_width_um = 14.0;
+                const BarbulePatch patch = build_barbule_patch(p, 60.0, 1, tolerance);
+                const auto cortex = Barb(p.barb).cortex_outline(tolerance);
+                EXPECT_GE(patch.root_clearance_um, 0.0);
+                EXPECT_LT(patch.root_clearance_um, 0.5 * p.barbule_width_um);
+                int inside = 0;
+                for (const auto& t : patch.barbule_instances) {
+                    for (const Vec3& v : patch.barbule.positions) {
+                        const Vec3 w = t * v;
+                        // Even-odd test against the cortex polygon (y, z); barb axis at y = 0.
+                        bool in = false;
+                        for (std::size_t i = 0, j = cortex.size() - 1; i < cortex.size(); j = i++) {
+                            const auto& a = cortex[i];
+                            const auto& b = cortex[j];
+                            if ((a.y() > w.z()) != (b.y() > w.z()) &&
+                                w.y() < (b.x() - a.x()) * (w.z() - a.y()) / (b.y() - a.y()) + a.x()) {
+                                in = !in;
+                            }
+                        }
+                        inside += in;
+                    }
+                }
+                EXPECT_EQ(inside, 0) << "rotation " << rotation << ", barbule rotation " << barbule_rotation
+                                     << ", inclination " << inclination;
+                const PatchCrossSection s = build_patch_cross_section(p, tolerance);
+                const double root_y = std::max_element(cortex.begin(), cortex.end(), [](const auto& a, const auto& b) {
+                                          return a.x() < b.x();
+                                      })->x();
+                EXPECT_NEAR(patch.period_um,
+                            2.0 * (root_y + (patch.root_clearance_um + 3.0 * 30.0) * std::cos(inclination)), 1e-9);
+                EXPECT_GE(patch.period_um, s.period_um);
+            }
+        }
+    }
+    // An explicit spacing the moved tips would overrun is refused, naming the smallest one.
+    BarbulePatchParams tight;
+    tight.barb_spacing = 1.0;
+    EXPECT_NE(input_error_message([&] { build_barbule_patch(tight, 60.0, 2, tolerance); }).find("at least"),
+              std::string::npos);
+}
+
 }  // namespace
 }  // namespace plumage::geometry
