@@ -24,6 +24,7 @@
 #include "studies/plots.h"
 #include "studies/staged_directory.h"
 #include "studies/study_common.h"
+#include "studies/sections.h"
 #include "studies/study_file.h"
 #include "virtual_gonio/hdf5_file.h"
 #include "virtual_gonio/scatterometer.h"
@@ -92,24 +93,14 @@ struct Settings {
 Settings read_settings(StudyFile& file, std::string& name, const fs::path& source) {
     Settings s;
     ParameterTable root = file.root();
-    name = root.string("name", source.stem().string(), {}, "results folder name");
+    name = read_study_name(root, source);
     root.string("study", "ablation", {"ablation"}, "which study this file describes");
-    s.seed = static_cast<std::uint64_t>(root.integer("seed", static_cast<long>(kDefaultSeed), 0, 1L << 62, "random seed"));
+    s.seed = read_seed(root);
     ParameterTable geometry = root.table("geometry");
     s.row = read_barbule_row_params(geometry);
     s.tolerance = read_tolerance(geometry.table("tessellation"));
     ParameterTable spectrum = root.table("spectrum");
-    const double first = spectrum.number("first_nm", 400.0, between(360.0, 830.0), "first wavelength, nm");
-    const double last = spectrum.number("last_nm", 700.0, between(360.0, 830.0), "last wavelength, nm");
-    const double step = spectrum.number("step_nm", 50.0, positive(), "wavelength step, nm");
-    if (last < first) {
-        throw InputError(fmt::format("{}: spectrum.last_nm = {} is below first_nm = {}", spectrum.location("last_nm"), last, first));
-    }
-    for (double l = first; l <= last + 1e-9; l += step) s.wavelengths.push_back(l);
-    if (s.wavelengths.size() < 2) {
-        throw InputError(fmt::format("{}: [spectrum] gives {} wavelength: expected at least 2 for colour",
-                                     spectrum.location(), s.wavelengths.size()));
-    }
+    s.wavelengths = read_wavelengths(spectrum, WavelengthRule{});
     ParameterTable sc = root.table("scatterometer");
     s.image_size = static_cast<int>(sc.integer("image_size", s.image_size, 17, 1025, "pixels across the scatterogram"));
     s.quanta = static_cast<std::uint64_t>(sc.integer("quanta_per_pass", static_cast<long>(s.quanta), 1000, 100000000, "quanta per wavelength and pass"));
@@ -183,11 +174,12 @@ const AblationPoint* AblationResult::base() const {
 }
 
 AblationResult run_ablation_study(const std::string& study_text, const fs::path& source_name,
-                                  const fs::path& results_root, bool progress) {
+                                  const fs::path& results_root, bool progress, const RunLimits& limits) {
     const StudyProgress clock(progress);
     auto file = StudyFile::parse(study_text, source_name);
     std::string name;
     const Settings s = read_settings(*file, name, source_name);
+    StagedDirectory::prepare(results_root / name);
 
     gonio::ScatterometerConfig config;
     config.illumination = gonio::Illumination::beam;
@@ -200,6 +192,8 @@ AblationResult run_ablation_study(const std::string& study_text, const fs::path&
     config.quanta_per_pass = s.quanta;
     config.max_passes = s.passes;
     config.config_text = study_text;
+    if (limits.time_budget_s > 0.0) config.time_budget_s = limits.time_budget_s;
+    if (limits.target_relative_error > 0.0) config.target_relative_error = limits.target_relative_error;
 
     // One value: the explicit patch and the model of the same parameters, or the reason
     // the geometry or the model refuses them.
@@ -470,8 +464,14 @@ AblationResult run_ablation_study(const std::string& study_text, const fs::path&
     }
     out.commit();
     result.output_dir = out.final_path();
-    clock.say("done: " + (result.output_dir / "report.md").string());
+    clock.done("done: " + (result.output_dir / "report.md").string());
     return result;
+}
+
+void check_ablation_study(const std::string& study_text, const fs::path& source_name) {
+    auto file = StudyFile::parse(study_text, source_name);
+    std::string name;
+    read_settings(*file, name, source_name);
 }
 
 }  // namespace plumage::studies

@@ -29,6 +29,8 @@
 #include <string>
 #include <vector>
 
+#include "studies/study.h"
+
 namespace plumage::studies {
 
 struct AblationPoint {
@@ -57,7 +59,12 @@ struct AblationResult {
 };
 
 // `study_text` is the TOML; `source_name` names it in errors.
+// `limits` override the study file's time budget and target error of every scatterogram.
 AblationResult run_ablation_study(const std::string& study_text, const std::filesystem::path& source_name,
-                                  const std::filesystem::path& results_root, bool progress = true);
+                                  const std::filesystem::path& results_root, bool progress = true,
+                                  const RunLimits& limits = {});
+
+// Reads and checks the study file as run_ablation_study does, building and writing nothing.
+void check_ablation_study(const std::string& study_text, const std::filesystem::path& source_name);
 
 }  // namespace plumage::studies

@@ -25,6 +25,7 @@
 #include "studies/plots.h"
 #include "studies/staged_directory.h"
 #include "studies/study_common.h"
+#include "studies/sections.h"
 #include "studies/study_file.h"
 #include "virtual_gonio/hdf5_file.h"
 
@@ -56,9 +57,9 @@ struct Settings {
 Settings read_settings(StudyFile& file, std::string& name, const fs::path& source) {
     Settings s;
     ParameterTable root = file.root();
-    name = root.string("name", source.stem().string(), {}, "results folder name");
+    name = read_study_name(root, source);
     root.string("study", "extremes", {"extremes"}, "which study this file describes");
-    s.seed = static_cast<std::uint64_t>(root.integer("seed", static_cast<long>(kDefaultSeed), 0, 1L << 62, "random seed"));
+    s.seed = read_seed(root);
     ParameterTable sampling = root.table("sampling");
     s.quanta = static_cast<std::uint64_t>(sampling.integer("quanta", static_cast<long>(s.quanta), 100, 100000000,
                                                            "quanta per case, scatterer, incident direction and wavelength"));
@@ -67,11 +68,7 @@ Settings read_settings(StudyFile& file, std::string& name, const fs::path& sourc
     s.max_polar = incidence.angle_deg("max_polar_deg", s.max_polar, {0.0, 90.0, false, true}, "largest regular incident polar angle (grazing cases add 89 and 89.9)");
     s.azimuth_step = incidence.angle_deg("azimuth_step_deg", s.azimuth_step, {0.0, 360.0, true, false}, "step of the incident azimuths");
     ParameterTable spectrum = root.table("spectrum");
-    const double first = spectrum.number("first_nm", 450.0, between(380.0, 780.0), "first wavelength, nm (Filip 2024 is defined on 380-780 nm)");
-    const double last = spectrum.number("last_nm", 650.0, between(380.0, 780.0), "last wavelength, nm");
-    const double step = spectrum.number("step_nm", 100.0, positive(), "wavelength step, nm");
-    if (last < first) throw InputError(fmt::format("{}: spectrum.last_nm = {} is below first_nm = {}", spectrum.location("last_nm"), last, first));
-    for (double l = first; l <= last + 1e-9; l += step) s.wavelengths.push_back(l);
+    s.wavelengths = read_wavelengths(spectrum, kFilipWavelengths);
     ParameterTable evaluation = root.table("evaluation");
     s.grid_rings = static_cast<int>(evaluation.integer("grid_rings", s.grid_rings, 1, 256, "polar rings of the eval()/pdf() check grid per hemisphere"));
     s.albedo_polar_cells = static_cast<int>(evaluation.integer("albedo_polar_cells", s.albedo_polar_cells, 2, 256, "polar cells of the albedo quadrature (analysis/energy.h)"));
@@ -258,6 +255,7 @@ ExtremesResult run_extremes_study(const std::string& study_text, const fs::path&
     auto file = StudyFile::parse(study_text, source_name);
     std::string name;
     const Settings s = read_settings(*file, name, source_name);
+    StagedDirectory::prepare(results_root / name);
 
     // Incident directions: the regular grid, and the grazing ones at its azimuths.
     const std::vector<Vec3d> regular = analysis::hemisphere_grid(s.polar_step, s.max_polar, s.azimuth_step);
@@ -655,8 +653,14 @@ ExtremesResult run_extremes_study(const std::string& study_text, const fs::path&
     }
     out.commit();
     result.output_dir = out.final_path();
-    clock.say("done: " + (result.output_dir / "report.md").string());
+    clock.done("done: " + (result.output_dir / "report.md").string());
     return result;
+}
+
+void check_extremes_study(const std::string& study_text, const fs::path& source_name) {
+    auto file = StudyFile::parse(study_text, source_name);
+    std::string name;
+    read_settings(*file, name, source_name);
 }
 
 }  // namespace plumage::studies

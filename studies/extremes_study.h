@@ -84,4 +84,7 @@ struct ExtremesResult {
 ExtremesResult run_extremes_study(const std::string& study_text, const std::filesystem::path& source_name,
                                   const std::filesystem::path& results_root, bool progress = true);
 
+// Reads and checks the study file as run_extremes_study does, building and writing nothing.
+void check_extremes_study(const std::string& study_text, const std::filesystem::path& source_name);
+
 }  // namespace plumage::studies

@@ -15,6 +15,7 @@
 #include "geometry/mesh_import.h"
 #include "geometry/spongy_volume.h"
 #include "studies/staged_directory.h"
+#include "studies/sections.h"
 #include "studies/study_file.h"
 #include "virtual_gonio/png_image.h"
 
@@ -320,13 +321,14 @@ GeometryStudyResult run_geometry_study(const std::filesystem::path& study_file, 
     const auto start = std::chrono::steady_clock::now();
     auto file = StudyFile::load(study_file);
     ParameterTable root = file->root();
-    const std::string name = root.string("name", study_file.stem().string(), {}, "results folder name");
+    if (root.has("study") && !root.has("geometry")) {
+        throw InputError(fmt::format("{}: this is a study file (it has a `study` key): run it with `plumage run {}`",
+                                     study_file.string(), study_file.string()));
+    }
+    const std::string name = read_study_name(root, study_file);
     ParameterTable geometry = root.table("geometry");
     const std::vector<std::string> kinds = {"barbule_row", "barb_patch", "spongy_channel", "spongy_spheres", "mesh", "vdb"};
     const std::string kind = geometry.required_string("kind", kinds, "what to build");
-    if (name.empty() || name.find('/') != std::string::npos || name == "." || name == "..") {
-        throw InputError(fmt::format("{}: name = \"{}\": expected a plain folder name", root.location("name"), name));
-    }
 
     StagedDirectory out(results_root / name);
     Built built;

@@ -1,172 +1,241 @@
 // The plumage command line. With no arguments it runs the default study.
+//
+// Exit codes: 0 done, 1 failed, 2 bad input (nothing was written), 128 + signal when
+// interrupted (130 for Ctrl-C, 143 for SIGTERM).
 #include <omp.h>
 
+#include <algorithm>
+#include <filesystem>
 #include <fstream>
 #include <iostream>
 #include <sstream>
 
-#include <CLI/CLI.hpp>
 #include <fmt/format.h>
+#include <CLI/CLI.hpp>
 
 #include "common/error.h"
+#include "common/interrupt.h"
 #include "common/version.h"
 #include "studies/default_study.h"
-#include "virtual_gonio/interrupt.h"
 #include "studies/geometry_study.h"
-#include "studies/ablation_study.h"
-#include "studies/extremes_study.h"
-#include "studies/masking_study.h"
-#include "studies/rock_dove_study.h"
-#include "studies/species_study.h"
-#include "studies/study_file.h"
+#include "studies/plots.h"
+#include "studies/study.h"
 #include "studies/thin_film_chart.h"
 
 namespace {
 
-int run_thin_film(const plumage::studies::ThinFilmChartOptions& options) {
-    std::cerr << fmt::format("plumage: thin-film study → {}\n", options.output_dir.string());
-    const auto result = plumage::studies::run_thin_film_chart(options);
-    std::cout << fmt::format("plumage: wrote {} in {:.1f} s (report: {})\n",
-                             result.output_dir.string(), result.wall_seconds,
-                             (result.output_dir / "report.md").string());
-    for (const auto& c : result.normal_incidence) {
-        std::cout << fmt::format("  {} nm film{}: L*a*b* = ({:.1f}, {:.1f}, {:.1f}), hue {:.0f}°\n",
-                                 c.thickness_nm, c.with_melanin_background ? " + melanin" : "",
-                                 c.lab.l, c.lab.a, c.lab.b, c.hue_deg);
+namespace fs = std::filesystem;
+namespace st = plumage::studies;
+
+// Options that work before and after any subcommand (`plumage --out D run F` and
+// `plumage run F --out D`), listed in every subcommand's --help.
+struct CommonOptions {
+    int threads = 0;
+    std::string output = "results";
+    st::RunLimits limits;
+    bool plots = true;
+};
+
+void add_common_options(CLI::App& app, CommonOptions& o) {
+    app.add_option("--threads", o.threads, "worker threads (default 0: all cores)")
+        ->type_name("N")
+        ->check(CLI::Validator(
+            [](std::string& value) -> std::string {
+                int n = -1;
+                if (!CLI::detail::lexical_cast(value, n) || n < 0 || n > 4096) {
+                    return fmt::format(
+                        "'{}': expected a whole number of threads from 1 to 4096, "
+                        "or 0 for all cores",
+                        value);
+                }
+                return {};
+            },
+            "0-4096"));
+    app.add_option("--out", o.output, "results root folder (default: results)")->type_name("DIR");
+    app.add_option("--time-budget", o.limits.time_budget_s,
+                   "wall-time budget in seconds for each progressive measurement of a study")
+        ->type_name("SECONDS")
+        ->check(CLI::PositiveNumber.description(""));
+    app.add_option("--target-error", o.limits.target_relative_error,
+                   "stop each measurement once its estimated relative RMS error is below this "
+                   "(e.g. 0.05)")
+        ->type_name("FRACTION")
+        ->check(CLI::Range(0.0, 1.0).description(""));
+    app.add_flag("!--no-plots", o.plots, "skip the matplotlib figures (records and reports stay)");
+}
+
+std::string read_file(const std::string& path, std::string_view what) {
+    std::ifstream in(path);
+    if (!in)
+        throw plumage::InputError(
+            fmt::format("{}: cannot open the {} (does it exist?)", path, what));
+    std::ostringstream buffer;
+    buffer << in.rdbuf();
+    return buffer.str();
+}
+
+std::size_t edit_distance(std::string_view a, std::string_view b) {
+    std::vector<std::size_t> row(b.size() + 1);
+    for (std::size_t j = 0; j <= b.size(); ++j) row[j] = j;
+    for (std::size_t i = 1; i <= a.size(); ++i) {
+        std::size_t diagonal = row[0];
+        row[0] = i;
+        for (std::size_t j = 1; j <= b.size(); ++j) {
+            const std::size_t next =
+                std::min({row[j] + 1, row[j - 1] + 1, diagonal + (a[i - 1] != b[j - 1])});
+            diagonal = row[j];
+            row[j] = next;
+        }
     }
-    return 0;
+    return row[b.size()];
+}
+
+// After CLI11's own message: for each argument that is neither an option, a subcommand nor a
+// file, the nearest option or subcommand name within two edits.
+void suggest(const CLI::App& app, int argc, char** argv) {
+    std::vector<std::string> names;
+    for (const CLI::App* sub : app.get_subcommands([](const CLI::App*) { return true; })) {
+        names.push_back(sub->get_name());
+    }
+    std::vector<std::string> subcommands = names;
+    for (const CLI::Option* option : app.get_options()) {
+        for (const std::string& long_name : option->get_lnames()) names.push_back("--" + long_name);
+    }
+    names.emplace_back("--no-plots");
+    for (int i = 1; i < argc; ++i) {
+        std::string arg = argv[i];
+        if (arg.rfind("--", 0) == 0) arg = arg.substr(0, arg.find('='));
+        const bool known = std::find(names.begin(), names.end(), arg) != names.end();
+        if (known || (arg.rfind("-", 0) != 0 && fs::exists(arg))) continue;
+        const auto& pool = arg.rfind("-", 0) == 0 ? names : subcommands;
+        std::string best;
+        std::size_t best_distance = 3;
+        for (const std::string& name : pool) {
+            const std::size_t d = edit_distance(arg, name);
+            if (d < best_distance) best = name, best_distance = d;
+        }
+        if (!best.empty())
+            std::cerr << fmt::format("plumage: '{}': did you mean '{}'?\n", arg, best);
+    }
+}
+
+std::string run_thin_film(st::ThinFilmChartOptions options) {
+    const auto result = st::run_thin_film_chart(options);
+    std::string summary =
+        fmt::format("plumage: wrote {} in {:.1f} s (report: {})\n", result.output_dir.string(),
+                    result.wall_seconds, (result.output_dir / "report.md").string());
+    for (const auto& c : result.normal_incidence) {
+        summary += fmt::format("  {} nm film{}: L*a*b* = ({:.1f}, {:.1f}, {:.1f}), hue {:.0f}°\n",
+                               c.thickness_nm, c.with_melanin_background ? " + melanin" : "",
+                               c.lab.l, c.lab.a, c.lab.b, c.hue_deg);
+    }
+    return summary;
+}
+
+std::string run_geometry(const std::string& file, const CommonOptions& o) {
+    st::refuse_limits("geometry", o.limits, "building geometry is not a measurement");
+    const auto r = st::run_geometry_study(file, o.output);
+    return fmt::format(
+        "plumage: wrote {} ({}: {} triangles, {} instances, {:.2f} MB) in {:.1f} s\n",
+        r.output_dir.string(), r.kind, r.triangles, r.instances,
+        static_cast<double>(r.memory_bytes) / 1e6, r.wall_seconds);
 }
 
 }  // namespace
 
 int main(int argc, char** argv) {
-    CLI::App app{"Plumage: light scattering by bird-feather microstructures.\n"
-                 "With no subcommand, runs the default study: explicit rock-dove barbules against\n"
-                 "Huang et al. 2022 (studies/rock_dove.toml), into results/rock_dove/."};
+    std::string kinds;
+    for (const st::StudyEntry& entry : st::study_registry()) {
+        kinds += fmt::format("\n  {:10} {}", entry.kind, entry.description);
+    }
+    CLI::App app{
+        "Plumage: light scattering by bird-feather microstructures.\n"
+        "With no subcommand, runs the default study: explicit rock-dove barbules against\n"
+        "Huang et al. 2022 (studies/rock_dove.toml), into results/rock_dove/.\n"
+        "Exit codes: 0 done, 1 failed, 2 bad input (nothing written), 130 interrupted."};
     app.set_version_flag("--version", std::string("plumage ") + plumage::kVersion);
-    int threads = 0;
-    app.add_option("--threads", threads, "worker threads (default: all cores)")
-        ->check(CLI::NonNegativeNumber);
+    CommonOptions common;
+    add_common_options(app, common);
 
-    plumage::studies::ThinFilmChartOptions thin_film;
-    std::string output = "results";
-    plumage::studies::RunLimits limits;
-    app.add_option("--time-budget", limits.time_budget_s,
-                   "wall-time budget in seconds for each progressive measurement of a study")
-        ->check(CLI::PositiveNumber);
-    app.add_option("--target-error", limits.target_relative_error,
-                   "stop each measurement once its estimated relative RMS error is below this (e.g. 0.05)")
-        ->check(CLI::Range(0.0, 1.0));
-    app.add_option("--out", output, "results root folder")->capture_default_str();
-
+    st::ThinFilmChartOptions thin_film;
     auto* thin_film_cmd = app.add_subcommand(
         "thin-film", "Huang 2022 Figs. 3 and 5: keratin film colour chart and rock-dove spectra");
     thin_film_cmd->add_option("--thickness-step-nm", thin_film.thickness_step_nm)
-        ->capture_default_str()->check(CLI::PositiveNumber);
+        ->capture_default_str()
+        ->check(CLI::Range(0.01, 100.0));
     thin_film_cmd->add_option("--angle-step-deg", thin_film.angle_step_deg)
-        ->capture_default_str()->check(CLI::PositiveNumber);
+        ->capture_default_str()
+        ->check(CLI::Range(0.01, 45.0));
     thin_film_cmd->add_option("--max-thickness-nm", thin_film.max_thickness_nm)
-        ->capture_default_str()->check(CLI::PositiveNumber);
-    thin_film_cmd->add_flag("!--no-plots", thin_film.plots, "skip the matplotlib figures");
+        ->capture_default_str()
+        ->check(CLI::Range(1.0, 20000.0));
 
-    std::string run_study;
-    auto* run_cmd = app.add_subcommand("run", "run a study file (TOML; studies/*.toml)");
-    run_cmd->add_option("STUDY", run_study, "study file, e.g. studies/rock_dove_quick.toml")->required();
-    run_cmd->fallthrough();  // `plumage run FILE --out DIR` as well as `plumage --out DIR run FILE`
-
-    std::string geometry_study;
-    auto* geometry_cmd = app.add_subcommand(
-        "geometry", "build the geometry of a study file; write PLY/VDB, a PNG preview and a report");
-    geometry_cmd->add_option("STUDY", geometry_study, "study file (TOML), e.g. studies/geometry/rock_dove_row.toml")
+    std::string run_file;
+    auto* run_cmd =
+        app.add_subcommand("run", "run a study file (TOML; studies/*.toml). Study kinds:" + kinds);
+    run_cmd->add_option("STUDY", run_file, "study file, e.g. studies/rock_dove_quick.toml")
         ->required();
+
+    std::string geometry_file;
+    auto* geometry_cmd = app.add_subcommand(
+        "geometry",
+        "build the geometry of a study file; write PLY/VDB, a PNG preview and a report");
+    geometry_cmd
+        ->add_option("STUDY", geometry_file,
+                     "geometry file (TOML), e.g. studies/geometry/rock_dove_row.toml")
+        ->required();
+    for (CLI::App* sub : {thin_film_cmd, run_cmd, geometry_cmd}) add_common_options(*sub, common);
 
     try {
         app.parse(argc, argv);
     } catch (const CLI::ParseError& e) {
-        return app.exit(e);
+        const int code = app.exit(e);
+        if (code != 0) suggest(app, argc, argv);
+        return code;
     }
-    if (threads > 0) omp_set_num_threads(threads);
+    if (common.threads > 0) omp_set_num_threads(common.threads);
+    st::set_plots_enabled(common.plots);
 
     try {
-        if (geometry_cmd->parsed()) {
-            const auto result = plumage::studies::run_geometry_study(geometry_study, output);
-            std::cout << fmt::format("plumage: wrote {} ({}: {} triangles, {} instances, {:.2f} MB) in {:.1f} s\n",
-                                     result.output_dir.string(), result.kind, result.triangles, result.instances,
-                                     static_cast<double>(result.memory_bytes) / 1e6, result.wall_seconds);
-            return 0;
-        }
-        if (thin_film_cmd->parsed()) {
-            thin_film.output_dir = std::filesystem::path(output) / "thin_film";
-            return run_thin_film(thin_film);
-        }
-        std::string text = plumage::studies::kDefaultStudy;
-        std::filesystem::path source = "rock_dove.toml (built in)";
-        if (run_cmd->parsed()) {
-            std::ifstream in(run_study);
-            if (!in) throw plumage::InputError(run_study + ": cannot open the study file (does it exist?)");
-            std::ostringstream buffer;
-            buffer << in.rdbuf();
-            text = buffer.str();
-            source = run_study;
-            // Which study: the top-level `study` key (geometry files use `plumage geometry`).
-            auto file = plumage::studies::StudyFile::parse(text, source);
-            auto root = file->root();
-            const std::string kind = root.required_string("study", {"rock_dove", "ablation", "extremes", "species", "masking"},
-                                                          "which study this file describes");
-            if (kind == "ablation") {
-                const auto r = plumage::studies::run_ablation_study(text, source, output);
-                std::cout << fmt::format("plumage: wrote {} in {:.0f} s ({} values skipped; open report.md)\n",
-                                         r.output_dir.string(), r.wall_seconds, r.skipped);
-                return 0;
-            }
-            if (kind == "species") {
-                const plumage::gonio::ScopedInterruptHandler interrupt;
-                limits.interrupt = &interrupt.flag();
-                const auto r = plumage::studies::run_species_study(text, source, output, true, limits);
-                std::cout << fmt::format("plumage: wrote {} in {:.0f} s (open report.md)\n", r.output_dir.string(),
-                                         r.wall_seconds);
-                for (const auto& o : r.species) {
-                    std::cout << fmt::format("  {}: Filip fit reduced chi2 {:.2f}, relative L1 {:.1f} % (Table 1: {:.1f} %), "
-                                             "reciprocity chi2/dof {:.2f}\n",
-                                             o.species, o.reduced_chi_square, 100.0 * o.fit_relative_l1,
-                                             100.0 * o.table1_relative_l1,
-                                             o.reciprocity_chi_square / std::max(1, o.reciprocity_dof));
+        std::string summary;
+        {
+            // Ctrl-C and SIGTERM stop every stage (common/interrupt.h).
+            const plumage::ScopedInterruptHandler interrupt;
+            if (geometry_cmd->parsed()) {
+                summary = run_geometry(geometry_file, common);
+            } else if (thin_film_cmd->parsed()) {
+                st::refuse_limits("thin-film", common.limits, "the chart is an exact evaluation");
+                thin_film.output_dir = fs::path(common.output) / "thin_film";
+                thin_film.plots = common.plots;
+                summary = run_thin_film(thin_film);
+            } else {
+                std::string text = st::kDefaultStudy;
+                fs::path source = "rock_dove.toml (built in)";
+                if (run_cmd->parsed()) {
+                    text = read_file(run_file, "study file");
+                    source = run_file;
                 }
-                return 0;
-            }
-            if (kind == "masking") {
-                const auto r = plumage::studies::run_masking_study(text, source, output);
-                std::cout << fmt::format(
-                    "plumage: wrote {} in {:.0f} s: {} configuration(s) x {} angles, max "
-                    "|analytic - MC| {:.2e}, max |z| {:.3f} (Sidak bound {:.2f}): {} (open "
-                    "report.md)\n",
-                    r.output_dir.string(), r.wall_seconds, r.configurations.size(),
-                    r.angles_deg.size(), r.max_abs_difference, r.max_abs_z, r.z_bound,
-                    r.agrees ? "agrees" : "DISAGREES");
-                return 0;
-            }
-            if (kind == "extremes") {
-                const auto r = plumage::studies::run_extremes_study(text, source, output);
-                std::cout << fmt::format("plumage: wrote {} in {:.0f} s: numerical violations {}, energy > 1 {}, "
-                                         "energy > 1 by the published model's construction {} (open report.md)\n",
-                                         r.output_dir.string(), r.wall_seconds, r.numerical_violations,
-                                         r.energy_violations, r.by_construction);
-                return 0;
+                summary =
+                    st::study_of(text, source).run(text, source, common.output, common.limits);
             }
         }
-        const plumage::gonio::ScopedInterruptHandler interrupt;
-        limits.interrupt = &interrupt.flag();
-        const auto result = plumage::studies::run_rock_dove_study(text, source, output, true, limits);
-        std::cout << fmt::format("plumage: wrote {} in {:.0f} s (open report.md)\n", result.output_dir.string(),
-                                 result.wall_seconds);
+        std::cout << summary;
         return 0;
-    } catch (const plumage::studies::Interrupted& e) {
-        std::cerr << "plumage: " << e.what() << '\n';
-        return 130;
-    } catch (const plumage::InputError& e) {
-        std::cerr << "plumage: error: " << e.what() << '\n';
-        return 2;
     } catch (const std::exception& e) {
+        // Whatever a stage threw once a signal had arrived (an abandoned measurement's
+        // partial result, say) is the interruption's doing.
+        if (plumage::interrupt_signal() != 0) {
+            std::cerr << fmt::format(
+                "plumage: {}; nothing half-written is left in {} (an earlier result of the same "
+                "name is untouched; finished measurement passes stay in checkpoints). Run the same "
+                "command again to resume.\n",
+                e.what(), common.output);
+            return 128 + plumage::interrupt_signal();
+        }
+        if (dynamic_cast<const plumage::InputError*>(&e) != nullptr) {
+            std::cerr << "plumage: error: " << e.what() << '\n';
+            return 2;
+        }
         std::cerr << "plumage: failed: " << e.what() << '\n';
         return 1;
     }

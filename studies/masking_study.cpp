@@ -26,6 +26,7 @@
 #include "studies/plots.h"
 #include "studies/staged_directory.h"
 #include "studies/study_common.h"
+#include "studies/sections.h"
 #include "studies/study_file.h"
 #include "virtual_gonio/hdf5_file.h"
 
@@ -72,15 +73,9 @@ Settings read_settings(const std::string& text, const fs::path& source) {
     auto file = StudyFile::parse(text, source);
     ParameterTable root = file->root();
     Settings s;
-    s.name = root.string("name", source.stem().string(), {}, "results folder name");
-    if (s.name.empty() || s.name.find('/') != std::string::npos || s.name == "." ||
-        s.name == "..") {
-        throw InputError(fmt::format("{}: name = \"{}\": expected a plain folder name",
-                                     root.location("name"), s.name));
-    }
+    s.name = read_study_name(root, source);
     root.string("study", "masking", {"masking"}, "which study this file describes");
-    s.seed = static_cast<std::uint64_t>(
-        root.integer("seed", static_cast<long>(kDefaultSeed), 0, 1L << 62, "random seed"));
+    s.seed = read_seed(root);
 
     ParameterTable angles = root.table("angles");
     const Range in_plane_range = between(-kMaxAngleDeg, kMaxAngleDeg);
@@ -559,6 +554,7 @@ MaskingStudyResult run_masking_study(const std::string& study_text, const fs::pa
                                      const fs::path& results_root, bool progress) {
     const StudyProgress clock(progress);
     const Settings s = read_settings(study_text, source_name);
+    StagedDirectory::prepare(results_root / s.name);
 
     MaskingStudyResult result;
     result.seed = s.seed;
@@ -606,8 +602,12 @@ MaskingStudyResult run_masking_study(const std::string& study_text, const fs::pa
     write_report(dir / "report.md", result, s, study_text);
     out.commit();
     result.output_dir = out.final_path();
-    clock.say("done: " + (result.output_dir / "report.md").string());
+    clock.done("done: " + (result.output_dir / "report.md").string());
     return result;
+}
+
+void check_masking_study(const std::string& study_text, const fs::path& source_name) {
+    read_settings(study_text, source_name);
 }
 
 }  // namespace plumage::studies

@@ -104,4 +104,7 @@ MaskingStudyResult run_masking_study(const std::string& study_text,
                                      const std::filesystem::path& results_root,
                                      bool progress = true);
 
+// Reads and checks the study file as run_masking_study does, building and writing nothing.
+void check_masking_study(const std::string& study_text, const std::filesystem::path& source_name);
+
 }  // namespace plumage::studies

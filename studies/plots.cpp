@@ -2,9 +2,14 @@
 
 #include <sys/wait.h>
 
+#include <atomic>
 #include <cstdio>
+#include <cstdlib>
 #include <cstring>
 #include <fstream>
+#include <iostream>
+#include <mutex>
+#include <optional>
 
 #include <fmt/format.h>
 
@@ -14,7 +19,7 @@
 namespace plumage::studies {
 namespace {
 
-constexpr const char* kPython = "/usr/bin/python3";
+std::atomic<bool> g_plots_enabled{true};
 
 std::string shell_quote(const std::string& s) {
     std::string quoted = "'";
@@ -28,28 +33,88 @@ std::string shell_quote(const std::string& s) {
     return quoted + "'";
 }
 
+// Why plots cannot be drawn with this interpreter (empty: they can). Asked once per process:
+// the answer names the interpreter or the missing modules, which a failed plot's exit
+// status cannot.
+const std::string& plotting_problem() {
+    static std::once_flag once;
+    static std::string problem;
+    std::call_once(once, [] {
+        const std::string python = python_interpreter();
+        const std::string probe =
+            fmt::format("{} -c {} 2>/dev/null", shell_quote(python),
+                        shell_quote("import importlib.util as u\n"
+                                    "print(' '.join(m for m in ('matplotlib', 'numpy', 'h5py') "
+                                    "if u.find_spec(m) is None) or 'ok')"));
+        FILE* pipe = ::popen(probe.c_str(), "r");
+        std::string answer;
+        if (pipe != nullptr) {
+            char buffer[256];
+            while (std::fgets(buffer, sizeof buffer, pipe) != nullptr) answer += buffer;
+            ::pclose(pipe);
+        }
+        while (!answer.empty() && (answer.back() == '\n' || answer.back() == ' '))
+            answer.pop_back();
+        if (answer == "ok") return;
+        if (answer.empty()) {
+            problem = fmt::format(
+                "cannot run the interpreter {} (set PLUMAGE_PYTHON to a Python 3 "
+                "with matplotlib, numpy and h5py)",
+                python);
+            return;
+        }
+        problem = fmt::format(
+            "{} lacks the module(s) {} (Debian: python3-matplotlib python3-numpy "
+            "python3-h5py; scripts/install-deps.sh installs them, or set "
+            "PLUMAGE_PYTHON)",
+            python, answer);
+    });
+    return problem;
+}
+
+void warn(const std::string& what) { std::cerr << "plumage: warning: " << what << '\n'; }
+
 }  // namespace
 
-void run_plot(const std::string& kind, const std::filesystem::path& input,
+std::string python_interpreter() {
+    const char* chosen = std::getenv("PLUMAGE_PYTHON");
+    return chosen != nullptr && *chosen != '\0' ? chosen : "/usr/bin/python3";
+}
+
+void set_plots_enabled(bool enabled) { g_plots_enabled.store(enabled); }
+bool plots_enabled() { return g_plots_enabled.load(); }
+
+bool run_plot(const std::string& kind, const std::filesystem::path& input,
               const std::filesystem::path& png) {
-    const std::string command = fmt::format("{} - {} {} {}", kPython, shell_quote(kind),
-                                            shell_quote(input.string()), shell_quote(png.string()));
+    if (!plots_enabled()) return false;
+    if (const std::string& problem = plotting_problem(); !problem.empty()) {
+        warn(fmt::format("{} not drawn: {}", png.filename().string(), problem));
+        return false;
+    }
+    const std::string command =
+        fmt::format("{} - {} {} {}", shell_quote(python_interpreter()), shell_quote(kind),
+                    shell_quote(input.string()), shell_quote(png.string()));
     FILE* pipe = ::popen(command.c_str(), "w");
-    if (pipe == nullptr) throw IoError(fmt::format("cannot start {} for plotting", kPython));
+    if (pipe == nullptr) {
+        warn(fmt::format("{} not drawn: cannot start {}", png.filename().string(),
+                         python_interpreter()));
+        return false;
+    }
     const std::size_t length = std::strlen(kPlotsScript);
     const bool written = std::fwrite(kPlotsScript, 1, length, pipe) == length;
     const int status = ::pclose(pipe);
     if (!written || status == -1 || !WIFEXITED(status) || WEXITSTATUS(status) != 0) {
-        throw IoError(fmt::format(
-            "plot '{}' of {} failed (exit status {}): plotting needs {} with matplotlib, numpy "
-            "and h5py (Debian packages python3-matplotlib python3-numpy python3-h5py; "
-            "scripts/install-deps.sh installs them)",
-            kind, input.string(), WIFEXITED(status) ? WEXITSTATUS(status) : -1, kPython));
+        warn(
+            fmt::format("plot '{}' of {} failed (exit status {}; its message is above); the "
+                        "records and the report are kept",
+                        kind, input.string(), WIFEXITED(status) ? WEXITSTATUS(status) : -1));
+        return false;
     }
+    return true;
 }
 
-void run_plots(const std::vector<PlotJob>& jobs, const std::filesystem::path& job_list) {
-    if (jobs.empty()) return;
+bool run_plots(const std::vector<PlotJob>& jobs, const std::filesystem::path& job_list) {
+    if (jobs.empty() || !plots_enabled()) return false;
     auto quoted = [](const std::string& s) {
         std::string q = "\"";
         for (char c : s) q += c == '"' ? std::string("\"\"") : std::string(1, c);
@@ -58,10 +123,13 @@ void run_plots(const std::vector<PlotJob>& jobs, const std::filesystem::path& jo
     {
         std::ofstream out(job_list);
         out << "kind,input,png\n";
-        for (const PlotJob& j : jobs) out << quoted(j.kind) << ',' << quoted(j.input.string()) << ',' << quoted(j.png.string()) << '\n';
+        for (const PlotJob& j : jobs) {
+            out << quoted(j.kind) << ',' << quoted(j.input.string()) << ','
+                << quoted(j.png.string()) << '\n';
+        }
         if (!out) throw IoError(fmt::format("cannot write the plot list {}", job_list.string()));
     }
-    run_plot("batch", job_list, jobs.front().png);
+    return run_plot("batch", job_list, jobs.front().png);
 }
 
 }  // namespace plumage::studies

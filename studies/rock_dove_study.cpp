@@ -20,6 +20,7 @@
 #include "studies/plots.h"
 #include "studies/staged_directory.h"
 #include "studies/study_common.h"
+#include "studies/sections.h"
 #include "studies/study_file.h"
 #include "virtual_gonio/direction_sets.h"
 #include "virtual_gonio/goniometer.h"
@@ -64,18 +65,13 @@ struct Settings {
 Settings read_settings(StudyFile& file, std::string& name, const fs::path& source) {
     Settings s;
     ParameterTable root = file.root();
-    name = root.string("name", source.stem().string(), {}, "results folder name");
+    name = read_study_name(root, source);
     root.string("study", "rock_dove", {"rock_dove"}, "which study this file describes");
     ParameterTable geometry = root.table("geometry");
     s.row = read_barbule_row_params(geometry);
     s.tolerance = read_tolerance(geometry.table("tessellation"));
     ParameterTable spectrum = root.table("spectrum");
-    const double first = spectrum.number("first_nm", 400.0, between(360.0, 830.0), "first wavelength, nm");
-    const double last = spectrum.number("last_nm", 700.0, between(360.0, 830.0), "last wavelength, nm");
-    const double step = spectrum.number("step_nm", 50.0, positive(), "wavelength step, nm");
-    if (last < first) throw InputError(fmt::format("{}: spectrum.last_nm = {} is below first_nm = {}", spectrum.location("last_nm"), last, first));
-    for (double l = first; l <= last + 1e-9; l += step) s.wavelengths.push_back(l);
-    if (s.wavelengths.size() < 2) throw InputError(fmt::format("{}: [spectrum] gives {} wavelength: expected at least 2 for colour", spectrum.location(), s.wavelengths.size()));
+    s.wavelengths = read_wavelengths(spectrum, WavelengthRule{});
     ParameterTable sc = root.table("scatterometer");
     s.image_size = static_cast<int>(sc.integer("image_size", s.image_size, 17, 1025, "pixels across the scatterogram"));
     s.scatter_quanta = static_cast<std::uint64_t>(sc.integer("quanta_per_pass", static_cast<long>(s.scatter_quanta), 1000, 100000000, "quanta per wavelength and pass"));
@@ -100,7 +96,7 @@ Settings read_settings(StudyFile& file, std::string& name, const fs::path& sourc
     ParameterTable co = root.table("convergence");
     s.convergence_passes = static_cast<int>(co.integer("passes", s.convergence_passes, 2, 1000, "passes"));
     s.convergence_quanta = static_cast<std::uint64_t>(co.integer("quanta_per_pass", static_cast<long>(s.convergence_quanta), 100, 100000000, "quanta per pass"));
-    s.seed = static_cast<std::uint64_t>(root.integer("seed", static_cast<long>(kDefaultSeed), 0, 1L << 62, "random seed"));
+    s.seed = read_seed(root);
     root.reject_unused();
     return s;
 }
@@ -113,6 +109,7 @@ RockDoveResult run_rock_dove_study(const std::string& study_text, const fs::path
     auto file = StudyFile::parse(study_text, source_name);
     std::string name;
     Settings s = read_settings(*file, name, source_name);
+    StagedDirectory::prepare(results_root / name);
     if (limits.time_budget_s > 0.0) s.time_budget_s = limits.time_budget_s;
     if (limits.target_relative_error > 0.0) s.target_relative_error = limits.target_relative_error;
     RockDoveResult result;
@@ -227,7 +224,6 @@ RockDoveResult run_rock_dove_study(const std::string& study_text, const fs::path
     clock.say(fmt::format("BRDF on {} ({} pairs): simulation", g.direction_set, g.pairs.size()));
     gonio::RunControl control;
     control.progress = progress;
-    control.interrupt = limits.interrupt;
     const fs::path checkpoints = results_root / ".checkpoints" / name;
     fs::create_directories(checkpoints);
     control.checkpoint = checkpoints / "brdf_simulation.checkpoint";
@@ -436,8 +432,14 @@ RockDoveResult run_rock_dove_study(const std::string& study_text, const fs::path
     fs::remove_all(checkpoints, ignored);  // the finished record supersedes the checkpoint
     if (fs::is_empty(results_root / ".checkpoints", ignored)) fs::remove(results_root / ".checkpoints", ignored);
     result.output_dir = out.final_path();
-    clock.say("done: " + (result.output_dir / "report.md").string());
+    clock.done("done: " + (result.output_dir / "report.md").string());
     return result;
+}
+
+void check_rock_dove_study(const std::string& study_text, const fs::path& source_name) {
+    auto file = StudyFile::parse(study_text, source_name);
+    std::string name;
+    read_settings(*file, name, source_name);
 }
 
 }  // namespace plumage::studies

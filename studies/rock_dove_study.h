@@ -16,11 +16,11 @@
 // and studies/rock_dove_quick.toml (seconds; used by the tests).
 #pragma once
 
-#include <atomic>
 #include <filesystem>
-#include <stdexcept>
 #include <string>
 #include <vector>
+
+#include "studies/study.h"
 
 namespace plumage::studies {
 
@@ -40,25 +40,12 @@ struct RockDoveResult {
     double eq7_edge_coupling = 0.0;      // r_θ(1 − cos θ_d)/(b² A) of the simulated cells
 };
 
-// Limits from the command line (--time-budget, --target-error); when set they override
-// the study file's, for each progressive measurement (scatterograms and BRDF).
-struct RunLimits {
-    double time_budget_s = 0.0;          // 0: the study file's (default: none)
-    double target_relative_error = 0.0;  // 0: the study file's (default: none)
-    // Set by SIGINT/SIGTERM (gonio::ScopedInterruptHandler): the study stops after the
-    // current pass and throws Interrupted; the long BRDF measurement keeps its
-    // checkpoint in <results>/.checkpoints/<name>/, so running again resumes it.
-    const std::atomic<bool>* interrupt = nullptr;
-};
-
-class Interrupted final : public std::runtime_error {
-public:
-    using std::runtime_error::runtime_error;
-};
-
 // `study_text` is the TOML; `source_name` names it in errors (a path or "<default>").
 RockDoveResult run_rock_dove_study(const std::string& study_text, const std::filesystem::path& source_name,
                                    const std::filesystem::path& results_root, bool progress = true,
                                    const RunLimits& limits = {});
+
+// Reads and checks the study file as run_rock_dove_study does, building and writing nothing.
+void check_rock_dove_study(const std::string& study_text, const std::filesystem::path& source_name);
 
 }  // namespace plumage::studies

@@ -26,6 +26,7 @@
 #include "studies/plots.h"
 #include "studies/staged_directory.h"
 #include "studies/study_common.h"
+#include "studies/sections.h"
 #include "studies/study_file.h"
 #include "virtual_gonio/btf.h"
 #include "virtual_gonio/direction_sets.h"
@@ -204,27 +205,21 @@ SpeciesSpec read_species(ParameterTable table, const std::string& name) {
 Settings read_settings(StudyFile& file, std::string& name, const fs::path& source) {
     Settings s;
     ParameterTable root = file.root();
-    name = root.string("name", source.stem().string(), {}, "results folder name");
+    name = read_study_name(root, source);
     root.string("study", "species", {"species"}, "which study this file describes");
-    s.seed = static_cast<std::uint64_t>(
-        root.integer("seed", static_cast<long>(kDefaultSeed), 0, 1L << 62, "random seed"));
+    s.seed = read_seed(root);
     s.time_budget_s = root.number("time_budget_s", s.time_budget_s, positive(),
                                   "wall-time budget per BRDF measurement, s");
     s.target_relative_error =
         root.number("target_relative_error", 0.0, between(0.0, 1.0),
                     "stop a BRDF's passes once its estimated relative error is below this");
     ParameterTable spectrum = root.table("spectrum");
-    const double first =
-        spectrum.number("first_nm", 400.0, between(380.0, 780.0),
-                        "first wavelength, nm (Filip 2024's bands cover 380-780 nm)");
-    const double last =
-        spectrum.number("last_nm", 700.0, between(380.0, 780.0), "last wavelength, nm");
-    const double step = spectrum.number("step_nm", 50.0, positive(), "wavelength step, nm");
-    if (last <= first)
-        throw InputError(fmt::format("{}: spectrum.last_nm = {} is not above first_nm = {}",
-                                     spectrum.location("last_nm"), last, first));
-    const optics::WavelengthGrid grid = optics::WavelengthGrid::uniform(first, last, step);
-    s.wavelengths.assign(grid.nm().begin(), grid.nm().end());
+    s.wavelengths = read_wavelengths(spectrum, {.first_nm = 400.0,
+                                                .last_nm = 700.0,
+                                                .step_nm = 50.0,
+                                                .min_nm = kFilipWavelengths.min_nm,
+                                                .max_nm = kFilipWavelengths.max_nm,
+                                                .range_reason = kFilipWavelengths.range_reason});
     bool bands[3] = {false, false, false};
     for (double l : s.wavelengths) bands[static_cast<int>(analysis::filip2024_channel(l))] = true;
     if (!(bands[0] && bands[1] && bands[2])) {
@@ -256,21 +251,8 @@ Settings read_settings(StudyFile& file, std::string& name, const fs::path& sourc
     s.btf_quanta = static_cast<std::uint64_t>(
         btf.integer("quanta_per_light", static_cast<long>(s.btf_quanta), 1000, 1000000000,
                     "BTF quanta per light direction and wavelength"));
-    {
-        // A few wavelengths: the BTF holds 3660 images, each pixels² × wavelengths values.
-        const double b_first =
-            btf.number("first_nm", 450.0, between(380.0, 780.0), "first BTF wavelength, nm");
-        const double b_last =
-            btf.number("last_nm", 650.0, between(380.0, 780.0), "last BTF wavelength, nm");
-        const double b_step = btf.number("step_nm", 100.0, positive(), "BTF wavelength step, nm");
-        if (b_last < b_first) {
-            throw InputError(fmt::format("{}: btf.last_nm = {} is below first_nm = {}",
-                                         btf.location("last_nm"), b_last, b_first));
-        }
-        const optics::WavelengthGrid b_grid =
-            optics::WavelengthGrid::uniform(b_first, b_last, b_step);
-        s.btf_wavelengths.assign(b_grid.nm().begin(), b_grid.nm().end());
-    }
+    // A few wavelengths: the BTF holds 3660 images, each pixels² × wavelengths values.
+    s.btf_wavelengths = read_wavelengths(btf, kFilipWavelengths);
     s.btf_detector_half_angle =
         btf.angle_deg("detector_half_angle_deg", s.btf_detector_half_angle,
                       {0.0, 30.0, true, false}, "BTF detector cone half-angle");
@@ -456,6 +438,7 @@ SpeciesResult run_species_study(const std::string& study_text, const fs::path& s
     auto file = StudyFile::parse(study_text, source_name);
     std::string name;
     Settings s = read_settings(*file, name, source_name);
+    StagedDirectory::prepare(results_root / name);
     if (limits.time_budget_s > 0.0) s.time_budget_s = limits.time_budget_s;
     if (limits.target_relative_error > 0.0) s.target_relative_error = limits.target_relative_error;
 
@@ -620,8 +603,7 @@ SpeciesResult run_species_study(const std::string& study_text, const fs::path& s
                         sp.name, s.quanta * static_cast<std::uint64_t>(s.passes), nl));
         gonio::RunControl control;
         control.progress = progress;
-        control.interrupt = limits.interrupt;
-        const fs::path checkpoints = results_root / ".checkpoints" / name;
+            const fs::path checkpoints = results_root / ".checkpoints" / name;
         fs::create_directories(checkpoints);
         control.checkpoint = checkpoints / (sp.name + "_brdf.checkpoint");
         const gonio::BrdfRecord sim_brdf = gonio::measure_brdf(sample, g, control);
@@ -1180,6 +1162,12 @@ SpeciesResult run_species_study(const std::string& study_text, const fs::path& s
     std::error_code ignored;
     fs::remove(results_root / ".checkpoints", ignored);  // only when empty
     return result;
+}
+
+void check_species_study(const std::string& study_text, const fs::path& source_name) {
+    auto file = StudyFile::parse(study_text, source_name);
+    std::string name;
+    read_settings(*file, name, source_name);
 }
 
 }  // namespace plumage::studies

@@ -39,7 +39,7 @@
 #include <vector>
 
 #include "analysis/filip2024.h"
-#include "studies/rock_dove_study.h"  // RunLimits, Interrupted
+#include "studies/study.h"
 
 namespace plumage::studies {
 
@@ -91,5 +91,8 @@ SpeciesResult run_species_study(const std::string& study_text,
                                 const std::filesystem::path& source_name,
                                 const std::filesystem::path& results_root, bool progress = true,
                                 const RunLimits& limits = {});
+
+// Reads and checks the study file as run_species_study does, building and writing nothing.
+void check_species_study(const std::string& study_text, const std::filesystem::path& source_name);
 
 }  // namespace plumage::studies

@@ -1,11 +1,12 @@
 #include "studies/study_common.h"
 
+#include <algorithm>
+#include <cmath>
 #include <iostream>
 
 #include <fmt/format.h>
 
-#include <algorithm>
-#include <cmath>
+#include "common/interrupt.h"
 
 namespace plumage::studies {
 
@@ -70,6 +71,12 @@ double StudyProgress::elapsed_s() const {
 }
 
 void StudyProgress::say(const std::string& what) const {
+    // Every stage starts here, so a Ctrl-C between stages stops the study before the next.
+    throw_if_interrupted(what);
+    done(what);
+}
+
+void StudyProgress::done(const std::string& what) const {
     if (enabled_) std::cerr << fmt::format("plumage: [{:6.1f} s] {}\n", elapsed_s(), what);
 }
 

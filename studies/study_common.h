@@ -29,7 +29,10 @@ class StudyProgress {
 public:
     explicit StudyProgress(bool enabled) : enabled_(enabled) {}
     double elapsed_s() const;
-    void say(const std::string& what) const;  // nothing when disabled
+    // Starts a stage: throws Interrupted if Ctrl-C arrived, then prints (when enabled).
+    void say(const std::string& what) const;
+    // Prints without the interrupt check (the last line, once the results are committed).
+    void done(const std::string& what) const;
 
 private:
     std::chrono::steady_clock::time_point start_ = std::chrono::steady_clock::now();

@@ -267,9 +267,12 @@ ThinFilmChartResult run_thin_film_chart(const ThinFilmChartOptions& options) {
         }
         if (!csv) throw IoError(fmt::format("cannot write {}", (dir / "spectra_normal_incidence.csv").string()));
     }
+    bool plotted = false;  // a failed plot is a warning: the report then shows the pixel chart
     if (options.plots) {
-        run_plot("chart", dir / "thin_film_chart.h5", dir / "thin_film_chart.png");
-        run_plot("spectra", dir / "spectra_normal_incidence.csv", dir / "spectra_normal_incidence.png");
+        plotted = run_plot("chart", dir / "thin_film_chart.h5", dir / "thin_film_chart.png");
+        plotted = run_plot("spectra", dir / "spectra_normal_incidence.csv",
+                           dir / "spectra_normal_incidence.png") &&
+                  plotted;
     }
     result.wall_seconds =
         std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
@@ -282,7 +285,7 @@ ThinFilmChartResult run_thin_film_chart(const ThinFilmChartOptions& options) {
               "background TRT).\n\n"
            << "Keratin n(λ) = 1.532 + 5890/λ², melanin n(λ) = 1.648 + 23700/λ² + "
               "0.56i·exp(−λ/270); unpolarised light; CIE 1931 2° observer.\n\n";
-        if (options.plots) {
+        if (plotted) {
             md << "![thin-film chart](thin_film_chart.png)\n\n"
                << "![normal-incidence spectra](spectra_normal_incidence.png)\n\n";
         } else {

@@ -31,6 +31,7 @@
 #include <string>
 #include <vector>
 
+#include "common/interrupt.h"
 #include "sim/scatterer.h"
 #include "virtual_gonio/direction_sets.h"
 #include "virtual_gonio/png_image.h"
@@ -88,7 +89,9 @@ struct BrdfRecord {
 };
 
 struct RunControl {
-    const std::atomic<bool>* interrupt = nullptr;  // e.g. ScopedInterruptHandler::flag()
+    // Polled between chunks of work; by default the process-wide flag that a
+    // ScopedInterruptHandler sets on SIGINT/SIGTERM (never set while none is installed).
+    const std::atomic<bool>* interrupt = &interrupt_flag();
     std::function<void(const ConvergenceRow&)> on_pass;  // after each completed pass
     std::function<void(const BrdfRecord&)> on_pass_record;  // the same moment, with the values
     std::filesystem::path checkpoint;  // empty: none; else resumed from and written after each pass

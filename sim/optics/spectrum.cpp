@@ -32,10 +32,22 @@ WavelengthGrid WavelengthGrid::uniform(double first_nm, double last_nm, double s
             "first <= last and step > 0",
             first_nm, last_nm, step_nm));
     }
-    const auto count = static_cast<std::size_t>(std::floor((last_nm - first_nm) / step_nm + 1e-9)) + 1;
+    const double wanted = uniform_count(first_nm, last_nm, step_nm);
+    if (!(wanted <= static_cast<double>(kMaxWavelengths))) {
+        throw InputError(fmt::format(
+            "uniform wavelength grid {}..{} nm step {} nm gives {:.3g} wavelengths: expected at "
+            "most {} (step_nm >= {:.4g})",
+            first_nm, last_nm, step_nm, wanted, kMaxWavelengths,
+            (last_nm - first_nm) / static_cast<double>(kMaxWavelengths - 1)));
+    }
+    const auto count = static_cast<std::size_t>(wanted);
     std::vector<double> nm(count);
     for (std::size_t i = 0; i < count; ++i) nm[i] = first_nm + static_cast<double>(i) * step_nm;
     return WavelengthGrid(std::move(nm));
+}
+
+double WavelengthGrid::uniform_count(double first_nm, double last_nm, double step_nm) {
+    return std::floor((last_nm - first_nm) / step_nm + 1e-9) + 1.0;
 }
 
 double interpolate_uniform_table(std::span<const double> table, double first_nm, double step_nm,

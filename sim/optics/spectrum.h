@@ -18,8 +18,14 @@ public:
     explicit WavelengthGrid(std::vector<double> wavelengths_nm);
 
     // first, first + step, ..., up to last (inclusive when last − first is a whole
-    // number of steps, to within 1e-9 of a step).
+    // number of steps, to within 1e-9 of a step). At most kMaxWavelengths entries: a step
+    // too small for the range is an InputError naming the bound, before any allocation.
     static WavelengthGrid uniform(double first_nm, double last_nm, double step_nm);
+    // 0.1 nm across 360–830 nm; far beyond any spectral quadrature a study needs, and small
+    // enough that a mistyped step cannot exhaust memory.
+    static constexpr std::size_t kMaxWavelengths = 4701;
+    // The count uniform() would give, as a double (no overflow for any finite input).
+    static double uniform_count(double first_nm, double last_nm, double step_nm);
 
     std::size_t size() const { return nm_.size(); }
     double operator[](std::size_t i) const { return nm_[i]; }

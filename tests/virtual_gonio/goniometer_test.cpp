@@ -17,7 +17,7 @@
 #include "common/error.h"
 #include "analysis/lambertian.h"
 #include "virtual_gonio/hdf5_file.h"
-#include "virtual_gonio/interrupt.h"
+#include "common/interrupt.h"
 
 namespace plumage::gonio {
 namespace {

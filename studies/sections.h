@@ -1,0 +1,49 @@
+// Readers of the keys and sections that several studies share, one rule each, so that a
+// key means the same and is checked the same in every study file. Each reader checks its
+// values when the file is read (before any work) and names file:line:column in its errors.
+#pragma once
+
+#include <cstdint>
+#include <filesystem>
+#include <string>
+#include <string_view>
+#include <vector>
+
+#include "studies/study_file.h"
+
+namespace plumage::studies {
+
+// `name`: the results folder, <results root>/<name>. One plain folder name: 1 to
+// kMaxStudyNameLength characters from [A-Za-z0-9._-], not "." or "..", so that a name can
+// never reach outside the results root. Defaults to the study file's stem (which must obey
+// the same rule, or the file must set `name`).
+inline constexpr std::size_t kMaxStudyNameLength = 100;
+std::string read_study_name(ParameterTable& root, const std::filesystem::path& source);
+// The rule itself: empty when `name` is a valid study name, else what is wrong with it.
+std::string study_name_problem(std::string_view name);
+
+// `seed`: the integer every random stream of the study derives from.
+std::uint64_t read_seed(ParameterTable& root);
+
+// A uniform wavelength grid from first_nm, last_nm, step_nm of `table` ([spectrum], [btf]):
+// first < last within [min_nm, max_nm], at least 2 and at most
+// optics::WavelengthGrid::kMaxWavelengths wavelengths.
+struct WavelengthRule {
+    double first_nm = 400.0;  // defaults
+    double last_nm = 700.0;
+    double step_nm = 50.0;
+    double min_nm = 360.0;  // the range a study accepts, and why
+    double max_nm = 830.0;
+    std::string_view range_reason = "the CIE 1931 colour-matching functions' range";
+};
+std::vector<double> read_wavelengths(ParameterTable& table, const WavelengthRule& rule);
+// Studies that compare against Filip 2024, whose colour bands are defined on 380-780 nm.
+inline constexpr WavelengthRule kFilipWavelengths{
+    .first_nm = 450.0,
+    .last_nm = 650.0,
+    .step_nm = 100.0,
+    .min_nm = 380.0,
+    .max_nm = 780.0,
+    .range_reason = "Filip 2024's colour bands cover 380-780 nm"};
+
+}  // namespace plumage::studies
