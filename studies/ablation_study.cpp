@@ -241,7 +241,10 @@ AblationResult run_ablation_study(const std::string& study_text, const fs::path&
     // brightest pixel sets the one exposure of every image.
     clock.say("base values (the study's [geometry]): simulation and model");
     Measured base = measure(s.row);
-    if (!base.sim) throw InputError(fmt::format("{}: [geometry] (the base of every sweep): {}", source_name.string(), base.reason));
+    if (!base.sim) {
+        throw InputError(fmt::format("{}: [geometry] (the base of every sweep): {}",
+                                     file->root().table("geometry").location(), base.reason));
+    }
     AblationPoint base_point = compare(*base.sim, *base.mod);
     const double peak = gonio::scatterogram_peak_luminance(*base.mod);
     const double exposure = peak > 0.0 ? 1.0 / peak : 1.0;

@@ -8,8 +8,8 @@
 #include <cstring>
 #include <fstream>
 #include <iostream>
+#include <map>
 #include <mutex>
-#include <optional>
 
 #include <fmt/format.h>
 
@@ -33,43 +33,38 @@ std::string shell_quote(const std::string& s) {
     return quoted + "'";
 }
 
-// Why plots cannot be drawn with this interpreter (empty: they can). Asked once per process:
-// the answer names the interpreter or the missing modules, which a failed plot's exit
-// status cannot.
-const std::string& plotting_problem() {
-    static std::once_flag once;
-    static std::string problem;
-    std::call_once(once, [] {
-        const std::string python = python_interpreter();
-        const std::string probe =
-            fmt::format("{} -c {} 2>/dev/null", shell_quote(python),
-                        shell_quote("import importlib.util as u\n"
-                                    "print(' '.join(m for m in ('matplotlib', 'numpy', 'h5py') "
-                                    "if u.find_spec(m) is None) or 'ok')"));
-        FILE* pipe = ::popen(probe.c_str(), "r");
-        std::string answer;
-        if (pipe != nullptr) {
-            char buffer[256];
-            while (std::fgets(buffer, sizeof buffer, pipe) != nullptr) answer += buffer;
-            ::pclose(pipe);
-        }
-        while (!answer.empty() && (answer.back() == '\n' || answer.back() == ' '))
-            answer.pop_back();
-        if (answer == "ok") return;
-        if (answer.empty()) {
-            problem = fmt::format(
-                "cannot run the interpreter {} (set PLUMAGE_PYTHON to a Python 3 "
-                "with matplotlib, numpy and h5py)",
-                python);
-            return;
-        }
-        problem = fmt::format(
-            "{} lacks the module(s) {} (Debian: python3-matplotlib python3-numpy "
-            "python3-h5py; scripts/install-deps.sh installs them, or set "
-            "PLUMAGE_PYTHON)",
-            python, answer);
-    });
-    return problem;
+// Why plots cannot be drawn with this interpreter (empty: they can). Asked once per
+// interpreter and process: the answer names the interpreter or the missing modules, which a
+// failed plot's exit status cannot.
+std::string plotting_problem(const std::string& python) {
+    static std::mutex mutex;
+    static std::map<std::string, std::string> answers;
+    const std::lock_guard lock(mutex);
+    if (const auto known = answers.find(python); known != answers.end()) return known->second;
+    const std::string probe = fmt::format(
+        "{} -c {} 2>/dev/null", shell_quote(python),
+        shell_quote("import importlib.util as u\n"
+                    "print(' '.join(m for m in ('matplotlib', 'numpy', 'h5py') "
+                    "if u.find_spec(m) is None) or 'ok')"));
+    std::string answer;
+    if (FILE* pipe = ::popen(probe.c_str(), "r"); pipe != nullptr) {
+        char buffer[256];
+        while (std::fgets(buffer, sizeof buffer, pipe) != nullptr) answer += buffer;
+        ::pclose(pipe);
+    }
+    while (!answer.empty() && (answer.back() == '\n' || answer.back() == ' ')) answer.pop_back();
+    std::string problem;
+    if (answer.empty()) {
+        problem = fmt::format("cannot run the interpreter {} (set PLUMAGE_PYTHON to a Python 3 "
+                              "with matplotlib, numpy and h5py)",
+                              python);
+    } else if (answer != "ok") {
+        problem = fmt::format("{} lacks the module(s) {} (Debian: python3-matplotlib "
+                              "python3-numpy python3-h5py; scripts/install-deps.sh installs them, "
+                              "or set PLUMAGE_PYTHON)",
+                              python, answer);
+    }
+    return answers[python] = problem;
 }
 
 void warn(const std::string& what) { std::cerr << "plumage: warning: " << what << '\n'; }
@@ -87,7 +82,7 @@ bool plots_enabled() { return g_plots_enabled.load(); }
 bool run_plot(const std::string& kind, const std::filesystem::path& input,
               const std::filesystem::path& png) {
     if (!plots_enabled()) return false;
-    if (const std::string& problem = plotting_problem(); !problem.empty()) {
+    if (const std::string problem = plotting_problem(python_interpreter()); !problem.empty()) {
         warn(fmt::format("{} not drawn: {}", png.filename().string(), problem));
         return false;
     }

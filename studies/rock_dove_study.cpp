@@ -120,7 +120,7 @@ RockDoveResult run_rock_dove_study(const std::string& study_text, const fs::path
     try {
         row = geometry::build_barbule_row(s.row, s.tolerance);
     } catch (const InputError& e) {
-        throw InputError(fmt::format("{}: [geometry]: {}", source_name.string(), e.what()));
+        throw InputError(fmt::format("{}: [geometry]: {}", file->root().table("geometry").location(), e.what()));
     }
     const geometry::BarbuleCell cell(s.row.cell);
     result.eq7_edge_coupling = cell.longitudinal_radius_um() * (1.0 - std::cos(s.row.cell.theta_d)) /

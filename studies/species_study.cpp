@@ -448,7 +448,8 @@ SpeciesResult run_species_study(const std::string& study_text, const fs::path& s
     for (const SpeciesSpec& sp : s.species) {
         clock.say(fmt::format("building the {} patch", sp.name));
         built.push_back(build_species(
-            sp, s.tolerance, fmt::format("{}: [species.{}]", source_name.string(), sp.name)));
+            sp, s.tolerance,
+            fmt::format("{}: [species.{}]", file->root().table("species").table(sp.name).location(), sp.name)));
         const BuiltSpecies& b = built.back();
         const Eigen::AlignedBox3d box = b.scene.bounds();
         const double depth = box.max().z() - box.min().z();

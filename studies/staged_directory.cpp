@@ -128,7 +128,11 @@ void StagedDirectory::commit() {
     previous += fmt::format(".previous-{}", ::getpid());
     const bool had_previous = fs::exists(final_);
     if (had_previous) fs::rename(final_, previous, error);
-    if (!error) fs::rename(staging_, final_, error);
+    if (!error) {
+        fs::rename(staging_, final_, error);
+        std::error_code ignored;
+        if (error && had_previous) fs::rename(previous, final_, ignored);  // put it back
+    }
     if (error) {
         throw IoError(
             fmt::format("cannot move results into '{}': {}", final_.string(), error.message()));

@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <cmath>
 #include <fstream>
+#include <limits>
 #include <sstream>
 
 #include <fmt/format.h>
@@ -12,8 +13,9 @@
 
 namespace plumage::studies {
 
-Range positive() { return {0.0, 1e300, true, false}; }
-Range non_negative() { return {0.0, 1e300, false, false}; }
+// No upper cap beyond finiteness: a key with a physical ceiling states it with between().
+Range positive() { return {0.0, std::numeric_limits<double>::infinity(), true, false}; }
+Range non_negative() { return {0.0, std::numeric_limits<double>::infinity(), false, false}; }
 Range between(double lo, double hi) { return {lo, hi, false, false}; }
 
 namespace {
@@ -24,8 +26,8 @@ std::string describe(const Range& r) {
         return fmt::format("a number in {}{}, {}{}", r.min_exclusive ? "(" : "[", r.min, r.max,
                            r.max_exclusive ? ")" : "]");
     }
-    if (has_min) return fmt::format("a number {} {}", r.min_exclusive ? ">" : ">=", r.min);
-    if (has_max) return fmt::format("a number {} {}", r.max_exclusive ? "<" : "<=", r.max);
+    if (has_min) return fmt::format("a finite number {} {}", r.min_exclusive ? ">" : ">=", r.min);
+    if (has_max) return fmt::format("a finite number {} {}", r.max_exclusive ? "<" : "<=", r.max);
     return "a finite number";
 }
 
