@@ -11,6 +11,7 @@
 
 #include "analysis/levenberg_marquardt.h"
 #include "common/error.h"
+#include "common/interrupt.h"
 
 namespace plumage::analysis {
 namespace {
@@ -131,6 +132,8 @@ struct Residuals {
     int values() const { return static_cast<int>(data.size()); }
 
     int operator()(const Eigen::VectorXd& u, Eigen::VectorXd& r) const {
+        // Once per iteration: a fit of 10^4 observations takes seconds, Ctrl-C must not wait.
+        if (interrupt_requested()) throw Interrupted("interrupted while fitting Filip 2024");
         const Filip2024Parameters p = from_vector(map.parameters(u));
         for (std::size_t k = 0; k < data.size(); ++k) {
             const double f = filip2024_terms(p, data[k].geometry, data[k].channel).total();
@@ -140,6 +143,7 @@ struct Residuals {
     }
 
     int df(const Eigen::VectorXd& u, Eigen::MatrixXd& jacobian) const {
+        if (interrupt_requested()) throw Interrupted("interrupted while fitting Filip 2024");
         const Filip2024Parameters p = from_vector(map.parameters(u));
         std::vector<double> chain(map.free.size());
         for (std::size_t j = 0; j < map.free.size(); ++j)

@@ -111,7 +111,7 @@ void request_interrupt(int signal_number) {
 }
 
 void throw_if_interrupted(const std::string& stage) {
-    if (interrupt_requested()) throw Interrupted("interrupted during " + stage);
+    if (interrupt_requested()) throw Interrupted("interrupted before " + stage);
 }
 
 CleanupRegistration::CleanupRegistration(std::filesystem::path path) : path_(std::move(path)) {

@@ -50,7 +50,8 @@ class Interrupted final : public Error {
 public:
     using Error::Error;
 };
-// Throws Interrupted("interrupted during <stage>") when the flag is set.
+// Throws Interrupted("interrupted before <stage>") when the flag is set: call it as a stage
+// starts.
 void throw_if_interrupted(const std::string& stage);
 
 // While it lives, `path` is removed if the process is stopped by force.

@@ -319,7 +319,7 @@ AblationResult run_ablation_study(const std::string& study_text, const fs::path&
                 } else {
                     point.skipped = true;
                     point.reason = m.reason;
-                    clock.say(fmt::format("{} = {}: skipped ({})", p.key, format_value(v), m.reason));
+                    clock.done(fmt::format("{} = {}: skipped ({})", p.key, format_value(v), m.reason));
                 }
             }
             point.parameter = p.key;

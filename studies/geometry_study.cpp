@@ -339,6 +339,7 @@ GeometryStudyResult run_geometry_study(const std::filesystem::path& study_file, 
     if (kind == "spongy_channel" || kind == "spongy_spheres") built = build_spongy(geometry, kind == "spongy_channel", out.path());
     if (kind == "mesh" || kind == "vdb") built = import_geometry(geometry, kind == "vdb", study_file.parent_path(), out.path());
     root.reject_unused();
+    throw_if_interrupted("writing the preview and the report");
 
     built.preview.write(out.path() / "preview.png");
     const double seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();

@@ -24,6 +24,7 @@
 #include "sim/random.h"
 #include "studies/geometry_study.h"
 #include "studies/plots.h"
+#include "common/interrupt.h"
 #include "studies/staged_directory.h"
 #include "studies/study_common.h"
 #include "studies/sections.h"
@@ -567,10 +568,11 @@ MaskingStudyResult run_masking_study(const std::string& study_text, const fs::pa
     const std::uint64_t items_per_configuration =
         s.angles_deg.size() + kMaskingCheckDirections.size();
     for (std::size_t k = 0; k < s.configurations.size(); ++k) {
+        throw_if_interrupted(fmt::format("configuration '{}'", s.configurations[k].name));
         result.configurations.push_back(
             compare(s.configurations[k], s, k * items_per_configuration));
         const auto& c = result.configurations.back();
-        clock.say(fmt::format("{}: max abs(analytic − MC) {:.2e}, max abs(z) {:.3f} ({:.1f} s)", c.name,
+        clock.done(fmt::format("{}: max abs(analytic − MC) {:.2e}, max abs(z) {:.3f} ({:.1f} s)", c.name,
                         c.max_abs_difference, c.max_abs_z, c.wall_seconds));
     }
 

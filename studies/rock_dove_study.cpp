@@ -231,9 +231,7 @@ RockDoveResult run_rock_dove_study(const std::string& study_text, const fs::path
     control.on_pass = [&](const gonio::ConvergenceRow& r) { sim_rows.push_back(r); };
     const gonio::BrdfRecord sim_b = gonio::measure_brdf(simulation, g, control);
     if (sim_b.interrupted) {
-        throw Interrupted(fmt::format("interrupted after {} completed BRDF passes; run the same command again to "
-                                      "resume from {}",
-                                      sim_b.passes, control.checkpoint.string()));
+        throw Interrupted(interrupted_with_checkpoint("the simulated BRDF", sim_b.passes, control.checkpoint));
     }
     clock.say("BRDF: Huang model");
     g.estimator = gonio::Estimator::eval;

@@ -609,11 +609,8 @@ SpeciesResult run_species_study(const std::string& study_text, const fs::path& s
         control.checkpoint = checkpoints / (sp.name + "_brdf.checkpoint");
         const gonio::BrdfRecord sim_brdf = gonio::measure_brdf(sample, g, control);
         if (sim_brdf.interrupted) {
-            throw Interrupted(
-                fmt::format("interrupted in the {} BRDF after {} completed passes; run the same "
-                            "command again to resume "
-                            "from {}",
-                            sp.name, sim_brdf.passes, control.checkpoint.string()));
+            throw Interrupted(interrupted_with_checkpoint(fmt::format("the {} BRDF", sp.name),
+                                                          sim_brdf.passes, control.checkpoint));
         }
         o.brdf_seconds = sim_brdf.wall_time_s;
         gonio::write_brdf_record(sim_brdf, sdir / "brdf.h5");

@@ -122,6 +122,8 @@ StagedDirectory::~StagedDirectory() {
 }
 
 void StagedDirectory::commit() {
+    // An interrupt that arrived during the last stage still means "stop": nothing is replaced.
+    throw_if_interrupted(fmt::format("replacing {}", final_.string()));
     refuse_foreign(final_);  // a folder may have appeared while we worked
     std::error_code error;
     fs::path previous = final_;

@@ -31,6 +31,7 @@ public:
 
     const std::filesystem::path& path() const { return staging_; }
     const std::filesystem::path& final_path() const { return final_; }
+    // Moves the staging folder to final_path; throws Interrupted instead if Ctrl-C arrived.
     void commit();
 
     // Before any work: InputError if final_path exists and is not a plumage results folder;

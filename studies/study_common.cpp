@@ -66,6 +66,20 @@ Vec3d polar(double theta, double phi) {
     return {std::sin(theta) * std::cos(phi), std::sin(theta) * std::sin(phi), std::cos(theta)};
 }
 
+std::string interrupted_with_checkpoint(const std::string& what, int passes,
+                                        const std::filesystem::path& checkpoint) {
+    if (passes > 0) {
+        return fmt::format("interrupted in {} after {} completed passes, kept in {}; run the same "
+                           "command again to resume from them",
+                           what, passes, checkpoint.string());
+    }
+    // <root>/.checkpoints/<name>/<file>: remove the two folders if nothing is in them.
+    std::error_code ignored;
+    std::filesystem::remove(checkpoint.parent_path(), ignored);
+    std::filesystem::remove(checkpoint.parent_path().parent_path(), ignored);
+    return fmt::format("interrupted in {} before its first pass completed (nothing to resume)", what);
+}
+
 double StudyProgress::elapsed_s() const {
     return std::chrono::duration<double>(std::chrono::steady_clock::now() - start_).count();
 }

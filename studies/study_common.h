@@ -2,6 +2,7 @@
 #pragma once
 
 #include <chrono>
+#include <filesystem>
 #include <string>
 #include <vector>
 
@@ -31,13 +32,19 @@ public:
     double elapsed_s() const;
     // Starts a stage: throws Interrupted if Ctrl-C arrived, then prints (when enabled).
     void say(const std::string& what) const;
-    // Prints without the interrupt check (the last line, once the results are committed).
+    // Prints without the interrupt check: a result line, or the last line once committed.
     void done(const std::string& what) const;
 
 private:
     std::chrono::steady_clock::time_point start_ = std::chrono::steady_clock::now();
     bool enabled_;
 };
+
+// The Interrupted message of a measurement stopped with a checkpoint, after `passes` completed
+// passes: where to resume from, or, with no pass completed, nothing kept (the empty checkpoint
+// folders are removed).
+std::string interrupted_with_checkpoint(const std::string& what, int passes,
+                                        const std::filesystem::path& checkpoint);
 
 // Unit vector at polar θ from +z and azimuth φ from +x (patch frame).
 Vec3d polar(double theta, double phi);

@@ -3,6 +3,7 @@
 #include <omp.h>
 
 #include <algorithm>
+#include <atomic>
 #include <chrono>
 #include <cmath>
 #include <numbers>
@@ -11,6 +12,7 @@
 #include <fmt/format.h>
 
 #include "common/error.h"
+#include "common/interrupt.h"
 #include "common/version.h"
 #include "virtual_gonio/display_colour.h"
 #include "virtual_gonio/hdf5_file.h"
@@ -75,8 +77,14 @@ BtfRecord measure_btf(const Scatterer& scatterer, const BtfConfig& config) {
         double x;
     };
     std::vector<std::vector<Hit>> hits(items);
+    std::atomic<bool> abandoned{false};
 #pragma omp parallel for schedule(dynamic, 1)
     for (std::size_t it = 0; it < items; ++it) {
+        if (abandoned.load(std::memory_order_relaxed)) continue;
+        if (interrupt_requested()) {
+            abandoned.store(true);
+            continue;
+        }
         const std::size_t l = it / (nl * chunks), k = (it / chunks) % nl;
         const std::uint64_t c = it % chunks;
         const Vec3d& wi = config.pairs[lights[l].front()].wi;
@@ -99,6 +107,9 @@ BtfRecord measure_btf(const Scatterer& scatterer, const BtfConfig& config) {
                     {r.index(p, row, column, k), event->weight / (projected * wo.z())});
             }
         }
+    }
+    if (abandoned.load()) {
+        throw Interrupted(fmt::format("interrupted while imaging the BTF of {}", r.scatterer));
     }
     for (const auto& list : hits) {
         for (const Hit& h : list) {

@@ -51,6 +51,7 @@ struct BtfRecord {
     }
 };
 
+// Throws Interrupted (common/interrupt.h) on Ctrl-C/SIGTERM (interrupt_requested()).
 BtfRecord measure_btf(const Scatterer& scatterer, const BtfConfig& config);
 // One pair's image in sRGB (D65; exposure <= 0: the brightest pixel of that pair → Y = 1).
 record::RgbImage btf_image(const BtfRecord& record, std::size_t pair, double exposure = 0.0);

@@ -210,8 +210,14 @@ BrdfRecord measure_by_eval(const Scatterer& scatterer, const GoniometerConfig& c
     r.standard_error.assign(c.pairs.size() * nl, 0.0);
     r.lobe_values.assign(nlobes * c.pairs.size() * nl, 0.0);
     r.lobe_standard_error.assign(nlobes * c.pairs.size() * nl, 0.0);
+    std::atomic<bool> abandoned{false};
 #pragma omp parallel for schedule(dynamic, 4)
     for (std::size_t p = 0; p < c.pairs.size(); ++p) {
+        if (abandoned.load(std::memory_order_relaxed)) continue;
+        if (interrupt_requested()) {
+            abandoned.store(true);
+            continue;
+        }
         std::vector<double> lobes(nlobes);
         for (std::size_t k = 0; k < nl; ++k) {
             const double fine_value = cone_average(c.pairs[p], c.wavelengths_nm[k], fine, &lobes);
@@ -220,6 +226,9 @@ BrdfRecord measure_by_eval(const Scatterer& scatterer, const GoniometerConfig& c
             r.standard_error[p * nl + k] = std::abs(fine_value - coarse_value);
             for (std::size_t l = 0; l < nlobes; ++l) r.lobe_values[(l * c.pairs.size() + p) * nl + k] = lobes[l];
         }
+    }
+    if (abandoned.load()) {
+        throw Interrupted(fmt::format("interrupted while evaluating the BRDF of {}", r.scatterer));
     }
     r.passes = 1;
     r.quanta = 0;
@@ -381,6 +390,12 @@ BrdfRecord measure_brdf(const Scatterer& scatterer, const GoniometerConfig& conf
         if (control.on_pass_record) control.on_pass_record(r);
     }
     if (control.progress) std::cerr << '\n';
+    if (r.interrupted && control.checkpoint.empty()) {
+        // Without a checkpoint nobody keeps the completed passes: a partial record must not
+        // flow on into figures and comparisons as if it were the measurement.
+        throw Interrupted(fmt::format("interrupted while measuring the BRDF of {} (pass {} of at most {})",
+                                      r.scatterer, r.passes + 1, config.max_passes));
+    }
     return r;
 }
 

@@ -77,6 +77,8 @@ struct BrdfRecord {
     std::uint64_t quanta = 0;
     double wall_time_s = 0.0;
     int threads = 1;
+    // Stopped by an interrupt with a checkpoint: the completed passes (the checkpoint holds
+    // them). Without a checkpoint an interrupt throws Interrupted (common/interrupt.h) instead.
     bool interrupted = false;
     double detector_solid_angle_sr = 0.0;
 

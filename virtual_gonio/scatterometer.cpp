@@ -10,6 +10,7 @@
 #include <fmt/format.h>
 
 #include "common/error.h"
+#include "common/interrupt.h"
 #include "common/version.h"
 #include "virtual_gonio/display_colour.h"
 #include "virtual_gonio/hdf5_file.h"
@@ -170,8 +171,9 @@ Scatterogram measure_scatterogram(const Scatterer& scatterer, const Scatteromete
             }
         }
         if (abandoned.load()) {
-            s.interrupted = true;
-            break;
+            // No checkpoint keeps a scatterogram's passes: a partial image must not flow on.
+            throw Interrupted(fmt::format("interrupted while measuring the scatterogram of {} (pass {} of at most {})",
+                                          s.scatterer, s.passes + 1, config.max_passes));
         }
         for (std::size_t it = 0; it < items; ++it) {
             const std::size_t k = it / (static_cast<std::size_t>(strata) * chunks);

@@ -77,13 +77,13 @@ struct Scatterogram {
     int passes = 0;
     std::uint64_t quanta = 0;
     double wall_time_s = 0.0;
-    bool interrupted = false;
 
     std::size_t pixels() const { return static_cast<std::size_t>(config.image_size) * config.image_size; }
     // Direction of a pixel's centre, or nullopt outside the disc.
     std::optional<Vec3d> direction(int column, int row) const;
 };
 
+// Throws Interrupted (common/interrupt.h) when control.interrupt is set during a pass.
 Scatterogram measure_scatterogram(const Scatterer& scatterer, const ScatterometerConfig& config,
                                   const RunControl& control = {});
 
