@@ -296,7 +296,7 @@ Filip2024FitResult fit_filip2024(std::span<const BrdfObservation> data,
 
     // covariance = s² (JᵀJ)⁻¹, inverted after scaling JᵀJ to a unit diagonal so that the
     // singularity test does not depend on the parameters' units.
-    const Eigen::MatrixXd normal = jacobian.transpose() * jacobian;
+    const Eigen::MatrixXd normal = normal_matrix(jacobian);
     const Eigen::VectorXd diagonal = normal.diagonal();
     result.covariance =
         Eigen::MatrixXd::Constant(n_free, n_free, std::numeric_limits<double>::quiet_NaN());

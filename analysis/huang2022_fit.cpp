@@ -825,7 +825,7 @@ HuangFitResult fit_huang2022(const gonio::Scatterogram& data, const Huang2022Par
 
     // covariance_u = s² (J_uᵀJ_u)⁻¹, inverted after scaling to a unit diagonal so that the
     // singularity test does not depend on the variables' scales; then M covariance_u Mᵀ.
-    const Eigen::MatrixXd normal = jacobian.transpose() * jacobian;
+    const Eigen::MatrixXd normal = normal_matrix(jacobian);
     const Eigen::VectorXd diagonal = normal.diagonal();
     result.covariance =
         Eigen::MatrixXd::Constant(n_free, n_free, std::numeric_limits<double>::quiet_NaN());

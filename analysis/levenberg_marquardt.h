@@ -1,5 +1,6 @@
 // What Eigen's Levenberg–Marquardt stopping status means, in words a fit report can
-// print, and whether it counts as converged: shared by the model fits.
+// print, and whether it counts as converged; the normal matrix of a fit's covariance. Shared
+// by the model fits.
 #pragma once
 
 #include <string>
@@ -23,6 +24,23 @@ inline std::string describe(Eigen::LevenbergMarquardtSpace::Status status) {
         case UserAsked: return "stopped by the residual function";
         default: return "unknown status";
     }
+}
+
+// JᵀJ summed row by row in a fixed order. Eigen's product would be parallelised by OpenMP for a
+// Jacobian of 10^4 rows, and its sum order (so its last bits, and a near-singular covariance's
+// leading ones) would follow the thread count; fits must give the same bits on any machine.
+inline Eigen::MatrixXd normal_matrix(const Eigen::MatrixXd& jacobian) {
+    const Eigen::Index n = jacobian.cols();
+    Eigen::MatrixXd normal = Eigen::MatrixXd::Zero(n, n);
+    for (Eigen::Index k = 0; k < jacobian.rows(); ++k) {
+        for (Eigen::Index i = 0; i < n; ++i) {
+            for (Eigen::Index j = 0; j <= i; ++j) normal(i, j) += jacobian(k, i) * jacobian(k, j);
+        }
+    }
+    for (Eigen::Index i = 0; i < n; ++i) {
+        for (Eigen::Index j = i + 1; j < n; ++j) normal(i, j) = normal(j, i);
+    }
+    return normal;
 }
 
 inline bool converged(Eigen::LevenbergMarquardtSpace::Status status) {

@@ -341,7 +341,10 @@ AblationResult run_ablation_study(const std::string& study_text, const fs::path&
                 h5_floor.push_back(std::numeric_limits<double>::quiet_NaN());
                 continue;
             }
-            sheet << fmt::format("{},{},{},{}\n", csv_field(label), csv_field(sim_png), csv_field(mod_png),
+            // Paths relative to the sheet: a record must not name the staging folder it was written in.
+            sheet << fmt::format("{},{},{},{}\n", csv_field(label),
+                                 csv_field(fs::path(sim_png).lexically_relative(pdir).string()),
+                                 csv_field(fs::path(mod_png).lexically_relative(pdir).string()),
                                  csv_field(fmt::format("e = {:.3f} (noise floor {:.3f})", point.relative_l1, point.noise_floor)));
             error_csv << fmt::format("{:.9g},{:.6g},{:.6g},{}\n", point.value, point.relative_l1, point.noise_floor, point.is_base ? 1 : 0);
             table += fmt::format("| {}{} | {:.3f} | {:.3f} | {:.3f} | {:.4f} | {:.4f} | {:.4f} | {:.4f} |\n", format_value(point.value),

@@ -4,7 +4,8 @@
   plots.py chart H5 PNG          thin-film colour chart with axes (Huang 2022 Fig. 3 style)
   plots.py convergence CSV PNG   estimated and true error against wall time, log-log
   plots.py curves CSV PNG        BRDF against an angle: columns x, then name, name_err pairs
-  plots.py contact_sheet CSV PNG rows of images: columns label, simulation, model (PNG paths), note
+  plots.py contact_sheet CSV PNG rows of images: columns label, simulation, model (PNG paths
+                                 relative to the CSV's folder), note
   plots.py sweep_error CSV PNG   model error against a swept parameter: x, error, noise floor, is_base
   plots.py energy_bars CSV PNG   largest energy per case and scatterer: label, energy, error, status
   plots.py luminance CSV PNG     in-plane L* per species (Filip 2024 Fig. 6a): x, then name, name error, name fit
@@ -12,6 +13,7 @@
   plots.py batch CSV PNG         every plot a CSV lists (columns kind, input, png; PNG unused)
 """
 import csv
+import os
 import sys
 
 import matplotlib
@@ -126,8 +128,9 @@ def contact_sheet(csv_path, png_path):
         for ax, key, title in ((a, "simulation", "simulation"), (b, "model", "Huang model")):
             ax.set_xticks([])
             ax.set_yticks([])
-            if row[key]:
-                ax.imshow(mpimg.imread(row[key]), interpolation="nearest")
+            if row[key]:  # relative to the sheet's folder
+                image = os.path.join(os.path.dirname(os.path.abspath(csv_path)), row[key])
+                ax.imshow(mpimg.imread(image), interpolation="nearest")
             else:
                 for side in ax.spines.values():
                     side.set_visible(False)

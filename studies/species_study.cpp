@@ -789,20 +789,34 @@ SpeciesResult run_species_study(const std::string& study_text, const fs::path& s
             const Vec3d wi(0.0, 0.0, 1.0);
             for (std::size_t k = 0; k < nl; ++k) {
                 const std::int64_t n = static_cast<std::int64_t>(s.albedo_quanta);
-                double sum = 0.0, sum_sq = 0.0, mismatched = 0.0, mismatched_weight = 0.0;
-#pragma omp parallel for schedule(static) reduction(+ : sum, sum_sq, mismatched, mismatched_weight)
-                for (std::int64_t q = 0; q < n; ++q) {
-                    Rng rng(s.seed + 7000 + 131 * si + k, static_cast<std::uint64_t>(q));
-                    const Vec2 entry = cell->draw_entry(rng);
-                    const sim::PathResult path = tracer->trace(wi, s.wavelengths[k], entry, rng);
-                    const double w =
-                        path.event && path.event->wo.z() > 0.0 ? path.event->weight : 0.0;
-                    sum += w;
-                    sum_sq += w * w;
-                    if (path.medium_mismatches > 0) {
-                        mismatched += 1.0;
-                        mismatched_weight += w;
+                // Partial sums per fixed chunk of quanta, added in chunk order: the result
+                // does not depend on the thread count (an OpenMP reduction's order does).
+                constexpr std::int64_t kChunk = 4096;
+                const std::int64_t chunks = (n + kChunk - 1) / kChunk;
+                std::vector<std::array<double, 4>> partial(static_cast<std::size_t>(chunks), {0.0, 0.0, 0.0, 0.0});
+#pragma omp parallel for schedule(dynamic, 1)
+                for (std::int64_t c = 0; c < chunks; ++c) {
+                    auto& [c_sum, c_sum_sq, c_mismatched, c_mismatched_weight] = partial[static_cast<std::size_t>(c)];
+                    for (std::int64_t q = c * kChunk; q < std::min(n, (c + 1) * kChunk); ++q) {
+                        Rng rng(s.seed + 7000 + 131 * si + k, static_cast<std::uint64_t>(q));
+                        const Vec2 entry = cell->draw_entry(rng);
+                        const sim::PathResult path = tracer->trace(wi, s.wavelengths[k], entry, rng);
+                        const double w =
+                            path.event && path.event->wo.z() > 0.0 ? path.event->weight : 0.0;
+                        c_sum += w;
+                        c_sum_sq += w * w;
+                        if (path.medium_mismatches > 0) {
+                            c_mismatched += 1.0;
+                            c_mismatched_weight += w;
+                        }
                     }
+                }
+                double sum = 0.0, sum_sq = 0.0, mismatched = 0.0, mismatched_weight = 0.0;
+                for (const auto& [c_sum, c_sum_sq, c_mismatched, c_mismatched_weight] : partial) {
+                    sum += c_sum;
+                    sum_sq += c_sum_sq;
+                    mismatched += c_mismatched;
+                    mismatched_weight += c_mismatched_weight;
                 }
                 const double mean = sum / static_cast<double>(n);
                 o.albedo[k] = mean;
