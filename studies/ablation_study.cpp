@@ -20,7 +20,6 @@
 #include "sim/optics/colour.h"
 #include "sim/optics/spectrum.h"
 #include "sim/tracer.h"
-#include "studies/geometry_study.h"
 #include "studies/plots.h"
 #include "studies/staged_directory.h"
 #include "studies/study_common.h"

@@ -29,10 +29,6 @@
 #include <filesystem>
 #include <string>
 
-#include "geometry/barb.h"
-#include "geometry/barbule.h"
-#include "studies/study_file.h"
-
 namespace plumage::studies {
 
 struct GeometryStudyResult {
@@ -43,14 +39,6 @@ struct GeometryStudyResult {
     std::size_t memory_bytes = 0;
     double wall_seconds = 0.0;
 };
-
-// Readers shared by the studies that build barbule rows ([geometry.cell], [geometry.row],
-// [geometry.tessellation]).
-geometry::BarbuleRowParams read_barbule_row_params(ParameterTable& geometry);
-geometry::TessellationTolerance read_tolerance(ParameterTable tessellation);
-// [geometry.barb] and [geometry.barbules] of a barb patch (keys: studies/README.md), read
-// from the given table's "barb" and "barbules" sub-tables.
-geometry::BarbulePatchParams read_barb_patch_params(ParameterTable& geometry);
 
 GeometryStudyResult run_geometry_study(const std::filesystem::path& study_file,
                                        const std::filesystem::path& results_root);

@@ -22,7 +22,6 @@
 #include "common/error.h"
 #include "common/version.h"
 #include "sim/random.h"
-#include "studies/geometry_study.h"
 #include "studies/plots.h"
 #include "common/interrupt.h"
 #include "studies/staged_directory.h"

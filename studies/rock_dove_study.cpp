@@ -16,7 +16,6 @@
 #include "geometry/barbule.h"
 #include "sim/optics/colour.h"
 #include "sim/tracer.h"
-#include "studies/geometry_study.h"
 #include "studies/plots.h"
 #include "studies/staged_directory.h"
 #include "studies/study_common.h"

@@ -9,6 +9,9 @@
 #include <string_view>
 #include <vector>
 
+#include "geometry/barb.h"
+#include "geometry/barbule.h"
+#include "geometry/tessellation.h"
 #include "studies/study_file.h"
 
 namespace plumage::studies {
@@ -45,5 +48,13 @@ inline constexpr WavelengthRule kFilipWavelengths{
     .min_nm = 380.0,
     .max_nm = 780.0,
     .range_reason = "Filip 2024's colour bands cover 380-780 nm"};
+
+// [geometry.cell] and [geometry.row] of a barbule row (Huang 2022's parameters), in the units
+// the geometry library takes (angles in radians).
+geometry::BarbuleRowParams read_barbule_row_params(ParameterTable& geometry);
+// [geometry.barb] and [geometry.barbules] of a barb patch (Padron-Griffe 2024's cross-section).
+geometry::BarbulePatchParams read_barb_patch_params(ParameterTable& geometry);
+// [tessellation]: how finely curved surfaces are faceted.
+geometry::TessellationTolerance read_tolerance(ParameterTable tessellation);
 
 }  // namespace plumage::studies

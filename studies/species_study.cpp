@@ -22,7 +22,6 @@
 #include "sim/optics/material.h"
 #include "sim/optics/spectrum.h"
 #include "sim/tracer.h"
-#include "studies/geometry_study.h"
 #include "studies/plots.h"
 #include "studies/staged_directory.h"
 #include "studies/study_common.h"
@@ -591,7 +590,7 @@ SpeciesResult run_species_study(const std::string& study_text, const fs::path& s
         g.wavelengths_nm = s.wavelengths;
         g.detector_half_angle_rad = s.detector_half_angle;
         g.beam_radius_um = 0.5 * built[si].period_um;  // unused: PeriodCellEntry draws the entry
-        g.seed = s.seed + si;
+        g.seed = derive_seed(s.seed, "species/brdf", si);
         g.quanta_per_pass = s.quanta;
         g.max_passes = s.passes;
         g.time_budget_s = s.time_budget_s;
@@ -762,7 +761,7 @@ SpeciesResult run_species_study(const std::string& study_text, const fs::path& s
             ip.pairs = gonio::filip2024_in_plane_pairs(sp.mount_rad + gonio::kPlaneAcrossBarbsRad);
             ip.quanta_per_pass = s.in_plane_quanta;
             ip.max_passes = 1;
-            ip.seed = s.seed + 100 + si;
+            ip.seed = derive_seed(s.seed, "species/in_plane", si);
             clock.say(fmt::format("{}: in-plane sweep", sp.name));
             const gonio::BrdfRecord a = gonio::measure_brdf(sample, ip);
             ip.estimator = gonio::Estimator::eval;
@@ -794,11 +793,12 @@ SpeciesResult run_species_study(const std::string& study_text, const fs::path& s
                 constexpr std::int64_t kChunk = 4096;
                 const std::int64_t chunks = (n + kChunk - 1) / kChunk;
                 std::vector<std::array<double, 4>> partial(static_cast<std::size_t>(chunks), {0.0, 0.0, 0.0, 0.0});
+                const std::uint64_t albedo_seed = derive_seed(s.seed, "species/albedo", si * nl + k);
 #pragma omp parallel for schedule(dynamic, 1)
                 for (std::int64_t c = 0; c < chunks; ++c) {
                     auto& [c_sum, c_sum_sq, c_mismatched, c_mismatched_weight] = partial[static_cast<std::size_t>(c)];
                     for (std::int64_t q = c * kChunk; q < std::min(n, (c + 1) * kChunk); ++q) {
-                        Rng rng(s.seed + 7000 + 131 * si + k, static_cast<std::uint64_t>(q));
+                        Rng rng(albedo_seed, static_cast<std::uint64_t>(q));
                         const Vec2 entry = cell->draw_entry(rng);
                         const sim::PathResult path = tracer->trace(wi, s.wavelengths[k], entry, rng);
                         const double w =
@@ -840,7 +840,7 @@ SpeciesResult run_species_study(const std::string& study_text, const fs::path& s
             bc.pixels = s.btf_pixels;
             bc.detector_half_angle_rad = s.btf_detector_half_angle;
             bc.quanta_per_light = s.btf_quanta;
-            bc.seed = s.seed + 200 + si;
+            bc.seed = derive_seed(s.seed, "species/btf", si);
             clock.say(fmt::format("{}: BTF on the 61 x 60 set ({} x {} pixels, {} wavelengths)",
                                   sp.name, bc.pixels, bc.pixels, bc.wavelengths_nm.size()));
             const gonio::BtfRecord btf = gonio::measure_btf(imaged, bc);

@@ -126,7 +126,7 @@ Scatterogram measure_scatterogram(const Scatterer& scatterer, const Scatteromete
             // of the unit square, which maps area-preservingly onto the illumination).
             Vec3d wi = config.beam_direction;
             if (config.illumination != Illumination::beam) {
-                Rng jitter(config.seed ^ 0x5DEECE66DULL,
+                Rng jitter(derive_seed(config.seed, "scatterometer/illumination"),
                            (static_cast<std::uint64_t>(k) << 48) + (static_cast<std::uint64_t>(s.passes) << 24) + stratum);
                 const int cells = side * side;
                 const std::size_t cell = stratum % static_cast<std::size_t>(cells);
