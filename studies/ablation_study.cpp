@@ -22,6 +22,7 @@
 #include "sim/tracer.h"
 #include "studies/plots.h"
 #include "studies/staged_directory.h"
+#include "studies/study.h"
 #include "studies/study_common.h"
 #include "studies/sections.h"
 #include "studies/study_file.h"
@@ -477,6 +478,22 @@ void check_ablation_study(const std::string& study_text, const fs::path& source_
     auto file = StudyFile::parse(study_text, source_name);
     std::string name;
     read_settings(*file, name, source_name);
+}
+
+namespace {
+
+// `plumage run`: the run, and the summary printed on stdout.
+std::string run_from_command_line(const std::string& text, const fs::path& source, const fs::path& root,
+                         const RunLimits& limits) {
+    const auto r = run_ablation_study(text, source, root, true, limits);
+    return fmt::format("plumage: wrote {} in {:.0f} s ({} values skipped; open report.md)\n",
+                       r.output_dir.string(), r.wall_seconds, r.skipped);
+}
+
+}  // namespace
+
+StudyEntry ablation_study_entry() {
+    return {"ablation", "one-at-a-time sweeps of Huang's parameters, simulation against model", check_ablation_study, run_from_command_line};
 }
 
 }  // namespace plumage::studies

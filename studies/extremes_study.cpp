@@ -24,6 +24,7 @@
 #include "sim/tracer.h"
 #include "studies/plots.h"
 #include "studies/staged_directory.h"
+#include "studies/study.h"
 #include "studies/study_common.h"
 #include "studies/sections.h"
 #include "studies/study_file.h"
@@ -661,6 +662,27 @@ void check_extremes_study(const std::string& study_text, const fs::path& source_
     auto file = StudyFile::parse(study_text, source_name);
     std::string name;
     read_settings(*file, name, source_name);
+}
+
+namespace {
+
+// `plumage run`: the run, and the summary printed on stdout.
+std::string run_from_command_line(const std::string& text, const fs::path& source, const fs::path& root,
+                         const RunLimits& limits) {
+    refuse_limits("extremes", limits,
+                  "its checks are exact sweeps over fixed grids, not progressive measurements");
+    const auto r = run_extremes_study(text, source, root, true);
+    return fmt::format(
+        "plumage: wrote {} in {:.0f} s: numerical violations {}, energy > 1 {}, energy > 1 by "
+        "the published model's construction {} (open report.md)\n",
+        r.output_dir.string(), r.wall_seconds, r.numerical_violations, r.energy_violations,
+        r.by_construction);
+}
+
+}  // namespace
+
+StudyEntry extremes_study_entry() {
+    return {"extremes", "stiff and extreme cases through every scatterer", check_extremes_study, run_from_command_line};
 }
 
 }  // namespace plumage::studies

@@ -25,6 +25,7 @@
 #include "studies/plots.h"
 #include "common/interrupt.h"
 #include "studies/staged_directory.h"
+#include "studies/study.h"
 #include "studies/study_common.h"
 #include "studies/sections.h"
 #include "studies/study_file.h"
@@ -609,6 +610,28 @@ MaskingStudyResult run_masking_study(const std::string& study_text, const fs::pa
 
 void check_masking_study(const std::string& study_text, const fs::path& source_name) {
     read_settings(study_text, source_name);
+}
+
+namespace {
+
+// `plumage run`: the run, and the summary printed on stdout.
+std::string run_from_command_line(const std::string& text, const fs::path& source, const fs::path& root,
+                        const RunLimits& limits) {
+    refuse_limits("masking", limits,
+                  "its Monte Carlo sample count is set in the study file so that the verdict's "
+                  "Sidak bound holds");
+    const auto r = run_masking_study(text, source, root, true);
+    return fmt::format(
+        "plumage: wrote {} in {:.0f} s: {} configuration(s) x {} angles, max |analytic - MC| "
+        "{:.2e}, max |z| {:.3f} (Sidak bound {:.2f}): {} (open report.md)\n",
+        r.output_dir.string(), r.wall_seconds, r.configurations.size(), r.angles_deg.size(),
+        r.max_abs_difference, r.max_abs_z, r.z_bound, r.agrees ? "agrees" : "DISAGREES");
+}
+
+}  // namespace
+
+StudyEntry masking_study_entry() {
+    return {"masking", "Padron-Griffe's masking term against Monte Carlo", check_masking_study, run_from_command_line};
 }
 
 }  // namespace plumage::studies

@@ -18,6 +18,7 @@
 #include "sim/tracer.h"
 #include "studies/plots.h"
 #include "studies/staged_directory.h"
+#include "studies/study.h"
 #include "studies/study_common.h"
 #include "studies/sections.h"
 #include "studies/study_file.h"
@@ -437,6 +438,23 @@ void check_rock_dove_study(const std::string& study_text, const fs::path& source
     auto file = StudyFile::parse(study_text, source_name);
     std::string name;
     read_settings(*file, name, source_name);
+}
+
+namespace {
+
+// `plumage run`: the run, and the summary printed on stdout.
+std::string run_from_command_line(const std::string& text, const fs::path& source, const fs::path& root,
+                          const RunLimits& limits) {
+    const auto r = run_rock_dove_study(text, source, root, true, limits);
+    return fmt::format("plumage: wrote {} in {:.0f} s (open report.md)\n", r.output_dir.string(),
+                       r.wall_seconds);
+}
+
+}  // namespace
+
+StudyEntry rock_dove_study_entry() {
+    return {"rock_dove", "explicit rock-dove barbules against Huang et al. 2022 (scatterograms, Filip BRDF, "
+               "in-plane, validation, convergence)", check_rock_dove_study, run_from_command_line};
 }
 
 }  // namespace plumage::studies

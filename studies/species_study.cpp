@@ -24,6 +24,7 @@
 #include "sim/tracer.h"
 #include "studies/plots.h"
 #include "studies/staged_directory.h"
+#include "studies/study.h"
 #include "studies/study_common.h"
 #include "studies/sections.h"
 #include "studies/study_file.h"
@@ -1180,6 +1181,31 @@ void check_species_study(const std::string& study_text, const fs::path& source_n
     auto file = StudyFile::parse(study_text, source_name);
     std::string name;
     read_settings(*file, name, source_name);
+}
+
+namespace {
+
+// `plumage run`: the run, and the summary printed on stdout.
+std::string run_from_command_line(const std::string& text, const fs::path& source, const fs::path& root,
+                        const RunLimits& limits) {
+    const auto r = run_species_study(text, source, root, true, limits);
+    std::string summary = fmt::format("plumage: wrote {} in {:.0f} s (open report.md)\n",
+                                      r.output_dir.string(), r.wall_seconds);
+    for (const auto& o : r.species) {
+        summary += fmt::format(
+            "  {}: Filip fit reduced chi2 {:.2f}, relative L1 {:.1f} % (Table 1: {:.1f} %), "
+            "reciprocity chi2/dof {:.2f}\n",
+            o.species, o.reduced_chi_square, 100.0 * o.fit_relative_l1,
+            100.0 * o.table1_relative_l1,
+            o.reciprocity_chi_square / std::max(1, o.reciprocity_dof));
+    }
+    return summary;
+}
+
+}  // namespace
+
+StudyEntry species_study_entry() {
+    return {"species", "the four Filip 2024 feathers built explicitly, measured and fitted", check_species_study, run_from_command_line};
 }
 
 }  // namespace plumage::studies

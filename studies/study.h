@@ -2,8 +2,8 @@
 //
 // Each entry reads and checks a study file (check: every key, range and cross-key rule, with
 // file:line:column; nothing built, measured or written) and runs it (read → build → measure →
-// compare → report into <results root>/<name>/). A new study is one file pair plus one line in
-// the registry (studies/study.cpp).
+// compare → report into <results root>/<name>/). A new study is one file plus one line in
+// PLUMAGE_STUDIES below.
 #pragma once
 
 #include <filesystem>
@@ -32,6 +32,20 @@ struct StudyEntry {
     std::string (*run)(const std::string& text, const std::filesystem::path& source,
                        const std::filesystem::path& results_root, const RunLimits& limits);
 };
+
+// The studies `plumage run` knows: one line each. A new study is studies/<kind>_study.cpp
+// defining `StudyEntry <kind>_study_entry()`, plus its line here.
+#define PLUMAGE_STUDIES(X) \
+    X(rock_dove)           \
+    X(ablation)            \
+    X(extremes)            \
+    X(species)             \
+    X(masking)             \
+    X(calibration)
+
+#define PLUMAGE_DECLARE_STUDY_ENTRY(kind) StudyEntry kind##_study_entry();
+PLUMAGE_STUDIES(PLUMAGE_DECLARE_STUDY_ENTRY)
+#undef PLUMAGE_DECLARE_STUDY_ENTRY
 
 std::span<const StudyEntry> study_registry();
 

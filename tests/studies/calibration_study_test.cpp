@@ -1,0 +1,57 @@
+// The calibration study (the example of studies/README.md's "Adding a study"): registered by
+// its one line, checked like every study, and the goniometer's photon estimator agrees with
+// f = ρ/π on a white standard, χ² within its own spread.
+#include <unistd.h>
+
+#include <cmath>
+#include <filesystem>
+#include <fstream>
+#include <sstream>
+#include <string>
+
+#include <gtest/gtest.h>
+
+#include "studies/study.h"
+#include "tests/test_util.h"
+#include "virtual_gonio/hdf5_file.h"
+
+namespace plumage::studies {
+namespace {
+
+namespace fs = std::filesystem;
+
+std::string read(const fs::path& p) {
+    std::ifstream in(p);
+    std::ostringstream s;
+    s << in.rdbuf();
+    return s.str();
+}
+
+TEST(CalibrationStudy, RegisteredByItsOneLineAndAgreesWithTheClosedForm) {
+    const fs::path study = fs::path(PLUMAGE_SOURCE_DIR) / "studies" / "calibration.toml";
+    const std::string text = read(study);
+    const StudyEntry& entry = study_of(text, study);
+    EXPECT_EQ(entry.kind, "calibration");
+    const fs::path root = fs::temp_directory_path() / ("plumage_calibration_" + std::to_string(::getpid()));
+    fs::remove_all(root);
+    const std::string summary = entry.run(text, study, root, {});
+    EXPECT_NE(summary.find("agrees"), std::string::npos) << summary;
+    // 165 cells: χ²/dof within 4 standard deviations (sqrt(2/dof)) of 1.
+    const double chi2 = record::read_number_attribute(root / "calibration" / "calibration.h5", "/", "chi_square");
+    const double dof = record::read_number_attribute(root / "calibration" / "calibration.h5", "/", "chi_square_dof");
+    EXPECT_EQ(dof, 165.0);
+    EXPECT_LT(std::abs(chi2 / dof - 1.0), 4.0 * std::sqrt(2.0 / dof));
+    fs::remove_all(root);
+}
+
+TEST(CalibrationStudy, BadKeysAreNamed) {
+    const fs::path study = fs::path(PLUMAGE_SOURCE_DIR) / "studies" / "calibration.toml";
+    std::string text = read(study);
+    text.replace(text.find("albedo = 0.99"), 13, "albedo = 1.5");
+    EXPECT_NE(testing::input_error_message([&] { check_study(text, study); })
+                  .find("calibration.toml:13:10: standard.albedo = 1.5: expected a number in [0, 1]"),
+              std::string::npos);
+}
+
+}  // namespace
+}  // namespace plumage::studies
