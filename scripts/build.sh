@@ -5,6 +5,10 @@ set -euo pipefail
 root=$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)
 "$root/scripts/install-deps.sh"
 build_dir=${PLUMAGE_BUILD_DIR:-$root/build}
+# ccache keys on paths relative to the checkout, so a fresh clone elsewhere (CI) reuses the
+# objects of an earlier build instead of compiling CGAL and OpenVDB code again (~25 min).
+export CCACHE_BASEDIR=${CCACHE_BASEDIR:-$root}
+export CCACHE_NOHASHDIR=${CCACHE_NOHASHDIR:-true}
 generator=()
 command -v ninja >/dev/null && generator=(-G Ninja)
 if [[ ! -f "$build_dir/CMakeCache.txt" ]]; then
