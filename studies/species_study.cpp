@@ -17,16 +17,19 @@
 #include "common/error.h"
 #include "common/version.h"
 #include "geometry/barb.h"
+#include "sim/albedo.h"
 #include "sim/mounted_scatterer.h"
 #include "sim/optics/colour.h"
 #include "sim/optics/material.h"
 #include "sim/optics/spectrum.h"
+#include "sim/period_cell_entry.h"
+#include "sim/spongy_medulla.h"
 #include "sim/tracer.h"
 #include "studies/plots.h"
+#include "studies/sections.h"
 #include "studies/staged_directory.h"
 #include "studies/study.h"
 #include "studies/study_common.h"
-#include "studies/sections.h"
 #include "studies/study_file.h"
 #include "virtual_gonio/btf.h"
 #include "virtual_gonio/direction_sets.h"
@@ -49,37 +52,6 @@ constexpr double kDeg = kPi / 180.0;
 // light's lateral travel through the patch at this angle decide whether a patch is big enough.
 constexpr double kLargestPolarRad = 75.0 * kDeg;
 
-// The sample under a wide, uniform beam. A patch of barbs is periodic: with period P across
-// the barbs (y) and the barbule pitch p along them (x). The BRDF of a beam much wider than
-// P is the average over entry points in one period cell, so the light enters uniformly in
-// the central cell instead of within a finite beam: a beam a few periods wide covers 1.3 or
-// 1.7 periods depending on the light's elevation (its footprint stretches by 1/cos θi), and
-// that partial coverage makes the measured BRDF of a striped sample depend on the geometry
-// of the footprint — not reciprocal, not the sample's. Exit points stay where the light
-// leaves (every exit is collected by the detector's cone). Directions are not touched: the
-// wrapper goes inside MountedScatterer, in the sample's own frame.
-class PeriodCellEntry final : public Scatterer {
-public:
-    PeriodCellEntry(std::shared_ptr<const Scatterer> inner, double pitch_x_um, double period_y_um,
-                    double y0_um)
-        : inner_(std::move(inner)), pitch_x_(pitch_x_um), period_y_(period_y_um), y0_(y0_um) {}
-    std::string name() const override { return inner_->name(); }
-    const std::vector<std::string>& lobe_names() const override { return inner_->lobe_names(); }
-    std::optional<ScatterEvent> sample(const Vec3d& wi, double lambda_nm,
-                                       const Vec2& /*beam position*/, Rng& rng) const override {
-        return inner_->sample(wi, lambda_nm, draw_entry(rng), rng);
-    }
-    Vec2 draw_entry(Rng& rng) const {
-        const double x = (rng.uniform() - 0.5) * pitch_x_;
-        const double y = y0_ + (rng.uniform() - 0.5) * period_y_;
-        return {x, y};
-    }
-
-private:
-    std::shared_ptr<const Scatterer> inner_;
-    double pitch_x_, period_y_, y0_;
-};
-
 // The medulla of a barb: a white scatterer, or spongy keratin with a structural colour.
 struct MedullaSpec {
     bool spongy = false;
@@ -88,19 +60,6 @@ struct MedullaSpec {
     double spacing_um = 0.184;      // spongy: dominant spacing Λ of the keratin/air network
     double keratin_fraction = 0.5;  // spongy: filling fraction of keratin
     double band_width_nm = 30.0;    // spongy: Gaussian standard deviation of the band
-
-    // First-order Bragg peak λ = 2 n̄ Λ (n̄ the volume-averaged index at that λ: solved
-    // by fixed-point iteration, keratin's dispersion is weak).
-    double peak_nm() const {
-        double lambda = 2.0 * 1.3 * spacing_um * 1e3;
-        for (int k = 0; k < 20; ++k) {
-            const double n_keratin =
-                optics::keratin()->index(std::clamp(lambda, 300.0, 1000.0)).real();
-            lambda =
-                2.0 * (keratin_fraction * n_keratin + (1.0 - keratin_fraction)) * spacing_um * 1e3;
-        }
-        return lambda;
-    }
 };
 
 struct SpeciesSpec {
@@ -202,34 +161,8 @@ SpeciesSpec read_species(ParameterTable table, const std::string& name) {
     return s;
 }
 
-Settings read_settings(StudyFile& file, std::string& name, const fs::path& source) {
-    Settings s;
-    ParameterTable root = file.root();
-    name = read_study_name(root, source);
-    root.string("study", "species", {"species"}, "which study this file describes");
-    s.seed = read_seed(root);
-    s.time_budget_s = root.number("time_budget_s", s.time_budget_s, positive(),
-                                  "wall-time budget per BRDF measurement, s");
-    s.target_relative_error =
-        root.number("target_relative_error", 0.0, between(0.0, 1.0),
-                    "stop a BRDF's passes once its estimated relative error is below this");
-    ParameterTable spectrum = root.table("spectrum");
-    s.wavelengths = read_wavelengths(spectrum, {.first_nm = 400.0,
-                                                .last_nm = 700.0,
-                                                .step_nm = 50.0,
-                                                .min_nm = kFilipWavelengths.min_nm,
-                                                .max_nm = kFilipWavelengths.max_nm,
-                                                .range_reason = kFilipWavelengths.range_reason});
-    bool bands[3] = {false, false, false};
-    for (double l : s.wavelengths) bands[static_cast<int>(analysis::filip2024_channel(l))] = true;
-    if (!(bands[0] && bands[1] && bands[2])) {
-        throw InputError(
-            fmt::format("{}: [spectrum] must put a wavelength in each of Filip's bands (blue "
-                        "380-490, green 490-580, red 580-780 nm) for the RGB fit",
-                        spectrum.location()));
-    }
-    s.tolerance = read_tolerance(root.table("tessellation"));
-
+// [goniometer], [btf], [fit]: the instruments' settings.
+void read_instruments(ParameterTable& root, Settings& s) {
     ParameterTable go = root.table("goniometer");
     s.detector_half_angle = go.angle_deg("detector_half_angle_deg", s.detector_half_angle,
                                          {0.0, 20.0, true, false}, "detector cone half-angle");
@@ -260,10 +193,12 @@ Settings read_settings(StudyFile& file, std::string& name, const fs::path& sourc
     s.fit_evaluations =
         static_cast<int>(fit.integer("max_function_evaluations", s.fit_evaluations, 50, 1000000,
                                      "Levenberg-Marquardt function evaluations"));
+}
 
+// [species]: `run` lists which of Filip's four to build, each from its [species.<name>] table.
+void read_species_list(ParameterTable species, Settings& s) {
     const auto all = analysis::filip2024_preset_names();
     const std::vector<std::string> allowed(all.begin(), all.end());
-    ParameterTable species = root.table("species");
     const std::string list = species.string("run", "parrot,rooster,flamingo,stork", {},
                                             "comma-separated species to run");
     std::vector<std::string> names;
@@ -294,6 +229,37 @@ Settings read_settings(StudyFile& file, std::string& name, const fs::path& sourc
         if (species.has(n) && std::find(names.begin(), names.end(), n) == names.end())
             read_species(species.table(n), n);
     }
+}
+
+Settings read_settings(StudyFile& file, std::string& name, const fs::path& source) {
+    Settings s;
+    ParameterTable root = file.root();
+    name = read_study_name(root, source);
+    root.string("study", "species", {"species"}, "which study this file describes");
+    s.seed = read_seed(root);
+    s.time_budget_s = root.number("time_budget_s", s.time_budget_s, positive(),
+                                  "wall-time budget per BRDF measurement, s");
+    s.target_relative_error =
+        root.number("target_relative_error", 0.0, between(0.0, 1.0),
+                    "stop a BRDF's passes once its estimated relative error is below this");
+    ParameterTable spectrum = root.table("spectrum");
+    s.wavelengths = read_wavelengths(spectrum, {.first_nm = 400.0,
+                                                .last_nm = 700.0,
+                                                .step_nm = 50.0,
+                                                .min_nm = kFilipWavelengths.min_nm,
+                                                .max_nm = kFilipWavelengths.max_nm,
+                                                .range_reason = kFilipWavelengths.range_reason});
+    bool bands[3] = {false, false, false};
+    for (double l : s.wavelengths) bands[static_cast<int>(analysis::filip2024_channel(l))] = true;
+    if (!(bands[0] && bands[1] && bands[2])) {
+        throw InputError(
+            fmt::format("{}: [spectrum] must put a wavelength in each of Filip's bands (blue "
+                        "380-490, green 490-580, red 580-780 nm) for the RGB fit",
+                        spectrum.location()));
+    }
+    s.tolerance = read_tolerance(root.table("tessellation"));
+    read_instruments(root, s);
+    read_species_list(root.table("species"), s);
     root.reject_unused();
     return s;
 }
@@ -315,11 +281,8 @@ std::shared_ptr<const optics::Material> keratin_of(const SpeciesSpec& s) {
 
 sim::AlbedoSpectrum medulla_albedo(const MedullaSpec& m) {
     if (!m.spongy) return sim::constant_albedo(m.albedo);
-    const double peak = m.peak_nm();
-    return [m, peak](double lambda) {
-        const double u = (lambda - peak) / m.band_width_nm;
-        return m.base_albedo + (m.albedo - m.base_albedo) * std::exp(-0.5 * u * u);
-    };
+    return sim::bragg_band_albedo(m.spacing_um, m.keratin_fraction, m.band_width_nm, m.albedo,
+                                  m.base_albedo);
 }
 
 struct BuiltSpecies {
@@ -429,6 +392,795 @@ std::string parameter_cell(double value, double error, std::string_view unit) {
     return fmt::format("{:.3g} ± {:.2g}", v, angle ? error / kDeg : error);
 }
 
+// ---- One run: what every step shares. -------------------------------------------------------
+
+struct Run {
+    const Settings& s;
+    const std::string& study_text;
+    const fs::path& results_root;
+    const std::string& name;
+    const StudyProgress& clock;
+    bool progress;
+    const std::vector<gonio::DirectionPair>& pairs;  // the 61 × 60 set
+    const Luminance& luminance;
+    const std::vector<double>& in_plane_angles_deg;
+    std::size_t nl() const { return s.wavelengths.size(); }
+};
+
+// One species' instruments: the goniometer's sample is lit over one period cell (a barb's axis
+// is at y = 0 for an odd number of barbs, at P/2 for an even one), mounted; the BTF camera
+// images the real patch (its own uniform illumination of the imaged square).
+struct Specimen {
+    const SpeciesSpec& spec;
+    std::size_t index;  // in the study's species list: the streams' index
+    const BuiltSpecies& built;
+    std::shared_ptr<const sim::ExplicitScatterer> tracer;
+    std::shared_ptr<const PeriodCellEntry> cell;
+    MountedScatterer sample, imaged;
+    fs::path dir;
+
+    Specimen(const SpeciesSpec& sp, std::size_t si, const BuiltSpecies& b, fs::path sdir)
+        : spec(sp),
+          index(si),
+          built(b),
+          tracer(std::make_shared<const sim::ExplicitScatterer>(b.scene)),
+          cell(std::make_shared<const PeriodCellEntry>(
+              tracer, sp.patch.barbule_separation * sp.patch.barbule_width_um, b.period_um,
+              sp.barbs % 2 == 1 ? 0.0 : 0.5 * b.period_um)),
+          sample(cell, sp.mount_rad),
+          imaged(tracer, sp.mount_rad),
+          dir(std::move(sdir)) {}
+};
+
+// One species' measurements, kept for its records and its report section.
+struct Measured {
+    gonio::GoniometerConfig brdf_config;
+    gonio::BrdfRecord brdf, fit_brdf, table1_brdf;
+    Filip2024Parameters table1;
+    std::vector<analysis::BrdfObservation> observations;  // with the refit's standard errors
+    analysis::Filip2024FitResult fit;
+};
+
+// ---- Report sections. ------------------------------------------------------------------------
+
+// Angle (0–90°) between two fibre axes given by their φa (modulo 180°).
+double axis_angle_deg(double a, double b) { return std::abs(std::remainder(a - b, kPi)) / kDeg; }
+
+std::string patch_materials(const SpeciesSpec& sp) {
+    std::string materials = "clear keratin barbules";
+    if (sp.melanin_core) {
+        materials =
+            sp.cortex_um > 0.0
+                ? fmt::format("barbules: {:.3f} µm keratin cortex ({}) over melanin", sp.cortex_um,
+                              sp.cortex_coherent ? "coherent film" : "by intensity")
+                : "barbules: melanin";
+    }
+    if (sp.pigment_k > 0.0) {
+        materials += fmt::format("; keratin pigment k = {:.3g} at {:.0f} nm (σ {:.0f} nm)",
+                                 sp.pigment_k, sp.pigment_peak_nm, sp.pigment_width_nm);
+    }
+    return materials;
+}
+
+std::string patch_medulla(const SpeciesSpec& sp) {
+    const auto& p = sp.patch;
+    if (p.barb.medulla_scale <= 0.0) return "none";
+    if (!sp.medulla.spongy) {
+        return fmt::format("white, scale {:.2f}, albedo {:.2f}", p.barb.medulla_scale,
+                           sp.medulla.albedo);
+    }
+    return fmt::format(
+        "spongy, scale {:.2f}: band at 2 n̄ Λ = {:.0f} nm (Λ = {:.3f} µm, f = {:.2f}), albedo "
+        "{:.2f} on {:.2f}",
+        p.barb.medulla_scale,
+        sim::bragg_peak_nm(sp.medulla.spacing_um, sp.medulla.keratin_fraction),
+        sp.medulla.spacing_um, sp.medulla.keratin_fraction, sp.medulla.albedo,
+        sp.medulla.base_albedo);
+}
+
+std::string report_introduction(const Settings& s, const std::vector<BuiltSpecies>& built,
+                                const fs::path& source) {
+    std::string md = fmt::format(
+        "# Species study: four feathers of Filip et al. 2024, explicit and fitted\n\n"
+        "Plumage {}, study file `{}`. The macaw parrot, Cochin cock (rooster), greater flamingo "
+        "and white stork of Filip, Maile and Vávra 2024 as explicit barb + barbule patches "
+        "(geometry/barb.h), traced (sim/tracer.h) and measured like the paper's capture: the BRDF "
+        "on its 61 × 60 set, the in-plane sweep, BTF images; then the paper's analytic BRDF fitted "
+        "to each simulated BRDF. The simulation is a hypothesis about each feather's structure, "
+        "not a measurement: where the fit departs from Table 1, either the structure or the model "
+        "is missing something, and the report says which it can tell.\n\n"
+        "## How each patch resembles its sample\n\n"
+        "The paper shows the samples only in photographs and says, per sample, which structures "
+        "dominate (Sects. 3 and 5.2). Each patch encodes those statements; the mount azimuth on "
+        "the stage comes from Table 1's φa: U(φa) = (sin φa, cos φa, 0) is the axis of the fibres "
+        "whose highlight the model's anisotropic term describes, so the barb axis (oriented_by = "
+        "barbs) or the barbules' direction (oriented_by = barbules) is turned onto U.\n\n"
+        "| species | barb width, ecc. | medulla | barbules (width, ecc., length, rise) | barb "
+        "period | layers | materials | mount |\n"
+        "|---|---|---|---|---|---|---|---|\n",
+        kVersion, source.string());
+    for (std::size_t i = 0; i < s.species.size(); ++i) {
+        const SpeciesSpec& sp = s.species[i];
+        const auto& p = sp.patch;
+        md += fmt::format(
+            "| {} | {:.0f} µm, {:.2f} | {} | {:.0f} µm, {:.2f}, {:.1f} barb widths, {:.0f}° | "
+            "{:.0f} µm | {} | {} | {:.0f}° (by {}) |\n",
+            sp.name, p.barb.barb_width_um, p.barb.barb_eccentricity, patch_medulla(sp),
+            p.barbule_width_um, p.barbule_eccentricity, p.barbule_length,
+            p.barbule_inclination_rad / kDeg, built[i].period_um, sp.layers, patch_materials(sp),
+            sp.mount_rad / kDeg, sp.oriented_by);
+    }
+    md += "\n";
+    for (const SpeciesSpec& sp : s.species) {
+        if (!sp.description.empty()) md += fmt::format("- **{}**: {}\n", sp.name, sp.description);
+    }
+    md +=
+        "\nNot modelled: the rachis, barbule hooks, curvature of the vane, the sample's backing "
+        "(light leaving below the stack is lost, as on a black stage), the spongy keratin's "
+        "scattering itself (its measured effect enters as the medulla's albedo band), "
+        "polarisation.\n\n";
+    return md;
+}
+
+void write_species_h5_header(record::Hdf5Writer& h5, const SpeciesResult& result) {
+    h5.write("wavelength_nm", std::span<const double>(result.wavelengths_nm),
+             {result.wavelengths_nm.size()}, {{"units", "nm"}});
+    h5.write("in_plane/light_angle_deg", std::span<const double>(result.in_plane_angles_deg),
+             {result.in_plane_angles_deg.size()},
+             {{"units", "deg"},
+              {"meaning",
+               "signed light angle; view at 45 deg in the plane across the barbs; +45 = retro"}});
+}
+
+// The patch, the BTF images and the fingerprints.
+std::string section_setup(const Run& run, const Specimen& x, const SpeciesOutcome& o) {
+    const Settings& s = run.s;
+    const SpeciesSpec& sp = x.spec;
+    std::string md = fmt::format("## {}\n\n", sp.name);
+    md += fmt::format(
+        "Patch: {} barbs × {:.0f} µm, {} layer(s), {} instances of {} triangles; mounted at "
+        "{:.0f}°; barbules start {:.2f} µm out of the cortex (their root faces would otherwise "
+        "reach into it).\n\n",
+        sp.barbs, sp.length_um, sp.layers, x.built.instances, x.built.triangles, o.mount_deg,
+        x.built.root_clearance_um);
+    md += fmt::format(
+        "Virtual BTF on the 61 × 60 set (`btf.h5`: 3660 images of {0} × {0} pixels over a "
+        "{1:.0f} µm square, {2} wavelengths, detector half-angle {3:.0f}°, {4} quanta per light "
+        "direction and wavelength, {5:.0f} s). Fig. 9's geometries: light and view at 30°, view at "
+        "azimuth 0°; light azimuth 0°, 30°, …, 150° on the top row, 180° … 330° below; one "
+        "exposure for all:\n\n![btf]({6}/btf.png)\n\n",
+        s.btf_pixels, s.btf_patch_um, s.btf_wavelengths.size(), s.btf_detector_half_angle / kDeg,
+        s.btf_quanta, o.btf_seconds, sp.name);
+    md += fmt::format(
+        "Fingerprints (Fig. 7 layout; simulation | fitted model | Table 1 model, each with its "
+        "own exposure):\n\n![fingerprints]({}/fingerprints.png)\n\n",
+        sp.name);
+    return md;
+}
+
+std::string section_fit(const Measured& m, const SpeciesOutcome& o) {
+    return fmt::format(
+        "BRDF: {} quanta per light direction and wavelength, estimated relative RMS error "
+        "{:.1f} %, {:.0f} s. Fit (best of 4 starts in φa, from {:.0f}°): reduced χ² {:.2f} over "
+        "{} observations ({} free parameters; {}), relative residual Σ|Δf|/Σf {:.1f} %, "
+        "RMS/mean {:.1f} % (Table 1's parameters: {:.1f} %, {:.1f} %).\n\n",
+        m.brdf.quanta, 100.0 * m.brdf.convergence.back().estimated_relative_rms_error,
+        m.brdf.wall_time_s, o.fit_start_phi_a_deg, m.fit.reduced_chi_square, m.fit.observations,
+        m.fit.free_parameters.size(), m.fit.termination, 100.0 * o.fit_relative_l1,
+        100.0 * o.fit_relative_rms, 100.0 * o.table1_relative_l1, 100.0 * o.table1_relative_rms);
+}
+
+// The three cells where the fit misses the simulation most, in units of the simulation's error.
+std::string largest_residuals(const Run& run, const Measured& m) {
+    std::vector<std::pair<double, std::size_t>> residuals;
+    for (std::size_t c = 0; c < m.observations.size(); ++c) {
+        const double sigma = m.observations[c].standard_error.value_or(1.0);
+        residuals.emplace_back(std::abs(m.fit_brdf.value[c] - m.brdf.value[c]) / sigma, c);
+    }
+    const std::size_t shown = std::min<std::size_t>(3, residuals.size());
+    std::partial_sort(residuals.begin(), residuals.begin() + shown, residuals.end(),
+                      std::greater<>());
+    auto angles = [](const Vec3d& w) {
+        return fmt::format("{:.0f}°/{:.0f}°", std::acos(std::clamp(w.z(), -1.0, 1.0)) / kDeg,
+                           std::atan2(w.y(), w.x()) / kDeg);
+    };
+    std::string worst;
+    for (std::size_t r = 0; r < shown; ++r) {
+        const std::size_t c = residuals[r].second, p = c / run.nl(), k = c % run.nl();
+        worst += fmt::format(
+            "{}light {} → view {} at {:.0f} nm: simulation {:.3g}, fit {:.3g} ({:.0f}σ)",
+            r == 0 ? "" : "; ", angles(run.pairs[p].wi), angles(run.pairs[p].wo),
+            run.s.wavelengths[k], m.brdf.value[c], m.fit_brdf.value[c], residuals[r].first);
+    }
+    return worst;
+}
+
+// What the numbers can tell apart: the model against the simulation (the fit's residuals in
+// units of the simulation's errors), and the simulated structure against the real feather (the
+// Table 1 model standing in for its measurement).
+std::string section_reading(const Run& run, const Specimen& x, const Measured& m,
+                            const SpeciesOutcome& o) {
+    std::array<double, 3> sim_sum{}, table1_sum{};
+    for (std::size_t c = 0; c < m.observations.size(); ++c) {
+        const int band =
+            static_cast<int>(analysis::filip2024_channel(run.s.wavelengths[c % run.nl()]));
+        sim_sum[band] += m.brdf.value[c];
+        table1_sum[band] += m.table1_brdf.value[c];
+    }
+    const double fitted_phi = o.fitted[analysis::kFilipPhiA];
+    std::string md = fmt::format(
+        "**Reading.** The fitted anisotropy axis U(φa = {:.1f}°) lies {:.1f}° from the barb axis "
+        "and {:.1f}° from the barbules of the mounted patch (Table 1's: {:.1f}° and {:.1f}°). ",
+        fitted_phi / kDeg, o.fit_axis_from_barbs_deg, o.fit_axis_from_barbules_deg,
+        axis_angle_deg(m.table1.phi_a_rad, 0.5 * kPi - x.spec.mount_rad),
+        axis_angle_deg(m.table1.phi_a_rad, -x.spec.mount_rad));
+    md += fmt::format(
+        "Model against simulation: reduced χ² {:.1f}: {}. Largest residuals: {}. Simulation "
+        "against the feather (Table 1's model standing in for the measurement): the simulated "
+        "patch reflects {:.2f}, {:.2f}, {:.2f} times Table 1's R, G, B over the 61 × 60 set, a "
+        "difference of structure and materials (our hypothesis of the feather) that no fit of the "
+        "model can remove.\n\n",
+        m.fit.reduced_chi_square,
+        m.fit.reduced_chi_square < 2.0
+            ? "Filip's five terms describe this simulated BRDF within its Monte Carlo error"
+            : "the five terms cannot follow this simulated BRDF to its Monte Carlo precision "
+              "(sharper or differently placed features than the model's lobes)",
+        largest_residuals(run, m), sim_sum[0] / std::max(table1_sum[0], 1e-300),
+        sim_sum[1] / std::max(table1_sum[1], 1e-300), sim_sum[2] / std::max(table1_sum[2], 1e-300));
+    return md;
+}
+
+std::string section_albedo_reciprocity(const Run& run, const SpeciesOutcome& o) {
+    std::string albedo_line;
+    for (std::size_t k = 0; k < run.nl(); ++k)
+        albedo_line += fmt::format(" {:.0f} nm {:.3f}±{:.3f};", run.s.wavelengths[k], o.albedo[k],
+                                   o.albedo_error[k]);
+    std::string md = fmt::format("Albedo at normal incidence:{}\n\n", albedo_line);
+    md += fmt::format(
+        "Paths that met a surface from a side other than the one they travelled in (medium "
+        "mismatches: barbule roots inside the barb cortex, where the barbule surface still "
+        "declares air outside): {:.2f} % of the paths at normal incidence, carrying {:.2f} % of "
+        "the incident power out of the albedo above.\n\n",
+        100.0 * o.mismatched_paths, 100.0 * o.mismatched_albedo);
+    const double dof = std::max(1, o.reciprocity_dof);
+    md += fmt::format(
+        "Reciprocity over the {} (pair, wavelength) cells the set holds both ways: χ²/dof = "
+        "{:.2f}, largest |z| = {:.2f}. The tracer's physics is reciprocal, but the instrument is "
+        "not exactly: a cell is the BRDF averaged over the detector cone around ω_o with ω_i "
+        "exact, so a lobe narrower than the cone (mirror-like barbule faces) is averaged "
+        "differently in f(ω_i, ω_o) and f(ω_o, ω_i); the difference shrinks with the cone "
+        "(detector_half_angle_deg).\n\n",
+        o.reciprocity_dof, o.reciprocity_chi_square / dof, o.reciprocity_max_z);
+    return md;
+}
+
+std::string species_section(const Run& run, const Specimen& x, const Measured& m,
+                            const SpeciesOutcome& o) {
+    return section_setup(run, x, o) + section_fit(m, o) + section_reading(run, x, m, o) +
+           section_albedo_reciprocity(run, o);
+}
+
+std::string fits_summary_rows(const SpeciesResult& result) {
+    std::string md = "| reduced χ² |";
+    for (const auto& o : result.species) md += fmt::format(" {:.2f} |", o.reduced_chi_square);
+    md += "\n| relative L1: fit \\| Table 1 |";
+    for (const auto& o : result.species)
+        md += fmt::format(" {:.1f} % \\| {:.1f} % |", 100.0 * o.fit_relative_l1,
+                          100.0 * o.table1_relative_l1);
+    md += "\n| relative RMS: fit \\| Table 1 |";
+    for (const auto& o : result.species)
+        md += fmt::format(" {:.1f} % \\| {:.1f} % |", 100.0 * o.fit_relative_rms,
+                          100.0 * o.table1_relative_rms);
+    md += "\n| mean BRDF R, G, B (1/sr) |";
+    for (const auto& o : result.species)
+        md += fmt::format(" {:.3f}, {:.3f}, {:.3f} |", o.mean_brdf_rgb[0], o.mean_brdf_rgb[1],
+                          o.mean_brdf_rgb[2]);
+    return md + "\n\n";
+}
+
+// Fitted parameters beside Table 1: fits.csv and the report's table.
+std::string fits_section(const fs::path& dir, const SpeciesResult& result) {
+    std::ofstream csv(dir / "fits.csv");
+    csv << "parameter,unit";
+    for (const auto& o : result.species)
+        csv << fmt::format(",{0} fit,{0} fit error,{0} table 1", o.species);
+    csv << "\n";
+    std::string md =
+        "## Fitted parameters beside Table 1\n\nEach cell: fit ± standard error | Table 1. Angles "
+        "in degrees. θmax and the units scale are held fixed (analysis/filip2024_fit.h). The "
+        "model's colours are camera-RGB bands (blue 380–490, green 490–580, red 580–780 nm); every "
+        "simulated wavelength is an observation of its band.\n\n| parameter |";
+    for (const auto& o : result.species) md += fmt::format(" {} |", o.species);
+    md += "\n|---|";
+    for (std::size_t i = 0; i < result.species.size(); ++i) md += "---|";
+    md += "\n";
+    for (int p = 0; p < kFilip2024ParameterCount; ++p) {
+        const auto& info = kFilip2024ParameterTable[p];
+        const bool angle = info.unit == "rad";
+        const double scale = angle ? 1.0 / kDeg : 1.0;
+        csv << fmt::format("{},{}", info.name, angle ? "deg" : info.unit);
+        md += fmt::format("| {} |", info.name);
+        for (const auto& o : result.species) {
+            csv << fmt::format(",{:.6g},{:.6g},{:.6g}", o.fitted[p] * scale,
+                               o.fitted_error[p] * scale, o.table1[p] * scale);
+            md += fmt::format(" {}{} \\| {:.3g} |",
+                              parameter_cell(o.fitted[p], o.fitted_error[p], info.unit),
+                              o.at_bound[p] ? " (bound)" : "", o.table1[p] * scale);
+        }
+        csv << "\n";
+        md += "\n";
+    }
+    return md + fits_summary_rows(result);
+}
+
+// In-plane luminance, Fig. 6a: in_plane_luminance.csv, its plot and a table.
+std::string in_plane_section(const fs::path& dir, const SpeciesResult& result,
+                             std::vector<PlotJob>& plots) {
+    std::ofstream csv(dir / "in_plane_luminance.csv");
+    csv << "light angle (deg)";
+    for (const auto& o : result.species) csv << fmt::format(",{0},{0} error,{0} fit", o.species);
+    csv << "\n";
+    for (std::size_t p = 0; p < result.in_plane_angles_deg.size(); ++p) {
+        csv << fmt::format("{:.1f}", result.in_plane_angles_deg[p]);
+        for (const auto& o : result.species) {
+            csv << fmt::format(",{:.5g},{:.5g},{:.5g}", o.in_plane_lstar[p],
+                               o.in_plane_lstar_error[p], o.in_plane_fit_lstar[p]);
+        }
+        csv << "\n";
+    }
+    plots.push_back({"luminance", dir / "in_plane_luminance.csv", dir / "in_plane_luminance.png"});
+    std::string md =
+        "## In-plane luminance (Filip Fig. 6a)\n\nView at 45° in the plane across the barbs, light "
+        "from −81° to 81° (+45° retro-reflection, −45° the mirror direction); CIE L* (D65) of the "
+        "reflectance factor π f; simulation with 1σ error bars, fitted model dashed.\n\n"
+        "![in-plane luminance](in_plane_luminance.png)\n\n"
+        "| species | L* at −45° (specular) | L* at 0° | L* at +45° (retro) | peak at |\n"
+        "|---|---|---|---|---|\n";
+    auto at = [&](const SpeciesOutcome& o, double angle) {
+        for (std::size_t p = 0; p < result.in_plane_angles_deg.size(); ++p) {
+            if (std::abs(result.in_plane_angles_deg[p] - angle) < 0.5)
+                return fmt::format("{:.1f} ± {:.1f}", o.in_plane_lstar[p],
+                                   o.in_plane_lstar_error[p]);
+        }
+        return std::string("–");
+    };
+    for (const auto& o : result.species) {
+        md += fmt::format("| {} | {} | {} | {} | {:.0f}° |\n", o.species, at(o, -45.0), at(o, 0.0),
+                          at(o, 45.0), o.in_plane_peak_deg);
+    }
+    return md + "\n";
+}
+
+// ---- Build. ----------------------------------------------------------------------------------
+
+// Light entering the central period cell or the BTF square and crossing the stack at 75° must
+// stay on the patch.
+void check_patch_size(const SpeciesSpec& sp, const BuiltSpecies& b, const Settings& s,
+                      const fs::path& source) {
+    const Eigen::AlignedBox3d box = b.scene.bounds();
+    const double depth = box.max().z() - box.min().z();
+    const double cell =
+        0.5 * std::max(b.period_um, sp.patch.barbule_separation * sp.patch.barbule_width_um);
+    const double half =
+        std::max(cell, 0.5 * std::sqrt(2.0) * s.btf_patch_um) + depth * std::tan(kLargestPolarRad);
+    const double half_x = 0.5 * (box.max().x() - box.min().x()),
+                 half_y = 0.5 * (box.max().y() - box.min().y());
+    if (std::min(half_x, half_y) >= half) return;
+    throw InputError(fmt::format(
+        "{}: [species.{}.patch] gives a patch of {:.0f} x {:.0f} um; light entering the central "
+        "period cell or the BTF square and crossing the {:.0f} um deep stack at 75 deg needs "
+        "{:.0f} um on every side of the centre: expected a larger length_um or more barbs",
+        source.string(), sp.name, 2.0 * half_x, 2.0 * half_y, depth, half));
+}
+
+// Every scene first: a geometry the study file gets wrong stops the run before anything is
+// written.
+std::vector<BuiltSpecies> build_all(const Settings& s, StudyFile& file, const fs::path& source,
+                                    const StudyProgress& clock) {
+    std::vector<BuiltSpecies> built;
+    for (const SpeciesSpec& sp : s.species) {
+        clock.say(fmt::format("building the {} patch", sp.name));
+        const std::string where = fmt::format(
+            "{}: [species.{}]", file.root().table("species").table(sp.name).location(), sp.name);
+        built.push_back(build_species(sp, s.tolerance, where));
+        check_patch_size(sp, built.back(), s, source);
+    }
+    return built;
+}
+
+// ---- Measure. --------------------------------------------------------------------------------
+
+// The BRDF on the 61 × 60 set, checkpointed (Ctrl-C keeps the completed passes).
+gonio::BrdfRecord measure_species_brdf(const Run& run, const Specimen& x, Measured& m) {
+    const Settings& s = run.s;
+    gonio::GoniometerConfig& g = m.brdf_config;
+    g.direction_set = "filip2024_btf";
+    g.pairs = run.pairs;
+    g.wavelengths_nm = s.wavelengths;
+    g.detector_half_angle_rad = s.detector_half_angle;
+    g.beam_radius_um = 0.5 * x.built.period_um;  // unused: PeriodCellEntry draws the entry
+    g.seed = derive_seed(s.seed, "species/brdf", x.index);
+    g.quanta_per_pass = s.quanta;
+    g.max_passes = s.passes;
+    g.time_budget_s = s.time_budget_s;
+    g.target_relative_error = s.target_relative_error;
+    g.config_text = run.study_text;
+    g.estimator = gonio::Estimator::photon;
+    run.clock.say(
+        fmt::format("{}: BRDF on the 61 x 60 set ({} quanta per light direction and "
+                    "wavelength, {} wavelengths)",
+                    x.spec.name, s.quanta * static_cast<std::uint64_t>(s.passes), run.nl()));
+    gonio::RunControl control;
+    control.progress = run.progress;
+    const fs::path checkpoints = run.results_root / ".checkpoints" / run.name;
+    fs::create_directories(checkpoints);
+    control.checkpoint = checkpoints / (x.spec.name + "_brdf.checkpoint");
+    gonio::BrdfRecord brdf = gonio::measure_brdf(x.sample, g, control);
+    if (brdf.interrupted) {
+        throw Interrupted(interrupted_with_checkpoint(fmt::format("the {} BRDF", x.spec.name),
+                                                      brdf.passes, control.checkpoint));
+    }
+    gonio::write_brdf_record(brdf, x.dir / "brdf.h5");
+    return brdf;
+}
+
+// Channel means (R, G, B) over the set.
+std::array<double, 3> mean_brdf_rgb(const gonio::BrdfRecord& brdf,
+                                    const std::vector<double>& wavelengths) {
+    std::array<double, 3> mean{};
+    const std::size_t pairs = brdf.config.pairs.size(), nl = wavelengths.size();
+    for (std::size_t p = 0; p < pairs; ++p) {
+        for (std::size_t k = 0; k < nl; ++k) {
+            mean[static_cast<int>(analysis::filip2024_channel(wavelengths[k]))] += brdf.at(p, k);
+        }
+    }
+    std::array<int, 3> count{};
+    for (double l : wavelengths) ++count[static_cast<int>(analysis::filip2024_channel(l))];
+    for (int c = 0; c < 3; ++c) mean[c] /= static_cast<double>(count[c] * pairs);
+    return mean;
+}
+
+// Reciprocity over the pairs the set holds both ways (both polar angles ≥ 15°).
+void reciprocity(const gonio::BrdfRecord& brdf, std::size_t nl, SpeciesOutcome& o) {
+    double chi2 = 0.0, max_z = 0.0;
+    int dof = 0;
+    const auto lights = gonio::filip2024_light_directions();
+    const auto views = gonio::filip2024_view_directions();
+    auto same = [](const Vec3d& a, const Vec3d& b) { return (a - b).norm() < 1e-9; };
+    for (std::size_t li = 0; li < lights.size(); ++li) {
+        for (std::size_t vi = 0; vi < views.size(); ++vi) {
+            // The swapped pair: the light at this view direction, the view at this light.
+            std::size_t l2 = lights.size(), v2 = views.size();
+            for (std::size_t k = 0; k < lights.size(); ++k)
+                if (same(lights[k], views[vi])) l2 = k;
+            for (std::size_t k = 0; k < views.size(); ++k)
+                if (same(views[k], lights[li])) v2 = k;
+            if (l2 == lights.size() || v2 == views.size()) continue;
+            const std::size_t a = li * views.size() + vi, b = l2 * views.size() + v2;
+            if (b <= a) continue;  // each couple once; a == b is the same cell
+            for (std::size_t k = 0; k < nl; ++k) {
+                const double var =
+                    std::pow(brdf.error_at(a, k), 2) + std::pow(brdf.error_at(b, k), 2);
+                if (var <= 0.0) continue;
+                const double z = (brdf.at(a, k) - brdf.at(b, k)) / std::sqrt(var);
+                chi2 += z * z;
+                max_z = std::max(max_z, std::abs(z));
+                ++dof;
+            }
+        }
+    }
+    o.reciprocity_chi_square = chi2;
+    o.reciprocity_dof = dof;
+    o.reciprocity_max_z = max_z;
+}
+
+// ---- Compare: Filip's model fitted to the simulated BRDF. -----------------------------------
+
+// Least squares is local, and φa is where this fit's local minima are (each fibre family of the
+// patch is a candidate highlight axis): start from Table 1 with φa turned by 0°, 45°, 90° and
+// 135° (φa is periodic in π) and keep the best unweighted fit.
+analysis::Filip2024FitResult best_of_four_starts(const std::vector<analysis::BrdfObservation>& obs,
+                                                 const Filip2024Parameters& table1,
+                                                 const analysis::Filip2024FitOptions& options,
+                                                 SpeciesOutcome& o) {
+    std::optional<analysis::Filip2024FitResult> best;
+    double best_phi = 0.0;
+    for (int turn = 0; turn < 4; ++turn) {
+        Filip2024Parameters trial = table1;
+        trial.phi_a_rad = std::remainder(table1.phi_a_rad + turn * 0.25 * kPi, kPi);
+        analysis::Filip2024FitResult candidate = analysis::fit_filip2024(obs, trial, options);
+        if (!best || candidate.residual_rms < best->residual_rms) {
+            best = std::move(candidate);
+            best_phi = trial.phi_a_rad;
+        }
+    }
+    o.fit_start_phi_a_deg = best_phi / kDeg;
+    return *best;
+}
+
+// Photon counts make a cell's standard error grow with its own value (σ² ≈ c f for the cells of
+// one light direction and wavelength), so weighting by the measured σ pulls the fit low
+// (upward fluctuations get small weights, empty cells σ = 0). The refit's weights: the variance
+// model σ_k² = c f_fit,k, c per (light, wavelength) from Σσ² / Σf over its views (Pearson's
+// χ²), floored at one quantum's worth (f ≥ the smallest nonzero value).
+void photon_variance_weights(const gonio::BrdfRecord& brdf, const Filip2024Parameters& first_fit,
+                             const Run& run, std::vector<analysis::BrdfObservation>& obs) {
+    const std::size_t views = gonio::kFilip2024ViewDirections, nl = run.nl();
+    const auto& pairs = run.pairs;
+    std::vector<double> variance_per_value(pairs.size() / views * nl, 0.0);
+    for (std::size_t l = 0; l < pairs.size() / views; ++l) {
+        for (std::size_t k = 0; k < nl; ++k) {
+            double var = 0.0, sum = 0.0;
+            for (std::size_t v = 0; v < views; ++v) {
+                var += std::pow(brdf.error_at(l * views + v, k), 2);
+                sum += brdf.at(l * views + v, k);
+            }
+            variance_per_value[l * nl + k] = sum > 0.0 ? var / sum : 0.0;
+        }
+    }
+    const analysis::Filip2024Brdf first_model(first_fit);
+    double smallest = std::numeric_limits<double>::infinity();
+    for (double v : brdf.value)
+        if (v > 0.0) smallest = std::min(smallest, v);
+    if (!std::isfinite(smallest)) smallest = 1e-6;
+    for (std::size_t p = 0; p < pairs.size(); ++p) {
+        for (std::size_t k = 0; k < nl; ++k) {
+            const double c = variance_per_value[(p / views) * nl + k];
+            const double f = std::max(
+                first_model.eval(pairs[p].wi, pairs[p].wo, run.s.wavelengths[k]), smallest);
+            obs[p * nl + k].standard_error = c > 0.0 ? std::sqrt(c * f) : std::sqrt(f * smallest);
+        }
+    }
+}
+
+// Two steps: an unweighted fit (best of four starts), then a refit with photon-count weights.
+void fit_filip(const Run& run, const SpeciesSpec& sp, Measured& m, SpeciesOutcome& o) {
+    m.table1 = analysis::filip2024_preset(sp.name);
+    o.table1 = analysis::to_vector(m.table1);
+    for (std::size_t p = 0; p < run.pairs.size(); ++p) {
+        for (std::size_t k = 0; k < run.nl(); ++k) {
+            m.observations.push_back({run.pairs[p].wi, run.pairs[p].wo, std::nullopt,
+                                      run.s.wavelengths[k], m.brdf.at(p, k), std::nullopt});
+        }
+    }
+    run.clock.say(
+        fmt::format("{}: fitting Filip 2024 to {} observations", sp.name, m.observations.size()));
+    analysis::Filip2024FitOptions options;
+    options.max_function_evaluations = run.s.fit_evaluations;
+    const analysis::Filip2024FitResult first =
+        best_of_four_starts(m.observations, m.table1, options, o);
+    photon_variance_weights(m.brdf, first.parameters, run, m.observations);
+    m.fit = analysis::fit_filip2024(m.observations, first.parameters, options);
+    o.fitted = m.fit.values;
+    o.fitted_error = m.fit.standard_errors;
+    o.reduced_chi_square = m.fit.reduced_chi_square;
+    o.fit_converged = m.fit.converged;
+    o.at_bound = m.fit.at_bound;
+    // U(φa) = (sin φa, cos φa): the barb axis of the mounted patch is at φa = 90° − ψ, the
+    // barbules at φa = −ψ.
+    o.fit_axis_from_barbs_deg =
+        axis_angle_deg(o.fitted[analysis::kFilipPhiA], 0.5 * kPi - sp.mount_rad);
+    o.fit_axis_from_barbules_deg = axis_angle_deg(o.fitted[analysis::kFilipPhiA], -sp.mount_rad);
+}
+
+// The fitted and Table 1 models on the same cells, their errors against the simulation, and
+// the three fingerprints side by side.
+void compare_models(const Specimen& x, Measured& m, SpeciesOutcome& o) {
+    gonio::GoniometerConfig ge = m.brdf_config;
+    ge.estimator = gonio::Estimator::eval;
+    const analysis::Filip2024Brdf fitted_model(m.fit.parameters, "filip2024 fit");
+    const analysis::Filip2024Brdf table1_model(m.table1, "filip2024 table 1");
+    m.fit_brdf = gonio::measure_brdf(fitted_model, ge);
+    m.table1_brdf = gonio::measure_brdf(table1_model, ge);
+    gonio::write_brdf_record(m.fit_brdf, x.dir / "fit.h5");
+    o.fit_relative_rms = relative_rms(m.fit_brdf, m.brdf);
+    o.table1_relative_rms = relative_rms(m.table1_brdf, m.brdf);
+    o.fit_relative_l1 = relative_l1(m.fit_brdf, m.brdf);
+    o.table1_relative_l1 = relative_l1(m.table1_brdf, m.brdf);
+    const record::RgbImage a = gonio::brdf_fingerprint(m.brdf, 61, 60, 4);
+    const record::RgbImage b = gonio::brdf_fingerprint(m.fit_brdf, 61, 60, 4);
+    const record::RgbImage c = gonio::brdf_fingerprint(m.table1_brdf, 61, 60, 4);
+    record::write_png(x.dir / "fingerprints.png", side_by_side({&a, &b, &c}));
+}
+
+// ---- Measure: in-plane sweep, albedo, BTF. --------------------------------------------------
+
+// In the plane across the barbs (turned with the sample): L* of the simulation and the fit.
+void in_plane_sweep(const Run& run, const Specimen& x, const Measured& m, SpeciesOutcome& o) {
+    gonio::GoniometerConfig ip = m.brdf_config;
+    ip.direction_set = "filip2024_in_plane";
+    ip.pairs = gonio::filip2024_in_plane_pairs(x.spec.mount_rad + gonio::kPlaneAcrossBarbsRad);
+    ip.quanta_per_pass = run.s.in_plane_quanta;
+    ip.max_passes = 1;
+    ip.seed = derive_seed(run.s.seed, "species/in_plane", x.index);
+    run.clock.say(fmt::format("{}: in-plane sweep", x.spec.name));
+    const gonio::BrdfRecord a = gonio::measure_brdf(x.sample, ip);
+    ip.estimator = gonio::Estimator::eval;
+    const analysis::Filip2024Brdf fitted_model(m.fit.parameters, "filip2024 fit");
+    const gonio::BrdfRecord b = gonio::measure_brdf(fitted_model, ip);
+    gonio::write_brdf_record(a, x.dir / "in_plane.h5");
+    double peak = -1.0;
+    for (std::size_t p = 0; p < ip.pairs.size(); ++p) {
+        const auto [l, e] = run.luminance(a, p);
+        o.in_plane_lstar.push_back(l);
+        o.in_plane_lstar_error.push_back(e);
+        o.in_plane_fit_lstar.push_back(run.luminance(b, p).first);
+        if (l > peak) {
+            peak = l;
+            o.in_plane_peak_deg = run.in_plane_angles_deg[p];
+        }
+    }
+}
+
+// Directional albedo at normal incidence over the period cell (sim/albedo.h).
+void albedo_at_normal_incidence(const Run& run, const Specimen& x, SpeciesOutcome& o) {
+    run.clock.say(fmt::format("{}: albedo at normal incidence", x.spec.name));
+    const std::size_t nl = run.nl();
+    o.albedo.assign(nl, 0.0);
+    o.albedo_error.assign(nl, 0.0);
+    for (std::size_t k = 0; k < nl; ++k) {
+        const sim::AlbedoEstimate e = sim::measure_albedo(
+            *x.tracer, *x.cell, Vec3d(0.0, 0.0, 1.0), run.s.wavelengths[k], run.s.albedo_quanta,
+            derive_seed(run.s.seed, "species/albedo", x.index * nl + k));
+        o.albedo[k] = e.albedo;
+        o.albedo_error[k] = e.standard_error;
+        o.mismatched_paths += e.mismatched_paths / static_cast<double>(nl);
+        o.mismatched_albedo += e.mismatched_albedo / static_cast<double>(nl);
+    }
+}
+
+// Fig. 9's 12 geometries in the 61 × 60 set: light and view at 30°, the view at azimuth 0, the
+// light going round in 30° steps (the red frame of Fig. 7).
+std::vector<std::size_t> figure9_pairs(const std::vector<gonio::DirectionPair>& pairs) {
+    std::vector<std::size_t> figure9;
+    const Vec3d view = gonio::direction_from_angles(30.0 * kDeg, 0.0);
+    for (int k = 0; k < 12; ++k) {
+        const Vec3d light = gonio::direction_from_angles(30.0 * kDeg, k * 30.0 * kDeg);
+        for (std::size_t p = 0; p < pairs.size(); ++p) {
+            if ((pairs[p].wi - light).norm() < 1e-9 && (pairs[p].wo - view).norm() < 1e-9)
+                figure9.push_back(p);
+        }
+    }
+    PLUMAGE_CHECK(figure9.size() == 12, "the Filip set holds Fig. 9's 12 geometries");
+    return figure9;
+}
+
+// The 12 images in two rows of 6, with one exposure for all (the brightest pixel of the 12 →
+// Y = 1), so that they compare.
+record::RgbImage figure9_image(const gonio::BtfRecord& btf,
+                               const std::vector<std::size_t>& figure9) {
+    const gonio::BtfConfig& bc = btf.config;
+    const std::size_t bl = bc.wavelengths_nm.size();
+    double exposure = 0.0;
+    const gonio::SpectrumToDisplay display(bc.wavelengths_nm);
+    for (const std::size_t p : figure9) {
+        for (int row = 0; row < bc.pixels; ++row) {
+            for (int col = 0; col < bc.pixels; ++col) {
+                const auto xyz = display.xyz(
+                    std::span<const double>(btf.value.data() + btf.index(p, row, col, 0), bl));
+                exposure = std::max(exposure, xyz.y);
+            }
+        }
+    }
+    std::vector<record::RgbImage> images;
+    for (const std::size_t p : figure9)
+        images.push_back(btf_image(btf, p, exposure > 0.0 ? 1.0 / exposure : 1.0));
+    std::vector<const record::RgbImage*> top, bottom;
+    for (std::size_t p = 0; p < 6; ++p) top.push_back(&images[p]);
+    for (std::size_t p = 6; p < 12; ++p) bottom.push_back(&images[p]);
+    const record::RgbImage a = side_by_side(top), b = side_by_side(bottom);
+    record::RgbImage both(std::max(a.width, b.width), a.height + b.height + 6);
+    both.fill(255, 255, 255);
+    auto paste = [&both](const record::RgbImage& from, int row_offset) {
+        for (int y = 0; y < from.height; ++y) {
+            for (int x = 0; x < from.width; ++x) {
+                const std::size_t i = 3 * (static_cast<std::size_t>(y) * from.width + x);
+                both.set(x, row_offset + y, from.pixels[i], from.pixels[i + 1], from.pixels[i + 2]);
+            }
+        }
+    };
+    paste(a, 0);
+    paste(b, a.height + 6);
+    return record::upscaled(both, std::max(1, 192 / bc.pixels));
+}
+
+// The virtual BTF on the 61 × 60 set (every pair an image of the patch), and Fig. 9 of it.
+void measure_species_btf(const Run& run, const Specimen& x, SpeciesOutcome& o) {
+    const Settings& s = run.s;
+    gonio::BtfConfig bc;
+    bc.pairs = run.pairs;
+    bc.wavelengths_nm = s.btf_wavelengths;
+    bc.patch_size_um = s.btf_patch_um;
+    bc.pixels = s.btf_pixels;
+    bc.detector_half_angle_rad = s.btf_detector_half_angle;
+    bc.quanta_per_light = s.btf_quanta;
+    bc.seed = derive_seed(s.seed, "species/btf", x.index);
+    run.clock.say(fmt::format("{}: BTF on the 61 x 60 set ({} x {} pixels, {} wavelengths)",
+                              x.spec.name, bc.pixels, bc.pixels, bc.wavelengths_nm.size()));
+    const gonio::BtfRecord btf = gonio::measure_btf(x.imaged, bc);
+    o.btf_seconds = btf.wall_time_s;
+    gonio::write_btf_record(btf, x.dir / "btf.h5");
+    record::write_png(x.dir / "btf.png", figure9_image(btf, figure9_pairs(run.pairs)));
+}
+
+// ---- Report. ---------------------------------------------------------------------------------
+
+void write_species_h5(record::Hdf5Writer& h5, const SpeciesOutcome& o, std::size_t nl) {
+    const std::string g5 = "/" + o.species;
+    const auto parameters = static_cast<std::uint64_t>(kFilip2024ParameterCount);
+    h5.write(g5 + "/fit/values", std::span<const double>(o.fitted), {parameters},
+             {{"meaning",
+               "Filip 2024 parameters fitted to the simulated BRDF, order of parameter_names"}});
+    h5.write(g5 + "/fit/standard_errors", std::span<const double>(o.fitted_error), {parameters});
+    h5.write(g5 + "/fit/table1", std::span<const double>(o.table1), {parameters},
+             {{"meaning", "Filip 2024 Table 1 column of this species"}});
+    h5.set_attribute(g5 + "/fit/values", "reduced_chi_square", o.reduced_chi_square);
+    h5.set_attribute(g5 + "/fit/values", "relative_rms", o.fit_relative_rms);
+    h5.write(g5 + "/albedo", std::span<const double>(o.albedo), {nl},
+             {{"meaning", "directional albedo at normal incidence"}});
+    h5.write(g5 + "/albedo_standard_error", std::span<const double>(o.albedo_error), {nl});
+    h5.write(g5 + "/in_plane/lstar", std::span<const double>(o.in_plane_lstar),
+             {o.in_plane_lstar.size()},
+             {{"meaning", "CIE L* (D65) of the reflectance factor pi f, simulation"}});
+    h5.write(g5 + "/in_plane/lstar_standard_error", std::span<const double>(o.in_plane_lstar_error),
+             {o.in_plane_lstar.size()});
+    h5.write(g5 + "/in_plane/fit_lstar", std::span<const double>(o.in_plane_fit_lstar),
+             {o.in_plane_lstar.size()});
+    h5.set_attribute(g5, "mount_deg", o.mount_deg);
+}
+
+// One species, measured and fitted: steps 1–6, its records and its section of the report.
+SpeciesOutcome run_one_species(const Run& run, const Specimen& x, record::Hdf5Writer& h5,
+                               std::string& md) {
+    SpeciesOutcome o;
+    o.species = x.spec.name;
+    o.mount_deg = x.spec.mount_rad / kDeg;
+    Measured m;
+    m.brdf = measure_species_brdf(run, x, m);
+    o.brdf_seconds = m.brdf.wall_time_s;
+    o.mean_brdf_rgb = mean_brdf_rgb(m.brdf, run.s.wavelengths);
+    reciprocity(m.brdf, run.nl(), o);
+    fit_filip(run, x.spec, m, o);
+    compare_models(x, m, o);
+    in_plane_sweep(run, x, m, o);
+    albedo_at_normal_incidence(run, x, o);
+    measure_species_btf(run, x, o);
+    write_species_h5(h5, o, run.nl());
+    md += species_section(run, x, m, o);
+    return o;
+}
+
+// After the species: Table 1 beside the fits, Fig. 6a, the records' index; then commit.
+void finish(const Run& run, SpeciesResult& result, record::Hdf5Writer& h5, std::string& md,
+            StagedDirectory& out) {
+    const fs::path& dir = out.path();
+    std::vector<PlotJob> plots;
+    md += fits_section(dir, result);
+    md += in_plane_section(dir, result, plots);
+    run_plots(plots, dir / "plots.csv");
+    std::string joined;
+    for (int p = 0; p < kFilip2024ParameterCount; ++p)
+        joined += (joined.empty() ? "" : ",") + std::string(kFilip2024ParameterTable[p].name);
+    h5.set_attribute("/", "parameter_names", joined);
+    h5.set_attribute("/", "study", std::string(run.study_text));
+    h5.commit();
+    result.wall_seconds = run.clock.elapsed_s();
+    md += fmt::format(
+        "## Run\n\n{:.0f} s on {} threads. Records: `species.h5` (fits, albedo, in-plane L*), "
+        "`fits.csv`, `in_plane_luminance.csv`, per species `brdf.h5` (simulation), `fit.h5` "
+        "(fitted model), `in_plane.h5`, `btf.h5` (virtual_gonio/RECORD.md).\n",
+        result.wall_seconds, omp_get_max_threads());
+    {
+        std::ofstream report(dir / "report.md");
+        report << md;
+    }
+    out.commit();
+    result.output_dir = out.final_path();
+    fs::remove_all(run.results_root / ".checkpoints" / run.name);
+    std::error_code ignored;
+    fs::remove(run.results_root / ".checkpoints", ignored);  // only when empty
+}
+
 }  // namespace
 
 SpeciesResult run_species_study(const std::string& study_text, const fs::path& source_name,
@@ -437,743 +1189,34 @@ SpeciesResult run_species_study(const std::string& study_text, const fs::path& s
     const StudyProgress clock(progress);
     auto file = StudyFile::parse(study_text, source_name);
     std::string name;
-    Settings s = read_settings(*file, name, source_name);
+    Settings s = read_settings(*file, name, source_name);  // read
     StagedDirectory::prepare(results_root / name);
     if (limits.time_budget_s > 0.0) s.time_budget_s = limits.time_budget_s;
     if (limits.target_relative_error > 0.0) s.target_relative_error = limits.target_relative_error;
-
-    // Build every scene first: a geometry the study file gets wrong stops the run before
-    // anything is written.
-    std::vector<BuiltSpecies> built;
-    for (const SpeciesSpec& sp : s.species) {
-        clock.say(fmt::format("building the {} patch", sp.name));
-        built.push_back(build_species(
-            sp, s.tolerance,
-            fmt::format("{}: [species.{}]", file->root().table("species").table(sp.name).location(), sp.name)));
-        const BuiltSpecies& b = built.back();
-        const Eigen::AlignedBox3d box = b.scene.bounds();
-        const double depth = box.max().z() - box.min().z();
-        const double cell =
-            0.5 * std::max(b.period_um, sp.patch.barbule_separation * sp.patch.barbule_width_um);
-        const double half = std::max(cell, 0.5 * std::sqrt(2.0) * s.btf_patch_um) +
-                            depth * std::tan(kLargestPolarRad);
-        const double half_x = 0.5 * (box.max().x() - box.min().x()),
-                     half_y = 0.5 * (box.max().y() - box.min().y());
-        if (std::min(half_x, half_y) < half) {
-            throw InputError(fmt::format(
-                "{}: [species.{}.patch] gives a patch of {:.0f} x {:.0f} um; light entering the "
-                "central period cell "
-                "or the BTF square and crossing the {:.0f} um deep stack at 75 deg needs {:.0f} um "
-                "on every side of the centre: "
-                "expected a larger length_um or more barbs",
-                source_name.string(), sp.name, 2.0 * half_x, 2.0 * half_y, depth, half));
-        }
-    }
+    const std::vector<BuiltSpecies> built = build_all(s, *file, source_name, clock);  // build
 
     StagedDirectory out(results_root / name);
-    const fs::path dir = out.path();
     SpeciesResult result;
     result.wavelengths_nm = s.wavelengths;
-    const std::size_t nl = s.wavelengths.size();
-    const optics::WavelengthGrid grid(s.wavelengths);
-    const optics::ReflectanceToXyz to_xyz(grid, optics::Illuminant::d65);
-    const Luminance luminance(to_xyz, nl);
     for (double a : gonio::filip2024_in_plane_light_angles())
         result.in_plane_angles_deg.push_back(a / kDeg);
-
-    std::string md = fmt::format(
-        "# Species study: four feathers of Filip et al. 2024, explicit and fitted\n\n"
-        "Plumage {}, study file `{}`. The macaw parrot, Cochin cock (rooster), greater flamingo "
-        "and white stork "
-        "of Filip, Maile and Vávra 2024 as explicit barb + barbule patches (geometry/barb.h), "
-        "traced "
-        "(sim/tracer.h) and measured like the paper's capture: the BRDF on its 61 × 60 set, the "
-        "in-plane "
-        "sweep, BTF images; then the paper's analytic BRDF fitted to each simulated BRDF. The "
-        "simulation "
-        "is a hypothesis about each feather's structure, not a measurement: where the fit departs "
-        "from "
-        "Table 1, either the structure or the model is missing something, and the report says "
-        "which it can tell.\n\n",
-        kVersion, source_name.string());
-    md +=
-        "## How each patch resembles its sample\n\n"
-        "The paper shows the samples only in photographs and says, per sample, which structures "
-        "dominate "
-        "(Sects. 3 and 5.2). Each patch encodes those statements; the mount azimuth on the stage "
-        "comes from "
-        "Table 1's φa: U(φa) = (sin φa, cos φa, 0) is the axis of the fibres whose highlight the "
-        "model's "
-        "anisotropic term describes, so the barb axis (oriented_by = barbs) or the barbules' "
-        "direction "
-        "(oriented_by = barbules) is turned onto U.\n\n"
-        "| species | barb width, ecc. | medulla | barbules (width, ecc., length, rise) | barb "
-        "period | layers | materials | mount |\n"
-        "|---|---|---|---|---|---|---|---|\n";
-    for (std::size_t i = 0; i < s.species.size(); ++i) {
-        const SpeciesSpec& sp = s.species[i];
-        const auto& p = sp.patch;
-        std::string materials;
-        if (sp.melanin_core) {
-            materials = sp.cortex_um > 0.0
-                            ? fmt::format("barbules: {:.3f} µm keratin cortex ({}) over melanin",
-                                          sp.cortex_um,
-                                          sp.cortex_coherent ? "coherent film" : "by intensity")
-                            : "barbules: melanin";
-        } else {
-            materials = "clear keratin barbules";
-        }
-        if (sp.pigment_k > 0.0) {
-            materials += fmt::format("; keratin pigment k = {:.3g} at {:.0f} nm (σ {:.0f} nm)",
-                                     sp.pigment_k, sp.pigment_peak_nm, sp.pigment_width_nm);
-        }
-        const std::string medulla =
-            p.barb.medulla_scale <= 0.0 ? "none"
-            : sp.medulla.spongy
-                ? fmt::format(
-                      "spongy, scale {:.2f}: band at 2 n̄ Λ = {:.0f} nm (Λ = {:.3f} µm, f = "
-                      "{:.2f}), albedo {:.2f} on {:.2f}",
-                      p.barb.medulla_scale, sp.medulla.peak_nm(), sp.medulla.spacing_um,
-                      sp.medulla.keratin_fraction, sp.medulla.albedo, sp.medulla.base_albedo)
-                : fmt::format("white, scale {:.2f}, albedo {:.2f}", p.barb.medulla_scale,
-                              sp.medulla.albedo);
-        md += fmt::format(
-            "| {} | {:.0f} µm, {:.2f} | {} | {:.0f} µm, {:.2f}, {:.1f} barb widths, {:.0f}° | "
-            "{:.0f} µm | {} | {} | {:.0f}° (by {}) |\n",
-            sp.name, p.barb.barb_width_um, p.barb.barb_eccentricity, medulla, p.barbule_width_um,
-            p.barbule_eccentricity, p.barbule_length, p.barbule_inclination_rad / kDeg,
-            built[i].period_um, sp.layers, materials, sp.mount_rad / kDeg, sp.oriented_by);
-    }
-    md += "\n";
-    for (const SpeciesSpec& sp : s.species) {
-        if (!sp.description.empty()) md += fmt::format("- **{}**: {}\n", sp.name, sp.description);
-    }
-    md +=
-        "\nNot modelled: the rachis, barbule hooks, curvature of the vane, the sample's backing "
-        "(light leaving "
-        "below the stack is lost, as on a black stage), the spongy keratin's scattering itself "
-        "(its measured "
-        "effect enters as the medulla's albedo band), polarisation.\n\n";
-
+    const optics::WavelengthGrid grid(s.wavelengths);
+    const optics::ReflectanceToXyz to_xyz(grid, optics::Illuminant::d65);
+    const Luminance luminance(to_xyz, s.wavelengths.size());
     const std::vector<gonio::DirectionPair> pairs = gonio::filip2024_btf_pairs();
+    const Run run{s,     study_text, results_root,
+                  name,  clock,      progress,
+                  pairs, luminance,  result.in_plane_angles_deg};
 
-    record::Hdf5Writer h5(dir / "species.h5");
-    h5.write("wavelength_nm", std::span<const double>(s.wavelengths), {nl}, {{"units", "nm"}});
-    h5.write("in_plane/light_angle_deg", std::span<const double>(result.in_plane_angles_deg),
-             {result.in_plane_angles_deg.size()},
-             {{"units", "deg"},
-              {"meaning",
-               "signed light angle; view at 45 deg in the plane across the barbs; +45 = retro"}});
-    std::vector<PlotJob> plots;
-
-    for (std::size_t si = 0; si < s.species.size(); ++si) {
-        const SpeciesSpec& sp = s.species[si];
-        SpeciesOutcome o;
-        o.species = sp.name;
-        o.mount_deg = sp.mount_rad / kDeg;
-        const fs::path sdir = dir / sp.name;
-        fs::create_directories(sdir);
-        auto tracer = std::make_shared<const sim::ExplicitScatterer>(built[si].scene);
-        // The goniometer's sample: lit over one period cell (a barb's axis is at y = 0 for an
-        // odd number of barbs, at P/2 for an even one), mounted. The BTF camera images the
-        // real patch (its own uniform illumination of the imaged square).
-        const double y0 = sp.barbs % 2 == 1 ? 0.0 : 0.5 * built[si].period_um;
-        const double pitch_x = sp.patch.barbule_separation * sp.patch.barbule_width_um;
-        const auto cell =
-            std::make_shared<const PeriodCellEntry>(tracer, pitch_x, built[si].period_um, y0);
-        const MountedScatterer sample(cell, sp.mount_rad);
-        const MountedScatterer imaged(tracer, sp.mount_rad);
-
-        // 1. The BRDF on the 61 × 60 set.
-        gonio::GoniometerConfig g;
-        g.direction_set = "filip2024_btf";
-        g.pairs = pairs;
-        g.wavelengths_nm = s.wavelengths;
-        g.detector_half_angle_rad = s.detector_half_angle;
-        g.beam_radius_um = 0.5 * built[si].period_um;  // unused: PeriodCellEntry draws the entry
-        g.seed = derive_seed(s.seed, "species/brdf", si);
-        g.quanta_per_pass = s.quanta;
-        g.max_passes = s.passes;
-        g.time_budget_s = s.time_budget_s;
-        g.target_relative_error = s.target_relative_error;
-        g.config_text = study_text;
-        g.estimator = gonio::Estimator::photon;
-        clock.say(
-            fmt::format("{}: BRDF on the 61 x 60 set ({} quanta per light direction and "
-                        "wavelength, {} wavelengths)",
-                        sp.name, s.quanta * static_cast<std::uint64_t>(s.passes), nl));
-        gonio::RunControl control;
-        control.progress = progress;
-            const fs::path checkpoints = results_root / ".checkpoints" / name;
-        fs::create_directories(checkpoints);
-        control.checkpoint = checkpoints / (sp.name + "_brdf.checkpoint");
-        const gonio::BrdfRecord sim_brdf = gonio::measure_brdf(sample, g, control);
-        if (sim_brdf.interrupted) {
-            throw Interrupted(interrupted_with_checkpoint(fmt::format("the {} BRDF", sp.name),
-                                                          sim_brdf.passes, control.checkpoint));
-        }
-        o.brdf_seconds = sim_brdf.wall_time_s;
-        gonio::write_brdf_record(sim_brdf, sdir / "brdf.h5");
-        for (std::size_t p = 0; p < pairs.size(); ++p) {
-            for (std::size_t k = 0; k < nl; ++k) {
-                o.mean_brdf_rgb[static_cast<int>(analysis::filip2024_channel(s.wavelengths[k]))] +=
-                    sim_brdf.at(p, k);
-            }
-        }
-        {
-            std::array<int, 3> count{};
-            for (double l : s.wavelengths)
-                ++count[static_cast<int>(analysis::filip2024_channel(l))];
-            for (int c = 0; c < 3; ++c)
-                o.mean_brdf_rgb[c] /= static_cast<double>(count[c] * pairs.size());
-        }
-
-        // 2. Reciprocity: pairs the set holds both ways (both polar angles ≥ 15°).
-        {
-            double chi2 = 0.0, max_z = 0.0;
-            int dof = 0;
-            const auto lights = gonio::filip2024_light_directions();
-            const auto views = gonio::filip2024_view_directions();
-            for (std::size_t li = 0; li < lights.size(); ++li) {
-                for (std::size_t vi = 0; vi < views.size(); ++vi) {
-                    // The swapped pair: the light at this view direction, the view at this light.
-                    auto same = [](const Vec3d& a, const Vec3d& b) {
-                        return (a - b).norm() < 1e-9;
-                    };
-                    std::size_t l2 = lights.size(), v2 = views.size();
-                    for (std::size_t k = 0; k < lights.size(); ++k)
-                        if (same(lights[k], views[vi])) l2 = k;
-                    for (std::size_t k = 0; k < views.size(); ++k)
-                        if (same(views[k], lights[li])) v2 = k;
-                    if (l2 == lights.size() || v2 == views.size()) continue;
-                    const std::size_t a = li * views.size() + vi, b = l2 * views.size() + v2;
-                    if (b <= a) continue;  // each couple once; a == b is the same cell
-                    for (std::size_t k = 0; k < nl; ++k) {
-                        const double var = std::pow(sim_brdf.error_at(a, k), 2) +
-                                           std::pow(sim_brdf.error_at(b, k), 2);
-                        if (var <= 0.0) continue;
-                        const double z = (sim_brdf.at(a, k) - sim_brdf.at(b, k)) / std::sqrt(var);
-                        chi2 += z * z;
-                        max_z = std::max(max_z, std::abs(z));
-                        ++dof;
-                    }
-                }
-            }
-            o.reciprocity_chi_square = chi2;
-            o.reciprocity_dof = dof;
-            o.reciprocity_max_z = max_z;
-        }
-
-        // 3. The fit: Filip's model to the simulated BRDF, from the species' Table 1 column.
-        const Filip2024Parameters table1 = analysis::filip2024_preset(sp.name);
-        o.table1 = analysis::to_vector(table1);
-        // Photon counts make a cell's standard error grow with its own value (σ² ≈ c f for the
-        // cells of one light direction and wavelength), so weighting by the measured σ pulls
-        // the fit low (upward fluctuations get small weights, empty cells σ = 0). Two steps:
-        // an unweighted fit, then a refit with the variance model σ_k² = c f_fit,k, c per
-        // (light, wavelength) from Σσ² / Σf over its views (Pearson's χ²).
-        const std::size_t views = gonio::kFilip2024ViewDirections;
-        std::vector<double> variance_per_value(pairs.size() / views * nl, 0.0);
-        for (std::size_t l = 0; l < pairs.size() / views; ++l) {
-            for (std::size_t k = 0; k < nl; ++k) {
-                double var = 0.0, sum = 0.0;
-                for (std::size_t v = 0; v < views; ++v) {
-                    var += std::pow(sim_brdf.error_at(l * views + v, k), 2);
-                    sum += sim_brdf.at(l * views + v, k);
-                }
-                variance_per_value[l * nl + k] = sum > 0.0 ? var / sum : 0.0;
-            }
-        }
-        std::vector<analysis::BrdfObservation> obs;
-        for (std::size_t p = 0; p < pairs.size(); ++p) {
-            for (std::size_t k = 0; k < nl; ++k) {
-                obs.push_back({pairs[p].wi, pairs[p].wo, std::nullopt, s.wavelengths[k],
-                               sim_brdf.at(p, k), std::nullopt});
-            }
-        }
-        clock.say(fmt::format("{}: fitting Filip 2024 to {} observations", sp.name, obs.size()));
-        analysis::Filip2024FitOptions fit_options;
-        fit_options.max_function_evaluations = s.fit_evaluations;
-        // Least squares is local, and φa is where this fit's local minima are (each fibre
-        // family of the patch is a candidate highlight axis): start from Table 1 with φa turned
-        // by 0°, 45°, 90° and 135° (φa is periodic in π) and keep the best unweighted fit.
-        std::optional<analysis::Filip2024FitResult> best_start;
-        double best_start_phi = 0.0;
-        for (int turn = 0; turn < 4; ++turn) {
-            Filip2024Parameters trial = table1;
-            trial.phi_a_rad = std::remainder(table1.phi_a_rad + turn * 0.25 * kPi, kPi);
-            analysis::Filip2024FitResult candidate =
-                analysis::fit_filip2024(obs, trial, fit_options);
-            if (!best_start || candidate.residual_rms < best_start->residual_rms) {
-                best_start = std::move(candidate);
-                best_start_phi = trial.phi_a_rad;
-            }
-        }
-        const analysis::Filip2024FitResult& first_fit = *best_start;
-        o.fit_start_phi_a_deg = best_start_phi / kDeg;
-        {
-            const analysis::Filip2024Brdf first_model(first_fit.parameters);
-            // Floor: the variance of one quantum's worth in the cell (f ≥ the smallest nonzero
-            // value).
-            double smallest = std::numeric_limits<double>::infinity();
-            for (double v : sim_brdf.value)
-                if (v > 0.0) smallest = std::min(smallest, v);
-            if (!std::isfinite(smallest)) smallest = 1e-6;
-            for (std::size_t p = 0; p < pairs.size(); ++p) {
-                for (std::size_t k = 0; k < nl; ++k) {
-                    const double c = variance_per_value[(p / views) * nl + k];
-                    const double f = std::max(
-                        first_model.eval(pairs[p].wi, pairs[p].wo, s.wavelengths[k]), smallest);
-                    obs[p * nl + k].standard_error =
-                        c > 0.0 ? std::sqrt(c * f) : std::sqrt(f * smallest);
-                }
-            }
-        }
-        const analysis::Filip2024FitResult fit =
-            analysis::fit_filip2024(obs, first_fit.parameters, fit_options);
-        o.fitted = fit.values;
-        o.fitted_error = fit.standard_errors;
-        o.reduced_chi_square = fit.reduced_chi_square;
-        o.fit_converged = fit.converged;
-
-        gonio::GoniometerConfig ge = g;
-        ge.estimator = gonio::Estimator::eval;
-        const analysis::Filip2024Brdf fitted_model(fit.parameters, "filip2024 fit");
-        const analysis::Filip2024Brdf table1_model(table1, "filip2024 table 1");
-        const gonio::BrdfRecord fit_brdf = gonio::measure_brdf(fitted_model, ge);
-        const gonio::BrdfRecord table1_brdf = gonio::measure_brdf(table1_model, ge);
-        gonio::write_brdf_record(fit_brdf, sdir / "fit.h5");
-        o.fit_relative_rms = relative_rms(fit_brdf, sim_brdf);
-        o.table1_relative_rms = relative_rms(table1_brdf, sim_brdf);
-        o.fit_relative_l1 = relative_l1(fit_brdf, sim_brdf);
-        o.table1_relative_l1 = relative_l1(table1_brdf, sim_brdf);
-        o.at_bound = fit.at_bound;
-        {
-            const record::RgbImage a = gonio::brdf_fingerprint(sim_brdf, 61, 60, 4);
-            const record::RgbImage b = gonio::brdf_fingerprint(fit_brdf, 61, 60, 4);
-            const record::RgbImage c = gonio::brdf_fingerprint(table1_brdf, 61, 60, 4);
-            record::write_png(sdir / "fingerprints.png", side_by_side({&a, &b, &c}));
-        }
-
-        // 4. In-plane sweep in the plane across the barbs (turned with the sample).
-        {
-            gonio::GoniometerConfig ip = g;
-            ip.direction_set = "filip2024_in_plane";
-            ip.pairs = gonio::filip2024_in_plane_pairs(sp.mount_rad + gonio::kPlaneAcrossBarbsRad);
-            ip.quanta_per_pass = s.in_plane_quanta;
-            ip.max_passes = 1;
-            ip.seed = derive_seed(s.seed, "species/in_plane", si);
-            clock.say(fmt::format("{}: in-plane sweep", sp.name));
-            const gonio::BrdfRecord a = gonio::measure_brdf(sample, ip);
-            ip.estimator = gonio::Estimator::eval;
-            const gonio::BrdfRecord b = gonio::measure_brdf(fitted_model, ip);
-            gonio::write_brdf_record(a, sdir / "in_plane.h5");
-            double peak = -1.0;
-            for (std::size_t p = 0; p < ip.pairs.size(); ++p) {
-                const auto [l, e] = luminance(a, p);
-                o.in_plane_lstar.push_back(l);
-                o.in_plane_lstar_error.push_back(e);
-                o.in_plane_fit_lstar.push_back(luminance(b, p).first);
-                if (l > peak) {
-                    peak = l;
-                    o.in_plane_peak_deg = result.in_plane_angles_deg[p];
-                }
-            }
-        }
-
-        // 5. Albedo at normal incidence, over the period cell.
-        {
-            clock.say(fmt::format("{}: albedo at normal incidence", sp.name));
-            o.albedo.assign(nl, 0.0);
-            o.albedo_error.assign(nl, 0.0);
-            const Vec3d wi(0.0, 0.0, 1.0);
-            for (std::size_t k = 0; k < nl; ++k) {
-                const std::int64_t n = static_cast<std::int64_t>(s.albedo_quanta);
-                // Partial sums per fixed chunk of quanta, added in chunk order: the result
-                // does not depend on the thread count (an OpenMP reduction's order does).
-                constexpr std::int64_t kChunk = 4096;
-                const std::int64_t chunks = (n + kChunk - 1) / kChunk;
-                std::vector<std::array<double, 4>> partial(static_cast<std::size_t>(chunks), {0.0, 0.0, 0.0, 0.0});
-                const std::uint64_t albedo_seed = derive_seed(s.seed, "species/albedo", si * nl + k);
-#pragma omp parallel for schedule(dynamic, 1)
-                for (std::int64_t c = 0; c < chunks; ++c) {
-                    auto& [c_sum, c_sum_sq, c_mismatched, c_mismatched_weight] = partial[static_cast<std::size_t>(c)];
-                    for (std::int64_t q = c * kChunk; q < std::min(n, (c + 1) * kChunk); ++q) {
-                        Rng rng(albedo_seed, static_cast<std::uint64_t>(q));
-                        const Vec2 entry = cell->draw_entry(rng);
-                        const sim::PathResult path = tracer->trace(wi, s.wavelengths[k], entry, rng);
-                        const double w =
-                            path.event && path.event->wo.z() > 0.0 ? path.event->weight : 0.0;
-                        c_sum += w;
-                        c_sum_sq += w * w;
-                        if (path.medium_mismatches > 0) {
-                            c_mismatched += 1.0;
-                            c_mismatched_weight += w;
-                        }
-                    }
-                }
-                double sum = 0.0, sum_sq = 0.0, mismatched = 0.0, mismatched_weight = 0.0;
-                for (const auto& [c_sum, c_sum_sq, c_mismatched, c_mismatched_weight] : partial) {
-                    sum += c_sum;
-                    sum_sq += c_sum_sq;
-                    mismatched += c_mismatched;
-                    mismatched_weight += c_mismatched_weight;
-                }
-                const double mean = sum / static_cast<double>(n);
-                o.albedo[k] = mean;
-                o.mismatched_paths += mismatched / static_cast<double>(n) / static_cast<double>(nl);
-                o.mismatched_albedo +=
-                    mismatched_weight / static_cast<double>(n) / static_cast<double>(nl);
-                o.albedo_error[k] =
-                    std::sqrt(std::max(0.0, sum_sq / static_cast<double>(n) - mean * mean) /
-                              static_cast<double>(n));
-            }
-        }
-
-        // 6. The virtual BTF on the 61 × 60 set (every pair an image of the patch), and of it
-        //    the 12 geometries of Fig. 9: light and view at 30°, the view at azimuth 0, the light
-        //    going round in 30° steps (the red frame of Fig. 7).
-        {
-            gonio::BtfConfig bc;
-            bc.pairs = pairs;
-            bc.wavelengths_nm = s.btf_wavelengths;
-            bc.patch_size_um = s.btf_patch_um;
-            bc.pixels = s.btf_pixels;
-            bc.detector_half_angle_rad = s.btf_detector_half_angle;
-            bc.quanta_per_light = s.btf_quanta;
-            bc.seed = derive_seed(s.seed, "species/btf", si);
-            clock.say(fmt::format("{}: BTF on the 61 x 60 set ({} x {} pixels, {} wavelengths)",
-                                  sp.name, bc.pixels, bc.pixels, bc.wavelengths_nm.size()));
-            const gonio::BtfRecord btf = gonio::measure_btf(imaged, bc);
-            o.btf_seconds = btf.wall_time_s;
-            gonio::write_btf_record(btf, sdir / "btf.h5");
-            std::vector<std::size_t> figure9;
-            const Vec3d view = gonio::direction_from_angles(30.0 * kDeg, 0.0);
-            for (int k = 0; k < 12; ++k) {
-                const Vec3d light = gonio::direction_from_angles(30.0 * kDeg, k * 30.0 * kDeg);
-                for (std::size_t p = 0; p < pairs.size(); ++p) {
-                    if ((pairs[p].wi - light).norm() < 1e-9 && (pairs[p].wo - view).norm() < 1e-9)
-                        figure9.push_back(p);
-                }
-            }
-            PLUMAGE_CHECK(figure9.size() == 12, "the Filip set holds Fig. 9's 12 geometries");
-            const std::size_t bl = bc.wavelengths_nm.size();
-            // One exposure for all 12 (the brightest pixel of the set → Y = 1), so they compare.
-            std::vector<record::RgbImage> images;
-            double exposure = 0.0;
-            {
-                const gonio::SpectrumToDisplay display(bc.wavelengths_nm);
-                for (const std::size_t p : figure9) {
-                    for (int row = 0; row < bc.pixels; ++row) {
-                        for (int col = 0; col < bc.pixels; ++col) {
-                            const auto xyz = display.xyz(std::span<const double>(
-                                btf.value.data() + btf.index(p, row, col, 0), bl));
-                            exposure = std::max(exposure, xyz.y);
-                        }
-                    }
-                }
-            }
-            for (const std::size_t p : figure9)
-                images.push_back(btf_image(btf, p, exposure > 0.0 ? 1.0 / exposure : 1.0));
-            std::vector<const record::RgbImage*> top, bottom;
-            for (std::size_t p = 0; p < 6; ++p) top.push_back(&images[p]);
-            for (std::size_t p = 6; p < 12; ++p) bottom.push_back(&images[p]);
-            const record::RgbImage a = side_by_side(top), b = side_by_side(bottom);
-            record::RgbImage both(std::max(a.width, b.width), a.height + b.height + 6);
-            both.fill(255, 255, 255);
-            auto paste = [&both](const record::RgbImage& from, int row_offset) {
-                for (int y = 0; y < from.height; ++y) {
-                    for (int x = 0; x < from.width; ++x) {
-                        const std::size_t i = 3 * (static_cast<std::size_t>(y) * from.width + x);
-                        both.set(x, row_offset + y, from.pixels[i], from.pixels[i + 1],
-                                 from.pixels[i + 2]);
-                    }
-                }
-            };
-            paste(a, 0);
-            paste(b, a.height + 6);
-            record::write_png(sdir / "btf.png",
-                              record::upscaled(both, std::max(1, 192 / bc.pixels)));
-        }
-
-        // HDF5 and report section.
-        const std::string g5 = "/" + sp.name;
-        h5.write(
-            g5 + "/fit/values", std::span<const double>(o.fitted),
-            {static_cast<std::uint64_t>(kFilip2024ParameterCount)},
-            {{"meaning",
-              "Filip 2024 parameters fitted to the simulated BRDF, order of parameter_names"}});
-        h5.write(g5 + "/fit/standard_errors", std::span<const double>(o.fitted_error),
-                 {static_cast<std::uint64_t>(kFilip2024ParameterCount)});
-        h5.write(g5 + "/fit/table1", std::span<const double>(o.table1),
-                 {static_cast<std::uint64_t>(kFilip2024ParameterCount)},
-                 {{"meaning", "Filip 2024 Table 1 column of this species"}});
-        h5.set_attribute(g5 + "/fit/values", "reduced_chi_square", o.reduced_chi_square);
-        h5.set_attribute(g5 + "/fit/values", "relative_rms", o.fit_relative_rms);
-        h5.write(g5 + "/albedo", std::span<const double>(o.albedo), {nl},
-                 {{"meaning", "directional albedo at normal incidence"}});
-        h5.write(g5 + "/albedo_standard_error", std::span<const double>(o.albedo_error), {nl});
-        h5.write(g5 + "/in_plane/lstar", std::span<const double>(o.in_plane_lstar),
-                 {o.in_plane_lstar.size()},
-                 {{"meaning", "CIE L* (D65) of the reflectance factor pi f, simulation"}});
-        h5.write(g5 + "/in_plane/lstar_standard_error",
-                 std::span<const double>(o.in_plane_lstar_error), {o.in_plane_lstar.size()});
-        h5.write(g5 + "/in_plane/fit_lstar", std::span<const double>(o.in_plane_fit_lstar),
-                 {o.in_plane_lstar.size()});
-        h5.set_attribute(g5, "mount_deg", o.mount_deg);
-
-        md += fmt::format("## {}\n\n", sp.name);
-        md += fmt::format(
-            "Patch: {} barbs × {:.0f} µm, {} layer(s), {} instances of {} triangles; mounted at "
-            "{:.0f}°; barbules "
-            "start {:.2f} µm out of the cortex (their root faces would otherwise reach into "
-            "it).\n\n",
-            sp.barbs, sp.length_um, sp.layers, built[si].instances, built[si].triangles,
-            o.mount_deg, built[si].root_clearance_um);
-        md += fmt::format(
-            "Virtual BTF on the 61 × 60 set (`btf.h5`: 3660 images of {0} × {0} pixels over a "
-            "{1:.0f} µm "
-            "square, {2} wavelengths, detector half-angle {3:.0f}°, {4} quanta per light direction "
-            "and "
-            "wavelength, {5:.0f} s). Fig. 9's geometries: light and view at 30°, view at azimuth "
-            "0°; light "
-            "azimuth 0°, 30°, …, 150° on the top row, 180° … 330° below; one exposure for all:\n\n"
-            "![btf]({6}/btf.png)\n\n",
-            s.btf_pixels, s.btf_patch_um, s.btf_wavelengths.size(),
-            s.btf_detector_half_angle / kDeg, s.btf_quanta, o.btf_seconds, sp.name);
-        md += fmt::format(
-            "Fingerprints (Fig. 7 layout; simulation | fitted model | Table 1 model, each with its "
-            "own exposure):\n\n"
-            "![fingerprints]({}/fingerprints.png)\n\n",
-            sp.name);
-        md += fmt::format(
-            "BRDF: {} quanta per light direction and wavelength, estimated relative RMS error "
-            "{:.1f} %, {:.0f} s. "
-            "Fit (best of 4 starts in φa, from {:.0f}°): reduced χ² {:.2f} over {} observations "
-            "({} free parameters; {}), relative "
-            "residual Σ|Δf|/Σf {:.1f} %, "
-            "RMS/mean {:.1f} % (Table 1's parameters: {:.1f} %, {:.1f} %).\n\n",
-            sim_brdf.quanta, 100.0 * sim_brdf.convergence.back().estimated_relative_rms_error,
-            sim_brdf.wall_time_s, o.fit_start_phi_a_deg, fit.reduced_chi_square, fit.observations,
-            fit.free_parameters.size(), fit.termination, 100.0 * o.fit_relative_l1,
-            100.0 * o.fit_relative_rms, 100.0 * o.table1_relative_l1,
-            100.0 * o.table1_relative_rms);
-        {
-            // What the numbers can tell apart: the model against the simulation (the fit's
-            // residuals in units of the simulation's errors), and the simulated structure
-            // against the real feather (the Table 1 model standing in for its measurement).
-            std::vector<std::pair<double, std::size_t>> residuals;
-            for (std::size_t c = 0; c < obs.size(); ++c) {
-                const double sigma = obs[c].standard_error.value_or(1.0);
-                residuals.emplace_back(std::abs(fit_brdf.value[c] - sim_brdf.value[c]) / sigma, c);
-            }
-            std::partial_sort(residuals.begin(),
-                              residuals.begin() + std::min<std::size_t>(3, residuals.size()),
-                              residuals.end(), std::greater<>());
-            auto angles = [](const Vec3d& w) {
-                return fmt::format("{:.0f}°/{:.0f}°",
-                                   std::acos(std::clamp(w.z(), -1.0, 1.0)) / kDeg,
-                                   std::atan2(w.y(), w.x()) / kDeg);
-            };
-            std::string worst;
-            for (std::size_t r = 0; r < std::min<std::size_t>(3, residuals.size()); ++r) {
-                const std::size_t c = residuals[r].second, p = c / nl, k = c % nl;
-                worst += fmt::format(
-                    "{}light {} → view {} at {:.0f} nm: simulation {:.3g}, fit {:.3g} ({:.0f}σ)",
-                    r == 0 ? "" : "; ", angles(pairs[p].wi), angles(pairs[p].wo), s.wavelengths[k],
-                    sim_brdf.value[c], fit_brdf.value[c], residuals[r].first);
-            }
-            std::array<double, 3> sim_sum{}, table1_sum{};
-            for (std::size_t c = 0; c < obs.size(); ++c) {
-                const int band =
-                    static_cast<int>(analysis::filip2024_channel(s.wavelengths[c % nl]));
-                sim_sum[band] += sim_brdf.value[c];
-                table1_sum[band] += table1_brdf.value[c];
-            }
-            // U(φa) = (sin φa, cos φa): the barb axis of the mounted patch is at φa = 90° − ψ, the
-            // barbules at φa = −ψ; angles between axes are taken modulo 180°.
-            auto axis_angle = [](double a, double b) {
-                return std::abs(std::remainder(a - b, kPi)) / kDeg;
-            };
-            const double fitted_phi = o.fitted[analysis::kFilipPhiA];
-            o.fit_axis_from_barbs_deg = axis_angle(fitted_phi, 0.5 * kPi - sp.mount_rad);
-            o.fit_axis_from_barbules_deg = axis_angle(fitted_phi, -sp.mount_rad);
-            md += fmt::format(
-                "**Reading.** The fitted anisotropy axis U(φa = {:.1f}°) lies {:.1f}° from the "
-                "barb axis "
-                "and {:.1f}° from the barbules of the mounted patch (Table 1's: {:.1f}° and "
-                "{:.1f}°). ",
-                fitted_phi / kDeg, o.fit_axis_from_barbs_deg, o.fit_axis_from_barbules_deg,
-                axis_angle(table1.phi_a_rad, 0.5 * kPi - sp.mount_rad),
-                axis_angle(table1.phi_a_rad, -sp.mount_rad));
-            md += fmt::format(
-                "Model against simulation: reduced χ² {:.1f}: {}. Largest residuals: "
-                "{}. "
-                "Simulation against the feather (Table 1's model standing in for the measurement): "
-                "the "
-                "simulated patch reflects {:.2f}, {:.2f}, {:.2f} times Table 1's R, G, B over the "
-                "61 × 60 set, "
-                "a difference of structure and materials (our hypothesis of the feather) that no "
-                "fit of the "
-                "model can remove.\n\n",
-                fit.reduced_chi_square,
-                fit.reduced_chi_square < 2.0
-                    ? "Filip's five terms describe this simulated BRDF within its Monte Carlo error"
-                    : "the five terms cannot follow this simulated BRDF to its Monte Carlo "
-                      "precision (sharper "
-                      "or differently placed features than the model's lobes)",
-                worst, sim_sum[0] / std::max(table1_sum[0], 1e-300),
-                sim_sum[1] / std::max(table1_sum[1], 1e-300),
-                sim_sum[2] / std::max(table1_sum[2], 1e-300));
-        }
-        std::string albedo_line;
-        for (std::size_t k = 0; k < nl; ++k)
-            albedo_line += fmt::format(" {:.0f} nm {:.3f}±{:.3f};", s.wavelengths[k], o.albedo[k],
-                                       o.albedo_error[k]);
-        md += fmt::format("Albedo at normal incidence:{}\n\n", albedo_line);
-        md += fmt::format(
-            "Paths that met a surface from a side other than the one they travelled in (medium "
-            "mismatches: barbule roots inside the barb cortex, where the barbule surface still "
-            "declares "
-            "air outside): {:.2f} % of the paths at normal incidence, carrying {:.2f} % of the "
-            "incident power "
-            "out of the albedo above.\n\n",
-            100.0 * o.mismatched_paths, 100.0 * o.mismatched_albedo);
-        const double dof = std::max(1, o.reciprocity_dof);
-        md += fmt::format(
-            "Reciprocity over the {} (pair, wavelength) cells the set holds both ways: χ²/dof = "
-            "{:.2f}, largest |z| = {:.2f}. "
-            "The tracer's physics is reciprocal, but the instrument is not exactly: a cell is the "
-            "BRDF averaged over the "
-            "detector cone around ω_o with ω_i exact, so a lobe narrower than the cone "
-            "(mirror-like barbule faces) "
-            "is averaged differently in f(ω_i, ω_o) and f(ω_o, ω_i); the difference shrinks with "
-            "the cone "
-            "(detector_half_angle_deg).\n\n",
-            o.reciprocity_dof, o.reciprocity_chi_square / dof, o.reciprocity_max_z);
-        result.species.push_back(o);
+    std::string md = report_introduction(s, built, source_name);
+    record::Hdf5Writer h5(out.path() / "species.h5");
+    write_species_h5_header(h5, result);
+    for (std::size_t si = 0; si < s.species.size(); ++si) {  // measure, compare, report
+        fs::create_directories(out.path() / s.species[si].name);
+        const Specimen x(s.species[si], si, built[si], out.path() / s.species[si].name);
+        result.species.push_back(run_one_species(run, x, h5, md));
     }
-
-    // Fitted parameters beside Table 1.
-    {
-        std::ofstream csv(dir / "fits.csv");
-        csv << "parameter,unit";
-        for (const auto& o : result.species)
-            csv << fmt::format(",{0} fit,{0} fit error,{0} table 1", o.species);
-        csv << "\n";
-        md +=
-            "## Fitted parameters beside Table 1\n\nEach cell: fit ± standard error | Table 1. "
-            "Angles in degrees. θmax and the "
-            "units scale are held fixed (analysis/filip2024_fit.h). The model's colours are "
-            "camera-RGB bands "
-            "(blue 380–490, green 490–580, red 580–780 nm); every simulated wavelength is an "
-            "observation of its band.\n\n"
-            "| parameter |";
-        for (const auto& o : result.species) md += fmt::format(" {} |", o.species);
-        md += "\n|---|";
-        for (std::size_t i = 0; i < result.species.size(); ++i) md += "---|";
-        md += "\n";
-        for (int p = 0; p < kFilip2024ParameterCount; ++p) {
-            const auto& info = kFilip2024ParameterTable[p];
-            const bool angle = info.unit == "rad";
-            csv << fmt::format("{},{}", info.name, angle ? "deg" : info.unit);
-            md += fmt::format("| {} |", info.name);
-            for (const auto& o : result.species) {
-                const double scale = angle ? 1.0 / kDeg : 1.0;
-                csv << fmt::format(",{:.6g},{:.6g},{:.6g}", o.fitted[p] * scale,
-                                   o.fitted_error[p] * scale, o.table1[p] * scale);
-                md += fmt::format(" {}{} \\| {:.3g} |",
-                                  parameter_cell(o.fitted[p], o.fitted_error[p], info.unit),
-                                  o.at_bound[p] ? " (bound)" : "", o.table1[p] * scale);
-            }
-            csv << "\n";
-            md += "\n";
-        }
-        md += "| reduced χ² |";
-        for (const auto& o : result.species) md += fmt::format(" {:.2f} |", o.reduced_chi_square);
-        md += "\n| relative L1: fit \\| Table 1 |";
-        for (const auto& o : result.species)
-            md += fmt::format(" {:.1f} % \\| {:.1f} % |", 100.0 * o.fit_relative_l1,
-                              100.0 * o.table1_relative_l1);
-        md += "\n| relative RMS: fit \\| Table 1 |";
-        for (const auto& o : result.species)
-            md += fmt::format(" {:.1f} % \\| {:.1f} % |", 100.0 * o.fit_relative_rms,
-                              100.0 * o.table1_relative_rms);
-        md += "\n| mean BRDF R, G, B (1/sr) |";
-        for (const auto& o : result.species)
-            md += fmt::format(" {:.3f}, {:.3f}, {:.3f} |", o.mean_brdf_rgb[0], o.mean_brdf_rgb[1],
-                              o.mean_brdf_rgb[2]);
-        md += "\n\n";
-    }
-
-    // In-plane luminance, Fig. 6a.
-    {
-        std::ofstream csv(dir / "in_plane_luminance.csv");
-        csv << "light angle (deg)";
-        for (const auto& o : result.species)
-            csv << fmt::format(",{0},{0} error,{0} fit", o.species);
-        csv << "\n";
-        for (std::size_t p = 0; p < result.in_plane_angles_deg.size(); ++p) {
-            csv << fmt::format("{:.1f}", result.in_plane_angles_deg[p]);
-            for (const auto& o : result.species) {
-                csv << fmt::format(",{:.5g},{:.5g},{:.5g}", o.in_plane_lstar[p],
-                                   o.in_plane_lstar_error[p], o.in_plane_fit_lstar[p]);
-            }
-            csv << "\n";
-        }
-        plots.push_back(
-            {"luminance", dir / "in_plane_luminance.csv", dir / "in_plane_luminance.png"});
-        md +=
-            "## In-plane luminance (Filip Fig. 6a)\n\nView at 45° in the plane across the barbs, "
-            "light from −81° to 81° "
-            "(+45° retro-reflection, −45° the mirror direction); CIE L* (D65) of the reflectance "
-            "factor π f; "
-            "simulation with 1σ error bars, fitted model dashed.\n\n![in-plane "
-            "luminance](in_plane_luminance.png)\n\n"
-            "| species | L* at −45° (specular) | L* at 0° | L* at +45° (retro) | peak at "
-            "|\n|---|---|---|---|---|\n";
-        auto at = [&](const SpeciesOutcome& o, double angle) {
-            for (std::size_t p = 0; p < result.in_plane_angles_deg.size(); ++p) {
-                if (std::abs(result.in_plane_angles_deg[p] - angle) < 0.5)
-                    return fmt::format("{:.1f} ± {:.1f}", o.in_plane_lstar[p],
-                                       o.in_plane_lstar_error[p]);
-            }
-            return std::string("–");
-        };
-        for (const auto& o : result.species) {
-            md += fmt::format("| {} | {} | {} | {} | {:.0f}° |\n", o.species, at(o, -45.0),
-                              at(o, 0.0), at(o, 45.0), o.in_plane_peak_deg);
-        }
-        md += "\n";
-    }
-    run_plots(plots, dir / "plots.csv");
-
-    std::vector<std::string> names;
-    for (int p = 0; p < kFilip2024ParameterCount; ++p)
-        names.emplace_back(kFilip2024ParameterTable[p].name);
-    std::string joined;
-    for (const auto& n : names) joined += (joined.empty() ? "" : ",") + n;
-    h5.set_attribute("/", "parameter_names", joined);
-    h5.set_attribute("/", "study", std::string(study_text));
-    h5.commit();
-
-    result.wall_seconds = clock.elapsed_s();
-    md += fmt::format(
-        "## Run\n\n{:.0f} s on {} threads. Records: `species.h5` (fits, albedo, in-plane L*), "
-        "`fits.csv`, "
-        "`in_plane_luminance.csv`, per species `brdf.h5` (simulation), `fit.h5` (fitted model), "
-        "`in_plane.h5`, "
-        "`btf.h5` (virtual_gonio/RECORD.md).\n",
-        result.wall_seconds, omp_get_max_threads());
-    {
-        std::ofstream report(dir / "report.md");
-        report << md;
-    }
-    out.commit();
-    result.output_dir = out.final_path();
-    fs::remove_all(results_root / ".checkpoints" / name);
-    std::error_code ignored;
-    fs::remove(results_root / ".checkpoints", ignored);  // only when empty
+    finish(run, result, h5, md, out);
     return result;
 }
 
@@ -1186,8 +1229,8 @@ void check_species_study(const std::string& study_text, const fs::path& source_n
 namespace {
 
 // `plumage run`: the run, and the summary printed on stdout.
-std::string run_from_command_line(const std::string& text, const fs::path& source, const fs::path& root,
-                        const RunLimits& limits) {
+std::string run_from_command_line(const std::string& text, const fs::path& source,
+                                  const fs::path& root, const RunLimits& limits) {
     const auto r = run_species_study(text, source, root, true, limits);
     std::string summary = fmt::format("plumage: wrote {} in {:.0f} s (open report.md)\n",
                                       r.output_dir.string(), r.wall_seconds);
@@ -1205,7 +1248,8 @@ std::string run_from_command_line(const std::string& text, const fs::path& sourc
 }  // namespace
 
 StudyEntry species_study_entry() {
-    return {"species", "the four Filip 2024 feathers built explicitly, measured and fitted", check_species_study, run_from_command_line};
+    return {"species", "the four Filip 2024 feathers built explicitly, measured and fitted",
+            check_species_study, run_from_command_line};
 }
 
 }  // namespace plumage::studies
