@@ -12,8 +12,8 @@
 namespace plumage::analysis {
 namespace {
 
-ErrorMeasures measures(const std::vector<double>& a, const std::vector<double>& b, const gonio::BrdfRecord& r,
-                       std::size_t offset) {
+ErrorMeasures measures(const std::vector<double>& a, const std::vector<double>& b,
+                       const gonio::BrdfRecord& r, std::size_t offset) {
     const std::size_t np = r.config.pairs.size(), nl = r.config.wavelengths_nm.size();
     double sq = 0.0, diff = 0.0, ref = 0.0, wsq = 0.0, wsum = 0.0;
     for (std::size_t p = 0; p < np; ++p) {
@@ -28,22 +28,27 @@ ErrorMeasures measures(const std::vector<double>& a, const std::vector<double>& 
         }
     }
     const double n = static_cast<double>(np * nl);
-    return {std::sqrt(sq / n), ref > 0.0 ? diff / ref : (diff > 0.0 ? INFINITY : 0.0), std::sqrt(wsq / wsum)};
+    return {std::sqrt(sq / n), ref > 0.0 ? diff / ref : (diff > 0.0 ? INFINITY : 0.0),
+            std::sqrt(wsq / wsum)};
 }
 
 }  // namespace
 
-RecordComparison compare_records(const gonio::BrdfRecord& a, const gonio::BrdfRecord& b, std::size_t worst_count) {
+RecordComparison compare_records(const gonio::BrdfRecord& a, const gonio::BrdfRecord& b,
+                                 std::size_t worst_count) {
     const auto& ca = a.config;
     const auto& cb = b.config;
     if (ca.pairs.size() != cb.pairs.size() || ca.wavelengths_nm != cb.wavelengths_nm) {
-        throw InputError(fmt::format("compare: the records differ in direction pairs ({} vs {}) or wavelengths; "
-                                     "measure both on the same instrument",
-                                     ca.pairs.size(), cb.pairs.size()));
+        throw InputError(
+            fmt::format("compare: the records differ in direction pairs ({} vs {}) or wavelengths; "
+                        "measure both on the same instrument",
+                        ca.pairs.size(), cb.pairs.size()));
     }
     for (std::size_t p = 0; p < ca.pairs.size(); ++p) {
-        if ((ca.pairs[p].wi - cb.pairs[p].wi).norm() > 1e-12 || (ca.pairs[p].wo - cb.pairs[p].wo).norm() > 1e-12) {
-            throw InputError(fmt::format("compare: direction pair {} differs between the records", p));
+        if ((ca.pairs[p].wi - cb.pairs[p].wi).norm() > 1e-12 ||
+            (ca.pairs[p].wo - cb.pairs[p].wo).norm() > 1e-12) {
+            throw InputError(
+                fmt::format("compare: direction pair {} differs between the records", p));
         }
     }
     const std::size_t np = ca.pairs.size(), nl = ca.wavelengths_nm.size();
@@ -63,7 +68,8 @@ RecordComparison compare_records(const gonio::BrdfRecord& a, const gonio::BrdfRe
     c.colour_available = nl >= 2 && ca.wavelengths_nm.front() >= optics::kCmfMinNm &&
                          ca.wavelengths_nm.back() <= optics::kCmfMaxNm;
     if (c.colour_available) {
-        const optics::ReflectanceToXyz to_xyz(optics::WavelengthGrid(ca.wavelengths_nm), optics::Illuminant::d65);
+        const optics::ReflectanceToXyz to_xyz(optics::WavelengthGrid(ca.wavelengths_nm),
+                                              optics::Illuminant::d65);
         std::vector<double> fa(nl), fb(nl);
         double total = 0.0;
         for (std::size_t p = 0; p < np; ++p) {
@@ -85,32 +91,65 @@ RecordComparison compare_records(const gonio::BrdfRecord& a, const gonio::BrdfRe
                              a.standard_error.empty() ? 0.0 : a.standard_error[p * nl + k]});
     const std::size_t keep = std::min(worst_count, cells.size());
     std::partial_sort(cells.begin(), cells.begin() + static_cast<long>(keep), cells.end(),
-                      [](const auto& x, const auto& y) { return std::abs(x.test - x.reference) > std::abs(y.test - y.reference); });
+                      [](const auto& x, const auto& y) {
+                          return std::abs(x.test - x.reference) > std::abs(y.test - y.reference);
+                      });
     c.worst.assign(cells.begin(), cells.begin() + static_cast<long>(keep));
     return c;
 }
 
-std::string comparison_markdown(const RecordComparison& c, const gonio::BrdfRecord& r, const std::string& test_name,
-                                const std::string& reference_name) {
-    std::string md = fmt::format("| {} against {} | RMSE (1/sr) | relative L1 | cos-weighted RMSE (1/sr) |\n|---|---|---|---|\n",
-                                 test_name, reference_name);
-    md += fmt::format("| all lobes | {:.4g} | {:.4g} | {:.4g} |\n", c.total.rmse, c.total.relative_l1, c.total.cosine_weighted_rmse);
+std::string comparison_markdown(const RecordComparison& c, const gonio::BrdfRecord& r,
+                                const std::string& test_name, const std::string& reference_name) {
+    std::string md = fmt::format(
+        "| {} against {} | RMSE (1/sr) | relative L1 | cos-weighted RMSE (1/sr) "
+        "|\n|---|---|---|---|\n",
+        test_name, reference_name);
+    md += fmt::format("| all lobes | {:.4g} | {:.4g} | {:.4g} |\n", c.total.rmse,
+                      c.total.relative_l1, c.total.cosine_weighted_rmse);
     for (const auto& [name, m] : c.lobes) {
-        md += fmt::format("| {} | {:.4g} | {:.4g} | {:.4g} |\n", name, m.rmse, m.relative_l1, m.cosine_weighted_rmse);
+        md += fmt::format("| {} | {:.4g} | {:.4g} | {:.4g} |\n", name, m.rmse, m.relative_l1,
+                          m.cosine_weighted_rmse);
     }
     if (c.colour_available) {
-        md += fmt::format("\nColour (π·f under D65): mean ΔE00 {:.2f}, max ΔE00 {:.2f}.\n", c.mean_delta_e00, c.max_delta_e00);
+        md += fmt::format("\nColour (π·f under D65): mean ΔE00 {:.2f}, max ΔE00 {:.2f}.\n",
+                          c.mean_delta_e00, c.max_delta_e00);
     }
-    md += "\nWorst cells:\n\n| pair | θ_i, φ_i (deg) | θ_o, φ_o (deg) | λ (nm) | test | reference | test σ |\n|---|---|---|---|---|---|---|\n";
+    md +=
+        "\nWorst cells:\n\n| pair | θ_i, φ_i (deg) | θ_o, φ_o (deg) | λ (nm) | test | reference | "
+        "test σ |\n|---|---|---|---|---|---|---|\n";
     for (const auto& w : c.worst) {
         const auto& p = r.config.pairs[w.pair];
         auto deg = [](double v) { return v * 180.0 / std::numbers::pi; };
-        md += fmt::format("| {} | {:.1f}, {:.1f} | {:.1f}, {:.1f} | {} | {:.4g} | {:.4g} | {:.2g} |\n", w.pair,
-                          deg(std::acos(p.wi.z())), deg(std::atan2(p.wi.y(), p.wi.x())), deg(std::acos(p.wo.z())),
-                          deg(std::atan2(p.wo.y(), p.wo.x())), r.config.wavelengths_nm[w.wavelength], w.test,
-                          w.reference, w.standard_error);
+        md += fmt::format(
+            "| {} | {:.1f}, {:.1f} | {:.1f}, {:.1f} | {} | {:.4g} | {:.4g} | {:.2g} |\n", w.pair,
+            deg(std::acos(p.wi.z())), deg(std::atan2(p.wi.y(), p.wi.x())), deg(std::acos(p.wo.z())),
+            deg(std::atan2(p.wo.y(), p.wo.x())), r.config.wavelengths_nm[w.wavelength], w.test,
+            w.reference, w.standard_error);
     }
     return md;
+}
+
+double mean_transmitted(const gonio::Scatterogram& s, int lobe) {
+    if (lobe < 0 || static_cast<std::size_t>(lobe) >= s.lobes.size()) return 0.0;
+    const std::size_t nl = s.config.wavelengths_nm.size();
+    double mean = 0.0;
+    for (std::size_t k = 0; k < nl; ++k) {
+        mean +=
+            s.transmitted_lobes[static_cast<std::size_t>(lobe) * nl + k] / static_cast<double>(nl);
+    }
+    return mean;
+}
+
+double reflected_share(const gonio::Scatterogram& s, int lobe) {
+    if (lobe < 0 || static_cast<std::size_t>(lobe) >= s.lobes.size()) return 0.0;
+    const std::size_t nl = s.config.wavelengths_nm.size();
+    double share = 0.0, reflected = 0.0;
+    for (std::size_t i = 0; i < s.pixels() * nl; ++i) {
+        reflected += s.intensity[i] * s.solid_angle_sr[i / nl];
+        share += s.lobe_intensity[static_cast<std::size_t>(lobe) * s.pixels() * nl + i] *
+                 s.solid_angle_sr[i / nl];
+    }
+    return reflected > 0.0 ? share / reflected : 0.0;
 }
 
 }  // namespace plumage::analysis

@@ -15,6 +15,7 @@
 #include <vector>
 
 #include "virtual_gonio/goniometer.h"
+#include "virtual_gonio/scatterometer.h"
 
 namespace plumage::analysis {
 
@@ -42,5 +43,11 @@ RecordComparison compare_records(const gonio::BrdfRecord& test, const gonio::Brd
 // Markdown: a summary table and the worst cells.
 std::string comparison_markdown(const RecordComparison& c, const gonio::BrdfRecord& test,
                                 const std::string& test_name, const std::string& reference_name);
+
+// Scatterogram summaries, by lobe index of s.lobes (−1 or absent: 0). The mean over wavelengths
+// of the fraction of the incident power a lobe takes below the patch; and the share of the
+// reflected power Σ I Ω (pixels and wavelengths) that a lobe carries.
+double mean_transmitted(const gonio::Scatterogram& s, int lobe);
+double reflected_share(const gonio::Scatterogram& s, int lobe);
 
 }  // namespace plumage::analysis

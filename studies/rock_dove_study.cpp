@@ -5,6 +5,7 @@
 #include <fstream>
 #include <iostream>
 #include <limits>
+#include <memory>
 #include <numbers>
 
 #include <fmt/format.h>
@@ -17,10 +18,10 @@
 #include "sim/optics/colour.h"
 #include "sim/tracer.h"
 #include "studies/plots.h"
+#include "studies/sections.h"
 #include "studies/staged_directory.h"
 #include "studies/study.h"
 #include "studies/study_common.h"
-#include "studies/sections.h"
 #include "studies/study_file.h"
 #include "virtual_gonio/direction_sets.h"
 #include "virtual_gonio/goniometer.h"
@@ -73,144 +74,197 @@ Settings read_settings(StudyFile& file, std::string& name, const fs::path& sourc
     ParameterTable spectrum = root.table("spectrum");
     s.wavelengths = read_wavelengths(spectrum, WavelengthRule{});
     ParameterTable sc = root.table("scatterometer");
-    s.image_size = static_cast<int>(sc.integer("image_size", s.image_size, 17, 1025, "pixels across the scatterogram"));
-    s.scatter_quanta = static_cast<std::uint64_t>(sc.integer("quanta_per_pass", static_cast<long>(s.scatter_quanta), 1000, 100000000, "quanta per wavelength and pass"));
+    s.image_size = static_cast<int>(
+        sc.integer("image_size", s.image_size, 17, 1025, "pixels across the scatterogram"));
+    s.scatter_quanta = static_cast<std::uint64_t>(
+        sc.integer("quanta_per_pass", static_cast<long>(s.scatter_quanta), 1000, 100000000,
+                   "quanta per wavelength and pass"));
     s.scatter_passes = static_cast<int>(sc.integer("passes", s.scatter_passes, 1, 1000, "passes"));
-    s.strata = static_cast<int>(sc.integer("illumination_strata", s.strata, 1, 65536, "illumination directions per pass"));
-    s.beam_incidence = sc.angle_deg("beam_incidence_deg", s.beam_incidence, between(0.0, 80.0), "beam polar angle");
-    s.beam_azimuth = sc.angle_deg("beam_azimuth_deg", s.beam_azimuth, between(-360.0, 360.0), "beam azimuth from the barb axis");
-    s.cone_aperture = sc.angle_deg("cone_aperture_deg", s.cone_aperture, {0.0, 90.0, true, false}, "full aperture of the illumination cone");
+    s.strata = static_cast<int>(
+        sc.integer("illumination_strata", s.strata, 1, 65536, "illumination directions per pass"));
+    s.beam_incidence = sc.angle_deg("beam_incidence_deg", s.beam_incidence, between(0.0, 80.0),
+                                    "beam polar angle");
+    s.beam_azimuth = sc.angle_deg("beam_azimuth_deg", s.beam_azimuth, between(-360.0, 360.0),
+                                  "beam azimuth from the barb axis");
+    s.cone_aperture = sc.angle_deg("cone_aperture_deg", s.cone_aperture, {0.0, 90.0, true, false},
+                                   "full aperture of the illumination cone");
     s.beam_radius_um = sc.number("beam_radius_um", s.beam_radius_um, positive(), "beam radius, um");
     ParameterTable go = root.table("goniometer");
-    s.direction_set = go.string("direction_set", s.direction_set, {"filip2024_btf", "filip2024_in_plane"}, "direction set");
-    s.detector_half_angle = go.angle_deg("detector_half_angle_deg", s.detector_half_angle, {0.0, 20.0, true, false}, "detector cone half-angle");
-    s.gonio_quanta = static_cast<std::uint64_t>(go.integer("quanta_per_pass", static_cast<long>(s.gonio_quanta), 100, 100000000, "quanta per light direction, wavelength and pass"));
-    s.gonio_passes = static_cast<int>(go.integer("passes", s.gonio_passes, 1, 1000, "passes (at most)"));
-    s.time_budget_s = root.number("time_budget_s", s.time_budget_s, positive(), "wall-time budget per measurement, s (progressive passes stop when it is spent)");
-    s.target_relative_error = root.number("target_relative_error", 0.0, between(0.0, 1.0), "stop a measurement's passes once its estimated relative error is below this");
+    s.direction_set = go.string("direction_set", s.direction_set,
+                                {"filip2024_btf", "filip2024_in_plane"}, "direction set");
+    s.detector_half_angle = go.angle_deg("detector_half_angle_deg", s.detector_half_angle,
+                                         {0.0, 20.0, true, false}, "detector cone half-angle");
+    s.gonio_quanta = static_cast<std::uint64_t>(
+        go.integer("quanta_per_pass", static_cast<long>(s.gonio_quanta), 100, 100000000,
+                   "quanta per light direction, wavelength and pass"));
+    s.gonio_passes =
+        static_cast<int>(go.integer("passes", s.gonio_passes, 1, 1000, "passes (at most)"));
+    s.time_budget_s = root.number(
+        "time_budget_s", s.time_budget_s, positive(),
+        "wall-time budget per measurement, s (progressive passes stop when it is spent)");
+    s.target_relative_error =
+        root.number("target_relative_error", 0.0, between(0.0, 1.0),
+                    "stop a measurement's passes once its estimated relative error is below this");
     ParameterTable va = root.table("validation");
-    s.validation_cell_coupling = va.number("cell_coupling", s.validation_cell_coupling, {0.0, 0.1, true, false}, "r_theta (1 - cos theta_d) / (b^2 A) of the short cells");
-    s.validation_light_theta = va.angle_deg("light_theta_deg", s.validation_light_theta, between(0.0, 70.0), "light polar angle, transversal plane");
-    s.validation_quanta = static_cast<std::uint64_t>(va.integer("quanta", static_cast<long>(s.validation_quanta), 1000, 1000000000, "quanta per wavelength"));
-    s.validation_detector_half_angle = va.angle_deg("detector_half_angle_deg", s.validation_detector_half_angle, {0.0, 20.0, true, false}, "detector cone half-angle: small enough to resolve the R lobe");
+    s.validation_cell_coupling =
+        va.number("cell_coupling", s.validation_cell_coupling, {0.0, 0.1, true, false},
+                  "r_theta (1 - cos theta_d) / (b^2 A) of the short cells");
+    s.validation_light_theta =
+        va.angle_deg("light_theta_deg", s.validation_light_theta, between(0.0, 70.0),
+                     "light polar angle, transversal plane");
+    s.validation_quanta =
+        static_cast<std::uint64_t>(va.integer("quanta", static_cast<long>(s.validation_quanta),
+                                              1000, 1000000000, "quanta per wavelength"));
+    s.validation_detector_half_angle = va.angle_deg(
+        "detector_half_angle_deg", s.validation_detector_half_angle, {0.0, 20.0, true, false},
+        "detector cone half-angle: small enough to resolve the R lobe");
     ParameterTable co = root.table("convergence");
-    s.convergence_passes = static_cast<int>(co.integer("passes", s.convergence_passes, 2, 1000, "passes"));
-    s.convergence_quanta = static_cast<std::uint64_t>(co.integer("quanta_per_pass", static_cast<long>(s.convergence_quanta), 100, 100000000, "quanta per pass"));
+    s.convergence_passes =
+        static_cast<int>(co.integer("passes", s.convergence_passes, 2, 1000, "passes"));
+    s.convergence_quanta = static_cast<std::uint64_t>(
+        co.integer("quanta_per_pass", static_cast<long>(s.convergence_quanta), 100, 100000000,
+                   "quanta per pass"));
     s.seed = read_seed(root);
     root.reject_unused();
     return s;
 }
 
-}  // namespace
+// ---- One run: what every step shares. -------------------------------------------------------
 
-RockDoveResult run_rock_dove_study(const std::string& study_text, const fs::path& source_name,
-                                   const fs::path& results_root, bool progress, const RunLimits& limits) {
-    const StudyProgress clock(progress);
-    auto file = StudyFile::parse(study_text, source_name);
-    std::string name;
-    Settings s = read_settings(*file, name, source_name);
-    StagedDirectory::prepare(results_root / name);
-    if (limits.time_budget_s > 0.0) s.time_budget_s = limits.time_budget_s;
-    if (limits.target_relative_error > 0.0) s.target_relative_error = limits.target_relative_error;
-    RockDoveResult result;
+struct Run {
+    const Settings& s;
+    const std::string& study_text;
+    const StudyProgress& clock;
+    bool progress;
+    fs::path dir;  // the staging folder
+};
 
-    // The explicit patch and the analytic model of the same parameters.
-    clock.say("building the explicit rock-dove barbule patch");
+// The explicit patch and the analytic model of the same parameters.
+struct Built {
     geometry::BarbuleRow row;
+    std::unique_ptr<const sim::ExplicitScatterer> simulation;
+    std::unique_ptr<const analysis::Huang2022Bsdf> model;
+};
+
+Built build(const Settings& s, StudyFile& file, const StudyProgress& clock,
+            RockDoveResult& result) {
+    clock.say("building the explicit rock-dove barbule patch");
+    Built b;
     try {
-        row = geometry::build_barbule_row(s.row, s.tolerance);
+        b.row = geometry::build_barbule_row(s.row, s.tolerance);
     } catch (const InputError& e) {
-        throw InputError(fmt::format("{}: [geometry]: {}", file->root().table("geometry").location(), e.what()));
+        throw InputError(
+            fmt::format("{}: [geometry]: {}", file.root().table("geometry").location(), e.what()));
     }
     const geometry::BarbuleCell cell(s.row.cell);
-    result.eq7_edge_coupling = cell.longitudinal_radius_um() * (1.0 - std::cos(s.row.cell.theta_d)) /
+    result.eq7_edge_coupling = cell.longitudinal_radius_um() *
+                               (1.0 - std::cos(s.row.cell.theta_d)) /
                                (s.row.cell.b * s.row.cell.b * s.row.cell.semi_major_um);
-    const sim::ExplicitScatterer simulation(sim::barbule_row_scene(row));
-    const analysis::Huang2022Bsdf model(huang_params_of(s.row));
+    b.simulation = std::make_unique<const sim::ExplicitScatterer>(sim::barbule_row_scene(b.row));
+    b.model = std::make_unique<const analysis::Huang2022Bsdf>(huang_params_of(s.row));
+    return b;
+}
 
-    StagedDirectory out(results_root / name);
-    const fs::path dir = out.path();
-    fs::create_directories(dir / "scatterograms");
-    fs::create_directories(dir / "brdf");
-    fs::create_directories(dir / "validation");
-    fs::create_directories(dir / "convergence");
-    std::string md;
+// ---- 1. Scatterograms. -----------------------------------------------------------------------
 
-    // 1. Scatterograms.
-    const Vec3d beam = polar(s.beam_incidence, s.beam_azimuth);
-    std::string scatter_table =
-        "| illumination | relative L1 (all) | R | TRT | T below, simulation | T below, model | multi share (simulation) |\n|---|---|---|---|---|---|---|\n";
+gonio::ScatterometerConfig scatterometer_config(const Run& run, gonio::Illumination mode) {
+    const Settings& s = run.s;
+    gonio::ScatterometerConfig c;
+    c.illumination = mode;
+    c.beam_direction = polar(s.beam_incidence, s.beam_azimuth);
+    c.cone_aperture_rad = s.cone_aperture;
+    c.image_size = s.image_size;
+    c.wavelengths_nm = s.wavelengths;
+    c.beam_radius_um = s.beam_radius_um;
+    c.seed = s.seed;
+    c.quanta_per_pass = s.scatter_quanta;
+    c.max_passes = s.scatter_passes;
+    c.time_budget_s = s.time_budget_s;
+    c.target_relative_error = s.target_relative_error;
+    c.illumination_strata = s.strata;
+    c.config_text = run.study_text;
+    return c;
+}
+
+// Simulation | model | difference, with one exposure for both (the model's brightest pixel),
+// enlarged ×3 (nearest neighbour) for reading; the records hold the values.
+void write_scatterogram_images(const gonio::Scatterogram& sim_s, const gonio::Scatterogram& mod_s,
+                               const fs::path& png) {
+    const double peak = gonio::scatterogram_peak_luminance(mod_s);
+    const double exposure = peak > 0.0 ? 1.0 / peak : 1.0;
+    const record::RgbImage sim_img = gonio::scatterogram_srgb(sim_s, exposure);
+    const record::RgbImage mod_img = gonio::scatterogram_srgb(mod_s, exposure);
+    const record::RgbImage diff_img = gonio::scatterogram_difference(mod_s, sim_s);
+    record::write_png(png, record::upscaled(side_by_side({&sim_img, &mod_img, &diff_img}), 3));
+}
+
+// One illumination: both scatterograms, their records and images, and the table row.
+std::string scatterogram_pair(const Run& run, const Built& b, gonio::Illumination mode,
+                              const std::string& label, RockDoveResult& result) {
+    const gonio::ScatterometerConfig c = scatterometer_config(run, mode);
+    run.clock.say("scatterogram (" + label + "): simulation");
+    const gonio::Scatterogram sim_s = gonio::measure_scatterogram(*b.simulation, c);
+    run.clock.say("scatterogram (" + label + "): Huang model");
+    const gonio::Scatterogram mod_s = gonio::measure_scatterogram(*b.model, c);
+    const fs::path dir = run.dir / "scatterograms";
+    gonio::write_scatterogram_record(sim_s, dir / (label + "_simulation.h5"));
+    gonio::write_scatterogram_record(mod_s, dir / (label + "_model.h5"));
+    write_scatterogram_images(sim_s, mod_s, dir / (label + "_comparison.png"));
+    const double l1 = image_relative_l1(sim_s, mod_s, -1, -1);
+    const double l1_r =
+        image_relative_l1(sim_s, mod_s, lobe_index(sim_s.lobes, "R"), lobe_index(mod_s.lobes, "R"));
+    const double l1_trt = image_relative_l1(sim_s, mod_s, lobe_index(sim_s.lobes, "TRT"),
+                                            lobe_index(mod_s.lobes, "TRT"));
+    result.scatterogram_relative_l1.push_back(l1);
+    const double t_sim = analysis::mean_transmitted(sim_s, lobe_index(sim_s.lobes, "T"));
+    const double t_mod = analysis::mean_transmitted(mod_s, lobe_index(mod_s.lobes, "T"));
+    const double multi_share = analysis::reflected_share(sim_s, lobe_index(sim_s.lobes, "multi"));
+    if (mode == gonio::Illumination::hemisphere) result.simulated_multi_share = multi_share;
+    if (mode == gonio::Illumination::beam) result.simulated_t = t_sim, result.model_t = t_mod;
+    record::Hdf5Writer h5(dir / (label + "_comparison.h5"));
+    const std::vector<double> values = {l1, l1_r, l1_trt, t_sim, t_mod, multi_share};
+    h5.write("relative_error", std::span<const double>(values), {values.size()},
+             {{"columns",
+               "power-weighted relative L1 of simulation against model: all, R, TRT; then T below "
+               "(simulation, model) and the simulation's multi-event share of reflected power"}});
+    h5.set_attribute("/", "illumination", label);
+    h5.commit();
+    return fmt::format("| {} | {:.3f} | {:.3f} | {:.3f} | {:.4f} | {:.4f} | {:.3f} |\n", label, l1,
+                       l1_r, l1_trt, t_sim, t_mod, multi_share);
+}
+
+std::string scatterograms(const Run& run, const Built& b, RockDoveResult& result) {
     const std::vector<std::pair<gonio::Illumination, std::string>> modes = {
-        {gonio::Illumination::beam, "beam"}, {gonio::Illumination::cone, "cone"}, {gonio::Illumination::hemisphere, "hemisphere"}};
+        {gonio::Illumination::beam, "beam"},
+        {gonio::Illumination::cone, "cone"},
+        {gonio::Illumination::hemisphere, "hemisphere"}};
+    std::string table =
+        "| illumination | relative L1 (all) | R | TRT | T below, simulation | T below, model | "
+        "multi share "
+        "(simulation) |\n|---|---|---|---|---|---|---|\n";
+    for (const auto& [mode, label] : modes) table += scatterogram_pair(run, b, mode, label, result);
+    std::string md =
+        "## Scatterograms\n\nEach image: simulation (left), Huang model (middle), |difference| in "
+        "luminance "
+        "(right, white = the model's brightest pixel). Rings at ϑ = 5°, 30°, 60°, 90°; azimuthal "
+        "equidistant map, "
+        "barb axis to the right.\n\n";
     for (const auto& [mode, label] : modes) {
-        gonio::ScatterometerConfig c;
-        c.illumination = mode;
-        c.beam_direction = beam;
-        c.cone_aperture_rad = s.cone_aperture;
-        c.image_size = s.image_size;
-        c.wavelengths_nm = s.wavelengths;
-        c.beam_radius_um = s.beam_radius_um;
-        c.seed = s.seed;
-        c.quanta_per_pass = s.scatter_quanta;
-        c.max_passes = s.scatter_passes;
-        c.time_budget_s = s.time_budget_s;
-        c.target_relative_error = s.target_relative_error;
-        c.illumination_strata = s.strata;
-        c.config_text = study_text;
-        clock.say("scatterogram (" + label + "): simulation");
-        const gonio::Scatterogram sim_s = gonio::measure_scatterogram(simulation, c);
-        clock.say("scatterogram (" + label + "): Huang model");
-        const gonio::Scatterogram mod_s = gonio::measure_scatterogram(model, c);
-        gonio::write_scatterogram_record(sim_s, dir / "scatterograms" / (label + "_simulation.h5"));
-        gonio::write_scatterogram_record(mod_s, dir / "scatterograms" / (label + "_model.h5"));
-        // One exposure for both, from the model's brightest pixel, so brightness compares.
-        const double peak = gonio::scatterogram_peak_luminance(mod_s);
-        const double exposure = peak > 0.0 ? 1.0 / peak : 1.0;
-        const record::RgbImage sim_img = gonio::scatterogram_srgb(sim_s, exposure), mod_img = gonio::scatterogram_srgb(mod_s, exposure);
-        const record::RgbImage diff_img = gonio::scatterogram_difference(mod_s, sim_s);
-        // Enlarged ×3 (nearest neighbour) for reading; the records hold the values.
-        record::write_png(dir / "scatterograms" / (label + "_comparison.png"),
-                          record::upscaled(side_by_side({&sim_img, &mod_img, &diff_img}), 3));
-        const double l1 = image_relative_l1(sim_s, mod_s, -1, -1);
-        const double l1_r = image_relative_l1(sim_s, mod_s, lobe_index(sim_s.lobes, "R"), lobe_index(mod_s.lobes, "R"));
-        const double l1_trt = image_relative_l1(sim_s, mod_s, lobe_index(sim_s.lobes, "TRT"), lobe_index(mod_s.lobes, "TRT"));
-        result.scatterogram_relative_l1.push_back(l1);
-        const std::size_t nl = s.wavelengths.size();
-        double t_sim = 0.0, t_mod = 0.0, multi = 0.0, reflected = 0.0;
-        const int ts = lobe_index(sim_s.lobes, "T"), tm = lobe_index(mod_s.lobes, "T"), ms = lobe_index(sim_s.lobes, "multi");
-        for (std::size_t k = 0; k < nl; ++k) {
-            t_sim += sim_s.transmitted_lobes[static_cast<std::size_t>(ts) * nl + k] / static_cast<double>(nl);
-            t_mod += mod_s.transmitted_lobes[static_cast<std::size_t>(tm) * nl + k] / static_cast<double>(nl);
-        }
-        for (std::size_t i = 0; i < sim_s.pixels() * nl; ++i) {
-            reflected += sim_s.intensity[i] * sim_s.solid_angle_sr[i / nl];
-            multi += sim_s.lobe_intensity[static_cast<std::size_t>(ms) * sim_s.pixels() * nl + i] * sim_s.solid_angle_sr[i / nl];
-        }
-        const double multi_share = reflected > 0.0 ? multi / reflected : 0.0;
-        if (mode == gonio::Illumination::hemisphere) result.simulated_multi_share = multi_share;
-        if (mode == gonio::Illumination::beam) result.simulated_t = t_sim, result.model_t = t_mod;
-        {
-            record::Hdf5Writer h5(dir / "scatterograms" / (label + "_comparison.h5"));
-            const std::vector<double> values = {l1, l1_r, l1_trt, t_sim, t_mod, multi_share};
-            h5.write("relative_error", std::span<const double>(values), {values.size()},
-                     {{"columns", "power-weighted relative L1 of simulation against model: all, R, TRT; then T below "
-                                  "(simulation, model) and the simulation's multi-event share of reflected power"}});
-            h5.set_attribute("/", "illumination", label);
-            h5.commit();
-        }
-        scatter_table += fmt::format("| {} | {:.3f} | {:.3f} | {:.3f} | {:.4f} | {:.4f} | {:.3f} |\n", label, l1, l1_r, l1_trt,
-                                     t_sim, t_mod, multi_share);
+        md += fmt::format("**{}**\n\n![{}](scatterograms/{}_comparison.png)\n\n", label, label,
+                          label);
     }
-    md += "## Scatterograms\n\nEach image: simulation (left), Huang model (middle), |difference| in luminance "
-          "(right, white = the model's brightest pixel). Rings at ϑ = 5°, 30°, 60°, 90°; azimuthal equidistant map, "
-          "barb axis to the right.\n\n";
-    for (const auto& [mode, label] : modes) md += fmt::format("**{}**\n\n![{}](scatterograms/{}_comparison.png)\n\n", label, label, label);
-    md += scatter_table + "\nRelative L1 = Σ|I_sim − I_model|Ω / Σ I_model Ω over pixels and wavelengths.\n\n";
+    return md + table +
+           "\nRelative L1 = Σ|I_sim − I_model|Ω / Σ I_model Ω over pixels and wavelengths.\n\n";
+}
 
-    // 2. Goniometric BRDF.
+// ---- 2. Goniometric BRDF. --------------------------------------------------------------------
+
+gonio::GoniometerConfig goniometer_config(const Run& run) {
+    const Settings& s = run.s;
     gonio::GoniometerConfig g;
     g.direction_set = s.direction_set;
-    g.pairs = s.direction_set == "filip2024_btf" ? gonio::filip2024_btf_pairs() : gonio::filip2024_in_plane_pairs();
+    g.pairs = s.direction_set == "filip2024_btf" ? gonio::filip2024_btf_pairs()
+                                                 : gonio::filip2024_in_plane_pairs();
     g.wavelengths_nm = s.wavelengths;
     g.detector_half_angle_rad = s.detector_half_angle;
     g.beam_radius_um = s.beam_radius_um;
@@ -219,216 +273,342 @@ RockDoveResult run_rock_dove_study(const std::string& study_text, const fs::path
     g.max_passes = s.gonio_passes;
     g.time_budget_s = s.time_budget_s;
     g.target_relative_error = s.target_relative_error;
-    g.config_text = study_text;
+    g.config_text = run.study_text;
     g.estimator = gonio::Estimator::photon;
-    clock.say(fmt::format("BRDF on {} ({} pairs): simulation", g.direction_set, g.pairs.size()));
+    return g;
+}
+
+struct Brdfs {
+    gonio::BrdfRecord simulation, model;
+    std::vector<gonio::ConvergenceRow> simulation_passes;
+};
+
+// The simulation checkpointed in `checkpoint` (Ctrl-C keeps its completed passes), the model
+// by cubature.
+Brdfs measure_brdfs(const Run& run, const Built& b, const fs::path& checkpoint) {
+    gonio::GoniometerConfig g = goniometer_config(run);
+    run.clock.say(
+        fmt::format("BRDF on {} ({} pairs): simulation", g.direction_set, g.pairs.size()));
+    Brdfs m;
+    fs::create_directories(checkpoint.parent_path());
     gonio::RunControl control;
-    control.progress = progress;
-    const fs::path checkpoints = results_root / ".checkpoints" / name;
-    fs::create_directories(checkpoints);
-    control.checkpoint = checkpoints / "brdf_simulation.checkpoint";
-    std::vector<gonio::ConvergenceRow> sim_rows;
-    control.on_pass = [&](const gonio::ConvergenceRow& r) { sim_rows.push_back(r); };
-    const gonio::BrdfRecord sim_b = gonio::measure_brdf(simulation, g, control);
-    if (sim_b.interrupted) {
-        throw Interrupted(interrupted_with_checkpoint("the simulated BRDF", sim_b.passes, control.checkpoint));
+    control.progress = run.progress;
+    control.checkpoint = checkpoint;
+    control.on_pass = [&](const gonio::ConvergenceRow& r) { m.simulation_passes.push_back(r); };
+    m.simulation = gonio::measure_brdf(*b.simulation, g, control);
+    if (m.simulation.interrupted) {
+        throw Interrupted(
+            interrupted_with_checkpoint("the simulated BRDF", m.simulation.passes, checkpoint));
     }
-    clock.say("BRDF: Huang model");
+    run.clock.say("BRDF: Huang model");
     g.estimator = gonio::Estimator::eval;
-    const gonio::BrdfRecord mod_b = gonio::measure_brdf(model, g);
-    gonio::write_brdf_record(sim_b, dir / "brdf" / "simulation.h5");
-    gonio::write_brdf_record(mod_b, dir / "brdf" / "model.h5");
-    const analysis::RecordComparison cmp = analysis::compare_records(sim_b, mod_b);
+    m.model = gonio::measure_brdf(*b.model, g);
+    gonio::write_brdf_record(m.simulation, run.dir / "brdf" / "simulation.h5");
+    gonio::write_brdf_record(m.model, run.dir / "brdf" / "model.h5");
+    return m;
+}
+
+std::string brdf_section(const Run& run, const Brdfs& m, RockDoveResult& result) {
+    const analysis::RecordComparison cmp = analysis::compare_records(m.simulation, m.model);
     result.brdf_relative_l1 = cmp.total.relative_l1;
-    if (s.direction_set == "filip2024_btf") {
-        const record::RgbImage fs_img = gonio::brdf_fingerprint(sim_b, 61, 60, 4);
-        const record::RgbImage fm_img = gonio::brdf_fingerprint(mod_b, 61, 60, 4);
-        record::write_png(dir / "brdf" / "fingerprints.png", side_by_side({&fs_img, &fm_img}));
-        md += "## BRDF (Filip 2024 set, 61 light × 60 view directions)\n\nFingerprints (rows: light directions, "
-              "columns: view directions; simulation left, model right; each with its own exposure):\n\n"
-              "![fingerprints](brdf/fingerprints.png)\n\n";
-    } else {
-        md += "## BRDF (in-plane sweep)\n\n";
+    std::string md = "## BRDF (in-plane sweep)\n\n";
+    if (run.s.direction_set == "filip2024_btf") {
+        const record::RgbImage fs_img = gonio::brdf_fingerprint(m.simulation, 61, 60, 4);
+        const record::RgbImage fm_img = gonio::brdf_fingerprint(m.model, 61, 60, 4);
+        record::write_png(run.dir / "brdf" / "fingerprints.png", side_by_side({&fs_img, &fm_img}));
+        md = "## BRDF (Filip 2024 set, 61 light × 60 view directions)\n\nFingerprints (rows: light "
+             "directions, "
+             "columns: view directions; simulation left, model right; each with its own "
+             "exposure):\n\n"
+             "![fingerprints](brdf/fingerprints.png)\n\n";
     }
-    md += analysis::comparison_markdown(cmp, sim_b, "simulation", "Huang model") + "\n";
-    md += fmt::format("Simulation: photon estimator, {} quanta per light direction and wavelength, detector half-angle "
-                      "{:.1f}°, estimated relative RMS error {:.1f} % ({:.0f} s). Model: cone cubature of eval().\n\n",
-                      sim_b.quanta, s.detector_half_angle / kDeg, 100.0 * sim_b.convergence.back().estimated_relative_rms_error,
-                      sim_b.wall_time_s);
-
-    // In-plane curves at the middle wavelength (the set's own order of light angles).
-    {
-        gonio::GoniometerConfig ip = g;
-        ip.direction_set = "filip2024_in_plane";
-        ip.pairs = gonio::filip2024_in_plane_pairs();
-        ip.wavelengths_nm = {s.wavelengths[s.wavelengths.size() / 2]};
-        ip.estimator = gonio::Estimator::photon;
-        ip.quanta_per_pass = s.gonio_quanta * 4;
-        clock.say("in-plane sweep: simulation and model");
-        const gonio::BrdfRecord a = gonio::measure_brdf(simulation, ip);
-        ip.estimator = gonio::Estimator::eval;
-        const gonio::BrdfRecord b = gonio::measure_brdf(model, ip);
-        const auto angles = gonio::filip2024_in_plane_light_angles();
-        std::ofstream csv(dir / "brdf" / "in_plane.csv");
-        csv << "light angle (deg),simulation,simulation_err,Huang model,model_err\n";
-        for (std::size_t p = 0; p < ip.pairs.size(); ++p) {
-            csv << fmt::format("{:.1f},{:.6g},{:.6g},{:.6g},{:.6g}\n", angles[p] / kDeg, a.at(p, 0), a.error_at(p, 0), b.at(p, 0), b.error_at(p, 0));
-        }
-        csv.close();
-        run_plot("curves", dir / "brdf" / "in_plane.csv", dir / "brdf" / "in_plane.png");
-        md += fmt::format("In-plane sweep (Filip 2024 Sect. 4: view 45° in the plane across the barbs, light −81°…81°) at {:.0f} nm:\n\n"
-                          "![in-plane](brdf/in_plane.png)\n\n",
-                          ip.wavelengths_nm[0]);
-    }
-
-    // 3. Validation where the model's assumptions hold: R lobe only, short cells.
-    {
-        geometry::BarbuleRowParams short_row = s.row;
-        const double rho_min = short_row.cell.b * short_row.cell.b * short_row.cell.semi_major_um;
-        const double r_theta = s.validation_cell_coupling * rho_min / (1.0 - std::cos(short_row.cell.theta_d));
-        short_row.cell.cell_length_um = 2.0 * r_theta * std::sin(short_row.cell.theta_d);
-        short_row.cell.melanin_depth_um = std::min(short_row.cell.melanin_depth_um, 0.5 * rho_min);
-        const double length_y = std::max(200.0, 4.0 * std::max(s.beam_radius_um, 5.0 * short_row.H * short_row.cell.semi_major_um));
-        short_row.barbules = std::max(short_row.barbules, static_cast<int>(std::ceil(length_y / (short_row.H * short_row.cell.semi_major_um))));
-        short_row.cells_per_barbule = static_cast<int>(std::ceil(length_y / short_row.cell.cell_length_um));
-        clock.say(fmt::format("validation: {} short cells ({:.3f} um) per barbule, R lobe only", short_row.cells_per_barbule,
-                        short_row.cell.cell_length_um));
-        const geometry::BarbuleRow vrow = geometry::build_barbule_row(short_row, s.tolerance);
-        sim::TracerOptions single;
-        single.max_events = 1;
-        const sim::ExplicitScatterer vsim(sim::barbule_row_scene(vrow), single);
-        gonio::GoniometerConfig v;
-        v.direction_set = "custom: light in the transversal plane, views across it";
-        const Vec3d light = polar(s.validation_light_theta, 0.0);
-        for (int k = -15; k <= 15; ++k) v.pairs.push_back({light, polar(std::abs(k) * 5.0 * kDeg, k < 0 ? kPi : 0.0)});
-        v.wavelengths_nm = {s.wavelengths.front(), s.wavelengths[s.wavelengths.size() / 2], s.wavelengths.back()};
-        v.detector_half_angle_rad = s.validation_detector_half_angle;
-        // The beam must span many barbule periods: the model averages over one.
-        v.beam_radius_um = std::max(s.beam_radius_um, 5.0 * short_row.H * short_row.cell.semi_major_um);
-        v.seed = s.seed;
-        v.quanta_per_pass = s.validation_quanta;
-        v.max_passes = 1;
-        v.estimator = gonio::Estimator::photon;
-        const gonio::BrdfRecord a = gonio::measure_brdf(vsim, v);
-        v.estimator = gonio::Estimator::eval;
-        const gonio::BrdfRecord b = gonio::measure_brdf(model, v);
-        gonio::write_brdf_record(a, dir / "validation" / "simulation_R.h5");
-        gonio::write_brdf_record(b, dir / "validation" / "model.h5");
-        const int ra = lobe_index(a.lobes, "R"), rb = lobe_index(b.lobes, "R");
-        const std::size_t np = v.pairs.size(), nl = v.wavelengths_nm.size();
-        std::ofstream csv(dir / "validation" / "r_lobe.csv");
-        csv << "view angle (deg),simulation R,simulation_err,model R,model_err\n";
-        for (std::size_t p = 0; p < np; ++p) {
-            for (std::size_t k = 0; k < nl; ++k) {
-                const double sa = a.lobe_values[(static_cast<std::size_t>(ra) * np + p) * nl + k];
-                const double sb = b.lobe_values[(static_cast<std::size_t>(rb) * np + p) * nl + k];
-                // σ from the expected counts (Poisson: a reflected quantum carries weight 1, so
-                // Var = f / (P N) with P = π sin²α cos θ_v the detector's projected solid
-                // angle) — the sample σ is 0 in cells where the simulation saw nothing —
-                // plus the model's cone-cubature error.
-                const double projected = kPi * std::pow(std::sin(v.detector_half_angle_rad), 2) * v.pairs[p].wo.z();
-                const double sigma = std::sqrt(std::max(sa, sb) / (projected * static_cast<double>(a.quanta))) + b.error_at(p, k);
-                if (sa > 0.0 || sb > 0.0) {
-                    if (sigma > 0.0) result.validation_max_sigma = std::max(result.validation_max_sigma, std::abs(sa - sb) / sigma);
-                    ++result.validation_cells;
-                }
-                if (k == nl / 2) {
-                    const double angle = (static_cast<double>(p) - 15.0) * 5.0;
-                    csv << fmt::format("{:.1f},{:.6g},{:.6g},{:.6g},{:.6g}\n", angle, sa, a.error_at(p, k), sb, b.error_at(p, k));
-                }
-            }
-        }
-        csv.close();
-        run_plot("curves", dir / "validation" / "r_lobe.csv", dir / "validation" / "r_lobe.png");
-        md += fmt::format("## Where the model's assumptions hold\n\nR lobe only (the tracer stops after one event), smooth "
-                          "film, cells {:.3f} µm long so that Eq. 7's longitudinal coupling r_θ(1 − cos θ_d)/(b²A) = {:.3f}; "
-                          "light at θ = {:.0f}° in the transversal plane, views across it. Largest |simulation − model| = "
-                          "{:.2f} σ over {} cells with signal ({} wavelengths):\n\n![R lobe](validation/r_lobe.png)\n\n",
-                          short_row.cell.cell_length_um, s.validation_cell_coupling, s.validation_light_theta / kDeg,
-                          result.validation_max_sigma, result.validation_cells, nl);
-    }
-
-    // 4. Error against run time: the R lobe by the photon estimator against the model's
-    //    exact values (eval), and the simulation's estimated error.
-    {
-        gonio::GoniometerConfig c = g;
-        c.direction_set = "filip2024_in_plane";
-        c.pairs = gonio::filip2024_in_plane_pairs();
-        c.wavelengths_nm = {s.wavelengths[s.wavelengths.size() / 2]};
-        c.estimator = gonio::Estimator::eval;
-        c.eval_rings = 24;  // the narrow R lobe crosses the detector cones: a fine rule for the truth
-        const gonio::BrdfRecord truth = gonio::measure_brdf(model, c);
-        c.estimator = gonio::Estimator::photon;
-        c.quanta_per_pass = s.convergence_quanta;
-        c.max_passes = s.convergence_passes;
-        std::ofstream csv(dir / "convergence" / "error_vs_time.csv");
-        csv << "label,wall_time_s,estimated_error,true_error\n";
-        gonio::RunControl rc;
-        const int r_truth = lobe_index(truth.lobes, "R");
-        rc.on_pass_record = [&](const gonio::BrdfRecord& r) {
-            const int rl = lobe_index(r.lobes, "R");
-            double est = 0.0, tru = 0.0;
-            int n = 0;
-            for (std::size_t p = 0; p < c.pairs.size(); ++p) {
-                const double ref = truth.lobe_values[static_cast<std::size_t>(r_truth) * c.pairs.size() + p];
-                if (ref <= 0.0) continue;
-                const double val = r.lobe_values[static_cast<std::size_t>(rl) * c.pairs.size() + p];
-                tru += std::pow((val - ref) / ref, 2);
-                est += std::pow(r.lobe_standard_error[static_cast<std::size_t>(rl) * c.pairs.size() + p] / ref, 2);
-                ++n;
-            }
-            csv << fmt::format("Huang R lobe (photon estimator),{:.6g},{:.6g},{:.6g}\n", r.wall_time_s, std::sqrt(est / n), std::sqrt(tru / n));
-        };
-        clock.say("error against run time: Huang R lobe, photon estimator against exact values");
-        gonio::measure_brdf(model, c, rc);
-        for (const auto& r : sim_rows) {
-            // No exact values exist for the simulation: its true error is unknown (−1, not plotted).
-            csv << fmt::format("simulation BRDF,{:.6g},{:.6g},-1\n", r.wall_time_s, r.estimated_relative_rms_error);
-        }
-        csv.close();
-        run_plot("convergence", dir / "convergence" / "error_vs_time.csv", dir / "convergence" / "error_vs_time.png");
-        md += "## Error against run time\n\nThe model's R lobe measured by the same photon estimator the simulation uses, "
-              "against its exact values (eval), pass by pass, with the estimated error the instrument reports; the "
-              "simulation's estimated error alongside. Both fall as 1/√t.\n\n![error vs time](convergence/error_vs_time.png)\n\n";
-    }
-
-    // 5. Where and why the model departs.
+    md += analysis::comparison_markdown(cmp, m.simulation, "simulation", "Huang model") + "\n";
     md += fmt::format(
-        "## Where and why the model departs\n\n"
-        "- **Interreflection.** The model keeps one film reflection (R) and one melanin bounce (TRT); light that meets "
-        "a second barbule is lost in the model and kept in the simulation. Under hemispheric light {:.1f} % of the "
-        "simulated reflected power took more than these paths (the *multi* lobe).\n"
-        "- **T lobe.** Under the beam ({:.0f}° incidence) the simulation lets {:.4f} of the light pass between barbules "
-        "unchanged, the model {:.4f} (Eq. 15).\n"
-        "- **Curved film, real cell length.** The simulated cells are {:.1f} µm long: their normal distribution is Eq. 7 "
-        "× (1 + r_θ(1 − cos θ_m)/ρ(φ_m)), up to {:.2f} at the barbule's sharp edges (geometry/barbule.h). Eq. 7 holds "
-        "only for short cells (section above, coupling {:.3f}).\n"
-        "- **Undersides.** Where barbules leave gaps, oblique light reaches the concave underside of an arc, which "
-        "no model lobe handles (analysis/huang2022.h, back_hit_fraction).\n\n",
-        100.0 * result.simulated_multi_share, s.beam_incidence / kDeg, result.simulated_t, result.model_t,
-        s.row.cell.cell_length_um, result.eq7_edge_coupling, s.validation_cell_coupling);
+        "Simulation: photon estimator, {} quanta per light direction and wavelength, detector "
+        "half-angle "
+        "{:.1f}°, estimated relative RMS error {:.1f} % ({:.0f} s). Model: cone cubature of "
+        "eval().\n\n",
+        m.simulation.quanta, run.s.detector_half_angle / kDeg,
+        100.0 * m.simulation.convergence.back().estimated_relative_rms_error,
+        m.simulation.wall_time_s);
+    return md;
+}
 
-    result.wall_seconds = clock.elapsed_s();
-    {
-        std::ofstream report(dir / "report.md");
-        report << "# Rock dove: explicit barbules against Huang et al. 2022\n\n"
-               << fmt::format("Rock-dove parameters (Huang 2022): b = {}, φ0 = {:.2f}, φ1 = {:.2f}, H = {}, d = {} µm, "
-                              "θ_d = {:.4f}, μ = {:.2f}; {} barbules × {} cells of {} µm, semi-major axis {} µm; melanin "
-                              "{} µm under the film. Wavelengths {}–{} nm ({}), D65, CIE 1931 2°.\n\n",
-                              s.row.cell.b, s.row.cell.phi0, s.row.cell.phi1, s.row.H, s.row.cell.film_thickness_um,
-                              s.row.cell.theta_d, s.row.mu, s.row.barbules, s.row.cells_per_barbule,
-                              s.row.cell.cell_length_um, s.row.cell.semi_major_um, s.row.cell.melanin_depth_um,
-                              s.wavelengths.front(), s.wavelengths.back(), s.wavelengths.size())
-               << md
-               << fmt::format("---\nRun time {:.0f} s (plumage {}). Records (HDF5, virtual_gonio/RECORD.md) in "
-                              "scatterograms/, brdf/, validation/; the study file is in each record's provenance.\n",
-                              result.wall_seconds, kVersion);
-        if (!report) throw IoError("cannot write report.md");
+// In-plane curves at the middle wavelength (the set's own order of light angles).
+std::string in_plane_sweep(const Run& run, const Built& b) {
+    const Settings& s = run.s;
+    gonio::GoniometerConfig ip = goniometer_config(run);
+    ip.direction_set = "filip2024_in_plane";
+    ip.pairs = gonio::filip2024_in_plane_pairs();
+    ip.wavelengths_nm = {s.wavelengths[s.wavelengths.size() / 2]};
+    ip.estimator = gonio::Estimator::photon;
+    ip.quanta_per_pass = s.gonio_quanta * 4;
+    run.clock.say("in-plane sweep: simulation and model");
+    const gonio::BrdfRecord a = gonio::measure_brdf(*b.simulation, ip);
+    ip.estimator = gonio::Estimator::eval;
+    const gonio::BrdfRecord m = gonio::measure_brdf(*b.model, ip);
+    const auto angles = gonio::filip2024_in_plane_light_angles();
+    std::ofstream csv(run.dir / "brdf" / "in_plane.csv");
+    csv << "light angle (deg),simulation,simulation_err,Huang model,model_err\n";
+    for (std::size_t p = 0; p < ip.pairs.size(); ++p) {
+        csv << fmt::format("{:.1f},{:.6g},{:.6g},{:.6g},{:.6g}\n", angles[p] / kDeg, a.at(p, 0),
+                           a.error_at(p, 0), m.at(p, 0), m.error_at(p, 0));
     }
+    csv.close();
+    run_plot("curves", run.dir / "brdf" / "in_plane.csv", run.dir / "brdf" / "in_plane.png");
+    return fmt::format(
+        "In-plane sweep (Filip 2024 Sect. 4: view 45° in the plane across the barbs, light "
+        "−81°…81°) at {:.0f} "
+        "nm:\n\n![in-plane](brdf/in_plane.png)\n\n",
+        ip.wavelengths_nm[0]);
+}
+
+// ---- 3. Validation where the model's assumptions hold: R lobe only, short cells. ------------
+
+// Cells short enough that Eq. 7's longitudinal coupling is s.validation_cell_coupling, on a row
+// long and wide enough for a beam spanning many barbule periods.
+geometry::BarbuleRowParams short_cell_row(const Settings& s) {
+    geometry::BarbuleRowParams short_row = s.row;
+    const double rho_min = short_row.cell.b * short_row.cell.b * short_row.cell.semi_major_um;
+    const double r_theta =
+        s.validation_cell_coupling * rho_min / (1.0 - std::cos(short_row.cell.theta_d));
+    short_row.cell.cell_length_um = 2.0 * r_theta * std::sin(short_row.cell.theta_d);
+    short_row.cell.melanin_depth_um = std::min(short_row.cell.melanin_depth_um, 0.5 * rho_min);
+    const double length_y = std::max(
+        200.0, 4.0 * std::max(s.beam_radius_um, 5.0 * short_row.H * short_row.cell.semi_major_um));
+    short_row.barbules = std::max(
+        short_row.barbules,
+        static_cast<int>(std::ceil(length_y / (short_row.H * short_row.cell.semi_major_um))));
+    short_row.cells_per_barbule =
+        static_cast<int>(std::ceil(length_y / short_row.cell.cell_length_um));
+    return short_row;
+}
+
+gonio::GoniometerConfig validation_config(const Settings& s,
+                                          const geometry::BarbuleRowParams& short_row) {
+    gonio::GoniometerConfig v;
+    v.direction_set = "custom: light in the transversal plane, views across it";
+    const Vec3d light = polar(s.validation_light_theta, 0.0);
+    for (int k = -15; k <= 15; ++k)
+        v.pairs.push_back({light, polar(std::abs(k) * 5.0 * kDeg, k < 0 ? kPi : 0.0)});
+    v.wavelengths_nm = {s.wavelengths.front(), s.wavelengths[s.wavelengths.size() / 2],
+                        s.wavelengths.back()};
+    v.detector_half_angle_rad = s.validation_detector_half_angle;
+    // The beam must span many barbule periods: the model averages over one.
+    v.beam_radius_um = std::max(s.beam_radius_um, 5.0 * short_row.H * short_row.cell.semi_major_um);
+    v.seed = s.seed;
+    v.quanta_per_pass = s.validation_quanta;
+    v.max_passes = 1;
+    v.estimator = gonio::Estimator::photon;
+    return v;
+}
+
+// The R lobes cell by cell in units of σ (writes r_lobe.csv at the middle wavelength). σ from
+// the expected counts (Poisson: a reflected quantum carries weight 1, so Var = f / (P N) with
+// P = π sin²α cos θ_v the detector's projected solid angle) — the sample σ is 0 in cells where
+// the simulation saw nothing — plus the model's cone-cubature error.
+void compare_r_lobes(const gonio::BrdfRecord& a, const gonio::BrdfRecord& b,
+                     const fs::path& csv_path, RockDoveResult& result) {
+    const gonio::GoniometerConfig& v = a.config;
+    const int ra = lobe_index(a.lobes, "R"), rb = lobe_index(b.lobes, "R");
+    const std::size_t np = v.pairs.size(), nl = v.wavelengths_nm.size();
+    std::ofstream csv(csv_path);
+    csv << "view angle (deg),simulation R,simulation_err,model R,model_err\n";
+    for (std::size_t p = 0; p < np; ++p) {
+        for (std::size_t k = 0; k < nl; ++k) {
+            const double sa = a.lobe_values[(static_cast<std::size_t>(ra) * np + p) * nl + k];
+            const double sb = b.lobe_values[(static_cast<std::size_t>(rb) * np + p) * nl + k];
+            const double projected =
+                kPi * std::pow(std::sin(v.detector_half_angle_rad), 2) * v.pairs[p].wo.z();
+            const double sigma =
+                std::sqrt(std::max(sa, sb) / (projected * static_cast<double>(a.quanta))) +
+                b.error_at(p, k);
+            if (sa > 0.0 || sb > 0.0) {
+                if (sigma > 0.0)
+                    result.validation_max_sigma =
+                        std::max(result.validation_max_sigma, std::abs(sa - sb) / sigma);
+                ++result.validation_cells;
+            }
+            if (k == nl / 2) {
+                const double angle = (static_cast<double>(p) - 15.0) * 5.0;
+                csv << fmt::format("{:.1f},{:.6g},{:.6g},{:.6g},{:.6g}\n", angle, sa,
+                                   a.error_at(p, k), sb, b.error_at(p, k));
+            }
+        }
+    }
+}
+
+std::string validation(const Run& run, const Built& b, RockDoveResult& result) {
+    const Settings& s = run.s;
+    const geometry::BarbuleRowParams short_row = short_cell_row(s);
+    run.clock.say(fmt::format("validation: {} short cells ({:.3f} um) per barbule, R lobe only",
+                              short_row.cells_per_barbule, short_row.cell.cell_length_um));
+    const geometry::BarbuleRow vrow = geometry::build_barbule_row(short_row, s.tolerance);
+    sim::TracerOptions single;
+    single.max_events = 1;
+    const sim::ExplicitScatterer vsim(sim::barbule_row_scene(vrow), single);
+    gonio::GoniometerConfig v = validation_config(s, short_row);
+    const gonio::BrdfRecord a = gonio::measure_brdf(vsim, v);
+    v.estimator = gonio::Estimator::eval;
+    const gonio::BrdfRecord m = gonio::measure_brdf(*b.model, v);
+    const fs::path dir = run.dir / "validation";
+    gonio::write_brdf_record(a, dir / "simulation_R.h5");
+    gonio::write_brdf_record(m, dir / "model.h5");
+    compare_r_lobes(a, m, dir / "r_lobe.csv", result);
+    run_plot("curves", dir / "r_lobe.csv", dir / "r_lobe.png");
+    return fmt::format(
+        "## Where the model's assumptions hold\n\nR lobe only (the tracer stops after one event), "
+        "smooth film, "
+        "cells {:.3f} µm long so that Eq. 7's longitudinal coupling r_θ(1 − cos θ_d)/(b²A) = "
+        "{:.3f}; light at θ = "
+        "{:.0f}° in the transversal plane, views across it. Largest |simulation − model| = {:.2f} "
+        "σ over {} cells "
+        "with signal ({} wavelengths):\n\n![R lobe](validation/r_lobe.png)\n\n",
+        short_row.cell.cell_length_um, s.validation_cell_coupling, s.validation_light_theta / kDeg,
+        result.validation_max_sigma, result.validation_cells, v.wavelengths_nm.size());
+}
+
+// ---- 4. Error against run time. ----------------------------------------------------------------
+
+// The R lobe by the photon estimator against the model's exact values (eval), pass by pass,
+// and the simulation's estimated error.
+std::string convergence(const Run& run, const Built& b,
+                        const std::vector<gonio::ConvergenceRow>& simulation_passes) {
+    const Settings& s = run.s;
+    gonio::GoniometerConfig c = goniometer_config(run);
+    c.direction_set = "filip2024_in_plane";
+    c.pairs = gonio::filip2024_in_plane_pairs();
+    c.wavelengths_nm = {s.wavelengths[s.wavelengths.size() / 2]};
+    c.estimator = gonio::Estimator::eval;
+    c.eval_rings = 24;  // the narrow R lobe crosses the detector cones: a fine rule for the truth
+    const gonio::BrdfRecord truth = gonio::measure_brdf(*b.model, c);
+    c.estimator = gonio::Estimator::photon;
+    c.quanta_per_pass = s.convergence_quanta;
+    c.max_passes = s.convergence_passes;
+    std::ofstream csv(run.dir / "convergence" / "error_vs_time.csv");
+    csv << "label,wall_time_s,estimated_error,true_error\n";
+    gonio::RunControl rc;
+    const int r_truth = lobe_index(truth.lobes, "R");
+    rc.on_pass_record = [&](const gonio::BrdfRecord& r) {
+        const int rl = lobe_index(r.lobes, "R");
+        double est = 0.0, tru = 0.0;
+        int n = 0;
+        for (std::size_t p = 0; p < c.pairs.size(); ++p) {
+            const double ref =
+                truth.lobe_values[static_cast<std::size_t>(r_truth) * c.pairs.size() + p];
+            if (ref <= 0.0) continue;
+            const double val = r.lobe_values[static_cast<std::size_t>(rl) * c.pairs.size() + p];
+            tru += std::pow((val - ref) / ref, 2);
+            est += std::pow(
+                r.lobe_standard_error[static_cast<std::size_t>(rl) * c.pairs.size() + p] / ref, 2);
+            ++n;
+        }
+        csv << fmt::format("Huang R lobe (photon estimator),{:.6g},{:.6g},{:.6g}\n", r.wall_time_s,
+                           std::sqrt(est / n), std::sqrt(tru / n));
+    };
+    run.clock.say("error against run time: Huang R lobe, photon estimator against exact values");
+    gonio::measure_brdf(*b.model, c, rc);
+    for (const auto& r : simulation_passes) {
+        // No exact values exist for the simulation: its true error is unknown (−1, not plotted).
+        csv << fmt::format("simulation BRDF,{:.6g},{:.6g},-1\n", r.wall_time_s,
+                           r.estimated_relative_rms_error);
+    }
+    csv.close();
+    run_plot("convergence", run.dir / "convergence" / "error_vs_time.csv",
+             run.dir / "convergence" / "error_vs_time.png");
+    return "## Error against run time\n\nThe model's R lobe measured by the same photon estimator "
+           "the simulation "
+           "uses, against its exact values (eval), pass by pass, with the estimated error the "
+           "instrument reports; the "
+           "simulation's estimated error alongside. Both fall as 1/√t.\n\n![error vs "
+           "time](convergence/error_vs_time.png)\n\n";
+}
+
+// ---- 5. Report. --------------------------------------------------------------------------------
+
+std::string departures(const Settings& s, const RockDoveResult& result) {
+    return fmt::format(
+        "## Where and why the model departs\n\n"
+        "- **Interreflection.** The model keeps one film reflection (R) and one melanin bounce "
+        "(TRT); light that meets "
+        "a second barbule is lost in the model and kept in the simulation. Under hemispheric light "
+        "{:.1f} % of the "
+        "simulated reflected power took more than these paths (the *multi* lobe).\n"
+        "- **T lobe.** Under the beam ({:.0f}° incidence) the simulation lets {:.4f} of the light "
+        "pass between barbules "
+        "unchanged, the model {:.4f} (Eq. 15).\n"
+        "- **Curved film, real cell length.** The simulated cells are {:.1f} µm long: their normal "
+        "distribution is Eq. 7 "
+        "× (1 + r_θ(1 − cos θ_m)/ρ(φ_m)), up to {:.2f} at the barbule's sharp edges "
+        "(geometry/barbule.h). Eq. 7 holds "
+        "only for short cells (section above, coupling {:.3f}).\n"
+        "- **Undersides.** Where barbules leave gaps, oblique light reaches the concave underside "
+        "of an arc, which "
+        "no model lobe handles (analysis/huang2022.h, back_hit_fraction).\n\n",
+        100.0 * result.simulated_multi_share, s.beam_incidence / kDeg, result.simulated_t,
+        result.model_t, s.row.cell.cell_length_um, result.eq7_edge_coupling,
+        s.validation_cell_coupling);
+}
+
+void write_report(const fs::path& path, const Settings& s, const std::string& md,
+                  const RockDoveResult& result) {
+    std::ofstream report(path);
+    report << "# Rock dove: explicit barbules against Huang et al. 2022\n\n"
+           << fmt::format(
+                  "Rock-dove parameters (Huang 2022): b = {}, φ0 = {:.2f}, φ1 = {:.2f}, H = {}, d "
+                  "= {} µm, "
+                  "θ_d = {:.4f}, μ = {:.2f}; {} barbules × {} cells of {} µm, semi-major axis {} "
+                  "µm; melanin "
+                  "{} µm under the film. Wavelengths {}–{} nm ({}), D65, CIE 1931 2°.\n\n",
+                  s.row.cell.b, s.row.cell.phi0, s.row.cell.phi1, s.row.H,
+                  s.row.cell.film_thickness_um, s.row.cell.theta_d, s.row.mu, s.row.barbules,
+                  s.row.cells_per_barbule, s.row.cell.cell_length_um, s.row.cell.semi_major_um,
+                  s.row.cell.melanin_depth_um, s.wavelengths.front(), s.wavelengths.back(),
+                  s.wavelengths.size())
+           << md
+           << fmt::format(
+                  "---\nRun time {:.0f} s (plumage {}). Records (HDF5, virtual_gonio/RECORD.md) in "
+                  "scatterograms/, brdf/, validation/; the study file is in each record's "
+                  "provenance.\n",
+                  result.wall_seconds, kVersion);
+    if (!report) throw IoError("cannot write report.md");
+}
+
+}  // namespace
+
+RockDoveResult run_rock_dove_study(const std::string& study_text, const fs::path& source_name,
+                                   const fs::path& results_root, bool progress,
+                                   const RunLimits& limits) {
+    const StudyProgress clock(progress);
+    auto file = StudyFile::parse(study_text, source_name);
+    std::string name;
+    Settings s = read_settings(*file, name, source_name);  // read
+    StagedDirectory::prepare(results_root / name);
+    if (limits.time_budget_s > 0.0) s.time_budget_s = limits.time_budget_s;
+    if (limits.target_relative_error > 0.0) s.target_relative_error = limits.target_relative_error;
+    RockDoveResult result;
+    const Built built = build(s, *file, clock, result);  // build
+
+    StagedDirectory out(results_root / name);
+    for (const char* part : {"scatterograms", "brdf", "validation", "convergence"}) {
+        fs::create_directories(out.path() / part);
+    }
+    const Run run{s, study_text, clock, progress, out.path()};
+    const fs::path checkpoints = results_root / ".checkpoints" / name;
+    std::string md = scatterograms(run, built, result);  // measure and compare, section by section
+    const Brdfs brdfs = measure_brdfs(run, built, checkpoints / "brdf_simulation.checkpoint");
+    md += brdf_section(run, brdfs, result);
+    md += in_plane_sweep(run, built);
+    md += validation(run, built, result);
+    md += convergence(run, built, brdfs.simulation_passes);
+    md += departures(s, result);  // report
+    result.wall_seconds = clock.elapsed_s();
+    write_report(out.path() / "report.md", s, md, result);
     out.commit();
     std::error_code ignored;
     fs::remove_all(checkpoints, ignored);  // the finished record supersedes the checkpoint
-    if (fs::is_empty(results_root / ".checkpoints", ignored)) fs::remove(results_root / ".checkpoints", ignored);
+    if (fs::is_empty(results_root / ".checkpoints", ignored))
+        fs::remove(results_root / ".checkpoints", ignored);
     result.output_dir = out.final_path();
     clock.done("done: " + (result.output_dir / "report.md").string());
     return result;
@@ -443,8 +623,8 @@ void check_rock_dove_study(const std::string& study_text, const fs::path& source
 namespace {
 
 // `plumage run`: the run, and the summary printed on stdout.
-std::string run_from_command_line(const std::string& text, const fs::path& source, const fs::path& root,
-                          const RunLimits& limits) {
+std::string run_from_command_line(const std::string& text, const fs::path& source,
+                                  const fs::path& root, const RunLimits& limits) {
     const auto r = run_rock_dove_study(text, source, root, true, limits);
     return fmt::format("plumage: wrote {} in {:.0f} s (open report.md)\n", r.output_dir.string(),
                        r.wall_seconds);
@@ -453,8 +633,10 @@ std::string run_from_command_line(const std::string& text, const fs::path& sourc
 }  // namespace
 
 StudyEntry rock_dove_study_entry() {
-    return {"rock_dove", "explicit rock-dove barbules against Huang et al. 2022 (scatterograms, Filip BRDF, "
-               "in-plane, validation, convergence)", check_rock_dove_study, run_from_command_line};
+    return {"rock_dove",
+            "explicit rock-dove barbules against Huang et al. 2022 (scatterograms, Filip BRDF, "
+            "in-plane, validation, convergence)",
+            check_rock_dove_study, run_from_command_line};
 }
 
 }  // namespace plumage::studies
