@@ -21,10 +21,10 @@
 #include "sim/optics/spectrum.h"
 #include "sim/tracer.h"
 #include "studies/plots.h"
+#include "studies/sections.h"
 #include "studies/staged_directory.h"
 #include "studies/study.h"
 #include "studies/study_common.h"
-#include "studies/sections.h"
 #include "studies/study_file.h"
 #include "virtual_gonio/hdf5_file.h"
 #include "virtual_gonio/scatterometer.h"
@@ -52,23 +52,36 @@ struct Parameter {
 const std::vector<Parameter>& parameters() {
     static const std::vector<Parameter> list = {
         {"b", "b", "semi-minor / semi-major axis", between(1e-3, 1.0), 0.19, 0.31,
-         [](const BarbuleRowParams& p) { return p.cell.b; }, [](BarbuleRowParams& p, double v) { p.cell.b = v; }},
-        {"phi0_deg", "φ0 (deg)", "arc start, normal azimuth, degrees", between(-360.0, 360.0), -41.2, -1.2,
-         [](const BarbuleRowParams& p) { return p.cell.phi0 / kDeg; },
+         [](const BarbuleRowParams& p) { return p.cell.b; },
+         [](BarbuleRowParams& p, double v) { p.cell.b = v; }},
+        {"phi0_deg", "φ0 (deg)", "arc start, normal azimuth, degrees", between(-360.0, 360.0),
+         -41.2, -1.2, [](const BarbuleRowParams& p) { return p.cell.phi0 / kDeg; },
          [](BarbuleRowParams& p, double v) { p.cell.phi0 = v * kDeg; }},
-        {"phi1_deg", "φ1 (deg)", "arc end, normal azimuth, degrees", between(-360.0, 360.0), 131.26, 171.26,
-         [](const BarbuleRowParams& p) { return p.cell.phi1 / kDeg; },
+        {"phi1_deg", "φ1 (deg)", "arc end, normal azimuth, degrees", between(-360.0, 360.0), 131.26,
+         171.26, [](const BarbuleRowParams& p) { return p.cell.phi1 / kDeg; },
          [](BarbuleRowParams& p, double v) { p.cell.phi1 = v * kDeg; }},
         {"H", "H", "barbule spacing, in semi-major axes", positive(), 0.95, 2.15,
-         [](const BarbuleRowParams& p) { return p.H; }, [](BarbuleRowParams& p, double v) { p.H = v; }},
-        {"film_thickness_um", "d (µm)", "keratin film thickness, um", between(0.0, 50.0), 0.39, 0.79,
-         [](const BarbuleRowParams& p) { return p.cell.film_thickness_um; },
+         [](const BarbuleRowParams& p) { return p.H; },
+         [](BarbuleRowParams& p, double v) { p.H = v; }},
+        {"film_thickness_um", "d (µm)", "keratin film thickness, um", between(0.0, 50.0), 0.39,
+         0.79, [](const BarbuleRowParams& p) { return p.cell.film_thickness_um; },
          [](BarbuleRowParams& p, double v) { p.cell.film_thickness_um = v; }},
-        {"theta_d_deg", "θ_d (deg)", "longitudinal half-opening, degrees (the model needs > 0)",
-         {0.0, 45.0, true, false}, 0.5, 8.5, [](const BarbuleRowParams& p) { return p.cell.theta_d / kDeg; },
+        {"theta_d_deg",
+         "θ_d (deg)",
+         "longitudinal half-opening, degrees (the model needs > 0)",
+         {0.0, 45.0, true, false},
+         0.5,
+         8.5,
+         [](const BarbuleRowParams& p) { return p.cell.theta_d / kDeg; },
          [](BarbuleRowParams& p, double v) { p.cell.theta_d = v * kDeg; }},
-        {"mu_deg", "μ (deg)", "barb-plane tilt, degrees", {-90.0, 90.0, true, true}, -40.05, -20.05,
-         [](const BarbuleRowParams& p) { return p.mu / kDeg; }, [](BarbuleRowParams& p, double v) { p.mu = v * kDeg; }},
+        {"mu_deg",
+         "μ (deg)",
+         "barb-plane tilt, degrees",
+         {-90.0, 90.0, true, true},
+         -40.05,
+         -20.05,
+         [](const BarbuleRowParams& p) { return p.mu / kDeg; },
+         [](BarbuleRowParams& p, double v) { p.mu = v * kDeg; }},
     };
     return list;
 }
@@ -102,32 +115,42 @@ Settings read_settings(StudyFile& file, std::string& name, const fs::path& sourc
     ParameterTable spectrum = root.table("spectrum");
     s.wavelengths = read_wavelengths(spectrum, WavelengthRule{});
     ParameterTable sc = root.table("scatterometer");
-    s.image_size = static_cast<int>(sc.integer("image_size", s.image_size, 17, 1025, "pixels across the scatterogram"));
-    s.quanta = static_cast<std::uint64_t>(sc.integer("quanta_per_pass", static_cast<long>(s.quanta), 1000, 100000000, "quanta per wavelength and pass"));
+    s.image_size = static_cast<int>(
+        sc.integer("image_size", s.image_size, 17, 1025, "pixels across the scatterogram"));
+    s.quanta =
+        static_cast<std::uint64_t>(sc.integer("quanta_per_pass", static_cast<long>(s.quanta), 1000,
+                                              100000000, "quanta per wavelength and pass"));
     s.passes = static_cast<int>(sc.integer("passes", s.passes, 1, 1000, "passes"));
-    s.beam_incidence = sc.angle_deg("beam_incidence_deg", s.beam_incidence, between(0.0, 80.0), "beam polar angle");
-    s.beam_azimuth = sc.angle_deg("beam_azimuth_deg", s.beam_azimuth, between(-360.0, 360.0), "beam azimuth from the barb axis");
+    s.beam_incidence = sc.angle_deg("beam_incidence_deg", s.beam_incidence, between(0.0, 80.0),
+                                    "beam polar angle");
+    s.beam_azimuth = sc.angle_deg("beam_azimuth_deg", s.beam_azimuth, between(-360.0, 360.0),
+                                  "beam azimuth from the barb axis");
     s.beam_radius_um = sc.number("beam_radius_um", s.beam_radius_um, positive(), "beam radius, um");
     ParameterTable sweep = root.table("sweep");
-    const long default_values = sweep.integer("values", 5, 0, 50, "values per parameter (0: no sweeps)");
+    const long default_values =
+        sweep.integer("values", 5, 0, 50, "values per parameter (0: no sweeps)");
     for (const Parameter& p : parameters()) {
         ParameterTable t = sweep.table(p.key);
         const double from = t.number("from", p.from, p.range, p.what);
         const double to = t.number("to", p.to, p.range, p.what);
-        const long n = t.integer("values", default_values, 0, 50, "values of this parameter (0: leave it out)");
+        const long n = t.integer("values", default_values, 0, 50,
+                                 "values of this parameter (0: leave it out)");
         if (to < from) {
-            throw InputError(fmt::format("{}: sweep.{}.to = {} is below from = {}: expected from <= to", t.location("to"),
-                                         p.key, to, from));
+            throw InputError(
+                fmt::format("{}: sweep.{}.to = {} is below from = {}: expected from <= to",
+                            t.location("to"), p.key, to, from));
         }
         if (n == 0) continue;
         Sweep w{&p, {}};
-        for (long i = 0; i < n; ++i) w.values.push_back(n == 1 ? from : from + (to - from) * static_cast<double>(i) / static_cast<double>(n - 1));
+        for (long i = 0; i < n; ++i)
+            w.values.push_back(n == 1 ? from
+                                      : from + (to - from) * static_cast<double>(i) /
+                                                   static_cast<double>(n - 1));
         s.sweeps.push_back(std::move(w));
     }
     root.reject_unused();
     return s;
 }
-
 
 // The numbers of one simulation–model pair of scatterograms.
 AblationPoint compare(const gonio::Scatterogram& sim, const gonio::Scatterogram& mod) {
@@ -143,7 +166,8 @@ AblationPoint compare(const gonio::Scatterogram& sim, const gonio::Scatterogram&
     }
     // A perfect model differs from the simulation by its noise alone: E|N(0, σ)| = σ √(2/π).
     r.relative_l1 = power_sim > 0.0 ? diff / power_sim : std::numeric_limits<double>::infinity();
-    r.relative_l1_model_reference = power_mod > 0.0 ? diff / power_mod : std::numeric_limits<double>::infinity();
+    r.relative_l1_model_reference =
+        power_mod > 0.0 ? diff / power_mod : std::numeric_limits<double>::infinity();
     r.noise_floor = power_sim > 0.0 ? std::sqrt(2.0 / kPi) * noise / power_sim : 0.0;
     r.simulated_reflected = power_sim / static_cast<double>(nl);
     r.model_reflected = power_mod / static_cast<double>(nl);
@@ -165,6 +189,404 @@ std::string format_value(double v) { return fmt::format("{:.4g}", v); }
 // Folder-safe name of a value: "0.22", "-31.2".
 std::string file_tag(std::size_t index, double v) { return fmt::format("{:02d}_{:.4g}", index, v); }
 
+// ---- One run: what every step shares. -------------------------------------------------------
+
+// One value: the explicit patch and the model of the same parameters, or the reason the
+// geometry or the model refuses them.
+struct Measured {
+    std::optional<gonio::Scatterogram> sim, mod;
+    std::string reason;
+};
+
+struct Run {
+    const Settings& s;
+    gonio::ScatterometerConfig config;
+    const StudyProgress& clock;
+    fs::path dir;
+    double exposure = 1.0;  // of every image: the base model's brightest pixel → white
+    AblationPoint base_point;
+};
+
+gonio::ScatterometerConfig scatterometer_config(const Settings& s, const std::string& study_text,
+                                                const RunLimits& limits) {
+    gonio::ScatterometerConfig config;
+    config.illumination = gonio::Illumination::beam;
+    config.beam_direction = {std::sin(s.beam_incidence) * std::cos(s.beam_azimuth),
+                             std::sin(s.beam_incidence) * std::sin(s.beam_azimuth),
+                             std::cos(s.beam_incidence)};
+    config.image_size = s.image_size;
+    config.wavelengths_nm = s.wavelengths;
+    config.beam_radius_um = s.beam_radius_um;
+    config.seed = s.seed;
+    config.quanta_per_pass = s.quanta;
+    config.max_passes = s.passes;
+    config.config_text = study_text;
+    if (limits.time_budget_s > 0.0) config.time_budget_s = limits.time_budget_s;
+    if (limits.target_relative_error > 0.0)
+        config.target_relative_error = limits.target_relative_error;
+    return config;
+}
+
+Measured measure(const Run& run, const BarbuleRowParams& params) {
+    const Settings& s = run.s;
+    Measured m;
+    geometry::BarbuleRow row;
+    try {
+        row = geometry::build_barbule_row(params, s.tolerance);
+    } catch (const InputError& e) {
+        m.reason = fmt::format("the geometry rejects it: {}", e.what());
+        return m;
+    }
+    std::optional<analysis::Huang2022Bsdf> model;
+    try {
+        model.emplace(huang_params_of(params));
+    } catch (const InputError& e) {
+        m.reason = fmt::format("the model rejects it: {}", e.what());
+        return m;
+    }
+    // The beam's footprint must lie on the patch, or the simulation loses light off its edge.
+    const Eigen::AlignedBox3d box = row.bounds();
+    const double footprint = s.beam_radius_um / std::cos(s.beam_incidence);
+    const double half_width = 0.5 * std::min(box.sizes().x(), box.sizes().y());
+    if (footprint > 0.8 * half_width) {
+        m.reason = fmt::format(
+            "the beam's footprint ({:.0f} um) overfills the patch ({:.0f} x {:.0f} um): "
+            "more barbules or cells, or a narrower beam",
+            footprint, box.sizes().x(), box.sizes().y());
+        return m;
+    }
+    const sim::ExplicitScatterer simulation(sim::barbule_row_scene(row));
+    m.sim = gonio::measure_scatterogram(simulation, run.config);
+    m.mod = gonio::measure_scatterogram(*model, run.config);
+    return m;
+}
+
+// The base values first: every sweep passes through them, and their model's brightest pixel
+// sets the one exposure of every image.
+void measure_base(Run& run, const std::string& geometry_location) {
+    fs::create_directories(run.dir / "base");
+    run.clock.say("base values (the study's [geometry]): simulation and model");
+    const Measured base = measure(run, run.s.row);
+    if (!base.sim) {
+        throw InputError(fmt::format("{}: [geometry] (the base of every sweep): {}",
+                                     geometry_location, base.reason));
+    }
+    run.base_point = compare(*base.sim, *base.mod);
+    const double peak = gonio::scatterogram_peak_luminance(*base.mod);
+    run.exposure = peak > 0.0 ? 1.0 / peak : 1.0;
+    record::write_png(run.dir / "base" / "simulation.png",
+                      gonio::scatterogram_srgb(*base.sim, run.exposure));
+    record::write_png(run.dir / "base" / "model.png",
+                      gonio::scatterogram_srgb(*base.mod, run.exposure));
+    gonio::write_scatterogram_record(*base.sim, run.dir / "base" / "simulation.h5");
+    gonio::write_scatterogram_record(*base.mod, run.dir / "base" / "model.h5");
+}
+
+// ---- One parameter's sweep. ------------------------------------------------------------------
+
+// A measured value of a sweep, with its images (paths relative to the parameter's folder).
+struct SweptValue {
+    AblationPoint point;
+    std::string sim_png, mod_png;
+};
+
+// The base value, up to the rounding of a study file's decimals (Huang's −0.37 rad is
+// −21.1994°, 0.0785 rad 4.4977°; a file that writes −21.2 or 4.5 means them): within 1 % of
+// the sweep's step.
+bool is_base_value(const Sweep& sweep, double v, double base_value) {
+    const double step = sweep.values.size() > 1 ? sweep.values[1] - sweep.values[0] : 0.0;
+    return std::abs(v - base_value) <=
+           std::max(0.01 * step, 1e-9 * std::max(1.0, std::abs(base_value)));
+}
+
+SweptValue measure_value(const Run& run, const Sweep& sweep, std::size_t i, const fs::path& pdir) {
+    const Parameter& p = *sweep.parameter;
+    const double v = sweep.values[i], base_value = p.get(run.s.row);
+    SweptValue out;
+    if (is_base_value(sweep, v, base_value)) {
+        out.point = run.base_point;
+        out.point.is_base = true;
+        out.sim_png = (run.dir / "base" / "simulation.png").string();
+        out.mod_png = (run.dir / "base" / "model.png").string();
+    } else {
+        BarbuleRowParams params = run.s.row;
+        p.set(params, v);
+        run.clock.say(fmt::format("{} = {}: simulation and model", p.key, format_value(v)));
+        const Measured m = measure(run, params);
+        if (m.sim) {
+            out.point = compare(*m.sim, *m.mod);
+            const std::string tag = file_tag(i, v);
+            out.sim_png = (pdir / (tag + "_simulation.png")).string();
+            out.mod_png = (pdir / (tag + "_model.png")).string();
+            record::write_png(out.sim_png, gonio::scatterogram_srgb(*m.sim, run.exposure));
+            record::write_png(out.mod_png, gonio::scatterogram_srgb(*m.mod, run.exposure));
+        } else {
+            out.point.skipped = true;
+            out.point.reason = m.reason;
+            run.clock.done(fmt::format("{} = {}: skipped ({})", p.key, format_value(v), m.reason));
+        }
+    }
+    out.point.parameter = p.key;
+    out.point.value = out.point.is_base ? base_value : v;
+    return out;
+}
+
+// What a sweep's report section and summary need, gathered while its values are measured.
+struct SweepTables {
+    std::string table, skipped_list;
+    std::vector<double> values, l1, floor;
+    int skipped = 0;
+};
+
+// One value's lines in errors.csv, the sheet, error.csv, the table and the HDF5 columns.
+void record_value(const Parameter& p, const SweptValue& x, std::ofstream& all_csv,
+                  std::ofstream& sheet, std::ofstream& error_csv, const fs::path& pdir,
+                  SweepTables& t) {
+    const AblationPoint& point = x.point;
+    const std::string label = fmt::format("{} = {}{}", p.label, format_value(point.value),
+                                          point.is_base ? " (base)" : "");
+    all_csv << fmt::format(
+        "{},{:.9g},{},{},{:.6g},{:.6g},{:.6g},{:.6g},{:.6g},{:.6g},{:.6g},{}\n", p.key, point.value,
+        point.is_base ? 1 : 0, point.skipped ? 1 : 0, point.relative_l1, point.noise_floor,
+        point.relative_l1_model_reference, point.simulated_reflected, point.model_reflected,
+        point.simulated_transmitted, point.model_transmitted, csv_field(point.reason));
+    t.values.push_back(point.value);
+    if (point.skipped) {
+        ++t.skipped;
+        sheet << fmt::format("{},,,{}\n", csv_field(label), csv_field("skipped: " + point.reason));
+        error_csv << fmt::format("{:.9g},nan,nan,0\n", point.value);
+        t.table += fmt::format("| {} | skipped: {} | | | | | | |\n", format_value(point.value),
+                               point.reason);
+        t.skipped_list +=
+            fmt::format("- {} = {}: {}\n", p.label, format_value(point.value), point.reason);
+        t.l1.push_back(std::numeric_limits<double>::quiet_NaN());
+        t.floor.push_back(std::numeric_limits<double>::quiet_NaN());
+        return;
+    }
+    // Paths relative to the sheet: a record must not name the staging folder it was written in.
+    sheet << fmt::format("{},{},{},{}\n", csv_field(label),
+                         csv_field(fs::path(x.sim_png).lexically_relative(pdir).string()),
+                         csv_field(fs::path(x.mod_png).lexically_relative(pdir).string()),
+                         csv_field(fmt::format("e = {:.3f} (noise floor {:.3f})", point.relative_l1,
+                                               point.noise_floor)));
+    error_csv << fmt::format("{:.9g},{:.6g},{:.6g},{}\n", point.value, point.relative_l1,
+                             point.noise_floor, point.is_base ? 1 : 0);
+    t.table +=
+        fmt::format("| {}{} | {:.3f} | {:.3f} | {:.3f} | {:.4f} | {:.4f} | {:.4f} | {:.4f} |\n",
+                    format_value(point.value), point.is_base ? " (base)" : "", point.relative_l1,
+                    point.noise_floor, point.relative_l1_model_reference, point.simulated_reflected,
+                    point.model_reflected, point.simulated_transmitted, point.model_transmitted);
+    t.l1.push_back(point.relative_l1);
+    t.floor.push_back(point.noise_floor);
+}
+
+// The smallest, largest and base errors of a sweep (null: none measured).
+struct Extremes {
+    const AblationPoint *smallest = nullptr, *largest = nullptr, *at_base = nullptr;
+};
+Extremes extremes_of(std::span<const AblationPoint> points) {
+    Extremes e;
+    for (const AblationPoint& q : points) {
+        if (q.skipped) continue;
+        if (!e.smallest || q.relative_l1 < e.smallest->relative_l1) e.smallest = &q;
+        if (!e.largest || q.relative_l1 > e.largest->relative_l1) e.largest = &q;
+        if (q.is_base) e.at_base = &q;
+    }
+    return e;
+}
+
+// "What the sweeps show": one line, keyed by the largest excess of the error over its floor.
+std::pair<double, std::string> finding(const Parameter& p, std::span<const AblationPoint> points,
+                                       const Extremes& e) {
+    const AblationPoint* most = nullptr;
+    double t_sim_lo = 1.0, t_sim_hi = 0.0, t_mod_lo = 1.0, t_mod_hi = 0.0;
+    for (const AblationPoint& q : points) {
+        if (q.skipped) continue;
+        if (!most || q.relative_l1 - q.noise_floor > most->relative_l1 - most->noise_floor)
+            most = &q;
+        t_sim_lo = std::min(t_sim_lo, q.simulated_transmitted),
+        t_sim_hi = std::max(t_sim_hi, q.simulated_transmitted);
+        t_mod_lo = std::min(t_mod_lo, q.model_transmitted),
+        t_mod_hi = std::max(t_mod_hi, q.model_transmitted);
+    }
+    std::string line = fmt::format(
+        "- **{}**: e {:.3f} at {} to {:.3f} at {} (noise floors {:.3f} and {:.3f});", p.label,
+        e.smallest->relative_l1, format_value(e.smallest->value), e.largest->relative_l1,
+        format_value(e.largest->value), e.smallest->noise_floor, e.largest->noise_floor);
+    if (e.at_base)
+        line += fmt::format(" e − floor {:.3f} at the base value,",
+                            e.at_base->relative_l1 - e.at_base->noise_floor);
+    line += fmt::format(" largest {:.3f} at {}.", most->relative_l1 - most->noise_floor,
+                        format_value(most->value));
+    if (std::max(t_sim_hi, t_mod_hi) > 0.01) {
+        line +=
+            fmt::format(" Light below the patch: simulation {:.3f}–{:.3f}, model {:.3f}–{:.3f}.",
+                        t_sim_lo, t_sim_hi, t_mod_lo, t_mod_hi);
+    }
+    return {most->relative_l1 - most->noise_floor, line};
+}
+
+// The whole report's pieces, gathered parameter by parameter.
+struct ReportParts {
+    std::string sections, skipped_list;
+    std::string summary =
+        "| parameter | values | skipped | e at the base value | smallest e | largest e "
+        "|\n|---|---|---|---|---|---|\n";
+    std::vector<std::pair<double, std::string>> findings;
+};
+
+void report_sweep(const Parameter& p, const Sweep& sweep, std::span<const AblationPoint> points,
+                  const SweepTables& t, ReportParts& parts) {
+    const Extremes e = extremes_of(points);
+    if (e.smallest) parts.findings.push_back(finding(p, points, e));
+    auto at = [](const AblationPoint* q) {
+        return q ? fmt::format("{:.3f} at {}", q->relative_l1, format_value(q->value))
+                 : std::string("—");
+    };
+    parts.summary += fmt::format(
+        "| [{}](#{}) | {}–{} ({}) | {} | {} | {} | {} |\n", p.label, p.key,
+        format_value(sweep.values.front()), format_value(sweep.values.back()), sweep.values.size(),
+        t.skipped,
+        e.at_base ? fmt::format("{:.3f}", e.at_base->relative_l1) : std::string("(not swept)"),
+        at(e.smallest), at(e.largest));
+    parts.sections += fmt::format("<a id=\"{}\"></a>\n## {} ({})\n\n", p.key, p.label, p.what);
+    if (e.smallest) {
+        parts.sections += fmt::format(
+            "![model error against {}]({}/error.png)\n\n"
+            "Rows: values of {}; columns: simulation | Huang model (one exposure for every image: "
+            "white = the brightest pixel of the base model).\n\n![contact "
+            "sheet]({}/contact_sheet.png)\n\n",
+            p.label, p.key, p.label, p.key);
+    } else {
+        parts.sections += "Every value was skipped; nothing to plot.\n\n";
+    }
+    parts.sections += t.table + "\n";
+    parts.skipped_list += t.skipped_list;
+}
+
+// One parameter: every value measured, recorded (its folder, errors.csv, ablation.h5) and
+// reported; its figures queued.
+void sweep_parameter(const Run& run, const Sweep& sweep, std::ofstream& all_csv,
+                     record::Hdf5Writer& h5, AblationResult& result, ReportParts& parts,
+                     std::vector<PlotJob>& plots) {
+    const Parameter& p = *sweep.parameter;
+    const fs::path pdir = run.dir / p.key;
+    fs::create_directories(pdir);
+    std::ofstream sheet(pdir / "sheet.csv"), error_csv(pdir / "error.csv");
+    sheet << "label,simulation,model,note\n";
+    error_csv << csv_field(p.label) << ",relative L1 (simulation reference),noise floor,is_base\n";
+    SweepTables t;
+    t.table = fmt::format(
+        "| {} | e | noise floor | e (model reference) | reflected, simulation | "
+        "reflected, model | below, simulation | below, model "
+        "|\n|---|---|---|---|---|---|---|---|\n",
+        p.label);
+    const std::size_t first_point = result.points.size();
+    for (std::size_t i = 0; i < sweep.values.size(); ++i) {
+        const SweptValue x = measure_value(run, sweep, i, pdir);
+        result.points.push_back(x.point);
+        record_value(p, x, all_csv, sheet, error_csv, pdir, t);
+    }
+    result.skipped += t.skipped;
+    h5.write(std::string(p.key) + "/value", std::span<const double>(t.values), {t.values.size()},
+             {{"units", "study-file units (degrees for angles, um for the film)"}});
+    h5.write(std::string(p.key) + "/relative_l1", std::span<const double>(t.l1), {t.l1.size()},
+             {{"description",
+               "sum |I_model - I_sim| Omega / sum I_sim Omega over pixels and wavelengths"}});
+    h5.write(std::string(p.key) + "/noise_floor", std::span<const double>(t.floor),
+             {t.floor.size()},
+             {{"description",
+               "relative L1 a perfect model would show: sqrt(2/pi) sum sigma_sim Omega / sum I_sim "
+               "Omega"}});
+    const std::span<const AblationPoint> points(result.points.data() + first_point,
+                                                result.points.size() - first_point);
+    if (extremes_of(points).smallest) {
+        plots.push_back({"contact_sheet", pdir / "sheet.csv", pdir / "contact_sheet.png"});
+        plots.push_back({"sweep_error", pdir / "error.csv", pdir / "error.png"});
+    }
+    report_sweep(p, sweep, points, t, parts);
+}
+
+// ---- Report. ---------------------------------------------------------------------------------
+
+std::string report_introduction(const Settings& s, const AblationPoint& base_point) {
+    const auto& c = s.row.cell;
+    return "# Ablation: Huang et al. 2022 against explicit barbules, one parameter at a time\n\n" +
+           fmt::format(
+               "Each parameter of the barbule model is swept alone; all others keep the base "
+               "values "
+               "(the study's [geometry], Huang's rock-dove fit unless changed): b = {}, φ0 = "
+               "{:.2f}°, "
+               "φ1 = {:.2f}°, H = {}, d = {} µm, θ_d = {:.2f}°, μ = {:.2f}°; cells {} µm long, "
+               "semi-major "
+               "axis {} µm, melanin {} µm under the film; {} barbules × {} cells. For every value "
+               "the "
+               "explicit patch is traced and the model evaluated under the same beam (incidence "
+               "{:.0f}°, "
+               "azimuth {:.0f}°, radius {} µm), imaged by the same scatterometer ({} × {} pixels, "
+               "{} "
+               "wavelengths {}–{} nm, {} quanta per wavelength).\n\n",
+               c.b, c.phi0 / kDeg, c.phi1 / kDeg, s.row.H, c.film_thickness_um, c.theta_d / kDeg,
+               s.row.mu / kDeg, c.cell_length_um, c.semi_major_um, c.melanin_depth_um,
+               s.row.barbules, s.row.cells_per_barbule, s.beam_incidence / kDeg,
+               s.beam_azimuth / kDeg, s.beam_radius_um, s.image_size, s.image_size,
+               s.wavelengths.size(), s.wavelengths.front(), s.wavelengths.back(),
+               s.quanta * static_cast<std::uint64_t>(s.passes)) +
+           "**Model error** e = Σ|I_model − I_sim| Ω / Σ I_sim Ω over pixels and wavelengths: the "
+           "power-weighted "
+           "relative L1 difference of the two scatterograms with the simulation as reference (0: "
+           "identical; 1: "
+           "as large as all the simulated light). The **noise floor** is the e a perfect model "
+           "would show "
+           "against this many simulated quanta, √(2/π) Σ σ_sim Ω / Σ I_sim Ω; an e near it is "
+           "Monte Carlo noise, "
+           "not model error. *e (model reference)* divides by the model's power instead, as the "
+           "rock-dove "
+           "study's tables do.\n\n" +
+           fmt::format(
+               "Base values: e = {:.3f} (noise floor {:.3f}); reflected {:.4f} (simulation) and "
+               "{:.4f} "
+               "(model) of the beam's power.\n\n![base: simulation](base/simulation.png) "
+               "![base: model](base/model.png)\n\n",
+               base_point.relative_l1, base_point.noise_floor, base_point.simulated_reflected,
+               base_point.model_reflected);
+}
+
+void write_report(const fs::path& path, const Settings& s, const AblationPoint& base_point,
+                  ReportParts& parts, double wall_seconds, double base_seconds) {
+    std::ofstream report(path);
+    report << report_introduction(s, base_point) << "## Summary\n\n" << parts.summary << "\n";
+    std::sort(parts.findings.begin(), parts.findings.end(),
+              [](const auto& a, const auto& b) { return a.first > b.first; });
+    report << "## What the sweeps show\n\nParameters in order of the largest excess of the model "
+              "error over its "
+              "noise floor, e − floor (a rough gauge, not a bound, of the part of the error that "
+              "more quanta would not remove):\n\n";
+    for (const auto& f : parts.findings) report << f.second << "\n";
+    report << "\nWhere e − floor stays near its base value across a sweep, the model follows the "
+              "parameter as the "
+              "explicit barbules do; where it grows, the model's approximations (one film "
+              "reflection and one melanin "
+              "bounce, Eq. 7's normal distribution of short cells, no light between neighbours but "
+              "the straight T "
+              "lobe) lose accuracy in that direction. The tables below give every value.\n\n";
+    if (!parts.skipped_list.empty()) {
+        report << "**Skipped values** (the geometry or the model refuses them; the sweep goes on "
+                  "without them):\n\n"
+               << parts.skipped_list << "\n";
+    } else {
+        report << "No value was skipped.\n\n";
+    }
+    report << parts.sections
+           << fmt::format(
+                  "---\nRun time {:.0f} s (base values {:.1f} s; plumage {}). Every number is in "
+                  "errors.csv "
+                  "and ablation.h5; the base scatterograms as records (virtual_gonio/RECORD.md) in "
+                  "base/.\n",
+                  wall_seconds, base_seconds, kVersion);
+    if (!report) throw IoError("cannot write report.md");
+}
+
 }  // namespace
 
 const AblationPoint* AblationResult::base() const {
@@ -174,300 +596,44 @@ const AblationPoint* AblationResult::base() const {
 }
 
 AblationResult run_ablation_study(const std::string& study_text, const fs::path& source_name,
-                                  const fs::path& results_root, bool progress, const RunLimits& limits) {
+                                  const fs::path& results_root, bool progress,
+                                  const RunLimits& limits) {
     const StudyProgress clock(progress);
     auto file = StudyFile::parse(study_text, source_name);
     std::string name;
-    const Settings s = read_settings(*file, name, source_name);
+    const Settings s = read_settings(*file, name, source_name);  // read
     StagedDirectory::prepare(results_root / name);
-
-    gonio::ScatterometerConfig config;
-    config.illumination = gonio::Illumination::beam;
-    config.beam_direction = {std::sin(s.beam_incidence) * std::cos(s.beam_azimuth),
-                             std::sin(s.beam_incidence) * std::sin(s.beam_azimuth), std::cos(s.beam_incidence)};
-    config.image_size = s.image_size;
-    config.wavelengths_nm = s.wavelengths;
-    config.beam_radius_um = s.beam_radius_um;
-    config.seed = s.seed;
-    config.quanta_per_pass = s.quanta;
-    config.max_passes = s.passes;
-    config.config_text = study_text;
-    if (limits.time_budget_s > 0.0) config.time_budget_s = limits.time_budget_s;
-    if (limits.target_relative_error > 0.0) config.target_relative_error = limits.target_relative_error;
-
-    // One value: the explicit patch and the model of the same parameters, or the reason
-    // the geometry or the model refuses them.
-    struct Measured {
-        std::optional<gonio::Scatterogram> sim, mod;
-        std::string reason;
-    };
-    auto measure = [&](const BarbuleRowParams& params) {
-        Measured m;
-        geometry::BarbuleRow row;
-        try {
-            row = geometry::build_barbule_row(params, s.tolerance);
-        } catch (const InputError& e) {
-            m.reason = fmt::format("the geometry rejects it: {}", e.what());
-            return m;
-        }
-        std::optional<analysis::Huang2022Bsdf> model;
-        try {
-            model.emplace(huang_params_of(params));
-        } catch (const InputError& e) {
-            m.reason = fmt::format("the model rejects it: {}", e.what());
-            return m;
-        }
-        // The beam's footprint must lie on the patch, or the simulation loses light off its edge.
-        const Eigen::AlignedBox3d box = row.bounds();
-        const double footprint = s.beam_radius_um / std::cos(s.beam_incidence);
-        const double half_width = 0.5 * std::min(box.sizes().x(), box.sizes().y());
-        if (footprint > 0.8 * half_width) {
-            m.reason = fmt::format("the beam's footprint ({:.0f} um) overfills the patch ({:.0f} x {:.0f} um): "
-                                   "more barbules or cells, or a narrower beam",
-                                   footprint, box.sizes().x(), box.sizes().y());
-            return m;
-        }
-        const sim::ExplicitScatterer simulation(sim::barbule_row_scene(row));
-        m.sim = gonio::measure_scatterogram(simulation, config);
-        m.mod = gonio::measure_scatterogram(*model, config);
-        return m;
-    };
-
     StagedDirectory out(results_root / name);
-    const fs::path dir = out.path();
-    fs::create_directories(dir / "base");
-
-    // The base values first: every sweep passes through them, and their model's
-    // brightest pixel sets the one exposure of every image.
-    clock.say("base values (the study's [geometry]): simulation and model");
-    Measured base = measure(s.row);
-    if (!base.sim) {
-        throw InputError(fmt::format("{}: [geometry] (the base of every sweep): {}",
-                                     file->root().table("geometry").location(), base.reason));
-    }
-    AblationPoint base_point = compare(*base.sim, *base.mod);
-    const double peak = gonio::scatterogram_peak_luminance(*base.mod);
-    const double exposure = peak > 0.0 ? 1.0 / peak : 1.0;
-    record::write_png(dir / "base" / "simulation.png", gonio::scatterogram_srgb(*base.sim, exposure));
-    record::write_png(dir / "base" / "model.png", gonio::scatterogram_srgb(*base.mod, exposure));
-    gonio::write_scatterogram_record(*base.sim, dir / "base" / "simulation.h5");
-    gonio::write_scatterogram_record(*base.mod, dir / "base" / "model.h5");
+    Run run{s, scatterometer_config(s, study_text, limits), clock, out.path(), 1.0, {}};
+    measure_base(run,
+                 file->root().table("geometry").location());  // build and measure, value by value
     const double base_seconds = clock.elapsed_s();
-    base.sim.reset();
-    base.mod.reset();
 
     AblationResult result;
-    std::string sections, summary =
-        "| parameter | values | skipped | e at the base value | smallest e | largest e |\n|---|---|---|---|---|---|\n";
-    std::string skipped_list;
-    // One line per parameter for "What the sweeps show", ordered by the largest excess of
-    // the error over its noise floor.
-    std::vector<std::pair<double, std::string>> findings;
-    std::ofstream all_csv(dir / "errors.csv");
-    all_csv << "parameter,value,is_base,skipped,relative_l1,noise_floor,relative_l1_model_reference,simulated_reflected,"
+    ReportParts parts;
+    std::ofstream all_csv(run.dir / "errors.csv");
+    all_csv << "parameter,value,is_base,skipped,relative_l1,noise_floor,relative_l1_model_"
+               "reference,simulated_reflected,"
                "model_reflected,simulated_transmitted,model_transmitted,reason\n";
-    record::Hdf5Writer h5(dir / "ablation.h5");
-    h5.set_attribute("/", "description",
-                     "Huang 2022 model against the explicit barbule patch, one parameter at a time: per parameter the "
-                     "swept values and the model's power-weighted relative L1 error of the beam scatterogram, "
-                     "simulation as reference (NaN: value skipped)");
+    record::Hdf5Writer h5(run.dir / "ablation.h5");
+    h5.set_attribute(
+        "/", "description",
+        "Huang 2022 model against the explicit barbule patch, one parameter at a time: per "
+        "parameter the "
+        "swept values and the model's power-weighted relative L1 error of the beam scatterogram, "
+        "simulation as reference (NaN: value skipped)");
     h5.set_attribute("/", "plumage_version", kVersion);
-
     std::vector<PlotJob> plots;  // drawn at the end, with one interpreter start
-    for (const Sweep& sweep : s.sweeps) {
-        const Parameter& p = *sweep.parameter;
-        const double base_value = p.get(s.row);
-        const fs::path pdir = dir / p.key;
-        fs::create_directories(pdir);
-        std::ofstream sheet(pdir / "sheet.csv"), error_csv(pdir / "error.csv");
-        sheet << "label,simulation,model,note\n";
-        error_csv << csv_field(p.label) << ",relative L1 (simulation reference),noise floor,is_base\n";
-        std::string table = fmt::format("| {} | e | noise floor | e (model reference) | reflected, simulation | "
-                                        "reflected, model | below, simulation | below, model |\n|---|---|---|---|---|---|---|---|\n",
-                                        p.label);
-        std::vector<double> h5_values, h5_l1, h5_floor;
-        const AblationPoint* smallest = nullptr;
-        const AblationPoint* largest = nullptr;
-        const AblationPoint* at_base = nullptr;
-        int skipped = 0;
-        const std::size_t first_point = result.points.size();
-        for (std::size_t i = 0; i < sweep.values.size(); ++i) {
-            const double v = sweep.values[i];
-            AblationPoint point;
-            std::string sim_png, mod_png;
-            // The base value, up to the rounding of a study file's decimals (Huang's
-            // −0.37 rad is −21.1994°, 0.0785 rad 4.4977°; a file that writes −21.2 or 4.5
-            // means them): within 1 % of the sweep's step.
-            const double step = sweep.values.size() > 1 ? sweep.values[1] - sweep.values[0] : 0.0;
-            if (std::abs(v - base_value) <= std::max(0.01 * step, 1e-9 * std::max(1.0, std::abs(base_value)))) {
-                point = base_point;
-                point.is_base = true;
-                sim_png = (dir / "base" / "simulation.png").string();
-                mod_png = (dir / "base" / "model.png").string();
-            } else {
-                BarbuleRowParams params = s.row;
-                p.set(params, v);
-                clock.say(fmt::format("{} = {}: simulation and model", p.key, format_value(v)));
-                const Measured m = measure(params);
-                if (m.sim) {
-                    point = compare(*m.sim, *m.mod);
-                    const std::string tag = file_tag(i, v);
-                    sim_png = (pdir / (tag + "_simulation.png")).string();
-                    mod_png = (pdir / (tag + "_model.png")).string();
-                    record::write_png(sim_png, gonio::scatterogram_srgb(*m.sim, exposure));
-                    record::write_png(mod_png, gonio::scatterogram_srgb(*m.mod, exposure));
-                } else {
-                    point.skipped = true;
-                    point.reason = m.reason;
-                    clock.done(fmt::format("{} = {}: skipped ({})", p.key, format_value(v), m.reason));
-                }
-            }
-            point.parameter = p.key;
-            point.value = point.is_base ? base_value : v;
-            result.points.push_back(point);
-            const std::string label = fmt::format("{} = {}{}", p.label, format_value(point.value), point.is_base ? " (base)" : "");
-            all_csv << fmt::format("{},{:.9g},{},{},{:.6g},{:.6g},{:.6g},{:.6g},{:.6g},{:.6g},{:.6g},{}\n", p.key, point.value,
-                                   point.is_base ? 1 : 0, point.skipped ? 1 : 0, point.relative_l1, point.noise_floor,
-                                   point.relative_l1_model_reference, point.simulated_reflected, point.model_reflected,
-                                   point.simulated_transmitted, point.model_transmitted, csv_field(point.reason));
-            h5_values.push_back(point.value);
-            if (point.skipped) {
-                ++skipped;
-                sheet << fmt::format("{},,,{}\n", csv_field(label), csv_field("skipped: " + point.reason));
-                error_csv << fmt::format("{:.9g},nan,nan,0\n", v);
-                table += fmt::format("| {} | skipped: {} | | | | | | |\n", format_value(v), point.reason);
-                skipped_list += fmt::format("- {} = {}: {}\n", p.label, format_value(v), point.reason);
-                h5_l1.push_back(std::numeric_limits<double>::quiet_NaN());
-                h5_floor.push_back(std::numeric_limits<double>::quiet_NaN());
-                continue;
-            }
-            // Paths relative to the sheet: a record must not name the staging folder it was written in.
-            sheet << fmt::format("{},{},{},{}\n", csv_field(label),
-                                 csv_field(fs::path(sim_png).lexically_relative(pdir).string()),
-                                 csv_field(fs::path(mod_png).lexically_relative(pdir).string()),
-                                 csv_field(fmt::format("e = {:.3f} (noise floor {:.3f})", point.relative_l1, point.noise_floor)));
-            error_csv << fmt::format("{:.9g},{:.6g},{:.6g},{}\n", point.value, point.relative_l1, point.noise_floor, point.is_base ? 1 : 0);
-            table += fmt::format("| {}{} | {:.3f} | {:.3f} | {:.3f} | {:.4f} | {:.4f} | {:.4f} | {:.4f} |\n", format_value(point.value),
-                                 point.is_base ? " (base)" : "", point.relative_l1, point.noise_floor,
-                                 point.relative_l1_model_reference, point.simulated_reflected, point.model_reflected,
-                                 point.simulated_transmitted, point.model_transmitted);
-            h5_l1.push_back(point.relative_l1);
-            h5_floor.push_back(point.noise_floor);
-        }
-        sheet.close();
-        error_csv.close();
-        for (std::size_t k = first_point; k < result.points.size(); ++k) {
-            const AblationPoint& q = result.points[k];
-            if (q.skipped) continue;
-            if (!smallest || q.relative_l1 < smallest->relative_l1) smallest = &q;
-            if (!largest || q.relative_l1 > largest->relative_l1) largest = &q;
-            if (q.is_base) at_base = &q;
-        }
-        result.skipped += skipped;
-        h5.write(std::string(p.key) + "/value", std::span<const double>(h5_values), {h5_values.size()},
-                 {{"units", "study-file units (degrees for angles, um for the film)"}});
-        h5.write(std::string(p.key) + "/relative_l1", std::span<const double>(h5_l1), {h5_l1.size()},
-                 {{"description", "sum |I_model - I_sim| Omega / sum I_sim Omega over pixels and wavelengths"}});
-        h5.write(std::string(p.key) + "/noise_floor", std::span<const double>(h5_floor), {h5_floor.size()},
-                 {{"description", "relative L1 a perfect model would show: sqrt(2/pi) sum sigma_sim Omega / sum I_sim Omega"}});
-        if (smallest) {
-            plots.push_back({"contact_sheet", pdir / "sheet.csv", pdir / "contact_sheet.png"});
-            plots.push_back({"sweep_error", pdir / "error.csv", pdir / "error.png"});
-        }
-        if (smallest) {
-            const AblationPoint* most = nullptr;
-            double t_sim_lo = 1.0, t_sim_hi = 0.0, t_mod_lo = 1.0, t_mod_hi = 0.0;
-            for (std::size_t k = first_point; k < result.points.size(); ++k) {
-                const AblationPoint& q = result.points[k];
-                if (q.skipped) continue;
-                if (!most || q.relative_l1 - q.noise_floor > most->relative_l1 - most->noise_floor) most = &q;
-                t_sim_lo = std::min(t_sim_lo, q.simulated_transmitted), t_sim_hi = std::max(t_sim_hi, q.simulated_transmitted);
-                t_mod_lo = std::min(t_mod_lo, q.model_transmitted), t_mod_hi = std::max(t_mod_hi, q.model_transmitted);
-            }
-            std::string line = fmt::format("- **{}**: e {:.3f} at {} to {:.3f} at {} (noise floors {:.3f} and {:.3f});", p.label,
-                                           smallest->relative_l1, format_value(smallest->value), largest->relative_l1,
-                                           format_value(largest->value), smallest->noise_floor, largest->noise_floor);
-            if (at_base) line += fmt::format(" e − floor {:.3f} at the base value,", at_base->relative_l1 - at_base->noise_floor);
-            line += fmt::format(" largest {:.3f} at {}.", most->relative_l1 - most->noise_floor, format_value(most->value));
-            if (std::max(t_sim_hi, t_mod_hi) > 0.01) {
-                line += fmt::format(" Light below the patch: simulation {:.3f}–{:.3f}, model {:.3f}–{:.3f}.", t_sim_lo,
-                                    t_sim_hi, t_mod_lo, t_mod_hi);
-            }
-            findings.emplace_back(most->relative_l1 - most->noise_floor, line);
-        }
-        auto at = [&](const AblationPoint* q) {
-            return q ? fmt::format("{:.3f} at {}", q->relative_l1, format_value(q->value)) : std::string("—");
-        };
-        summary += fmt::format("| [{}](#{}) | {}–{} ({}) | {} | {} | {} | {} |\n", p.label, p.key, format_value(sweep.values.front()),
-                               format_value(sweep.values.back()), sweep.values.size(), skipped,
-                               at_base ? fmt::format("{:.3f}", at_base->relative_l1) : std::string("(not swept)"),
-                               at(smallest), at(largest));
-        sections += fmt::format("<a id=\"{}\"></a>\n## {} ({})\n\n", p.key, p.label, p.what);
-        if (smallest) {
-            sections += fmt::format("![model error against {}]({}/error.png)\n\n"
-                                    "Rows: values of {}; columns: simulation | Huang model (one exposure for every image: "
-                                    "white = the brightest pixel of the base model).\n\n![contact sheet]({}/contact_sheet.png)\n\n",
-                                    p.label, p.key, p.label, p.key);
-        } else {
-            sections += "Every value was skipped; nothing to plot.\n\n";
-        }
-        sections += table + "\n";
-    }
+    for (const Sweep& sweep : s.sweeps)
+        sweep_parameter(run, sweep, all_csv, h5, result, parts, plots);
     all_csv.close();
     h5.commit();
-    clock.say(fmt::format("plots: {} figures", plots.size()));
-    run_plots(plots, dir / "plots.csv");
-    fs::remove(dir / "plots.csv");
-
+    clock.say(fmt::format("plots: {} figures", plots.size()));  // report
+    run_plots(plots, run.dir / "plots.csv");
+    fs::remove(run.dir / "plots.csv");
     result.wall_seconds = clock.elapsed_s();
-    {
-        const auto& c = s.row.cell;
-        std::ofstream report(dir / "report.md");
-        report << "# Ablation: Huang et al. 2022 against explicit barbules, one parameter at a time\n\n"
-               << fmt::format("Each parameter of the barbule model is swept alone; all others keep the base values "
-                              "(the study's [geometry], Huang's rock-dove fit unless changed): b = {}, φ0 = {:.2f}°, "
-                              "φ1 = {:.2f}°, H = {}, d = {} µm, θ_d = {:.2f}°, μ = {:.2f}°; cells {} µm long, semi-major "
-                              "axis {} µm, melanin {} µm under the film; {} barbules × {} cells. For every value the "
-                              "explicit patch is traced and the model evaluated under the same beam (incidence {:.0f}°, "
-                              "azimuth {:.0f}°, radius {} µm), imaged by the same scatterometer ({} × {} pixels, {} "
-                              "wavelengths {}–{} nm, {} quanta per wavelength).\n\n",
-                              c.b, c.phi0 / kDeg, c.phi1 / kDeg, s.row.H, c.film_thickness_um, c.theta_d / kDeg,
-                              s.row.mu / kDeg, c.cell_length_um, c.semi_major_um, c.melanin_depth_um, s.row.barbules,
-                              s.row.cells_per_barbule, s.beam_incidence / kDeg, s.beam_azimuth / kDeg, s.beam_radius_um,
-                              s.image_size, s.image_size, s.wavelengths.size(), s.wavelengths.front(), s.wavelengths.back(),
-                              s.quanta * static_cast<std::uint64_t>(s.passes))
-               << "**Model error** e = Σ|I_model − I_sim| Ω / Σ I_sim Ω over pixels and wavelengths: the power-weighted "
-                  "relative L1 difference of the two scatterograms with the simulation as reference (0: identical; 1: "
-                  "as large as all the simulated light). The **noise floor** is the e a perfect model would show "
-                  "against this many simulated quanta, √(2/π) Σ σ_sim Ω / Σ I_sim Ω; an e near it is Monte Carlo noise, "
-                  "not model error. *e (model reference)* divides by the model's power instead, as the rock-dove "
-                  "study's tables do.\n\n"
-               << fmt::format("Base values: e = {:.3f} (noise floor {:.3f}); reflected {:.4f} (simulation) and {:.4f} "
-                              "(model) of the beam's power.\n\n![base: simulation](base/simulation.png) "
-                              "![base: model](base/model.png)\n\n",
-                              base_point.relative_l1, base_point.noise_floor, base_point.simulated_reflected,
-                              base_point.model_reflected)
-               << "## Summary\n\n" << summary << "\n";
-        std::sort(findings.begin(), findings.end(), [](const auto& a, const auto& b) { return a.first > b.first; });
-        report << "## What the sweeps show\n\nParameters in order of the largest excess of the model error over its "
-                  "noise floor, e − floor (a rough gauge, not a bound, of the part of the error that more quanta would not remove):\n\n";
-        for (const auto& f : findings) report << f.second << "\n";
-        report << "\nWhere e − floor stays near its base value across a sweep, the model follows the parameter as the "
-                  "explicit barbules do; where it grows, the model's approximations (one film reflection and one melanin "
-                  "bounce, Eq. 7's normal distribution of short cells, no light between neighbours but the straight T "
-                  "lobe) lose accuracy in that direction. The tables below give every value.\n\n";
-        if (!skipped_list.empty()) {
-            report << "**Skipped values** (the geometry or the model refuses them; the sweep goes on without them):\n\n"
-                   << skipped_list << "\n";
-        } else {
-            report << "No value was skipped.\n\n";
-        }
-        report << sections
-               << fmt::format("---\nRun time {:.0f} s (base values {:.1f} s; plumage {}). Every number is in errors.csv "
-                              "and ablation.h5; the base scatterograms as records (virtual_gonio/RECORD.md) in base/.\n",
-                              result.wall_seconds, base_seconds, kVersion);
-        if (!report) throw IoError("cannot write report.md");
-    }
+    write_report(run.dir / "report.md", s, run.base_point, parts, result.wall_seconds,
+                 base_seconds);
     out.commit();
     result.output_dir = out.final_path();
     clock.done("done: " + (result.output_dir / "report.md").string());
@@ -483,8 +649,8 @@ void check_ablation_study(const std::string& study_text, const fs::path& source_
 namespace {
 
 // `plumage run`: the run, and the summary printed on stdout.
-std::string run_from_command_line(const std::string& text, const fs::path& source, const fs::path& root,
-                         const RunLimits& limits) {
+std::string run_from_command_line(const std::string& text, const fs::path& source,
+                                  const fs::path& root, const RunLimits& limits) {
     const auto r = run_ablation_study(text, source, root, true, limits);
     return fmt::format("plumage: wrote {} in {:.0f} s ({} values skipped; open report.md)\n",
                        r.output_dir.string(), r.wall_seconds, r.skipped);
@@ -493,7 +659,8 @@ std::string run_from_command_line(const std::string& text, const fs::path& sourc
 }  // namespace
 
 StudyEntry ablation_study_entry() {
-    return {"ablation", "one-at-a-time sweeps of Huang's parameters, simulation against model", check_ablation_study, run_from_command_line};
+    return {"ablation", "one-at-a-time sweeps of Huang's parameters, simulation against model",
+            check_ablation_study, run_from_command_line};
 }
 
 }  // namespace plumage::studies
