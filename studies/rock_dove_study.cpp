@@ -280,7 +280,6 @@ gonio::GoniometerConfig goniometer_config(const Run& run) {
 
 struct Brdfs {
     gonio::BrdfRecord simulation, model;
-    std::vector<gonio::ConvergenceRow> simulation_passes;
 };
 
 // The simulation checkpointed in `checkpoint` (Ctrl-C keeps its completed passes), the model
@@ -294,7 +293,6 @@ Brdfs measure_brdfs(const Run& run, const Built& b, const fs::path& checkpoint) 
     gonio::RunControl control;
     control.progress = run.progress;
     control.checkpoint = checkpoint;
-    control.on_pass = [&](const gonio::ConvergenceRow& r) { m.simulation_passes.push_back(r); };
     m.simulation = gonio::measure_brdf(*b.simulation, g, control);
     if (m.simulation.interrupted) {
         throw Interrupted(
@@ -600,7 +598,9 @@ RockDoveResult run_rock_dove_study(const std::string& study_text, const fs::path
     md += brdf_section(run, brdfs, result);
     md += in_plane_sweep(run, built);
     md += validation(run, built, result);
-    md += convergence(run, built, brdfs.simulation_passes);
+    // Every pass of the record, those of an interrupted earlier run resumed from the checkpoint
+    // included (the passes of this process alone would lose them).
+    md += convergence(run, built, brdfs.simulation.convergence);
     md += departures(s, result);  // report
     result.wall_seconds = clock.elapsed_s();
     write_report(out.path() / "report.md", s, md, result);

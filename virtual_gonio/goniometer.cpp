@@ -269,6 +269,10 @@ BrdfRecord measure_brdf(const Scatterer& scatterer, const GoniometerConfig& conf
     Sums sums{std::vector<double>(np * nl, 0.0), std::vector<double>(np * nl, 0.0),
               std::vector<double>(nlobes * np * nl, 0.0), std::vector<double>(nlobes * np * nl, 0.0)};
     const bool resumed = read_checkpoint(control.checkpoint, sums, r, hash);
+    if (resumed && control.progress) {
+        std::cerr << fmt::format("  {}: resuming after {} completed passes from {}\n", r.scatterer, r.passes,
+                                 control.checkpoint.string());
+    }
     const double previous_wall = resumed ? r.wall_time_s : 0.0;
 
     // Work items: (group, wavelength, chunk) — reduced in this order.
