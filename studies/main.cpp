@@ -144,6 +144,9 @@ std::string run_geometry(const std::string& file, const CommonOptions& o) {
 }  // namespace
 
 int main(int argc, char** argv) {
+    // Ctrl-C and SIGTERM stop every stage (common/interrupt.h), from the first instant: a
+    // signal during start-up stops the run at its first stage with exit code 130 as well.
+    const plumage::ScopedInterruptHandler interrupt;
     std::string kinds;
     for (const st::StudyEntry& entry : st::study_registry()) {
         kinds += fmt::format("\n  {:10} {}", entry.kind, entry.description);
@@ -198,26 +201,21 @@ int main(int argc, char** argv) {
 
     try {
         std::string summary;
-        {
-            // Ctrl-C and SIGTERM stop every stage (common/interrupt.h).
-            const plumage::ScopedInterruptHandler interrupt;
-            if (geometry_cmd->parsed()) {
-                summary = run_geometry(geometry_file, common);
-            } else if (thin_film_cmd->parsed()) {
-                st::refuse_limits("thin-film", common.limits, "the chart is an exact evaluation");
-                thin_film.output_dir = fs::path(common.output) / "thin_film";
-                thin_film.plots = common.plots;
-                summary = run_thin_film(thin_film);
-            } else {
-                std::string text = st::kDefaultStudy;
-                fs::path source = "rock_dove.toml (built in)";
-                if (run_cmd->parsed()) {
-                    text = read_file(run_file, "study file");
-                    source = run_file;
-                }
-                summary =
-                    st::study_of(text, source).run(text, source, common.output, common.limits);
+        if (geometry_cmd->parsed()) {
+            summary = run_geometry(geometry_file, common);
+        } else if (thin_film_cmd->parsed()) {
+            st::refuse_limits("thin-film", common.limits, "the chart is an exact evaluation");
+            thin_film.output_dir = fs::path(common.output) / "thin_film";
+            thin_film.plots = common.plots;
+            summary = run_thin_film(thin_film);
+        } else {
+            std::string text = st::kDefaultStudy;
+            fs::path source = "rock_dove.toml (built in)";
+            if (run_cmd->parsed()) {
+                text = read_file(run_file, "study file");
+                source = run_file;
             }
+            summary = st::study_of(text, source).run(text, source, common.output, common.limits);
         }
         std::cout << summary;
         return 0;
