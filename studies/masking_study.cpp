@@ -20,14 +20,14 @@
 #include "analysis/padrongriffe2024_masking.h"
 #include "analysis/statistics.h"
 #include "common/error.h"
+#include "common/interrupt.h"
 #include "common/version.h"
 #include "sim/random.h"
 #include "studies/plots.h"
-#include "common/interrupt.h"
+#include "studies/sections.h"
 #include "studies/staged_directory.h"
 #include "studies/study.h"
 #include "studies/study_common.h"
-#include "studies/sections.h"
 #include "studies/study_file.h"
 #include "virtual_gonio/hdf5_file.h"
 
@@ -136,6 +136,73 @@ MaskingTriple triple(const analysis::MaskingFractions& f) { return {f.barb, f.ba
 
 std::string csv_number(double v) { return fmt::format("{:.17g}", v); }
 
+// One in-plane angle: the analytic fractions, Monte Carlo on the explicit cross-section, and
+// the bound of the stratified estimate (pieces of the shadow boundary, tessellation offset).
+void measure_angle(const PadronGriffe2024Masking& masking,
+                   const geometry::PatchCrossSection& section, const Settings& s, std::size_t i,
+                   Rng& rng, MaskingConfigurationResult& r) {
+    const double theta = s.angles_deg[i] * kDeg;
+    r.analytic[i] = triple(masking.in_plane(theta));
+    const auto estimate = analysis::estimate_cross_section_masking(section, theta, s.rays, rng);
+    r.mc[i] = estimate.fraction;
+    r.mc_standard_error[i] = estimate.standard_error;
+    const auto pieces = static_cast<double>(masking.segments(theta).size());
+    r.stratified_bound[i] =
+        (pieces + 2.0) / static_cast<double>(s.rays) +
+        pieces * r.geometric_offset_um / (r.period_um * std::abs(std::cos(theta)));
+}
+
+// One 3D check direction: the model's extrusion against its in-plane projection and Monte Carlo.
+void measure_direction(const PadronGriffe2024Masking& masking,
+                       const geometry::PatchCrossSection& section, const Settings& s, std::size_t j,
+                       Rng& rng, MaskingDirectionCheck& d) {
+    const auto& [polar_deg, azimuth_deg] = kMaskingCheckDirections[j];
+    const double polar = polar_deg * kDeg, azimuth = azimuth_deg * kDeg;
+    d.direction = Vec3d(std::sin(polar) * std::cos(azimuth), std::sin(polar) * std::sin(azimuth),
+                        std::cos(polar));
+    const double projected = PadronGriffe2024Masking::projected_angle(d.direction);
+    d.projected_angle_deg = projected / kDeg;
+    d.model_3d = triple(masking(d.direction));
+    d.in_plane = triple(masking.in_plane(projected));
+    const auto estimate = analysis::estimate_cross_section_masking(section, projected, s.rays, rng);
+    d.mc = estimate.fraction;
+    d.mc_standard_error = estimate.standard_error;
+}
+
+// z-scores, χ² per component with its p-value, the bound check and the largest differences.
+void summarise(const Settings& s, MaskingConfigurationResult& r) {
+    const std::size_t angles = s.angles_deg.size();
+    r.degrees_of_freedom = static_cast<int>(angles);
+    for (std::size_t i = 0; i < angles; ++i) {
+        for (std::size_t c = 0; c < kMaskingComponentCount; ++c) {
+            const double difference = r.mc[i][c] - r.analytic[i][c];
+            r.z[i][c] = difference / r.mc_standard_error[i][c];
+            r.chi_square[c] += r.z[i][c] * r.z[i][c];
+            r.max_abs_z = std::max(r.max_abs_z, std::abs(r.z[i][c]));
+            if (std::abs(difference) > r.stratified_bound[i]) ++r.above_stratified_bound;
+            r.max_bound_ratio =
+                std::max(r.max_bound_ratio, std::abs(difference) / r.stratified_bound[i]);
+            if (std::abs(difference) > r.max_abs_difference) {
+                r.max_abs_difference = std::abs(difference);
+                r.max_abs_difference_angle_deg = s.angles_deg[i];
+                r.max_abs_difference_component = c;
+            }
+        }
+    }
+    for (std::size_t c = 0; c < kMaskingComponentCount; ++c) {
+        r.chi_square_p_value[c] =
+            analysis::chi_square_p_value(r.chi_square[c], r.degrees_of_freedom);
+    }
+    for (const auto& d : r.directions) {
+        for (std::size_t c = 0; c < kMaskingComponentCount; ++c) {
+            r.max_extrusion_mismatch =
+                std::max(r.max_extrusion_mismatch, std::abs(d.model_3d[c] - d.in_plane[c]));
+            r.max_abs_z =
+                std::max(r.max_abs_z, std::abs(d.mc[c] - d.in_plane[c]) / d.mc_standard_error[c]);
+        }
+    }
+}
+
 // Runs the comparison of one configuration: angles, then the check directions, each its own
 // random stream (seed, first_stream + item): the same numbers for any thread count.
 MaskingConfigurationResult compare(const Configuration& config, const Settings& s,
@@ -156,13 +223,9 @@ MaskingConfigurationResult compare(const Configuration& config, const Settings& 
     r.period_um = masking->period_um();
     r.geometric_offset_um =
         analysis::cross_section_offset_um(section, *masking, s.tolerance.max_chord_um);
-
     const std::size_t angles = s.angles_deg.size();
     const std::size_t items = angles + kMaskingCheckDirections.size();
-    r.analytic.resize(angles);
-    r.mc.resize(angles);
-    r.mc_standard_error.resize(angles);
-    r.z.resize(angles);
+    for (auto* v : {&r.analytic, &r.mc, &r.mc_standard_error, &r.z}) v->resize(angles);
     r.stratified_bound.resize(angles);
     r.directions.resize(kMaskingCheckDirections.size());
     std::vector<std::exception_ptr> failures(items);
@@ -172,30 +235,9 @@ MaskingConfigurationResult compare(const Configuration& config, const Settings& 
         try {
             Rng rng(s.seed, first_stream + i);
             if (i < angles) {
-                const double theta = s.angles_deg[i] * kDeg;
-                r.analytic[i] = triple(masking->in_plane(theta));
-                const auto estimate =
-                    analysis::estimate_cross_section_masking(section, theta, s.rays, rng);
-                r.mc[i] = estimate.fraction;
-                r.mc_standard_error[i] = estimate.standard_error;
-                const auto pieces = static_cast<double>(masking->segments(theta).size());
-                r.stratified_bound[i] =
-                    (pieces + 2.0) / static_cast<double>(s.rays) +
-                    pieces * r.geometric_offset_um / (r.period_um * std::abs(std::cos(theta)));
+                measure_angle(*masking, section, s, i, rng, r);
             } else {
-                const auto& [polar_deg, azimuth_deg] = kMaskingCheckDirections[i - angles];
-                MaskingDirectionCheck& d = r.directions[i - angles];
-                const double polar = polar_deg * kDeg, azimuth = azimuth_deg * kDeg;
-                d.direction = Vec3d(std::sin(polar) * std::cos(azimuth),
-                                    std::sin(polar) * std::sin(azimuth), std::cos(polar));
-                const double projected = PadronGriffe2024Masking::projected_angle(d.direction);
-                d.projected_angle_deg = projected / kDeg;
-                d.model_3d = triple((*masking)(d.direction));
-                d.in_plane = triple(masking->in_plane(projected));
-                const auto estimate =
-                    analysis::estimate_cross_section_masking(section, projected, s.rays, rng);
-                d.mc = estimate.fraction;
-                d.mc_standard_error = estimate.standard_error;
+                measure_direction(*masking, section, s, i - angles, rng, r.directions[i - angles]);
             }
         } catch (...) {
             failures[i] = std::current_exception();
@@ -204,35 +246,7 @@ MaskingConfigurationResult compare(const Configuration& config, const Settings& 
     for (const auto& f : failures) {
         if (f) std::rethrow_exception(f);
     }
-
-    r.degrees_of_freedom = static_cast<int>(angles);
-    for (std::size_t i = 0; i < angles; ++i) {
-        for (std::size_t c = 0; c < kMaskingComponentCount; ++c) {
-            const double difference = r.mc[i][c] - r.analytic[i][c];
-            r.z[i][c] = difference / r.mc_standard_error[i][c];
-            r.chi_square[c] += r.z[i][c] * r.z[i][c];
-            r.max_abs_z = std::max(r.max_abs_z, std::abs(r.z[i][c]));
-            if (std::abs(difference) > r.stratified_bound[i]) ++r.above_stratified_bound;
-            r.max_bound_ratio =
-                std::max(r.max_bound_ratio, std::abs(difference) / r.stratified_bound[i]);
-            if (std::abs(difference) > r.max_abs_difference) {
-                r.max_abs_difference = std::abs(difference);
-                r.max_abs_difference_angle_deg = s.angles_deg[i];
-                r.max_abs_difference_component = c;
-            }
-        }
-    }
-    for (std::size_t c = 0; c < kMaskingComponentCount; ++c) {
-        r.chi_square_p_value[c] = analysis::chi_square_p_value(r.chi_square[c], r.degrees_of_freedom);
-    }
-    for (const auto& d : r.directions) {
-        for (std::size_t c = 0; c < kMaskingComponentCount; ++c) {
-            r.max_extrusion_mismatch =
-                std::max(r.max_extrusion_mismatch, std::abs(d.model_3d[c] - d.in_plane[c]));
-            r.max_abs_z =
-                std::max(r.max_abs_z, std::abs(d.mc[c] - d.in_plane[c]) / d.mc_standard_error[c]);
-        }
-    }
+    summarise(s, r);
     r.wall_seconds =
         std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
     return r;
@@ -284,14 +298,27 @@ std::string verdict_of(const MaskingStudyResult& result, int above_bound, int ch
     return text;
 }
 
-void write_hdf5(const fs::path& path, const MaskingStudyResult& result, const std::string& text) {
-    record::Hdf5Writer h5(path);
-    const auto n_config = static_cast<std::uint64_t>(result.configurations.size());
-    const auto n_angle = static_cast<std::uint64_t>(result.angles_deg.size());
-    const auto n_dir = static_cast<std::uint64_t>(kMaskingCheckDirections.size());
-    const auto n_comp = static_cast<std::uint64_t>(kMaskingComponentCount);
+// The masking record's shapes and the writer of its [configuration][item][component] tables.
+struct MaskingRecord {
+    record::Hdf5Writer& h5;
+    std::uint64_t n_config, n_angle, n_dir, n_comp;
     const std::string fraction_units = "1 (fraction of one period's projected width)";
     const std::string components = "barb, barbule (distal + proximal), gap (nothing: light passes)";
+
+    void write_triples(const std::string& name, const std::vector<double>& values,
+                       std::uint64_t middle, const std::string& units,
+                       const std::string& description) {
+        h5.write(name, std::span<const double>(values), {n_config, middle, n_comp},
+                 {{"units", units}, {"components", components}, {"description", description}});
+    }
+};
+
+// Per angle: analytic, Monte Carlo, its error, z and the stratified bound.
+void write_angle_tables(MaskingRecord& m, const MaskingStudyResult& result) {
+    auto& h5 = m.h5;
+    const auto n_config = m.n_config, n_angle = m.n_angle;
+    const std::string& fraction_units = m.fraction_units;
+    auto write_triples = [&m](auto&&... args) { m.write_triples(args...); };
     h5.write("angles_deg", std::span<const double>(result.angles_deg), {n_angle},
              {{"units", "deg"},
               {"description", "in-plane view angle θ, from +z towards +y (across the barbs)"}});
@@ -301,12 +328,6 @@ void write_hdf5(const fs::path& path, const MaskingStudyResult& result, const st
         for (const auto& c : result.configurations)
             for (const auto& t : c.*member) out.insert(out.end(), t.begin(), t.end());
         return out;
-    };
-    auto write_triples = [&](const std::string& name, const std::vector<double>& values,
-                             std::uint64_t middle, const std::string& units,
-                             const std::string& description) {
-        h5.write(name, std::span<const double>(values), {n_config, middle, n_comp},
-                 {{"units", units}, {"components", components}, {"description", description}});
     };
     using R = MaskingConfigurationResult;
     write_triples("analytic", per_angle(&R::analytic), n_angle, fraction_units,
@@ -324,7 +345,14 @@ void write_hdf5(const fs::path& path, const MaskingStudyResult& result, const st
               {"description",
                "(B + 2)/N + B offset/(P |cos θ|): the most stratified rays can be off, per "
                "component (B pieces of the analytic partition)"}});
+}
 
+// The 3D check directions: the model's extrusion against its projection and Monte Carlo.
+void write_extrusion(MaskingRecord& m, const MaskingStudyResult& result) {
+    auto& h5 = m.h5;
+    const auto n_dir = m.n_dir;
+    const std::string& fraction_units = m.fraction_units;
+    auto write_triples = [&m](auto&&... args) { m.write_triples(args...); };
     std::vector<double> directions, projected, model, in_plane, mc, se;
     for (std::size_t k = 0; k < kMaskingCheckDirections.size(); ++k) {
         const auto& d = result.configurations.front().directions[k];
@@ -351,7 +379,12 @@ void write_hdf5(const fs::path& path, const MaskingStudyResult& result, const st
                   "Monte Carlo on the 2D section at the projected angle");
     write_triples("extrusion/mc_standard_error", se, n_dir, fraction_units,
                   "binomial upper bound, as mc_standard_error");
+}
 
+void write_summary(MaskingRecord& m, const MaskingStudyResult& result) {
+    auto& h5 = m.h5;
+    const auto n_config = m.n_config, n_comp = m.n_comp;
+    const std::string& fraction_units = m.fraction_units;
     std::vector<double> chi, p, max_diff, max_z, periods;
     for (const auto& c : result.configurations) {
         chi.insert(chi.end(), c.chi_square.begin(), c.chi_square.end());
@@ -393,6 +426,18 @@ void write_hdf5(const fs::path& path, const MaskingStudyResult& result, const st
             {"geometric_offset_um", c.geometric_offset_um}};
         for (const auto& [key, value] : values) h5.set_attribute(g, key, value);
     }
+}
+
+void write_hdf5(const fs::path& path, const MaskingStudyResult& result, const std::string& text) {
+    record::Hdf5Writer h5(path);
+    MaskingRecord m{h5, static_cast<std::uint64_t>(result.configurations.size()),
+                    static_cast<std::uint64_t>(result.angles_deg.size()),
+                    static_cast<std::uint64_t>(kMaskingCheckDirections.size()),
+                    static_cast<std::uint64_t>(kMaskingComponentCount)};
+    const std::string& components = m.components;
+    write_angle_tables(m, result);
+    write_extrusion(m, result);
+    write_summary(m, result);
     std::string names;
     for (const auto& c : result.configurations) names += (names.empty() ? "" : ",") + c.name;
     h5.set_attribute("/", "configurations", names);
@@ -442,6 +487,43 @@ std::string parameter_line(const geometry::BarbulePatchParams& q) {
         q.barbule_inclination_rad / kDeg, q.barbule_length,
         q.barb_spacing > 0.0 ? fmt::format("{:.6g} barb widths", q.barb_spacing)
                              : std::string("automatic (barbule tips meet)"));
+}
+
+// The 3D check directions, the configurations and the files.
+void write_extrusion_section(std::ofstream& md, const MaskingStudyResult& result) {
+    md << "## 3D directions: the extrusion assumption\n\n"
+       << "The term's operator()(ω) treats the cross-section as extruded along the barb axis x "
+          "(barbules as continuous sheets): translation invariance along x makes the fractions "
+          "those of the projected in-plane angle atan2(ω_y, ω_z). Below, for directions off the "
+          "y–z plane: operator()(ω) against in_plane of the projected angle (equal by that "
+          "assumption), and the MC on the 2D section at the projected angle. Light passing "
+          "between separate barbules along x (the 3D patch of build_barbule_patch) is not "
+          "modelled and not tested here.\n\n"
+       << "| configuration | ω (x, y, z) | projected θ (°) | operator()(ω): barb, barbule, gap | "
+          "abs(operator() − in_plane) | MC at projected θ | max abs(z) |\n"
+       << "|---|---|---|---|---|---|---|\n";
+    for (const auto& c : result.configurations) {
+        for (const auto& d : c.directions) {
+            double mismatch = 0.0, z = 0.0;
+            for (std::size_t k = 0; k < kMaskingComponentCount; ++k) {
+                mismatch = std::max(mismatch, std::abs(d.model_3d[k] - d.in_plane[k]));
+                z = std::max(z, std::abs(d.mc[k] - d.in_plane[k]) / d.mc_standard_error[k]);
+            }
+            md << fmt::format(
+                "| {} | ({:.3f}, {:.3f}, {:.3f}) | {:.2f} | {:.5f}, {:.5f}, {:.5f} | {:.1e} | "
+                "{:.5f}, {:.5f}, {:.5f} | {:.3f} |\n",
+                c.name, d.direction.x(), d.direction.y(), d.direction.z(), d.projected_angle_deg,
+                d.model_3d[0], d.model_3d[1], d.model_3d[2], mismatch, d.mc[0], d.mc[1], d.mc[2],
+                z);
+        }
+    }
+    md << "\n## Configurations\n\n";
+    for (const auto& c : result.configurations) {
+        md << fmt::format("- **{}**: {}.\n", c.name, parameter_line(c.params));
+    }
+    md << "\nFiles: masking.h5 (every number, with units; `z`, `stratified_bound`, "
+          "`extrusion/*`, `summary/*`, the parameters under `configuration/<name>`), masking.csv "
+          "(one row per configuration and angle), masking.png.\n\n";
 }
 
 void write_report(const fs::path& path, const MaskingStudyResult& result, const Settings& s,
@@ -512,40 +594,8 @@ void write_report(const fs::path& path, const MaskingStudyResult& result, const 
           "axis), the largest σ of the three components and the deterministic stratified bound "
           "(dashed): the differences sit at the bound's scale, orders of magnitude below σ.*\n\n";
 
-    md << "## 3D directions: the extrusion assumption\n\n"
-       << "The term's operator()(ω) treats the cross-section as extruded along the barb axis x "
-          "(barbules as continuous sheets): translation invariance along x makes the fractions "
-          "those of the projected in-plane angle atan2(ω_y, ω_z). Below, for directions off the "
-          "y–z plane: operator()(ω) against in_plane of the projected angle (equal by that "
-          "assumption), and the MC on the 2D section at the projected angle. Light passing "
-          "between separate barbules along x (the 3D patch of build_barbule_patch) is not "
-          "modelled and not tested here.\n\n"
-       << "| configuration | ω (x, y, z) | projected θ (°) | operator()(ω): barb, barbule, gap | "
-          "abs(operator() − in_plane) | MC at projected θ | max abs(z) |\n"
-       << "|---|---|---|---|---|---|---|\n";
-    for (const auto& c : result.configurations) {
-        for (const auto& d : c.directions) {
-            double mismatch = 0.0, z = 0.0;
-            for (std::size_t k = 0; k < kMaskingComponentCount; ++k) {
-                mismatch = std::max(mismatch, std::abs(d.model_3d[k] - d.in_plane[k]));
-                z = std::max(z, std::abs(d.mc[k] - d.in_plane[k]) / d.mc_standard_error[k]);
-            }
-            md << fmt::format(
-                "| {} | ({:.3f}, {:.3f}, {:.3f}) | {:.2f} | {:.5f}, {:.5f}, {:.5f} | {:.1e} | "
-                "{:.5f}, {:.5f}, {:.5f} | {:.3f} |\n",
-                c.name, d.direction.x(), d.direction.y(), d.direction.z(), d.projected_angle_deg,
-                d.model_3d[0], d.model_3d[1], d.model_3d[2], mismatch, d.mc[0], d.mc[1], d.mc[2],
-                z);
-        }
-    }
-    md << "\n## Configurations\n\n";
-    for (const auto& c : result.configurations) {
-        md << fmt::format("- **{}**: {}.\n", c.name, parameter_line(c.params));
-    }
-    md << "\nFiles: masking.h5 (every number, with units; `z`, `stratified_bound`, "
-          "`extrusion/*`, `summary/*`, the parameters under `configuration/<name>`), masking.csv "
-          "(one row per configuration and angle), masking.png.\n\n"
-       << fmt::format("---\nplumage {}\n\n## Study file\n\n```toml\n{}\n```\n", kVersion, text);
+    write_extrusion_section(md, result);
+    md << fmt::format("---\nplumage {}\n\n## Study file\n\n```toml\n{}\n```\n", kVersion, text);
     if (!md) throw IoError(fmt::format("cannot write {}", path.string()));
 }
 
@@ -563,8 +613,8 @@ MaskingStudyResult run_masking_study(const std::string& study_text, const fs::pa
     result.angles_deg = s.angles_deg;
     result.family_significance = kFamilySignificance;
     clock.say(fmt::format("masking: {} configurations × {} angles + {} 3D directions, {} rays each",
-                    s.configurations.size(), s.angles_deg.size(), kMaskingCheckDirections.size(),
-                    s.rays));
+                          s.configurations.size(), s.angles_deg.size(),
+                          kMaskingCheckDirections.size(), s.rays));
     const std::uint64_t items_per_configuration =
         s.angles_deg.size() + kMaskingCheckDirections.size();
     for (std::size_t k = 0; k < s.configurations.size(); ++k) {
@@ -572,13 +622,14 @@ MaskingStudyResult run_masking_study(const std::string& study_text, const fs::pa
         result.configurations.push_back(
             compare(s.configurations[k], s, k * items_per_configuration));
         const auto& c = result.configurations.back();
-        clock.done(fmt::format("{}: max abs(analytic − MC) {:.2e}, max abs(z) {:.3f} ({:.1f} s)", c.name,
-                        c.max_abs_difference, c.max_abs_z, c.wall_seconds));
+        clock.done(fmt::format("{}: max abs(analytic − MC) {:.2e}, max abs(z) {:.3f} ({:.1f} s)",
+                               c.name, c.max_abs_difference, c.max_abs_z, c.wall_seconds));
     }
 
     result.comparisons = static_cast<int>(s.configurations.size() * items_per_configuration *
                                           kMaskingComponentCount);
-    result.z_bound = analysis::two_sided_normal_quantile(analysis::sidak_significance(kFamilySignificance, result.comparisons));
+    result.z_bound = analysis::two_sided_normal_quantile(
+        analysis::sidak_significance(kFamilySignificance, result.comparisons));
     result.chi_square_significance = analysis::sidak_significance(
         kFamilySignificance, static_cast<int>(s.configurations.size() * kMaskingComponentCount));
     int above_bound = 0, chi_failures = 0;
@@ -597,7 +648,8 @@ MaskingStudyResult run_masking_study(const std::string& study_text, const fs::pa
     StagedDirectory out(results_root / s.name);
     const fs::path dir = out.path();
     write_csv(dir / "masking.csv", result);
-    result.wall_seconds = clock.elapsed_s();  // the computation; writing and plotting take a second more
+    result.wall_seconds =
+        clock.elapsed_s();  // the computation; writing and plotting take a second more
     write_hdf5(dir / "masking.h5", result, study_text);
     clock.say("plot");
     run_plot("masking", dir / "masking.h5", dir / "masking.png");
@@ -615,8 +667,8 @@ void check_masking_study(const std::string& study_text, const fs::path& source_n
 namespace {
 
 // `plumage run`: the run, and the summary printed on stdout.
-std::string run_from_command_line(const std::string& text, const fs::path& source, const fs::path& root,
-                        const RunLimits& limits) {
+std::string run_from_command_line(const std::string& text, const fs::path& source,
+                                  const fs::path& root, const RunLimits& limits) {
     refuse_limits("masking", limits,
                   "its Monte Carlo sample count is set in the study file so that the verdict's "
                   "Sidak bound holds");
@@ -631,7 +683,8 @@ std::string run_from_command_line(const std::string& text, const fs::path& sourc
 }  // namespace
 
 StudyEntry masking_study_entry() {
-    return {"masking", "Padron-Griffe's masking term against Monte Carlo", check_masking_study, run_from_command_line};
+    return {"masking", "Padron-Griffe's masking term against Monte Carlo", check_masking_study,
+            run_from_command_line};
 }
 
 }  // namespace plumage::studies
