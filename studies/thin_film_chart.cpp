@@ -12,6 +12,7 @@
 #include <fmt/format.h>
 
 #include "common/error.h"
+#include "common/interrupt.h"
 #include "common/version.h"
 #include "sim/optics/material.h"
 #include "sim/optics/thin_film.h"
@@ -41,7 +42,8 @@ std::vector<double> axis(double first, double last, double step) {
 
 void require_positive(double value, const char* key) {
     if (!std::isfinite(value) || !(value > 0.0)) {
-        throw InputError(fmt::format("thin-film study: {} = {}: expected a finite value > 0", key, value));
+        throw InputError(
+            fmt::format("thin-film study: {} = {}: expected a finite value > 0", key, value));
     }
 }
 
@@ -83,7 +85,8 @@ std::uint8_t to_byte(double encoded) {
 // Display: exposure scale, negative (out-of-gamut) components clipped to 0, and values
 // above 1 brought down by the largest component so the hue is kept.
 optics::Rgb display_rgb(const optics::Xyz& xyz, double exposure) {
-    optics::Rgb rgb = optics::linear_srgb_from_xyz({xyz.x * exposure, xyz.y * exposure, xyz.z * exposure});
+    optics::Rgb rgb =
+        optics::linear_srgb_from_xyz({xyz.x * exposure, xyz.y * exposure, xyz.z * exposure});
     for (double& c : rgb) c = std::max(c, 0.0);
     const double peak = std::max({rgb[0], rgb[1], rgb[2]});
     if (peak > 1.0) {
@@ -98,95 +101,113 @@ std::string hex(const optics::Rgb& display) {
                        to_byte(optics::srgb_encode(display[2])));
 }
 
-}  // namespace
+namespace fs = std::filesystem;
 
-ThinFilmChartResult run_thin_film_chart(const ThinFilmChartOptions& options) {
-    require_positive(options.max_thickness_nm, "max_thickness_nm");
-    require_positive(options.thickness_step_nm, "thickness_step_nm");
-    require_positive(options.angle_step_deg, "angle_step_deg");
-    require_positive(options.chart_wavelength_step_nm, "chart_wavelength_step_nm");
-    require_positive(options.spectra_wavelength_step_nm, "spectra_wavelength_step_nm");
-    const auto start = std::chrono::steady_clock::now();
+// The chart: Airy reflectance of air|keratin|air [angle][thickness][wavelength] and its colours.
+struct Chart {
+    std::vector<double> thickness, angle;
+    optics::WavelengthGrid grid;
+    std::vector<float> reflectance;
+    std::vector<double> xyz;  // [angle][thickness][3]
+    std::size_t nt = 0, na = 0, nl = 0;
+};
 
-    const std::vector<double> thickness = axis(0.0, options.max_thickness_nm, options.thickness_step_nm);
-    const std::vector<double> angle = axis(0.0, 90.0, options.angle_step_deg);
-    const auto chart_grid =
-        optics::WavelengthGrid::uniform(kChartFirstNm, kChartLastNm, options.chart_wavelength_step_nm);
-    const optics::ReflectanceToXyz chart_xyz(chart_grid, optics::Illuminant::d65);
-    const std::size_t nt = thickness.size(), na = angle.size(), nl = chart_grid.size();
-
-    std::vector<Complex> keratin_n(nl);
-    for (std::size_t k = 0; k < nl; ++k) keratin_n[k] = optics::keratin()->index(chart_grid[k]);
-
-    // Reflectance cube [angle][thickness][wavelength] and its colours.
-    std::vector<float> reflectance(na * nt * nl);
-    std::vector<double> xyz(na * nt * 3);
+Chart compute_chart(const ThinFilmChartOptions& options, const optics::WavelengthGrid& grid,
+                    const optics::ReflectanceToXyz& chart_xyz) {
+    Chart c{axis(0.0, options.max_thickness_nm, options.thickness_step_nm),
+            axis(0.0, 90.0, options.angle_step_deg),
+            grid,
+            {},
+            {}};
+    c.nt = c.thickness.size(), c.na = c.angle.size(), c.nl = c.grid.size();
+    std::vector<Complex> keratin_n(c.nl);
+    for (std::size_t k = 0; k < c.nl; ++k) keratin_n[k] = optics::keratin()->index(c.grid[k]);
+    c.reflectance.resize(c.na * c.nt * c.nl);
+    c.xyz.resize(c.na * c.nt * 3);
     std::size_t rows_done = 0;
 #pragma omp parallel for schedule(dynamic, 1)
-    for (std::size_t a = 0; a < na; ++a) {
+    for (std::size_t a = 0; a < c.na; ++a) {
+        if (interrupt_requested()) continue;  // Ctrl-C: the remaining rows are skipped, then thrown
         // cos(π/2) is 6e-17 in floating point; 90° means exactly grazing.
-        const double cos_i = angle[a] == 90.0 ? 0.0 : std::cos(angle[a] * std::numbers::pi / 180.0);
-        std::vector<double> spectrum(nl);
-        for (std::size_t t = 0; t < nt; ++t) {
-            for (std::size_t k = 0; k < nl; ++k) {
+        const double cos_i =
+            c.angle[a] == 90.0 ? 0.0 : std::cos(c.angle[a] * std::numbers::pi / 180.0);
+        std::vector<double> spectrum(c.nl);
+        for (std::size_t t = 0; t < c.nt; ++t) {
+            for (std::size_t k = 0; k < c.nl; ++k) {
                 const optics::FilmMedia film{1.0, keratin_n[k], Complex(1.0)};
-                spectrum[k] = optics::airy_film_intensities_unpolarised(film, thickness[t] / 1000.0,
-                                                                        chart_grid[k], cos_i)
+                spectrum[k] = optics::airy_film_intensities_unpolarised(
+                                  film, c.thickness[t] / 1000.0, c.grid[k], cos_i)
                                   .reflectance;
-                reflectance[(a * nt + t) * nl + k] = static_cast<float>(spectrum[k]);
+                c.reflectance[(a * c.nt + t) * c.nl + k] = static_cast<float>(spectrum[k]);
             }
-            const optics::Xyz c = chart_xyz(spectrum);
-            xyz[(a * nt + t) * 3] = c.x;
-            xyz[(a * nt + t) * 3 + 1] = c.y;
-            xyz[(a * nt + t) * 3 + 2] = c.z;
+            const optics::Xyz colour = chart_xyz(spectrum);
+            c.xyz[(a * c.nt + t) * 3] = colour.x;
+            c.xyz[(a * c.nt + t) * 3 + 1] = colour.y;
+            c.xyz[(a * c.nt + t) * 3 + 2] = colour.z;
         }
 #pragma omp critical(progress)
         {
             ++rows_done;
-            if (options.progress && (rows_done % std::max<std::size_t>(1, na / 10) == 0 || rows_done == na)) {
+            if (options.progress &&
+                (rows_done % std::max<std::size_t>(1, c.na / 10) == 0 || rows_done == c.na)) {
                 std::cerr << fmt::format("  thin-film chart: {:3d} % ({} of {} angles)\n",
-                                         100 * rows_done / na, rows_done, na);
+                                         100 * rows_done / c.na, rows_done, c.na);
             }
         }
     }
+    throw_if_interrupted("the thin-film chart's colours");
+    return c;
+}
 
+// The display exposure: the brightest Y at incidence ≤ kExposureMaxAngleDeg maps to 1.
+double chart_exposure(const Chart& c) {
     double max_y = 0.0;
-    for (std::size_t a = 0; a < na && angle[a] <= kExposureMaxAngleDeg; ++a) {
-        for (std::size_t t = 0; t < nt; ++t) max_y = std::max(max_y, xyz[(a * nt + t) * 3 + 1]);
+    for (std::size_t a = 0; a < c.na && c.angle[a] <= kExposureMaxAngleDeg; ++a) {
+        for (std::size_t t = 0; t < c.nt; ++t)
+            max_y = std::max(max_y, c.xyz[(a * c.nt + t) * 3 + 1]);
     }
-    const double exposure = 1.0 / max_y;
+    return 1.0 / max_y;
+}
 
-    // Image rows: incidence 90° at the top, 0° at the bottom, as in a plot.
-    record::RgbImage image(static_cast<int>(nt), static_cast<int>(na));
-    std::vector<std::uint8_t> srgb8(na * nt * 3);
-    std::vector<double> srgb_linear(na * nt * 3);
-    for (std::size_t a = 0; a < na; ++a) {
-        for (std::size_t t = 0; t < nt; ++t) {
-            const std::size_t i = (a * nt + t) * 3;
-            const optics::Xyz c{xyz[i], xyz[i + 1], xyz[i + 2]};
-            const optics::Rgb linear = optics::linear_srgb_from_xyz(c);
-            const optics::Rgb display = display_rgb(c, exposure);
+// Image rows: incidence 90° at the top, 0° at the bottom, as in a plot.
+struct ChartImage {
+    record::RgbImage image;
+    std::vector<std::uint8_t> srgb8;
+    std::vector<double> srgb_linear;
+};
+ChartImage chart_image(const Chart& c, double exposure) {
+    ChartImage out{record::RgbImage(static_cast<int>(c.nt), static_cast<int>(c.na)),
+                   std::vector<std::uint8_t>(c.na * c.nt * 3),
+                   std::vector<double>(c.na * c.nt * 3)};
+    for (std::size_t a = 0; a < c.na; ++a) {
+        for (std::size_t t = 0; t < c.nt; ++t) {
+            const std::size_t i = (a * c.nt + t) * 3;
+            const optics::Xyz colour{c.xyz[i], c.xyz[i + 1], c.xyz[i + 2]};
+            const optics::Rgb linear = optics::linear_srgb_from_xyz(colour);
+            const optics::Rgb display = display_rgb(colour, exposure);
             for (int ch = 0; ch < 3; ++ch) {
-                srgb_linear[i + ch] = linear[ch];
-                srgb8[i + ch] = to_byte(optics::srgb_encode(display[ch]));
+                out.srgb_linear[i + ch] = linear[ch];
+                out.srgb8[i + ch] = to_byte(optics::srgb_encode(display[ch]));
             }
-            image.set(static_cast<int>(t), static_cast<int>(na - 1 - a), srgb8[i], srgb8[i + 1], srgb8[i + 2]);
+            out.image.set(static_cast<int>(t), static_cast<int>(c.na - 1 - a), out.srgb8[i],
+                          out.srgb8[i + 1], out.srgb8[i + 2]);
         }
     }
+    return out;
+}
 
-    // Normal-incidence spectra and the named films' colours.
-    const auto spectra_grid =
-        optics::WavelengthGrid::uniform(kChartFirstNm, kChartLastNm, options.spectra_wavelength_step_nm);
-    const optics::ReflectanceToXyz spectra_xyz(spectra_grid, optics::Illuminant::d65);
-    const NormalIncidenceSpectra spectra = normal_incidence_spectra(spectra_grid);
-    const NormalIncidenceSpectra spectra_on_chart_grid = normal_incidence_spectra(chart_grid);
-    ThinFilmChartResult result;
-    result.exposure = exposure;
+// The named films' colours at normal incidence, with the chart grid's colour error.
+std::vector<FilmColour> film_colours(const NormalIncidenceSpectra& spectra,
+                                     const optics::ReflectanceToXyz& spectra_xyz,
+                                     const optics::WavelengthGrid& chart_grid,
+                                     const optics::ReflectanceToXyz& chart_xyz) {
+    const NormalIncidenceSpectra on_chart_grid = normal_incidence_spectra(chart_grid);
+    std::vector<FilmColour> colours;
     for (std::size_t f = 0; f < std::size(kFilmsNm); ++f) {
         for (bool background : {false, true}) {
             const auto& fine = background ? spectra.with_background[f] : spectra.film_only[f];
-            const auto& coarse = background ? spectra_on_chart_grid.with_background[f]
-                                            : spectra_on_chart_grid.film_only[f];
+            const auto& coarse =
+                background ? on_chart_grid.with_background[f] : on_chart_grid.film_only[f];
             FilmColour colour{};
             colour.thickness_nm = kFilmsNm[f];
             colour.with_melanin_background = background;
@@ -196,77 +217,161 @@ ThinFilmChartResult run_thin_film_chart(const ThinFilmChartOptions& options) {
             colour.chroma = optics::chroma(colour.lab);
             colour.delta_e00_chart_grid = optics::ciede2000(
                 colour.lab, optics::lab_from_xyz(chart_xyz(coarse), chart_xyz.white()));
-            result.normal_incidence.push_back(colour);
+            colours.push_back(colour);
         }
     }
+    return colours;
+}
+
+void write_chart_datasets(record::Hdf5Writer& h5, const Chart& c, const ChartImage& img,
+                          double exposure) {
+    using Dims = std::vector<std::uint64_t>;
+    h5.write("chart/thickness_nm", std::span<const double>(c.thickness), Dims{c.nt},
+             {{"units", "nm"}, {"description", "keratin film thickness"}});
+    h5.write("chart/incidence_deg", std::span<const double>(c.angle), Dims{c.na},
+             {{"units", "deg"}, {"description", "incidence angle in air, from the film normal"}});
+    h5.write("chart/wavelength_nm", c.grid.nm(), Dims{c.nl}, {{"units", "nm"}});
+    h5.write(
+        "chart/reflectance", std::span<const float>(c.reflectance), Dims{c.na, c.nt, c.nl},
+        {{"units", "1"},
+         {"description",
+          "unpolarised Airy reflectance of air|keratin|air, [incidence, thickness, wavelength]"}});
+    h5.write("chart/xyz", std::span<const double>(c.xyz), Dims{c.na, c.nt, 3},
+             {{"units", "1"},
+              {"description", "CIE 1931 2-degree XYZ under D65, perfect reflector Y = 1"}});
+    h5.write("chart/srgb_linear", std::span<const double>(img.srgb_linear), Dims{c.na, c.nt, 3},
+             {{"description", "linear sRGB of xyz, no exposure, not clipped"}});
+    h5.write("chart/srgb8", std::span<const std::uint8_t>(img.srgb8), Dims{c.na, c.nt, 3},
+             {{"description",
+               "display sRGB (8 bit): exposure applied, negatives clipped, "
+               "over-range scaled by the largest component"}});
+    h5.set_attribute("/chart", "exposure", exposure);
+    h5.set_attribute(
+        "/chart", "exposure_rule",
+        fmt::format("brightest Y at incidence <= {} deg maps to 1", kExposureMaxAngleDeg));
+    h5.set_attribute("/chart", "illuminant", "D65");
+    h5.set_attribute("/chart", "observer", "CIE 1931 2 degree");
+}
+
+void write_spectra_datasets(record::Hdf5Writer& h5, const NormalIncidenceSpectra& spectra) {
+    using Dims = std::vector<std::uint64_t>;
+    const std::uint64_t n = spectra.wavelength_nm.size();
+    h5.write("spectra/wavelength_nm", std::span<const double>(spectra.wavelength_nm), Dims{n},
+             {{"units", "nm"}});
+    for (std::size_t f = 0; f < std::size(kFilmsNm); ++f) {
+        const int d = static_cast<int>(kFilmsNm[f]);
+        h5.write(fmt::format("spectra/R_{}nm", d), std::span<const double>(spectra.film_only[f]),
+                 Dims{n},
+                 {{"description", "film reflectance I_R (Huang Eq. 2), normal incidence"}});
+        h5.write(fmt::format("spectra/R_plus_TRT_{}nm", d),
+                 std::span<const double>(spectra.with_background[f]), Dims{n},
+                 {{"description", "I_R + I_TRT (Huang Eqs. 2-3), melanin background"}});
+    }
+}
+
+void write_spectra_csv(const fs::path& path, const NormalIncidenceSpectra& spectra) {
+    std::ofstream csv(path);
+    csv << "wavelength_nm";
+    for (double d : kFilmsNm) csv << fmt::format(",R_{0}nm,R_plus_TRT_{0}nm", static_cast<int>(d));
+    csv << '\n';
+    for (std::size_t k = 0; k < spectra.wavelength_nm.size(); ++k) {
+        csv << fmt::format("{}", spectra.wavelength_nm[k]);
+        for (std::size_t f = 0; f < std::size(kFilmsNm); ++f) {
+            csv << fmt::format(",{:.8f},{:.8f}", spectra.film_only[f][k],
+                               spectra.with_background[f][k]);
+        }
+        csv << '\n';
+    }
+    if (!csv) throw IoError(fmt::format("cannot write {}", path.string()));
+}
+
+void write_report(const fs::path& path, const ThinFilmChartOptions& options, const Chart& c,
+                  const ThinFilmChartResult& result, bool plotted) {
+    std::ofstream md(path);
+    md << "# Thin keratin films: colour chart and rock-dove spectra\n\n"
+       << "Reproduces Huang et al. 2022, Fig. 3 (colour of a keratin film in air against "
+          "thickness and incidence angle, D65) and Fig. 5 (normal-incidence reflectance of "
+          "the rock dove's 530 nm and 595 nm keratin films, with and without the melanin "
+          "background TRT).\n\n"
+       << "Keratin n(λ) = 1.532 + 5890/λ², melanin n(λ) = 1.648 + 23700/λ² + "
+          "0.56i·exp(−λ/270); unpolarised light; CIE 1931 2° observer.\n\n";
+    if (plotted) {
+        md << "![thin-film chart](thin_film_chart.png)\n\n"
+           << "![normal-incidence spectra](spectra_normal_incidence.png)\n\n";
+    } else {
+        md << "![thin-film chart, one pixel per cell](thin_film_chart_pixels.png)\n\n";
+    }
+    md << fmt::format(
+        "Chart: {} thicknesses (0–{} nm, step {} nm) × {} angles (step {}°), "
+        "{} wavelengths ({}–{} nm, step {} nm). Display exposure ×{:.3f} "
+        "(brightest colour at ≤ {}° incidence → Y = 1).\n\n",
+        c.nt, options.max_thickness_nm, options.thickness_step_nm, c.na, options.angle_step_deg,
+        c.nl, kChartFirstNm, kChartLastNm, options.chart_wavelength_step_nm, result.exposure,
+        kExposureMaxAngleDeg);
+    md << "## Colours at normal incidence\n\n"
+       << "| film | spectrum | L* | a* | b* | hue h_ab (°) | chroma | display sRGB | ΔE00 chart "
+          "grid vs 1 nm |\n"
+       << "|---|---|---|---|---|---|---|---|---|\n";
+    for (const FilmColour& f : result.normal_incidence) {
+        md << fmt::format(
+            "| {} nm | {} | {:.2f} | {:.2f} | {:.2f} | {:.1f} | {:.2f} | {} | {:.3f} |\n",
+            f.thickness_nm, f.with_melanin_background ? "R + TRT" : "R", f.lab.l, f.lab.a, f.lab.b,
+            f.hue_deg, f.chroma, hex(display_rgb(f.xyz, result.exposure)), f.delta_e00_chart_grid);
+    }
+    md << fmt::format(
+        "\nRun time {:.2f} s on {} threads (plumage {}). Files: "
+        "thin_film_chart.h5 (all numbers, h5py/MATLAB), "
+        "thin_film_chart_pixels.png (one pixel per cell, 90° at the top), "
+        "spectra_normal_incidence.csv.\n",
+        result.wall_seconds, omp_get_max_threads(), kVersion);
+    if (!md) throw IoError(fmt::format("cannot write {}", path.string()));
+}
+
+std::string options_text(const ThinFilmChartOptions& options) {
+    return fmt::format(
+        "max_thickness_nm={} thickness_step_nm={} angle_step_deg={} chart_wavelength_step_nm={} "
+        "spectra_wavelength_step_nm={}",
+        options.max_thickness_nm, options.thickness_step_nm, options.angle_step_deg,
+        options.chart_wavelength_step_nm, options.spectra_wavelength_step_nm);
+}
+
+}  // namespace
+
+ThinFilmChartResult run_thin_film_chart(const ThinFilmChartOptions& options) {
+    require_positive(options.max_thickness_nm, "max_thickness_nm");
+    require_positive(options.thickness_step_nm, "thickness_step_nm");
+    require_positive(options.angle_step_deg, "angle_step_deg");
+    require_positive(options.chart_wavelength_step_nm, "chart_wavelength_step_nm");
+    require_positive(options.spectra_wavelength_step_nm, "spectra_wavelength_step_nm");
+    const auto start = std::chrono::steady_clock::now();
+    const auto chart_grid = optics::WavelengthGrid::uniform(kChartFirstNm, kChartLastNm,
+                                                            options.chart_wavelength_step_nm);
+    const optics::ReflectanceToXyz chart_xyz(chart_grid, optics::Illuminant::d65);
+    const Chart chart = compute_chart(options, chart_grid, chart_xyz);
+    ThinFilmChartResult result;
+    result.exposure = chart_exposure(chart);
+    const ChartImage image = chart_image(chart, result.exposure);
+    const auto spectra_grid = optics::WavelengthGrid::uniform(kChartFirstNm, kChartLastNm,
+                                                              options.spectra_wavelength_step_nm);
+    const optics::ReflectanceToXyz spectra_xyz(spectra_grid, optics::Illuminant::d65);
+    const NormalIncidenceSpectra spectra = normal_incidence_spectra(spectra_grid);
+    result.normal_incidence = film_colours(spectra, spectra_xyz, chart_grid, chart_xyz);
 
     StagedDirectory out(options.output_dir);
     const auto& dir = out.path();
-    {
-        record::Hdf5Writer h5(dir / "thin_film_chart.h5");
-        using Dims = std::vector<std::uint64_t>;
-        h5.write("chart/thickness_nm", std::span<const double>(thickness), Dims{nt},
-                 {{"units", "nm"}, {"description", "keratin film thickness"}});
-        h5.write("chart/incidence_deg", std::span<const double>(angle), Dims{na},
-                 {{"units", "deg"}, {"description", "incidence angle in air, from the film normal"}});
-        h5.write("chart/wavelength_nm", chart_grid.nm(), Dims{nl}, {{"units", "nm"}});
-        h5.write("chart/reflectance", std::span<const float>(reflectance), Dims{na, nt, nl},
-                 {{"units", "1"},
-                  {"description", "unpolarised Airy reflectance of air|keratin|air, "
-                                  "[incidence, thickness, wavelength]"}});
-        h5.write("chart/xyz", std::span<const double>(xyz), Dims{na, nt, 3},
-                 {{"units", "1"},
-                  {"description", "CIE 1931 2-degree XYZ under D65, perfect reflector Y = 1"}});
-        h5.write("chart/srgb_linear", std::span<const double>(srgb_linear), Dims{na, nt, 3},
-                 {{"description", "linear sRGB of xyz, no exposure, not clipped"}});
-        h5.write("chart/srgb8", std::span<const std::uint8_t>(srgb8), Dims{na, nt, 3},
-                 {{"description", "display sRGB (8 bit): exposure applied, negatives clipped, "
-                                  "over-range scaled by the largest component"}});
-        h5.set_attribute("/chart", "exposure", exposure);
-        h5.set_attribute("/chart", "exposure_rule",
-                         fmt::format("brightest Y at incidence <= {} deg maps to 1", kExposureMaxAngleDeg));
-        h5.set_attribute("/chart", "illuminant", "D65");
-        h5.set_attribute("/chart", "observer", "CIE 1931 2 degree");
-        h5.write("spectra/wavelength_nm", std::span<const double>(spectra.wavelength_nm),
-                 Dims{spectra_grid.size()}, {{"units", "nm"}});
-        for (std::size_t f = 0; f < std::size(kFilmsNm); ++f) {
-            const int d = static_cast<int>(kFilmsNm[f]);
-            h5.write(fmt::format("spectra/R_{}nm", d), std::span<const double>(spectra.film_only[f]),
-                     Dims{spectra_grid.size()},
-                     {{"description", "film reflectance I_R (Huang Eq. 2), normal incidence"}});
-            h5.write(fmt::format("spectra/R_plus_TRT_{}nm", d),
-                     std::span<const double>(spectra.with_background[f]), Dims{spectra_grid.size()},
-                     {{"description", "I_R + I_TRT (Huang Eqs. 2-3), melanin background"}});
-        }
-        const double seconds =
-            std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
-        h5.set_attribute("/", "study", "thin_film");
-        h5.set_attribute("/", "plumage_version", kVersion);
-        h5.set_attribute("/", "threads", static_cast<double>(omp_get_max_threads()));
-        h5.set_attribute("/", "compute_wall_time_s", seconds);
-        h5.set_attribute("/", "config",
-                         fmt::format("max_thickness_nm={} thickness_step_nm={} angle_step_deg={} "
-                                     "chart_wavelength_step_nm={} spectra_wavelength_step_nm={}",
-                                     options.max_thickness_nm, options.thickness_step_nm,
-                                     options.angle_step_deg, options.chart_wavelength_step_nm,
-                                     options.spectra_wavelength_step_nm));
-        h5.commit();
-    }
-    record::write_png(dir / "thin_film_chart_pixels.png", image);
-    {
-        std::ofstream csv(dir / "spectra_normal_incidence.csv");
-        csv << "wavelength_nm";
-        for (double d : kFilmsNm) csv << fmt::format(",R_{0}nm,R_plus_TRT_{0}nm", static_cast<int>(d));
-        csv << '\n';
-        for (std::size_t k = 0; k < spectra_grid.size(); ++k) {
-            csv << fmt::format("{}", spectra.wavelength_nm[k]);
-            for (std::size_t f = 0; f < std::size(kFilmsNm); ++f) {
-                csv << fmt::format(",{:.8f},{:.8f}", spectra.film_only[f][k], spectra.with_background[f][k]);
-            }
-            csv << '\n';
-        }
-        if (!csv) throw IoError(fmt::format("cannot write {}", (dir / "spectra_normal_incidence.csv").string()));
-    }
+    record::Hdf5Writer h5(dir / "thin_film_chart.h5");
+    write_chart_datasets(h5, chart, image, result.exposure);
+    write_spectra_datasets(h5, spectra);
+    h5.set_attribute("/", "study", "thin_film");
+    h5.set_attribute("/", "plumage_version", kVersion);
+    h5.set_attribute("/", "threads", static_cast<double>(omp_get_max_threads()));
+    h5.set_attribute(
+        "/", "compute_wall_time_s",
+        std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count());
+    h5.set_attribute("/", "config", options_text(options));
+    h5.commit();
+    record::write_png(dir / "thin_film_chart_pixels.png", image.image);
+    write_spectra_csv(dir / "spectra_normal_incidence.csv", spectra);
     bool plotted = false;  // a failed plot is a warning: the report then shows the pixel chart
     if (options.plots) {
         plotted = run_plot("chart", dir / "thin_film_chart.h5", dir / "thin_film_chart.png");
@@ -276,43 +381,7 @@ ThinFilmChartResult run_thin_film_chart(const ThinFilmChartOptions& options) {
     }
     result.wall_seconds =
         std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
-    {
-        std::ofstream md(dir / "report.md");
-        md << "# Thin keratin films: colour chart and rock-dove spectra\n\n"
-           << "Reproduces Huang et al. 2022, Fig. 3 (colour of a keratin film in air against "
-              "thickness and incidence angle, D65) and Fig. 5 (normal-incidence reflectance of "
-              "the rock dove's 530 nm and 595 nm keratin films, with and without the melanin "
-              "background TRT).\n\n"
-           << "Keratin n(λ) = 1.532 + 5890/λ², melanin n(λ) = 1.648 + 23700/λ² + "
-              "0.56i·exp(−λ/270); unpolarised light; CIE 1931 2° observer.\n\n";
-        if (plotted) {
-            md << "![thin-film chart](thin_film_chart.png)\n\n"
-               << "![normal-incidence spectra](spectra_normal_incidence.png)\n\n";
-        } else {
-            md << "![thin-film chart, one pixel per cell](thin_film_chart_pixels.png)\n\n";
-        }
-        md << fmt::format("Chart: {} thicknesses (0–{} nm, step {} nm) × {} angles (step {}°), "
-                          "{} wavelengths ({}–{} nm, step {} nm). Display exposure ×{:.3f} "
-                          "(brightest colour at ≤ {}° incidence → Y = 1).\n\n",
-                          nt, options.max_thickness_nm, options.thickness_step_nm, na,
-                          options.angle_step_deg, nl, kChartFirstNm, kChartLastNm,
-                          options.chart_wavelength_step_nm, exposure, kExposureMaxAngleDeg);
-        md << "## Colours at normal incidence\n\n"
-           << "| film | spectrum | L* | a* | b* | hue h_ab (°) | chroma | display sRGB | ΔE00 chart grid vs 1 nm |\n"
-           << "|---|---|---|---|---|---|---|---|---|\n";
-        for (const FilmColour& c : result.normal_incidence) {
-            md << fmt::format("| {} nm | {} | {:.2f} | {:.2f} | {:.2f} | {:.1f} | {:.2f} | {} | {:.3f} |\n",
-                              c.thickness_nm, c.with_melanin_background ? "R + TRT" : "R",
-                              c.lab.l, c.lab.a, c.lab.b, c.hue_deg, c.chroma,
-                              hex(display_rgb(c.xyz, exposure)), c.delta_e00_chart_grid);
-        }
-        md << fmt::format("\nRun time {:.2f} s on {} threads (plumage {}). Files: "
-                          "thin_film_chart.h5 (all numbers, h5py/MATLAB), "
-                          "thin_film_chart_pixels.png (one pixel per cell, 90° at the top), "
-                          "spectra_normal_incidence.csv.\n",
-                          result.wall_seconds, omp_get_max_threads(), kVersion);
-        if (!md) throw IoError(fmt::format("cannot write {}", (dir / "report.md").string()));
-    }
+    write_report(dir / "report.md", options, chart, result, plotted);
     out.commit();
     result.output_dir = out.final_path();
     return result;
