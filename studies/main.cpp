@@ -141,100 +141,114 @@ std::string run_geometry(const std::string& file, const CommonOptions& o) {
         static_cast<double>(r.memory_bytes) / 1e6, r.wall_seconds);
 }
 
+// The command line: options, subcommands and what they were given.
+struct CommandLine {
+    CLI::App app{
+        "Plumage: light scattering by bird-feather microstructures.\n"
+        "With no subcommand, runs the default study: explicit rock-dove barbules against\n"
+        "Huang et al. 2022 (studies/rock_dove.toml), into results/rock_dove/.\n"
+        "Exit codes: 0 done, 1 failed, 2 bad input (nothing written), 130 interrupted."};
+    CommonOptions common;
+    st::ThinFilmChartOptions thin_film;
+    std::string run_file, geometry_file;
+    CLI::App *thin_film_cmd = nullptr, *run_cmd = nullptr, *geometry_cmd = nullptr;
+
+    CommandLine() {
+        app.set_version_flag("--version", std::string("plumage ") + plumage::kVersion);
+        add_common_options(app, common);
+        thin_film_cmd = app.add_subcommand(
+            "thin-film",
+            "Huang 2022 Figs. 3 and 5: keratin film colour chart and rock-dove spectra");
+        thin_film_cmd->add_option("--thickness-step-nm", thin_film.thickness_step_nm)
+            ->capture_default_str()
+            ->check(CLI::Range(0.01, 100.0));
+        thin_film_cmd->add_option("--angle-step-deg", thin_film.angle_step_deg)
+            ->capture_default_str()
+            ->check(CLI::Range(0.01, 45.0));
+        thin_film_cmd->add_option("--max-thickness-nm", thin_film.max_thickness_nm)
+            ->capture_default_str()
+            ->check(CLI::Range(1.0, 20000.0));
+        std::string kinds;
+        for (const st::StudyEntry& entry : st::study_registry()) {
+            kinds += fmt::format("\n  {:10} {}", entry.kind, entry.description);
+        }
+        run_cmd = app.add_subcommand(
+            "run", "run a study file (TOML; studies/*.toml). Study kinds:" + kinds);
+        run_cmd->add_option("STUDY", run_file, "study file, e.g. studies/rock_dove_quick.toml")
+            ->required();
+        geometry_cmd = app.add_subcommand(
+            "geometry",
+            "build the geometry of a study file; write PLY/VDB, a PNG preview and a report");
+        geometry_cmd
+            ->add_option("STUDY", geometry_file,
+                         "geometry file (TOML), e.g. studies/geometry/rock_dove_row.toml")
+            ->required();
+        for (CLI::App* sub : {thin_film_cmd, run_cmd, geometry_cmd})
+            add_common_options(*sub, common);
+    }
+};
+
+// Runs what the command line asks for; returns the summary for stdout.
+std::string run_command(CommandLine& cli) {
+    const CommonOptions& common = cli.common;
+    if (cli.geometry_cmd->parsed()) return run_geometry(cli.geometry_file, common);
+    if (cli.thin_film_cmd->parsed()) {
+        st::refuse_limits("thin-film", common.limits, "the chart is an exact evaluation");
+        cli.thin_film.output_dir = fs::path(common.output) / "thin_film";
+        cli.thin_film.plots = common.plots;
+        return run_thin_film(cli.thin_film);
+    }
+    std::string text = st::kDefaultStudy;
+    fs::path source = "rock_dove.toml (built in)";
+    if (cli.run_cmd->parsed()) {
+        text = read_file(cli.run_file, "study file");
+        source = cli.run_file;
+    }
+    return st::study_of(text, source).run(text, source, common.output, common.limits);
+}
+
+// The exit code of a failure, with its message on stderr. Whatever a stage threw once a
+// signal had arrived (an abandoned measurement's partial result, say) is the interruption's
+// doing.
+int report_failure(const std::exception& e, const std::string& output) {
+    if (plumage::interrupt_signal() != 0) {
+        std::cerr << fmt::format(
+            "plumage: {}; nothing half-written is left in {} (an earlier result of the same name "
+            "is "
+            "untouched; finished measurement passes stay in checkpoints). Run the same command "
+            "again "
+            "to resume.\n",
+            e.what(), output);
+        return 128 + plumage::interrupt_signal();
+    }
+    if (dynamic_cast<const plumage::InputError*>(&e) != nullptr) {
+        std::cerr << "plumage: error: " << e.what() << '\n';
+        return 2;
+    }
+    std::cerr << "plumage: failed: " << e.what() << '\n';
+    return 1;
+}
+
 }  // namespace
 
 int main(int argc, char** argv) {
     // Ctrl-C and SIGTERM stop every stage (common/interrupt.h), from the first instant: a
     // signal during start-up stops the run at its first stage with exit code 130 as well.
     const plumage::ScopedInterruptHandler interrupt;
-    std::string kinds;
-    for (const st::StudyEntry& entry : st::study_registry()) {
-        kinds += fmt::format("\n  {:10} {}", entry.kind, entry.description);
-    }
-    CLI::App app{
-        "Plumage: light scattering by bird-feather microstructures.\n"
-        "With no subcommand, runs the default study: explicit rock-dove barbules against\n"
-        "Huang et al. 2022 (studies/rock_dove.toml), into results/rock_dove/.\n"
-        "Exit codes: 0 done, 1 failed, 2 bad input (nothing written), 130 interrupted."};
-    app.set_version_flag("--version", std::string("plumage ") + plumage::kVersion);
-    CommonOptions common;
-    add_common_options(app, common);
-
-    st::ThinFilmChartOptions thin_film;
-    auto* thin_film_cmd = app.add_subcommand(
-        "thin-film", "Huang 2022 Figs. 3 and 5: keratin film colour chart and rock-dove spectra");
-    thin_film_cmd->add_option("--thickness-step-nm", thin_film.thickness_step_nm)
-        ->capture_default_str()
-        ->check(CLI::Range(0.01, 100.0));
-    thin_film_cmd->add_option("--angle-step-deg", thin_film.angle_step_deg)
-        ->capture_default_str()
-        ->check(CLI::Range(0.01, 45.0));
-    thin_film_cmd->add_option("--max-thickness-nm", thin_film.max_thickness_nm)
-        ->capture_default_str()
-        ->check(CLI::Range(1.0, 20000.0));
-
-    std::string run_file;
-    auto* run_cmd =
-        app.add_subcommand("run", "run a study file (TOML; studies/*.toml). Study kinds:" + kinds);
-    run_cmd->add_option("STUDY", run_file, "study file, e.g. studies/rock_dove_quick.toml")
-        ->required();
-
-    std::string geometry_file;
-    auto* geometry_cmd = app.add_subcommand(
-        "geometry",
-        "build the geometry of a study file; write PLY/VDB, a PNG preview and a report");
-    geometry_cmd
-        ->add_option("STUDY", geometry_file,
-                     "geometry file (TOML), e.g. studies/geometry/rock_dove_row.toml")
-        ->required();
-    for (CLI::App* sub : {thin_film_cmd, run_cmd, geometry_cmd}) add_common_options(*sub, common);
-
+    CommandLine cli;
     try {
-        app.parse(argc, argv);
+        cli.app.parse(argc, argv);
     } catch (const CLI::ParseError& e) {
-        const int code = app.exit(e);
-        if (code != 0) suggest(app, argc, argv);
+        const int code = cli.app.exit(e);
+        if (code != 0) suggest(cli.app, argc, argv);
         return code;
     }
-    if (common.threads > 0) omp_set_num_threads(common.threads);
-    st::set_plots_enabled(common.plots);
-
+    if (cli.common.threads > 0) omp_set_num_threads(cli.common.threads);
+    st::set_plots_enabled(cli.common.plots);
     try {
-        std::string summary;
-        if (geometry_cmd->parsed()) {
-            summary = run_geometry(geometry_file, common);
-        } else if (thin_film_cmd->parsed()) {
-            st::refuse_limits("thin-film", common.limits, "the chart is an exact evaluation");
-            thin_film.output_dir = fs::path(common.output) / "thin_film";
-            thin_film.plots = common.plots;
-            summary = run_thin_film(thin_film);
-        } else {
-            std::string text = st::kDefaultStudy;
-            fs::path source = "rock_dove.toml (built in)";
-            if (run_cmd->parsed()) {
-                text = read_file(run_file, "study file");
-                source = run_file;
-            }
-            summary = st::study_of(text, source).run(text, source, common.output, common.limits);
-        }
-        std::cout << summary;
+        std::cout << run_command(cli);
         return 0;
     } catch (const std::exception& e) {
-        // Whatever a stage threw once a signal had arrived (an abandoned measurement's
-        // partial result, say) is the interruption's doing.
-        if (plumage::interrupt_signal() != 0) {
-            std::cerr << fmt::format(
-                "plumage: {}; nothing half-written is left in {} (an earlier result of the same "
-                "name is untouched; finished measurement passes stay in checkpoints). Run the same "
-                "command again to resume.\n",
-                e.what(), common.output);
-            return 128 + plumage::interrupt_signal();
-        }
-        if (dynamic_cast<const plumage::InputError*>(&e) != nullptr) {
-            std::cerr << "plumage: error: " << e.what() << '\n';
-            return 2;
-        }
-        std::cerr << "plumage: failed: " << e.what() << '\n';
-        return 1;
+        return report_failure(e, cli.common.output);
     }
 }
