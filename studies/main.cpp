@@ -33,7 +33,7 @@ struct CommonOptions {
     int threads = 0;
     std::string output = "results";
     st::RunLimits limits;
-    bool plots = true;
+    bool no_plots = false;
 };
 
 void add_common_options(CLI::App& app, CommonOptions& o) {
@@ -61,7 +61,7 @@ void add_common_options(CLI::App& app, CommonOptions& o) {
                    "(e.g. 0.05)")
         ->type_name("FRACTION")
         ->check(CLI::Range(0.0, 1.0).description(""));
-    app.add_flag("!--no-plots", o.plots, "skip the matplotlib figures (records and reports stay)");
+    app.add_flag("--no-plots", o.no_plots, "skip the matplotlib figures (records and reports stay)");
 }
 
 std::string read_file(const std::string& path, std::string_view what) {
@@ -101,7 +101,6 @@ void suggest(const CLI::App& app, int argc, char** argv) {
     for (const CLI::Option* option : app.get_options()) {
         for (const std::string& long_name : option->get_lnames()) names.push_back("--" + long_name);
     }
-    names.emplace_back("--no-plots");
     for (int i = 1; i < argc; ++i) {
         std::string arg = argv[i];
         if (arg.rfind("--", 0) == 0) arg = arg.substr(0, arg.find('='));
@@ -195,7 +194,7 @@ std::string run_command(CommandLine& cli) {
     if (cli.thin_film_cmd->parsed()) {
         st::refuse_limits("thin-film", common.limits, "the chart is an exact evaluation");
         cli.thin_film.output_dir = fs::path(common.output) / "thin_film";
-        cli.thin_film.plots = common.plots;
+        cli.thin_film.plots = !common.no_plots;
         return run_thin_film(cli.thin_film);
     }
     std::string text = st::kDefaultStudy;
@@ -244,7 +243,7 @@ int main(int argc, char** argv) {
         return code;
     }
     if (cli.common.threads > 0) omp_set_num_threads(cli.common.threads);
-    st::set_plots_enabled(cli.common.plots);
+    st::set_plots_enabled(!cli.common.no_plots);
     try {
         std::cout << run_command(cli);
         return 0;
