@@ -398,7 +398,11 @@ void predict(const Huang2022Params& params, const Layout& layout, int threads,
         const int row = static_cast<int>(p / n), column = static_cast<int>(p % n);
         return std::pair{(column + 0.5) * pixel - 1.0, 1.0 - (row + 0.5) * pixel};
     };
-    for (const auto& [wi, node_weight] : layout.illumination) {
+    for (const auto& node : layout.illumination) {
+        // Plain variables, not a structured binding: OpenMP regions below use them, and
+        // clang before 16 cannot capture bindings there.
+        const Vec3d& wi = node.first;
+        const double node_weight = node.second;
         const SupportProbe support{model, wi, reference};
         // A: every disc pixel's centre at the reference wavelength: R's support and f cos θ_o.
         const auto disc_count = static_cast<std::ptrdiff_t>(layout.disc.size());

@@ -1,0 +1,21 @@
+// HDF5 records as plumage reads them back (virtual_gonio/hdf5_file.h; the goniometer resumes
+// from them): datasets of every record kind and their attributes (virtual_gonio/RECORD.md).
+#include <cstddef>
+#include <cstdint>
+
+#include "fuzz/fuzz_input.h"
+#include "virtual_gonio/hdf5_file.h"
+
+extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size) {
+    const plumage::fuzz::InputFile file(data, size, ".h5");
+    for (const char* dataset : {"/brdf/value", "/brdf/standard_error", "/wavelength_nm",
+                                "/convergence", "/image/intensity"}) {
+        plumage::fuzz::expect_clean_rejection(
+            [&] { plumage::record::read_dataset(file.path(), dataset); });
+    }
+    plumage::fuzz::expect_clean_rejection(
+        [&] { plumage::record::read_string_attribute(file.path(), "/provenance", "config"); });
+    plumage::fuzz::expect_clean_rejection(
+        [&] { plumage::record::read_number_attribute(file.path(), "/provenance", "seed"); });
+    return 0;
+}
