@@ -22,12 +22,12 @@ void require(bool ok, const char* key, double value, const char* expected) {
 }
 
 // Gauss–Legendre nodes and weights on [−1, 1].
-constexpr std::array<double, 8> kGl8Nodes = {-0.9602898564975363, -0.7966664774136267, -0.5255324099163290,
-                                             -0.1834346424956498, 0.1834346424956498,  0.5255324099163290,
-                                             0.7966664774136267,  0.9602898564975363};
-constexpr std::array<double, 8> kGl8Weights = {0.1012285362903763, 0.2223810344533745, 0.3137066458778873,
-                                               0.3626837833783620, 0.3626837833783620, 0.3137066458778873,
-                                               0.2223810344533745, 0.1012285362903763};
+constexpr std::array<double, 8> kGl8Nodes = {
+    -0.9602898564975363, -0.7966664774136267, -0.5255324099163290, -0.1834346424956498,
+    0.1834346424956498,  0.5255324099163290,  0.7966664774136267,  0.9602898564975363};
+constexpr std::array<double, 8> kGl8Weights = {
+    0.1012285362903763, 0.2223810344533745, 0.3137066458778873, 0.3626837833783620,
+    0.3626837833783620, 0.3137066458778873, 0.2223810344533745, 0.1012285362903763};
 
 }  // namespace
 
@@ -37,7 +37,7 @@ struct Huang2022Bsdf::Frame {
     Vec3d wi;            // barbule frame
     double phi_i = 0.0;  // azimuth of ω_i's projection on the x–z plane
     double cos_theta_i = 0.0, sin_theta_i = 0.0;
-    double period = 0.0;  // Δh = H cos(φ_i + μ)
+    double period = 0.0;                           // Δh = H cos(φ_i + μ)
     std::vector<std::array<double, 2>> intervals;  // visible, front-facing φ_m ranges
     std::vector<double> h_cumulative;              // projected visible length up to interval k
     double visible_length = 0.0;                   // front-facing visible part of Δh'
@@ -48,18 +48,23 @@ struct Huang2022Bsdf::Frame {
     mutable double nodes_lambda = -1.0;
     mutable std::vector<double> node_trt_in, node_r;
     // Fraction of the incident light that hits the front (film side) of a barbule.
-    double hit_fraction() const { return period > 0.0 ? std::min(1.0, visible_length / period) : 0.0; }
+    double hit_fraction() const {
+        return period > 0.0 ? std::min(1.0, visible_length / period) : 0.0;
+    }
 };
 
 Huang2022Bsdf::Huang2022Bsdf(const Huang2022Params& p) : params_(p) {
     require(std::isfinite(p.b) && p.b >= 1e-3 && p.b <= 1.0, "b", p.b, "a value in [1e-3, 1]");
-    require(std::isfinite(p.phi0) && std::isfinite(p.phi1) && p.phi1 > p.phi0 && p.phi1 - p.phi0 <= 2.0 * kPi,
+    require(std::isfinite(p.phi0) && std::isfinite(p.phi1) && p.phi1 > p.phi0 &&
+                p.phi1 - p.phi0 <= 2.0 * kPi,
             "phi1 - phi0", p.phi1 - p.phi0, "an arc with phi0 < phi1 <= phi0 + 2 pi (rad)");
     require(std::isfinite(p.H) && p.H > 0.0, "H", p.H, "a spacing > 0 (in semi-major axes)");
-    require(std::isfinite(p.d_um) && p.d_um >= 0.0 && p.d_um <= 50.0, "d", p.d_um, "a film thickness in [0, 50] um");
-    require(std::isfinite(p.theta_d) && p.theta_d > 0.0 && p.theta_d <= 0.25 * kPi, "theta_d", p.theta_d,
-            "a half-opening in (0, pi/4] rad");
-    require(std::isfinite(p.mu) && std::abs(p.mu) < 0.5 * kPi, "mu", p.mu, "a tilt in (-pi/2, pi/2) rad");
+    require(std::isfinite(p.d_um) && p.d_um >= 0.0 && p.d_um <= 50.0, "d", p.d_um,
+            "a film thickness in [0, 50] um");
+    require(std::isfinite(p.theta_d) && p.theta_d > 0.0 && p.theta_d <= 0.25 * kPi, "theta_d",
+            p.theta_d, "a half-opening in (0, pi/4] rad");
+    require(std::isfinite(p.mu) && std::abs(p.mu) < 0.5 * kPi, "mu", p.mu,
+            "a tilt in (-pi/2, pi/2) rad");
     static std::atomic<std::uint64_t> counter{0};
     generation_ = ++counter;
 }
@@ -124,7 +129,8 @@ ThetaDensity theta_density(double a, double b, double theta_d) {
     t.delta = std::atan2(b, a);
     t.lo = std::max(-theta_d, t.delta - 0.5 * kPi);
     t.hi = std::min(theta_d, t.delta + 0.5 * kPi);
-    t.norm = t.hi > t.lo ? t.amplitude * (std::sin(t.hi - t.delta) - std::sin(t.lo - t.delta)) : 0.0;
+    t.norm =
+        t.hi > t.lo ? t.amplitude * (std::sin(t.hi - t.delta) - std::sin(t.lo - t.delta)) : 0.0;
     return t;
 }
 
@@ -145,7 +151,9 @@ bool Huang2022Bsdf::visible(double phi_m, double dir_x, double dir_z) const {
     // distance to the ray line grows by H |sin α| per copy.
     const double sin_alpha = std::abs(ux * dz - uz * dx);
     const int reach = sin_alpha * params_.H > 1e-9
-                          ? std::min(1000, static_cast<int>(std::ceil((2.0 + 2.0 * params_.H) / (params_.H * sin_alpha))) + 1)
+                          ? std::min(1000, static_cast<int>(std::ceil((2.0 + 2.0 * params_.H) /
+                                                                      (params_.H * sin_alpha))) +
+                                               1)
                           : 1000;
     const double b2 = params_.b * params_.b;
     for (int k = -reach; k <= reach; ++k) {
@@ -171,9 +179,10 @@ bool Huang2022Bsdf::visible(double phi_m, double dir_x, double dir_z) const {
 
 Huang2022Bsdf::Frame Huang2022Bsdf::compute_frame(const Vec3d& wi_patch) const {
     if (!(wi_patch.z() > 0.0) || std::abs(wi_patch.norm() - 1.0) > 1e-6) {
-        throw InputError(fmt::format("huang2022: incident direction ({}, {}, {}) must be a unit vector above the barb "
-                                     "plane (z > 0): the barbule BSDF is lit from above",
-                                     wi_patch.x(), wi_patch.y(), wi_patch.z()));
+        throw InputError(fmt::format(
+            "huang2022: incident direction ({}, {}, {}) must be a unit vector above the barb "
+            "plane (z > 0): the barbule BSDF is lit from above",
+            wi_patch.x(), wi_patch.y(), wi_patch.z()));
     }
     Frame f;
     f.wi = to_barbule(wi_patch, params_.mu);
@@ -234,11 +243,13 @@ Huang2022Bsdf::Frame Huang2022Bsdf::compute_frame(const Vec3d& wi_patch) const {
         const auto q = e.point(phi);
         return q[0] * px + q[1] * pz;
     };
-    double lo = std::min(h(params_.phi0), h(params_.phi1)), hi = std::max(h(params_.phi0), h(params_.phi1));
+    double lo = std::min(h(params_.phi0), h(params_.phi1)),
+           hi = std::max(h(params_.phi0), h(params_.phi1));
     for (int k = -3; k <= 3; ++k) {
         for (double c : {f.phi_i + 0.5 * kPi, f.phi_i - 0.5 * kPi}) {
             const double phi = c + 2.0 * kPi * k;
-            if (phi > params_.phi0 && phi < params_.phi1) lo = std::min(lo, h(phi)), hi = std::max(hi, h(phi));
+            if (phi > params_.phi0 && phi < params_.phi1)
+                lo = std::min(lo, h(phi)), hi = std::max(hi, h(phi));
         }
     }
     f.t_mass = 1.0 - std::min(hi - lo, f.period) / f.period;
@@ -267,18 +278,21 @@ const Huang2022Bsdf::Frame& Huang2022Bsdf::frame_for(const Vec3d& wi_patch) cons
 
 double Huang2022Bsdf::film_reflectance(double cos_theta, double lambda_nm) const {
     const optics::FilmMedia media{1.0, optics::keratin()->index(lambda_nm), optics::Complex(1.0)};
-    return optics::airy_film_intensities_unpolarised(media, params_.d_um, lambda_nm, std::clamp(cos_theta, 0.0, 1.0))
+    return optics::airy_film_intensities_unpolarised(media, params_.d_um, lambda_nm,
+                                                     std::clamp(cos_theta, 0.0, 1.0))
         .reflectance;
 }
 
 double Huang2022Bsdf::film_transmittance(double cos_theta, double lambda_nm) const {
     const optics::FilmMedia media{1.0, optics::keratin()->index(lambda_nm), optics::Complex(1.0)};
-    return optics::airy_film_intensities_unpolarised(media, params_.d_um, lambda_nm, std::clamp(cos_theta, 0.0, 1.0))
+    return optics::airy_film_intensities_unpolarised(media, params_.d_um, lambda_nm,
+                                                     std::clamp(cos_theta, 0.0, 1.0))
         .transmittance;
 }
 
 double Huang2022Bsdf::melanin_reflectance(double lambda_nm) const {
-    return optics::fresnel_intensities_unpolarised(1.0, optics::melanin()->index(lambda_nm), 1.0).reflectance;
+    return optics::fresnel_intensities_unpolarised(1.0, optics::melanin()->index(lambda_nm), 1.0)
+        .reflectance;
 }
 
 double Huang2022Bsdf::ndf(double phi_m, double theta_m) const {
@@ -289,7 +303,6 @@ double Huang2022Bsdf::ndf(double phi_m, double theta_m) const {
            std::pow(s * s + b * b * c * c, -1.5);
 }
 
-
 double Huang2022Bsdf::t_lobe_mass(const Vec3d& wi) const { return frame_for(wi).t_mass; }
 
 double Huang2022Bsdf::back_hit_fraction(const Vec3d& wi) const {
@@ -297,7 +310,9 @@ double Huang2022Bsdf::back_hit_fraction(const Vec3d& wi) const {
     return std::max(0.0, 1.0 - f.t_mass - f.hit_fraction());
 }
 
-double Huang2022Bsdf::hit_fraction_closed_form(const Vec3d& wi) const { return 1.0 - frame_for(wi).t_mass; }
+double Huang2022Bsdf::hit_fraction_closed_form(const Vec3d& wi) const {
+    return 1.0 - frame_for(wi).t_mass;
+}
 
 double Huang2022Bsdf::hit_fraction_by_quadrature(const Vec3d& wi) const {
     // ∫ D ⟨ω_i, ω_m⟩ G_1 dω_m / ⟨ω_i, n⟩ with D of Eq. 7 and G_1 from frame_for's intervals.
@@ -306,7 +321,8 @@ double Huang2022Bsdf::hit_fraction_by_quadrature(const Vec3d& wi) const {
     for (const auto& [lo, hi] : f.intervals) {
         constexpr int kPieces = 16;
         for (int piece = 0; piece < kPieces; ++piece) {
-            const double a = lo + (hi - lo) * piece / kPieces, c = lo + (hi - lo) * (piece + 1) / kPieces;
+            const double a = lo + (hi - lo) * piece / kPieces,
+                         c = lo + (hi - lo) * (piece + 1) / kPieces;
             for (std::size_t i = 0; i < kGl8Nodes.size(); ++i) {
                 const double phi = 0.5 * (a + c) + 0.5 * (c - a) * kGl8Nodes[i];
                 for (std::size_t j = 0; j < kGl8Nodes.size(); ++j) {
@@ -317,8 +333,8 @@ double Huang2022Bsdf::hit_fraction_by_quadrature(const Vec3d& wi) const {
                     // terms cancel (the projection theorem). Clipping them at 0 would count
                     // light twice near the silhouette and exceed 1 by up to 3 % at grazing
                     // incidence: Eq. 7 with a 2D visibility is exactly normalised only so.
-                    sum += 0.5 * (c - a) * kGl8Weights[i] * params_.theta_d * kGl8Weights[j] * ndf(phi, theta) *
-                           f.wi.dot(m) * std::cos(theta);
+                    sum += 0.5 * (c - a) * kGl8Weights[i] * params_.theta_d * kGl8Weights[j] *
+                           ndf(phi, theta) * f.wi.dot(m) * std::cos(theta);
                 }
             }
         }
@@ -337,16 +353,16 @@ double Huang2022Bsdf::ndf_projected_integral() const {
             const double phi = 0.5 * (a + c) + 0.5 * (c - a) * kGl8Nodes[i];
             for (std::size_t j = 0; j < kGl8Nodes.size(); ++j) {
                 const double theta = params_.theta_d * kGl8Nodes[j];
-                sum += 0.5 * (c - a) * kGl8Weights[i] * params_.theta_d * kGl8Weights[j] * ndf(phi, theta) *
-                       normal_at(phi, theta).dot(n) * std::cos(theta);
+                sum += 0.5 * (c - a) * kGl8Weights[i] * params_.theta_d * kGl8Weights[j] *
+                       ndf(phi, theta) * normal_at(phi, theta).dot(n) * std::cos(theta);
             }
         }
     }
     return sum;
 }
 
-std::optional<ScatterEvent> Huang2022Bsdf::sample(const Vec3d& wi, double lambda_nm, const Vec2& position_um,
-                                                  Rng& rng) const {
+std::optional<ScatterEvent> Huang2022Bsdf::sample(const Vec3d& wi, double lambda_nm,
+                                                  const Vec2& position_um, Rng& rng) const {
     const Frame& f = frame_for(wi);
     const double u_hit = rng.uniform();
     if (u_hit >= f.hit_fraction() || f.intervals.empty()) {
@@ -373,7 +389,8 @@ std::optional<ScatterEvent> Huang2022Bsdf::sample(const Vec3d& wi, double lambda
         (h(mid) < goal ? a : c) = mid;
     }
     const double phi_m = 0.5 * (a + c);
-    const ThetaDensity td = theta_density(f.cos_theta_i * std::cos(phi_m - f.phi_i), f.sin_theta_i, params_.theta_d);
+    const ThetaDensity td =
+        theta_density(f.cos_theta_i * std::cos(phi_m - f.phi_i), f.sin_theta_i, params_.theta_d);
     if (td.empty()) return ScatterEvent{-wi, 0.0, kR, position_um};
     const double theta_m = td.sample(rng.uniform());
     const Vec3d m = normal_at(phi_m, theta_m);
@@ -385,7 +402,8 @@ std::optional<ScatterEvent> Huang2022Bsdf::sample(const Vec3d& wi, double lambda
     if (rng.uniform() * total < i_r) {
         const Vec3d wo_b = 2.0 * cos_i * m - f.wi;
         const bool seen = visible(phi_m, wo_b.x(), wo_b.z());
-        return ScatterEvent{to_patch(wo_b, params_.mu).normalized(), seen ? total : 0.0, kR, position_um};
+        return ScatterEvent{to_patch(wo_b, params_.mu).normalized(), seen ? total : 0.0, kR,
+                            position_um};
     }
     // TRT: diffuse off the melanin, cosine-distributed about the barb-plane normal.
     const double r = std::sqrt(rng.uniform()), phi = 2.0 * kPi * rng.uniform();
@@ -405,17 +423,19 @@ void Huang2022Bsdf::build_nodes(Frame& f) const {
     for (const auto& [lo, hi] : f.intervals) {
         const int pieces = std::max(1, static_cast<int>(std::ceil((hi - lo) / 0.25)));
         for (int piece = 0; piece < pieces; ++piece) {
-            const double a = lo + (hi - lo) * piece / pieces, c = lo + (hi - lo) * (piece + 1) / pieces;
+            const double a = lo + (hi - lo) * piece / pieces,
+                         c = lo + (hi - lo) * (piece + 1) / pieces;
             for (std::size_t i = 0; i < kGl8Nodes.size(); ++i) {
                 const double phi = 0.5 * (a + c) + 0.5 * (c - a) * kGl8Nodes[i];
-                const double w_phi =
-                    0.5 * (c - a) * kGl8Weights[i] * e.rho(phi) * std::cos(phi - f.phi_i) / f.visible_length;
-                const ThetaDensity td = theta_density(f.cos_theta_i * std::cos(phi - f.phi_i), f.sin_theta_i,
-                                                      params_.theta_d);
+                const double w_phi = 0.5 * (c - a) * kGl8Weights[i] * e.rho(phi) *
+                                     std::cos(phi - f.phi_i) / f.visible_length;
+                const ThetaDensity td = theta_density(f.cos_theta_i * std::cos(phi - f.phi_i),
+                                                      f.sin_theta_i, params_.theta_d);
                 if (td.empty()) continue;
                 for (std::size_t j = 0; j < n2.size(); ++j) {
                     const double theta = 0.5 * (td.lo + td.hi) + 0.5 * (td.hi - td.lo) * n2[j];
-                    f.nodes.emplace_back(normal_at(phi, theta), w_phi * 0.5 * (td.hi - td.lo) * td.density(theta));
+                    f.nodes.emplace_back(normal_at(phi, theta),
+                                         w_phi * 0.5 * (td.hi - td.lo) * td.density(theta));
                 }
             }
         }
@@ -435,7 +455,8 @@ void Huang2022Bsdf::prepare_nodes(const Frame& f, double lambda_nm) const {
     f.nodes_lambda = lambda_nm;
 }
 
-double Huang2022Bsdf::eval(const Vec3d& wi, const Vec3d& wo, double lambda_nm, std::span<double> per_lobe) const {
+double Huang2022Bsdf::eval(const Vec3d& wi, const Vec3d& wo, double lambda_nm,
+                           std::span<double> per_lobe) const {
     const Frame& f = frame_for(wi);
     const Vec3d wo_b = to_barbule(wo, params_.mu);
     const Ellipse e{params_.b};
@@ -449,7 +470,8 @@ double Huang2022Bsdf::eval(const Vec3d& wi, const Vec3d& wo, double lambda_nm, s
             const double phi_m = wrap_into(std::atan2(m.x(), m.z()), params_.phi0);
             const double theta_m = std::asin(std::clamp(m.y(), -1.0, 1.0));
             const double cos_i = f.wi.dot(m);
-            bool in_support = phi_m <= params_.phi1 && std::abs(theta_m) <= params_.theta_d && cos_i > 0.0;
+            bool in_support =
+                phi_m <= params_.phi1 && std::abs(theta_m) <= params_.theta_d && cos_i > 0.0;
             if (in_support) {
                 in_support = false;
                 for (const auto& [lo, hi] : f.intervals) in_support |= phi_m >= lo && phi_m <= hi;
@@ -457,10 +479,10 @@ double Huang2022Bsdf::eval(const Vec3d& wi, const Vec3d& wo, double lambda_nm, s
             if (in_support && visible(phi_m, wo_b.x(), wo_b.z())) {
                 // P_hit q(ω_m) = ρ cos(φ_m − φ_i) p_θ(θ_m | φ_m) / (Δh cos θ_m); f_R cos θ_o =
                 // P_hit q I_R / (4 ⟨ω_o, ω_m⟩). Equal to Eq. 14 wherever p_θ is unclipped.
-                const ThetaDensity td =
-                    theta_density(f.cos_theta_i * std::cos(phi_m - f.phi_i), f.sin_theta_i, params_.theta_d);
-                const double q_hit = e.rho(phi_m) * std::cos(phi_m - f.phi_i) * td.density(theta_m) /
-                                     (f.period * std::cos(theta_m));
+                const ThetaDensity td = theta_density(f.cos_theta_i * std::cos(phi_m - f.phi_i),
+                                                      f.sin_theta_i, params_.theta_d);
+                const double q_hit = e.rho(phi_m) * std::cos(phi_m - f.phi_i) *
+                                     td.density(theta_m) / (f.period * std::cos(theta_m));
                 f_r = q_hit * film_reflectance(cos_i, lambda_nm) / (4.0 * cos_i * cos_o_patch);
             }
         }
@@ -470,7 +492,9 @@ double Huang2022Bsdf::eval(const Vec3d& wi, const Vec3d& wo, double lambda_nm, s
             prepare_nodes(f, lambda_nm);
             for (std::size_t k = 0; k < f.nodes.size(); ++k) {
                 const double cos_o = wo_b.dot(f.nodes[k].first);
-                if (cos_o > 0.0) sum += f.nodes[k].second * f.node_trt_in[k] * film_transmittance(cos_o, lambda_nm);
+                if (cos_o > 0.0)
+                    sum +=
+                        f.nodes[k].second * f.node_trt_in[k] * film_transmittance(cos_o, lambda_nm);
             }
             f_trt = f.hit_fraction() * sum / kPi;
         }
@@ -501,9 +525,10 @@ double Huang2022Bsdf::pdf(const Vec3d& wi, const Vec3d& wo, double lambda_nm) co
         bool in_support = false;
         for (const auto& [lo, hi] : f.intervals) in_support |= phi_m >= lo && phi_m <= hi;
         if (in_support && cos_i > 0.0 && std::abs(theta_m) <= params_.theta_d) {
-            const ThetaDensity td = theta_density(f.cos_theta_i * std::cos(phi_m - f.phi_i), f.sin_theta_i, params_.theta_d);
-            const double q = e.rho(phi_m) * std::cos(phi_m - f.phi_i) / f.visible_length * td.density(theta_m) /
-                             std::cos(theta_m);
+            const ThetaDensity td = theta_density(f.cos_theta_i * std::cos(phi_m - f.phi_i),
+                                                  f.sin_theta_i, params_.theta_d);
+            const double q = e.rho(phi_m) * std::cos(phi_m - f.phi_i) / f.visible_length *
+                             td.density(theta_m) / std::cos(theta_m);
             const double i_r = film_reflectance(cos_i, lambda_nm);
             const double i_trt = film_transmittance(cos_i, lambda_nm) * r_m;
             pdf_r = p_hit * q * i_r / (i_r + i_trt) / (4.0 * cos_i);

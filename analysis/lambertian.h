@@ -15,7 +15,8 @@ public:
     std::optional<ScatterEvent> sample(const Vec3d& wi, double lambda_nm, const Vec2& position_um,
                                        Rng& rng) const override;
     bool can_evaluate() const override { return true; }
-    double eval(const Vec3d& wi, const Vec3d& wo, double lambda_nm, std::span<double> per_lobe = {}) const override;
+    double eval(const Vec3d& wi, const Vec3d& wo, double lambda_nm,
+                std::span<double> per_lobe = {}) const override;
     double pdf(const Vec3d& wi, const Vec3d& wo, double lambda_nm) const override;
     double albedo() const { return albedo_; }
 

@@ -143,7 +143,8 @@ PadronGriffe2024Masking::PadronGriffe2024Masking(const geometry::BarbulePatchPar
                                             : 2.0 * (ry + length_ * ci);
 
     for (double side : {1.0, -1.0}) {
-        const Eigen::Vector2d start = side * root_;  // proximal root: point reflection (geometry/barb.cpp)
+        const Eigen::Vector2d start =
+            side * root_;  // proximal root: point reflection (geometry/barb.cpp)
         const Eigen::Vector2d d(side * ci, si);
         const Eigen::Vector2d m(-d.y(), d.x());
         const std::array<Eigen::Vector2d, 4> corners = {

@@ -73,7 +73,8 @@ void BM_ProjectedTimeTo1PercentExplicitRockDove3660(benchmark::State& state) {
     geometry::BarbuleRowParams row;
     row.barbules = 48;
     row.cells_per_barbule = 30;
-    const sim::ExplicitScatterer patch(sim::barbule_row_scene(geometry::build_barbule_row(row, {0.01, 0.02})));
+    const sim::ExplicitScatterer patch(
+        sim::barbule_row_scene(geometry::build_barbule_row(row, {0.01, 0.02})));
     GoniometerConfig c;
     c.direction_set = "filip2024_btf";
     c.pairs = filip2024_btf_pairs();

@@ -162,7 +162,9 @@ BENCHMARK(BM_PadronGriffe2024SampleFixedIncident);
 // random directions.
 // Huang 2022: the visibility intervals are built once per incident direction (kept per
 // thread), then eval integrates the TRT lobe over the hit normals.
-void BM_Huang2022EvalRandom(benchmark::State& state) { eval_random(state, analysis::Huang2022Bsdf({})); }
+void BM_Huang2022EvalRandom(benchmark::State& state) {
+    eval_random(state, analysis::Huang2022Bsdf({}));
+}
 BENCHMARK(BM_Huang2022EvalRandom);
 void BM_Huang2022EvalFixedIncident(benchmark::State& state) {
     eval_fixed_incident(state, analysis::Huang2022Bsdf({}));

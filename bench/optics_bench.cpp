@@ -21,7 +21,8 @@ void BM_AiryFilmUnpolarised(benchmark::State& state) {
     const FilmMedia media{1.0, Complex(1.55), Complex(1.74, 0.088)};
     std::size_t i = 0;
     for (auto _ : state) {
-        benchmark::DoNotOptimize(airy_film_intensities_unpolarised(media, 0.595, wavelength(i), cosine(i)));
+        benchmark::DoNotOptimize(
+            airy_film_intensities_unpolarised(media, 0.595, wavelength(i), cosine(i)));
         ++i;
     }
     state.SetItemsProcessed(state.iterations());
@@ -35,8 +36,8 @@ void BM_TransferMatrixUnpolarised(benchmark::State& state) {
     }
     std::size_t i = 0;
     for (auto _ : state) {
-        benchmark::DoNotOptimize(transfer_matrix_intensities_unpolarised({1.0, layers, Complex(1.0)},
-                                                                         wavelength(i), cosine(i)));
+        benchmark::DoNotOptimize(transfer_matrix_intensities_unpolarised(
+            {1.0, layers, Complex(1.0)}, wavelength(i), cosine(i)));
         ++i;
     }
     state.SetItemsProcessed(state.iterations());
@@ -49,8 +50,8 @@ void BM_TransferMatrixWithIncoherentLayer(benchmark::State& state) {
                                             {Complex(1.74, 0.088), 0.3}};
     std::size_t i = 0;
     for (auto _ : state) {
-        benchmark::DoNotOptimize(transfer_matrix_intensities_unpolarised({1.0, layers, Complex(1.0)},
-                                                                         wavelength(i), cosine(i)));
+        benchmark::DoNotOptimize(transfer_matrix_intensities_unpolarised(
+            {1.0, layers, Complex(1.0)}, wavelength(i), cosine(i)));
         ++i;
     }
     state.SetItemsProcessed(state.iterations());
@@ -61,7 +62,8 @@ void BM_ReflectanceToXyz81(benchmark::State& state) {
     const auto grid = WavelengthGrid::uniform(380.0, 780.0, 5.0);
     const ReflectanceToXyz to_xyz(grid, Illuminant::d65);
     std::vector<double> r(grid.size());
-    for (std::size_t k = 0; k < r.size(); ++k) r[k] = 0.5 + 0.4 * std::sin(0.1 * static_cast<double>(k));
+    for (std::size_t k = 0; k < r.size(); ++k)
+        r[k] = 0.5 + 0.4 * std::sin(0.1 * static_cast<double>(k));
     for (auto _ : state) {
         benchmark::DoNotOptimize(to_xyz(r));
         r[0] += 1e-12;

@@ -15,7 +15,8 @@ namespace {
 constexpr double kPi = std::numbers::pi;
 
 void require(bool ok, const char* key, double value, const std::string& expected) {
-    if (!ok) throw InputError(fmt::format("barb patch: {} = {}: expected {}", key, value, expected));
+    if (!ok)
+        throw InputError(fmt::format("barb patch: {} = {}: expected {}", key, value, expected));
 }
 
 struct Outline {
@@ -32,7 +33,9 @@ Outline ellipse_outline(double along, double across, double rotation, const Eige
         -kPi, kPi, [&](double phi) { return arc.radius_of_curvature(phi); },
         [&](double rho) { return tolerance.max_angular_step(rho); }, nullptr);
     const double c = std::cos(rotation), s = std::sin(rotation);
-    auto rotate = [&](const Eigen::Vector2d& v) { return Eigen::Vector2d(v.x() * c + v.y() * s, -v.x() * s + v.y() * c); };
+    auto rotate = [&](const Eigen::Vector2d& v) {
+        return Eigen::Vector2d(v.x() * c + v.y() * s, -v.x() * s + v.y() * c);
+    };
     Outline out;
     // The arc runs clockwise in (y, z) (top, then +y side); walk it backwards for
     // counter-clockwise, without the duplicated closing point.
@@ -50,45 +53,54 @@ double eccentric_minor(double major, double eccentricity) {
 }  // namespace
 
 Barb::Barb(const BarbParams& p) : params_(p) {
-    require(std::isfinite(p.barb_width_um) && p.barb_width_um > 0.0, "barb_width_um", p.barb_width_um,
-            "a finite width > 0 (um)");
-    require(std::isfinite(p.barb_eccentricity) && p.barb_eccentricity >= 0.0 && p.barb_eccentricity <= 0.999,
+    require(std::isfinite(p.barb_width_um) && p.barb_width_um > 0.0, "barb_width_um",
+            p.barb_width_um, "a finite width > 0 (um)");
+    require(std::isfinite(p.barb_eccentricity) && p.barb_eccentricity >= 0.0 &&
+                p.barb_eccentricity <= 0.999,
             "barb_eccentricity", p.barb_eccentricity, "a value in [0, 0.999]");
-    require(std::isfinite(p.barb_rotation_rad), "barb_rotation_rad", p.barb_rotation_rad, "a finite angle");
+    require(std::isfinite(p.barb_rotation_rad), "barb_rotation_rad", p.barb_rotation_rad,
+            "a finite angle");
     require(std::isfinite(p.medulla_scale) && p.medulla_scale >= 0.0 && p.medulla_scale <= 0.95,
             "medulla_scale", p.medulla_scale, "a value in [0, 0.95] (0: no medulla)");
-    require(std::isfinite(p.medulla_offset_y_um) && std::isfinite(p.medulla_offset_z_um), "medulla_offset",
-            p.medulla_offset_y_um, "finite offsets (um)");
+    require(std::isfinite(p.medulla_offset_y_um) && std::isfinite(p.medulla_offset_z_um),
+            "medulla_offset", p.medulla_offset_y_um, "finite offsets (um)");
     if (has_medulla()) {
         // Every medulla point must lie inside the cortex ellipse, with a wall of at least
         // 0.1 % of the barb width (zero wall leaves coincident surfaces).
-        const Outline medulla = ellipse_outline(p.medulla_scale * semi_major_um(), p.medulla_scale * semi_minor_um(),
-                                                p.barb_rotation_rad,
-                                                {p.medulla_offset_y_um, p.medulla_offset_z_um}, {1e-3 * semi_major_um(), 0.05});
+        const Outline medulla =
+            ellipse_outline(p.medulla_scale * semi_major_um(), p.medulla_scale * semi_minor_um(),
+                            p.barb_rotation_rad, {p.medulla_offset_y_um, p.medulla_offset_z_um},
+                            {1e-3 * semi_major_um(), 0.05});
         const double c = std::cos(p.barb_rotation_rad), s = std::sin(p.barb_rotation_rad);
         for (const Eigen::Vector2d& q : medulla.points) {
             // Back into the cortex's axis frame: along (major) and across (minor).
             const double along = q.x() * s + q.y() * c, across = q.x() * c - q.y() * s;
             const double level = std::hypot(along / semi_major_um(), across / semi_minor_um());
-            require(level < 1.0 - 2e-3, "medulla_offset", std::hypot(p.medulla_offset_y_um, p.medulla_offset_z_um),
-                    fmt::format("a medulla strictly inside the cortex (scale {} with this offset reaches "
-                                "{:.3f} of the cortex radius)",
-                                p.medulla_scale, level));
+            require(level < 1.0 - 2e-3, "medulla_offset",
+                    std::hypot(p.medulla_offset_y_um, p.medulla_offset_z_um),
+                    fmt::format(
+                        "a medulla strictly inside the cortex (scale {} with this offset reaches "
+                        "{:.3f} of the cortex radius)",
+                        p.medulla_scale, level));
         }
     }
 }
 
-double Barb::semi_minor_um() const { return eccentric_minor(semi_major_um(), params_.barb_eccentricity); }
+double Barb::semi_minor_um() const {
+    return eccentric_minor(semi_major_um(), params_.barb_eccentricity);
+}
 
 std::vector<Eigen::Vector2d> Barb::cortex_outline(const TessellationTolerance& tolerance) const {
-    return ellipse_outline(semi_major_um(), semi_minor_um(), params_.barb_rotation_rad, {0.0, 0.0}, tolerance).points;
+    return ellipse_outline(semi_major_um(), semi_minor_um(), params_.barb_rotation_rad, {0.0, 0.0},
+                           tolerance)
+        .points;
 }
 
 std::vector<Eigen::Vector2d> Barb::medulla_outline(const TessellationTolerance& tolerance) const {
     if (!has_medulla()) return {};
-    return ellipse_outline(params_.medulla_scale * semi_major_um(), params_.medulla_scale * semi_minor_um(),
-                           params_.barb_rotation_rad, {params_.medulla_offset_y_um, params_.medulla_offset_z_um},
-                           tolerance)
+    return ellipse_outline(params_.medulla_scale * semi_major_um(),
+                           params_.medulla_scale * semi_minor_um(), params_.barb_rotation_rad,
+                           {params_.medulla_offset_y_um, params_.medulla_offset_z_um}, tolerance)
         .points;
 }
 
@@ -96,18 +108,20 @@ namespace {
 
 TriangleMesh sweep(const Outline& outline, double length_um, double axis_radius_um,
                    const TessellationTolerance& tolerance) {
-    require(std::isfinite(length_um) && length_um > 0.0, "length_um", length_um, "a finite length > 0");
-    require(std::isfinite(axis_radius_um) && axis_radius_um >= 0.0, "axis_radius_um", axis_radius_um,
-            "0 (straight) or a bend radius > 0 (um)");
+    require(std::isfinite(length_um) && length_um > 0.0, "length_um", length_um,
+            "a finite length > 0");
+    require(std::isfinite(axis_radius_um) && axis_radius_um >= 0.0, "axis_radius_um",
+            axis_radius_um, "0 (straight) or a bend radius > 0 (um)");
     double extent = 0.0;
     for (const auto& p : outline.points) extent = std::max(extent, std::abs(p.y()));
     std::vector<double> alphas;  // bend angle of each ring (or axial fraction when straight)
     const bool bent = axis_radius_um > 0.0;
     if (bent) {
         require(axis_radius_um > extent, "axis_radius_um", axis_radius_um,
-                fmt::format("a bend radius larger than the cross-section's reach {:.4g} um (else the tube "
-                            "folds on its inner side)",
-                            extent));
+                fmt::format(
+                    "a bend radius larger than the cross-section's reach {:.4g} um (else the tube "
+                    "folds on its inner side)",
+                    extent));
         const double half = 0.5 * length_um / axis_radius_um;
         require(half < kPi, "length_um", length_um, "a bent barb shorter than a full turn");
         const double step = tolerance.max_angular_step(axis_radius_um - extent);
@@ -140,7 +154,8 @@ TriangleMesh sweep(const Outline& outline, double length_um, double axis_radius_
     for (std::uint32_t k = 0; k + 1 < alphas.size(); ++k) {
         for (std::uint32_t i = 0; i < m; ++i) {
             const std::uint32_t j = (i + 1) % m;
-            const std::uint32_t a = k * m + i, b = k * m + j, c = (k + 1) * m + j, d = (k + 1) * m + i;
+            const std::uint32_t a = k * m + i, b = k * m + j, c = (k + 1) * m + j,
+                                d = (k + 1) * m + i;
             mesh.triangles.push_back({a, c, b});
             mesh.triangles.push_back({a, d, c});
         }
@@ -177,29 +192,35 @@ TriangleMesh sweep(const Outline& outline, double length_um, double axis_radius_
 
 }  // namespace
 
-TriangleMesh Barb::cortex_mesh(double length_um, double axis_radius_um, const TessellationTolerance& tolerance) const {
+TriangleMesh Barb::cortex_mesh(double length_um, double axis_radius_um,
+                               const TessellationTolerance& tolerance) const {
     tolerance.validate();
-    return sweep(ellipse_outline(semi_major_um(), semi_minor_um(), params_.barb_rotation_rad, {0.0, 0.0}, tolerance),
+    return sweep(ellipse_outline(semi_major_um(), semi_minor_um(), params_.barb_rotation_rad,
+                                 {0.0, 0.0}, tolerance),
                  length_um, axis_radius_um, tolerance);
 }
 
-TriangleMesh Barb::medulla_mesh(double length_um, double axis_radius_um, const TessellationTolerance& tolerance) const {
+TriangleMesh Barb::medulla_mesh(double length_um, double axis_radius_um,
+                                const TessellationTolerance& tolerance) const {
     tolerance.validate();
     if (!has_medulla()) return {};
-    return sweep(ellipse_outline(params_.medulla_scale * semi_major_um(), params_.medulla_scale * semi_minor_um(),
-                                 params_.barb_rotation_rad, {params_.medulla_offset_y_um, params_.medulla_offset_z_um},
-                                 tolerance),
-                 length_um, axis_radius_um, tolerance);
+    return sweep(
+        ellipse_outline(params_.medulla_scale * semi_major_um(),
+                        params_.medulla_scale * semi_minor_um(), params_.barb_rotation_rad,
+                        {params_.medulla_offset_y_um, params_.medulla_offset_z_um}, tolerance),
+        length_um, axis_radius_um, tolerance);
 }
 
 TriangleMesh sweep_closed_outline(const std::vector<Eigen::Vector2d>& outline, double length_um,
                                   double axis_radius_um, const TessellationTolerance& tolerance) {
-    require(outline.size() >= 3, "outline points", static_cast<double>(outline.size()), "at least 3");
+    require(outline.size() >= 3, "outline points", static_cast<double>(outline.size()),
+            "at least 3");
     Outline o{outline, {}};
     const std::size_t m = outline.size();
     for (std::size_t i = 0; i < m; ++i) {
         const Eigen::Vector2d edge = outline[(i + 1) % m] - outline[(i + m - 1) % m];
-        o.normals.emplace_back(Eigen::Vector2d(edge.y(), -edge.x()).normalized());  // CCW: right of the edge is out
+        o.normals.emplace_back(
+            Eigen::Vector2d(edge.y(), -edge.x()).normalized());  // CCW: right of the edge is out
     }
     return sweep(o, length_um, axis_radius_um, tolerance);
 }
@@ -211,24 +232,30 @@ struct BarbuleFibre {
     // Half-thickness of the fibre's cut through its own axis, perpendicular to the axis
     // within the y–z plane (the strip seen in the cross-section).
     double strip_half_thickness(double rotation) const {
-        return 1.0 / std::sqrt(std::pow(std::cos(rotation) / semi_major, 2) + std::pow(std::sin(rotation) / semi_minor, 2));
+        return 1.0 / std::sqrt(std::pow(std::cos(rotation) / semi_major, 2) +
+                               std::pow(std::sin(rotation) / semi_minor, 2));
     }
 };
 
 void validate_patch(const BarbulePatchParams& p) {
-    require(std::isfinite(p.barbule_width_um) && p.barbule_width_um > 0.0, "barbule_width_um", p.barbule_width_um,
-            "a finite width > 0 (um)");
-    require(std::isfinite(p.barbule_eccentricity) && p.barbule_eccentricity >= 0.0 && p.barbule_eccentricity <= 0.999,
+    require(std::isfinite(p.barbule_width_um) && p.barbule_width_um > 0.0, "barbule_width_um",
+            p.barbule_width_um, "a finite width > 0 (um)");
+    require(std::isfinite(p.barbule_eccentricity) && p.barbule_eccentricity >= 0.0 &&
+                p.barbule_eccentricity <= 0.999,
             "barbule_eccentricity", p.barbule_eccentricity, "a value in [0, 0.999]");
-    require(std::isfinite(p.barbule_rotation_rad), "barbule_rotation_rad", p.barbule_rotation_rad, "a finite angle");
-    require(std::isfinite(p.barbule_inclination_rad) && std::abs(p.barbule_inclination_rad) < 0.5 * kPi,
-            "barbule_inclination_rad", p.barbule_inclination_rad, "an angle in (-pi/2, pi/2)");
-    require(std::isfinite(p.barbule_length) && p.barbule_length > 0.0, "barbule_length", p.barbule_length,
-            "a length > 0 in barb widths");
-    require(std::isfinite(p.barbule_separation) && p.barbule_separation >= 1.0, "barbule_separation",
-            p.barbule_separation, "a spacing >= 1 barbule width (closer barbules would overlap)");
-    require(std::isfinite(p.barb_spacing) && (p.barb_spacing == 0.0 || p.barb_spacing >= 1.0), "barb_spacing",
-            p.barb_spacing, "0 (automatic: neighbouring barbules meet) or >= 1 barb width");
+    require(std::isfinite(p.barbule_rotation_rad), "barbule_rotation_rad", p.barbule_rotation_rad,
+            "a finite angle");
+    require(
+        std::isfinite(p.barbule_inclination_rad) && std::abs(p.barbule_inclination_rad) < 0.5 * kPi,
+        "barbule_inclination_rad", p.barbule_inclination_rad, "an angle in (-pi/2, pi/2)");
+    require(std::isfinite(p.barbule_length) && p.barbule_length > 0.0, "barbule_length",
+            p.barbule_length, "a length > 0 in barb widths");
+    require(std::isfinite(p.barbule_separation) && p.barbule_separation >= 1.0,
+            "barbule_separation", p.barbule_separation,
+            "a spacing >= 1 barbule width (closer barbules would overlap)");
+    require(std::isfinite(p.barb_spacing) && (p.barb_spacing == 0.0 || p.barb_spacing >= 1.0),
+            "barb_spacing", p.barb_spacing,
+            "0 (automatic: neighbouring barbules meet) or >= 1 barb width");
 }
 
 // Where the distal barbule leaves the barb: the cortex point furthest along +y.
@@ -239,22 +266,26 @@ Eigen::Vector2d distal_root(const std::vector<Eigen::Vector2d>& cortex) {
 
 double patch_period(const BarbulePatchParams& p, const std::vector<Eigen::Vector2d>& cortex) {
     if (p.barb_spacing > 0.0) return p.barb_spacing * p.barb.barb_width_um;
-    const double reach = distal_root(cortex).x() + p.barbule_length * p.barb.barb_width_um * std::cos(p.barbule_inclination_rad);
+    const double reach = distal_root(cortex).x() + p.barbule_length * p.barb.barb_width_um *
+                                                       std::cos(p.barbule_inclination_rad);
     return 2.0 * reach;
 }
 
 }  // namespace
 
-PatchCrossSection build_patch_cross_section(const BarbulePatchParams& params, const TessellationTolerance& tolerance) {
+PatchCrossSection build_patch_cross_section(const BarbulePatchParams& params,
+                                            const TessellationTolerance& tolerance) {
     tolerance.validate();
     validate_patch(params);
     const Barb barb(params.barb);
     PatchCrossSection section;
     const auto cortex = barb.cortex_outline(tolerance);
     section.shapes.push_back({SurfaceRole::barb_cortex, cortex});
-    if (barb.has_medulla()) section.shapes.push_back({SurfaceRole::barb_medulla, barb.medulla_outline(tolerance)});
-    const BarbuleFibre fibre{0.5 * params.barbule_width_um,
-                             eccentric_minor(0.5 * params.barbule_width_um, params.barbule_eccentricity)};
+    if (barb.has_medulla())
+        section.shapes.push_back({SurfaceRole::barb_medulla, barb.medulla_outline(tolerance)});
+    const BarbuleFibre fibre{
+        0.5 * params.barbule_width_um,
+        eccentric_minor(0.5 * params.barbule_width_um, params.barbule_eccentricity)};
     const double half = fibre.strip_half_thickness(params.barbule_rotation_rad);
     const double length = params.barbule_length * params.barb.barb_width_um;
     const Eigen::Vector2d root = distal_root(cortex);
@@ -263,7 +294,8 @@ PatchCrossSection build_patch_cross_section(const BarbulePatchParams& params, co
         // reflected through the centre (an ellipse is point-symmetric), which differs
         // from its mirror image in y when the barb is rotated.
         const Eigen::Vector2d start = side * root;
-        const Eigen::Vector2d d(side * std::cos(params.barbule_inclination_rad), std::sin(params.barbule_inclination_rad));
+        const Eigen::Vector2d d(side * std::cos(params.barbule_inclination_rad),
+                                std::sin(params.barbule_inclination_rad));
         const Eigen::Vector2d m(-d.y(), d.x());
         std::vector<Eigen::Vector2d> strip = {start - half * m, start + length * d - half * m,
                                               start + length * d + half * m, start + half * m};
@@ -275,7 +307,8 @@ PatchCrossSection build_patch_cross_section(const BarbulePatchParams& params, co
 }
 
 std::size_t BarbulePatch::memory_bytes() const {
-    return sizeof(*this) + barb_cortex.memory_bytes() + barb_medulla.memory_bytes() + barbule.memory_bytes() +
+    return sizeof(*this) + barb_cortex.memory_bytes() + barb_medulla.memory_bytes() +
+           barbule.memory_bytes() +
            (barb_instances.capacity() + barbule_instances.capacity()) * sizeof(Eigen::Affine3d);
 }
 
@@ -340,13 +373,14 @@ BarbulePatch build_barbule_patch(const BarbulePatchParams& params, double length
     // One barbule: its elliptical fibre swept along local +x, then turned to run along +y
     // and tilted up by the inclination.
     const double semi_major = 0.5 * params.barbule_width_um;
-    const Outline fibre = ellipse_outline(semi_major, eccentric_minor(semi_major, params.barbule_eccentricity),
-                                          params.barbule_rotation_rad, {0.0, 0.0}, tolerance);
+    const Outline fibre =
+        ellipse_outline(semi_major, eccentric_minor(semi_major, params.barbule_eccentricity),
+                        params.barbule_rotation_rad, {0.0, 0.0}, tolerance);
     const double length = params.barbule_length * params.barb.barb_width_um;
     TriangleMesh barbule = sweep(fibre, length, 0.0, tolerance);
-    const Eigen::Affine3d orient = Eigen::AngleAxisd(params.barbule_inclination_rad, Vec3::UnitX()) *
-                                   Eigen::AngleAxisd(0.5 * kPi, Vec3::UnitZ()) *
-                                   Eigen::Translation3d(0.5 * length, 0.0, 0.0);
+    const Eigen::Affine3d orient =
+        Eigen::AngleAxisd(params.barbule_inclination_rad, Vec3::UnitX()) *
+        Eigen::AngleAxisd(0.5 * kPi, Vec3::UnitZ()) * Eigen::Translation3d(0.5 * length, 0.0, 0.0);
     for (Vec3& p : barbule.positions) p = orient * p;
     for (Vec3& n : barbule.shading_normals) n = orient.linear() * n;
     patch.barbule = std::move(barbule);
@@ -366,15 +400,19 @@ BarbulePatch build_barbule_patch(const BarbulePatchParams& params, double length
     const double period = params.barb_spacing > 0.0 ? section.period_um : 2.0 * reach;
     if (params.barb_spacing > 0.0 && 2.0 * tip > period) {
         // Conservative: tips at different heights (a rotated barb) might still pass each other.
-        throw InputError(fmt::format(
-            "barb patch: barb_spacing = {} barb widths ({:.2f} um) lets the barbule tips of neighbouring barbs "
-            "overlap (each reaches {:.2f} um from its barb's axis, {:.2f} um of it root clearance): expected 0 "
-            "(automatic) or at least {:.3f}",
-            params.barb_spacing, period, tip, patch.root_clearance_um, 2.0 * tip / params.barb.barb_width_um));
+        throw InputError(
+            fmt::format("barb patch: barb_spacing = {} barb widths ({:.2f} um) lets the barbule "
+                        "tips of neighbouring barbs "
+                        "overlap (each reaches {:.2f} um from its barb's axis, {:.2f} um of it "
+                        "root clearance): expected 0 "
+                        "(automatic) or at least {:.3f}",
+                        params.barb_spacing, period, tip, patch.root_clearance_um,
+                        2.0 * tip / params.barb.barb_width_um));
     }
     patch.period_um = period;
     // Each barbule moved out along its own axis, (0, cos i, sin i) in the unit mesh.
-    const Eigen::Translation3d clearance(0.0, patch.root_clearance_um * ci, patch.root_clearance_um * si);
+    const Eigen::Translation3d clearance(0.0, patch.root_clearance_um * ci,
+                                         patch.root_clearance_um * si);
     const double pitch = params.barbule_separation * params.barbule_width_um;
     const int per_side = std::max(1, static_cast<int>(std::floor(length_x_um / pitch)));
     for (int k = 0; k < barbs; ++k) {
@@ -382,7 +420,8 @@ BarbulePatch build_barbule_patch(const BarbulePatchParams& params, double length
         patch.barb_instances.emplace_back(Eigen::Translation3d(0.0, y, 0.0));
         for (int j = 0; j < per_side; ++j) {
             const double x = (j - 0.5 * (per_side - 1)) * pitch;
-            patch.barbule_instances.emplace_back(Eigen::Translation3d(x, y + root.x(), root.y()) * clearance);
+            patch.barbule_instances.emplace_back(Eigen::Translation3d(x, y + root.x(), root.y()) *
+                                                 clearance);
             // Proximal: the distal barbule turned by π about z (runs towards −y, still rising).
             patch.barbule_instances.emplace_back(Eigen::Translation3d(x, y - root.x(), -root.y()) *
                                                  Eigen::AngleAxisd(kPi, Vec3::UnitZ()) * clearance);

@@ -25,7 +25,8 @@ double min_radius(const EllipticalArc& arc) {
     double rho = std::min(arc.radius_of_curvature(arc.phi0()), arc.radius_of_curvature(arc.phi1()));
     for (int k = -3; k <= 3; ++k) {
         const double edge = 0.5 * kPi + k * kPi;
-        if (edge > arc.phi0() && edge < arc.phi1()) rho = std::min(rho, arc.radius_of_curvature(edge));
+        if (edge > arc.phi0() && edge < arc.phi1())
+            rho = std::min(rho, arc.radius_of_curvature(edge));
     }
     return rho;
 }
@@ -34,13 +35,15 @@ EllipticalArc make_arc(const BarbuleCellParams& p) {
     require(std::isfinite(p.b) && p.b >= 1e-3 && p.b <= 1.0, "b", p.b,
             "a value in [1e-3, 1]: b is the semi-minor axis relative to the semi-major one; "
             "b -> 0 is a flat strip whose edges have no defined normal");
-    require(std::isfinite(p.semi_major_um) && p.semi_major_um > 0.0, "semi_major_um", p.semi_major_um,
-            "a finite length > 0 (um)");
+    require(std::isfinite(p.semi_major_um) && p.semi_major_um > 0.0, "semi_major_um",
+            p.semi_major_um, "a finite length > 0 (um)");
     require(std::isfinite(p.phi0), "phi0", p.phi0, "a finite angle (rad)");
-    require(std::isfinite(p.phi1) && p.phi1 - p.phi0 >= 1e-6, "phi1", p.phi1,
-            fmt::format("phi1 - phi0 >= 1e-6 rad (phi0 = {}); an empty arc has no surface", p.phi0));
+    require(
+        std::isfinite(p.phi1) && p.phi1 - p.phi0 >= 1e-6, "phi1", p.phi1,
+        fmt::format("phi1 - phi0 >= 1e-6 rad (phi0 = {}); an empty arc has no surface", p.phi0));
     require(p.phi1 - p.phi0 <= 2.0 * kPi, "phi1", p.phi1,
-            fmt::format("phi1 - phi0 <= 2 pi (phi0 = {}); a longer arc covers the ellipse twice", p.phi0));
+            fmt::format("phi1 - phi0 <= 2 pi (phi0 = {}); a longer arc covers the ellipse twice",
+                        p.phi0));
     return EllipticalArc(p.semi_major_um, p.b * p.semi_major_um, p.phi0, p.phi1);
 }
 
@@ -66,11 +69,12 @@ BarbuleCell::BarbuleCell(const BarbuleCellParams& params)
     const double rho_min = min_radius(arc_);
     if (params.profile == LongitudinalProfile::convex && params.theta_d > 0.0) {
         const double sag = r_theta_ * (1.0 - std::cos(params.theta_d));
-        require(sag < rho_min, "cell_length_um", params.cell_length_um,
-                fmt::format("a shorter cell: with a convex longitudinal arc the surface folds where "
-                            "r_theta (1 - cos theta_d) = {:.4g} um exceeds the smallest transversal "
-                            "radius of curvature {:.4g} um",
-                            sag, rho_min));
+        require(
+            sag < rho_min, "cell_length_um", params.cell_length_um,
+            fmt::format("a shorter cell: with a convex longitudinal arc the surface folds where "
+                        "r_theta (1 - cos theta_d) = {:.4g} um exceeds the smallest transversal "
+                        "radius of curvature {:.4g} um",
+                        sag, rho_min));
     }
     require(std::isfinite(params.melanin_depth_um) && params.melanin_depth_um > 0.0 &&
                 params.melanin_depth_um < rho_min,
@@ -101,7 +105,8 @@ Eigen::Vector3d BarbuleCell::point(double phi, double theta, double depth_um) co
 }
 
 double BarbuleCell::area_element(double phi, double theta) const {
-    if (!(params_.theta_d > 0.0)) return arc_.radius_of_curvature(phi) * 0.5 * params_.cell_length_um;
+    if (!(params_.theta_d > 0.0))
+        return arc_.radius_of_curvature(phi) * 0.5 * params_.cell_length_um;
     return r_theta_ * (arc_.radius_of_curvature(phi) +
                        profile_sign(params_.profile) * r_theta_ * (1.0 - std::cos(theta)));
 }
@@ -129,7 +134,8 @@ TriangleMesh BarbuleCell::tessellate(const TessellationTolerance& tolerance, boo
         const double radius = r_theta_ + sign * depth;  // saddle: centre outside, offset widens
         const double step = tolerance.max_angular_step(radius);
         const int segments = std::max(1, static_cast<int>(std::ceil(2.0 * params_.theta_d / step)));
-        for (int k = 0; k <= segments; ++k) thetas.push_back(-params_.theta_d + 2.0 * params_.theta_d * k / segments);
+        for (int k = 0; k <= segments; ++k)
+            thetas.push_back(-params_.theta_d + 2.0 * params_.theta_d * k / segments);
         const double dtheta = 2.0 * params_.theta_d / segments;
         max_chord = std::max(max_chord, radius * (1.0 - std::cos(0.5 * dtheta)));
     } else {
@@ -146,7 +152,9 @@ TriangleMesh BarbuleCell::tessellate(const TessellationTolerance& tolerance, boo
             mesh.shading_normals.push_back(normal(phi, params_.theta_d > 0.0 ? theta : 0.0));
         }
     }
-    auto index = [&](std::size_t i, std::size_t k) { return static_cast<std::uint32_t>(k * nphi + i); };
+    auto index = [&](std::size_t i, std::size_t k) {
+        return static_cast<std::uint32_t>(k * nphi + i);
+    };
     for (std::size_t k = 0; k + 1 < ntheta; ++k) {
         for (std::size_t i = 0; i + 1 < nphi; ++i) {
             mesh.triangles.push_back({index(i, k), index(i + 1, k), index(i + 1, k + 1)});
@@ -181,9 +189,11 @@ double projected_hit_length(const BarbuleCellParams& cell, double H, double mu, 
 
 namespace {
 
-bool segments_intersect(const Eigen::Vector2d& a, const Eigen::Vector2d& b, const Eigen::Vector2d& c,
-                        const Eigen::Vector2d& d) {
-    auto cross = [](const Eigen::Vector2d& u, const Eigen::Vector2d& v) { return u.x() * v.y() - u.y() * v.x(); };
+bool segments_intersect(const Eigen::Vector2d& a, const Eigen::Vector2d& b,
+                        const Eigen::Vector2d& c, const Eigen::Vector2d& d) {
+    auto cross = [](const Eigen::Vector2d& u, const Eigen::Vector2d& v) {
+        return u.x() * v.y() - u.y() * v.x();
+    };
     const double d1 = cross(b - a, c - a), d2 = cross(b - a, d - a);
     const double d3 = cross(d - c, a - c), d4 = cross(d - c, b - c);
     return ((d1 > 0) != (d2 > 0)) && ((d3 > 0) != (d4 > 0));
@@ -192,7 +202,8 @@ bool segments_intersect(const Eigen::Vector2d& a, const Eigen::Vector2d& b, cons
 bool arcs_intersect(const std::vector<Eigen::Vector2d>& arc, const Eigen::Vector2d& shift) {
     for (std::size_t i = 0; i + 1 < arc.size(); ++i) {
         for (std::size_t j = 0; j + 1 < arc.size(); ++j) {
-            if (segments_intersect(arc[i], arc[i + 1], arc[j] + shift, arc[j + 1] + shift)) return true;
+            if (segments_intersect(arc[i], arc[i + 1], arc[j] + shift, arc[j + 1] + shift))
+                return true;
         }
     }
     return false;
@@ -204,7 +215,8 @@ double minimum_spacing(const BarbuleCellParams& cell, double mu) {
     const EllipticalArc unit(1.0, cell.b, cell.phi0, cell.phi1);
     constexpr int kPoints = 240;
     std::vector<Eigen::Vector2d> arc;
-    for (int i = 0; i <= kPoints; ++i) arc.push_back(unit.point(cell.phi0 + (cell.phi1 - cell.phi0) * i / kPoints));
+    for (int i = 0; i <= kPoints; ++i)
+        arc.push_back(unit.point(cell.phi0 + (cell.phi1 - cell.phi0) * i / kPoints));
     const Eigen::Vector2d u(std::cos(mu), std::sin(mu));
     // Copies further apart than the ellipse's diameter cannot meet. Scan down from
     // there for the first spacing that intersects, then bisect.
@@ -257,16 +269,19 @@ TriangleMesh BarbuleRow::flatten(bool melanin_surface) const {
     return out;
 }
 
-BarbuleRow build_barbule_row(const BarbuleRowParams& params, const TessellationTolerance& tolerance) {
+BarbuleRow build_barbule_row(const BarbuleRowParams& params,
+                             const TessellationTolerance& tolerance) {
     const BarbuleCell cell(params.cell);
     require(std::isfinite(params.mu) && std::abs(params.mu) < 0.5 * kPi, "mu", params.mu,
             "a barb-plane tilt in (-pi/2, pi/2) rad");
     require(std::isfinite(params.H) && params.H > 0.0, "H", params.H,
             "a spacing > 0 (in units of the semi-major axis)");
-    require(params.barbules >= 1 && params.barbules <= 100000, "barbules", params.barbules, "1..100000");
-    require(params.cells_per_barbule >= 1 && params.cells_per_barbule <= 100000, "cells_per_barbule",
-            params.cells_per_barbule, "1..100000");
-    require(std::isfinite(params.jitter_phi_rad) && params.jitter_phi_rad >= 0.0 && params.jitter_phi_rad <= 0.5,
+    require(params.barbules >= 1 && params.barbules <= 100000, "barbules", params.barbules,
+            "1..100000");
+    require(params.cells_per_barbule >= 1 && params.cells_per_barbule <= 100000,
+            "cells_per_barbule", params.cells_per_barbule, "1..100000");
+    require(std::isfinite(params.jitter_phi_rad) && params.jitter_phi_rad >= 0.0 &&
+                params.jitter_phi_rad <= 0.5,
             "jitter_phi_rad", params.jitter_phi_rad, "a standard deviation in [0, 0.5] rad");
     require(std::isfinite(params.jitter_theta_rad) && params.jitter_theta_rad >= 0.0 &&
                 params.jitter_theta_rad <= 0.5,
@@ -274,7 +289,8 @@ BarbuleRow build_barbule_row(const BarbuleRowParams& params, const TessellationT
     if (params.barbules > 1) {
         const double h_min = minimum_spacing(params.cell, params.mu);
         require(params.H >= h_min, "H", params.H,
-                fmt::format("H >= {:.4f}: closer barbules interpenetrate (their arcs intersect)", h_min));
+                fmt::format("H >= {:.4f}: closer barbules interpenetrate (their arcs intersect)",
+                            h_min));
     }
 
     BarbuleRow row;
@@ -286,8 +302,9 @@ BarbuleRow build_barbule_row(const BarbuleRowParams& params, const TessellationT
     const Eigen::Vector3d u(std::cos(params.mu), 0.0, std::sin(params.mu));
     const Eigen::Affine3d to_patch(Eigen::AngleAxisd(params.mu, Eigen::Vector3d::UnitY()));
     const Eigen::Vector3d centre =
-        0.5 * ((params.barbules - 1) * params.H * a * u +
-               (params.cells_per_barbule - 1) * params.cell.cell_length_um * Eigen::Vector3d::UnitY());
+        0.5 *
+        ((params.barbules - 1) * params.H * a * u +
+         (params.cells_per_barbule - 1) * params.cell.cell_length_um * Eigen::Vector3d::UnitY());
     row.instances.reserve(static_cast<std::size_t>(params.barbules) * params.cells_per_barbule);
     for (int i = 0; i < params.barbules; ++i) {
         for (int j = 0; j < params.cells_per_barbule; ++j) {
@@ -298,7 +315,8 @@ BarbuleRow build_barbule_row(const BarbuleRowParams& params, const TessellationT
             const double dphi = params.jitter_phi_rad * gauss(rng);
             const double dtheta = params.jitter_theta_rad * gauss(rng);
             Eigen::Affine3d t = to_patch;
-            t.translate(i * params.H * a * u + j * params.cell.cell_length_um * Eigen::Vector3d::UnitY() - centre);
+            t.translate(i * params.H * a * u +
+                        j * params.cell.cell_length_um * Eigen::Vector3d::UnitY() - centre);
             t.rotate(Eigen::AngleAxisd(dphi, Eigen::Vector3d::UnitY()));
             t.rotate(Eigen::AngleAxisd(dtheta, Eigen::Vector3d::UnitX()));
             row.instances.push_back(t);

@@ -40,7 +40,8 @@
 //  | mu                   | rad  | −0.35   | (−π/2, π/2)                               |
 //  | film_thickness_um (d)| µm   | 0.59    | >= 0                                      |
 //  | melanin_depth_um (g) | µm   | 0.3     | (0, b² A)                                 |
-//  | jitter_phi_rad, jitter_theta_rad | rad | 0 | [0, 0.5]: per-cell rotation, normal distribution, seeded |
+//  | jitter_phi_rad, jitter_theta_rad | rad | 0 | [0, 0.5]: per-cell rotation, normal distribution,
+//  seeded |
 #pragma once
 
 #include <cstdint>
@@ -74,7 +75,7 @@ public:
     explicit BarbuleCell(const BarbuleCellParams& params);  // validates; InputError says why
 
     const BarbuleCellParams& params() const { return params_; }
-    const EllipticalArc& arc() const { return arc_; }  // in µm
+    const EllipticalArc& arc() const { return arc_; }           // in µm
     double longitudinal_radius_um() const { return r_theta_; }  // ∞ when θ_d = 0
 
     // Surface point and unit outward normal at normal azimuth φ and longitudinal angle θ
@@ -123,7 +124,8 @@ struct BarbuleRow {
     TriangleMesh flatten(bool melanin_surface = false) const;
 };
 
-BarbuleRow build_barbule_row(const BarbuleRowParams& params, const TessellationTolerance& tolerance);
+BarbuleRow build_barbule_row(const BarbuleRowParams& params,
+                             const TessellationTolerance& tolerance);
 
 // Huang's projected lengths in the transversal plane, in units of the semi-major axis A,
 // for in-plane direction φ (Eq. 13 and the T lobe, Eq. 15):

@@ -13,8 +13,8 @@ namespace plumage::geometry {
 EllipticalArc::EllipticalArc(double semi_axis_x, double semi_axis_z, double phi0, double phi1)
     : a_(semi_axis_x), b_(semi_axis_z), phi0_(phi0), phi1_(phi1) {
     if (!std::isfinite(a_) || !(a_ > 0.0) || !std::isfinite(b_) || !(b_ > 0.0)) {
-        throw InputError(fmt::format("elliptical arc: semi-axes {} and {}: expected finite values > 0",
-                                     a_, b_));
+        throw InputError(
+            fmt::format("elliptical arc: semi-axes {} and {}: expected finite values > 0", a_, b_));
     }
     if (!std::isfinite(phi0_) || !std::isfinite(phi1_) || !(phi1_ > phi0_) ||
         phi1_ - phi0_ > 2.0 * std::numbers::pi + 1e-12) {
@@ -79,7 +79,8 @@ std::vector<double> sample_normal_azimuths(double phi0, double phi1,
         double step = step_bound(radius(phi));
         // The radius changes along the step: shrink until the whole step meets the bound.
         for (int i = 0; i < 30; ++i) {
-            const double rho = std::min({radius(phi), radius(phi + 0.5 * step), radius(std::min(phi + step, phi1))});
+            const double rho = std::min(
+                {radius(phi), radius(phi + 0.5 * step), radius(std::min(phi + step, phi1))});
             const double allowed = step_bound(rho);
             if (allowed >= step) break;
             step = allowed;

@@ -23,8 +23,8 @@ public:
     // φ1 − φ0 <= 2π. Throws InputError naming the offending value.
     EllipticalArc(double semi_axis_x, double semi_axis_z, double phi0, double phi1);
 
-    Eigen::Vector2d point(double phi) const;   // (x, z)
-    Eigen::Vector2d normal(double phi) const;  // (sin φ, cos φ)
+    Eigen::Vector2d point(double phi) const;    // (x, z)
+    Eigen::Vector2d normal(double phi) const;   // (sin φ, cos φ)
     Eigen::Vector2d tangent(double phi) const;  // dE/dφ / |dE/dφ| = (cos φ, −sin φ)
     double radius_of_curvature(double phi) const;
     // Arc length from φ0 to φ (numerical quadrature of ρ).

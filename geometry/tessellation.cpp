@@ -16,9 +16,9 @@ void TessellationTolerance::validate() const {
     }
     if (!std::isfinite(max_normal_error_rad) || !(max_normal_error_rad > 0.0) ||
         max_normal_error_rad > 0.5) {
-        throw InputError(fmt::format(
-            "tessellation: max_normal_error_rad = {}: expected a value in (0, 0.5]",
-            max_normal_error_rad));
+        throw InputError(
+            fmt::format("tessellation: max_normal_error_rad = {}: expected a value in (0, 0.5]",
+                        max_normal_error_rad));
     }
 }
 

@@ -7,7 +7,7 @@
 namespace plumage::geometry {
 
 struct TessellationTolerance {
-    double max_chord_um = 0.01;       // largest facet-to-surface distance, µm
+    double max_chord_um = 0.01;          // largest facet-to-surface distance, µm
     double max_normal_error_rad = 0.02;  // largest facet-normal to surface-normal angle
 
     // Throws InputError unless both are finite and > 0.

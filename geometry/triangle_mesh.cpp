@@ -18,12 +18,15 @@ std::size_t TriangleMesh::memory_bytes() const {
 
 Vec3 TriangleMesh::face_normal(std::size_t i) const {
     const Triangle& t = triangles[i];
-    return (positions[t[1]] - positions[t[0]]).cross(positions[t[2]] - positions[t[0]]).normalized();
+    return (positions[t[1]] - positions[t[0]])
+        .cross(positions[t[2]] - positions[t[0]])
+        .normalized();
 }
 
 double TriangleMesh::face_area(std::size_t i) const {
     const Triangle& t = triangles[i];
-    return 0.5 * (positions[t[1]] - positions[t[0]]).cross(positions[t[2]] - positions[t[0]]).norm();
+    return 0.5 *
+           (positions[t[1]] - positions[t[0]]).cross(positions[t[2]] - positions[t[0]]).norm();
 }
 
 double TriangleMesh::surface_area() const {
@@ -44,7 +47,8 @@ std::array<Vec3, 2> TriangleMesh::bounds() const {
 
 void TriangleMesh::append(const TriangleMesh& other) {
     const auto offset = static_cast<std::uint32_t>(positions.size());
-    PLUMAGE_CHECK(shading_normals.size() == positions.size() || (shading_normals.empty() && positions.empty()) ||
+    PLUMAGE_CHECK(shading_normals.size() == positions.size() ||
+                      (shading_normals.empty() && positions.empty()) ||
                       (shading_normals.empty() && other.shading_normals.empty()),
                   "appending meshes with and without shading normals");
     positions.insert(positions.end(), other.positions.begin(), other.positions.end());
@@ -71,7 +75,8 @@ void write_ply(const TriangleMesh& mesh, const std::filesystem::path& path) {
         for (std::size_t i = 0; i < mesh.positions.size(); ++i) {
             out.write(reinterpret_cast<const char*>(mesh.positions[i].data()), 3 * sizeof(double));
             if (normals) {
-                out.write(reinterpret_cast<const char*>(mesh.shading_normals[i].data()), 3 * sizeof(double));
+                out.write(reinterpret_cast<const char*>(mesh.shading_normals[i].data()),
+                          3 * sizeof(double));
             }
         }
         for (const Triangle& t : mesh.triangles) {

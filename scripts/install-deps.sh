@@ -5,6 +5,7 @@ set -euo pipefail
 
 packages=(
   build-essential cmake ninja-build ccache pkg-config git
+  clang-format           # the style check (tests: format.clang_format)
   libembree-dev          # ray tracing (Embree 3)
   libcgal-dev            # mesh validation and repair
   libopenvdb-dev libboost-iostreams-dev libtbb-dev libblosc-dev  # spongy volumes; OpenVDB's CMake module needs boost-iostreams

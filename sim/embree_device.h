@@ -20,8 +20,8 @@
 #include <string>
 #include <vector>
 
-#include <Eigen/Core>
 #include <embree3/rtcore.h>
+#include <Eigen/Core>
 
 namespace plumage::sim {
 

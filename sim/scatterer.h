@@ -55,8 +55,8 @@ public:
     virtual const std::vector<std::string>& lobe_names() const = 0;
 
     // One quantum of wavelength lambda_nm arriving from wi at position_um.
-    virtual std::optional<ScatterEvent> sample(const Vec3d& wi, double lambda_nm, const Vec2& position_um,
-                                               Rng& rng) const = 0;
+    virtual std::optional<ScatterEvent> sample(const Vec3d& wi, double lambda_nm,
+                                               const Vec2& position_um, Rng& rng) const = 0;
 
     // Whether eval() and pdf() are available (analytic models: yes; the tracer: no).
     virtual bool can_evaluate() const { return false; }

@@ -38,7 +38,7 @@ struct AblationPoint {
     double value = 0.0;     // in the study file's unit (degrees for angles, µm for d)
     bool is_base = false;   // the [geometry] value (the rock dove's unless changed)
     bool skipped = false;
-    std::string reason;     // why it was skipped
+    std::string reason;  // why it was skipped
     // Model error, simulation as reference: Σ|I_model − I_sim|Ω / Σ I_sim Ω.
     double relative_l1 = 0.0;
     // The same difference over the model's power (the rock-dove study's normalisation).
@@ -60,7 +60,8 @@ struct AblationResult {
 
 // `study_text` is the TOML; `source_name` names it in errors.
 // `limits` override the study file's time budget and target error of every scatterogram.
-AblationResult run_ablation_study(const std::string& study_text, const std::filesystem::path& source_name,
+AblationResult run_ablation_study(const std::string& study_text,
+                                  const std::filesystem::path& source_name,
                                   const std::filesystem::path& results_root, bool progress = true,
                                   const RunLimits& limits = {});
 

@@ -78,8 +78,9 @@ Settings read(const std::string& text, const fs::path& source) {
     c.quanta_per_pass = static_cast<std::uint64_t>(
         g.integer("quanta_per_pass", 20000, 100, 100000000, "quanta per light and wavelength"));
     c.max_passes = static_cast<int>(g.integer("passes", 4, 1, 1000, "passes"));
-    c.detector_half_angle_rad = g.angle_deg("detector_half_angle_deg", 2.5 * std::numbers::pi / 180.0,
-                                            {0.0, 10.0, true, false}, "detector cone half-angle");
+    c.detector_half_angle_rad =
+        g.angle_deg("detector_half_angle_deg", 2.5 * std::numbers::pi / 180.0,
+                    {0.0, 10.0, true, false}, "detector cone half-angle");
     s.significance = g.number("significance", s.significance, {0.0, 0.5, true, true},
                               "significance of the chi-square verdict");
     c.estimator = gonio::Estimator::photon;
@@ -112,8 +113,9 @@ void write_records(const fs::path& dir, const gonio::BrdfRecord& measured, const
     record::Hdf5Writer h5(dir / "calibration.h5");
     const std::uint64_t pairs = measured.config.pairs.size();
     const std::uint64_t wavelengths = measured.config.wavelengths_nm.size();
-    h5.write("z", std::span<const double>(c.z), {pairs, wavelengths},
-             {{"meaning", "(measured - albedo/pi) / standard error per cell; NaN: no error estimate"}});
+    h5.write(
+        "z", std::span<const double>(c.z), {pairs, wavelengths},
+        {{"meaning", "(measured - albedo/pi) / standard error per cell; NaN: no error estimate"}});
     h5.set_attribute("/", "albedo", s.albedo);
     h5.set_attribute("/", "chi_square", c.chi_square);
     h5.set_attribute("/", "chi_square_dof", static_cast<double>(c.dof));
@@ -128,7 +130,8 @@ void write_report(const fs::path& path, const gonio::BrdfRecord& measured, const
     md << fmt::format(
         "# Calibration: the goniometer on a white standard\n\n"
         "A Lambertian standard of albedo {0} (f = ρ/π = {1:.6f} sr⁻¹) measured by the photon "
-        "estimator on the {2} set ({3} pairs × {4} wavelengths), {5} quanta per light direction and "
+        "estimator on the {2} set ({3} pairs × {4} wavelengths), {5} quanta per light direction "
+        "and "
         "wavelength, detector half-angle {6:.2f}°, {7:.1f} s. Each cell's mean is ρ/π exactly, so "
         "z = (f̂ − ρ/π)/σ̂ tests the estimator and its standard errors together.\n\n"
         "| χ² | degrees of freedom | χ²/dof | p-value | largest abs(z) | verdict at {8} |\n"
@@ -147,17 +150,17 @@ void write_report(const fs::path& path, const gonio::BrdfRecord& measured, const
 std::string run(const std::string& text, const fs::path& source, const fs::path& results_root,
                 const RunLimits& limits) {
     const StudyProgress clock(true);
-    Settings s = read(text, source);                                   // read
+    Settings s = read(text, source);  // read
     StagedDirectory::prepare(results_root / s.name);
     if (limits.time_budget_s > 0.0) s.goniometer.time_budget_s = limits.time_budget_s;
     if (limits.target_relative_error > 0.0) {
         s.goniometer.target_relative_error = limits.target_relative_error;
     }
-    const analysis::LambertianScatterer standard(s.albedo);            // build
+    const analysis::LambertianScatterer standard(s.albedo);  // build
     clock.say(fmt::format("measuring the standard on {} pairs", s.goniometer.pairs.size()));
     const gonio::BrdfRecord measured = gonio::measure_brdf(standard, s.goniometer);  // measure
-    const Comparison c = compare(measured, s.albedo, s.significance);  // compare
-    StagedDirectory out(results_root / s.name);                        // report
+    const Comparison c = compare(measured, s.albedo, s.significance);                // compare
+    StagedDirectory out(results_root / s.name);                                      // report
     write_records(out.path(), measured, c, s);
     write_report(out.path() / "report.md", measured, c, s, text);
     out.commit();

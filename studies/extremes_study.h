@@ -66,7 +66,9 @@ struct ExtremesRow {
     bool by_construction = false;  // ... and the model's published parameters make it so
     long medium_mismatches = 0, reached_max_events = 0;  // tracer diagnostics (sim/tracer.h)
 
-    bool numerical_violation() const { return nan + inf + negative + malformed > 0 || !failure.empty(); }
+    bool numerical_violation() const {
+        return nan + inf + negative + malformed > 0 || !failure.empty();
+    }
     bool energy_violation() const { return energy_excess && !by_construction; }
 };
 
@@ -81,7 +83,8 @@ struct ExtremesResult {
 };
 
 // `study_text` is the TOML; `source_name` names it in errors.
-ExtremesResult run_extremes_study(const std::string& study_text, const std::filesystem::path& source_name,
+ExtremesResult run_extremes_study(const std::string& study_text,
+                                  const std::filesystem::path& source_name,
                                   const std::filesystem::path& results_root, bool progress = true);
 
 // Reads and checks the study file as run_extremes_study does, building and writing nothing.

@@ -61,7 +61,8 @@ void add_common_options(CLI::App& app, CommonOptions& o) {
                    "(e.g. 0.05)")
         ->type_name("FRACTION")
         ->check(CLI::Range(0.0, 1.0).description(""));
-    app.add_flag("--no-plots", o.no_plots, "skip the matplotlib figures (records and reports stay)");
+    app.add_flag("--no-plots", o.no_plots,
+                 "skip the matplotlib figures (records and reports stay)");
 }
 
 std::string read_file(const std::string& path, std::string_view what) {

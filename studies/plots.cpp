@@ -41,11 +41,11 @@ std::string plotting_problem(const std::string& python) {
     static std::map<std::string, std::string> answers;
     const std::lock_guard lock(mutex);
     if (const auto known = answers.find(python); known != answers.end()) return known->second;
-    const std::string probe = fmt::format(
-        "{} -c {} 2>/dev/null", shell_quote(python),
-        shell_quote("import importlib.util as u\n"
-                    "print(' '.join(m for m in ('matplotlib', 'numpy', 'h5py') "
-                    "if u.find_spec(m) is None) or 'ok')"));
+    const std::string probe =
+        fmt::format("{} -c {} 2>/dev/null", shell_quote(python),
+                    shell_quote("import importlib.util as u\n"
+                                "print(' '.join(m for m in ('matplotlib', 'numpy', 'h5py') "
+                                "if u.find_spec(m) is None) or 'ok')"));
     std::string answer;
     if (FILE* pipe = ::popen(probe.c_str(), "r"); pipe != nullptr) {
         char buffer[256];
@@ -55,14 +55,16 @@ std::string plotting_problem(const std::string& python) {
     while (!answer.empty() && (answer.back() == '\n' || answer.back() == ' ')) answer.pop_back();
     std::string problem;
     if (answer.empty()) {
-        problem = fmt::format("cannot run the interpreter {} (set PLUMAGE_PYTHON to a Python 3 "
-                              "with matplotlib, numpy and h5py)",
-                              python);
+        problem = fmt::format(
+            "cannot run the interpreter {} (set PLUMAGE_PYTHON to a Python 3 "
+            "with matplotlib, numpy and h5py)",
+            python);
     } else if (answer != "ok") {
-        problem = fmt::format("{} lacks the module(s) {} (Debian: python3-matplotlib "
-                              "python3-numpy python3-h5py; scripts/install-deps.sh installs them, "
-                              "or set PLUMAGE_PYTHON)",
-                              python, answer);
+        problem = fmt::format(
+            "{} lacks the module(s) {} (Debian: python3-matplotlib "
+            "python3-numpy python3-h5py; scripts/install-deps.sh installs them, "
+            "or set PLUMAGE_PYTHON)",
+            python, answer);
     }
     return answers[python] = problem;
 }

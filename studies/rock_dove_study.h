@@ -34,14 +34,15 @@ struct RockDoveResult {
     // validation cells with signal, and the number of such cells.
     double validation_max_sigma = 0.0;
     int validation_cells = 0;
-    double brdf_relative_l1 = 0.0;      // total BRDF, simulation against model
-    double simulated_multi_share = 0.0;  // of the reflected power, hemispheric light
+    double brdf_relative_l1 = 0.0;            // total BRDF, simulation against model
+    double simulated_multi_share = 0.0;       // of the reflected power, hemispheric light
     double simulated_t = 0.0, model_t = 0.0;  // T lobe at the beam's incidence
-    double eq7_edge_coupling = 0.0;      // r_θ(1 − cos θ_d)/(b² A) of the simulated cells
+    double eq7_edge_coupling = 0.0;           // r_θ(1 − cos θ_d)/(b² A) of the simulated cells
 };
 
 // `study_text` is the TOML; `source_name` names it in errors (a path or "<default>").
-RockDoveResult run_rock_dove_study(const std::string& study_text, const std::filesystem::path& source_name,
+RockDoveResult run_rock_dove_study(const std::string& study_text,
+                                   const std::filesystem::path& source_name,
                                    const std::filesystem::path& results_root, bool progress = true,
                                    const RunLimits& limits = {});
 

@@ -82,7 +82,8 @@ std::vector<double> read_wavelengths(ParameterTable& table, const WavelengthRule
 
 geometry::TessellationTolerance read_tolerance(ParameterTable t) {
     geometry::TessellationTolerance tol;
-    tol.max_chord_um = t.number("max_chord_um", 0.01, positive(), "largest facet-to-surface distance, um");
+    tol.max_chord_um =
+        t.number("max_chord_um", 0.01, positive(), "largest facet-to-surface distance, um");
     tol.max_normal_error_rad = t.angle_deg("max_normal_error_deg", 0.02, {0.0, 28.0, true, false},
                                            "largest facet-normal error, degrees");
     return tol;
@@ -92,23 +93,35 @@ geometry::BarbuleRowParams read_barbule_row_params(ParameterTable& geometry) {
     geometry::BarbuleRowParams p;
     ParameterTable cell = geometry.table("cell");
     p.cell.b = cell.number("b", p.cell.b, between(1e-3, 1.0), "semi-minor / semi-major axis");
-    p.cell.phi0 = cell.angle_deg("phi0_deg", p.cell.phi0, between(-360.0, 360.0), "arc start, normal azimuth");
-    p.cell.phi1 = cell.angle_deg("phi1_deg", p.cell.phi1, between(-360.0, 360.0), "arc end, normal azimuth");
-    p.cell.theta_d = cell.angle_deg("theta_d_deg", p.cell.theta_d, between(0.0, 45.0), "longitudinal half-opening");
-    p.cell.semi_major_um = cell.number("semi_major_um", p.cell.semi_major_um, positive(), "ellipse semi-major axis, um");
-    p.cell.cell_length_um = cell.number("cell_length_um", p.cell.cell_length_um, positive(), "cell length along the barbule, um");
-    p.cell.profile = cell.string("profile", "saddle", {"saddle", "convex"}, "longitudinal arc") == "convex"
-                         ? geometry::LongitudinalProfile::convex
-                         : geometry::LongitudinalProfile::saddle;
-    p.cell.film_thickness_um = cell.number("film_thickness_um", p.cell.film_thickness_um, non_negative(), "keratin cortex film, um");
-    p.cell.melanin_depth_um = cell.number("melanin_depth_um", p.cell.melanin_depth_um, positive(), "depth of the melanin layer, um");
+    p.cell.phi0 = cell.angle_deg("phi0_deg", p.cell.phi0, between(-360.0, 360.0),
+                                 "arc start, normal azimuth");
+    p.cell.phi1 =
+        cell.angle_deg("phi1_deg", p.cell.phi1, between(-360.0, 360.0), "arc end, normal azimuth");
+    p.cell.theta_d = cell.angle_deg("theta_d_deg", p.cell.theta_d, between(0.0, 45.0),
+                                    "longitudinal half-opening");
+    p.cell.semi_major_um = cell.number("semi_major_um", p.cell.semi_major_um, positive(),
+                                       "ellipse semi-major axis, um");
+    p.cell.cell_length_um = cell.number("cell_length_um", p.cell.cell_length_um, positive(),
+                                        "cell length along the barbule, um");
+    p.cell.profile =
+        cell.string("profile", "saddle", {"saddle", "convex"}, "longitudinal arc") == "convex"
+            ? geometry::LongitudinalProfile::convex
+            : geometry::LongitudinalProfile::saddle;
+    p.cell.film_thickness_um = cell.number("film_thickness_um", p.cell.film_thickness_um,
+                                           non_negative(), "keratin cortex film, um");
+    p.cell.melanin_depth_um = cell.number("melanin_depth_um", p.cell.melanin_depth_um, positive(),
+                                          "depth of the melanin layer, um");
     ParameterTable row = geometry.table("row");
     p.H = row.number("H", p.H, positive(), "barbule spacing, in units of the semi-major axis");
     p.mu = row.angle_deg("mu_deg", p.mu, {-90.0, 90.0, true, true}, "barb-plane tilt");
-    p.barbules = static_cast<int>(row.integer("barbules", p.barbules, 1, 100000, "barbules in the row"));
-    p.cells_per_barbule = static_cast<int>(row.integer("cells_per_barbule", p.cells_per_barbule, 1, 100000, "cells along each barbule"));
-    p.jitter_phi_rad = row.angle_deg("jitter_phi_deg", 0.0, between(0.0, 28.0), "per-cell azimuthal tilt, standard deviation");
-    p.jitter_theta_rad = row.angle_deg("jitter_theta_deg", 0.0, between(0.0, 28.0), "per-cell longitudinal tilt, standard deviation");
+    p.barbules =
+        static_cast<int>(row.integer("barbules", p.barbules, 1, 100000, "barbules in the row"));
+    p.cells_per_barbule = static_cast<int>(row.integer("cells_per_barbule", p.cells_per_barbule, 1,
+                                                       100000, "cells along each barbule"));
+    p.jitter_phi_rad = row.angle_deg("jitter_phi_deg", 0.0, between(0.0, 28.0),
+                                     "per-cell azimuthal tilt, standard deviation");
+    p.jitter_theta_rad = row.angle_deg("jitter_theta_deg", 0.0, between(0.0, 28.0),
+                                       "per-cell longitudinal tilt, standard deviation");
     p.seed = static_cast<std::uint64_t>(row.integer("seed", 1, 0, 1L << 62, "random seed"));
     return p;
 }
@@ -116,20 +129,34 @@ geometry::BarbuleRowParams read_barbule_row_params(ParameterTable& geometry) {
 geometry::BarbulePatchParams read_barb_patch_params(ParameterTable& geometry) {
     geometry::BarbulePatchParams p;
     ParameterTable barb = geometry.table("barb");
-    p.barb.barb_width_um = barb.number("width_um", p.barb.barb_width_um, positive(), "barb major diameter, um");
-    p.barb.barb_eccentricity = barb.number("eccentricity", p.barb.barb_eccentricity, between(0.0, 0.999), "barb cross-section eccentricity");
-    p.barb.barb_rotation_rad = barb.angle_deg("rotation_deg", 0.0, between(-180.0, 180.0), "major axis from +z towards +y");
-    p.barb.medulla_scale = barb.number("medulla_scale", 0.0, between(0.0, 0.95), "medulla size relative to the cortex, 0 = none");
-    p.barb.medulla_offset_y_um = barb.number("medulla_offset_y_um", 0.0, {}, "medulla offset along y, um");
-    p.barb.medulla_offset_z_um = barb.number("medulla_offset_z_um", 0.0, {}, "medulla offset along z, um");
+    p.barb.barb_width_um =
+        barb.number("width_um", p.barb.barb_width_um, positive(), "barb major diameter, um");
+    p.barb.barb_eccentricity = barb.number("eccentricity", p.barb.barb_eccentricity,
+                                           between(0.0, 0.999), "barb cross-section eccentricity");
+    p.barb.barb_rotation_rad = barb.angle_deg("rotation_deg", 0.0, between(-180.0, 180.0),
+                                              "major axis from +z towards +y");
+    p.barb.medulla_scale = barb.number("medulla_scale", 0.0, between(0.0, 0.95),
+                                       "medulla size relative to the cortex, 0 = none");
+    p.barb.medulla_offset_y_um =
+        barb.number("medulla_offset_y_um", 0.0, {}, "medulla offset along y, um");
+    p.barb.medulla_offset_z_um =
+        barb.number("medulla_offset_z_um", 0.0, {}, "medulla offset along z, um");
     ParameterTable barbules = geometry.table("barbules");
-    p.barbule_width_um = barbules.number("width_um", p.barbule_width_um, positive(), "barbule major diameter, um");
-    p.barbule_eccentricity = barbules.number("eccentricity", p.barbule_eccentricity, between(0.0, 0.999), "barbule eccentricity");
-    p.barbule_rotation_rad = barbules.angle_deg("rotation_deg", 0.0, between(-180.0, 180.0), "barbule rotation about its axis");
-    p.barbule_inclination_rad = barbules.angle_deg("inclination_deg", p.barbule_inclination_rad, {-90.0, 90.0, true, true}, "barbule rise out of the vane");
-    p.barbule_length = barbules.number("length", p.barbule_length, positive(), "barbule length, in barb widths");
-    p.barbule_separation = barbules.number("separation", p.barbule_separation, between(1.0, 1e6), "barbule pitch, in barbule widths");
-    p.barb_spacing = barbules.number("barb_spacing", 0.0, non_negative(), "barb pitch in barb widths, 0 = barbules meet");
+    p.barbule_width_um =
+        barbules.number("width_um", p.barbule_width_um, positive(), "barbule major diameter, um");
+    p.barbule_eccentricity = barbules.number("eccentricity", p.barbule_eccentricity,
+                                             between(0.0, 0.999), "barbule eccentricity");
+    p.barbule_rotation_rad = barbules.angle_deg("rotation_deg", 0.0, between(-180.0, 180.0),
+                                                "barbule rotation about its axis");
+    p.barbule_inclination_rad =
+        barbules.angle_deg("inclination_deg", p.barbule_inclination_rad, {-90.0, 90.0, true, true},
+                           "barbule rise out of the vane");
+    p.barbule_length =
+        barbules.number("length", p.barbule_length, positive(), "barbule length, in barb widths");
+    p.barbule_separation = barbules.number("separation", p.barbule_separation, between(1.0, 1e6),
+                                           "barbule pitch, in barbule widths");
+    p.barb_spacing = barbules.number("barb_spacing", 0.0, non_negative(),
+                                     "barb pitch in barb widths, 0 = barbules meet");
     return p;
 }
 

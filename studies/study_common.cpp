@@ -40,7 +40,8 @@ record::RgbImage side_by_side(const std::vector<const record::RgbImage*>& images
 }
 
 // Σ|a − b| Ω / Σ b Ω over pixels and wavelengths, for one lobe (or all when lobe < 0).
-double image_relative_l1(const gonio::Scatterogram& a, const gonio::Scatterogram& b, int lobe_a, int lobe_b) {
+double image_relative_l1(const gonio::Scatterogram& a, const gonio::Scatterogram& b, int lobe_a,
+                         int lobe_b) {
     const std::size_t n = a.pixels() * a.config.wavelengths_nm.size();
     const auto& va = lobe_a < 0 ? a.intensity : a.lobe_intensity;
     const auto& vb = lobe_b < 0 ? b.intensity : b.lobe_intensity;
@@ -69,15 +70,17 @@ Vec3d polar(double theta, double phi) {
 std::string interrupted_with_checkpoint(const std::string& what, int passes,
                                         const std::filesystem::path& checkpoint) {
     if (passes > 0) {
-        return fmt::format("interrupted in {} after {} completed passes, kept in {}; run the same "
-                           "command again to resume from them",
-                           what, passes, checkpoint.string());
+        return fmt::format(
+            "interrupted in {} after {} completed passes, kept in {}; run the same "
+            "command again to resume from them",
+            what, passes, checkpoint.string());
     }
     // <root>/.checkpoints/<name>/<file>: remove the two folders if nothing is in them.
     std::error_code ignored;
     std::filesystem::remove(checkpoint.parent_path(), ignored);
     std::filesystem::remove(checkpoint.parent_path().parent_path(), ignored);
-    return fmt::format("interrupted in {} before its first pass completed (nothing to resume)", what);
+    return fmt::format("interrupted in {} before its first pass completed (nothing to resume)",
+                       what);
 }
 
 double StudyProgress::elapsed_s() const {

@@ -20,7 +20,8 @@ analysis::Huang2022Params huang_params_of(const geometry::BarbuleRowParams& row)
 record::RgbImage side_by_side(const std::vector<const record::RgbImage*>& images);
 
 // Σ|a − b| Ω / Σ b Ω over pixels and wavelengths, for one lobe of each (or all: −1).
-double image_relative_l1(const gonio::Scatterogram& a, const gonio::Scatterogram& b, int lobe_a, int lobe_b);
+double image_relative_l1(const gonio::Scatterogram& a, const gonio::Scatterogram& b, int lobe_a,
+                         int lobe_b);
 
 // Index of a lobe name, or −1.
 int lobe_index(const std::vector<std::string>& lobes, const std::string& name);

@@ -40,19 +40,27 @@ bool within(const Range& r, double v) {
 
 std::string type_name(const toml::node& node) {
     switch (node.type()) {
-        case toml::node_type::table: return "a table";
-        case toml::node_type::array: return "an array";
-        case toml::node_type::string: return "a string";
-        case toml::node_type::integer: return "an integer";
-        case toml::node_type::floating_point: return "a number";
-        case toml::node_type::boolean: return "a boolean";
-        default: return "a date or time";
+        case toml::node_type::table:
+            return "a table";
+        case toml::node_type::array:
+            return "an array";
+        case toml::node_type::string:
+            return "a string";
+        case toml::node_type::integer:
+            return "an integer";
+        case toml::node_type::floating_point:
+            return "a number";
+        case toml::node_type::boolean:
+            return "a boolean";
+        default:
+            return "a date or time";
     }
 }
 
 }  // namespace
 
-ParameterTable::ParameterTable(std::shared_ptr<const StudyFile> file, const toml::table* table, std::string path)
+ParameterTable::ParameterTable(std::shared_ptr<const StudyFile> file, const toml::table* table,
+                               std::string path)
     : file_(std::move(file)), table_(table), path_(std::move(path)) {}
 
 std::string ParameterTable::full_key(std::string_view key) const {
@@ -77,7 +85,9 @@ const toml::node* ParameterTable::find(std::string_view key) {
     return table_ != nullptr ? table_->get(key) : nullptr;
 }
 
-bool ParameterTable::has(std::string_view key) const { return table_ != nullptr && table_->contains(key); }
+bool ParameterTable::has(std::string_view key) const {
+    return table_ != nullptr && table_->contains(key);
+}
 
 std::vector<std::string> ParameterTable::keys() const {
     if (table_ == nullptr) return {};
@@ -92,14 +102,17 @@ std::vector<std::string> ParameterTable::keys() const {
     return names;
 }
 
-double ParameterTable::number(std::string_view key, double default_value, Range range, std::string_view what) {
+double ParameterTable::number(std::string_view key, double default_value, Range range,
+                              std::string_view what) {
     const toml::node* node = find(key);
     if (node == nullptr) return default_value;
     std::optional<double> value;
     if (const auto* f = node->as_floating_point()) value = f->get();
     if (const auto* i = node->as_integer()) value = static_cast<double>(i->get());
-    if (!value) fail(key, fmt::format("is {}: expected {} ({})", type_name(*node), describe(range), what));
-    if (!within(range, *value)) fail(key, fmt::format("= {}: expected {} ({})", *value, describe(range), what));
+    if (!value)
+        fail(key, fmt::format("is {}: expected {} ({})", type_name(*node), describe(range), what));
+    if (!within(range, *value))
+        fail(key, fmt::format("= {}: expected {} ({})", *value, describe(range), what));
     return *value;
 }
 
@@ -111,19 +124,24 @@ double ParameterTable::required_number(std::string_view key, Range range, std::s
     return number(key, 0.0, range, what);
 }
 
-double ParameterTable::angle_deg(std::string_view key, double default_radians, Range range_deg, std::string_view what) {
+double ParameterTable::angle_deg(std::string_view key, double default_radians, Range range_deg,
+                                 std::string_view what) {
     PLUMAGE_CHECK(key.ends_with("_deg"), std::string(key));
     constexpr double kDeg = 3.14159265358979323846 / 180.0;
     return number(key, default_radians / kDeg, range_deg, what) * kDeg;
 }
 
-long ParameterTable::integer(std::string_view key, long default_value, long min, long max, std::string_view what) {
+long ParameterTable::integer(std::string_view key, long default_value, long min, long max,
+                             std::string_view what) {
     const toml::node* node = find(key);
     if (node == nullptr) return default_value;
     const auto* i = node->as_integer();
-    if (i == nullptr) fail(key, fmt::format("is {}: expected an integer in [{}, {}] ({})", type_name(*node), min, max, what));
+    if (i == nullptr)
+        fail(key, fmt::format("is {}: expected an integer in [{}, {}] ({})", type_name(*node), min,
+                              max, what));
     if (i->get() < min || i->get() > max) {
-        fail(key, fmt::format("= {}: expected an integer in [{}, {}] ({})", i->get(), min, max, what));
+        fail(key,
+             fmt::format("= {}: expected an integer in [{}, {}] ({})", i->get(), min, max, what));
     }
     return static_cast<long>(i->get());
 }
@@ -132,7 +150,8 @@ bool ParameterTable::boolean(std::string_view key, bool default_value, std::stri
     const toml::node* node = find(key);
     if (node == nullptr) return default_value;
     const auto* b = node->as_boolean();
-    if (b == nullptr) fail(key, fmt::format("is {}: expected true or false ({})", type_name(*node), what));
+    if (b == nullptr)
+        fail(key, fmt::format("is {}: expected true or false ({})", type_name(*node), what));
     return b->get();
 }
 
@@ -153,7 +172,8 @@ std::string ParameterTable::string(std::string_view key, std::string_view defaul
     return s->get();
 }
 
-std::string ParameterTable::required_string(std::string_view key, const std::vector<std::string>& allowed,
+std::string ParameterTable::required_string(std::string_view key,
+                                            const std::vector<std::string>& allowed,
                                             std::string_view what) {
     if (!has(key)) {
         file_->used_.insert(full_key(key));
@@ -172,13 +192,16 @@ ParameterTable ParameterTable::table(std::string_view key) {
 
 namespace {
 
-void collect_unused(const toml::table& table, const std::string& prefix, const std::set<std::string, std::less<>>& used,
-                    const std::string& file, std::string& out) {
+void collect_unused(const toml::table& table, const std::string& prefix,
+                    const std::set<std::string, std::less<>>& used, const std::string& file,
+                    std::string& out) {
     for (const auto& [key, node] : table) {
-        const std::string full = prefix.empty() ? std::string(key.str()) : prefix + "." + std::string(key.str());
+        const std::string full =
+            prefix.empty() ? std::string(key.str()) : prefix + "." + std::string(key.str());
         if (!used.contains(full)) {
             const auto& begin = key.source().begin ? key.source().begin : node.source().begin;
-            out += fmt::format("\n  {}:{}:{}: unknown key '{}'", file, begin.line, begin.column, full);
+            out +=
+                fmt::format("\n  {}:{}:{}: unknown key '{}'", file, begin.line, begin.column, full);
         } else if (const auto* sub = node.as_table()) {
             collect_unused(*sub, full, used, file, out);
         }
@@ -199,22 +222,26 @@ void ParameterTable::reject_unused() const {
 
 StudyFile::~StudyFile() = default;
 
-std::shared_ptr<StudyFile> StudyFile::parse(std::string_view text, const std::filesystem::path& name) {
+std::shared_ptr<StudyFile> StudyFile::parse(std::string_view text,
+                                            const std::filesystem::path& name) {
     auto file = std::shared_ptr<StudyFile>(new StudyFile());
     file->path_ = name;
     file->text_ = std::string(text);
     try {
         file->table_ = std::make_unique<toml::table>(toml::parse(file->text_, name.string()));
     } catch (const toml::parse_error& e) {
-        throw InputError(fmt::format("{}:{}:{}: not valid TOML: {}", name.string(), e.source().begin.line,
-                                     e.source().begin.column, e.description()));
+        throw InputError(fmt::format("{}:{}:{}: not valid TOML: {}", name.string(),
+                                     e.source().begin.line, e.source().begin.column,
+                                     e.description()));
     }
     return file;
 }
 
 std::shared_ptr<StudyFile> StudyFile::load(const std::filesystem::path& path) {
     std::ifstream in(path);
-    if (!in) throw InputError(fmt::format("{}: cannot open the study file (does it exist?)", path.string()));
+    if (!in)
+        throw InputError(
+            fmt::format("{}: cannot open the study file (does it exist?)", path.string()));
     std::ostringstream text;
     text << in.rdbuf();
     return parse(text.str(), path);

@@ -44,8 +44,10 @@ public:
     double number(std::string_view key, double default_value, Range range, std::string_view what);
     double required_number(std::string_view key, Range range, std::string_view what);
     // key must end in "_deg"; the value is returned in radians, range given in degrees.
-    double angle_deg(std::string_view key, double default_radians, Range range_deg, std::string_view what);
-    long integer(std::string_view key, long default_value, long min, long max, std::string_view what);
+    double angle_deg(std::string_view key, double default_radians, Range range_deg,
+                     std::string_view what);
+    long integer(std::string_view key, long default_value, long min, long max,
+                 std::string_view what);
     bool boolean(std::string_view key, bool default_value, std::string_view what);
     std::string string(std::string_view key, std::string_view default_value,
                        const std::vector<std::string>& allowed, std::string_view what);
@@ -67,7 +69,8 @@ public:
 
 private:
     friend class StudyFile;
-    ParameterTable(std::shared_ptr<const StudyFile> file, const toml::table* table, std::string path);
+    ParameterTable(std::shared_ptr<const StudyFile> file, const toml::table* table,
+                   std::string path);
     const toml::node* find(std::string_view key);
     std::string full_key(std::string_view key) const;
     [[noreturn]] void fail(std::string_view key, const std::string& message) const;
@@ -81,7 +84,8 @@ class StudyFile : public std::enable_shared_from_this<StudyFile> {
 public:
     // Parses the file; InputError with file:line:col on a syntax error or missing file.
     static std::shared_ptr<StudyFile> load(const std::filesystem::path& path);
-    static std::shared_ptr<StudyFile> parse(std::string_view text, const std::filesystem::path& name);
+    static std::shared_ptr<StudyFile> parse(std::string_view text,
+                                            const std::filesystem::path& name);
     ~StudyFile();
 
     ParameterTable root();

@@ -32,16 +32,18 @@ std::uint64_t fnv1a(const std::string& text) {
     return h;
 }
 
-std::string canonical(const GoniometerConfig& c, const std::string& scatterer, Estimator estimator) {
-    std::string s = fmt::format("{}|{}|{:.17g}|{:.17g}|{}|{}|{}|", scatterer, c.direction_set, c.detector_half_angle_rad,
-                                c.beam_radius_um, c.seed, c.quanta_per_pass, static_cast<int>(estimator));
+std::string canonical(const GoniometerConfig& c, const std::string& scatterer,
+                      Estimator estimator) {
+    std::string s = fmt::format("{}|{}|{:.17g}|{:.17g}|{}|{}|{}|", scatterer, c.direction_set,
+                                c.detector_half_angle_rad, c.beam_radius_um, c.seed,
+                                c.quanta_per_pass, static_cast<int>(estimator));
     for (double l : c.wavelengths_nm) s += fmt::format("{:.17g},", l);
     // The study text describes the scene the scatterer was built from (its name alone does not:
     // a changed geometry under the same instrument must not resume another run's sums).
     s += c.config_text + "|";
     for (const auto& p : c.pairs) {
-        s += fmt::format("{:.17g},{:.17g},{:.17g},{:.17g},{:.17g},{:.17g};", p.wi.x(), p.wi.y(), p.wi.z(), p.wo.x(),
-                         p.wo.y(), p.wo.z());
+        s += fmt::format("{:.17g},{:.17g},{:.17g},{:.17g},{:.17g},{:.17g};", p.wi.x(), p.wi.y(),
+                         p.wi.z(), p.wo.x(), p.wo.y(), p.wo.z());
     }
     return s;
 }
@@ -77,20 +79,24 @@ double relative_rms(const std::vector<double>& value, const std::vector<double>&
             ++n;
         }
     }
-    return n > 0 ? std::sqrt(acc / static_cast<double>(n)) : std::numeric_limits<double>::infinity();
+    return n > 0 ? std::sqrt(acc / static_cast<double>(n))
+                 : std::numeric_limits<double>::infinity();
 }
 
-void write_checkpoint(const std::filesystem::path& path, const Sums& sums, const BrdfRecord& r, std::uint64_t hash) {
+void write_checkpoint(const std::filesystem::path& path, const Sums& sums, const BrdfRecord& r,
+                      std::uint64_t hash) {
     record::Hdf5Writer h5(path);
     using Dims = std::vector<std::uint64_t>;
     h5.write("sum", std::span<const double>(sums.sum), Dims{sums.sum.size()});
     h5.write("sum_sq", std::span<const double>(sums.sum_sq), Dims{sums.sum_sq.size()});
     h5.write("lobe_sum", std::span<const double>(sums.lobe_sum), Dims{sums.lobe_sum.size()});
-    h5.write("lobe_sum_sq", std::span<const double>(sums.lobe_sum_sq), Dims{sums.lobe_sum_sq.size()});
+    h5.write("lobe_sum_sq", std::span<const double>(sums.lobe_sum_sq),
+             Dims{sums.lobe_sum_sq.size()});
     std::vector<double> table;
     for (const auto& row : r.convergence) {
-        table.insert(table.end(), {static_cast<double>(row.pass), row.wall_time_s, static_cast<double>(row.quanta),
-                                   row.estimated_relative_rms_error});
+        table.insert(table.end(),
+                     {static_cast<double>(row.pass), row.wall_time_s,
+                      static_cast<double>(row.quanta), row.estimated_relative_rms_error});
     }
     h5.write("convergence", std::span<const double>(table), Dims{r.convergence.size(), 4});
     h5.set_attribute("/", "config_hash", fmt::format("{}", hash));
@@ -99,12 +105,14 @@ void write_checkpoint(const std::filesystem::path& path, const Sums& sums, const
     h5.commit();
 }
 
-bool read_checkpoint(const std::filesystem::path& path, Sums& sums, BrdfRecord& r, std::uint64_t hash) {
+bool read_checkpoint(const std::filesystem::path& path, Sums& sums, BrdfRecord& r,
+                     std::uint64_t hash) {
     if (path.empty() || !std::filesystem::exists(path)) return false;
     if (record::read_string_attribute(path, "/", "config_hash") != fmt::format("{}", hash)) {
-        throw InputError(fmt::format("goniometer: checkpoint '{}' belongs to a different measurement (its "
-                                     "configuration differs); remove it to start afresh",
-                                     path.string()));
+        throw InputError(
+            fmt::format("goniometer: checkpoint '{}' belongs to a different measurement (its "
+                        "configuration differs); remove it to start afresh",
+                        path.string()));
     }
     sums.sum = record::read_dataset(path, "sum").values;
     sums.sum_sq = record::read_dataset(path, "sum_sq").values;
@@ -113,7 +121,8 @@ bool read_checkpoint(const std::filesystem::path& path, Sums& sums, BrdfRecord& 
     const auto table = record::read_dataset(path, "convergence");
     for (std::size_t i = 0; i + 3 < table.values.size(); i += 4) {
         r.convergence.push_back({static_cast<int>(table.values[i]), table.values[i + 1],
-                                 static_cast<std::uint64_t>(table.values[i + 2]), table.values[i + 3]});
+                                 static_cast<std::uint64_t>(table.values[i + 2]),
+                                 table.values[i + 3]});
     }
     r.passes = static_cast<int>(record::read_number_attribute(path, "/", "passes"));
     r.wall_time_s = record::read_number_attribute(path, "/", "wall_time_s");
@@ -128,22 +137,28 @@ void GoniometerConfig::validate() const {
         const auto& p = pairs[i];
         require(std::abs(p.wi.norm() - 1.0) < 1e-9 && std::abs(p.wo.norm() - 1.0) < 1e-9,
                 fmt::format("pair {}: light and view must be unit vectors", i));
-        require(p.wi.z() > 0.0, fmt::format("pair {}: the light must be above the patch (z > 0)", i));
+        require(p.wi.z() > 0.0,
+                fmt::format("pair {}: the light must be above the patch (z > 0)", i));
         require(p.wo.z() > std::sin(detector_half_angle_rad),
-                fmt::format("pair {}: view direction at {:.2f} deg from the normal: its detector cone must stay "
+                fmt::format("pair {}: view direction at {:.2f} deg from the normal: its detector "
+                            "cone must stay "
                             "above the patch plane",
                             i, std::acos(std::clamp(p.wo.z(), -1.0, 1.0)) * 180.0 / kPi));
     }
     require(!wavelengths_nm.empty(), "no wavelengths");
-    for (double l : wavelengths_nm) require(std::isfinite(l) && l > 0.0, fmt::format("wavelength {} nm", l));
-    require(std::isfinite(detector_half_angle_rad) && detector_half_angle_rad > 0.0 && detector_half_angle_rad < 0.5,
+    for (double l : wavelengths_nm)
+        require(std::isfinite(l) && l > 0.0, fmt::format("wavelength {} nm", l));
+    require(std::isfinite(detector_half_angle_rad) && detector_half_angle_rad > 0.0 &&
+                detector_half_angle_rad < 0.5,
             fmt::format("detector half-angle {} rad: expected (0, 0.5)", detector_half_angle_rad));
-    require(std::isfinite(beam_radius_um) && beam_radius_um >= 0.0, "beam radius must be finite and >= 0 um");
+    require(std::isfinite(beam_radius_um) && beam_radius_um >= 0.0,
+            "beam radius must be finite and >= 0 um");
     require(quanta_per_pass >= 1, "quanta_per_pass must be >= 1");
     require(max_passes >= 1, "max_passes must be >= 1");
     require(time_budget_s > 0.0, "time budget must be > 0 s");
     require(target_relative_error >= 0.0, "target relative error must be >= 0");
-    require(eval_rings >= 1 && eval_rings <= 64, fmt::format("eval_rings = {}: expected 1..64", eval_rings));
+    require(eval_rings >= 1 && eval_rings <= 64,
+            fmt::format("eval_rings = {}: expected 1..64", eval_rings));
 }
 
 namespace {
@@ -180,7 +195,8 @@ BrdfRecord measure_by_eval(const Scatterer& scatterer, const GoniometerConfig& c
             }
             const double weight = 2.0 / ((1.0 - x * x) * dp * dp);
             for (int k = 0; k < azimuths; ++k) {
-                rule.push_back({0.5 * (x + 1.0), 2.0 * kPi * (k + 0.5 * (i % 2)) / azimuths, 0.5 * weight});
+                rule.push_back(
+                    {0.5 * (x + 1.0), 2.0 * kPi * (k + 0.5 * (i % 2)) / azimuths, 0.5 * weight});
             }
         }
         return rule;
@@ -195,7 +211,8 @@ BrdfRecord measure_by_eval(const Scatterer& scatterer, const GoniometerConfig& c
         std::vector<double> per_lobe(nlobes, 0.0), acc(nlobes, 0.0);
         for (const Node& n : rule) {
             const double sin_b = std::sqrt(n.u * s2), cos_b = std::sqrt(1.0 - n.u * s2);
-            const Vec3d w = cos_b * p.wo + sin_b * (std::cos(n.gamma) * e1 + std::sin(n.gamma) * e2);
+            const Vec3d w =
+                cos_b * p.wo + sin_b * (std::cos(n.gamma) * e1 + std::sin(n.gamma) * e2);
             const double weight = n.w * w.z() / cos_b;
             num += weight * scatterer.eval(p.wi, w, lambda, per_lobe);
             for (std::size_t l = 0; l < nlobes; ++l) acc[l] += weight * per_lobe[l];
@@ -221,10 +238,12 @@ BrdfRecord measure_by_eval(const Scatterer& scatterer, const GoniometerConfig& c
         std::vector<double> lobes(nlobes);
         for (std::size_t k = 0; k < nl; ++k) {
             const double fine_value = cone_average(c.pairs[p], c.wavelengths_nm[k], fine, &lobes);
-            const double coarse_value = cone_average(c.pairs[p], c.wavelengths_nm[k], coarse, nullptr);
+            const double coarse_value =
+                cone_average(c.pairs[p], c.wavelengths_nm[k], coarse, nullptr);
             r.value[p * nl + k] = fine_value;
             r.standard_error[p * nl + k] = std::abs(fine_value - coarse_value);
-            for (std::size_t l = 0; l < nlobes; ++l) r.lobe_values[(l * c.pairs.size() + p) * nl + k] = lobes[l];
+            for (std::size_t l = 0; l < nlobes; ++l)
+                r.lobe_values[(l * c.pairs.size() + p) * nl + k] = lobes[l];
         }
     }
     if (abandoned.load()) {
@@ -239,7 +258,8 @@ BrdfRecord measure_by_eval(const Scatterer& scatterer, const GoniometerConfig& c
 
 }  // namespace
 
-BrdfRecord measure_brdf(const Scatterer& scatterer, const GoniometerConfig& config, const RunControl& control) {
+BrdfRecord measure_brdf(const Scatterer& scatterer, const GoniometerConfig& config,
+                        const RunControl& control) {
     config.validate();
     const auto start = std::chrono::steady_clock::now();
     BrdfRecord r;
@@ -253,25 +273,28 @@ BrdfRecord measure_brdf(const Scatterer& scatterer, const GoniometerConfig& conf
                            : config.estimator;
     if (r.estimator_used == Estimator::eval) {
         if (!scatterer.can_evaluate()) {
-            throw InputError(fmt::format("goniometer: estimator 'eval' needs a scatterer that evaluates f; {} does "
-                                         "not (use 'photon')",
-                                         scatterer.name()));
+            throw InputError(fmt::format(
+                "goniometer: estimator 'eval' needs a scatterer that evaluates f; {} does "
+                "not (use 'photon')",
+                scatterer.name()));
         }
         return measure_by_eval(scatterer, config, std::move(r), start);
     }
 
-    const std::size_t nl = config.wavelengths_nm.size(), np = config.pairs.size(), nlobes = r.lobes.size();
+    const std::size_t nl = config.wavelengths_nm.size(), np = config.pairs.size(),
+                      nlobes = r.lobes.size();
     const std::vector<Group> groups = group_by_light(config.pairs);
     const double alpha = config.detector_half_angle_rad, cos_alpha = std::cos(alpha);
     const double projected = kPi * std::pow(std::sin(alpha), 2);  // × cos θ_v per pair
     const std::uint64_t hash = fnv1a(canonical(config, r.scatterer, r.estimator_used));
 
     Sums sums{std::vector<double>(np * nl, 0.0), std::vector<double>(np * nl, 0.0),
-              std::vector<double>(nlobes * np * nl, 0.0), std::vector<double>(nlobes * np * nl, 0.0)};
+              std::vector<double>(nlobes * np * nl, 0.0),
+              std::vector<double>(nlobes * np * nl, 0.0)};
     const bool resumed = read_checkpoint(control.checkpoint, sums, r, hash);
     if (resumed && control.progress) {
-        std::cerr << fmt::format("  {}: resuming after {} completed passes from {}\n", r.scatterer, r.passes,
-                                 control.checkpoint.string());
+        std::cerr << fmt::format("  {}: resuming after {} completed passes from {}\n", r.scatterer,
+                                 r.passes, control.checkpoint.string());
     }
     const double previous_wall = resumed ? r.wall_time_s : 0.0;
 
@@ -290,16 +313,20 @@ BrdfRecord measure_brdf(const Scatterer& scatterer, const GoniometerConfig& conf
         for (std::size_t i = 0; i < np * nl; ++i) {
             const double mean = sums.sum[i] / dn;
             r.value[i] = mean;
-            r.standard_error[i] = std::sqrt(std::max(0.0, sums.sum_sq[i] / dn - mean * mean) / std::max(1.0, dn - 1.0));
+            r.standard_error[i] = std::sqrt(std::max(0.0, sums.sum_sq[i] / dn - mean * mean) /
+                                            std::max(1.0, dn - 1.0));
         }
         r.lobe_standard_error.assign(nlobes * np * nl, 0.0);
         for (std::size_t i = 0; i < r.lobe_values.size(); ++i) {
             r.lobe_values[i] = sums.lobe_sum[i] / dn;
-            r.lobe_standard_error[i] = std::sqrt(std::max(0.0, sums.lobe_sum_sq[i] / dn - r.lobe_values[i] * r.lobe_values[i]) /
-                                                 std::max(1.0, dn - 1.0));
+            r.lobe_standard_error[i] = std::sqrt(
+                std::max(0.0, sums.lobe_sum_sq[i] / dn - r.lobe_values[i] * r.lobe_values[i]) /
+                std::max(1.0, dn - 1.0));
         }
         r.quanta = n;
-        r.wall_time_s = previous_wall + std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+        r.wall_time_s =
+            previous_wall +
+            std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
         return ConvergenceRow{pass, r.wall_time_s, n, relative_rms(r.value, r.standard_error)};
     };
     if (resumed && r.passes > 0) finish_row(r.passes);
@@ -315,8 +342,10 @@ BrdfRecord measure_brdf(const Scatterer& scatterer, const GoniometerConfig& conf
         for (std::size_t g = 0; g < groups.size(); ++g)
             for (std::size_t k = 0; k < nl; ++k)
                 for (std::uint64_t c = 0; c < chunks; ++c) {
-                    const std::uint64_t first = static_cast<std::uint64_t>(pass) * config.quanta_per_pass + c * kChunk;
-                    items.push_back({g, k, first, std::min(kChunk, config.quanta_per_pass - c * kChunk)});
+                    const std::uint64_t first =
+                        static_cast<std::uint64_t>(pass) * config.quanta_per_pass + c * kChunk;
+                    items.push_back(
+                        {g, k, first, std::min(kChunk, config.quanta_per_pass - c * kChunk)});
                 }
         // Per item: its cells' partial sums, in the group's pair order.
         std::vector<std::vector<double>> partial(items.size());
@@ -345,9 +374,11 @@ BrdfRecord measure_brdf(const Scatterer& scatterer, const GoniometerConfig& conf
                 const Vec3d offset = radius * (std::cos(angle) * e1 + std::sin(angle) * e2);
                 const Vec2 position(offset.x() - offset.z() * group.wi.x() / group.wi.z(),
                                     offset.y() - offset.z() * group.wi.y() / group.wi.z());
-                const auto event = scatterer.sample(group.wi, config.wavelengths_nm[item.wavelength], position, rng);
+                const auto event = scatterer.sample(
+                    group.wi, config.wavelengths_nm[item.wavelength], position, rng);
                 if (!event || !(event->weight > 0.0)) continue;
-                PLUMAGE_CHECK(std::isfinite(event->weight), "non-finite quantum weight from " + scatterer.name());
+                PLUMAGE_CHECK(std::isfinite(event->weight),
+                              "non-finite quantum weight from " + scatterer.name());
                 for (std::size_t j = 0; j < m; ++j) {
                     const Vec3d& wo = config.pairs[group.pairs[j]].wo;
                     if (event->wo.dot(wo) < cos_alpha) continue;
@@ -384,10 +415,12 @@ BrdfRecord measure_brdf(const Scatterer& scatterer, const GoniometerConfig& conf
         if (!control.checkpoint.empty()) write_checkpoint(control.checkpoint, sums, r, hash);
         if (control.progress) {
             const auto& row = r.convergence.back();
-            std::cerr << fmt::format("\r  {}: pass {} of at most {}, {} quanta per direction, est. error {:.3g} %, "
-                                     "{:.1f} s   ",
-                                     scatterer.name(), row.pass, config.max_passes, row.quanta,
-                                     100.0 * row.estimated_relative_rms_error, row.wall_time_s)
+            std::cerr << fmt::format(
+                             "\r  {}: pass {} of at most {}, {} quanta per direction, est. error "
+                             "{:.3g} %, "
+                             "{:.1f} s   ",
+                             scatterer.name(), row.pass, config.max_passes, row.quanta,
+                             100.0 * row.estimated_relative_rms_error, row.wall_time_s)
                       << std::flush;
         }
         if (control.on_pass) control.on_pass(r.convergence.back());
@@ -397,17 +430,21 @@ BrdfRecord measure_brdf(const Scatterer& scatterer, const GoniometerConfig& conf
     if (r.interrupted && control.checkpoint.empty()) {
         // Without a checkpoint nobody keeps the completed passes: a partial record must not
         // flow on into figures and comparisons as if it were the measurement.
-        throw Interrupted(fmt::format("interrupted while measuring the BRDF of {} (pass {} of at most {})",
-                                      r.scatterer, r.passes + 1, config.max_passes));
+        throw Interrupted(
+            fmt::format("interrupted while measuring the BRDF of {} (pass {} of at most {})",
+                        r.scatterer, r.passes + 1, config.max_passes));
     }
     return r;
 }
 
-record::RgbImage brdf_fingerprint(const BrdfRecord& r, int lights, int views, int block, double exposure) {
+record::RgbImage brdf_fingerprint(const BrdfRecord& r, int lights, int views, int block,
+                                  double exposure) {
     const std::size_t nl = r.config.wavelengths_nm.size();
-    PLUMAGE_CHECK(lights > 0 && views > 0 && block > 0 &&
-                      static_cast<std::size_t>(lights) * static_cast<std::size_t>(views) == r.config.pairs.size(),
-                  fmt::format("fingerprint {} x {} of {} pairs", lights, views, r.config.pairs.size()));
+    PLUMAGE_CHECK(
+        lights > 0 && views > 0 && block > 0 &&
+            static_cast<std::size_t>(lights) * static_cast<std::size_t>(views) ==
+                r.config.pairs.size(),
+        fmt::format("fingerprint {} x {} of {} pairs", lights, views, r.config.pairs.size()));
     const SpectrumToDisplay display(r.config.wavelengths_nm);
     std::vector<optics::Xyz> xyz(r.config.pairs.size());
     double peak = 0.0;
@@ -421,7 +458,8 @@ record::RgbImage brdf_fingerprint(const BrdfRecord& r, int lights, int views, in
         for (int v = 0; v < views; ++v) {
             const auto rgb = display_bytes(xyz[static_cast<std::size_t>(l) * views + v], exposure);
             for (int dy = 0; dy < block; ++dy)
-                for (int dx = 0; dx < block; ++dx) image.set(v * block + dx, l * block + dy, rgb[0], rgb[1], rgb[2]);
+                for (int dx = 0; dx < block; ++dx)
+                    image.set(v * block + dx, l * block + dy, rgb[0], rgb[1], rgb[2]);
         }
     }
     return image;
@@ -437,43 +475,53 @@ void write_brdf_record(const BrdfRecord& r, const std::filesystem::path& path) {
         light.insert(light.end(), {p.wi.x(), p.wi.y(), p.wi.z()});
         view.insert(view.end(), {p.wo.x(), p.wo.y(), p.wo.z()});
         auto deg = [](double v) { return v * 180.0 / kPi; };
-        angles.insert(angles.end(), {deg(std::acos(p.wi.z())), deg(std::atan2(p.wi.y(), p.wi.x())),
-                                     deg(std::acos(p.wo.z())), deg(std::atan2(p.wo.y(), p.wo.x()))});
+        angles.insert(angles.end(),
+                      {deg(std::acos(p.wi.z())), deg(std::atan2(p.wi.y(), p.wi.x())),
+                       deg(std::acos(p.wo.z())), deg(std::atan2(p.wo.y(), p.wo.x()))});
     }
     h5.set_attribute("/", "format", "plumage record 1 (virtual_gonio/RECORD.md)");
-    h5.write("instrument/light_directions", std::span<const double>(light), Dims{np, 3},
-             {{"description", "unit vectors towards the light, patch frame (+z normal, +x barb axis)"}});
+    h5.write(
+        "instrument/light_directions", std::span<const double>(light), Dims{np, 3},
+        {{"description", "unit vectors towards the light, patch frame (+z normal, +x barb axis)"}});
     h5.write("instrument/view_directions", std::span<const double>(view), Dims{np, 3},
              {{"description", "unit vectors towards the detector centres, patch frame"}});
     h5.write("instrument/angles_deg", std::span<const double>(angles), Dims{np, 4},
              {{"description", "theta_light, phi_light, theta_view, phi_view (deg; phi from +x)"}});
     h5.set_attribute("/instrument", "kind", "goniometer");
     h5.set_attribute("/instrument", "direction_set", c.direction_set);
-    h5.set_attribute("/instrument", "detector_half_angle_deg", c.detector_half_angle_rad * 180.0 / kPi);
+    h5.set_attribute("/instrument", "detector_half_angle_deg",
+                     c.detector_half_angle_rad * 180.0 / kPi);
     h5.set_attribute("/instrument", "detector_solid_angle_sr", r.detector_solid_angle_sr);
     h5.set_attribute("/instrument", "beam_radius_um", c.beam_radius_um);
-    h5.set_attribute("/instrument", "estimator", r.estimator_used == Estimator::eval ? "eval" : "photon");
-    h5.write("wavelength_nm", std::span<const double>(c.wavelengths_nm), Dims{nl}, {{"units", "nm"}});
+    h5.set_attribute("/instrument", "estimator",
+                     r.estimator_used == Estimator::eval ? "eval" : "photon");
+    h5.write("wavelength_nm", std::span<const double>(c.wavelengths_nm), Dims{nl},
+             {{"units", "nm"}});
     h5.write("brdf/value", std::span<const double>(r.value), Dims{np, nl},
-             {{"units", "1/sr"}, {"description", "BRDF averaged over each detector cone (cosine-weighted)"}});
-    h5.write("brdf/standard_error", std::span<const double>(r.standard_error), Dims{np, nl}, {{"units", "1/sr"}});
+             {{"units", "1/sr"},
+              {"description", "BRDF averaged over each detector cone (cosine-weighted)"}});
+    h5.write("brdf/standard_error", std::span<const double>(r.standard_error), Dims{np, nl},
+             {{"units", "1/sr"}});
     for (std::size_t l = 0; l < r.lobes.size(); ++l) {
         h5.write("brdf/lobes/" + r.lobes[l],
                  std::span<const double>(r.lobe_values.data() + l * np * nl, np * nl), Dims{np, nl},
                  {{"units", "1/sr"}});
         if (r.lobe_standard_error.size() == r.lobe_values.size()) {
             h5.write("brdf/lobe_standard_errors/" + r.lobes[l],
-                     std::span<const double>(r.lobe_standard_error.data() + l * np * nl, np * nl), Dims{np, nl},
-                     {{"units", "1/sr"}});
+                     std::span<const double>(r.lobe_standard_error.data() + l * np * nl, np * nl),
+                     Dims{np, nl}, {{"units", "1/sr"}});
         }
     }
     std::vector<double> table;
     for (const auto& row : r.convergence) {
-        table.insert(table.end(), {static_cast<double>(row.pass), row.wall_time_s, static_cast<double>(row.quanta),
-                                   row.estimated_relative_rms_error});
+        table.insert(table.end(),
+                     {static_cast<double>(row.pass), row.wall_time_s,
+                      static_cast<double>(row.quanta), row.estimated_relative_rms_error});
     }
-    h5.write("convergence", std::span<const double>(table), Dims{r.convergence.size(), 4},
-             {{"columns", "pass, wall_time_s, quanta_per_direction_and_wavelength, estimated_relative_rms_error"}});
+    h5.write(
+        "convergence", std::span<const double>(table), Dims{r.convergence.size(), 4},
+        {{"columns",
+          "pass, wall_time_s, quanta_per_direction_and_wavelength, estimated_relative_rms_error"}});
     h5.create_group("provenance");
     h5.set_attribute("/provenance", "scatterer", r.scatterer);
     h5.set_attribute("/provenance", "plumage_version", kVersion);

@@ -94,13 +94,14 @@ struct RunControl {
     // Polled between chunks of work; by default the process-wide flag that a
     // ScopedInterruptHandler sets on SIGINT/SIGTERM (never set while none is installed).
     const std::atomic<bool>* interrupt = &interrupt_flag();
-    std::function<void(const ConvergenceRow&)> on_pass;  // after each completed pass
+    std::function<void(const ConvergenceRow&)> on_pass;     // after each completed pass
     std::function<void(const BrdfRecord&)> on_pass_record;  // the same moment, with the values
     std::filesystem::path checkpoint;  // empty: none; else resumed from and written after each pass
     bool progress = false;             // progress line on stderr
 };
 
-BrdfRecord measure_brdf(const Scatterer& scatterer, const GoniometerConfig& config, const RunControl& control = {});
+BrdfRecord measure_brdf(const Scatterer& scatterer, const GoniometerConfig& config,
+                        const RunControl& control = {});
 
 // Filip et al. 2024, Fig. 7: the "BRDF fingerprint" of a light-major pair list (pair =
 // light × views + view): one block of `block` × `block` pixels per pair, rows the light

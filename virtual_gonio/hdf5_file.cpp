@@ -50,7 +50,8 @@ Hdf5Writer::Hdf5Writer(std::filesystem::path final_path) : final_path_(std::move
     temporary_path_ = final_path_;
     temporary_path_ += fmt::format(".partial-{}", ::getpid());
     file_ = H5Fcreate(temporary_path_.c_str(), H5F_ACC_TRUNC, H5P_DEFAULT, H5P_DEFAULT);
-    if (file_ < 0) fail(temporary_path_, "cannot create (does the directory exist and is it writable?)");
+    if (file_ < 0)
+        fail(temporary_path_, "cannot create (does the directory exist and is it writable?)");
 }
 
 Hdf5Writer::~Hdf5Writer() {
@@ -101,8 +102,8 @@ void Hdf5Writer::write_typed(const std::string& dataset_path, std::span<const T>
                              const std::vector<std::uint64_t>& dims, const Attributes& attributes,
                              std::int64_t memory_type, std::int64_t file_type) {
     if (file_ < 0) fail(final_path_, "write after commit()");
-    const std::uint64_t count = std::accumulate(dims.begin(), dims.end(), std::uint64_t{1},
-                                                std::multiplies<>());
+    const std::uint64_t count =
+        std::accumulate(dims.begin(), dims.end(), std::uint64_t{1}, std::multiplies<>());
     PLUMAGE_CHECK(count == data.size(), fmt::format("dataset {}: dims give {} values, data has {}",
                                                     dataset_path, count, data.size()));
     ensure_parent_groups(dataset_path);
@@ -114,8 +115,8 @@ void Hdf5Writer::write_typed(const std::string& dataset_path, std::span<const T>
         // Chunk along the leading dimension only: whole trailing rows stay together.
         std::vector<hsize_t> chunk = h5dims;
         const hsize_t row = count / std::max<hsize_t>(1, h5dims[0]);
-        chunk[0] = std::max<hsize_t>(1, std::min<hsize_t>(h5dims[0], (256 * 1024 / sizeof(T)) /
-                                                                         std::max<hsize_t>(1, row)));
+        chunk[0] = std::max<hsize_t>(
+            1, std::min<hsize_t>(h5dims[0], (256 * 1024 / sizeof(T)) / std::max<hsize_t>(1, row)));
         check(H5Pset_chunk(properties.get(), static_cast<int>(chunk.size()), chunk.data()),
               temporary_path_, "chunking " + dataset_path);
         check(H5Pset_deflate(properties.get(), 4), temporary_path_, "compression " + dataset_path);
@@ -153,7 +154,8 @@ void Hdf5Writer::set_attribute(const std::string& object_path, const std::string
     Handle attribute(H5Acreate_by_name(file_, object_path.c_str(), name.c_str(), type.get(),
                                        space.get(), H5P_DEFAULT, H5P_DEFAULT, H5P_DEFAULT),
                      H5Aclose);
-    if (!attribute.valid()) fail(temporary_path_, "cannot create attribute " + object_path + "@" + name);
+    if (!attribute.valid())
+        fail(temporary_path_, "cannot create attribute " + object_path + "@" + name);
     const char* text = value.c_str();
     check(H5Awrite(attribute.get(), type.get(), &text), temporary_path_,
           "cannot write attribute " + name);
@@ -166,7 +168,8 @@ void Hdf5Writer::set_attribute(const std::string& object_path, const std::string
     Handle attribute(H5Acreate_by_name(file_, object_path.c_str(), name.c_str(), H5T_IEEE_F64LE,
                                        space.get(), H5P_DEFAULT, H5P_DEFAULT, H5P_DEFAULT),
                      H5Aclose);
-    if (!attribute.valid()) fail(temporary_path_, "cannot create attribute " + object_path + "@" + name);
+    if (!attribute.valid())
+        fail(temporary_path_, "cannot create attribute " + object_path + "@" + name);
     check(H5Awrite(attribute.get(), H5T_NATIVE_DOUBLE, &value), temporary_path_,
           "cannot write attribute " + name);
 }
@@ -195,9 +198,9 @@ std::string read_string_attribute(const std::filesystem::path& file, const std::
                                   const std::string& name) {
     Handle f(H5Fopen(file.c_str(), H5F_ACC_RDONLY, H5P_DEFAULT), H5Fclose);
     if (!f.valid()) fail(file, "cannot open for reading");
-    Handle attribute(H5Aopen_by_name(f.get(), object_path.c_str(), name.c_str(), H5P_DEFAULT,
-                                     H5P_DEFAULT),
-                     H5Aclose);
+    Handle attribute(
+        H5Aopen_by_name(f.get(), object_path.c_str(), name.c_str(), H5P_DEFAULT, H5P_DEFAULT),
+        H5Aclose);
     if (!attribute.valid()) fail(file, "no attribute " + object_path + "@" + name);
     Handle type(H5Aget_type(attribute.get()), H5Tclose);
     if (H5Tis_variable_str(type.get()) > 0) {
@@ -205,13 +208,15 @@ std::string read_string_attribute(const std::filesystem::path& file, const std::
         H5Tset_size(memory_type.get(), H5T_VARIABLE);
         H5Tset_cset(memory_type.get(), H5T_CSET_UTF8);
         char* text = nullptr;
-        check(H5Aread(attribute.get(), memory_type.get(), &text), file, "cannot read attribute " + name);
+        check(H5Aread(attribute.get(), memory_type.get(), &text), file,
+              "cannot read attribute " + name);
         std::string value = text != nullptr ? text : "";
         H5free_memory(text);
         return value;
     }
     std::string value(H5Tget_size(type.get()), '\0');
-    check(H5Aread(attribute.get(), type.get(), value.data()), file, "cannot read attribute " + name);
+    check(H5Aread(attribute.get(), type.get(), value.data()), file,
+          "cannot read attribute " + name);
     value.erase(value.find_last_not_of('\0') + 1);
     return value;
 }
@@ -220,11 +225,13 @@ double read_number_attribute(const std::filesystem::path& file, const std::strin
                              const std::string& name) {
     Handle f(H5Fopen(file.c_str(), H5F_ACC_RDONLY, H5P_DEFAULT), H5Fclose);
     if (!f.valid()) fail(file, "cannot open for reading");
-    Handle attribute(H5Aopen_by_name(f.get(), object_path.c_str(), name.c_str(), H5P_DEFAULT, H5P_DEFAULT),
-                     H5Aclose);
+    Handle attribute(
+        H5Aopen_by_name(f.get(), object_path.c_str(), name.c_str(), H5P_DEFAULT, H5P_DEFAULT),
+        H5Aclose);
     if (!attribute.valid()) fail(file, "no attribute " + object_path + "@" + name);
     double value = 0.0;
-    check(H5Aread(attribute.get(), H5T_NATIVE_DOUBLE, &value), file, "cannot read attribute " + name);
+    check(H5Aread(attribute.get(), H5T_NATIVE_DOUBLE, &value), file,
+          "cannot read attribute " + name);
     return value;
 }
 

@@ -19,7 +19,8 @@ RgbImage::RgbImage(int w, int h) : width(w), height(h) {
 
 void RgbImage::set(int x, int y, std::uint8_t r, std::uint8_t g, std::uint8_t b) {
     const std::size_t i = (static_cast<std::size_t>(y) * static_cast<std::size_t>(width) +
-                           static_cast<std::size_t>(x)) * 3;
+                           static_cast<std::size_t>(x)) *
+                          3;
     pixels[i] = r;
     pixels[i + 1] = g;
     pixels[i + 2] = b;
@@ -33,7 +34,8 @@ void RgbImage::fill(std::uint8_t r, std::uint8_t g, std::uint8_t b) {
     }
 }
 
-void RgbImage::draw_line(double x0, double y0, double x1, double y1, const std::array<std::uint8_t, 3>& rgb) {
+void RgbImage::draw_line(double x0, double y0, double x1, double y1,
+                         const std::array<std::uint8_t, 3>& rgb) {
     // Sample the segment at half-pixel steps: simple, and thin lines stay connected.
     const double length = std::hypot(x1 - x0, y1 - y0);
     const int steps = std::max(1, static_cast<int>(std::ceil(2.0 * length)));
@@ -55,7 +57,8 @@ void RgbImage::fill_polygon(const std::vector<std::array<double, 2>>& polygon,
         for (std::size_t i = 0; i < n; ++i) {
             const auto& a = polygon[i];
             const auto& b = polygon[(i + 1) % n];
-            if ((a[1] <= yc) != (b[1] <= yc)) xs.push_back(a[0] + (yc - a[1]) * (b[0] - a[0]) / (b[1] - a[1]));
+            if ((a[1] <= yc) != (b[1] <= yc))
+                xs.push_back(a[0] + (yc - a[1]) * (b[0] - a[0]) / (b[1] - a[1]));
         }
         std::sort(xs.begin(), xs.end());
         for (std::size_t k = 0; k + 1 < xs.size(); k += 2) {
@@ -71,7 +74,8 @@ RgbImage upscaled(const RgbImage& image, int factor) {
     RgbImage out(image.width * factor, image.height * factor);
     for (int y = 0; y < out.height; ++y) {
         for (int x = 0; x < out.width; ++x) {
-            const std::size_t i = (static_cast<std::size_t>(y / factor) * image.width + x / factor) * 3;
+            const std::size_t i =
+                (static_cast<std::size_t>(y / factor) * image.width + x / factor) * 3;
             out.set(x, y, image.pixels[i], image.pixels[i + 1], image.pixels[i + 2]);
         }
     }

@@ -18,9 +18,11 @@ struct RgbImage {
     void set(int x, int y, std::uint8_t r, std::uint8_t g, std::uint8_t b);
     void fill(std::uint8_t r, std::uint8_t g, std::uint8_t b);
     // Drawing for previews, in pixel coordinates (x right, y down); clipped to the image.
-    void draw_line(double x0, double y0, double x1, double y1, const std::array<std::uint8_t, 3>& rgb);
+    void draw_line(double x0, double y0, double x1, double y1,
+                   const std::array<std::uint8_t, 3>& rgb);
     // Even–odd scanline fill of a closed polygon given as (x, y) pairs.
-    void fill_polygon(const std::vector<std::array<double, 2>>& polygon, const std::array<std::uint8_t, 3>& rgb);
+    void fill_polygon(const std::vector<std::array<double, 2>>& polygon,
+                      const std::array<std::uint8_t, 3>& rgb);
 };
 
 // Nearest-neighbour enlargement by an integer factor, so small instrument images are

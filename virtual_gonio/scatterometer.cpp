@@ -47,9 +47,11 @@ void ScatterometerConfig::validate() const {
     require(illumination != Illumination::cone ||
                 std::acos(beam_direction.z()) + 0.5 * cone_aperture_rad < 0.5 * kPi,
             "the illumination cone must stay above the patch plane");
-    require(image_size >= 9 && image_size <= 4096, fmt::format("image_size {}: expected 9..4096", image_size));
+    require(image_size >= 9 && image_size <= 4096,
+            fmt::format("image_size {}: expected 9..4096", image_size));
     require(!wavelengths_nm.empty(), "no wavelengths");
-    for (double l : wavelengths_nm) require(std::isfinite(l) && l > 0.0, fmt::format("wavelength {} nm", l));
+    for (double l : wavelengths_nm)
+        require(std::isfinite(l) && l > 0.0, fmt::format("wavelength {} nm", l));
     require(std::isfinite(beam_radius_um) && beam_radius_um >= 0.0, "beam radius must be >= 0 um");
     require(quanta_per_pass >= 1 && max_passes >= 1, "quanta_per_pass and max_passes must be >= 1");
 }
@@ -81,7 +83,8 @@ Scatterogram measure_scatterogram(const Scatterer& scatterer, const Scatteromete
             const double r = std::hypot(u, v);
             if (r > 1.0) continue;
             // Equidistant map: dω = (π/2) sin(πr/2)/r du dv (→ π²/4 at the centre).
-            const double jacobian = r > 1e-12 ? 0.5 * kPi * std::sin(0.5 * kPi * r) / r : 0.25 * kPi * kPi;
+            const double jacobian =
+                r > 1e-12 ? 0.5 * kPi * std::sin(0.5 * kPi * r) / r : 0.25 * kPi * kPi;
             s.solid_angle_sr[static_cast<std::size_t>(row) * n + column] = jacobian * pixel * pixel;
         }
     }
@@ -99,19 +102,23 @@ Scatterogram measure_scatterogram(const Scatterer& scatterer, const Scatteromete
     while (s.passes < config.max_passes) {
         if (!s.convergence.empty()) {
             const auto& last = s.convergence.back();
-            if (last.estimated_relative_rms_error <= config.target_relative_error || last.wall_time_s >= config.time_budget_s) {
+            if (last.estimated_relative_rms_error <= config.target_relative_error ||
+                last.wall_time_s >= config.time_budget_s) {
                 break;
             }
         }
-        const int strata = config.illumination == Illumination::beam ? 1 : config.illumination_strata;
-        const std::uint64_t per_stratum = (config.quanta_per_pass + static_cast<std::uint64_t>(strata) - 1) /
-                                          static_cast<std::uint64_t>(strata);
+        const int strata =
+            config.illumination == Illumination::beam ? 1 : config.illumination_strata;
+        const std::uint64_t per_stratum =
+            (config.quanta_per_pass + static_cast<std::uint64_t>(strata) - 1) /
+            static_cast<std::uint64_t>(strata);
         const std::uint64_t chunks = (per_stratum + kChunk - 1) / kChunk;
         const std::size_t items = nl * static_cast<std::size_t>(strata) * chunks;
         std::vector<std::vector<Hit>> hits(items);
         std::vector<double> item_below(items * (nlobes + 1), 0.0);  // total, then per lobe
         std::atomic<bool> abandoned{false};
-        const int side = std::max(1, static_cast<int>(std::lround(std::sqrt(static_cast<double>(strata)))));
+        const int side =
+            std::max(1, static_cast<int>(std::lround(std::sqrt(static_cast<double>(strata)))));
 #pragma omp parallel for schedule(dynamic, 1)
         for (std::size_t it = 0; it < items; ++it) {
             if (abandoned.load(std::memory_order_relaxed)) continue;
@@ -127,7 +134,8 @@ Scatterogram measure_scatterogram(const Scatterer& scatterer, const Scatteromete
             Vec3d wi = config.beam_direction;
             if (config.illumination != Illumination::beam) {
                 Rng jitter(derive_seed(config.seed, "scatterometer/illumination"),
-                           (static_cast<std::uint64_t>(k) << 48) + (static_cast<std::uint64_t>(s.passes) << 24) + stratum);
+                           (static_cast<std::uint64_t>(k) << 48) +
+                               (static_cast<std::uint64_t>(s.passes) << 24) + stratum);
                 const int cells = side * side;
                 const std::size_t cell = stratum % static_cast<std::size_t>(cells);
                 const double u1 = (static_cast<double>(cell % side) + jitter.uniform()) / side;
@@ -136,59 +144,74 @@ Scatterogram measure_scatterogram(const Scatterer& scatterer, const Scatteromete
                 if (config.illumination == Illumination::hemisphere) {
                     // Uniform radiance: cosine-weighted directions.
                     const double r = std::sqrt(u1);
-                    wi = Vec3d(r * std::cos(g), r * std::sin(g), std::sqrt(std::max(1e-12, 1.0 - r * r))).normalized();
+                    wi = Vec3d(r * std::cos(g), r * std::sin(g),
+                               std::sqrt(std::max(1e-12, 1.0 - r * r)))
+                             .normalized();
                 } else {
                     // Uniform radiance within the cone: cosine-weighted about the cone's
                     // axis, up to its edge (the patch-normal cosine differs by < 1 % over
                     // 8°; exact for a cone around the normal).
                     const double sin_max = std::sin(half_aperture);
-                    const double sin_b = sin_max * std::sqrt(u1), cos_b = std::sqrt(1.0 - sin_b * sin_b);
-                    wi = cos_b * config.beam_direction + sin_b * (std::cos(g) * e1 + std::sin(g) * e2);
+                    const double sin_b = sin_max * std::sqrt(u1),
+                                 cos_b = std::sqrt(1.0 - sin_b * sin_b);
+                    wi = cos_b * config.beam_direction +
+                         sin_b * (std::cos(g) * e1 + std::sin(g) * e2);
                 }
             }
-            const std::uint64_t first = static_cast<std::uint64_t>(s.passes) * per_stratum + c * kChunk;
+            const std::uint64_t first =
+                static_cast<std::uint64_t>(s.passes) * per_stratum + c * kChunk;
             const std::uint64_t count = std::min(kChunk, per_stratum - c * kChunk);
             auto& out = hits[it];
             for (std::uint64_t q = first; q < first + count; ++q) {
-                Rng rng(config.seed, (static_cast<std::uint64_t>(k) << 52) + (static_cast<std::uint64_t>(stratum) << 36) + q);
+                Rng rng(config.seed, (static_cast<std::uint64_t>(k) << 52) +
+                                         (static_cast<std::uint64_t>(stratum) << 36) + q);
                 Vec3d f1, f2;
                 orthonormal_frame(wi, f1, f2);
-                const double radius = config.beam_radius_um * std::sqrt(rng.uniform()), angle = 2.0 * kPi * rng.uniform();
+                const double radius = config.beam_radius_um * std::sqrt(rng.uniform()),
+                             angle = 2.0 * kPi * rng.uniform();
                 const Vec3d offset = radius * (std::cos(angle) * f1 + std::sin(angle) * f2);
-                const Vec2 position(offset.x() - offset.z() * wi.x() / wi.z(), offset.y() - offset.z() * wi.y() / wi.z());
+                const Vec2 position(offset.x() - offset.z() * wi.x() / wi.z(),
+                                    offset.y() - offset.z() * wi.y() / wi.z());
                 const auto event = scatterer.sample(wi, config.wavelengths_nm[k], position, rng);
                 if (!event || !(event->weight > 0.0)) continue;
-                PLUMAGE_CHECK(std::isfinite(event->weight), "non-finite quantum weight from " + scatterer.name());
+                PLUMAGE_CHECK(std::isfinite(event->weight),
+                              "non-finite quantum weight from " + scatterer.name());
                 if (event->wo.z() <= 0.0) {
                     item_below[it * (nlobes + 1)] += event->weight;
                     if (event->lobe >= 0 && static_cast<std::size_t>(event->lobe) < nlobes) {
-                        item_below[it * (nlobes + 1) + 1 + static_cast<std::size_t>(event->lobe)] += event->weight;
+                        item_below[it * (nlobes + 1) + 1 + static_cast<std::size_t>(event->lobe)] +=
+                            event->weight;
                     }
                     continue;
                 }
                 const long p = pixel_of(event->wo, n);
-                if (p >= 0 && s.solid_angle_sr[static_cast<std::size_t>(p)] > 0.0) out.push_back({p, event->lobe, event->weight});
+                if (p >= 0 && s.solid_angle_sr[static_cast<std::size_t>(p)] > 0.0)
+                    out.push_back({p, event->lobe, event->weight});
             }
         }
         if (abandoned.load()) {
             // No checkpoint keeps a scatterogram's passes: a partial image must not flow on.
-            throw Interrupted(fmt::format("interrupted while measuring the scatterogram of {} (pass {} of at most {})",
-                                          s.scatterer, s.passes + 1, config.max_passes));
+            throw Interrupted(fmt::format(
+                "interrupted while measuring the scatterogram of {} (pass {} of at most {})",
+                s.scatterer, s.passes + 1, config.max_passes));
         }
         for (std::size_t it = 0; it < items; ++it) {
             const std::size_t k = it / (static_cast<std::size_t>(strata) * chunks);
             below[k] += item_below[it * (nlobes + 1)];
-            for (std::size_t l = 0; l < nlobes; ++l) below_lobes[l * nl + k] += item_below[it * (nlobes + 1) + 1 + l];
+            for (std::size_t l = 0; l < nlobes; ++l)
+                below_lobes[l * nl + k] += item_below[it * (nlobes + 1) + 1 + l];
             for (const Hit& h : hits[it]) {
                 const std::size_t cell = static_cast<std::size_t>(h.pixel) * nl + k;
                 const double x = h.weight / s.solid_angle_sr[static_cast<std::size_t>(h.pixel)];
                 sum[cell] += x;
                 sum_sq[cell] += x * x;
-                if (h.lobe >= 0 && static_cast<std::size_t>(h.lobe) < nlobes) lobe_sum[static_cast<std::size_t>(h.lobe) * np * nl + cell] += x;
+                if (h.lobe >= 0 && static_cast<std::size_t>(h.lobe) < nlobes)
+                    lobe_sum[static_cast<std::size_t>(h.lobe) * np * nl + cell] += x;
             }
         }
         ++s.passes;
-        const double quanta = static_cast<double>(s.passes) * static_cast<double>(per_stratum) * strata;
+        const double quanta =
+            static_cast<double>(s.passes) * static_cast<double>(per_stratum) * strata;
         s.intensity.assign(np * nl, 0.0);
         s.standard_error.assign(np * nl, 0.0);
         s.lobe_intensity.assign(nlobes * np * nl, 0.0);
@@ -196,23 +219,31 @@ Scatterogram measure_scatterogram(const Scatterer& scatterer, const Scatteromete
         for (std::size_t i = 0; i < np * nl; ++i) {
             const double mean = sum[i] / quanta;
             s.intensity[i] = mean;
-            s.standard_error[i] = std::sqrt(std::max(0.0, sum_sq[i] / quanta - mean * mean) / std::max(1.0, quanta - 1.0));
+            s.standard_error[i] = std::sqrt(std::max(0.0, sum_sq[i] / quanta - mean * mean) /
+                                            std::max(1.0, quanta - 1.0));
             // Power-weighted relative error: Σ Ω σ / Σ Ω I (bright pixels dominate).
             power += mean * s.solid_angle_sr[i / nl];
             variance += s.standard_error[i] * s.solid_angle_sr[i / nl];
         }
-        for (std::size_t i = 0; i < lobe_sum.size(); ++i) s.lobe_intensity[i] = lobe_sum[i] / quanta;
+        for (std::size_t i = 0; i < lobe_sum.size(); ++i)
+            s.lobe_intensity[i] = lobe_sum[i] / quanta;
         s.transmitted.assign(nl, 0.0);
         for (std::size_t k = 0; k < nl; ++k) s.transmitted[k] = below[k] / quanta;
         s.transmitted_lobes.assign(nlobes * nl, 0.0);
-        for (std::size_t i = 0; i < below_lobes.size(); ++i) s.transmitted_lobes[i] = below_lobes[i] / quanta;
+        for (std::size_t i = 0; i < below_lobes.size(); ++i)
+            s.transmitted_lobes[i] = below_lobes[i] / quanta;
         s.quanta = static_cast<std::uint64_t>(quanta);
-        s.wall_time_s = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
-        s.convergence.push_back({s.passes, s.wall_time_s, s.quanta, power > 0.0 ? variance / power : 1.0});
+        s.wall_time_s =
+            std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+        s.convergence.push_back(
+            {s.passes, s.wall_time_s, s.quanta, power > 0.0 ? variance / power : 1.0});
         if (control.progress) {
-            std::cerr << fmt::format("\r  scatterogram of {}: pass {} of at most {}, est. error {:.3g} %, {:.1f} s   ",
-                                     scatterer.name(), s.passes, config.max_passes,
-                                     100.0 * s.convergence.back().estimated_relative_rms_error, s.wall_time_s)
+            std::cerr << fmt::format(
+                             "\r  scatterogram of {}: pass {} of at most {}, est. error {:.3g} %, "
+                             "{:.1f} s   ",
+                             scatterer.name(), s.passes, config.max_passes,
+                             100.0 * s.convergence.back().estimated_relative_rms_error,
+                             s.wall_time_s)
                       << std::flush;
         }
         if (control.on_pass) control.on_pass(s.convergence.back());
@@ -228,12 +259,15 @@ std::vector<optics::Xyz> pixel_colours(const Scatterogram& s) {
     const std::size_t nl = s.config.wavelengths_nm.size();
     std::vector<optics::Xyz> xyz(s.pixels(), optics::Xyz{0.0, 0.0, 0.0});
     for (std::size_t p = 0; p < s.pixels(); ++p) {
-        if (s.solid_angle_sr[p] > 0.0) xyz[p] = display.xyz(std::span<const double>(s.intensity.data() + p * nl, nl));
+        if (s.solid_angle_sr[p] > 0.0)
+            xyz[p] = display.xyz(std::span<const double>(s.intensity.data() + p * nl, nl));
     }
     return xyz;
 }
 
-std::uint8_t byte(double v) { return static_cast<std::uint8_t>(std::lround(std::clamp(v, 0.0, 1.0) * 255.0)); }
+std::uint8_t byte(double v) {
+    return static_cast<std::uint8_t>(std::lround(std::clamp(v, 0.0, 1.0) * 255.0));
+}
 
 void draw_rings(record::RgbImage& image) {
     const int n = image.width;
@@ -242,8 +276,8 @@ void draw_rings(record::RgbImage& image) {
         const int steps = static_cast<int>(8 * r) + 16;
         for (int i = 0; i < steps; ++i) {
             const double a = 2.0 * kPi * i / steps, b = 2.0 * kPi * (i + 1) / steps;
-            image.draw_line(0.5 * n + r * std::cos(a), 0.5 * n - r * std::sin(a), 0.5 * n + r * std::cos(b),
-                            0.5 * n - r * std::sin(b), {128, 128, 128});
+            image.draw_line(0.5 * n + r * std::cos(a), 0.5 * n - r * std::sin(a),
+                            0.5 * n + r * std::cos(b), 0.5 * n - r * std::sin(b), {128, 128, 128});
         }
     }
 }
@@ -298,35 +332,47 @@ void write_scatterogram_record(const Scatterogram& s, const std::filesystem::pat
     h5.create_group("instrument");
     h5.set_attribute("/instrument", "kind", "imaging_scatterometer");
     h5.set_attribute("/instrument", "illumination",
-                     c.illumination == Illumination::beam ? "beam" : c.illumination == Illumination::cone ? "cone" : "hemisphere");
+                     c.illumination == Illumination::beam   ? "beam"
+                     : c.illumination == Illumination::cone ? "cone"
+                                                            : "hemisphere");
     h5.set_attribute("/instrument", "beam_direction",
-                     fmt::format("{:.9f} {:.9f} {:.9f}", c.beam_direction.x(), c.beam_direction.y(), c.beam_direction.z()));
+                     fmt::format("{:.9f} {:.9f} {:.9f}", c.beam_direction.x(), c.beam_direction.y(),
+                                 c.beam_direction.z()));
     h5.set_attribute("/instrument", "cone_aperture_deg", c.cone_aperture_rad * 180.0 / kPi);
     h5.set_attribute("/instrument", "beam_radius_um", c.beam_radius_um);
     h5.set_attribute("/instrument", "mapping",
-                     "azimuthal equidistant: theta = 90 deg * hypot(u, v), phi = atan2(v, u) from +x; row 0 at the top");
-    h5.write("wavelength_nm", std::span<const double>(c.wavelengths_nm), Dims{nl}, {{"units", "nm"}});
-    h5.write("image/solid_angle_sr", std::span<const double>(s.solid_angle_sr), Dims{n, n}, {{"units", "sr"}});
-    h5.write("image/intensity", std::span<const double>(s.intensity), Dims{n, n, nl},
-             {{"units", "1/sr"}, {"description", "radiant intensity per unit incident power, [row, column, wavelength]"}});
-    h5.write("image/standard_error", std::span<const double>(s.standard_error), Dims{n, n, nl}, {{"units", "1/sr"}});
+                     "azimuthal equidistant: theta = 90 deg * hypot(u, v), phi = atan2(v, u) from "
+                     "+x; row 0 at the top");
+    h5.write("wavelength_nm", std::span<const double>(c.wavelengths_nm), Dims{nl},
+             {{"units", "nm"}});
+    h5.write("image/solid_angle_sr", std::span<const double>(s.solid_angle_sr), Dims{n, n},
+             {{"units", "sr"}});
+    h5.write(
+        "image/intensity", std::span<const double>(s.intensity), Dims{n, n, nl},
+        {{"units", "1/sr"},
+         {"description", "radiant intensity per unit incident power, [row, column, wavelength]"}});
+    h5.write("image/standard_error", std::span<const double>(s.standard_error), Dims{n, n, nl},
+             {{"units", "1/sr"}});
     for (std::size_t l = 0; l < s.lobes.size(); ++l) {
-        h5.write("image/lobes/" + s.lobes[l], std::span<const double>(s.lobe_intensity.data() + l * n * n * nl, n * n * nl),
+        h5.write("image/lobes/" + s.lobes[l],
+                 std::span<const double>(s.lobe_intensity.data() + l * n * n * nl, n * n * nl),
                  Dims{n, n, nl}, {{"units", "1/sr"}});
     }
     h5.write("transmitted_fraction", std::span<const double>(s.transmitted), Dims{nl},
              {{"description", "fraction of the incident power leaving below the patch"}});
     for (std::size_t l = 0; l < s.lobes.size(); ++l) {
-        h5.write("transmitted_lobes/" + s.lobes[l], std::span<const double>(s.transmitted_lobes.data() + l * nl, nl),
-                 Dims{nl});
+        h5.write("transmitted_lobes/" + s.lobes[l],
+                 std::span<const double>(s.transmitted_lobes.data() + l * nl, nl), Dims{nl});
     }
     std::vector<double> table;
     for (const auto& row : s.convergence) {
-        table.insert(table.end(), {static_cast<double>(row.pass), row.wall_time_s, static_cast<double>(row.quanta),
-                                   row.estimated_relative_rms_error});
+        table.insert(table.end(),
+                     {static_cast<double>(row.pass), row.wall_time_s,
+                      static_cast<double>(row.quanta), row.estimated_relative_rms_error});
     }
-    h5.write("convergence", std::span<const double>(table), Dims{s.convergence.size(), 4},
-             {{"columns", "pass, wall_time_s, quanta_per_wavelength, power_weighted_relative_error"}});
+    h5.write(
+        "convergence", std::span<const double>(table), Dims{s.convergence.size(), 4},
+        {{"columns", "pass, wall_time_s, quanta_per_wavelength, power_weighted_relative_error"}});
     h5.create_group("provenance");
     h5.set_attribute("/provenance", "scatterer", s.scatterer);
     h5.set_attribute("/provenance", "plumage_version", kVersion);

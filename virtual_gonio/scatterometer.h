@@ -78,7 +78,9 @@ struct Scatterogram {
     std::uint64_t quanta = 0;
     double wall_time_s = 0.0;
 
-    std::size_t pixels() const { return static_cast<std::size_t>(config.image_size) * config.image_size; }
+    std::size_t pixels() const {
+        return static_cast<std::size_t>(config.image_size) * config.image_size;
+    }
     // Direction of a pixel's centre, or nullopt outside the disc.
     std::optional<Vec3d> direction(int column, int row) const;
 };

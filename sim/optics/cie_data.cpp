@@ -10,6 +10,9 @@
 
 namespace plumage::optics::cie_data {
 
+// Five values per line, each line commented with its first wavelength: kept as published.
+// clang-format off
+
 const std::array<double, kCmfCount> kCie1931X = {{
     /* 360 */ 0.0001299,      0.000145847,    0.0001638021,   0.0001840037,   0.0002066902,
     /* 365 */ 0.0002321,      0.000260728,    0.000293075,    0.000329388,    0.000369914,
@@ -320,5 +323,7 @@ const std::array<double, kD65Count> kD65 = {{
     /* 780 */ 63.3828, 63.8434, 64.304,  61.8779, 59.4519, 55.7054, 51.959,  54.6998,
     /* 820 */ 57.4406, 58.8765, 60.3125
 }};
+
+// clang-format on
 
 }  // namespace plumage::optics::cie_data

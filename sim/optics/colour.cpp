@@ -53,8 +53,9 @@ ReflectanceToXyz::ReflectanceToXyz(const WavelengthGrid& grid, Illuminant illumi
     double y_white = 0.0;
     for (double w : wy_) y_white += w;
     if (!(y_white > 0.0)) {
-        throw InputError("colour: the wavelength grid carries no luminance (ȳ · illuminant is zero "
-                         "on every sample)");
+        throw InputError(
+            "colour: the wavelength grid carries no luminance (ȳ · illuminant is zero "
+            "on every sample)");
     }
     for (std::size_t i = 0; i < n; ++i) {
         wx_[i] /= y_white;

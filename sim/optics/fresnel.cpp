@@ -46,10 +46,10 @@ double transmittance_factor(Complex n1, Complex q1, Complex n2, Complex q2, Pola
 
 void require_lossless_incidence(Complex n1, const char* what) {
     if (!std::isfinite(n1.real()) || !(n1.real() > 0.0) || n1.imag() != 0.0) {
-        throw InputError(fmt::format(
-            "{}: the incidence medium must be lossless with a positive real index "
-            "(the angle of incidence is only a real angle there); got n = {} + {}i",
-            what, n1.real(), n1.imag()));
+        throw InputError(
+            fmt::format("{}: the incidence medium must be lossless with a positive real index "
+                        "(the angle of incidence is only a real angle there); got n = {} + {}i",
+                        what, n1.real(), n1.imag()));
     }
 }
 
@@ -65,10 +65,10 @@ void require_cos_theta(double cos_theta_i) {
 void require_passive_medium(Complex n, const char* what) {
     if (!std::isfinite(n.real()) || !std::isfinite(n.imag()) || !(n.real() > 0.0) ||
         n.imag() < 0.0) {
-        throw InputError(fmt::format(
-            "{}: expected a finite refractive index with n > 0 and k >= 0 (a passive "
-            "medium); got n = {} + {}i",
-            what, n.real(), n.imag()));
+        throw InputError(
+            fmt::format("{}: expected a finite refractive index with n > 0 and k >= 0 (a passive "
+                        "medium); got n = {} + {}i",
+                        what, n.real(), n.imag()));
     }
 }
 
@@ -96,7 +96,8 @@ FresnelIntensities fresnel_intensities(double n1, Complex n2, double cos_theta_i
                                        Polarisation pol) {
     const InterfaceWaves w = interface_waves(n1, n2, cos_theta_i);
     const FresnelAmplitudes a = fresnel_amplitudes(Complex(n1), w.q1, n2, w.q2, pol);
-    return {std::norm(a.r), std::norm(a.t) * transmittance_factor(Complex(n1), w.q1, n2, w.q2, pol)};
+    return {std::norm(a.r),
+            std::norm(a.t) * transmittance_factor(Complex(n1), w.q1, n2, w.q2, pol)};
 }
 
 FresnelIntensities fresnel_intensities_unpolarised(double n1, Complex n2, double cos_theta_i) {

@@ -58,8 +58,7 @@ struct FresnelIntensities {
 // absorbing). Either side can be the denser one; beyond the critical angle the
 // reflectance is 1 and the transmittance 0.
 FresnelAmplitudes fresnel_amplitudes(double n1, Complex n2, double cos_theta_i, Polarisation pol);
-FresnelIntensities fresnel_intensities(double n1, Complex n2, double cos_theta_i,
-                                       Polarisation pol);
+FresnelIntensities fresnel_intensities(double n1, Complex n2, double cos_theta_i, Polarisation pol);
 FresnelIntensities fresnel_intensities_unpolarised(double n1, Complex n2, double cos_theta_i);
 
 // Shared precondition checks; they throw InputError naming the value.

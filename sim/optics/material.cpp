@@ -13,11 +13,15 @@ namespace plumage::optics {
 
 CauchyMaterial::CauchyMaterial(std::string name, double a, double b_nm2, double k_amplitude,
                                double k_decay_nm)
-    : name_(std::move(name)), a_(a), b_nm2_(b_nm2), k_amplitude_(k_amplitude), k_decay_nm_(k_decay_nm) {
+    : name_(std::move(name)),
+      a_(a),
+      b_nm2_(b_nm2),
+      k_amplitude_(k_amplitude),
+      k_decay_nm_(k_decay_nm) {
     auto require = [&](bool ok, const char* key, double value, const char* expected) {
         if (!ok) {
-            throw InputError(fmt::format("material '{}': {} = {}: expected {}", name_, key, value,
-                                         expected));
+            throw InputError(
+                fmt::format("material '{}': {} = {}: expected {}", name_, key, value, expected));
         }
     };
     require(std::isfinite(a) && a > 0.0, "A", a, "a finite value > 0");
@@ -37,7 +41,8 @@ std::complex<double> CauchyMaterial::index(double lambda_nm) const {
 
 ConstantMaterial::ConstantMaterial(std::string name, std::complex<double> n)
     : name_(std::move(name)), n_(n) {
-    if (!std::isfinite(n.real()) || !std::isfinite(n.imag()) || !(n.real() > 0.0) || n.imag() < 0.0) {
+    if (!std::isfinite(n.real()) || !std::isfinite(n.imag()) || !(n.real() > 0.0) ||
+        n.imag() < 0.0) {
         throw InputError(fmt::format("material '{}': n = {} + {}i: expected n > 0 and k >= 0",
                                      name_, n.real(), n.imag()));
     }

@@ -32,7 +32,8 @@ public:
         q_.resize(count());
         delta_.assign(count(), Complex(0.0));
         q_.front() = Complex(stack.ambient * cos_theta_i);
-        for (std::size_t j = 1; j < count(); ++j) q_[j] = normal_wavevector(n(j), stack.ambient, cos_theta_i);
+        for (std::size_t j = 1; j < count(); ++j)
+            q_[j] = normal_wavevector(n(j), stack.ambient, cos_theta_i);
         for (std::size_t j = 1; j + 1 < count(); ++j) {
             delta_[j] = k0 * 1000.0 * stack.layers[j - 1].thickness_um * q_[j];
         }
@@ -84,7 +85,8 @@ StackAmplitudes coherent_run(const Media& m, std::size_t first, std::size_t last
     Complex transmission_product(1.0);
     Complex phase_sum(0.0);
     const int step = last > first ? 1 : -1;
-    for (std::size_t j = first; j != last; j = static_cast<std::size_t>(static_cast<long>(j) + step)) {
+    for (std::size_t j = first; j != last;
+         j = static_cast<std::size_t>(static_cast<long>(j) + step)) {
         if (j != first) {
             // Layer j: diag(1, e^{2iδ}) applied on the right scales the second column.
             const Complex e2 = std::exp(Complex(0.0, 2.0) * m.delta(j));

@@ -36,9 +36,9 @@ struct StackLayer {
 
 // One wavelength's view of a stack: indices already evaluated at that wavelength.
 struct StackIndices {
-    double ambient;                    // incidence medium, lossless
+    double ambient;                      // incidence medium, lossless
     std::span<const StackLayer> layers;  // top to bottom; may be empty (a bare interface)
-    Complex substrate;                 // exit medium, may absorb
+    Complex substrate;                   // exit medium, may absorb
 };
 
 struct StackAmplitudes {

@@ -8,12 +8,14 @@
 
 namespace plumage::optics {
 
-WavelengthGrid::WavelengthGrid(std::vector<double> wavelengths_nm) : nm_(std::move(wavelengths_nm)) {
+WavelengthGrid::WavelengthGrid(std::vector<double> wavelengths_nm)
+    : nm_(std::move(wavelengths_nm)) {
     if (nm_.empty()) throw InputError("wavelength grid is empty: expected at least one wavelength");
     for (std::size_t i = 0; i < nm_.size(); ++i) {
         if (!std::isfinite(nm_[i]) || !(nm_[i] > 0.0)) {
             throw InputError(fmt::format(
-                "wavelength grid entry {} = {} nm: expected a finite positive wavelength", i, nm_[i]));
+                "wavelength grid entry {} = {} nm: expected a finite positive wavelength", i,
+                nm_[i]));
         }
         if (i > 0 && !(nm_[i] > nm_[i - 1])) {
             throw InputError(fmt::format(
@@ -27,10 +29,10 @@ WavelengthGrid::WavelengthGrid(std::vector<double> wavelengths_nm) : nm_(std::mo
 WavelengthGrid WavelengthGrid::uniform(double first_nm, double last_nm, double step_nm) {
     if (!std::isfinite(first_nm) || !std::isfinite(last_nm) || !std::isfinite(step_nm) ||
         !(step_nm > 0.0) || !(last_nm >= first_nm)) {
-        throw InputError(fmt::format(
-            "uniform wavelength grid {}..{} nm step {} nm: expected finite values with "
-            "first <= last and step > 0",
-            first_nm, last_nm, step_nm));
+        throw InputError(
+            fmt::format("uniform wavelength grid {}..{} nm step {} nm: expected finite values with "
+                        "first <= last and step > 0",
+                        first_nm, last_nm, step_nm));
     }
     const double wanted = uniform_count(first_nm, last_nm, step_nm);
     if (!(wanted <= static_cast<double>(kMaxWavelengths))) {

@@ -12,8 +12,8 @@ namespace plumage::optics {
 
 void require_wavelength(double lambda_nm) {
     if (!std::isfinite(lambda_nm) || !(lambda_nm > 0.0)) {
-        throw InputError(fmt::format("wavelength = {} nm: expected a finite positive value",
-                                     lambda_nm));
+        throw InputError(
+            fmt::format("wavelength = {} nm: expected a finite positive value", lambda_nm));
     }
 }
 
@@ -24,8 +24,8 @@ void require_thickness(double thickness_um) {
     }
 }
 
-FilmAmplitudes airy_film_amplitudes(const FilmMedia& media, double thickness_um,
-                                    double lambda_nm, double cos_theta_i, Polarisation pol) {
+FilmAmplitudes airy_film_amplitudes(const FilmMedia& media, double thickness_um, double lambda_nm,
+                                    double cos_theta_i, Polarisation pol) {
     require_lossless_incidence(Complex(media.above), "thin film (medium above)");
     require_passive_medium(media.film, "thin film (film)");
     require_passive_medium(media.below, "thin film (medium below)");
@@ -60,8 +60,8 @@ FilmAmplitudes airy_film_amplitudes(const FilmMedia& media, double thickness_um,
             a12.t * a23.t * half_phase / denominator};
 }
 
-FilmIntensities airy_film_intensities(const FilmMedia& media, double thickness_um,
-                                      double lambda_nm, double cos_theta_i, Polarisation pol) {
+FilmIntensities airy_film_intensities(const FilmMedia& media, double thickness_um, double lambda_nm,
+                                      double cos_theta_i, Polarisation pol) {
     const FilmAmplitudes a = airy_film_amplitudes(media, thickness_um, lambda_nm, cos_theta_i, pol);
     const Complex q1(media.above * cos_theta_i);
     const Complex q3 = normal_wavevector(media.below, media.above, cos_theta_i);

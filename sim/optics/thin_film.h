@@ -31,10 +31,10 @@ struct FilmIntensities {
     double absorptance;  // 1 − R − T: what the film and nothing else absorbs
 };
 
-FilmAmplitudes airy_film_amplitudes(const FilmMedia& media, double thickness_um,
-                                    double lambda_nm, double cos_theta_i, Polarisation pol);
-FilmIntensities airy_film_intensities(const FilmMedia& media, double thickness_um,
-                                      double lambda_nm, double cos_theta_i, Polarisation pol);
+FilmAmplitudes airy_film_amplitudes(const FilmMedia& media, double thickness_um, double lambda_nm,
+                                    double cos_theta_i, Polarisation pol);
+FilmIntensities airy_film_intensities(const FilmMedia& media, double thickness_um, double lambda_nm,
+                                      double cos_theta_i, Polarisation pol);
 FilmIntensities airy_film_intensities_unpolarised(const FilmMedia& media, double thickness_um,
                                                   double lambda_nm, double cos_theta_i);
 

@@ -402,12 +402,18 @@ inline ConsistencyResult eval_pdf_consistency(const Scatterer& scatterer, const 
 // both hemispheres; every eval and pdf must be finite and non-negative, and sample() must
 // stay on the sphere with a finite, non-negative weight.
 inline void expect_finite_everywhere(const Scatterer& model) {
-    std::vector<Vec3d> directions = {Vec3d::UnitX(), -Vec3d::UnitX(), Vec3d::UnitY(), -Vec3d::UnitY(),
-                                     Vec3d::UnitZ(), -Vec3d::UnitZ(), Vec3d(1, 1, 0).normalized(),
+    std::vector<Vec3d> directions = {Vec3d::UnitX(),
+                                     -Vec3d::UnitX(),
+                                     Vec3d::UnitY(),
+                                     -Vec3d::UnitY(),
+                                     Vec3d::UnitZ(),
+                                     -Vec3d::UnitZ(),
+                                     Vec3d(1, 1, 0).normalized(),
                                      Vec3d(0, 1, 1e-9).normalized()};
     Rng rng(kDefaultSeed, 990);
     for (int k = 0; k < 40; ++k) {
-        directions.push_back(detail::direction(1.0 - 2.0 * rng.uniform(), 2.0 * std::numbers::pi * rng.uniform()));
+        directions.push_back(
+            detail::direction(1.0 - 2.0 * rng.uniform(), 2.0 * std::numbers::pi * rng.uniform()));
     }
     for (const Vec3d& wi : directions) {
         const double lambda = 380.0 + 400.0 * rng.uniform();

@@ -15,12 +15,12 @@
 
 #include <gtest/gtest.h>
 
-#include "virtual_gonio/direction_sets.h"
 #include "analysis/energy.h"
 #include "analysis/filip2024_fit.h"
 #include "common/error.h"
 #include "tests/analysis/chi_square.h"
 #include "tests/test_util.h"
+#include "virtual_gonio/direction_sets.h"
 
 namespace plumage::analysis {
 using gonio::DirectionPair;

@@ -6,8 +6,8 @@
 #include <cmath>
 #include <numbers>
 
-#include <Eigen/LU>
 #include <gtest/gtest.h>
+#include <Eigen/LU>
 
 #include "sim/optics/material.h"
 #include "sim/optics/thin_film.h"
@@ -27,7 +27,8 @@ Vec3d direction(double theta_deg, double phi_deg) {
 std::vector<Vec3d> incident_grid() {
     std::vector<Vec3d> dirs;
     for (double theta : {0.0, 15.0, 30.0, 45.0, 60.0, 75.0, 85.0}) {
-        for (double phi : {0.0, 45.0, 90.0, 135.0, 180.0, 250.0, 300.0}) dirs.push_back(direction(theta, phi));
+        for (double phi : {0.0, 45.0, 90.0, 135.0, 180.0, 250.0, 300.0})
+            dirs.push_back(direction(theta, phi));
     }
     return dirs;
 }
@@ -96,18 +97,22 @@ TEST(Huang2022, HitFractionsAgreeWithRayCastingAndNdfQuadrature) {
         Huang2022Params p;
         p.H = h;
         const Huang2022Bsdf model(p);
-        for (const Vec3d& wi : {direction(0.0, 0.0), direction(30.0, 45.0), direction(60.0, 180.0),
-                                direction(75.0, 0.0), direction(85.0, 45.0), direction(85.0, 300.0)}) {
+        for (const Vec3d& wi :
+             {direction(0.0, 0.0), direction(30.0, 45.0), direction(60.0, 180.0),
+              direction(75.0, 0.0), direction(85.0, 45.0), direction(85.0, 300.0)}) {
             const auto [all, front] = ray_cast_hit_fractions(p, wi);
             // Ray spacing 1/2000 of a period and 4000-segment arcs: ±2e-3.
-            EXPECT_NEAR(model.hit_fraction_closed_form(wi), all, 2e-3) << "H " << h << " wi " << wi.transpose();
-            EXPECT_NEAR(model.hit_fraction_by_quadrature(wi), front, 2e-3) << "H " << h << " wi " << wi.transpose();
-            EXPECT_NEAR(model.hit_fraction_by_quadrature(wi) + model.back_hit_fraction(wi), model.hit_fraction_closed_form(wi),
-                        2e-5);
+            EXPECT_NEAR(model.hit_fraction_closed_form(wi), all, 2e-3)
+                << "H " << h << " wi " << wi.transpose();
+            EXPECT_NEAR(model.hit_fraction_by_quadrature(wi), front, 2e-3)
+                << "H " << h << " wi " << wi.transpose();
+            EXPECT_NEAR(model.hit_fraction_by_quadrature(wi) + model.back_hit_fraction(wi),
+                        model.hit_fraction_closed_form(wi), 2e-5);
             EXPECT_NEAR(model.t_lobe_mass(wi), 1.0 - all, 2e-3);
             largest_back = std::max(largest_back, model.back_hit_fraction(wi));
             if (h <= 1.25) {
-                EXPECT_LT(model.back_hit_fraction(wi), 2e-5) << "overlapping barbules hide the undersides";
+                EXPECT_LT(model.back_hit_fraction(wi), 2e-5)
+                    << "overlapping barbules hide the undersides";
             }
         }
     }
@@ -130,15 +135,18 @@ TEST(Huang2022, NdfExceedsOneOverTheWholeArcButNotWhenMasked) {
     EXPECT_GT(model.ndf_projected_integral(), 1.0);
     EXPECT_GT((hi - lo) / p.H, 1.0);
     // Masked by visibility it is what the light meets: at most 1.
-    for (const Vec3d& wi : incident_grid()) EXPECT_LE(model.hit_fraction_by_quadrature(wi), 1.0 + 2e-5);
+    for (const Vec3d& wi : incident_grid())
+        EXPECT_LE(model.hit_fraction_by_quadrature(wi), 1.0 + 2e-5);
 }
 
 // Eq. 14 written out directly: D (Eq. 7), I_R (Airy, unpolarised), and G by casting
 // 2D rays against a 20000-segment polyline of the neighbouring arcs (not the model's
 // analytic ray–ellipse code).
-double brute_force_f_r(const Huang2022Params& p, const Vec3d& wi_patch, const Vec3d& wo_patch, double lambda) {
+double brute_force_f_r(const Huang2022Params& p, const Vec3d& wi_patch, const Vec3d& wo_patch,
+                       double lambda) {
     auto to_barbule = [&](const Vec3d& w) {
-        return Vec3d(w.x() * std::cos(p.mu) - w.z() * std::sin(p.mu), w.y(), w.x() * std::sin(p.mu) + w.z() * std::cos(p.mu));
+        return Vec3d(w.x() * std::cos(p.mu) - w.z() * std::sin(p.mu), w.y(),
+                     w.x() * std::sin(p.mu) + w.z() * std::cos(p.mu));
     };
     const Vec3d wi = to_barbule(wi_patch), wo = to_barbule(wo_patch);
     const Vec3d m = (wi + wo).normalized();
@@ -147,14 +155,16 @@ double brute_force_f_r(const Huang2022Params& p, const Vec3d& wi_patch, const Ve
     const double theta_m = std::asin(m.y());
     if (phi_m > p.phi1 || std::abs(theta_m) > p.theta_d) return 0.0;
     const double s = std::sin(phi_m), c = std::cos(phi_m);
-    const double d = p.b * p.b / (2.0 * p.H * std::sin(p.theta_d) * std::cos(theta_m)) * std::pow(s * s + p.b * p.b * c * c, -1.5);
+    const double d = p.b * p.b / (2.0 * p.H * std::sin(p.theta_d) * std::cos(theta_m)) *
+                     std::pow(s * s + p.b * p.b * c * c, -1.5);
     const double q = std::sqrt(s * s + p.b * p.b * c * c);
     const Eigen::Vector2d point(s / q, p.b * p.b * c / q);
     constexpr int kSegments = 20000;
     std::vector<Eigen::Vector2d> arc;
     for (int i = 0; i <= kSegments; ++i) {
         const double phi = p.phi0 + (p.phi1 - p.phi0) * i / kSegments;
-        const double si = std::sin(phi), ci = std::cos(phi), qi = std::sqrt(si * si + p.b * p.b * ci * ci);
+        const double si = std::sin(phi), ci = std::cos(phi),
+                     qi = std::sqrt(si * si + p.b * p.b * ci * ci);
         arc.emplace_back(si / qi, p.b * p.b * ci / qi);
     }
     auto blocked = [&](const Vec3d& w) {
@@ -178,7 +188,8 @@ double brute_force_f_r(const Huang2022Params& p, const Vec3d& wi_patch, const Ve
     };
     if (blocked(wi) || blocked(wo)) return 0.0;
     const optics::FilmMedia film{1.0, optics::keratin()->index(lambda), optics::Complex(1.0)};
-    const double i_r = optics::airy_film_intensities_unpolarised(film, p.d_um, lambda, wi.dot(m)).reflectance;
+    const double i_r =
+        optics::airy_film_intensities_unpolarised(film, p.d_um, lambda, wi.dot(m)).reflectance;
     return i_r * d / (4.0 * wi_patch.z() * std::abs(wo_patch.z()));
 }
 
@@ -196,7 +207,8 @@ TEST(Huang2022, RLobeMatchesAnIndependentEq14) {
                     const double expected = brute_force_f_r(p, wi, wo, 550.0);
                     // Polyline visibility can differ from the exact arc within 1e-8 of an
                     // occlusion edge; none of these pairs sit that close.
-                    EXPECT_NEAR(lobes[0], expected, 1e-9 * std::max(1.0, expected)) << wi.transpose() << " | " << wo.transpose();
+                    EXPECT_NEAR(lobes[0], expected, 1e-9 * std::max(1.0, expected))
+                        << wi.transpose() << " | " << wo.transpose();
                     ++compared;
                     nonzero += expected > 0.0;
                 }
@@ -215,9 +227,11 @@ TEST(Huang2022, RLobeIsReciprocalAndTrtIsNot) {
             std::array<double, 3> forward{}, backward{};
             model.eval(wi, wo, 600.0, forward);
             model.eval(wo, wi, 600.0, backward);
-            worst_r = std::max(worst_r, std::abs(forward[0] - backward[0]) / std::max(1e-3, forward[0]));
-            largest_trt_asymmetry = std::max(largest_trt_asymmetry,
-                                             std::abs(forward[1] - backward[1]) / std::max(1e-6, forward[1]));
+            worst_r =
+                std::max(worst_r, std::abs(forward[0] - backward[0]) / std::max(1e-3, forward[0]));
+            largest_trt_asymmetry =
+                std::max(largest_trt_asymmetry,
+                         std::abs(forward[1] - backward[1]) / std::max(1e-6, forward[1]));
         }
     }
     EXPECT_LT(worst_r, 1e-9);
@@ -263,11 +277,14 @@ TEST(Huang2022, SampleWeightsAgreeWithEvalQuadrature) {
         for (int s = 0; s < kSamples; ++s) {
             const auto e = model.sample(wi, lambda, {0.0, 0.0}, rng);
             if (!e || e->lobe == Huang2022Bsdf::kT) continue;
-            if (e->lobe == Huang2022Bsdf::kTRT) sum_trt += e->weight, sq_trt += e->weight * e->weight;
-            if (e->lobe == Huang2022Bsdf::kR && e->wo.z() > 0.0) sum_r += e->weight, sq_r += e->weight * e->weight;
+            if (e->lobe == Huang2022Bsdf::kTRT)
+                sum_trt += e->weight, sq_trt += e->weight * e->weight;
+            if (e->lobe == Huang2022Bsdf::kR && e->wo.z() > 0.0)
+                sum_r += e->weight, sq_r += e->weight * e->weight;
         }
         const double mc_trt = sum_trt / kSamples, mc_r = sum_r / kSamples;
-        const double se_trt = std::sqrt(std::max(0.0, sq_trt / kSamples - mc_trt * mc_trt) / kSamples);
+        const double se_trt =
+            std::sqrt(std::max(0.0, sq_trt / kSamples - mc_trt * mc_trt) / kSamples);
         const double se_r = std::sqrt(std::max(0.0, sq_r / kSamples - mc_r * mc_r) / kSamples);
         // Quadrature of the TRT lobe over the upper hemisphere (smooth): 48 × 96 midpoints.
         double quad_trt = 0.0;
@@ -279,7 +296,8 @@ TEST(Huang2022, SampleWeightsAgreeWithEvalQuadrature) {
                 const Vec3d wo(std::sin(t) * std::cos(ph), std::sin(t) * std::sin(ph), std::cos(t));
                 std::array<double, 3> lobes{};
                 model.eval(wi, wo, lambda, lobes);
-                quad_trt += lobes[1] * std::cos(t) * std::sin(t) * (0.5 * kPi / kT) * (2.0 * kPi / kP);
+                quad_trt +=
+                    lobes[1] * std::cos(t) * std::sin(t) * (0.5 * kPi / kT) * (2.0 * kPi / kP);
             }
         }
         // 24 × 48 midpoints resolve the smooth TRT lobe to better than 1 %.
@@ -296,12 +314,14 @@ TEST(Huang2022, SampleWeightsAgreeWithEvalQuadrature) {
                 const Vec3d wo(std::sin(t) * std::cos(ph), std::sin(t) * std::sin(ph), std::cos(t));
                 std::array<double, 3> lobes{};
                 model.eval(wi, wo, lambda, lobes);
-                quad_r += lobes[0] * std::cos(t) * std::sin(t) * (0.5 * kPi / kTr) * (2.0 * kPi / kPr);
+                quad_r +=
+                    lobes[0] * std::cos(t) * std::sin(t) * (0.5 * kPi / kTr) * (2.0 * kPi / kPr);
             }
         }
         // The R lobe spans only ±2θ_d longitudinally: the grid resolves it to ~2 %.
         EXPECT_NEAR(mc_r, quad_r, 4.0 * se_r + 0.03 * quad_r) << wi.transpose();
-        RecordProperty("r_mc_vs_quadrature", std::to_string(mc_r) + " vs " + std::to_string(quad_r));
+        RecordProperty("r_mc_vs_quadrature",
+                       std::to_string(mc_r) + " vs " + std::to_string(quad_r));
     }
 }
 
@@ -315,9 +335,12 @@ TEST(Huang2022, RejectsOutOfRangeParameters) {
     EXPECT_NE(input_error_message([&] { Huang2022Bsdf{p}; }).find("H = -1"), std::string::npos);
     p = {};
     p.theta_d = 0.0;
-    EXPECT_NE(input_error_message([&] { Huang2022Bsdf{p}; }).find("theta_d = 0"), std::string::npos);
+    EXPECT_NE(input_error_message([&] { Huang2022Bsdf{p}; }).find("theta_d = 0"),
+              std::string::npos);
     const Huang2022Bsdf model({});
-    EXPECT_NE(input_error_message([&] { model.t_lobe_mass({0.0, 0.0, -1.0}); }).find("above the barb plane"),
+    EXPECT_NE(input_error_message([&] {
+                  model.t_lobe_mass({0.0, 0.0, -1.0});
+              }).find("above the barb plane"),
               std::string::npos);
 }
 
@@ -331,7 +354,8 @@ TEST(Huang2022, SamplingMatchesPdfChiSquare) {
     // pbrt-style: directions drawn by sample() against pdf() integrated over sphere bins;
     // the T lobe (a Dirac) and quanta absorbed at undersides fill the extra cell.
     const Huang2022Bsdf model({});
-    const std::vector<Vec3d> incident = {direction(0.0, 0.0), direction(35.0, 60.0), direction(70.0, 180.0)};
+    const std::vector<Vec3d> incident = {direction(0.0, 0.0), direction(35.0, 60.0),
+                                         direction(70.0, 180.0)};
     for (std::size_t i = 0; i < incident.size(); ++i) {
         plumage::testing::ChiSquareOptions options;
         options.samples = 100000;
@@ -341,7 +365,8 @@ TEST(Huang2022, SamplingMatchesPdfChiSquare) {
         options.name = "huang2022";
         options.outside_density = [](const ScatterEvent& e) { return e.lobe == Huang2022Bsdf::kT; };
         const auto result = plumage::testing::chi_square_test(model, incident[i], 550.0, options);
-        EXPECT_GT(result.p_value, result.threshold) << "wi " << incident[i].transpose() << ": " << result.summary();
+        EXPECT_GT(result.p_value, result.threshold)
+            << "wi " << incident[i].transpose() << ": " << result.summary();
     }
 }
 

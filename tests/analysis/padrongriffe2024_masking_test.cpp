@@ -77,7 +77,6 @@ std::vector<Configuration> configurations() {
 // each fraction's variance is at most the binomial p(1 − p)/N, and a slice can only be
 // misclassified if a boundary of the partition falls inside it).
 
-
 TEST(PadronGriffe2024Masking, AgreesWithMonteCarloOnTheExplicitCrossSection) {
     // Rays per angle: binomial standard error <= 0.5/√N = 0.0025 per fraction.
     constexpr int kRays = 40'000;

@@ -82,11 +82,14 @@ TEST(BarbGeometry, TubesAreClosedOutwardAndHoldTheirVolume) {
         EXPECT_TRUE(closed_and_oriented(tube)) << "bend " << bend;
         // Pappus: a bent tube whose section's centroid is on the axis holds area × length.
         const double expected = kPi * a * b * length;
-        EXPECT_NEAR(enclosed_volume(tube), expected, 0.005 * 2.0 * kPi * a * length + 0.01 * expected * (bend > 0))
+        EXPECT_NEAR(enclosed_volume(tube), expected,
+                    0.005 * 2.0 * kPi * a * length + 0.01 * expected * (bend > 0))
             << "bend " << bend;
         EXPECT_GT(enclosed_volume(tube), 0.0);
     }
-    EXPECT_NE(input_error_message([&] { barb.cortex_mesh(100.0, 5.0, {0.01, 0.05}); }).find("folds"),
+    EXPECT_NE(input_error_message([&] {
+                  barb.cortex_mesh(100.0, 5.0, {0.01, 0.05});
+              }).find("folds"),
               std::string::npos);
 }
 
@@ -103,12 +106,15 @@ TEST(BarbGeometry, OffCentreMedullaSitsInsideTheCortex) {
     }
     EXPECT_NEAR(enclosed_volume(medulla), kPi * 0.36 * a * b * 50.0, 0.01 * 2.0 * kPi * a * 50.0);
     p.medulla_offset_z_um = 10.0;
-    EXPECT_NE(input_error_message([&] { Barb{p}; }).find("medulla strictly inside"), std::string::npos);
+    EXPECT_NE(input_error_message([&] { Barb{p}; }).find("medulla strictly inside"),
+              std::string::npos);
     p.medulla_scale = 0.99;
-    EXPECT_NE(input_error_message([&] { Barb{p}; }).find("medulla_scale = 0.99"), std::string::npos);
+    EXPECT_NE(input_error_message([&] { Barb{p}; }).find("medulla_scale = 0.99"),
+              std::string::npos);
     BarbParams round;
     round.barb_eccentricity = 1.0;
-    EXPECT_NE(input_error_message([&] { Barb{round}; }).find("barb_eccentricity = 1"), std::string::npos);
+    EXPECT_NE(input_error_message([&] { Barb{round}; }).find("barb_eccentricity = 1"),
+              std::string::npos);
 }
 
 TEST(BarbGeometry, PatchCrossSectionHasBarbAndInclinedBarbules) {
@@ -130,7 +136,9 @@ TEST(BarbGeometry, PatchCrossSectionHasBarbAndInclinedBarbules) {
     EXPECT_NEAR(s.period_um, 2.0 * (b + 90.0 * std::cos(0.35)), 2.0 * 0.01);
     BarbulePatchParams bad = p;
     bad.barbule_separation = 0.5;
-    EXPECT_NE(input_error_message([&] { build_patch_cross_section(bad, {0.01, 0.05}); }).find("overlap"),
+    EXPECT_NE(input_error_message([&] {
+                  build_patch_cross_section(bad, {0.01, 0.05});
+              }).find("overlap"),
               std::string::npos);
 }
 
@@ -173,21 +181,25 @@ TEST(BarbGeometry, BarbulesStartOutsideTheCortex) {
                             const auto& a = cortex[i];
                             const auto& b = cortex[j];
                             if ((a.y() > w.z()) != (b.y() > w.z()) &&
-                                w.y() < (b.x() - a.x()) * (w.z() - a.y()) / (b.y() - a.y()) + a.x()) {
+                                w.y() <
+                                    (b.x() - a.x()) * (w.z() - a.y()) / (b.y() - a.y()) + a.x()) {
                                 in = !in;
                             }
                         }
                         inside += in;
                     }
                 }
-                EXPECT_EQ(inside, 0) << "rotation " << rotation << ", barbule rotation " << barbule_rotation
-                                     << ", inclination " << inclination;
+                EXPECT_EQ(inside, 0) << "rotation " << rotation << ", barbule rotation "
+                                     << barbule_rotation << ", inclination " << inclination;
                 const PatchCrossSection s = build_patch_cross_section(p, tolerance);
-                const double root_y = std::max_element(cortex.begin(), cortex.end(), [](const auto& a, const auto& b) {
-                                          return a.x() < b.x();
-                                      })->x();
-                EXPECT_NEAR(patch.period_um,
-                            2.0 * (root_y + (patch.root_clearance_um + 3.0 * 30.0) * std::cos(inclination)), 1e-9);
+                const double root_y =
+                    std::max_element(cortex.begin(), cortex.end(),
+                                     [](const auto& a, const auto& b) { return a.x() < b.x(); })
+                        ->x();
+                EXPECT_NEAR(
+                    patch.period_um,
+                    2.0 * (root_y + (patch.root_clearance_um + 3.0 * 30.0) * std::cos(inclination)),
+                    1e-9);
                 EXPECT_GE(patch.period_um, s.period_um);
             }
         }
@@ -195,7 +207,9 @@ TEST(BarbGeometry, BarbulesStartOutsideTheCortex) {
     // An explicit spacing the moved tips would overrun is refused, naming the smallest one.
     BarbulePatchParams tight;
     tight.barb_spacing = 1.0;
-    EXPECT_NE(input_error_message([&] { build_barbule_patch(tight, 60.0, 2, tolerance); }).find("at least"),
+    EXPECT_NE(input_error_message([&] {
+                  build_barbule_patch(tight, 60.0, 2, tolerance);
+              }).find("at least"),
               std::string::npos);
 }
 

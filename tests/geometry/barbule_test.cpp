@@ -77,7 +77,8 @@ NdfComparison compare_with_eq7(const BarbuleCellParams& params, double normal_to
     for (std::size_t f = 0; f < mesh.triangles.size(); ++f) {
         const Eigen::Vector3d n = mesh.face_normal(f);
         const double phi = std::atan2(n.x(), n.z());
-        const int bin = std::clamp(static_cast<int>(std::floor((phi - params.phi0) / width)), 0, bins - 1);
+        const int bin =
+            std::clamp(static_cast<int>(std::floor((phi - params.phi0) / width)), 0, bins - 1);
         measured[bin] += mesh.face_area(f);
         double lo = 1e9, hi = -1e9;
         for (std::uint32_t v : mesh.triangles[f]) {
@@ -91,15 +92,17 @@ NdfComparison compare_with_eq7(const BarbuleCellParams& params, double normal_to
     // area H·L: area = L/(2 sin θ_d) · 2θ_d · ∫ ρ dφ (Simpson, independent of the mesh).
     const double a = params.semi_major_um, b = params.b;
     auto rho = [&](double phi) {
-        return a * b * b / std::pow(std::pow(std::sin(phi), 2) + b * b * std::pow(std::cos(phi), 2), 1.5);
+        return a * b * b /
+               std::pow(std::pow(std::sin(phi), 2) + b * b * std::pow(std::cos(phi), 2), 1.5);
     };
     for (int k = 0; k < bins; ++k) {
         const double lo = params.phi0 + k * width;
         constexpr int kPanels = 400;
         double sum = rho(lo) + rho(lo + width);
-        for (int i = 1; i < kPanels; ++i) sum += (i % 2 ? 4.0 : 2.0) * rho(lo + width * i / kPanels);
-        expected[k] = params.cell_length_um / (2.0 * std::sin(params.theta_d)) * 2.0 * params.theta_d *
-                      sum * width / (3.0 * kPanels);
+        for (int i = 1; i < kPanels; ++i)
+            sum += (i % 2 ? 4.0 : 2.0) * rho(lo + width * i / kPanels);
+        expected[k] = params.cell_length_um / (2.0 * std::sin(params.theta_d)) * 2.0 *
+                      params.theta_d * sum * width / (3.0 * kPanels);
     }
     double diff = 0.0, total = 0.0, worst = 0.0;
     for (int k = 0; k < bins; ++k) {
@@ -136,9 +139,11 @@ NdfComparison compare_with_eq7(const BarbuleCellParams& params, double normal_to
         ks = std::max(ks, std::abs(mesh_cdf - exact_cumulative(facets[i].first)));
     }
     double rho_max = 0.0;
-    for (int i = 0; i <= 1000; ++i) rho_max = std::max(rho_max, rho(params.phi0 + (params.phi1 - params.phi0) * i / 1000));
-    return {diff / total, worst, max_dphi, ks, 0.5 * max_dphi * rho_max * params.cell_length_um * params.theta_d /
-                                                   std::sin(params.theta_d) / total};
+    for (int i = 0; i <= 1000; ++i)
+        rho_max = std::max(rho_max, rho(params.phi0 + (params.phi1 - params.phi0) * i / 1000));
+    return {diff / total, worst, max_dphi, ks,
+            0.5 * max_dphi * rho_max * params.cell_length_um * params.theta_d /
+                std::sin(params.theta_d) / total};
 }
 
 BarbuleCellParams short_rock_dove_cell() {
@@ -174,7 +179,8 @@ TEST(BarbuleGeometry, TessellatedNormalDistributionMatchesHuangEq7AndConverges) 
     // Convergence: log-log slope of the KS distance against the normal tolerance. We
     // measured 0.057, 0.034, 0.018, 0.0094, 0.0048 for 0.04 ... 0.0025 rad: rate 0.9,
     // first order, as the facet-mass argument predicts.
-    const double rate = std::log(errors.front() / errors.back()) / std::log(tolerances.front() / tolerances.back());
+    const double rate =
+        std::log(errors.front() / errors.back()) / std::log(tolerances.front() / tolerances.back());
     RecordProperty("ndf_ks_at_0.0025", std::to_string(errors.back()));
     RecordProperty("ndf_convergence_rate", std::to_string(rate));
     EXPECT_GT(rate, 0.8);
@@ -187,7 +193,8 @@ TEST(BarbuleGeometry, LongCellsDepartFromEq7AsTheCouplingTermPredicts) {
     const BarbuleCellParams params;
     const BarbuleCell cell(params);
     const double r = cell.longitudinal_radius_um();
-    const double coupling_at_edge = r * (1.0 - std::cos(params.theta_d)) / (params.b * params.b * params.semi_major_um);
+    const double coupling_at_edge =
+        r * (1.0 - std::cos(params.theta_d)) / (params.b * params.b * params.semi_major_um);
     EXPECT_GT(coupling_at_edge, 0.5);
     RecordProperty("rock_dove_default_edge_coupling", std::to_string(coupling_at_edge));
     const NdfComparison c = compare_with_eq7(params, 0.0025, 12);
@@ -200,7 +207,8 @@ TEST(BarbuleGeometry, TessellationMeetsItsTolerance) {
         TessellationReport report;
         const TriangleMesh mesh = cell.tessellate({chord, 0.05}, false, &report);
         EXPECT_LE(report.max_chord_um, chord * (1.0 + 1e-9));
-        EXPECT_LE(report.max_normal_error_rad, 0.05 * 1.5);  // facet vs vertex normals: ≤ Δ/2 per direction
+        EXPECT_LE(report.max_normal_error_rad,
+                  0.05 * 1.5);  // facet vs vertex normals: ≤ Δ/2 per direction
         // Every vertex lies on the analytic surface: its shading normal is unit.
         for (const auto& n : mesh.shading_normals) EXPECT_NEAR(n.norm(), 1.0, 1e-12);
         // Facets face outward (along the analytic normal).
@@ -240,9 +248,11 @@ TEST(BarbuleGeometry, RowProjectedLengthsMatchHuangsClosedForm) {
     const double a = params.cell.semi_major_um;
     for (double phi : {-0.9, -0.4, 0.0, 0.35, 0.8, 1.1}) {
         // Barbule frame direction towards the light, in-plane (θ = 0), to patch frame.
-        const Eigen::Matrix3d to_patch = Eigen::AngleAxisd(params.mu, Eigen::Vector3d::UnitY()).toRotationMatrix();
+        const Eigen::Matrix3d to_patch =
+            Eigen::AngleAxisd(params.mu, Eigen::Vector3d::UnitY()).toRotationMatrix();
         const Eigen::Vector3d omega = to_patch * Eigen::Vector3d(std::sin(phi), 0.0, std::cos(phi));
-        const Eigen::Vector3d across = to_patch * Eigen::Vector3d(std::cos(phi), 0.0, -std::sin(phi));
+        const Eigen::Vector3d across =
+            to_patch * Eigen::Vector3d(std::cos(phi), 0.0, -std::sin(phi));
         const double period = projected_period(params.H, params.mu, phi) * a;
         // Rays over three central periods, 3000 of them, starting far above the row.
         constexpr int kRays = 3000;
@@ -252,7 +262,8 @@ TEST(BarbuleGeometry, RowProjectedLengthsMatchHuangsClosedForm) {
             const Eigen::Vector3d origin = 200.0 * omega + s * across;
             bool hit = false;
             for (const Triangle& t : mesh.triangles) {
-                if (ray_hits_triangle(origin, -omega, mesh.positions[t[0]], mesh.positions[t[1]], mesh.positions[t[2]])) {
+                if (ray_hits_triangle(origin, -omega, mesh.positions[t[0]], mesh.positions[t[1]],
+                                      mesh.positions[t[2]])) {
                     hit = true;
                     break;
                 }
@@ -262,7 +273,8 @@ TEST(BarbuleGeometry, RowProjectedLengthsMatchHuangsClosedForm) {
         const double expected = projected_hit_length(params.cell, params.H, params.mu, phi) /
                                 projected_period(params.H, params.mu, phi);
         // Ray spacing and the chord tolerance bound the discretisation error.
-        EXPECT_NEAR(static_cast<double>(hits) / kRays, expected, 2.0 / kRays * 3 + 0.01) << "phi " << phi;
+        EXPECT_NEAR(static_cast<double>(hits) / kRays, expected, 2.0 / kRays * 3 + 0.01)
+            << "phi " << phi;
     }
 }
 
@@ -278,7 +290,8 @@ TEST(BarbuleGeometry, ProjectedPeriodIsTheSpacingSeenAlongTheDirection) {
     const BarbuleCellParams rock_dove;
     const EllipticalArc unit(1.0, rock_dove.b, rock_dove.phi0, rock_dove.phi1);
     EXPECT_GT(unit.projected_width(0.0), 1.25);
-    EXPECT_NEAR(projected_hit_length(rock_dove, 1.25, -0.35, 0.0), projected_period(1.25, -0.35, 0.0), 1e-15);
+    EXPECT_NEAR(projected_hit_length(rock_dove, 1.25, -0.35, 0.0),
+                projected_period(1.25, -0.35, 0.0), 1e-15);
 }
 
 TEST(BarbuleGeometry, DegenerateAndExtremeParameters) {
@@ -291,7 +304,8 @@ TEST(BarbuleGeometry, DegenerateAndExtremeParameters) {
     EXPECT_GT(flat.triangles.size(), 10u);
     for (const auto& p : flat.positions) ASSERT_TRUE(p.allFinite());
     strip.b = 0.0;
-    EXPECT_NE(input_error_message([&] { BarbuleCell{strip}; }).find("flat strip"), std::string::npos);
+    EXPECT_NE(input_error_message([&] { BarbuleCell{strip}; }).find("flat strip"),
+              std::string::npos);
     // b = 1: a circle.
     BarbuleCellParams circle;
     circle.b = 1.0;
@@ -304,7 +318,8 @@ TEST(BarbuleGeometry, DegenerateAndExtremeParameters) {
     sliver.phi1 = sliver.phi0 + 1e-5;
     EXPECT_EQ(BarbuleCell(sliver).tessellate(tol).triangles.size() % 2, 0u);
     sliver.phi1 = sliver.phi0 + 1e-8;
-    EXPECT_NE(input_error_message([&] { BarbuleCell{sliver}; }).find("empty arc"), std::string::npos);
+    EXPECT_NE(input_error_message([&] { BarbuleCell{sliver}; }).find("empty arc"),
+              std::string::npos);
     // φ1 − φ0 >= π: half and whole ellipses build; more than 2π is refused.
     for (double span : {kPi, 2.0 * kPi}) {
         BarbuleCellParams wide;
@@ -320,9 +335,11 @@ TEST(BarbuleGeometry, DegenerateAndExtremeParameters) {
     // θ_d → 0: a straight extrusion, every normal in the transversal plane.
     BarbuleCellParams straight;
     straight.theta_d = 0.0;
-    for (const auto& n : BarbuleCell(straight).tessellate(tol).shading_normals) EXPECT_EQ(n.y(), 0.0);
+    for (const auto& n : BarbuleCell(straight).tessellate(tol).shading_normals)
+        EXPECT_EQ(n.y(), 0.0);
     straight.theta_d = 1.0;
-    EXPECT_NE(input_error_message([&] { BarbuleCell{straight}; }).find("theta_d = 1"), std::string::npos);
+    EXPECT_NE(input_error_message([&] { BarbuleCell{straight}; }).find("theta_d = 1"),
+              std::string::npos);
     // A convex longitudinal arc that would fold the surface is refused.
     BarbuleCellParams folding;
     folding.profile = LongitudinalProfile::convex;
@@ -331,7 +348,8 @@ TEST(BarbuleGeometry, DegenerateAndExtremeParameters) {
     // The melanin layer cannot sit deeper than the edge's radius of curvature.
     BarbuleCellParams deep;
     deep.melanin_depth_um = 1.0;
-    EXPECT_NE(input_error_message([&] { BarbuleCell{deep}; }).find("offset surface folds"), std::string::npos);
+    EXPECT_NE(input_error_message([&] { BarbuleCell{deep}; }).find("offset surface folds"),
+              std::string::npos);
 }
 
 TEST(BarbuleGeometry, OverlappingRowsBuildUntilTheBarbulesInterpenetrate) {
@@ -344,7 +362,9 @@ TEST(BarbuleGeometry, OverlappingRowsBuildUntilTheBarbulesInterpenetrate) {
     params.H = h_min * 1.01;
     EXPECT_EQ(build_barbule_row(params, {0.05, 0.05}).instances.size(), 6u);
     params.H = h_min * 0.9;
-    EXPECT_NE(input_error_message([&] { build_barbule_row(params, {0.05, 0.05}); }).find("interpenetrate"),
+    EXPECT_NE(input_error_message([&] {
+                  build_barbule_row(params, {0.05, 0.05});
+              }).find("interpenetrate"),
               std::string::npos);
 }
 

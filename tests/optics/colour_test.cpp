@@ -73,8 +73,9 @@ TEST(Colour, RejectsGridsOutsideTheColourMatchingRange) {
     EXPECT_NE(input_error_message([&] { ReflectanceToXyz(uv, Illuminant::d65); }).find("300"),
               std::string::npos);
     const auto ir = WavelengthGrid::uniform(400.0, 900.0, 10.0);
-    EXPECT_NE(input_error_message([&] { ReflectanceToXyz(ir, Illuminant::d65); }).find("360–830 nm"),
-              std::string::npos);
+    EXPECT_NE(
+        input_error_message([&] { ReflectanceToXyz(ir, Illuminant::d65); }).find("360–830 nm"),
+        std::string::npos);
 }
 
 struct SharmaPair {
@@ -93,8 +94,8 @@ std::vector<SharmaPair> read_sharma_pairs() {
         std::replace(line.begin(), line.end(), ',', ' ');
         std::istringstream row(line);
         SharmaPair p{};
-        row >> p.pair >> p.first.l >> p.first.a >> p.first.b >> p.second.l >> p.second.a >> p.second.b >>
-            p.delta_e00;
+        row >> p.pair >> p.first.l >> p.first.a >> p.first.b >> p.second.l >> p.second.a >>
+            p.second.b >> p.delta_e00;
         pairs.push_back(p);
     }
     return pairs;
@@ -106,7 +107,8 @@ TEST(Ciede2000, MatchesTheSharmaWuDalalReferencePairs) {
     for (const SharmaPair& p : pairs) {
         // The published values are rounded to 4 decimals.
         EXPECT_NEAR(ciede2000(p.first, p.second), p.delta_e00, 1e-4) << "pair " << p.pair;
-        EXPECT_NEAR(ciede2000(p.second, p.first), p.delta_e00, 1e-4) << "pair " << p.pair << " swapped";
+        EXPECT_NEAR(ciede2000(p.second, p.first), p.delta_e00, 1e-4)
+            << "pair " << p.pair << " swapped";
     }
 }
 

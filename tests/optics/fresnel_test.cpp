@@ -78,7 +78,8 @@ TEST(Fresnel, TotalInternalReflectionInsideKeratin) {
         }
     }
     // Just below the critical angle some light still leaves.
-    const auto below = fresnel_intensities(n, Complex(1.0), std::cos(critical - 1e-3), Polarisation::s);
+    const auto below =
+        fresnel_intensities(n, Complex(1.0), std::cos(critical - 1e-3), Polarisation::s);
     EXPECT_GT(below.transmittance, 0.0);
 }
 
@@ -98,7 +99,8 @@ TEST(Fresnel, GrazingIncidenceReflectsEverything) {
 TEST(Fresnel, StokesRelationsHold) {
     // t12 t21 − r12 r21 = 1 with r21 = −r12: the identity Airy's form relies on.
     const Complex n1(1.0), n2(1.55, 0.02);
-    const Complex q1 = normal_wavevector(n1, 1.0, std::cos(0.7)), q2 = normal_wavevector(n2, 1.0, std::cos(0.7));
+    const Complex q1 = normal_wavevector(n1, 1.0, std::cos(0.7)),
+                  q2 = normal_wavevector(n2, 1.0, std::cos(0.7));
     for (Polarisation pol : kBoth) {
         const auto a12 = fresnel_amplitudes(n1, q1, n2, q2, pol);
         const auto a21 = fresnel_amplitudes(n2, q2, n1, q1, pol);
@@ -109,17 +111,21 @@ TEST(Fresnel, StokesRelationsHold) {
 
 TEST(Fresnel, RejectsBadInputNamingTheValue) {
     using plumage::testing::input_error_message;
-    EXPECT_NE(input_error_message([] { fresnel_intensities(1.0, Complex(1.5), 1.5, Polarisation::s); })
-                  .find("1.5 is outside [0, 1]"),
+    EXPECT_NE(input_error_message([] {
+                  fresnel_intensities(1.0, Complex(1.5), 1.5, Polarisation::s);
+              }).find("1.5 is outside [0, 1]"),
               std::string::npos);
-    EXPECT_NE(input_error_message([] { fresnel_intensities(1.0, Complex(1.5), NAN, Polarisation::s); })
-                  .find("nan"),
+    EXPECT_NE(input_error_message([] {
+                  fresnel_intensities(1.0, Complex(1.5), NAN, Polarisation::s);
+              }).find("nan"),
               std::string::npos);
-    EXPECT_NE(input_error_message([] { fresnel_intensities(1.0, Complex(1.5, -0.1), 1.0, Polarisation::s); })
-                  .find("k >= 0"),
+    EXPECT_NE(input_error_message([] {
+                  fresnel_intensities(1.0, Complex(1.5, -0.1), 1.0, Polarisation::s);
+              }).find("k >= 0"),
               std::string::npos);
-    EXPECT_NE(input_error_message([] { fresnel_intensities(1.2, Complex(1.5), 1.0, Polarisation::s); })
-                  .find("no InputError"),
+    EXPECT_NE(input_error_message([] {
+                  fresnel_intensities(1.2, Complex(1.5), 1.0, Polarisation::s);
+              }).find("no InputError"),
               std::string::npos);
 }
 

@@ -27,15 +27,22 @@ TEST(Material, TabulatedInterpolatesAndRejectsOutOfRange) {
     EXPECT_DOUBLE_EQ(m.index(450.0).real(), 1.49);
     EXPECT_DOUBLE_EQ(m.index(450.0).imag(), 0.005);
     EXPECT_DOUBLE_EQ(m.index(600.0).real(), 1.47);
-    EXPECT_NE(input_error_message([&] { m.index(650.0); }).find("650 nm is outside its table (400..600 nm)"),
+    EXPECT_NE(input_error_message([&] {
+                  m.index(650.0);
+              }).find("650 nm is outside its table (400..600 nm)"),
               std::string::npos);
 }
 
 TEST(Material, RejectsUnphysicalParameters) {
-    EXPECT_NE(input_error_message([] { CauchyMaterial("x", -1.0, 0.0); }).find("A = -1"), std::string::npos);
-    EXPECT_NE(input_error_message([] { CauchyMaterial("x", 1.5, 0.0, -0.1, 100.0); }).find("C (k amplitude)"),
+    EXPECT_NE(input_error_message([] { CauchyMaterial("x", -1.0, 0.0); }).find("A = -1"),
               std::string::npos);
-    EXPECT_NE(input_error_message([] { ConstantMaterial("x", {1.5, -0.1}); }).find("k >= 0"),
+    EXPECT_NE(input_error_message([] {
+                  CauchyMaterial("x", 1.5, 0.0, -0.1, 100.0);
+              }).find("C (k amplitude)"),
+              std::string::npos);
+    EXPECT_NE(input_error_message([] {
+                  ConstantMaterial("x", {1.5, -0.1});
+              }).find("k >= 0"),
               std::string::npos);
     EXPECT_NE(input_error_message([] {
                   TabulatedMaterial("t", {400.0, 500.0}, {1.5}, {0.0, 0.0});

@@ -33,8 +33,10 @@ TEST(Multilayer, ReflectancePlusTransmittancePlusLayerAbsorptionIsOne) {
             for (double lambda : {400.0, 550.0, 700.0}) {
                 for (Polarisation pol : kBoth) {
                     const StackIndices stack{1.0, layers, substrate};
-                    const auto i = transfer_matrix_intensities(stack, lambda, std::cos(deg * kDeg), pol);
-                    const auto a = coherent_layer_absorption(stack, lambda, std::cos(deg * kDeg), pol);
+                    const auto i =
+                        transfer_matrix_intensities(stack, lambda, std::cos(deg * kDeg), pol);
+                    const auto a =
+                        coherent_layer_absorption(stack, lambda, std::cos(deg * kDeg), pol);
                     double absorbed = 0.0;
                     for (std::size_t j = 0; j < a.size(); ++j) {
                         EXPECT_GE(a[j], -1e-14) << "layer " << j;
@@ -53,8 +55,10 @@ TEST(Multilayer, ReflectancePlusTransmittancePlusLayerAbsorptionIsOne) {
 TEST(Multilayer, TransmittanceIsReciprocalWhenTheMediaAreSwapped) {
     // Between lossless outer media T(forward, θ0) = T(backward, θs) even though the
     // layers absorb; reflectance is not reciprocal then.
-    const std::vector<StackLayer> layers = {
-        {Complex(1.55), 0.53}, {Complex(1.74, 0.088), 0.2}, {Complex(1.0), 0.3}, {Complex(1.6, 0.02), 0.7}};
+    const std::vector<StackLayer> layers = {{Complex(1.55), 0.53},
+                                            {Complex(1.74, 0.088), 0.2},
+                                            {Complex(1.0), 0.3},
+                                            {Complex(1.6, 0.02), 0.7}};
     const std::vector<StackLayer> reversed(layers.rbegin(), layers.rend());
     const double n0 = 1.0, ns = 1.5;
     for (double deg : {0.0, 25.0, 50.0, 75.0, 89.0}) {
@@ -84,16 +88,18 @@ TEST(Multilayer, IncoherentLayerIsThePhaseAverageOfTheCoherentOne) {
     const double period_um = lambda / (2.0 * q) / 1000.0;
     for (Polarisation pol : kBoth) {
         auto stack = [&](double d, Coherence c) {
-            return std::vector<StackLayer>{{Complex(1.55), 0.3}, {Complex(n_thick), d, c}, {Complex(1.0), 0.15}};
+            return std::vector<StackLayer>{
+                {Complex(1.55), 0.3}, {Complex(n_thick), d, c}, {Complex(1.0), 0.15}};
         };
         const auto incoherent_layers = stack(d0, Coherence::incoherent);
-        const auto incoherent =
-            transfer_matrix_intensities({1.0, incoherent_layers, Complex(1.74, 0.088)}, lambda, cos_i, pol);
+        const auto incoherent = transfer_matrix_intensities(
+            {1.0, incoherent_layers, Complex(1.74, 0.088)}, lambda, cos_i, pol);
         constexpr int kSamples = 256;
         double r_mean = 0.0, t_mean = 0.0;
         for (int k = 0; k < kSamples; ++k) {
             const auto layers = stack(d0 + period_um * k / kSamples, Coherence::coherent);
-            const auto c = transfer_matrix_intensities({1.0, layers, Complex(1.74, 0.088)}, lambda, cos_i, pol);
+            const auto c = transfer_matrix_intensities({1.0, layers, Complex(1.74, 0.088)}, lambda,
+                                                       cos_i, pol);
             r_mean += c.reflectance / kSamples;
             t_mean += c.transmittance / kSamples;
         }
@@ -110,10 +116,13 @@ TEST(Multilayer, IncoherentThickLayerDoesNotAliasUnderSpectralSampling) {
         const Complex n = keratin()->index(lambda);
         const StackLayer coherent{n, 50.0, Coherence::coherent};
         const StackLayer incoherent{n, 50.0, Coherence::incoherent};
-        const double rc = transfer_matrix_intensities({1.0, std::span(&coherent, 1), Complex(1.0)}, lambda, 1.0,
-                                                      Polarisation::s).reflectance;
-        const double ri = transfer_matrix_intensities({1.0, std::span(&incoherent, 1), Complex(1.0)}, lambda, 1.0,
-                                                      Polarisation::s).reflectance;
+        const double rc = transfer_matrix_intensities({1.0, std::span(&coherent, 1), Complex(1.0)},
+                                                      lambda, 1.0, Polarisation::s)
+                              .reflectance;
+        const double ri =
+            transfer_matrix_intensities({1.0, std::span(&incoherent, 1), Complex(1.0)}, lambda, 1.0,
+                                        Polarisation::s)
+                .reflectance;
         if (previous_c >= 0.0) {
             coherent_jump = std::max(coherent_jump, std::abs(rc - previous_c));
             incoherent_jump = std::max(incoherent_jump, std::abs(ri - previous_i));
@@ -138,13 +147,15 @@ TEST(Multilayer, FiniteAndBoundedOnADenseStiffGrid) {
                 for (double deg : {0.0, 30.0, 40.0, 41.0, 60.0, 89.0, 89.99, 90.0}) {
                     for (double lambda : {360.0, 550.0, 830.0}) {
                         for (Polarisation pol : kBoth) {
-                            const Coherence coherence = d_um >= 10.0 ? Coherence::incoherent : Coherence::coherent;
-                            const std::vector<StackLayer> layers = {{Complex(1.55, k), d_um, coherence},
-                                                                    {Complex(1.0), 0.2}};
+                            const Coherence coherence =
+                                d_um >= 10.0 ? Coherence::incoherent : Coherence::coherent;
+                            const std::vector<StackLayer> layers = {
+                                {Complex(1.55, k), d_um, coherence}, {Complex(1.0), 0.2}};
                             const double cos_i = deg == 90.0 ? 0.0 : std::cos(deg * kDeg);
-                            const auto i = transfer_matrix_intensities({ambient, layers, Complex(1.0)}, lambda,
-                                                                       cos_i, pol);
-                            ASSERT_TRUE(std::isfinite(i.reflectance) && std::isfinite(i.transmittance))
+                            const auto i = transfer_matrix_intensities(
+                                {ambient, layers, Complex(1.0)}, lambda, cos_i, pol);
+                            ASSERT_TRUE(std::isfinite(i.reflectance) &&
+                                        std::isfinite(i.transmittance))
                                 << ambient << " k=" << k << " d=" << d_um << " deg=" << deg;
                             ASSERT_GE(i.reflectance, -1e-15);
                             ASSERT_GE(i.transmittance, -1e-15);
@@ -170,8 +181,8 @@ TEST(Multilayer, TotalInternalReflectionAndFrustration) {
     double previous = 1.0;
     for (double gap_um : {0.0, 0.05, 0.2, 0.5, 2.0}) {
         const StackLayer gap{Complex(1.0), gap_um};
-        const auto i = transfer_matrix_intensities({1.55, std::span(&gap, 1), Complex(1.55)}, 550.0, cos_i,
-                                                   Polarisation::s);
+        const auto i = transfer_matrix_intensities({1.55, std::span(&gap, 1), Complex(1.55)}, 550.0,
+                                                   cos_i, Polarisation::s);
         EXPECT_NEAR(i.reflectance + i.transmittance, 1.0, 1e-13);
         EXPECT_LE(i.transmittance, previous);
         previous = i.transmittance;
@@ -196,14 +207,14 @@ TEST(Multilayer, RejectsBadInput) {
     using plumage::testing::input_error_message;
     const StackLayer negative{Complex(1.5), -1.0};
     EXPECT_NE(input_error_message([&] {
-                  transfer_matrix_intensities({1.0, std::span(&negative, 1), Complex(1.0)}, 500.0, 1.0,
-                                              Polarisation::s);
+                  transfer_matrix_intensities({1.0, std::span(&negative, 1), Complex(1.0)}, 500.0,
+                                              1.0, Polarisation::s);
               }).find("thickness = -1 um"),
               std::string::npos);
     const StackLayer incoherent{Complex(1.5), 20.0, Coherence::incoherent};
     EXPECT_NE(input_error_message([&] {
-                  transfer_matrix_amplitudes({1.0, std::span(&incoherent, 1), Complex(1.0)}, 500.0, 1.0,
-                                             Polarisation::s);
+                  transfer_matrix_amplitudes({1.0, std::span(&incoherent, 1), Complex(1.0)}, 500.0,
+                                             1.0, Polarisation::s);
               }).find("incoherent"),
               std::string::npos);
     EXPECT_NE(input_error_message([&] {

@@ -21,18 +21,27 @@ TEST(WavelengthGrid, UniformIncludesBothEnds) {
 
 TEST(WavelengthGrid, RejectsEmptyUnsortedAndNonFiniteGrids) {
     EXPECT_NE(input_error_message([] { WavelengthGrid({}); }).find("empty"), std::string::npos);
-    EXPECT_NE(input_error_message([] { WavelengthGrid({400.0, 500.0, 450.0}); })
-                  .find("entry 2 = 450 nm follows 500 nm"),
+    EXPECT_NE(input_error_message([] {
+                  WavelengthGrid({400.0, 500.0, 450.0});
+              }).find("entry 2 = 450 nm follows 500 nm"),
               std::string::npos);
-    EXPECT_NE(input_error_message([] { WavelengthGrid({400.0, 400.0}); }).find("strictly increasing"),
+    EXPECT_NE(input_error_message([] {
+                  WavelengthGrid({400.0, 400.0});
+              }).find("strictly increasing"),
               std::string::npos);
-    EXPECT_NE(input_error_message([] { WavelengthGrid({400.0, NAN}); }).find("entry 1 = nan"),
+    EXPECT_NE(input_error_message([] {
+                  WavelengthGrid({400.0, NAN});
+              }).find("entry 1 = nan"),
               std::string::npos);
-    EXPECT_NE(input_error_message([] { WavelengthGrid({-5.0}); }).find("positive"), std::string::npos);
-    EXPECT_NE(input_error_message([] { WavelengthGrid::uniform(500.0, 400.0, 1.0); }).find("first <= last"),
+    EXPECT_NE(input_error_message([] { WavelengthGrid({-5.0}); }).find("positive"),
               std::string::npos);
-    EXPECT_NE(input_error_message([] { WavelengthGrid::uniform(400.0, 500.0, 0.0); }).find("step > 0"),
+    EXPECT_NE(input_error_message([] {
+                  WavelengthGrid::uniform(500.0, 400.0, 1.0);
+              }).find("first <= last"),
               std::string::npos);
+    EXPECT_NE(
+        input_error_message([] { WavelengthGrid::uniform(400.0, 500.0, 0.0); }).find("step > 0"),
+        std::string::npos);
 }
 
 TEST(WavelengthGrid, InterpolatesUniformTablesLinearly) {

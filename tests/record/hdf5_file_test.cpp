@@ -10,8 +10,8 @@ namespace plumage::record {
 namespace {
 
 std::filesystem::path scratch(const std::string& name) {
-    const auto dir = std::filesystem::temp_directory_path() /
-                     ("plumage_test_" + std::to_string(::getpid()));
+    const auto dir =
+        std::filesystem::temp_directory_path() / ("plumage_test_" + std::to_string(::getpid()));
     std::filesystem::create_directories(dir);
     return dir / name;
 }

@@ -23,9 +23,9 @@ namespace {
 // bounces, R_slab = R + (1 − R)² R / (1 − R²) = 2R / (1 + R), with R = ((n − 1)/(n + 1))².
 TEST(Albedo, ClearSlabReflectsTheIncoherentSlabSum) {
     const double lambda = 550.0;
-    auto tracer = std::make_shared<const ExplicitScatterer>(single_mesh_scene(
-        testing::box_mesh({-2000, -2000, -50}, {2000, 2000, 0}), dielectric_interface(optics::keratin()),
-        "slab"));
+    auto tracer = std::make_shared<const ExplicitScatterer>(
+        single_mesh_scene(testing::box_mesh({-2000, -2000, -50}, {2000, 2000, 0}),
+                          dielectric_interface(optics::keratin()), "slab"));
     const PeriodCellEntry cell(tracer, 10.0, 10.0, 0.0);
     const AlbedoEstimate e = measure_albedo(*tracer, cell, Vec3d(0, 0, 1), lambda, 200000, 7);
     const double n = optics::keratin()->index(lambda).real();
@@ -51,7 +51,8 @@ TEST(SpongyMedulla, BraggPeakSolvesItsOwnEquationAndTheBandPeaksThere) {
             const double peak = bragg_peak_nm(spacing, f);
             // keratin's index is taken within its tabulated 300-1000 nm (a peak below 300 nm
             // uses n(300 nm)).
-            const double n_keratin = optics::keratin()->index(std::clamp(peak, 300.0, 1000.0)).real();
+            const double n_keratin =
+                optics::keratin()->index(std::clamp(peak, 300.0, 1000.0)).real();
             EXPECT_NEAR(peak, 2.0 * (f * n_keratin + 1.0 - f) * spacing * 1e3, 1e-9 * peak);
             const AlbedoSpectrum band = bragg_band_albedo(spacing, f, 30.0, 0.7, 0.05);
             EXPECT_NEAR(band(peak), 0.7, 1e-12);

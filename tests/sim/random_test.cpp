@@ -19,7 +19,8 @@ TEST(RandomStreams, DerivedSeedsNeverCollideAcrossSeedsPurposesAndIndices) {
     std::set<std::uint64_t> seen;
     std::size_t derived = 0;
     for (std::uint64_t seed = kDefaultSeed; seed < kDefaultSeed + 300; ++seed) {
-        for (const char* purpose : {"species/brdf", "species/in_plane", "species/btf", "species/albedo"}) {
+        for (const char* purpose :
+             {"species/brdf", "species/in_plane", "species/btf", "species/albedo"}) {
             for (std::uint64_t index = 0; index < 16; ++index) {
                 seen.insert(derive_seed(seed, purpose, index));
                 ++derived;

@@ -42,7 +42,8 @@ double rock_dove_quick_beam_error() {
     geometry::TessellationTolerance tolerance;
     tolerance.max_chord_um = 0.02;
     tolerance.max_normal_error_rad = 2.0 * std::numbers::pi / 180.0;
-    const sim::ExplicitScatterer simulation(sim::barbule_row_scene(geometry::build_barbule_row(params, tolerance)));
+    const sim::ExplicitScatterer simulation(
+        sim::barbule_row_scene(geometry::build_barbule_row(params, tolerance)));
     const analysis::Huang2022Bsdf model(analysis::Huang2022Params{});
     gonio::ScatterometerConfig c;
     c.illumination = gonio::Illumination::beam;
@@ -51,7 +52,8 @@ double rock_dove_quick_beam_error() {
     c.beam_radius_um = 30.0;
     c.quanta_per_pass = 6000;
     c.max_passes = 1;
-    const gonio::Scatterogram a = gonio::measure_scatterogram(simulation, c), b = gonio::measure_scatterogram(model, c);
+    const gonio::Scatterogram a = gonio::measure_scatterogram(simulation, c),
+                              b = gonio::measure_scatterogram(model, c);
     double diff = 0.0, ref = 0.0;
     for (std::size_t i = 0; i < a.intensity.size(); ++i) {
         const double omega = a.solid_angle_sr[i / c.wavelengths_nm.size()];
@@ -62,8 +64,10 @@ double rock_dove_quick_beam_error() {
 }
 
 TEST(AblationStudy, QuickVariantRunsAndItsNumbersHold) {
-    const auto root = std::filesystem::temp_directory_path() / ("plumage_ablation_" + std::to_string(::getpid()));
-    const std::filesystem::path study = std::filesystem::path(PLUMAGE_SOURCE_DIR) / "studies" / "ablation_quick.toml";
+    const auto root =
+        std::filesystem::temp_directory_path() / ("plumage_ablation_" + std::to_string(::getpid()));
+    const std::filesystem::path study =
+        std::filesystem::path(PLUMAGE_SOURCE_DIR) / "studies" / "ablation_quick.toml";
     const AblationResult r = run_ablation_study(read(study), study, root, false);
     const auto dir = root / "ablation_quick";
     ASSERT_EQ(r.output_dir, dir);
@@ -118,7 +122,8 @@ TEST(AblationStudy, QuickVariantRunsAndItsNumbersHold) {
 
     // The report, the figures and the records.
     const std::string report = read(dir / "report.md");
-    for (const char* key : {"b", "phi0_deg", "phi1_deg", "H", "film_thickness_um", "theta_d_deg", "mu_deg"}) {
+    for (const char* key :
+         {"b", "phi0_deg", "phi1_deg", "H", "film_thickness_um", "theta_d_deg", "mu_deg"}) {
         for (const char* figure : {"contact_sheet.png", "error.png"}) {
             const std::string path = std::string(key) + "/" + figure;
             EXPECT_NE(report.find(path), std::string::npos) << path;
@@ -139,19 +144,27 @@ TEST(AblationStudy, QuickVariantRunsAndItsNumbersHold) {
 }
 
 TEST(AblationStudy, BadStudyFilesWriteNothing) {
-    const auto root = std::filesystem::temp_directory_path() / ("plumage_ablation_bad_" + std::to_string(::getpid()));
+    const auto root = std::filesystem::temp_directory_path() /
+                      ("plumage_ablation_bad_" + std::to_string(::getpid()));
     const std::string unknown = plumage::testing::input_error_message([&] {
-        run_ablation_study("study = \"ablation\"\n[sweep.b]\nfrom = 0.2\nform = 0.3\n", "bad.toml", root, false);
+        run_ablation_study("study = \"ablation\"\n[sweep.b]\nfrom = 0.2\nform = 0.3\n", "bad.toml",
+                           root, false);
     });
-    EXPECT_NE(unknown.find("bad.toml:4:1: unknown key 'sweep.b.form'"), std::string::npos) << unknown;
+    EXPECT_NE(unknown.find("bad.toml:4:1: unknown key 'sweep.b.form'"), std::string::npos)
+        << unknown;
     const std::string reversed = plumage::testing::input_error_message([&] {
-        run_ablation_study("study = \"ablation\"\n[sweep.H]\nfrom = 1.5\nto = 1.1\n", "reversed.toml", root, false);
+        run_ablation_study("study = \"ablation\"\n[sweep.H]\nfrom = 1.5\nto = 1.1\n",
+                           "reversed.toml", root, false);
     });
-    EXPECT_NE(reversed.find("reversed.toml:4:6: sweep.H.to = 1.1 is below from = 1.5"), std::string::npos) << reversed;
+    EXPECT_NE(reversed.find("reversed.toml:4:6: sweep.H.to = 1.1 is below from = 1.5"),
+              std::string::npos)
+        << reversed;
     const std::string range = plumage::testing::input_error_message([&] {
         run_ablation_study("study = \"ablation\"\n[sweep.b]\nto = 2\n", "range.toml", root, false);
     });
-    EXPECT_NE(range.find("range.toml:3:6: sweep.b.to = 2: expected a number in [0.001, 1]"), std::string::npos) << range;
+    EXPECT_NE(range.find("range.toml:3:6: sweep.b.to = 2: expected a number in [0.001, 1]"),
+              std::string::npos)
+        << range;
     EXPECT_FALSE(std::filesystem::exists(root / "bad"));
     EXPECT_FALSE(std::filesystem::exists(root / "reversed"));
     EXPECT_FALSE(std::filesystem::exists(root / "range"));

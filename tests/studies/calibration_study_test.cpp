@@ -32,13 +32,16 @@ TEST(CalibrationStudy, RegisteredByItsOneLineAndAgreesWithTheClosedForm) {
     const std::string text = read(study);
     const StudyEntry& entry = study_of(text, study);
     EXPECT_EQ(entry.kind, "calibration");
-    const fs::path root = fs::temp_directory_path() / ("plumage_calibration_" + std::to_string(::getpid()));
+    const fs::path root =
+        fs::temp_directory_path() / ("plumage_calibration_" + std::to_string(::getpid()));
     fs::remove_all(root);
     const std::string summary = entry.run(text, study, root, {});
     EXPECT_NE(summary.find("agrees"), std::string::npos) << summary;
     // 165 cells: χ²/dof within 4 standard deviations (sqrt(2/dof)) of 1.
-    const double chi2 = record::read_number_attribute(root / "calibration" / "calibration.h5", "/", "chi_square");
-    const double dof = record::read_number_attribute(root / "calibration" / "calibration.h5", "/", "chi_square_dof");
+    const double chi2 =
+        record::read_number_attribute(root / "calibration" / "calibration.h5", "/", "chi_square");
+    const double dof = record::read_number_attribute(root / "calibration" / "calibration.h5", "/",
+                                                     "chi_square_dof");
     EXPECT_EQ(dof, 165.0);
     EXPECT_LT(std::abs(chi2 / dof - 1.0), 4.0 * std::sqrt(2.0 / dof));
     fs::remove_all(root);
@@ -48,8 +51,9 @@ TEST(CalibrationStudy, BadKeysAreNamed) {
     const fs::path study = fs::path(PLUMAGE_SOURCE_DIR) / "studies" / "calibration.toml";
     std::string text = read(study);
     text.replace(text.find("albedo = 0.99"), 13, "albedo = 1.5");
-    EXPECT_NE(testing::input_error_message([&] { check_study(text, study); })
-                  .find("calibration.toml:13:10: standard.albedo = 1.5: expected a number in [0, 1]"),
+    EXPECT_NE(testing::input_error_message([&] {
+                  check_study(text, study);
+              }).find("calibration.toml:13:10: standard.albedo = 1.5: expected a number in [0, 1]"),
               std::string::npos);
 }
 

@@ -28,15 +28,18 @@ std::string read(const std::filesystem::path& p) {
     return s.str();
 }
 
-const ExtremesRow* find(const ExtremesResult& r, const std::string& case_name, const std::string& scatterer) {
+const ExtremesRow* find(const ExtremesResult& r, const std::string& case_name,
+                        const std::string& scatterer) {
     for (const auto& row : r.rows)
         if (row.case_name == case_name && row.scatterer == scatterer) return &row;
     return nullptr;
 }
 
 TEST(ExtremesStudy, QuickVariantFindsNoViolationsAndFlagsThePublishedExcesses) {
-    const auto root = std::filesystem::temp_directory_path() / ("plumage_extremes_" + std::to_string(::getpid()));
-    const std::filesystem::path study = std::filesystem::path(PLUMAGE_SOURCE_DIR) / "studies" / "extremes_quick.toml";
+    const auto root =
+        std::filesystem::temp_directory_path() / ("plumage_extremes_" + std::to_string(::getpid()));
+    const std::filesystem::path study =
+        std::filesystem::path(PLUMAGE_SOURCE_DIR) / "studies" / "extremes_quick.toml";
     const ExtremesResult r = run_extremes_study(read(study), study, root, false);
     const auto dir = root / "extremes_quick";
     ASSERT_EQ(r.output_dir, dir);
@@ -65,8 +68,9 @@ TEST(ExtremesStudy, QuickVariantFindsNoViolationsAndFlagsThePublishedExcesses) {
             EXPECT_EQ(row.reached_max_events, 0) << where;
         }
     }
-    for (const char* s : {"Huang 2022", "Filip 2024 parrot", "Filip 2024 rooster", "Filip 2024 flamingo",
-                          "Filip 2024 stork", "Lambertian ρ = 1", "explicit barbules"}) {
+    for (const char* s :
+         {"Huang 2022", "Filip 2024 parrot", "Filip 2024 rooster", "Filip 2024 flamingo",
+          "Filip 2024 stork", "Lambertian ρ = 1", "explicit barbules"}) {
         EXPECT_TRUE(scatterers.contains(s)) << s;
     }
 
@@ -133,7 +137,8 @@ TEST(ExtremesStudy, QuickVariantFindsNoViolationsAndFlagsThePublishedExcesses) {
     // The report says "none" for both kinds of violation, and lists the excesses apart.
     const std::string report = read(dir / "report.md");
     EXPECT_NE(report.find("unexpected exceptions): none."), std::string::npos);
-    EXPECT_NE(report.find("other than by a published model's construction: none."), std::string::npos);
+    EXPECT_NE(report.find("other than by a published model's construction: none."),
+              std::string::npos);
     EXPECT_NE(report.find("- Filip 2024 rooster, grazing 89°: sampled"), std::string::npos);
     EXPECT_TRUE(std::filesystem::exists(dir / "energy.png"));
     const auto status = record::read_dataset(dir / "extremes.h5", "status");
@@ -143,15 +148,21 @@ TEST(ExtremesStudy, QuickVariantFindsNoViolationsAndFlagsThePublishedExcesses) {
 }
 
 TEST(ExtremesStudy, BadStudyFileWritesNothing) {
-    const auto root = std::filesystem::temp_directory_path() / ("plumage_extremes_bad_" + std::to_string(::getpid()));
+    const auto root = std::filesystem::temp_directory_path() /
+                      ("plumage_extremes_bad_" + std::to_string(::getpid()));
     const std::string unknown = plumage::testing::input_error_message([&] {
-        run_extremes_study("study = \"extremes\"\n[sampling]\nquantas = 100\n", "bad.toml", root, false);
+        run_extremes_study("study = \"extremes\"\n[sampling]\nquantas = 100\n", "bad.toml", root,
+                           false);
     });
-    EXPECT_NE(unknown.find("bad.toml:3:1: unknown key 'sampling.quantas'"), std::string::npos) << unknown;
+    EXPECT_NE(unknown.find("bad.toml:3:1: unknown key 'sampling.quantas'"), std::string::npos)
+        << unknown;
     const std::string range = plumage::testing::input_error_message([&] {
-        run_extremes_study("study = \"extremes\"\n[spectrum]\nlast_nm = 800\n", "range.toml", root, false);
+        run_extremes_study("study = \"extremes\"\n[spectrum]\nlast_nm = 800\n", "range.toml", root,
+                           false);
     });
-    EXPECT_NE(range.find("range.toml:3:11: spectrum.last_nm = 800: expected a number in [380, 780]"), std::string::npos)
+    EXPECT_NE(
+        range.find("range.toml:3:11: spectrum.last_nm = 800: expected a number in [380, 780]"),
+        std::string::npos)
         << range;
     EXPECT_FALSE(std::filesystem::exists(root / "bad"));
     EXPECT_FALSE(std::filesystem::exists(root / "range"));

@@ -9,8 +9,8 @@
 
 #include <gtest/gtest.h>
 
-#include "tests/test_util.h"
 #include "geometry/mesh_import.h"
+#include "tests/test_util.h"
 
 namespace plumage::studies {
 namespace {
@@ -18,7 +18,8 @@ namespace {
 class GeometryStudy : public ::testing::Test {
 protected:
     void SetUp() override {
-        dir_ = std::filesystem::temp_directory_path() / ("plumage_geometry_study_" + std::to_string(::getpid()));
+        dir_ = std::filesystem::temp_directory_path() /
+               ("plumage_geometry_study_" + std::to_string(::getpid()));
         std::filesystem::remove_all(dir_);
         std::filesystem::create_directories(dir_);
     }
@@ -30,7 +31,8 @@ protected:
         return path;
     }
     std::string error_of(const std::string& text) {
-        return plumage::testing::input_error_message([&] { run_geometry_study(write_study(text), dir_ / "results"); });
+        return plumage::testing::input_error_message(
+            [&] { run_geometry_study(write_study(text), dir_ / "results"); });
     }
     bool results_left() const {
         if (!std::filesystem::exists(dir_ / "results")) return false;
@@ -52,7 +54,8 @@ max_chord_um = 0.05
 TEST_F(GeometryStudy, BuildsABarbuleRowWithPreviewAndReport) {
     const auto result = run_geometry_study(write_study(kRow), dir_ / "results");
     EXPECT_EQ(result.instances, 6u);
-    for (const char* f : {"cell_film.ply", "cell_melanin.ply", "instances.csv", "preview.png", "report.md"}) {
+    for (const char* f :
+         {"cell_film.ply", "cell_melanin.ply", "instances.csv", "preview.png", "report.md"}) {
         EXPECT_TRUE(std::filesystem::exists(result.output_dir / f)) << f;
     }
     // The PLY we wrote reads back through the validating importer (an open film sheet).
@@ -64,13 +67,15 @@ TEST_F(GeometryStudy, BuildsABarbuleRowWithPreviewAndReport) {
 
 TEST_F(GeometryStudy, UnknownKeyIsAnErrorWithItsLine) {
     const std::string message = error_of(std::string(kRow) + "[geometry.cell]\nbb = 0.3\n");
-    EXPECT_NE(message.find("study.toml:10:1: unknown key 'geometry.cell.bb'"), std::string::npos) << message;
+    EXPECT_NE(message.find("study.toml:10:1: unknown key 'geometry.cell.bb'"), std::string::npos)
+        << message;
     EXPECT_FALSE(results_left());
 }
 
 TEST_F(GeometryStudy, WrongTypeNamesTheExpectedType) {
     const std::string message = error_of(std::string(kRow) + "[geometry.cell]\nb = \"flat\"\n");
-    EXPECT_NE(message.find("study.toml:10:5: geometry.cell.b is a string: expected a number in [0.001, 1]"),
+    EXPECT_NE(message.find(
+                  "study.toml:10:5: geometry.cell.b is a string: expected a number in [0.001, 1]"),
               std::string::npos)
         << message;
     EXPECT_FALSE(results_left());
@@ -80,7 +85,8 @@ TEST_F(GeometryStudy, OutOfRangeValueNamesTheRange) {
     std::string text = kRow;
     text.replace(text.find("barbules = 3"), 12, "barbules = 0");
     const std::string message = error_of(text);
-    EXPECT_NE(message.find("study.toml:5:12: geometry.row.barbules = 0: expected an integer in [1, 100000]"),
+    EXPECT_NE(message.find(
+                  "study.toml:5:12: geometry.row.barbules = 0: expected an integer in [1, 100000]"),
               std::string::npos)
         << message;
     // A value whose validity depends on others is checked by the builder, still located.
@@ -93,7 +99,8 @@ TEST_F(GeometryStudy, OutOfRangeValueNamesTheRange) {
 }
 
 TEST_F(GeometryStudy, MissingMeshFileIsNamed) {
-    const std::string message = error_of("[geometry]\nkind = \"mesh\"\n[geometry.mesh]\nfile = \"nowhere.ply\"\n");
+    const std::string message =
+        error_of("[geometry]\nkind = \"mesh\"\n[geometry.mesh]\nfile = \"nowhere.ply\"\n");
     EXPECT_NE(message.find("nowhere.ply"), std::string::npos) << message;
     EXPECT_FALSE(results_left());
 }
@@ -101,7 +108,8 @@ TEST_F(GeometryStudy, MissingMeshFileIsNamed) {
 TEST_F(GeometryStudy, SyntaxErrorsAndMissingKindAreLocated) {
     EXPECT_NE(error_of("[geometry\nkind = 1\n").find("study.toml:1:"), std::string::npos);
     EXPECT_NE(error_of("[geometry]\n").find("geometry.kind is missing"), std::string::npos);
-    EXPECT_NE(error_of("[geometry]\nkind = \"cube\"\n").find("expected one of \"barbule_row\""), std::string::npos);
+    EXPECT_NE(error_of("[geometry]\nkind = \"cube\"\n").find("expected one of \"barbule_row\""),
+              std::string::npos);
     EXPECT_FALSE(results_left());
 }
 

@@ -177,7 +177,7 @@ TEST_F(Reliability, OrphanedStagingFoldersAreRemovedOnStart) {
 TEST_F(Reliability, WavelengthStepHasALowerBound) {
     const std::string bound =
         fmt::format("expected at most {}", optics::WavelengthGrid::kMaxWavelengths);
-    for (const std::string& kind : {"rock_dove", "ablation", "species"}) {
+    for (const std::string kind : {"rock_dove", "ablation", "species"}) {
         for (const char* step : {"1e-320", "0.001"}) {
             const std::string text =
                 with_line(kind, "^step_nm = .*$", fmt::format("step_nm = {}", step));
@@ -217,7 +217,8 @@ TEST_F(Reliability, AFailedPlotKeepsTheRecordsAndTheReport) {
     const std::string warning = ::testing::internal::GetCapturedStderr();
     ::unsetenv("PLUMAGE_PYTHON");
     EXPECT_FALSE(drawn);
-    EXPECT_NE(warning.find("lacks the module(s) matplotlib numpy h5py"), std::string::npos) << warning;
+    EXPECT_NE(warning.find("lacks the module(s) matplotlib numpy h5py"), std::string::npos)
+        << warning;
 }
 
 // Defect 3, inside the process: an interrupt requested before or during any study stops it
@@ -240,7 +241,7 @@ TEST_F(Reliability, EveryStudyStopsOnInterruptAndLeavesNothingHalfWritten) {
 // Limits given on the command line reach every study or are refused by name.
 TEST_F(Reliability, RunLimitsAreAppliedOrRefused) {
     const RunLimits limits{.time_budget_s = 1.0};
-    for (const std::string& kind : {"extremes", "masking"}) {
+    for (const std::string kind : {"extremes", "masking"}) {
         const std::string text = read(quick(kind));
         const std::string message = input_error_message(
             [&] { study_of(text, quick(kind)).run(text, quick(kind), root_, limits); });

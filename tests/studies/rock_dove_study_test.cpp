@@ -26,8 +26,10 @@ std::string read(const std::filesystem::path& p) {
 }
 
 TEST(RockDoveStudy, QuickVariantRunsAndItsNumbersHold) {
-    const auto root = std::filesystem::temp_directory_path() / ("plumage_rock_dove_" + std::to_string(::getpid()));
-    const std::filesystem::path study = std::filesystem::path(PLUMAGE_SOURCE_DIR) / "studies" / "rock_dove_quick.toml";
+    const auto root = std::filesystem::temp_directory_path() /
+                      ("plumage_rock_dove_" + std::to_string(::getpid()));
+    const std::filesystem::path study =
+        std::filesystem::path(PLUMAGE_SOURCE_DIR) / "studies" / "rock_dove_quick.toml";
     const RockDoveResult r = run_rock_dove_study(read(study), study, root, false);
     const auto dir = root / "rock_dove_quick";
     ASSERT_EQ(r.output_dir, dir);
@@ -67,9 +69,10 @@ TEST(RockDoveStudy, QuickVariantRunsAndItsNumbersHold) {
     EXPECT_NEAR(estimated.back() / estimated.front(), 1.0 / std::sqrt(3.0), 0.2);
     // The report and its figures exist; the records are readable.
     const std::string report = read(dir / "report.md");
-    for (const char* figure : {"scatterograms/beam_comparison.png", "scatterograms/cone_comparison.png",
-                               "scatterograms/hemisphere_comparison.png", "brdf/in_plane.png", "validation/r_lobe.png",
-                               "convergence/error_vs_time.png"}) {
+    for (const char* figure :
+         {"scatterograms/beam_comparison.png", "scatterograms/cone_comparison.png",
+          "scatterograms/hemisphere_comparison.png", "brdf/in_plane.png", "validation/r_lobe.png",
+          "convergence/error_vs_time.png"}) {
         EXPECT_NE(report.find(figure), std::string::npos) << figure;
         EXPECT_TRUE(std::filesystem::exists(dir / figure)) << figure;
     }
@@ -79,10 +82,15 @@ TEST(RockDoveStudy, QuickVariantRunsAndItsNumbersHold) {
 }
 
 TEST(RockDoveStudy, BadStudyTextWritesNothing) {
-    const auto root = std::filesystem::temp_directory_path() / ("plumage_rock_dove_bad_" + std::to_string(::getpid()));
-    const std::string message = plumage::testing::input_error_message(
-        [&] { run_rock_dove_study("study = \"rock_dove\"\n[goniometer]\npasses = 0\n", "bad.toml", root, false); });
-    EXPECT_NE(message.find("bad.toml:3:10: goniometer.passes = 0: expected an integer in [1, 1000]"), std::string::npos)
+    const auto root = std::filesystem::temp_directory_path() /
+                      ("plumage_rock_dove_bad_" + std::to_string(::getpid()));
+    const std::string message = plumage::testing::input_error_message([&] {
+        run_rock_dove_study("study = \"rock_dove\"\n[goniometer]\npasses = 0\n", "bad.toml", root,
+                            false);
+    });
+    EXPECT_NE(
+        message.find("bad.toml:3:10: goniometer.passes = 0: expected an integer in [1, 1000]"),
+        std::string::npos)
         << message;
     EXPECT_FALSE(std::filesystem::exists(root / "bad"));
 }

@@ -15,7 +15,8 @@ namespace plumage::studies {
 namespace {
 
 std::filesystem::path scratch_root() {
-    return std::filesystem::temp_directory_path() / ("plumage_study_test_" + std::to_string(::getpid()));
+    return std::filesystem::temp_directory_path() /
+           ("plumage_study_test_" + std::to_string(::getpid()));
 }
 
 ThinFilmChartOptions quick_options(const std::filesystem::path& dir) {
@@ -79,8 +80,9 @@ TEST(ThinFilmStudy, BadOptionsWriteNothing) {
     const auto dir = scratch_root() / "bad";
     ThinFilmChartOptions o = quick_options(dir);
     o.thickness_step_nm = 0.0;
-    EXPECT_NE(plumage::testing::input_error_message([&] { run_thin_film_chart(o); })
-                  .find("thickness_step_nm = 0"),
+    EXPECT_NE(plumage::testing::input_error_message([&] {
+                  run_thin_film_chart(o);
+              }).find("thickness_step_nm = 0"),
               std::string::npos);
     EXPECT_FALSE(std::filesystem::exists(dir));
     std::filesystem::remove_all(scratch_root());

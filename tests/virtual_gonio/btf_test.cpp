@@ -16,8 +16,9 @@ namespace {
 TEST(BtfCamera, LambertianPlateIsFlatAndErrorsAreHonest) {
     const analysis::LambertianScatterer plate(0.6);
     BtfConfig c;
-    c.pairs = {{Vec3d(0.0, 0.0, 1.0), Vec3d(std::sin(0.5), 0.0, std::cos(0.5))},
-               {Vec3d(std::sin(0.8), 0.0, std::cos(0.8)), Vec3d(0.0, std::sin(0.3), std::cos(0.3))}};
+    c.pairs = {
+        {Vec3d(0.0, 0.0, 1.0), Vec3d(std::sin(0.5), 0.0, std::cos(0.5))},
+        {Vec3d(std::sin(0.8), 0.0, std::cos(0.8)), Vec3d(0.0, std::sin(0.3), std::cos(0.3))}};
     c.wavelengths_nm = {550.0};
     c.pixels = 16;
     c.patch_size_um = 100.0;

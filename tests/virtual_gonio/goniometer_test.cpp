@@ -14,10 +14,10 @@
 
 #include "tests/test_util.h"
 
-#include "common/error.h"
 #include "analysis/lambertian.h"
-#include "virtual_gonio/hdf5_file.h"
+#include "common/error.h"
 #include "common/interrupt.h"
+#include "virtual_gonio/hdf5_file.h"
 
 namespace plumage::gonio {
 namespace {
@@ -27,7 +27,8 @@ constexpr double kPi = std::numbers::pi;
 std::vector<std::pair<std::string, std::vector<DirectionPair>>> direction_sets() {
     std::vector<DirectionPair> custom;
     for (double t : {0.1, 0.6, 1.1}) {
-        custom.push_back({Vec3d(std::sin(t), 0.0, std::cos(t)), Vec3d(-std::sin(0.5), 0.0, std::cos(0.5))});
+        custom.push_back(
+            {Vec3d(std::sin(t), 0.0, std::cos(t)), Vec3d(-std::sin(0.5), 0.0, std::cos(0.5))});
         custom.push_back({Vec3d(0.0, std::sin(t), std::cos(t)), Vec3d(0.3, 0.4, std::sqrt(0.75))});
     }
     return {{"filip2024_btf", filip2024_btf_pairs()},
@@ -107,7 +108,8 @@ TEST(Goniometer, ThreadCountDoesNotChangeResults) {
 }
 
 TEST(Goniometer, InterruptedRunLeavesNoRecordAndResumesToTheSameResult) {
-    const auto dir = std::filesystem::temp_directory_path() / ("plumage_gonio_" + std::to_string(::getpid()));
+    const auto dir =
+        std::filesystem::temp_directory_path() / ("plumage_gonio_" + std::to_string(::getpid()));
     std::filesystem::create_directories(dir);
     const auto checkpoint = dir / "brdf.h5.checkpoint";
     const auto record_path = dir / "brdf.h5";
@@ -139,7 +141,8 @@ TEST(Goniometer, InterruptedRunLeavesNoRecordAndResumesToTheSameResult) {
         other.config_text = c.config_text + "\n# the scene changed";
         RunControl control;
         control.checkpoint = checkpoint;
-        const std::string message = testing::input_error_message([&] { measure_brdf(plate, other, control); });
+        const std::string message =
+            testing::input_error_message([&] { measure_brdf(plate, other, control); });
         EXPECT_NE(message.find("belongs to a different measurement"), std::string::npos) << message;
     }
     EXPECT_FALSE(std::filesystem::exists(record_path));  // no partial record
@@ -155,8 +158,9 @@ TEST(Goniometer, InterruptedRunLeavesNoRecordAndResumesToTheSameResult) {
     EXPECT_TRUE(std::filesystem::exists(record_path));
     const auto stored = record::read_dataset(record_path, "brdf/value");
     EXPECT_EQ(stored.values, uninterrupted.value);
-    EXPECT_NEAR(record::read_number_attribute(record_path, "/instrument", "detector_solid_angle_sr"),
-                2.0 * kPi * (1.0 - std::cos(c.detector_half_angle_rad)), 1e-15);
+    EXPECT_NEAR(
+        record::read_number_attribute(record_path, "/instrument", "detector_solid_angle_sr"),
+        2.0 * kPi * (1.0 - std::cos(c.detector_half_angle_rad)), 1e-15);
     std::filesystem::remove_all(dir);
 }
 
@@ -167,7 +171,8 @@ TEST(Goniometer, ConvergenceFollowsOneOverRootTime) {
     const BrdfRecord r = measure_brdf(plate, c);
     ASSERT_EQ(r.convergence.size(), 16u);
     // Estimated error after 16 passes is 1/4 of that after 1 (√16), within MC noise.
-    const double ratio = r.convergence.back().estimated_relative_rms_error / r.convergence.front().estimated_relative_rms_error;
+    const double ratio = r.convergence.back().estimated_relative_rms_error /
+                         r.convergence.front().estimated_relative_rms_error;
     EXPECT_NEAR(ratio, 0.25, 0.03);
     // Stopping rule: a target error ends the run early.
     c.target_relative_error = r.convergence[3].estimated_relative_rms_error * 1.001;

@@ -41,7 +41,8 @@ TEST(Scatterometer, LambertianPlateImagesAsCosineUnderEveryIllumination) {
                 // Pixel-centre cos θ vs the pixel average: curvature error ≲ 1e-3 here.
                 const double expected = 0.7 * w->z() / kPi;
                 if (s.standard_error[p] > 0.0) {
-                    worst = std::max(worst, std::abs(s.intensity[p] - expected) / (s.standard_error[p] + 2e-3 * expected));
+                    worst = std::max(worst, std::abs(s.intensity[p] - expected) /
+                                                (s.standard_error[p] + 2e-3 * expected));
                 }
             }
         }
@@ -67,7 +68,8 @@ TEST(Scatterometer, HuangTLobeLeavesBelowInTheProportionOfEq15) {
     for (std::size_t k = 0; k < c.wavelengths_nm.size(); ++k) {
         // The T lobe's share below the patch; binomial σ = sqrt(p(1 − p)/N). (R can also
         // leave downwards, off the barbules' steep edges: the total below is larger.)
-        const double t = s.transmitted_lobes[analysis::Huang2022Bsdf::kT * c.wavelengths_nm.size() + k];
+        const double t =
+            s.transmitted_lobes[analysis::Huang2022Bsdf::kT * c.wavelengths_nm.size() + k];
         EXPECT_NEAR(t, expected, 4.0 * std::sqrt(expected * (1.0 - expected) / 1e5));
         EXPECT_GE(s.transmitted[k], t);
     }
@@ -80,21 +82,24 @@ TEST(Scatterometer, WritesImagesAndARecord) {
     c.quanta_per_pass = 20000;
     c.max_passes = 2;
     const Scatterogram s = measure_scatterogram(plate, c);
-    const auto dir = std::filesystem::temp_directory_path() / ("plumage_scatterometer_" + std::to_string(::getpid()));
+    const auto dir = std::filesystem::temp_directory_path() /
+                     ("plumage_scatterometer_" + std::to_string(::getpid()));
     std::filesystem::create_directories(dir);
     write_scatterogram_record(s, dir / "s.h5");
     record::write_png(dir / "s.png", scatterogram_srgb(s));
     const auto intensity = record::read_dataset(dir / "s.h5", "image/intensity");
     EXPECT_EQ(intensity.dims, (std::vector<std::uint64_t>{31, 31, 5}));
     EXPECT_EQ(record::read_string_attribute(dir / "s.h5", "/instrument", "illumination"), "beam");
-    EXPECT_EQ(record::read_dataset(dir / "s.h5", "convergence").dims, (std::vector<std::uint64_t>{2, 4}));
+    EXPECT_EQ(record::read_dataset(dir / "s.h5", "convergence").dims,
+              (std::vector<std::uint64_t>{2, 4}));
     // A white plate images grey: equal sRGB channels, averaged over the central 9 × 9
     // pixels (each pixel alone carries ~10 % Monte Carlo noise per wavelength here).
     const auto img = scatterogram_srgb(s, 0.0, false);
     std::array<double, 3> mean{};
     for (int row = 11; row < 20; ++row)
         for (int column = 11; column < 20; ++column)
-            for (int ch = 0; ch < 3; ++ch) mean[ch] += img.pixels[(row * 31 + column) * 3 + ch] / 81.0;
+            for (int ch = 0; ch < 3; ++ch)
+                mean[ch] += img.pixels[(row * 31 + column) * 3 + ch] / 81.0;
     EXPECT_NEAR(mean[0], mean[1], 3.0);
     EXPECT_NEAR(mean[1], mean[2], 3.0);
     std::filesystem::remove_all(dir);
