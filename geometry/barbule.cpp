@@ -9,6 +9,7 @@
 #include <fmt/format.h>
 
 #include "common/error.h"
+#include "common/seed.h"
 
 namespace plumage::geometry {
 namespace {
@@ -310,7 +311,7 @@ BarbuleRow build_barbule_row(const BarbuleRowParams& params,
         for (int j = 0; j < params.cells_per_barbule; ++j) {
             const std::uint64_t item = static_cast<std::uint64_t>(i) * params.cells_per_barbule + j;
             // One stream per cell from (seed, index): independent of build order.
-            std::mt19937_64 rng(params.seed * 0x9E3779B97F4A7C15ULL + item);
+            std::mt19937_64 rng(derive_seed(params.seed, "barbule_row/jitter", item));
             std::normal_distribution<double> gauss(0.0, 1.0);
             const double dphi = params.jitter_phi_rad * gauss(rng);
             const double dtheta = params.jitter_theta_rad * gauss(rng);

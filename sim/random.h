@@ -5,7 +5,8 @@
 #pragma once
 
 #include <cstdint>
-#include <string_view>
+
+#include "common/seed.h"  // splitmix64, derive_seed
 
 namespace plumage {
 
@@ -22,13 +23,5 @@ private:
     std::uint64_t state_;
     std::uint64_t increment_;
 };
-
-std::uint64_t splitmix64(std::uint64_t x);
-
-// The seed of one purpose of a study (an instrument, a Monte Carlo loop), e.g.
-// derive_seed(seed, "species/brdf", species_index): the only way a study derives seeds from
-// its `seed` key. Purpose and index are hashed, never added to the seed, so that seed S and
-// S + 1 (or S + 100) share no stream, and neither do two purposes of one seed.
-std::uint64_t derive_seed(std::uint64_t seed, std::string_view purpose, std::uint64_t index = 0);
 
 }  // namespace plumage
