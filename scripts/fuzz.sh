@@ -32,11 +32,12 @@ for target in "${targets[@]}"; do
   work=$(mktemp -d)
   cp -r "$root/fuzz/corpus/$target/." "$work/"
   artifacts="$build/artifacts/$target/"
-  mkdir -p "$artifacts"
+  rm -rf "$artifacts" && mkdir -p "$artifacts"  # this run's findings only
   log="$build/fuzz_$target.log"
   set +e
   # -timeout: an input that takes 10 s is a hang; -rss_limit_mb: a parser must not need 4 GB.
-  ASAN_OPTIONS=detect_leaks=1 "$build/fuzz/plumage_fuzz_$target" "$work" -max_total_time="$seconds" \
+  ASAN_OPTIONS=detect_leaks=1 LSAN_OPTIONS="suppressions=$root/scripts/lsan.supp:print_suppressions=0" \
+    "$build/fuzz/plumage_fuzz_$target" "$work" -max_total_time="$seconds" \
     -timeout=10 -rss_limit_mb=4096 -print_final_stats=1 -artifact_prefix="$artifacts" >"$log" 2>&1
   code=$?
   set -e
