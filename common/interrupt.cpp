@@ -83,6 +83,9 @@ ScopedInterruptHandler::ScopedInterruptHandler() {
     struct sigaction action {};
     action.sa_handler = on_signal;
     sigemptyset(&action.sa_mask);
+    // Restart interrupted system calls: the flag is polled, nothing waits for EINTR, and a
+    // read from a pipe (the plot's interpreter) must not fail half-way because of Ctrl-C.
+    action.sa_flags = SA_RESTART;
     sigaction(SIGINT, &action, &g_previous_int);
     sigaction(SIGTERM, &action, &g_previous_term);
 }

@@ -5,6 +5,8 @@
 #include <omp.h>
 
 #include <algorithm>
+#include <cstdio>
+#include <cstdlib>
 #include <filesystem>
 #include <fstream>
 #include <iostream>
@@ -229,6 +231,16 @@ int report_failure(const std::exception& e, const std::string& output) {
     return 1;
 }
 
+// Ends the process with `code`, the interrupt handler still installed: a Ctrl-C that arrives
+// after the work is done (during the exit sequence) must not kill the process by signal.
+// Every file is closed by now; only the streams need flushing.
+[[noreturn]] void finish(int code) {
+    std::cout.flush();
+    std::cerr.flush();
+    std::fflush(nullptr);
+    std::_Exit(code);
+}
+
 }  // namespace
 
 int main(int argc, char** argv) {
@@ -241,14 +253,14 @@ int main(int argc, char** argv) {
     } catch (const CLI::ParseError& e) {
         const int code = cli.app.exit(e);
         if (code != 0) suggest(cli.app, argc, argv);
-        return code;
+        finish(code);
     }
     if (cli.common.threads > 0) omp_set_num_threads(cli.common.threads);
     st::set_plots_enabled(!cli.common.no_plots);
     try {
         std::cout << run_command(cli);
-        return 0;
+        finish(0);
     } catch (const std::exception& e) {
-        return report_failure(e, cli.common.output);
+        finish(report_failure(e, cli.common.output));
     }
 }
