@@ -592,7 +592,7 @@ RockDoveResult run_rock_dove_study(const std::string& study_text, const fs::path
         fs::create_directories(out.path() / part);
     }
     const Run run{s, study_text, clock, progress, out.path()};
-    const fs::path checkpoints = results_root / ".checkpoints" / name;
+    const fs::path checkpoints = checkpoint_folder(results_root, name);
     std::string md = scatterograms(run, built, result);  // measure and compare, section by section
     const Brdfs brdfs = measure_brdfs(run, built, checkpoints / "brdf_simulation.checkpoint");
     md += brdf_section(run, brdfs, result);
@@ -605,10 +605,7 @@ RockDoveResult run_rock_dove_study(const std::string& study_text, const fs::path
     result.wall_seconds = clock.elapsed_s();
     write_report(out.path() / "report.md", s, md, result);
     out.commit();
-    std::error_code ignored;
-    fs::remove_all(checkpoints, ignored);  // the finished record supersedes the checkpoint
-    if (fs::is_empty(results_root / ".checkpoints", ignored))
-        fs::remove(results_root / ".checkpoints", ignored);
+    remove_checkpoints(results_root, name);  // the finished records supersede them
     result.output_dir = out.final_path();
     clock.done("done: " + (result.output_dir / "report.md").string());
     return result;

@@ -812,7 +812,7 @@ gonio::BrdfRecord measure_species_brdf(const Run& run, const Specimen& x, Measur
                     x.spec.name, s.quanta * static_cast<std::uint64_t>(s.passes), run.nl()));
     gonio::RunControl control;
     control.progress = run.progress;
-    const fs::path checkpoints = run.results_root / ".checkpoints" / run.name;
+    const fs::path checkpoints = checkpoint_folder(run.results_root, run.name);
     fs::create_directories(checkpoints);
     control.checkpoint = checkpoints / (x.spec.name + "_brdf.checkpoint");
     gonio::BrdfRecord brdf = gonio::measure_brdf(x.sample, g, control);
@@ -1176,9 +1176,7 @@ void finish(const Run& run, SpeciesResult& result, record::Hdf5Writer& h5, std::
     }
     out.commit();
     result.output_dir = out.final_path();
-    fs::remove_all(run.results_root / ".checkpoints" / run.name);
-    std::error_code ignored;
-    fs::remove(run.results_root / ".checkpoints", ignored);  // only when empty
+    remove_checkpoints(run.results_root, run.name);
 }
 
 }  // namespace

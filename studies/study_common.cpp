@@ -67,6 +67,17 @@ Vec3d polar(double theta, double phi) {
     return {std::sin(theta) * std::cos(phi), std::sin(theta) * std::sin(phi), std::cos(theta)};
 }
 
+std::filesystem::path checkpoint_folder(const std::filesystem::path& results_root,
+                                        const std::string& name) {
+    return results_root / ".checkpoints" / name;
+}
+
+void remove_checkpoints(const std::filesystem::path& results_root, const std::string& name) {
+    std::error_code ignored;
+    std::filesystem::remove_all(checkpoint_folder(results_root, name), ignored);
+    std::filesystem::remove(results_root / ".checkpoints", ignored);  // only when empty
+}
+
 std::string interrupted_with_checkpoint(const std::string& what, int passes,
                                         const std::filesystem::path& checkpoint) {
     if (passes > 0) {

@@ -41,6 +41,13 @@ private:
     bool enabled_;
 };
 
+// Where a study keeps the checkpoints of its measurements: <results root>/.checkpoints/<name>/.
+std::filesystem::path checkpoint_folder(const std::filesystem::path& results_root,
+                                        const std::string& name);
+// After the commit: the finished records supersede the study's checkpoints; .checkpoints goes
+// too when no other study's remain.
+void remove_checkpoints(const std::filesystem::path& results_root, const std::string& name);
+
 // The Interrupted message of a measurement stopped with a checkpoint, after `passes` completed
 // passes: where to resume from, or, with no pass completed, nothing kept (the empty checkpoint
 // folders are removed).
