@@ -6,8 +6,9 @@
 
 The study is rock_dove_quick with its BRDF on the 61 × 60 set in 6 checkpointed passes, so
 that kills land in every stage, including mid-measurement where the rerun resumes from the
-checkpoint. Kill times are drawn from a fixed-seed generator over the reference run's
-duration. Each kill is followed by a rerun to completion in the same results root; one chain
+checkpoint. Kill times are drawn from a fixed-seed generator: half over the reference run's
+duration, half within its checkpointed BRDF stage (from the reference's own stage times), so
+that reruns resume from a checkpoint part-way through the passes. Each kill is followed by a rerun to completion in the same results root; one chain
 kills 5 times in a row in one root before the final rerun. Records are compared by
 scripts/compare_records.py (every HDF5 dataset and attribute, every CSV).
 """
@@ -48,6 +49,17 @@ def run(plumage, study, out, kill_after=None):
         return proc.returncode, err, time.monotonic() - start
 
 
+STAGE_TIME = re.compile(r"^plumage: \[\s*([0-9.]+) s\] (.*)$", re.M)
+
+
+def brdf_window(err):
+    """The checkpointed BRDF stage of the reference run: (start, end) in seconds."""
+    times = [(float(t), text) for t, text in STAGE_TIME.findall(err)]
+    start = next(t for t, text in times if text.startswith("BRDF on"))
+    end = next(t for t, text in times if t > start)
+    return start, end
+
+
 def last_stage(err):
     stages = [l for l in err.splitlines() if l.startswith("plumage: [")]
     return stages[-1].split("] ", 1)[1][:50] if stages else "(start-up)"
@@ -70,7 +82,10 @@ def main():
             print(err)
             return 1
         rng = random.Random(20221122)
-        points = sorted(rng.uniform(0.05, 0.95) * duration for _ in range(args.kills))
+        first, last = brdf_window(err)
+        half = args.kills // 2
+        points = sorted([rng.uniform(0.05, 0.95) * duration for _ in range(args.kills - half)] +
+                        [rng.uniform(first, last) for _ in range(half)])
         plans = [[t] for t in points] + [sorted(rng.uniform(0.05, 0.95) * duration for _ in range(5))]
         for n, kills in enumerate(plans):
             out = work / f"run{n}"
@@ -79,7 +94,8 @@ def main():
                 code, err, _ = run(args.plumage, study, out, t)
                 stages.append(f"{t:.2f} s: {last_stage(err)}" if code == -9 else f"{t:.2f} s: finished first")
             code, err, _ = run(args.plumage, study, out)
-            resumed = "resumed" if "resuming after" in err else ""
+            m = re.search(r"resuming after (\d+) completed passes", err)
+            resumed = f"pass {m.group(1)}" if m else ""
             removed = err.count("left by process")
             left = sorted(p.name for p in out.iterdir() if ".partial-" in p.name or ".previous-" in p.name)
             if (out / ".checkpoints").exists():
@@ -94,10 +110,11 @@ def main():
             shutil.rmtree(out, ignore_errors=True)
     finally:
         shutil.rmtree(work, ignore_errors=True)
-    print(f"reference run {duration:.1f} s; {sum(len(p) for p in plans)} kills in {len(plans)} runs")
-    print(f"{'kill time: stage at the kill':72} {'resume':8} {'orphans removed':>15}  {'left':6} records")
+    print(f"reference run {duration:.1f} s, checkpointed BRDF stage {first:.1f}-{last:.1f} s; "
+          f"{sum(len(p) for p in plans)} kills in {len(plans)} runs")
+    print(f"{'kill time: stage at the kill':72} {'resumed after':13} {'orphans removed':>15}  {'left':6} records")
     for stages, resumed, removed, left, equal in rows:
-        print(f"{stages[:72]:72} {resumed:8} {removed:>15}  {left:6} {equal}")
+        print(f"{stages[:72]:72} {resumed:13} {removed:>15}  {left:6} {equal}")
     print(f"{time.monotonic() - began:.0f} s in all")
     for f in failures:
         print("FAIL:", f)
