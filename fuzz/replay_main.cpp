@@ -26,6 +26,8 @@ int main(int argc, char** argv) {
         }
     }
     for (const auto& path : inputs) {
+        // Named first, so that a finding's abort shows which input it was.
+        std::cerr << "replaying " << path.string() << std::endl;
         std::ifstream in(path, std::ios::binary);
         const std::vector<char> bytes((std::istreambuf_iterator<char>(in)), {});
         LLVMFuzzerTestOneInput(reinterpret_cast<const std::uint8_t*>(bytes.data()), bytes.size());

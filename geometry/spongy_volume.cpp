@@ -7,6 +7,7 @@
 #include <cmath>
 #include <complex>
 #include <limits>
+#include <new>
 #include <numbers>
 #include <random>
 #include <system_error>
@@ -804,6 +805,14 @@ openvdb::FloatGrid::Ptr load_level_set(const std::filesystem::path& path,
         throw InputError(
             fmt::format("level set file '{}' (grid '{}') is not a readable .vdb file: {}",
                         path.string(), grid_name, e.what()));
+    } catch (const std::bad_alloc&) {
+        // OpenVDB 10 allocates whatever size a file's compressed block claims
+        // (io::bloscFromStream): a damaged file asks for tens of GB. Name the file, not
+        // "std::bad_alloc" (found by fuzz/fuzz_vdb.cpp: fuzz/regressions/asan_aborts/).
+        throw InputError(fmt::format(
+            "level set file '{}' (grid '{}') claims more memory than there is: damaged, or too "
+            "large for this machine",
+            path.string(), grid_name));
     }
     auto grid = openvdb::gridPtrCast<openvdb::FloatGrid>(base);
     if (!grid) {

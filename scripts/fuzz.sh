@@ -1,55 +1,70 @@
 #!/usr/bin/env bash
-# Fuzzes every parser a user feeds (docs/fuzzing.md): builds the libFuzzer targets with clang,
-# ASan and UBSan in build-fuzz/, then runs each on a copy of its committed corpus.
-#   scripts/fuzz.sh [SECONDS_PER_TARGET] [TARGET...]     (default 60 s; all targets)
-# Prints inputs tried, crashes, timeouts and leaks per target; exits 1 on any finding, whose
-# input stays in build-fuzz/artifacts/<target>/ (commit it to fuzz/corpus/<target>/ once fixed:
-# the replay tests then keep it fixed).
+# Fuzzes every parser a user feeds (docs/reliability.md, "Fuzzing"): builds the libFuzzer targets
+# (clang, ASan, UBSan) in the instrumented build it shares with scripts/sanitize.sh
+# (scripts/instrumented-build.sh), then runs each on a copy of its committed corpus.
+#   scripts/fuzz.sh [SECONDS_PER_TARGET] [TARGET...]   (default $PLUMAGE_FUZZ_SECONDS or 60 s;
+#                                                       targets: study ply obj vdb record)
+#   PLUMAGE_JOBS=N: parallel compile jobs (default 2).
+# Prints per target the inputs tried, crashes, hangs (inputs over 10 s), leaks, out-of-memory
+# and files written outside the fuzzer's temporary folder; exits 1 on any finding, whose input
+# stays in build-instrumented/artifacts/<target>/ (once fixed, commit it to
+# fuzz/regressions/<target>/: the replay tests then keep it fixed). The repository is never
+# modified.
 set -euo pipefail
 root=$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)
-seconds=${1:-60}
+seconds=${1:-${PLUMAGE_FUZZ_SECONDS:-60}}
 shift || true
 targets=("$@")
 [[ ${#targets[@]} -gt 0 ]] || targets=(study ply obj vdb record)
 
-"$root/scripts/install-deps.sh"
-if ! command -v clang++ >/dev/null || ! ls /usr/lib/llvm-*/lib/clang/*/lib/linux/libclang_rt.fuzzer-x86_64.a >/dev/null 2>&1; then
-  apt-get update >&2 && apt-get install -y --no-install-recommends clang >&2
-fi
-build=${PLUMAGE_FUZZ_BUILD_DIR:-$root/build-fuzz}
-export CCACHE_BASEDIR=$root CCACHE_NOHASHDIR=true
-if [[ ! -f "$build/CMakeCache.txt" ]]; then
-  CC=clang CXX=clang++ cmake -S "$root" -B "$build" -G Ninja -DCMAKE_BUILD_TYPE=RelWithDebInfo \
-    -DPLUMAGE_FUZZ=ON -DPLUMAGE_BUILD_TESTS=OFF -DPLUMAGE_BUILD_BENCHMARKS=OFF >&2
-fi
 start=$(date +%s)
-cmake --build "$build" --parallel "${PLUMAGE_JOBS:-2}" --target $(printf 'plumage_fuzz_%s ' "${targets[@]}") >&2
-echo "fuzz build: $(( $(date +%s) - start )) s"
+build=$("$root/scripts/instrumented-build.sh" $(printf 'plumage_fuzz_%s ' "${targets[@]}"))
+echo "fuzz build: $(($(date +%s) - start)) s"
 
+count() { find "$1" -maxdepth 1 -name "$2-*" | wc -l; }
 status=0
-printf '%-8s %10s %8s %8s %8s %6s\n' target inputs seconds crashes timeouts leaks
+printf '%-7s %10s %8s %8s %6s %6s %5s %8s\n' target execs seconds crashes hangs leaks ooms written
 for target in "${targets[@]}"; do
+  # The corpus is copied (libFuzzer adds to it); the target runs in an empty folder with its own
+  # TMPDIR, so anything it writes besides its temporary input shows up below.
   work=$(mktemp -d)
-  cp -r "$root/fuzz/corpus/$target/." "$work/"
-  artifacts="$build/artifacts/$target/"
+  mkdir "$work/corpus" "$work/cwd" "$work/tmp"
+  cp -r "$root/fuzz/corpus/$target/." "$work/corpus/"
+  artifacts="$build/artifacts/$target"
   rm -rf "$artifacts" && mkdir -p "$artifacts"  # this run's findings only
+  dict=()
+  [[ -f "$root/fuzz/$target.dict" ]] && dict=(-dict="$root/fuzz/$target.dict")
   log="$build/fuzz_$target.log"
+  began=$(date +%s)
   set +e
-  # -timeout: an input that takes 10 s is a hang; -rss_limit_mb: a parser must not need 4 GB.
-  ASAN_OPTIONS=detect_leaks=1 LSAN_OPTIONS="suppressions=$root/scripts/lsan.supp:print_suppressions=0" \
-    "$build/fuzz/plumage_fuzz_$target" "$work" -max_total_time="$seconds" \
-    -timeout=10 -rss_limit_mb=4096 -print_final_stats=1 -artifact_prefix="$artifacts" >"$log" 2>&1
+  # -timeout: an input taking 10 s is a hang; -rss_limit_mb: a parser must not need 4 GB.
+  # -fork=1 with -ignore_*: findings inside third-party readers (OpenVDB, HDF5) come within
+  # seconds, so each finding is kept and the fuzzer carries on for the whole time.
+  # A single allocation larger than memory (a size read from a damaged file) must fail as it
+  # does in a normal build, with std::bad_alloc, which the reader turns into an InputError:
+  # allocator_may_return_null and a malloc limit above ASan's own 1 TB cap; memory actually
+  # used still counts against -rss_limit_mb.
+  (cd "$work/cwd" &&
+    TMPDIR="$work/tmp" ASAN_OPTIONS=detect_leaks=1:allocator_may_return_null=1 \
+    LSAN_OPTIONS="suppressions=$root/scripts/lsan.supp:print_suppressions=0" \
+    "$build/fuzz/plumage_fuzz_$target" "$work/corpus" "${dict[@]}" \
+      -max_total_time="$seconds" -timeout=10 -rss_limit_mb=4096 -malloc_limit_mb=2000000 \
+      -fork=1 -ignore_crashes=1 -ignore_timeouts=1 -ignore_ooms=1 \
+      -artifact_prefix="$artifacts/") >"$log" 2>&1
   code=$?
   set -e
-  runs=$(grep -o 'stat::number_of_executed_units: *[0-9]*' "$log" | grep -o '[0-9]*$' || echo 0)
-  crashes=$(ls "$artifacts" | grep -c '^crash-' || true)
-  timeouts=$(ls "$artifacts" | grep -c '^timeout-' || true)
-  leaks=$(ls "$artifacts" | grep -c '^leak-' || true)
-  ooms=$(ls "$artifacts" | grep -c '^oom-' || true)
-  printf '%-8s %10s %8s %8s %8s %6s\n' "$target" "${runs:-0}" "$seconds" "$((crashes + ooms))" "$timeouts" "$leaks"
-  if [[ $code -ne 0 ]]; then
+  # Inputs tried: the fork driver's tally ("#N: cov: ...") at its last finished job.
+  execs=$(grep -oE '^#[0-9]+: cov' "$log" | tail -1 | tr -dc '0-9' || true)
+  crashes=$(($(count "$artifacts" crash) + $(count "$artifacts" deadly)))
+  # A finding leaves its input in TMPDIR (the process died holding it): not a write.
+  written=$(find "$work/cwd" "$work/tmp" -mindepth 1 ! -name 'plumage_fuzz_*' \
+    ! -path '*/libFuzzerTemp*' | wc -l)
+  printf '%-7s %10s %8s %8s %6s %6s %5s %8s\n' "$target" "${execs:-0}" "$(($(date +%s) - began))" \
+    "$crashes" "$(count "$artifacts" timeout)" "$(count "$artifacts" leak)" \
+    "$(count "$artifacts" oom)" "$written"
+  if [[ $code -ne 0 || $written -ne 0 ]]; then
     status=1
-    echo "  finding: see $log and $artifacts" >&2
+    echo "  finding: see $log and $artifacts/" >&2
     grep -m3 -E 'ERROR|SUMMARY|terminate|runtime error' "$log" >&2 || true
   fi
   rm -rf "$work"

@@ -194,8 +194,9 @@ Dataset read_dataset(const std::filesystem::path& file, const std::string& datas
         std::accumulate(dims.begin(), dims.end(), hsize_t{1}, std::multiplies<>());
     // HDF5 1.10 trusts a damaged file's layout: a contiguous or compact dataset that stores
     // fewer bytes than its shape needs is refused here, before H5Dread copies past its buffers.
-    // Other damaged compact datasets still crash HDF5 itself (fuzz/fuzz_record.cpp found one:
-    // docs/reliability.md); plumage reads back only the records and checkpoints it wrote.
+    // A damaged chunked, compressed dataset still crashes HDF5 itself (heap over-read in
+    // H5VM_memcpyvv under H5Dread; fuzz/unfixed/record/, docs/reliability.md); plumage reads back
+    // only the records and checkpoints it wrote.
     Handle plist(H5Dget_create_plist(dataset.get()), H5Pclose);
     Handle file_type(H5Dget_type(dataset.get()), H5Tclose);
     const H5D_layout_t layout = plist.valid() ? H5Pget_layout(plist.get()) : H5D_LAYOUT_ERROR;
