@@ -15,6 +15,7 @@ packages=(
   libcli11-dev           # command line
   libtomlplusplus-dev    # study files
   libfmt-dev
+  libfftw3-dev           # power spectra of spongy volumes (sim/wave)
   libstb-dev libpng-dev  # PNG output
   python3-numpy python3-h5py python3-matplotlib  # plots; these belong to /usr/bin/python3
 )
