@@ -7,12 +7,11 @@
 
 #include <fmt/format.h>
 
+#include "common/constants.h"
 #include "common/error.h"
 
 namespace plumage::analysis {
 namespace {
-
-constexpr double kTwoPi = 2.0 * std::numbers::pi;
 
 // 3-point Gauss–Legendre on [−1, 1].
 constexpr std::array<double, 3> kGaussNodes = {-0.7745966692414834, 0.0, 0.7745966692414834};

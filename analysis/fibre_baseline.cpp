@@ -3,19 +3,18 @@
 #include <algorithm>
 #include <atomic>
 #include <cmath>
-#include <numbers>
+#include <string_view>
 
 #include <fmt/format.h>
 
+#include "common/constants.h"
 #include "common/error.h"
+#include "common/require.h"
 #include "sim/optics/fresnel.h"
 
 namespace plumage::analysis {
 namespace {
 
-constexpr double kPi = std::numbers::pi;
-constexpr double kTwoPi = 2.0 * std::numbers::pi;
-constexpr double kSqrt2 = std::numbers::sqrt2;
 // log √(2π)
 constexpr double kLogSqrtTwoPi = 0.91893853320467274178;
 // Incident directions closer than this (in cos θ) to the fibre axis are treated at this cosine:
@@ -231,26 +230,23 @@ void circular_fibre_azimuthal(double eta, double absorption_per_um, double diame
 
 namespace {
 
-void require(bool ok, const char* name, double value, const char* expected) {
-    if (!ok)
-        throw InputError(
-            fmt::format("fibre baseline: {} = {}: expected {}", name, value, expected));
-}
+// The name that prefixes this file's input errors.
+constexpr std::string_view kWhat = "fibre baseline";
 
 void validate(const FibreBaselineParams& p) {
     auto in = [](double v, double lo, double hi) { return std::isfinite(v) && v >= lo && v <= hi; };
-    require(in(p.eta, 1.01, 3.0), "eta", p.eta, "a value in [1.01, 3]");
-    require(in(p.absorption_per_um, 0.0, 10.0), "absorption_per_um", p.absorption_per_um,
+    require(in(p.eta, 1.01, 3.0), kWhat, "eta", p.eta, "a value in [1.01, 3]");
+    require(in(p.absorption_per_um, 0.0, 10.0), kWhat, "absorption_per_um", p.absorption_per_um,
             "a value in [0, 10] (1/um)");
-    require(std::isfinite(p.diameter_um) && p.diameter_um > 0.0 && p.diameter_um <= 1e4,
+    require(std::isfinite(p.diameter_um) && p.diameter_um > 0.0 && p.diameter_um <= 1e4, kWhat,
             "diameter_um", p.diameter_um, "a value in (0, 10000] (um)");
-    require(in(p.alpha_r_rad, -0.35, 0.35), "alpha_r_rad", p.alpha_r_rad,
+    require(in(p.alpha_r_rad, -0.35, 0.35), kWhat, "alpha_r_rad", p.alpha_r_rad,
             "a value in [-0.35, 0.35] (rad)");
-    require(in(p.beta_r_rad, 0.01, 0.5), "beta_r_rad", p.beta_r_rad,
+    require(in(p.beta_r_rad, 0.01, 0.5), kWhat, "beta_r_rad", p.beta_r_rad,
             "a value in [0.01, 0.5] (rad)");
-    require(in(p.azimuthal_roughness_rad, 0.03, 1.5), "azimuthal_roughness_rad",
+    require(in(p.azimuthal_roughness_rad, 0.03, 1.5), kWhat, "azimuthal_roughness_rad",
             p.azimuthal_roughness_rad, "a value in [0.03, 1.5] (rad)");
-    require(p.offsets >= 16 && p.offsets <= 65536, "offsets", p.offsets,
+    require(p.offsets >= 16 && p.offsets <= 65536, kWhat, "offsets", p.offsets,
             "an integer in [16, 65536]");
 }
 

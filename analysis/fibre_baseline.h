@@ -71,6 +71,7 @@
 #include <string>
 #include <vector>
 
+#include "common/constants.h"
 #include "sim/scatterer.h"
 
 namespace plumage::analysis {
@@ -126,7 +127,7 @@ public:
     double density(double psi) const;  // per radian; integrates to mass()
     double sample(double u) const;     // u ∈ [0, 1): ψ with density / mass()
     double bin_mass(int bin) const { return value_[bin]; }
-    static double bin_width() { return 2.0 * 3.14159265358979323846 / kBins; }
+    static double bin_width() { return kTwoPi / kBins; }
 
 private:
     std::array<double, kBins> value_{};

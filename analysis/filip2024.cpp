@@ -5,13 +5,12 @@
 
 #include <fmt/format.h>
 
+#include "common/constants.h"
 #include "common/error.h"
 
 namespace plumage::analysis {
 namespace {
 
-constexpr double kPi = std::numbers::pi;
-constexpr double kTwoPi = 2.0 * std::numbers::pi;
 // Eq. 4: E = 1.1 − cos θi cos θo. The 0.1 keeps E > 0 at normal incidence and view.
 constexpr double kElevationOffset = 1.1;
 // Share of the cosine-weighted hemisphere in the sampling mixture, whatever the lobe estimates

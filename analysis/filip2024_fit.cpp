@@ -3,25 +3,20 @@
 #include <algorithm>
 #include <cmath>
 #include <limits>
-#include <numbers>
 
 #include <fmt/format.h>
 #include <Eigen/Eigenvalues>
 #include <unsupported/Eigen/NonLinearOptimization>
 
+#include "analysis/bounded_parameters.h"
 #include "analysis/levenberg_marquardt.h"
+#include "common/constants.h"
 #include "common/error.h"
 #include "common/interrupt.h"
 
 namespace plumage::analysis {
 namespace {
 
-constexpr double kPi = std::numbers::pi;
-// How far inside its range a starting value on a bound is moved (fraction of the range): the
-// logistic map reaches a bound only at infinity.
-constexpr double kStartInset = 1e-9;
-// A fitted value this close to a bound (fraction of the range) is reported at_bound.
-constexpr double kAtBoundFraction = 1e-6;
 // Relative eigenvalue below which JᵀJ (after unit-diagonal scaling) counts as singular.
 constexpr double kSingularRatio = 1e-12;
 
@@ -94,28 +89,25 @@ std::vector<PreparedObservation> prepare(std::span<const BrdfObservation> data) 
     return prepared;
 }
 
-// The optimiser's variables u ↔ the parameters p: logistic onto each range, identity for φa.
+BoundedRange range(int index) {
+    const auto& info = kFilip2024ParameterTable[index];
+    return {info.min, info.max};
+}
+
+// The optimiser's variables u ↔ the parameters p: logistic onto each range
+// (bounded_parameters.h), identity for φa.
 struct ParameterMap {
     std::array<double, kFilip2024ParameterCount> base;  // fixed parameters' values
     std::vector<int> free;
 
     double to_parameter(int index, double u) const {
-        if (periodic(index)) return u;
-        const auto& info = kFilip2024ParameterTable[index];
-        return info.min + (info.max - info.min) / (1.0 + std::exp(-u));
+        return periodic(index) ? u : range(index).parameter(u);
     }
     double derivative(int index, double u) const {  // dp/du
-        if (periodic(index)) return 1.0;
-        const auto& info = kFilip2024ParameterTable[index];
-        const double s = 1.0 / (1.0 + std::exp(-u));
-        return (info.max - info.min) * s * (1.0 - s);
+        return periodic(index) ? 1.0 : range(index).slope(u);
     }
     double to_variable(int index, double p) const {
-        if (periodic(index)) return p;
-        const auto& info = kFilip2024ParameterTable[index];
-        const double t =
-            std::clamp((p - info.min) / (info.max - info.min), kStartInset, 1.0 - kStartInset);
-        return std::log(t / (1.0 - t));
+        return periodic(index) ? p : range(index).variable(p);
     }
     std::array<double, kFilip2024ParameterCount> parameters(const Eigen::VectorXd& u) const {
         auto v = base;
@@ -288,10 +280,7 @@ Filip2024FitResult fit_filip2024(std::span<const BrdfObservation> data,
 
     for (int i = 0; i < kFilip2024ParameterCount; ++i) {
         result.standard_errors[i] = std::numeric_limits<double>::quiet_NaN();
-        const auto& info = kFilip2024ParameterTable[i];
-        const double margin = kAtBoundFraction * (info.max - info.min);
-        result.at_bound[i] = !periodic(i) && !options.fixed[i] &&
-                             (values[i] - info.min < margin || info.max - values[i] < margin);
+        result.at_bound[i] = !periodic(i) && !options.fixed[i] && range(i).near_bound(values[i]);
     }
 
     // covariance = s² (JᵀJ)⁻¹, inverted after scaling JᵀJ to a unit diagonal so that the

@@ -4,22 +4,21 @@
 #include <atomic>
 #include <cmath>
 #include <functional>
-#include <numbers>
+#include <string_view>
 
 #include <fmt/format.h>
 
+#include "common/constants.h"
 #include "common/error.h"
+#include "common/require.h"
 #include "sim/optics/material.h"
 #include "sim/optics/thin_film.h"
 
 namespace plumage::analysis {
 namespace {
 
-constexpr double kPi = std::numbers::pi;
-
-void require(bool ok, const char* key, double value, const char* expected) {
-    if (!ok) throw InputError(fmt::format("huang2022: {} = {}: expected {}", key, value, expected));
-}
+// The name that prefixes this file's input errors.
+constexpr std::string_view kWhat = "huang2022";
 
 // Gauss–Legendre nodes and weights on [−1, 1].
 constexpr std::array<double, 8> kGl8Nodes = {
@@ -54,16 +53,17 @@ struct Huang2022Bsdf::Frame {
 };
 
 Huang2022Bsdf::Huang2022Bsdf(const Huang2022Params& p) : params_(p) {
-    require(std::isfinite(p.b) && p.b >= 1e-3 && p.b <= 1.0, "b", p.b, "a value in [1e-3, 1]");
+    require(std::isfinite(p.b) && p.b >= 1e-3 && p.b <= 1.0, kWhat, "b", p.b,
+            "a value in [1e-3, 1]");
     require(std::isfinite(p.phi0) && std::isfinite(p.phi1) && p.phi1 > p.phi0 &&
                 p.phi1 - p.phi0 <= 2.0 * kPi,
-            "phi1 - phi0", p.phi1 - p.phi0, "an arc with phi0 < phi1 <= phi0 + 2 pi (rad)");
-    require(std::isfinite(p.H) && p.H > 0.0, "H", p.H, "a spacing > 0 (in semi-major axes)");
-    require(std::isfinite(p.d_um) && p.d_um >= 0.0 && p.d_um <= 50.0, "d", p.d_um,
+            kWhat, "phi1 - phi0", p.phi1 - p.phi0, "an arc with phi0 < phi1 <= phi0 + 2 pi (rad)");
+    require(std::isfinite(p.H) && p.H > 0.0, kWhat, "H", p.H, "a spacing > 0 (in semi-major axes)");
+    require(std::isfinite(p.d_um) && p.d_um >= 0.0 && p.d_um <= 50.0, kWhat, "d", p.d_um,
             "a film thickness in [0, 50] um");
-    require(std::isfinite(p.theta_d) && p.theta_d > 0.0 && p.theta_d <= 0.25 * kPi, "theta_d",
-            p.theta_d, "a half-opening in (0, pi/4] rad");
-    require(std::isfinite(p.mu) && std::abs(p.mu) < 0.5 * kPi, "mu", p.mu,
+    require(std::isfinite(p.theta_d) && p.theta_d > 0.0 && p.theta_d <= 0.25 * kPi, kWhat,
+            "theta_d", p.theta_d, "a half-opening in (0, pi/4] rad");
+    require(std::isfinite(p.mu) && std::abs(p.mu) < 0.5 * kPi, kWhat, "mu", p.mu,
             "a tilt in (-pi/2, pi/2) rad");
     static std::atomic<std::uint64_t> counter{0};
     generation_ = ++counter;

@@ -7,56 +7,50 @@
 #include <cmath>
 #include <exception>
 #include <limits>
-#include <numbers>
 #include <optional>
+#include <string_view>
 
 #include <fmt/format.h>
 #include <Eigen/Eigenvalues>
 #include <unsupported/Eigen/NonLinearOptimization>
 
+#include "analysis/bounded_parameters.h"
 #include "analysis/levenberg_marquardt.h"
+#include "common/constants.h"
 #include "common/error.h"
+#include "common/require.h"
 
 namespace plumage::analysis {
 namespace {
 
-constexpr double kPi = std::numbers::pi;
-// How far inside its range a starting value on a bound is moved (fraction of the range): the
-// logistic map reaches a bound only at infinity.
-constexpr double kStartInset = 1e-9;
 // The logistic is kept this far from 0 and 1 so that open bounds (θ_d > 0, |μ| < π/2, w > 0)
 // stay open in floating point.
 constexpr double kLogisticFloor = 1e-15;
-// A fitted value this close to a bound (fraction of the range) is reported at_bound; H (no upper
-// bound) below this value.
-constexpr double kAtBoundFraction = 1e-6;
+// H (no upper bound) is reported at_bound below kAtBoundFraction (bounded_parameters.h).
 // Relative eigenvalue below which JᵀJ (after unit-diagonal scaling) counts as singular.
 constexpr double kSingularRatio = 1e-12;
 // A requested wavelength matches the record's within this (nm).
 constexpr double kWavelengthMatch = 1e-6;
 
-[[noreturn]] void fail(const std::string& what) { throw InputError("Huang 2022 fit: " + what); }
+// The name that prefixes this file's input errors.
+constexpr std::string_view kWhat = "Huang 2022 fit";
 
-struct Range {
-    double min, max;
-};
+[[noreturn]] void fail(const std::string& what) {
+    throw InputError(std::string(kWhat) + ": " + what);
+}
+
 // Logistic ranges: b, d_um, θ_d, μ and the arc's width w = φ1 − φ0.
-constexpr Range kRangeB{1e-3, 1.0};
-constexpr Range kRangeD{0.0, 50.0};
-constexpr Range kRangeThetaD{0.0, 0.25 * kPi};
-constexpr Range kRangeMu{-0.5 * kPi, 0.5 * kPi};
-constexpr Range kRangeWidth{0.0, 2.0 * kPi};
+constexpr BoundedRange kRangeB{1e-3, 1.0};
+constexpr BoundedRange kRangeD{0.0, 50.0};
+constexpr BoundedRange kRangeThetaD{0.0, 0.25 * kPi};
+constexpr BoundedRange kRangeMu{-0.5 * kPi, 0.5 * kPi};
+constexpr BoundedRange kRangeWidth{0.0, 2.0 * kPi};
 
+// The logistic of bounded_parameters.h, kept kLogisticFloor from 0 and 1 (Filip's fit does
+// not clamp: its ranges are closed). p = min + (max − min) · logistic(u) here, not
+// BoundedRange::parameter's division: the two round differently.
 double logistic(double u) {
     return std::clamp(1.0 / (1.0 + std::exp(-u)), kLogisticFloor, 1.0 - kLogisticFloor);
-}
-double logit(double p, Range r) {
-    const double t = std::clamp((p - r.min) / (r.max - r.min), kStartInset, 1.0 - kStartInset);
-    return std::log(t / (1.0 - t));
-}
-bool near_edge(double p, Range r) {
-    const double margin = kAtBoundFraction * (r.max - r.min);
-    return p - r.min < margin || r.max - p < margin;
 }
 
 // The optimiser's variables u ↔ the parameters p (see the header). φ0 precedes φ1 in the index
@@ -70,7 +64,7 @@ struct ParameterMap {
     bool carries_width(int index) const {
         return index == kHuangPhi1 || (index == kHuangPhi0 && !is_free[kHuangPhi1]);
     }
-    static const Range* logistic_range(int index) {
+    static const BoundedRange* logistic_range(int index) {
         switch (index) {
             case kHuangB:
                 return &kRangeB;
@@ -90,7 +84,7 @@ struct ParameterMap {
         for (std::size_t j = 0; j < free.size(); ++j) {
             const int i = free[j];
             const double x = u[static_cast<Eigen::Index>(j)];
-            if (const Range* r = logistic_range(i)) {
+            if (const BoundedRange* r = logistic_range(i)) {
                 v[i] = r->min + (r->max - r->min) * logistic(x);
             } else if (i == kHuangH) {
                 v[i] = std::exp(std::clamp(x, -700.0, 700.0));
@@ -113,12 +107,12 @@ struct ParameterMap {
         for (std::size_t j = 0; j < free.size(); ++j) {
             const int i = free[j];
             double x = v[i];
-            if (const Range* r = logistic_range(i)) {
-                x = logit(v[i], *r);
+            if (const BoundedRange* r = logistic_range(i)) {
+                x = r->variable(v[i]);
             } else if (i == kHuangH) {
                 x = std::log(v[i]);
             } else if (carries_width(i)) {
-                x = logit(v[kHuangPhi1] - v[kHuangPhi0], kRangeWidth);
+                x = kRangeWidth.variable(v[kHuangPhi1] - v[kHuangPhi0]);
             }
             u[static_cast<Eigen::Index>(j)] = x;
         }
@@ -132,7 +126,7 @@ struct ParameterMap {
         for (Eigen::Index j = 0; j < n; ++j) {
             const int i = free[static_cast<std::size_t>(j)];
             const double s = logistic(u[j]);
-            if (const Range* r = logistic_range(i)) {
+            if (const BoundedRange* r = logistic_range(i)) {
                 m(j, j) = (r->max - r->min) * s * (1.0 - s);
             } else if (i == kHuangH) {
                 m(j, j) = std::exp(std::clamp(u[j], -700.0, 700.0));
@@ -153,9 +147,9 @@ struct ParameterMap {
 
     bool at_bound(int index, const std::array<double, kHuang2022ParameterCount>& v) const {
         if (!is_free[index]) return false;
-        if (const Range* r = logistic_range(index)) return near_edge(v[index], *r);
+        if (const BoundedRange* r = logistic_range(index)) return r->near_bound(v[index]);
         if (index == kHuangH) return v[index] < kAtBoundFraction;
-        if (carries_width(index)) return near_edge(v[kHuangPhi1] - v[kHuangPhi0], kRangeWidth);
+        if (carries_width(index)) return kRangeWidth.near_bound(v[kHuangPhi1] - v[kHuangPhi0]);
         return false;
     }
 };
@@ -484,37 +478,38 @@ void predict(const Huang2022Params& params, const Layout& layout, int threads,
 }
 
 void validate_options(const HuangFitOptions& o) {
-    auto require = [](bool ok, const std::string& what) {
-        if (!ok) fail(what);
-    };
     require(o.edge_lines >= 3 && o.edge_lines <= 15 && o.edge_lines % 2 == 1 &&
                 o.edge_bisections >= 0 && o.edge_bisections <= 30,
+            kWhat,
             fmt::format("edge_lines = {}, edge_bisections = {}: expected an odd number in 3..15 "
                         "and 0..30",
                         o.edge_lines, o.edge_bisections));
-    require(o.pixel_stride >= 1 && o.pixel_stride <= 64,
+    require(o.pixel_stride >= 1 && o.pixel_stride <= 64, kWhat,
             fmt::format("pixel_stride = {}: expected 1..64", o.pixel_stride));
     require(
-        std::isfinite(o.max_relative_error) && o.max_relative_error > 0.0,
+        std::isfinite(o.max_relative_error) && o.max_relative_error > 0.0, kWhat,
         fmt::format("max_relative_error = {}: expected a finite value > 0", o.max_relative_error));
-    require(std::isfinite(o.relative_error_floor) && o.relative_error_floor >= 0.0,
+    require(std::isfinite(o.relative_error_floor) && o.relative_error_floor >= 0.0, kWhat,
             fmt::format("relative_error_floor = {}: expected a finite value >= 0",
                         o.relative_error_floor));
     require(o.illumination_nodes_radial >= 1 && o.illumination_nodes_radial <= 64 &&
                 o.illumination_nodes_azimuthal >= 1 && o.illumination_nodes_azimuthal <= 256,
+            kWhat,
             fmt::format("illumination_nodes_radial = {}, illumination_nodes_azimuthal = {}: "
                         "expected 1..64 and 1..256",
                         o.illumination_nodes_radial, o.illumination_nodes_azimuthal));
     require(std::isfinite(o.finite_difference_step) && o.finite_difference_step > 0.0 &&
                 o.finite_difference_step <= 1.0,
+            kWhat,
             fmt::format("finite_difference_step = {}: expected a value in (0, 1]",
                         o.finite_difference_step));
     require(o.max_function_evaluations >= 1 && std::isfinite(o.relative_tolerance) &&
                 o.relative_tolerance > 0.0,
+            kWhat,
             fmt::format("max_function_evaluations = {}, relative_tolerance = {}: expected >= 1 "
                         "and > 0",
                         o.max_function_evaluations, o.relative_tolerance));
-    require(o.threads >= 0,
+    require(o.threads >= 0, kWhat,
             fmt::format("threads = {}: expected >= 0 (0: OpenMP's default)", o.threads));
 }
 

@@ -4,11 +4,13 @@
 #include <atomic>
 #include <cmath>
 #include <memory>
-#include <numbers>
+#include <string_view>
 
 #include <fmt/format.h>
 
+#include "common/constants.h"
 #include "common/error.h"
+#include "common/require.h"
 #include "sim/optics/fresnel.h"
 #include "sim/optics/material.h"
 
@@ -17,40 +19,36 @@ namespace {
 
 using Vec2d = Eigen::Vector2d;
 
-constexpr double kPi = std::numbers::pi;
 constexpr double kMinimumCosTheta = 1e-6;  // as in fibre_baseline.cpp: edge-on cross-sections
 
-void require(bool ok, const char* name, double value, const std::string& expected) {
-    if (!ok)
-        throw InputError(
-            fmt::format("Padrón-Griffe 2024 BSDF: {} = {}: expected {}", name, value, expected));
-}
+// The name that prefixes this file's input errors.
+constexpr std::string_view kWhat = "Padrón-Griffe 2024 BSDF";
 
 void validate(const PadronGriffe2024Params& p) {
     auto in = [](double v, double lo, double hi) { return std::isfinite(v) && v >= lo && v <= hi; };
-    require(in(p.barb_absorption_per_um, 0.0, 10.0), "barb_absorption_per_um",
+    require(in(p.barb_absorption_per_um, 0.0, 10.0), kWhat, "barb_absorption_per_um",
             p.barb_absorption_per_um, "a value in [0, 10] (1/um)");
-    require(in(p.barbule_absorption_per_um, 0.0, 10.0), "barbule_absorption_per_um",
+    require(in(p.barbule_absorption_per_um, 0.0, 10.0), kWhat, "barbule_absorption_per_um",
             p.barbule_absorption_per_um, "a value in [0, 10] (1/um)");
-    require(in(p.medulla_albedo, 0.0, 1.0), "medulla_albedo", p.medulla_albedo,
+    require(in(p.medulla_albedo, 0.0, 1.0), kWhat, "medulla_albedo", p.medulla_albedo,
             "a value in [0, 1]");
-    require(in(p.barb_alpha_r_rad, -0.35, 0.35), "barb_alpha_r_rad", p.barb_alpha_r_rad,
+    require(in(p.barb_alpha_r_rad, -0.35, 0.35), kWhat, "barb_alpha_r_rad", p.barb_alpha_r_rad,
             "a value in [-0.35, 0.35] (rad)");
-    require(in(p.barb_beta_r_rad, 0.01, 0.5), "barb_beta_r_rad", p.barb_beta_r_rad,
+    require(in(p.barb_beta_r_rad, 0.01, 0.5), kWhat, "barb_beta_r_rad", p.barb_beta_r_rad,
             "a value in [0.01, 0.5] (rad)");
-    require(in(p.barbule_alpha_r_rad, -0.35, 0.35), "barbule_alpha_r_rad", p.barbule_alpha_r_rad,
-            "a value in [-0.35, 0.35] (rad)");
-    require(in(p.barbule_beta_r_rad, 0.01, 0.5), "barbule_beta_r_rad", p.barbule_beta_r_rad,
+    require(in(p.barbule_alpha_r_rad, -0.35, 0.35), kWhat, "barbule_alpha_r_rad",
+            p.barbule_alpha_r_rad, "a value in [-0.35, 0.35] (rad)");
+    require(in(p.barbule_beta_r_rad, 0.01, 0.5), kWhat, "barbule_beta_r_rad", p.barbule_beta_r_rad,
             "a value in [0.01, 0.5] (rad)");
-    require(in(p.azimuthal_roughness_rad, 0.03, 1.5), "azimuthal_roughness_rad",
+    require(in(p.azimuthal_roughness_rad, 0.03, 1.5), kWhat, "azimuthal_roughness_rad",
             p.azimuthal_roughness_rad, "a value in [0.03, 1.5] (rad)");
-    require(p.fibre_offsets >= 16 && p.fibre_offsets <= 65536, "fibre_offsets", p.fibre_offsets,
-            "an integer in [16, 65536]");
+    require(p.fibre_offsets >= 16 && p.fibre_offsets <= 65536, kWhat, "fibre_offsets",
+            p.fibre_offsets, "an integer in [16, 65536]");
     // The medulla (the masking term ignores it; the barb's trace needs it inside the cortex).
     const geometry::BarbParams& b = p.geometry.barb;
-    require(in(b.medulla_scale, 0.0, 0.95), "medulla_scale", b.medulla_scale,
+    require(in(b.medulla_scale, 0.0, 0.95), kWhat, "medulla_scale", b.medulla_scale,
             "a value in [0, 0.95] (0: no medulla)");
-    require(std::isfinite(b.medulla_offset_y_um) && std::isfinite(b.medulla_offset_z_um),
+    require(std::isfinite(b.medulla_offset_y_um) && std::isfinite(b.medulla_offset_z_um), kWhat,
             "medulla_offset", std::hypot(b.medulla_offset_y_um, b.medulla_offset_z_um),
             "finite offsets (um)");
 }
@@ -250,7 +248,7 @@ PadronGriffe2024Bsdf::PadronGriffe2024Bsdf(const PadronGriffe2024Params& params)
             reach = std::max(reach, cortex.level(core.centre + core.a * std::cos(t) * core.e1 +
                                                  core.b * std::sin(t) * core.e2));
         }
-        require(reach < 1.0 - 2e-3, "medulla_offset",
+        require(reach < 1.0 - 2e-3, kWhat, "medulla_offset",
                 std::hypot(barb.medulla_side_um, barb.medulla_up_um),
                 fmt::format("a medulla strictly inside the cortex (scale {} with this offset "
                             "reaches {:.3f} of the "

@@ -3,47 +3,44 @@
 #include <algorithm>
 #include <cmath>
 #include <limits>
-#include <numbers>
 #include <string>
+#include <string_view>
 
 #include <fmt/format.h>
 
+#include "common/constants.h"
 #include "common/error.h"
+#include "common/require.h"
 
 namespace plumage::analysis {
 namespace {
 
-constexpr double kPi = std::numbers::pi;
-
-void require(bool ok, const char* name, double value, const char* expected) {
-    if (!ok) {
-        throw InputError(
-            fmt::format("Padrón-Griffe 2024 masking: {} = {}: expected {}", name, value, expected));
-    }
-}
+// The name that prefixes this file's input errors.
+constexpr std::string_view kWhat = "Padrón-Griffe 2024 masking";
 
 void validate(const geometry::BarbulePatchParams& p) {
     auto finite = [](double v) { return std::isfinite(v); };
-    require(finite(p.barb.barb_width_um) && p.barb.barb_width_um > 0.0, "barb_width_um",
+    require(finite(p.barb.barb_width_um) && p.barb.barb_width_um > 0.0, kWhat, "barb_width_um",
             p.barb.barb_width_um, "a finite width > 0 (um)");
     require(finite(p.barb.barb_eccentricity) && p.barb.barb_eccentricity >= 0.0 &&
                 p.barb.barb_eccentricity <= 0.999,
-            "barb_eccentricity", p.barb.barb_eccentricity, "a value in [0, 0.999]");
-    require(finite(p.barb.barb_rotation_rad), "barb_rotation_rad", p.barb.barb_rotation_rad,
+            kWhat, "barb_eccentricity", p.barb.barb_eccentricity, "a value in [0, 0.999]");
+    require(finite(p.barb.barb_rotation_rad), kWhat, "barb_rotation_rad", p.barb.barb_rotation_rad,
             "a finite angle (rad)");
-    require(finite(p.barbule_width_um) && p.barbule_width_um > 0.0, "barbule_width_um",
+    require(finite(p.barbule_width_um) && p.barbule_width_um > 0.0, kWhat, "barbule_width_um",
             p.barbule_width_um, "a finite width > 0 (um)");
     require(finite(p.barbule_eccentricity) && p.barbule_eccentricity >= 0.0 &&
                 p.barbule_eccentricity <= 0.999,
-            "barbule_eccentricity", p.barbule_eccentricity, "a value in [0, 0.999]");
-    require(finite(p.barbule_rotation_rad), "barbule_rotation_rad", p.barbule_rotation_rad,
+            kWhat, "barbule_eccentricity", p.barbule_eccentricity, "a value in [0, 0.999]");
+    require(finite(p.barbule_rotation_rad), kWhat, "barbule_rotation_rad", p.barbule_rotation_rad,
             "a finite angle (rad)");
     require(finite(p.barbule_inclination_rad) && std::abs(p.barbule_inclination_rad) < 0.5 * kPi,
-            "barbule_inclination_rad", p.barbule_inclination_rad, "an angle in (-pi/2, pi/2)");
+            kWhat, "barbule_inclination_rad", p.barbule_inclination_rad,
+            "an angle in (-pi/2, pi/2)");
     require(finite(p.barbule_length) && p.barbule_length >= 0.0 && p.barbule_length <= 1000.0,
-            "barbule_length", p.barbule_length,
+            kWhat, "barbule_length", p.barbule_length,
             "a length in [0, 1000] barb widths (0: no barbules)");
-    require(finite(p.barb_spacing) && (p.barb_spacing == 0.0 || p.barb_spacing >= 1.0),
+    require(finite(p.barb_spacing) && (p.barb_spacing == 0.0 || p.barb_spacing >= 1.0), kWhat,
             "barb_spacing", p.barb_spacing,
             "0 (automatic: neighbouring barbules meet) or >= 1 barb width");
 }

@@ -6,20 +6,18 @@
 //    projection t(1 %) = t · (ε / 1 %)² from the measured 1/√t convergence.
 // Each runs once (Iterations(1)); the counters carry the figures.
 #include <cmath>
-#include <numbers>
 
 #include <benchmark/benchmark.h>
 
 #include "analysis/huang2022.h"
 #include "analysis/lambertian.h"
+#include "common/constants.h"
 #include "geometry/barbule.h"
 #include "sim/tracer.h"
 #include "virtual_gonio/goniometer.h"
 
 namespace plumage::gonio {
 namespace {
-
-constexpr double kDeg = std::numbers::pi / 180.0;
 
 void BM_TimeTo1PercentLambertian3660(benchmark::State& state) {
     const analysis::LambertianScatterer plate(0.6);

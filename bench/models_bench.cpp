@@ -12,6 +12,7 @@
 #include "analysis/fibre_baseline.h"
 #include "analysis/filip2024.h"
 #include "analysis/padrongriffe2024.h"
+#include "common/constants.h"
 #include "sim/random.h"
 
 namespace plumage::analysis {
@@ -29,7 +30,7 @@ const Pairs& pairs() {
         Rng rng(kDefaultSeed, 0);
         auto direction = [&] {
             const double z = rng.uniform();
-            const double phi = 2.0 * 3.141592653589793 * rng.uniform();
+            const double phi = kTwoPi * rng.uniform();
             const double s = std::sqrt(1.0 - z * z);
             return Vec3d(s * std::cos(phi), s * std::sin(phi), z);
         };

@@ -2,22 +2,20 @@
 
 #include <algorithm>
 #include <cmath>
-#include <numbers>
+#include <string_view>
 
 #include <fmt/format.h>
 
+#include "common/constants.h"
 #include "common/error.h"
+#include "common/require.h"
 #include "geometry/elliptical_arc.h"
 
 namespace plumage::geometry {
 namespace {
 
-constexpr double kPi = std::numbers::pi;
-
-void require(bool ok, const char* key, double value, const std::string& expected) {
-    if (!ok)
-        throw InputError(fmt::format("barb patch: {} = {}: expected {}", key, value, expected));
-}
+// The name that prefixes this file's input errors.
+constexpr std::string_view kWhat = "barb patch";
 
 struct Outline {
     std::vector<Eigen::Vector2d> points;   // counter-clockwise in (y, z)
@@ -53,16 +51,16 @@ double eccentric_minor(double major, double eccentricity) {
 }  // namespace
 
 Barb::Barb(const BarbParams& p) : params_(p) {
-    require(std::isfinite(p.barb_width_um) && p.barb_width_um > 0.0, "barb_width_um",
+    require(std::isfinite(p.barb_width_um) && p.barb_width_um > 0.0, kWhat, "barb_width_um",
             p.barb_width_um, "a finite width > 0 (um)");
     require(std::isfinite(p.barb_eccentricity) && p.barb_eccentricity >= 0.0 &&
                 p.barb_eccentricity <= 0.999,
-            "barb_eccentricity", p.barb_eccentricity, "a value in [0, 0.999]");
-    require(std::isfinite(p.barb_rotation_rad), "barb_rotation_rad", p.barb_rotation_rad,
+            kWhat, "barb_eccentricity", p.barb_eccentricity, "a value in [0, 0.999]");
+    require(std::isfinite(p.barb_rotation_rad), kWhat, "barb_rotation_rad", p.barb_rotation_rad,
             "a finite angle");
     require(std::isfinite(p.medulla_scale) && p.medulla_scale >= 0.0 && p.medulla_scale <= 0.95,
-            "medulla_scale", p.medulla_scale, "a value in [0, 0.95] (0: no medulla)");
-    require(std::isfinite(p.medulla_offset_y_um) && std::isfinite(p.medulla_offset_z_um),
+            kWhat, "medulla_scale", p.medulla_scale, "a value in [0, 0.95] (0: no medulla)");
+    require(std::isfinite(p.medulla_offset_y_um) && std::isfinite(p.medulla_offset_z_um), kWhat,
             "medulla_offset", p.medulla_offset_y_um, "finite offsets (um)");
     if (has_medulla()) {
         // Every medulla point must lie inside the cortex ellipse, with a wall of at least
@@ -76,7 +74,7 @@ Barb::Barb(const BarbParams& p) : params_(p) {
             // Back into the cortex's axis frame: along (major) and across (minor).
             const double along = q.x() * s + q.y() * c, across = q.x() * c - q.y() * s;
             const double level = std::hypot(along / semi_major_um(), across / semi_minor_um());
-            require(level < 1.0 - 2e-3, "medulla_offset",
+            require(level < 1.0 - 2e-3, kWhat, "medulla_offset",
                     std::hypot(p.medulla_offset_y_um, p.medulla_offset_z_um),
                     fmt::format(
                         "a medulla strictly inside the cortex (scale {} with this offset reaches "
@@ -108,22 +106,22 @@ namespace {
 
 TriangleMesh sweep(const Outline& outline, double length_um, double axis_radius_um,
                    const TessellationTolerance& tolerance) {
-    require(std::isfinite(length_um) && length_um > 0.0, "length_um", length_um,
+    require(std::isfinite(length_um) && length_um > 0.0, kWhat, "length_um", length_um,
             "a finite length > 0");
-    require(std::isfinite(axis_radius_um) && axis_radius_um >= 0.0, "axis_radius_um",
+    require(std::isfinite(axis_radius_um) && axis_radius_um >= 0.0, kWhat, "axis_radius_um",
             axis_radius_um, "0 (straight) or a bend radius > 0 (um)");
     double extent = 0.0;
     for (const auto& p : outline.points) extent = std::max(extent, std::abs(p.y()));
     std::vector<double> alphas;  // bend angle of each ring (or axial fraction when straight)
     const bool bent = axis_radius_um > 0.0;
     if (bent) {
-        require(axis_radius_um > extent, "axis_radius_um", axis_radius_um,
+        require(axis_radius_um > extent, kWhat, "axis_radius_um", axis_radius_um,
                 fmt::format(
                     "a bend radius larger than the cross-section's reach {:.4g} um (else the tube "
                     "folds on its inner side)",
                     extent));
         const double half = 0.5 * length_um / axis_radius_um;
-        require(half < kPi, "length_um", length_um, "a bent barb shorter than a full turn");
+        require(half < kPi, kWhat, "length_um", length_um, "a bent barb shorter than a full turn");
         const double step = tolerance.max_angular_step(axis_radius_um - extent);
         const int segments = std::max(1, static_cast<int>(std::ceil(2.0 * half / step)));
         for (int k = 0; k <= segments; ++k) alphas.push_back(-half + 2.0 * half * k / segments);
@@ -213,7 +211,7 @@ TriangleMesh Barb::medulla_mesh(double length_um, double axis_radius_um,
 
 TriangleMesh sweep_closed_outline(const std::vector<Eigen::Vector2d>& outline, double length_um,
                                   double axis_radius_um, const TessellationTolerance& tolerance) {
-    require(outline.size() >= 3, "outline points", static_cast<double>(outline.size()),
+    require(outline.size() >= 3, kWhat, "outline points", static_cast<double>(outline.size()),
             "at least 3");
     Outline o{outline, {}};
     const std::size_t m = outline.size();
@@ -238,23 +236,23 @@ struct BarbuleFibre {
 };
 
 void validate_patch(const BarbulePatchParams& p) {
-    require(std::isfinite(p.barbule_width_um) && p.barbule_width_um > 0.0, "barbule_width_um",
-            p.barbule_width_um, "a finite width > 0 (um)");
+    require(std::isfinite(p.barbule_width_um) && p.barbule_width_um > 0.0, kWhat,
+            "barbule_width_um", p.barbule_width_um, "a finite width > 0 (um)");
     require(std::isfinite(p.barbule_eccentricity) && p.barbule_eccentricity >= 0.0 &&
                 p.barbule_eccentricity <= 0.999,
-            "barbule_eccentricity", p.barbule_eccentricity, "a value in [0, 0.999]");
-    require(std::isfinite(p.barbule_rotation_rad), "barbule_rotation_rad", p.barbule_rotation_rad,
-            "a finite angle");
+            kWhat, "barbule_eccentricity", p.barbule_eccentricity, "a value in [0, 0.999]");
+    require(std::isfinite(p.barbule_rotation_rad), kWhat, "barbule_rotation_rad",
+            p.barbule_rotation_rad, "a finite angle");
     require(
         std::isfinite(p.barbule_inclination_rad) && std::abs(p.barbule_inclination_rad) < 0.5 * kPi,
-        "barbule_inclination_rad", p.barbule_inclination_rad, "an angle in (-pi/2, pi/2)");
-    require(std::isfinite(p.barbule_length) && p.barbule_length > 0.0, "barbule_length",
+        kWhat, "barbule_inclination_rad", p.barbule_inclination_rad, "an angle in (-pi/2, pi/2)");
+    require(std::isfinite(p.barbule_length) && p.barbule_length > 0.0, kWhat, "barbule_length",
             p.barbule_length, "a length > 0 in barb widths");
-    require(std::isfinite(p.barbule_separation) && p.barbule_separation >= 1.0,
+    require(std::isfinite(p.barbule_separation) && p.barbule_separation >= 1.0, kWhat,
             "barbule_separation", p.barbule_separation,
             "a spacing >= 1 barbule width (closer barbules would overlap)");
     require(std::isfinite(p.barb_spacing) && (p.barb_spacing == 0.0 || p.barb_spacing >= 1.0),
-            "barb_spacing", p.barb_spacing,
+            kWhat, "barb_spacing", p.barb_spacing,
             "0 (automatic: neighbouring barbules meet) or >= 1 barb width");
 }
 
@@ -363,7 +361,7 @@ BarbulePatch build_barbule_patch(const BarbulePatchParams& params, double length
                                  const TessellationTolerance& tolerance) {
     tolerance.validate();
     validate_patch(params);
-    require(barbs >= 1 && barbs <= 10000, "barbs", barbs, "1..10000");
+    require(barbs >= 1 && barbs <= 10000, kWhat, "barbs", barbs, "1..10000");
     const Barb barb(params.barb);
     BarbulePatch patch;
     patch.params = params;

@@ -3,22 +3,21 @@
 #include <algorithm>
 #include <cmath>
 #include <limits>
-#include <numbers>
 #include <random>
+#include <string_view>
 
 #include <fmt/format.h>
 
+#include "common/constants.h"
 #include "common/error.h"
+#include "common/require.h"
 #include "common/seed.h"
 
 namespace plumage::geometry {
 namespace {
 
-constexpr double kPi = std::numbers::pi;
-
-void require(bool ok, const char* key, double value, const std::string& expected) {
-    if (!ok) throw InputError(fmt::format("barbule: {} = {}: expected {}", key, value, expected));
-}
+// The name that prefixes this file's input errors.
+constexpr std::string_view kWhat = "barbule";
 
 // Smallest radius of curvature of the arc over [phi0, phi1]. With A >= B, ρ(φ) is
 // smallest at the ends of the major axis, φ = π/2 + kπ (the barbule's sharp edges).
@@ -33,25 +32,25 @@ double min_radius(const EllipticalArc& arc) {
 }
 
 EllipticalArc make_arc(const BarbuleCellParams& p) {
-    require(std::isfinite(p.b) && p.b >= 1e-3 && p.b <= 1.0, "b", p.b,
+    require(std::isfinite(p.b) && p.b >= 1e-3 && p.b <= 1.0, kWhat, "b", p.b,
             "a value in [1e-3, 1]: b is the semi-minor axis relative to the semi-major one; "
             "b -> 0 is a flat strip whose edges have no defined normal");
-    require(std::isfinite(p.semi_major_um) && p.semi_major_um > 0.0, "semi_major_um",
+    require(std::isfinite(p.semi_major_um) && p.semi_major_um > 0.0, kWhat, "semi_major_um",
             p.semi_major_um, "a finite length > 0 (um)");
-    require(std::isfinite(p.phi0), "phi0", p.phi0, "a finite angle (rad)");
+    require(std::isfinite(p.phi0), kWhat, "phi0", p.phi0, "a finite angle (rad)");
     require(
-        std::isfinite(p.phi1) && p.phi1 - p.phi0 >= 1e-6, "phi1", p.phi1,
+        std::isfinite(p.phi1) && p.phi1 - p.phi0 >= 1e-6, kWhat, "phi1", p.phi1,
         fmt::format("phi1 - phi0 >= 1e-6 rad (phi0 = {}); an empty arc has no surface", p.phi0));
-    require(p.phi1 - p.phi0 <= 2.0 * kPi, "phi1", p.phi1,
+    require(p.phi1 - p.phi0 <= 2.0 * kPi, kWhat, "phi1", p.phi1,
             fmt::format("phi1 - phi0 <= 2 pi (phi0 = {}); a longer arc covers the ellipse twice",
                         p.phi0));
     return EllipticalArc(p.semi_major_um, p.b * p.semi_major_um, p.phi0, p.phi1);
 }
 
 double longitudinal_radius(const BarbuleCellParams& p) {
-    require(std::isfinite(p.theta_d) && p.theta_d >= 0.0 && p.theta_d <= 0.25 * kPi, "theta_d",
-            p.theta_d, "a longitudinal half-opening in [0, pi/4] rad");
-    require(std::isfinite(p.cell_length_um) && p.cell_length_um > 0.0, "cell_length_um",
+    require(std::isfinite(p.theta_d) && p.theta_d >= 0.0 && p.theta_d <= 0.25 * kPi, kWhat,
+            "theta_d", p.theta_d, "a longitudinal half-opening in [0, pi/4] rad");
+    require(std::isfinite(p.cell_length_um) && p.cell_length_um > 0.0, kWhat, "cell_length_um",
             p.cell_length_um, "a finite length > 0 (um)");
     return p.theta_d > 0.0 ? p.cell_length_um / (2.0 * std::sin(p.theta_d))
                            : std::numeric_limits<double>::infinity();
@@ -65,13 +64,13 @@ double profile_sign(LongitudinalProfile profile) {
 
 BarbuleCell::BarbuleCell(const BarbuleCellParams& params)
     : params_(params), arc_(make_arc(params)), r_theta_(longitudinal_radius(params)) {
-    require(std::isfinite(params.film_thickness_um) && params.film_thickness_um >= 0.0,
+    require(std::isfinite(params.film_thickness_um) && params.film_thickness_um >= 0.0, kWhat,
             "film_thickness_um", params.film_thickness_um, "a finite thickness >= 0 (um)");
     const double rho_min = min_radius(arc_);
     if (params.profile == LongitudinalProfile::convex && params.theta_d > 0.0) {
         const double sag = r_theta_ * (1.0 - std::cos(params.theta_d));
         require(
-            sag < rho_min, "cell_length_um", params.cell_length_um,
+            sag < rho_min, kWhat, "cell_length_um", params.cell_length_um,
             fmt::format("a shorter cell: with a convex longitudinal arc the surface folds where "
                         "r_theta (1 - cos theta_d) = {:.4g} um exceeds the smallest transversal "
                         "radius of curvature {:.4g} um",
@@ -79,7 +78,7 @@ BarbuleCell::BarbuleCell(const BarbuleCellParams& params)
     }
     require(std::isfinite(params.melanin_depth_um) && params.melanin_depth_um > 0.0 &&
                 params.melanin_depth_um < rho_min,
-            "melanin_depth_um", params.melanin_depth_um,
+            kWhat, "melanin_depth_um", params.melanin_depth_um,
             fmt::format("a depth in (0, {:.4g}) um: beyond the arc's smallest radius of curvature "
                         "(b^2 A at the edges) the offset surface folds over itself",
                         rho_min));
@@ -273,23 +272,24 @@ TriangleMesh BarbuleRow::flatten(bool melanin_surface) const {
 BarbuleRow build_barbule_row(const BarbuleRowParams& params,
                              const TessellationTolerance& tolerance) {
     const BarbuleCell cell(params.cell);
-    require(std::isfinite(params.mu) && std::abs(params.mu) < 0.5 * kPi, "mu", params.mu,
+    require(std::isfinite(params.mu) && std::abs(params.mu) < 0.5 * kPi, kWhat, "mu", params.mu,
             "a barb-plane tilt in (-pi/2, pi/2) rad");
-    require(std::isfinite(params.H) && params.H > 0.0, "H", params.H,
+    require(std::isfinite(params.H) && params.H > 0.0, kWhat, "H", params.H,
             "a spacing > 0 (in units of the semi-major axis)");
-    require(params.barbules >= 1 && params.barbules <= 100000, "barbules", params.barbules,
+    require(params.barbules >= 1 && params.barbules <= 100000, kWhat, "barbules", params.barbules,
             "1..100000");
-    require(params.cells_per_barbule >= 1 && params.cells_per_barbule <= 100000,
+    require(params.cells_per_barbule >= 1 && params.cells_per_barbule <= 100000, kWhat,
             "cells_per_barbule", params.cells_per_barbule, "1..100000");
     require(std::isfinite(params.jitter_phi_rad) && params.jitter_phi_rad >= 0.0 &&
                 params.jitter_phi_rad <= 0.5,
-            "jitter_phi_rad", params.jitter_phi_rad, "a standard deviation in [0, 0.5] rad");
+            kWhat, "jitter_phi_rad", params.jitter_phi_rad, "a standard deviation in [0, 0.5] rad");
     require(std::isfinite(params.jitter_theta_rad) && params.jitter_theta_rad >= 0.0 &&
                 params.jitter_theta_rad <= 0.5,
-            "jitter_theta_rad", params.jitter_theta_rad, "a standard deviation in [0, 0.5] rad");
+            kWhat, "jitter_theta_rad", params.jitter_theta_rad,
+            "a standard deviation in [0, 0.5] rad");
     if (params.barbules > 1) {
         const double h_min = minimum_spacing(params.cell, params.mu);
-        require(params.H >= h_min, "H", params.H,
+        require(params.H >= h_min, kWhat, "H", params.H,
                 fmt::format("H >= {:.4f}: closer barbules interpenetrate (their arcs intersect)",
                             h_min));
     }

@@ -8,7 +8,6 @@
 #include <complex>
 #include <limits>
 #include <new>
-#include <numbers>
 #include <random>
 #include <system_error>
 
@@ -21,13 +20,13 @@
 #include <tbb/parallel_for.h>
 #include <unsupported/Eigen/FFT>
 
+#include "common/constants.h"
 #include "common/error.h"
 
 namespace plumage::geometry {
 namespace {
 
 using Complex = std::complex<double>;
-constexpr double kTwoPi = 2.0 * std::numbers::pi;
 constexpr int kMaxVoxelsPerSide = 512;  // 512³ complex doubles are 2 GiB already
 constexpr const char* kGridName = "keratin";
 

@@ -8,12 +8,12 @@
 #include <iostream>
 #include <limits>
 #include <map>
-#include <numbers>
 #include <optional>
 
 #include <fmt/format.h>
 
 #include "analysis/huang2022.h"
+#include "common/constants.h"
 #include "common/error.h"
 #include "common/version.h"
 #include "geometry/barbule.h"
@@ -32,8 +32,6 @@
 namespace plumage::studies {
 namespace {
 
-constexpr double kPi = std::numbers::pi;
-constexpr double kDeg = kPi / 180.0;
 namespace fs = std::filesystem;
 using geometry::BarbuleRowParams;
 

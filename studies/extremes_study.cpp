@@ -9,7 +9,6 @@
 #include <functional>
 #include <iostream>
 #include <memory>
-#include <numbers>
 
 #include <fmt/format.h>
 
@@ -17,6 +16,7 @@
 #include "analysis/filip2024.h"
 #include "analysis/huang2022.h"
 #include "analysis/lambertian.h"
+#include "common/constants.h"
 #include "common/error.h"
 #include "common/version.h"
 #include "geometry/barbule.h"
@@ -33,8 +33,6 @@
 namespace plumage::studies {
 namespace {
 
-constexpr double kPi = std::numbers::pi;
-constexpr double kDeg = kPi / 180.0;
 namespace fs = std::filesystem;
 using geometry::BarbuleRowParams;
 

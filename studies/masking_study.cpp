@@ -9,7 +9,6 @@
 #include <fstream>
 #include <iostream>
 #include <limits>
-#include <numbers>
 #include <optional>
 #include <span>
 #include <utility>
@@ -19,6 +18,7 @@
 #include "analysis/cross_section_masking_mc.h"
 #include "analysis/padrongriffe2024_masking.h"
 #include "analysis/statistics.h"
+#include "common/constants.h"
 #include "common/error.h"
 #include "common/interrupt.h"
 #include "common/version.h"
@@ -37,8 +37,6 @@ namespace {
 namespace fs = std::filesystem;
 using analysis::PadronGriffe2024Masking;
 
-constexpr double kPi = std::numbers::pi;
-constexpr double kDeg = kPi / 180.0;
 constexpr const char* kComponentNames[kMaskingComponentCount] = {"barb", "barbule", "gap"};
 // Family-wise significance of the verdict's tests (as the statistical tests of tests/).
 constexpr double kFamilySignificance = 0.01;

@@ -6,12 +6,12 @@
 #include <iostream>
 #include <limits>
 #include <memory>
-#include <numbers>
 
 #include <fmt/format.h>
 
 #include "analysis/compare.h"
 #include "analysis/huang2022.h"
+#include "common/constants.h"
 #include "common/error.h"
 #include "common/version.h"
 #include "geometry/barbule.h"
@@ -31,8 +31,6 @@
 namespace plumage::studies {
 namespace {
 
-constexpr double kPi = std::numbers::pi;
-constexpr double kDeg = kPi / 180.0;
 namespace fs = std::filesystem;
 
 struct Settings {

@@ -8,12 +8,12 @@
 #include <fstream>
 #include <iostream>
 #include <memory>
-#include <numbers>
 #include <optional>
 
 #include <fmt/format.h>
 
 #include "analysis/filip2024_fit.h"
+#include "common/constants.h"
 #include "common/error.h"
 #include "common/version.h"
 #include "geometry/barb.h"
@@ -46,8 +46,6 @@ using analysis::Filip2024Parameters;
 using analysis::kFilip2024ParameterCount;
 using analysis::kFilip2024ParameterTable;
 
-constexpr double kPi = std::numbers::pi;
-constexpr double kDeg = kPi / 180.0;
 // The largest polar angle of the paper's capture (Sect. 4): the beam footprint and the
 // light's lateral travel through the patch at this angle decide whether a patch is big enough.
 constexpr double kLargestPolarRad = 75.0 * kDeg;
@@ -1095,6 +1093,7 @@ void measure_species_btf(const Run& run, const Specimen& x, SpeciesOutcome& o) {
     bc.detector_half_angle_rad = s.btf_detector_half_angle;
     bc.quanta_per_light = s.btf_quanta;
     bc.seed = derive_seed(s.seed, "species/btf", x.index);
+    bc.config_text = run.study_text;
     run.clock.say(fmt::format("{}: BTF on the 61 x 60 set ({} x {} pixels, {} wavelengths)",
                               x.spec.name, bc.pixels, bc.pixels, bc.wavelengths_nm.size()));
     const gonio::BtfRecord btf = gonio::measure_btf(x.imaged, bc);

@@ -9,6 +9,7 @@
 #include <fmt/format.h>
 #include <toml++/toml.h>
 
+#include "common/constants.h"
 #include "common/error.h"
 
 namespace plumage::studies {
@@ -127,7 +128,6 @@ double ParameterTable::required_number(std::string_view key, Range range, std::s
 double ParameterTable::angle_deg(std::string_view key, double default_radians, Range range_deg,
                                  std::string_view what) {
     PLUMAGE_CHECK(key.ends_with("_deg"), std::string(key));
-    constexpr double kDeg = 3.14159265358979323846 / 180.0;
     return number(key, default_radians / kDeg, range_deg, what) * kDeg;
 }
 

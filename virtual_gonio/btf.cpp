@@ -6,41 +6,43 @@
 #include <atomic>
 #include <chrono>
 #include <cmath>
-#include <numbers>
 #include <optional>
+#include <string_view>
 
 #include <fmt/format.h>
 
+#include "common/constants.h"
 #include "common/error.h"
 #include "common/interrupt.h"
-#include "common/version.h"
+#include "common/require.h"
 #include "virtual_gonio/display_colour.h"
 #include "virtual_gonio/hdf5_file.h"
+#include "virtual_gonio/record_provenance.h"
 
 namespace plumage::gonio {
 namespace {
 
-constexpr double kPi = std::numbers::pi;
 constexpr std::uint64_t kChunk = 8192;
 
-void require(bool ok, const std::string& message) {
-    if (!ok) throw InputError("btf: " + message);
-}
+// The name that prefixes this file's input errors.
+constexpr std::string_view kWhat = "btf";
 
 }  // namespace
 
 void BtfConfig::validate() const {
-    require(!pairs.empty(), "no direction pairs");
+    require(!pairs.empty(), kWhat, "no direction pairs");
     for (std::size_t i = 0; i < pairs.size(); ++i) {
-        require(pairs[i].wi.z() > 0.0 && pairs[i].wo.z() > std::sin(detector_half_angle_rad),
+        require(pairs[i].wi.z() > 0.0 && pairs[i].wo.z() > std::sin(detector_half_angle_rad), kWhat,
                 fmt::format("pair {}: light and detector cone must be above the patch", i));
     }
-    require(!wavelengths_nm.empty(), "no wavelengths");
-    require(std::isfinite(patch_size_um) && patch_size_um > 0.0, "patch size must be > 0 um");
-    require(pixels >= 1 && pixels <= 1024, fmt::format("pixels = {}: expected 1..1024", pixels));
-    require(detector_half_angle_rad > 0.0 && detector_half_angle_rad < 0.5,
+    require(!wavelengths_nm.empty(), kWhat, "no wavelengths");
+    require(std::isfinite(patch_size_um) && patch_size_um > 0.0, kWhat,
+            "patch size must be > 0 um");
+    require(pixels >= 1 && pixels <= 1024, kWhat,
+            fmt::format("pixels = {}: expected 1..1024", pixels));
+    require(detector_half_angle_rad > 0.0 && detector_half_angle_rad < 0.5, kWhat,
             "detector half-angle must be in (0, 0.5) rad");
-    require(quanta_per_light >= 1, "quanta_per_light must be >= 1");
+    require(quanta_per_light >= 1, kWhat, "quanta_per_light must be >= 1");
 }
 
 BtfRecord measure_btf(const Scatterer& scatterer, const BtfConfig& config) {
@@ -185,12 +187,11 @@ void write_btf_record(const BtfRecord& r, const std::filesystem::path& path) {
         {{"units", "1/sr"}, {"description", "per-pixel BRDF, [pair, row, column, wavelength]"}});
     h5.write("btf/standard_error", std::span<const double>(r.standard_error), Dims{np, n, n, nl},
              {{"units", "1/sr"}});
-    h5.create_group("provenance");
-    h5.set_attribute("/provenance", "scatterer", r.scatterer);
-    h5.set_attribute("/provenance", "plumage_version", kVersion);
-    h5.set_attribute("/provenance", "seed", fmt::format("{}", c.seed));
-    h5.set_attribute("/provenance", "threads", static_cast<double>(omp_get_max_threads()));
-    h5.set_attribute("/provenance", "wall_time_s", r.wall_time_s);
+    write_provenance(h5, {.scatterer = r.scatterer,
+                          .seed = c.seed,
+                          .threads = omp_get_max_threads(),
+                          .wall_time_s = r.wall_time_s,
+                          .config = c.config_text});
     h5.commit();
 }
 

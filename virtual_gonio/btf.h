@@ -17,6 +17,7 @@
 
 #include <cstdint>
 #include <filesystem>
+#include <string>
 #include <vector>
 
 #include "sim/scatterer.h"
@@ -34,6 +35,7 @@ struct BtfConfig {
     // Per light direction and wavelength; pairs sharing a light direction share its quanta.
     std::uint64_t quanta_per_light = 2000000;
     std::uint64_t seed = kDefaultSeed;
+    std::string config_text;  // the study text, for provenance
     void validate() const;
 };
 

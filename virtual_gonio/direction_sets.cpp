@@ -1,11 +1,11 @@
 #include "virtual_gonio/direction_sets.h"
+#include "common/constants.h"
 
 #include <cmath>
 
 namespace plumage::gonio {
 namespace {
 
-constexpr double kDegree = std::numbers::pi / 180.0;
 constexpr double kPolarStepDeg = 15.0;
 constexpr double kAzimuthStepDeg = 30.0;
 constexpr int kAzimuthsPerPolar = 12;
@@ -17,13 +17,13 @@ constexpr double kInPlaneLightStepDeg = 3.0;
 std::vector<Vec3d> rings(int first_step) {
     std::vector<Vec3d> directions;
     for (int step = first_step; step <= 5; ++step) {
-        const double theta = step * kPolarStepDeg * kDegree;
+        const double theta = step * kPolarStepDeg * kDeg;
         if (step == 0) {
             directions.push_back(Vec3d::UnitZ());
             continue;
         }
         for (int k = 0; k < kAzimuthsPerPolar; ++k) {
-            directions.push_back(direction_from_angles(theta, k * kAzimuthStepDeg * kDegree));
+            directions.push_back(direction_from_angles(theta, k * kAzimuthStepDeg * kDeg));
         }
     }
     return directions;
@@ -53,13 +53,13 @@ std::vector<DirectionPair> filip2024_btf_pairs() {
 std::vector<double> filip2024_in_plane_light_angles() {
     std::vector<double> angles;
     for (int k = 0; k < kFilip2024InPlanePairs; ++k) {
-        angles.push_back((kInPlaneFirstLightDeg + k * kInPlaneLightStepDeg) * kDegree);
+        angles.push_back((kInPlaneFirstLightDeg + k * kInPlaneLightStepDeg) * kDeg);
     }
     return angles;
 }
 
 std::vector<DirectionPair> filip2024_in_plane_pairs(double plane_azimuth_rad) {
-    const Vec3d wo = direction_from_angles(kInPlaneViewDeg * kDegree, plane_azimuth_rad);
+    const Vec3d wo = direction_from_angles(kInPlaneViewDeg * kDeg, plane_azimuth_rad);
     std::vector<DirectionPair> pairs;
     for (double t : filip2024_in_plane_light_angles()) {
         // A negative angle is a positive polar angle on the far side: azimuth + π.

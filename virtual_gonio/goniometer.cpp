@@ -6,24 +6,24 @@
 #include <cmath>
 #include <iostream>
 #include <map>
-#include <numbers>
+#include <string_view>
 
 #include <fmt/format.h>
 
+#include "common/constants.h"
 #include "common/error.h"
-#include "common/version.h"
+#include "common/require.h"
 #include "virtual_gonio/display_colour.h"
 #include "virtual_gonio/hdf5_file.h"
+#include "virtual_gonio/record_provenance.h"
 
 namespace plumage::gonio {
 namespace {
 
-constexpr double kPi = std::numbers::pi;
 constexpr std::uint64_t kChunk = 2048;  // quanta per work item: the unit of reduction order
 
-void require(bool ok, const std::string& message) {
-    if (!ok) throw InputError("goniometer: " + message);
-}
+// The name that prefixes this file's input errors.
+constexpr std::string_view kWhat = "goniometer";
 
 // FNV-1a: a stable hash of the configuration, to refuse resuming a different run.
 std::uint64_t fnv1a(const std::string& text) {
@@ -92,13 +92,7 @@ void write_checkpoint(const std::filesystem::path& path, const Sums& sums, const
     h5.write("lobe_sum", std::span<const double>(sums.lobe_sum), Dims{sums.lobe_sum.size()});
     h5.write("lobe_sum_sq", std::span<const double>(sums.lobe_sum_sq),
              Dims{sums.lobe_sum_sq.size()});
-    std::vector<double> table;
-    for (const auto& row : r.convergence) {
-        table.insert(table.end(),
-                     {static_cast<double>(row.pass), row.wall_time_s,
-                      static_cast<double>(row.quanta), row.estimated_relative_rms_error});
-    }
-    h5.write("convergence", std::span<const double>(table), Dims{r.convergence.size(), 4});
+    write_convergence(h5, r.convergence);
     h5.set_attribute("/", "config_hash", fmt::format("{}", hash));
     h5.set_attribute("/", "passes", static_cast<double>(r.passes));
     h5.set_attribute("/", "wall_time_s", r.wall_time_s);
@@ -118,12 +112,7 @@ bool read_checkpoint(const std::filesystem::path& path, Sums& sums, BrdfRecord& 
     sums.sum_sq = record::read_dataset(path, "sum_sq").values;
     sums.lobe_sum = record::read_dataset(path, "lobe_sum").values;
     sums.lobe_sum_sq = record::read_dataset(path, "lobe_sum_sq").values;
-    const auto table = record::read_dataset(path, "convergence");
-    for (std::size_t i = 0; i + 3 < table.values.size(); i += 4) {
-        r.convergence.push_back({static_cast<int>(table.values[i]), table.values[i + 1],
-                                 static_cast<std::uint64_t>(table.values[i + 2]),
-                                 table.values[i + 3]});
-    }
+    for (const ConvergenceRow& row : read_convergence(path)) r.convergence.push_back(row);
     r.passes = static_cast<int>(record::read_number_attribute(path, "/", "passes"));
     r.wall_time_s = record::read_number_attribute(path, "/", "wall_time_s");
     return true;
@@ -132,32 +121,33 @@ bool read_checkpoint(const std::filesystem::path& path, Sums& sums, BrdfRecord& 
 }  // namespace
 
 void GoniometerConfig::validate() const {
-    require(!pairs.empty(), "no direction pairs: expected at least one (light, view) pair");
+    require(!pairs.empty(), kWhat, "no direction pairs: expected at least one (light, view) pair");
     for (std::size_t i = 0; i < pairs.size(); ++i) {
         const auto& p = pairs[i];
-        require(std::abs(p.wi.norm() - 1.0) < 1e-9 && std::abs(p.wo.norm() - 1.0) < 1e-9,
+        require(std::abs(p.wi.norm() - 1.0) < 1e-9 && std::abs(p.wo.norm() - 1.0) < 1e-9, kWhat,
                 fmt::format("pair {}: light and view must be unit vectors", i));
-        require(p.wi.z() > 0.0,
+        require(p.wi.z() > 0.0, kWhat,
                 fmt::format("pair {}: the light must be above the patch (z > 0)", i));
-        require(p.wo.z() > std::sin(detector_half_angle_rad),
+        require(p.wo.z() > std::sin(detector_half_angle_rad), kWhat,
                 fmt::format("pair {}: view direction at {:.2f} deg from the normal: its detector "
                             "cone must stay "
                             "above the patch plane",
                             i, std::acos(std::clamp(p.wo.z(), -1.0, 1.0)) * 180.0 / kPi));
     }
-    require(!wavelengths_nm.empty(), "no wavelengths");
+    require(!wavelengths_nm.empty(), kWhat, "no wavelengths");
     for (double l : wavelengths_nm)
-        require(std::isfinite(l) && l > 0.0, fmt::format("wavelength {} nm", l));
+        require(std::isfinite(l) && l > 0.0, kWhat, fmt::format("wavelength {} nm", l));
     require(std::isfinite(detector_half_angle_rad) && detector_half_angle_rad > 0.0 &&
                 detector_half_angle_rad < 0.5,
+            kWhat,
             fmt::format("detector half-angle {} rad: expected (0, 0.5)", detector_half_angle_rad));
-    require(std::isfinite(beam_radius_um) && beam_radius_um >= 0.0,
+    require(std::isfinite(beam_radius_um) && beam_radius_um >= 0.0, kWhat,
             "beam radius must be finite and >= 0 um");
-    require(quanta_per_pass >= 1, "quanta_per_pass must be >= 1");
-    require(max_passes >= 1, "max_passes must be >= 1");
-    require(time_budget_s > 0.0, "time budget must be > 0 s");
-    require(target_relative_error >= 0.0, "target relative error must be >= 0");
-    require(eval_rings >= 1 && eval_rings <= 64,
+    require(quanta_per_pass >= 1, kWhat, "quanta_per_pass must be >= 1");
+    require(max_passes >= 1, kWhat, "max_passes must be >= 1");
+    require(time_budget_s > 0.0, kWhat, "time budget must be > 0 s");
+    require(target_relative_error >= 0.0, kWhat, "target relative error must be >= 0");
+    require(eval_rings >= 1 && eval_rings <= 64, kWhat,
             fmt::format("eval_rings = {}: expected 1..64", eval_rings));
 }
 
@@ -512,23 +502,15 @@ void write_brdf_record(const BrdfRecord& r, const std::filesystem::path& path) {
                      Dims{np, nl}, {{"units", "1/sr"}});
         }
     }
-    std::vector<double> table;
-    for (const auto& row : r.convergence) {
-        table.insert(table.end(),
-                     {static_cast<double>(row.pass), row.wall_time_s,
-                      static_cast<double>(row.quanta), row.estimated_relative_rms_error});
-    }
-    h5.write(
-        "convergence", std::span<const double>(table), Dims{r.convergence.size(), 4},
+    write_convergence(
+        h5, r.convergence,
         {{"columns",
           "pass, wall_time_s, quanta_per_direction_and_wavelength, estimated_relative_rms_error"}});
-    h5.create_group("provenance");
-    h5.set_attribute("/provenance", "scatterer", r.scatterer);
-    h5.set_attribute("/provenance", "plumage_version", kVersion);
-    h5.set_attribute("/provenance", "seed", fmt::format("{}", c.seed));
-    h5.set_attribute("/provenance", "threads", static_cast<double>(r.threads));
-    h5.set_attribute("/provenance", "wall_time_s", r.wall_time_s);
-    h5.set_attribute("/provenance", "config", c.config_text);
+    write_provenance(h5, {.scatterer = r.scatterer,
+                          .seed = c.seed,
+                          .threads = r.threads,
+                          .wall_time_s = r.wall_time_s,
+                          .config = c.config_text});
     h5.commit();
 }
 

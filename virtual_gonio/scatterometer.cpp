@@ -5,25 +5,25 @@
 #include <chrono>
 #include <cmath>
 #include <iostream>
-#include <numbers>
+#include <string_view>
 
 #include <fmt/format.h>
 
+#include "common/constants.h"
 #include "common/error.h"
 #include "common/interrupt.h"
-#include "common/version.h"
+#include "common/require.h"
 #include "virtual_gonio/display_colour.h"
 #include "virtual_gonio/hdf5_file.h"
+#include "virtual_gonio/record_provenance.h"
 
 namespace plumage::gonio {
 namespace {
 
-constexpr double kPi = std::numbers::pi;
 constexpr std::uint64_t kChunk = 4096;
 
-void require(bool ok, const std::string& message) {
-    if (!ok) throw InputError("scatterometer: " + message);
-}
+// The name that prefixes this file's input errors.
+constexpr std::string_view kWhat = "scatterometer";
 
 // Pixel index of a direction in the upper hemisphere (−1 if outside the image).
 long pixel_of(const Vec3d& w, int n) {
@@ -40,20 +40,22 @@ long pixel_of(const Vec3d& w, int n) {
 }  // namespace
 
 void ScatterometerConfig::validate() const {
-    require(std::abs(beam_direction.norm() - 1.0) < 1e-9 && beam_direction.z() > 0.0,
+    require(std::abs(beam_direction.norm() - 1.0) < 1e-9 && beam_direction.z() > 0.0, kWhat,
             "beam_direction must be a unit vector above the patch (z > 0)");
     require(std::isfinite(cone_aperture_rad) && cone_aperture_rad > 0.0 && cone_aperture_rad < kPi,
-            fmt::format("cone aperture {} rad: expected (0, pi)", cone_aperture_rad));
+            kWhat, fmt::format("cone aperture {} rad: expected (0, pi)", cone_aperture_rad));
     require(illumination != Illumination::cone ||
                 std::acos(beam_direction.z()) + 0.5 * cone_aperture_rad < 0.5 * kPi,
-            "the illumination cone must stay above the patch plane");
-    require(image_size >= 9 && image_size <= 4096,
+            kWhat, "the illumination cone must stay above the patch plane");
+    require(image_size >= 9 && image_size <= 4096, kWhat,
             fmt::format("image_size {}: expected 9..4096", image_size));
-    require(!wavelengths_nm.empty(), "no wavelengths");
+    require(!wavelengths_nm.empty(), kWhat, "no wavelengths");
     for (double l : wavelengths_nm)
-        require(std::isfinite(l) && l > 0.0, fmt::format("wavelength {} nm", l));
-    require(std::isfinite(beam_radius_um) && beam_radius_um >= 0.0, "beam radius must be >= 0 um");
-    require(quanta_per_pass >= 1 && max_passes >= 1, "quanta_per_pass and max_passes must be >= 1");
+        require(std::isfinite(l) && l > 0.0, kWhat, fmt::format("wavelength {} nm", l));
+    require(std::isfinite(beam_radius_um) && beam_radius_um >= 0.0, kWhat,
+            "beam radius must be >= 0 um");
+    require(quanta_per_pass >= 1 && max_passes >= 1, kWhat,
+            "quanta_per_pass and max_passes must be >= 1");
 }
 
 std::optional<Vec3d> Scatterogram::direction(int column, int row) const {
@@ -364,22 +366,14 @@ void write_scatterogram_record(const Scatterogram& s, const std::filesystem::pat
         h5.write("transmitted_lobes/" + s.lobes[l],
                  std::span<const double>(s.transmitted_lobes.data() + l * nl, nl), Dims{nl});
     }
-    std::vector<double> table;
-    for (const auto& row : s.convergence) {
-        table.insert(table.end(),
-                     {static_cast<double>(row.pass), row.wall_time_s,
-                      static_cast<double>(row.quanta), row.estimated_relative_rms_error});
-    }
-    h5.write(
-        "convergence", std::span<const double>(table), Dims{s.convergence.size(), 4},
+    write_convergence(
+        h5, s.convergence,
         {{"columns", "pass, wall_time_s, quanta_per_wavelength, power_weighted_relative_error"}});
-    h5.create_group("provenance");
-    h5.set_attribute("/provenance", "scatterer", s.scatterer);
-    h5.set_attribute("/provenance", "plumage_version", kVersion);
-    h5.set_attribute("/provenance", "seed", fmt::format("{}", c.seed));
-    h5.set_attribute("/provenance", "threads", static_cast<double>(omp_get_max_threads()));
-    h5.set_attribute("/provenance", "wall_time_s", s.wall_time_s);
-    h5.set_attribute("/provenance", "config", c.config_text);
+    write_provenance(h5, {.scatterer = s.scatterer,
+                          .seed = c.seed,
+                          .threads = omp_get_max_threads(),
+                          .wall_time_s = s.wall_time_s,
+                          .config = c.config_text});
     h5.commit();
 }
 

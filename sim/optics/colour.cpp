@@ -2,10 +2,10 @@
 
 #include <algorithm>
 #include <cmath>
-#include <numbers>
 
 #include <fmt/format.h>
 
+#include "common/constants.h"
 #include "common/error.h"
 #include "sim/optics/cie_data.h"
 
@@ -102,7 +102,6 @@ Lab lab_from_xyz(const Xyz& xyz, const Xyz& white) {
 }
 
 namespace {
-constexpr double kDeg = std::numbers::pi / 180.0;
 double degrees_0_360(double y, double x) {
     if (x == 0.0 && y == 0.0) return 0.0;
     double h = std::atan2(y, x) / kDeg;

@@ -6,6 +6,7 @@
 #include <fmt/format.h>
 
 #include "common/error.h"
+#include "common/require.h"
 #include "sim/optics/spectrum.h"
 #include "sim/optics/thin_film.h"
 
@@ -18,17 +19,12 @@ CauchyMaterial::CauchyMaterial(std::string name, double a, double b_nm2, double 
       b_nm2_(b_nm2),
       k_amplitude_(k_amplitude),
       k_decay_nm_(k_decay_nm) {
-    auto require = [&](bool ok, const char* key, double value, const char* expected) {
-        if (!ok) {
-            throw InputError(
-                fmt::format("material '{}': {} = {}: expected {}", name_, key, value, expected));
-        }
-    };
-    require(std::isfinite(a) && a > 0.0, "A", a, "a finite value > 0");
-    require(std::isfinite(b_nm2) && b_nm2 >= 0.0, "B (nm^2)", b_nm2, "a finite value >= 0");
-    require(std::isfinite(k_amplitude) && k_amplitude >= 0.0, "C (k amplitude)", k_amplitude,
+    const std::string what = fmt::format("material '{}'", name_);
+    require(std::isfinite(a) && a > 0.0, what, "A", a, "a finite value > 0");
+    require(std::isfinite(b_nm2) && b_nm2 >= 0.0, what, "B (nm^2)", b_nm2, "a finite value >= 0");
+    require(std::isfinite(k_amplitude) && k_amplitude >= 0.0, what, "C (k amplitude)", k_amplitude,
             "a finite value >= 0");
-    require(std::isfinite(k_decay_nm) && k_decay_nm > 0.0, "D (k decay, nm)", k_decay_nm,
+    require(std::isfinite(k_decay_nm) && k_decay_nm > 0.0, what, "D (k decay, nm)", k_decay_nm,
             "a finite value > 0");
 }
 

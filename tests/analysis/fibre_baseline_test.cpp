@@ -15,6 +15,7 @@
 #include <gtest/gtest.h>
 
 #include "analysis/energy.h"
+#include "common/constants.h"
 #include "common/error.h"
 #include "sim/optics/fresnel.h"
 #include "tests/analysis/chi_square.h"
@@ -22,9 +23,6 @@
 
 namespace plumage::analysis {
 namespace {
-
-constexpr double kPi = std::numbers::pi;
-constexpr double kDeg = kPi / 180.0;
 
 Vec3d dir(double theta, double phi) {
     return {std::sin(theta) * std::cos(phi), std::sin(theta) * std::sin(phi), std::cos(theta)};

@@ -8,7 +8,6 @@
 #include <cmath>
 #include <cstdio>
 #include <filesystem>
-#include <numbers>
 #include <string>
 #include <string_view>
 #include <vector>
@@ -17,6 +16,7 @@
 
 #include "analysis/energy.h"
 #include "analysis/filip2024_fit.h"
+#include "common/constants.h"
 #include "common/error.h"
 #include "tests/analysis/chi_square.h"
 #include "tests/test_util.h"
@@ -32,9 +32,6 @@ using gonio::filip2024_view_directions;
 namespace {
 
 using plumage::testing::input_error_message;
-
-constexpr double kPi = std::numbers::pi;
-constexpr double kDeg = kPi / 180.0;
 
 bool contains(const std::string& text, const std::string& part) {
     return text.find(part) != std::string::npos;

@@ -6,20 +6,18 @@
 
 #include <algorithm>
 #include <cmath>
-#include <numbers>
 #include <string>
 #include <vector>
 
 #include <fmt/format.h>
 #include <gtest/gtest.h>
 
+#include "common/constants.h"
 #include "tests/test_util.h"
 #include "virtual_gonio/scatterometer.h"
 
 namespace plumage::analysis {
 namespace {
-
-constexpr double kPi = std::numbers::pi;
 
 Vec3d beam(double theta_deg, double azimuth_deg) {
     const double t = theta_deg * kPi / 180.0, a = azimuth_deg * kPi / 180.0;

@@ -4,11 +4,11 @@
 #include "analysis/huang2022.h"
 
 #include <cmath>
-#include <numbers>
 
 #include <gtest/gtest.h>
 #include <Eigen/LU>
 
+#include "common/constants.h"
 #include "sim/optics/material.h"
 #include "sim/optics/thin_film.h"
 #include "tests/analysis/chi_square.h"
@@ -16,8 +16,6 @@
 
 namespace plumage::analysis {
 namespace {
-
-constexpr double kPi = std::numbers::pi;
 
 Vec3d direction(double theta_deg, double phi_deg) {
     const double t = theta_deg * kPi / 180.0, p = phi_deg * kPi / 180.0;

@@ -7,7 +7,6 @@
 #include <array>
 #include <cmath>
 #include <cstdio>
-#include <numbers>
 #include <string>
 #include <vector>
 
@@ -15,6 +14,7 @@
 #include <gtest/gtest.h>
 
 #include "analysis/cross_section_masking_mc.h"
+#include "common/constants.h"
 #include "common/error.h"
 #include "geometry/barb.h"
 #include "sim/random.h"
@@ -22,9 +22,6 @@
 
 namespace plumage::analysis {
 namespace {
-
-constexpr double kPi = std::numbers::pi;
-constexpr double kDeg = kPi / 180.0;
 
 using geometry::BarbulePatchParams;
 using geometry::PatchCrossSection;

@@ -8,13 +8,13 @@
 #include <array>
 #include <cmath>
 #include <cstdio>
-#include <numbers>
 #include <string>
 #include <vector>
 
 #include <gtest/gtest.h>
 
 #include "analysis/energy.h"
+#include "common/constants.h"
 #include "common/error.h"
 #include "sim/optics/fresnel.h"
 #include "tests/analysis/chi_square.h"
@@ -23,8 +23,6 @@
 namespace plumage::analysis {
 namespace {
 
-constexpr double kPi = std::numbers::pi;
-constexpr double kDeg = kPi / 180.0;
 using Bsdf = PadronGriffe2024Bsdf;
 
 Vec3d dir(double theta, double phi) {

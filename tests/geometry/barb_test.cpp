@@ -1,10 +1,10 @@
 // Barbs and barb + barbule patches: ellipse outlines, closed outward tubes with the
 // right volume (straight and bent: Pappus), medulla placement, cross-sections.
 #include "geometry/barb.h"
+#include "common/constants.h"
 
 #include <cmath>
 #include <map>
-#include <numbers>
 
 #include <gtest/gtest.h>
 
@@ -13,7 +13,6 @@
 namespace plumage::geometry {
 namespace {
 
-constexpr double kPi = std::numbers::pi;
 using plumage::testing::input_error_message;
 
 double signed_area(const std::vector<Eigen::Vector2d>& polygon) {

@@ -1,9 +1,9 @@
 // Barbule geometry against closed forms: the ellipse, Huang's NDF (Eq. 7), projected
 // lengths (Eq. 13, 15), degenerate parameters, instancing memory.
 #include "geometry/barbule.h"
+#include "common/constants.h"
 
 #include <cmath>
-#include <numbers>
 
 #include <gtest/gtest.h>
 
@@ -12,7 +12,6 @@
 namespace plumage::geometry {
 namespace {
 
-constexpr double kPi = std::numbers::pi;
 using plumage::testing::input_error_message;
 
 TEST(BarbuleGeometry, ArcPointsLieOnTheEllipseWithTheStatedNormalAndCurvature) {

@@ -1,6 +1,7 @@
 // Spongy keratin volumes: filling fractions, the channel spectrum's peak, determinism,
 // parameter checks, .vdb input/output and the keratin/air mesh.
 #include "geometry/spongy_volume.h"
+#include "common/constants.h"
 
 #include <algorithm>
 #include <array>
@@ -26,7 +27,6 @@ namespace plumage::geometry {
 namespace {
 
 using plumage::testing::input_error_message;
-constexpr double kTwoPi = 2.0 * std::numbers::pi;
 
 // Small volumes keep the fixture fast: 60³ voxels (1.2 µm box, 20 nm voxels) hold six
 // periods of a = 0.2 µm.

@@ -1,9 +1,9 @@
 // Fresnel against closed forms: normal incidence, Brewster's angle, energy balance,
 // total internal reflection, absorbing media, grazing incidence, bad input.
 #include "sim/optics/fresnel.h"
+#include "common/constants.h"
 
 #include <cmath>
-#include <numbers>
 
 #include <gtest/gtest.h>
 
@@ -13,7 +13,6 @@
 namespace plumage::optics {
 namespace {
 
-constexpr double kPi = std::numbers::pi;
 constexpr Polarisation kBoth[] = {Polarisation::s, Polarisation::p};
 
 TEST(Fresnel, NormalIncidenceMatchesClosedFormFromEitherSide) {

@@ -1,9 +1,9 @@
 // The multilayer solver: energy with absorption (fields against reflectance),
 // reciprocity, incoherent layers (phase average, no aliasing), stiff cases.
 #include "sim/optics/multilayer.h"
+#include "common/constants.h"
 
 #include <cmath>
-#include <numbers>
 #include <vector>
 
 #include <gtest/gtest.h>
@@ -16,7 +16,6 @@ namespace plumage::optics {
 namespace {
 
 constexpr Polarisation kBoth[] = {Polarisation::s, Polarisation::p};
-constexpr double kDeg = std::numbers::pi / 180.0;
 
 TEST(Multilayer, ReflectancePlusTransmittancePlusLayerAbsorptionIsOne) {
     // Absorption per layer comes from the Poynting flux of Rouard-recursion fields, an

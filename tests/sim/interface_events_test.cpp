@@ -2,9 +2,9 @@
 // event probabilities against Fresnel and Airy (binomial 3σ), the shading-normal
 // fallback, diffuse sampling, and the film tables against direct evaluation.
 #include "sim/interface_events.h"
+#include "common/constants.h"
 
 #include <cmath>
-#include <numbers>
 #include <random>
 
 #include <gtest/gtest.h>
@@ -20,7 +20,6 @@ namespace {
 using optics::Complex;
 using testing::binomial_sigma;
 
-constexpr double kPi = std::numbers::pi;
 constexpr double kSigmas = 3.0;
 
 Vec3d incoming(double theta_deg) {  // propagation direction hitting a +z facet from above

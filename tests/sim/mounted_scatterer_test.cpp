@@ -2,6 +2,7 @@
 // on the sample's azimuth only through U(φa) (its D terms use φi − φo), so turning a sample
 // with anisotropy angle φa by ψ about the normal gives exactly the model with φa − ψ.
 #include "sim/mounted_scatterer.h"
+#include "common/constants.h"
 
 #include <cmath>
 #include <memory>
@@ -15,8 +16,6 @@
 
 namespace plumage {
 namespace {
-
-constexpr double kDeg = std::numbers::pi / 180.0;
 
 Vec3d random_upper(Rng& rng) {
     const double z = 0.05 + 0.95 * rng.uniform();

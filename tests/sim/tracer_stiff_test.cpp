@@ -5,12 +5,12 @@
 #include <algorithm>
 #include <array>
 #include <cmath>
-#include <numbers>
 #include <span>
 #include <string>
 
 #include <gtest/gtest.h>
 
+#include "common/constants.h"
 #include "geometry/barbule.h"
 #include "sim/optics/material.h"
 #include "sim/optics/multilayer.h"
@@ -23,7 +23,6 @@ namespace {
 using optics::Complex;
 using testing::binomial_sigma;
 
-constexpr double kPi = std::numbers::pi;
 constexpr double kSigmas = 3.0;
 
 Vec3d from_angle(double theta_deg, double phi_deg = 0.0) {

@@ -3,6 +3,7 @@
 // records (HDF5, CSV, report) hold exactly the numbers the study returns, the numbers do not depend
 // on the thread count, and bad study files fail with file:line:column before anything is written.
 #include "studies/masking_study.h"
+#include "common/constants.h"
 
 #include <omp.h>
 #include <unistd.h>
@@ -10,7 +11,6 @@
 #include <cmath>
 #include <filesystem>
 #include <fstream>
-#include <numbers>
 #include <sstream>
 #include <string>
 #include <vector>
@@ -26,7 +26,6 @@ namespace plumage::studies {
 namespace {
 
 namespace fs = std::filesystem;
-constexpr double kDeg = std::numbers::pi / 180.0;
 
 std::string read(const fs::path& p) {
     std::ifstream in(p);

@@ -11,13 +11,13 @@
 //  - reciprocity of the simulated BRDF over the pairs the set holds both ways;
 //  - the records: species.h5 holds what the run returned.
 #include "studies/species_study.h"
+#include "common/constants.h"
 
 #include <unistd.h>
 
 #include <cmath>
 #include <filesystem>
 #include <fstream>
-#include <numbers>
 #include <sstream>
 
 #include <gtest/gtest.h>
@@ -29,8 +29,6 @@
 
 namespace plumage::studies {
 namespace {
-
-constexpr double kDeg = std::numbers::pi / 180.0;
 
 std::string read(const std::filesystem::path& p) {
     std::ifstream in(p);

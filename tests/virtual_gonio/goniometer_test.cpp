@@ -2,13 +2,13 @@
 // error, the errors are honest across seeds, results do not depend on thread count,
 // and an interrupted run resumes to the same bits.
 #include "virtual_gonio/goniometer.h"
+#include "common/constants.h"
 
 #include <omp.h>
 #include <unistd.h>
 
 #include <csignal>
 #include <filesystem>
-#include <numbers>
 
 #include <gtest/gtest.h>
 
@@ -21,8 +21,6 @@
 
 namespace plumage::gonio {
 namespace {
-
-constexpr double kPi = std::numbers::pi;
 
 std::vector<std::pair<std::string, std::vector<DirectionPair>>> direction_sets() {
     std::vector<DirectionPair> custom;

@@ -2,12 +2,12 @@
 // illumination; power is accounted for; Huang's T lobe leaves below the patch in the
 // proportion Eq. 15 predicts; images and records are written.
 #include "virtual_gonio/scatterometer.h"
+#include "common/constants.h"
 
 #include <unistd.h>
 
 #include <cmath>
 #include <filesystem>
-#include <numbers>
 
 #include <gtest/gtest.h>
 
@@ -18,8 +18,6 @@
 
 namespace plumage::gonio {
 namespace {
-
-constexpr double kPi = std::numbers::pi;
 
 TEST(Scatterometer, LambertianPlateImagesAsCosineUnderEveryIllumination) {
     const analysis::LambertianScatterer plate(0.7);

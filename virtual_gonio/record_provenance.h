@@ -1,0 +1,38 @@
+// The parts of a record that every instrument writes the same way (virtual_gonio/RECORD.md):
+// /provenance, which run made the record, and /convergence, how the estimate settled pass
+// by pass. The goniometer, the imaging scatterometer and the BTF camera write them here,
+// so that a reader finds the same names, types and units in each record.
+#pragma once
+
+#include <cstdint>
+#include <filesystem>
+#include <span>
+#include <string>
+#include <vector>
+
+#include "virtual_gonio/goniometer.h"  // ConvergenceRow
+#include "virtual_gonio/hdf5_file.h"
+
+namespace plumage::gonio {
+
+struct Provenance {
+    std::string scatterer;     // Scatterer::name() of what was measured
+    std::uint64_t seed = 0;    // the instrument's seed; written as a decimal string (exact)
+    int threads = 1;           // OpenMP threads of the run (written as a number)
+    double wall_time_s = 0.0;  // wall time of the measurement (s)
+    std::string config;        // the study text that configured the run ("" when none)
+};
+
+// Group /provenance with @scatterer, @plumage_version, @seed, @threads, @wall_time_s and
+// @config.
+void write_provenance(record::Hdf5Writer& h5, const Provenance& provenance);
+
+// Dataset /convergence, [passes, 4]: pass, wall time (s), quanta, estimated relative error;
+// `attributes` name the columns (what "quanta" and "error" count differs per instrument).
+void write_convergence(record::Hdf5Writer& h5, std::span<const ConvergenceRow> rows,
+                       const record::Attributes& attributes = {});
+
+// The rows write_convergence wrote to `file` (for resuming from a checkpoint).
+std::vector<ConvergenceRow> read_convergence(const std::filesystem::path& file);
+
+}  // namespace plumage::gonio
