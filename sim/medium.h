@@ -12,8 +12,12 @@
 // (sim/scene.h). The tracer takes the medium of a segment from the surface the segment
 // ends on (the side the light arrives from), pbrt's "medium interface" rule, so media
 // must be enclosed by surfaces; light that leaves the scene is in the ambient medium,
-// which does not attenuate. The one implementation here is Beer–Lambert absorption
-// inside a homogeneous absorbing material (melanin, a k = 10 absorber).
+// which does not attenuate. The implementation here is Beer–Lambert absorption inside a
+// homogeneous absorbing material (melanin, a k = 10 absorber); sim/scattering_medium.h
+// scatters (tabulated μ_s, μ_a and phase function per wavelength, the wave-optical spongy
+// keratin) and sim/scattering_slab.h builds a slab of it. The tracer files light that
+// scattered in any medium under its "volume" lobe (sim/tracer.h); scenes whose media are all
+// HomogeneousAbsorbingMedium have no such lobe.
 //
 // Units: distances in µm, wavelengths in nm (vacuum). Directions are propagation
 // directions (where the light travels), unit vectors.

@@ -44,6 +44,7 @@ std::uint64_t wavelength_key(double lambda_nm) {
 
 int lobe_of(const PathResult& path) {
     using K = EventKind;
+    if (path.medium_scatters > 0) return ExplicitScatterer::kVolume;
     if (path.events == 0) return ExplicitScatterer::kT;
     if (path.events == 1 && path.kinds[0] == K::film_reflect) return ExplicitScatterer::kR;
     if (path.events == 3 && path.kinds[0] == K::film_transmit &&
@@ -91,15 +92,28 @@ ExplicitScatterer::ExplicitScatterer(std::shared_ptr<const Scene> scene,
     const double margin = 1e-3 + 1e-6 * extent;
     top_z_ = (box.isEmpty() ? 0.0 : box.max().z()) + margin;
     bottom_z_ = (box.isEmpty() ? 0.0 : box.min().z()) - margin;
+    lobe_names_ = {"R", "TRT", "T", "multi"};
+    for (std::size_t i = 0; i < scene_->surface_count(); ++i) {
+        const bool may_scatter = [&] {
+            for (bool outside : {true, false}) {
+                if (dynamic_cast<const HomogeneousAbsorbingMedium*>(&scene_->medium(i, outside)) ==
+                    nullptr) {
+                    return true;
+                }
+            }
+            return false;
+        }();
+        if (may_scatter) {
+            lobe_names_.push_back("volume");
+            break;
+        }
+    }
 }
 
 ExplicitScatterer::ExplicitScatterer(SceneDescription description, const TracerOptions& options)
     : ExplicitScatterer(std::make_shared<const Scene>(std::move(description)), options) {}
 
-const std::vector<std::string>& ExplicitScatterer::lobe_names() const {
-    static const std::vector<std::string> names = {"R", "TRT", "T", "multi"};
-    return names;
-}
+const std::vector<std::string>& ExplicitScatterer::lobe_names() const { return lobe_names_; }
 
 std::shared_ptr<const ExplicitScatterer::Spectral> ExplicitScatterer::build_spectral(
     double lambda_nm) const {
@@ -251,6 +265,7 @@ PathResult ExplicitScatterer::trace(const Vec3d& wi, double lambda_nm, const Vec
                     return path;
                 }
                 record(path, EventKind::medium_scatter);
+                ++path.medium_scatters;
                 const MediumScatter scatter = medium->scatter(direction, lambda_nm, rng);
                 weight *= scatter.weight;
                 origin += flight.distance_um * direction;

@@ -25,6 +25,12 @@
 //   "TRT"   film transmission, diffuse (melanin) reflection, film transmission — nothing else
 //   "T"     no event at all (passed between the barbules)
 //   "multi" everything else (including single reflections at bare dielectric interfaces)
+//   "volume" the light scattered at least once inside a scattering medium (sim/medium.h;
+//            e.g. sim/scattering_medium.h), whatever else happened on its path
+// The "volume" lobe exists only in scenes that can scatter in a volume: lobe_names() lists
+// it (as the fifth name) when some surface names a medium other than the Beer–Lambert
+// HomogeneousAbsorbingMedium, which never scatters; other scenes keep the four lobes above,
+// so their records do not change.
 //
 // One wavelength per path: the instruments average over wavelength grids and keep
 // per-wavelength records (spectra, then colour), so each path answers for the one λ it
@@ -99,13 +105,14 @@ struct PathResult {
     int rays = 0;                                    // Embree queries
     int self_hits_rejected = 0;  // hits on the facet just left (Scene::intersect)
     int medium_mismatches = 0;   // arrived on a side whose index is not the one it left into
+    int medium_scatters = 0;     // scattering events inside media (all, not only the first 8)
     bool reached_max_events = false;
     bool ended_by_roulette = false;
 };
 
 class ExplicitScatterer final : public Scatterer {
 public:
-    enum Lobe : int { kR = 0, kTRT = 1, kT = 2, kMulti = 3 };
+    enum Lobe : int { kR = 0, kTRT = 1, kT = 2, kMulti = 3, kVolume = 4 };
 
     ExplicitScatterer(std::shared_ptr<const Scene> scene, const TracerOptions& options = {});
     explicit ExplicitScatterer(SceneDescription description, const TracerOptions& options = {});
@@ -134,6 +141,7 @@ private:
     std::shared_ptr<const Scene> scene_;
     TracerOptions options_;
     double top_z_ = 0.0, bottom_z_ = 0.0;
+    std::vector<std::string> lobe_names_;
     std::uint64_t id_;  // distinguishes scatterers in the per-thread wavelength cache
     mutable std::mutex cache_mutex_;
     mutable std::unordered_map<std::uint64_t, std::shared_ptr<const Spectral>> cache_;

@@ -1,0 +1,181 @@
+#include "sim/scattering_slab.h"
+
+#include <array>
+#include <cmath>
+#include <numbers>
+
+#include <fmt/format.h>
+
+#include "common/error.h"
+
+namespace plumage::sim {
+namespace {
+
+// A planar quad a b c d (in order around it) as two triangles, wound so that the geometric
+// normal (b − a) × (c − a) points along `outward`.
+void add_quad(geometry::TriangleMesh& mesh, const Vec3d& a, const Vec3d& b, const Vec3d& c,
+              const Vec3d& d, const Vec3d& outward) {
+    const auto base = static_cast<std::uint32_t>(mesh.positions.size());
+    const bool flip = (b - a).cross(c - a).dot(outward) < 0.0;
+    for (const Vec3d& p : {a, b, c, d}) mesh.positions.push_back(p);
+    if (flip) {
+        mesh.triangles.push_back({base, base + 2, base + 1});
+        mesh.triangles.push_back({base, base + 3, base + 2});
+    } else {
+        mesh.triangles.push_back({base, base + 1, base + 2});
+        mesh.triangles.push_back({base, base + 2, base + 3});
+    }
+}
+
+// The faces of the box |x|, |y| <= w, z0 <= z <= z1 (top and bottom on request).
+geometry::TriangleMesh box_faces(double w, double z0, double z1, bool top, bool sides,
+                                 bool bottom) {
+    geometry::TriangleMesh mesh;
+    if (top) {
+        add_quad(mesh, {-w, -w, z1}, {w, -w, z1}, {w, w, z1}, {-w, w, z1}, Vec3d::UnitZ());
+    }
+    if (bottom) {
+        add_quad(mesh, {-w, -w, z0}, {w, -w, z0}, {w, w, z0}, {-w, w, z0}, -Vec3d::UnitZ());
+    }
+    if (sides) {
+        add_quad(mesh, {w, -w, z0}, {w, w, z0}, {w, w, z1}, {w, -w, z1}, Vec3d::UnitX());
+        add_quad(mesh, {-w, -w, z0}, {-w, w, z0}, {-w, w, z1}, {-w, -w, z1}, -Vec3d::UnitX());
+        add_quad(mesh, {-w, w, z0}, {w, w, z0}, {w, w, z1}, {-w, w, z1}, Vec3d::UnitY());
+        add_quad(mesh, {-w, -w, z0}, {w, -w, z0}, {w, -w, z1}, {-w, -w, z1}, -Vec3d::UnitY());
+    }
+    return mesh;
+}
+
+void require_unit(const Vec3d& v, const char* what) {
+    if (!v.allFinite() || std::abs(v.norm() - 1.0) > 1e-9) {
+        throw InputError(
+            fmt::format("slab single scattering: {} = ({}, {}, {}): expected a unit "
+                        "vector",
+                        what, v.x(), v.y(), v.z()));
+    }
+}
+
+// 8-point Gauss–Legendre on [−1, 1].
+constexpr std::array<double, 8> kGaussNodes = {
+    -0.9602898564975363, -0.7966664774136267, -0.5255324099163290, -0.1834346424956498,
+    0.1834346424956498,  0.5255324099163290,  0.7966664774136267,  0.9602898564975363};
+constexpr std::array<double, 8> kGaussWeights = {
+    0.1012285362903763, 0.2223810344533745, 0.3137066458778873, 0.3626837833783620,
+    0.3626837833783620, 0.3137066458778873, 0.2223810344533745, 0.1012285362903763};
+
+}  // namespace
+
+void ScatteringSlabParams::validate() const {
+    if (!std::isfinite(thickness_um) || !(thickness_um > 0.0)) {
+        throw InputError(fmt::format("scattering slab: thickness = {} um: expected finite and > 0",
+                                     thickness_um));
+    }
+    if (!std::isfinite(half_width_um) || !(half_width_um >= 10.0 * thickness_um)) {
+        throw InputError(fmt::format(
+            "scattering slab: half width = {} um: expected finite and >= 10 x the thickness "
+            "({} um), so that the slab stands for an infinite one",
+            half_width_um, 10.0 * thickness_um));
+    }
+    if (backing) {
+        if (!backing->material) {
+            throw InputError("scattering slab: backing material is null: expected a material");
+        }
+        if (!std::isfinite(backing->thickness_um) || !(backing->thickness_um > 0.0)) {
+            throw InputError(
+                fmt::format("scattering slab: backing thickness = {} um: expected finite and > 0",
+                            backing->thickness_um));
+        }
+    }
+}
+
+SceneDescription scattering_slab_scene(std::shared_ptr<const ScatteringMedium> medium,
+                                       const ScatteringSlabParams& params) {
+    if (!medium) throw InputError("scattering slab: medium is null: expected a medium");
+    params.validate();
+    const double w = params.half_width_um, d = params.thickness_um;
+    const std::shared_ptr<const optics::Material> inside =
+        params.index_matched ? optics::air() : medium->effective_material();
+
+    SurfaceMaterial boundary = dielectric_interface(inside, optics::air());
+    boundary.inside_medium = medium;
+
+    SceneDescription scene;
+    UnitMesh unit{"scattering slab", {}};
+    unit.surfaces.push_back(
+        {"slab", box_faces(w, -d, 0.0, true, true, !params.backing.has_value()), boundary});
+    if (params.backing) {
+        const SlabBacking& backing = *params.backing;
+        SurfaceMaterial interface = dielectric_interface(inside, backing.material);
+        interface.inside_medium = medium;
+        unit.surfaces.push_back(
+            {"slab on backing", box_faces(w, -d, 0.0, false, false, true), interface});
+        unit.surfaces.push_back({"backing",
+                                 box_faces(w, -d - backing.thickness_um, -d, false, true, true),
+                                 dielectric_interface(backing.material, optics::air())});
+    }
+    scene.units.push_back(std::move(unit));
+    scene.instances.push_back({0, Eigen::Affine3d::Identity()});
+    scene.validate();
+    return scene;
+}
+
+double slab_single_scattering(const ScatteringMedium& medium, double lambda_nm, double thickness_um,
+                              const Vec3d& wi, const Vec3d& wo) {
+    require_unit(wi, "wi");
+    require_unit(wo, "wo");
+    if (!(wi.z() > 0.0)) {
+        throw InputError(fmt::format(
+            "slab single scattering: wi.z = {}: expected light from above (wi.z > 0)", wi.z()));
+    }
+    if (!std::isfinite(thickness_um) || !(thickness_um > 0.0)) {
+        throw InputError(fmt::format(
+            "slab single scattering: thickness = {} um: expected finite and > 0", thickness_um));
+    }
+    const double mu_s = medium.scattering_coefficient_per_um(lambda_nm);
+    const double mu_t = mu_s + medium.absorption_coefficient_per_um(lambda_nm);
+    if (!(mu_s > 0.0) || wo.z() == 0.0) return 0.0;
+    const double albedo = mu_s / mu_t, tau = mu_t * thickness_um;
+    const double mi = wi.z(), mo = std::abs(wo.z());
+    const double p = medium.phase((-wi).dot(wo), lambda_nm);
+    if (wo.z() > 0.0) {
+        return albedo * p * mo / (mi + mo) * -std::expm1(-tau * (1.0 / mi + 1.0 / mo));
+    }
+    // Transmission: μ_o/(μ_o − μ_i) (e^{−τ/μ_o} − e^{−τ/μ_i}) = (μ_o/μ_i)(τ/μ_o) e^{−τ/μ_i}
+    // · (e^{x} − 1)/x with x = τ (1/μ_i − 1/μ_o), stable as μ_o → μ_i.
+    const double x = tau * (1.0 / mi - 1.0 / mo);
+    const double ratio = std::abs(x) < 1e-8 ? 1.0 + 0.5 * x : std::expm1(x) / x;
+    return albedo * p * (tau / mi) * std::exp(-tau / mi) * ratio;
+}
+
+SlabSingleScattering slab_single_scattering_totals(const ScatteringMedium& medium, double lambda_nm,
+                                                   double thickness_um, const Vec3d& wi) {
+    // Composite Gauss–Legendre: 64 panels in μ_o per hemisphere, 64 in φ over [0, π]
+    // (the integrand is even in φ − φ_i), 8 nodes each.
+    constexpr int kPanels = 64;
+    const double phi_i = std::atan2(wi.y(), wi.x());
+    SlabSingleScattering out;
+    for (double sign : {1.0, -1.0}) {
+        double sum = 0.0;
+        for (int pm = 0; pm < kPanels; ++pm) {
+            for (std::size_t a = 0; a < kGaussNodes.size(); ++a) {
+                const double mo = (pm + 0.5 + 0.5 * kGaussNodes[a]) / kPanels;
+                const double so = std::sqrt(std::max(0.0, 1.0 - mo * mo));
+                for (int pp = 0; pp < kPanels; ++pp) {
+                    for (std::size_t b = 0; b < kGaussNodes.size(); ++b) {
+                        const double phi =
+                            phi_i + std::numbers::pi * (pp + 0.5 + 0.5 * kGaussNodes[b]) / kPanels;
+                        const Vec3d wo(so * std::cos(phi), so * std::sin(phi), sign * mo);
+                        sum += kGaussWeights[a] * kGaussWeights[b] *
+                               slab_single_scattering(medium, lambda_nm, thickness_um, wi, wo);
+                    }
+                }
+            }
+        }
+        // dω = dμ dφ; each node's cell is (1/kPanels)/2 × (π/kPanels)/2; φ over [0, 2π): × 2.
+        const double total = 2.0 * sum * 0.25 / kPanels * std::numbers::pi / kPanels;
+        (sign > 0.0 ? out.reflectance : out.transmittance) = total;
+    }
+    return out;
+}
+
+}  // namespace plumage::sim

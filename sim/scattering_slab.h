@@ -1,0 +1,85 @@
+// A slab of a scattering medium (sim/scattering_medium.h) for the tracer, and its closed-form
+// single-scattering reflectance and transmittance (the tests' reference and a fast path).
+//
+// Frame (patch frame of sim/scatterer.h): the slab fills |x|, |y| <= half_width_um and
+// −thickness_um <= z <= 0, its top face at z = 0 facing +z (the light arrives from above).
+// The optional backing (melanin beneath a medulla) fills the same |x|, |y| range and
+// −thickness_um − backing thickness <= z <= −thickness_um, directly under the slab.
+//
+// Surfaces (one unit, all DielectricInterface, sim/scene.h):
+//  - "slab": top and sides (and the bottom without a backing): ambient air outside, inside
+//    the medium's effective material (n_eff(λ), real: Fresnel and total internal reflection
+//    in the effective index) and the scattering medium as the inside medium. Index-matched
+//    slabs have air inside instead: the boundary neither reflects nor refracts, and n_eff is
+//    not used.
+//  - with a backing, "slab on backing": the slab's bottom face, n_eff (or air) inside,
+//    the backing's material outside, whose k attenuates by Beer–Lambert (sim/medium.h);
+//    "backing": the backing's sides and bottom, its material inside, air outside. Light
+//    that crosses the backing leaves below (transmission).
+// The lateral faces are far (half_width_um ≫ thickness) so that the slab stands for an
+// infinite one; light that reaches them leaves through them (with Fresnel, and counted by
+// its direction as up or down), so energy is still conserved.
+//
+// Parameter table (InputError names the parameter and value):
+//  | name                   | unit | default  | valid range                           |
+//  |------------------------|------|----------|---------------------------------------|
+//  | thickness_um           | µm   | 10       | finite, > 0                           |
+//  | half_width_um          | µm   | 1000     | finite, >= 10 × thickness_um          |
+//  | index_matched          |      | false    |                                       |
+//  | backing.material       |      | melanin  | non-null                              |
+//  | backing.thickness_um   | µm   | 1        | finite, > 0                           |
+#pragma once
+
+#include <memory>
+#include <optional>
+
+#include "sim/scattering_medium.h"
+#include "sim/scene.h"
+
+namespace plumage::sim {
+
+struct SlabBacking {
+    std::shared_ptr<const optics::Material> material = optics::melanin();
+    double thickness_um = 1.0;
+};
+
+struct ScatteringSlabParams {
+    double thickness_um = 10.0;
+    double half_width_um = 1000.0;
+    bool index_matched = false;
+    std::optional<SlabBacking> backing;
+
+    void validate() const;  // InputError naming the parameter
+};
+
+SceneDescription scattering_slab_scene(std::shared_ptr<const ScatteringMedium> medium,
+                                       const ScatteringSlabParams& params = {});
+
+// Single scattering in an index-matched slab (no boundary reflection or refraction) of
+// thickness d, light arriving from ω_i (away from the slab, ω_i.z > 0, μ_i = ω_i.z) and
+// leaving towards ω_o (reflection ω_o.z > 0, transmission ω_o.z < 0; μ_o = |ω_o.z|): the
+// fraction of the incident power per steradian around ω_o (the Scatterer's sample()
+// convention, sim/scatterer.h: |cos θ_o| included; divide by μ_o for the BRDF/BTDF). With
+// τ = μ_t d, ω = μ_s / μ_t and the phase function's cos Θ = (−ω_i) · ω_o:
+//     reflection:   ω p(cos Θ) μ_o / (μ_i + μ_o) · (1 − e^{−τ (1/μ_i + 1/μ_o)})
+//     transmission: ω p(cos Θ) μ_o / (μ_o − μ_i) · (e^{−τ/μ_o} − e^{−τ/μ_i})
+//                   (→ ω p τ / μ_i e^{−τ/μ_i} as μ_o → μ_i),
+// the depth integral of the beam attenuated on its way in (e^{−μ_t z/μ_i}), scattered once
+// (μ_s p per unit volume and solid angle) and attenuated on its way out. Exact for the
+// single-scattered light of an infinite slab; the multiply scattered rest is O(τ²) for
+// τ ≪ 1. ω_o in the slab plane (μ_o = 0) gives 0. InputError for ω_i.z <= 0, d <= 0,
+// non-unit directions.
+double slab_single_scattering(const ScatteringMedium& medium, double lambda_nm, double thickness_um,
+                              const Vec3d& wi, const Vec3d& wo);
+
+// Its integrals over the upper (reflectance) and lower (transmittance) hemispheres, by
+// composite Gauss–Legendre in μ_o and φ_o (relative error below 1e-6 for the tables of
+// born_medium.h).
+struct SlabSingleScattering {
+    double reflectance = 0.0;
+    double transmittance = 0.0;
+};
+SlabSingleScattering slab_single_scattering_totals(const ScatteringMedium& medium, double lambda_nm,
+                                                   double thickness_um, const Vec3d& wi);
+
+}  // namespace plumage::sim
