@@ -74,20 +74,24 @@
 // leaves to the library). The same parameters give bit-identical grids on any thread
 // count.
 //
+// clang-format off
 // Parameter table (lengths in µm):
-//  | name                      | unit | default | valid range                                 |
-//  |---------------------------|------|---------|---------------------------------------------|
-//  | box_um (L)                | µm   | 2.0     | finite, a whole number N of voxels, 4 <= N <= 512
-//  | | voxel_um (h)              | µm   | 0.02    | finite, > 0                                 |
-//  | half_width_voxels         | 1    | 3       | [1, 16]: narrow-band half-width             |
-//  | keratin_fraction (f)      | 1    | 0.5     | (0, 1)                                      |
-//  | seed, item                | —    | 1, 0    | any                                         |
+//  | name                      | unit | default | valid range                                          |
+//  |---------------------------|------|---------|------------------------------------------------------|
+//  | box_um (L)                | µm   | 2.0     | finite, a whole number N of voxels, 4 <= N <= 512    |
+//  | voxel_um (h)              | µm   | 0.02    | finite, > 0                                          |
+//  | half_width_voxels         | 1    | 3       | [1, 16]: narrow-band half-width                      |
+//  | keratin_fraction (f)      | 1    | 0.5     | (0, 1)                                               |
+//  | seed, item                | —    | 1, 0    | any                                                  |
 //  channel-type:
-//  | length_scale_um (a)       | µm   | 0.2     | > 2 h (k0 = 2π/a below the Nyquist wavenumber
-//  π/h), <= L/2 | | shell_relative_width (w)  | 1    | 0.15    | (0, 1]: σ_k = w k0 | sphere-type:
-//  | sphere_radius_um (r)      | µm   | 0.1     | > h, <= L/4 (no sphere meets its own image) |
-//  | min_separation_diameters  | 1    | 0.8     | (0, 2], and s = 2 r · value <= L/2          |
-//  | max_attempts              | 1    | 2·10⁶   | >= 1: random sequential addition attempts   |
+//  | length_scale_um (a)       | µm   | 0.2     | > 2 h (k0 = 2π/a below the Nyquist wavenumber π/h),  |
+//  |                           |      |         | <= L/2                                               |
+//  | shell_relative_width (w)  | 1    | 0.15    | (0, 1]: σ_k = w k0                                   |
+//  sphere-type:
+//  | sphere_radius_um (r)      | µm   | 0.1     | > h, <= L/4 (no sphere meets its own image)          |
+//  | min_separation_diameters  | 1    | 0.8     | (0, 2], and s = 2 r · value <= L/2                   |
+//  | max_attempts              | 1    | 2·10⁶   | >= 1: random sequential addition attempts            |
+// clang-format on
 // An unreachable air fraction (jammed packing) is an InputError that says what was
 // reached.
 #pragma once
