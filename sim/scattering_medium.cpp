@@ -7,13 +7,12 @@
 
 #include <fmt/format.h>
 
+#include "common/constants.h"
 #include "common/error.h"
 #include "sim/scatterer.h"  // orthonormal_frame
 
 namespace plumage::sim {
 namespace {
-
-constexpr double kTwoPi = 2.0 * std::numbers::pi;
 
 // The boundary index of a scattering medium: n_eff(λ) interpolated linearly between the
 // tables, as the medium does (its own copy of the nodes, so it may outlive the medium).

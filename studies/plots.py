@@ -10,6 +10,9 @@
   plots.py energy_bars CSV PNG   largest energy per case and scatterer: label, energy, error, status
   plots.py luminance CSV PNG     in-plane L* per species (Filip 2024 Fig. 6a): x, then name, name error, name fit
   plots.py masking H5 PNG         masking study: fractions against angle (analytic, MC +- sigma) and z
+  plots.py spongy_spectra H5 PNG spongy study: R(lambda) of every slab, Monte Carlo and single scattering
+  plots.py spongy_map H5 PNG     spongy study: peak wavelength and colour over length scale x fraction
+  plots.py spongy_angles H5 PNG  spongy study: the base slab's spectrum at several incidence angles
   plots.py batch CSV PNG         every plot a CSV lists (columns kind, input, png; PNG unused)
 """
 import csv
@@ -270,6 +273,125 @@ def masking(h5_path, png_path):
     fig.savefig(png_path, dpi=100)
 
 
+def _spongy_records(h5_path):
+    """The spongy study's record (studies/spongy_study.cpp): top-level datasets, the angle group
+    (or None) and the slab thickness."""
+    import h5py
+    import numpy as np
+
+    with h5py.File(h5_path, "r") as f:
+        d = {k: np.asarray(f[k]) for k in f if not isinstance(f[k], h5py.Group)}
+        ang = {k: np.asarray(f["angles"][k]) for k in f["angles"]} if "angles" in f else None
+        thick = float(f.attrs["slab_thickness_um"])
+    return d, ang, thick
+
+
+def spongy_spectra(h5_path, png_path):
+    """Reflectance spectra of every slab: Monte Carlo with a +-2 sigma band, the
+    single-scattering closed form dotted, each curve's peak marked."""
+    d, _, thick = _spongy_records(h5_path)
+    wl, fs, ls = d["wavelength_nm"], d["keratin_fraction"], d["length_scale_um"]
+    fig, ax = plt.subplots(figsize=(8, 4.8))
+    for i, fr in enumerate(fs):
+        for j, lam in enumerate(ls):
+            r, e, s1 = d["reflectance"][i, j], d["reflectance_standard_error"][i, j], \
+                d["single_scattering_reflectance"][i, j]
+            line = ax.plot(wl, r, "-", lw=1.6, label=f"f = {fr:.2f}, Λ = {lam * 1e3:.0f} nm")[0]
+            ax.fill_between(wl, r - 2 * e, r + 2 * e, color=line.get_color(), alpha=0.25, lw=0)
+            ax.plot(wl, s1, ":", color=line.get_color(), lw=1.2)
+            ax.plot([d["peak_wavelength_nm"][i, j]], [d["reflectance_at_peak"][i, j]], "v",
+                    color=line.get_color(), ms=6)
+    ax.plot([], [], "k-", label="Monte Carlo (band: ±2σ)")
+    ax.plot([], [], "k:", label="single scattering (closed form)")
+    ax.set_xlabel("wavelength (nm)")
+    ax.set_ylabel("reflectance at normal incidence")
+    ax.set_title(f"Spongy keratin slabs ({thick:g} µm), first-Born medium from the volume")
+    ax.grid(alpha=0.3)
+    ax.legend(fontsize=8, ncol=2)
+    fig.tight_layout()
+    fig.savefig(png_path, dpi=120)
+
+
+def spongy_map(h5_path, png_path):
+    """Peak wavelength (Monte Carlo, single scattering, 2 n_eff Lambda) and colour of each slab
+    over the length scale x keratin fraction grid."""
+    import numpy as np
+
+    d, _, _ = _spongy_records(h5_path)
+    fs, ls = d["keratin_fraction"], d["length_scale_um"]
+    # The map's axes in ascending order (the lists start with the base case).
+    fi, li = np.argsort(fs), np.argsort(ls)
+    for k in ("peak_wavelength_nm", "peak_wavelength_sigma_nm", "bragg_wavelength_nm",
+              "single_scattering_peak_wavelength_nm",
+              "peak_at_spectrum_edge", "hue_deg", "luminance_Y", "srgb8"):
+        d[k] = d[k][fi][:, li]
+    fs, ls = fs[fi], ls[li]
+    fig, axes = plt.subplots(1, 2, figsize=(12, 4.6))
+    peak = d["peak_wavelength_nm"]
+    ax = axes[0]
+    # Coloured by the single-scattering peak: the Monte Carlo peak often sits at the spectrum's
+    # edge, where a colour scale would say nothing; all three numbers are written in each cell.
+    im = ax.imshow(d["single_scattering_peak_wavelength_nm"], origin="lower", cmap="viridis",
+                   aspect="auto")
+    for i in range(len(fs)):
+        for j in range(len(ls)):
+            edge = d["peak_at_spectrum_edge"][i, j] > 0
+            where = f"≤ {peak[i, j]:.0f} (edge)" if edge else \
+                f"{peak[i, j]:.0f} ± {d['peak_wavelength_sigma_nm'][i, j]:.0f}"
+            ax.text(j, i, f"MC {where}\n"
+                    f"single {d['single_scattering_peak_wavelength_nm'][i, j]:.0f}\n"
+                    f"2 n_eff Λ {d['bragg_wavelength_nm'][i, j]:.0f}", ha="center",
+                    va="center", fontsize=8, color="white",
+                    bbox=dict(facecolor="black", alpha=0.45, lw=0))
+    ax.set_xticks(range(len(ls)), [f"{v * 1e3:.0f}" for v in ls])
+    ax.set_yticks(range(len(fs)), [f"{v:.2f}" for v in fs])
+    ax.set_xlabel("channel length scale Λ (nm)")
+    ax.set_ylabel("keratin fraction f")
+    ax.set_title("peak λ of R (nm): Monte Carlo, single scattering, 2 n_eff Λ", fontsize=10)
+    fig.colorbar(im, ax=ax, label="single-scattering peak wavelength (nm)")
+    ax = axes[1]
+    ax.imshow(d["srgb8"].astype(np.uint8), origin="lower", aspect="auto")
+    for i in range(len(fs)):
+        for j in range(len(ls)):
+            ax.text(j, i, f"hue {d['hue_deg'][i, j]:.0f}°\nY {d['luminance_Y'][i, j]:.3f}",
+                    ha="center", va="center", fontsize=8, color="white",
+                    bbox=dict(facecolor="black", alpha=0.45, lw=0))
+    ax.set_xticks(range(len(ls)), [f"{v * 1e3:.0f}" for v in ls])
+    ax.set_yticks(range(len(fs)), [f"{v:.2f}" for v in fs])
+    ax.set_xlabel("channel length scale Λ (nm)")
+    ax.set_ylabel("keratin fraction f")
+    ax.set_title("colour of each slab (sRGB, D65)")
+    fig.tight_layout()
+    fig.savefig(png_path, dpi=120)
+
+
+def spongy_angles(h5_path, png_path):
+    """The base slab's spectrum at several incidence angles."""
+    d, ang, _ = _spongy_records(h5_path)
+    wl = d["wavelength_nm"]
+    base_f, base_l = d["keratin_fraction"][0], d["length_scale_um"][0]
+    if ang is None:
+        return
+    fig, ax = plt.subplots(figsize=(7, 4.5))
+    for a, deg in enumerate(ang["incidence_deg"]):
+        r, e = ang["reflectance"][a], ang["reflectance_standard_error"][a]
+        p, sp = ang["peak_wavelength_nm"][a], ang["peak_wavelength_sigma_nm"][a]
+        at_edge = p <= wl[0] or p >= wl[-1]
+        label = f"{deg:g}° (peak at the {p:.0f}-nm edge)" if at_edge else \
+            f"{deg:g}° (peak {p:.0f} ± {sp:.0f} nm)"
+        line = ax.plot(wl, r, lw=1.6, label=label)[0]
+        ax.fill_between(wl, r - 2 * e, r + 2 * e, color=line.get_color(), alpha=0.25, lw=0)
+        ax.plot(wl, ang["single_scattering_reflectance"][a], ":", color=line.get_color(), lw=1.2)
+    ax.plot([], [], "k:", label="single scattering (closed form)")
+    ax.set_xlabel("wavelength (nm)")
+    ax.set_ylabel("reflectance (all upward directions)")
+    ax.set_title(f"Angle dependence, f = {base_f:.2f}, Λ = {base_l * 1e3:.0f} nm (band: ±2σ)")
+    ax.grid(alpha=0.3)
+    ax.legend(title="incidence", fontsize=8)
+    fig.tight_layout()
+    fig.savefig(png_path, dpi=120)
+
+
 def batch(csv_path, _png_path):
     with open(csv_path, newline="") as f:
         jobs = list(csv.DictReader(f))
@@ -283,6 +405,8 @@ if __name__ == "__main__":
                   "contact_sheet": contact_sheet, "sweep_error": sweep_error,
                   "energy_bars": energy_bars, "luminance": luminance, "batch": batch})
     KINDS["masking"] = masking
+    KINDS.update({"spongy_spectra": spongy_spectra, "spongy_map": spongy_map,
+                  "spongy_angles": spongy_angles})
     if len(sys.argv) != 4 or sys.argv[1] not in KINDS:
         sys.exit("usage: plots.py " + "|".join(KINDS) + " INPUT PNG")
     KINDS[sys.argv[1]](sys.argv[2], sys.argv[3])

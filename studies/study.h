@@ -41,7 +41,8 @@ struct StudyEntry {
     X(extremes)            \
     X(species)             \
     X(masking)             \
-    X(calibration)
+    X(calibration)         \
+    X(spongy)
 
 #define PLUMAGE_DECLARE_STUDY_ENTRY(kind) StudyEntry kind##_study_entry();
 PLUMAGE_STUDIES(PLUMAGE_DECLARE_STUDY_ENTRY)

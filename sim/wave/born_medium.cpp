@@ -19,6 +19,7 @@
 
 #include <fmt/format.h>
 
+#include "common/constants.h"
 #include "common/error.h"
 #include "sim/wave/effective_index.h"
 #include "sim/wave/index_field.h"
@@ -27,7 +28,6 @@
 namespace plumage::sim::wave {
 namespace {
 
-constexpr double kPi = std::numbers::pi;
 constexpr int kQuadratureNodes = 512;
 
 struct GaussLegendre {

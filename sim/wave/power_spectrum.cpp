@@ -20,12 +20,11 @@
 #include <fmt/format.h>
 #include <Eigen/Eigenvalues>
 
+#include "common/constants.h"
 #include "common/error.h"
 
 namespace plumage::sim::wave {
 namespace {
-
-constexpr double kTwoPi = 2.0 * std::numbers::pi;
 
 std::mutex& fftw_planner_mutex() {
     static std::mutex mutex;

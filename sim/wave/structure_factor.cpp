@@ -18,12 +18,11 @@
 
 #include <fmt/format.h>
 
+#include "common/constants.h"
 #include "common/error.h"
 
 namespace plumage::sim::wave {
 namespace {
-
-constexpr double kPi = std::numbers::pi;
 
 void require_py(double sigma_um, double phi) {
     if (!(std::isfinite(sigma_um) && sigma_um > 0.0)) {

@@ -4,6 +4,7 @@
 // absorption), Monte Carlo against the closed-form single scattering, and thread-count
 // independence.
 #include "sim/scattering_medium.h"
+#include "common/constants.h"
 
 #include <cmath>
 #include <cstdio>
@@ -27,7 +28,6 @@
 namespace plumage::sim {
 namespace {
 
-constexpr double kPi = std::numbers::pi;
 // Monte Carlo comparisons: |difference| <= kSigmas standard errors.
 constexpr double kSigmas = 4.0;
 

@@ -1,6 +1,7 @@
 // First-Born scattering tables: Born (RGD) against Mie as the contrast vanishes, phase
 // function normalisation, the channel volume's medium, and the validity limits.
 #include "sim/wave/born_medium.h"
+#include "common/constants.h"
 
 #include <cmath>
 #include <cstdio>
@@ -21,7 +22,6 @@ namespace plumage::sim::wave {
 namespace {
 
 using Complex = std::complex<double>;
-constexpr double kPi = std::numbers::pi;
 
 double sphere_form_factor(double u) {
     if (u < 1e-4) return 1.0 - u * u / 10.0;

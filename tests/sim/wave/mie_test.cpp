@@ -6,6 +6,7 @@
 // sections and |S| do not depend on the convention, Im S flips sign, so only those are
 // compared.
 #include "sim/wave/mie.h"
+#include "common/constants.h"
 
 #include <cmath>
 #include <complex>
@@ -20,7 +21,6 @@ namespace plumage::sim::wave {
 namespace {
 
 using Complex = std::complex<double>;
-constexpr double kPi = std::numbers::pi;
 
 // (1/x²) ∫_{−1}^{1} (|S1|² + |S2|²) dμ and its first moment, by composite Simpson on θ
 // (smooth integrand; 4000 intervals resolve x up to ~20 to 1e-9).

@@ -2,6 +2,7 @@
 // the voxelised sphere's (and disk's) form factor and its convergence with resolution, and
 // the isotropy measure.
 #include "sim/wave/power_spectrum.h"
+#include "common/constants.h"
 
 #include <cmath>
 #include <cstdio>
@@ -17,8 +18,6 @@
 
 namespace plumage::sim::wave {
 namespace {
-
-constexpr double kPi = std::numbers::pi;
 
 std::vector<double> random_indicator(std::size_t size, double f, unsigned seed) {
     std::mt19937_64 rng(seed);

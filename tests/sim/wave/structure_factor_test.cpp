@@ -1,6 +1,7 @@
 // Structure factors: the Percus–Yevick closed form against its defining integral and its
 // limits, and the measured S(q) of generated sphere packings against PY.
 #include "sim/wave/structure_factor.h"
+#include "common/constants.h"
 
 #include <cmath>
 #include <cstdio>
@@ -14,8 +15,6 @@
 
 namespace plumage::sim::wave {
 namespace {
-
-constexpr double kPi = std::numbers::pi;
 
 // 1 − n ĉ(q) by composite Simpson on the Wertheim–Thiele c(r) (header of
 // structure_factor.h): an independent route to the closed form.

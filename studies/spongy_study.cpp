@@ -1,0 +1,752 @@
+// The spongy-keratin study (`study = "spongy"`): the structural colour of channel-type spongy
+// keratin computed from the volume itself (DESIGN.md's level 2 of physics). For every keratin
+// fraction f and length scale Λ: a generated channel volume (geometry/spongy_volume.h), its
+// indicator power spectrum and first-Born scattering tables at every wavelength of the
+// spectrum (sim/wave/born_medium.h), a slab of that medium (sim/scattering_slab.h) traced by
+// the tracer at normal incidence; for the base (f, Λ) also at other incidence angles.
+//
+// read → build → measure → compare → report, each a named step below.
+//
+// Study file keys (units, ranges):
+//   name, seed                                       (studies/sections.h)
+//   [spectrum] first_nm, last_nm, step_nm            380–780 nm, step <= 10 nm (μ_s is
+//                                                    strongly peaked: the Born tables are
+//                                                    computed at every wavelength, never
+//                                                    interpolated across more than 10 nm)
+//   [volume]   box_um                                periodic cube side, a whole number of
+//                                                    voxels, 4–512 per side; default 2.0
+//              voxel_um                              <= λ_min / (4 n_keratin(λ_min)); 0.025
+//              shell_relative_width                  (0, 1]; 0.15
+//              keratin_fractions                     comma-separated list in [0.1, 0.9]
+//              length_scales_um                      comma-separated list, each in
+//                                                    (2 voxel_um, box_um / 4]
+//              The first value of each list is the base (f, Λ) of the angle dependence.
+//   [slab]     thickness_um                          (0, 100]; default 5
+//              backing                               "melanin" (default) or "none"
+//              backing_thickness_um                  (0, 10]; 1
+//              paths_per_wavelength                  per slab and wavelength; 4000
+//   [angles]   incidence_deg                         comma-separated list in [0, 80]; "0, 30, 60"
+//              paths_per_wavelength                  per angle and wavelength; 4000
+//
+// Random streams (common/seed.h): the volume of case c from derive_seed(seed, "spongy/volume",
+// c), the paths of case c from derive_seed(seed, "spongy/normal", c) (path index = wavelength
+// index × paths + i), those of angle a from derive_seed(seed, "spongy/angle", a), the bootstrap
+// of the peak from derive_seed(seed, "spongy/bootstrap", c). Results do not depend on the
+// thread count.
+#include <omp.h>
+
+#include <algorithm>
+#include <cctype>
+#include <cmath>
+#include <cstdio>
+#include <fstream>
+#include <iostream>
+#include <numbers>
+#include <sstream>
+
+#include <fmt/format.h>
+
+#include "common/constants.h"
+#include "common/error.h"
+#include "common/interrupt.h"
+#include "common/seed.h"
+#include "common/version.h"
+#include "geometry/spongy_volume.h"
+#include "sim/optics/colour.h"
+#include "sim/optics/material.h"
+#include "sim/random.h"
+#include "sim/scattering_medium.h"
+#include "sim/scattering_slab.h"
+#include "sim/tracer.h"
+#include "sim/wave/born_medium.h"
+#include "sim/wave/effective_index.h"
+#include "sim/wave/index_field.h"
+#include "sim/wave/power_spectrum.h"
+#include "studies/plots.h"
+#include "studies/sections.h"
+#include "studies/staged_directory.h"
+#include "studies/study.h"
+#include "studies/study_common.h"
+#include "virtual_gonio/hdf5_file.h"
+
+namespace plumage::studies {
+namespace {
+
+namespace fs = std::filesystem;
+constexpr int kBootstrapReplicates = 400;
+
+struct Settings {
+    std::string name;
+    std::uint64_t seed = 0;
+    std::vector<double> wavelengths_nm;
+    double box_um = 2.0;
+    double voxel_um = 0.025;
+    double shell_relative_width = 0.15;
+    std::vector<double> fractions;  // f
+    std::vector<double> scales_um;  // Λ
+    sim::ScatteringSlabParams slab;
+    std::size_t paths = 4000;
+    std::vector<double> angles_deg;
+    std::size_t angle_paths = 4000;
+    std::string text;
+};
+
+// One (f, Λ): its volume's measured numbers, its medium, and what was measured on its slab.
+struct Case {
+    double fraction = 0.0, scale_um = 0.0;  // requested
+    double measured_fraction = 0.0, measured_scale_um = 0.0, isotropy = 1.0;
+    std::vector<sim::wave::ScatteringTable> tables;
+    std::shared_ptr<const sim::ScatteringMedium> medium;
+    std::vector<double> r, r_se, r_single;  // per wavelength
+};
+
+struct AngleRun {
+    double incidence_deg = 0.0;
+    std::vector<double> r, r_se, r_single;
+};
+
+struct Peak {
+    double lambda_nm = 0.0, sigma_nm = 0.0;
+    std::size_t index = 0;  // the largest sampled point
+    bool at_edge = false;
+};
+
+struct CaseResult {
+    Peak peak;
+    Peak single_peak;             // of the single-scattering closed form (no Monte Carlo error)
+    double bragg_nm = 0.0;        // 2 n_eff Λ (Bruggeman n_eff at that wavelength, measured Λ)
+    double multiple_share = 0.0;  // 1 − R_single / R at the peak
+    std::array<int, 3> srgb8{};
+    double hue_deg = 0.0, chroma = 0.0, luminance_y = 0.0;
+};
+
+// ---------------------------------------------------------------------------------- read
+
+// A comma-separated list of numbers in `range` (ParameterTable has no list getter): errors
+// name the key's file:line:col.
+std::vector<double> read_list(ParameterTable& t, std::string_view key, std::string_view fallback,
+                              double lo, double hi, std::string_view what) {
+    const std::string text = t.string(key, fallback, {}, what);
+    std::vector<double> values;
+    std::stringstream in(text);
+    std::string item;
+    while (std::getline(in, item, ',')) {
+        char* parsed_end = nullptr;
+        const double v = std::strtod(item.c_str(), &parsed_end);
+        const char* end = parsed_end;
+        const bool blank = std::all_of(end, item.c_str() + item.size(),
+                                       [](char c) { return std::isspace(c) != 0; });
+        if (end == item.c_str() || !blank || !std::isfinite(v) || v < lo || v > hi) {
+            throw InputError(fmt::format(
+                "{}: {}.{} = \"{}\": '{}' is not a number in [{}, {}] ({}; a comma-separated list)",
+                t.location(key), t.path(), key, text, item, lo, hi, what));
+        }
+        if (std::find(values.begin(), values.end(), v) != values.end()) {
+            throw InputError(
+                fmt::format("{}: {}.{} lists {} twice", t.location(key), t.path(), key, v));
+        }
+        values.push_back(v);
+    }
+    if (values.empty()) {
+        throw InputError(fmt::format("{}: {}.{} is empty: expected at least one value ({})",
+                                     t.location(key), t.path(), key, what));
+    }
+    return values;
+}
+
+// The voxel limit of sim/wave (index_field.h), at read time: h <= λ / (4 n_keratin(λ)) at every
+// wavelength of the spectrum (the tightest is the shortest, keratin being normally dispersive).
+void require_fine_voxels(ParameterTable& v, double voxel_um, const std::vector<double>& wl) {
+    const auto keratin = optics::keratin();
+    for (const double lambda : wl) {
+        const double n = keratin->index(lambda).real();
+        const double limit_um = lambda * 1e-3 / (4.0 * n);
+        if (voxel_um > limit_um) {
+            throw InputError(fmt::format(
+                "{}: volume.voxel_um = {}: voxels coarser than lambda/(4 n_keratin) = {} nm / "
+                "(4 x {:.4f}) = {:.4f} um at the spectrum's shortest wavelength; the grid would "
+                "not resolve backscattering (sim/wave/index_field.h)",
+                v.location("voxel_um"), voxel_um, lambda, n, limit_um));
+        }
+    }
+}
+
+void read_volume(ParameterTable v, Settings& s) {
+    s.box_um = v.number("box_um", s.box_um, positive(), "side of the periodic cube, um");
+    s.voxel_um = v.number("voxel_um", s.voxel_um, positive(), "voxel side, um");
+    const double n = s.box_um / s.voxel_um;
+    if (std::abs(n - std::round(n)) > 1e-6 * n || n < 4 || n > 512) {
+        throw InputError(fmt::format(
+            "{}: volume.box_um = {}: expected a whole number of voxels ({} um), 4 to 512 per side; "
+            "it is {:.4f}",
+            v.location("box_um"), s.box_um, s.voxel_um, n));
+    }
+    require_fine_voxels(v, s.voxel_um, s.wavelengths_nm);
+    s.shell_relative_width = v.number("shell_relative_width", s.shell_relative_width,
+                                      {0.0, 1.0, true, false}, "spectral shell width / k0");
+    s.fractions = read_list(v, "keratin_fractions", "0.5", 0.1, 0.9, "keratin filling fractions");
+    s.scales_um =
+        read_list(v, "length_scales_um", "0.19", 2.0 * s.voxel_um * (1 + 1e-9), s.box_um / 4.0,
+                  "channel length scales in um, above 2 voxels and at most a quarter "
+                  "of the box");
+}
+
+void read_slab(ParameterTable t, Settings& s) {
+    s.slab.thickness_um =
+        t.number("thickness_um", 5.0, {0.0, 100.0, true, false}, "slab thickness, um");
+    s.slab.half_width_um = std::max(1000.0, 20.0 * s.slab.thickness_um);
+    const std::string backing =
+        t.string("backing", "melanin", {"melanin", "none"}, "what lies beneath the slab");
+    const double backing_um =
+        t.number("backing_thickness_um", 1.0, {0.0, 10.0, true, false}, "melanin thickness, um");
+    if (backing == "melanin") s.slab.backing = sim::SlabBacking{optics::melanin(), backing_um};
+    s.paths = static_cast<std::size_t>(
+        t.integer("paths_per_wavelength", 4000, 100, 100000000, "paths per slab and wavelength"));
+}
+
+Settings read(const std::string& text, const fs::path& source) {
+    auto file = StudyFile::parse(text, source);
+    ParameterTable root = file->root();
+    root.string("study", "spongy", {"spongy"}, "which study this file describes");
+    Settings s;
+    s.text = text;
+    s.name = read_study_name(root, source);
+    s.seed = read_seed(root);
+    ParameterTable spectrum = root.table("spectrum");
+    s.wavelengths_nm =
+        read_wavelengths(spectrum, {.first_nm = 400.0,
+                                    .last_nm = 700.0,
+                                    .step_nm = 10.0,
+                                    .min_nm = 380.0,
+                                    .max_nm = 780.0,
+                                    .range_reason = "keratin's published dispersion range"});
+    const double step = s.wavelengths_nm[1] - s.wavelengths_nm[0];
+    if (step > 10.0 + 1e-9) {
+        throw InputError(fmt::format(
+            "{}: spectrum.step_nm = {}: expected at most 10 nm (mu_s is strongly peaked in "
+            "wavelength; the Born tables are computed at every wavelength of the spectrum)",
+            spectrum.location("step_nm"), step));
+    }
+    read_volume(root.table("volume"), s);
+    read_slab(root.table("slab"), s);
+    ParameterTable a = root.table("angles");
+    s.angles_deg = read_list(a, "incidence_deg", "0, 30, 60", 0.0, 80.0, "incidence angles, deg");
+    s.angle_paths = static_cast<std::size_t>(
+        a.integer("paths_per_wavelength", 4000, 100, 100000000, "paths per angle and wavelength"));
+    root.reject_unused();
+    s.slab.validate();
+    return s;
+}
+
+// --------------------------------------------------------------------------------- build
+
+Case build_case(const Settings& s, double f, double scale, std::size_t index) {
+    Case c;
+    c.fraction = f;
+    c.scale_um = scale;
+    geometry::ChannelVolumeParams p;
+    p.length_scale_um = scale;
+    p.shell_relative_width = s.shell_relative_width;
+    p.keratin_fraction = f;
+    p.box_um = s.box_um;
+    p.voxel_um = s.voxel_um;
+    p.seed = derive_seed(s.seed, "spongy/volume", index);
+    const geometry::SpongyVolume volume = geometry::make_channel_volume(p);
+    const sim::wave::IndicatorField field = sim::wave::sample_indicator(*volume.level_set);
+    const auto spectrum = sim::wave::PowerSpectrum::measure_3d(
+        field.as_doubles(), field.voxels_per_side, field.voxel_um);
+    const sim::wave::RadialSpectrum radial = spectrum.radial();
+    c.measured_fraction = field.filling_fraction();
+    c.measured_scale_um = 2.0 * std::numbers::pi / radial.peak_q_per_um;
+    c.isotropy = radial.isotropy_eigenvalue_ratio;
+    std::vector<sim::MediumTable> tables;
+    for (const double lambda : s.wavelengths_nm) {
+        c.tables.push_back(
+            sim::wave::born_medium(spectrum, *optics::keratin(), *optics::air(), lambda));
+        tables.push_back(sim::medium_table(c.tables.back()));
+    }
+    c.medium = std::make_shared<const sim::ScatteringMedium>(
+        std::move(tables), sim::AbsorptionSampling::weighted,
+        fmt::format("spongy f={} L={}um", f, scale));
+    return c;
+}
+
+// ------------------------------------------------------------------------------- measure
+
+struct Reflectance {
+    std::vector<double> r, r_se;
+};
+
+// R(λ) of a slab under a beam from polar angle θ (azimuth 0): the mean weight of the paths
+// that leave upwards, with its standard error over paths.
+Reflectance trace_reflectance(const sim::ExplicitScatterer& tracer, const Settings& s, double theta,
+                              std::uint64_t seed, std::size_t paths) {
+    const Vec3d wi(std::sin(theta), 0.0, std::cos(theta));
+    Reflectance out;
+    for (std::size_t w = 0; w < s.wavelengths_nm.size(); ++w) {
+        throw_if_interrupted("spongy slab tracing");
+        const auto events =
+            sim::trace_many(tracer, wi, s.wavelengths_nm[w], {{-1.0, -1.0}, {1.0, 1.0}}, seed,
+                            w * paths, paths, omp_get_max_threads());
+        double sum = 0.0, sum_sq = 0.0;
+        for (const auto& e : events) {
+            if (!e || e->wo.z() <= 0.0) continue;
+            sum += e->weight;
+            sum_sq += e->weight * e->weight;
+        }
+        const double n = static_cast<double>(paths);
+        const double mean = sum / n;
+        out.r.push_back(mean);
+        out.r_se.push_back(std::sqrt(std::max(0.0, sum_sq / n - mean * mean) / (n - 1.0)));
+    }
+    return out;
+}
+
+// The closed-form single-scattering reflectance of an index-matched slab of the same medium
+// and thickness, per wavelength (sim/scattering_slab.h).
+std::vector<double> single_scattering(const sim::ScatteringMedium& medium, const Settings& s,
+                                      double theta) {
+    const Vec3d wi(std::sin(theta), 0.0, std::cos(theta));
+    std::vector<double> r;
+    for (const double lambda : s.wavelengths_nm) {
+        r.push_back(sim::slab_single_scattering_totals(medium, lambda, s.slab.thickness_um, wi)
+                        .reflectance);
+    }
+    return r;
+}
+
+void measure_case(Case& c, const Settings& s, std::size_t index) {
+    const sim::ExplicitScatterer tracer(sim::scattering_slab_scene(c.medium, s.slab));
+    Reflectance r =
+        trace_reflectance(tracer, s, 0.0, derive_seed(s.seed, "spongy/normal", index), s.paths);
+    c.r = std::move(r.r);
+    c.r_se = std::move(r.r_se);
+    c.r_single = single_scattering(*c.medium, s, 0.0);
+}
+
+std::vector<AngleRun> measure_angles(const Case& base, const Settings& s,
+                                     const StudyProgress& clock) {
+    const sim::ExplicitScatterer tracer(sim::scattering_slab_scene(base.medium, s.slab));
+    std::vector<AngleRun> runs;
+    for (std::size_t a = 0; a < s.angles_deg.size(); ++a) {
+        clock.say(fmt::format("base slab at {} deg incidence", s.angles_deg[a]));
+        Reflectance r = trace_reflectance(tracer, s, s.angles_deg[a] * kDeg,
+                                          derive_seed(s.seed, "spongy/angle", a), s.angle_paths);
+        runs.push_back({s.angles_deg[a], std::move(r.r), std::move(r.r_se),
+                        single_scattering(*base.medium, s, s.angles_deg[a] * kDeg)});
+    }
+    return runs;
+}
+
+// ------------------------------------------------------------------------------- compare
+
+// Vertex of the parabola through the largest value and its neighbours (uniform grid); the
+// largest sampled point itself at the spectrum's edge.
+Peak parabolic_peak(const std::vector<double>& wl, const std::vector<double>& r) {
+    Peak p;
+    p.index = static_cast<std::size_t>(std::max_element(r.begin(), r.end()) - r.begin());
+    p.lambda_nm = wl[p.index];
+    if (p.index == 0 || p.index + 1 == r.size()) {
+        p.at_edge = true;
+        return p;
+    }
+    const double a = r[p.index - 1], b = r[p.index], c = r[p.index + 1];
+    const double curvature = a - 2.0 * b + c;
+    if (curvature < 0.0) {
+        const double shift = std::clamp(0.5 * (a - c) / curvature, -0.5, 0.5);
+        p.lambda_nm += shift * (wl[p.index + 1] - wl[p.index]);
+    }
+    return p;
+}
+
+// The peak with its uncertainty: the standard deviation of the peak over parametric bootstrap
+// replicates R_j + σ_j z_j (z standard normal, Box–Muller from the study's stream).
+Peak peak_with_sigma(const std::vector<double>& wl, const Reflectance& r, std::uint64_t seed) {
+    Peak peak = parabolic_peak(wl, r.r);
+    Rng rng(seed, 0);
+    double sum = 0.0, sum_sq = 0.0;
+    std::vector<double> replicate(r.r.size());
+    for (int b = 0; b < kBootstrapReplicates; ++b) {
+        for (std::size_t j = 0; j < r.r.size(); ++j) {
+            const double u1 = 1.0 - rng.uniform(), u2 = rng.uniform();
+            const double z = std::sqrt(-2.0 * std::log(u1)) * std::cos(2.0 * std::numbers::pi * u2);
+            replicate[j] = r.r[j] + r.r_se[j] * z;
+        }
+        const double l = parabolic_peak(wl, replicate).lambda_nm;
+        sum += l;
+        sum_sq += l * l;
+    }
+    const double n = kBootstrapReplicates;
+    peak.sigma_nm = std::sqrt(std::max(0.0, sum_sq / n - (sum / n) * (sum / n)));
+    return peak;
+}
+
+// First-order Bragg estimate λ = 2 n_eff(λ) Λ, solved by fixed-point iteration (n_eff varies
+// slowly with λ): a comparison, not an input.
+double bragg_wavelength(double fraction, double scale_um) {
+    double lambda = 2.0 * 1.25 * scale_um * 1e3;
+    for (int i = 0; i < 30; ++i) {
+        const auto n = sim::wave::bruggeman_index(optics::keratin()->index(lambda),
+                                                  optics::air()->index(lambda), fraction);
+        lambda = 2.0 * n.real() * scale_um * 1e3;
+    }
+    return lambda;
+}
+
+CaseResult compare_case(const Case& c, const Settings& s, std::size_t index) {
+    CaseResult out;
+    out.peak = peak_with_sigma(s.wavelengths_nm, {c.r, c.r_se},
+                               derive_seed(s.seed, "spongy/bootstrap", index));
+    out.single_peak = parabolic_peak(s.wavelengths_nm, c.r_single);
+    out.bragg_nm = bragg_wavelength(c.measured_fraction, c.measured_scale_um);
+    const double r_peak = c.r[out.peak.index];
+    out.multiple_share = r_peak > 0.0 ? 1.0 - c.r_single[out.peak.index] / r_peak : 0.0;
+    const optics::ReflectanceToXyz to_xyz(optics::WavelengthGrid(s.wavelengths_nm),
+                                          optics::Illuminant::d65);
+    const optics::Xyz xyz = to_xyz(c.r);
+    const optics::Rgb rgb = optics::linear_srgb_from_xyz(xyz);
+    for (int k = 0; k < 3; ++k) {
+        out.srgb8[static_cast<std::size_t>(k)] = static_cast<int>(
+            std::lround(255.0 * optics::srgb_encode(rgb[static_cast<std::size_t>(k)])));
+    }
+    const optics::Lab lab = optics::lab_from_xyz(xyz, to_xyz.white());
+    out.hue_deg = optics::hue_angle_deg(lab);
+    out.chroma = optics::chroma(lab);
+    out.luminance_y = xyz.y;
+    return out;
+}
+
+// -------------------------------------------------------------------------------- report
+
+std::vector<double> flatten(const std::vector<Case>& cases, std::vector<double> Case::*member) {
+    std::vector<double> out;
+    for (const Case& c : cases) out.insert(out.end(), (c.*member).begin(), (c.*member).end());
+    return out;
+}
+
+template <typename F>
+std::vector<double> per_case(std::size_t n, F&& f) {
+    std::vector<double> out;
+    for (std::size_t i = 0; i < n; ++i) out.push_back(f(i));
+    return out;
+}
+
+record::Attributes attrs(std::string units, std::string description) {
+    return {{"units", std::move(units)}, {"description", std::move(description)}};
+}
+
+void write_case_spectra(record::Hdf5Writer& h5, const std::vector<Case>& cases, const Settings& s) {
+    const std::uint64_t nf = s.fractions.size(), ns = s.scales_um.size(),
+                        nw = s.wavelengths_nm.size();
+    const std::vector<std::uint64_t> dims{nf, ns, nw};
+    h5.write("wavelength_nm", std::span<const double>(s.wavelengths_nm), {nw},
+             attrs("nm", "vacuum wavelengths of every spectrum"));
+    h5.write("keratin_fraction", std::span<const double>(s.fractions), {nf},
+             attrs("1", "requested keratin filling fraction f (first axis of the grids)"));
+    h5.write("length_scale_um", std::span<const double>(s.scales_um), {ns},
+             attrs("um", "requested channel length scale Lambda (second axis of the grids)"));
+    h5.write("reflectance", std::span<const double>(flatten(cases, &Case::r)), dims,
+             attrs("1",
+                   "slab reflectance at normal incidence, Monte Carlo through the tracer "
+                   "[f][Lambda][wavelength]"));
+    h5.write("reflectance_standard_error", std::span<const double>(flatten(cases, &Case::r_se)),
+             dims, attrs("1", "standard error of reflectance over paths"));
+    h5.write("single_scattering_reflectance",
+             std::span<const double>(flatten(cases, &Case::r_single)), dims,
+             attrs("1",
+                   "closed-form single-scattering reflectance of the same medium and "
+                   "thickness, index-matched boundary (sim/scattering_slab.h)"));
+    std::vector<double> mu_s, g, n_eff;
+    for (const Case& c : cases) {
+        for (const auto& t : c.tables) {
+            mu_s.push_back(t.mu_s_per_um);
+            g.push_back(t.g);
+            n_eff.push_back(t.n_eff.real());
+        }
+    }
+    h5.write("mu_s_per_um", std::span<const double>(mu_s), dims,
+             attrs("1/um", "first-Born scattering coefficient (sim/wave/born_medium.h)"));
+    h5.write("asymmetry_g", std::span<const double>(g), dims,
+             attrs("1", "mean cosine of the Born phase function"));
+    h5.write("n_eff", std::span<const double>(n_eff), dims,
+             attrs("1", "real part of the Bruggeman effective index"));
+}
+
+void write_case_results(record::Hdf5Writer& h5, const std::vector<Case>& cases,
+                        const std::vector<CaseResult>& res, const Settings& s) {
+    const std::vector<std::uint64_t> dims{s.fractions.size(), s.scales_um.size()};
+    const std::size_t n = cases.size();
+    auto put = [&](const char* name, auto f, const char* units, const char* what) {
+        h5.write(name, std::span<const double>(per_case(n, f)), dims, attrs(units, what));
+    };
+    put(
+        "peak_wavelength_nm", [&](std::size_t i) { return res[i].peak.lambda_nm; }, "nm",
+        "vertex of the parabola through the largest R and its neighbours [f][Lambda]");
+    put(
+        "peak_wavelength_sigma_nm", [&](std::size_t i) { return res[i].peak.sigma_nm; }, "nm",
+        "standard deviation of the peak over parametric bootstrap replicates of R");
+    put(
+        "peak_at_spectrum_edge", [&](std::size_t i) { return res[i].peak.at_edge ? 1.0 : 0.0; },
+        "1", "1: the largest R is the spectrum's first or last wavelength (no vertex)");
+    put(
+        "single_scattering_peak_wavelength_nm",
+        [&](std::size_t i) { return res[i].single_peak.lambda_nm; }, "nm",
+        "parabolic peak of the single-scattering closed form [f][Lambda]");
+    put(
+        "bragg_wavelength_nm", [&](std::size_t i) { return res[i].bragg_nm; }, "nm",
+        "first-order Bragg estimate 2 n_eff Lambda (Bruggeman n_eff, measured Lambda)");
+    put(
+        "reflectance_at_peak", [&](std::size_t i) { return cases[i].r[res[i].peak.index]; }, "1",
+        "R at the largest sampled point");
+    put(
+        "reflectance_at_peak_standard_error",
+        [&](std::size_t i) { return cases[i].r_se[res[i].peak.index]; }, "1", "its standard error");
+    put(
+        "multiple_scattering_share", [&](std::size_t i) { return res[i].multiple_share; }, "1",
+        "1 - R_single / R at the peak");
+    put(
+        "measured_keratin_fraction", [&](std::size_t i) { return cases[i].measured_fraction; }, "1",
+        "mean of the voxel indicator of the generated volume");
+    put(
+        "measured_length_scale_um", [&](std::size_t i) { return cases[i].measured_scale_um; }, "um",
+        "2 pi / peak wavenumber of the indicator power spectrum");
+    put(
+        "isotropy_eigenvalue_ratio", [&](std::size_t i) { return cases[i].isotropy; }, "1",
+        "directional spread of the spectrum's peak shell (1: isotropic; power_spectrum.h)");
+    put(
+        "hue_deg", [&](std::size_t i) { return res[i].hue_deg; }, "deg",
+        "CIELAB hue angle h_ab of R under D65 (CIE 1931 2 deg)");
+    put(
+        "chroma", [&](std::size_t i) { return res[i].chroma; }, "1", "CIELAB chroma C*_ab");
+    put(
+        "luminance_Y", [&](std::size_t i) { return res[i].luminance_y; }, "1",
+        "CIE Y of R under D65 (perfect reflector: 1)");
+    std::vector<double> rgb;
+    for (const CaseResult& r : res) rgb.insert(rgb.end(), r.srgb8.begin(), r.srgb8.end());
+    h5.write("srgb8", std::span<const double>(rgb), {dims[0], dims[1], 3},
+             attrs("0-255", "gamma-encoded sRGB (D65) of R, clipped to the gamut"));
+}
+
+void write_angles(record::Hdf5Writer& h5, const std::vector<AngleRun>& runs,
+                  const std::vector<Peak>& peaks, const Settings& s) {
+    const std::uint64_t na = runs.size(), nw = s.wavelengths_nm.size();
+    std::vector<double> deg, r, se, single, peak, sigma, single_peak;
+    for (std::size_t a = 0; a < runs.size(); ++a) {
+        deg.push_back(runs[a].incidence_deg);
+        single.insert(single.end(), runs[a].r_single.begin(), runs[a].r_single.end());
+        single_peak.push_back(parabolic_peak(s.wavelengths_nm, runs[a].r_single).lambda_nm);
+        r.insert(r.end(), runs[a].r.begin(), runs[a].r.end());
+        se.insert(se.end(), runs[a].r_se.begin(), runs[a].r_se.end());
+        peak.push_back(peaks[a].lambda_nm);
+        sigma.push_back(peaks[a].sigma_nm);
+    }
+    h5.write("angles/incidence_deg", std::span<const double>(deg), {na},
+             attrs("deg", "polar angle of the incident beam (azimuth 0), base (f, Lambda)"));
+    h5.write("angles/reflectance", std::span<const double>(r), {na, nw},
+             attrs("1", "base slab's reflectance (all upward directions) [angle][wavelength]"));
+    h5.write("angles/reflectance_standard_error", std::span<const double>(se), {na, nw},
+             attrs("1", "its standard error"));
+    h5.write("angles/single_scattering_reflectance", std::span<const double>(single), {na, nw},
+             attrs("1", "closed-form single-scattering reflectance, index-matched slab"));
+    h5.write("angles/single_scattering_peak_wavelength_nm", std::span<const double>(single_peak),
+             {na}, attrs("nm", "parabolic peak of the single-scattering reflectance per angle"));
+    h5.write("angles/peak_wavelength_nm", std::span<const double>(peak), {na},
+             attrs("nm", "parabolic peak of R per angle"));
+    h5.write("angles/peak_wavelength_sigma_nm", std::span<const double>(sigma), {na},
+             attrs("nm", "bootstrap standard deviation of the peak"));
+    h5.set_attribute("/angles", "keratin_fraction", s.fractions.front());
+    h5.set_attribute("/angles", "length_scale_um", s.scales_um.front());
+}
+
+// The figures, drawn from the record by studies/plots.py (kinds spongy_spectra, spongy_map,
+// spongy_angles); a figure that cannot be drawn is a warning and the records are kept.
+bool draw_figures(const fs::path& dir) {
+    const fs::path h5 = dir / "spongy.h5";
+    const bool drawn = run_plots({{"spongy_spectra", h5, dir / "spectra.png"},
+                                  {"spongy_map", h5, dir / "peak_map.png"},
+                                  {"spongy_angles", h5, dir / "angles.png"}},
+                                 dir / "plots.csv");
+    fs::remove(dir / "plots.csv");  // it names the staging folder
+    return drawn;
+}
+
+std::string hex_colour(const std::array<int, 3>& rgb) {
+    return fmt::format("#{:02x}{:02x}{:02x}", rgb[0], rgb[1], rgb[2]);
+}
+
+std::string hue_name(double hue_deg) {
+    // CIELAB hue angle bands (approximate names for the reader; the angle is the result).
+    if (hue_deg < 40.0 || hue_deg >= 345.0) return "red/pink";
+    if (hue_deg < 75.0) return "orange";
+    if (hue_deg < 105.0) return "yellow";
+    if (hue_deg < 165.0) return "green";
+    if (hue_deg < 225.0) return "cyan/teal";
+    if (hue_deg < 290.0) return "blue";
+    return "violet/purple";
+}
+
+std::string results_table(const std::vector<Case>& cases, const std::vector<CaseResult>& res) {
+    std::string t =
+        "| f (measured) | Λ µm (measured) | peak λ nm | single-scattering peak λ nm | "
+        "2 n_eff Λ nm | R at peak | single-scattering R at peak | multiple-scattering share | "
+        "hue h_ab | sRGB |\n"
+        "|---|---|---|---|---|---|---|---|---|---|\n";
+    for (std::size_t i = 0; i < cases.size(); ++i) {
+        const Case& c = cases[i];
+        const CaseResult& r = res[i];
+        t += fmt::format(
+            "| {:.2f} ({:.3f}) | {:.3f} ({:.3f}) | {:.1f} ± {:.1f}{} | {:.1f}{} | {:.1f} | "
+            "{:.4f} ± {:.4f} | {:.4f} | {:.0f} % | {:.0f}° ({}) | `{}` |\n",
+            c.fraction, c.measured_fraction, c.scale_um, c.measured_scale_um, r.peak.lambda_nm,
+            r.peak.sigma_nm, r.peak.at_edge ? " (edge)" : "", r.single_peak.lambda_nm,
+            r.single_peak.at_edge ? " (edge)" : "", r.bragg_nm, c.r[r.peak.index],
+            c.r_se[r.peak.index], c.r_single[r.peak.index], 100.0 * r.multiple_share, r.hue_deg,
+            hue_name(r.hue_deg), hex_colour(r.srgb8));
+    }
+    return t;
+}
+
+std::string angles_table(const std::vector<AngleRun>& runs, const std::vector<Peak>& peaks,
+                         const std::vector<double>& wl) {
+    std::string t =
+        "| incidence | peak λ nm | R at peak | single-scattering peak λ nm |\n|---|---|---|---|\n";
+    for (std::size_t a = 0; a < runs.size(); ++a) {
+        t += fmt::format("| {:g}° | {:.1f} ± {:.1f}{} | {:.4f} ± {:.4f} | {:.1f} |\n",
+                         runs[a].incidence_deg, peaks[a].lambda_nm, peaks[a].sigma_nm,
+                         peaks[a].at_edge ? " (edge)" : "", runs[a].r[peaks[a].index],
+                         runs[a].r_se[peaks[a].index],
+                         parabolic_peak(wl, runs[a].r_single).lambda_nm);
+    }
+    return t;
+}
+
+// The base medium at the spectrum's ends and middle: how steeply μ_s falls with λ decides how
+// far multiple scattering moves R's maximum from the single-scattering one.
+std::string medium_text(const Settings& s, const Case& base) {
+    std::string t =
+        fmt::format("The base medium (f = {}, Λ = {} µm):", base.fraction, base.scale_um);
+    const std::size_t last = base.tables.size() - 1;
+    for (const std::size_t i : {std::size_t{0}, last / 2, last}) {
+        const auto& m = base.tables[i];
+        t += fmt::format(
+            " at {:.0f} nm μ_s = {:.3f} µm⁻¹, g = {:.2f}, n_eff = {:.3f}, optical "
+            "thickness {:.2f}{}",
+            m.lambda_nm, m.mu_s_per_um, m.g, m.n_eff.real(), m.mu_s_per_um * s.slab.thickness_um,
+            i == last ? ". " : ";");
+    }
+    return t;
+}
+
+std::string method_text(const Settings& s, const Case& base) {
+    const std::size_t n = static_cast<std::size_t>(std::lround(s.box_um / s.voxel_um));
+    return fmt::format(
+        "Channel-type volumes ({0}³ voxels of {1} µm, box {2} µm, shell width {3}), one per "
+        "(f, Λ); their indicator power spectrum gives first-Born scattering tables "
+        "(sim/wave/born_medium.h) at every one of the {4} wavelengths ({5:.0f}–{6:.0f} nm), "
+        "transported by the tracer in a slab {7} µm thick on {8}, {9} paths per wavelength. "
+        "{10}The single-scattering column is the closed form of an "
+        "index-matched slab of the same medium (sim/scattering_slab.h); the Monte Carlo slab "
+        "has a Fresnel boundary in n_eff, so their ratio is the multiple-scattering share only "
+        "approximately. The peak is the vertex of the parabola through the largest R and its "
+        "neighbours, ± the standard deviation over {11} parametric bootstrap replicates; "
+        "2 n_eff Λ uses the Bruggeman index and the volume's measured length scale (2π / peak "
+        "of its power spectrum): a comparison, not an input. Colours: CIE 1931 2° XYZ of R "
+        "under D65 over the study's spectrum, sRGB, CIELAB hue.\n\n",
+        n, s.voxel_um, s.box_um, s.shell_relative_width, s.wavelengths_nm.size(),
+        s.wavelengths_nm.front(), s.wavelengths_nm.back(), s.slab.thickness_um,
+        s.slab.backing ? fmt::format("{} µm of melanin", s.slab.backing->thickness_um)
+                       : std::string("nothing (air)"),
+        s.paths, medium_text(s, base), kBootstrapReplicates);
+}
+
+void write_report(const fs::path& path, const std::vector<Case>& cases,
+                  const std::vector<CaseResult>& res, const std::vector<AngleRun>& runs,
+                  const std::vector<Peak>& angle_peaks, const Settings& s, double wall_s) {
+    std::ofstream md(path);
+    md << "# Spongy keratin: structural colour computed from the volume\n\n"
+       << method_text(s, cases.front()) << results_table(cases, res)
+       << "\n![Reflectance spectra](spectra.png)\n\n"
+       << "![Peak wavelength over Λ × f, and the colour of each slab](peak_map.png)\n\n"
+       << fmt::format("## Angle dependence (base f = {}, Λ = {} µm)\n\n", s.fractions.front(),
+                      s.scales_um.front())
+       << angles_table(runs, angle_peaks, s.wavelengths_nm)
+       << "\n![Angle dependence](angles.png)\n\n"
+       << "## Not yet shown\n\nThe geometric-optics baseline of the same explicit volume "
+          "(meshing the level set and tracing the keratin/air interfaces) is not yet shown.\n\n"
+       << "Records: `spongy.h5` (every dataset with `units` and `description` attributes; the "
+          "figures are drawn from it by plumage's plotting script, kinds `spongy_spectra`, "
+          "`spongy_map` and `spongy_angles`).\n\n"
+       << fmt::format("Wall time {:.1f} s on {} threads; plumage {}.\n\n", wall_s,
+                      omp_get_max_threads(), kVersion)
+       << "## Study file\n\n```toml\n"
+       << s.text << "\n```\n";
+    if (!md) throw IoError(fmt::format("cannot write {}", path.string()));
+}
+
+void write_records(const fs::path& dir, const std::vector<Case>& cases,
+                   const std::vector<CaseResult>& res, const std::vector<AngleRun>& runs,
+                   const std::vector<Peak>& angle_peaks, const Settings& s) {
+    record::Hdf5Writer h5(dir / "spongy.h5");
+    write_case_spectra(h5, cases, s);
+    write_case_results(h5, cases, res, s);
+    if (!runs.empty()) write_angles(h5, runs, angle_peaks, s);
+    h5.set_attribute("/", "slab_thickness_um", s.slab.thickness_um);
+    h5.set_attribute("/", "backing", s.slab.backing ? "melanin" : "none");
+    h5.set_attribute("/", "paths_per_wavelength", static_cast<double>(s.paths));
+    h5.set_attribute("/", "seed", static_cast<double>(s.seed));
+    h5.set_attribute("/", "config_text", s.text);
+    h5.set_attribute("/", "plumage_version", kVersion);
+    h5.commit();
+}
+
+std::string run(const std::string& text, const fs::path& source, const fs::path& results_root,
+                const RunLimits& limits) {
+    refuse_limits("spongy", limits, "its Monte Carlo runs a fixed number of paths");
+    const StudyProgress clock(true);
+    const Settings s = read(text, source);  // read
+    StagedDirectory::prepare(results_root / s.name);
+    std::vector<Case> cases;
+    std::vector<CaseResult> results;
+    for (const double f : s.fractions) {
+        for (const double scale : s.scales_um) {
+            const std::size_t i = cases.size();
+            clock.say(
+                fmt::format("volume, Born tables and slab: f = {}, Lambda = {} um", f, scale));
+            cases.push_back(build_case(s, f, scale, i));          // build
+            measure_case(cases.back(), s, i);                     // measure
+            results.push_back(compare_case(cases.back(), s, i));  // compare
+        }
+    }
+    const std::vector<AngleRun> runs = measure_angles(cases.front(), s, clock);
+    std::vector<Peak> angle_peaks;
+    for (std::size_t a = 0; a < runs.size(); ++a) {
+        angle_peaks.push_back(peak_with_sigma(s.wavelengths_nm, {runs[a].r, runs[a].r_se},
+                                              derive_seed(s.seed, "spongy/angle-bootstrap", a)));
+    }
+    StagedDirectory out(results_root / s.name);  // report
+    write_records(out.path(), cases, results, runs, angle_peaks, s);
+    clock.say("figures");
+    draw_figures(out.path());
+    write_report(out.path() / "report.md", cases, results, runs, angle_peaks, s, clock.elapsed_s());
+    out.commit();
+    clock.done(fmt::format("done: {}", (out.final_path() / "report.md").string()));
+    std::string summary = fmt::format("plumage: wrote {}:", out.final_path().string());
+    for (std::size_t i = 0; i < cases.size(); ++i) {
+        summary += fmt::format(" f={} L={}um peak {:.0f}+-{:.0f} nm (2 n_eff L {:.0f});",
+                               cases[i].fraction, cases[i].scale_um, results[i].peak.lambda_nm,
+                               results[i].peak.sigma_nm, results[i].bragg_nm);
+    }
+    return summary + "\n";
+}
+
+void check(const std::string& text, const fs::path& source) { read(text, source); }
+
+}  // namespace
+
+StudyEntry spongy_study_entry() {
+    return {"spongy",
+            "structural colour of spongy keratin slabs from the volume (first Born + tracer)",
+            check, run};
+}
+
+}  // namespace plumage::studies
