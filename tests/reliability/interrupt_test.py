@@ -4,7 +4,7 @@ nothing half-written."
 
     interrupt_test.py --plumage BUILD/studies/plumage --source REPO [--studies ...]
 
-Studies: the five `run` quick studies and calibration, one `geometry` file (the smallest in
+Studies: the six `run` quick studies and calibration, one `geometry` file (the smallest in
 studies/geometry/, spongy_spheres.toml) and `thin-film` with coarse steps; all with
 --threads 2 and plots on (drawing the plots is a stage too), each run in its own --out
 inside a fresh temporary folder.
@@ -49,7 +49,7 @@ LIMIT_S = 2.0
 MID_STAGE_MIN_S = 1.0      # stages at least this long in the reference also get a mid-stage signal
 STDERR_GRACE_S = 1.0       # children must let go of stderr this soon after plumage exits
 QUICK_STUDIES = ["rock_dove_quick", "ablation_quick", "extremes_quick", "species_quick",
-                 "masking_quick", "calibration", "geometry", "thin-film"]
+                 "masking_quick", "calibration", "spongy_quick", "geometry", "thin-film"]
 GEOMETRY_FILE = "spongy_spheres.toml"   # the smallest file in studies/geometry/
 THIN_FILM_STEPS = ["--thickness-step-nm", "10", "--angle-step-deg", "5"]
 TIME_FRACTIONS = (0.1, 0.3, 0.5, 0.8)
