@@ -87,32 +87,34 @@ void require_grid(const char* what, std::size_t size, std::size_t expected, int 
 
 }  // namespace
 
-PowerSpectrum PowerSpectrum::measure_3d(const std::vector<double>& values, int n, double voxel_um) {
+PowerSpectrum PowerSpectrum::measure(const std::vector<double>& values, int dimension, int n,
+                                     double voxel_um) {
     const auto nn = static_cast<std::size_t>(n);
-    require_grid("power spectrum (3D)", values.size(), nn * nn * nn, n, voxel_um);
+    const char* what = dimension == 3 ? "power spectrum (3D)" : "power spectrum (2D)";
+    const std::size_t rows = dimension == 3 ? nn * nn : nn;  // all but the last axis
+    require_grid(what, values.size(), rows * nn, n, voxel_um);
     const std::size_t half = nn / 2 + 1;
-    R2cTransform fft(3, n, nn * nn * nn, nn * nn * half);
+    R2cTransform fft(dimension, n, rows * nn, rows * half);
     double mean = 0.0;
     for (double v : values) mean += v;
     mean /= static_cast<double>(values.size());
     for (std::size_t p = 0; p < values.size(); ++p) {
         if (!std::isfinite(values[p])) {
-            throw InputError(
-                fmt::format("power spectrum (3D): value {} at index {}: expected "
-                            "finite values",
-                            values[p], p));
+            throw InputError(fmt::format("{}: value {} at index {}: expected finite values", what,
+                                         values[p], p));
         }
         fft.in[p] = values[p] - mean;
     }
     fftw_execute(fft.plan);
     PowerSpectrum s;
-    s.dimension_ = 3;
+    s.dimension_ = dimension;
     s.n_ = n;
     s.voxel_um_ = voxel_um;
     s.fraction_ = mean;
-    // S = |h³ DFT|² / L³ = h³ |DFT|² / N³.
-    const double scale = voxel_um * voxel_um * voxel_um / static_cast<double>(nn * nn * nn);
-    s.power_.resize(nn * nn * half);
+    // S = |h^d DFT|² / L^d = h^d |DFT|² / N^d.
+    const double cell = dimension == 3 ? voxel_um * voxel_um * voxel_um : voxel_um * voxel_um;
+    const double scale = cell / static_cast<double>(rows * nn);
+    s.power_.resize(rows * half);
     for (std::size_t p = 0; p < s.power_.size(); ++p) {
         s.power_[p] = scale * (fft.out[p][0] * fft.out[p][0] + fft.out[p][1] * fft.out[p][1]);
     }
@@ -120,36 +122,12 @@ PowerSpectrum PowerSpectrum::measure_3d(const std::vector<double>& values, int n
     return s;
 }
 
+PowerSpectrum PowerSpectrum::measure_3d(const std::vector<double>& values, int n, double voxel_um) {
+    return measure(values, 3, n, voxel_um);
+}
+
 PowerSpectrum PowerSpectrum::measure_2d(const std::vector<double>& values, int n, double voxel_um) {
-    const auto nn = static_cast<std::size_t>(n);
-    require_grid("power spectrum (2D)", values.size(), nn * nn, n, voxel_um);
-    const std::size_t half = nn / 2 + 1;
-    R2cTransform fft(2, n, nn * nn, nn * half);
-    double mean = 0.0;
-    for (double v : values) mean += v;
-    mean /= static_cast<double>(values.size());
-    for (std::size_t p = 0; p < values.size(); ++p) {
-        if (!std::isfinite(values[p])) {
-            throw InputError(
-                fmt::format("power spectrum (2D): value {} at index {}: expected "
-                            "finite values",
-                            values[p], p));
-        }
-        fft.in[p] = values[p] - mean;
-    }
-    fftw_execute(fft.plan);
-    PowerSpectrum s;
-    s.dimension_ = 2;
-    s.n_ = n;
-    s.voxel_um_ = voxel_um;
-    s.fraction_ = mean;
-    const double scale = voxel_um * voxel_um / static_cast<double>(nn * nn);
-    s.power_.resize(nn * half);
-    for (std::size_t p = 0; p < s.power_.size(); ++p) {
-        s.power_[p] = scale * (fft.out[p][0] * fft.out[p][0] + fft.out[p][1] * fft.out[p][1]);
-    }
-    s.power_[0] = 0.0;
-    return s;
+    return measure(values, 2, n, voxel_um);
 }
 
 double PowerSpectrum::variance() const {

@@ -65,6 +65,8 @@ public:
     static PowerSpectrum measure_2d(const std::vector<double>& values, int n, double voxel_um);
 
 private:
+    static PowerSpectrum measure(const std::vector<double>& values, int dimension, int n,
+                                 double voxel_um);
     int dimension_ = 3;
     int n_ = 0;
     double voxel_um_ = 0.0;
