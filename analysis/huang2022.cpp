@@ -150,11 +150,14 @@ bool Huang2022Bsdf::visible(double phi_m, double dir_x, double dir_z) const {
     // Copies further than 1 (the semi-major axis) from the ray cannot be hit; their
     // distance to the ray line grows by H |sin α| per copy.
     const double sin_alpha = std::abs(ux * dz - uz * dx);
-    const int reach = sin_alpha * params_.H > 1e-9
-                          ? std::min(1000, static_cast<int>(std::ceil((2.0 + 2.0 * params_.H) /
-                                                                      (params_.H * sin_alpha))) +
-                                               1)
-                          : 1000;
+    // At most 1000 copies each way; the bound is taken in double before the cast, since for
+    // nearly parallel rays the quotient exceeds the range of int (found by UBSan in the
+    // extremes study: the cast was undefined and, on x86, left no copy checked at all).
+    const int reach =
+        sin_alpha * params_.H > 1e-9
+            ? static_cast<int>(std::min(
+                  1000.0, std::ceil((2.0 + 2.0 * params_.H) / (params_.H * sin_alpha)) + 1.0))
+            : 1000;
     const double b2 = params_.b * params_.b;
     for (int k = -reach; k <= reach; ++k) {
         if (k == 0) continue;
