@@ -54,12 +54,12 @@ def library(path):
 
 
 def reachable(lib):
-    seen, todo = {lib}, [lib]
-    while todo:
-        for dep in links.get(todo.pop(), ()):
+    seen, pending = {lib}, [lib]
+    while pending:
+        for dep in links.get(pending.pop(), ()):
             if dep not in seen:
                 seen.add(dep)
-                todo.append(dep)
+                pending.append(dep)
     return seen
 
 
