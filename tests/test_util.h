@@ -1,6 +1,9 @@
 // Small helpers shared by the tests.
 #pragma once
 
+#include <filesystem>
+#include <fstream>
+#include <sstream>
 #include <string>
 
 #include "common/error.h"
@@ -16,6 +19,14 @@ std::string input_error_message(F&& f) {
         return e.what();
     }
     return "no InputError";
+}
+
+// The whole content of a text file ("" if it cannot be read).
+inline std::string read_text_file(const std::filesystem::path& path) {
+    std::ifstream in(path);
+    std::ostringstream text;
+    text << in.rdbuf();
+    return text.str();
 }
 
 }  // namespace plumage::testing

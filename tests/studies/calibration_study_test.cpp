@@ -20,12 +20,7 @@ namespace {
 
 namespace fs = std::filesystem;
 
-std::string read(const fs::path& p) {
-    std::ifstream in(p);
-    std::ostringstream s;
-    s << in.rdbuf();
-    return s.str();
-}
+std::string read(const fs::path& p) { return testing::read_text_file(p); }
 
 TEST(CalibrationStudy, RegisteredByItsOneLineAndAgreesWithTheClosedForm) {
     const fs::path study = fs::path(PLUMAGE_SOURCE_DIR) / "studies" / "calibration.toml";

@@ -27,12 +27,7 @@ namespace {
 
 namespace fs = std::filesystem;
 
-std::string read(const fs::path& p) {
-    std::ifstream in(p);
-    std::ostringstream s;
-    s << in.rdbuf();
-    return s.str();
-}
+std::string read(const fs::path& p) { return testing::read_text_file(p); }
 
 fs::path quick_study() { return fs::path(PLUMAGE_SOURCE_DIR) / "studies" / "masking_quick.toml"; }
 

@@ -34,12 +34,7 @@ namespace {
 namespace fs = std::filesystem;
 using plumage::testing::input_error_message;
 
-std::string read(const fs::path& p) {
-    std::ifstream in(p);
-    std::ostringstream s;
-    s << in.rdbuf();
-    return s.str();
-}
+std::string read(const fs::path& p) { return testing::read_text_file(p); }
 
 void write(const fs::path& p, const std::string& text) {
     fs::create_directories(p.parent_path());

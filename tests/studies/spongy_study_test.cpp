@@ -22,12 +22,7 @@ namespace {
 
 namespace fs = std::filesystem;
 
-std::string read(const fs::path& p) {
-    std::ifstream in(p);
-    std::ostringstream s;
-    s << in.rdbuf();
-    return s.str();
-}
+std::string read(const fs::path& p) { return testing::read_text_file(p); }
 
 const fs::path kQuick = fs::path(PLUMAGE_SOURCE_DIR) / "studies" / "spongy_quick.toml";
 
