@@ -178,4 +178,76 @@ SlabSingleScattering slab_single_scattering_totals(const ScatteringMedium& mediu
     return out;
 }
 
+TiledVolumeSlab tiled_volume_slab_scene(geometry::TriangleMesh cell, double cell_um,
+                                        const TiledVolumeSlabParams& params) {
+    const double L = cell_um, g = params.gap_um;
+    if (!std::isfinite(L) || !(L > 0.0)) {
+        throw InputError(
+            fmt::format("tiled volume slab: cell size = {} um: expected finite and > 0", L));
+    }
+    if (cell.triangles.empty()) throw InputError("tiled volume slab: the cell mesh is empty");
+    const auto [lo, hi] = cell.bounds();
+    if ((lo.array() < -1e-6 * L).any() || (hi.array() > L * (1.0 + 1e-6)).any()) {
+        throw InputError(fmt::format(
+            "tiled volume slab: the cell mesh spans ({}, {}, {})..({}, {}, {}) um: expected it "
+            "inside its box [0, {}]^3",
+            lo.x(), lo.y(), lo.z(), hi.x(), hi.y(), hi.z(), L));
+    }
+    if (params.layers < 1 || params.layers > 64) {
+        throw InputError(
+            fmt::format("tiled volume slab: layers = {}: expected 1 to 64", params.layers));
+    }
+    if (!std::isfinite(g) || !(g > 0.0) || g > 0.1 * L) {
+        throw InputError(fmt::format(
+            "tiled volume slab: gap = {} um: expected > 0 and <= a tenth of the cell ({} um)", g,
+            0.1 * L));
+    }
+    const double pitch = L + g;
+    const double cubes_half = std::ceil((params.half_width_um - 0.5 * L) / pitch);
+    if (!std::isfinite(params.half_width_um) || params.half_width_um < 0.5 * L ||
+        cubes_half > 100.0) {
+        throw InputError(fmt::format(
+            "tiled volume slab: half width = {} um: expected at least half a cell ({} um) and "
+            "at most 100.5 cells of {} um",
+            params.half_width_um, 0.5 * L, pitch));
+    }
+    if (params.backing) {
+        // The backing's checks are the slab's (material non-null, thickness > 0).
+        ScatteringSlabParams{
+            .thickness_um = L, .half_width_um = 10.0 * L, .backing = params.backing}
+            .validate();
+    }
+    const int n = static_cast<int>(cubes_half);
+
+    TiledVolumeSlab out;
+    out.cubes_per_side = 2 * n + 1;
+    out.half_width_um = n * pitch + 0.5 * L;
+    out.thickness_um = params.layers * L + (params.layers - 1) * g;
+    out.scene.units.push_back(
+        {"spongy cube", {{"keratin/air", std::move(cell), spongy_keratin_interface()}}});
+    // Cube (i, j, layer) spans x in [i pitch − L/2, i pitch + L/2], the same in y, and
+    // z in [−(layer + 1) L − layer g, −layer (L + g)].
+    for (int layer = 0; layer < params.layers; ++layer) {
+        for (int i = -n; i <= n; ++i) {
+            for (int j = -n; j <= n; ++j) {
+                const Eigen::Translation3d shift(i * pitch - 0.5 * L, j * pitch - 0.5 * L,
+                                                 -(layer + 1) * L - layer * g);
+                out.scene.instances.push_back({0, Eigen::Affine3d(shift)});
+            }
+        }
+    }
+    if (params.backing) {
+        const double top = -out.thickness_um - g;
+        UnitMesh unit{"backing", {}};
+        unit.surfaces.push_back({"backing",
+                                 box_faces(out.half_width_um, top - params.backing->thickness_um,
+                                           top, true, true, true),
+                                 dielectric_interface(params.backing->material, optics::air())});
+        out.scene.units.push_back(std::move(unit));
+        out.scene.instances.push_back({1, Eigen::Affine3d::Identity()});
+    }
+    out.scene.validate();
+    return out;
+}
+
 }  // namespace plumage::sim

@@ -82,4 +82,40 @@ struct SlabSingleScattering {
 SlabSingleScattering slab_single_scattering_totals(const ScatteringMedium& medium, double lambda_nm,
                                                    double thickness_um, const Vec3d& wi);
 
+// The geometric-optics counterpart of a scattering slab: an explicit keratin/air volume
+// (geometry/spongy_volume.h's closed mesh of one periodic cube, keratin inside, normals into
+// air, its box [0, L]³) traced as interfaces. The cube is tiled: copies side by side in x
+// and y and `layers` copies stacked in z, each separated from its neighbours by an air gap
+// of `gap_um` (the copies' cut faces would otherwise coincide, which a float tracer cannot
+// resolve; the gaps add one keratin/air/keratin crossing per cube crossed, against the
+// several per length scale inside). The tiles fill |x|, |y| <= half_width (rounded up to
+// whole cubes) and −T <= z <= 0 with T = layers L + (layers − 1) gap; the top face at z = 0
+// as in the slab above. With a backing, its box lies `gap_um` beneath the lowest layer, over
+// the same |x|, |y| range ("backing": its material inside, air outside). Every surface is a
+// DielectricInterface; ambient air.
+//
+// Parameter table (InputError names the parameter and value):
+//  | name           | unit | valid range                                                  |
+//  |----------------|------|--------------------------------------------------------------|
+//  | cell           |      | non-empty, inside the box [0, cell_um]³ (to 1e-6 cell_um)    |
+//  | cell_um (L)    | µm   | finite, > 0                                                  |
+//  | layers         |      | [1, 64]                                                      |
+//  | gap_um         | µm   | finite, (0, L / 10]                                          |
+//  | half_width_um  | µm   | finite, >= L / 2; at most 201 cubes per side                 |
+//  | backing        |      | as ScatteringSlabParams (material non-null, thickness > 0)   |
+struct TiledVolumeSlabParams {
+    int layers = 1;
+    double gap_um = 0.01;
+    double half_width_um = 30.0;
+    std::optional<SlabBacking> backing;
+};
+struct TiledVolumeSlab {
+    SceneDescription scene;
+    double thickness_um = 0.0;   // T
+    double half_width_um = 0.0;  // of the tiled area (whole cubes)
+    int cubes_per_side = 0;      // in x and in y
+};
+TiledVolumeSlab tiled_volume_slab_scene(geometry::TriangleMesh cell, double cell_um,
+                                        const TiledVolumeSlabParams& params);
+
 }  // namespace plumage::sim

@@ -286,12 +286,26 @@ def _spongy_records(h5_path):
     return d, ang, thick
 
 
+def _spongy_baseline(h5_path):
+    """The geometric-optics baseline (R, its standard error, slab thickness) or None."""
+    import h5py
+    import numpy as np
+
+    with h5py.File(h5_path, "r") as f:
+        if "baseline" not in f:
+            return None
+        g = f["baseline"]
+        return (np.asarray(g["reflectance"]), np.asarray(g["reflectance_standard_error"]),
+                float(g.attrs["thickness_um"]))
+
+
 def spongy_spectra(h5_path, png_path):
     """Reflectance spectra of every slab: Monte Carlo with a +-2 sigma band, the
-    single-scattering closed form dotted, each curve's peak marked."""
+    single-scattering closed form dotted, each curve's peak marked; the geometric-optics
+    baseline of the base volume dashed grey."""
     d, _, thick = _spongy_records(h5_path)
     wl, fs, ls = d["wavelength_nm"], d["keratin_fraction"], d["length_scale_um"]
-    fig, ax = plt.subplots(figsize=(8, 4.8))
+    fig, ax = plt.subplots(figsize=(8, 6.2))
     for i, fr in enumerate(fs):
         for j, lam in enumerate(ls):
             r, e, s1 = d["reflectance"][i, j], d["reflectance_standard_error"][i, j], \
@@ -303,11 +317,20 @@ def spongy_spectra(h5_path, png_path):
                     color=line.get_color(), ms=6)
     ax.plot([], [], "k-", label="Monte Carlo (band: ±2σ)")
     ax.plot([], [], "k:", label="single scattering (closed form)")
+    base = _spongy_baseline(h5_path)
+    if base is not None:
+        r, e, t = base
+        ax.plot(wl, r, "--", color="0.45", lw=1.6,
+                label=f"geometric optics: f = {fs[0]:.2f}, Λ = {ls[0] * 1e3:.0f} nm volume "
+                      f"as interfaces ({t:.1f} µm)")
+        ax.fill_between(wl, r - 2 * e, r + 2 * e, color="0.45", alpha=0.2, lw=0)
+    ax.set_ylim(0.0, 1.0)
     ax.set_xlabel("wavelength (nm)")
     ax.set_ylabel("reflectance at normal incidence")
     ax.set_title(f"Spongy keratin slabs ({thick:g} µm), first-Born medium from the volume")
     ax.grid(alpha=0.3)
-    ax.legend(fontsize=8, ncol=2)
+    # Beneath the axes: inside, every corner holds a curve.
+    ax.legend(fontsize=8, ncol=2, loc="upper center", bbox_to_anchor=(0.5, -0.13))
     fig.tight_layout()
     fig.savefig(png_path, dpi=120)
 

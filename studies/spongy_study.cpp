@@ -3,7 +3,10 @@
 // fraction f and length scale Λ: a generated channel volume (geometry/spongy_volume.h), its
 // indicator power spectrum and first-Born scattering tables at every wavelength of the
 // spectrum (sim/wave/born_medium.h), a slab of that medium (sim/scattering_slab.h) traced by
-// the tracer at normal incidence; for the base (f, Λ) also at other incidence angles.
+// the tracer at normal incidence; for the base (f, Λ) also at other incidence angles, and the
+// geometric-optics baseline: the base volume's own keratin/air mesh, tiled into a slab of about
+// the same thickness on the same backing and traced as interfaces (sim/scattering_slab.h's
+// tiled_volume_slab_scene), which has no length scale and so no structural colour.
 //
 // read → build → measure → compare → report, each a named step below.
 //
@@ -21,31 +24,41 @@
 //              length_scales_um                      comma-separated list, each in
 //                                                    (2 voxel_um, box_um / 4]
 //              The first value of each list is the base (f, Λ) of the angle dependence.
-//   [slab]     thickness_um                          (0, 100]; default 5
+//   [slab]     thickness_um                          (0, 100]; default 5; and at least one
+//                                                    transport length 1/(μ_s (1 − g) + μ_a)
+//                                                    of every case's medium at its most
+//                                                    scattering wavelength (checked once
+//                                                    the medium is built, before anything is
+//                                                    written)
 //              backing                               "melanin" (default) or "none"
 //              backing_thickness_um                  (0, 10]; 1
 //              paths_per_wavelength                  per slab and wavelength; 4000
 //   [angles]   incidence_deg                         comma-separated list in [0, 80]; "0, 30, 60"
 //              paths_per_wavelength                  per angle and wavelength; 4000
+//   [baseline] paths_per_wavelength                  geometric-optics baseline; 2000
 //
 // Random streams (common/seed.h): the volume of case c from derive_seed(seed, "spongy/volume",
 // c), the paths of case c from derive_seed(seed, "spongy/normal", c) (path index = wavelength
 // index × paths + i), those of angle a from derive_seed(seed, "spongy/angle", a), the bootstrap
-// of the peak from derive_seed(seed, "spongy/bootstrap", c). Results do not depend on the
+// of the peak from derive_seed(seed, "spongy/bootstrap", c), the baseline's paths from
+// derive_seed(seed, "spongy/baseline", 0). Results do not depend on the
 // thread count.
 #include <omp.h>
 
 #include <algorithm>
+#include <array>
 #include <cctype>
 #include <cmath>
 #include <cstdio>
 #include <fstream>
 #include <iostream>
+#include <limits>
 #include <numbers>
 #include <sstream>
 
 #include <fmt/format.h>
 
+#include "analysis/statistics.h"
 #include "common/constants.h"
 #include "common/error.h"
 #include "common/interrupt.h"
@@ -88,6 +101,8 @@ struct Settings {
     std::size_t paths = 4000;
     std::vector<double> angles_deg;
     std::size_t angle_paths = 4000;
+    std::size_t baseline_paths = 2000;
+    std::string thickness_where;  // file:line:col of slab.thickness_um, for later errors
     std::string text;
 };
 
@@ -111,13 +126,32 @@ struct Peak {
     bool at_edge = false;
 };
 
+// The colour of a reflectance spectrum under D65 (CIE 1931 2°, sRGB, CIELAB).
+struct Colour {
+    std::array<int, 3> srgb8{};
+    double hue_deg = 0.0, chroma = 0.0, luminance_y = 0.0;
+};
+
+// The geometric-optics baseline: the base volume's explicit mesh, tiled and traced.
+struct Baseline {
+    double thickness_um = 0.0, half_width_um = 0.0;
+    int layers = 0, cubes_per_side = 0;
+    std::size_t triangles = 0;
+    std::vector<double> r, r_se;
+    Colour colour;
+    double relative_spread = 0.0;  // (max R − min R) / mean R over the spectrum
+    // Flatness test: χ² of R against its inverse-variance weighted mean, n − 1 degrees of
+    // freedom, and its p-value (a small p would mean R depends on λ beyond the noise).
+    double flat_chi2 = 0.0, flat_p = 0.0;
+    double wall_s = 0.0;
+};
+
 struct CaseResult {
     Peak peak;
     Peak single_peak;             // of the single-scattering closed form (no Monte Carlo error)
     double bragg_nm = 0.0;        // 2 n_eff Λ (Bruggeman n_eff at that wavelength, measured Λ)
     double multiple_share = 0.0;  // 1 − R_single / R at the peak
-    std::array<int, 3> srgb8{};
-    double hue_deg = 0.0, chroma = 0.0, luminance_y = 0.0;
+    Colour colour;
 };
 
 // ---------------------------------------------------------------------------------- read
@@ -194,6 +228,7 @@ void read_volume(ParameterTable v, Settings& s) {
 void read_slab(ParameterTable t, Settings& s) {
     s.slab.thickness_um =
         t.number("thickness_um", 5.0, {0.0, 100.0, true, false}, "slab thickness, um");
+    s.thickness_where = t.location("thickness_um");
     s.slab.half_width_um = std::max(1000.0, 20.0 * s.slab.thickness_um);
     const std::string backing =
         t.string("backing", "melanin", {"melanin", "none"}, "what lies beneath the slab");
@@ -233,6 +268,10 @@ Settings read(const std::string& text, const fs::path& source) {
     s.angles_deg = read_list(a, "incidence_deg", "0, 30, 60", 0.0, 80.0, "incidence angles, deg");
     s.angle_paths = static_cast<std::size_t>(
         a.integer("paths_per_wavelength", 4000, 100, 100000000, "paths per angle and wavelength"));
+    s.baseline_paths = static_cast<std::size_t>(
+        root.table("baseline")
+            .integer("paths_per_wavelength", 2000, 100, 100000000,
+                     "paths per wavelength through the explicit volume (geometric optics)"));
     root.reject_unused();
     s.slab.validate();
     return s;
@@ -240,10 +279,8 @@ Settings read(const std::string& text, const fs::path& source) {
 
 // --------------------------------------------------------------------------------- build
 
-Case build_case(const Settings& s, double f, double scale, std::size_t index) {
-    Case c;
-    c.fraction = f;
-    c.scale_um = scale;
+geometry::ChannelVolumeParams channel_params(const Settings& s, double f, double scale,
+                                             std::size_t index) {
     geometry::ChannelVolumeParams p;
     p.length_scale_um = scale;
     p.shell_relative_width = s.shell_relative_width;
@@ -251,7 +288,15 @@ Case build_case(const Settings& s, double f, double scale, std::size_t index) {
     p.box_um = s.box_um;
     p.voxel_um = s.voxel_um;
     p.seed = derive_seed(s.seed, "spongy/volume", index);
-    const geometry::SpongyVolume volume = geometry::make_channel_volume(p);
+    return p;
+}
+
+Case build_case(const Settings& s, double f, double scale, std::size_t index) {
+    Case c;
+    c.fraction = f;
+    c.scale_um = scale;
+    const geometry::SpongyVolume volume =
+        geometry::make_channel_volume(channel_params(s, f, scale, index));
     const sim::wave::IndicatorField field = sim::wave::sample_indicator(*volume.level_set);
     const auto spectrum = sim::wave::PowerSpectrum::measure_3d(
         field.as_doubles(), field.voxels_per_side, field.voxel_um);
@@ -271,6 +316,55 @@ Case build_case(const Settings& s, double f, double scale, std::size_t index) {
     return c;
 }
 
+// A slab thinner than one transport length ℓ* = 1/(μ_s (1 − g) + μ_a) at every wavelength is
+// crossed by most light before its direction is randomised: its reflectance is then set by the
+// backing and by single scattering, not by the medium's transport, and the study's question
+// (the colour of a spongy layer) has no answer. Checked at the most scattering wavelength
+// (the shortest ℓ*), once the medium exists and before anything is written.
+void require_transport_thickness(const Case& c, const Settings& s) {
+    double shortest_um = std::numeric_limits<double>::infinity(), at_nm = 0.0;
+    for (const auto& t : c.tables) {
+        const double extinction = t.mu_s_per_um * (1.0 - t.g) + t.mu_a_per_um;
+        const double transport_um = extinction > 0.0 ? 1.0 / extinction : shortest_um;
+        if (transport_um < shortest_um) {
+            shortest_um = transport_um;
+            at_nm = t.lambda_nm;
+        }
+    }
+    if (s.slab.thickness_um < shortest_um) {
+        throw InputError(fmt::format(
+            "{}: slab.thickness_um = {}: thinner than one transport length of the medium of "
+            "f = {}, Lambda = {} um: l* = 1/(mu_s (1 - g) + mu_a) = {:.3g} um at {} nm, its "
+            "shortest over the spectrum; expected a slab at least that thick (a thinner one "
+            "shows the backing, not the medium)",
+            s.thickness_where, s.slab.thickness_um, c.fraction, c.scale_um, shortest_um, at_nm));
+    }
+}
+
+// The base volume's own mesh, tiled into a slab of about the medium slab's thickness (whole
+// cubes, at least one) on the same backing, 0.01 µm air gaps between cubes (a twentieth of
+// the box at most), laterally 10 × its thickness (at most 60 boxes) each way.
+// Fills the baseline's geometry numbers.
+sim::TiledVolumeSlab build_baseline(const Settings& s, Baseline& b) {
+    geometry::TriangleMesh mesh = geometry::level_set_to_mesh(
+        *geometry::make_channel_volume(
+             channel_params(s, s.fractions.front(), s.scales_um.front(), 0))
+             .level_set);
+    b.triangles = mesh.triangles.size();
+    sim::TiledVolumeSlabParams p;
+    p.layers = static_cast<int>(std::clamp(std::lround(s.slab.thickness_um / s.box_um), 1L, 64L));
+    p.gap_um = std::min(0.01, s.box_um / 20.0);
+    const double thickness = p.layers * s.box_um + (p.layers - 1) * p.gap_um;
+    p.half_width_um = std::max(0.5 * s.box_um, std::min(10.0 * thickness, 60.0 * s.box_um));
+    p.backing = s.slab.backing;
+    sim::TiledVolumeSlab slab = sim::tiled_volume_slab_scene(std::move(mesh), s.box_um, p);
+    b.layers = p.layers;
+    b.thickness_um = slab.thickness_um;
+    b.half_width_um = slab.half_width_um;
+    b.cubes_per_side = slab.cubes_per_side;
+    return slab;
+}
+
 // ------------------------------------------------------------------------------- measure
 
 struct Reflectance {
@@ -280,14 +374,14 @@ struct Reflectance {
 // R(λ) of a slab under a beam from polar angle θ (azimuth 0): the mean weight of the paths
 // that leave upwards, with its standard error over paths.
 Reflectance trace_reflectance(const sim::ExplicitScatterer& tracer, const Settings& s, double theta,
-                              std::uint64_t seed, std::size_t paths) {
+                              std::uint64_t seed, std::size_t paths,
+                              const sim::BeamFootprint& footprint = {{-1.0, -1.0}, {1.0, 1.0}}) {
     const Vec3d wi(std::sin(theta), 0.0, std::cos(theta));
     Reflectance out;
     for (std::size_t w = 0; w < s.wavelengths_nm.size(); ++w) {
         throw_if_interrupted("spongy slab tracing");
-        const auto events =
-            sim::trace_many(tracer, wi, s.wavelengths_nm[w], {{-1.0, -1.0}, {1.0, 1.0}}, seed,
-                            w * paths, paths, omp_get_max_threads());
+        const auto events = sim::trace_many(tracer, wi, s.wavelengths_nm[w], footprint, seed,
+                                            w * paths, paths, omp_get_max_threads());
         double sum = 0.0, sum_sq = 0.0;
         for (const auto& e : events) {
             if (!e || e->wo.z() <= 0.0) continue;
@@ -338,7 +432,60 @@ std::vector<AngleRun> measure_angles(const Case& base, const Settings& s,
     return runs;
 }
 
+// The baseline at normal incidence, the beam over the top face of the centre cube.
+Baseline measure_baseline(const Settings& s, const StudyProgress& clock) {
+    clock.say("geometric-optics baseline: the base volume's mesh, tiled");
+    const double began = clock.elapsed_s();
+    Baseline b;
+    const sim::ExplicitScatterer tracer(build_baseline(s, b).scene);
+    const double h = 0.5 * s.box_um;
+    Reflectance r = trace_reflectance(tracer, s, 0.0, derive_seed(s.seed, "spongy/baseline", 0),
+                                      s.baseline_paths, {{-h, -h}, {h, h}});
+    b.r = std::move(r.r);
+    b.r_se = std::move(r.r_se);
+    b.wall_s = clock.elapsed_s() - began;
+    return b;
+}
+
 // ------------------------------------------------------------------------------- compare
+
+Colour colour_of(const std::vector<double>& r, const Settings& s) {
+    Colour out;
+    const optics::ReflectanceToXyz to_xyz(optics::WavelengthGrid(s.wavelengths_nm),
+                                          optics::Illuminant::d65);
+    const optics::Xyz xyz = to_xyz(r);
+    const optics::Rgb rgb = optics::linear_srgb_from_xyz(xyz);
+    for (int k = 0; k < 3; ++k) {
+        out.srgb8[static_cast<std::size_t>(k)] = static_cast<int>(
+            std::lround(255.0 * optics::srgb_encode(rgb[static_cast<std::size_t>(k)])));
+    }
+    const optics::Lab lab = optics::lab_from_xyz(xyz, to_xyz.white());
+    out.hue_deg = optics::hue_angle_deg(lab);
+    out.chroma = optics::chroma(lab);
+    out.luminance_y = xyz.y;
+    return out;
+}
+
+void compare_baseline(Baseline& b, const Settings& s) {
+    b.colour = colour_of(b.r, s);
+    const auto [lo, hi] = std::minmax_element(b.r.begin(), b.r.end());
+    double mean = 0.0;
+    for (const double v : b.r) mean += v / static_cast<double>(b.r.size());
+    b.relative_spread = mean > 0.0 ? (*hi - *lo) / mean : 0.0;
+    double sum_w = 0.0, sum_wr = 0.0;
+    for (std::size_t i = 0; i < b.r.size(); ++i) {
+        const double w = 1.0 / std::max(b.r_se[i] * b.r_se[i], 1e-300);
+        sum_w += w;
+        sum_wr += w * b.r[i];
+    }
+    const double weighted_mean = sum_wr / sum_w;
+    b.flat_chi2 = 0.0;
+    for (std::size_t i = 0; i < b.r.size(); ++i) {
+        const double z = (b.r[i] - weighted_mean) / std::max(b.r_se[i], 1e-150);
+        b.flat_chi2 += z * z;
+    }
+    b.flat_p = analysis::chi_square_p_value(b.flat_chi2, static_cast<int>(b.r.size()) - 1);
+}
 
 // Vertex of the parabola through the largest value and its neighbours (uniform grid); the
 // largest sampled point itself at the spectrum's edge.
@@ -401,18 +548,7 @@ CaseResult compare_case(const Case& c, const Settings& s, std::size_t index) {
     out.bragg_nm = bragg_wavelength(c.measured_fraction, c.measured_scale_um);
     const double r_peak = c.r[out.peak.index];
     out.multiple_share = r_peak > 0.0 ? 1.0 - c.r_single[out.peak.index] / r_peak : 0.0;
-    const optics::ReflectanceToXyz to_xyz(optics::WavelengthGrid(s.wavelengths_nm),
-                                          optics::Illuminant::d65);
-    const optics::Xyz xyz = to_xyz(c.r);
-    const optics::Rgb rgb = optics::linear_srgb_from_xyz(xyz);
-    for (int k = 0; k < 3; ++k) {
-        out.srgb8[static_cast<std::size_t>(k)] = static_cast<int>(
-            std::lround(255.0 * optics::srgb_encode(rgb[static_cast<std::size_t>(k)])));
-    }
-    const optics::Lab lab = optics::lab_from_xyz(xyz, to_xyz.white());
-    out.hue_deg = optics::hue_angle_deg(lab);
-    out.chroma = optics::chroma(lab);
-    out.luminance_y = xyz.y;
+    out.colour = colour_of(c.r, s);
     return out;
 }
 
@@ -514,15 +650,17 @@ void write_case_results(record::Hdf5Writer& h5, const std::vector<Case>& cases,
         "isotropy_eigenvalue_ratio", [&](std::size_t i) { return cases[i].isotropy; }, "1",
         "directional spread of the spectrum's peak shell (1: isotropic; power_spectrum.h)");
     put(
-        "hue_deg", [&](std::size_t i) { return res[i].hue_deg; }, "deg",
+        "hue_deg", [&](std::size_t i) { return res[i].colour.hue_deg; }, "deg",
         "CIELAB hue angle h_ab of R under D65 (CIE 1931 2 deg)");
     put(
-        "chroma", [&](std::size_t i) { return res[i].chroma; }, "1", "CIELAB chroma C*_ab");
+        "chroma", [&](std::size_t i) { return res[i].colour.chroma; }, "1", "CIELAB chroma C*_ab");
     put(
-        "luminance_Y", [&](std::size_t i) { return res[i].luminance_y; }, "1",
+        "luminance_Y", [&](std::size_t i) { return res[i].colour.luminance_y; }, "1",
         "CIE Y of R under D65 (perfect reflector: 1)");
     std::vector<double> rgb;
-    for (const CaseResult& r : res) rgb.insert(rgb.end(), r.srgb8.begin(), r.srgb8.end());
+    for (const CaseResult& r : res) {
+        rgb.insert(rgb.end(), r.colour.srgb8.begin(), r.colour.srgb8.end());
+    }
     h5.write("srgb8", std::span<const double>(rgb), {dims[0], dims[1], 3},
              attrs("0-255", "gamma-encoded sRGB (D65) of R, clipped to the gamut"));
 }
@@ -600,8 +738,8 @@ std::string results_table(const std::vector<Case>& cases, const std::vector<Case
             c.fraction, c.measured_fraction, c.scale_um, c.measured_scale_um, r.peak.lambda_nm,
             r.peak.sigma_nm, r.peak.at_edge ? " (edge)" : "", r.single_peak.lambda_nm,
             r.single_peak.at_edge ? " (edge)" : "", r.bragg_nm, c.r[r.peak.index],
-            c.r_se[r.peak.index], c.r_single[r.peak.index], 100.0 * r.multiple_share, r.hue_deg,
-            hue_name(r.hue_deg), hex_colour(r.srgb8));
+            c.r_se[r.peak.index], c.r_single[r.peak.index], 100.0 * r.multiple_share,
+            r.colour.hue_deg, hue_name(r.colour.hue_deg), hex_colour(r.colour.srgb8));
     }
     return t;
 }
@@ -659,9 +797,53 @@ std::string method_text(const Settings& s, const Case& base) {
         s.paths, medium_text(s, base), kBootstrapReplicates);
 }
 
+// The baseline beside the base medium: geometric optics of the same volume has no length
+// scale, so its R(λ) follows only keratin's weak dispersion.
+std::string baseline_text(const Baseline& b, const Case& base, const CaseResult& base_result,
+                          const Settings& s) {
+    double noise = 0.0, mean = 0.0;
+    for (std::size_t i = 0; i < b.r.size(); ++i) {
+        noise = std::max(noise, b.r_se[i]);
+        mean += b.r[i] / static_cast<double>(b.r.size());
+    }
+    const std::size_t last = b.r.size() - 1;
+    return fmt::format(
+        "## Geometric-optics baseline (the same volume, traced as interfaces)\n\n"
+        "The base volume (f = {}, Λ = {} µm) meshed at its keratin/air surface ({} triangles "
+        "per {} µm cube), tiled {} × {} × {} with 0.01 µm air gaps into a slab {:.2f} µm thick "
+        "and {:.0f} µm wide on the same backing, traced by the tracer with Fresnel and "
+        "refraction at every interface, {} paths per wavelength over the centre cube "
+        "({:.1f} s).\n\n"
+        "| | R at {:.0f} nm | R at {:.0f} nm | R at {:.0f} nm | spread (max − min) / mean | "
+        "hue h_ab | chroma C*_ab | sRGB |\n|---|---|---|---|---|---|---|---|\n"
+        "| geometric optics | {:.4f} ± {:.4f} | {:.4f} ± {:.4f} | {:.4f} ± {:.4f} | {:.1f} % "
+        "(largest σ/mean {:.1f} %) | {:.0f}° | {:.1f} | `{}` |\n"
+        "| first-Born medium | {:.4f} ± {:.4f} | {:.4f} ± {:.4f} | {:.4f} ± {:.4f} | — | {:.0f}° "
+        "({}) | {:.1f} | `{}` |\n\n"
+        "Ray optics has no length scale: the explicit sponge reflects all wavelengths alike. "
+        "Flatness test, R(λ) against a constant: χ² = {:.1f} on {} degrees of freedom, p = "
+        "{:.2g} ({}). Its colour is a white-grey of chroma {:.1f} against the medium's {:.1f}. "
+        "The structural blue is a wave effect of the network's length scale; it needs the "
+        "medium.\n\n",
+        base.fraction, base.scale_um, b.triangles, s.box_um, b.cubes_per_side, b.cubes_per_side,
+        b.layers, b.thickness_um, 2.0 * b.half_width_um, s.baseline_paths, b.wall_s,
+        s.wavelengths_nm[0], s.wavelengths_nm[last / 2], s.wavelengths_nm[last], b.r[0], b.r_se[0],
+        b.r[last / 2], b.r_se[last / 2], b.r[last], b.r_se[last], 100.0 * b.relative_spread,
+        mean > 0.0 ? 100.0 * noise / mean : 0.0, b.colour.hue_deg, b.colour.chroma,
+        hex_colour(b.colour.srgb8), base.r[0], base.r_se[0], base.r[last / 2], base.r_se[last / 2],
+        base.r[last], base.r_se[last], base_result.colour.hue_deg,
+        hue_name(base_result.colour.hue_deg), base_result.colour.chroma,
+        hex_colour(base_result.colour.srgb8), b.flat_chi2, b.r.size() - 1, b.flat_p,
+        b.flat_p < 0.01 ? "R varies with λ beyond the Monte Carlo noise: keratin's dispersion "
+                          "shows"
+                        : "no dependence on λ beyond the Monte Carlo noise",
+        b.colour.chroma, base_result.colour.chroma);
+}
+
 void write_report(const fs::path& path, const std::vector<Case>& cases,
                   const std::vector<CaseResult>& res, const std::vector<AngleRun>& runs,
-                  const std::vector<Peak>& angle_peaks, const Settings& s, double wall_s) {
+                  const std::vector<Peak>& angle_peaks, const Baseline& baseline, const Settings& s,
+                  double wall_s) {
     std::ofstream md(path);
     md << "# Spongy keratin: structural colour computed from the volume\n\n"
        << method_text(s, cases.front()) << results_table(cases, res)
@@ -671,8 +853,7 @@ void write_report(const fs::path& path, const std::vector<Case>& cases,
                       s.scales_um.front())
        << angles_table(runs, angle_peaks, s.wavelengths_nm)
        << "\n![Angle dependence](angles.png)\n\n"
-       << "## Not yet shown\n\nThe geometric-optics baseline of the same explicit volume "
-          "(meshing the level set and tracing the keratin/air interfaces) is not yet shown.\n\n"
+       << baseline_text(baseline, cases.front(), res.front(), s)
        << "Records: `spongy.h5` (every dataset with `units` and `description` attributes; the "
           "figures are drawn from it by plumage's plotting script, kinds `spongy_spectra`, "
           "`spongy_map` and `spongy_angles`).\n\n"
@@ -683,13 +864,39 @@ void write_report(const fs::path& path, const std::vector<Case>& cases,
     if (!md) throw IoError(fmt::format("cannot write {}", path.string()));
 }
 
+void write_baseline(record::Hdf5Writer& h5, const Baseline& b, const Settings& s) {
+    const std::uint64_t nw = s.wavelengths_nm.size();
+    h5.write("baseline/reflectance", std::span<const double>(b.r), {nw},
+             attrs("1",
+                   "geometric optics: reflectance at normal incidence of the base volume's "
+                   "keratin/air mesh, tiled into a slab and traced as interfaces"));
+    h5.write("baseline/reflectance_standard_error", std::span<const double>(b.r_se), {nw},
+             attrs("1", "its standard error over paths"));
+    const std::vector<double> rgb(b.colour.srgb8.begin(), b.colour.srgb8.end());
+    h5.write("baseline/srgb8", std::span<const double>(rgb), {3},
+             attrs("0-255", "gamma-encoded sRGB (D65) of the baseline's R"));
+    h5.set_attribute("/baseline", "thickness_um", b.thickness_um);
+    h5.set_attribute("/baseline", "half_width_um", b.half_width_um);
+    h5.set_attribute("/baseline", "layers", static_cast<double>(b.layers));
+    h5.set_attribute("/baseline", "cubes_per_side", static_cast<double>(b.cubes_per_side));
+    h5.set_attribute("/baseline", "triangles_per_cube", static_cast<double>(b.triangles));
+    h5.set_attribute("/baseline", "paths_per_wavelength", static_cast<double>(s.baseline_paths));
+    h5.set_attribute("/baseline", "hue_deg", b.colour.hue_deg);
+    h5.set_attribute("/baseline", "chroma", b.colour.chroma);
+    h5.set_attribute("/baseline", "relative_spread", b.relative_spread);
+    h5.set_attribute("/baseline", "flatness_chi2", b.flat_chi2);
+    h5.set_attribute("/baseline", "flatness_p_value", b.flat_p);
+}
+
 void write_records(const fs::path& dir, const std::vector<Case>& cases,
                    const std::vector<CaseResult>& res, const std::vector<AngleRun>& runs,
-                   const std::vector<Peak>& angle_peaks, const Settings& s) {
+                   const std::vector<Peak>& angle_peaks, const Baseline& baseline,
+                   const Settings& s) {
     record::Hdf5Writer h5(dir / "spongy.h5");
     write_case_spectra(h5, cases, s);
     write_case_results(h5, cases, res, s);
     if (!runs.empty()) write_angles(h5, runs, angle_peaks, s);
+    write_baseline(h5, baseline, s);
     h5.set_attribute("/", "slab_thickness_um", s.slab.thickness_um);
     h5.set_attribute("/", "backing", s.slab.backing ? "melanin" : "none");
     h5.set_attribute("/", "paths_per_wavelength", static_cast<double>(s.paths));
@@ -712,22 +919,26 @@ std::string run(const std::string& text, const fs::path& source, const fs::path&
             const std::size_t i = cases.size();
             clock.say(
                 fmt::format("volume, Born tables and slab: f = {}, Lambda = {} um", f, scale));
-            cases.push_back(build_case(s, f, scale, i));          // build
+            cases.push_back(build_case(s, f, scale, i));  // build
+            require_transport_thickness(cases.back(), s);
             measure_case(cases.back(), s, i);                     // measure
             results.push_back(compare_case(cases.back(), s, i));  // compare
         }
     }
     const std::vector<AngleRun> runs = measure_angles(cases.front(), s, clock);
+    Baseline baseline = measure_baseline(s, clock);
+    compare_baseline(baseline, s);
     std::vector<Peak> angle_peaks;
     for (std::size_t a = 0; a < runs.size(); ++a) {
         angle_peaks.push_back(peak_with_sigma(s.wavelengths_nm, {runs[a].r, runs[a].r_se},
                                               derive_seed(s.seed, "spongy/angle-bootstrap", a)));
     }
     StagedDirectory out(results_root / s.name);  // report
-    write_records(out.path(), cases, results, runs, angle_peaks, s);
+    write_records(out.path(), cases, results, runs, angle_peaks, baseline, s);
     clock.say("figures");
     draw_figures(out.path());
-    write_report(out.path() / "report.md", cases, results, runs, angle_peaks, s, clock.elapsed_s());
+    write_report(out.path() / "report.md", cases, results, runs, angle_peaks, baseline, s,
+                 clock.elapsed_s());
     out.commit();
     clock.done(fmt::format("done: {}", (out.final_path() / "report.md").string()));
     std::string summary = fmt::format("plumage: wrote {}:", out.final_path().string());
@@ -736,7 +947,8 @@ std::string run(const std::string& text, const fs::path& source, const fs::path&
                                cases[i].fraction, cases[i].scale_um, results[i].peak.lambda_nm,
                                results[i].peak.sigma_nm, results[i].bragg_nm);
     }
-    return summary + "\n";
+    return summary + fmt::format(" geometric-optics baseline: chroma {:.1f}, R spread {:.1f} %\n",
+                                 baseline.colour.chroma, 100.0 * baseline.relative_spread);
 }
 
 void check(const std::string& text, const fs::path& source) { read(text, source); }

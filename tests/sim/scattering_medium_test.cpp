@@ -490,5 +490,101 @@ TEST(ScatteringSlab, ChannelVolumeSlabThroughTheTracer) {
     EXPECT_GT(run.r, 0.0);
 }
 
+// --- The explicit volume as a tiled slab (geometric optics) ---------------------------------
+
+geometry::TriangleMesh channel_cube_mesh(double box_um) {
+    geometry::ChannelVolumeParams params;
+    params.box_um = box_um;
+    params.voxel_um = 0.02;
+    params.length_scale_um = 0.2;
+    return geometry::level_set_to_mesh(*geometry::make_channel_volume(params).level_set);
+}
+
+TEST(TiledVolumeSlab, LosslessTilesConserveEnergyAndHaveNoLengthScale) {
+    // Two layers of a 0.8 µm channel cube, keratin and air lossless, no backing: every path
+    // leaves (up or down) unless it reaches max_events, so R + T + lost/n = 1 exactly.
+    // Geometric optics has no length scale: R changes between 450 and 650 nm only through
+    // keratin's dispersion (n 1.561 → 1.549: a Fresnel change of about 2 % of R at most),
+    // so the two agree within 4 combined standard errors plus 2 % of R.
+    TiledVolumeSlabParams params;
+    params.layers = 2;
+    params.gap_um = 0.01;
+    params.half_width_um = 10.0;
+    const TiledVolumeSlab slab = tiled_volume_slab_scene(channel_cube_mesh(0.8), 0.8, params);
+    EXPECT_EQ(slab.cubes_per_side, 2 * 12 + 1);  // ⌈(10 − 0.4) / 0.81⌉ = 12 each side
+    EXPECT_NEAR(slab.thickness_um, 1.61, 1e-12);
+    EXPECT_NEAR(slab.half_width_um, 12 * 0.81 + 0.4, 1e-12);
+    const ExplicitScatterer tracer(slab.scene);
+    const auto run = [&](double lambda) {
+        const auto events = trace_many(tracer, Vec3d::UnitZ(), lambda, {{-0.4, -0.4}, {0.4, 0.4}},
+                                       kDefaultSeed, 0, 8000, 2);
+        SlabRun r;
+        r.n = events.size();
+        double r2 = 0.0;
+        for (const auto& e : events) {
+            if (!e) {
+                ++r.lost;
+            } else if (e->wo.z() > 0.0) {
+                r.r += e->weight;
+                r2 += e->weight * e->weight;
+            } else {
+                r.t += e->weight;
+            }
+        }
+        const double n = static_cast<double>(r.n);
+        r.r /= n;
+        r.t /= n;
+        r.r_se = std::sqrt(std::max(0.0, r2 / n - r.r * r.r) / (n - 1.0));
+        return r;
+    };
+    const SlabRun blue = run(450.0), red = run(650.0);
+    std::printf("tiled channel slab: R(450) %.4f +- %.4f, R(650) %.4f +- %.4f, lost %zu %zu\n",
+                blue.r, blue.r_se, red.r, red.r_se, blue.lost, red.lost);
+    for (const SlabRun& r : {blue, red}) {
+        EXPECT_NEAR(r.r + r.t + static_cast<double>(r.lost) / static_cast<double>(r.n), 1.0, 1e-9);
+        EXPECT_LT(r.lost, r.n / 100);
+        EXPECT_GT(r.r, 0.05);
+    }
+    EXPECT_NEAR(blue.r, red.r,
+                4.0 * std::hypot(blue.r_se, red.r_se) + 0.02 * std::max(blue.r, red.r));
+}
+
+TEST(TiledVolumeSlab, MelaninBackingAbsorbsAndBadParametersAreRefused) {
+    const geometry::TriangleMesh cube = channel_cube_mesh(0.8);
+    TiledVolumeSlabParams params;
+    params.half_width_um = 5.0;
+    params.backing = SlabBacking{};
+    const TiledVolumeSlab slab = tiled_volume_slab_scene(cube, 0.8, params);
+    const ExplicitScatterer tracer(slab.scene);
+    const auto events = trace_many(tracer, Vec3d::UnitZ(), 550.0, {{-0.4, -0.4}, {0.4, 0.4}},
+                                   kDefaultSeed, 0, 4000, 2);
+    double up = 0.0, total = 0.0;
+    for (const auto& e : events) {
+        if (!e) continue;
+        total += e->weight;
+        if (e->wo.z() > 0.0) up += e->weight;
+    }
+    EXPECT_LT(total, 0.999 * static_cast<double>(events.size()));  // melanin absorbs
+    EXPECT_GT(up, 0.0);
+
+    const auto refused = [&](TiledVolumeSlabParams p, double cell_um, const std::string& what) {
+        EXPECT_NE(testing::input_error_message([&] {
+                      tiled_volume_slab_scene(cube, cell_um, p);
+                  }).find(what),
+                  std::string::npos)
+            << what;
+    };
+    TiledVolumeSlabParams bad = params;
+    bad.layers = 0;
+    refused(bad, 0.8, "layers = 0");
+    bad = params;
+    bad.gap_um = 0.2;
+    refused(bad, 0.8, "gap = 0.2");
+    bad = params;
+    bad.half_width_um = 0.1;
+    refused(bad, 0.8, "half width = 0.1");
+    refused(params, 0.5, "inside its box");  // the mesh spans 0.8 µm
+}
+
 }  // namespace
 }  // namespace plumage::sim

@@ -83,6 +83,18 @@ TEST(SpongyStudy, QuickStudyIsBlueFromTheVolume) {
     EXPECT_GT(hue.values[0], 225.0);
     EXPECT_LT(hue.values[0], 300.0);
     EXPECT_EQ(dataset(h5, "angles/reflectance").dims[0], 3u);
+    // The geometric-optics baseline of the same volume (its mesh traced as interfaces) is not
+    // blue: R(λ) is flat within its Monte Carlo noise (χ² test against a constant, p > 0.001,
+    // a 1-in-1000 false alarm), and its chroma is below a tenth of the medium's.
+    const auto baseline = dataset(h5, "baseline/reflectance");
+    ASSERT_EQ(baseline.values.size(), wl.values.size());
+    const double flat_p = record::read_number_attribute(h5, "baseline", "flatness_p_value");
+    const double chroma = record::read_number_attribute(h5, "baseline", "chroma");
+    const double medium_chroma = dataset(h5, "chroma").values[0];
+    std::printf("baseline: R(%g nm) %.4f, flatness p %.3f, chroma %.2f (medium %.1f)\n",
+                wl.values[0], baseline.values[0], flat_p, chroma, medium_chroma);
+    EXPECT_GT(flat_p, 1e-3);
+    EXPECT_LT(chroma, 0.1 * medium_chroma);
     for (const char* png : {"spectra.png", "peak_map.png", "angles.png"}) {
         if (!fs::exists(dir / png)) std::printf("note: %s not drawn (no matplotlib?)\n", png);
     }
@@ -101,6 +113,24 @@ TEST(SpongyStudy, CoarseVoxelsAreRefusedAtReadTime) {
               std::string::npos)
         << message;
     EXPECT_NE(message.find("380 nm"), std::string::npos) << message;
+    EXPECT_FALSE(fs::exists(root / "spongy_quick"));
+    fs::remove_all(root);
+}
+
+TEST(SpongyStudy, SlabThinnerThanATransportLengthIsRefused) {
+    // The base medium's shortest transport length 1/(μ_s (1 − g)) is about 0.9 µm (at 380
+    // nm); a 0.3 µm slab shows the backing, not the medium: refused naming the key, the value
+    // and the limit, and nothing is written.
+    std::string text = read(kQuick);
+    text.replace(text.find("thickness_um = 3.0"), 18, "thickness_um = 0.3");
+    const fs::path root = temp_root("thin");
+    const std::string message =
+        testing::input_error_message([&] { study_of(text, kQuick).run(text, kQuick, root, {}); });
+    EXPECT_NE(message.find("spongy_quick.toml:20:16: slab.thickness_um = 0.3: thinner than one "
+                           "transport length"),
+              std::string::npos)
+        << message;
+    EXPECT_NE(message.find("l* = 1/(mu_s (1 - g) + mu_a) = "), std::string::npos) << message;
     EXPECT_FALSE(fs::exists(root / "spongy_quick"));
     fs::remove_all(root);
 }
@@ -130,7 +160,8 @@ TEST(SpongyStudy, UnknownKeysAndBadListsAreNamed) {
 }
 
 TEST(SpongyStudy, RecordsDoNotDependOnThreads) {
-    // One small case (the base), fewer paths: 1 and 2 threads give bit-identical spectra.
+    // One small case (the base), fewer paths: 1 and 2 threads give bit-identical spectra
+    // (slab, angle and geometric-optics baseline).
     std::string text = read(kQuick);
     text.replace(text.find("\"0.5, 0.4\""), 10, "\"0.5\"     ");
     text.replace(text.find("\"0.19, 0.23\""), 12, "\"0.19\"      ");
@@ -145,6 +176,8 @@ TEST(SpongyStudy, RecordsDoNotDependOnThreads) {
         spectra[t] = dataset(h5, "reflectance").values;
         const auto angle = dataset(h5, "angles/reflectance").values;
         spectra[t].insert(spectra[t].end(), angle.begin(), angle.end());
+        const auto baseline = dataset(h5, "baseline/reflectance").values;
+        spectra[t].insert(spectra[t].end(), baseline.begin(), baseline.end());
         fs::remove_all(root);
     }
     omp_set_num_threads(threads_before);
