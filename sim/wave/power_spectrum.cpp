@@ -4,14 +4,16 @@
 //  | name      | unit | valid range                                           |
 //  |-----------|------|-------------------------------------------------------|
 //  | n (N)     | 1    | [4, 1024] (3D: N³ doubles in memory, N <= 512 in use) |
+//  | nx, ny    | 1    | [4, 1024] each (rectangular 2D fields)                |
 //  | voxel_um  | µm   | finite, > 0                                           |
-//  | values    | 1    | finite; N³ (3D) or N² (2D) of them, k fastest         |
+//  | values    | 1    | finite; N³, N² or nx·ny of them, last axis fastest    |
 //
 // FFTW plan creation (fftw_plan_*) is not thread-safe, execution is: plans are made under
 // one process-wide mutex. FFTW_ESTIMATE keeps planning cheap and the result independent of
 // timing measurements, so the output is deterministic run to run.
 #include "sim/wave/power_spectrum.h"
 
+#include <algorithm>
 #include <cmath>
 #include <mutex>
 #include <numbers>
@@ -36,7 +38,8 @@ struct R2cTransform {
     double* in = nullptr;
     fftw_complex* out = nullptr;
     fftw_plan plan = nullptr;
-    R2cTransform(int dimension, int n, std::size_t real_size, std::size_t complex_size) {
+    R2cTransform(int dimension, const std::array<int, 3>& shape, std::size_t real_size,
+                 std::size_t complex_size) {
         in = fftw_alloc_real(real_size);
         out = fftw_alloc_complex(complex_size);
         if (in == nullptr || out == nullptr) {
@@ -44,8 +47,9 @@ struct R2cTransform {
             throw std::bad_alloc();
         }
         std::lock_guard<std::mutex> lock(fftw_planner_mutex());
-        plan = dimension == 3 ? fftw_plan_dft_r2c_3d(n, n, n, in, out, FFTW_ESTIMATE)
-                              : fftw_plan_dft_r2c_2d(n, n, in, out, FFTW_ESTIMATE);
+        plan = dimension == 3
+                   ? fftw_plan_dft_r2c_3d(shape[0], shape[1], shape[2], in, out, FFTW_ESTIMATE)
+                   : fftw_plan_dft_r2c_2d(shape[1], shape[2], in, out, FFTW_ESTIMATE);
         PLUMAGE_CHECK(plan != nullptr, "FFTW returned no plan");
     }
     ~R2cTransform() { release(); }
@@ -70,31 +74,44 @@ int signed_frequency(int i, int n) { return 2 * i <= n ? i : i - n; }
 // N/2 stand for themselves and their mirror.
 double multiplicity(int k_last, int n) { return (k_last == 0 || 2 * k_last == n) ? 1.0 : 2.0; }
 
-void require_grid(const char* what, std::size_t size, std::size_t expected, int n,
-                  double voxel_um) {
-    if (n < 4 || n > 1024) {
-        throw InputError(
-            fmt::format("{}: N = {} voxels per side: expected 4 <= N <= 1024", what, n));
+void require_grid(const char* what, std::size_t size, std::size_t expected,
+                  const std::array<int, 3>& shape, int dimension, double voxel_um) {
+    const bool square = shape[1] == shape[2] && (dimension == 2 || shape[0] == shape[2]);
+    for (int axis = 3 - dimension; axis < 3; ++axis) {
+        const int n = shape[axis];
+        if (n >= 4 && n <= 1024) continue;
+        if (square) {
+            throw InputError(
+                fmt::format("{}: N = {} voxels per side: expected 4 <= N <= 1024", what, n));
+        }
+        throw InputError(fmt::format("{}: {} = {} pixels: expected 4 <= {} <= 1024", what,
+                                     axis == 2 ? "nx" : "ny", n, axis == 2 ? "nx" : "ny"));
     }
     if (!(std::isfinite(voxel_um) && voxel_um > 0.0)) {
         throw InputError(
             fmt::format("{}: voxel_um = {}: expected a finite voxel size > 0", what, voxel_um));
     }
     if (size != expected) {
-        throw InputError(fmt::format("{}: {} values: expected N^d = {}", what, size, expected));
+        throw InputError(fmt::format("{}: {} values: expected {} = {}", what, size,
+                                     square ? "N^d" : "nx * ny", expected));
     }
 }
 
 }  // namespace
 
-PowerSpectrum PowerSpectrum::measure(const std::vector<double>& values, int dimension, int n,
-                                     double voxel_um) {
-    const auto nn = static_cast<std::size_t>(n);
+PowerSpectrum PowerSpectrum::measure(const std::vector<double>& values, int dimension,
+                                     std::array<int, 3> shape, double voxel_um) {
     const char* what = dimension == 3 ? "power spectrum (3D)" : "power spectrum (2D)";
-    const std::size_t rows = dimension == 3 ? nn * nn : nn;  // all but the last axis
-    require_grid(what, values.size(), rows * nn, n, voxel_um);
+    require_grid(what, values.size(),
+                 static_cast<std::size_t>(std::max(shape[0], 0)) *
+                     static_cast<std::size_t>(std::max(shape[1], 0)) *
+                     static_cast<std::size_t>(std::max(shape[2], 0)),
+                 shape, dimension, voxel_um);
+    const auto nn = static_cast<std::size_t>(shape[2]);
+    const std::size_t rows =
+        static_cast<std::size_t>(shape[0]) * static_cast<std::size_t>(shape[1]);
     const std::size_t half = nn / 2 + 1;
-    R2cTransform fft(dimension, n, rows * nn, rows * half);
+    R2cTransform fft(dimension, shape, rows * nn, rows * half);
     double mean = 0.0;
     for (double v : values) mean += v;
     mean /= static_cast<double>(values.size());
@@ -108,10 +125,10 @@ PowerSpectrum PowerSpectrum::measure(const std::vector<double>& values, int dime
     fftw_execute(fft.plan);
     PowerSpectrum s;
     s.dimension_ = dimension;
-    s.n_ = n;
+    s.shape_ = shape;
     s.voxel_um_ = voxel_um;
     s.fraction_ = mean;
-    // S = |h^d DFT|² / L^d = h^d |DFT|² / N^d.
+    // S = |h^d DFT|² / L^d = h^d |DFT|² / N^d (L^d → Lx Ly, N^d → nx ny for a rectangle).
     const double cell = dimension == 3 ? voxel_um * voxel_um * voxel_um : voxel_um * voxel_um;
     const double scale = cell / static_cast<double>(rows * nn);
     s.power_.resize(rows * half);
@@ -123,47 +140,69 @@ PowerSpectrum PowerSpectrum::measure(const std::vector<double>& values, int dime
 }
 
 PowerSpectrum PowerSpectrum::measure_3d(const std::vector<double>& values, int n, double voxel_um) {
-    return measure(values, 3, n, voxel_um);
+    return measure(values, 3, {n, n, n}, voxel_um);
 }
 
 PowerSpectrum PowerSpectrum::measure_2d(const std::vector<double>& values, int n, double voxel_um) {
-    return measure(values, 2, n, voxel_um);
+    return measure(values, 2, {1, n, n}, voxel_um);
+}
+
+PowerSpectrum PowerSpectrum::measure_2d(const std::vector<double>& values, int nx, int ny,
+                                        double voxel_um) {
+    return measure(values, 2, {1, ny, nx}, voxel_um);
+}
+
+double PowerSpectrum::cell_measure() const {
+    const double lx = shape_[2] * voxel_um_, ly = shape_[1] * voxel_um_;
+    return dimension_ == 3 ? shape_[0] * voxel_um_ * ly * lx : ly * lx;
 }
 
 double PowerSpectrum::variance() const {
-    const int half = n_ / 2 + 1;
+    const int n_last = shape_[2];
+    const int half = n_last / 2 + 1;
     // Compensated (Kahan) sum: the Parseval check is held to 1e-12.
     double sum = 0.0, carry = 0.0;
     for (std::size_t p = 0; p < power_.size(); ++p) {
         const int k_last = static_cast<int>(p % static_cast<std::size_t>(half));
-        const double term = multiplicity(k_last, n_) * power_[p] - carry;
+        const double term = multiplicity(k_last, n_last) * power_[p] - carry;
         const double next = sum + term;
         carry = (next - sum) - term;
         sum = next;
     }
-    return sum / std::pow(box_um(), dimension_);
+    // A cube or square keeps L^d (the numbers before rectangles existed).
+    const bool square = shape_[1] == shape_[2] && (dimension_ == 2 || shape_[0] == shape_[2]);
+    return sum / (square ? std::pow(box_um(), dimension_) : cell_measure());
 }
 
 RadialSpectrum PowerSpectrum::radial() const {
-    const int n = n_;
+    const int n = shape_[2];  // the last (half-complex) axis
     const int half = n / 2 + 1;
-    const int shells = n / 2;
-    const double dq = kTwoPi / box_um();
+    // The longest side sets the shell width (header); a lattice index m_a along axis a is
+    // the wavenumber m_a · (L_long / L_a) in units of Δq.
+    const int n_long = dimension_ == 3 ? std::max({shape_[0], shape_[1], shape_[2]})
+                                       : std::max(shape_[1], shape_[2]);
+    const int shells = n_long / 2;
+    const double dq = kTwoPi / (n_long * voxel_um_);
+    const double scale0 = static_cast<double>(n_long) / shape_[0];
+    const double scale1 = static_cast<double>(n_long) / shape_[1];
+    const double scale2 = static_cast<double>(n_long) / shape_[2];
     std::vector<double> power(shells + 1, 0.0), q_sum(shells + 1, 0.0), count(shells + 1, 0.0);
     // Second-moment tensor per shell (only the peak's is kept, but the peak is not known
     // before the sums: keep all, they are small).
     std::vector<Eigen::Matrix3d> moment(shells + 1, Eigen::Matrix3d::Zero());
-    const int outer = dimension_ == 3 ? n : 1;
+    const int outer = dimension_ == 3 ? shape_[0] : 1;
+    const int middle = shape_[1];
     for (int i = 0; i < outer; ++i) {
-        for (int j = 0; j < n; ++j) {
+        for (int j = 0; j < middle; ++j) {
             for (int k = 0; k < half; ++k) {
-                Eigen::Vector3d m(dimension_ == 3 ? signed_frequency(i, n) : 0,
-                                  signed_frequency(j, n), k);
+                // Exactly the integers m for a cube or square (the scales are 1).
+                Eigen::Vector3d m(dimension_ == 3 ? scale0 * signed_frequency(i, shape_[0]) : 0.0,
+                                  scale1 * signed_frequency(j, middle), scale2 * k);
                 const double radius = m.norm();
                 const auto shell = static_cast<int>(std::floor(radius + 0.5));
                 if (shell < 1 || shell > shells) continue;
                 const std::size_t p =
-                    (static_cast<std::size_t>(i) * n + j) * static_cast<std::size_t>(half) + k;
+                    (static_cast<std::size_t>(i) * middle + j) * static_cast<std::size_t>(half) + k;
                 const double w = multiplicity(k, n);
                 power[shell] += w * power_[p];
                 q_sum[shell] += w * radius * dq;
