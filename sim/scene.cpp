@@ -213,12 +213,98 @@ SceneDescription barbule_row_scene(const geometry::BarbuleRow& row,
     return scene;
 }
 
+void SpongyMedulla::validate() const {
+    if (!medium) throw InputError("spongy medulla: medium is null: expected a scattering medium");
+    if (!core) throw InputError("spongy medulla: core material is null: expected a material");
+    if (!std::isfinite(core_scale) || core_scale < 0.0 || core_scale > kMaxCoreScale) {
+        throw InputError(
+            fmt::format("spongy medulla: core_scale = {}: expected a value in [0, {}] (0: no core)",
+                        core_scale, kMaxCoreScale));
+    }
+}
+
+namespace {
+
+// The medulla's semi-minor axis (µm).
+double medulla_semi_minor_um(const geometry::BarbParams& b) {
+    return b.medulla_scale * 0.5 * b.barb_width_um *
+           std::sqrt(1.0 - b.barb_eccentricity * b.barb_eccentricity);
+}
+
+// `mesh` (a straight tube along x) scaled about (x_mid, centre_y, centre_z): by `across` in y
+// and z, and in x so that each end moves in by `inset_um`. Positive scales keep the winding
+// (outward normals); shading normals transform by the inverse transpose.
+geometry::TriangleMesh scaled_tube(const geometry::TriangleMesh& mesh,
+                                   const Eigen::Vector2d& centre_yz, double across, double inset_um,
+                                   const char* what) {
+    double x_min = std::numeric_limits<double>::infinity(), x_max = -x_min;
+    for (const Vec3d& p : mesh.positions) {
+        x_min = std::min(x_min, p.x());
+        x_max = std::max(x_max, p.x());
+    }
+    const double half = 0.5 * (x_max - x_min);
+    if (!(half > inset_um)) {
+        throw InputError(fmt::format(
+            "spongy medulla: the barb ({} um long) is too short for the {} inset by {} um at "
+            "each end",
+            2.0 * half, what, inset_um));
+    }
+    const Vec3d centre(0.5 * (x_min + x_max), centre_yz.x(), centre_yz.y());
+    const Vec3d scale((half - inset_um) / half, across, across);
+    geometry::TriangleMesh out = mesh;
+    for (Vec3d& p : out.positions) p = centre + (p - centre).cwiseProduct(scale);
+    for (Vec3d& n : out.shading_normals) n = n.cwiseQuotient(scale).normalized();
+    return out;
+}
+
+}  // namespace
+
+geometry::TriangleMesh spongy_medulla_mesh(const geometry::BarbulePatch& patch) {
+    if (patch.barb_medulla.triangles.empty()) return {};
+    const geometry::BarbParams& b = patch.params.barb;
+    // The cortex's wall across the barb for a centred medulla, halved (an offset medulla's
+    // narrowest wall is thinner; any gap well above the spawn offset separates the caps).
+    const double inset = 0.5 * (1.0 - b.medulla_scale) / b.medulla_scale * medulla_semi_minor_um(b);
+    return scaled_tube(patch.barb_medulla, {b.medulla_offset_y_um, b.medulla_offset_z_um}, 1.0,
+                       inset, "medulla");
+}
+
+geometry::TriangleMesh medulla_core_mesh(const geometry::BarbulePatch& patch, double core_scale) {
+    if (core_scale <= 0.0 || patch.barb_medulla.triangles.empty()) return {};
+    const geometry::BarbParams& b = patch.params.barb;
+    // The narrowest wall of the shell between core and medulla, across the barb; the ends are
+    // inset by the same so that the core's caps do not lie on the medulla's.
+    const double wall = (1.0 - core_scale) * medulla_semi_minor_um(b);
+    return scaled_tube(spongy_medulla_mesh(patch), {b.medulla_offset_y_um, b.medulla_offset_z_um},
+                       core_scale, wall, "medulla core");
+}
+
 SceneDescription barbule_patch_scene(const geometry::BarbulePatch& patch,
                                      const BarbulePatchMaterials& materials) {
     SceneDescription scene;
     UnitMesh barb{"barb", {}};
     barb.surfaces.push_back({"cortex", patch.barb_cortex, dielectric_interface(materials.keratin)});
-    if (!patch.barb_medulla.triangles.empty()) {
+    if (materials.spongy_medulla) {
+        const SpongyMedulla& spongy = *materials.spongy_medulla;
+        spongy.validate();
+        if (patch.barb_medulla.triangles.empty()) {
+            throw InputError(
+                "spongy medulla: the patch has no medulla (medulla_scale = 0): expected a "
+                "medulla to fill with the medium");
+        }
+        // n_eff inside; the same material object on the core's outside, so that the tracer
+        // sees the shell as one medium from both of its surfaces.
+        const std::shared_ptr<const optics::Material> shell = spongy.medium->effective_material();
+        SurfaceMaterial boundary = dielectric_interface(shell, materials.keratin);
+        boundary.inside_medium = spongy.medium;
+        barb.surfaces.push_back({"medulla", spongy_medulla_mesh(patch), boundary});
+        if (spongy.core_scale > 0.0) {
+            SurfaceMaterial core = dielectric_interface(spongy.core, shell);
+            core.outside_medium = spongy.medium;
+            barb.surfaces.push_back(
+                {"medulla core", medulla_core_mesh(patch, spongy.core_scale), core});
+        }
+    } else if (!patch.barb_medulla.triangles.empty()) {
         barb.surfaces.push_back(
             {"medulla", patch.barb_medulla,
              diffuse_layer(materials.medulla, materials.keratin, materials.keratin)});

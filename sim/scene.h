@@ -81,6 +81,7 @@
 #include "sim/medium.h"
 #include "sim/optics/material.h"
 #include "sim/optics/multilayer.h"
+#include "sim/scattering_medium.h"
 
 namespace plumage::sim {
 
@@ -173,19 +174,83 @@ struct BarbuleRowMaterials {
 SceneDescription barbule_row_scene(const geometry::BarbuleRow& row,
                                    const BarbuleRowMaterials& materials = {});
 
-// Barb + barbule patch (geometry/barb.h). The medulla albedo has no published value in
-// DESIGN.md: a study sets it; the default 0.8 stands for a whitish scattering medulla.
+// Barb + barbule patch (geometry/barb.h). The medulla is one of two kinds:
+//  - white (the default, `medulla`): a diffuse surface, keratin on both sides, with an albedo
+//    spectrum. Its value has no published source in DESIGN.md: a study sets it; the default
+//    0.8 stands for a whitish scattering medulla.
+//  - spongy (`spongy_medulla` set): the medulla volume is spongy keratin, a scattering medium
+//    (sim/scattering_medium.h; its tables computed from a spongy volume, e.g. by
+//    studies/spongy_medium.h). The medulla surface is a DielectricInterface with the cortex's
+//    keratin outside and the medium's effective material (n_eff(λ), Bruggeman) inside, the
+//    medium as its inside medium, as sim/scattering_slab.h bounds a slab: Fresnel and
+//    refraction between keratin and n_eff, free flights and scattering inside. No albedo or
+//    colour enters; what the medulla reflects is what the medium scatters back.
+//    Optional melanin core (core_scale > 0): real blue barbs (Ara ararauna) have the spongy
+//    layer around a core of air-filled medullary cells lined with melanin, which absorbs what
+//    the spongy layer transmits and so saturates the blue (Prum et al. 1998, 1999). The core
+//    is the medulla's cross-section scaled about its centre (geometry::BarbParams
+//    medulla_offset_y/z_um) by core_scale, and inset at both ends along the barb by the
+//    narrowest shell wall (1 − core_scale) × the medulla's semi-minor axis, so that no core
+//    face lies on a medulla face (nor a medulla face on the cortex: spongy_medulla_mesh). Its
+//    surface is a DielectricInterface n_eff (outside, the scattering medium as outside medium) |
+//    core material (inside, melanin by default): Fresnel from the actual indices, and melanin's k
+//    absorbs by Beer–Lambert (HomogeneousAbsorbingMedium; α = 4πk/λ ≈ 3 µm⁻¹ at 450 nm, so light
+//    entering the core dies within a micron). A dielectric rather than a diffuse melanin_albedo()
+//    layer because the shell's n_eff, not air, is what lies against the core (melanin_albedo() is
+//    the reflectance air → melanin), and so that the core reflects, refracts and absorbs by the
+//    same event rules as every other body; with core_scale = 0 the whole medulla is spongy
+//    and light crossing it leaves through the cortex on the other side.
+//    Path lengths (sim/tracer.h max_events, default 1000; a path that needs more is dropped
+//    and its light lost): a whole 70 µm medulla of macaw-blue keratin is optically thick in
+//    the blue (μ_s ≈ 0.6 µm⁻¹ at 400 nm), and its longest diffusion paths exceed the bound
+//    (measured: 0.4 % of the paths at 400 nm); a shell of a few µm around a core needs tens
+//    of scatterings. Independently, the cortex between air and n_eff is a light guide whose
+//    skew rays a smooth tube keeps (about 1 path in 3000 reaches the bound).
+// Parameter table (InputError naming the parameter and value):
+//  | name                       | unit | default  | valid range                            |
+//  |----------------------------|------|----------|----------------------------------------|
+//  | keratin                    |      | keratin  | non-null                               |
+//  | medulla                    |      | 0.8      | albedo spectrum in [0, 1] (white only) |
+//  | spongy_medulla.medium      |      | —        | non-null                               |
+//  | spongy_medulla.core_scale  | 1    | 0 (none) | [0, 0.98]                              |
+//  | spongy_medulla.core        |      | melanin  | non-null                               |
+// A spongy medulla in a patch without a medulla (medulla_scale = 0) is refused, so that a
+// study cannot ask for one and silently get none.
+struct SpongyMedulla {
+    static constexpr double kMaxCoreScale = 0.98;
+
+    std::shared_ptr<const ScatteringMedium> medium;
+    double core_scale = 0.0;
+    std::shared_ptr<const optics::Material> core = optics::melanin();
+
+    void validate() const;  // InputError naming the parameter
+};
 struct BarbulePatchMaterials {
     std::shared_ptr<const optics::Material> keratin = optics::keratin();
-    AlbedoSpectrum medulla = constant_albedo(0.8);
-    std::optional<SurfaceMaterial> barbule;  // default: keratin/air dielectric
+    AlbedoSpectrum medulla = constant_albedo(0.8);  // white medulla
+    std::optional<SpongyMedulla> spongy_medulla;    // set: replaces the white medulla
+    std::optional<SurfaceMaterial> barbule;         // default: keratin/air dielectric
 };
-// Units: "barb" (cortex: keratin/air dielectric; medulla: diffuse, keratin on its outside)
-// and "barbule"; instances from the patch. The patch starts its barbules just outside the
+// Units: "barb" (cortex: keratin/air dielectric; medulla: diffuse with keratin on its
+// outside, or the spongy medulla's "medulla" and "medulla core" surfaces above) and
+// "barbule"; instances from the patch. The patch starts its barbules just outside the
 // cortex (geometry::BarbulePatch::root_clearance_um): with no nested dielectric priorities
-// here, every closed body must be disjoint from the others.
+// here, every closed body must be disjoint from the others or nested inside one whose
+// inside material is its outside material (cortex ⊃ medulla ⊃ core).
 SceneDescription barbule_patch_scene(const geometry::BarbulePatch& patch,
                                      const BarbulePatchMaterials& materials = {});
+
+// The spongy medulla's mesh: the patch's medulla with both ends moved in along the barb by
+// half the cortex wall, (1 − medulla_scale)/2 × the barb's semi-minor axis. geometry/barb.h
+// sweeps cortex and medulla over the same length, so their end caps are coplanar; a ray
+// meeting both at once may take the cortex's, and its segment then counts as keratin, not as
+// the medium (a medium mismatch, and a flight through the medulla without scattering).
+// The white medulla keeps the patch's mesh (its records do not change). Empty without a
+// medulla.
+geometry::TriangleMesh spongy_medulla_mesh(const geometry::BarbulePatch& patch);
+// The spongy medulla's melanin core mesh: spongy_medulla_mesh scaled as described above.
+// Empty for core_scale = 0 or a patch without a medulla.
+geometry::TriangleMesh medulla_core_mesh(const geometry::BarbulePatch& patch, double core_scale);
 
 // One mesh, one material, placed once (identity), e.g. a spongy volume's mesh with
 // spongy_keratin_interface().

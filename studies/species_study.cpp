@@ -3,12 +3,14 @@
 #include <omp.h>
 
 #include <algorithm>
+#include <array>
 #include <chrono>
 #include <cmath>
 #include <fstream>
 #include <iostream>
 #include <memory>
 #include <optional>
+#include <string_view>
 
 #include <fmt/format.h>
 
@@ -23,10 +25,10 @@
 #include "sim/optics/material.h"
 #include "sim/optics/spectrum.h"
 #include "sim/period_cell_entry.h"
-#include "sim/spongy_medulla.h"
 #include "sim/tracer.h"
 #include "studies/plots.h"
 #include "studies/sections.h"
+#include "studies/spongy_medium.h"
 #include "studies/staged_directory.h"
 #include "studies/study.h"
 #include "studies/study_common.h"
@@ -50,15 +52,24 @@ using analysis::kFilip2024ParameterTable;
 // light's lateral travel through the patch at this angle decide whether a patch is big enough.
 constexpr double kLargestPolarRad = 75.0 * kDeg;
 
-// The medulla of a barb: a white scatterer, or spongy keratin with a structural colour.
+// The medulla of a barb: a white scatterer (constant albedo), or spongy keratin given by its
+// structure only (studies/spongy_medium.h: a channel volume → first-Born medium; sim/scene.h's
+// SpongyMedulla) around an optional melanin core.
 struct MedullaSpec {
     bool spongy = false;
-    double albedo = 0.8;            // white: constant; spongy: at the band's peak
-    double base_albedo = 0.05;      // spongy: away from the band (melanin beneath absorbs)
-    double spacing_um = 0.184;      // spongy: dominant spacing Λ of the keratin/air network
-    double keratin_fraction = 0.5;  // spongy: filling fraction of keratin
-    double band_width_nm = 30.0;    // spongy: Gaussian standard deviation of the band
+    double albedo = 0.8;           // white only
+    SpongyMediumParams structure;  // spongy: Λ, f, volume box and voxel (seed at build)
+    double core_scale = 0.0;       // spongy: melanin core, medulla cross-section × this
 };
+
+// The spongy medulla's keys (structure only) and the colour keys it refuses: its colour is
+// what the medium computes.
+constexpr std::array<std::string_view, 6> kSpongyKeys = {
+    "spongy_length_scale_um", "spongy_keratin_fraction", "spongy_shell_relative_width",
+    "spongy_box_um",          "spongy_voxel_um",         "spongy_core_scale"};
+constexpr std::array<std::string_view, 5> kSpongyColourKeys = {
+    "medulla_albedo", "medulla_base_albedo", "spongy_band_width_nm", "spongy_spacing_um",
+    "medulla_colour"};
 
 struct SpeciesSpec {
     std::string name;         // one of Filip's four: selects the Table 1 column
@@ -94,12 +105,61 @@ struct Settings {
     double btf_patch_um = 900.0;
     std::uint64_t btf_quanta = 100000;
     std::vector<double> btf_wavelengths = {450.0, 550.0, 650.0};
+    // Every wavelength the study traces (spectrum: BRDF, in-plane sweep, albedo; BTF), sorted:
+    // a spongy medulla's tables are computed at each of them.
+    std::vector<double> traced_wavelengths;
     double btf_detector_half_angle = 10.0 * kDeg;
     int fit_evaluations = 3000;
     std::vector<SpeciesSpec> species;
 };
 
-SpeciesSpec read_species(ParameterTable table, const std::string& name) {
+// A spongy medulla: structure keys only; colour keys are refused (file:line:col).
+void read_spongy_medulla(ParameterTable& m, const std::vector<double>& traced_wavelengths,
+                         MedullaSpec& medulla) {
+    for (const std::string_view key : kSpongyColourKeys) {
+        if (m.has(key)) {
+            throw InputError(fmt::format(
+                "{}: {}.{}: a spongy medulla takes no colour or albedo parameter: its colour is "
+                "computed from the structure (spongy_length_scale_um, spongy_keratin_fraction, "
+                "spongy_box_um, spongy_voxel_um, spongy_shell_relative_width, spongy_core_scale)",
+                m.location(key), m.path(), key));
+        }
+    }
+    SpongyMediumParams& p = medulla.structure;
+    p.length_scale_um = m.number("spongy_length_scale_um", p.length_scale_um, between(0.05, 1.0),
+                                 "channel length scale Lambda of the spongy keratin, um");
+    p.keratin_fraction = m.number("spongy_keratin_fraction", p.keratin_fraction, between(0.1, 0.9),
+                                  "spongy keratin filling fraction");
+    p.shell_relative_width =
+        m.number("spongy_shell_relative_width", p.shell_relative_width, {0.0, 1.0, true, false},
+                 "spectral shell width of the channel volume / k0");
+    p.box_um =
+        m.number("spongy_box_um", p.box_um, positive(), "side of the periodic spongy volume, um");
+    p.voxel_um = m.number("spongy_voxel_um", p.voxel_um, positive(), "spongy voxel side, um");
+    const double n = p.box_um / p.voxel_um;
+    if (std::abs(n - std::round(n)) > 1e-6 * n || n < 4 || n > 512) {
+        throw InputError(fmt::format(
+            "{}: {}.spongy_box_um = {}: expected a whole number of voxels ({} um), 4 to 512 per "
+            "side; it is {:.4f}",
+            m.location("spongy_box_um"), m.path(), p.box_um, p.voxel_um, n));
+    }
+    if (!(p.length_scale_um > 2.0 * p.voxel_um) || p.length_scale_um > p.box_um / 4.0) {
+        throw InputError(fmt::format(
+            "{}: {}.spongy_length_scale_um = {}: expected above 2 voxels ({} um) and at most a "
+            "quarter of the volume's box ({} um)",
+            m.location("spongy_length_scale_um"), m.path(), p.length_scale_um, 2.0 * p.voxel_um,
+            p.box_um / 4.0));
+    }
+    require_fine_voxels(m, "spongy_voxel_um", p.voxel_um, traced_wavelengths);
+    medulla.core_scale =
+        m.number("spongy_core_scale", medulla.core_scale,
+                 {0.0, sim::SpongyMedulla::kMaxCoreScale, false, false},
+                 "melanin core inside the spongy medulla: its cross-section / the medulla's "
+                 "(0: none)");
+}
+
+SpeciesSpec read_species(ParameterTable table, const std::string& name,
+                         const std::vector<double>& traced_wavelengths) {
     SpeciesSpec s;
     s.name = name;
     s.description = table.string("description", "", {}, "how the geometry resembles the sample");
@@ -140,21 +200,23 @@ SpeciesSpec read_species(ParameterTable table, const std::string& name) {
                                   "pigment band standard deviation, nm");
     s.medulla.spongy =
         m.string("medulla", "white", {"white", "spongy"}, "the barb medulla") == "spongy";
-    s.medulla.albedo = m.number("medulla_albedo", s.medulla.albedo, between(0.0, 1.0),
-                                "medulla albedo (spongy: at the band's peak)");
-    s.medulla.base_albedo = m.number("medulla_base_albedo", s.medulla.base_albedo,
-                                     between(0.0, 1.0), "spongy medulla albedo away from its band");
-    s.medulla.spacing_um = m.number("spongy_spacing_um", s.medulla.spacing_um, between(0.05, 1.0),
-                                    "spongy keratin spacing, um");
-    s.medulla.keratin_fraction = m.number("spongy_keratin_fraction", s.medulla.keratin_fraction,
-                                          between(0.05, 0.95), "spongy keratin filling fraction");
-    s.medulla.band_width_nm = m.number("spongy_band_width_nm", s.medulla.band_width_nm,
-                                       between(1.0, 300.0), "spongy band standard deviation, nm");
-    if (s.medulla.spongy && s.medulla.base_albedo > s.medulla.albedo) {
-        throw InputError(fmt::format(
-            "{}: medulla_base_albedo = {} exceeds medulla_albedo = {}: expected the band's peak to "
-            "be the largest albedo",
-            m.location("medulla_base_albedo"), s.medulla.base_albedo, s.medulla.albedo));
+    if (s.medulla.spongy) {
+        read_spongy_medulla(m, traced_wavelengths, s.medulla);
+        if (s.patch.barb.medulla_scale <= 0.0) {
+            throw InputError(fmt::format(
+                "{}: {}.medulla = \"spongy\" but the barb has no medulla (medulla_scale = 0): "
+                "expected a medulla_scale > 0 in [species.{}.barb]",
+                m.location("medulla"), m.path(), name));
+        }
+    } else {
+        for (const std::string_view key : kSpongyKeys) {
+            if (m.has(key)) {
+                throw InputError(fmt::format("{}: {}.{} applies only to medulla = \"spongy\"",
+                                             m.location(key), m.path(), key));
+            }
+        }
+        s.medulla.albedo =
+            m.number("medulla_albedo", s.medulla.albedo, between(0.0, 1.0), "white medulla albedo");
     }
     return s;
 }
@@ -220,12 +282,12 @@ void read_species_list(ParameterTable species, Settings& s) {
             throw InputError(
                 fmt::format("{}: species.run lists '{}' but there is no [species.{}] table",
                             species.location("run"), n, n));
-        s.species.push_back(read_species(species.table(n), n));
+        s.species.push_back(read_species(species.table(n), n, s.traced_wavelengths));
     }
     // Tables of species left out of `run` are still checked (a typo there is still a typo).
     for (const std::string& n : allowed) {
         if (species.has(n) && std::find(names.begin(), names.end(), n) == names.end())
-            read_species(species.table(n), n);
+            read_species(species.table(n), n, s.traced_wavelengths);
     }
 }
 
@@ -257,6 +319,13 @@ Settings read_settings(StudyFile& file, std::string& name, const fs::path& sourc
     }
     s.tolerance = read_tolerance(root.table("tessellation"));
     read_instruments(root, s);
+    s.traced_wavelengths = s.wavelengths;
+    s.traced_wavelengths.insert(s.traced_wavelengths.end(), s.btf_wavelengths.begin(),
+                                s.btf_wavelengths.end());
+    std::sort(s.traced_wavelengths.begin(), s.traced_wavelengths.end());
+    s.traced_wavelengths.erase(
+        std::unique(s.traced_wavelengths.begin(), s.traced_wavelengths.end()),
+        s.traced_wavelengths.end());
     read_species_list(root.table("species"), s);
     root.reject_unused();
     return s;
@@ -277,22 +346,20 @@ std::shared_ptr<const optics::Material> keratin_of(const SpeciesSpec& s) {
     return std::make_shared<optics::TabulatedMaterial>("pigmented keratin", lambda, n, k);
 }
 
-sim::AlbedoSpectrum medulla_albedo(const MedullaSpec& m) {
-    if (!m.spongy) return sim::constant_albedo(m.albedo);
-    return sim::bragg_band_albedo(m.spacing_um, m.keratin_fraction, m.band_width_nm, m.albedo,
-                                  m.base_albedo);
-}
-
 struct BuiltSpecies {
     sim::SceneDescription scene;
+    std::optional<SpongyMedium> spongy;  // the spongy medulla's medium, when there is one
     double period_um = 0.0;
     double root_clearance_um = 0.0;  // geometry::BarbulePatch::root_clearance_um
     double layer_thickness_um = 0.0;
     std::size_t instances = 0, triangles = 0;
 };
 
+// `volume_seed` seeds a spongy medulla's generated volume; `wavelengths` are every wavelength
+// the study traces (the medium's tables).
 BuiltSpecies build_species(const SpeciesSpec& s, const geometry::TessellationTolerance& tolerance,
-                           const std::string& where) {
+                           const std::string& where, std::uint64_t volume_seed,
+                           const std::vector<double>& wavelengths) {
     BuiltSpecies out;
     geometry::BarbulePatch patch;
     try {
@@ -305,7 +372,21 @@ BuiltSpecies build_species(const SpeciesSpec& s, const geometry::TessellationTol
     out.root_clearance_um = patch.root_clearance_um;
     sim::BarbulePatchMaterials materials;
     materials.keratin = keratin_of(s);
-    materials.medulla = medulla_albedo(s.medulla);
+    if (s.medulla.spongy) {
+        SpongyMediumParams structure = s.medulla.structure;
+        structure.seed = volume_seed;
+        structure.keratin = materials.keratin;
+        try {
+            out.spongy = build_spongy_medium(structure, wavelengths,
+                                             fmt::format("{} spongy medulla", s.name));
+        } catch (const InputError& e) {
+            throw InputError(fmt::format("{}: {}", where, e.what()));
+        }
+        materials.spongy_medulla =
+            sim::SpongyMedulla{out.spongy->medium, s.medulla.core_scale, optics::melanin()};
+    } else {
+        materials.medulla = sim::constant_albedo(s.medulla.albedo);
+    }
     if (s.melanin_core) {
         materials.barbule =
             s.cortex_um > 0.0
@@ -460,20 +541,29 @@ std::string patch_materials(const SpeciesSpec& sp) {
     return materials;
 }
 
-std::string patch_medulla(const SpeciesSpec& sp) {
+std::string patch_medulla(const SpeciesSpec& sp, const BuiltSpecies& built) {
     const auto& p = sp.patch;
     if (p.barb.medulla_scale <= 0.0) return "none";
     if (!sp.medulla.spongy) {
         return fmt::format("white, scale {:.2f}, albedo {:.2f}", p.barb.medulla_scale,
                            sp.medulla.albedo);
     }
+    const SpongyMedium& m = *built.spongy;
+    const SpongyMediumParams& q = sp.medulla.structure;
+    std::string coefficients;
+    for (const auto& t : m.tables) {
+        coefficients += fmt::format("{}{:.0f} nm {:.3f}", coefficients.empty() ? "" : ", ",
+                                    t.lambda_nm, t.mu_s_per_um);
+    }
     return fmt::format(
-        "spongy, scale {:.2f}: band at 2 n̄ Λ = {:.0f} nm (Λ = {:.3f} µm, f = {:.2f}), albedo "
-        "{:.2f} on {:.2f}",
-        p.barb.medulla_scale,
-        sim::bragg_peak_nm(sp.medulla.spacing_um, sp.medulla.keratin_fraction),
-        sp.medulla.spacing_um, sp.medulla.keratin_fraction, sp.medulla.albedo,
-        sp.medulla.base_albedo);
+        "spongy, scale {:.2f}: channel-type keratin Λ = {:.3f} µm, f = {:.2f} (volume of {:.2f} µm "
+        "in {:.3f} µm voxels: measured Λ {:.3f} µm, f {:.3f}) as a first-Born scattering medium, "
+        "μ_s per µm {}; {}",
+        p.barb.medulla_scale, q.length_scale_um, q.keratin_fraction, q.box_um, q.voxel_um,
+        m.measured_scale_um, m.measured_fraction, coefficients,
+        sp.medulla.core_scale > 0.0
+            ? fmt::format("melanin core at {:.2f} of the medulla", sp.medulla.core_scale)
+            : std::string("no core"));
 }
 
 std::string report_introduction(const Settings& s, const std::vector<BuiltSpecies>& built,
@@ -503,7 +593,7 @@ std::string report_introduction(const Settings& s, const std::vector<BuiltSpecie
         md += fmt::format(
             "| {} | {:.0f} µm, {:.2f} | {} | {:.0f} µm, {:.2f}, {:.1f} barb widths, {:.0f}° | "
             "{:.0f} µm | {} | {} | {:.0f}° (by {}) |\n",
-            sp.name, p.barb.barb_width_um, p.barb.barb_eccentricity, patch_medulla(sp),
+            sp.name, p.barb.barb_width_um, p.barb.barb_eccentricity, patch_medulla(sp, built[i]),
             p.barbule_width_um, p.barbule_eccentricity, p.barbule_length,
             p.barbule_inclination_rad / kDeg, built[i].period_um, sp.layers, patch_materials(sp),
             sp.mount_rad / kDeg, sp.oriented_by);
@@ -513,10 +603,15 @@ std::string report_introduction(const Settings& s, const std::vector<BuiltSpecie
         if (!sp.description.empty()) md += fmt::format("- **{}**: {}\n", sp.name, sp.description);
     }
     md +=
-        "\nNot modelled: the rachis, barbule hooks, curvature of the vane, the sample's backing "
-        "(light leaving below the stack is lost, as on a black stage), the spongy keratin's "
-        "scattering itself (its measured effect enters as the medulla's albedo band), "
-        "polarisation.\n\n";
+        "\nA spongy medulla's colour is computed, not set: a generated channel-type volume of the "
+        "given Λ and f, its indicator power spectrum, first-Born scattering tables at every "
+        "traced wavelength (studies/spongy_medium.h), traced as a scattering medium filling the "
+        "medulla with Fresnel boundaries in its Bruggeman index (sim/scene.h).\n\n"
+        "Not modelled: the rachis, barbule hooks, curvature of the vane, the sample's backing "
+        "(light leaving below the stack is lost, as on a black stage), the spongy keratin as "
+        "explicit keratin/air interfaces (the medium is its first-Born average: coherent single "
+        "scattering from the structure, incoherent multiple scattering between events), the "
+        "granular structure of the melanin core, polarisation.\n\n";
     return md;
 }
 
@@ -780,7 +875,10 @@ std::vector<BuiltSpecies> build_all(const Settings& s, StudyFile& file, const fs
         clock.say(fmt::format("building the {} patch", sp.name));
         const std::string where = fmt::format(
             "{}: [species.{}]", file.root().table("species").table(sp.name).location(), sp.name);
-        built.push_back(build_species(sp, s.tolerance, where));
+        built.push_back(build_species(
+            sp, s.tolerance, where,
+            derive_seed(s.seed, "species/spongy_volume", static_cast<std::uint64_t>(built.size())),
+            s.traced_wavelengths));
         check_patch_size(sp, built.back(), s, source);
     }
     return built;
@@ -1221,6 +1319,43 @@ void check_species_study(const std::string& study_text, const fs::path& source_n
     auto file = StudyFile::parse(study_text, source_name);
     std::string name;
     read_settings(*file, name, source_name);
+}
+
+SpeciesScene build_species_scene(const std::string& study_text, const fs::path& source_name,
+                                 const std::string& species,
+                                 const std::vector<double>& extra_wavelengths_nm) {
+    auto file = StudyFile::parse(study_text, source_name);
+    std::string name;
+    Settings s = read_settings(*file, name, source_name);
+    std::vector<double> wavelengths = s.traced_wavelengths;
+    wavelengths.insert(wavelengths.end(), extra_wavelengths_nm.begin(), extra_wavelengths_nm.end());
+    std::sort(wavelengths.begin(), wavelengths.end());
+    wavelengths.erase(std::unique(wavelengths.begin(), wavelengths.end()), wavelengths.end());
+    for (std::size_t i = 0; i < s.species.size(); ++i) {
+        const SpeciesSpec& sp = s.species[i];
+        if (sp.name != species) continue;
+        if (sp.medulla.spongy) {
+            // The study's voxel limit, now over the extra wavelengths too.
+            ParameterTable m = file->root().table("species").table(sp.name).table("materials");
+            require_fine_voxels(m, "spongy_voxel_um", sp.medulla.structure.voxel_um, wavelengths);
+        }
+        const std::string where = fmt::format("{}: [species.{}]", source_name.string(), sp.name);
+        BuiltSpecies b = build_species(
+            sp, s.tolerance, where,
+            derive_seed(s.seed, "species/spongy_volume", static_cast<std::uint64_t>(i)),
+            wavelengths);
+        SpeciesScene out;
+        out.scene = std::move(b.scene);
+        out.cell_x_um = sp.patch.barbule_separation * sp.patch.barbule_width_um;
+        out.cell_y_um = b.period_um;
+        out.cell_y0_um = sp.barbs % 2 == 1 ? 0.0 : 0.5 * b.period_um;
+        out.barb_width_um = sp.patch.barb.barb_width_um;
+        out.wavelengths_nm = std::move(wavelengths);
+        if (b.spongy) out.spongy_medium = b.spongy->medium;
+        return out;
+    }
+    throw InputError(
+        fmt::format("{}: species.run does not list '{}'", source_name.string(), species));
 }
 
 namespace {

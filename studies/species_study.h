@@ -10,9 +10,12 @@
 //    feathers; the flamingo's "two layers of barbules"), mounted on the stage at an azimuth;
 //  - materials: keratin, optionally with a pigment absorption band (carotenoids), barbules
 //    with a melanin core under a keratin cortex film (glossy, possibly iridescent), a medulla
-//    that is white (constant albedo) or spongy (structural colour: a reflectance band at the
-//    first-order Bragg wavelength of the spongy keratin; the ray tracer cannot produce the
-//    coherent scattering itself, so the medulla surface carries its result);
+//    that is white (a diffuse surface of constant albedo) or spongy: spongy keratin given by
+//    its structure only (channel length scale Λ, keratin fraction f, the generated volume's
+//    box and voxel), whose first-Born scattering tables at every traced wavelength
+//    (studies/spongy_medium.h) fill the medulla as a scattering medium, optionally around a
+//    melanin core (sim/scene.h SpongyMedulla); its colour is computed, and the study file
+//    refuses colour keys for it;
 //  - measurements: the BRDF on the paper's 61 × 60 set (photon estimator, per wavelength),
 //    the in-plane sweep (view 45° in the plane across the barbs, light −81°…81°), the virtual
 //    BTF on the same set (an image of the patch per pair; the 12 geometries of Fig. 9 shown:
@@ -35,10 +38,12 @@
 
 #include <array>
 #include <filesystem>
+#include <memory>
 #include <string>
 #include <vector>
 
 #include "analysis/filip2024.h"
+#include "sim/scene.h"
 #include "studies/study.h"
 
 namespace plumage::studies {
@@ -94,5 +99,23 @@ SpeciesResult run_species_study(const std::string& study_text,
 
 // Reads and checks the study file as run_species_study does, building and writing nothing.
 void check_species_study(const std::string& study_text, const std::filesystem::path& source_name);
+
+// One species' scene as run_species_study builds it (the same seeds), for tests and
+// diagnostics: its patch with all layers, and the period cell the goniometer and the albedo
+// light (sim/period_cell_entry.h: cell_x_um × cell_y_um centred on (0, cell_y0_um)). A spongy
+// medulla's medium is computed at the study's traced wavelengths plus `extra_wavelengths_nm`
+// (the voxel limit checked over all of them). InputError as run_species_study, or when
+// species.run does not list `species`.
+struct SpeciesScene {
+    sim::SceneDescription scene;
+    double cell_x_um = 0.0, cell_y_um = 0.0, cell_y0_um = 0.0;
+    double barb_width_um = 0.0;
+    std::vector<double> wavelengths_nm;                          // where a spongy medium has tables
+    std::shared_ptr<const sim::ScatteringMedium> spongy_medium;  // null: white medulla
+};
+SpeciesScene build_species_scene(const std::string& study_text,
+                                 const std::filesystem::path& source_name,
+                                 const std::string& species,
+                                 const std::vector<double>& extra_wavelengths_nm = {});
 
 }  // namespace plumage::studies

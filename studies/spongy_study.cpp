@@ -73,10 +73,9 @@
 #include "sim/tracer.h"
 #include "sim/wave/born_medium.h"
 #include "sim/wave/effective_index.h"
-#include "sim/wave/index_field.h"
-#include "sim/wave/power_spectrum.h"
 #include "studies/plots.h"
 #include "studies/sections.h"
+#include "studies/spongy_medium.h"
 #include "studies/staged_directory.h"
 #include "studies/study.h"
 #include "studies/study_common.h"
@@ -188,23 +187,6 @@ std::vector<double> read_list(ParameterTable& t, std::string_view key, std::stri
     return values;
 }
 
-// The voxel limit of sim/wave (index_field.h), at read time: h <= λ / (4 n_keratin(λ)) at every
-// wavelength of the spectrum (the tightest is the shortest, keratin being normally dispersive).
-void require_fine_voxels(ParameterTable& v, double voxel_um, const std::vector<double>& wl) {
-    const auto keratin = optics::keratin();
-    for (const double lambda : wl) {
-        const double n = keratin->index(lambda).real();
-        const double limit_um = lambda * 1e-3 / (4.0 * n);
-        if (voxel_um > limit_um) {
-            throw InputError(fmt::format(
-                "{}: volume.voxel_um = {}: voxels coarser than lambda/(4 n_keratin) = {} nm / "
-                "(4 x {:.4f}) = {:.4f} um at the spectrum's shortest wavelength; the grid would "
-                "not resolve backscattering (sim/wave/index_field.h)",
-                v.location("voxel_um"), voxel_um, lambda, n, limit_um));
-        }
-    }
-}
-
 void read_volume(ParameterTable v, Settings& s) {
     s.box_um = v.number("box_um", s.box_um, positive(), "side of the periodic cube, um");
     s.voxel_um = v.number("voxel_um", s.voxel_um, positive(), "voxel side, um");
@@ -215,7 +197,7 @@ void read_volume(ParameterTable v, Settings& s) {
             "it is {:.4f}",
             v.location("box_um"), s.box_um, s.voxel_um, n));
     }
-    require_fine_voxels(v, s.voxel_um, s.wavelengths_nm);
+    require_fine_voxels(v, "voxel_um", s.voxel_um, s.wavelengths_nm);
     s.shell_relative_width = v.number("shell_relative_width", s.shell_relative_width,
                                       {0.0, 1.0, true, false}, "spectral shell width / k0");
     s.fractions = read_list(v, "keratin_fractions", "0.5", 0.1, 0.9, "keratin filling fractions");
@@ -291,28 +273,25 @@ geometry::ChannelVolumeParams channel_params(const Settings& s, double f, double
     return p;
 }
 
+// The case's medium through the studies' shared route (studies/spongy_medium.h): volume →
+// indicator → power spectrum → first-Born tables at every wavelength → ScatteringMedium.
 Case build_case(const Settings& s, double f, double scale, std::size_t index) {
     Case c;
     c.fraction = f;
     c.scale_um = scale;
-    const geometry::SpongyVolume volume =
-        geometry::make_channel_volume(channel_params(s, f, scale, index));
-    const sim::wave::IndicatorField field = sim::wave::sample_indicator(*volume.level_set);
-    const auto spectrum = sim::wave::PowerSpectrum::measure_3d(
-        field.as_doubles(), field.voxels_per_side, field.voxel_um);
-    const sim::wave::RadialSpectrum radial = spectrum.radial();
-    c.measured_fraction = field.filling_fraction();
-    c.measured_scale_um = 2.0 * std::numbers::pi / radial.peak_q_per_um;
-    c.isotropy = radial.isotropy_eigenvalue_ratio;
-    std::vector<sim::MediumTable> tables;
-    for (const double lambda : s.wavelengths_nm) {
-        c.tables.push_back(
-            sim::wave::born_medium(spectrum, *optics::keratin(), *optics::air(), lambda));
-        tables.push_back(sim::medium_table(c.tables.back()));
-    }
-    c.medium = std::make_shared<const sim::ScatteringMedium>(
-        std::move(tables), sim::AbsorptionSampling::weighted,
-        fmt::format("spongy f={} L={}um", f, scale));
+    SpongyMediumParams p;
+    p.length_scale_um = scale;
+    p.keratin_fraction = f;
+    p.shell_relative_width = s.shell_relative_width;
+    p.box_um = s.box_um;
+    p.voxel_um = s.voxel_um;
+    p.seed = derive_seed(s.seed, "spongy/volume", index);
+    SpongyMedium m = build_spongy_medium(p, s.wavelengths_nm);
+    c.measured_fraction = m.measured_fraction;
+    c.measured_scale_um = m.measured_scale_um;
+    c.isotropy = m.isotropy;
+    c.tables = std::move(m.tables);
+    c.medium = std::move(m.medium);
     return c;
 }
 

@@ -1,10 +1,9 @@
-// The pieces of the species study that moved down to sim/: the period-cell entry, the spongy
-// medulla's Bragg band and the albedo Monte Carlo, each against a closed form.
+// The pieces of the species study that moved down to sim/: the period-cell entry and the albedo
+// Monte Carlo, each against a closed form.
 #include "sim/albedo.h"
 
 #include <omp.h>
 
-#include <algorithm>
 #include <cmath>
 #include <memory>
 
@@ -13,7 +12,6 @@
 #include "common/error.h"
 #include "sim/optics/material.h"
 #include "sim/period_cell_entry.h"
-#include "sim/spongy_medulla.h"
 #include "tests/sim/sim_test_util.h"
 
 namespace plumage::sim {
@@ -42,24 +40,6 @@ TEST(Albedo, ClearSlabReflectsTheIncoherentSlabSum) {
     omp_set_num_threads(threads);
     EXPECT_EQ(one.albedo, e.albedo);
     EXPECT_EQ(one.standard_error, e.standard_error);
-}
-
-// λ_B solves λ = 2 n̄(λ) Λ; the band peaks there at `albedo` and falls to `base` far away.
-TEST(SpongyMedulla, BraggPeakSolvesItsOwnEquationAndTheBandPeaksThere) {
-    for (const double spacing : {0.12, 0.184, 0.25}) {
-        for (const double f : {0.3, 0.5, 0.7}) {
-            const double peak = bragg_peak_nm(spacing, f);
-            // keratin's index is taken within its tabulated 300-1000 nm (a peak below 300 nm
-            // uses n(300 nm)).
-            const double n_keratin =
-                optics::keratin()->index(std::clamp(peak, 300.0, 1000.0)).real();
-            EXPECT_NEAR(peak, 2.0 * (f * n_keratin + 1.0 - f) * spacing * 1e3, 1e-9 * peak);
-            const AlbedoSpectrum band = bragg_band_albedo(spacing, f, 30.0, 0.7, 0.05);
-            EXPECT_NEAR(band(peak), 0.7, 1e-12);
-            EXPECT_NEAR(band(peak + 300.0), 0.05, 1e-12);
-            EXPECT_LT(band(peak + 30.0), band(peak));
-        }
-    }
 }
 
 // Entry points are uniform over the cell: inside it, with the mean and variance of a uniform.

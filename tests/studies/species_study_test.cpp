@@ -3,7 +3,9 @@
 //  - colour by construction, from the albedo at normal incidence (period-averaged): the
 //    flamingo's carotenoid band absorbs blue (albedo rises with λ), the stork's clear keratin
 //    and white medulla are neutral (flat within Monte Carlo error), the parrot's spongy
-//    medulla reflects blue (450 nm above 650 nm), the rooster's 0.174 µm cortex over melanin
+//    medulla — a first-Born medium computed from its structure, no colour parameter — reflects
+//    blue (450 nm above 650 nm; tests/studies/spongy_medulla_test.cpp measures its hue and
+//    chroma on a finer spectrum), the rooster's 0.174 µm cortex over melanin
 //    has its first-order film maximum in the green (550 nm above 450 and 650 nm);
 //  - the fit: Filip's anisotropy axis U(φa) must come out along the parrot's barbs (the patch
 //    whose highlight is built from cylinders), and the fitted parameters must describe the
