@@ -37,7 +37,9 @@ IndicatorField sample_indicator(const openvdb::FloatGrid& level_set) {
         throw InputError(fmt::format(
             "index field: level set '{}' has no valid plumage_voxels_per_side (4 to 512) and "
             "plumage_voxel_um (> 0) metadata: expected a volume written by make_channel_volume "
-            "or make_sphere_volume",
+            "or make_sphere_volume; a grid from elsewhere needs both (Int64 and Double "
+            "metadata): its periodic sample is taken as the index voxels [0, N)^3, N = "
+            "plumage_voxels_per_side, of side plumage_voxel_um um",
             level_set.getName()));
     }
     IndicatorField field;

@@ -3,9 +3,13 @@
 #include "sim/wave/born_medium.h"
 #include "common/constants.h"
 
+#include <unistd.h>
+
 #include <cmath>
 #include <cstdio>
+#include <filesystem>
 #include <numbers>
+#include <string>
 #include <vector>
 
 #include <gtest/gtest.h>
@@ -144,6 +148,41 @@ TEST(WaveBorn, ChannelVolumeMedium) {
         }
         previous_mu = t.mu_s_per_um;
     }
+}
+
+TEST(WaveBorn, SphereVolumeReadBackFromVdbGivesTheSameTables) {
+    // The route from an imported grid: a sphere-type volume written to .vdb and read back
+    // (geometry/spongy_volume.h) gives bit-identical indicator and tables; a grid without the
+    // box metadata (one from elsewhere) is refused, naming what it needs.
+    geometry::SphereVolumeParams p;
+    p.sphere_radius_um = 0.08;
+    p.keratin_fraction = 0.5;
+    p.box_um = 1.28;
+    p.voxel_um = 0.02;
+    const geometry::SpongyVolume v = geometry::make_sphere_volume(p);
+    const std::filesystem::path file =
+        std::filesystem::temp_directory_path() /
+        ("plumage_wave_readback_" + std::to_string(::getpid()) + ".vdb");
+    geometry::save_level_set(*v.level_set, file);
+    const openvdb::FloatGrid::Ptr read = geometry::load_level_set(file);
+    std::filesystem::remove(file);
+    const IndicatorField a = sample_indicator(*v.level_set), b = sample_indicator(*read);
+    ASSERT_EQ(a.keratin, b.keratin);
+    EXPECT_EQ(a.voxel_um, b.voxel_um);
+    const auto spectrum = [](const IndicatorField& f) {
+        return PowerSpectrum::measure_3d(f.as_doubles(), f.voxels_per_side, f.voxel_um);
+    };
+    const ScatteringTable ta = born_medium(spectrum(a), *optics::keratin(), *optics::air(), 450.0);
+    const ScatteringTable tb = born_medium(spectrum(b), *optics::keratin(), *optics::air(), 450.0);
+    EXPECT_EQ(ta.mu_s_per_um, tb.mu_s_per_um);
+    EXPECT_EQ(ta.phase_per_sr, tb.phase_per_sr);
+    EXPECT_GT(ta.mu_s_per_um, 0.0);
+
+    openvdb::FloatGrid::Ptr foreign = read->deepCopy();
+    foreign->removeMeta("plumage_voxels_per_side");
+    const std::string message = testing::input_error_message([&] { sample_indicator(*foreign); });
+    EXPECT_NE(message.find("plumage_voxels_per_side"), std::string::npos) << message;
+    EXPECT_NE(message.find("[0, N)^3"), std::string::npos) << message;
 }
 
 TEST(WaveBorn, AbsorbingKeratinGivesAbsorption) {
