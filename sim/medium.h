@@ -1,10 +1,11 @@
 // Participating media: what happens to light between two surfaces.
 //
-// This is the seam where a volume can be handled as a medium instead of as explicit
-// interfaces. Today the tracer treats spongy keratin as explicit keratin/air interfaces
-// (geometric optics, the baseline); a later wave-optical treatment of the same volumes
-// implements this interface with a scattering coefficient and a phase function computed
-// from the volume's structure factor, and the tracer needs no change: it already asks the
+// This is the seam where a volume is handled as a medium instead of as explicit interfaces.
+// Spongy keratin can be traced both ways: as its explicit keratin/air mesh (geometric optics,
+// the baseline: sim/scattering_slab.h's tiled_volume_slab_scene), or as the wave-optical
+// medium whose scattering coefficient and phase function come from the volume's power
+// spectrum (sim/wave/born_medium.h → sim/scattering_medium.h), which the spongy study's slabs
+// and the species study's parrot medulla use. The tracer is the same for both: it asks the
 // medium for a free flight on every segment and for a new direction at every scattering
 // event.
 //
