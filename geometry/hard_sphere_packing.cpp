@@ -10,6 +10,7 @@
 
 #include "common/constants.h"
 #include "common/error.h"
+#include "geometry/random_stream.h"
 
 namespace plumage::geometry {
 namespace {
@@ -26,15 +27,10 @@ constexpr double kGrowth = 4e-3;         // or by this relative step, with overl
 enum class Stream : std::uint32_t { initial = 1, moves = 2 };
 
 std::mt19937_64 random_stream(std::uint64_t seed, std::uint64_t item, Stream stream) {
-    auto low = [](std::uint64_t v) { return static_cast<std::uint32_t>(v & 0xffffffffu); };
-    auto high = [](std::uint64_t v) { return static_cast<std::uint32_t>(v >> 32); };
-    std::seed_seq sequence{low(seed), high(seed), low(item), high(item),
-                           static_cast<std::uint32_t>(stream)};
-    return std::mt19937_64(sequence);
+    return detail::seeded_stream(seed, item, static_cast<std::uint32_t>(stream));
 }
 
-// Uniform in [0, 1) from the top 53 bits: the same on every standard library.
-double uniform01(std::mt19937_64& rng) { return static_cast<double>(rng() >> 11) * 0x1.0p-53; }
+using detail::uniform01;
 
 [[noreturn]] void reject(const char* key, double value, const std::string& expected) {
     throw InputError(

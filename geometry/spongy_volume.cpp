@@ -22,6 +22,7 @@
 
 #include "common/constants.h"
 #include "common/error.h"
+#include "geometry/random_stream.h"
 
 namespace plumage::geometry {
 namespace {
@@ -40,15 +41,10 @@ constexpr const char* kMetaVoxel = "plumage_voxel_um";
 enum class Stream : std::uint32_t { channel_phases = 1, sphere_centres = 2 };
 
 std::mt19937_64 random_stream(std::uint64_t seed, std::uint64_t item, Stream stream) {
-    auto low = [](std::uint64_t v) { return static_cast<std::uint32_t>(v & 0xffffffffu); };
-    auto high = [](std::uint64_t v) { return static_cast<std::uint32_t>(v >> 32); };
-    std::seed_seq sequence{low(seed), high(seed), low(item), high(item),
-                           static_cast<std::uint32_t>(stream)};
-    return std::mt19937_64(sequence);
+    return detail::seeded_stream(seed, item, static_cast<std::uint32_t>(stream));
 }
 
-// Uniform in [0, 1) from the top 53 bits: the same on every standard library.
-double uniform01(std::mt19937_64& rng) { return static_cast<double>(rng() >> 11) * 0x1.0p-53; }
+using detail::uniform01;
 
 // ---------------------------------------------------------------------------------------
 // Parameter checks. Each message names the parameter, its value and what was expected.

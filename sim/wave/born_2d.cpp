@@ -156,21 +156,7 @@ FlatlandTable born_flatland(const PowerSpectrum& spectrum, const optics::Materia
     const double eps_k = n_k * n_k, eps_a = n_a * n_a;
     const double n_eff = std::sqrt(effective_permittivity_2d(eps_k, eps_a, f, pol).real());
     const RadialSpectrum radial = spectrum.radial();
-    const auto& qs = radial.q_per_um;
-    const auto& ps = radial.power;
-    auto interpolate = [&](double q) {
-        if (q <= qs.front()) return ps.front();
-        if (q >= qs.back()) {
-            // The pixel limit puts 2k below π/h, the outer edge of the last shell.
-            PLUMAGE_CHECK(q <= qs.back() + radial.shell_width_per_um,
-                          fmt::format("q = {} beyond the spectrum's last shell {}", q, qs.back()));
-            return ps.back();
-        }
-        const auto upper = std::upper_bound(qs.begin(), qs.end(), q);
-        const auto i = static_cast<std::size_t>(upper - qs.begin());
-        const double w = (q - qs[i - 1]) / (qs[i] - qs[i - 1]);
-        return (1.0 - w) * ps[i - 1] + w * ps[i];
-    };
+    auto interpolate = [&radial](double q) { return radial.at(q); };
     return born_scattering_2d(interpolate, eps_k - eps_a, n_eff, lambda_nm, pol, table_points);
 }
 

@@ -145,22 +145,7 @@ ScatteringTable born_medium(const PowerSpectrum& spectrum, const optics::Materia
     require_resolved(spectrum.voxel_um(), lambda_nm, std::max(n_k.real(), n_a.real()));
     const std::complex<double> n_eff = bruggeman_index(n_k, n_a, f);
     const RadialSpectrum radial = spectrum.radial();
-    const auto& qs = radial.q_per_um;
-    const auto& ps = radial.power;
-    auto interpolate = [&](double q) {
-        if (q <= qs.front()) return ps.front();
-        if (q >= qs.back()) {
-            // The voxel limit puts 2 k n_eff below π/h, the outer edge of the last shell;
-            // the last shell's mean |q| can lie a little below that edge.
-            PLUMAGE_CHECK(q <= qs.back() + radial.shell_width_per_um,
-                          fmt::format("q = {} beyond the spectrum's last shell {}", q, qs.back()));
-            return ps.back();
-        }
-        const auto upper = std::upper_bound(qs.begin(), qs.end(), q);
-        const std::size_t i = static_cast<std::size_t>(upper - qs.begin());
-        const double w = (q - qs[i - 1]) / (qs[i] - qs[i - 1]);
-        return (1.0 - w) * ps[i - 1] + w * ps[i];
-    };
+    auto interpolate = [&radial](double q) { return radial.at(q); };
     return born_scattering(interpolate, n_k * n_k - n_a * n_a, n_eff, lambda_nm, table_points);
 }
 

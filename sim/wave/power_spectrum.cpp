@@ -254,4 +254,19 @@ RadialSpectrum PowerSpectrum::radial() const {
     return r;
 }
 
+double RadialSpectrum::at(double q) const {
+    const auto& qs = q_per_um;
+    const auto& ps = power;
+    if (q <= qs.front()) return ps.front();
+    if (q >= qs.back()) {
+        PLUMAGE_CHECK(q <= qs.back() + shell_width_per_um,
+                      fmt::format("q = {} beyond the spectrum's last shell {}", q, qs.back()));
+        return ps.back();
+    }
+    const auto upper = std::upper_bound(qs.begin(), qs.end(), q);
+    const auto i = static_cast<std::size_t>(upper - qs.begin());
+    const double w = (q - qs[i - 1]) / (qs[i] - qs[i - 1]);
+    return (1.0 - w) * ps[i - 1] + w * ps[i];
+}
+
 }  // namespace plumage::sim::wave

@@ -53,6 +53,13 @@ struct RadialSpectrum {
     // Isotropy on the peak shell (header): λ_max / λ_min of M, and the eigenvalues.
     double isotropy_eigenvalue_ratio = 1.0;
     std::vector<double> moment_eigenvalues;
+
+    // S̄(q) as the Born routes use it (born_medium.h, born_2d.h): linear in q between shell
+    // centres; below the first shell held at its value (the box has no modes there; the
+    // forward angles concerned carry little of μ_s); from the last shell's mean |q| to the
+    // outer edge of that shell held at its value (the voxel limit keeps 2k below π/h, the
+    // edge); beyond it an internal error (PLUMAGE_CHECK): the caller broke that limit.
+    double at(double q_per_um) const;
 };
 
 // The spectrum of one field. Half-complex layout of FFTW's r2c transform: the last axis
