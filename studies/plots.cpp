@@ -1,6 +1,12 @@
 #include "studies/plots.h"
 
+#include <spawn.h>
 #include <sys/wait.h>
+#include <unistd.h>
+
+#include <chrono>
+#include <csignal>
+#include <thread>
 
 #include <atomic>
 #include <cstdio>
@@ -10,11 +16,16 @@
 #include <iostream>
 #include <map>
 #include <mutex>
+#include <string>
+#include <vector>
 
 #include <fmt/format.h>
 
 #include "common/error.h"
+#include "common/interrupt.h"
 #include "studies/plots_script.h"
+
+extern char** environ;
 
 namespace plumage::studies {
 namespace {
@@ -81,6 +92,69 @@ std::string python_interpreter() {
 void set_plots_enabled(bool enabled) { g_plots_enabled.store(enabled); }
 bool plots_enabled() { return g_plots_enabled.load(); }
 
+namespace {
+
+// Kills the plotter and reaps it: SIGTERM, then SIGKILL if it has not gone within 0.3 s.
+void stop_child(pid_t pid) {
+    ::kill(pid, SIGTERM);
+    for (int i = 0; i < 30; ++i) {
+        if (::waitpid(pid, nullptr, WNOHANG) == pid) return;
+        std::this_thread::sleep_for(std::chrono::milliseconds(10));
+    }
+    ::kill(pid, SIGKILL);
+    ::waitpid(pid, nullptr, 0);
+}
+
+// Runs the interpreter with the embedded script on its standard input and waits for it,
+// polling the interrupt flag: on Ctrl-C or SIGTERM the plotter is stopped at once and
+// Interrupted is thrown, so the plot stage stops as promptly as any other (popen's pclose
+// would wait for the plotter, which the signal to plumage alone does not reach, and leave
+// it running after the watchdog's forced exit). Returns whether the whole script was
+// written; `status` receives waitpid's status.
+bool run_plotter(const std::vector<std::string>& args, const std::filesystem::path& png,
+                 int& status) {
+    // A plotter that dies before reading its script must not take plumage with it.
+    std::signal(SIGPIPE, SIG_IGN);
+    int fds[2];
+    if (::pipe(fds) != 0)
+        throw IoError(fmt::format("{} not drawn: cannot open a pipe", png.string()));
+    posix_spawn_file_actions_t actions;
+    posix_spawn_file_actions_init(&actions);
+    posix_spawn_file_actions_adddup2(&actions, fds[0], STDIN_FILENO);
+    posix_spawn_file_actions_addclose(&actions, fds[0]);
+    posix_spawn_file_actions_addclose(&actions, fds[1]);
+    std::vector<char*> argv;
+    for (const std::string& a : args) argv.push_back(const_cast<char*>(a.c_str()));
+    argv.push_back(nullptr);
+    pid_t pid = 0;
+    const int spawned = ::posix_spawnp(&pid, argv[0], &actions, nullptr, argv.data(), environ);
+    posix_spawn_file_actions_destroy(&actions);
+    ::close(fds[0]);
+    if (spawned != 0) {
+        ::close(fds[1]);
+        status = -1;
+        return false;
+    }
+    const std::size_t length = std::strlen(kPlotsScript);
+    std::size_t done = 0;
+    while (done < length) {
+        const ssize_t n = ::write(fds[1], kPlotsScript + done, length - done);
+        if (n <= 0) break;
+        done += static_cast<std::size_t>(n);
+    }
+    ::close(fds[1]);
+    while (::waitpid(pid, &status, WNOHANG) == 0) {
+        if (interrupt_requested()) {
+            stop_child(pid);
+            throw Interrupted("interrupted while drawing " + png.filename().string());
+        }
+        std::this_thread::sleep_for(std::chrono::milliseconds(10));
+    }
+    return done == length;
+}
+
+}  // namespace
+
 bool run_plot(const std::string& kind, const std::filesystem::path& input,
               const std::filesystem::path& png) {
     if (!plots_enabled()) return false;
@@ -88,18 +162,9 @@ bool run_plot(const std::string& kind, const std::filesystem::path& input,
         warn(fmt::format("{} not drawn: {}", png.filename().string(), problem));
         return false;
     }
-    const std::string command =
-        fmt::format("{} - {} {} {}", shell_quote(python_interpreter()), shell_quote(kind),
-                    shell_quote(input.string()), shell_quote(png.string()));
-    FILE* pipe = ::popen(command.c_str(), "w");
-    if (pipe == nullptr) {
-        warn(fmt::format("{} not drawn: cannot start {}", png.filename().string(),
-                         python_interpreter()));
-        return false;
-    }
-    const std::size_t length = std::strlen(kPlotsScript);
-    const bool written = std::fwrite(kPlotsScript, 1, length, pipe) == length;
-    const int status = ::pclose(pipe);
+    int status = -1;
+    const bool written =
+        run_plotter({python_interpreter(), "-", kind, input.string(), png.string()}, png, status);
     if (!written || status == -1 || !WIFEXITED(status) || WEXITSTATUS(status) != 0) {
         warn(
             fmt::format("plot '{}' of {} failed (exit status {}; its message is above); the "
