@@ -317,6 +317,66 @@ std::map<std::string, std::vector<SeedRun>> pipeline_runs(const MeepData& meep,
     return runs;
 }
 
+// Each seed's numbers and band means, printed (the README's per-seed table).
+void print_seeds(const std::string& pol, const std::vector<SeedRun>& list) {
+    for (const SeedRun& run : list) {
+        const auto mb = band_means(run.lambda_nm, run.meep_r);
+        const auto pb = band_means(run.lambda_nm, run.pipe_r);
+        std::printf(
+            "seed %d %s (Meep at %d px/um): n_eff %.4f, spectrum peak q %.2f 1/um "
+            "(isotropy ratio %.2f), peak Meep %.1f nm, pipeline %.1f nm, "
+            "resolution spread %.3f\n",
+            run.seed, pol.c_str(), run.resolution, run.n_eff, run.spectrum_peak_q, run.isotropy,
+            peak_nm(run.lambda_nm, run.meep_r), peak_nm(run.lambda_nm, run.pipe_r),
+            run.meep_resolution_spread);
+        std::printf("  seed %d %s band R, Meep / pipeline:", run.seed, pol.c_str());
+        for (int b = 0; b < 8; ++b) std::printf(" %.3f/%.3f", mb[b], pb[b]);
+        std::printf("\n");
+    }
+}
+
+// Diagnostic (not a fix): the μ_s scale that would make the seed-mean band R match Meep's
+// `target`, by linear interpolation between trial scales; "-" where they agree within 15 %.
+std::string mu_s_scale_to_match(const std::vector<SeedRun>& list, int b, double target,
+                                double pipeline) {
+    if (std::abs(pipeline / target - 1.0) <= 0.15) return "-";
+    double prev_s = 1.0, prev_r = pipeline;
+    for (double s_try : {1.5, 2.0, 3.0, 4.0, 6.0, 8.0}) {
+        double r_try = 0.0;
+        for (const SeedRun& run : list) r_try += scaled_band_mean(run, b, s_try, 2000);
+        r_try /= static_cast<double>(list.size());
+        if ((r_try - target) * (prev_r - target) <= 0.0) {
+            return fmt_double(prev_s + (target - prev_r) * (s_try - prev_s) / (r_try - prev_r));
+        }
+        prev_s = s_try;
+        prev_r = r_try;
+    }
+    return "> 8";
+}
+
+// Band means of μ_s d and g over band b of one run, and of the fringe term (coherent minus
+// incoherent two-face reflectance of the effective slab).
+struct BandDiagnostics {
+    double tau = 0.0, g = 0.0, fringe = 0.0;
+};
+BandDiagnostics band_diagnostics(const SeedRun& run, int b) {
+    BandDiagnostics d;
+    double count = 0.0;
+    for (std::size_t i = 0; i < run.lambda_nm.size(); ++i) {
+        if (band_of(run.lambda_nm[i]) != b) continue;
+        const double t = run.mu_s[i] * run.thickness_um;
+        d.tau += t;
+        d.g += run.g[i];
+        d.fringe += coherent_slab_reflectance(run.n_eff, run.thickness_um, t, run.lambda_nm[i]) -
+                    incoherent_slab(run.n_eff, t).reflectance;
+        count += 1.0;
+    }
+    d.tau /= count;
+    d.g /= count;
+    d.fringe /= count;
+    return d;
+}
+
 // Seed means of Meep's and the pipeline's R (and the variance of the latter's mean): every
 // run of a polarisation shares the CSV's wavelength grid.
 struct SeedMean {
@@ -350,21 +410,7 @@ TEST(Spongy2dReference, PipelineAgainstMeep) {
         pipeline_runs(meep, fields, kKeratin, 0.02);
 
     for (const auto& [pol, list] : runs) {
-        // Per seed.
-        for (const SeedRun& run : list) {
-            const auto mb = band_means(run.lambda_nm, run.meep_r);
-            const auto pb = band_means(run.lambda_nm, run.pipe_r);
-            std::printf(
-                "seed %d %s (Meep at %d px/um): n_eff %.4f, spectrum peak q %.2f 1/um "
-                "(isotropy ratio %.2f), peak Meep %.1f nm, pipeline %.1f nm, "
-                "resolution spread %.3f\n",
-                run.seed, pol.c_str(), run.resolution, run.n_eff, run.spectrum_peak_q, run.isotropy,
-                peak_nm(run.lambda_nm, run.meep_r), peak_nm(run.lambda_nm, run.pipe_r),
-                run.meep_resolution_spread);
-            std::printf("  seed %d %s band R, Meep / pipeline:", run.seed, pol.c_str());
-            for (int b = 0; b < 8; ++b) std::printf(" %.3f/%.3f", mb[b], pb[b]);
-            std::printf("\n");
-        }
+        print_seeds(pol, list);
         const SeedRun& first = list.front();
         const std::size_t m = first.lambda_nm.size();
         const SeedMean mean = seed_mean(list);
@@ -414,37 +460,8 @@ TEST(Spongy2dReference, PipelineAgainstMeep) {
             r_up /= static_cast<double>(list.size());
             const double sensitivity = std::log(r_up / pb[b]) / std::log(1.5);
             // Band means of μ_s d and g (seed 1 of the list), and the fringe term.
-            double tau = 0.0, g = 0.0, fringe = 0.0;
-            for (std::size_t i = 0; i < m; ++i) {
-                if (band_of(first.lambda_nm[i]) != b) continue;
-                const double t = first.mu_s[i] * first.thickness_um;
-                tau += t / count[b];
-                g += first.g[i] / count[b];
-                fringe += (coherent_slab_reflectance(first.n_eff, first.thickness_um, t,
-                                                     first.lambda_nm[i]) -
-                           incoherent_slab(first.n_eff, t).reflectance) /
-                          count[b];
-            }
-            // Diagnostic (not a fix): the μ_s scale that would make the seed-mean band R match,
-            // by linear interpolation between trial scales (only where |difference| > 15 %).
-            std::string scale = "-";
-            if (std::abs(rel) > 0.15) {
-                double prev_s = 1.0, prev_r = pb[b];
-                for (double s_try : {1.5, 2.0, 3.0, 4.0, 6.0, 8.0}) {
-                    double r_try = 0.0;
-                    for (const SeedRun& run : list) r_try += scaled_band_mean(run, b, s_try, 2000);
-                    r_try /= static_cast<double>(list.size());
-                    if ((r_try - mb[b]) * (prev_r - mb[b]) <= 0.0) {
-                        const double s_match =
-                            prev_s + (mb[b] - prev_r) * (s_try - prev_s) / (r_try - prev_r);
-                        scale = fmt_double(s_match);
-                        break;
-                    }
-                    prev_s = s_try;
-                    prev_r = r_try;
-                }
-                if (scale == "-") scale = "> 8";
-            }
+            const auto [tau, g, fringe] = band_diagnostics(first, b);
+            const std::string scale = mu_s_scale_to_match(list, b, mb[b], pb[b]);
             std::printf(
                 "| %d–%d | %.3f ± %.3f (SE %.3f) | %.3f ± %.3f | %+.1f %% | %.2f | %.2f | "
                 "%.2f | %+.3f | %s |\n",

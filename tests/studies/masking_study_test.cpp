@@ -67,84 +67,59 @@ std::vector<double> flatten(const MaskingStudyResult& r,
     return out;
 }
 
-TEST(MaskingStudy, QuickStudyAgreesWithMonteCarloWithinTheFamilyWiseBound) {
-    const auto root = temporary_root("quick");
-    const MaskingStudyResult r = run_masking_study(read(quick_study()), quick_study(), root, false);
-    const fs::path dir = root / "masking_quick";
-    ASSERT_EQ(r.output_dir, dir);
-    ASSERT_EQ(r.configurations.size(), 3u);
-    ASSERT_EQ(r.angles_deg.size(), 11u);  // −85..85 by 17
-    EXPECT_DOUBLE_EQ(r.angles_deg.front(), -85.0);
-    EXPECT_DOUBLE_EQ(r.angles_deg.back(), 85.0);
-    EXPECT_EQ(r.rays, 20000);
-    EXPECT_EQ(r.configurations[0].name, "default");
-    EXPECT_EQ(r.configurations[1].name, "rotated_barb");  // the file's order, not alphabetical
-    EXPECT_EQ(r.configurations[2].name, "sparse");
-
-    // Every comparison (angles and 3D check directions, three components) within the Šidák bound.
-    const int m = static_cast<int>(r.configurations.size() *
-                                   (r.angles_deg.size() + kMaskingCheckDirections.size()) * 3);
-    ASSERT_EQ(r.comparisons, m);
-    const double z_bound = sidak_z_bound(m);
-    EXPECT_NEAR(r.z_bound, z_bound, 1e-9);
-    double max_difference = 0.0, max_z = 0.0;
-    for (const auto& c : r.configurations) {
-        const analysis::PadronGriffe2024Masking masking(c.params);
-        ASSERT_EQ(c.analytic.size(), r.angles_deg.size());
-        EXPECT_EQ(c.degrees_of_freedom, static_cast<int>(r.angles_deg.size()));
-        EXPECT_NEAR(c.period_um, masking.period_um(), 1e-12 * c.period_um);
-        for (std::size_t i = 0; i < r.angles_deg.size(); ++i) {
-            const std::string where = c.name + " at " + std::to_string(r.angles_deg[i]) + " deg";
-            // The analytic column is the term itself, with distal and proximal summed.
-            const auto f = masking.in_plane(r.angles_deg[i] * kDeg);
-            EXPECT_EQ(c.analytic[i][0], f.barb) << where;
-            EXPECT_EQ(c.analytic[i][1], f.barbule()) << where;
-            EXPECT_EQ(c.analytic[i][2], f.gap) << where;
-            double mc_sum = 0.0;
-            for (std::size_t k = 0; k < 3; ++k) {
-                const double difference = c.mc[i][k] - c.analytic[i][k];
-                EXPECT_GE(c.mc_standard_error[i][k], 1.0 / static_cast<double>(r.rays)) << where;
-                EXPECT_DOUBLE_EQ(c.z[i][k], difference / c.mc_standard_error[i][k]) << where;
-                EXPECT_LT(std::abs(c.z[i][k]), z_bound) << where << " component " << k;
-                // The deterministic bound of stratified sampling (plus the polygons' offset).
-                EXPECT_LE(std::abs(difference), c.stratified_bound[i]) << where;
-                max_difference = std::max(max_difference, std::abs(difference));
-                max_z = std::max(max_z, std::abs(c.z[i][k]));
-                mc_sum += c.mc[i][k];
-            }
-            EXPECT_NEAR(mc_sum, 1.0, 1e-12) << where;
-        }
-        EXPECT_EQ(c.above_stratified_bound, 0) << c.name;
-        EXPECT_LE(c.max_bound_ratio, 1.0) << c.name;
+// One configuration of the quick study: the analytic column is the term itself, every
+// Monte Carlo value within the Šidák bound and the stratified bound, fractions summing to one,
+// and the 3D extrusion check. Updates the largest |difference| and |z| seen.
+void check_configuration(const MaskingConfigurationResult& c, const MaskingStudyResult& r,
+                         double z_bound, double& max_difference, double& max_z) {
+    const analysis::PadronGriffe2024Masking masking(c.params);
+    ASSERT_EQ(c.analytic.size(), r.angles_deg.size());
+    EXPECT_EQ(c.degrees_of_freedom, static_cast<int>(r.angles_deg.size()));
+    EXPECT_NEAR(c.period_um, masking.period_um(), 1e-12 * c.period_um);
+    for (std::size_t i = 0; i < r.angles_deg.size(); ++i) {
+        const std::string where = c.name + " at " + std::to_string(r.angles_deg[i]) + " deg";
+        // The analytic column is the term itself, with distal and proximal summed.
+        const auto f = masking.in_plane(r.angles_deg[i] * kDeg);
+        EXPECT_EQ(c.analytic[i][0], f.barb) << where;
+        EXPECT_EQ(c.analytic[i][1], f.barbule()) << where;
+        EXPECT_EQ(c.analytic[i][2], f.gap) << where;
+        double mc_sum = 0.0;
         for (std::size_t k = 0; k < 3; ++k) {
-            EXPECT_GE(c.chi_square_p_value[k], r.chi_square_significance) << c.name;
+            const double difference = c.mc[i][k] - c.analytic[i][k];
+            EXPECT_GE(c.mc_standard_error[i][k], 1.0 / static_cast<double>(r.rays)) << where;
+            EXPECT_DOUBLE_EQ(c.z[i][k], difference / c.mc_standard_error[i][k]) << where;
+            EXPECT_LT(std::abs(c.z[i][k]), z_bound) << where << " component " << k;
+            // The deterministic bound of stratified sampling (plus the polygons' offset).
+            EXPECT_LE(std::abs(difference), c.stratified_bound[i]) << where;
+            max_difference = std::max(max_difference, std::abs(difference));
+            max_z = std::max(max_z, std::abs(c.z[i][k]));
+            mc_sum += c.mc[i][k];
         }
-        // The extrusion check: directions off the y–z plane, operator()(ω) equal to in_plane of
-        // the projected angle, and the Monte Carlo at that angle within the bound.
-        ASSERT_EQ(c.directions.size(), kMaskingCheckDirections.size());
-        for (const auto& d : c.directions) {
-            EXPECT_GT(std::abs(d.direction.x()), 0.1);
-            EXPECT_NEAR(d.direction.norm(), 1.0, 1e-12);
-            EXPECT_DOUBLE_EQ(d.projected_angle_deg,
-                             std::atan2(d.direction.y(), d.direction.z()) / kDeg);
-            for (std::size_t k = 0; k < 3; ++k) {
-                EXPECT_EQ(d.model_3d[k], d.in_plane[k]) << c.name;
-                EXPECT_LT(std::abs(d.mc[k] - d.in_plane[k]) / d.mc_standard_error[k], z_bound);
-            }
-        }
-        EXPECT_EQ(c.max_extrusion_mismatch, 0.0);
+        EXPECT_NEAR(mc_sum, 1.0, 1e-12) << where;
     }
-    EXPECT_DOUBLE_EQ(r.max_abs_difference, max_difference);
-    EXPECT_GE(r.max_abs_z, max_z);
-    // 20 000 stratified rays: the bound is ~(10 + 2)/N + geometry, ~1e-3 at 85°.
-    EXPECT_LT(r.max_abs_difference, 2e-3);
-    EXPECT_TRUE(r.agrees) << r.verdict;
-    // The sparse vane lets light through at normal incidence; the default one (barbule tips meet)
-    // does not: the comparison covers all three components.
-    EXPECT_GT(r.configurations[2].analytic[5][2], 0.2);
-    EXPECT_EQ(r.configurations[0].analytic[5][2], 0.0);
+    EXPECT_EQ(c.above_stratified_bound, 0) << c.name;
+    EXPECT_LE(c.max_bound_ratio, 1.0) << c.name;
+    for (std::size_t k = 0; k < 3; ++k) {
+        EXPECT_GE(c.chi_square_p_value[k], r.chi_square_significance) << c.name;
+    }
+    // The extrusion check: directions off the y–z plane, operator()(ω) equal to in_plane of
+    // the projected angle, and the Monte Carlo at that angle within the bound.
+    ASSERT_EQ(c.directions.size(), kMaskingCheckDirections.size());
+    for (const auto& d : c.directions) {
+        EXPECT_GT(std::abs(d.direction.x()), 0.1);
+        EXPECT_NEAR(d.direction.norm(), 1.0, 1e-12);
+        EXPECT_DOUBLE_EQ(d.projected_angle_deg,
+                         std::atan2(d.direction.y(), d.direction.z()) / kDeg);
+        for (std::size_t k = 0; k < 3; ++k) {
+            EXPECT_EQ(d.model_3d[k], d.in_plane[k]) << c.name;
+            EXPECT_LT(std::abs(d.mc[k] - d.in_plane[k]) / d.mc_standard_error[k], z_bound);
+        }
+    }
+    EXPECT_EQ(c.max_extrusion_mismatch, 0.0);
+}
 
-    // HDF5: the same numbers, exactly, with their layout and units.
+// The HDF5 record: the same numbers, exactly, with their layout and units.
+void check_record(const fs::path& dir, const MaskingStudyResult& r) {
     const fs::path h5 = dir / "masking.h5";
     const auto angles = record::read_dataset(h5, "angles_deg");
     EXPECT_EQ(angles.values, r.angles_deg);
@@ -169,8 +144,10 @@ TEST(MaskingStudy, QuickStudyAgreesWithMonteCarloWithinTheFamilyWiseBound) {
     const auto model_3d = record::read_dataset(h5, "extrusion/model_3d");
     EXPECT_EQ(model_3d.dims, (std::vector<std::uint64_t>{3, kMaskingCheckDirections.size(), 3}));
     EXPECT_EQ(model_3d.values[0], r.configurations[0].directions[0].model_3d[0]);
+}
 
-    // CSV: one row per configuration and angle, the same numbers to the last bit.
+// The CSV: one row per configuration and angle, the same numbers to the last bit.
+void check_csv(const fs::path& dir, const MaskingStudyResult& r) {
     std::ifstream csv(dir / "masking.csv");
     std::string line;
     ASSERT_TRUE(std::getline(csv, line));
@@ -198,6 +175,43 @@ TEST(MaskingStudy, QuickStudyAgreesWithMonteCarloWithinTheFamilyWiseBound) {
         ++rows;
     }
     EXPECT_EQ(rows, r.configurations.size() * r.angles_deg.size());
+}
+
+TEST(MaskingStudy, QuickStudyAgreesWithMonteCarloWithinTheFamilyWiseBound) {
+    const auto root = temporary_root("quick");
+    const MaskingStudyResult r = run_masking_study(read(quick_study()), quick_study(), root, false);
+    const fs::path dir = root / "masking_quick";
+    ASSERT_EQ(r.output_dir, dir);
+    ASSERT_EQ(r.configurations.size(), 3u);
+    ASSERT_EQ(r.angles_deg.size(), 11u);  // −85..85 by 17
+    EXPECT_DOUBLE_EQ(r.angles_deg.front(), -85.0);
+    EXPECT_DOUBLE_EQ(r.angles_deg.back(), 85.0);
+    EXPECT_EQ(r.rays, 20000);
+    EXPECT_EQ(r.configurations[0].name, "default");
+    EXPECT_EQ(r.configurations[1].name, "rotated_barb");  // the file's order, not alphabetical
+    EXPECT_EQ(r.configurations[2].name, "sparse");
+
+    // Every comparison (angles and 3D check directions, three components) within the Šidák bound.
+    const int m = static_cast<int>(r.configurations.size() *
+                                   (r.angles_deg.size() + kMaskingCheckDirections.size()) * 3);
+    ASSERT_EQ(r.comparisons, m);
+    const double z_bound = sidak_z_bound(m);
+    EXPECT_NEAR(r.z_bound, z_bound, 1e-9);
+    double max_difference = 0.0, max_z = 0.0;
+    for (const auto& c : r.configurations)
+        check_configuration(c, r, z_bound, max_difference, max_z);
+    EXPECT_DOUBLE_EQ(r.max_abs_difference, max_difference);
+    EXPECT_GE(r.max_abs_z, max_z);
+    // 20 000 stratified rays: the bound is ~(10 + 2)/N + geometry, ~1e-3 at 85°.
+    EXPECT_LT(r.max_abs_difference, 2e-3);
+    EXPECT_TRUE(r.agrees) << r.verdict;
+    // The sparse vane lets light through at normal incidence; the default one (barbule tips meet)
+    // does not: the comparison covers all three components.
+    EXPECT_GT(r.configurations[2].analytic[5][2], 0.2);
+    EXPECT_EQ(r.configurations[0].analytic[5][2], 0.0);
+
+    check_record(dir, r);
+    check_csv(dir, r);
 
     // The report: the verdict, the table with a row per configuration, the 3D check, the plot.
     const std::string report = read(dir / "report.md");

@@ -50,6 +50,32 @@ double z(const SpeciesOutcome& o, std::size_t a, std::size_t b) {
     return (o.albedo[a] - o.albedo[b]) / std::hypot(o.albedo_error[a], o.albedo_error[b]);
 }
 
+// What holds for every patch: passive albedo, the fitted axis a direction, a reciprocal
+// simulated BRDF, a fit no worse than Table 1's start, finite in-plane L*.
+void check_patch(const SpeciesOutcome& o) {
+    for (std::size_t k = 0; k < o.albedo.size(); ++k) {
+        EXPECT_GE(o.albedo[k], 0.0);
+        EXPECT_LE(o.albedo[k], 1.0 + 4.0 * o.albedo_error[k]);  // a passive scene
+    }
+    // The fitted axis is reported against both fibre families; it must be a direction.
+    EXPECT_GE(o.fit_axis_from_barbs_deg, 0.0);
+    EXPECT_LE(o.fit_axis_from_barbs_deg, 90.0 + 1e-9);
+    EXPECT_NEAR(o.fit_axis_from_barbs_deg + o.fit_axis_from_barbules_deg, 90.0, 1e-9);
+    // Reciprocity of the simulated BRDF (the tracer's physics is reciprocal; the patch
+    // average over a beam covering a barb period is then too): the largest |z| over the
+    // cells held both ways stays below the Šidák bound for a 1 % family-wise error.
+    ASSERT_GT(o.reciprocity_dof, 1000);
+    const double bound =
+        analysis::two_sided_normal_quantile(analysis::sidak_significance(0.01, o.reciprocity_dof));
+    EXPECT_LT(o.reciprocity_max_z, bound) << "over " << o.reciprocity_dof << " cells";
+    // Least squares from Table 1's start cannot end worse than its start by much: the
+    // final (variance-weighted) fit is compared by the unweighted RMS, hence the 5 % slack.
+    EXPECT_LT(o.fit_relative_rms, 1.05 * o.table1_relative_rms);
+    EXPECT_TRUE(std::isfinite(o.reduced_chi_square));
+    EXPECT_EQ(o.in_plane_lstar.size(), 55u);
+    for (double l : o.in_plane_lstar) EXPECT_TRUE(std::isfinite(l) && l >= 0.0);
+}
+
 TEST(SpeciesStudy, QuickVariantReproducesEachPatchsColourAndOrientation) {
     const auto root =
         std::filesystem::temp_directory_path() / ("plumage_species_" + std::to_string(::getpid()));
@@ -92,27 +118,7 @@ TEST(SpeciesStudy, QuickVariantReproducesEachPatchsColourAndOrientation) {
 
     for (const auto& o : r.species) {
         SCOPED_TRACE(o.species);
-        for (std::size_t k = 0; k < o.albedo.size(); ++k) {
-            EXPECT_GE(o.albedo[k], 0.0);
-            EXPECT_LE(o.albedo[k], 1.0 + 4.0 * o.albedo_error[k]);  // a passive scene
-        }
-        // The fitted axis is reported against both fibre families; it must be a direction.
-        EXPECT_GE(o.fit_axis_from_barbs_deg, 0.0);
-        EXPECT_LE(o.fit_axis_from_barbs_deg, 90.0 + 1e-9);
-        EXPECT_NEAR(o.fit_axis_from_barbs_deg + o.fit_axis_from_barbules_deg, 90.0, 1e-9);
-        // Reciprocity of the simulated BRDF (the tracer's physics is reciprocal; the patch
-        // average over a beam covering a barb period is then too): the largest |z| over the
-        // cells held both ways stays below the Šidák bound for a 1 % family-wise error.
-        ASSERT_GT(o.reciprocity_dof, 1000);
-        const double bound = analysis::two_sided_normal_quantile(
-            analysis::sidak_significance(0.01, o.reciprocity_dof));
-        EXPECT_LT(o.reciprocity_max_z, bound) << "over " << o.reciprocity_dof << " cells";
-        // Least squares from Table 1's start cannot end worse than its start by much: the
-        // final (variance-weighted) fit is compared by the unweighted RMS, hence the 5 % slack.
-        EXPECT_LT(o.fit_relative_rms, 1.05 * o.table1_relative_rms);
-        EXPECT_TRUE(std::isfinite(o.reduced_chi_square));
-        EXPECT_EQ(o.in_plane_lstar.size(), 55u);
-        for (double l : o.in_plane_lstar) EXPECT_TRUE(std::isfinite(l) && l >= 0.0);
+        check_patch(o);
     }
 
     // Records: what the run returned, read back.

@@ -9,6 +9,8 @@
 
 #include <gtest/gtest.h>
 
+#include "tests/sim/wave/random_field.h"
+
 #include "common/constants.h"
 #include "common/error.h"
 #include "sim/optics/material.h"
@@ -18,21 +20,8 @@
 namespace plumage::sim::wave {
 namespace {
 
-std::vector<double> random_field(std::size_t size, double f, unsigned seed) {
-    std::mt19937_64 rng(seed);
-    std::vector<double> v(size);
-    for (double& x : v) x = static_cast<double>(rng() >> 11) * 0x1.0p-53 < f ? 1.0 : 0.0;
-    return v;
-}
-
-double real_space_variance(const std::vector<double>& v) {
-    double mean = 0.0;
-    for (double x : v) mean += x;
-    mean /= static_cast<double>(v.size());
-    double var = 0.0;
-    for (double x : v) var += (x - mean) * (x - mean);
-    return var / static_cast<double>(v.size());
-}
+using fields::random_indicator;
+using fields::real_space_variance;
 
 // One disc of radius a (pixel centres within a), centred in an nx × ny field of pixel h.
 std::vector<double> disc_field(int nx, int ny, double h, double a, std::size_t* pixels) {
@@ -59,7 +48,7 @@ double disc_form_factor(double x) {
 
 TEST(WaveBorn2d, RectangularSpectrumKeepsParseval) {
     for (auto [nx, ny] : {std::pair{40, 30}, std::pair{33, 20}, std::pair{16, 47}}) {
-        const auto v = random_field(static_cast<std::size_t>(nx) * ny, 0.45, 7);
+        const auto v = random_indicator(static_cast<std::size_t>(nx) * ny, 0.45, 7);
         const PowerSpectrum s = PowerSpectrum::measure_2d(v, nx, ny, 0.01);
         EXPECT_EQ(s.voxels_x(), nx);
         EXPECT_EQ(s.voxels_y(), ny);
@@ -75,7 +64,7 @@ TEST(WaveBorn2d, RectangularSpectrumKeepsParseval) {
 }
 
 TEST(WaveBorn2d, SquareFieldGivesTheSameSpectrumThroughBothOverloads) {
-    const auto v = random_field(32 * 32, 0.5, 8);
+    const auto v = random_indicator(32 * 32, 0.5, 8);
     const PowerSpectrum a = PowerSpectrum::measure_2d(v, 32, 0.02);
     const PowerSpectrum b = PowerSpectrum::measure_2d(v, 32, 32, 0.02);
     EXPECT_EQ(a.half_complex(), b.half_complex());
@@ -210,14 +199,14 @@ TEST(WaveBorn2d, RefusesBadInput) {
               }).find("table_points = 1"),
               std::string::npos);
     const optics::ConstantMaterial keratin("keratin", 1.55), air("air", 1.0);
-    const auto v3 = random_field(8 * 8 * 8, 0.5, 3);
+    const auto v3 = random_indicator(8 * 8 * 8, 0.5, 3);
     const PowerSpectrum s3 = PowerSpectrum::measure_3d(v3, 8, 0.01);
     EXPECT_NE(input_error_message([&] {
                   born_flatland(s3, keratin, air, 500.0, Polarisation2d::te);
               }).find("3D power spectrum"),
               std::string::npos);
     const PowerSpectrum coarse =
-        PowerSpectrum::measure_2d(random_field(16 * 12, 0.5, 4), 16, 12, 0.2);
+        PowerSpectrum::measure_2d(random_indicator(16 * 12, 0.5, 4), 16, 12, 0.2);
     EXPECT_NE(input_error_message(
                   [&] { born_flatland(coarse, keratin, air, 500.0, Polarisation2d::te); }),
               "no InputError");

@@ -12,6 +12,8 @@
 
 #include <gtest/gtest.h>
 
+#include "tests/sim/wave/random_field.h"
+
 #include "common/error.h"
 #include "geometry/spongy_volume.h"
 #include "sim/wave/index_field.h"
@@ -19,21 +21,8 @@
 namespace plumage::sim::wave {
 namespace {
 
-std::vector<double> random_indicator(std::size_t size, double f, unsigned seed) {
-    std::mt19937_64 rng(seed);
-    std::vector<double> v(size);
-    for (double& x : v) x = static_cast<double>(rng() >> 11) * 0x1.0p-53 < f ? 1.0 : 0.0;
-    return v;
-}
-
-double real_space_variance(const std::vector<double>& v) {
-    double mean = 0.0;
-    for (double x : v) mean += x;
-    mean /= static_cast<double>(v.size());
-    double var = 0.0;
-    for (double x : v) var += (x - mean) * (x - mean);
-    return var / static_cast<double>(v.size());
-}
+using fields::random_indicator;
+using fields::real_space_variance;
 
 TEST(WavePowerSpectrum, ParsevalIn3DAnd2D) {
     for (int n : {32, 33}) {  // even and odd N (the r2c mirror rule differs)
