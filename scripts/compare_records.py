@@ -6,15 +6,20 @@ aside. Exit 0 when identical, 1 with one line per difference.
     scripts/compare_records.py RESULTS_A RESULTS_B
 
 What is set aside, and why: values that measure the run rather than the scene (wall time,
-thread count, the version string), and the wall-time column of convergence tables.
+CPU time and CPU/wall, thread count, the version string), the wall-time column of convergence
+tables, and CSV columns whose header names a time (a study's stages.csv: its wall, CPU and
+CPU/wall columns; the stage names are compared).
 """
+import csv
+import io
 import pathlib
 import sys
 
 import h5py
 import numpy as np
 
-RUN_ATTRIBUTES = {"wall_time_s", "wall_seconds", "compute_wall_time_s", "threads", "plumage_version"}
+RUN_ATTRIBUTES = {"wall_time_s", "wall_seconds", "compute_wall_time_s", "cpu_time_s", "cpu_per_wall",
+                  "threads", "plumage_version"}
 # Convergence tables: [pass, wall time (s), quanta, estimated error]; column 1 is the clock.
 CONVERGENCE_TIME_COLUMN = 1
 
@@ -63,22 +68,26 @@ def compare_h5(path_a, path_b, label, problems):
                     problems.append(f"{label}:/{name}: values differ{diff}")
 
 
+def timed_columns(header):
+    """Columns that measure the run: "wall time (s)", "cpu time (s)", "cpu/wall", "seconds"..."""
+    return {i for i, h in enumerate(header) if "wall" in h or "time (s)" in h or h.strip() == "seconds"}
+
+
 def compare_csv(path_a, path_b, label, problems):
-    lines_a = path_a.read_text().splitlines()
-    lines_b = path_b.read_text().splitlines()
-    if not lines_a or not lines_b:
-        if lines_a != lines_b:
+    # csv.reader, not split(","): a quoted field (a stage name) may hold commas.
+    rows_a = list(csv.reader(io.StringIO(path_a.read_text())))
+    rows_b = list(csv.reader(io.StringIO(path_b.read_text())))
+    if not rows_a or not rows_b:
+        if rows_a != rows_b:
             problems.append(f"{label}: one is empty")
         return
-    header = lines_a[0].split(",")
-    timed = {i for i, h in enumerate(header) if "wall" in h or "time (s)" in h or h.strip() == "seconds"}
-    if len(lines_a) != len(lines_b):
-        problems.append(f"{label}: {len(lines_a)} != {len(lines_b)} lines")
+    timed = timed_columns(rows_a[0])
+    if len(rows_a) != len(rows_b):
+        problems.append(f"{label}: {len(rows_a)} != {len(rows_b)} rows")
         return
-    for n, (x, y) in enumerate(zip(lines_a, lines_b), start=1):
-        u, v = x.split(","), y.split(",")
+    for n, (u, v) in enumerate(zip(rows_a, rows_b), start=1):
         if [c for i, c in enumerate(u) if i not in timed] != [c for i, c in enumerate(v) if i not in timed]:
-            problems.append(f"{label}:{n}: {x!r} != {y!r}")
+            problems.append(f"{label}:{n}: {u!r} != {v!r}")
             return
 
 

@@ -551,7 +551,8 @@ std::string report_introduction(const Settings& s, const AblationPoint& base_poi
 }
 
 void write_report(const fs::path& path, const Settings& s, const AblationPoint& base_point,
-                  ReportParts& parts, double wall_seconds, double base_seconds) {
+                  ReportParts& parts, double wall_seconds, double base_seconds,
+                  const std::string& run_time) {
     std::ofstream report(path);
     report << report_introduction(s, base_point) << "## Summary\n\n" << parts.summary << "\n";
     std::sort(parts.findings.begin(), parts.findings.end(),
@@ -575,7 +576,7 @@ void write_report(const fs::path& path, const Settings& s, const AblationPoint& 
     } else {
         report << "No value was skipped.\n\n";
     }
-    report << parts.sections
+    report << parts.sections << run_time
            << fmt::format(
                   "---\nRun time {:.0f} s (base values {:.1f} s; plumage {}). Every number is in "
                   "errors.csv "
@@ -630,8 +631,8 @@ AblationResult run_ablation_study(const std::string& study_text, const fs::path&
     run_plots(plots, run.dir / "plots.csv");
     fs::remove(run.dir / "plots.csv");
     result.wall_seconds = clock.elapsed_s();
-    write_report(run.dir / "report.md", s, run.base_point, parts, result.wall_seconds,
-                 base_seconds);
+    write_report(run.dir / "report.md", s, run.base_point, parts, result.wall_seconds, base_seconds,
+                 run_time_by_stage(clock, run.dir));
     out.commit();
     result.output_dir = out.final_path();
     clock.done("done: " + (result.output_dir / "report.md").string());

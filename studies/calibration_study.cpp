@@ -125,7 +125,7 @@ void write_records(const fs::path& dir, const gonio::BrdfRecord& measured, const
 }
 
 void write_report(const fs::path& path, const gonio::BrdfRecord& measured, const Comparison& c,
-                  const Settings& s, const std::string& text) {
+                  const Settings& s, const std::string& text, const std::string& run_time) {
     std::ofstream md(path);
     md << fmt::format(
         "# Calibration: the goniometer on a white standard\n\n"
@@ -138,12 +138,12 @@ void write_report(const fs::path& path, const gonio::BrdfRecord& measured, const
         "|---|---|---|---|---|---|\n"
         "| {9:.1f} | {10} | {11:.3f} | {12:.3g} | {13:.2f} | {14} |\n\n"
         "Records: `brdf.h5` (virtual_gonio/RECORD.md), `calibration.h5` (z per cell).\n\n"
-        "## Study file\n\n```toml\n{15}\n```\n",
+        "{15}## Study file\n\n```toml\n{16}\n```\n",
         s.albedo, s.albedo / std::numbers::pi, measured.config.direction_set,
         measured.config.pairs.size(), measured.config.wavelengths_nm.size(), measured.quanta,
         measured.config.detector_half_angle_rad * 180.0 / std::numbers::pi, measured.wall_time_s,
         s.significance, c.chi_square, c.dof, c.dof > 0 ? c.chi_square / c.dof : 0.0, c.p_value,
-        c.max_abs_z, c.agrees ? "agrees" : "DISAGREES", text);
+        c.max_abs_z, c.agrees ? "agrees" : "DISAGREES", run_time, text);
     if (!md) throw IoError(fmt::format("cannot write {}", path.string()));
 }
 
@@ -162,7 +162,8 @@ std::string run(const std::string& text, const fs::path& source, const fs::path&
     const Comparison c = compare(measured, s.albedo, s.significance);                // compare
     StagedDirectory out(results_root / s.name);                                      // report
     write_records(out.path(), measured, c, s);
-    write_report(out.path() / "report.md", measured, c, s, text);
+    write_report(out.path() / "report.md", measured, c, s, text,
+                 run_time_by_stage(clock, out.path()));
     out.commit();
     clock.done(fmt::format("done: {}", (out.final_path() / "report.md").string()));
     return fmt::format("plumage: wrote {}: chi2/dof {:.3f} over {} cells, p = {:.3g}: {}\n",

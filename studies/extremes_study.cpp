@@ -780,7 +780,7 @@ std::string summary_section(const ExtremesResult& result) {
 }
 
 void write_report(const fs::path& path, const Settings& s, const std::vector<Case>& cases,
-                  const ExtremesResult& result) {
+                  const ExtremesResult& result, const std::string& run_time) {
     std::string case_list, table =
                                "| case | scatterer | status | quanta | values checked | NaN | Inf "
                                "| negative | malformed | energy, sampled ± σ "
@@ -809,6 +809,7 @@ void write_report(const fs::path& path, const Settings& s, const std::vector<Cas
               "are geometrically "
               "approximate but stay finite and energy-bounded (sim/scene.h); they are reported, "
               "not failures.\n\n"
+           << run_time
            << fmt::format(
                   "---\nRun time {:.0f} s (plumage {}). Every number: extremes.csv, extremes.h5.\n",
                   result.wall_seconds, kVersion);
@@ -840,7 +841,7 @@ ExtremesResult run_extremes_study(const std::string& study_text, const fs::path&
     write_records(out.path(), result);
     run_plot("energy_bars", out.path() / "energy.csv", out.path() / "energy.png");
     result.wall_seconds = clock.elapsed_s();
-    write_report(out.path() / "report.md", s, cases, result);
+    write_report(out.path() / "report.md", s, cases, result, run_time_by_stage(clock, out.path()));
     out.commit();
     result.output_dir = out.final_path();
     clock.done("done: " + (result.output_dir / "report.md").string());

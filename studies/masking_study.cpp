@@ -525,7 +525,7 @@ void write_extrusion_section(std::ofstream& md, const MaskingStudyResult& result
 }
 
 void write_report(const fs::path& path, const MaskingStudyResult& result, const Settings& s,
-                  const std::string& text) {
+                  const std::string& text, const std::string& run_time) {
     std::ofstream md(path);
     md << "# Masking: Padrón-Griffe et al. 2024's barb/barbule masking term against Monte Carlo "
           "on the explicit cross-section\n\n"
@@ -593,6 +593,7 @@ void write_report(const fs::path& path, const MaskingStudyResult& result, const 
           "(dashed): the differences sit at the bound's scale, orders of magnitude below σ.*\n\n";
 
     write_extrusion_section(md, result);
+    md << run_time;
     md << fmt::format("---\nplumage {}\n\n## Study file\n\n```toml\n{}\n```\n", kVersion, text);
     if (!md) throw IoError(fmt::format("cannot write {}", path.string()));
 }
@@ -651,7 +652,7 @@ MaskingStudyResult run_masking_study(const std::string& study_text, const fs::pa
     write_hdf5(dir / "masking.h5", result, study_text);
     clock.say("plot");
     run_plot("masking", dir / "masking.h5", dir / "masking.png");
-    write_report(dir / "report.md", result, s, study_text);
+    write_report(dir / "report.md", result, s, study_text, run_time_by_stage(clock, dir));
     out.commit();
     result.output_dir = out.final_path();
     clock.done("done: " + (result.output_dir / "report.md").string());

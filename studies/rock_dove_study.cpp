@@ -601,6 +601,7 @@ RockDoveResult run_rock_dove_study(const std::string& study_text, const fs::path
     md += convergence(run, built, brdfs.simulation.convergence);
     md += departures(s, result);  // report
     result.wall_seconds = clock.elapsed_s();
+    md += run_time_by_stage(clock, out.path());
     write_report(out.path() / "report.md", s, md, result);
     out.commit();
     remove_checkpoints(results_root, name);  // the finished records supersede them

@@ -1267,6 +1267,7 @@ void finish(const Run& run, SpeciesResult& result, record::Hdf5Writer& h5, std::
         "`fits.csv`, `in_plane_luminance.csv`, per species `brdf.h5` (simulation), `fit.h5` "
         "(fitted model), `in_plane.h5`, `btf.h5` (virtual_gonio/RECORD.md).\n",
         result.wall_seconds, omp_get_max_threads());
+    md += "\n" + run_time_by_stage(run.clock, dir);
     {
         std::ofstream report(dir / "report.md");
         report << md;

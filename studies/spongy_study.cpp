@@ -822,7 +822,7 @@ std::string baseline_text(const Baseline& b, const Case& base, const CaseResult&
 void write_report(const fs::path& path, const std::vector<Case>& cases,
                   const std::vector<CaseResult>& res, const std::vector<AngleRun>& runs,
                   const std::vector<Peak>& angle_peaks, const Baseline& baseline, const Settings& s,
-                  double wall_s) {
+                  double wall_s, const std::string& run_time) {
     std::ofstream md(path);
     md << "# Spongy keratin: structural colour computed from the volume\n\n"
        << method_text(s, cases.front()) << results_table(cases, res)
@@ -838,7 +838,7 @@ void write_report(const fs::path& path, const std::vector<Case>& cases,
           "`spongy_map` and `spongy_angles`).\n\n"
        << fmt::format("Wall time {:.1f} s on {} threads; plumage {}.\n\n", wall_s,
                       omp_get_max_threads(), kVersion)
-       << "## Study file\n\n```toml\n"
+       << run_time << "## Study file\n\n```toml\n"
        << s.text << "\n```\n";
     if (!md) throw IoError(fmt::format("cannot write {}", path.string()));
 }
@@ -917,7 +917,7 @@ std::string run(const std::string& text, const fs::path& source, const fs::path&
     clock.say("figures");
     draw_figures(out.path());
     write_report(out.path() / "report.md", cases, results, runs, angle_peaks, baseline, s,
-                 clock.elapsed_s());
+                 clock.elapsed_s(), run_time_by_stage(clock, out.path()));
     out.commit();
     clock.done(fmt::format("done: {}", (out.final_path() / "report.md").string()));
     std::string summary = fmt::format("plumage: wrote {}:", out.final_path().string());

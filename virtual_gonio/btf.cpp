@@ -12,6 +12,7 @@
 #include <fmt/format.h>
 
 #include "common/constants.h"
+#include "common/cpu_time.h"
 #include "common/error.h"
 #include "common/interrupt.h"
 #include "common/require.h"
@@ -48,6 +49,7 @@ void BtfConfig::validate() const {
 BtfRecord measure_btf(const Scatterer& scatterer, const BtfConfig& config) {
     config.validate();
     const auto start = std::chrono::steady_clock::now();
+    const double cpu_start = process_cpu_seconds();
     BtfRecord r;
     r.config = config;
     r.scatterer = scatterer.name();
@@ -131,6 +133,7 @@ BtfRecord measure_btf(const Scatterer& scatterer, const BtfConfig& config) {
         r.standard_error[i] = std::sqrt(sum_sq[i]) / per_pixel;
     }
     r.wall_time_s = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+    r.cpu_time_s = process_cpu_seconds() - cpu_start;
     return r;
 }
 
@@ -191,6 +194,7 @@ void write_btf_record(const BtfRecord& r, const std::filesystem::path& path) {
                           .seed = c.seed,
                           .threads = omp_get_max_threads(),
                           .wall_time_s = r.wall_time_s,
+                          .cpu_time_s = r.cpu_time_s,
                           .config = c.config_text});
     h5.commit();
 }

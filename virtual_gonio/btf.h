@@ -45,6 +45,7 @@ struct BtfRecord {
     // [pair][row][column][wavelength], row 0 at the top (largest y).
     std::vector<double> value, standard_error;
     double wall_time_s = 0.0;
+    double cpu_time_s = 0.0;  // process CPU time (all threads) over the same span
     std::size_t index(std::size_t pair, int row, int column, std::size_t wavelength) const {
         const std::size_t n = static_cast<std::size_t>(config.pixels);
         return ((pair * n + static_cast<std::size_t>(row)) * n + static_cast<std::size_t>(column)) *

@@ -11,6 +11,7 @@
 #include <fmt/format.h>
 
 #include "common/constants.h"
+#include "common/cpu_time.h"
 #include "common/error.h"
 #include "common/require.h"
 #include "virtual_gonio/display_colour.h"
@@ -96,6 +97,7 @@ void write_checkpoint(const std::filesystem::path& path, const Sums& sums, const
     h5.set_attribute("/", "config_hash", fmt::format("{}", hash));
     h5.set_attribute("/", "passes", static_cast<double>(r.passes));
     h5.set_attribute("/", "wall_time_s", r.wall_time_s);
+    h5.set_attribute("/", "cpu_time_s", r.cpu_time_s);
     h5.commit();
 }
 
@@ -115,6 +117,10 @@ bool read_checkpoint(const std::filesystem::path& path, Sums& sums, BrdfRecord& 
     for (const ConvergenceRow& row : read_convergence(path)) r.convergence.push_back(row);
     r.passes = static_cast<int>(record::read_number_attribute(path, "/", "passes"));
     r.wall_time_s = record::read_number_attribute(path, "/", "wall_time_s");
+    // Checkpoints written before CPU time was recorded lack it: their passes count as none.
+    r.cpu_time_s = record::has_attribute(path, "/", "cpu_time_s")
+                       ? record::read_number_attribute(path, "/", "cpu_time_s")
+                       : 0.0;
     return true;
 }
 
@@ -193,6 +199,11 @@ BrdfRecord measure_by_eval(const Scatterer& scatterer, const GoniometerConfig& c
     };
     const std::vector<Node> fine = product_rule(std::max(1, c.eval_rings));
     const std::vector<Node> coarse = product_rule(std::max(1, c.eval_rings / 2));
+    // Per-thread scratch: no allocation per pair or cubature in the loop (the model tables must
+    // scale with threads, and the allocator is shared).
+    struct Scratch {
+        std::vector<double> per_lobe, acc, lobes;
+    };
     auto cone_average = [&](const DirectionPair& p, double lambda, const std::vector<Node>& rule,
                             std::vector<double>* lobes) {
         Vec3d e1, e2;
@@ -252,6 +263,7 @@ BrdfRecord measure_brdf(const Scatterer& scatterer, const GoniometerConfig& conf
                         const RunControl& control) {
     config.validate();
     const auto start = std::chrono::steady_clock::now();
+    const double cpu_start = process_cpu_seconds();
     BrdfRecord r;
     r.config = config;
     r.scatterer = scatterer.name();
@@ -268,7 +280,9 @@ BrdfRecord measure_brdf(const Scatterer& scatterer, const GoniometerConfig& conf
                 "not (use 'photon')",
                 scatterer.name()));
         }
-        return measure_by_eval(scatterer, config, std::move(r), start);
+        BrdfRecord evaluated = measure_by_eval(scatterer, config, std::move(r), start);
+        evaluated.cpu_time_s = process_cpu_seconds() - cpu_start;
+        return evaluated;
     }
 
     const std::size_t nl = config.wavelengths_nm.size(), np = config.pairs.size(),
@@ -287,6 +301,7 @@ BrdfRecord measure_brdf(const Scatterer& scatterer, const GoniometerConfig& conf
                                  r.passes, control.checkpoint.string());
     }
     const double previous_wall = resumed ? r.wall_time_s : 0.0;
+    const double previous_cpu = resumed ? r.cpu_time_s : 0.0;
 
     // Work items: (group, wavelength, chunk) — reduced in this order.
     struct Item {
@@ -317,6 +332,7 @@ BrdfRecord measure_brdf(const Scatterer& scatterer, const GoniometerConfig& conf
         r.wall_time_s =
             previous_wall +
             std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+        r.cpu_time_s = previous_cpu + (process_cpu_seconds() - cpu_start);
         return ConvergenceRow{pass, r.wall_time_s, n, relative_rms(r.value, r.standard_error)};
     };
     if (resumed && r.passes > 0) finish_row(r.passes);
@@ -510,6 +526,7 @@ void write_brdf_record(const BrdfRecord& r, const std::filesystem::path& path) {
                           .seed = c.seed,
                           .threads = r.threads,
                           .wall_time_s = r.wall_time_s,
+                          .cpu_time_s = r.cpu_time_s,
                           .config = c.config_text});
     h5.commit();
 }

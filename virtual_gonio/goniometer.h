@@ -76,6 +76,7 @@ struct BrdfRecord {
     int passes = 0;
     std::uint64_t quanta = 0;
     double wall_time_s = 0.0;
+    double cpu_time_s = 0.0;  // process CPU time (all threads), summed over resumed runs as wall
     int threads = 1;
     // Stopped by an interrupt with a checkpoint: the completed passes (the checkpoint holds
     // them). Without a checkpoint an interrupt throws Interrupted (common/interrupt.h) instead.

@@ -255,4 +255,14 @@ double read_number_attribute(const std::filesystem::path& file, const std::strin
     return value;
 }
 
+bool has_attribute(const std::filesystem::path& file, const std::string& object_path,
+                   const std::string& name) {
+    Handle f(H5Fopen(file.c_str(), H5F_ACC_RDONLY, H5P_DEFAULT), H5Fclose);
+    if (!f.valid()) fail(file, "cannot open for reading");
+    const htri_t exists =
+        H5Aexists_by_name(f.get(), object_path.c_str(), name.c_str(), H5P_DEFAULT);
+    if (exists < 0) fail(file, "cannot open " + object_path);
+    return exists > 0;
+}
+
 }  // namespace plumage::record

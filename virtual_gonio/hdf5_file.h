@@ -71,5 +71,8 @@ std::string read_string_attribute(const std::filesystem::path& file, const std::
                                   const std::string& name);
 double read_number_attribute(const std::filesystem::path& file, const std::string& object_path,
                              const std::string& name);
+// Whether the object has the attribute (IoError if the file or the object cannot be opened).
+bool has_attribute(const std::filesystem::path& file, const std::string& object_path,
+                   const std::string& name);
 
 }  // namespace plumage::record

@@ -13,6 +13,9 @@ void write_provenance(record::Hdf5Writer& h5, const Provenance& p) {
     h5.set_attribute("/provenance", "seed", fmt::format("{}", p.seed));
     h5.set_attribute("/provenance", "threads", static_cast<double>(p.threads));
     h5.set_attribute("/provenance", "wall_time_s", p.wall_time_s);
+    h5.set_attribute("/provenance", "cpu_time_s", p.cpu_time_s);
+    h5.set_attribute("/provenance", "cpu_per_wall",
+                     p.wall_time_s > 0.0 ? p.cpu_time_s / p.wall_time_s : 0.0);
     h5.set_attribute("/provenance", "config", p.config);
 }
 

@@ -20,11 +20,12 @@ struct Provenance {
     std::uint64_t seed = 0;    // the instrument's seed; written as a decimal string (exact)
     int threads = 1;           // OpenMP threads of the run (written as a number)
     double wall_time_s = 0.0;  // wall time of the measurement (s)
+    double cpu_time_s = 0.0;   // process CPU time over the same span, all threads (s)
     std::string config;        // the study text that configured the run ("" when none)
 };
 
-// Group /provenance with @scatterer, @plumage_version, @seed, @threads, @wall_time_s and
-// @config.
+// Group /provenance with @scatterer, @plumage_version, @seed, @threads, @wall_time_s,
+// @cpu_time_s, @cpu_per_wall (cpu_time_s / wall_time_s; 0 when the wall time is 0) and @config.
 void write_provenance(record::Hdf5Writer& h5, const Provenance& provenance);
 
 // Dataset /convergence, [passes, 4]: pass, wall time (s), quanta, estimated relative error;

@@ -10,6 +10,7 @@
 #include <fmt/format.h>
 
 #include "common/constants.h"
+#include "common/cpu_time.h"
 #include "common/error.h"
 #include "common/interrupt.h"
 #include "common/require.h"
@@ -71,6 +72,7 @@ Scatterogram measure_scatterogram(const Scatterer& scatterer, const Scatteromete
                                   const RunControl& control) {
     config.validate();
     const auto start = std::chrono::steady_clock::now();
+    const double cpu_start = process_cpu_seconds();
     Scatterogram s;
     s.config = config;
     s.scatterer = scatterer.name();
@@ -237,6 +239,7 @@ Scatterogram measure_scatterogram(const Scatterer& scatterer, const Scatteromete
         s.quanta = static_cast<std::uint64_t>(quanta);
         s.wall_time_s =
             std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+        s.cpu_time_s = process_cpu_seconds() - cpu_start;
         s.convergence.push_back(
             {s.passes, s.wall_time_s, s.quanta, power > 0.0 ? variance / power : 1.0});
         if (control.progress) {
@@ -373,6 +376,7 @@ void write_scatterogram_record(const Scatterogram& s, const std::filesystem::pat
                           .seed = c.seed,
                           .threads = omp_get_max_threads(),
                           .wall_time_s = s.wall_time_s,
+                          .cpu_time_s = s.cpu_time_s,
                           .config = c.config_text});
     h5.commit();
 }

@@ -77,6 +77,7 @@ struct Scatterogram {
     int passes = 0;
     std::uint64_t quanta = 0;
     double wall_time_s = 0.0;
+    double cpu_time_s = 0.0;  // process CPU time (all threads) over the same span
 
     std::size_t pixels() const {
         return static_cast<std::size_t>(config.image_size) * config.image_size;

@@ -39,6 +39,24 @@ TEST(CalibrationStudy, RegisteredByItsOneLineAndAgreesWithTheClosedForm) {
                                                      "chi_square_dof");
     EXPECT_EQ(dof, 165.0);
     EXPECT_LT(std::abs(chi2 / dof - 1.0), 4.0 * std::sqrt(2.0 / dof));
+    // The run time by stage, in the report and beside it; the record's CPU time.
+    const fs::path dir = root / "calibration";
+    const std::string report = read(dir / "report.md");
+    EXPECT_NE(report.find("## Run time by stage"), std::string::npos);
+    EXPECT_NE(report.find("| measuring the standard on 55 pairs | "), std::string::npos) << report;
+    EXPECT_NE(report.find("| **total** |"), std::string::npos);
+    const std::string csv = read(dir / "stages.csv");
+    EXPECT_EQ(csv.rfind("stage,wall time (s),cpu time (s),cpu/wall\n"
+                        "reading the study file,",
+                        0),
+              0u)
+        << csv;
+    const double cpu = record::read_number_attribute(dir / "brdf.h5", "/provenance", "cpu_time_s");
+    const double wall =
+        record::read_number_attribute(dir / "brdf.h5", "/provenance", "wall_time_s");
+    EXPECT_GT(cpu, 0.0);
+    EXPECT_NEAR(record::read_number_attribute(dir / "brdf.h5", "/provenance", "cpu_per_wall"),
+                cpu / wall, 1e-12);
     fs::remove_all(root);
 }
 

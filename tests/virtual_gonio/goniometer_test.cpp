@@ -148,7 +148,13 @@ TEST(Goniometer, InterruptedRunLeavesNoRecordAndResumesToTheSameResult) {
     for (const auto& entry : std::filesystem::directory_iterator(dir)) {
         EXPECT_EQ(entry.path().string().find(".partial-"), std::string::npos) << entry.path();
     }
+    // CPU time, like wall time, is kept in the checkpoint and added to the resuming run's.
+    const double checkpointed_cpu = record::read_number_attribute(checkpoint, "/", "cpu_time_s");
+    EXPECT_GT(checkpointed_cpu, 0.0);
     const BrdfRecord resumed = run(false);
+    EXPECT_GE(resumed.cpu_time_s, checkpointed_cpu);
+    EXPECT_EQ(record::read_number_attribute(record_path, "/provenance", "cpu_time_s"),
+              resumed.cpu_time_s);
     EXPECT_FALSE(resumed.interrupted);
     EXPECT_EQ(resumed.passes, 5);
     EXPECT_EQ(resumed.convergence.size(), 5u);
