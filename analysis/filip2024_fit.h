@@ -1,6 +1,9 @@
 // Fitting the Filip 2024 feather BRDF (analysis/filip2024.h) to BRDF data by nonlinear least
-// squares: Levenberg–Marquardt (MINPACK's lmder, Eigen's unsupported NonLinearOptimization
-// module) with the analytic Jacobian.
+// squares: Levenberg–Marquardt (analysis/least_squares.h) with the analytic Jacobian, the
+// residuals and normal equations evaluated on every OpenMP thread and summed in a fixed order,
+// so that a fit has the same bits for any thread count. Observations of the same direction pair
+// (consecutive in `data`, as a spectral record lists them) share the channel-independent part of
+// f and of its gradient.
 //
 // The problem: minimise Σ_k r_k², r_k = (f(ωi_k, ωo_k, channel_k; p) − value_k) / σ_k, with σ_k the
 // observation's standard error when the data give them (all observations or none), else 1.

@@ -1,6 +1,6 @@
 // Fitting the parameters of Huang et al. 2022's barbule BSDF (analysis/huang2022.h) to a
 // scatterogram (virtual_gonio/scatterometer.h) by nonlinear least squares: Levenberg–Marquardt
-// (MINPACK's lmder, Eigen's unsupported NonLinearOptimization module, as analysis/filip2024_fit)
+// (MINPACK's lmder, Eigen's unsupported NonLinearOptimization module)
 // with a central finite-difference Jacobian.
 //
 // The prediction of a pixel is the quantity the scatterometer measures, the pixel's radiant

@@ -1,0 +1,240 @@
+#include "analysis/least_squares.h"
+
+#include <algorithm>
+#include <cmath>
+#include <limits>
+#include <vector>
+
+#include <fmt/format.h>
+#include <omp.h>
+#include <Eigen/Cholesky>
+
+#include "common/error.h"
+#include "common/interrupt.h"
+
+namespace plumage::analysis {
+namespace {
+
+// A step is taken when it achieves this fraction of the reduction the linear model predicts.
+constexpr double kAcceptRatio = 1e-4;
+// The first trust radius, in units of ‖D u‖ (MINPACK's `factor`).
+constexpr double kInitialRadiusFactor = 100.0;
+
+void check_interrupt() {
+    if (interrupt_requested()) throw Interrupted("interrupted while fitting");
+}
+
+}  // namespace
+
+NormalEquations& NormalEquations::operator+=(const NormalEquations& other) {
+    jtj += other.jtj;
+    jtr += other.jtr;
+    sum_of_squares += other.sum_of_squares;
+    return *this;
+}
+
+double total_sum_of_squares(const ChunkedLeastSquares& problem) {
+    return sum_in_chunk_order(problem.chunks(), 0.0, [&](std::size_t c, double& slot) {
+        slot = problem.chunk_sum_of_squares(c);
+    });
+}
+
+NormalEquations total_normal_equations(const ChunkedLeastSquares& problem) {
+    const int n = problem.variables();
+    NormalEquations total = sum_in_chunk_order(
+        problem.chunks(), NormalEquations(n),
+        [&](std::size_t c, NormalEquations& slot) { problem.add_chunk_normal_equations(c, slot); });
+    for (int i = 0; i < n; ++i) {
+        for (int j = i + 1; j < n; ++j) total.jtj(i, j) = total.jtj(j, i);
+    }
+    return total;
+}
+
+bool LeastSquaresResult::converged() const {
+    return stop == LeastSquaresStop::kGradient || stop == LeastSquaresStop::kSumOfSquares ||
+           stop == LeastSquaresStop::kParameters;
+}
+
+std::string LeastSquaresResult::termination() const {
+    switch (stop) {
+        case LeastSquaresStop::kGradient:
+            return "gradient orthogonal to the residuals (stationary point)";
+        case LeastSquaresStop::kSumOfSquares:
+            return "relative reduction of the sum of squares below tolerance";
+        case LeastSquaresStop::kParameters:
+            return "relative change of the parameters below tolerance";
+        case LeastSquaresStop::kMaxEvaluations:
+            return "too many function evaluations";
+        case LeastSquaresStop::kNoProgress:
+            return "no downhill step at machine precision";
+    }
+    return "unknown";
+}
+
+namespace {
+
+// The damped step of the trust-region subproblem in scaled variables ŝ = D δ:
+// (Â + μ I) ŝ = −ĝ with Â = D⁻¹ JᵀJ D⁻¹, ĝ = D⁻¹ Jᵀr, and μ ≥ 0 chosen so that ‖ŝ‖ is within
+// 10 % of the radius Δ, or μ = 0 when the Gauss–Newton step is already inside it (Moré 1978,
+// Sect. 5: Newton's method on 1/‖ŝ(μ)‖ − 1/Δ, safeguarded by bounds on μ, at most 10 steps).
+struct DampedStep {
+    Eigen::VectorXd scaled;  // ŝ
+    double damping = 0.0;    // μ
+};
+
+DampedStep damped_step(const Eigen::MatrixXd& a_hat, const Eigen::VectorXd& g_hat, double radius,
+                       double previous_damping) {
+    const Eigen::Index n = a_hat.rows();
+    auto solve = [&](double mu, Eigen::VectorXd& step, double& curvature) {
+        Eigen::MatrixXd m = a_hat;
+        m.diagonal().array() += mu;
+        const Eigen::LDLT<Eigen::MatrixXd> ldlt(m);
+        step = ldlt.solve(-g_hat);
+        if (!step.allFinite() || ldlt.info() != Eigen::Success || !ldlt.isPositive()) return false;
+        curvature = step.dot(ldlt.solve(step));  // ŝᵀ (Â + μ I)⁻¹ ŝ
+        return std::isfinite(curvature) && curvature > 0.0;
+    };
+    DampedStep result;
+    double curvature = 0.0;
+    // Gauss–Newton first, where Â is positive definite.
+    if (solve(0.0, result.scaled, curvature) && result.scaled.norm() <= 1.1 * radius) return result;
+
+    const double g_norm = g_hat.norm();
+    double upper = g_norm / radius;  // ‖ŝ(μ)‖ ≤ ‖ĝ‖ / μ
+    double lower = 0.0;
+    double mu = std::clamp(previous_damping, 1e-3 * upper, upper);
+    for (int it = 0; it < 10; ++it) {
+        if (!solve(mu, result.scaled, curvature)) {
+            lower = mu;  // not yet positive definite: more damping
+            mu = std::max(0.001 * upper, std::sqrt(lower * upper));
+            continue;
+        }
+        const double norm = result.scaled.norm();
+        const double excess = norm - radius;
+        if (std::abs(excess) <= 0.1 * radius) break;
+        (excess > 0.0 ? lower : upper) = mu;
+        // Newton on 1/‖ŝ‖ − 1/Δ: μ += (‖ŝ‖ − Δ)/Δ · ‖ŝ‖² / (ŝᵀ (Â + μI)⁻¹ ŝ).
+        const double next = mu + excess / radius * norm * norm / curvature;
+        mu = (next > lower && next < upper) ? next
+                                            : std::max(0.001 * upper, std::sqrt(lower * upper));
+    }
+    result.damping = mu;
+    return result;
+}
+
+}  // namespace
+
+LeastSquaresResult minimise_least_squares(ChunkedLeastSquares& problem, Eigen::VectorXd& u,
+                                          const LeastSquaresOptions& options) {
+    const int n = problem.variables();
+    if (u.size() != n || options.max_function_evaluations < 1 ||
+        !(options.relative_tolerance > 0.0) || !(options.gradient_tolerance >= 0.0)) {
+        throw InputError(fmt::format(
+            "least squares: {} variables for a problem of {}, max_function_evaluations = {}, "
+            "relative_tolerance = {}, gradient_tolerance = {}: expected matching sizes, >= 1, > 0 "
+            "and >= 0",
+            u.size(), n, options.max_function_evaluations, options.relative_tolerance,
+            options.gradient_tolerance));
+    }
+    const double tol = options.relative_tolerance;
+    LeastSquaresResult result;
+
+    check_interrupt();
+    problem.set_point(u);
+    NormalEquations at_u = total_normal_equations(problem);
+    ++result.function_evaluations;
+    ++result.jacobian_evaluations;
+    result.sum_of_squares = at_u.sum_of_squares;
+
+    // D: each column's norm, never decreasing (Moré's scaling); 1 for a column that is zero.
+    Eigen::VectorXd scale(n);
+    for (int j = 0; j < n; ++j) {
+        const double column = std::sqrt(at_u.jtj(j, j));
+        scale[j] = column > 0.0 ? column : 1.0;
+    }
+    double radius = kInitialRadiusFactor * scale.cwiseProduct(u).norm();  // Δ
+    if (!(radius > 0.0)) radius = kInitialRadiusFactor;
+    double damping = 0.0;  // μ of the last step
+    for (;;) {
+        for (int j = 0; j < n; ++j) scale[j] = std::max(scale[j], std::sqrt(at_u.jtj(j, j)));
+        const double s = at_u.sum_of_squares;
+        if (!(s > 0.0)) {
+            result.stop = LeastSquaresStop::kGradient;  // an exact fit: nothing left to reduce
+            return result;
+        }
+        const Eigen::VectorXd inverse_scale = scale.cwiseInverse();
+        const Eigen::VectorXd g_hat = inverse_scale.cwiseProduct(at_u.jtr);
+        if ((g_hat.array().abs() / std::sqrt(s)).maxCoeff() <= options.gradient_tolerance) {
+            result.stop = LeastSquaresStop::kGradient;
+            return result;
+        }
+        const Eigen::MatrixXd a_hat =
+            inverse_scale.asDiagonal() * at_u.jtj * inverse_scale.asDiagonal();
+
+        // Steps from this point until one is taken; each costs one evaluation of S.
+        for (;;) {
+            const DampedStep step = damped_step(a_hat, g_hat, radius, damping);
+            damping = step.damping;
+            ++result.iterations;
+            const double step_norm = step.scaled.norm();  // ‖D δ‖
+            if (result.iterations == 1) radius = std::min(radius, step_norm);
+
+            check_interrupt();
+            const Eigen::VectorXd trial = u + inverse_scale.cwiseProduct(step.scaled);
+            problem.set_point(trial);
+            const double s_trial = total_sum_of_squares(problem);
+            ++result.function_evaluations;
+
+            // Reductions relative to S, as MINPACK's lmder: actual, predicted by the linear model
+            // (‖Jδ‖² + 2μ‖Dδ‖²), and the directional derivative along δ.
+            const double actual =
+                std::isfinite(s_trial) && s_trial < 100.0 * s ? 1.0 - s_trial / s : -1.0;
+            const double model = step.scaled.dot(a_hat * step.scaled) / s;
+            const double damping_term = damping * step_norm * step_norm / s;
+            const double predicted = model + 2.0 * damping_term;
+            const double directional = -(model + damping_term);
+            const double ratio = predicted > 0.0 ? actual / predicted : 0.0;
+
+            if (ratio <= 0.25) {
+                double shrink =
+                    actual >= 0.0 ? 0.5 : 0.5 * directional / (directional + 0.5 * actual);
+                if (!(s_trial < 100.0 * s) || !std::isfinite(s_trial) || !(shrink >= 0.1))
+                    shrink = 0.1;
+                radius = shrink * std::min(radius, 10.0 * step_norm);
+                damping /= shrink;
+            } else if (damping == 0.0 || ratio >= 0.75) {
+                radius = 2.0 * step_norm;
+                damping *= 0.5;
+            }
+            const bool accept = ratio >= kAcceptRatio;
+            if (accept) {
+                u = trial;
+                result.sum_of_squares = s_trial;
+            }
+            const bool sum_converged =
+                std::abs(actual) <= tol && predicted <= tol && 0.5 * ratio <= 1.0;
+            const bool parameters_converged = radius <= tol * scale.cwiseProduct(u).norm();
+            if (sum_converged || parameters_converged) {
+                problem.set_point(u);
+                result.stop =
+                    sum_converged ? LeastSquaresStop::kSumOfSquares : LeastSquaresStop::kParameters;
+                return result;
+            }
+            if (result.function_evaluations >= options.max_function_evaluations ||
+                radius <= std::numeric_limits<double>::epsilon() * scale.cwiseProduct(u).norm()) {
+                problem.set_point(u);
+                result.stop = result.function_evaluations >= options.max_function_evaluations
+                                  ? LeastSquaresStop::kMaxEvaluations
+                                  : LeastSquaresStop::kNoProgress;
+                return result;
+            }
+            if (accept) break;
+        }
+        check_interrupt();
+        at_u = total_normal_equations(problem);  // the problem is at the accepted point u
+        ++result.jacobian_evaluations;
+        result.sum_of_squares = at_u.sum_of_squares;
+    }
+}
+
+}  // namespace plumage::analysis

@@ -1,0 +1,113 @@
+// Levenberg–Marquardt for fits with many observations and few parameters, evaluated on every
+// OpenMP thread and bit-identical for any thread count.
+//
+// The problem: minimise S(u) = Σ_k r_k(u)², k over the observations, u ∈ ℝⁿ (n ≲ 30).
+// The observations are cut by the problem into a fixed number of chunks (the cut depends on the
+// data only, never on the thread count). Each step needs, per chunk, either Σ r² or the chunk's
+// normal equations (JᵀJ, Jᵀr, Σ r²); the chunks run in parallel and their results are added in
+// chunk order, so every sum, and so every iterate, has the same bits on 1, 2 or 64 threads.
+//
+// Why not MINPACK's lmder (Eigen's LevenbergMarquardt, which the fits used before): it wants the
+// whole m × n Jacobian and factorises it by Householder QR on one thread each iteration, which
+// for 25 620 × 18 cost more than the model evaluations themselves; and its functor interface
+// leaves no room for a fixed-order parallel reduction. The normal equations square J's
+// condition number; the solve below scales JᵀJ to a unit diagonal first (Marquardt's scaling,
+// which the damping uses too), and a fit whose scaled JᵀJ is singular is caught by the fits'
+// covariance test. For the fits here (n ≤ 20, each column an independent model quantity) the
+// two give the same optimum within the fits' stated errors (tests/analysis/filip2024_test.cpp).
+//
+// The iteration (Moré 1978's scaling; Nielsen 1999's damping update):
+//   D = max over iterations of sqrt(diag JᵀJ) (1 where a column is zero);
+//   solve (JᵀJ + μ D²) δ = −Jᵀr;  ρ = (S(u) − S(u + δ)) / (−2 δᵀJᵀr − δᵀJᵀJ δ);
+//   ρ > 1e-4: accept, μ ← μ max(1/3, 1 − (2ρ − 1)³), ν ← 2;  else μ ← μ ν, ν ← 2ν.
+// Stops (the first that holds):
+//   gradient:      max_j |(Jᵀr)_j| / (D_j sqrt(S)) ≤ gradient_tolerance
+//   sum of squares: an accepted step with actual and predicted reduction ≤ relative_tolerance S
+//   parameters:     ‖D δ‖ ≤ relative_tolerance (‖D u‖ + relative_tolerance)
+//   evaluations:    function_evaluations ≥ max_function_evaluations (not converged)
+//   no progress:    μ beyond 1e32 (no downhill step at machine precision; not converged)
+// A function evaluation is one S(u); a Jacobian evaluation one set of normal equations (which
+// also yields S). Ctrl-C (common/interrupt.h) throws Interrupted between evaluations.
+#pragma once
+
+#include <cstddef>
+#include <string>
+#include <vector>
+
+#include <Eigen/Core>
+
+namespace plumage::analysis {
+
+// One chunk's (or a sum of chunks') contribution: JᵀJ (full, symmetric), Jᵀr and Σ r².
+struct NormalEquations {
+    Eigen::MatrixXd jtj;
+    Eigen::VectorXd jtr;
+    double sum_of_squares = 0.0;
+
+    explicit NormalEquations(int n = 0)
+        : jtj(Eigen::MatrixXd::Zero(n, n)), jtr(Eigen::VectorXd::Zero(n)) {}
+    NormalEquations& operator+=(const NormalEquations& other);
+};
+
+// What a fit supplies. set_point is called on one thread before each round of chunk calls;
+// the chunk calls then run concurrently, so they must only read.
+class ChunkedLeastSquares {
+public:
+    virtual ~ChunkedLeastSquares() = default;
+    virtual int variables() const = 0;
+    virtual std::size_t chunks() const = 0;
+    virtual void set_point(const Eigen::VectorXd& u) = 0;
+    // Σ r² over the chunk at the current point.
+    virtual double chunk_sum_of_squares(std::size_t chunk) const = 0;
+    // Adds the chunk's JᵀJ (lower triangle is enough: the caller mirrors it), Jᵀr and Σ r² at the
+    // current point into `sum`, which has variables() rows.
+    virtual void add_chunk_normal_equations(std::size_t chunk, NormalEquations& sum) const = 0;
+};
+
+// Evaluates chunk_result(c, slot_c) for every chunk on all OpenMP threads, each into its own
+// slot (initialised to `zero`), then adds the slots in chunk order: the sum has the same bits for
+// any thread count. chunk_result must not throw.
+template <class T, class ChunkResult>
+T sum_in_chunk_order(std::size_t chunks, const T& zero, ChunkResult&& chunk_result) {
+    std::vector<T> slots(chunks, zero);
+#pragma omp parallel for schedule(dynamic, 1)
+    for (std::size_t c = 0; c < chunks; ++c) chunk_result(c, slots[c]);
+    T total = zero;
+    for (const T& slot : slots) total += slot;
+    return total;
+}
+
+// Σ over chunks, in chunk order, evaluated on all threads, at the problem's current point.
+double total_sum_of_squares(const ChunkedLeastSquares& problem);
+NormalEquations total_normal_equations(const ChunkedLeastSquares& problem);
+
+enum class LeastSquaresStop {
+    kGradient,
+    kSumOfSquares,
+    kParameters,
+    kMaxEvaluations,
+    kNoProgress,
+};
+
+struct LeastSquaresOptions {
+    int max_function_evaluations = 4000;
+    double relative_tolerance = 1e-10;  // on the sum of squares and on the parameters
+    double gradient_tolerance = 0.0;    // 0: the gradient test only stops at an exact zero
+};
+
+struct LeastSquaresResult {
+    LeastSquaresStop stop = LeastSquaresStop::kMaxEvaluations;
+    int function_evaluations = 0;
+    int jacobian_evaluations = 0;
+    int iterations = 0;           // solves of the damped system
+    double sum_of_squares = 0.0;  // at the returned u
+    bool converged() const;
+    std::string termination() const;  // the stopping reason, in words a report can print
+};
+
+// Minimises from u (in place; on return u is the best point found). Throws Interrupted on
+// Ctrl-C, InputError for bad options.
+LeastSquaresResult minimise_least_squares(ChunkedLeastSquares& problem, Eigen::VectorXd& u,
+                                          const LeastSquaresOptions& options);
+
+}  // namespace plumage::analysis
