@@ -284,22 +284,32 @@ public:
     }
 
     void add_chunk_normal_equations(std::size_t chunk, NormalEquations& sum) const override {
-        std::array<double, kFilip2024ParameterCount> row{};
-        for_each_observation<true>(chunk,
-                                   [&](const PreparedObservation& o, double f,
-                                       const std::array<double, kFilip2024ParameterCount>& g) {
-                                       const double r = (f - o.value) * o.inverse_sigma;
-                                       sum.sum_of_squares += r * r;
-                                       const auto& active = active_[static_cast<int>(o.channel)];
-                                       for (int j : active)
-                                           row[j] = g[map_.free[j]] * chain_[j] * o.inverse_sigma;
-                                       for (std::size_t a = 0; a < active.size(); ++a) {
-                                           const int i = active[a];
-                                           sum.jtr[i] += row[i] * r;
-                                           for (std::size_t b = 0; b <= a; ++b)
-                                               sum.jtj(i, active[b]) += row[i] * row[active[b]];
-                                       }
-                                   });
+        // Accumulated on this thread's stack and stored once: the chunks' slots are separate
+        // heap blocks that may share cache lines, and adding into them observation by observation
+        // made two threads barely faster than one.
+        constexpr int kMax = kFilip2024ParameterCount;
+        std::array<double, kMax * kMax> jtj{};
+        std::array<double, kMax> jtr{}, row{};
+        double sum_of_squares = 0.0;
+        for_each_observation<true>(
+            chunk, [&](const PreparedObservation& o, double f, const std::array<double, kMax>& g) {
+                const double r = (f - o.value) * o.inverse_sigma;
+                sum_of_squares += r * r;
+                const auto& active = active_[static_cast<int>(o.channel)];
+                for (int j : active) row[j] = g[map_.free[j]] * chain_[j] * o.inverse_sigma;
+                for (std::size_t a = 0; a < active.size(); ++a) {
+                    const int i = active[a];
+                    jtr[i] += row[i] * r;
+                    for (std::size_t b = 0; b <= a; ++b)
+                        jtj[i * kMax + active[b]] += row[i] * row[active[b]];
+                }
+            });
+        const int n = variables();
+        for (int i = 0; i < n; ++i) {
+            sum.jtr[i] += jtr[i];
+            for (int j = 0; j <= i; ++j) sum.jtj(i, j) += jtj[i * kMax + j];
+        }
+        sum.sum_of_squares += sum_of_squares;
     }
 
 private:

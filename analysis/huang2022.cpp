@@ -52,7 +52,8 @@ struct Huang2022Bsdf::Frame {
     }
 };
 
-Huang2022Bsdf::Huang2022Bsdf(const Huang2022Params& p) : params_(p) {
+Huang2022Bsdf::Huang2022Bsdf(const Huang2022Params& p)
+    : params_(p), keratin_(optics::keratin()), melanin_(optics::melanin()) {
     require(std::isfinite(p.b) && p.b >= 1e-3 && p.b <= 1.0, kWhat, "b", p.b,
             "a value in [1e-3, 1]");
     require(std::isfinite(p.phi0) && std::isfinite(p.phi1) && p.phi1 > p.phi0 &&
@@ -280,21 +281,21 @@ const Huang2022Bsdf::Frame& Huang2022Bsdf::frame_for(const Vec3d& wi_patch) cons
 }
 
 double Huang2022Bsdf::film_reflectance(double cos_theta, double lambda_nm) const {
-    const optics::FilmMedia media{1.0, optics::keratin()->index(lambda_nm), optics::Complex(1.0)};
+    const optics::FilmMedia media{1.0, keratin_->index(lambda_nm), optics::Complex(1.0)};
     return optics::airy_film_intensities_unpolarised(media, params_.d_um, lambda_nm,
                                                      std::clamp(cos_theta, 0.0, 1.0))
         .reflectance;
 }
 
 double Huang2022Bsdf::film_transmittance(double cos_theta, double lambda_nm) const {
-    const optics::FilmMedia media{1.0, optics::keratin()->index(lambda_nm), optics::Complex(1.0)};
+    const optics::FilmMedia media{1.0, keratin_->index(lambda_nm), optics::Complex(1.0)};
     return optics::airy_film_intensities_unpolarised(media, params_.d_um, lambda_nm,
                                                      std::clamp(cos_theta, 0.0, 1.0))
         .transmittance;
 }
 
 double Huang2022Bsdf::melanin_reflectance(double lambda_nm) const {
-    return optics::fresnel_intensities_unpolarised(1.0, optics::melanin()->index(lambda_nm), 1.0)
+    return optics::fresnel_intensities_unpolarised(1.0, melanin_->index(lambda_nm), 1.0)
         .reflectance;
 }
 

@@ -48,8 +48,10 @@
 #include <array>
 #include <cstdint>
 #include <functional>
+#include <memory>
 #include <vector>
 
+#include "sim/optics/material.h"
 #include "sim/scatterer.h"
 
 namespace plumage::analysis {
@@ -111,6 +113,10 @@ private:
     void prepare_nodes(const Frame& f, double lambda_nm) const;
 
     Huang2022Params params_;
+    // Held, not fetched per call: optics::keratin() returns a shared_ptr by value, and the
+    // atomic reference count that every copy increments is one cache line that all threads
+    // write; at ~150 film evaluations per eval() it stopped the model tables scaling.
+    std::shared_ptr<const optics::Material> keratin_, melanin_;
     std::uint64_t generation_;  // distinguishes objects that reuse an address, for the cache
 };
 

@@ -166,13 +166,21 @@ std::string csv_field(const std::string& text) {
 
 std::string stage_table(std::span<const StageTiming> stages) {
     const int threads = omp_get_max_threads();
+    const std::string reading =
+        threads == 1
+            ? "so CPU/wall stays near 1 unless a library starts threads of its own (Embree builds "
+              "its bounding-volume hierarchies on all cores); rerun with --threads N to see which "
+              "stages use N threads"
+            : fmt::format(
+                  "so CPU/wall near 1 marks a serial stage and near {} a stage using every "
+                  "thread",
+                  threads);
     std::string out = fmt::format(
         "Each stage runs from its progress line on stderr to the next (the first from the start "
-        "of the run, the last up to the moment this report was written), on {0} OpenMP "
-        "thread{1}; CPU time counts every thread of plumage (not child processes such as the "
-        "plotter), so CPU/wall near 1 marks a serial stage and near {0} a stage using every "
-        "thread. The same figures are in `stages.csv`.\n\n",
-        threads, threads == 1 ? "" : "s");
+        "of the run, the last up to the moment this report was written), on {} OpenMP "
+        "thread{}; CPU time counts every thread of plumage (not child processes such as the "
+        "plotter), {}. The same figures are in `stages.csv`.\n\n",
+        threads, threads == 1 ? "" : "s", reading);
     out += "| stage | wall (s) | CPU (s) | CPU/wall |\n|---|---|---|---|\n";
     double wall = 0.0, cpu = 0.0;
     for (const StageTiming& s : stages) {

@@ -205,22 +205,22 @@ BrdfRecord measure_by_eval(const Scatterer& scatterer, const GoniometerConfig& c
         std::vector<double> per_lobe, acc, lobes;
     };
     auto cone_average = [&](const DirectionPair& p, double lambda, const std::vector<Node>& rule,
-                            std::vector<double>* lobes) {
+                            Scratch& scratch, bool keep_lobes) {
         Vec3d e1, e2;
         orthonormal_frame(p.wo, e1, e2);
         double num = 0.0, den = 0.0;
-        std::vector<double> per_lobe(nlobes, 0.0), acc(nlobes, 0.0);
+        std::fill(scratch.acc.begin(), scratch.acc.end(), 0.0);
         for (const Node& n : rule) {
             const double sin_b = std::sqrt(n.u * s2), cos_b = std::sqrt(1.0 - n.u * s2);
             const Vec3d w =
                 cos_b * p.wo + sin_b * (std::cos(n.gamma) * e1 + std::sin(n.gamma) * e2);
             const double weight = n.w * w.z() / cos_b;
-            num += weight * scatterer.eval(p.wi, w, lambda, per_lobe);
-            for (std::size_t l = 0; l < nlobes; ++l) acc[l] += weight * per_lobe[l];
+            num += weight * scatterer.eval(p.wi, w, lambda, scratch.per_lobe);
+            for (std::size_t l = 0; l < nlobes; ++l) scratch.acc[l] += weight * scratch.per_lobe[l];
             den += weight;
         }
-        if (lobes) {
-            for (std::size_t l = 0; l < nlobes; ++l) (*lobes)[l] = acc[l] / den;
+        if (keep_lobes) {
+            for (std::size_t l = 0; l < nlobes; ++l) scratch.lobes[l] = scratch.acc[l] / den;
         }
         return num / den;
     };
@@ -229,22 +229,27 @@ BrdfRecord measure_by_eval(const Scatterer& scatterer, const GoniometerConfig& c
     r.lobe_values.assign(nlobes * c.pairs.size() * nl, 0.0);
     r.lobe_standard_error.assign(nlobes * c.pairs.size() * nl, 0.0);
     std::atomic<bool> abandoned{false};
-#pragma omp parallel for schedule(dynamic, 4)
-    for (std::size_t p = 0; p < c.pairs.size(); ++p) {
-        if (abandoned.load(std::memory_order_relaxed)) continue;
-        if (interrupt_requested()) {
-            abandoned.store(true);
-            continue;
-        }
-        std::vector<double> lobes(nlobes);
-        for (std::size_t k = 0; k < nl; ++k) {
-            const double fine_value = cone_average(c.pairs[p], c.wavelengths_nm[k], fine, &lobes);
-            const double coarse_value =
-                cone_average(c.pairs[p], c.wavelengths_nm[k], coarse, nullptr);
-            r.value[p * nl + k] = fine_value;
-            r.standard_error[p * nl + k] = std::abs(fine_value - coarse_value);
-            for (std::size_t l = 0; l < nlobes; ++l)
-                r.lobe_values[(l * c.pairs.size() + p) * nl + k] = lobes[l];
+#pragma omp parallel
+    {
+        Scratch scratch{std::vector<double>(nlobes), std::vector<double>(nlobes),
+                        std::vector<double>(nlobes)};
+#pragma omp for schedule(dynamic, 4)
+        for (std::size_t p = 0; p < c.pairs.size(); ++p) {
+            if (abandoned.load(std::memory_order_relaxed)) continue;
+            if (interrupt_requested()) {
+                abandoned.store(true);
+                continue;
+            }
+            for (std::size_t k = 0; k < nl; ++k) {
+                const double fine_value =
+                    cone_average(c.pairs[p], c.wavelengths_nm[k], fine, scratch, true);
+                const double coarse_value =
+                    cone_average(c.pairs[p], c.wavelengths_nm[k], coarse, scratch, false);
+                r.value[p * nl + k] = fine_value;
+                r.standard_error[p * nl + k] = std::abs(fine_value - coarse_value);
+                for (std::size_t l = 0; l < nlobes; ++l)
+                    r.lobe_values[(l * c.pairs.size() + p) * nl + k] = scratch.lobes[l];
+            }
         }
     }
     if (abandoned.load()) {

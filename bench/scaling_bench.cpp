@@ -1,0 +1,103 @@
+// How the eval-based measurements and the fits scale with threads (issue "every core busy").
+// Each benchmark takes the OpenMP thread count as its argument and runs at 1 and 2 threads (the
+// CI machine has 2 cores; pass --benchmark_filter and edit nothing to try more: the arguments
+// go up to the machine's core count). Wall time (UseRealTime), so the rate is what a user waits
+// for; compare the 1- and 2-thread rows of the same run.
+//  - Huang table: the rock-dove Huang model on the 3660-pair Filip set at the default study's
+//    7 wavelengths, eval estimator (the default study's "BRDF: Huang model" stage).
+//  - Filip table: the parrot preset on the same set (the species study's model tables).
+//  - Filip fit: the rooster preset's BRDF with 2 % noise on the same set at 7 wavelengths
+//    (25 620 observations, 18 free parameters), fitted from the parrot's Table 1 row: a start
+//    far from the optimum, as the species study's fits of simulated BRDFs start.
+#include <algorithm>
+#include <cmath>
+#include <thread>
+#include <vector>
+
+#include <benchmark/benchmark.h>
+#include <omp.h>
+
+#include "analysis/filip2024.h"
+#include "analysis/filip2024_fit.h"
+#include "analysis/huang2022.h"
+#include "common/constants.h"
+#include "sim/random.h"
+#include "virtual_gonio/goniometer.h"
+
+namespace plumage {
+namespace {
+
+std::vector<double> seven_wavelengths() { return {400, 450, 500, 550, 600, 650, 700}; }
+
+gonio::GoniometerConfig eval_config() {
+    gonio::GoniometerConfig c;
+    c.direction_set = "filip2024_btf";
+    c.pairs = gonio::filip2024_btf_pairs();
+    c.wavelengths_nm = seven_wavelengths();
+    c.detector_half_angle_rad = 5.0 * kDeg;
+    c.estimator = gonio::Estimator::eval;
+    return c;
+}
+
+void thread_arguments(benchmark::internal::Benchmark* b) {
+    const int cores = static_cast<int>(std::max(1u, std::thread::hardware_concurrency()));
+    for (int t = 1; t <= cores; t *= 2) b->Arg(t);
+}
+
+void BM_HuangTable3660x7(benchmark::State& state) {
+    omp_set_num_threads(static_cast<int>(state.range(0)));
+    const analysis::Huang2022Bsdf model({});
+    const gonio::GoniometerConfig c = eval_config();
+    for (auto _ : state) benchmark::DoNotOptimize(gonio::measure_brdf(model, c));
+    state.counters["pairs_per_s"] = benchmark::Counter(
+        static_cast<double>(c.pairs.size()), benchmark::Counter::kIsIterationInvariantRate);
+}
+BENCHMARK(BM_HuangTable3660x7)
+    ->Apply(thread_arguments)
+    ->UseRealTime()
+    ->Unit(benchmark::kSecond)
+    ->Iterations(1);
+
+void BM_FilipTable3660x7(benchmark::State& state) {
+    omp_set_num_threads(static_cast<int>(state.range(0)));
+    const analysis::Filip2024Brdf model(analysis::filip2024_preset("parrot"));
+    const gonio::GoniometerConfig c = eval_config();
+    for (auto _ : state) benchmark::DoNotOptimize(gonio::measure_brdf(model, c));
+    state.counters["pairs_per_s"] = benchmark::Counter(
+        static_cast<double>(c.pairs.size()), benchmark::Counter::kIsIterationInvariantRate);
+}
+BENCHMARK(BM_FilipTable3660x7)
+    ->Apply(thread_arguments)
+    ->UseRealTime()
+    ->Unit(benchmark::kMillisecond);
+
+void BM_Filip2024Fit25620(benchmark::State& state) {
+    omp_set_num_threads(static_cast<int>(state.range(0)));
+    const analysis::Filip2024Brdf model(analysis::filip2024_preset("rooster"));
+    std::vector<analysis::BrdfObservation> data;
+    Rng rng(derive_seed(7, "bench/filip fit"), 0);
+    for (const auto& p : gonio::filip2024_btf_pairs()) {
+        for (double lambda : seven_wavelengths()) {
+            const double f = model.eval(p.wi, p.wo, lambda);
+            const double sigma = 0.02 * f + 1e-4;
+            const double gauss = std::sqrt(-2.0 * std::log(1.0 - rng.uniform())) *
+                                 std::cos(2.0 * kPi * rng.uniform());
+            data.push_back({p.wi, p.wo, std::nullopt, lambda, f + sigma * gauss, sigma});
+        }
+    }
+    const analysis::Filip2024Parameters start = analysis::filip2024_preset("parrot");
+    analysis::Filip2024FitResult fit;
+    for (auto _ : state) fit = analysis::fit_filip2024(data, start);
+    state.counters["evaluations"] = fit.function_evaluations;
+    state.counters["reduced_chi2"] = fit.reduced_chi_square;
+    state.counters["converged"] = fit.converged ? 1.0 : 0.0;
+}
+BENCHMARK(BM_Filip2024Fit25620)
+    ->Apply(thread_arguments)
+    ->UseRealTime()
+    ->Unit(benchmark::kMillisecond);
+
+}  // namespace
+}  // namespace plumage
+
+BENCHMARK_MAIN();
