@@ -2,6 +2,9 @@
 
 #include <array>
 #include <cmath>
+#include <cstdint>
+#include <exception>
+#include <mutex>
 #include <numbers>
 
 #include <fmt/format.h>
@@ -175,6 +178,27 @@ SlabSingleScattering slab_single_scattering_totals(const ScatteringMedium& mediu
         const double total = 2.0 * sum * 0.25 / kPanels * std::numbers::pi / kPanels;
         (sign > 0.0 ? out.reflectance : out.transmittance) = total;
     }
+    return out;
+}
+
+std::vector<SlabSingleScattering> slab_single_scattering_totals(
+    const ScatteringMedium& medium, std::span<const double> wavelengths_nm, double thickness_um,
+    const Vec3d& wi) {
+    std::vector<SlabSingleScattering> out(wavelengths_nm.size());
+    std::exception_ptr error;
+    std::mutex error_mutex;
+    const auto n = static_cast<std::int64_t>(wavelengths_nm.size());
+#pragma omp parallel for schedule(dynamic, 1)
+    for (std::int64_t w = 0; w < n; ++w) {
+        try {
+            const auto k = static_cast<std::size_t>(w);
+            out[k] = slab_single_scattering_totals(medium, wavelengths_nm[k], thickness_um, wi);
+        } catch (...) {
+            std::lock_guard lock(error_mutex);
+            if (!error) error = std::current_exception();
+        }
+    }
+    if (error) std::rethrow_exception(error);
     return out;
 }
 

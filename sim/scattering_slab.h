@@ -32,6 +32,8 @@
 
 #include <memory>
 #include <optional>
+#include <span>
+#include <vector>
 
 #include "sim/scattering_medium.h"
 #include "sim/scene.h"
@@ -81,6 +83,12 @@ struct SlabSingleScattering {
 };
 SlabSingleScattering slab_single_scattering_totals(const ScatteringMedium& medium, double lambda_nm,
                                                    double thickness_um, const Vec3d& wi);
+// The totals at each wavelength, the wavelengths shared out over the OpenMP threads (each one
+// the scalar call above, so the same bits for any thread count). The quadrature is 2 × 512²
+// nodes per wavelength: serial, it was most of the spongy study's slab stages.
+std::vector<SlabSingleScattering> slab_single_scattering_totals(
+    const ScatteringMedium& medium, std::span<const double> wavelengths_nm, double thickness_um,
+    const Vec3d& wi);
 
 // The geometric-optics counterpart of a scattering slab: an explicit keratin/air volume
 // (geometry/spongy_volume.h's closed mesh of one periodic cube, keratin inside, normals into

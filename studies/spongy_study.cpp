@@ -381,9 +381,9 @@ std::vector<double> single_scattering(const sim::ScatteringMedium& medium, const
                                       double theta) {
     const Vec3d wi(std::sin(theta), 0.0, std::cos(theta));
     std::vector<double> r;
-    for (const double lambda : s.wavelengths_nm) {
-        r.push_back(sim::slab_single_scattering_totals(medium, lambda, s.slab.thickness_um, wi)
-                        .reflectance);
+    for (const auto& totals :
+         sim::slab_single_scattering_totals(medium, s.wavelengths_nm, s.slab.thickness_um, wi)) {
+        r.push_back(totals.reflectance);
     }
     return r;
 }
