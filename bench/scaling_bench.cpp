@@ -44,14 +44,16 @@ void thread_arguments(benchmark::internal::Benchmark* b) {
     for (int t = 1; t <= cores; t *= 2) b->Arg(t);
 }
 
-void BM_HuangTable3660x7(benchmark::State& state) {
+// The model's table on the 3660-pair set at state.range(0) threads.
+void tabulate(benchmark::State& state, const Scatterer& model) {
     omp_set_num_threads(static_cast<int>(state.range(0)));
-    const analysis::Huang2022Bsdf model({});
     const gonio::GoniometerConfig c = eval_config();
     for (auto _ : state) benchmark::DoNotOptimize(gonio::measure_brdf(model, c));
     state.counters["pairs_per_s"] = benchmark::Counter(
         static_cast<double>(c.pairs.size()), benchmark::Counter::kIsIterationInvariantRate);
 }
+
+void BM_HuangTable3660x7(benchmark::State& state) { tabulate(state, analysis::Huang2022Bsdf({})); }
 BENCHMARK(BM_HuangTable3660x7)
     ->Apply(thread_arguments)
     ->UseRealTime()
@@ -59,12 +61,7 @@ BENCHMARK(BM_HuangTable3660x7)
     ->Iterations(1);
 
 void BM_FilipTable3660x7(benchmark::State& state) {
-    omp_set_num_threads(static_cast<int>(state.range(0)));
-    const analysis::Filip2024Brdf model(analysis::filip2024_preset("parrot"));
-    const gonio::GoniometerConfig c = eval_config();
-    for (auto _ : state) benchmark::DoNotOptimize(gonio::measure_brdf(model, c));
-    state.counters["pairs_per_s"] = benchmark::Counter(
-        static_cast<double>(c.pairs.size()), benchmark::Counter::kIsIterationInvariantRate);
+    tabulate(state, analysis::Filip2024Brdf(analysis::filip2024_preset("parrot")));
 }
 BENCHMARK(BM_FilipTable3660x7)
     ->Apply(thread_arguments)
