@@ -283,6 +283,39 @@ TEST(HuangFit, RecoversAllSevenParametersFromNoiselessPrediction) {
     EXPECT_LT(fit.reduced_chi_square, 1e-6);
 }
 
+// The fit's residuals run on all threads (pixels in parallel, each written to its own slot):
+// parameters, errors and χ² must have the same bits on 1, 2 and 3 threads.
+TEST(HuangFit, SameBitsOnOneTwoAndThreeThreads) {
+    Huang2022Params truth;
+    gonio::ScatterometerConfig c;
+    c.beam_direction = beam(30.0, 90.0);
+    c.image_size = 15;
+    c.wavelengths_nm = {550.0};
+    HuangFitOptions options;
+    options.fixed = {"phi0", "phi1", "b", "theta_d"};
+    const gonio::Scatterogram data = huang2022_scatterogram(truth, c, options);
+    Huang2022Params start = truth;
+    start.H *= 1.05;
+    start.d_um *= 0.97;
+    start.mu *= 1.05;
+    std::vector<HuangFitResult> fits;
+    for (int threads : {1, 2, 3}) {
+        options.threads = threads;
+        fits.push_back(fit_huang2022(data, start, options));
+    }
+    for (std::size_t t = 1; t < fits.size(); ++t) {
+        EXPECT_EQ(fits[t].values, fits[0].values) << t + 1 << " threads";
+        for (int i = 0; i < kHuang2022ParameterCount; ++i) {
+            EXPECT_TRUE(
+                fits[t].standard_errors[i] == fits[0].standard_errors[i] ||
+                (std::isnan(fits[t].standard_errors[i]) && std::isnan(fits[0].standard_errors[i])))
+                << kHuang2022ParameterNames[i] << ", " << t + 1 << " threads";
+        }
+        EXPECT_EQ(fits[t].reduced_chi_square, fits[0].reduced_chi_square);
+        EXPECT_EQ(fits[t].function_evaluations, fits[0].function_evaluations);
+    }
+}
+
 TEST(HuangFit, RejectsBadInput) {
     using plumage::testing::input_error_message;
     const Huang2022Params start;
