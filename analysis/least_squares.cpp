@@ -6,7 +6,6 @@
 #include <vector>
 
 #include <fmt/format.h>
-#include <omp.h>
 #include <Eigen/Cholesky>
 
 #include "common/error.h"
@@ -84,7 +83,6 @@ struct DampedStep {
 
 DampedStep damped_step(const Eigen::MatrixXd& a_hat, const Eigen::VectorXd& g_hat, double radius,
                        double previous_damping) {
-    const Eigen::Index n = a_hat.rows();
     auto solve = [&](double mu, Eigen::VectorXd& step, double& curvature) {
         Eigen::MatrixXd m = a_hat;
         m.diagonal().array() += mu;

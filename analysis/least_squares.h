@@ -7,25 +7,30 @@
 // normal equations (JᵀJ, Jᵀr, Σ r²); the chunks run in parallel and their results are added in
 // chunk order, so every sum, and so every iterate, has the same bits on 1, 2 or 64 threads.
 //
-// Why not MINPACK's lmder (Eigen's LevenbergMarquardt, which the fits used before): it wants the
-// whole m × n Jacobian and factorises it by Householder QR on one thread each iteration, which
-// for 25 620 × 18 cost more than the model evaluations themselves; and its functor interface
-// leaves no room for a fixed-order parallel reduction. The normal equations square J's
-// condition number; the solve below scales JᵀJ to a unit diagonal first (Marquardt's scaling,
-// which the damping uses too), and a fit whose scaled JᵀJ is singular is caught by the fits'
-// covariance test. For the fits here (n ≤ 20, each column an independent model quantity) the
-// two give the same optimum within the fits' stated errors (tests/analysis/filip2024_test.cpp).
+// Why not MINPACK's lmder itself (Eigen's LevenbergMarquardt, which the Filip fit used before):
+// it wants the whole m × n Jacobian and factorises it by Householder QR on one thread each
+// iteration, which for 25 620 × 18 cost more than the model evaluations; and its functor
+// interface leaves no room for a fixed-order parallel reduction. So this is lmder's algorithm
+// (Moré 1978) on the normal equations instead of the QR of J: the same scaling, trust-region
+// radius updates, acceptance and stopping tests. The normal equations square J's condition
+// number; the steps are solved in variables scaled to a unit diagonal, and a fit whose scaled
+// JᵀJ is singular is caught by the fits' covariance test. On the Filip fits the two reach the
+// same optima (tests/analysis/least_squares_test.cpp; the species BRDFs: within 0.3 σ).
 //
-// The iteration (Moré 1978's scaling; Nielsen 1999's damping update):
-//   D = max over iterations of sqrt(diag JᵀJ) (1 where a column is zero);
-//   solve (JᵀJ + μ D²) δ = −Jᵀr;  ρ = (S(u) − S(u + δ)) / (−2 δᵀJᵀr − δᵀJᵀJ δ);
-//   ρ > 1e-4: accept, μ ← μ max(1/3, 1 − (2ρ − 1)³), ν ← 2;  else μ ← μ ν, ν ← 2ν.
+// One iteration, in scaled variables ŝ = D δ (D = the largest column norm of J seen so far,
+// sqrt(diag JᵀJ), 1 for a zero column), with radius Δ (first 100 ‖D u‖, then at most the first
+// step's length):
+//   μ = 0 if the Gauss–Newton step has ‖ŝ‖ ≤ 1.1 Δ, else μ > 0 with ‖ŝ‖ within 10 % of Δ, where
+//   (Â + μ I) ŝ = −ĝ,  Â = D⁻¹ JᵀJ D⁻¹,  ĝ = D⁻¹ Jᵀr;
+//   ρ = actual / predicted reduction of S, predicted = (ŝᵀÂŝ + 2μ‖ŝ‖²) / S;
+//   ρ ≤ 1/4: Δ shrinks by 0.1–0.5 (lmder's rule);  ρ ≥ 3/4 or μ = 0: Δ = 2 ‖ŝ‖;
+//   ρ ≥ 1e-4: the step is taken and JᵀJ, Jᵀr are evaluated at the new point.
 // Stops (the first that holds):
-//   gradient:      max_j |(Jᵀr)_j| / (D_j sqrt(S)) ≤ gradient_tolerance
-//   sum of squares: an accepted step with actual and predicted reduction ≤ relative_tolerance S
-//   parameters:     ‖D δ‖ ≤ relative_tolerance (‖D u‖ + relative_tolerance)
+//   gradient:       max_j |ĝ_j| / sqrt(S) ≤ gradient_tolerance, or S = 0
+//   sum of squares: actual and predicted relative reduction ≤ relative_tolerance (ρ ≤ 2)
+//   parameters:     Δ ≤ relative_tolerance ‖D u‖
 //   evaluations:    function_evaluations ≥ max_function_evaluations (not converged)
-//   no progress:    μ beyond 1e32 (no downhill step at machine precision; not converged)
+//   no progress:    Δ ≤ machine epsilon × ‖D u‖ (not converged)
 // A function evaluation is one S(u); a Jacobian evaluation one set of normal equations (which
 // also yields S). Ctrl-C (common/interrupt.h) throws Interrupted between evaluations.
 #pragma once
