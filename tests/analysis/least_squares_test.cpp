@@ -97,8 +97,8 @@ std::vector<BrdfObservation> noisy_parrot() {
             const double f = brdf.eval(pair.wi, pair.wo, lambda);
             const double u1 = 1.0 - rng.uniform(), u2 = rng.uniform();
             const double z = std::sqrt(-2.0 * std::log(u1)) * std::cos(2.0 * kPi * u2);
-            data.push_back({pair.wi, pair.wo, std::nullopt, lambda, f * (1.0 + 0.02 * z),
-                            0.02 * f + 1e-6});
+            data.push_back(
+                {pair.wi, pair.wo, std::nullopt, lambda, f * (1.0 + 0.02 * z), 0.02 * f + 1e-6});
         }
     }
     return data;
@@ -136,8 +136,8 @@ struct MinpackFilip {
         std::array<double, kFilip2024ParameterCount> g{};
         for (std::size_t k = 0; k < data.size(); ++k) {
             const auto geometry = filip2024_geometry(data[k].wi, data[k].wo);
-            const double f = filip2024_value_and_gradient(
-                p, geometry, filip2024_channel(*data[k].lambda_nm), g);
+            const double f =
+                filip2024_value_and_gradient(p, geometry, filip2024_channel(*data[k].lambda_nm), g);
             r[static_cast<Eigen::Index>(k)] = (f - data[k].value) / *data[k].standard_error;
         }
         return 0;
@@ -190,11 +190,11 @@ TEST(Filip2024Fit, FindsTheSameOptimumAsMinpack) {
     const double minpack_s = seconds_since(t0);
     const auto minpack = to_vector(reference.parameters(u));
 
-    std::printf("[ info ] %zu observations: ours %.2f s (%d evaluations, %d Jacobians, %d "
-                "threads), MINPACK %.2f s (%ld evaluations, %ld Jacobians, serial reference)\n",
-                data.size(), ours_s, fit.function_evaluations, fit.jacobian_evaluations,
-                omp_get_max_threads(), minpack_s, static_cast<long>(lm.nfev),
-                static_cast<long>(lm.njev));
+    std::printf(
+        "[ info ] %zu observations: ours %.2f s (%d evaluations, %d Jacobians, %d "
+        "threads), MINPACK %.2f s (%ld evaluations, %ld Jacobians, serial reference)\n",
+        data.size(), ours_s, fit.function_evaluations, fit.jacobian_evaluations,
+        omp_get_max_threads(), minpack_s, static_cast<long>(lm.nfev), static_cast<long>(lm.njev));
     // The same minimum: every parameter within 1 % of its standard error (both optimisers stop
     // at a relative change of 1e-10; the rest is where the flat valleys end).
     for (int i : fit.free_parameters) {
@@ -216,8 +216,7 @@ TEST(Filip2024Fit, SameBitsOnOneTwoAndThreeThreads) {
     }
     omp_set_num_threads(threads_before);
     for (std::size_t t = 1; t < fits.size(); ++t) {
-        EXPECT_EQ(std::memcmp(fits[t].values.data(), fits[0].values.data(),
-                              sizeof(fits[0].values)),
+        EXPECT_EQ(std::memcmp(fits[t].values.data(), fits[0].values.data(), sizeof(fits[0].values)),
                   0)
             << t + 1 << " threads";
         EXPECT_EQ(std::memcmp(fits[t].standard_errors.data(), fits[0].standard_errors.data(),
@@ -229,9 +228,9 @@ TEST(Filip2024Fit, SameBitsOnOneTwoAndThreeThreads) {
                               sizeof(double) * fits[0].covariance.size()),
                   0);
         EXPECT_EQ(fits[t].function_evaluations, fits[0].function_evaluations);
-        EXPECT_EQ(std::memcmp(&fits[t].reduced_chi_square, &fits[0].reduced_chi_square,
-                              sizeof(double)),
-                  0);
+        EXPECT_EQ(
+            std::memcmp(&fits[t].reduced_chi_square, &fits[0].reduced_chi_square, sizeof(double)),
+            0);
     }
 }
 
