@@ -137,6 +137,18 @@ TEST(SpeciesStudy, QuickVariantReproducesEachPatchsColourAndOrientation) {
     const std::string report = read(dir / "report.md");
     EXPECT_NE(report.find("## Fitted parameters beside Table 1"), std::string::npos);
     EXPECT_NE(report.find("**Reading.**"), std::string::npos);
+    // Every species' fit verdict is a χ² test with its p-value and effect size, and the quick
+    // study's 80–90 % Monte Carlo error makes each one indicative only.
+    auto count = [&](const std::string& what) {
+        std::size_t n = 0;
+        for (auto at = report.find(what); at != std::string::npos; at = report.find(what, at + 1))
+            ++n;
+        return n;
+    };
+    EXPECT_EQ(count("degrees of freedom (reduced "), 4u) << report;
+    EXPECT_EQ(count("the typical residual is "), 4u);
+    EXPECT_EQ(count(" — indicative only: the simulated BRDF's estimated relative error is "), 4u);
+    EXPECT_EQ(count("the set holds both ways: χ²/dof = "), 4u);
     EXPECT_NE(report.find("in_plane_luminance.png"), std::string::npos);
     EXPECT_TRUE(std::filesystem::exists(dir / "in_plane_luminance.png"));
     EXPECT_TRUE(std::filesystem::exists(dir / "fits.csv"));
