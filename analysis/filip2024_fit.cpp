@@ -263,16 +263,6 @@ public:
         std::fill(chain_.begin(), chain_.end(), 1.0);
     }
 
-    double chunk_sum_of_squares(std::size_t chunk) const override {
-        double sum = 0.0;
-        for_each_observation<false>(chunk,
-                                    [&](const PreparedObservation& o, double f, const auto&) {
-                                        const double r = (f - o.value) * o.inverse_sigma;
-                                        sum += r * r;
-                                    });
-        return sum;
-    }
-
     // Σ (f − value)², unweighted.
     double chunk_plain_sum_of_squares(std::size_t chunk) const {
         double sum = 0.0;

@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <cmath>
 #include <limits>
+#include <utility>
 #include <vector>
 
 #include <fmt/format.h>
@@ -30,12 +31,6 @@ NormalEquations& NormalEquations::operator+=(const NormalEquations& other) {
     jtr += other.jtr;
     sum_of_squares += other.sum_of_squares;
     return *this;
-}
-
-double total_sum_of_squares(const ChunkedLeastSquares& problem) {
-    return sum_in_chunk_order(problem.chunks(), 0.0, [&](std::size_t c, double& slot) {
-        slot = problem.chunk_sum_of_squares(c);
-    });
 }
 
 NormalEquations total_normal_equations(const ChunkedLeastSquares& problem) {
@@ -180,7 +175,9 @@ LeastSquaresResult minimise_least_squares(ChunkedLeastSquares& problem, Eigen::V
             check_interrupt();
             const Eigen::VectorXd trial = u + inverse_scale.cwiseProduct(step.scaled);
             problem.set_point(trial);
-            const double s_trial = total_sum_of_squares(problem);
+            // With S in the same pass: a taken step needs no second pass (header).
+            NormalEquations at_trial = total_normal_equations(problem);
+            const double s_trial = at_trial.sum_of_squares;
             ++result.function_evaluations;
 
             // Reductions relative to S, as MINPACK's lmder: actual, predicted by the linear model
@@ -226,12 +223,12 @@ LeastSquaresResult minimise_least_squares(ChunkedLeastSquares& problem, Eigen::V
                                   : LeastSquaresStop::kNoProgress;
                 return result;
             }
-            if (accept) break;
+            if (accept) {
+                at_u = std::move(at_trial);
+                ++result.jacobian_evaluations;
+                break;
+            }
         }
-        check_interrupt();
-        at_u = total_normal_equations(problem);  // the problem is at the accepted point u
-        ++result.jacobian_evaluations;
-        result.sum_of_squares = at_u.sum_of_squares;
     }
 }
 

@@ -3,7 +3,7 @@
 //
 // The problem: minimise S(u) = Σ_k r_k(u)², k over the observations, u ∈ ℝⁿ (n ≲ 30).
 // The observations are cut by the problem into a fixed number of chunks (the cut depends on the
-// data only, never on the thread count). Each step needs, per chunk, either Σ r² or the chunk's
+// data only, never on the thread count). Each trial point needs, per chunk, the chunk's
 // normal equations (JᵀJ, Jᵀr, Σ r²); the chunks run in parallel and their results are added in
 // chunk order, so every sum, and so every iterate, has the same bits on 1, 2 or 64 threads.
 //
@@ -24,15 +24,17 @@
 //   (Â + μ I) ŝ = −ĝ,  Â = D⁻¹ JᵀJ D⁻¹,  ĝ = D⁻¹ Jᵀr;
 //   ρ = actual / predicted reduction of S, predicted = (ŝᵀÂŝ + 2μ‖ŝ‖²) / S;
 //   ρ ≤ 1/4: Δ shrinks by 0.1–0.5 (lmder's rule);  ρ ≥ 3/4 or μ = 0: Δ = 2 ‖ŝ‖;
-//   ρ ≥ 1e-4: the step is taken and JᵀJ, Jᵀr are evaluated at the new point.
+//   ρ ≥ 1e-4: the step is taken, with the normal equations already built at its point.
 // Stops (the first that holds):
 //   gradient:       max_j |ĝ_j| / sqrt(S) ≤ gradient_tolerance, or S = 0
 //   sum of squares: actual and predicted relative reduction ≤ relative_tolerance (ρ ≤ 2)
 //   parameters:     Δ ≤ relative_tolerance ‖D u‖
 //   evaluations:    function_evaluations ≥ max_function_evaluations (not converged)
 //   no progress:    Δ ≤ machine epsilon × ‖D u‖ (not converged)
-// A function evaluation is one S(u); a Jacobian evaluation one set of normal equations (which
-// also yields S). Ctrl-C (common/interrupt.h) throws Interrupted between evaluations.
+// Every trial point gets its normal equations, which yield S in the same pass (a step is taken
+// far more often than refused, so this is cheaper than S first and JᵀJ after); a function
+// evaluation is one trial point, a Jacobian evaluation one taken step (plus the start). Ctrl-C
+// (common/interrupt.h) throws Interrupted between evaluations.
 #pragma once
 
 #include <cstddef>
@@ -62,8 +64,6 @@ public:
     virtual int variables() const = 0;
     virtual std::size_t chunks() const = 0;
     virtual void set_point(const Eigen::VectorXd& u) = 0;
-    // Σ r² over the chunk at the current point.
-    virtual double chunk_sum_of_squares(std::size_t chunk) const = 0;
     // Adds the chunk's JᵀJ (lower triangle is enough: the caller mirrors it), Jᵀr and Σ r² at the
     // current point into `sum`, which has variables() rows.
     virtual void add_chunk_normal_equations(std::size_t chunk, NormalEquations& sum) const = 0;
@@ -83,7 +83,6 @@ T sum_in_chunk_order(std::size_t chunks, const T& zero, ChunkResult&& chunk_resu
 }
 
 // Σ over chunks, in chunk order, evaluated on all threads, at the problem's current point.
-double total_sum_of_squares(const ChunkedLeastSquares& problem);
 NormalEquations total_normal_equations(const ChunkedLeastSquares& problem);
 
 enum class LeastSquaresStop {

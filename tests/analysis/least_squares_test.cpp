@@ -36,14 +36,6 @@ public:
     int variables() const override { return 3; }
     std::size_t chunks() const override { return x_.size() / 50; }
     void set_point(const Eigen::VectorXd& u) override { u_ = u; }
-    double chunk_sum_of_squares(std::size_t chunk) const override {
-        double s = 0.0;
-        for (std::size_t k = chunk * 50; k < (chunk + 1) * 50; ++k) {
-            const double r = u_[0] * std::exp(-u_[1] * x_[k]) + u_[2] - y_[k];
-            s += r * r;
-        }
-        return s;
-    }
     void add_chunk_normal_equations(std::size_t chunk, NormalEquations& sum) const override {
         for (std::size_t k = chunk * 50; k < (chunk + 1) * 50; ++k) {
             const double e = std::exp(-u_[1] * x_[k]);
