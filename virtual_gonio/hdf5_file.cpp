@@ -174,6 +174,38 @@ void Hdf5Writer::set_attribute(const std::string& object_path, const std::string
           "cannot write attribute " + name);
 }
 
+namespace {
+
+template <typename T>
+void write_scalar_attribute(std::int64_t file, const std::filesystem::path& temporary_path,
+                            const std::string& object_path, const std::string& name, T value,
+                            hid_t file_type, hid_t memory_type) {
+    Handle space(H5Screate(H5S_SCALAR), H5Sclose);
+    Handle attribute(H5Acreate_by_name(file, object_path.c_str(), name.c_str(), file_type,
+                                       space.get(), H5P_DEFAULT, H5P_DEFAULT, H5P_DEFAULT),
+                     H5Aclose);
+    if (!attribute.valid())
+        fail(temporary_path, "cannot create attribute " + object_path + "@" + name);
+    check(H5Awrite(attribute.get(), memory_type, &value), temporary_path,
+          "cannot write attribute " + name);
+}
+
+}  // namespace
+
+void Hdf5Writer::set_unsigned_attribute(const std::string& object_path, const std::string& name,
+                                        std::uint64_t value) {
+    if (file_ < 0) fail(final_path_, "write after commit()");
+    write_scalar_attribute(file_, temporary_path_, object_path, name, value, H5T_STD_U64LE,
+                           H5T_NATIVE_UINT64);
+}
+
+void Hdf5Writer::set_integer_attribute(const std::string& object_path, const std::string& name,
+                                       std::int64_t value) {
+    if (file_ < 0) fail(final_path_, "write after commit()");
+    write_scalar_attribute(file_, temporary_path_, object_path, name, value, H5T_STD_I64LE,
+                           H5T_NATIVE_INT64);
+}
+
 Dataset read_dataset(const std::filesystem::path& file, const std::string& dataset_path) {
     Handle f(H5Fopen(file.c_str(), H5F_ACC_RDONLY, H5P_DEFAULT), H5Fclose);
     if (!f.valid()) fail(file, "cannot open for reading");
@@ -255,6 +287,23 @@ double read_number_attribute(const std::filesystem::path& file, const std::strin
     return value;
 }
 
+std::uint64_t read_unsigned_attribute(const std::filesystem::path& file,
+                                      const std::string& object_path, const std::string& name) {
+    Handle f(H5Fopen(file.c_str(), H5F_ACC_RDONLY, H5P_DEFAULT), H5Fclose);
+    if (!f.valid()) fail(file, "cannot open for reading");
+    Handle attribute(
+        H5Aopen_by_name(f.get(), object_path.c_str(), name.c_str(), H5P_DEFAULT, H5P_DEFAULT),
+        H5Aclose);
+    if (!attribute.valid()) fail(file, "no attribute " + object_path + "@" + name);
+    Handle type(H5Aget_type(attribute.get()), H5Tclose);
+    if (!type.valid() || H5Tget_class(type.get()) != H5T_INTEGER)
+        fail(file, "attribute " + object_path + "@" + name + " is not an integer");
+    std::uint64_t value = 0;
+    check(H5Aread(attribute.get(), H5T_NATIVE_UINT64, &value), file,
+          "cannot read attribute " + name);
+    return value;
+}
+
 bool has_attribute(const std::filesystem::path& file, const std::string& object_path,
                    const std::string& name) {
     Handle f(H5Fopen(file.c_str(), H5F_ACC_RDONLY, H5P_DEFAULT), H5Fclose);
@@ -263,6 +312,52 @@ bool has_attribute(const std::filesystem::path& file, const std::string& object_
         H5Aexists_by_name(f.get(), object_path.c_str(), name.c_str(), H5P_DEFAULT);
     if (exists < 0) fail(file, "cannot open " + object_path);
     return exists > 0;
+}
+
+AttributeType attribute_type(const std::filesystem::path& file, const std::string& object_path,
+                             const std::string& name) {
+    Handle f(H5Fopen(file.c_str(), H5F_ACC_RDONLY, H5P_DEFAULT), H5Fclose);
+    if (!f.valid()) fail(file, "cannot open for reading");
+    Handle attribute(
+        H5Aopen_by_name(f.get(), object_path.c_str(), name.c_str(), H5P_DEFAULT, H5P_DEFAULT),
+        H5Aclose);
+    if (!attribute.valid()) fail(file, "no attribute " + object_path + "@" + name);
+    Handle type(H5Aget_type(attribute.get()), H5Tclose);
+    switch (type.valid() ? H5Tget_class(type.get()) : H5T_NO_CLASS) {
+        case H5T_STRING:
+            return AttributeType::string;
+        case H5T_FLOAT:
+            return AttributeType::floating_point;
+        case H5T_INTEGER:
+            return H5Tget_sign(type.get()) == H5T_SGN_NONE ? AttributeType::unsigned_integer
+                                                           : AttributeType::signed_integer;
+        default:
+            return AttributeType::other;
+    }
+}
+
+namespace {
+
+struct DatasetVisit {
+    std::vector<std::string> paths;
+};
+
+herr_t collect_dataset(hid_t group, const char* name, const H5L_info_t* /*info*/, void* data) {
+    Handle object(H5Oopen(group, name, H5P_DEFAULT), H5Oclose);
+    if (object.valid() && H5Iget_type(object.get()) == H5I_DATASET)
+        static_cast<DatasetVisit*>(data)->paths.emplace_back(name);
+    return 0;
+}
+
+}  // namespace
+
+std::vector<std::string> dataset_paths(const std::filesystem::path& file) {
+    Handle f(H5Fopen(file.c_str(), H5F_ACC_RDONLY, H5P_DEFAULT), H5Fclose);
+    if (!f.valid()) fail(file, "cannot open for reading");
+    DatasetVisit visit;
+    check(H5Lvisit(f.get(), H5_INDEX_NAME, H5_ITER_INC, collect_dataset, &visit), file,
+          "cannot list the datasets");
+    return visit.paths;
 }
 
 }  // namespace plumage::record

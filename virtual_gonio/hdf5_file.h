@@ -41,6 +41,13 @@ public:
     void set_attribute(const std::string& object_path, const std::string& name,
                        const std::string& value);
     void set_attribute(const std::string& object_path, const std::string& name, double value);
+    // Integer attributes, stored as 64-bit HDF5 integers (h5py reads numpy.uint64 / int64):
+    // seeds are exact to the last bit, counts read back as integers. Separate names, not
+    // set_attribute overloads: an int argument would be ambiguous among double and the two.
+    void set_unsigned_attribute(const std::string& object_path, const std::string& name,
+                                std::uint64_t value);
+    void set_integer_attribute(const std::string& object_path, const std::string& name,
+                               std::int64_t value);
 
     // Flush, close and rename to the final path. After commit the writer is inert.
     void commit();
@@ -71,8 +78,18 @@ std::string read_string_attribute(const std::filesystem::path& file, const std::
                                   const std::string& name);
 double read_number_attribute(const std::filesystem::path& file, const std::string& object_path,
                              const std::string& name);
+// An unsigned integer attribute, exact (IoError if it is not stored as an integer).
+std::uint64_t read_unsigned_attribute(const std::filesystem::path& file,
+                                      const std::string& object_path, const std::string& name);
 // Whether the object has the attribute (IoError if the file or the object cannot be opened).
 bool has_attribute(const std::filesystem::path& file, const std::string& object_path,
                    const std::string& name);
+
+// How an attribute is stored: what a reader in h5py or MATLAB gets back.
+enum class AttributeType { string, signed_integer, unsigned_integer, floating_point, other };
+AttributeType attribute_type(const std::filesystem::path& file, const std::string& object_path,
+                             const std::string& name);
+// Every dataset in the file, by path without the leading '/' ("brdf/value"), in name order.
+std::vector<std::string> dataset_paths(const std::filesystem::path& file);
 
 }  // namespace plumage::record

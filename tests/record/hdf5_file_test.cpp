@@ -3,8 +3,11 @@
 #include <unistd.h>
 
 #include <filesystem>
+#include <limits>
 
 #include <gtest/gtest.h>
+
+#include "common/error.h"
 
 namespace plumage::record {
 namespace {
@@ -39,6 +42,40 @@ TEST(Hdf5Record, RoundTripsDatasetsAndAttributes) {
     EXPECT_EQ(read_string_attribute(path, "group/sub/values", "units"), "1/sr");
     EXPECT_EQ(read_string_attribute(path, "/group", "note"), "ünïcode ok");
     EXPECT_FALSE(any_partial_file(path.parent_path()));
+}
+
+TEST(Hdf5Record, IntegerAttributesAreExactAndTyped) {
+    const auto path = scratch("integers.h5");
+    const std::uint64_t largest = std::numeric_limits<std::uint64_t>::max();  // no double holds it
+    {
+        Hdf5Writer w(path);
+        w.write("values", std::span<const double>(std::vector<double>{1.0}), {1});
+        w.set_unsigned_attribute("/", "seed", largest);
+        w.set_integer_attribute("/", "threads", -3);
+        w.set_attribute("/", "time", 0.5);
+        w.set_attribute("/values", "units", "1");
+        w.commit();
+    }
+    EXPECT_EQ(read_unsigned_attribute(path, "/", "seed"), largest);
+    EXPECT_EQ(read_number_attribute(path, "/", "threads"), -3.0);
+    EXPECT_EQ(attribute_type(path, "/", "seed"), AttributeType::unsigned_integer);
+    EXPECT_EQ(attribute_type(path, "/", "threads"), AttributeType::signed_integer);
+    EXPECT_EQ(attribute_type(path, "/", "time"), AttributeType::floating_point);
+    EXPECT_EQ(attribute_type(path, "/values", "units"), AttributeType::string);
+    EXPECT_THROW(read_unsigned_attribute(path, "/", "time"), IoError);
+}
+
+TEST(Hdf5Record, ListsEveryDatasetButNotGroups) {
+    const auto path = scratch("listing.h5");
+    const std::vector<double> one = {1.0};
+    {
+        Hdf5Writer w(path);
+        w.write("b/deep/x", std::span<const double>(one), {1});
+        w.write("a", std::span<const double>(one), {1});
+        w.create_group("empty");
+        w.commit();
+    }
+    EXPECT_EQ(dataset_paths(path), (std::vector<std::string>{"a", "b/deep/x"}));
 }
 
 TEST(Hdf5Record, LargeDatasetsAreCompressedAndExact) {
