@@ -6,7 +6,9 @@ aside. Exit 0 when identical, 1 with one line per difference.
     scripts/compare_records.py RESULTS_A RESULTS_B
 
 What is set aside, and why: values that measure the run rather than the scene (wall time,
-CPU time and CPU/wall, thread count, the version string), the wall-time column of convergence
+CPU time and CPU/wall, thread count, the version string, and /provenance's date, host and git
+commit: a resumed run or another checkout of the same code writes the same numbers on another
+day, machine or commit; the compiler and library versions are compared), the wall-time column of convergence
 tables, and CSV columns whose header names a time (a study's stages.csv: its wall, CPU and
 CPU/wall columns; the stage names are compared).
 """
@@ -19,7 +21,7 @@ import h5py
 import numpy as np
 
 RUN_ATTRIBUTES = {"wall_time_s", "wall_seconds", "compute_wall_time_s", "cpu_time_s", "cpu_per_wall",
-                  "threads", "plumage_version"}
+                  "threads", "plumage_version", "date", "host", "git_commit"}
 # Convergence tables: [pass, wall time (s), quanta, estimated error]; column 1 is the clock.
 CONVERGENCE_TIME_COLUMN = 1
 

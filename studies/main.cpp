@@ -15,6 +15,7 @@
 #include <fmt/format.h>
 #include <CLI/CLI.hpp>
 
+#include "common/build_info.h"
 #include "common/error.h"
 #include "common/interrupt.h"
 #include "common/version.h"
@@ -156,7 +157,9 @@ struct CommandLine {
     CLI::App *thin_film_cmd = nullptr, *run_cmd = nullptr, *geometry_cmd = nullptr;
 
     CommandLine() {
-        app.set_version_flag("--version", std::string("plumage ") + plumage::kVersion);
+        // The commit too: what a record's /provenance@git_commit will say.
+        app.set_version_flag("--version", fmt::format("plumage {} (git {})", plumage::kVersion,
+                                                      plumage::git_commit()));
         add_common_options(app, common);
         thin_film_cmd = app.add_subcommand(
             "thin-film",

@@ -175,8 +175,13 @@ void write_btf_record(const BtfRecord& r, const std::filesystem::path& path) {
         view.insert(view.end(), {p.wo.x(), p.wo.y(), p.wo.z()});
     }
     h5.set_attribute("/", "format", "plumage record 1 (virtual_gonio/RECORD.md)");
-    h5.write("instrument/light_directions", std::span<const double>(light), Dims{np, 3});
-    h5.write("instrument/view_directions", std::span<const double>(view), Dims{np, 3});
+    h5.write(
+        "instrument/light_directions", std::span<const double>(light), Dims{np, 3},
+        {{"units", "1"},
+         {"description", "unit vectors towards the light, patch frame (+z normal, +x barb axis)"}});
+    h5.write("instrument/view_directions", std::span<const double>(view), Dims{np, 3},
+             {{"units", "1"}, {"description", "unit vectors towards the camera, patch frame"}});
+    write_polarisation(h5);
     h5.set_attribute("/instrument", "kind", "btf_camera");
     h5.set_attribute("/instrument", "patch_size_um", c.patch_size_um);
     h5.set_attribute("/instrument", "detector_half_angle_deg",
@@ -184,12 +189,14 @@ void write_btf_record(const BtfRecord& r, const std::filesystem::path& path) {
     h5.set_attribute("/instrument", "image",
                      "rectified to the patch plane: column along +x, row 0 at +y");
     h5.write("wavelength_nm", std::span<const double>(c.wavelengths_nm), Dims{nl},
-             {{"units", "nm"}});
+             {{"units", "nm"}, {"description", "vacuum wavelengths of the measurement"}});
     h5.write(
         "btf/value", std::span<const double>(r.value), Dims{np, n, n, nl},
         {{"units", "1/sr"}, {"description", "per-pixel BRDF, [pair, row, column, wavelength]"}});
     h5.write("btf/standard_error", std::span<const double>(r.standard_error), Dims{np, n, n, nl},
-             {{"units", "1/sr"}});
+             {{"units", "1/sr"},
+              {"description",
+               "Monte Carlo standard error of btf/value, [pair, row, column, wavelength]"}});
     write_provenance(h5, {.scatterer = r.scatterer,
                           .seed = c.seed,
                           .threads = omp_get_max_threads(),

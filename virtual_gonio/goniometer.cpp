@@ -493,11 +493,14 @@ void write_brdf_record(const BrdfRecord& r, const std::filesystem::path& path) {
     h5.set_attribute("/", "format", "plumage record 1 (virtual_gonio/RECORD.md)");
     h5.write(
         "instrument/light_directions", std::span<const double>(light), Dims{np, 3},
-        {{"description", "unit vectors towards the light, patch frame (+z normal, +x barb axis)"}});
+        {{"units", "1"},
+         {"description", "unit vectors towards the light, patch frame (+z normal, +x barb axis)"}});
     h5.write("instrument/view_directions", std::span<const double>(view), Dims{np, 3},
-             {{"description", "unit vectors towards the detector centres, patch frame"}});
+             {{"units", "1"},
+              {"description", "unit vectors towards the detector centres, patch frame"}});
     h5.write("instrument/angles_deg", std::span<const double>(angles), Dims{np, 4},
-             {{"description", "theta_light, phi_light, theta_view, phi_view (deg; phi from +x)"}});
+             {{"units", "deg"},
+              {"description", "theta_light, phi_light, theta_view, phi_view (phi from +x)"}});
     h5.set_attribute("/instrument", "kind", "goniometer");
     h5.set_attribute("/instrument", "direction_set", c.direction_set);
     h5.set_attribute("/instrument", "detector_half_angle_deg",
@@ -506,27 +509,40 @@ void write_brdf_record(const BrdfRecord& r, const std::filesystem::path& path) {
     h5.set_attribute("/instrument", "beam_radius_um", c.beam_radius_um);
     h5.set_attribute("/instrument", "estimator",
                      r.estimator_used == Estimator::eval ? "eval" : "photon");
+    write_polarisation(h5);
     h5.write("wavelength_nm", std::span<const double>(c.wavelengths_nm), Dims{nl},
-             {{"units", "nm"}});
+             {{"units", "nm"}, {"description", "vacuum wavelengths of the measurement"}});
     h5.write("brdf/value", std::span<const double>(r.value), Dims{np, nl},
              {{"units", "1/sr"},
-              {"description", "BRDF averaged over each detector cone (cosine-weighted)"}});
-    h5.write("brdf/standard_error", std::span<const double>(r.standard_error), Dims{np, nl},
-             {{"units", "1/sr"}});
+              {"description",
+               "BRDF averaged over each detector cone (cosine-weighted), [pair, wavelength]"}});
+    h5.write(
+        "brdf/standard_error", std::span<const double>(r.standard_error), Dims{np, nl},
+        {{"units", "1/sr"},
+         {"description", r.estimator_used == Estimator::eval
+                             ? "cubature error estimate of brdf/value, [pair, wavelength]"
+                             : "Monte Carlo standard error of brdf/value, [pair, wavelength]"}});
     for (std::size_t l = 0; l < r.lobes.size(); ++l) {
-        h5.write("brdf/lobes/" + r.lobes[l],
-                 std::span<const double>(r.lobe_values.data() + l * np * nl, np * nl), Dims{np, nl},
-                 {{"units", "1/sr"}});
+        h5.write(
+            "brdf/lobes/" + r.lobes[l],
+            std::span<const double>(r.lobe_values.data() + l * np * nl, np * nl), Dims{np, nl},
+            {{"units", "1/sr"},
+             {"description",
+              fmt::format("the {} lobe's part of brdf/value, [pair, wavelength]", r.lobes[l])}});
         if (r.lobe_standard_error.size() == r.lobe_values.size()) {
             h5.write("brdf/lobe_standard_errors/" + r.lobes[l],
                      std::span<const double>(r.lobe_standard_error.data() + l * np * nl, np * nl),
-                     Dims{np, nl}, {{"units", "1/sr"}});
+                     Dims{np, nl},
+                     {{"units", "1/sr"},
+                      {"description", fmt::format("standard error of brdf/lobes/{}, [pair, "
+                                                  "wavelength]",
+                                                  r.lobes[l])}});
         }
     }
-    write_convergence(
-        h5, r.convergence,
-        {{"columns",
-          "pass, wall_time_s, quanta_per_direction_and_wavelength, estimated_relative_rms_error"}});
+    write_convergence(h5, r.convergence,
+                      convergence_attributes("pass, wall_time_s, "
+                                             "quanta_per_direction_and_wavelength, "
+                                             "estimated_relative_rms_error"));
     write_provenance(h5, {.scatterer = r.scatterer,
                           .seed = c.seed,
                           .threads = r.threads,

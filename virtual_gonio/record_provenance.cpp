@@ -1,22 +1,69 @@
 #include "virtual_gonio/record_provenance.h"
 
+#include <unistd.h>
+
+#include <array>
+#include <chrono>
+#include <ctime>
+
+#include <fmt/chrono.h>
 #include <fmt/format.h>
 
+#include "common/build_info.h"
 #include "common/version.h"
 
 namespace plumage::gonio {
+namespace {
+
+// The current time, UTC, ISO 8601 to the second ("2026-11-25T17:10:55Z").
+std::string utc_now() {
+    const std::time_t now = std::chrono::system_clock::to_time_t(std::chrono::system_clock::now());
+    return fmt::format("{:%Y-%m-%dT%H:%M:%SZ}", fmt::gmtime(now));
+}
+
+std::string host_name() {
+    std::array<char, 256> name{};
+    if (::gethostname(name.data(), name.size() - 1) != 0 || name[0] == '\0') return "unknown";
+    return name.data();
+}
+
+}  // namespace
 
 void write_provenance(record::Hdf5Writer& h5, const Provenance& p) {
     h5.create_group("provenance");
     h5.set_attribute("/provenance", "scatterer", p.scatterer);
     h5.set_attribute("/provenance", "plumage_version", kVersion);
-    h5.set_attribute("/provenance", "seed", fmt::format("{}", p.seed));
-    h5.set_attribute("/provenance", "threads", static_cast<double>(p.threads));
+    h5.set_attribute("/provenance", "git_commit", std::string(git_commit()));
+    h5.set_attribute("/provenance", "date", utc_now());
+    h5.set_attribute("/provenance", "host", host_name());
+    h5.set_attribute("/provenance", "compiler", std::string(compiler()));
+    for (const LibraryVersion& library : library_versions()) {
+        h5.set_attribute("/provenance", fmt::format("{}_version", library.name),
+                         std::string(library.version));
+    }
+    h5.set_unsigned_attribute("/provenance", "seed", p.seed);
+    h5.set_integer_attribute("/provenance", "threads", p.threads);
     h5.set_attribute("/provenance", "wall_time_s", p.wall_time_s);
     h5.set_attribute("/provenance", "cpu_time_s", p.cpu_time_s);
     h5.set_attribute("/provenance", "cpu_per_wall",
                      p.wall_time_s > 0.0 ? p.cpu_time_s / p.wall_time_s : 0.0);
     h5.set_attribute("/provenance", "config", p.config);
+}
+
+void write_polarisation(record::Hdf5Writer& h5) {
+    h5.create_group("instrument");
+    h5.set_attribute("/instrument", "polarisation",
+                     "unpolarised: the light is unpolarised and the detector polarisation-blind; "
+                     "the tracer and the models carry no polarisation state (an interface takes "
+                     "the mean of the s and p Fresnel intensities)");
+}
+
+record::Attributes convergence_attributes(const std::string& columns) {
+    return {{"columns", columns},
+            {"units", "1, s, 1, 1 (per column)"},
+            {"description",
+             "how the estimate settled, one row per pass: pass number, wall time since the "
+             "start, quanta (counted as `columns` says), estimated relative error"}};
 }
 
 void write_convergence(record::Hdf5Writer& h5, std::span<const ConvergenceRow> rows,

@@ -348,30 +348,61 @@ void write_scatterogram_record(const Scatterogram& s, const std::filesystem::pat
     h5.set_attribute("/instrument", "mapping",
                      "azimuthal equidistant: theta = 90 deg * hypot(u, v), phi = atan2(v, u) from "
                      "+x; row 0 at the top");
+    write_polarisation(h5);
     h5.write("wavelength_nm", std::span<const double>(c.wavelengths_nm), Dims{nl},
-             {{"units", "nm"}});
+             {{"units", "nm"}, {"description", "vacuum wavelengths of the measurement"}});
+    // Each pixel's direction written out, so that a reader needs no code for the mapping.
+    std::vector<double> directions(static_cast<std::size_t>(n * n * 3),
+                                   std::numeric_limits<double>::quiet_NaN());
+    for (int row = 0; row < c.image_size; ++row) {
+        for (int column = 0; column < c.image_size; ++column) {
+            const auto w = s.direction(column, row);
+            if (!w) continue;
+            const std::size_t at = (static_cast<std::size_t>(row) * n + column) * 3;
+            directions[at] = w->x();
+            directions[at + 1] = w->y();
+            directions[at + 2] = w->z();
+        }
+    }
+    h5.write("image/directions", std::span<const double>(directions), Dims{n, n, 3},
+             {{"units", "1"},
+              {"description",
+               "unit vector of each pixel centre away from the patch, patch frame (+z normal, "
+               "+x barb axis), [row, column, xyz]; NaN outside the disc (/instrument@mapping)"}});
     h5.write("image/solid_angle_sr", std::span<const double>(s.solid_angle_sr), Dims{n, n},
-             {{"units", "sr"}});
+             {{"units", "sr"},
+              {"description", "solid angle each pixel spans, [row, column]; 0 outside the disc"}});
     h5.write(
         "image/intensity", std::span<const double>(s.intensity), Dims{n, n, nl},
         {{"units", "1/sr"},
          {"description", "radiant intensity per unit incident power, [row, column, wavelength]"}});
     h5.write("image/standard_error", std::span<const double>(s.standard_error), Dims{n, n, nl},
-             {{"units", "1/sr"}});
+             {{"units", "1/sr"},
+              {"description",
+               "Monte Carlo standard error of image/intensity, [row, column, wavelength]"}});
     for (std::size_t l = 0; l < s.lobes.size(); ++l) {
         h5.write("image/lobes/" + s.lobes[l],
                  std::span<const double>(s.lobe_intensity.data() + l * n * n * nl, n * n * nl),
-                 Dims{n, n, nl}, {{"units", "1/sr"}});
+                 Dims{n, n, nl},
+                 {{"units", "1/sr"},
+                  {"description", fmt::format("the {} lobe's part of image/intensity, [row, "
+                                              "column, wavelength]",
+                                              s.lobes[l])}});
     }
     h5.write("transmitted_fraction", std::span<const double>(s.transmitted), Dims{nl},
-             {{"description", "fraction of the incident power leaving below the patch"}});
+             {{"units", "1"},
+              {"description", "fraction of the incident power leaving below the patch"}});
     for (std::size_t l = 0; l < s.lobes.size(); ++l) {
         h5.write("transmitted_lobes/" + s.lobes[l],
-                 std::span<const double>(s.transmitted_lobes.data() + l * nl, nl), Dims{nl});
+                 std::span<const double>(s.transmitted_lobes.data() + l * nl, nl), Dims{nl},
+                 {{"units", "1"},
+                  {"description",
+                   fmt::format("the {} lobe's part of transmitted_fraction", s.lobes[l])}});
     }
     write_convergence(
         h5, s.convergence,
-        {{"columns", "pass, wall_time_s, quanta_per_wavelength, power_weighted_relative_error"}});
+        convergence_attributes(
+            "pass, wall_time_s, quanta_per_wavelength, power_weighted_relative_error"));
     write_provenance(h5, {.scatterer = s.scatterer,
                           .seed = c.seed,
                           .threads = omp_get_max_threads(),
