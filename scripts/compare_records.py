@@ -7,8 +7,8 @@ aside. Exit 0 when identical, 1 with one line per difference.
 
 What is set aside, and why: values that measure the run rather than the scene (wall time,
 CPU time and CPU/wall, thread count, the version string, and /provenance's date, host and git
-commit: a resumed run or another checkout of the same code writes the same numbers on another
-day, machine or commit; the compiler and library versions are compared), the wall-time column of convergence
+commit: a resumed run, or the same code on another day, machine or commit, writes the same
+numbers; the compiler and library versions are compared), the wall-time column of convergence
 tables, and CSV columns whose header names a time (a study's stages.csv: its wall, CPU and
 CPU/wall columns; the stage names are compared).
 """
