@@ -487,13 +487,16 @@ void sweep_parameter(const Run& run, const Sweep& sweep, std::ofstream& all_csv,
     }
     result.skipped += t.skipped;
     h5.write(std::string(p.key) + "/value", std::span<const double>(t.values), {t.values.size()},
-             {{"units", "study-file units (degrees for angles, um for the film)"}});
+             {{"units", "study-file units (degrees for angles, um for the film)"},
+              {"description", "the swept parameter's values, one per sweep point"}});
     h5.write(std::string(p.key) + "/relative_l1", std::span<const double>(t.l1), {t.l1.size()},
-             {{"description",
+             {{"units", "1"},
+              {"description",
                "sum |I_model - I_sim| Omega / sum I_sim Omega over pixels and wavelengths"}});
     h5.write(std::string(p.key) + "/noise_floor", std::span<const double>(t.floor),
              {t.floor.size()},
-             {{"description",
+             {{"units", "1"},
+              {"description",
                "relative L1 a perfect model would show: sqrt(2/pi) sum sigma_sim Omega / sum I_sim "
                "Omega"}});
     const std::span<const AblationPoint> points(result.points.data() + first_point,

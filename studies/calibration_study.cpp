@@ -115,7 +115,10 @@ void write_records(const fs::path& dir, const gonio::BrdfRecord& measured, const
     const std::uint64_t wavelengths = measured.config.wavelengths_nm.size();
     h5.write(
         "z", std::span<const double>(c.z), {pairs, wavelengths},
-        {{"meaning", "(measured - albedo/pi) / standard error per cell; NaN: no error estimate"}});
+        {{"units", "1"},
+         {"description",
+          "(measured - albedo/pi) / standard error per cell, [pair, wavelength]; NaN: no error "
+          "estimate"}});
     h5.set_attribute("/", "albedo", s.albedo);
     h5.set_attribute("/", "chi_square", c.chi_square);
     h5.set_attribute("/", "chi_square_dof", static_cast<double>(c.dof));

@@ -271,20 +271,23 @@ void write_h5(const fs::path& path, const std::vector<double>& energy,
     record::Hdf5Writer h5(path);
     const std::vector<std::uint64_t> dims = {energy.size()};
     h5.write("energy/sampled", std::span<const double>(energy), dims,
-             {{"description",
+             {{"units", "1"},
+              {"description",
                "largest mean quantum weight over incident directions and wavelengths, per row of "
                "extremes.csv (NaN: rejected)"}});
     h5.write("energy/sampled_standard_error", std::span<const double>(error), dims,
-             {{"description", "its standard error"}});
+             {{"units", "1"}, {"description", "standard error of energy/sampled"}});
     h5.write(
         "energy/evaluated", std::span<const double>(eval), dims,
-        {{"description",
+        {{"units", "1"},
+         {"description",
           "largest resolved directional albedo by quadrature plus discrete lobes (NaN: no eval, "
           "none resolved, or rejected)"}});
     h5.write("energy/evaluated_error", std::span<const double>(eval_error), dims,
-             {{"description", "quadrature error estimate"}});
+             {{"units", "1"}, {"description", "quadrature error estimate of energy/evaluated"}});
     h5.write("status", std::span<const double>(flags), dims,
-             {{"description",
+             {{"units", "1"},
+              {"description",
                "0 ok, 1 numerical failure, 2 energy > 1, 3 energy > 1 by the published model's "
                "construction, -1 rejected input"}});
     h5.set_attribute("/", "rows", "in the order of extremes.csv (case, scatterer)");

@@ -222,7 +222,10 @@ std::string scatterogram_pair(const Run& run, const Built& b, gonio::Illuminatio
     record::Hdf5Writer h5(dir / (label + "_comparison.h5"));
     const std::vector<double> values = {l1, l1_r, l1_trt, t_sim, t_mod, multi_share};
     h5.write("relative_error", std::span<const double>(values), {values.size()},
-             {{"columns",
+             {{"units", "1"},
+              {"description",
+               "how the simulated scatterogram departs from the model's (six numbers: columns)"},
+              {"columns",
                "power-weighted relative L1 of simulation against model: all, R, TRT; then T below "
                "(simulation, model) and the simulation's multi-event share of reflected power"}});
     h5.set_attribute("/", "illumination", label);

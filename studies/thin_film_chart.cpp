@@ -230,7 +230,8 @@ void write_chart_datasets(record::Hdf5Writer& h5, const Chart& c, const ChartIma
              {{"units", "nm"}, {"description", "keratin film thickness"}});
     h5.write("chart/incidence_deg", std::span<const double>(c.angle), Dims{c.na},
              {{"units", "deg"}, {"description", "incidence angle in air, from the film normal"}});
-    h5.write("chart/wavelength_nm", c.grid.nm(), Dims{c.nl}, {{"units", "nm"}});
+    h5.write("chart/wavelength_nm", c.grid.nm(), Dims{c.nl},
+             {{"units", "nm"}, {"description", "vacuum wavelengths of the reflectance spectra"}});
     h5.write(
         "chart/reflectance", std::span<const float>(c.reflectance), Dims{c.na, c.nt, c.nl},
         {{"units", "1"},
@@ -240,9 +241,10 @@ void write_chart_datasets(record::Hdf5Writer& h5, const Chart& c, const ChartIma
              {{"units", "1"},
               {"description", "CIE 1931 2-degree XYZ under D65, perfect reflector Y = 1"}});
     h5.write("chart/srgb_linear", std::span<const double>(img.srgb_linear), Dims{c.na, c.nt, 3},
-             {{"description", "linear sRGB of xyz, no exposure, not clipped"}});
+             {{"units", "1"}, {"description", "linear sRGB of xyz, no exposure, not clipped"}});
     h5.write("chart/srgb8", std::span<const std::uint8_t>(img.srgb8), Dims{c.na, c.nt, 3},
-             {{"description",
+             {{"units", "1/255"},
+              {"description",
                "display sRGB (8 bit): exposure applied, negatives clipped, "
                "over-range scaled by the largest component"}});
     h5.set_attribute("/chart", "exposure", exposure);
@@ -257,15 +259,17 @@ void write_spectra_datasets(record::Hdf5Writer& h5, const NormalIncidenceSpectra
     using Dims = std::vector<std::uint64_t>;
     const std::uint64_t n = spectra.wavelength_nm.size();
     h5.write("spectra/wavelength_nm", std::span<const double>(spectra.wavelength_nm), Dims{n},
-             {{"units", "nm"}});
+             {{"units", "nm"}, {"description", "vacuum wavelengths of the spectra"}});
     for (std::size_t f = 0; f < std::size(kFilmsNm); ++f) {
         const int d = static_cast<int>(kFilmsNm[f]);
         h5.write(fmt::format("spectra/R_{}nm", d), std::span<const double>(spectra.film_only[f]),
                  Dims{n},
-                 {{"description", "film reflectance I_R (Huang Eq. 2), normal incidence"}});
-        h5.write(fmt::format("spectra/R_plus_TRT_{}nm", d),
-                 std::span<const double>(spectra.with_background[f]), Dims{n},
-                 {{"description", "I_R + I_TRT (Huang Eqs. 2-3), melanin background"}});
+                 {{"units", "1"},
+                  {"description", "film reflectance I_R (Huang Eq. 2), normal incidence"}});
+        h5.write(
+            fmt::format("spectra/R_plus_TRT_{}nm", d),
+            std::span<const double>(spectra.with_background[f]), Dims{n},
+            {{"units", "1"}, {"description", "I_R + I_TRT (Huang Eqs. 2-3), melanin background"}});
     }
 }
 
