@@ -128,12 +128,12 @@ void elliptical_fibre_azimuthal(const EllipticalCrossSection& section, double et
         throw InputError(fmt::format("elliptical fibre: offsets = {}: expected >= 16", offsets));
     for (auto& lobe : out.lobes) lobe.reset();
     out.medulla = 0.0;
-    const Ellipse cortex(Vec2d::Zero(), section.semi_major_um, section.semi_minor_um,
+    const Ellipse cortex(Vec2d::Zero(), section.up_semi_axis_um, section.side_semi_axis_um,
                          section.rotation_rad);
     const bool has_medulla = section.medulla_scale > 0.0;
     const Ellipse medulla(Vec2d(section.medulla_side_um, section.medulla_up_um),
-                          section.medulla_scale * section.semi_major_um,
-                          section.medulla_scale * section.semi_minor_um, section.rotation_rad);
+                          section.medulla_scale * section.up_semi_axis_um,
+                          section.medulla_scale * section.side_semi_axis_um, section.rotation_rad);
 
     const double s = std::clamp(sin_theta_i, -1.0, 1.0);
     const double cos_theta = std::max(kMinimumCosTheta, std::sqrt(1.0 - s * s));
@@ -223,25 +223,29 @@ std::shared_ptr<const optics::Material> keratin_material() {
 PadronGriffe2024Bsdf::PadronGriffe2024Bsdf(const PadronGriffe2024Params& params)
     : params_(params), masking_((validate(params), params.geometry)) {
     const geometry::BarbulePatchParams& g = params_.geometry;
-    const double ci = std::cos(g.barbule_inclination_rad), si = std::sin(g.barbule_inclination_rad);
     frames_[kBarb] = {Vec3d::UnitX(), Vec3d::UnitZ(), Vec3d::UnitY()};
-    frames_[kDistalBarbule] = {Vec3d(0.0, ci, si), Vec3d(0.0, -si, ci), -Vec3d::UnitX()};
-    frames_[kProximalBarbule] = {Vec3d(0.0, -ci, si), Vec3d(0.0, si, ci), Vec3d::UnitX()};
+    // The rows' frames of the masking term (the authors' FeatherBase): for barbules perpendicular
+    // to the barb, distal (0, cos i, sin i) up (0, −sin i, cos i) side −x, as geometry/barb.h's
+    // instanced meshes.
+    for (int side = 0; side < 2; ++side) {
+        frames_[side == 0 ? kDistalBarbule : kProximalBarbule] = {
+            masking_.row_axis(side), masking_.row_normal(side), masking_.row_across(side)};
+    }
 
     EllipticalCrossSection barb;
-    barb.semi_major_um = masking_.barb_semi_major_um();
-    barb.semi_minor_um = masking_.barb_semi_minor_um();
+    barb.up_semi_axis_um = masking_.barb_vertical_semi_axis_um();
+    barb.side_semi_axis_um = masking_.barb_horizontal_semi_axis_um();
     barb.rotation_rad = g.barb.barb_rotation_rad;
     barb.medulla_scale = g.barb.medulla_scale;
     barb.medulla_side_um = g.barb.medulla_offset_y_um;
     barb.medulla_up_um = g.barb.medulla_offset_z_um;
     if (barb.medulla_scale > 0.0) {
         // Strictly inside the cortex, with a wall of at least 0.2 % (geometry/barb.h's rule).
-        const Ellipse cortex(Vec2d::Zero(), barb.semi_major_um, barb.semi_minor_um,
+        const Ellipse cortex(Vec2d::Zero(), barb.up_semi_axis_um, barb.side_semi_axis_um,
                              barb.rotation_rad);
         const Ellipse core(Vec2d(barb.medulla_side_um, barb.medulla_up_um),
-                           barb.medulla_scale * barb.semi_major_um,
-                           barb.medulla_scale * barb.semi_minor_um, barb.rotation_rad);
+                           barb.medulla_scale * barb.up_semi_axis_um,
+                           barb.medulla_scale * barb.side_semi_axis_um, barb.rotation_rad);
         double reach = 0.0;
         for (int k = 0; k < 720; ++k) {
             const double t = 2.0 * kPi * k / 720;
@@ -257,10 +261,10 @@ PadronGriffe2024Bsdf::PadronGriffe2024Bsdf(const PadronGriffe2024Params& params)
     }
     sections_[kBarb] = barb;
     EllipticalCrossSection barbule;
-    barbule.semi_major_um = 0.5 * g.barbule_width_um;
-    barbule.semi_minor_um =
-        barbule.semi_major_um * std::sqrt(1.0 - g.barbule_eccentricity * g.barbule_eccentricity);
-    barbule.rotation_rad = g.barbule_rotation_rad;
+    // Thickness (axis ratio × width) along the row's normal ("up"), width across the row.
+    barbule.up_semi_axis_um = 0.5 * g.barbule_axis_ratio * g.barbule_width_um;
+    barbule.side_semi_axis_um = 0.5 * g.barbule_width_um;
+    barbule.rotation_rad = 0.0;
     sections_[kDistalBarbule] = barbule;
     sections_[kProximalBarbule] = barbule;
 

@@ -11,11 +11,15 @@
 //
 // Frames. Patch frame of sim/scatterer.h (+z normal, +x barb axis, directions away from the
 // patch). Three fibres, each with a frame (axis, up, side) of analysis/fibre_baseline.h:
-//   barb               axis +x,               up +z,                side +y
-//   distal barbule     axis (0,  cos i, sin i), up (0, −sin i, cos i), side −x
-//   proximal barbule   axis (0, −cos i, sin i), up (0,  sin i, cos i), side +x
-// (i = barbule_inclination; the barbules' frames are those of geometry/barb.h's instanced
-// barbule meshes, so each fibre's elliptical cross-section, with its rotation, is the geometry's.)
+//   barb               axis +x,                         up +z,          side +y
+//   distal barbule     axis (cos i cos r,  cos i sin r, sin i), up = the row's normal, side =
+//   across proximal barbule   axis (cos i cos r, −cos i sin r, sin i), likewise
+// (i = barbule_inclination, r = barbule_rotation, the barbules' direction in the vane; the rows'
+// frames of the masking term, the authors' FeatherBase; for r = 90° the distal barbule is
+// axis (0, cos i, sin i), up (0, −sin i, cos i), side −x, as geometry/barb.h's instanced meshes).
+// Cross-sections (geometry/barb.h, the authors' meanings): the barb's ellipse has semi-axis
+// w/2 × barb_axis_ratio along up (turned by barb_rotation) and w/2 along side; a barbule's has
+// w_b/2 × barbule_axis_ratio along up and w_b/2 along side.
 //
 // The model. A quantum arriving from ωi first meets the barb, a distal or a proximal barbule, or
 // nothing, with the masking fractions G_c(ωi) of the extruded cross-section (exact for that
@@ -48,14 +52,48 @@
 //    G(ωi), f(ωo, ωi) carries G(ωo); tests/analysis/padrongriffe2024_test.cpp shows it, lobe by
 //    lobe. Weighting by G(ωo) instead (the poster's view weighting without shadowing) would be
 //    equally non-reciprocal and would not bound the albedo by 1.
-//  - Masking in 3D: the extruded cross-section (barbules as continuous sheets; see the masking
-//    header): exact for that geometry, it over-estimates the barbules for separated barbules.
+//  - Masking in 3D: the masking term with see-through barbule rows (analysis/
+//    padrongriffe2024_masking.h): light that passes between the barbules of a row goes on and
+//    meets what lies behind, or leaves through the vane as the T lobe.
 //  - Medulla re-emission is isotropic over the sphere (a diffuse source inside the fibre seen
 //    from far away); Yan 2015's layered medulla tables are not reproduced.
 //  - Refractive index: keratin n(λ) = 1.532 + 5890/λ² (sim/optics keratin()); absorption
 //    wavelength-independent.
 //  - Sampling is analog: sample() returns weight 1 (or nothing: absorbed), so pdf() = f |cos θo|,
 //    a sub-density whose mass is the directional albedo (the T lobe's mass is outside it).
+//
+// Readings of the authors' Mitsuba plugin (juanraul8/PennaceousFeathersRendering,
+// feather_plugin/src/bsdfs/feather.cpp class Feather, and its fibre BCSDF Pigmentation:
+// pigmentation.cpp, fiber_tracer.cpp), and where we differ:
+//  - Parameters: barbule_azimuthal_angle is the rotation r, barbule_longitudinal_angle the
+//    inclination i, barbule_separation and barbule_length as in the masking term; the masking's
+//    barb and barbule excentricities are the b_outer of the barb's and the barbules' fibre
+//    BCSDFs (getMasking): the axis ratio of the same ellipse the fibre is traced with. Ours too:
+//    one barb_axis_ratio and one barbule_axis_ratio set both the masking and the traced sections.
+//  - Which direction is masked: getMasking takes bRec.its.wi, the direction towards the camera
+//    (Mitsuba traces from the camera), as the propagation direction of the masking code with its
+//    normal component negated; there is no shadowing term for the light (a wo variant in
+//    measureBRDF is commented out). We weight by the light's direction ωi (above: energy
+//    conservation and sample()); for a view-weighted model swap ωi and ωo.
+//  - Frames (setLocalFrames, getBarbulesFrame): the plugin turns the barb frame by +β (the barb
+//    direction from its texture) but the barbule frames by −β, tilts barbules about the fixed
+//    shading x axis after their azimuth (for r = 90° that rolls the frame instead of lifting the
+//    barbule), and its fibre BCSDF (vector2polar: θ = asin v_x) takes local x as the fibre axis,
+//    90° from the axis y the masking assumes, for barbs and barbules alike. We use one frame per
+//    fibre, whose axis is the axis the masking term and the explicit geometry use; the plugin's
+//    frames agree with ours only for β = 0, i = 0.
+//  - Fibre lobes (FiberTracer::rayTrace, PigmentationSolver::computeBCSDF): an elliptical cortex
+//    (η 1.55), Beer–Lambert absorption over the 3D path, Fresnel splitting into R, TT, TRT (then
+//    Russian roulette), each exit direction spread by normalised Gaussians in θ (β_m) and φ (β_n),
+//    divided by cos θo; offsets h drawn at random in every eval, so eval is stochastic. Ours: the
+//    same trace with a deterministic offset quadrature, up to two internal reflections, and
+//    Marschner's shifted and widened longitudinal lobes per component (α, β per fibre type).
+//  - Medulla: the plugin scatters a path that hits a diffuse medulla into a cosine-weighted
+//    direction about the medulla's normal and keeps tracing it; ours re-emits isotropically
+//    (above). An absorbing medulla (absorption_inner) is not modelled.
+//  - Combination (featherEval): Σ rate_c f_c over barb ranges and the two barbules, the
+//    transmittance rate unused in eval, the per-range h limits not applied in eval (sampling
+//    applies the barbule's hmin); ours applies neither (hits spread uniformly across a fibre).
 //
 // clang-format off
 // Parameter table. `geometry` is a geometry::BarbulePatchParams (table in geometry/barb.h, ranges
@@ -89,12 +127,13 @@
 
 namespace plumage::analysis {
 
-// An elliptical fibre cross-section in its frame's (side, up) plane: semi-axis `semi_major_um`
-// along the direction at `rotation_rad` from up towards side, `semi_minor_um` across; optionally a
-// medulla: the same ellipse scaled by medulla_scale, centred at (medulla_side_um, medulla_up_um).
+// An elliptical fibre cross-section in its frame's (side, up) plane: semi-axis `up_semi_axis_um`
+// along the direction at `rotation_rad` from up towards side, `side_semi_axis_um` across;
+// optionally a medulla: the same ellipse scaled by medulla_scale, centred at (medulla_side_um,
+// medulla_up_um).
 struct EllipticalCrossSection {
-    double semi_major_um = 1.0;
-    double semi_minor_um = 1.0;
+    double up_semi_axis_um = 1.0;
+    double side_semi_axis_um = 1.0;
     double rotation_rad = 0.0;
     double medulla_scale = 0.0;  // 0: none
     double medulla_side_um = 0.0;

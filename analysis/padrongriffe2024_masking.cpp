@@ -18,33 +18,6 @@ namespace {
 // The name that prefixes this file's input errors.
 constexpr std::string_view kWhat = "Padrón-Griffe 2024 masking";
 
-void validate(const geometry::BarbulePatchParams& p) {
-    auto finite = [](double v) { return std::isfinite(v); };
-    require(finite(p.barb.barb_width_um) && p.barb.barb_width_um > 0.0, kWhat, "barb_width_um",
-            p.barb.barb_width_um, "a finite width > 0 (um)");
-    require(finite(p.barb.barb_eccentricity) && p.barb.barb_eccentricity >= 0.0 &&
-                p.barb.barb_eccentricity <= 0.999,
-            kWhat, "barb_eccentricity", p.barb.barb_eccentricity, "a value in [0, 0.999]");
-    require(finite(p.barb.barb_rotation_rad), kWhat, "barb_rotation_rad", p.barb.barb_rotation_rad,
-            "a finite angle (rad)");
-    require(finite(p.barbule_width_um) && p.barbule_width_um > 0.0, kWhat, "barbule_width_um",
-            p.barbule_width_um, "a finite width > 0 (um)");
-    require(finite(p.barbule_eccentricity) && p.barbule_eccentricity >= 0.0 &&
-                p.barbule_eccentricity <= 0.999,
-            kWhat, "barbule_eccentricity", p.barbule_eccentricity, "a value in [0, 0.999]");
-    require(finite(p.barbule_rotation_rad), kWhat, "barbule_rotation_rad", p.barbule_rotation_rad,
-            "a finite angle (rad)");
-    require(finite(p.barbule_inclination_rad) && std::abs(p.barbule_inclination_rad) < 0.5 * kPi,
-            kWhat, "barbule_inclination_rad", p.barbule_inclination_rad,
-            "an angle in (-pi/2, pi/2)");
-    require(finite(p.barbule_length) && p.barbule_length >= 0.0 && p.barbule_length <= 1000.0,
-            kWhat, "barbule_length", p.barbule_length,
-            "a length in [0, 1000] barb widths (0: no barbules)");
-    require(finite(p.barb_spacing) && (p.barb_spacing == 0.0 || p.barb_spacing >= 1.0), kWhat,
-            "barb_spacing", p.barb_spacing,
-            "0 (automatic: neighbouring barbules meet) or >= 1 barb width");
-}
-
 struct Box {
     double y0, y1, z0, z1;
     bool overlaps(const Box& o, double dy, double margin) const {
@@ -111,33 +84,44 @@ struct PadronGriffe2024Masking::ShapeImage {
     }
 };
 
-PadronGriffe2024Masking::PadronGriffe2024Masking(const geometry::BarbulePatchParams& params)
-    : params_(params) {
-    validate(params_);
-    const double e = params_.barb.barb_eccentricity;
-    semi_major_ = 0.5 * params_.barb.barb_width_um;
-    semi_minor_ = semi_major_ * std::sqrt(1.0 - e * e);
+PadronGriffe2024Masking::PadronGriffe2024Masking(const geometry::BarbulePatchParams& params,
+                                                 BarbuleStrips strips)
+    : params_(params), strips_(strips) {
+    geometry::validate_patch_params(params_, kWhat, /*allow_no_barbules=*/true);
+    const geometry::Barb barb(params_.barb);
+    vertical_semi_axis_ = barb.vertical_semi_axis_um();      // along u_a = (sin ρ, cos ρ)
+    horizontal_semi_axis_ = barb.horizontal_semi_axis_um();  // along u_b = (cos ρ, −sin ρ)
     const double s = std::sin(params_.barb.barb_rotation_rad);
     const double c = std::cos(params_.barb.barb_rotation_rad);
-    const double a2 = semi_major_ * semi_major_, b2 = semi_minor_ * semi_minor_;
-    // The point of the ellipse furthest along +y: where its normal is +y. With the support
-    // function h(n) = √(a² (n·u_a)² + b² (n·u_b)²), r = ∇h(ŷ) = (a² sρ u_a + b² cρ u_b) / h(ŷ).
-    const double ry = std::sqrt(a2 * s * s + b2 * c * c);
-    root_ = Eigen::Vector2d(ry, (a2 - b2) * s * c / ry);
+    const double a2 = vertical_semi_axis_ * vertical_semi_axis_,
+                 b2 = horizontal_semi_axis_ * horizontal_semi_axis_;
+    root_ = barb.distal_root_um();
+    const double ry = root_.x();
 
-    // The barbule's cut through its own axis (geometry/barb.cpp, strip_half_thickness): the
-    // radius of its cross-section ellipse in the direction at barbule_rotation from the major axis.
-    const double major = 0.5 * params_.barbule_width_um;
-    const double minor =
-        major * std::sqrt(1.0 - params_.barbule_eccentricity * params_.barbule_eccentricity);
-    const double r = params_.barbule_rotation_rad;
-    half_thickness_ =
-        1.0 / std::sqrt(std::pow(std::cos(r) / major, 2) + std::pow(std::sin(r) / minor, 2));
-    length_ = params_.barbule_length * params_.barb.barb_width_um;
+    // The authors' barb-level model cuts barbules as segments (masking/barbs.h); the explicit
+    // geometry's fibres are as thick as the fibre (geometry/barb.cpp).
+    half_thickness_ = strips_ == BarbuleStrips::kSegments
+                          ? 0.0
+                          : 0.5 * params_.barbule_axis_ratio * params_.barbule_width_um;
+    length_ = strips_ == BarbuleStrips::kSegments ? params_.barbule_length_um()
+                                                  : params_.barbule_fibre_length_um();
     const double ci = std::cos(params_.barbule_inclination_rad);
     const double si = std::sin(params_.barbule_inclination_rad);
-    period_um_ = params_.barb_spacing > 0.0 ? params_.barb_spacing * params_.barb.barb_width_um
-                                            : 2.0 * (ry + length_ * ci);
+    period_um_ = params_.period_um();
+
+    // The barbules' frames (masking/feather-base.h FeatherBase, in our patch frame): the distal
+    // (right) barbule's axis (cos i cos r, cos i sin r, sin i), the proximal (left) one's
+    // (cos i cos r, −cos i sin r, sin i); across = normalise(z × axis), layer normal = axis ×
+    // across.
+    const double r = params_.barbule_rotation_rad;
+    for (int side = 0; side < 2; ++side) {
+        const double sign = side == 0 ? 1.0 : -1.0;
+        const Vec3d axis(ci * std::cos(r), sign * ci * std::sin(r), si);
+        const Vec3d across = Vec3d::UnitZ().cross(axis).normalized();
+        row_axis_[side] = axis;
+        row_across_[side] = across;
+        row_normal_[side] = axis.cross(across);
+    }
 
     for (double side : {1.0, -1.0}) {
         const Eigen::Vector2d start =
@@ -159,7 +143,7 @@ PadronGriffe2024Masking::PadronGriffe2024Masking(const geometry::BarbulePatchPar
         double reach = 0.0;
         for (const Box& b : boxes) reach = std::max({reach, std::abs(b.y0), std::abs(b.y1)});
         const int max_offset = static_cast<int>(std::ceil(2.0 * reach / period_um_)) + 1;
-        const double margin = 1e-9 * (period_um_ + length_ + semi_major_);
+        const double margin = 1e-9 * (period_um_ + length_ + vertical_semi_axis_);
         for (int i = 0; i < 3; ++i) {
             for (int j = i; j < 3; ++j) {
                 for (int dk = -max_offset; dk <= max_offset; ++dk) {
@@ -185,8 +169,10 @@ std::vector<PadronGriffe2024Masking::ShapeImage> PadronGriffe2024Masking::images
     // The barb: image of the semi-axis vectors a u_a and b u_b (the map's linear part).
     const double rs = std::sin(params_.barb.barb_rotation_rad),
                  rc = std::cos(params_.barb.barb_rotation_rad);
-    const Eigen::Vector2d col1 = map(Eigen::Vector2d(semi_major_ * rs, semi_major_ * rc));
-    const Eigen::Vector2d col2 = map(Eigen::Vector2d(semi_minor_ * rc, -semi_minor_ * rs));
+    const Eigen::Vector2d col1 =
+        map(Eigen::Vector2d(vertical_semi_axis_ * rs, vertical_semi_axis_ * rc));
+    const Eigen::Vector2d col2 =
+        map(Eigen::Vector2d(horizontal_semi_axis_ * rc, -horizontal_semi_axis_ * rs));
     ShapeImage barb{MaskingComponent::kBarb, 0.0, 0.0, true, 0.0, 0.0, 0.0, 0.0, 0.0, {}};
     barb.s11 = col1.x() * col1.x() + col2.x() * col2.x();
     barb.s12 = col1.x() * col1.y() + col2.x() * col2.y();
@@ -274,7 +260,8 @@ void line_arc(const Line& a, double uc, double tc, double s11, double s12, doubl
 
 }  // namespace
 
-std::vector<MaskingSegment> PadronGriffe2024Masking::partition(double theta) const {
+std::vector<MaskingSegment> PadronGriffe2024Masking::partition(double theta,
+                                                               const RowTransmittance& rows) const {
     const double cs = std::cos(theta);
     if (!std::isfinite(theta) || std::abs(cs) < kMinimumCosine * (1.0 - 1e-9)) {
         throw InputError(
@@ -342,12 +329,14 @@ std::vector<MaskingSegment> PadronGriffe2024Masking::partition(double theta) con
     std::sort(breaks.begin(), breaks.end());
 
     std::vector<MaskingSegment> segments;
+    std::vector<std::pair<double, MaskingComponent>> met;
     for (std::size_t j = 0; j + 1 < breaks.size(); ++j) {
         const double u0 = std::max(0.0, breaks[j]), u1 = std::min(p, breaks[j + 1]);
         if (!(u1 > u0)) continue;
         const double mid = 0.5 * (u0 + u1);
-        double best = -std::numeric_limits<double>::infinity();
-        MaskingComponent owner = MaskingComponent::kGap;
+        // Every copy the ray at mid meets, front first (disjoint convex shapes are met in the
+        // order of their front boundaries; the order cannot change inside the interval).
+        met.clear();
         for (std::size_t s = 0; s < shapes.size(); ++s) {
             // Only copies whose interval holds mid: k with lo + kP <= mid <= hi + kP.
             const int ka = std::max(k_lo[s], static_cast<int>(std::ceil((mid - shapes[s].hi) / p)));
@@ -355,32 +344,80 @@ std::vector<MaskingSegment> PadronGriffe2024Masking::partition(double theta) con
                 std::min(k_hi[s], static_cast<int>(std::floor((mid - shapes[s].lo) / p)));
             for (int k = ka; k <= kb; ++k) {
                 double t;
-                if (shapes[s].front(mid, k * p, k * shift_t, t) && t > best) {
-                    best = t;
-                    owner = shapes[s].component;
-                }
+                if (shapes[s].front(mid, k * p, k * shift_t, t))
+                    met.push_back({t, shapes[s].component});
             }
         }
+        std::sort(met.begin(), met.end(),
+                  [](const auto& a, const auto& b) { return a.first > b.first; });
+        // A barb stops the ray; a barbule row stops the fraction 1 − T of what reaches it and lets
+        // T through (the authors' Barbs::masking with the rows' transparencies).
+        std::array<double, kMaskingComponentCount> share{};
+        double remaining = 1.0;
+        for (const auto& [t, component] : met) {
+            if (component == MaskingComponent::kBarb) {
+                share[0] += remaining;
+                remaining = 0.0;
+                break;
+            }
+            const double through =
+                component == MaskingComponent::kDistalBarbule ? rows.distal : rows.proximal;
+            share[static_cast<int>(component)] += remaining * (1.0 - through);
+            remaining *= through;
+        }
+        share[static_cast<int>(MaskingComponent::kGap)] += remaining;
+        const MaskingComponent owner = met.empty() ? MaskingComponent::kGap : met.front().second;
         if (!segments.empty() && segments.back().component == owner &&
-            segments.back().u1_um == u0) {
+            segments.back().share == share && segments.back().u1_um == u0) {
             segments.back().u1_um = u1;
         } else {
-            segments.push_back({u0, u1, owner});
+            segments.push_back({u0, u1, owner, share});
         }
     }
     return segments;
 }
 
+RowTransmittance PadronGriffe2024Masking::row_transmittance(const Vec3d& direction) const {
+    RowTransmittance out;
+    if (!has_barbules()) return out;
+    // Barbules::masking: a row of elliptical fibres (width along `across`, thickness × axis
+    // ratio along the row's normal), pitch width × (1 + separation); seen along ω, each fibre
+    // shadows 2 √((w/2)² n² + (r w/2)² a²) of the row's projected pitch w (1 + s) |n|, with
+    // (a, n) = (ω·across, ω·normal); the rest of the pitch is open. 0 where the shadows overlap.
+    const double ratio = params_.barbule_axis_ratio, gap = 1.0 + params_.barbule_separation;
+    for (int side = 0; side < 2; ++side) {
+        const double a = direction.dot(row_across_[side]);
+        const double n = direction.dot(row_normal_[side]);
+        const double open =
+            std::abs(n) > 0.0 ? 1.0 - std::sqrt(n * n + ratio * ratio * a * a) / (gap * std::abs(n))
+                              : 0.0;
+        (side == 0 ? out.distal : out.proximal) = std::max(0.0, open);
+    }
+    return out;
+}
+
 std::vector<MaskingSegment> PadronGriffe2024Masking::segments(double theta_rad) const {
-    return partition(theta_rad);
+    return partition(theta_rad, row_transmittance(in_plane_direction(theta_rad)));
+}
+
+Vec3d PadronGriffe2024Masking::in_plane_direction(double theta_rad) {
+    return {0.0, std::sin(theta_rad), std::cos(theta_rad)};
+}
+
+MaskingFractions PadronGriffe2024Masking::fractions(double theta_rad,
+                                                    const RowTransmittance& rows) const {
+    std::array<double, kMaskingComponentCount> length{};
+    double total = 0.0;
+    for (const MaskingSegment& s : partition(theta_rad, rows)) {
+        for (std::size_t c = 0; c < kMaskingComponentCount; ++c)
+            length[c] += (s.u1_um - s.u0_um) * s.share[c];
+        total += s.u1_um - s.u0_um;  // P up to round-off
+    }
+    return {length[0] / total, length[1] / total, length[2] / total, length[3] / total};
 }
 
 MaskingFractions PadronGriffe2024Masking::in_plane(double theta_rad) const {
-    std::array<double, kMaskingComponentCount> length{};
-    for (const MaskingSegment& s : partition(theta_rad))
-        length[static_cast<int>(s.component)] += s.u1_um - s.u0_um;
-    const double total = length[0] + length[1] + length[2] + length[3];  // P up to round-off
-    return {length[0] / total, length[1] / total, length[2] / total, length[3] / total};
+    return fractions(theta_rad, row_transmittance(in_plane_direction(theta_rad)));
 }
 
 double PadronGriffe2024Masking::projected_angle(const Vec3d& w) {
@@ -395,7 +432,7 @@ double PadronGriffe2024Masking::projected_angle(const Vec3d& w) {
 }
 
 MaskingFractions PadronGriffe2024Masking::operator()(const Vec3d& direction) const {
-    return in_plane(projected_angle(direction));
+    return fractions(projected_angle(direction), row_transmittance(direction));
 }
 
 MaskingFractions PadronGriffe2024Masking::unoccluded(double theta_rad) const {

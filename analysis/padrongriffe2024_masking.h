@@ -1,85 +1,113 @@
-// The barb/barbule masking term of Padrón-Griffe et al. 2024 ("A Surface-based Appearance
-// Model for Pennaceous Feathers", ../shared/papers/padrongriffe2024_pennaceous_feathers.txt):
-// for a direction ω, the fractions of the patch that ω sees first as barb, as barbule, and as
-// nothing (light passing between the structures).
+// The barb/barbule masking term of Padrón-Griffe et al. 2024 ("A Surface-based Appearance Model
+// for Pennaceous Feathers"): for a direction ω, the fractions of the patch that ω sees as barb,
+// as distal or proximal barbule, and as nothing (light passing between barbs and barbules).
 //
-// The paper is a two-page poster without equations ("we derive a masking term for the
-// differential projected areas of the different components ... validated against Monte Carlo
-// simulations on explicit 2D geometry"). The derivation below is ours, for the geometry that
-// geometry/barb.h builds (build_patch_cross_section), and it is exact for that geometry.
+// The paper is a two-page poster without equations; the model is defined by the authors' public
+// code (juanraul8/PennaceousFeathersRendering, masking/). We read it (we did not copy it) and
+// derive the same quantities exactly, for the same geometry. What we took from their code:
+//  - masking/barbs.h Barbs::masking: the barb cross-section is an ellipse with horizontal
+//    semi-axis a and vertical semi-axis a × excentricity (so "excentricity" is the axis ratio,
+//    our barb_axis_ratio), centred on the vane plane; a = 1/(2 (1 + L cos i)) of the period, so
+//    the period is barb width × (1 + L cos i); the barbules are segments from the barb's
+//    horizontal extreme points, each L a = L × width / 2 long, rising by the inclination i, the
+//    distal one of a barb meeting the proximal one of the next at a corner.
+//  - masking/barbules.h Barbules::masking: a barbule row is a row of ellipses (horizontal
+//    semi-axis b, vertical b × excentricity: our barbule_axis_ratio) with pitch 2b (1 + s), s =
+//    separation, the gap in barbule widths; its transmittance for a direction d is the open
+//    part of the projected pitch, 0 when neighbouring fibres overlap in projection.
+//  - masking/feather-base.h FeatherBase and masking/feather.h Feather::masking: each row's frame
+//    from the 3D direction: barbule axis (cos i sin r, sin i, cos i cos r) in (across the barbs,
+//    normal, barb axis) for the distal (right) row, with −r for the proximal (left) row (r =
+//    barbule_rotation: the barbules' direction in the vane, from the barb axis); the transmittance
+//    uses the direction's components across the row (normalise(normal × axis)) and along the
+//    row's normal (axis × across). The barb-level term takes the direction projected on the
+//    cross-section and the two rows' transmittances; light that passes a row goes on in a
+//    straight line (Barbs::masking weights what lies behind by the transparencies).
+//  - Direction: the authors' masking functions take the propagation direction d of the rays
+//    (rays are cast along +d from the shapes to find shadows); our ω points towards the light or
+//    viewer, so our G(ω) corresponds to theirs at d = −ω.
+// Where we differ on purpose:
+//  - Barbs::masking evaluates a fixed set of occlusion cases (one neighbour each side, at most
+//    two rows in front of a barbule) and normalises the rates by their sum; we compute the first
+//    hit exactly (below), through any number of rows and neighbours, and the fractions sum to 1
+//    without normalisation. Barbs::masking also mirrors the geometry for light from below the
+//    vane (the barbules then point down); ours keeps the geometry and sees it from below.
+//  - barb_rotation (the ellipse turned about the barb axis) and barb_spacing (barbs further apart
+//    than the authors' period, leaving a gap between barbule tips) are ours; their defaults (0)
+//    are the authors' model.
+//  - BarbuleStrips::kFibreThickness cuts the barbules as strips as thick as the fibre and as long
+//    as the explicit geometry's fibres (geometry/barb.h: shortened by h |tan i| where the thick
+//    tips of neighbouring barbs would overlap); kSegments (default) is the authors' segments.
+//  - The barbule-level "hmin" (the part of a barbule fibre visible behind its neighbour) is not
+//    returned: analysis/padrongriffe2024.h spreads hits uniformly across a fibre's width.
 //
-// Geometry (the y–z cross-section, one period P along y; lengths in µm):
-//  - the barb: an ellipse centred at the origin, semi-axis a = barb_width/2 along
-//    u_a = (sin ρ, cos ρ) (ρ = barb_rotation, from +z towards +y), b = a √(1 − e_b²) along
+// Geometry (the y–z cross-section, one period P along y; lengths in µm; geometry/barb.h):
+//  - the barb: an ellipse centred at the origin, vertical semi-axis a along u_a = (sin ρ, cos ρ)
+//    (ρ = barb_rotation, from +z towards +y), horizontal semi-axis b = barb_width/2 along
 //    u_b = (cos ρ, −sin ρ); the medulla lies inside it and counts as barb;
-//  - the distal barbule: a rectangle (strip) of length L = barbule_length × barb_width along
-//    d = (cos i, sin i) (i = barbule_inclination) and half-thickness h (the fibre's cut through
-//    its own axis: the radius of the barbule's ellipse at angle barbule_rotation from its major
-//    axis, h = 1/√((cos r / A)² + (sin r / B)²)), starting at the barb's extreme point along +y,
-//    r₊ = (r_y, r_z) with r_y = √(a² sin² ρ + b² cos² ρ), r_z = (a² − b²) sin ρ cos ρ / r_y;
-//    its end faces are perpendicular to d;
+//  - the distal barbule: a strip of length L = barbule_length × barb_width / 2 along
+//    d = (cos i, sin i) and half-thickness h (0, or the fibre's r w / 2), starting at the barb's
+//    extreme point along +y, r₊ = (r_y, r_z), r_y = √(a² sin² ρ + b² cos² ρ), r_z =
+//    (a² − b²) sin ρ cos ρ / r_y; its end faces are perpendicular to d;
 //  - the proximal barbule: the distal strip turned by π about the barb's centre and then about
-//    the vertical (start −r₊ = (−r_y, −r_z), the point reflection of the distal root, so it lies
-//    on the cortex for any rotation; direction (−cos i, sin i): it still rises), as
-//    build_patch_cross_section places it;
-//  - period P = barb_spacing × barb_width, or (barb_spacing = 0) 2 (r_y + L cos i): the tips
-//    of neighbouring barbules meet.
+//    the vertical (start −r₊, direction (−cos i, sin i): it still rises);
+//  - period P = 2 r_y + 2 L cos i (the authors' barb_width (1 + barbule_length cos i)), or
+//    barb_spacing × barb_width.
 //
 // Derivation. Parallel rays arrive along −ω, ω = (sin θ, cos θ) in the y–z plane; each ray is
 // labelled by u, where it would cross the patch plane z = 0, and a point p = (y, z) of the
 // plane has depth t = p·ω towards the viewer. The map (y, z) ↦ (u, t) = (y − z tan θ,
 // y sin θ + z cos θ) is affine and invertible (determinant 1/cos θ), so it takes every ellipse
-// to an ellipse and every rectangle to a parallelogram. The fraction of the patch's projected
-// area seen as component c is the length of the set of u in one period on which c is the
-// first thing a ray meets, divided by P; and the first thing met at u is the shape whose upper
-// boundary t_front(u) is largest there. So the masking term is the upper envelope of the
-// images of all shapes of all barbs (barb k translated by (kP, 0), i.e. by (kP, kP sin θ) in
-// (u, t)), measured on u ∈ [0, P). For an ellipse image with centre (u_c, t_c) and
-// S = M Mᵀ (M the image of its semi-axis vectors) the upper boundary is the closed form
-// t_front = t_c + (S₁₂ v + √(det S (S₁₁ − v²))) / S₁₁, v = u − u_c, |v| ≤ √S₁₁ (the projected
-// half-width); a parallelogram's upper boundary is the upper hull of its four corners, a
-// concave polyline. The envelope changes owner only where a shape starts or ends (interval
-// ends) or where two upper boundaries cross: a line against a line (linear), a line against an
-// elliptic arc (a quadratic, roots in closed form). Two barb ellipses never cross: the period is
-// at least the barb's extent along y (2 r_y), so neighbouring barbs are disjoint, and disjoint
-// convex shapes are met in the same order by every ray that meets both; no quartic is needed.
-// Between consecutive breakpoints the owner is constant and is found by evaluating every boundary
-// at the midpoint. The result is exact up to round-off: no sampling, no tessellation. Mutual
-// occlusion between a barb and its own barbules, between neighbouring barbs, and between barbules
-// of the same and of neighbouring barbs all come out of the same envelope, at any angle; light from
-// below the patch (cos θ < 0) works the same way.
+// to an ellipse and every rectangle to a parallelogram. Along the ray at u, the shapes met are
+// those whose image's u-interval holds u, in the order of their upper boundaries t_front(u)
+// (disjoint convex shapes are met in the same order by every ray that meets both). A barb stops
+// the ray; a barbule strip of row c stops the fraction 1 − T_c(ω) of what reaches it and lets
+// T_c through, T_c the row's transmittance above (opaque rows: separation 0 gives T = 0). The
+// fraction of the patch seen as component c is the integral over u ∈ [0, P) of what stops on c,
+// divided by P. For an ellipse image with centre (u_c, t_c) and S = M Mᵀ (M the image of its
+// semi-axis vectors) the upper boundary is the closed form t_front = t_c + (S₁₂ v + √(det S (S₁₁
+// − v²))) / S₁₁, v = u − u_c, |v| ≤ √S₁₁; a parallelogram's upper boundary is the upper hull of its
+// four corners. The set and the order of the shapes met change only where a shape starts or
+// ends (interval ends) or where two upper boundaries cross: a line against a line, a line
+// against an elliptic arc (a quadratic, roots in closed form). Two barb ellipses never cross (the
+// period is at least the barb's extent along y). Between consecutive breakpoints the order is
+// constant and is found by evaluating every boundary at the midpoint. The result is exact up to
+// round-off: no sampling, no tessellation.
+//
+// The row transmittance is exact for an infinite row crossed from one face to the other; near a
+// barbule's root and tip a ray can cross only part of the row's thickness, which the strip
+// picture does not see (the explicit geometry's Monte Carlo, studies/masking_study.h, measures
+// what that costs). Two rows are taken as independent (the product of their transmittances):
+// the explicit geometry places each row at its own phase along the barb for that reason.
 //
 // Validation (tests/analysis/padrongriffe2024_masking_test.cpp): against Monte Carlo ray casting
-// on the polygons of build_patch_cross_section, 8 configurations × 90 angles in −89..89°, the
-// largest difference is 5e-5 (40 000 stratified rays per angle).
+// on the polygons of build_patch_cross_section, and against exact first-hit ray casting of the
+// authors' configurations (their figure programs' parameter sets), opaque and see-through.
 //
 // What is supported:
-//  - in_plane(θ): view directions in the y–z plane (perpendicular to the barb axis), θ from +z
-//    towards +y, any θ with |cos θ| >= kMinimumCosine (within 89.9° of ±z): exact.
-//  - operator()(ω): any 3D direction, for the cross-section extruded along the barb axis
-//    (barbules as continuous sheets, the "vane" picture of the paper): translation invariance
-//    along x makes the fractions those of the projected direction (ω_y, ω_z), exactly. For the
-//    instanced 3D patch of build_barbule_patch, whose barbules are separate fibres
-//    (barbule_separation > 1), light can also pass between barbules along x; that is NOT
-//    modelled (the 2D term over-estimates the barbule fraction by up to a factor
-//    barbule_separation). Directions closer than 0.1° to the patch plane are evaluated at 89.9°.
+//  - in_plane(θ): view directions in the y–z plane, θ from +z towards +y, any θ with
+//    |cos θ| >= kMinimumCosine (within 89.9° of ±z); the rows' transmittances at ω = (0, sin θ,
+//    cos θ).
+//  - operator()(ω): any 3D direction: the cross-section at the projected direction (ω_y, ω_z)
+//    (translation invariance along x), the rows' transmittances at ω itself. Directions closer
+//    than 0.1° to the patch plane are evaluated at 89.9°.
 //
 // clang-format off
-// Parameters: geometry::BarbulePatchParams (see geometry/barb.h for the full table). The term
-// reads, and validates with the ranges of geometry/barb.h:
-//  | name                    | unit         | default | valid range                        |
-//  |-------------------------|--------------|---------|------------------------------------|
-//  | barb_width_um           | µm           | 30      | finite, > 0                        |
-//  | barb_eccentricity       | 1            | 0.6     | [0, 0.999]                         |
-//  | barb_rotation_rad       | rad          | 0       | finite                             |
-//  | barbule_width_um        | µm           | 8       | finite, > 0                        |
-//  | barbule_eccentricity    | 1            | 0.9     | [0, 0.999]                         |
-//  | barbule_rotation_rad    | rad          | 0       | finite                             |
-//  | barbule_inclination_rad | rad          | 0.35    | (−π/2, π/2)                        |
-//  | barbule_length          | barb widths  | 3       | [0, 1000]; 0: none (geometry/: > 0)|
-//  | barb_spacing            | barb widths  | 0 (auto)| 0, or >= 1                         |
-// The medulla and barbule_separation do not enter the 2D term (the medulla is inside the
-// cortex; the separation is along x).
+// Parameters: geometry::BarbulePatchParams (the full table, with the authors' names, is in
+// geometry/barb.h). The term reads:
+//  | name                    | unit          | default | valid range                        |
+//  |-------------------------|---------------|---------|------------------------------------|
+//  | barb_width_um           | µm            | 30      | finite, > 0                        |
+//  | barb_axis_ratio         | 1             | 1.5     | [0.05, 20] (vertical/horizontal)   |
+//  | barb_rotation_rad       | rad           | 0       | finite                             |
+//  | barbule_width_um        | µm            | 8       | finite, > 0 (kFibreThickness only) |
+//  | barbule_axis_ratio      | 1             | 0.4     | [0.05, 20] (thickness/width)       |
+//  | barbule_rotation_rad    | rad           | π/2     | [0, π]                             |
+//  | barbule_inclination_rad | rad           | 0.35    | (−π/2, π/2)                        |
+//  | barbule_length          | barb widths   | 3       | [0, 1000]; 0: none                 |
+//  | barbule_separation      | barbule widths| 0.5     | >= 0 (0: opaque rows)              |
+//  | barb_spacing            | barb widths   | 0 (auto)| 0, or >= the automatic period      |
+// The medulla does not enter the term (it is inside the cortex).
 // clang-format on
 #pragma once
 
@@ -108,11 +136,24 @@ struct MaskingFractions {
     double operator[](MaskingComponent c) const;
 };
 
-// One piece of the partition of a period: u ∈ [u0_um, u1_um) is seen as `component`.
+// One piece of the partition of a period: on u ∈ [u0_um, u1_um) a ray meets `component` first,
+// and `share` (indexed by MaskingComponent, summing to 1) is where its light stops when barbule
+// rows let part of it through.
 struct MaskingSegment {
     double u0_um, u1_um;
     MaskingComponent component;
+    std::array<double, kMaskingComponentCount> share{};
 };
+
+// The fraction of light a barbule row lets through between its fibres, for one direction.
+struct RowTransmittance {
+    double distal = 0.0;
+    double proximal = 0.0;
+};
+
+// How the barb-level cross-section cuts the barbules: the authors' segments, or strips as thick
+// as the fibre (the explicit geometry's).
+enum class BarbuleStrips { kSegments, kFibreThickness };
 
 class PadronGriffe2024Masking {
 public:
@@ -120,12 +161,23 @@ public:
     // by operator(): the number of barbs a ray crosses grows like tan θ.
     static constexpr double kMinimumCosine = 1.7453283658983088e-3;  // cos(89.9°)
 
-    explicit PadronGriffe2024Masking(const geometry::BarbulePatchParams& params);  // InputError
+    explicit PadronGriffe2024Masking(
+        const geometry::BarbulePatchParams& params,
+        BarbuleStrips strips = BarbuleStrips::kSegments);  // InputError
 
     // View direction (sin θ, cos θ) in the (y, z) plane; InputError when |cos θ| < kMinimumCosine.
     MaskingFractions in_plane(double theta_rad) const;
-    // The partition of u ∈ [0, P) behind in_plane(), merged where the component does not change.
+    // The cross-section at in-plane angle θ with the given row transmittances (both 0: opaque).
+    MaskingFractions fractions(double theta_rad, const RowTransmittance& rows) const;
+    // The partition of u ∈ [0, P) behind in_plane(), merged where nothing changes.
     std::vector<MaskingSegment> segments(double theta_rad) const;
+    // The distal and proximal rows' transmittances for a 3D direction (either sign).
+    RowTransmittance row_transmittance(const Vec3d& direction) const;
+    static Vec3d in_plane_direction(double theta_rad);  // (0, sin θ, cos θ)
+    // Row frames (side 0 distal, 1 proximal): the barbules' axis, across the row, the row's normal.
+    const Vec3d& row_axis(int side) const { return row_axis_[side]; }
+    const Vec3d& row_across(int side) const { return row_across_[side]; }
+    const Vec3d& row_normal(int side) const { return row_normal_[side]; }
     // Any 3D direction (either hemisphere), for the cross-section extruded along x (see above).
     MaskingFractions operator()(const Vec3d& direction) const;
     // The in-plane angle operator() uses for a 3D direction: atan2(ω_y, ω_z), clamped to
@@ -137,9 +189,10 @@ public:
     MaskingFractions unoccluded(double theta_rad) const;
 
     const geometry::BarbulePatchParams& params() const { return params_; }
+    BarbuleStrips strips() const { return strips_; }
     double period_um() const { return period_um_; }
-    double barb_semi_major_um() const { return semi_major_; }
-    double barb_semi_minor_um() const { return semi_minor_; }
+    double barb_vertical_semi_axis_um() const { return vertical_semi_axis_; }
+    double barb_horizontal_semi_axis_um() const { return horizontal_semi_axis_; }
     Eigen::Vector2d distal_root_um() const { return root_; }
     double strip_half_thickness_um() const { return half_thickness_; }
     double barbule_length_um() const { return length_; }
@@ -148,10 +201,12 @@ public:
 private:
     struct ShapeImage;
     std::vector<ShapeImage> images(double theta_rad) const;
-    std::vector<MaskingSegment> partition(double theta_rad) const;
+    std::vector<MaskingSegment> partition(double theta_rad, const RowTransmittance& rows) const;
 
     geometry::BarbulePatchParams params_;
-    double semi_major_, semi_minor_;
+    BarbuleStrips strips_;
+    std::array<Vec3d, 2> row_axis_, row_across_, row_normal_;  // distal, proximal
+    double vertical_semi_axis_, horizontal_semi_axis_;
     Eigen::Vector2d root_;
     double half_thickness_, length_, period_um_;
     // The base shapes in (y, z): 0 barb ellipse (centre, semi-axis vectors), 1 and 2 the

@@ -10,6 +10,7 @@
 #include "common/error.h"
 #include "common/require.h"
 #include "geometry/elliptical_arc.h"
+#include "geometry/random_stream.h"
 
 namespace plumage::geometry {
 namespace {
@@ -44,18 +45,15 @@ Outline ellipse_outline(double along, double across, double rotation, const Eige
     return out;
 }
 
-double eccentric_minor(double major, double eccentricity) {
-    return major * std::sqrt(1.0 - eccentricity * eccentricity);
-}
-
 }  // namespace
 
 Barb::Barb(const BarbParams& p) : params_(p) {
     require(std::isfinite(p.barb_width_um) && p.barb_width_um > 0.0, kWhat, "barb_width_um",
             p.barb_width_um, "a finite width > 0 (um)");
-    require(std::isfinite(p.barb_eccentricity) && p.barb_eccentricity >= 0.0 &&
-                p.barb_eccentricity <= 0.999,
-            kWhat, "barb_eccentricity", p.barb_eccentricity, "a value in [0, 0.999]");
+    require(
+        std::isfinite(p.barb_axis_ratio) && p.barb_axis_ratio >= 0.05 && p.barb_axis_ratio <= 20.0,
+        kWhat, "barb_axis_ratio", p.barb_axis_ratio,
+        "a vertical/horizontal axis ratio in [0.05, 20] (Padrón-Griffe's barb excentricity)");
     require(std::isfinite(p.barb_rotation_rad), kWhat, "barb_rotation_rad", p.barb_rotation_rad,
             "a finite angle");
     require(std::isfinite(p.medulla_scale) && p.medulla_scale >= 0.0 && p.medulla_scale <= 0.95,
@@ -65,15 +63,16 @@ Barb::Barb(const BarbParams& p) : params_(p) {
     if (has_medulla()) {
         // Every medulla point must lie inside the cortex ellipse, with a wall of at least
         // 0.1 % of the barb width (zero wall leaves coincident surfaces).
-        const Outline medulla =
-            ellipse_outline(p.medulla_scale * semi_major_um(), p.medulla_scale * semi_minor_um(),
-                            p.barb_rotation_rad, {p.medulla_offset_y_um, p.medulla_offset_z_um},
-                            {1e-3 * semi_major_um(), 0.05});
+        const Outline medulla = ellipse_outline(
+            p.medulla_scale * vertical_semi_axis_um(), p.medulla_scale * horizontal_semi_axis_um(),
+            p.barb_rotation_rad, {p.medulla_offset_y_um, p.medulla_offset_z_um},
+            {1e-3 * std::min(vertical_semi_axis_um(), horizontal_semi_axis_um()), 0.05});
         const double c = std::cos(p.barb_rotation_rad), s = std::sin(p.barb_rotation_rad);
         for (const Eigen::Vector2d& q : medulla.points) {
-            // Back into the cortex's axis frame: along (major) and across (minor).
+            // Back into the cortex's axis frame: along (vertical) and across (horizontal).
             const double along = q.x() * s + q.y() * c, across = q.x() * c - q.y() * s;
-            const double level = std::hypot(along / semi_major_um(), across / semi_minor_um());
+            const double level =
+                std::hypot(along / vertical_semi_axis_um(), across / horizontal_semi_axis_um());
             require(level < 1.0 - 2e-3, kWhat, "medulla_offset",
                     std::hypot(p.medulla_offset_y_um, p.medulla_offset_z_um),
                     fmt::format(
@@ -84,20 +83,27 @@ Barb::Barb(const BarbParams& p) : params_(p) {
     }
 }
 
-double Barb::semi_minor_um() const {
-    return eccentric_minor(semi_major_um(), params_.barb_eccentricity);
+Eigen::Vector2d Barb::distal_root_um() const {
+    // The support point in direction +y of the ellipse with semi-axis a_v along u_v = (sin ρ,
+    // cos ρ) and a_h along u_h = (cos ρ, −sin ρ): ∇h(ŷ) with h(n) = √(a_v² (n·u_v)² + a_h²
+    // (n·u_h)²).
+    const double av = vertical_semi_axis_um(), ah = horizontal_semi_axis_um();
+    const double s = std::sin(params_.barb_rotation_rad), c = std::cos(params_.barb_rotation_rad);
+    const double ry = std::sqrt(av * av * s * s + ah * ah * c * c);
+    return {ry, (av * av - ah * ah) * s * c / ry};
 }
 
 std::vector<Eigen::Vector2d> Barb::cortex_outline(const TessellationTolerance& tolerance) const {
-    return ellipse_outline(semi_major_um(), semi_minor_um(), params_.barb_rotation_rad, {0.0, 0.0},
-                           tolerance)
+    return ellipse_outline(vertical_semi_axis_um(), horizontal_semi_axis_um(),
+                           params_.barb_rotation_rad, {0.0, 0.0}, tolerance)
         .points;
 }
 
 std::vector<Eigen::Vector2d> Barb::medulla_outline(const TessellationTolerance& tolerance) const {
     if (!has_medulla()) return {};
-    return ellipse_outline(params_.medulla_scale * semi_major_um(),
-                           params_.medulla_scale * semi_minor_um(), params_.barb_rotation_rad,
+    return ellipse_outline(params_.medulla_scale * vertical_semi_axis_um(),
+                           params_.medulla_scale * horizontal_semi_axis_um(),
+                           params_.barb_rotation_rad,
                            {params_.medulla_offset_y_um, params_.medulla_offset_z_um}, tolerance)
         .points;
 }
@@ -193,8 +199,8 @@ TriangleMesh sweep(const Outline& outline, double length_um, double axis_radius_
 TriangleMesh Barb::cortex_mesh(double length_um, double axis_radius_um,
                                const TessellationTolerance& tolerance) const {
     tolerance.validate();
-    return sweep(ellipse_outline(semi_major_um(), semi_minor_um(), params_.barb_rotation_rad,
-                                 {0.0, 0.0}, tolerance),
+    return sweep(ellipse_outline(vertical_semi_axis_um(), horizontal_semi_axis_um(),
+                                 params_.barb_rotation_rad, {0.0, 0.0}, tolerance),
                  length_um, axis_radius_um, tolerance);
 }
 
@@ -202,11 +208,11 @@ TriangleMesh Barb::medulla_mesh(double length_um, double axis_radius_um,
                                 const TessellationTolerance& tolerance) const {
     tolerance.validate();
     if (!has_medulla()) return {};
-    return sweep(
-        ellipse_outline(params_.medulla_scale * semi_major_um(),
-                        params_.medulla_scale * semi_minor_um(), params_.barb_rotation_rad,
-                        {params_.medulla_offset_y_um, params_.medulla_offset_z_um}, tolerance),
-        length_um, axis_radius_um, tolerance);
+    return sweep(ellipse_outline(
+                     params_.medulla_scale * vertical_semi_axis_um(),
+                     params_.medulla_scale * horizontal_semi_axis_um(), params_.barb_rotation_rad,
+                     {params_.medulla_offset_y_um, params_.medulla_offset_z_um}, tolerance),
+                 length_um, axis_radius_um, tolerance);
 }
 
 TriangleMesh sweep_closed_outline(const std::vector<Eigen::Vector2d>& outline, double length_um,
@@ -223,70 +229,76 @@ TriangleMesh sweep_closed_outline(const std::vector<Eigen::Vector2d>& outline, d
     return sweep(o, length_um, axis_radius_um, tolerance);
 }
 
-namespace {
-
-struct BarbuleFibre {
-    double semi_major, semi_minor;
-    // Half-thickness of the fibre's cut through its own axis, perpendicular to the axis
-    // within the y–z plane (the strip seen in the cross-section).
-    double strip_half_thickness(double rotation) const {
-        return 1.0 / std::sqrt(std::pow(std::cos(rotation) / semi_major, 2) +
-                               std::pow(std::sin(rotation) / semi_minor, 2));
-    }
-};
-
-void validate_patch(const BarbulePatchParams& p) {
-    require(std::isfinite(p.barbule_width_um) && p.barbule_width_um > 0.0, kWhat,
-            "barbule_width_um", p.barbule_width_um, "a finite width > 0 (um)");
-    require(std::isfinite(p.barbule_eccentricity) && p.barbule_eccentricity >= 0.0 &&
-                p.barbule_eccentricity <= 0.999,
-            kWhat, "barbule_eccentricity", p.barbule_eccentricity, "a value in [0, 0.999]");
-    require(std::isfinite(p.barbule_rotation_rad), kWhat, "barbule_rotation_rad",
-            p.barbule_rotation_rad, "a finite angle");
+void validate_patch_params(const BarbulePatchParams& p, std::string_view what,
+                           bool allow_no_barbules) {
+    const Barb barb(p.barb);  // the barb's own checks
+    require(std::isfinite(p.barbule_width_um) && p.barbule_width_um > 0.0, what, "barbule_width_um",
+            p.barbule_width_um, "a finite width > 0 (um)");
+    require(std::isfinite(p.barbule_axis_ratio) && p.barbule_axis_ratio >= 0.05 &&
+                p.barbule_axis_ratio <= 20.0,
+            what, "barbule_axis_ratio", p.barbule_axis_ratio,
+            "a thickness/width ratio in [0.05, 20] (Padrón-Griffe's barbule excentricity)");
+    require(std::isfinite(p.barbule_rotation_rad) && p.barbule_rotation_rad >= 0.0 &&
+                p.barbule_rotation_rad <= kPi,
+            what, "barbule_rotation_rad", p.barbule_rotation_rad,
+            "the barbules' direction in the vane from the barb axis, in [0, pi]");
     require(
         std::isfinite(p.barbule_inclination_rad) && std::abs(p.barbule_inclination_rad) < 0.5 * kPi,
-        kWhat, "barbule_inclination_rad", p.barbule_inclination_rad, "an angle in (-pi/2, pi/2)");
-    require(std::isfinite(p.barbule_length) && p.barbule_length > 0.0, kWhat, "barbule_length",
-            p.barbule_length, "a length > 0 in barb widths");
-    require(std::isfinite(p.barbule_separation) && p.barbule_separation >= 1.0, kWhat,
-            "barbule_separation", p.barbule_separation,
-            "a spacing >= 1 barbule width (closer barbules would overlap)");
-    require(std::isfinite(p.barb_spacing) && (p.barb_spacing == 0.0 || p.barb_spacing >= 1.0),
-            kWhat, "barb_spacing", p.barb_spacing,
-            "0 (automatic: neighbouring barbules meet) or >= 1 barb width");
+        what, "barbule_inclination_rad", p.barbule_inclination_rad, "an angle in (-pi/2, pi/2)");
+    require(std::isfinite(p.barbule_length) &&
+                (allow_no_barbules ? p.barbule_length >= 0.0 : p.barbule_length > 0.0) &&
+                p.barbule_length <= 1000.0,
+            what, "barbule_length", p.barbule_length,
+            allow_no_barbules
+                ? "a length in [0, 1000] (each barbule length x barb width / 2; 0: no barbules)"
+                : "a length in (0, 1000] (each barbule is length x barb width / 2)");
+    require(std::isfinite(p.barbule_separation) && p.barbule_separation >= 0.0 &&
+                p.barbule_separation <= 1e6,
+            what, "barbule_separation", p.barbule_separation,
+            "a gap >= 0 between barbule fibres, in barbule widths");
+    const double automatic = p.automatic_period_um() / p.barb.barb_width_um;
+    require(std::isfinite(p.barb_spacing) &&
+                (p.barb_spacing == 0.0 || p.barb_spacing >= automatic * (1.0 - 1e-12)),
+            what, "barb_spacing", p.barb_spacing,
+            fmt::format("0 (automatic: neighbouring barbules meet) or at least {:.6g} barb widths "
+                        "(closer barbs would cross their barbules)",
+                        automatic));
 }
 
-// Where the distal barbule leaves the barb: the cortex point furthest along +y.
-Eigen::Vector2d distal_root(const std::vector<Eigen::Vector2d>& cortex) {
-    return *std::max_element(cortex.begin(), cortex.end(),
-                             [](const auto& a, const auto& b) { return a.x() < b.x(); });
+double BarbulePatchParams::automatic_period_um() const {
+    const Barb b(barb);
+    return 2.0 * b.distal_root_um().x() +
+           2.0 * barbule_length_um() * std::cos(barbule_inclination_rad);
 }
 
-double patch_period(const BarbulePatchParams& p, const std::vector<Eigen::Vector2d>& cortex) {
-    if (p.barb_spacing > 0.0) return p.barb_spacing * p.barb.barb_width_um;
-    const double reach = distal_root(cortex).x() + p.barbule_length * p.barb.barb_width_um *
-                                                       std::cos(p.barbule_inclination_rad);
-    return 2.0 * reach;
+double BarbulePatchParams::barbule_fibre_length_um() const {
+    const double ci = std::cos(barbule_inclination_rad), si = std::sin(barbule_inclination_rad);
+    const double h = 0.5 * barbule_axis_ratio * barbule_width_um;
+    // The tip face's outer corner reaches y = r_y + ℓ cos i + h |sin i|; it must stay within
+    // half a period of its barb.
+    const double room = 0.5 * period_um() - Barb(barb).distal_root_um().x() - h * std::abs(si);
+    return std::max(0.0, std::min(barbule_length_um(), room / ci));
 }
 
-}  // namespace
+double BarbulePatchParams::period_um() const {
+    return barb_spacing > 0.0 ? barb_spacing * barb.barb_width_um : automatic_period_um();
+}
 
 PatchCrossSection build_patch_cross_section(const BarbulePatchParams& params,
                                             const TessellationTolerance& tolerance) {
     tolerance.validate();
-    validate_patch(params);
+    validate_patch_params(params, kWhat);
     const Barb barb(params.barb);
     PatchCrossSection section;
     const auto cortex = barb.cortex_outline(tolerance);
     section.shapes.push_back({SurfaceRole::barb_cortex, cortex});
     if (barb.has_medulla())
         section.shapes.push_back({SurfaceRole::barb_medulla, barb.medulla_outline(tolerance)});
-    const BarbuleFibre fibre{
-        0.5 * params.barbule_width_um,
-        eccentric_minor(0.5 * params.barbule_width_um, params.barbule_eccentricity)};
-    const double half = fibre.strip_half_thickness(params.barbule_rotation_rad);
-    const double length = params.barbule_length * params.barb.barb_width_um;
-    const Eigen::Vector2d root = distal_root(cortex);
+    // The cut of a barbule fibre through its axis: a strip as thick as the fibre (the barb-level
+    // model of the authors' masking/barbs.h uses segments: thickness 0).
+    const double half = 0.5 * params.barbule_axis_ratio * params.barbule_width_um;
+    const double length = params.barbule_fibre_length_um();
+    const Eigen::Vector2d root = barb.distal_root_um();
     for (double side : {1.0, -1.0}) {
         // The proximal root is the cortex point furthest along −y: the distal one
         // reflected through the centre (an ellipse is point-symmetric), which differs
@@ -300,7 +312,7 @@ PatchCrossSection build_patch_cross_section(const BarbulePatchParams& params,
         // Right edge out, left edge back: counter-clockwise for either direction of d.
         section.shapes.push_back({SurfaceRole::barbule, strip});
     }
-    section.period_um = patch_period(params, cortex);
+    section.period_um = params.period_um();
     return section;
 }
 
@@ -360,21 +372,34 @@ double barbule_root_clearance_um(const PatchCrossSection& section) {
 BarbulePatch build_barbule_patch(const BarbulePatchParams& params, double length_x_um, int barbs,
                                  const TessellationTolerance& tolerance) {
     tolerance.validate();
-    validate_patch(params);
+    validate_patch_params(params, kWhat);
     require(barbs >= 1 && barbs <= 10000, kWhat, "barbs", barbs, "1..10000");
+    require(std::abs(params.barbule_rotation_rad - 0.5 * kPi) <= 1e-9, kWhat,
+            "barbule_rotation_rad", params.barbule_rotation_rad,
+            "pi/2 (90 deg) for the explicit patch: it builds barbules perpendicular to the barb; "
+            "other directions exist in the analytic model only");
     const Barb barb(params.barb);
     BarbulePatch patch;
     patch.params = params;
     patch.barb_cortex = barb.cortex_mesh(length_x_um, 0.0, tolerance);
     patch.barb_medulla = barb.medulla_mesh(length_x_um, 0.0, tolerance);
 
-    // One barbule: its elliptical fibre swept along local +x, then turned to run along +y
-    // and tilted up by the inclination.
-    const double semi_major = 0.5 * params.barbule_width_um;
+    const PatchCrossSection section = build_patch_cross_section(params, tolerance);
+    patch.root_clearance_um = barbule_root_clearance_um(section);
+    const double length = params.barbule_fibre_length_um() - patch.root_clearance_um;
+    require(length > 0.0, kWhat, "barbule_length", params.barbule_length,
+            fmt::format("barbules longer than the {:.4g} um they must start away from the cortex "
+                        "(their roots would lie inside it)",
+                        patch.root_clearance_um));
+
+    // One barbule: its elliptical fibre (thickness along the outline's z, width along its y)
+    // swept along local +x, then turned to run along +y (the outline's y becomes −x, the barb
+    // axis) and tilted up by the inclination. It starts root_clearance_um out along its axis and
+    // ends where the authors' barbule ends (less the tip overlap, barbule_fibre_length_um), so
+    // the period is the authors'.
     const Outline fibre =
-        ellipse_outline(semi_major, eccentric_minor(semi_major, params.barbule_eccentricity),
-                        params.barbule_rotation_rad, {0.0, 0.0}, tolerance);
-    const double length = params.barbule_length * params.barb.barb_width_um;
+        ellipse_outline(0.5 * params.barbule_axis_ratio * params.barbule_width_um,
+                        0.5 * params.barbule_width_um, 0.0, {0.0, 0.0}, tolerance);
     TriangleMesh barbule = sweep(fibre, length, 0.0, tolerance);
     const Eigen::Affine3d orient =
         Eigen::AngleAxisd(params.barbule_inclination_rad, Vec3::UnitX()) *
@@ -383,46 +408,43 @@ BarbulePatch build_barbule_patch(const BarbulePatchParams& params, double length
     for (Vec3& n : barbule.shading_normals) n = orient.linear() * n;
     patch.barbule = std::move(barbule);
 
-    const auto cortex = barb.cortex_outline(tolerance);
-    const Eigen::Vector2d root = distal_root(cortex);
-    const PatchCrossSection section = build_patch_cross_section(params, tolerance);
-    patch.root_clearance_um = barbule_root_clearance_um(section);
+    const Eigen::Vector2d root = barb.distal_root_um();
     const double ci = std::cos(params.barbule_inclination_rad);
     const double si = std::sin(params.barbule_inclination_rad);
-    // Furthest y a barbule axis reaches from its barb's axis (root, clearance, length), and
-    // with the inclined tip face leaning out by half the strip's thickness.
-    const auto& strip = section.shapes.back().polygon;
-    const double half_thickness = 0.5 * (strip[3] - strip[0]).norm();
-    const double reach = root.x() + (patch.root_clearance_um + length) * ci;
-    const double tip = reach + half_thickness * std::abs(si);
-    const double period = params.barb_spacing > 0.0 ? section.period_um : 2.0 * reach;
-    if (params.barb_spacing > 0.0 && 2.0 * tip > period) {
-        // Conservative: tips at different heights (a rotated barb) might still pass each other.
-        throw InputError(
-            fmt::format("barb patch: barb_spacing = {} barb widths ({:.2f} um) lets the barbule "
-                        "tips of neighbouring barbs "
-                        "overlap (each reaches {:.2f} um from its barb's axis, {:.2f} um of it "
-                        "root clearance): expected 0 "
-                        "(automatic) or at least {:.3f}",
-                        params.barb_spacing, period, tip, patch.root_clearance_um,
-                        2.0 * tip / params.barb.barb_width_um));
-    }
-    patch.period_um = period;
+    patch.period_um = params.period_um();
     // Each barbule moved out along its own axis, (0, cos i, sin i) in the unit mesh.
     const Eigen::Translation3d clearance(0.0, patch.root_clearance_um * ci,
                                          patch.root_clearance_um * si);
-    const double pitch = params.barbule_separation * params.barbule_width_um;
+    // Rows of fibres along x with the authors' pitch; each row (a barb's distal or proximal side)
+    // starts at its own random phase (a fixed stream per row index), so that across the barbs of
+    // a patch a ray crossing two rows meets independent positions in them, as the analytic term
+    // assumes when it multiplies the rows' transmittances. A regular sequence of phases would give
+    // every pair of neighbouring rows the same relative phase.
+    const double pitch = params.barbule_pitch_um();
     const int per_side = std::max(1, static_cast<int>(std::floor(length_x_um / pitch)));
+    auto row_phase = [](int row) {
+        constexpr std::uint64_t kRowPhaseSeed = 0x5047'3230'3234ull;  // "PG2024", fixed
+        auto rng = detail::seeded_stream(kRowPhaseSeed, static_cast<std::uint64_t>(row), 0);
+        return detail::uniform01(rng) - 0.5;  // in [−1/2, 1/2) pitches
+    };
     for (int k = 0; k < barbs; ++k) {
-        const double y = (k - 0.5 * (barbs - 1)) * period;
+        const double y = (k - 0.5 * (barbs - 1)) * patch.period_um;
         patch.barb_instances.emplace_back(Eigen::Translation3d(0.0, y, 0.0));
-        for (int j = 0; j < per_side; ++j) {
-            const double x = (j - 0.5 * (per_side - 1)) * pitch;
-            patch.barbule_instances.emplace_back(Eigen::Translation3d(x, y + root.x(), root.y()) *
-                                                 clearance);
-            // Proximal: the distal barbule turned by π about z (runs towards −y, still rising).
-            patch.barbule_instances.emplace_back(Eigen::Translation3d(x, y - root.x(), -root.y()) *
-                                                 Eigen::AngleAxisd(kPi, Vec3::UnitZ()) * clearance);
+        for (int side = 0; side < 2; ++side) {
+            const double phase = row_phase(2 * k + side) * pitch;
+            for (int j = 0; j < per_side; ++j) {
+                const double x = (j - 0.5 * (per_side - 1)) * pitch + phase;
+                if (side == 0) {
+                    patch.barbule_instances.emplace_back(
+                        Eigen::Translation3d(x, y + root.x(), root.y()) * clearance);
+                } else {
+                    // Proximal: the distal barbule turned by π about z (runs towards −y, still
+                    // rising), rooted at the point reflection of the distal root.
+                    patch.barbule_instances.emplace_back(
+                        Eigen::Translation3d(x, y - root.x(), -root.y()) *
+                        Eigen::AngleAxisd(kPi, Vec3::UnitZ()) * clearance);
+                }
+            }
         }
     }
     return patch;

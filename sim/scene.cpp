@@ -225,10 +225,9 @@ void SpongyMedulla::validate() const {
 
 namespace {
 
-// The medulla's semi-minor axis (µm).
+// The medulla's smaller semi-axis (µm).
 double medulla_semi_minor_um(const geometry::BarbParams& b) {
-    return b.medulla_scale * 0.5 * b.barb_width_um *
-           std::sqrt(1.0 - b.barb_eccentricity * b.barb_eccentricity);
+    return b.medulla_scale * 0.5 * b.barb_width_um * std::min(1.0, b.barb_axis_ratio);
 }
 
 // `mesh` (a straight tube along x) scaled about (x_mid, centre_y, centre_z): by `across` in y

@@ -13,10 +13,9 @@
 //                                     # film_thickness_um, melanin_depth_um
 //   [geometry.row]                    # barbule_row: H, mu_deg, barbules, cells_per_barbule,
 //                                     # jitter_phi_deg, jitter_theta_deg, seed
-//   [geometry.barb]                   # barb_patch: width_um, eccentricity, rotation_deg,
-//                                     # medulla_scale, medulla_offset_y_um, medulla_offset_z_um
-//   [geometry.barbules]               # barb_patch: width_um, eccentricity, rotation_deg,
-//                                     # inclination_deg, length, separation, barb_spacing
+//   [geometry.vane]                   # barb_patch: Padrón-Griffe's parameters with the
+//                                     # authors' meanings (studies/README.md, "Padrón-Griffe
+//                                     # parameters"): barb_width_um, barb_axis_ratio, ...
 //   [geometry.patch]                  # barb_patch: length_um, barbs
 //   [geometry.spongy]                 # spongy_*: keratin_fraction, box_um, voxel_um, seed,
 //                                     # length_scale_um, shell_relative_width (channel);

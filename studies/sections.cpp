@@ -127,36 +127,51 @@ geometry::BarbuleRowParams read_barbule_row_params(ParameterTable& geometry) {
 }
 
 geometry::BarbulePatchParams read_barb_patch_params(ParameterTable& geometry) {
+    // The sections of the earlier meanings: refused, never reinterpreted.
+    for (const char* old : {"barb", "barbules"}) {
+        if (geometry.has(old)) {
+            throw InputError(fmt::format(
+                "{}: {}.{}: the barb and barbule keys moved to [{}.vane] and now mean what "
+                "Padrón-Griffe et al. 2024's code means (barb and barbule 'eccentricity' became "
+                "axis ratios, barbule length counts half barb widths, separation is the gap "
+                "between barbules, rotation is the barbules' direction in the vane); the mapping "
+                "from the old keys is in studies/README.md, \"Padrón-Griffe parameters\"",
+                geometry.location(old), geometry.path(), old, geometry.path()));
+        }
+    }
     geometry::BarbulePatchParams p;
-    ParameterTable barb = geometry.table("barb");
-    p.barb.barb_width_um =
-        barb.number("width_um", p.barb.barb_width_um, positive(), "barb major diameter, um");
-    p.barb.barb_eccentricity = barb.number("eccentricity", p.barb.barb_eccentricity,
-                                           between(0.0, 0.999), "barb cross-section eccentricity");
-    p.barb.barb_rotation_rad = barb.angle_deg("rotation_deg", 0.0, between(-180.0, 180.0),
-                                              "major axis from +z towards +y");
-    p.barb.medulla_scale = barb.number("medulla_scale", 0.0, between(0.0, 0.95),
+    ParameterTable vane = geometry.table("vane");
+    p.barb.barb_width_um = vane.number("barb_width_um", p.barb.barb_width_um, positive(),
+                                       "barb width across the vane (horizontal diameter), um");
+    p.barb.barb_axis_ratio =
+        vane.number("barb_axis_ratio", p.barb.barb_axis_ratio, between(0.05, 20.0),
+                    "barb height / width (Padrón-Griffe's barb excentricity)");
+    p.barb.barb_rotation_rad = vane.angle_deg("barb_rotation_deg", 0.0, between(-180.0, 180.0),
+                                              "barb cross-section turned from +z towards +y");
+    p.barb.medulla_scale = vane.number("medulla_scale", 0.0, between(0.0, 0.95),
                                        "medulla size relative to the cortex, 0 = none");
     p.barb.medulla_offset_y_um =
-        barb.number("medulla_offset_y_um", 0.0, {}, "medulla offset along y, um");
+        vane.number("medulla_offset_y_um", 0.0, {}, "medulla offset along y, um");
     p.barb.medulla_offset_z_um =
-        barb.number("medulla_offset_z_um", 0.0, {}, "medulla offset along z, um");
-    ParameterTable barbules = geometry.table("barbules");
-    p.barbule_width_um =
-        barbules.number("width_um", p.barbule_width_um, positive(), "barbule major diameter, um");
-    p.barbule_eccentricity = barbules.number("eccentricity", p.barbule_eccentricity,
-                                             between(0.0, 0.999), "barbule eccentricity");
-    p.barbule_rotation_rad = barbules.angle_deg("rotation_deg", 0.0, between(-180.0, 180.0),
-                                                "barbule rotation about its axis");
+        vane.number("medulla_offset_z_um", 0.0, {}, "medulla offset along z, um");
+    p.barbule_width_um = vane.number("barbule_width_um", p.barbule_width_um, positive(),
+                                     "barbule width across the row of barbules, um");
+    p.barbule_axis_ratio =
+        vane.number("barbule_axis_ratio", p.barbule_axis_ratio, between(0.05, 20.0),
+                    "barbule thickness / width (Padrón-Griffe's barbule excentricity)");
+    p.barbule_rotation_rad =
+        vane.angle_deg("barbule_rotation_deg", p.barbule_rotation_rad, between(0.0, 180.0),
+                       "barbules' direction in the vane, from the barb axis");
     p.barbule_inclination_rad =
-        barbules.angle_deg("inclination_deg", p.barbule_inclination_rad, {-90.0, 90.0, true, true},
-                           "barbule rise out of the vane");
-    p.barbule_length =
-        barbules.number("length", p.barbule_length, positive(), "barbule length, in barb widths");
-    p.barbule_separation = barbules.number("separation", p.barbule_separation, between(1.0, 1e6),
-                                           "barbule pitch, in barbule widths");
-    p.barb_spacing = barbules.number("barb_spacing", 0.0, non_negative(),
-                                     "barb pitch in barb widths, 0 = barbules meet");
+        vane.angle_deg("barbule_inclination_deg", p.barbule_inclination_rad,
+                       {-90.0, 90.0, true, true}, "barbule rise out of the vane");
+    p.barbule_length = vane.number("barbule_length", p.barbule_length, between(1e-6, 1000.0),
+                                   "barbule length, in half barb widths (Padrón-Griffe)");
+    p.barbule_separation =
+        vane.number("barbule_separation", p.barbule_separation, between(0.0, 1e6),
+                    "gap between neighbouring barbules, in barbule widths");
+    p.barb_spacing = vane.number("barb_spacing", 0.0, non_negative(),
+                                 "barb pitch in barb widths, 0 = barbules meet");
     return p;
 }
 

@@ -52,7 +52,8 @@ inline constexpr WavelengthRule kFilipWavelengths{
 // [geometry.cell] and [geometry.row] of a barbule row (Huang 2022's parameters), in the units
 // the geometry library takes (angles in radians).
 geometry::BarbuleRowParams read_barbule_row_params(ParameterTable& geometry);
-// [geometry.barb] and [geometry.barbules] of a barb patch (Padron-Griffe 2024's cross-section).
+// [<table>.vane] of a barb patch: Padrón-Griffe 2024's parameters with the authors' meanings
+// (geometry/barb.h); the old [<table>.barb] and [<table>.barbules] are refused with the mapping.
 geometry::BarbulePatchParams read_barb_patch_params(ParameterTable& geometry);
 // [tessellation]: how finely curved surfaces are faceted.
 geometry::TessellationTolerance read_tolerance(ParameterTable tessellation);

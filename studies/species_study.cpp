@@ -206,7 +206,7 @@ SpeciesSpec read_species(ParameterTable table, const std::string& name,
         if (s.patch.barb.medulla_scale <= 0.0) {
             throw InputError(fmt::format(
                 "{}: {}.medulla = \"spongy\" but the barb has no medulla (medulla_scale = 0): "
-                "expected a medulla_scale > 0 in [species.{}.barb]",
+                "expected a medulla_scale > 0 in [species.{}.vane]",
                 m.location("medulla"), m.path(), name));
         }
     } else {
@@ -505,7 +505,7 @@ struct Specimen {
           built(b),
           tracer(std::make_shared<const sim::ExplicitScatterer>(b.scene)),
           cell(std::make_shared<const PeriodCellEntry>(
-              tracer, sp.patch.barbule_separation * sp.patch.barbule_width_um, b.period_um,
+              tracer, sp.patch.barbule_pitch_um(), b.period_um,
               sp.barbs % 2 == 1 ? 0.0 : 0.5 * b.period_um)),
           sample(cell, sp.mount_rad),
           imaged(tracer, sp.mount_rad),
@@ -584,18 +584,27 @@ std::string report_introduction(const Settings& s, const std::vector<BuiltSpecie
         "the stage comes from Table 1's φa: U(φa) = (sin φa, cos φa, 0) is the axis of the fibres "
         "whose highlight the model's anisotropic term describes, so the barb axis (oriented_by = "
         "barbs) or the barbules' direction (oriented_by = barbules) is turned onto U.\n\n"
-        "| species | barb width, ecc. | medulla | barbules (width, ecc., length, rise) | barb "
-        "period | layers | materials | mount |\n"
+        "The vane parameters mean what Padrón-Griffe et al. 2024's code means (studies/README.md, "
+        "\"Padrón-Griffe parameters\"): the barb width is its horizontal diameter and the axis "
+        "ratio its height over width; a barbule's axis ratio is its thickness over its width; "
+        "the length counts half barb widths; barbules leave gaps of `barbule_separation` barbule "
+        "widths between them, through which light passes. The patches are the ones of the "
+        "earlier parameter meanings, converted (same barbs, barbules and periods); what changed "
+        "in the explicit geometry is that barbules end where the authors' end, and that each row "
+        "of barbules has its own phase along the barb.\n\n"
+        "| species | barb width, axis ratio | medulla | barbules (width, axis ratio, gap, length, "
+        "rise) "
+        "| barb period | layers | materials | mount |\n"
         "|---|---|---|---|---|---|---|---|\n",
         kVersion, source.string());
     for (std::size_t i = 0; i < s.species.size(); ++i) {
         const SpeciesSpec& sp = s.species[i];
         const auto& p = sp.patch;
         md += fmt::format(
-            "| {} | {:.0f} µm, {:.2f} | {} | {:.0f} µm, {:.2f}, {:.1f} barb widths, {:.0f}° | "
+            "| {} | {:.0f} µm, {:.2f} | {} | {:.0f} µm, {:.2f}, {:.2g}, {:.3g} × w/2, {:.0f}° | "
             "{:.0f} µm | {} | {} | {:.0f}° (by {}) |\n",
-            sp.name, p.barb.barb_width_um, p.barb.barb_eccentricity, patch_medulla(sp, built[i]),
-            p.barbule_width_um, p.barbule_eccentricity, p.barbule_length,
+            sp.name, p.barb.barb_width_um, p.barb.barb_axis_ratio, patch_medulla(sp, built[i]),
+            p.barbule_width_um, p.barbule_axis_ratio, p.barbule_separation, p.barbule_length,
             p.barbule_inclination_rad / kDeg, built[i].period_um, sp.layers, patch_materials(sp),
             sp.mount_rad / kDeg, sp.oriented_by);
     }
@@ -893,8 +902,7 @@ void check_patch_size(const SpeciesSpec& sp, const BuiltSpecies& b, const Settin
                       const fs::path& source) {
     const Eigen::AlignedBox3d box = b.scene.bounds();
     const double depth = box.max().z() - box.min().z();
-    const double cell =
-        0.5 * std::max(b.period_um, sp.patch.barbule_separation * sp.patch.barbule_width_um);
+    const double cell = 0.5 * std::max(b.period_um, sp.patch.barbule_pitch_um());
     const double half =
         std::max(cell, 0.5 * std::sqrt(2.0) * s.btf_patch_um) + depth * std::tan(kLargestPolarRad);
     const double half_x = 0.5 * (box.max().x() - box.min().x()),
@@ -1388,7 +1396,7 @@ SpeciesScene build_species_scene(const std::string& study_text, const fs::path& 
             wavelengths);
         SpeciesScene out;
         out.scene = std::move(b.scene);
-        out.cell_x_um = sp.patch.barbule_separation * sp.patch.barbule_width_um;
+        out.cell_x_um = sp.patch.barbule_pitch_um();
         out.cell_y_um = b.period_um;
         out.cell_y0_um = sp.barbs % 2 == 1 ? 0.0 : 0.5 * b.period_um;
         out.barb_width_um = sp.patch.barb.barb_width_um;

@@ -48,7 +48,7 @@ TEST(PadronGriffe2024Bsdf, EllipticalTraceReducesToTheCircularClosedForm) {
         FibreAzimuthalScattering circle, ellipse;
         circular_fibre_azimuthal(1.55, 0.03, 30.0, std::sin(theta_i), 0.1, 256, circle);
         EllipticalCrossSection round;
-        round.semi_major_um = round.semi_minor_um = 15.0;
+        round.up_semi_axis_um = round.side_semi_axis_um = 15.0;
         round.rotation_rad = 0.7;  // irrelevant for a circle
         elliptical_fibre_azimuthal(round, 1.55, 0.03, 1.0, std::sin(theta_i), 0.0, 0.1, 256,
                                    ellipse);
@@ -80,13 +80,13 @@ TEST(PadronGriffe2024Bsdf, EllipticalReflectionAndMedullaMatchIndependentIntegra
         for (double psi_i : {0.0, 1.0, 2.4}) {
             for (double theta_i : {0.0, 0.7}) {
                 EllipticalCrossSection e;
-                e.semi_major_um = 15.0;
-                e.semi_minor_um = 6.0;
+                e.up_semi_axis_um = 15.0;
+                e.side_semi_axis_um = 6.0;
                 e.rotation_rad = rotation;
                 FibreAzimuthalScattering out;
                 elliptical_fibre_azimuthal(e, eta, 0.0, 1.0, std::sin(theta_i), psi_i, 0.1, 4096,
                                            out);
-                const double a = e.semi_major_um, b = e.semi_minor_um;
+                const double a = e.up_semi_axis_um, b = e.side_semi_axis_um;
                 // In the ellipse's own axes (major along `up` rotated by `rotation`), the light
                 // direction l has in-frame angle psi_i − rotation from the major axis.
                 const double lpsi = psi_i - rotation;
@@ -122,7 +122,7 @@ TEST(PadronGriffe2024Bsdf, EllipticalReflectionAndMedullaMatchIndependentIntegra
     // absorption and albedo 1, the medulla takes ½ ∫ (1 − F) dh over that range.
     for (double theta_i : {0.0, 0.5}) {
         EllipticalCrossSection c;
-        c.semi_major_um = c.semi_minor_um = 15.0;
+        c.up_semi_axis_um = c.side_semi_axis_um = 15.0;
         c.medulla_scale = 0.5;
         FibreAzimuthalScattering out;
         elliptical_fibre_azimuthal(c, eta, 0.0, 1.0, std::sin(theta_i), 0.3, 0.1, 8192, out);
@@ -312,8 +312,8 @@ TEST(PadronGriffe2024Bsdf, RejectsBadParameters) {
         << m;
     m = message([](PadronGriffe2024Params& p) { p.fibre_offsets = 8; });
     EXPECT_TRUE(contains(m, "fibre_offsets = 8: expected an integer in [16, 65536]")) << m;
-    m = message([](PadronGriffe2024Params& p) { p.geometry.barb.medulla_offset_z_um = 8.0; });
-    EXPECT_TRUE(contains(m, "medulla_offset = 8: expected a medulla strictly inside the cortex"))
+    m = message([](PadronGriffe2024Params& p) { p.geometry.barb.medulla_offset_z_um = 10.0; });
+    EXPECT_TRUE(contains(m, "medulla_offset = 10: expected a medulla strictly inside the cortex"))
         << m;
     m = message([](PadronGriffe2024Params& p) { p.geometry.barb.medulla_scale = 0.99; });
     EXPECT_TRUE(contains(m, "medulla_scale = 0.99: expected a value in [0, 0.95]")) << m;

@@ -56,8 +56,10 @@ TEST(BarbGeometry, CortexOutlineIsTheRotatedEllipseCounterClockwise) {
     BarbParams p;
     p.barb_rotation_rad = 0.4;
     const Barb barb(p);
-    const double a = barb.semi_major_um(), b = barb.semi_minor_um();
-    EXPECT_NEAR(b, a * std::sqrt(1.0 - 0.36), 1e-12);
+    // The authors' meaning: horizontal semi-axis w/2, vertical w/2 × axis ratio (1.5).
+    const double a = barb.vertical_semi_axis_um(), b = barb.horizontal_semi_axis_um();
+    EXPECT_NEAR(b, 15.0, 1e-12);
+    EXPECT_NEAR(a, 1.5 * b, 1e-12);
     for (double chord : {0.1, 0.01, 0.001}) {
         const auto outline = barb.cortex_outline({chord, 0.1});
         for (const auto& q : outline) {
@@ -75,7 +77,8 @@ TEST(BarbGeometry, CortexOutlineIsTheRotatedEllipseCounterClockwise) {
 
 TEST(BarbGeometry, TubesAreClosedOutwardAndHoldTheirVolume) {
     const Barb barb({});
-    const double a = barb.semi_major_um(), b = barb.semi_minor_um(), length = 200.0;
+    const double a = barb.vertical_semi_axis_um(), b = barb.horizontal_semi_axis_um();
+    const double length = 200.0;
     for (double bend : {0.0, 150.0}) {
         const TriangleMesh tube = barb.cortex_mesh(length, bend, {0.005, 0.05});
         EXPECT_TRUE(closed_and_oriented(tube)) << "bend " << bend;
@@ -99,7 +102,7 @@ TEST(BarbGeometry, OffCentreMedullaSitsInsideTheCortex) {
     const Barb barb(p);
     const TriangleMesh medulla = barb.medulla_mesh(50.0, 0.0, {0.01, 0.05});
     EXPECT_TRUE(closed_and_oriented(medulla));
-    const double a = barb.semi_major_um(), b = barb.semi_minor_um();
+    const double a = barb.vertical_semi_axis_um(), b = barb.horizontal_semi_axis_um();
     for (const Vec3& v : medulla.positions) {
         EXPECT_LT(std::pow(v.z() / a, 2) + std::pow(v.y() / b, 2), 1.0);
     }
@@ -110,9 +113,9 @@ TEST(BarbGeometry, OffCentreMedullaSitsInsideTheCortex) {
     p.medulla_scale = 0.99;
     EXPECT_NE(input_error_message([&] { Barb{p}; }).find("medulla_scale = 0.99"),
               std::string::npos);
-    BarbParams round;
-    round.barb_eccentricity = 1.0;
-    EXPECT_NE(input_error_message([&] { Barb{round}; }).find("barb_eccentricity = 1"),
+    BarbParams flat;
+    flat.barb_axis_ratio = 0.01;
+    EXPECT_NE(input_error_message([&] { Barb{flat}; }).find("barb_axis_ratio = 0.01"),
               std::string::npos);
 }
 
@@ -122,22 +125,24 @@ TEST(BarbGeometry, PatchCrossSectionHasBarbAndInclinedBarbules) {
     ASSERT_EQ(s.shapes.size(), 3u);
     EXPECT_EQ(s.shapes[0].role, SurfaceRole::barb_cortex);
     for (const auto& shape : s.shapes) EXPECT_GT(signed_area(shape.polygon), 0.0);
-    // Barbule strips: length ℓ = 3 barb widths, rising by the inclination, thickness the
-    // fibre's major diameter (rotation 0: major axis out of the vane).
+    // Barbule strips: each barbule is length × barb width / 2 = 45 µm long (the authors'), rising
+    // by the inclination, as thick as the fibre (axis ratio × width = 3.2 µm).
     const auto& strip = s.shapes[1].polygon;
     const Eigen::Vector2d axis = 0.5 * (strip[1] + strip[2]) - 0.5 * (strip[0] + strip[3]);
-    EXPECT_NEAR(axis.norm(), 90.0, 1e-9);
+    // (Less h tan i = 1.6 tan 0.35: the thick tips of neighbouring barbs would overlap.)
+    EXPECT_NEAR(axis.norm(), 45.0 - 1.6 * std::tan(0.35), 1e-9);
+    const Eigen::Vector2d tip_corner = strip[1];  // the outer corner of the tip face
+    EXPECT_NEAR(tip_corner.x(), 0.5 * p.period_um(), 1e-9);
     EXPECT_NEAR(std::atan2(axis.y(), axis.x()), 0.35, 1e-12);
-    EXPECT_NEAR((strip[3] - strip[0]).norm(), 8.0, 1e-9);
-    // Automatic spacing: the tips of neighbouring barbs' barbules meet.
-    const double b = 15.0 * std::sqrt(1.0 - 0.36);
-    // (The root is the outline vertex furthest along y: within the chord tolerance.)
-    EXPECT_NEAR(s.period_um, 2.0 * (b + 90.0 * std::cos(0.35)), 2.0 * 0.01);
+    EXPECT_NEAR((strip[3] - strip[0]).norm(), 3.2, 1e-9);
+    // Automatic spacing: the authors' period, barb width × (1 + length cos i).
+    EXPECT_NEAR(s.period_um, 30.0 * (1.0 + 3.0 * std::cos(0.35)), 1e-9);
+    EXPECT_NEAR(p.period_um(), s.period_um, 1e-12);
     BarbulePatchParams bad = p;
-    bad.barbule_separation = 0.5;
+    bad.barb_spacing = 2.0;  // below the automatic 3.82 barb widths: barbules would cross
     EXPECT_NE(input_error_message([&] {
                   build_patch_cross_section(bad, {0.01, 0.05});
-              }).find("overlap"),
+              }).find("at least 3.8"),
               std::string::npos);
 }
 
@@ -145,11 +150,24 @@ TEST(BarbGeometry, PatchInstancesBarbulesOnBothSides) {
     BarbulePatchParams p;
     const BarbulePatch patch = build_barbule_patch(p, 120.0, 3, {0.05, 0.05});
     EXPECT_EQ(patch.barb_instances.size(), 3u);
-    EXPECT_EQ(patch.barbule_instances.size(), 3u * 2u * 10u);  // 120 µm / (1.5 × 8 µm) per side
+    // Pitch: width × (1 + gap 0.5) = 12 µm: 120 µm hold 10 per row.
+    EXPECT_EQ(patch.barbule_instances.size(), 3u * 2u * 10u);
     EXPECT_TRUE(closed_and_oriented(patch.barbule));
-    // The barbule runs along +y, rising by the inclination.
+    // The barbule runs along +y, rising by the inclination, as long as the authors' barbule less
+    // the root clearance, 8 µm wide along x (the barb axis), 3.2 µm thick.
     const auto box = patch.barbule.bounds();
-    EXPECT_NEAR(box[1].y() - box[0].y(), 90.0 * std::cos(0.35) + 8.0 * std::sin(0.35), 0.1);
+    const double length = 45.0 - 1.6 * std::tan(0.35) - patch.root_clearance_um;
+    EXPECT_NEAR(box[1].y() - box[0].y(), length * std::cos(0.35) + 3.2 * std::sin(0.35), 0.1);
+    EXPECT_NEAR(box[1].x() - box[0].x(), 8.0, 0.05);
+    // Neighbouring fibres of a row leave a 4 µm gap (the see-through barbules of the authors),
+    // and each row has its own phase along x.
+    std::vector<double> row0, row1;
+    for (int j = 0; j < 10; ++j) {
+        row0.push_back(patch.barbule_instances[j].translation().x());
+        row1.push_back(patch.barbule_instances[10 + j].translation().x());
+    }
+    for (int j = 1; j < 10; ++j) EXPECT_NEAR(row0[j] - row0[j - 1], 12.0, 1e-9);
+    EXPECT_GT(std::abs(std::remainder(row0[0] - row1[0], 12.0)), 1e-3);
     EXPECT_LT(patch.memory_bytes(), 10u * 1000u * 1000u);
 }
 
@@ -159,17 +177,18 @@ TEST(BarbGeometry, PatchInstancesBarbulesOnBothSides) {
 TEST(BarbGeometry, BarbulesStartOutsideTheCortex) {
     const TessellationTolerance tolerance{0.05, 0.05};
     for (const double rotation : {0.0, 0.5}) {
-        for (const double barbule_rotation : {0.0, 1.5707963267948966}) {
+        for (const double barbule_ratio : {0.4, 1.5}) {
             for (const double inclination : {0.1, 0.35, 0.9}) {
                 BarbulePatchParams p;
                 p.barb.barb_rotation_rad = rotation;
-                p.barbule_rotation_rad = barbule_rotation;
+                p.barbule_axis_ratio = barbule_ratio;
                 p.barbule_inclination_rad = inclination;
                 p.barbule_width_um = 14.0;
                 const BarbulePatch patch = build_barbule_patch(p, 60.0, 1, tolerance);
                 const auto cortex = Barb(p.barb).cortex_outline(tolerance);
                 EXPECT_GE(patch.root_clearance_um, 0.0);
-                EXPECT_LT(patch.root_clearance_um, 0.5 * p.barbule_width_um);
+                EXPECT_LT(patch.root_clearance_um,
+                          0.5 * p.barbule_width_um * std::max(1.0, barbule_ratio));
                 int inside = 0;
                 for (const auto& t : patch.barbule_instances) {
                     for (const Vec3& v : patch.barbule.positions) {
@@ -188,27 +207,28 @@ TEST(BarbGeometry, BarbulesStartOutsideTheCortex) {
                         inside += in;
                     }
                 }
-                EXPECT_EQ(inside, 0) << "rotation " << rotation << ", barbule rotation "
-                                     << barbule_rotation << ", inclination " << inclination;
+                EXPECT_EQ(inside, 0) << "rotation " << rotation << ", barbule ratio "
+                                     << barbule_ratio << ", inclination " << inclination;
+                // The barbules end where the authors' end: the period is theirs.
                 const PatchCrossSection s = build_patch_cross_section(p, tolerance);
-                const double root_y =
-                    std::max_element(cortex.begin(), cortex.end(),
-                                     [](const auto& a, const auto& b) { return a.x() < b.x(); })
-                        ->x();
-                EXPECT_NEAR(
-                    patch.period_um,
-                    2.0 * (root_y + (patch.root_clearance_um + 3.0 * 30.0) * std::cos(inclination)),
-                    1e-9);
-                EXPECT_GE(patch.period_um, s.period_um);
+                EXPECT_NEAR(patch.period_um, s.period_um, 1e-9);
+                EXPECT_NEAR(patch.period_um, p.automatic_period_um(), 1e-9);
             }
         }
     }
-    // An explicit spacing the moved tips would overrun is refused, naming the smallest one.
+    // An explicit spacing below the automatic period is refused, naming the smallest one; the
+    // explicit patch builds barbules perpendicular to the barb only.
     BarbulePatchParams tight;
     tight.barb_spacing = 1.0;
     EXPECT_NE(input_error_message([&] {
                   build_barbule_patch(tight, 60.0, 2, tolerance);
               }).find("at least"),
+              std::string::npos);
+    BarbulePatchParams slanted;
+    slanted.barbule_rotation_rad = 0.8;
+    EXPECT_NE(input_error_message([&] {
+                  build_barbule_patch(slanted, 60.0, 2, tolerance);
+              }).find("pi/2 (90 deg) for the explicit patch"),
               std::string::npos);
 }
 

@@ -28,12 +28,12 @@ std::shared_ptr<const ScatteringMedium> isotropic_medium(double mu_s_per_um) {
 
 geometry::BarbulePatch small_patch(double medulla_scale = 0.8) {
     geometry::BarbulePatchParams p;
-    p.barb.barb_width_um = 40.0;
-    p.barb.barb_eccentricity = 0.6;
+    p.barb.barb_width_um = 32.0;    // horizontal
+    p.barb.barb_axis_ratio = 1.25;  // 40 µm tall
     p.barb.medulla_scale = medulla_scale;
     p.barb.medulla_offset_y_um = 1.0;
     p.barb.medulla_offset_z_um = -0.5;
-    p.barbule_length = 1.0;
+    p.barbule_length = 2.0;
     return geometry::build_barbule_patch(p, 400.0, 1, {0.5, 10.0 * kDeg});
 }
 
@@ -47,9 +47,9 @@ double half_length(const geometry::TriangleMesh& mesh) {
 bool strictly_inside_medulla(const geometry::BarbulePatch& patch,
                              const geometry::TriangleMesh& medulla, const Vec3d& q, double margin) {
     const auto& b = patch.params.barb;
-    const double a = 0.5 * b.barb_width_um * b.medulla_scale;
-    const double c = a * std::sqrt(1.0 - b.barb_eccentricity * b.barb_eccentricity);
-    // rotation 0: semi-major a along z, semi-minor c along y.
+    const double c = 0.5 * b.barb_width_um * b.medulla_scale;
+    const double a = c * b.barb_axis_ratio;
+    // rotation 0: semi-axis a along z, c along y.
     const double y = q.y() - b.medulla_offset_y_um, z = q.z() - b.medulla_offset_z_um;
     const double level = std::hypot(y / (c - margin), z / (a - margin));
     return level < 1.0 && std::abs(q.x()) < half_length(medulla) - margin;

@@ -353,7 +353,7 @@ TEST(TracerCylinder, SingleReflectionFarFieldMatchesFresnelOnACircle) {
     const Complex keratin = optics::keratin()->index(lambda);
     geometry::BarbParams circle;
     circle.barb_width_um = 2.0 * radius;
-    circle.barb_eccentricity = 0.0;
+    circle.barb_axis_ratio = 1.0;
     const geometry::TriangleMesh mesh =
         geometry::Barb(circle).cortex_mesh(200.0, 0.0, {1e-3, 0.01});
     TracerOptions r_only;

@@ -72,6 +72,22 @@ TEST_F(GeometryStudy, UnknownKeyIsAnErrorWithItsLine) {
     EXPECT_FALSE(results_left());
 }
 
+// A barb patch written with the earlier parameter meanings ([geometry.barb], [geometry.barbules])
+// is refused, never reinterpreted, with the way to the mapping; nothing is written.
+TEST_F(GeometryStudy, OldBarbPatchTablesPointToTheParameterMapping) {
+    const std::string message = error_of(
+        "study = \"geometry\"\nname = \"g\"\n[geometry]\nkind = \"barb_patch\"\n"
+        "[geometry.barb]\nwidth_um = 30\neccentricity = 0.6\n[geometry.patch]\nlength_um = 100\n");
+    EXPECT_NE(message.find("study.toml:5:1: geometry.barb: the barb and barbule keys moved to "
+                           "[geometry.vane] and now mean what Padrón-Griffe et al. 2024's code "
+                           "means"),
+              std::string::npos)
+        << message;
+    EXPECT_NE(message.find("studies/README.md, \"Padrón-Griffe parameters\""), std::string::npos)
+        << message;
+    EXPECT_FALSE(results_left());
+}
+
 TEST_F(GeometryStudy, WrongTypeNamesTheExpectedType) {
     const std::string message = error_of(std::string(kRow) + "[geometry.cell]\nb = \"flat\"\n");
     EXPECT_NE(message.find(

