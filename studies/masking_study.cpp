@@ -634,9 +634,9 @@ std::string parameter_line(const geometry::BarbulePatchParams& q) {
                              : std::string("automatic (barbule tips meet)"));
 }
 
-// What changed with issue 20, in one short section.
+// What changed in the parameters and why, in one short section.
 void write_changes_section(std::ofstream& md) {
-    md << "## What changed (issue 20)\n\n"
+    md << "## What changed in the parameters\n\n"
        << "The Padrón-Griffe parameters now mean what the authors' code means "
           "(juanraul8/PennaceousFeathersRendering, masking/; analysis/padrongriffe2024_masking.h "
           "lists each reading): `barb_axis_ratio` is the barb's height/width (their barb "
