@@ -422,9 +422,10 @@ void write_patch_check(MaskingRecord& m, const MaskingStudyResult& result) {
         projected.push_back(d.projected_angle_deg);
     }
     h5.write("patch_3d/directions", std::span<const double>(directions), {n_dir, 3},
-             {{"units",
-               "1 (unit vectors ω towards the viewer, patch frame: normal +z, barb axis "
-               "+x; rays travel along −ω)"}});
+             {{"units", "1"},
+              {"description",
+               "unit vectors ω towards the viewer, patch frame: normal +z, barb axis +x; rays "
+               "travel along −ω"}});
     h5.write("patch_3d/polar_azimuth_deg", std::span<const double>(polar_azimuth), {n_dir, 2},
              {{"units", "deg"}, {"description", "polar angle from +z, azimuth from +x"}});
     h5.write("patch_3d/projected_angle_deg", std::span<const double>(projected), {n_dir},
@@ -485,12 +486,14 @@ void write_summary(MaskingRecord& m, const MaskingStudyResult& result) {
              {{"units", "1"},
               {"description", "sum over angles of z^2; degrees of freedom = number of angles"}});
     h5.write("summary/chi_square_p_value", std::span<const double>(p), {n_config, n_comp},
-             {{"units", "1"}});
+             {{"units", "1"}, {"description", "upper tail of chi_square (2D section)"}});
     h5.write("summary/max_abs_difference", std::span<const double>(max_diff), {n_config},
-             {{"units", fraction_units}});
+             {{"units", fraction_units},
+              {"description", "max |analytic - MC| over angles and components (2D section)"}});
     h5.write("summary/max_abs_z", std::span<const double>(max_z), {n_config},
              {{"units", "1"}, {"description", "over the angles (2D section)"}});
-    h5.write("summary/period_um", std::span<const double>(periods), {n_config}, {{"units", "um"}});
+    h5.write("summary/period_um", std::span<const double>(periods), {n_config},
+             {{"units", "um"}, {"description", "barb period along y"}});
     std::vector<double> patch_chi, patch_p, patch_diff, patch_z, patch_excess;
     for (const auto& c : result.configurations) {
         patch_chi.insert(patch_chi.end(), c.patch_chi_square.begin(), c.patch_chi_square.end());
@@ -508,11 +511,14 @@ void write_summary(MaskingRecord& m, const MaskingStudyResult& result) {
                "3D check: sum over directions of z^2, dof = directions; includes the strip "
                "picture's systematic (not only sampling)"}});
     h5.write("summary/patch_chi_square_p_value", std::span<const double>(patch_p),
-             {n_config, n_quad}, {{"units", "1"}});
+             {n_config, n_quad},
+             {{"units", "1"},
+              {"description", "upper tail of patch_chi_square (includes the model systematic)"}});
     h5.write("summary/patch_max_abs_difference", std::span<const double>(patch_diff), {n_config},
-             {{"units", fraction_units}});
+             {{"units", fraction_units},
+              {"description", "max |term - MC| over the 3D directions and components"}});
     h5.write("summary/patch_max_abs_z", std::span<const double>(patch_z), {n_config},
-             {{"units", "1"}});
+             {{"units", "1"}, {"description", "max |z| over the 3D directions and components"}});
     h5.write("summary/patch_max_excess", std::span<const double>(patch_excess), {n_config},
              {{"units", "1"},
               {"description", "max (|mc - model| - z_bound σ) / allowance: <= 1 passes"}});
