@@ -113,7 +113,7 @@
 //  | barbule_axis_ratio      | 1             | 0.4     | [0.05, 20] (thickness/width)       |
 //  | barbule_rotation_rad    | rad           | π/2     | [0, π]                             |
 //  | barbule_inclination_rad | rad           | 0.35    | (−π/2, π/2)                        |
-//  | barbule_length          | barb widths   | 3       | [0, 1000]; 0: none                 |
+//  | barbule_length          | ½ barb widths | 3       | [0, 1000]; 0: none                 |
 //  | barbule_separation      | barbule widths| 0.5     | >= 0 (0: opaque rows)              |
 //  | barb_spacing            | barb widths   | 0 (auto)| 0, or >= the automatic period      |
 // The medulla does not enter the term (it is inside the cortex).

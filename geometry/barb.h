@@ -25,25 +25,23 @@
 // (across, normal, barb axis)); the explicit geometry builds barbules perpendicular to the barb
 // (rotation 90°) only, and refuses other rotations.
 //
+// clang-format off
 // Parameter table (lengths in µm; the defaults are a generic pennaceous vane, not a species):
-//  | name                    | unit          | default | valid range                        |
-//  authors' name       |
-//  |-------------------------|---------------|---------|------------------------------------|---------------------|
-//  | barb_width_um           | µm            | 30      | > 0 (horizontal diameter)          |
-//  (scale; period = 1) | | barb_axis_ratio         | 1             | 1.5     | [0.05, 20]: vertical
-//  / horizontal  | barb excentricity   | | barb_rotation_rad       | rad           | 0       |
-//  finite (ours; authors: 0)          | —                   | | medulla_scale           | 1 | 0
-//  (none)| [0, 0.95]: medulla semi-axes / cortex's | —              | | medulla_offset_y/z_um   |
-//  µm            | 0, 0    | medulla strictly inside the cortex | —                   | |
-//  barbule_width_um        | µm            | 8       | > 0 (across the row of barbules)   | (scale)
-//  | | barbule_axis_ratio      | 1             | 0.4     | [0.05, 20]: thickness / width      |
-//  barbule excentricity| | barbule_rotation_rad    | rad           | π/2     | [0, π]; explicit
-//  geometry: π/2     | barbule rotation    | | barbule_inclination_rad | rad           | 0.35    |
-//  (−π/2, π/2)                        | barbule inclination | | barbule_length          | barb
-//  widths   | 3       | > 0; each barbule length × w / 2   | barbule length      | |
-//  barbule_separation      | barbule widths| 0.5     | >= 0: gap between fibres           | barbule
-//  separation  | | barb_spacing            | barb widths   | 0 (auto)| 0: the authors' period; or
-//  >= it   | — (ours)            |
+//  | name                    | unit           | default  | valid range                            | authors' name        |
+//  |-------------------------|----------------|----------|----------------------------------------|----------------------|
+//  | barb_width_um           | µm             | 30       | > 0 (horizontal diameter)              | (scale; period = 1)  |
+//  | barb_axis_ratio         | 1              | 1.5      | [0.05, 20]: vertical / horizontal      | barb excentricity    |
+//  | barb_rotation_rad       | rad            | 0        | finite (ours; authors: 0)              | —                    |
+//  | medulla_scale           | 1              | 0 (none) | [0, 0.95]: medulla semi-axes / cortex's| —                    |
+//  | medulla_offset_y/z_um   | µm             | 0, 0     | medulla strictly inside the cortex     | —                    |
+//  | barbule_width_um        | µm             | 8        | > 0 (across the row of barbules)       | (scale)              |
+//  | barbule_axis_ratio      | 1              | 0.4      | [0.05, 20]: thickness / width          | barbule excentricity |
+//  | barbule_rotation_rad    | rad            | π/2      | [0, π]; explicit geometry: π/2 only    | barbule rotation     |
+//  | barbule_inclination_rad | rad            | 0.35     | (−π/2, π/2)                            | barbule inclination  |
+//  | barbule_length          | half barb widths | 3      | (0, 1000]: each barbule length × w / 2 | barbule length       |
+//  | barbule_separation      | barbule widths | 0.5      | >= 0: the gap between fibres           | barbule separation   |
+//  | barb_spacing            | barb widths    | 0 (auto) | 0: the authors' period; or >= it       | — (ours)             |
+// clang-format on
 #pragma once
 
 #include <string_view>
