@@ -627,11 +627,12 @@ std::string report_introduction(const Settings& s, const std::vector<BuiltSpecie
 
 void write_species_h5_header(record::Hdf5Writer& h5, const SpeciesResult& result) {
     h5.write("wavelength_nm", std::span<const double>(result.wavelengths_nm),
-             {result.wavelengths_nm.size()}, {{"units", "nm"}});
+             {result.wavelengths_nm.size()},
+             {{"units", "nm"}, {"description", "vacuum wavelengths of the BRDF and albedo"}});
     h5.write("in_plane/light_angle_deg", std::span<const double>(result.in_plane_angles_deg),
              {result.in_plane_angles_deg.size()},
              {{"units", "deg"},
-              {"meaning",
+              {"description",
                "signed light angle; view at 45 deg in the plane across the barbs; +45 = retro"}});
 }
 
@@ -1254,24 +1255,37 @@ void measure_species_btf(const Run& run, const Specimen& x, SpeciesOutcome& o) {
 void write_species_h5(record::Hdf5Writer& h5, const SpeciesOutcome& o, std::size_t nl) {
     const std::string g5 = "/" + o.species;
     const auto parameters = static_cast<std::uint64_t>(kFilip2024ParameterCount);
+    // One unit per parameter, in the order of /@parameter_names.
+    std::string units;
+    for (int p = 0; p < kFilip2024ParameterCount; ++p)
+        units += (units.empty() ? "" : ",") + std::string(kFilip2024ParameterTable[p].unit);
     h5.write(g5 + "/fit/values", std::span<const double>(o.fitted), {parameters},
-             {{"meaning",
-               "Filip 2024 parameters fitted to the simulated BRDF, order of parameter_names"}});
-    h5.write(g5 + "/fit/standard_errors", std::span<const double>(o.fitted_error), {parameters});
+             {{"units", units},
+              {"description",
+               "Filip 2024 parameters fitted to the simulated BRDF, order of /@parameter_names"}});
+    h5.write(g5 + "/fit/standard_errors", std::span<const double>(o.fitted_error), {parameters},
+             {{"units", units}, {"description", "standard errors of fit/values"}});
     h5.write(g5 + "/fit/table1", std::span<const double>(o.table1), {parameters},
-             {{"meaning", "Filip 2024 Table 1 column of this species"}});
+             {{"units", units}, {"description", "Filip 2024 Table 1 column of this species"}});
     h5.set_attribute(g5 + "/fit/values", "reduced_chi_square", o.reduced_chi_square);
     h5.set_attribute(g5 + "/fit/values", "relative_rms", o.fit_relative_rms);
     h5.write(g5 + "/albedo", std::span<const double>(o.albedo), {nl},
-             {{"meaning", "directional albedo at normal incidence"}});
-    h5.write(g5 + "/albedo_standard_error", std::span<const double>(o.albedo_error), {nl});
+             {{"units", "1"},
+              {"description", "directional albedo at normal incidence, per wavelength_nm"}});
+    h5.write(g5 + "/albedo_standard_error", std::span<const double>(o.albedo_error), {nl},
+             {{"units", "1"}, {"description", "standard error of albedo"}});
     h5.write(g5 + "/in_plane/lstar", std::span<const double>(o.in_plane_lstar),
              {o.in_plane_lstar.size()},
-             {{"meaning", "CIE L* (D65) of the reflectance factor pi f, simulation"}});
+             {{"units", "1"},
+              {"description",
+               "CIE L* (D65) of the reflectance factor pi f, simulation; "
+               "above 100 where the factor exceeds the white standard's"}});
     h5.write(g5 + "/in_plane/lstar_standard_error", std::span<const double>(o.in_plane_lstar_error),
-             {o.in_plane_lstar.size()});
+             {o.in_plane_lstar.size()},
+             {{"units", "1"}, {"description", "standard error of lstar"}});
     h5.write(g5 + "/in_plane/fit_lstar", std::span<const double>(o.in_plane_fit_lstar),
-             {o.in_plane_lstar.size()});
+             {o.in_plane_lstar.size()},
+             {{"units", "1"}, {"description", "CIE L* (D65) of pi f of the fitted Filip model"}});
     h5.set_attribute(g5, "mount_deg", o.mount_deg);
 }
 
