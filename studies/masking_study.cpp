@@ -470,7 +470,8 @@ void write_patch_check(MaskingRecord& m, const MaskingStudyResult& result) {
              {{"units", "1"}, {"description", "rays cast (n_x × n_y stratified cells)"}});
 }
 
-void write_summary(MaskingRecord& m, const MaskingStudyResult& result) {
+// Per configuration, the 2D section's χ², p-values and largest differences.
+void write_section_summary(MaskingRecord& m, const MaskingStudyResult& result) {
     auto& h5 = m.h5;
     const auto n_config = m.n_config, n_comp = m.n_comp;
     const std::string& fraction_units = m.fraction_units;
@@ -494,6 +495,13 @@ void write_summary(MaskingRecord& m, const MaskingStudyResult& result) {
              {{"units", "1"}, {"description", "over the angles (2D section)"}});
     h5.write("summary/period_um", std::span<const double>(periods), {n_config},
              {{"units", "um"}, {"description", "barb period along y"}});
+}
+
+// Per configuration, the 3D explicit-patch check's χ², p-values, largest differences and excess.
+void write_patch_summary(MaskingRecord& m, const MaskingStudyResult& result) {
+    auto& h5 = m.h5;
+    const auto n_config = m.n_config;
+    const std::string& fraction_units = m.fraction_units;
     std::vector<double> patch_chi, patch_p, patch_diff, patch_z, patch_excess;
     for (const auto& c : result.configurations) {
         patch_chi.insert(patch_chi.end(), c.patch_chi_square.begin(), c.patch_chi_square.end());
@@ -522,7 +530,11 @@ void write_summary(MaskingRecord& m, const MaskingStudyResult& result) {
     h5.write("summary/patch_max_excess", std::span<const double>(patch_excess), {n_config},
              {{"units", "1"},
               {"description", "max (|mc - model| - z_bound σ) / allowance: <= 1 passes"}});
+}
 
+// The parameters of each configuration, as attributes of /configuration/<name>.
+void write_configuration_parameters(MaskingRecord& m, const MaskingStudyResult& result) {
+    auto& h5 = m.h5;
     for (const auto& c : result.configurations) {
         const std::string g = "/configuration/" + c.name;
         h5.create_group(g);
@@ -561,7 +573,9 @@ void write_hdf5(const fs::path& path, const MaskingStudyResult& result, const st
     const std::string& components = m.components;
     write_angle_tables(m, result);
     write_patch_check(m, result);
-    write_summary(m, result);
+    write_section_summary(m, result);
+    write_patch_summary(m, result);
+    write_configuration_parameters(m, result);
     std::string names;
     for (const auto& c : result.configurations) names += (names.empty() ? "" : ",") + c.name;
     h5.set_attribute("/", "configurations", names);
