@@ -81,12 +81,12 @@ def convergence(csv_path, png_path):
     with open(csv_path, newline="") as f:
         rows = list(csv.DictReader(f))
     fig, ax = plt.subplots(figsize=(6.5, 4.5))
-    series = [k for k in rows[0].keys() if k not in ("label", "wall_time_s")]
+    series = [k for k in ("estimated_error", "true_error", "reference_floor") if k in rows[0]]
     labels = sorted(set(r["label"] for r in rows))
     for label in labels:
         sel = [r for r in rows if r["label"] == label]
         t = [float(r["wall_time_s"]) for r in sel]
-        for key, style in zip(series, ("o-", "s--")):
+        for key, style in zip(series, ("o-", "s--", "^:")):
             y = [float(r[key]) for r in sel]
             if all(v > 0 for v in y):
                 ax.loglog(t, y, style, label=f"{label}: {key.replace('_', ' ')}")
