@@ -8,28 +8,53 @@
 
 #include "common/error.h"
 #include "sim/optics/colour.h"
+#include "sim/random.h"
 
 namespace plumage::analysis {
 namespace {
 
+double standard_error_at(const std::vector<double>& se, std::size_t i) {
+    return se.size() > i ? se[i] : 0.0;
+}
+
 ErrorMeasures measures(const std::vector<double>& a, const std::vector<double>& b,
-                       const gonio::BrdfRecord& r, std::size_t offset) {
+                       const std::vector<double>& a_error, const std::vector<double>& b_error,
+                       const gonio::BrdfRecord& r) {
     const std::size_t np = r.config.pairs.size(), nl = r.config.wavelengths_nm.size();
-    double sq = 0.0, diff = 0.0, ref = 0.0, wsq = 0.0, wsum = 0.0;
+    double sq = 0.0, diff = 0.0, ref = 0.0, wsq = 0.0, wsum = 0.0, var = 0.0, sigma = 0.0;
     for (std::size_t p = 0; p < np; ++p) {
         const double w = r.config.pairs[p].wi.z() * r.config.pairs[p].wo.z();
         for (std::size_t k = 0; k < nl; ++k) {
-            const double d = a[offset + p * nl + k] - b[offset + p * nl + k];
+            const std::size_t i = p * nl + k;
+            const double d = a[i] - b[i];
             sq += d * d;
             diff += std::abs(d);
-            ref += std::abs(b[offset + p * nl + k]);
+            ref += std::abs(b[i]);
             wsq += w * d * d;
             wsum += w;
+            const double v = std::pow(standard_error_at(a_error, i), 2) +
+                             std::pow(standard_error_at(b_error, i), 2);
+            var += v;
+            sigma += std::sqrt(v);
         }
     }
     const double n = static_cast<double>(np * nl);
-    return {std::sqrt(sq / n), ref > 0.0 ? diff / ref : (diff > 0.0 ? INFINITY : 0.0),
-            std::sqrt(wsq / wsum)};
+    ErrorMeasures m;
+    m.rmse = std::sqrt(sq / n);
+    m.relative_l1 = ref > 0.0 ? diff / ref : (diff > 0.0 ? INFINITY : 0.0);
+    m.cosine_weighted_rmse = std::sqrt(wsq / wsum);
+    m.rmse_noise_floor = std::sqrt(var / n);
+    m.relative_l1_noise_floor = ref > 0.0 ? std::sqrt(2.0 / std::numbers::pi) * sigma / ref
+                                          : (sigma > 0.0 ? INFINITY : 0.0);
+    return m;
+}
+
+// A lobe's block [lobe][pair][wavelength] of a record's per-lobe arrays (empty if absent).
+std::vector<double> lobe_block(const std::vector<double>& values, std::size_t lobe,
+                               std::size_t cells) {
+    if (values.size() < (lobe + 1) * cells) return {};
+    return {values.begin() + static_cast<long>(lobe * cells),
+            values.begin() + static_cast<long>((lobe + 1) * cells)};
 }
 
 }  // namespace
@@ -53,36 +78,52 @@ RecordComparison compare_records(const gonio::BrdfRecord& a, const gonio::BrdfRe
     }
     const std::size_t np = ca.pairs.size(), nl = ca.wavelengths_nm.size();
     RecordComparison c;
-    c.total = measures(a.value, b.value, a, 0);
+    c.total = measures(a.value, b.value, a.standard_error, b.standard_error, a);
     for (std::size_t la = 0; la < a.lobes.size(); ++la) {
         const auto it = std::find(b.lobes.begin(), b.lobes.end(), a.lobes[la]);
         if (it == b.lobes.end()) continue;
         const std::size_t lb = static_cast<std::size_t>(it - b.lobes.begin());
-        // Views of one lobe each, aligned at offset 0.
-        const std::vector<double> va(a.lobe_values.begin() + static_cast<long>(la * np * nl),
-                                     a.lobe_values.begin() + static_cast<long>((la + 1) * np * nl));
-        const std::vector<double> vb(b.lobe_values.begin() + static_cast<long>(lb * np * nl),
-                                     b.lobe_values.begin() + static_cast<long>((lb + 1) * np * nl));
-        c.lobes.emplace_back(a.lobes[la], measures(va, vb, a, 0));
+        c.lobes.emplace_back(
+            a.lobes[la],
+            measures(lobe_block(a.lobe_values, la, np * nl), lobe_block(b.lobe_values, lb, np * nl),
+                     lobe_block(a.lobe_standard_error, la, np * nl),
+                     lobe_block(b.lobe_standard_error, lb, np * nl), a));
     }
     c.colour_available = nl >= 2 && ca.wavelengths_nm.front() >= optics::kCmfMinNm &&
                          ca.wavelengths_nm.back() <= optics::kCmfMaxNm;
     if (c.colour_available) {
         const optics::ReflectanceToXyz to_xyz(optics::WavelengthGrid(ca.wavelengths_nm),
                                               optics::Illuminant::d65);
-        std::vector<double> fa(nl), fb(nl);
-        double total = 0.0;
+        std::vector<double> fa(nl), fb(nl), noisy(nl);
+        double total = 0.0, floor = 0.0;
+        constexpr int kNoiseDraws = 16;
+        constexpr std::uint64_t kNoiseSeed = 0x636f6d70617265;  // "compare": a fixed stream
         for (std::size_t p = 0; p < np; ++p) {
             for (std::size_t k = 0; k < nl; ++k) {
                 fa[k] = std::numbers::pi * a.value[p * nl + k];
                 fb[k] = std::numbers::pi * b.value[p * nl + k];
             }
-            const double de = optics::ciede2000(optics::lab_from_xyz(to_xyz(fb), to_xyz.white()),
-                                                optics::lab_from_xyz(to_xyz(fa), to_xyz.white()));
+            const optics::Lab lab_b = optics::lab_from_xyz(to_xyz(fb), to_xyz.white());
+            const double de =
+                optics::ciede2000(lab_b, optics::lab_from_xyz(to_xyz(fa), to_xyz.white()));
             total += de;
             c.max_delta_e00 = std::max(c.max_delta_e00, de);
+            for (int draw = 0; draw < kNoiseDraws; ++draw) {
+                Rng rng(kNoiseSeed, p * kNoiseDraws + static_cast<std::uint64_t>(draw));
+                for (std::size_t k = 0; k < nl; ++k) {
+                    const double s = std::hypot(standard_error_at(a.standard_error, p * nl + k),
+                                                standard_error_at(b.standard_error, p * nl + k));
+                    // Box–Muller: one normal deviate per wavelength.
+                    const double u1 = 1.0 - rng.uniform(), u2 = rng.uniform();
+                    noisy[k] = fb[k] + std::numbers::pi * s * std::sqrt(-2.0 * std::log(u1)) *
+                                           std::cos(2.0 * std::numbers::pi * u2);
+                }
+                floor +=
+                    optics::ciede2000(lab_b, optics::lab_from_xyz(to_xyz(noisy), to_xyz.white()));
+            }
         }
         c.mean_delta_e00 = total / static_cast<double>(np);
+        c.delta_e00_noise_floor = floor / static_cast<double>(np * kNoiseDraws);
     }
     std::vector<CellDifference> cells;
     for (std::size_t p = 0; p < np; ++p)
@@ -101,18 +142,23 @@ RecordComparison compare_records(const gonio::BrdfRecord& a, const gonio::BrdfRe
 std::string comparison_markdown(const RecordComparison& c, const gonio::BrdfRecord& r,
                                 const std::string& test_name, const std::string& reference_name) {
     std::string md = fmt::format(
-        "| {} against {} | RMSE (1/sr) | relative L1 | cos-weighted RMSE (1/sr) "
-        "|\n|---|---|---|---|\n",
+        "| {} against {} | RMSE (1/sr) | its noise floor | relative L1 | its noise floor | "
+        "cos-weighted RMSE (1/sr) |\n|---|---|---|---|---|---|\n",
         test_name, reference_name);
-    md += fmt::format("| all lobes | {:.4g} | {:.4g} | {:.4g} |\n", c.total.rmse,
-                      c.total.relative_l1, c.total.cosine_weighted_rmse);
-    for (const auto& [name, m] : c.lobes) {
-        md += fmt::format("| {} | {:.4g} | {:.4g} | {:.4g} |\n", name, m.rmse, m.relative_l1,
-                          m.cosine_weighted_rmse);
-    }
+    auto row = [](const std::string& name, const ErrorMeasures& m) {
+        return fmt::format("| {} | {:.4g} | {:.2g} | {:.4g} | {:.2g} | {:.4g} |\n", name, m.rmse,
+                           m.rmse_noise_floor, m.relative_l1, m.relative_l1_noise_floor,
+                           m.cosine_weighted_rmse);
+    };
+    md += row("all lobes", c.total);
+    for (const auto& [name, m] : c.lobes) md += row(name, m);
+    md +=
+        "\nNoise floor: what the number would be if the two were the same BRDF measured with "
+        "these standard errors.\n";
     if (c.colour_available) {
-        md += fmt::format("\nColour (π·f under D65): mean ΔE00 {:.2f}, max ΔE00 {:.2f}.\n",
-                          c.mean_delta_e00, c.max_delta_e00);
+        md += fmt::format(
+            "\nColour (π·f under D65): mean ΔE00 {:.2f} (noise floor {:.2f}), max ΔE00 {:.2f}.\n",
+            c.mean_delta_e00, c.delta_e00_noise_floor, c.max_delta_e00);
     }
     md +=
         "\nWorst cells:\n\n| pair | θ_i, φ_i (deg) | θ_o, φ_o (deg) | λ (nm) | test | reference | "

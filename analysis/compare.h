@@ -9,6 +9,12 @@
 //                        for a white Lambertian) under D65, CIE 1931 2°; mean and max
 //  per lobe              the same three numbers for every lobe name both records have
 //  worst                 the cells with the largest |a − b|, with their directions
+//
+// Noise floors: what each number would be if a and b were the same function measured with
+// the records' standard errors (σ² = σ_a² + σ_b² per cell; Monte Carlo σ, or a cubature's
+// error estimate): rmse sqrt(mean σ²); relative L1 sqrt(2/π) Σσ / Σ|b| (the mean |N(0, σ)|);
+// ΔE00 the mean over pairs of ΔE00(b, b + noise), noise drawn 16 times per pair from a fixed
+// stream. A difference well above its floor is the models'; one at the floor is noise.
 #pragma once
 
 #include <string>
@@ -26,12 +32,13 @@ struct CellDifference {
 
 struct ErrorMeasures {
     double rmse = 0.0, relative_l1 = 0.0, cosine_weighted_rmse = 0.0;
+    double rmse_noise_floor = 0.0, relative_l1_noise_floor = 0.0;
 };
 
 struct RecordComparison {
     ErrorMeasures total;
     std::vector<std::pair<std::string, ErrorMeasures>> lobes;
-    double mean_delta_e00 = 0.0, max_delta_e00 = 0.0;
+    double mean_delta_e00 = 0.0, max_delta_e00 = 0.0, delta_e00_noise_floor = 0.0;
     bool colour_available = false;  // wavelengths inside 360–830 nm and at least two
     std::vector<CellDifference> worst;
 };

@@ -9,6 +9,7 @@
 #include "analysis/lambertian.h"
 #include "common/error.h"
 #include "sim/optics/colour.h"
+#include "sim/random.h"
 
 namespace plumage::analysis {
 namespace {
@@ -43,6 +44,33 @@ TEST(CompareRecords, LambertianPlatesDifferByTheClosedForms) {
     const RecordComparison same = compare_records(a, a);
     EXPECT_EQ(same.total.rmse, 0.0);
     EXPECT_EQ(same.max_delta_e00, 0.0);
+}
+
+// The noise floors are what a perfect model scores: a record of f plus normal noise of its
+// stated σ, against f itself, shows L1 and ΔE00 at their floors (within the spread of a mean
+// over 55 pairs × 7 wavelengths).
+TEST(CompareRecords, APerfectModelScoresItsNoiseFloor) {
+    const std::vector<double> grid = {400.0, 450.0, 500.0, 550.0, 600.0, 650.0, 700.0};
+    const auto exact = measure(0.5, grid);
+    auto noisy = exact;
+    const double sigma = 0.02 * 0.5 / std::numbers::pi;  // 2 % of the value
+    for (std::size_t i = 0; i < noisy.value.size(); ++i) {
+        Rng rng(7, i);
+        const double u1 = 1.0 - rng.uniform(), u2 = rng.uniform();
+        noisy.value[i] +=
+            sigma * std::sqrt(-2.0 * std::log(u1)) * std::cos(2.0 * std::numbers::pi * u2);
+        noisy.standard_error[i] = sigma;
+    }
+    std::fill(noisy.lobe_values.begin(), noisy.lobe_values.end(), 0.0);  // lobes: not under test
+    const RecordComparison c = compare_records(noisy, exact);
+    // Mean |N(0, σ)| over n = 385 cells: relative spread sqrt(π/2 − 1)/sqrt(n) = 3.9 %.
+    EXPECT_NEAR(c.total.relative_l1_noise_floor, 0.02 * std::sqrt(2.0 / std::numbers::pi), 1e-6);
+    EXPECT_NEAR(c.total.relative_l1 / c.total.relative_l1_noise_floor, 1.0, 4.0 * 0.039);
+    EXPECT_NEAR(c.total.rmse / c.total.rmse_noise_floor, 1.0, 4.0 / std::sqrt(2.0 * 385.0));
+    // ΔE00 of a grey with 2 % noise per wavelength: the mean over 55 pairs is within about
+    // 30 % of the floor (the per-pair ΔE00 spreads about half its mean).
+    EXPECT_GT(c.delta_e00_noise_floor, 0.0);
+    EXPECT_NEAR(c.mean_delta_e00 / c.delta_e00_noise_floor, 1.0, 0.3);
 }
 
 TEST(CompareRecords, RefusesRecordsFromDifferentInstruments) {
