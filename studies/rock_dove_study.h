@@ -37,6 +37,7 @@ struct RockDoveResult {
     double brdf_relative_l1 = 0.0;  // total BRDF, simulation against model
     // ΔE00 of the model's colours on the study's wavelengths against 1 nm, largest over pairs.
     double colour_quadrature_max_delta_e00 = 0.0;
+    double fit_reduced_chi_square = 0.0;      // Huang fitted to a simulated beam scatterogram
     double simulated_multi_share = 0.0;       // of the reflected power, hemispheric light
     double simulated_t = 0.0, model_t = 0.0;  // T lobe at the beam's incidence
     double eq7_edge_coupling = 0.0;           // r_θ(1 − cos θ_d)/(b² A) of the simulated cells
