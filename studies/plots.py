@@ -24,8 +24,6 @@ import matplotlib
 matplotlib.use("Agg")
 import matplotlib.pyplot as plt  # noqa: E402
 
-KINDS = {}  # filled below: kind name -> function(input, png)
-
 
 def numeric_csv(csv_path):
     """The header and the rows (as floats) of a CSV whose every value is a number."""
@@ -36,7 +34,7 @@ def numeric_csv(csv_path):
     return header, rows
 
 
-def spectra(csv_path, png_path):
+def build_spectra(csv_path):
     with open(csv_path, newline="") as f:
         rows = list(csv.DictReader(f))
     wl = [float(r["wavelength_nm"]) for r in rows]
@@ -48,14 +46,14 @@ def spectra(csv_path, png_path):
         ax.plot(wl, r, color="tab:green", label="R (film only)")
         ax.set_title(f"keratin film {d} nm, normal incidence")
         ax.set_xlabel("wavelength (nm)")
+        ax.set_ylabel("reflectance")
         ax.grid(alpha=0.3)
-    axes[0].set_ylabel("reflectance")
     axes[0].legend(loc="upper left", fontsize=8)
     fig.tight_layout()
-    fig.savefig(png_path, dpi=120)
+    return fig
 
 
-def chart(h5_path, png_path):
+def build_chart(h5_path):
     import h5py
     import numpy as np
 
@@ -74,10 +72,10 @@ def chart(h5_path, png_path):
     ax.set_ylabel("incidence angle (deg)")
     ax.set_title("Thin keratin film in air, reflected colour under D65")
     fig.tight_layout()
-    fig.savefig(png_path, dpi=120)
+    return fig
 
 
-def convergence(csv_path, png_path):
+def build_convergence(csv_path):
     with open(csv_path, newline="") as f:
         rows = list(csv.DictReader(f))
     fig, ax = plt.subplots(figsize=(6.5, 4.5))
@@ -97,13 +95,14 @@ def convergence(csv_path, png_path):
     ax.loglog(tt, [e0 * (t0 / x) ** 0.5 for x in tt], "k:", label="slope -1/2")
     ax.set_xlabel("wall time (s)")
     ax.set_ylabel("relative RMS error")
+    ax.set_title("Error against wall time (log-log)")
     ax.grid(alpha=0.3, which="both")
     ax.legend(fontsize=8)
     fig.tight_layout()
-    fig.savefig(png_path, dpi=120)
+    return fig
 
 
-def curves(csv_path, png_path):
+def build_curves(csv_path):
     header, rows = numeric_csv(csv_path)
     x = [r[0] for r in rows]
     fig, ax = plt.subplots(figsize=(7, 4.2))
@@ -113,13 +112,14 @@ def curves(csv_path, png_path):
         ax.errorbar(x, y, yerr=err, fmt="o-" if i == 1 else "s--", ms=3, capsize=2, label=header[i])
     ax.set_xlabel(header[0])
     ax.set_ylabel("BRDF (1/sr)")
+    ax.set_title(f"BRDF against {header[0]}")
     ax.grid(alpha=0.3)
     ax.legend(fontsize=8)
     fig.tight_layout()
-    fig.savefig(png_path, dpi=120)
+    return fig
 
 
-def contact_sheet(csv_path, png_path):
+def build_contact_sheet(csv_path):
     import textwrap
 
     import matplotlib.image as mpimg
@@ -146,10 +146,10 @@ def contact_sheet(csv_path, png_path):
         else:
             a.text(0.02, 0.5, note, transform=a.transAxes, fontsize=7, va="center", ha="left", wrap=True)
     fig.tight_layout()
-    fig.savefig(png_path, dpi=110)
+    return fig
 
 
-def sweep_error(csv_path, png_path):
+def build_sweep_error(csv_path):
     header, rows = numeric_csv(csv_path)
     skipped = [r[0] for r in rows if r[1] != r[1]]  # NaN: the value was rejected
     rows = [r for r in rows if r[1] == r[1]]
@@ -165,14 +165,15 @@ def sweep_error(csv_path, png_path):
             ax.axvline(r[0], color="k", ls=":", lw=0.8, label="base value")
     ax.set_xlabel(header[0])
     ax.set_ylabel("power-weighted relative L1")
+    ax.set_title(f"Model error against {header[0]}")
     ax.set_ylim(bottom=0)
     ax.grid(alpha=0.3)
     ax.legend(fontsize=8)
     fig.tight_layout()
-    fig.savefig(png_path, dpi=120)
+    return fig
 
 
-def energy_bars(csv_path, png_path):
+def build_energy_bars(csv_path):
     with open(csv_path, newline="") as f:
         rows = list(csv.DictReader(f))
     colours = {"ok": "tab:blue", "by construction": "tab:orange", "violation": "tab:red"}
@@ -184,15 +185,17 @@ def energy_bars(csv_path, png_path):
     ax.set_yticks(y)
     ax.set_yticklabels([r["label"] for r in rows], fontsize=6)
     ax.set_xlabel("largest energy, reflected + transmitted (error bars: 4 sigma or quadrature error)")
+    ax.set_ylabel("case and scatterer")
+    ax.set_title("Energy conservation: largest energy per case and scatterer")
     from matplotlib.patches import Patch
 
     ax.legend(handles=[Patch(color=c, label=s) for s, c in colours.items()], fontsize=7, loc="lower right")
     ax.grid(alpha=0.3, axis="x")
     fig.tight_layout()
-    fig.savefig(png_path, dpi=110)
+    return fig
 
 
-def luminance(csv_path, png_path):
+def build_luminance(csv_path):
     header, rows = numeric_csv(csv_path)
     x = [r[0] for r in rows]
     fig, ax = plt.subplots(figsize=(7, 4.2))
@@ -208,13 +211,14 @@ def luminance(csv_path, png_path):
         ax.text(angle, ax.get_ylim()[1], text, ha="center", va="bottom", fontsize=8)
     ax.set_xlabel(header[0])
     ax.set_ylabel("CIE L* (D65)")
+    ax.set_title("In-plane luminance across the barbs (Filip 2024 Fig. 6a)", pad=16)
     ax.grid(alpha=0.3)
     ax.legend(fontsize=7, ncol=2)
     fig.tight_layout()
-    fig.savefig(png_path, dpi=120)
+    return fig
 
 
-def masking(h5_path, png_path):
+def build_masking(h5_path):
     """One row per configuration: barb, barbule and gap fractions against the in-plane angle
     (analytic lines, Monte Carlo points with +-sigma bars); the residuals z in sigma with the
     Sidak bound of the whole comparison; and |MC - analytic| on a log scale beside sigma and the
@@ -259,8 +263,10 @@ def masking(h5_path, png_path):
         middle.axhline(0.0, color="k", lw=0.5)
         middle.set_ylim(-zmax, zmax)
         middle.set_ylabel("z = (MC - analytic) / sigma", fontsize=8)
+        middle.set_title(f"{name}: residuals in sigma", fontsize=9, loc="left")
         right.set_ylim(bottom=0.8 * floor)
         right.set_ylabel("|MC - analytic|", fontsize=8)
+        right.set_title(f"{name}: |MC - analytic| and bounds", fontsize=9, loc="left")
         for ax in axes[k]:
             ax.grid(alpha=0.3)
         if k == 0:
@@ -270,7 +276,7 @@ def masking(h5_path, png_path):
     for ax in axes[-1]:
         ax.set_xlabel("in-plane view angle (deg from +z towards +y)")
     fig.tight_layout()
-    fig.savefig(png_path, dpi=100)
+    return fig
 
 
 def _spongy_records(h5_path):
@@ -299,7 +305,7 @@ def _spongy_baseline(h5_path):
                 float(g.attrs["thickness_um"]))
 
 
-def spongy_spectra(h5_path, png_path):
+def build_spongy_spectra(h5_path):
     """Reflectance spectra of every slab: Monte Carlo with a +-2 sigma band, the
     single-scattering closed form dotted, each curve's peak marked; the geometric-optics
     baseline of the base volume dashed grey."""
@@ -332,10 +338,10 @@ def spongy_spectra(h5_path, png_path):
     # Beneath the axes: inside, every corner holds a curve.
     ax.legend(fontsize=8, ncol=2, loc="upper center", bbox_to_anchor=(0.5, -0.13))
     fig.tight_layout()
-    fig.savefig(png_path, dpi=120)
+    return fig
 
 
-def spongy_map(h5_path, png_path):
+def build_spongy_map(h5_path):
     """Peak wavelength (Monte Carlo, single scattering, 2 n_eff Lambda) and colour of each slab
     over the length scale x keratin fraction grid."""
     import numpy as np
@@ -385,16 +391,16 @@ def spongy_map(h5_path, png_path):
     ax.set_ylabel("keratin fraction f")
     ax.set_title("colour of each slab (sRGB, D65)")
     fig.tight_layout()
-    fig.savefig(png_path, dpi=120)
+    return fig
 
 
-def spongy_angles(h5_path, png_path):
+def build_spongy_angles(h5_path):
     """The base slab's spectrum at several incidence angles."""
     d, ang, _ = _spongy_records(h5_path)
     wl = d["wavelength_nm"]
     base_f, base_l = d["keratin_fraction"][0], d["length_scale_um"][0]
     if ang is None:
-        return
+        return None
     fig, ax = plt.subplots(figsize=(7, 4.5))
     for a, deg in enumerate(ang["incidence_deg"]):
         r, e = ang["reflectance"][a], ang["reflectance_standard_error"][a]
@@ -412,24 +418,56 @@ def spongy_angles(h5_path, png_path):
     ax.grid(alpha=0.3)
     ax.legend(title="incidence", fontsize=8)
     fig.tight_layout()
-    fig.savefig(png_path, dpi=120)
+    return fig
 
 
-def batch(csv_path, _png_path):
+# ---- The command line: every kind is a builder (input -> Figure, or None when there is
+# nothing to draw) and a resolution; the CLI saves the figure. Tests build the figures and
+# query them (tests/studies/plots_figures_test.py).
+
+KINDS = {  # kind -> (builder, dpi)
+    "spectra": (build_spectra, 120),
+    "chart": (build_chart, 120),
+    "convergence": (build_convergence, 120),
+    "curves": (build_curves, 120),
+    "contact_sheet": (build_contact_sheet, 110),
+    "sweep_error": (build_sweep_error, 120),
+    "energy_bars": (build_energy_bars, 110),
+    "luminance": (build_luminance, 120),
+    "masking": (build_masking, 100),
+    "spongy_spectra": (build_spongy_spectra, 120),
+    "spongy_map": (build_spongy_map, 120),
+    "spongy_angles": (build_spongy_angles, 120),
+}
+
+
+def draw(kind, input_path, png_path):
+    """Builds one figure and saves it as png_path, trimmed to what is drawn (nothing is written
+    when the builder has nothing to draw)."""
+    builder, dpi = KINDS[kind]
+    fig = builder(input_path)
+    if fig is not None:
+        fig.savefig(png_path, dpi=dpi, bbox_inches="tight", pad_inches=0.1)
+        plt.close(fig)
+
+
+def batch(csv_path):
     with open(csv_path, newline="") as f:
         jobs = list(csv.DictReader(f))
     for job in jobs:
-        KINDS[job["kind"]](job["input"], job["png"])
+        draw(job["kind"], job["input"], job["png"])
         plt.close("all")
 
 
+def main(argv):
+    names = list(KINDS) + ["batch"]
+    if len(argv) != 4 or argv[1] not in names:
+        sys.exit("usage: plots.py " + "|".join(names) + " INPUT PNG")
+    if argv[1] == "batch":
+        batch(argv[2])
+    else:
+        draw(argv[1], argv[2], argv[3])
+
+
 if __name__ == "__main__":
-    KINDS.update({"spectra": spectra, "chart": chart, "convergence": convergence, "curves": curves,
-                  "contact_sheet": contact_sheet, "sweep_error": sweep_error,
-                  "energy_bars": energy_bars, "luminance": luminance, "batch": batch})
-    KINDS["masking"] = masking
-    KINDS.update({"spongy_spectra": spongy_spectra, "spongy_map": spongy_map,
-                  "spongy_angles": spongy_angles})
-    if len(sys.argv) != 4 or sys.argv[1] not in KINDS:
-        sys.exit("usage: plots.py " + "|".join(KINDS) + " INPUT PNG")
-    KINDS[sys.argv[1]](sys.argv[2], sys.argv[3])
+    main(sys.argv)
