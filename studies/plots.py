@@ -13,6 +13,7 @@
   plots.py spongy_spectra H5 PNG spongy study: R(lambda) of every slab, Monte Carlo and single scattering
   plots.py spongy_map H5 PNG     spongy study: peak wavelength and colour over length scale x fraction
   plots.py spongy_angles H5 PNG  spongy study: the base slab's spectrum at several incidence angles
+  plots.py scatterogram_comparison H5 PNG  simulation | model | signed difference (figure/ group)
   plots.py batch CSV PNG         every plot a CSV lists (columns kind, input, png; PNG unused)
 """
 import csv
@@ -421,6 +422,93 @@ def build_spongy_angles(h5_path):
     return fig
 
 
+# ---- Instrument figures. The C++ studies write what these draw (studies/figure_data.h):
+# display sRGB at one stated exposure, luminance in 1/sr, angles in degrees; Python draws.
+
+def _text(value):
+    """An HDF5 string attribute as str."""
+    return value.decode() if isinstance(value, bytes) else str(value)
+
+
+def _hemisphere_frame(ax, dark):
+    """Axes of an azimuthal equidistant map in degrees (x = theta cos phi, y = theta sin phi):
+    theta rings at 30, 60, 90 deg with labels, azimuth ticks on the rim, the barb axis arrow."""
+    import numpy as np
+
+    t = np.linspace(0.0, 2.0 * np.pi, 361)
+    ring_colour, box = ("0.8", "black") if dark else ("0.3", "white")
+    for ring in (30, 60, 90):
+        ax.plot(ring * np.cos(t), ring * np.sin(t), color=ring_colour if ring < 90 else "k",
+                lw=0.6 if ring < 90 else 0.8, ls="--" if ring < 90 else "-")
+        a = np.radians(125.0)
+        r = ring - 6 if ring == 90 else ring
+        ax.text(r * np.cos(a), r * np.sin(a), f"ϑ {ring}°", color="white" if dark else "k",
+                fontsize=7, ha="center", va="center",
+                bbox=dict(facecolor=box, alpha=0.55, lw=0, pad=0.8))
+    for phi in range(0, 360, 30):
+        a = np.radians(phi)
+        ax.plot([90 * np.cos(a), 96 * np.cos(a)], [90 * np.sin(a), 96 * np.sin(a)], color="k",
+                lw=0.8)
+        if phi % 90 == 0:
+            ax.text(104 * np.cos(a), 104 * np.sin(a), f"φ {phi}°", fontsize=7, ha="center",
+                    va="center")
+    ax.annotate("", xy=(45, -112), xytext=(-45, -112),
+                arrowprops=dict(arrowstyle="->", lw=1.2, color="k"), annotation_clip=False)
+    ax.text(0, -118, "barb axis (+x, φ = 0°)", ha="center", va="top", fontsize=7)
+    ax.set_xlim(-122, 122)
+    ax.set_ylim(-126, 114)
+    ax.set_aspect("equal")
+    ax.set_xticks([-90, -60, -30, 0, 30, 60, 90])
+    ax.set_yticks([-90, -60, -30, 0, 30, 60, 90])
+    ax.tick_params(labelsize=6)
+    ax.set_xlabel("ϑ cos φ (deg)", fontsize=8)
+    ax.set_ylabel("ϑ sin φ (deg)", fontsize=8)
+    for side in ax.spines.values():
+        side.set_visible(False)
+
+
+def build_scatterogram_comparison(h5_path):
+    """Simulation | Huang model at one exposure | signed luminance difference (diverging map
+    symmetric about 0, scaled to its own range, colour bar in 1/sr)."""
+    import h5py
+    import numpy as np
+
+    with h5py.File(h5_path, "r") as f:
+        g = f["figure"]
+        sim = np.asarray(g["simulation_srgb"], dtype=float)
+        mod = np.asarray(g["model_srgb"], dtype=float)
+        diff = np.asarray(g["difference_luminance"], dtype=float)
+        theta = np.asarray(g["theta_deg"], dtype=float)
+        white = float(g.attrs["white_luminance_per_sr"])
+        title = _text(g.attrs.get("title", ""))
+        errors = np.asarray(f["relative_error"]) if "relative_error" in f else None
+    inside = np.isfinite(theta)
+    extent = (-90.0, 90.0, -90.0, 90.0)  # pixel edges: the disc's rim is theta = 90 deg
+    fig, axes = plt.subplots(1, 4, figsize=(15, 5.4),
+                             gridspec_kw={"width_ratios": (1, 1, 1, 0.045)})
+    cax = axes[3]
+    for ax, rgb, name in ((axes[0], sim, "simulation"), (axes[1], mod, "Huang 2022 model")):
+        rgba = np.concatenate([np.clip(rgb, 0, 1), inside[..., None].astype(float)], axis=2)
+        ax.imshow(rgba, extent=extent, origin="upper", interpolation="nearest")
+        _hemisphere_frame(ax, True)
+        ax.set_title(name, fontsize=10)
+    ax = axes[2]
+    lim = float(np.nanmax(np.abs(diff))) if np.any(np.isfinite(diff)) else 0.0
+    lim = lim if lim > 0 else 1.0
+    im = ax.imshow(np.ma.masked_invalid(diff), extent=extent, origin="upper",
+                   interpolation="nearest", cmap="RdBu_r", vmin=-lim, vmax=lim)
+    _hemisphere_frame(ax, False)
+    err = f" (relative L1 {errors[0]:.3f})" if errors is not None and len(errors) else ""
+    ax.set_title("simulation − model" + err, fontsize=10)
+    bar = fig.colorbar(im, cax=cax)
+    bar.set_label("luminance difference Y_sim − Y_model (1/sr)", fontsize=8)
+    bar.ax.tick_params(labelsize=7)
+    fig.suptitle(f"Scatterograms, {title}: radiant intensity per unit incident power under D65; "
+                 f"one exposure for both, white = luminance {white:.3g} 1/sr", fontsize=10)
+    fig.tight_layout()
+    return fig
+
+
 # ---- The command line: every kind is a builder (input -> Figure, or None when there is
 # nothing to draw) and a resolution; the CLI saves the figure. Tests build the figures and
 # query them (tests/studies/plots_figures_test.py).
@@ -438,6 +526,7 @@ KINDS = {  # kind -> (builder, dpi)
     "spongy_spectra": (build_spongy_spectra, 120),
     "spongy_map": (build_spongy_map, 120),
     "spongy_angles": (build_spongy_angles, 120),
+    "scatterogram_comparison": (build_scatterogram_comparison, 110),
 }
 
 

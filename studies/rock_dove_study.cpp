@@ -17,6 +17,7 @@
 #include "geometry/barbule.h"
 #include "sim/optics/colour.h"
 #include "sim/tracer.h"
+#include "studies/figure_data.h"
 #include "studies/plots.h"
 #include "studies/sections.h"
 #include "studies/staged_directory.h"
@@ -184,18 +185,6 @@ gonio::ScatterometerConfig scatterometer_config(const Run& run, gonio::Illuminat
     return c;
 }
 
-// Simulation | model | difference, with one exposure for both (the model's brightest pixel),
-// enlarged ×3 (nearest neighbour) for reading; the records hold the values.
-void write_scatterogram_images(const gonio::Scatterogram& sim_s, const gonio::Scatterogram& mod_s,
-                               const fs::path& png) {
-    const double peak = gonio::scatterogram_peak_luminance(mod_s);
-    const double exposure = peak > 0.0 ? 1.0 / peak : 1.0;
-    const record::RgbImage sim_img = gonio::scatterogram_srgb(sim_s, exposure);
-    const record::RgbImage mod_img = gonio::scatterogram_srgb(mod_s, exposure);
-    const record::RgbImage diff_img = gonio::scatterogram_difference(mod_s, sim_s);
-    record::write_png(png, record::upscaled(side_by_side({&sim_img, &mod_img, &diff_img}), 3));
-}
-
 // One illumination: both scatterograms, their records and images, and the table row.
 std::string scatterogram_pair(const Run& run, const Built& b, gonio::Illumination mode,
                               const std::string& label, RockDoveResult& result) {
@@ -207,7 +196,6 @@ std::string scatterogram_pair(const Run& run, const Built& b, gonio::Illuminatio
     const fs::path dir = run.dir / "scatterograms";
     gonio::write_scatterogram_record(sim_s, dir / (label + "_simulation.h5"));
     gonio::write_scatterogram_record(mod_s, dir / (label + "_model.h5"));
-    write_scatterogram_images(sim_s, mod_s, dir / (label + "_comparison.png"));
     const double l1 = image_relative_l1(sim_s, mod_s, -1, -1);
     const double l1_r =
         image_relative_l1(sim_s, mod_s, lobe_index(sim_s.lobes, "R"), lobe_index(mod_s.lobes, "R"));
@@ -229,7 +217,10 @@ std::string scatterogram_pair(const Run& run, const Built& b, gonio::Illuminatio
                "power-weighted relative L1 of simulation against model: all, R, TRT; then T below "
                "(simulation, model) and the simulation's multi-event share of reflected power"}});
     h5.set_attribute("/", "illumination", label);
+    write_scatterogram_figure(h5, sim_s, mod_s, label + " illumination");
     h5.commit();
+    run_plot("scatterogram_comparison", dir / (label + "_comparison.h5"),
+             dir / (label + "_comparison.png"));
     return fmt::format("| {} | {:.3f} | {:.3f} | {:.3f} | {:.4f} | {:.4f} | {:.3f} |\n", label, l1,
                        l1_r, l1_trt, t_sim, t_mod, multi_share);
 }
@@ -245,11 +236,12 @@ std::string scatterograms(const Run& run, const Built& b, RockDoveResult& result
         "(simulation) |\n|---|---|---|---|---|---|---|\n";
     for (const auto& [mode, label] : modes) table += scatterogram_pair(run, b, mode, label, result);
     std::string md =
-        "## Scatterograms\n\nEach image: simulation (left), Huang model (middle), |difference| in "
-        "luminance "
-        "(right, white = the model's brightest pixel). Rings at ϑ = 5°, 30°, 60°, 90°; azimuthal "
-        "equidistant map, "
-        "barb axis to the right.\n\n";
+        "## Scatterograms\n\nEach figure: simulation (left) and Huang model (middle) at one "
+        "exposure (stated above them), and the signed luminance difference simulation − model "
+        "(right, red: the simulation is brighter; scaled to its own range, colour bar in 1/sr). "
+        "Azimuthal equidistant map of the upper hemisphere, rings at ϑ = 30°, 60°, 90°, barb "
+        "axis (φ = 0°) to the right. The figure's data: `figure/` in each "
+        "`<illumination>_comparison.h5`.\n\n";
     for (const auto& [mode, label] : modes) {
         md += fmt::format("**{}**\n\n![{}](scatterograms/{}_comparison.png)\n\n", label, label,
                           label);

@@ -1,0 +1,152 @@
+#include "studies/figure_data.h"
+
+#include <algorithm>
+#include <cmath>
+#include <cstdint>
+#include <limits>
+#include <span>
+
+#include <fmt/format.h>
+
+#include "common/constants.h"
+#include "common/error.h"
+#include "virtual_gonio/display_colour.h"
+
+namespace plumage::studies {
+namespace {
+
+using Dims = std::vector<std::uint64_t>;
+constexpr double kNaN = std::numeric_limits<double>::quiet_NaN();
+
+double degrees(double radians) { return radians / kDeg; }
+
+// Colour and luminance of a run of spectra (each `nl` values), and the largest luminance.
+struct Colours {
+    std::vector<optics::Xyz> xyz;
+    double peak = 0.0;
+};
+Colours colours_of(const std::vector<double>& wavelengths_nm, const double* spectra,
+                   std::size_t count, const std::vector<bool>& inside = {}) {
+    const gonio::SpectrumToDisplay display(wavelengths_nm);
+    const std::size_t nl = wavelengths_nm.size();
+    Colours c;
+    c.xyz.assign(count, optics::Xyz{0.0, 0.0, 0.0});
+    for (std::size_t i = 0; i < count; ++i) {
+        if (!inside.empty() && !inside[i]) continue;
+        c.xyz[i] = display.xyz(std::span<const double>(spectra + i * nl, nl));
+        c.peak = std::max(c.peak, c.xyz[i].y);
+    }
+    return c;
+}
+
+// Display sRGB (count × 3 floats) and luminance (count doubles; NaN where not `inside`).
+void display_images(const Colours& c, double exposure, const std::vector<bool>& inside,
+                    std::vector<float>& srgb, std::vector<double>& luminance) {
+    srgb.assign(c.xyz.size() * 3, 0.0f);
+    luminance.assign(c.xyz.size(), kNaN);
+    for (std::size_t i = 0; i < c.xyz.size(); ++i) {
+        if (!inside.empty() && !inside[i]) continue;
+        const auto rgb = display_srgb(c.xyz[i], exposure);
+        std::copy(rgb.begin(), rgb.end(), srgb.begin() + static_cast<std::ptrdiff_t>(3 * i));
+        luminance[i] = c.xyz[i].y;
+    }
+}
+
+double exposure_for(double white) { return white > 0.0 ? 1.0 / white : 1.0; }
+
+const char* kSrgbDescription =
+    "display sRGB in [0, 1] (D65, CIE 1931; exposure: /@white_luminance_per_sr maps to white; "
+    "over-range colours scaled by their largest component), [row, column, rgb]";
+
+}  // namespace
+
+std::array<float, 3> display_srgb(const optics::Xyz& xyz, double exposure) {
+    optics::Rgb c =
+        optics::linear_srgb_from_xyz({xyz.x * exposure, xyz.y * exposure, xyz.z * exposure});
+    for (double& v : c) v = std::max(0.0, v);
+    const double top = std::max({c[0], c[1], c[2]});
+    if (top > 1.0)
+        for (double& v : c) v /= top;
+    return {static_cast<float>(optics::srgb_encode(c[0])),
+            static_cast<float>(optics::srgb_encode(c[1])),
+            static_cast<float>(optics::srgb_encode(c[2]))};
+}
+
+void write_scatterogram_figure(record::Hdf5Writer& h5, const gonio::Scatterogram& simulation,
+                               const gonio::Scatterogram& model, const std::string& title) {
+    PLUMAGE_CHECK(simulation.pixels() == model.pixels() &&
+                      simulation.config.wavelengths_nm == model.config.wavelengths_nm,
+                  "scatterograms differ in size or wavelengths");
+    const int n = simulation.config.image_size;
+    const std::size_t pixels = simulation.pixels();
+    std::vector<bool> inside(pixels);
+    std::vector<double> theta(pixels, kNaN), phi(pixels, kNaN);
+    for (int row = 0; row < n; ++row) {
+        for (int column = 0; column < n; ++column) {
+            const std::size_t p = static_cast<std::size_t>(row) * n + column;
+            const auto w = simulation.direction(column, row);
+            inside[p] = w.has_value() && simulation.solid_angle_sr[p] > 0.0;
+            if (!inside[p]) continue;
+            theta[p] = degrees(std::acos(std::clamp(w->z(), -1.0, 1.0)));
+            phi[p] = degrees(std::atan2(w->y(), w->x()));
+        }
+    }
+    const auto& wl = simulation.config.wavelengths_nm;
+    const Colours cs = colours_of(wl, simulation.intensity.data(), pixels, inside);
+    const Colours cm = colours_of(wl, model.intensity.data(), pixels, inside);
+    const double white = std::max(cs.peak, cm.peak);
+    std::vector<float> srgb_s, srgb_m;
+    std::vector<double> y_s, y_m;
+    display_images(cs, exposure_for(white), inside, srgb_s, y_s);
+    display_images(cm, exposure_for(white), inside, srgb_m, y_m);
+    std::vector<double> difference(pixels, kNaN);
+    for (std::size_t p = 0; p < pixels; ++p)
+        if (inside[p]) difference[p] = y_s[p] - y_m[p];
+
+    const std::uint64_t un = static_cast<std::uint64_t>(n);
+    h5.create_group("figure");
+    h5.set_attribute("/figure", "title", title);
+    h5.set_attribute("/figure", "white_luminance_per_sr", white);
+    h5.set_attribute("/figure", "exposure_rule",
+                     "one exposure for both images: the brighter of the two peak luminances maps "
+                     "to white");
+    h5.set_attribute("/figure", "mapping",
+                     "azimuthal equidistant: u right, v up in [-1, 1], theta = 90 deg * hypot(u, "
+                     "v), phi = atan2(v, u) from +x (the barb axis) towards +y; row 0 at the top");
+    h5.set_attribute(
+        "/figure", "beam_theta_deg",
+        degrees(std::acos(std::clamp(simulation.config.beam_direction.z(), -1.0, 1.0))));
+    h5.set_attribute("/figure", "beam_phi_deg",
+                     degrees(std::atan2(simulation.config.beam_direction.y(),
+                                        simulation.config.beam_direction.x())));
+    const std::string source =
+        fmt::format("simulation ({}) and model ({})", simulation.scatterer, model.scatterer);
+    h5.write("figure/simulation_srgb", std::span<const float>(srgb_s), Dims{un, un, 3},
+             {{"units", "1"}, {"description", std::string("simulation: ") + kSrgbDescription}});
+    h5.write("figure/model_srgb", std::span<const float>(srgb_m), Dims{un, un, 3},
+             {{"units", "1"}, {"description", std::string("model: ") + kSrgbDescription}});
+    h5.write("figure/simulation_luminance", std::span<const double>(y_s), Dims{un, un},
+             {{"units", "1/sr"},
+              {"description",
+               "simulation: luminance Y (D65) of the radiant intensity per unit incident power, "
+               "[row, column]; NaN outside the disc"}});
+    h5.write("figure/model_luminance", std::span<const double>(y_m), Dims{un, un},
+             {{"units", "1/sr"},
+              {"description",
+               "model: luminance Y (D65) of the radiant intensity per unit incident power, "
+               "[row, column]; NaN outside the disc"}});
+    h5.write("figure/difference_luminance", std::span<const double>(difference), Dims{un, un},
+             {{"units", "1/sr"},
+              {"description", "signed luminance difference Y_simulation - Y_model of " + source +
+                                  ", [row, column]; NaN outside the disc"}});
+    h5.write("figure/theta_deg", std::span<const double>(theta), Dims{un, un},
+             {{"units", "deg"},
+              {"description", "polar angle of each pixel centre, [row, column]; NaN outside"}});
+    h5.write("figure/phi_deg", std::span<const double>(phi), Dims{un, un},
+             {{"units", "deg"},
+              {"description",
+               "azimuth of each pixel centre from +x (barb axis) towards +y, [row, column]; NaN "
+               "outside"}});
+}
+
+}  // namespace plumage::studies
