@@ -149,4 +149,66 @@ void write_scatterogram_figure(record::Hdf5Writer& h5, const gonio::Scatterogram
                "outside"}});
 }
 
+void write_fingerprint_figure(const std::filesystem::path& path, const std::string& title,
+                              const std::vector<FingerprintPanel>& panels, int lights, int views) {
+    PLUMAGE_CHECK(!panels.empty(), "a fingerprint figure needs a panel");
+    const auto& pairs = panels.front().record->config.pairs;
+    const std::size_t cells = static_cast<std::size_t>(lights) * static_cast<std::size_t>(views);
+    std::vector<Colours> colours;
+    double white = 0.0;
+    for (const FingerprintPanel& p : panels) {
+        PLUMAGE_CHECK(p.record->config.pairs.size() == cells,
+                      fmt::format("fingerprint {} x {} of {} pairs", lights, views,
+                                  p.record->config.pairs.size()));
+        colours.push_back(
+            colours_of(p.record->config.wavelengths_nm, p.record->value.data(), cells));
+        white = std::max(white, colours.back().peak);
+    }
+    record::Hdf5Writer h5(path);
+    std::vector<double> light_angles, view_angles;
+    auto angles = [](const Vec3d& w) {
+        return std::array<double, 2>{degrees(std::acos(std::clamp(w.z(), -1.0, 1.0))),
+                                     degrees(std::atan2(w.y(), w.x()))};
+    };
+    for (int l = 0; l < lights; ++l) {
+        const auto a = angles(pairs[static_cast<std::size_t>(l) * views].wi);
+        light_angles.insert(light_angles.end(), a.begin(), a.end());
+    }
+    for (int v = 0; v < views; ++v) {
+        const auto a = angles(pairs[static_cast<std::size_t>(v)].wo);
+        view_angles.insert(view_angles.end(), a.begin(), a.end());
+    }
+    const auto ul = static_cast<std::uint64_t>(lights), uv = static_cast<std::uint64_t>(views);
+    h5.write("light_angles_deg", std::span<const double>(light_angles), Dims{ul, 2},
+             {{"units", "deg"},
+              {"description",
+               "theta and phi (from +x, the barb axis) of each fingerprint row's "
+               "light direction"}});
+    h5.write("view_angles_deg", std::span<const double>(view_angles), Dims{uv, 2},
+             {{"units", "deg"},
+              {"description", "theta and phi of each fingerprint column's view direction"}});
+    for (std::size_t k = 0; k < panels.size(); ++k) {
+        std::vector<float> srgb;
+        std::vector<double> y;
+        display_images(colours[k], exposure_for(white), {}, srgb, y);
+        const std::string g = fmt::format("panel{}", k);
+        h5.write(g + "/srgb", std::span<const float>(srgb), Dims{ul, uv, 3},
+                 {{"units", "1"}, {"description", kSrgbDescription}});
+        h5.write(g + "/luminance", std::span<const double>(y), Dims{ul, uv},
+                 {{"units", "1/sr"},
+                  {"description",
+                   "luminance Y (D65) of the BRDF averaged over each detector cone, [light, "
+                   "view]"}});
+        h5.set_attribute("/" + g, "title", panels[k].title);
+        h5.set_attribute("/" + g, "scatterer", panels[k].record->scatterer);
+        h5.set_attribute("/" + g, "peak_luminance_per_sr", colours[k].peak);
+    }
+    h5.set_integer_attribute("/", "panels", static_cast<std::int64_t>(panels.size()));
+    h5.set_attribute("/", "title", title);
+    h5.set_attribute("/", "white_luminance_per_sr", white);
+    h5.set_attribute("/", "exposure_rule",
+                     "one exposure for every panel: the brightest cell of any panel maps to white");
+    h5.commit();
+}
+
 }  // namespace plumage::studies

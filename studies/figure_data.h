@@ -15,6 +15,7 @@
 #include <vector>
 
 #include "sim/optics/colour.h"
+#include "virtual_gonio/goniometer.h"
 #include "virtual_gonio/hdf5_file.h"
 #include "virtual_gonio/scatterometer.h"
 
@@ -30,5 +31,15 @@ std::array<float, 3> display_srgb(const optics::Xyz& xyz, double exposure);
 // NaN outside the disc) with the map convention as an attribute.
 void write_scatterogram_figure(record::Hdf5Writer& h5, const gonio::Scatterogram& simulation,
                                const gonio::Scatterogram& model, const std::string& title);
+
+// Fingerprints (Filip 2024 Fig. 7 layout: rows the light directions, columns the view
+// directions) of records on the same light-major pair list, at one exposure for all panels
+// (the brightest cell of any panel → white). Written to its own file at `path`.
+struct FingerprintPanel {
+    std::string title;
+    const gonio::BrdfRecord* record = nullptr;
+};
+void write_fingerprint_figure(const std::filesystem::path& path, const std::string& title,
+                              const std::vector<FingerprintPanel>& panels, int lights, int views);
 
 }  // namespace plumage::studies

@@ -14,6 +14,7 @@
   plots.py spongy_map H5 PNG     spongy study: peak wavelength and colour over length scale x fraction
   plots.py spongy_angles H5 PNG  spongy study: the base slab's spectrum at several incidence angles
   plots.py scatterogram_comparison H5 PNG  simulation | model | signed difference (figure/ group)
+  plots.py fingerprints H5 PNG   Filip 2024 Fig. 7 fingerprints at one exposure, with log luminance
   plots.py batch CSV PNG         every plot a CSV lists (columns kind, input, png; PNG unused)
 """
 import csv
@@ -509,6 +510,70 @@ def build_scatterogram_comparison(h5_path):
     return fig
 
 
+def _ring_ticks(angles):
+    """Each polar-angle ring of a direction list: the first indices (where a separator goes),
+    the tick positions (the ring's middle) and the labels."""
+    starts, labels = [], []
+    for i, t in enumerate(angles[:, 0]):
+        ring = round(float(t))
+        if not labels or labels[-1] != f"{ring}°":
+            starts.append(i)
+            labels.append(f"{ring}°")
+    ends = starts[1:] + [len(angles)]
+    return starts, [0.5 * (a + b - 1) for a, b in zip(starts, ends)], labels
+
+
+def build_fingerprints(h5_path):
+    """Filip 2024 Fig. 7 fingerprints: colour at one exposure for every panel (top row) and
+    the luminance on one logarithmic scale with a colour bar (bottom row)."""
+    import h5py
+    import numpy as np
+    from matplotlib.colors import LogNorm
+
+    with h5py.File(h5_path, "r") as f:
+        count = int(f.attrs["panels"])
+        panels = [(np.asarray(f[f"panel{k}/srgb"], dtype=float),
+                   np.asarray(f[f"panel{k}/luminance"], dtype=float),
+                   _text(f[f"panel{k}"].attrs["title"]),
+                   float(f[f"panel{k}"].attrs["peak_luminance_per_sr"])) for k in range(count)]
+        lights = np.asarray(f["light_angles_deg"])
+        views = np.asarray(f["view_angles_deg"])
+        white = float(f.attrs["white_luminance_per_sr"])
+        title = _text(f.attrs["title"])
+    fig, axes = plt.subplots(2, count, figsize=(4.3 * count + 0.8, 8.6), squeeze=False)
+    top = max(white, 1e-300)
+    norm = LogNorm(vmin=top * 1e-4, vmax=top)
+    xs, xt, xl = _ring_ticks(views)
+    ys, yt, yl = _ring_ticks(lights)
+    image = None
+    for k, (rgb, y, name, peak) in enumerate(panels):
+        for row, ax in enumerate(axes[:, k]):
+            if row == 0:
+                ax.imshow(np.clip(rgb, 0, 1), interpolation="nearest", aspect="auto")
+                ax.set_title(f"{name}\npeak {peak:.3g} 1/sr ({peak / top:.2f} of white)",
+                             fontsize=9)
+            else:
+                image = ax.imshow(np.clip(y, top * 1e-4, None), norm=norm, cmap="viridis",
+                                  interpolation="nearest", aspect="auto")
+                ax.set_title(f"{name}: luminance (log scale)", fontsize=9)
+            for t in xs[1:]:
+                ax.axvline(t - 0.5, color="w", lw=0.4, alpha=0.6)
+            for t in ys[1:]:
+                ax.axhline(t - 0.5, color="w", lw=0.4, alpha=0.6)
+            ax.set_xticks(xt, xl, fontsize=7)
+            ax.set_yticks(yt, yl, fontsize=7)
+            ax.set_xlabel("view θ_o ring (φ_o 0°…330° within each)", fontsize=8)
+            ax.set_ylabel("light θ_i ring (φ_i 0°…330° within each)", fontsize=8)
+    fig.suptitle(f"{title}\nrows: light directions, columns: view directions; colour: one "
+                 f"exposure for all panels, white = luminance {white:.3g} 1/sr", fontsize=10)
+    fig.subplots_adjust(left=0.07, right=0.88, top=0.86, bottom=0.07, hspace=0.38, wspace=0.3)
+    box = axes[1, -1].get_position()
+    cax = fig.add_axes([0.9, box.y0, 0.015, box.height])
+    bar = fig.colorbar(image, cax=cax)
+    bar.set_label("luminance Y of the BRDF (1/sr)", fontsize=8)
+    return fig
+
+
 # ---- The command line: every kind is a builder (input -> Figure, or None when there is
 # nothing to draw) and a resolution; the CLI saves the figure. Tests build the figures and
 # query them (tests/studies/plots_figures_test.py).
@@ -527,6 +592,7 @@ KINDS = {  # kind -> (builder, dpi)
     "spongy_map": (build_spongy_map, 120),
     "spongy_angles": (build_spongy_angles, 120),
     "scatterogram_comparison": (build_scatterogram_comparison, 110),
+    "fingerprints": (build_fingerprints, 100),
 }
 
 

@@ -304,13 +304,15 @@ std::string brdf_section(const Run& run, const Brdfs& m, RockDoveResult& result)
     result.brdf_relative_l1 = cmp.total.relative_l1;
     std::string md = "## BRDF (in-plane sweep)\n\n";
     if (run.s.direction_set == "filip2024_btf") {
-        const record::RgbImage fs_img = gonio::brdf_fingerprint(m.simulation, 61, 60, 4);
-        const record::RgbImage fm_img = gonio::brdf_fingerprint(m.model, 61, 60, 4);
-        record::write_png(run.dir / "brdf" / "fingerprints.png", side_by_side({&fs_img, &fm_img}));
+        write_fingerprint_figure(
+            run.dir / "brdf" / "fingerprints.h5", "Rock-dove barbules: BRDF fingerprints",
+            {{"simulation", &m.simulation}, {"Huang 2022 model", &m.model}}, 61, 60);
+        run_plot("fingerprints", run.dir / "brdf" / "fingerprints.h5",
+                 run.dir / "brdf" / "fingerprints.png");
         md = "## BRDF (Filip 2024 set, 61 light × 60 view directions)\n\nFingerprints (rows: light "
-             "directions, "
-             "columns: view directions; simulation left, model right; each with its own "
-             "exposure):\n\n"
+             "directions, columns: view directions, grouped by polar angle; simulation left, model "
+             "right; colour at one exposure for both, luminance below on one logarithmic scale; "
+             "data in `brdf/fingerprints.h5`):\n\n"
              "![fingerprints](brdf/fingerprints.png)\n\n";
     }
     md += analysis::comparison_markdown(cmp, m.simulation, "simulation", "Huang model") + "\n";

@@ -27,6 +27,7 @@
 #include "sim/optics/spectrum.h"
 #include "sim/period_cell_entry.h"
 #include "sim/tracer.h"
+#include "studies/figure_data.h"
 #include "studies/plots.h"
 #include "studies/sections.h"
 #include "studies/spongy_medium.h"
@@ -656,8 +657,9 @@ std::string section_setup(const Run& run, const Specimen& x, const SpeciesOutcom
         s.btf_pixels, s.btf_patch_um, s.btf_wavelengths.size(), s.btf_detector_half_angle / kDeg,
         s.btf_quanta, o.btf_seconds, sp.name);
     md += fmt::format(
-        "Fingerprints (Fig. 7 layout; simulation | fitted model | Table 1 model, each with its "
-        "own exposure):\n\n![fingerprints]({}/fingerprints.png)\n\n",
+        "Fingerprints (Fig. 7 layout; simulation | fitted model | Table 1 model; colour at one "
+        "exposure for the three, luminance below on one logarithmic scale; data in "
+        "`fingerprints.h5`):\n\n![fingerprints]({}/fingerprints.png)\n\n",
         sp.name);
     return md;
 }
@@ -1123,10 +1125,13 @@ void compare_models(const Specimen& x, Measured& m, SpeciesOutcome& o) {
     o.table1_relative_rms = relative_rms(m.table1_brdf, m.brdf);
     o.fit_relative_l1 = relative_l1(m.fit_brdf, m.brdf);
     o.table1_relative_l1 = relative_l1(m.table1_brdf, m.brdf);
-    const record::RgbImage a = gonio::brdf_fingerprint(m.brdf, 61, 60, 4);
-    const record::RgbImage b = gonio::brdf_fingerprint(m.fit_brdf, 61, 60, 4);
-    const record::RgbImage c = gonio::brdf_fingerprint(m.table1_brdf, 61, 60, 4);
-    record::write_png(x.dir / "fingerprints.png", side_by_side({&a, &b, &c}));
+    write_fingerprint_figure(x.dir / "fingerprints.h5",
+                             fmt::format("{}: BRDF fingerprints", x.spec.name),
+                             {{"simulation", &m.brdf},
+                              {"fitted Filip 2024 model", &m.fit_brdf},
+                              {"Filip 2024 Table 1 model", &m.table1_brdf}},
+                             61, 60);
+    run_plot("fingerprints", x.dir / "fingerprints.h5", x.dir / "fingerprints.png");
 }
 
 // ---- Measure: in-plane sweep, albedo, BTF. --------------------------------------------------
