@@ -15,6 +15,7 @@
   plots.py spongy_angles H5 PNG  spongy study: the base slab's spectrum at several incidence angles
   plots.py scatterogram_comparison H5 PNG  simulation | model | signed difference (figure/ group)
   plots.py fingerprints H5 PNG   Filip 2024 Fig. 7 fingerprints at one exposure, with log luminance
+  plots.py geometry_preview H5 PNG  a cut through built geometry in um: phases, legend, scale bar
   plots.py batch CSV PNG         every plot a CSV lists (columns kind, input, png; PNG unused)
 """
 import csv
@@ -574,6 +575,137 @@ def build_fingerprints(h5_path):
     return fig
 
 
+def _loops(segments, tolerance):
+    """Chains 2D segments [n, 4] into polylines; returns (closed loops, open chains)."""
+    from collections import defaultdict
+
+    def key(x, y):
+        return (round(x / tolerance), round(y / tolerance))
+
+    ends = defaultdict(list)
+    for i, (x0, y0, x1, y1) in enumerate(segments):
+        ends[key(x0, y0)].append(i)
+        ends[key(x1, y1)].append(i)
+    used = [False] * len(segments)
+    closed, chains = [], []
+    for start in range(len(segments)):
+        if used[start]:
+            continue
+        used[start] = True
+        x0, y0, x1, y1 = segments[start]
+        pts = [(x0, y0), (x1, y1)]
+        for forward in (True, False):
+            while True:
+                tip = pts[-1] if forward else pts[0]
+                nxt = None
+                for j in ends[key(*tip)]:
+                    if not used[j]:
+                        nxt = j
+                        break
+                if nxt is None:
+                    break
+                used[nxt] = True
+                a = (segments[nxt][0], segments[nxt][1])
+                b = (segments[nxt][2], segments[nxt][3])
+                other = b if key(*a) == key(*tip) else a
+                if forward:
+                    pts.append(other)
+                else:
+                    pts.insert(0, other)
+        if len(pts) > 3 and key(*pts[0]) == key(*pts[-1]):
+            closed.append(pts[:-1])
+        else:
+            chains.append(pts)
+    return closed, chains
+
+
+def build_geometry_preview(h5_path):
+    """A cut through the built geometry, in micrometres: filled phases (polygons, or the closed
+    outlines of a cut, filled by nesting: keratin inside, holes blank), the outlines, a legend,
+    a scale bar and the caption as title."""
+    import h5py
+    import numpy as np
+    from matplotlib.lines import Line2D
+    from matplotlib.patches import Patch, Polygon
+    from mpl_toolkits.axes_grid1.anchored_artists import AnchoredSizeBar
+
+    with h5py.File(h5_path, "r") as f:
+        names = _text(f.attrs["phase_names"]).split("|")
+        colours = _text(f.attrs["phase_colours"]).split("|")
+        filled = [c == "1" for c in _text(f.attrs["phase_filled"]).split("|")]
+        caption = _text(f.attrs["caption"])
+        xlabel, ylabel = _text(f.attrs["x_label"]), _text(f.attrs["y_label"])
+        segments = np.asarray(f["segments"]).reshape(-1, 4) if "segments" in f else np.zeros((0, 4))
+        seg_phase = np.asarray(f["segment_phase"]).astype(int) if "segments" in f else []
+        polys = []
+        if "polygon_vertices" in f:
+            vertices = np.asarray(f["polygon_vertices"]).reshape(-1, 2)
+            offsets = np.asarray(f["polygon_offsets"]).astype(int)
+            phase = np.asarray(f["polygon_phase"]).astype(int)
+            polys = [(vertices[offsets[i]:offsets[i + 1]], phase[i]) for i in range(len(phase))]
+    points = [segments[:, :2], segments[:, 2:]] + [p for p, _ in polys]
+    allp = np.concatenate([p for p in points if len(p)]) if any(len(p) for p in points) else \
+        np.zeros((1, 2))
+    lo, hi = allp.min(axis=0), allp.max(axis=0)
+    span = np.maximum(hi - lo, 1e-9)
+    aspect = span[1] / span[0]
+    plot_width = 7.5  # inches of the axes; the legend and the scale bar sit to the right
+    fig, ax = plt.subplots(figsize=(plot_width + 3.3, min(max(plot_width * aspect + 1.5, 2.6), 10.5)))
+    for pts, ph in polys:
+        ax.add_patch(Polygon(pts, closed=True, facecolor=colours[ph] if filled[ph] else "none",
+                             edgecolor="k", lw=0.4))
+    for ph in range(len(names)):
+        sel = segments[np.asarray(seg_phase) == ph] if len(segments) else segments
+        if not len(sel):
+            continue
+        tol = 1e-6 * float(np.max(span))
+        closed, chains = _loops(sel, tol)
+        if filled[ph]:
+            # Nesting depth decides keratin or hole: even-odd fill of the loops.
+            from matplotlib.path import Path
+            from matplotlib.patches import PathPatch
+
+            verts, codes = [], []
+            for loop in closed:
+                verts += loop + [loop[0]]
+                codes += [Path.MOVETO] + [Path.LINETO] * (len(loop) - 1) + [Path.CLOSEPOLY]
+            if verts:
+                paths = [Path(np.array(loop + [loop[0]])) for loop in closed]
+                for i, loop in enumerate(closed):
+                    depth = sum(1 for j, p in enumerate(paths) if j != i and
+                                p.contains_point(loop[0]))
+                    if depth % 2 == 0:
+                        ax.add_patch(Polygon(loop, closed=True, facecolor=colours[ph], lw=0))
+                    else:
+                        ax.add_patch(Polygon(loop, closed=True, facecolor="white", lw=0))
+        edge = "k" if filled[ph] else colours[ph]
+        for line in closed:
+            line = np.array(line + [line[0]])
+            ax.plot(line[:, 0], line[:, 1], color=edge, lw=0.7)
+        for line in chains:
+            line = np.array(line)
+            ax.plot(line[:, 0], line[:, 1], color=edge, lw=0.9)
+    ax.set_aspect("equal")
+    pad = 0.03 * span.max()
+    ax.set_xlim(lo[0] - pad, hi[0] + pad)
+    ax.set_ylim(lo[1] - pad, hi[1] + pad)
+    ax.set_xlabel(xlabel)
+    ax.set_ylabel(ylabel)
+    ax.set_title(caption, fontsize=10)
+    handles = [Patch(facecolor=colours[i], edgecolor="k", lw=0.4, label=n) if filled[i] else
+               Line2D([], [], color=colours[i], lw=1.4, label=n) for i, n in enumerate(names)]
+    ax.legend(handles=handles, fontsize=8, loc="upper left", bbox_to_anchor=(1.01, 1.0))
+    nice = [0.01, 0.02, 0.05, 0.1, 0.2, 0.5, 1, 2, 5, 10, 20, 50, 100, 200, 500, 1000]
+    bar = max([n for n in nice if n <= 0.25 * span[0]] or [nice[0]])
+    label = f"{bar * 1000:.0f} nm" if bar < 1 else f"{bar:g} µm"
+    ax.add_artist(AnchoredSizeBar(ax.transData, bar, label, "lower left", pad=0.4, sep=3,
+                                  frameon=False, size_vertical=0, bbox_to_anchor=(1.02, 0.0),
+                                  bbox_transform=ax.transAxes, borderpad=0.0,
+                                  fontproperties={"size": 8}))
+    fig.tight_layout()
+    return fig
+
+
 # ---- The command line: every kind is a builder (input -> Figure, or None when there is
 # nothing to draw) and a resolution; the CLI saves the figure. Tests build the figures and
 # query them (tests/studies/plots_figures_test.py).
@@ -593,6 +725,7 @@ KINDS = {  # kind -> (builder, dpi)
     "spongy_angles": (build_spongy_angles, 120),
     "scatterogram_comparison": (build_scatterogram_comparison, 110),
     "fingerprints": (build_fingerprints, 100),
+    "geometry_preview": (build_geometry_preview, 110),
 }
 
 
