@@ -211,4 +211,52 @@ void write_fingerprint_figure(const std::filesystem::path& path, const std::stri
     h5.commit();
 }
 
+void write_btf_figure(const std::filesystem::path& path, const std::string& title,
+                      const gonio::BtfRecord& btf, const std::vector<std::size_t>& pairs) {
+    const int n = btf.config.pixels;
+    const std::size_t per_tile = static_cast<std::size_t>(n) * static_cast<std::size_t>(n);
+    std::vector<Colours> colours;
+    double white = 0.0;
+    for (const std::size_t p : pairs) {
+        colours.push_back(colours_of(btf.config.wavelengths_nm,
+                                     btf.value.data() + btf.index(p, 0, 0, 0), per_tile));
+        white = std::max(white, colours.back().peak);
+    }
+    std::vector<float> srgb;
+    std::vector<double> luminance, angles;
+    for (std::size_t k = 0; k < pairs.size(); ++k) {
+        std::vector<float> s;
+        std::vector<double> y;
+        display_images(colours[k], exposure_for(white), {}, s, y);
+        srgb.insert(srgb.end(), s.begin(), s.end());
+        luminance.insert(luminance.end(), y.begin(), y.end());
+        const auto& pair = btf.config.pairs[pairs[k]];
+        for (const Vec3d& w : {pair.wi, pair.wo}) {
+            angles.push_back(degrees(std::acos(std::clamp(w.z(), -1.0, 1.0))));
+            angles.push_back(degrees(std::atan2(w.y(), w.x())));
+        }
+    }
+    const auto nt = static_cast<std::uint64_t>(pairs.size()), un = static_cast<std::uint64_t>(n);
+    record::Hdf5Writer h5(path);
+    h5.write("srgb", std::span<const float>(srgb), Dims{nt, un, un, 3},
+             {{"units", "1"},
+              {"description", std::string("[tile, row, column, rgb]: ") + kSrgbDescription +
+                                  "; x right, y up (virtual_gonio/btf.h), row 0 at the top"}});
+    h5.write("luminance", std::span<const double>(luminance), Dims{nt, un, un},
+             {{"units", "1/sr"},
+              {"description", "luminance Y (D65) of each pixel's BRDF, [tile, row, column]"}});
+    h5.write("angles_deg", std::span<const double>(angles), Dims{nt, 4},
+             {{"units", "deg"},
+              {"description",
+               "theta_light, phi_light, theta_view, phi_view of each tile (phi "
+               "from +x, the barb axis)"}});
+    h5.set_attribute("/", "title", title);
+    h5.set_attribute("/", "patch_size_um", btf.config.patch_size_um);
+    h5.set_integer_attribute("/", "pixels", n);
+    h5.set_attribute("/", "white_luminance_per_sr", white);
+    h5.set_attribute("/", "exposure_rule",
+                     "one exposure for every tile: the brightest pixel of any tile maps to white");
+    h5.commit();
+}
+
 }  // namespace plumage::studies

@@ -15,6 +15,7 @@
 #include <vector>
 
 #include "sim/optics/colour.h"
+#include "virtual_gonio/btf.h"
 #include "virtual_gonio/goniometer.h"
 #include "virtual_gonio/hdf5_file.h"
 #include "virtual_gonio/scatterometer.h"
@@ -41,5 +42,11 @@ struct FingerprintPanel {
 };
 void write_fingerprint_figure(const std::filesystem::path& path, const std::string& title,
                               const std::vector<FingerprintPanel>& panels, int lights, int views);
+
+// BTF images of the listed pairs (Filip 2024 Fig. 9: tiles in rows of 6) at one exposure (the
+// brightest pixel of the tiles → white), with each tile's (θ_i, φ_i, θ_o, φ_o) and the patch
+// size in µm. Written to its own file at `path`.
+void write_btf_figure(const std::filesystem::path& path, const std::string& title,
+                      const gonio::BtfRecord& btf, const std::vector<std::size_t>& pairs);
 
 }  // namespace plumage::studies

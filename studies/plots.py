@@ -15,6 +15,7 @@
   plots.py spongy_angles H5 PNG  spongy study: the base slab's spectrum at several incidence angles
   plots.py scatterogram_comparison H5 PNG  simulation | model | signed difference (figure/ group)
   plots.py fingerprints H5 PNG   Filip 2024 Fig. 7 fingerprints at one exposure, with log luminance
+  plots.py btf_tiles H5 PNG      BTF images of a few geometries (Filip 2024 Fig. 9), one exposure
   plots.py geometry_preview H5 PNG  a cut through built geometry in um: phases, legend, scale bar
   plots.py batch CSV PNG         every plot a CSV lists (columns kind, input, png; PNG unused)
 """
@@ -575,6 +576,45 @@ def build_fingerprints(h5_path):
     return fig
 
 
+def build_btf_tiles(h5_path):
+    """Filip 2024 Fig. 9 analogue: BTF images of the patch, one exposure for all tiles, each
+    titled with its light and view angles; axes in micrometres."""
+    import h5py
+    import numpy as np
+
+    with h5py.File(h5_path, "r") as f:
+        rgb = np.asarray(f["srgb"], dtype=float)
+        angles = np.asarray(f["angles_deg"])
+        size = float(f.attrs["patch_size_um"])
+        pixels = int(f.attrs["pixels"])
+        white = float(f.attrs["white_luminance_per_sr"])
+        title = _text(f.attrs["title"])
+    tiles = rgb.shape[0]
+    cols = min(6, tiles)
+    rows = (tiles + cols - 1) // cols
+    fig, axes = plt.subplots(rows, cols, figsize=(2.1 * cols + 0.4, 2.35 * rows + 0.9),
+                             squeeze=False, sharex=True, sharey=True)
+    h = 0.5 * size
+    for k, ax in enumerate(axes.flat):
+        if k >= tiles:
+            ax.set_visible(False)
+            continue
+        ax.imshow(np.clip(rgb[k], 0, 1), extent=(-h, h, -h, h), origin="upper",
+                  interpolation="nearest")
+        ti, pi, to, po = angles[k]
+        ax.set_title(f"θi {ti:.0f}° φi {pi % 360:.0f}°\nθo {to:.0f}° φo {po % 360:.0f}°",
+                     fontsize=7)
+        ax.tick_params(labelsize=6)
+        if k % cols == 0:
+            ax.set_ylabel("y (µm)", fontsize=7)
+        if k // cols == rows - 1:
+            ax.set_xlabel("x (µm)", fontsize=7)
+    fig.suptitle(f"{title}: {pixels} × {pixels} pixels over {size:.0f} µm; one exposure for all "
+                 f"tiles, white = luminance {white:.3g} 1/sr", fontsize=9)
+    fig.subplots_adjust(left=0.06, right=0.99, top=0.82, bottom=0.1, wspace=0.08, hspace=0.42)
+    return fig
+
+
 def _loops(segments, tolerance):
     """Chains 2D segments [n, 4] into polylines; returns (closed loops, open chains)."""
     from collections import defaultdict
@@ -725,6 +765,7 @@ KINDS = {  # kind -> (builder, dpi)
     "spongy_angles": (build_spongy_angles, 120),
     "scatterogram_comparison": (build_scatterogram_comparison, 110),
     "fingerprints": (build_fingerprints, 100),
+    "btf_tiles": (build_btf_tiles, 110),
     "geometry_preview": (build_geometry_preview, 110),
 }
 

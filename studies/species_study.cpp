@@ -653,7 +653,7 @@ std::string section_setup(const Run& run, const Specimen& x, const SpeciesOutcom
         "{1:.0f} µm square, {2} wavelengths, detector half-angle {3:.0f}°, {4} quanta per light "
         "direction and wavelength, {5:.0f} s). Fig. 9's geometries: light and view at 30°, view at "
         "azimuth 0°; light azimuth 0°, 30°, …, 150° on the top row, 180° … 330° below; one "
-        "exposure for all:\n\n![btf]({6}/btf.png)\n\n",
+        "exposure for all (the tiles' data: `btf_figure9.h5`):\n\n![btf]({6}/btf.png)\n\n",
         s.btf_pixels, s.btf_patch_um, s.btf_wavelengths.size(), s.btf_detector_half_angle / kDeg,
         s.btf_quanta, o.btf_seconds, sp.name);
     md += fmt::format(
@@ -1196,45 +1196,6 @@ std::vector<std::size_t> figure9_pairs(const std::vector<gonio::DirectionPair>& 
     return figure9;
 }
 
-// The 12 images in two rows of 6, with one exposure for all (the brightest pixel of the 12 →
-// Y = 1), so that they compare.
-record::RgbImage figure9_image(const gonio::BtfRecord& btf,
-                               const std::vector<std::size_t>& figure9) {
-    const gonio::BtfConfig& bc = btf.config;
-    const std::size_t bl = bc.wavelengths_nm.size();
-    double exposure = 0.0;
-    const gonio::SpectrumToDisplay display(bc.wavelengths_nm);
-    for (const std::size_t p : figure9) {
-        for (int row = 0; row < bc.pixels; ++row) {
-            for (int col = 0; col < bc.pixels; ++col) {
-                const auto xyz = display.xyz(
-                    std::span<const double>(btf.value.data() + btf.index(p, row, col, 0), bl));
-                exposure = std::max(exposure, xyz.y);
-            }
-        }
-    }
-    std::vector<record::RgbImage> images;
-    for (const std::size_t p : figure9)
-        images.push_back(btf_image(btf, p, exposure > 0.0 ? 1.0 / exposure : 1.0));
-    std::vector<const record::RgbImage*> top, bottom;
-    for (std::size_t p = 0; p < 6; ++p) top.push_back(&images[p]);
-    for (std::size_t p = 6; p < 12; ++p) bottom.push_back(&images[p]);
-    const record::RgbImage a = side_by_side(top), b = side_by_side(bottom);
-    record::RgbImage both(std::max(a.width, b.width), a.height + b.height + 6);
-    both.fill(255, 255, 255);
-    auto paste = [&both](const record::RgbImage& from, int row_offset) {
-        for (int y = 0; y < from.height; ++y) {
-            for (int x = 0; x < from.width; ++x) {
-                const std::size_t i = 3 * (static_cast<std::size_t>(y) * from.width + x);
-                both.set(x, row_offset + y, from.pixels[i], from.pixels[i + 1], from.pixels[i + 2]);
-            }
-        }
-    };
-    paste(a, 0);
-    paste(b, a.height + 6);
-    return record::upscaled(both, std::max(1, 192 / bc.pixels));
-}
-
 // The virtual BTF on the 61 × 60 set (every pair an image of the patch), and Fig. 9 of it.
 void measure_species_btf(const Run& run, const Specimen& x, SpeciesOutcome& o) {
     const Settings& s = run.s;
@@ -1252,7 +1213,10 @@ void measure_species_btf(const Run& run, const Specimen& x, SpeciesOutcome& o) {
     const gonio::BtfRecord btf = gonio::measure_btf(x.imaged, bc);
     o.btf_seconds = btf.wall_time_s;
     gonio::write_btf_record(btf, x.dir / "btf.h5");
-    record::write_png(x.dir / "btf.png", figure9_image(btf, figure9_pairs(run.pairs)));
+    write_btf_figure(x.dir / "btf_figure9.h5",
+                     fmt::format("{}: virtual BTF, Filip 2024 Fig. 9 geometries", x.spec.name), btf,
+                     figure9_pairs(run.pairs));
+    run_plot("btf_tiles", x.dir / "btf_figure9.h5", x.dir / "btf.png");
 }
 
 // ---- Report. ---------------------------------------------------------------------------------
