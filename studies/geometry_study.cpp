@@ -162,8 +162,12 @@ Built build_barbule_row(ParameterTable geometry, const std::filesystem::path& di
     out.facts.push_back(fmt::format("minimum non-intersecting spacing H = {:.4f}",
                                     geometry::minimum_spacing(p.cell, p.mu)));
     // Preview: the transversal cut (x–z) through the middle cell of every barbule.
-    const int film = out.preview.phase("thin-film coated keratin surface", "#28aa5a", false);
-    const int melanin_surface = out.preview.phase("melanin surface", "#6e3c1e", false);
+    // Surfaces, not areas (barbule.h): the keratin cortex is a thin film on the outer surface,
+    // the melanin layer lies beneath it across an air gap.
+    const int film =
+        out.preview.phase("outer surface (keratin cortex as a thin film)", "#28aa5a", false);
+    const int melanin_surface =
+        out.preview.phase("melanin layer's surface (air gap above)", "#6e3c1e", false);
     double y_cut = 0.0;
     const int middle = p.cells_per_barbule / 2;
     y_cut = built.instances[static_cast<std::size_t>(middle)].translation().y();
