@@ -5,6 +5,7 @@
 #include <fstream>
 #include <functional>
 #include <numbers>
+#include <span>
 
 #include <fmt/format.h>
 
@@ -14,64 +15,97 @@
 #include "geometry/barbule.h"
 #include "geometry/mesh_import.h"
 #include "geometry/spongy_volume.h"
+#include "studies/plots.h"
 #include "studies/sections.h"
 #include "studies/staged_directory.h"
 #include "studies/study_file.h"
-#include "virtual_gonio/png_image.h"
+#include "virtual_gonio/hdf5_file.h"
 
 namespace plumage::studies {
 namespace {
 
 using geometry::TriangleMesh;
-using Colour = std::array<std::uint8_t, 3>;
-constexpr Colour kFilm{40, 170, 90}, kMelanin{110, 60, 30}, kCortex{170, 170, 170},
-    kMedulla{235, 235, 225}, kBarbule{60, 150, 200}, kInk{20, 20, 20};
-constexpr int kPreviewWidth = 1000;
 
-// Everything drawn in a preview, in µm, in the plane's own 2D coordinates.
+// Everything drawn in a preview, in µm, in the plane's own 2D coordinates; plots.py
+// (geometry_preview) draws it from preview.h5: filled phases, outlines, legend, scale bar.
 struct Preview {
+    struct Phase {
+        std::string name, colour;  // colour: a matplotlib colour ("#rrggbb")
+        bool filled = false;       // an area (polygons, closed outlines) or a line
+    };
     struct Line {
         Eigen::Vector2d a, b;
-        Colour colour;
+        int phase = 0;
     };
     struct Polygon {
         std::vector<Eigen::Vector2d> points;
-        Colour colour;
+        int phase = 0;
     };
+    std::vector<Phase> phases;
     std::vector<Line> lines;
     std::vector<Polygon> polygons;
-    std::string caption;
+    std::string caption, x_label = "x (µm)", y_label = "y (µm)";
 
-    void add_slice(const std::vector<geometry::Segment3>& segments, int u, int v,
-                   const Colour& colour) {
+    int phase(std::string name, std::string colour, bool filled) {
+        phases.push_back({std::move(name), std::move(colour), filled});
+        return static_cast<int>(phases.size()) - 1;
+    }
+    void add_slice(const std::vector<geometry::Segment3>& segments, int u, int v, int phase_index) {
         for (const auto& s : segments)
-            lines.push_back({{s.a[u], s.a[v]}, {s.b[u], s.b[v]}, colour});
+            lines.push_back({{s.a[u], s.a[v]}, {s.b[u], s.b[v]}, phase_index});
     }
     void write(const std::filesystem::path& path) const {
-        Eigen::AlignedBox2d box;
-        for (const auto& l : lines) box.extend(l.a), box.extend(l.b);
-        for (const auto& p : polygons)
-            for (const auto& q : p.points) box.extend(q);
-        if (box.isEmpty()) throw InvariantError("geometry preview: nothing to draw");
-        const Eigen::Vector2d size = box.sizes().cwiseMax(1e-9);
-        const double scale = (kPreviewWidth - 40) / size.x();
-        const int height = std::clamp(static_cast<int>(std::ceil(size.y() * scale)) + 40, 60, 4000);
-        record::RgbImage image(kPreviewWidth, height);
-        image.fill(255, 255, 255);
-        auto px = [&](const Eigen::Vector2d& p) {
-            return std::array<double, 2>{20.0 + (p.x() - box.min().x()) * scale,
-                                         height - 20.0 - (p.y() - box.min().y()) * scale};
-        };
-        for (const auto& p : polygons) {
-            std::vector<std::array<double, 2>> pts;
-            for (const auto& q : p.points) pts.push_back(px(q));
-            image.fill_polygon(pts, p.colour);
+        if (lines.empty() && polygons.empty())
+            throw InvariantError("geometry preview: nothing to draw");
+        using Dims = std::vector<std::uint64_t>;
+        record::Hdf5Writer h5(path);
+        std::string names, colours, filled;
+        for (std::size_t i = 0; i < phases.size(); ++i) {
+            const char* sep = i ? "|" : "";
+            names += sep + phases[i].name;
+            colours += sep + phases[i].colour;
+            filled += sep + std::string(phases[i].filled ? "1" : "0");
         }
-        for (const auto& l : lines) {
-            const auto a = px(l.a), b = px(l.b);
-            image.draw_line(a[0], a[1], b[0], b[1], l.colour);
+        h5.set_attribute("/", "caption", caption);
+        h5.set_attribute("/", "x_label", x_label);
+        h5.set_attribute("/", "y_label", y_label);
+        h5.set_attribute("/", "phase_names", names);
+        h5.set_attribute("/", "phase_colours", colours);
+        h5.set_attribute("/", "phase_filled", filled);
+        if (!lines.empty()) {
+            std::vector<double> xy, phase_of;
+            for (const auto& l : lines) {
+                xy.insert(xy.end(), {l.a.x(), l.a.y(), l.b.x(), l.b.y()});
+                phase_of.push_back(l.phase);
+            }
+            h5.write("segments", std::span<const double>(xy), Dims{lines.size(), 4},
+                     {{"units", "um"},
+                      {"description",
+                       "cut outlines: x0, y0, x1, y1 of each segment, in the "
+                       "plane of the cut (/@x_label, /@y_label)"}});
+            h5.write("segment_phase", std::span<const double>(phase_of), Dims{lines.size()},
+                     {{"units", "1"},
+                      {"description", "index of each segment's phase in /@phase_names"}});
         }
-        record::write_png(path, image);
+        if (!polygons.empty()) {
+            std::vector<double> xy, offsets = {0.0}, phase_of;
+            for (const auto& p : polygons) {
+                for (const auto& q : p.points) xy.insert(xy.end(), {q.x(), q.y()});
+                offsets.push_back(static_cast<double>(xy.size() / 2));
+                phase_of.push_back(p.phase);
+            }
+            h5.write("polygon_vertices", std::span<const double>(xy), Dims{xy.size() / 2, 2},
+                     {{"units", "um"}, {"description", "vertices of every filled polygon, x y"}});
+            h5.write("polygon_offsets", std::span<const double>(offsets), Dims{offsets.size()},
+                     {{"units", "1"},
+                      {"description",
+                       "polygon k: rows offsets[k] to offsets[k+1] of "
+                       "polygon_vertices"}});
+            h5.write("polygon_phase", std::span<const double>(phase_of), Dims{polygons.size()},
+                     {{"units", "1"},
+                      {"description", "index of each polygon's phase in /@phase_names"}});
+        }
+        h5.commit();
     }
 };
 
@@ -128,6 +162,12 @@ Built build_barbule_row(ParameterTable geometry, const std::filesystem::path& di
     out.facts.push_back(fmt::format("minimum non-intersecting spacing H = {:.4f}",
                                     geometry::minimum_spacing(p.cell, p.mu)));
     // Preview: the transversal cut (x–z) through the middle cell of every barbule.
+    // Surfaces, not areas (barbule.h): the keratin cortex is a thin film on the outer surface,
+    // the melanin layer lies beneath it across an air gap.
+    const int film =
+        out.preview.phase("outer surface (keratin cortex as a thin film)", "#28aa5a", false);
+    const int melanin_surface =
+        out.preview.phase("melanin layer's surface (air gap above)", "#6e3c1e", false);
     double y_cut = 0.0;
     const int middle = p.cells_per_barbule / 2;
     y_cut = built.instances[static_cast<std::size_t>(middle)].translation().y();
@@ -137,12 +177,13 @@ Built build_barbule_row(ParameterTable geometry, const std::filesystem::path& di
             TriangleMesh copy = melanin ? built.cell_melanin : built.cell_film;
             for (auto& v : copy.positions) v = t * v;
             out.preview.add_slice(geometry::slice(copy, 1, y_cut), 0, 2,
-                                  melanin ? kMelanin : kFilm);
+                                  melanin ? melanin_surface : film);
         }
     }
     out.preview.caption =
         "transversal cut (x right, z up) through one cell of each barbule: film green, melanin "
         "brown";
+    out.preview.y_label = "z (µm)";
     return out;
 }
 
@@ -177,20 +218,25 @@ Built build_barb_patch(ParameterTable geometry, const std::filesystem::path& dir
     out.instances = built.barb_instances.size() + built.barbule_instances.size();
     out.memory = built.memory_bytes();
     out.facts.push_back(fmt::format("barb period {:.2f} um", section.period_um));
+    const int cortex = out.preview.phase("barb cortex (keratin)", "#aaaaaa", true);
+    const int medulla = out.preview.phase("barb medulla", "#ebebe1", true);
+    const int barbule = out.preview.phase("barbules (keratin)", "#3c96c8", true);
     for (int k = -1; k <= 1; ++k) {
         for (const auto& shape : section.shapes) {
             Preview::Polygon polygon;
             for (const auto& q : shape.polygon)
                 polygon.points.push_back(q + Eigen::Vector2d(k * section.period_um, 0.0));
-            polygon.colour = shape.role == geometry::SurfaceRole::barb_cortex    ? kCortex
-                             : shape.role == geometry::SurfaceRole::barb_medulla ? kMedulla
-                                                                                 : kBarbule;
+            polygon.phase = shape.role == geometry::SurfaceRole::barb_cortex    ? cortex
+                            : shape.role == geometry::SurfaceRole::barb_medulla ? medulla
+                                                                                : barbule;
             out.preview.polygons.push_back(std::move(polygon));
         }
     }
     out.preview.caption =
         "cross-section across the barbs (y right, z up), three periods: cortex grey, medulla "
         "white, barbules blue";
+    out.preview.x_label = "y (µm)";
+    out.preview.y_label = "z (µm)";
     return out;
 }
 
@@ -246,9 +292,13 @@ Built build_spongy(ParameterTable geometry, bool channel, const std::filesystem:
     out.facts.push_back(fmt::format("spectral peak at k = {:.3f} /um, length scale {:.4f} um",
                                     volume.spectrum.peak_wavenumber_per_um,
                                     volume.spectrum.peak_length_um));
+    // The interface mesh is closed (keratin ∩ box), so its cut is closed outlines: plots.py
+    // fills them by nesting, keratin inside.
+    const int keratin = out.preview.phase("keratin", "#d9a441", true);
+    out.preview.phase("air (blank)", "#ffffff", true);
     out.preview.add_slice(
-        geometry::slice(interface, 2, 0.5 * volume.box_um + 0.25 * volume.voxel_um), 0, 1, kInk);
-    out.preview.caption = "keratin/air interface cut at mid-height (x right, y up)";
+        geometry::slice(interface, 2, 0.5 * volume.box_um + 0.25 * volume.voxel_um), 0, 1, keratin);
+    out.preview.caption = "keratin/air cut at mid-height (x right, y up)";
     return out;
 }
 
@@ -288,8 +338,12 @@ Built import_geometry(ParameterTable geometry, bool vdb, const std::filesystem::
     out.triangles = mesh.triangles.size();
     out.memory += mesh.memory_bytes();
     const auto box = mesh.bounds();
-    out.preview.add_slice(geometry::slice(mesh, 2, 0.5 * (box[0].z() + box[1].z())), 0, 1, kInk);
+    out.preview.add_slice(geometry::slice(mesh, 2, 0.5 * (box[0].z() + box[1].z())), 0, 1,
+                          out.preview.phase(vdb ? "keratin (inside the level set)"
+                                                : "inside the mesh (filled where its cut closes)",
+                                            "#d9a441", true));
     out.preview.caption = "cut at mid-height (x right, y up)";
+    if (vdb) out.preview.phase("air (blank)", "#ffffff", true);
     return out;
 }
 
@@ -322,7 +376,8 @@ GeometryStudyResult run_geometry_study(const std::filesystem::path& study_file,
     root.reject_unused();
     throw_if_interrupted("writing the preview and the report");
 
-    built.preview.write(out.path() / "preview.png");
+    built.preview.write(out.path() / "preview.h5");
+    run_plot("geometry_preview", out.path() / "preview.h5", out.path() / "preview.png");
     const double seconds =
         std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
     {
@@ -337,7 +392,8 @@ GeometryStudyResult run_geometry_study(const std::filesystem::path& study_file,
         md << fmt::format("- built in {:.2f} s (plumage {})\n\nFiles: ", seconds, kVersion);
         for (std::size_t i = 0; i < built.files.size(); ++i)
             md << (i ? ", " : "") << built.files[i];
-        md << ", preview.png.\n\n## Study file\n\n```toml\n" << file->text() << "\n```\n";
+        md << ", preview.h5 (the preview's data), preview.png.\n\n## Study file\n\n```toml\n"
+           << file->text() << "\n```\n";
         if (!md) throw IoError("cannot write report.md");
     }
     out.commit();

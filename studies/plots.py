@@ -13,6 +13,10 @@
   plots.py spongy_spectra H5 PNG spongy study: R(lambda) of every slab, Monte Carlo and single scattering
   plots.py spongy_map H5 PNG     spongy study: peak wavelength and colour over length scale x fraction
   plots.py spongy_angles H5 PNG  spongy study: the base slab's spectrum at several incidence angles
+  plots.py scatterogram_comparison H5 PNG  simulation | model | signed difference (figure/ group)
+  plots.py fingerprints H5 PNG   Filip 2024 Fig. 7 fingerprints at one exposure, with log luminance
+  plots.py btf_tiles H5 PNG      BTF images of a few geometries (Filip 2024 Fig. 9), one exposure
+  plots.py geometry_preview H5 PNG  a cut through built geometry in um: phases, legend, scale bar
   plots.py batch CSV PNG         every plot a CSV lists (columns kind, input, png; PNG unused)
 """
 import csv
@@ -24,8 +28,6 @@ import matplotlib
 matplotlib.use("Agg")
 import matplotlib.pyplot as plt  # noqa: E402
 
-KINDS = {}  # filled below: kind name -> function(input, png)
-
 
 def numeric_csv(csv_path):
     """The header and the rows (as floats) of a CSV whose every value is a number."""
@@ -36,7 +38,7 @@ def numeric_csv(csv_path):
     return header, rows
 
 
-def spectra(csv_path, png_path):
+def build_spectra(csv_path):
     with open(csv_path, newline="") as f:
         rows = list(csv.DictReader(f))
     wl = [float(r["wavelength_nm"]) for r in rows]
@@ -48,14 +50,14 @@ def spectra(csv_path, png_path):
         ax.plot(wl, r, color="tab:green", label="R (film only)")
         ax.set_title(f"keratin film {d} nm, normal incidence")
         ax.set_xlabel("wavelength (nm)")
+        ax.set_ylabel("reflectance")
         ax.grid(alpha=0.3)
-    axes[0].set_ylabel("reflectance")
     axes[0].legend(loc="upper left", fontsize=8)
     fig.tight_layout()
-    fig.savefig(png_path, dpi=120)
+    return fig
 
 
-def chart(h5_path, png_path):
+def build_chart(h5_path):
     import h5py
     import numpy as np
 
@@ -74,10 +76,10 @@ def chart(h5_path, png_path):
     ax.set_ylabel("incidence angle (deg)")
     ax.set_title("Thin keratin film in air, reflected colour under D65")
     fig.tight_layout()
-    fig.savefig(png_path, dpi=120)
+    return fig
 
 
-def convergence(csv_path, png_path):
+def build_convergence(csv_path):
     with open(csv_path, newline="") as f:
         rows = list(csv.DictReader(f))
     fig, ax = plt.subplots(figsize=(6.5, 4.5))
@@ -97,13 +99,14 @@ def convergence(csv_path, png_path):
     ax.loglog(tt, [e0 * (t0 / x) ** 0.5 for x in tt], "k:", label="slope -1/2")
     ax.set_xlabel("wall time (s)")
     ax.set_ylabel("relative RMS error")
+    ax.set_title("Error against wall time (log-log)")
     ax.grid(alpha=0.3, which="both")
     ax.legend(fontsize=8)
     fig.tight_layout()
-    fig.savefig(png_path, dpi=120)
+    return fig
 
 
-def curves(csv_path, png_path):
+def build_curves(csv_path):
     header, rows = numeric_csv(csv_path)
     x = [r[0] for r in rows]
     fig, ax = plt.subplots(figsize=(7, 4.2))
@@ -113,13 +116,14 @@ def curves(csv_path, png_path):
         ax.errorbar(x, y, yerr=err, fmt="o-" if i == 1 else "s--", ms=3, capsize=2, label=header[i])
     ax.set_xlabel(header[0])
     ax.set_ylabel("BRDF (1/sr)")
+    ax.set_title(f"BRDF against {header[0]}")
     ax.grid(alpha=0.3)
     ax.legend(fontsize=8)
     fig.tight_layout()
-    fig.savefig(png_path, dpi=120)
+    return fig
 
 
-def contact_sheet(csv_path, png_path):
+def build_contact_sheet(csv_path):
     import textwrap
 
     import matplotlib.image as mpimg
@@ -146,10 +150,10 @@ def contact_sheet(csv_path, png_path):
         else:
             a.text(0.02, 0.5, note, transform=a.transAxes, fontsize=7, va="center", ha="left", wrap=True)
     fig.tight_layout()
-    fig.savefig(png_path, dpi=110)
+    return fig
 
 
-def sweep_error(csv_path, png_path):
+def build_sweep_error(csv_path):
     header, rows = numeric_csv(csv_path)
     skipped = [r[0] for r in rows if r[1] != r[1]]  # NaN: the value was rejected
     rows = [r for r in rows if r[1] == r[1]]
@@ -165,14 +169,15 @@ def sweep_error(csv_path, png_path):
             ax.axvline(r[0], color="k", ls=":", lw=0.8, label="base value")
     ax.set_xlabel(header[0])
     ax.set_ylabel("power-weighted relative L1")
+    ax.set_title(f"Model error against {header[0]}")
     ax.set_ylim(bottom=0)
     ax.grid(alpha=0.3)
     ax.legend(fontsize=8)
     fig.tight_layout()
-    fig.savefig(png_path, dpi=120)
+    return fig
 
 
-def energy_bars(csv_path, png_path):
+def build_energy_bars(csv_path):
     with open(csv_path, newline="") as f:
         rows = list(csv.DictReader(f))
     colours = {"ok": "tab:blue", "by construction": "tab:orange", "violation": "tab:red"}
@@ -184,15 +189,17 @@ def energy_bars(csv_path, png_path):
     ax.set_yticks(y)
     ax.set_yticklabels([r["label"] for r in rows], fontsize=6)
     ax.set_xlabel("largest energy, reflected + transmitted (error bars: 4 sigma or quadrature error)")
+    ax.set_ylabel("case and scatterer")
+    ax.set_title("Energy conservation: largest energy per case and scatterer")
     from matplotlib.patches import Patch
 
     ax.legend(handles=[Patch(color=c, label=s) for s, c in colours.items()], fontsize=7, loc="lower right")
     ax.grid(alpha=0.3, axis="x")
     fig.tight_layout()
-    fig.savefig(png_path, dpi=110)
+    return fig
 
 
-def luminance(csv_path, png_path):
+def build_luminance(csv_path):
     header, rows = numeric_csv(csv_path)
     x = [r[0] for r in rows]
     fig, ax = plt.subplots(figsize=(7, 4.2))
@@ -208,13 +215,14 @@ def luminance(csv_path, png_path):
         ax.text(angle, ax.get_ylim()[1], text, ha="center", va="bottom", fontsize=8)
     ax.set_xlabel(header[0])
     ax.set_ylabel("CIE L* (D65)")
+    ax.set_title("In-plane luminance across the barbs (Filip 2024 Fig. 6a)", pad=16)
     ax.grid(alpha=0.3)
     ax.legend(fontsize=7, ncol=2)
     fig.tight_layout()
-    fig.savefig(png_path, dpi=120)
+    return fig
 
 
-def masking(h5_path, png_path):
+def build_masking(h5_path):
     """One row per configuration: barb, barbule and gap fractions against the in-plane angle
     (analytic lines, Monte Carlo points with +-sigma bars); the residuals z in sigma with the
     Sidak bound of the whole comparison; and |MC - analytic| on a log scale beside sigma and the
@@ -259,8 +267,10 @@ def masking(h5_path, png_path):
         middle.axhline(0.0, color="k", lw=0.5)
         middle.set_ylim(-zmax, zmax)
         middle.set_ylabel("z = (MC - analytic) / sigma", fontsize=8)
+        middle.set_title(f"{name}: residuals in sigma", fontsize=9, loc="left")
         right.set_ylim(bottom=0.8 * floor)
         right.set_ylabel("|MC - analytic|", fontsize=8)
+        right.set_title(f"{name}: |MC - analytic| and bounds", fontsize=9, loc="left")
         for ax in axes[k]:
             ax.grid(alpha=0.3)
         if k == 0:
@@ -270,7 +280,7 @@ def masking(h5_path, png_path):
     for ax in axes[-1]:
         ax.set_xlabel("in-plane view angle (deg from +z towards +y)")
     fig.tight_layout()
-    fig.savefig(png_path, dpi=100)
+    return fig
 
 
 def _spongy_records(h5_path):
@@ -299,7 +309,7 @@ def _spongy_baseline(h5_path):
                 float(g.attrs["thickness_um"]))
 
 
-def spongy_spectra(h5_path, png_path):
+def build_spongy_spectra(h5_path):
     """Reflectance spectra of every slab: Monte Carlo with a +-2 sigma band, the
     single-scattering closed form dotted, each curve's peak marked; the geometric-optics
     baseline of the base volume dashed grey."""
@@ -332,10 +342,10 @@ def spongy_spectra(h5_path, png_path):
     # Beneath the axes: inside, every corner holds a curve.
     ax.legend(fontsize=8, ncol=2, loc="upper center", bbox_to_anchor=(0.5, -0.13))
     fig.tight_layout()
-    fig.savefig(png_path, dpi=120)
+    return fig
 
 
-def spongy_map(h5_path, png_path):
+def build_spongy_map(h5_path):
     """Peak wavelength (Monte Carlo, single scattering, 2 n_eff Lambda) and colour of each slab
     over the length scale x keratin fraction grid."""
     import numpy as np
@@ -385,16 +395,16 @@ def spongy_map(h5_path, png_path):
     ax.set_ylabel("keratin fraction f")
     ax.set_title("colour of each slab (sRGB, D65)")
     fig.tight_layout()
-    fig.savefig(png_path, dpi=120)
+    return fig
 
 
-def spongy_angles(h5_path, png_path):
+def build_spongy_angles(h5_path):
     """The base slab's spectrum at several incidence angles."""
     d, ang, _ = _spongy_records(h5_path)
     wl = d["wavelength_nm"]
     base_f, base_l = d["keratin_fraction"][0], d["length_scale_um"][0]
     if ang is None:
-        return
+        return None
     fig, ax = plt.subplots(figsize=(7, 4.5))
     for a, deg in enumerate(ang["incidence_deg"]):
         r, e = ang["reflectance"][a], ang["reflectance_standard_error"][a]
@@ -412,24 +422,381 @@ def spongy_angles(h5_path, png_path):
     ax.grid(alpha=0.3)
     ax.legend(title="incidence", fontsize=8)
     fig.tight_layout()
-    fig.savefig(png_path, dpi=120)
+    return fig
 
 
-def batch(csv_path, _png_path):
+# ---- Instrument figures. The C++ studies write what these draw (studies/figure_data.h):
+# display sRGB at one stated exposure, luminance in 1/sr, angles in degrees; Python draws.
+
+def _text(value):
+    """An HDF5 string attribute as str."""
+    return value.decode() if isinstance(value, bytes) else str(value)
+
+
+def _hemisphere_frame(ax, dark):
+    """Axes of an azimuthal equidistant map in degrees (x = theta cos phi, y = theta sin phi):
+    theta rings at 30, 60, 90 deg with labels, azimuth ticks on the rim, the barb axis arrow."""
+    import numpy as np
+
+    t = np.linspace(0.0, 2.0 * np.pi, 361)
+    ring_colour, box = ("0.8", "black") if dark else ("0.3", "white")
+    for ring in (30, 60, 90):
+        ax.plot(ring * np.cos(t), ring * np.sin(t), color=ring_colour if ring < 90 else "k",
+                lw=0.6 if ring < 90 else 0.8, ls="--" if ring < 90 else "-")
+        a = np.radians(125.0)
+        r = ring - 6 if ring == 90 else ring
+        ax.text(r * np.cos(a), r * np.sin(a), f"ϑ {ring}°", color="white" if dark else "k",
+                fontsize=7, ha="center", va="center",
+                bbox=dict(facecolor=box, alpha=0.55, lw=0, pad=0.8))
+    for phi in range(0, 360, 30):
+        a = np.radians(phi)
+        ax.plot([90 * np.cos(a), 96 * np.cos(a)], [90 * np.sin(a), 96 * np.sin(a)], color="k",
+                lw=0.8)
+        if phi % 90 == 0:
+            ax.text(104 * np.cos(a), 104 * np.sin(a), f"φ {phi}°", fontsize=7, ha="center",
+                    va="center")
+    ax.annotate("", xy=(45, -112), xytext=(-45, -112),
+                arrowprops=dict(arrowstyle="->", lw=1.2, color="k"), annotation_clip=False)
+    ax.text(0, -118, "barb axis (+x, φ = 0°)", ha="center", va="top", fontsize=7)
+    ax.set_xlim(-122, 122)
+    ax.set_ylim(-126, 114)
+    ax.set_aspect("equal")
+    ax.set_xticks([-90, -60, -30, 0, 30, 60, 90])
+    ax.set_yticks([-90, -60, -30, 0, 30, 60, 90])
+    ax.tick_params(labelsize=6)
+    ax.set_xlabel("ϑ cos φ (deg)", fontsize=8)
+    ax.set_ylabel("ϑ sin φ (deg)", fontsize=8)
+    for side in ax.spines.values():
+        side.set_visible(False)
+
+
+def build_scatterogram_comparison(h5_path):
+    """Simulation | Huang model at one exposure | signed luminance difference (diverging map
+    symmetric about 0, scaled to its own range, colour bar in 1/sr)."""
+    import h5py
+    import numpy as np
+
+    with h5py.File(h5_path, "r") as f:
+        g = f["figure"]
+        sim = np.asarray(g["simulation_srgb"], dtype=float)
+        mod = np.asarray(g["model_srgb"], dtype=float)
+        diff = np.asarray(g["difference_luminance"], dtype=float)
+        theta = np.asarray(g["theta_deg"], dtype=float)
+        white = float(g.attrs["white_luminance_per_sr"])
+        title = _text(g.attrs.get("title", ""))
+        errors = np.asarray(f["relative_error"]) if "relative_error" in f else None
+    inside = np.isfinite(theta)
+    extent = (-90.0, 90.0, -90.0, 90.0)  # pixel edges: the disc's rim is theta = 90 deg
+    fig, axes = plt.subplots(1, 4, figsize=(15, 5.4),
+                             gridspec_kw={"width_ratios": (1, 1, 1, 0.045)})
+    cax = axes[3]
+    for ax, rgb, name in ((axes[0], sim, "simulation"), (axes[1], mod, "Huang 2022 model")):
+        rgba = np.concatenate([np.clip(rgb, 0, 1), inside[..., None].astype(float)], axis=2)
+        ax.imshow(rgba, extent=extent, origin="upper", interpolation="nearest")
+        _hemisphere_frame(ax, True)
+        ax.set_title(name, fontsize=10)
+    ax = axes[2]
+    lim = float(np.nanmax(np.abs(diff))) if np.any(np.isfinite(diff)) else 0.0
+    lim = lim if lim > 0 else 1.0
+    im = ax.imshow(np.ma.masked_invalid(diff), extent=extent, origin="upper",
+                   interpolation="nearest", cmap="RdBu_r", vmin=-lim, vmax=lim)
+    _hemisphere_frame(ax, False)
+    err = f" (relative L1 {errors[0]:.3f})" if errors is not None and len(errors) else ""
+    ax.set_title("simulation − model" + err, fontsize=10)
+    bar = fig.colorbar(im, cax=cax)
+    bar.set_label("luminance difference Y_sim − Y_model (1/sr)", fontsize=8)
+    bar.ax.tick_params(labelsize=7)
+    fig.suptitle(f"Scatterograms, {title}: radiant intensity per unit incident power under D65; "
+                 f"one exposure for both, white = luminance {white:.3g} 1/sr", fontsize=10)
+    fig.tight_layout()
+    return fig
+
+
+def _ring_ticks(angles):
+    """Each polar-angle ring of a direction list: the first indices (where a separator goes),
+    the tick positions (the ring's middle) and the labels."""
+    starts, labels = [], []
+    for i, t in enumerate(angles[:, 0]):
+        ring = round(float(t))
+        if not labels or labels[-1] != f"{ring}°":
+            starts.append(i)
+            labels.append(f"{ring}°")
+    ends = starts[1:] + [len(angles)]
+    return starts, [0.5 * (a + b - 1) for a, b in zip(starts, ends)], labels
+
+
+def build_fingerprints(h5_path):
+    """Filip 2024 Fig. 7 fingerprints: colour at one exposure for every panel (top row) and
+    the luminance on one logarithmic scale with a colour bar (bottom row)."""
+    import h5py
+    import numpy as np
+    from matplotlib.colors import LogNorm
+
+    with h5py.File(h5_path, "r") as f:
+        count = int(f.attrs["panels"])
+        panels = [(np.asarray(f[f"panel{k}/srgb"], dtype=float),
+                   np.asarray(f[f"panel{k}/luminance"], dtype=float),
+                   _text(f[f"panel{k}"].attrs["title"]),
+                   float(f[f"panel{k}"].attrs["peak_luminance_per_sr"])) for k in range(count)]
+        lights = np.asarray(f["light_angles_deg"])
+        views = np.asarray(f["view_angles_deg"])
+        white = float(f.attrs["white_luminance_per_sr"])
+        title = _text(f.attrs["title"])
+    fig, axes = plt.subplots(2, count, figsize=(4.3 * count + 0.8, 8.6), squeeze=False)
+    top = max(white, 1e-300)
+    norm = LogNorm(vmin=top * 1e-4, vmax=top)
+    xs, xt, xl = _ring_ticks(views)
+    ys, yt, yl = _ring_ticks(lights)
+    image = None
+    for k, (rgb, y, name, peak) in enumerate(panels):
+        for row, ax in enumerate(axes[:, k]):
+            if row == 0:
+                ax.imshow(np.clip(rgb, 0, 1), interpolation="nearest", aspect="auto")
+                ax.set_title(f"{name}\npeak {peak:.3g} 1/sr ({peak / top:.2f} of white)",
+                             fontsize=9)
+            else:
+                image = ax.imshow(np.clip(y, top * 1e-4, None), norm=norm, cmap="viridis",
+                                  interpolation="nearest", aspect="auto")
+                ax.set_title(f"{name}: luminance (log scale)", fontsize=9)
+            for t in xs[1:]:
+                ax.axvline(t - 0.5, color="w", lw=0.4, alpha=0.6)
+            for t in ys[1:]:
+                ax.axhline(t - 0.5, color="w", lw=0.4, alpha=0.6)
+            ax.set_xticks(xt, xl, fontsize=7)
+            ax.set_yticks(yt, yl, fontsize=7)
+            ax.set_xlabel("view θ_o ring (φ_o 0°…330° within each)", fontsize=8)
+            ax.set_ylabel("light θ_i ring (φ_i 0°…330° within each)", fontsize=8)
+    fig.suptitle(f"{title}\nrows: light directions, columns: view directions; colour: one "
+                 f"exposure for all panels, white = luminance {white:.3g} 1/sr", fontsize=10)
+    fig.subplots_adjust(left=0.07, right=0.88, top=0.86, bottom=0.07, hspace=0.38, wspace=0.3)
+    box = axes[1, -1].get_position()
+    cax = fig.add_axes([0.9, box.y0, 0.015, box.height])
+    bar = fig.colorbar(image, cax=cax)
+    bar.set_label("luminance Y of the BRDF (1/sr)", fontsize=8)
+    return fig
+
+
+def build_btf_tiles(h5_path):
+    """Filip 2024 Fig. 9 analogue: BTF images of the patch, one exposure for all tiles, each
+    titled with its light and view angles; axes in micrometres."""
+    import h5py
+    import numpy as np
+
+    with h5py.File(h5_path, "r") as f:
+        rgb = np.asarray(f["srgb"], dtype=float)
+        angles = np.asarray(f["angles_deg"])
+        size = float(f.attrs["patch_size_um"])
+        pixels = int(f.attrs["pixels"])
+        white = float(f.attrs["white_luminance_per_sr"])
+        title = _text(f.attrs["title"])
+    tiles = rgb.shape[0]
+    cols = min(6, tiles)
+    rows = (tiles + cols - 1) // cols
+    fig, axes = plt.subplots(rows, cols, figsize=(2.1 * cols + 0.4, 2.35 * rows + 0.9),
+                             squeeze=False, sharex=True, sharey=True)
+    h = 0.5 * size
+    for k, ax in enumerate(axes.flat):
+        if k >= tiles:
+            ax.set_visible(False)
+            continue
+        ax.imshow(np.clip(rgb[k], 0, 1), extent=(-h, h, -h, h), origin="upper",
+                  interpolation="nearest")
+        ti, pi, to, po = angles[k]
+        ax.set_title(f"θi {ti:.0f}° φi {pi % 360:.0f}°\nθo {to:.0f}° φo {po % 360:.0f}°",
+                     fontsize=7)
+        ax.tick_params(labelsize=6)
+        if k % cols == 0:
+            ax.set_ylabel("y (µm)", fontsize=7)
+        if k // cols == rows - 1:
+            ax.set_xlabel("x (µm)", fontsize=7)
+    fig.suptitle(f"{title}: {pixels} × {pixels} pixels over {size:.0f} µm; one exposure for all "
+                 f"tiles, white = luminance {white:.3g} 1/sr", fontsize=9)
+    fig.subplots_adjust(left=0.06, right=0.99, top=0.82, bottom=0.1, wspace=0.08, hspace=0.42)
+    return fig
+
+
+def _loops(segments, tolerance):
+    """Chains 2D segments [n, 4] into polylines; returns (closed loops, open chains)."""
+    from collections import defaultdict
+
+    def key(x, y):
+        return (round(x / tolerance), round(y / tolerance))
+
+    ends = defaultdict(list)
+    for i, (x0, y0, x1, y1) in enumerate(segments):
+        ends[key(x0, y0)].append(i)
+        ends[key(x1, y1)].append(i)
+    used = [False] * len(segments)
+    closed, chains = [], []
+    for start in range(len(segments)):
+        if used[start]:
+            continue
+        used[start] = True
+        x0, y0, x1, y1 = segments[start]
+        pts = [(x0, y0), (x1, y1)]
+        for forward in (True, False):
+            while True:
+                tip = pts[-1] if forward else pts[0]
+                nxt = None
+                for j in ends[key(*tip)]:
+                    if not used[j]:
+                        nxt = j
+                        break
+                if nxt is None:
+                    break
+                used[nxt] = True
+                a = (segments[nxt][0], segments[nxt][1])
+                b = (segments[nxt][2], segments[nxt][3])
+                other = b if key(*a) == key(*tip) else a
+                if forward:
+                    pts.append(other)
+                else:
+                    pts.insert(0, other)
+        if len(pts) > 3 and key(*pts[0]) == key(*pts[-1]):
+            closed.append(pts[:-1])
+        else:
+            chains.append(pts)
+    return closed, chains
+
+
+def build_geometry_preview(h5_path):
+    """A cut through the built geometry, in micrometres: filled phases (polygons, or the closed
+    outlines of a cut, filled by nesting: keratin inside, holes blank), the outlines, a legend,
+    a scale bar and the caption as title."""
+    import h5py
+    import numpy as np
+    from matplotlib.lines import Line2D
+    from matplotlib.patches import Patch, Polygon
+    from mpl_toolkits.axes_grid1.anchored_artists import AnchoredSizeBar
+
+    with h5py.File(h5_path, "r") as f:
+        names = _text(f.attrs["phase_names"]).split("|")
+        colours = _text(f.attrs["phase_colours"]).split("|")
+        filled = [c == "1" for c in _text(f.attrs["phase_filled"]).split("|")]
+        caption = _text(f.attrs["caption"])
+        xlabel, ylabel = _text(f.attrs["x_label"]), _text(f.attrs["y_label"])
+        segments = np.asarray(f["segments"]).reshape(-1, 4) if "segments" in f else np.zeros((0, 4))
+        seg_phase = np.asarray(f["segment_phase"]).astype(int) if "segments" in f else []
+        polys = []
+        if "polygon_vertices" in f:
+            vertices = np.asarray(f["polygon_vertices"]).reshape(-1, 2)
+            offsets = np.asarray(f["polygon_offsets"]).astype(int)
+            phase = np.asarray(f["polygon_phase"]).astype(int)
+            polys = [(vertices[offsets[i]:offsets[i + 1]], phase[i]) for i in range(len(phase))]
+    points = [segments[:, :2], segments[:, 2:]] + [p for p, _ in polys]
+    allp = np.concatenate([p for p in points if len(p)]) if any(len(p) for p in points) else \
+        np.zeros((1, 2))
+    lo, hi = allp.min(axis=0), allp.max(axis=0)
+    span = np.maximum(hi - lo, 1e-9)
+    aspect = span[1] / span[0]
+    plot_width = 7.5  # inches of the axes; the legend and the scale bar sit to the right
+    fig, ax = plt.subplots(figsize=(plot_width + 3.3, min(max(plot_width * aspect + 1.5, 2.6), 10.5)))
+    for pts, ph in polys:
+        ax.add_patch(Polygon(pts, closed=True, facecolor=colours[ph] if filled[ph] else "none",
+                             edgecolor="k", lw=0.4))
+    for ph in range(len(names)):
+        sel = segments[np.asarray(seg_phase) == ph] if len(segments) else segments
+        if not len(sel):
+            continue
+        tol = 1e-6 * float(np.max(span))
+        closed, chains = _loops(sel, tol)
+        if filled[ph]:
+            # Nesting depth decides keratin or hole: even-odd fill of the loops.
+            from matplotlib.path import Path
+            from matplotlib.patches import PathPatch
+
+            verts, codes = [], []
+            for loop in closed:
+                verts += loop + [loop[0]]
+                codes += [Path.MOVETO] + [Path.LINETO] * (len(loop) - 1) + [Path.CLOSEPOLY]
+            if verts:
+                paths = [Path(np.array(loop + [loop[0]])) for loop in closed]
+                for i, loop in enumerate(closed):
+                    depth = sum(1 for j, p in enumerate(paths) if j != i and
+                                p.contains_point(loop[0]))
+                    if depth % 2 == 0:
+                        ax.add_patch(Polygon(loop, closed=True, facecolor=colours[ph], lw=0))
+                    else:
+                        ax.add_patch(Polygon(loop, closed=True, facecolor="white", lw=0))
+        edge = "k" if filled[ph] else colours[ph]
+        for line in closed:
+            line = np.array(line + [line[0]])
+            ax.plot(line[:, 0], line[:, 1], color=edge, lw=0.7)
+        for line in chains:
+            line = np.array(line)
+            ax.plot(line[:, 0], line[:, 1], color=edge, lw=0.9)
+    ax.set_aspect("equal")
+    pad = 0.03 * span.max()
+    ax.set_xlim(lo[0] - pad, hi[0] + pad)
+    ax.set_ylim(lo[1] - pad, hi[1] + pad)
+    ax.set_xlabel(xlabel)
+    ax.set_ylabel(ylabel)
+    ax.set_title(caption, fontsize=10)
+    handles = [Patch(facecolor=colours[i], edgecolor="k", lw=0.4, label=n) if filled[i] else
+               Line2D([], [], color=colours[i], lw=1.4, label=n) for i, n in enumerate(names)]
+    ax.legend(handles=handles, fontsize=8, loc="upper left", bbox_to_anchor=(1.01, 1.0))
+    nice = [0.01, 0.02, 0.05, 0.1, 0.2, 0.5, 1, 2, 5, 10, 20, 50, 100, 200, 500, 1000]
+    bar = max([n for n in nice if n <= 0.25 * span[0]] or [nice[0]])
+    label = f"{bar * 1000:.0f} nm" if bar < 1 else f"{bar:g} µm"
+    ax.add_artist(AnchoredSizeBar(ax.transData, bar, label, "lower left", pad=0.4, sep=3,
+                                  frameon=False, size_vertical=0, bbox_to_anchor=(1.02, 0.0),
+                                  bbox_transform=ax.transAxes, borderpad=0.0,
+                                  fontproperties={"size": 8}))
+    fig.tight_layout()
+    return fig
+
+
+# ---- The command line: every kind is a builder (input -> Figure, or None when there is
+# nothing to draw) and a resolution; the CLI saves the figure. Tests build the figures and
+# query them (tests/studies/plots_figures_test.py).
+
+KINDS = {  # kind -> (builder, dpi)
+    "spectra": (build_spectra, 120),
+    "chart": (build_chart, 120),
+    "convergence": (build_convergence, 120),
+    "curves": (build_curves, 120),
+    "contact_sheet": (build_contact_sheet, 110),
+    "sweep_error": (build_sweep_error, 120),
+    "energy_bars": (build_energy_bars, 110),
+    "luminance": (build_luminance, 120),
+    "masking": (build_masking, 100),
+    "spongy_spectra": (build_spongy_spectra, 120),
+    "spongy_map": (build_spongy_map, 120),
+    "spongy_angles": (build_spongy_angles, 120),
+    "scatterogram_comparison": (build_scatterogram_comparison, 110),
+    "fingerprints": (build_fingerprints, 100),
+    "btf_tiles": (build_btf_tiles, 110),
+    "geometry_preview": (build_geometry_preview, 110),
+}
+
+
+def draw(kind, input_path, png_path):
+    """Builds one figure and saves it as png_path, trimmed to what is drawn (nothing is written
+    when the builder has nothing to draw)."""
+    builder, dpi = KINDS[kind]
+    fig = builder(input_path)
+    if fig is not None:
+        fig.savefig(png_path, dpi=dpi, bbox_inches="tight", pad_inches=0.1)
+        plt.close(fig)
+
+
+def batch(csv_path):
     with open(csv_path, newline="") as f:
         jobs = list(csv.DictReader(f))
     for job in jobs:
-        KINDS[job["kind"]](job["input"], job["png"])
+        draw(job["kind"], job["input"], job["png"])
         plt.close("all")
 
 
+def main(argv):
+    names = list(KINDS) + ["batch"]
+    if len(argv) != 4 or argv[1] not in names:
+        sys.exit("usage: plots.py " + "|".join(names) + " INPUT PNG")
+    if argv[1] == "batch":
+        batch(argv[2])
+    else:
+        draw(argv[1], argv[2], argv[3])
+
+
 if __name__ == "__main__":
-    KINDS.update({"spectra": spectra, "chart": chart, "convergence": convergence, "curves": curves,
-                  "contact_sheet": contact_sheet, "sweep_error": sweep_error,
-                  "energy_bars": energy_bars, "luminance": luminance, "batch": batch})
-    KINDS["masking"] = masking
-    KINDS.update({"spongy_spectra": spongy_spectra, "spongy_map": spongy_map,
-                  "spongy_angles": spongy_angles})
-    if len(sys.argv) != 4 or sys.argv[1] not in KINDS:
-        sys.exit("usage: plots.py " + "|".join(KINDS) + " INPUT PNG")
-    KINDS[sys.argv[1]](sys.argv[2], sys.argv[3])
+    main(sys.argv)

@@ -21,6 +21,7 @@
 #include "geometry/barbule.h"
 #include "sim/optics/colour.h"
 #include "sim/tracer.h"
+#include "studies/figure_data.h"
 #include "studies/plots.h"
 #include "studies/sections.h"
 #include "studies/staged_directory.h"
@@ -212,18 +213,6 @@ gonio::ScatterometerConfig scatterometer_config(const Run& run, gonio::Illuminat
     return c;
 }
 
-// Simulation | model | difference, with one exposure for both (the model's brightest pixel),
-// enlarged ×3 (nearest neighbour) for reading; the records hold the values.
-void write_scatterogram_images(const gonio::Scatterogram& sim_s, const gonio::Scatterogram& mod_s,
-                               const fs::path& png) {
-    const double peak = gonio::scatterogram_peak_luminance(mod_s);
-    const double exposure = peak > 0.0 ? 1.0 / peak : 1.0;
-    const record::RgbImage sim_img = gonio::scatterogram_srgb(sim_s, exposure);
-    const record::RgbImage mod_img = gonio::scatterogram_srgb(mod_s, exposure);
-    const record::RgbImage diff_img = gonio::scatterogram_difference(mod_s, sim_s);
-    record::write_png(png, record::upscaled(side_by_side({&sim_img, &mod_img, &diff_img}), 3));
-}
-
 // One illumination: both scatterograms, their records and images, and the table row.
 std::string scatterogram_pair(const Run& run, const Built& b, gonio::Illumination mode,
                               const std::string& label, RockDoveResult& result) {
@@ -235,7 +224,6 @@ std::string scatterogram_pair(const Run& run, const Built& b, gonio::Illuminatio
     const fs::path dir = run.dir / "scatterograms";
     gonio::write_scatterogram_record(sim_s, dir / (label + "_simulation.h5"));
     gonio::write_scatterogram_record(mod_s, dir / (label + "_model.h5"));
-    write_scatterogram_images(sim_s, mod_s, dir / (label + "_comparison.png"));
     const double l1 = image_relative_l1(sim_s, mod_s, -1, -1);
     const double l1_r =
         image_relative_l1(sim_s, mod_s, lobe_index(sim_s.lobes, "R"), lobe_index(mod_s.lobes, "R"));
@@ -257,7 +245,10 @@ std::string scatterogram_pair(const Run& run, const Built& b, gonio::Illuminatio
                "power-weighted relative L1 of simulation against model: all, R, TRT; then T below "
                "(simulation, model) and the simulation's multi-event share of reflected power"}});
     h5.set_attribute("/", "illumination", label);
+    write_scatterogram_figure(h5, sim_s, mod_s, label + " illumination");
     h5.commit();
+    run_plot("scatterogram_comparison", dir / (label + "_comparison.h5"),
+             dir / (label + "_comparison.png"));
     return fmt::format("| {} | {:.3f} | {:.3f} | {:.3f} | {:.4f} | {:.4f} | {:.3f} |\n", label, l1,
                        l1_r, l1_trt, t_sim, t_mod, multi_share);
 }
@@ -273,11 +264,12 @@ std::string scatterograms(const Run& run, const Built& b, RockDoveResult& result
         "(simulation) |\n|---|---|---|---|---|---|---|\n";
     for (const auto& [mode, label] : modes) table += scatterogram_pair(run, b, mode, label, result);
     std::string md =
-        "## Scatterograms\n\nEach image: simulation (left), Huang model (middle), |difference| in "
-        "luminance "
-        "(right, white = the model's brightest pixel). Rings at ϑ = 5°, 30°, 60°, 90°; azimuthal "
-        "equidistant map, "
-        "barb axis to the right.\n\n";
+        "## Scatterograms\n\nEach figure: simulation (left) and Huang model (middle) at one "
+        "exposure (stated above them), and the signed luminance difference simulation − model "
+        "(right, red: the simulation is brighter; scaled to its own range, colour bar in 1/sr). "
+        "Azimuthal equidistant map of the upper hemisphere, rings at ϑ = 30°, 60°, 90°, barb "
+        "axis (φ = 0°) to the right. The figure's data: `figure/` in each "
+        "`<illumination>_comparison.h5`.\n\n";
     for (const auto& [mode, label] : modes) {
         md += fmt::format("**{}**\n\n![{}](scatterograms/{}_comparison.png)\n\n", label, label,
                           label);
@@ -340,13 +332,15 @@ std::string brdf_section(const Run& run, const Brdfs& m, RockDoveResult& result)
     result.brdf_relative_l1 = cmp.total.relative_l1;
     std::string md = "## BRDF (in-plane sweep)\n\n";
     if (run.s.direction_set == "filip2024_btf") {
-        const record::RgbImage fs_img = gonio::brdf_fingerprint(m.simulation, 61, 60, 4);
-        const record::RgbImage fm_img = gonio::brdf_fingerprint(m.model, 61, 60, 4);
-        record::write_png(run.dir / "brdf" / "fingerprints.png", side_by_side({&fs_img, &fm_img}));
+        write_fingerprint_figure(
+            run.dir / "brdf" / "fingerprints.h5", "Rock-dove barbules: BRDF fingerprints",
+            {{"simulation", &m.simulation}, {"Huang 2022 model", &m.model}}, 61, 60);
+        run_plot("fingerprints", run.dir / "brdf" / "fingerprints.h5",
+                 run.dir / "brdf" / "fingerprints.png");
         md = "## BRDF (Filip 2024 set, 61 light × 60 view directions)\n\nFingerprints (rows: light "
-             "directions, "
-             "columns: view directions; simulation left, model right; each with its own "
-             "exposure):\n\n"
+             "directions, columns: view directions, grouped by polar angle; simulation left, model "
+             "right; colour at one exposure for both, luminance below on one logarithmic scale; "
+             "data in `brdf/fingerprints.h5`):\n\n"
              "![fingerprints](brdf/fingerprints.png)\n\n";
     }
     md += analysis::comparison_markdown(cmp, m.simulation, "simulation", "Huang model") + "\n";

@@ -27,6 +27,7 @@
 #include "sim/optics/spectrum.h"
 #include "sim/period_cell_entry.h"
 #include "sim/tracer.h"
+#include "studies/figure_data.h"
 #include "studies/plots.h"
 #include "studies/sections.h"
 #include "studies/spongy_medium.h"
@@ -652,12 +653,13 @@ std::string section_setup(const Run& run, const Specimen& x, const SpeciesOutcom
         "{1:.0f} µm square, {2} wavelengths, detector half-angle {3:.0f}°, {4} quanta per light "
         "direction and wavelength, {5:.0f} s). Fig. 9's geometries: light and view at 30°, view at "
         "azimuth 0°; light azimuth 0°, 30°, …, 150° on the top row, 180° … 330° below; one "
-        "exposure for all:\n\n![btf]({6}/btf.png)\n\n",
+        "exposure for all (the tiles' data: `btf_figure9.h5`):\n\n![btf]({6}/btf.png)\n\n",
         s.btf_pixels, s.btf_patch_um, s.btf_wavelengths.size(), s.btf_detector_half_angle / kDeg,
         s.btf_quanta, o.btf_seconds, sp.name);
     md += fmt::format(
-        "Fingerprints (Fig. 7 layout; simulation | fitted model | Table 1 model, each with its "
-        "own exposure):\n\n![fingerprints]({}/fingerprints.png)\n\n",
+        "Fingerprints (Fig. 7 layout; simulation | fitted model | Table 1 model; colour at one "
+        "exposure for the three, luminance below on one logarithmic scale; data in "
+        "`fingerprints.h5`):\n\n![fingerprints]({}/fingerprints.png)\n\n",
         sp.name);
     return md;
 }
@@ -1123,10 +1125,13 @@ void compare_models(const Specimen& x, Measured& m, SpeciesOutcome& o) {
     o.table1_relative_rms = relative_rms(m.table1_brdf, m.brdf);
     o.fit_relative_l1 = relative_l1(m.fit_brdf, m.brdf);
     o.table1_relative_l1 = relative_l1(m.table1_brdf, m.brdf);
-    const record::RgbImage a = gonio::brdf_fingerprint(m.brdf, 61, 60, 4);
-    const record::RgbImage b = gonio::brdf_fingerprint(m.fit_brdf, 61, 60, 4);
-    const record::RgbImage c = gonio::brdf_fingerprint(m.table1_brdf, 61, 60, 4);
-    record::write_png(x.dir / "fingerprints.png", side_by_side({&a, &b, &c}));
+    write_fingerprint_figure(x.dir / "fingerprints.h5",
+                             fmt::format("{}: BRDF fingerprints", x.spec.name),
+                             {{"simulation", &m.brdf},
+                              {"fitted Filip 2024 model", &m.fit_brdf},
+                              {"Filip 2024 Table 1 model", &m.table1_brdf}},
+                             61, 60);
+    run_plot("fingerprints", x.dir / "fingerprints.h5", x.dir / "fingerprints.png");
 }
 
 // ---- Measure: in-plane sweep, albedo, BTF. --------------------------------------------------
@@ -1191,45 +1196,6 @@ std::vector<std::size_t> figure9_pairs(const std::vector<gonio::DirectionPair>& 
     return figure9;
 }
 
-// The 12 images in two rows of 6, with one exposure for all (the brightest pixel of the 12 →
-// Y = 1), so that they compare.
-record::RgbImage figure9_image(const gonio::BtfRecord& btf,
-                               const std::vector<std::size_t>& figure9) {
-    const gonio::BtfConfig& bc = btf.config;
-    const std::size_t bl = bc.wavelengths_nm.size();
-    double exposure = 0.0;
-    const gonio::SpectrumToDisplay display(bc.wavelengths_nm);
-    for (const std::size_t p : figure9) {
-        for (int row = 0; row < bc.pixels; ++row) {
-            for (int col = 0; col < bc.pixels; ++col) {
-                const auto xyz = display.xyz(
-                    std::span<const double>(btf.value.data() + btf.index(p, row, col, 0), bl));
-                exposure = std::max(exposure, xyz.y);
-            }
-        }
-    }
-    std::vector<record::RgbImage> images;
-    for (const std::size_t p : figure9)
-        images.push_back(btf_image(btf, p, exposure > 0.0 ? 1.0 / exposure : 1.0));
-    std::vector<const record::RgbImage*> top, bottom;
-    for (std::size_t p = 0; p < 6; ++p) top.push_back(&images[p]);
-    for (std::size_t p = 6; p < 12; ++p) bottom.push_back(&images[p]);
-    const record::RgbImage a = side_by_side(top), b = side_by_side(bottom);
-    record::RgbImage both(std::max(a.width, b.width), a.height + b.height + 6);
-    both.fill(255, 255, 255);
-    auto paste = [&both](const record::RgbImage& from, int row_offset) {
-        for (int y = 0; y < from.height; ++y) {
-            for (int x = 0; x < from.width; ++x) {
-                const std::size_t i = 3 * (static_cast<std::size_t>(y) * from.width + x);
-                both.set(x, row_offset + y, from.pixels[i], from.pixels[i + 1], from.pixels[i + 2]);
-            }
-        }
-    };
-    paste(a, 0);
-    paste(b, a.height + 6);
-    return record::upscaled(both, std::max(1, 192 / bc.pixels));
-}
-
 // The virtual BTF on the 61 × 60 set (every pair an image of the patch), and Fig. 9 of it.
 void measure_species_btf(const Run& run, const Specimen& x, SpeciesOutcome& o) {
     const Settings& s = run.s;
@@ -1247,7 +1213,10 @@ void measure_species_btf(const Run& run, const Specimen& x, SpeciesOutcome& o) {
     const gonio::BtfRecord btf = gonio::measure_btf(x.imaged, bc);
     o.btf_seconds = btf.wall_time_s;
     gonio::write_btf_record(btf, x.dir / "btf.h5");
-    record::write_png(x.dir / "btf.png", figure9_image(btf, figure9_pairs(run.pairs)));
+    write_btf_figure(x.dir / "btf_figure9.h5",
+                     fmt::format("{}: virtual BTF, Filip 2024 Fig. 9 geometries", x.spec.name), btf,
+                     figure9_pairs(run.pairs));
+    run_plot("btf_tiles", x.dir / "btf_figure9.h5", x.dir / "btf.png");
 }
 
 // ---- Report. ---------------------------------------------------------------------------------
