@@ -49,6 +49,16 @@ struct Settings {
     int strata = 64;
     double beam_incidence = 0.0, beam_azimuth = 0.0, cone_aperture = 16.0 * kDeg;
     double beam_radius_um = 40.0;
+    // The hemisphere scatterogram ([scatterometer.hemisphere]; absent keys as above): broad
+    // rings, so fewer pixels and more illumination directions, and passes until its median
+    // per-pixel relative error is reached (0: all passes).
+    struct {
+        int image_size = 101;
+        std::uint64_t quanta = 100000;
+        int passes = 2;
+        int strata = 64;
+        double target_median_error = 0.0;
+    } hemisphere;
     // goniometer
     std::string direction_set = "filip2024_btf";
     double detector_half_angle = 5.0 * kDeg;
@@ -99,6 +109,19 @@ Settings read_settings(StudyFile& file, std::string& name, const fs::path& sourc
     s.cone_aperture = sc.angle_deg("cone_aperture_deg", s.cone_aperture, {0.0, 90.0, true, false},
                                    "full aperture of the illumination cone");
     s.beam_radius_um = sc.number("beam_radius_um", s.beam_radius_um, positive(), "beam radius, um");
+    ParameterTable he = sc.table("hemisphere");
+    s.hemisphere.image_size = static_cast<int>(he.integer(
+        "image_size", s.image_size, 17, 1025, "pixels across the hemisphere scatterogram"));
+    s.hemisphere.quanta = static_cast<std::uint64_t>(
+        he.integer("quanta_per_pass", static_cast<long>(s.scatter_quanta), 1000, 100000000,
+                   "hemisphere light: quanta per wavelength and pass"));
+    s.hemisphere.passes = static_cast<int>(
+        he.integer("passes", s.scatter_passes, 1, 1000, "hemisphere light: passes (at most)"));
+    s.hemisphere.strata = static_cast<int>(he.integer("illumination_strata", s.strata, 1, 1000000,
+                                                      "hemisphere light: directions per pass"));
+    s.hemisphere.target_median_error = he.number(
+        "target_median_relative_error", 0.0, between(0.0, 1.0),
+        "hemisphere light: stop the passes once the median per-pixel relative error is this");
     ParameterTable go = root.table("goniometer");
     s.direction_set = go.string("direction_set", s.direction_set,
                                 {"filip2024_btf", "filip2024_in_plane"}, "direction set");
@@ -209,9 +232,19 @@ gonio::ScatterometerConfig scatterometer_config(const Run& run, gonio::Illuminat
     c.time_budget_s = s.time_budget_s;
     c.target_relative_error = s.target_relative_error;
     c.illumination_strata = s.strata;
+    if (mode == gonio::Illumination::hemisphere) {
+        c.image_size = s.hemisphere.image_size;
+        c.quanta_per_pass = s.hemisphere.quanta;
+        c.max_passes = s.hemisphere.passes;
+        c.illumination_strata = s.hemisphere.strata;
+        c.target_median_relative_error = s.hemisphere.target_median_error;
+    }
     c.config_text = run.study_text;
     return c;
 }
+
+// Cells of a scatterogram with signal, for its median per-pixel σ: above 1 % of the peak.
+constexpr double kSignalFraction = 0.01;
 
 // One illumination: both scatterograms, their records and images, and the table row.
 std::string scatterogram_pair(const Run& run, const Built& b, gonio::Illumination mode,
@@ -249,8 +282,21 @@ std::string scatterogram_pair(const Run& run, const Built& b, gonio::Illuminatio
     h5.commit();
     run_plot("scatterogram_comparison", dir / (label + "_comparison.h5"),
              dir / (label + "_comparison.png"));
-    return fmt::format("| {} | {:.3f} | {:.3f} | {:.3f} | {:.4f} | {:.4f} | {:.3f} |\n", label, l1,
-                       l1_r, l1_trt, t_sim, t_mod, multi_share);
+    const double sigma_sim = gonio::median_relative_standard_error(sim_s, kSignalFraction);
+    const double sigma_mod = gonio::median_relative_standard_error(mod_s, kSignalFraction);
+    if (mode == gonio::Illumination::hemisphere) {
+        result.hemisphere_median_sigma_simulation = sigma_sim;
+        result.hemisphere_median_sigma_model = sigma_mod;
+    }
+    return fmt::format(
+        "| {} | {:.3f} | {:.3f} | {:.3f} | {:.4f} | {:.4f} | {:.3f} | {:.1f} % / {:.1f} % ({}, {} "
+        "px, {}/{} passes) |\n",
+        label, l1, l1_r, l1_trt, t_sim, t_mod, multi_share, 100.0 * sigma_sim, 100.0 * sigma_mod,
+        sim_s.quanta == mod_s.quanta
+            ? fmt::format("{:.2g} quanta/λ", static_cast<double>(sim_s.quanta))
+            : fmt::format("{:.2g}/{:.2g} quanta/λ", static_cast<double>(sim_s.quanta),
+                          static_cast<double>(mod_s.quanta)),
+        c.image_size, sim_s.passes, mod_s.passes);
 }
 
 std::string scatterograms(const Run& run, const Built& b, RockDoveResult& result) {
@@ -261,7 +307,7 @@ std::string scatterograms(const Run& run, const Built& b, RockDoveResult& result
     std::string table =
         "| illumination | relative L1 (all) | R | TRT | T below, simulation | T below, model | "
         "multi share "
-        "(simulation) |\n|---|---|---|---|---|---|---|\n";
+        "(simulation) | median per-pixel σ (sim / model) |\n|---|---|---|---|---|---|---|---|\n";
     for (const auto& [mode, label] : modes) table += scatterogram_pair(run, b, mode, label, result);
     std::string md =
         "## Scatterograms\n\nEach figure: simulation (left) and Huang model (middle) at one "
@@ -275,7 +321,10 @@ std::string scatterograms(const Run& run, const Built& b, RockDoveResult& result
                           label);
     }
     return md + table +
-           "\nRelative L1 = Σ|I_sim − I_model|Ω / Σ I_model Ω over pixels and wavelengths.\n\n";
+           "\nRelative L1 = Σ|I_sim − I_model|Ω / Σ I_model Ω over pixels and wavelengths. "
+           "Median per-pixel σ: the median of σ/I over (pixel, wavelength) cells whose intensity "
+           "is above 1 % of that wavelength's brightest pixel "
+           "(gonio::median_relative_standard_error).\n\n";
 }
 
 // ---- 2. Goniometric BRDF. --------------------------------------------------------------------

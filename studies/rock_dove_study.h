@@ -41,6 +41,9 @@ struct RockDoveResult {
     double simulated_multi_share = 0.0;       // of the reflected power, hemispheric light
     double simulated_t = 0.0, model_t = 0.0;  // T lobe at the beam's incidence
     double eq7_edge_coupling = 0.0;           // r_θ(1 − cos θ_d)/(b² A) of the simulated cells
+    // The hemisphere scatterograms' median per-pixel relative standard error
+    // (gonio::median_relative_standard_error, cells above 1 % of the peak).
+    double hemisphere_median_sigma_simulation = 0.0, hemisphere_median_sigma_model = 0.0;
 };
 
 // `study_text` is the TOML; `source_name` names it in errors (a path or "<default>").

@@ -2,6 +2,7 @@
 
 #include <omp.h>
 
+#include <algorithm>
 #include <chrono>
 #include <cmath>
 #include <iostream>
@@ -38,6 +39,42 @@ long pixel_of(const Vec3d& w, int n) {
     return static_cast<long>(row) * n + column;
 }
 
+// The cells of one pass's illumination directions: a rows × columns grid over the unit
+// square with rows · columns = directions exactly (columns the largest divisor ≤ √directions),
+// so that every part of the square has a cell and the jittered directions are unbiased for
+// any count (a prime count stratifies u1 alone).
+struct IlluminationGrid {
+    std::uint64_t rows, columns;
+};
+
+IlluminationGrid illumination_grid(int directions) {
+    const auto d = static_cast<std::uint64_t>(std::max(1, directions));
+    auto columns = static_cast<std::uint64_t>(std::sqrt(static_cast<double>(d)));
+    while (columns > 1 && d % columns != 0) --columns;
+    columns = std::max<std::uint64_t>(1, columns);
+    return {d / columns, columns};
+}
+
+// The illumination direction at (u1, u2) ∈ [0, 1)²: an area-preserving map onto the
+// cosine-weighted hemisphere or cone (u1 radial, u2 azimuthal). e1, e2 complete the beam
+// direction to a frame.
+Vec3d illumination_direction(const ScatterometerConfig& config, const Vec3d& e1, const Vec3d& e2,
+                             double u1, double u2) {
+    const double g = 2.0 * kPi * u2;
+    if (config.illumination == Illumination::hemisphere) {
+        // Uniform radiance: cosine-weighted directions.
+        const double r = std::sqrt(u1);
+        return Vec3d(r * std::cos(g), r * std::sin(g), std::sqrt(std::max(1e-12, 1.0 - r * r)))
+            .normalized();
+    }
+    // Uniform radiance within the cone: cosine-weighted about the cone's axis, up to its
+    // edge (the patch-normal cosine differs by < 1 % over 8°; exact for a cone around the
+    // normal).
+    const double sin_max = std::sin(0.5 * config.cone_aperture_rad);
+    const double sin_b = sin_max * std::sqrt(u1), cos_b = std::sqrt(1.0 - sin_b * sin_b);
+    return cos_b * config.beam_direction + sin_b * (std::cos(g) * e1 + std::sin(g) * e2);
+}
+
 }  // namespace
 
 void ScatterometerConfig::validate() const {
@@ -57,6 +94,10 @@ void ScatterometerConfig::validate() const {
             "beam radius must be >= 0 um");
     require(quanta_per_pass >= 1 && max_passes >= 1, kWhat,
             "quanta_per_pass and max_passes must be >= 1");
+    require(std::isfinite(target_median_relative_error) && target_median_relative_error >= 0.0,
+            kWhat, "target_median_relative_error must be >= 0");
+    require(illumination_strata >= 1, kWhat,
+            fmt::format("illumination_strata {}: expected >= 1", illumination_strata));
 }
 
 std::optional<Vec3d> Scatterogram::direction(int column, int row) const {
@@ -96,11 +137,31 @@ Scatterogram measure_scatterogram(const Scatterer& scatterer, const Scatteromete
     std::vector<double> below(nl, 0.0), below_lobes(nlobes * nl, 0.0);
     Vec3d e1, e2;
     orthonormal_frame(config.beam_direction, e1, e2);
-    const double half_aperture = 0.5 * config.cone_aperture_rad;
+
+    // Quanta form groups that share their randomness beyond the quantum's own stream: under
+    // the beam each quantum is a group; under cone and hemisphere light a group is the quanta
+    // of one wavelength sent along one illumination direction. The standard error comes from
+    // the group sums (quanta that share a direction are correlated: counting them as
+    // independent would understate the error), see the estimate below.
+    const bool directional = config.illumination != Illumination::beam;
+    const std::uint64_t directions =
+        directional ? static_cast<std::uint64_t>(config.illumination_strata) : 1;
+    const std::uint64_t group =
+        directional ? (config.quanta_per_pass + directions - 1) / directions : 1;
+    const std::uint64_t per_pass = directional ? directions * group : config.quanta_per_pass;
+    const IlluminationGrid grid = illumination_grid(config.illumination_strata);
+    std::vector<std::uint64_t> quantum_seeds(nl);
+    for (std::size_t k = 0; k < nl; ++k)
+        quantum_seeds[k] = derive_seed(config.seed, "scatterometer/quantum", k);
 
     struct Hit {
         long pixel;
         int lobe;
+        double weight;
+        std::size_t wavelength;
+    };
+    struct GroupSum {  // one group's weight (or a pair's difference) into one (pixel, λ) cell
+        std::size_t cell;
         double weight;
     };
     while (s.passes < config.max_passes) {
@@ -110,19 +171,25 @@ Scatterogram measure_scatterogram(const Scatterer& scatterer, const Scatteromete
                 last.wall_time_s >= config.time_budget_s) {
                 break;
             }
+            if (config.target_median_relative_error > 0.0 &&
+                median_relative_standard_error(s, 0.01) <= config.target_median_relative_error) {
+                break;
+            }
         }
-        const int strata =
-            config.illumination == Illumination::beam ? 1 : config.illumination_strata;
-        const std::uint64_t per_stratum =
-            (config.quanta_per_pass + static_cast<std::uint64_t>(strata) - 1) /
-            static_cast<std::uint64_t>(strata);
-        const std::uint64_t chunks = (per_stratum + kChunk - 1) / kChunk;
-        const std::size_t items = nl * static_cast<std::size_t>(strata) * chunks;
+        // Work items: under the beam, chunks of one wavelength's quanta; otherwise blocks of
+        // illumination directions, each direction's quanta for every wavelength in turn (a
+        // scatterer that prepares per incident direction prepares once for all wavelengths).
+        const std::uint64_t chunks = (config.quanta_per_pass + kChunk - 1) / kChunk;
+        // Even, so that the pairs of directions below fall within one item.
+        const std::uint64_t block = 2 * std::max<std::uint64_t>(1, kChunk / (2 * group * nl));
+        const std::size_t items = directional ? (directions + block - 1) / block : nl * chunks;
         std::vector<std::vector<Hit>> hits(items);
-        std::vector<double> item_below(items * (nlobes + 1), 0.0);  // total, then per lobe
+        std::vector<std::vector<GroupSum>> group_sums(items);
+        std::vector<double> item_below(items * nl * (nlobes + 1), 0.0);  // total, then per lobe
         std::atomic<bool> abandoned{false};
-        const int side =
-            std::max(1, static_cast<int>(std::lround(std::sqrt(static_cast<double>(strata)))));
+        const auto pass = static_cast<std::uint64_t>(s.passes);
+        const std::uint64_t jitter_seed =
+            derive_seed(config.seed, "scatterometer/illumination", pass);
 #pragma omp parallel for schedule(dynamic, 1)
         for (std::size_t it = 0; it < items; ++it) {
             if (abandoned.load(std::memory_order_relaxed)) continue;
@@ -130,67 +197,112 @@ Scatterogram measure_scatterogram(const Scatterer& scatterer, const Scatteromete
                 abandoned.store(true);
                 continue;
             }
-            const std::size_t k = it / (static_cast<std::size_t>(strata) * chunks);
-            const std::size_t stratum = (it / chunks) % static_cast<std::size_t>(strata);
-            const std::uint64_t c = it % chunks;
-            // The stratum's illumination direction for this pass (jittered within its cell
-            // of the unit square, which maps area-preservingly onto the illumination).
-            Vec3d wi = config.beam_direction;
-            if (config.illumination != Illumination::beam) {
-                Rng jitter(derive_seed(config.seed, "scatterometer/illumination"),
-                           (static_cast<std::uint64_t>(k) << 48) +
-                               (static_cast<std::uint64_t>(s.passes) << 24) + stratum);
-                const int cells = side * side;
-                const std::size_t cell = stratum % static_cast<std::size_t>(cells);
-                const double u1 = (static_cast<double>(cell % side) + jitter.uniform()) / side;
-                const double u2 = (static_cast<double>(cell / side) + jitter.uniform()) / side;
-                const double g = 2.0 * kPi * u2;
-                if (config.illumination == Illumination::hemisphere) {
-                    // Uniform radiance: cosine-weighted directions.
-                    const double r = std::sqrt(u1);
-                    wi = Vec3d(r * std::cos(g), r * std::sin(g),
-                               std::sqrt(std::max(1e-12, 1.0 - r * r)))
-                             .normalized();
-                } else {
-                    // Uniform radiance within the cone: cosine-weighted about the cone's
-                    // axis, up to its edge (the patch-normal cosine differs by < 1 % over
-                    // 8°; exact for a cone around the normal).
-                    const double sin_max = std::sin(half_aperture);
-                    const double sin_b = sin_max * std::sqrt(u1),
-                                 cos_b = std::sqrt(1.0 - sin_b * sin_b);
-                    wi = cos_b * config.beam_direction +
-                         sin_b * (std::cos(g) * e1 + std::sin(g) * e2);
-                }
-            }
-            const std::uint64_t first =
-                static_cast<std::uint64_t>(s.passes) * per_stratum + c * kChunk;
-            const std::uint64_t count = std::min(kChunk, per_stratum - c * kChunk);
             auto& out = hits[it];
-            for (std::uint64_t q = first; q < first + count; ++q) {
-                Rng rng(config.seed, (static_cast<std::uint64_t>(k) << 52) +
-                                         (static_cast<std::uint64_t>(stratum) << 36) + q);
-                Vec3d f1, f2;
-                orthonormal_frame(wi, f1, f2);
+            auto& sums = group_sums[it];
+            // Plays one quantum along wi; the quantum's stream is rng.
+            auto play = [&](const Vec3d& wi, const Vec3d& f1, const Vec3d& f2, std::size_t k,
+                            Rng& rng) {
                 const double radius = config.beam_radius_um * std::sqrt(rng.uniform()),
                              angle = 2.0 * kPi * rng.uniform();
                 const Vec3d offset = radius * (std::cos(angle) * f1 + std::sin(angle) * f2);
                 const Vec2 position(offset.x() - offset.z() * wi.x() / wi.z(),
                                     offset.y() - offset.z() * wi.y() / wi.z());
                 const auto event = scatterer.sample(wi, config.wavelengths_nm[k], position, rng);
-                if (!event || !(event->weight > 0.0)) continue;
+                if (!event || !(event->weight > 0.0)) return;
                 PLUMAGE_CHECK(std::isfinite(event->weight),
                               "non-finite quantum weight from " + scatterer.name());
                 if (event->wo.z() <= 0.0) {
-                    item_below[it * (nlobes + 1)] += event->weight;
-                    if (event->lobe >= 0 && static_cast<std::size_t>(event->lobe) < nlobes) {
-                        item_below[it * (nlobes + 1) + 1 + static_cast<std::size_t>(event->lobe)] +=
-                            event->weight;
-                    }
-                    continue;
+                    double* below_k = &item_below[(it * nl + k) * (nlobes + 1)];
+                    below_k[0] += event->weight;
+                    if (event->lobe >= 0 && static_cast<std::size_t>(event->lobe) < nlobes)
+                        below_k[1 + static_cast<std::size_t>(event->lobe)] += event->weight;
+                    return;
                 }
                 const long p = pixel_of(event->wo, n);
                 if (p >= 0 && s.solid_angle_sr[static_cast<std::size_t>(p)] > 0.0)
-                    out.push_back({p, event->lobe, event->weight});
+                    out.push_back({p, event->lobe, event->weight, k});
+            };
+            // The group's hits (out[from, end)) summed by cell, in pixel order.
+            // The group's hits (out[from, end)) summed by cell, in cell order, into `into`.
+            auto group_cells = [&](std::size_t from, std::vector<GroupSum>& into) {
+                into.clear();
+                for (std::size_t h = from; h < out.size(); ++h)
+                    into.push_back({static_cast<std::size_t>(out[h].pixel) * nl + out[h].wavelength,
+                                    out[h].weight});
+                std::stable_sort(
+                    into.begin(), into.end(),
+                    [](const GroupSum& x, const GroupSum& y) { return x.cell < y.cell; });
+                std::size_t kept = 0;
+                for (std::size_t i = 0; i < into.size(); ++i) {
+                    if (kept > 0 && into[kept - 1].cell == into[i].cell)
+                        into[kept - 1].weight += into[i].weight;
+                    else
+                        into[kept++] = into[i];
+                }
+                into.resize(kept);
+            };
+            std::vector<GroupSum> cells;
+            if (!directional) {
+                const std::size_t k = it / chunks;
+                const std::uint64_t c = it % chunks;
+                const Vec3d& wi = config.beam_direction;
+                Vec3d f1, f2;
+                orthonormal_frame(wi, f1, f2);
+                const std::uint64_t first = pass * config.quanta_per_pass + c * kChunk;
+                const std::uint64_t count = std::min(kChunk, config.quanta_per_pass - c * kChunk);
+                for (std::uint64_t q = first; q < first + count; ++q) {
+                    Rng rng(config.seed, (static_cast<std::uint64_t>(k) << 52) + q);
+                    const std::size_t from = out.size();
+                    play(wi, f1, f2, k, rng);
+                    group_cells(from, cells);
+                    sums.insert(sums.end(), cells.begin(), cells.end());
+                }
+                continue;
+            }
+            // Directions 2j and 2j + 1 (neighbouring cells) form a pair; sums receives, per
+            // wavelength and cell, the difference of the pair's group sums (a direction
+            // without a partner, the last of an odd count, its own sum: conservative).
+            std::vector<std::vector<GroupSum>> even(nl);
+            const std::uint64_t end = std::min(directions, (it + 1) * block);
+            for (std::uint64_t d = it * block; d < end; ++d) {
+                // Direction d of this pass: jittered within its cell of the grid over the unit
+                // square, which maps area-preservingly onto the illumination.
+                Rng jitter(jitter_seed, d);
+                const double u1 = (static_cast<double>(d / grid.columns) + jitter.uniform()) /
+                                  static_cast<double>(grid.rows);
+                const double u2 = (static_cast<double>(d % grid.columns) + jitter.uniform()) /
+                                  static_cast<double>(grid.columns);
+                const Vec3d wi = illumination_direction(config, e1, e2, u1, u2);
+                Vec3d f1, f2;
+                orthonormal_frame(wi, f1, f2);
+                for (std::size_t k = 0; k < nl; ++k) {
+                    const std::size_t from = out.size();
+                    for (std::uint64_t q = 0; q < group; ++q) {
+                        Rng rng(quantum_seeds[k], ((pass * directions) + d) * group + q);
+                        play(wi, f1, f2, k, rng);
+                    }
+                    if (d % 2 == 0) {
+                        group_cells(from, even[k]);
+                        if (d + 1 == directions)
+                            sums.insert(sums.end(), even[k].begin(), even[k].end());
+                        continue;
+                    }
+                    group_cells(from, cells);
+                    // Merge the two cell-ordered lists into their difference.
+                    const std::vector<GroupSum>& x = even[k];
+                    std::size_t i = 0, j = 0;
+                    while (i < x.size() || j < cells.size()) {
+                        if (j == cells.size() || (i < x.size() && x[i].cell < cells[j].cell)) {
+                            sums.push_back(x[i++]);
+                        } else if (i == x.size() || cells[j].cell < x[i].cell) {
+                            sums.push_back({cells[j].cell, -cells[j].weight});
+                            ++j;
+                        } else {
+                            sums.push_back({x[i].cell, x[i].weight - cells[j].weight});
+                            ++i, ++j;
+                        }
+                    }
+                }
             }
         }
         if (abandoned.load()) {
@@ -200,22 +312,28 @@ Scatterogram measure_scatterogram(const Scatterer& scatterer, const Scatteromete
                 s.scatterer, s.passes + 1, config.max_passes));
         }
         for (std::size_t it = 0; it < items; ++it) {
-            const std::size_t k = it / (static_cast<std::size_t>(strata) * chunks);
-            below[k] += item_below[it * (nlobes + 1)];
-            for (std::size_t l = 0; l < nlobes; ++l)
-                below_lobes[l * nl + k] += item_below[it * (nlobes + 1) + 1 + l];
+            for (std::size_t k = 0; k < nl; ++k) {
+                const double* below_k = &item_below[(it * nl + k) * (nlobes + 1)];
+                below[k] += below_k[0];
+                for (std::size_t l = 0; l < nlobes; ++l) below_lobes[l * nl + k] += below_k[1 + l];
+            }
             for (const Hit& h : hits[it]) {
-                const std::size_t cell = static_cast<std::size_t>(h.pixel) * nl + k;
+                const std::size_t cell = static_cast<std::size_t>(h.pixel) * nl + h.wavelength;
                 const double x = h.weight / s.solid_angle_sr[static_cast<std::size_t>(h.pixel)];
                 sum[cell] += x;
-                sum_sq[cell] += x * x;
                 if (h.lobe >= 0 && static_cast<std::size_t>(h.lobe) < nlobes)
                     lobe_sum[static_cast<std::size_t>(h.lobe) * np * nl + cell] += x;
             }
+            for (const GroupSum& g : group_sums[it]) {
+                const double x = g.weight / s.solid_angle_sr[g.cell / nl];
+                sum_sq[g.cell] += x * x;
+            }
         }
         ++s.passes;
-        const double quanta =
-            static_cast<double>(s.passes) * static_cast<double>(per_stratum) * strata;
+        // Per wavelength: quanta and independent groups of them (see above).
+        const double quanta = static_cast<double>(s.passes) * static_cast<double>(per_pass);
+        const double groups = quanta / static_cast<double>(group);
+        const double group_sq = static_cast<double>(group) * static_cast<double>(group);
         s.intensity.assign(np * nl, 0.0);
         s.standard_error.assign(np * nl, 0.0);
         s.lobe_intensity.assign(nlobes * np * nl, 0.0);
@@ -223,8 +341,14 @@ Scatterogram measure_scatterogram(const Scatterer& scatterer, const Scatteromete
         for (std::size_t i = 0; i < np * nl; ++i) {
             const double mean = sum[i] / quanta;
             s.intensity[i] = mean;
-            s.standard_error[i] = std::sqrt(std::max(0.0, sum_sq[i] / quanta - mean * mean) /
-                                            std::max(1.0, quanta - 1.0));
+            // Beam: the spread of the quanta about the mean. Cone and hemisphere: each pair of
+            // neighbouring directions' (G_a − G_b)² estimates the variance of G_a + G_b, with
+            // G = group sum / group (Cochran's collapsed strata: unbiased where neighbouring
+            // cells have equal means, otherwise an overestimate); Var = Σ (G_a − G_b)² / J².
+            const double var = directional ? sum_sq[i] / (group_sq * groups * groups)
+                                           : std::max(0.0, sum_sq[i] / groups - mean * mean) /
+                                                 std::max(1.0, groups - 1.0);
+            s.standard_error[i] = std::sqrt(var);
             // Power-weighted relative error: Σ Ω σ / Σ Ω I (bright pixels dominate).
             power += mean * s.solid_angle_sr[i / nl];
             variance += s.standard_error[i] * s.solid_angle_sr[i / nl];
@@ -326,6 +450,30 @@ double scatterogram_peak_luminance(const Scatterogram& s) {
     double peak = 0.0;
     for (const auto& c : pixel_colours(s)) peak = std::max(peak, c.y);
     return peak;
+}
+
+double median_relative_standard_error(const Scatterogram& s, double signal_fraction) {
+    const std::size_t nl = s.config.wavelengths_nm.size();
+    if (s.intensity.size() != s.pixels() * nl || s.standard_error.size() != s.intensity.size())
+        return std::numeric_limits<double>::quiet_NaN();
+    std::vector<double> peak(nl, 0.0), relative;
+    for (std::size_t p = 0; p < s.pixels(); ++p) {
+        if (!(s.solid_angle_sr[p] > 0.0)) continue;
+        for (std::size_t k = 0; k < nl; ++k) peak[k] = std::max(peak[k], s.intensity[p * nl + k]);
+    }
+    for (std::size_t p = 0; p < s.pixels(); ++p) {
+        if (!(s.solid_angle_sr[p] > 0.0)) continue;
+        for (std::size_t k = 0; k < nl; ++k) {
+            const double value = s.intensity[p * nl + k];
+            if (value > 0.0 && value > signal_fraction * peak[k])
+                relative.push_back(s.standard_error[p * nl + k] / value);
+        }
+    }
+    if (relative.empty()) return std::numeric_limits<double>::quiet_NaN();
+    // The lower median for an even count: a value that occurs, no interpolation.
+    const auto middle = relative.begin() + static_cast<std::ptrdiff_t>((relative.size() - 1) / 2);
+    std::nth_element(relative.begin(), middle, relative.end());
+    return *middle;
 }
 
 void write_scatterogram_record(const Scatterogram& s, const std::filesystem::path& path) {

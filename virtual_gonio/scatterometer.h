@@ -22,8 +22,17 @@
 // Value per pixel and wavelength: radiant intensity per unit incident power,
 // I(ω_o) = dP/dω / P_in (1/sr) = the mean over the illumination of f(ω_i, ω_o) cos θ_o,
 // estimated by quanta counted into the pixel: mean(weight · 1[pixel]) / Ω_pixel, with
-// its standard error. Deterministic streams (seed, wavelength, quantum), reduced in
-// a fixed order.
+// its standard error. The standard error treats as one sample each group of quanta that
+// shares randomness beyond its own stream. Under the beam a group is one quantum: the spread
+// of the quanta about the mean. Under cone and hemisphere light a group is one illumination
+// direction's quanta of one wavelength, and directions 2j, 2j + 1 of a pass (neighbouring
+// cells of the grid, see illumination_strata) form a pair whose difference estimates the
+// pair's variance (Cochran's collapsed strata: unbiased where neighbouring cells have
+// equal means, otherwise a slight overestimate; it keeps most of the stratification's gain, which
+// the spread over all groups would not). Deterministic streams: under the beam (seed,
+// wavelength, quantum); otherwise (seed, "scatterometer/quantum", wavelength) with the
+// quantum's index in the run;
+// reduced in a fixed order, so the image does not depend on the thread count.
 #pragma once
 
 #include <array>
@@ -50,15 +59,23 @@ struct ScatterometerConfig {
     double beam_radius_um = 60.0;
     std::uint64_t seed = kDefaultSeed;
     std::uint64_t quanta_per_pass = 200000;  // per wavelength
-    // Cone and hemisphere light: each pass draws this many illumination directions,
-    // one per stratum of the (cosine-weighted) illumination, jittered anew every pass,
-    // and sends quanta_per_pass / strata quanta along each. Unbiased over passes, and
+    // Cone and hemisphere light: each pass draws this many illumination directions, one
+    // per cell of a rows × columns grid (rows · columns = illumination_strata exactly) over
+    // the unit square that maps area-preservingly onto the (cosine-weighted) illumination,
+    // jittered anew every pass from the stream (seed, "scatterometer/illumination", pass),
+    // and sends ⌈quanta_per_pass / strata⌉ quanta of every wavelength along each (so a pass
+    // may hold up to strata − 1 more quanta than asked). All wavelengths share a pass's
+    // directions, so the directions' noise is common to them and does not colour the image;
     // a scatterer that prepares per incident direction (the Huang model's visibility)
-    // prepares once per stratum instead of once per quantum.
+    // prepares once per direction for all wavelengths. Many directions with few quanta
+    // each give smooth images; few directions give spokes, one per direction.
     int illumination_strata = 256;
     int max_passes = 10;
     double time_budget_s = std::numeric_limits<double>::infinity();
     double target_relative_error = 0.0;  // on the image's power-weighted relative error
+    // Stop once median_relative_standard_error(image, 0.01) (below) is at most this; 0: off.
+    // Checked after every pass, like the two limits above.
+    double target_median_relative_error = 0.0;
     std::string config_text;
 
     void validate() const;
@@ -89,6 +106,14 @@ struct Scatterogram {
 // Throws Interrupted (common/interrupt.h) when control.interrupt is set during a pass.
 Scatterogram measure_scatterogram(const Scatterer& scatterer, const ScatterometerConfig& config,
                                   const RunControl& control = {});
+
+// How noisy the image is, in one number: the median, over the image's cells (pixel,
+// wavelength) with signal, of the relative standard error σ/I. A cell has signal when its
+// intensity is above signal_fraction × the largest intensity at that wavelength within the
+// disc (0.01: the pixels that show in the picture). The lower median (a value that occurs);
+// NaN when no cell has signal. Per wavelength, not of the pixel's colour: the colour's error
+// is smaller by about √(wavelengths) where the wavelengths' errors are independent.
+double median_relative_standard_error(const Scatterogram& s, double signal_fraction = 0.01);
 
 // The image under D65 (CIE 1931), each pixel's spectrum integrated over the record's
 // wavelengths; exposure scales the luminance (exposure ≤ 0: brightest pixel → Y = 1).

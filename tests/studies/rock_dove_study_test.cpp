@@ -51,6 +51,12 @@ TEST(RockDoveStudy, QuickVariantRunsAndItsNumbersHold) {
     ASSERT_EQ(r.scatterogram_relative_l1.size(), 3u);
     for (double l1 : r.scatterogram_relative_l1) EXPECT_LT(l1, 0.8);
     EXPECT_LT(r.brdf_relative_l1, 0.5);
+    // The hemisphere scatterograms report their median per-pixel σ (quick: a few per cent to
+    // tens of per cent, 17 × 17 pixels, 6000 quanta per wavelength).
+    EXPECT_GT(r.hemisphere_median_sigma_simulation, 0.01);
+    EXPECT_LT(r.hemisphere_median_sigma_simulation, 0.5);
+    EXPECT_GT(r.hemisphere_median_sigma_model, 0.01);
+    EXPECT_LT(r.hemisphere_median_sigma_model, 0.5);
     // The error-vs-time table: the estimated error falls like 1/√(passes).
     const auto csv = read(dir / "convergence" / "error_vs_time.csv");
     std::istringstream lines(csv);
@@ -69,6 +75,7 @@ TEST(RockDoveStudy, QuickVariantRunsAndItsNumbersHold) {
     EXPECT_NEAR(estimated.back() / estimated.front(), 1.0 / std::sqrt(3.0), 0.2);
     // The report and its figures exist; the records are readable.
     const std::string report = read(dir / "report.md");
+    EXPECT_NE(report.find("median per-pixel σ (sim / model)"), std::string::npos);
     for (const char* figure :
          {"scatterograms/beam_comparison.png", "scatterograms/cone_comparison.png",
           "scatterograms/hemisphere_comparison.png", "brdf/in_plane.png", "validation/r_lobe.png",

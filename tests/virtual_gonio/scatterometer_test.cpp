@@ -1,9 +1,12 @@
 // The imaging scatterometer: a Lambertian plate images as ρ cos θ / π under every
-// illumination; power is accounted for; Huang's T lobe leaves below the patch in the
-// proportion Eq. 15 predicts; images and records are written.
+// illumination; a mirror does too under hemisphere light (which tests the sampled light
+// directions); the per-pixel standard error matches the scatter over seeds; the image does
+// not depend on the thread count; power is accounted for; Huang's T lobe leaves below the
+// patch in the proportion Eq. 15 predicts; images and records are written.
 #include "virtual_gonio/scatterometer.h"
 #include "common/constants.h"
 
+#include <omp.h>
 #include <unistd.h>
 
 #include <cmath>
@@ -48,6 +51,224 @@ TEST(Scatterometer, LambertianPlateImagesAsCosineUnderEveryIllumination) {
         EXPECT_NEAR(power, 0.7, 0.014) << static_cast<int>(mode);
         EXPECT_LT(worst, std::sqrt(2.0 * std::log(900.0 / 1e-3))) << static_cast<int>(mode);
     }
+}
+
+// A mirror of reflectance rho, optionally blurred: the reflected direction turned by a
+// uniform angle up to blur_rad about a random axis. Its image follows the light's direction,
+// so under hemisphere light it tests the illumination sampling (a Lambertian plate's image
+// does not depend on where the light comes from).
+class BlurredMirror final : public Scatterer {
+public:
+    BlurredMirror(double rho, double blur_rad) : rho_(rho), blur_(blur_rad) {}
+    std::string name() const override { return "blurred mirror"; }
+    const std::vector<std::string>& lobe_names() const override {
+        static const std::vector<std::string> names = {"R"};
+        return names;
+    }
+    std::optional<ScatterEvent> sample(const Vec3d& wi, double, const Vec2& position_um,
+                                       Rng& rng) const override {
+        Vec3d wo(-wi.x(), -wi.y(), wi.z());
+        if (blur_ > 0.0) {
+            Vec3d e1, e2;
+            orthonormal_frame(wo, e1, e2);
+            const double t = blur_ * rng.uniform(), a = 2.0 * kPi * rng.uniform();
+            wo = std::cos(t) * wo + std::sin(t) * (std::cos(a) * e1 + std::sin(a) * e2);
+        }
+        return ScatterEvent{wo.normalized(), rho_, 0, position_um};
+    }
+
+private:
+    double rho_, blur_;
+};
+
+// Pixels wholly inside the disc (a pixel cut by the rim catches less than its Ω says).
+bool inside_disc(int column, int row, int n) {
+    for (int dc : {0, 1}) {
+        for (int dr : {0, 1}) {
+            const double u = (column + dc) * 2.0 / n - 1.0, v = 1.0 - (row + dr) * 2.0 / n;
+            if (std::hypot(u, v) >= 1.0) return false;
+        }
+    }
+    return true;
+}
+
+// χ² of the image against ρ cos θ / π over the pixels inside the disc, with each pixel's
+// own standard error (plus the pixel-centre curvature error, ≲ 2e-3 relative).
+struct ChiSquare {
+    double value = 0.0;
+    int pixels = 0;
+};
+ChiSquare cosine_chi_square(const Scatterogram& s, double rho) {
+    ChiSquare c;
+    const int n = s.config.image_size;
+    for (int row = 0; row < n; ++row) {
+        for (int column = 0; column < n; ++column) {
+            const auto w = s.direction(column, row);
+            if (!w || !inside_disc(column, row, n)) continue;
+            const std::size_t p = static_cast<std::size_t>(row) * n + column;
+            const double expected = rho * w->z() / kPi;
+            const double sigma2 = std::pow(s.standard_error[p], 2) + std::pow(2e-3 * expected, 2);
+            c.value += std::pow(s.intensity[p] - expected, 2) / sigma2;
+            ++c.pixels;
+        }
+    }
+    return c;
+}
+
+// Uniform radiance from the hemisphere on a mirror leaves as uniform radiance: I = ρ cos θ/π,
+// whatever the number of light directions per pass (7: prime, one row of cells; 60: not a
+// square, which the earlier square grid left partly unlit; 10 000), with 10 quanta each. The
+// per-pixel σ treats a direction's quanta as one sample, so the mirror's fully correlated
+// quanta do not make it too small: χ² over the pixels stays below its 99.9 % bound.
+TEST(Scatterometer, MirrorUnderHemisphereLightImagesAsCosineForAnyStrata) {
+    const BlurredMirror mirror(0.8, 0.0);
+    for (int strata : {7, 60, 10000}) {
+        SCOPED_TRACE(strata);
+        ScatterometerConfig c;
+        c.illumination = Illumination::hemisphere;
+        c.image_size = 21;
+        c.wavelengths_nm = {550.0};
+        c.quanta_per_pass = 10 * static_cast<std::uint64_t>(strata);  // 10 quanta per direction
+        c.max_passes = 20000 / strata;                                // 20 000 directions in all
+        c.illumination_strata = strata;
+        const Scatterogram s = measure_scatterogram(mirror, c);
+        const ChiSquare chi = cosine_chi_square(s, 0.8);
+        ASSERT_GT(chi.pixels, 200);
+        // Wilson–Hilferty: the 99.9 % quantile of χ²_k ≈ k (1 − 2/(9k) + 3.09 √(2/(9k)))³.
+        const double k = chi.pixels, z = 3.09;
+        const double bound =
+            k * std::pow(1.0 - 2.0 / (9.0 * k) + z * std::sqrt(2.0 / (9.0 * k)), 3);
+        EXPECT_LT(chi.value, bound) << "strata " << strata << ", " << chi.pixels << " pixels";
+        EXPECT_GT(chi.value, 0.0);
+    }
+}
+
+// The Lambertian plate under hemisphere light: χ² of the image against ρ cos θ/π within
+// its 0.1 % bounds on both sides (here the quanta are independent, so σ is exact, not
+// conservative).
+TEST(Scatterometer, LambertianUnderHemisphereLightPassesChiSquare) {
+    const analysis::LambertianScatterer plate(0.7);
+    ScatterometerConfig c;
+    c.illumination = Illumination::hemisphere;
+    c.image_size = 21;
+    c.wavelengths_nm = {550.0};
+    c.quanta_per_pass = 100000;
+    c.max_passes = 2;
+    c.illumination_strata = 10000;
+    const Scatterogram s = measure_scatterogram(plate, c);
+    const ChiSquare chi = cosine_chi_square(s, 0.7);
+    const double k = chi.pixels;
+    auto quantile = [&](double z) {
+        return k * std::pow(1.0 - 2.0 / (9.0 * k) + z * std::sqrt(2.0 / (9.0 * k)), 3);
+    };
+    EXPECT_GT(chi.value, quantile(-3.09)) << chi.pixels << " pixels";
+    EXPECT_LT(chi.value, quantile(3.09)) << chi.pixels << " pixels";
+}
+
+// Over independent seeds, the pixels' scatter matches the standard error each run reports:
+// the mean of σ² over seeds against the variance of the intensity over seeds, pooled over
+// the pixels with signal. A blurred mirror's image follows the light direction, and the 20
+// quanta of each direction are correlated: counting them as independent samples would report
+// σ² several times too small.
+TEST(Scatterometer, StandardErrorMatchesTheScatterOverSeeds) {
+    const BlurredMirror mirror(1.0, 0.25);
+    constexpr int kSeeds = 24;
+    ScatterometerConfig c;
+    c.illumination = Illumination::hemisphere;
+    c.image_size = 21;
+    c.wavelengths_nm = {550.0};
+    c.quanta_per_pass = 40000;
+    c.max_passes = 1;
+    c.illumination_strata = 2000;
+    std::vector<double> sum, sum_sq, reported;
+    for (int seed = 0; seed < kSeeds; ++seed) {
+        c.seed = 1000 + static_cast<std::uint64_t>(seed);
+        const Scatterogram s = measure_scatterogram(mirror, c);
+        sum.resize(s.pixels(), 0.0), sum_sq.resize(s.pixels(), 0.0);
+        reported.resize(s.pixels(), 0.0);
+        for (std::size_t p = 0; p < s.pixels(); ++p) {
+            sum[p] += s.intensity[p];
+            sum_sq[p] += s.intensity[p] * s.intensity[p];
+            reported[p] += s.standard_error[p] * s.standard_error[p] / kSeeds;
+        }
+    }
+    double empirical = 0.0, estimated = 0.0;
+    int pixels = 0;
+    for (int row = 0; row < c.image_size; ++row) {
+        for (int column = 0; column < c.image_size; ++column) {
+            const std::size_t p = static_cast<std::size_t>(row) * c.image_size + column;
+            if (!inside_disc(column, row, c.image_size)) continue;
+            const double mean = sum[p] / kSeeds;
+            empirical += (sum_sq[p] - kSeeds * mean * mean) / (kSeeds - 1);
+            estimated += reported[p];
+            ++pixels;
+        }
+    }
+    ASSERT_GT(pixels, 200);
+    // The pooled empirical variance has a relative error of about √(2/23)/√(pixels) ≈ 2 %
+    // (neighbouring pixels are correlated: more). Pairs of neighbouring light directions
+    // differ in mean where the lobe moves across a pixel, which makes the reported σ²
+    // conservative: 1.5× here (σ 1.24×), the 2000 directions 9° apart in azimuth and a lobe
+    // 14° wide on 8.6° pixels. Quanta counted as independent would report too small a σ².
+    EXPECT_GT(estimated / empirical, 0.9);
+    EXPECT_LT(estimated / empirical, 1.7);
+}
+
+// One thread or two: the same bits, for the Huang model (which caches a frame per thread and
+// incident direction) and for the blurred mirror, under cone and hemisphere light.
+TEST(Scatterometer, ImageIsBitIdenticalOnOneAndTwoThreads) {
+    const analysis::Huang2022Bsdf model(analysis::Huang2022Params{});
+    const BlurredMirror mirror(0.9, 0.2);
+    const int threads = omp_get_max_threads();
+    for (Illumination mode : {Illumination::cone, Illumination::hemisphere}) {
+        for (const Scatterer* scatterer :
+             {static_cast<const Scatterer*>(&model), static_cast<const Scatterer*>(&mirror)}) {
+            ScatterometerConfig c;
+            c.illumination = mode;
+            c.image_size = 17;
+            c.wavelengths_nm = {450.0, 600.0};
+            c.quanta_per_pass = 6000;
+            c.max_passes = 2;
+            c.illumination_strata = 500;
+            omp_set_num_threads(1);
+            const Scatterogram one = measure_scatterogram(*scatterer, c);
+            omp_set_num_threads(2);
+            const Scatterogram two = measure_scatterogram(*scatterer, c);
+            omp_set_num_threads(threads);
+            EXPECT_EQ(one.intensity, two.intensity) << scatterer->name();
+            EXPECT_EQ(one.standard_error, two.standard_error) << scatterer->name();
+            EXPECT_EQ(one.lobe_intensity, two.lobe_intensity) << scatterer->name();
+            EXPECT_EQ(one.transmitted, two.transmitted) << scatterer->name();
+        }
+    }
+}
+
+// The median relative error: cells above the fraction of their wavelength's peak; the lower
+// median; NaN without signal.
+TEST(Scatterometer, MedianRelativeStandardErrorOverCellsWithSignal) {
+    Scatterogram s;
+    s.config.image_size = 9;
+    s.config.wavelengths_nm = {500.0, 600.0};
+    const std::size_t nl = 2;
+    s.solid_angle_sr.assign(s.pixels(), 0.0);
+    s.intensity.assign(s.pixels() * nl, 0.0);
+    s.standard_error.assign(s.pixels() * nl, 0.0);
+    EXPECT_TRUE(std::isnan(median_relative_standard_error(s, 0.01)));
+    // Pixels 40..43 in the disc; wavelength 0 peaks at 10, wavelength 1 at 1000.
+    const std::array<double, 4> i0 = {10.0, 5.0, 0.05, 1.0}, e0 = {1.0, 1.5, 0.05, 0.5};
+    const std::array<double, 4> i1 = {1000.0, 20.0, 5.0, 0.0}, e1 = {10.0, 2.0, 5.0, 0.0};
+    for (std::size_t j = 0; j < 4; ++j) {
+        const std::size_t p = 40 + j;
+        s.solid_angle_sr[p] = 0.1;
+        s.intensity[p * nl] = i0[j], s.standard_error[p * nl] = e0[j];
+        s.intensity[p * nl + 1] = i1[j], s.standard_error[p * nl + 1] = e1[j];
+    }
+    s.intensity[0] = 1e6;  // outside the disc: neither a peak nor a cell
+    // Above 1 %: wavelength 0 cells 10, 5, 1 (σ/I 0.1, 0.3, 0.5); wavelength 1 cells 1000 and
+    // 20 (0.01, 0.1); 5 is below 10. Sorted 0.01, 0.1, 0.1, 0.3, 0.5: median 0.1.
+    EXPECT_DOUBLE_EQ(median_relative_standard_error(s, 0.01), 0.1);
+    // Above 50 %: 10 (0.1) and 1000 (0.01): the lower median 0.01.
+    EXPECT_DOUBLE_EQ(median_relative_standard_error(s, 0.5), 0.01);
 }
 
 TEST(Scatterometer, HuangTLobeLeavesBelowInTheProportionOfEq15) {
