@@ -9,6 +9,7 @@
 
 #include <fmt/format.h>
 
+#include "common/constants.h"
 #include "common/cpu_time.h"
 #include "common/error.h"
 #include "common/interrupt.h"
@@ -60,6 +61,17 @@ double image_relative_l1(const gonio::Scatterogram& a, const gonio::Scatterogram
         ref += vb[ob + i] * omega;
     }
     return ref > 0.0 ? diff / ref : 0.0;
+}
+
+double image_relative_l1_noise_floor(const gonio::Scatterogram& a, const gonio::Scatterogram& b) {
+    const std::size_t nl = a.config.wavelengths_nm.size();
+    double noise = 0.0, ref = 0.0;
+    for (std::size_t i = 0; i < a.pixels() * nl; ++i) {
+        const double omega = a.solid_angle_sr[i / nl];
+        noise += std::hypot(a.standard_error[i], b.standard_error[i]) * omega;
+        ref += b.intensity[i] * omega;
+    }
+    return ref > 0.0 ? std::sqrt(2.0 / kPi) * noise / ref : 0.0;
 }
 
 int lobe_index(const std::vector<std::string>& lobes, const std::string& name) {
