@@ -418,26 +418,27 @@ std::string colour_quadrature(const Run& run, const Built& b, const Brdfs& m,
         return {};
     }
     run.clock.say("colour quadrature: Huang model on the study's wavelengths against 1 nm");
-    // An eval costs tens of µs: every kStride-th pair (about 200 of the 3660) tells the grid's
-    // error at a few seconds.
-    constexpr std::size_t kStride = 18;
+    // An eval costs tens of µs: about 200 pairs (every 18th of the 3660) tell the grid's error
+    // in a few seconds; smaller sets are taken whole.
     const auto& pairs = m.model.config.pairs;
-    const std::size_t count = (pairs.size() + kStride - 1) / kStride;
+    const std::size_t stride = std::max<std::size_t>(1, pairs.size() / 200);
+    const std::size_t count = (pairs.size() + stride - 1) / stride;
     const analysis::Huang2022Bsdf& model = *b.model;
     const analysis::ColourQuadratureError e = analysis::colour_quadrature_error(
         count, optics::WavelengthGrid(wl), [&](std::size_t i, double lambda) {
             if (interrupt_requested()) return 0.0;  // abandoned: thrown just below
-            const gonio::DirectionPair& p = pairs[i * kStride];
+            const gonio::DirectionPair& p = pairs[i * stride];
             return kPi * model.eval(p.wi, p.wo, lambda);
         });
     throw_if_interrupted("the colour quadrature error");
     result.colour_quadrature_max_delta_e00 = e.max;
     return fmt::format(
         "Colour quadrature: the colours above come from {} wavelengths ({}–{} nm, trapezoidal "
-        "rule). The model's own spectra at {} of the {} pairs (every {}th), on this grid against "
+        "rule). The model's own spectra at {} of the {} pairs (every {}), on this grid against "
         "{} nm, differ by ΔE00 {:.2f} on average, {:.2f} at the 95th percentile and {:.2f} at "
         "most (1 is a just-noticeable difference).\n\n",
-        wl.size(), wl.front(), wl.back(), count, pairs.size(), kStride, e.reference_step_nm, e.mean,
+        wl.size(), wl.front(), wl.back(), count, pairs.size(),
+        stride == 1 ? std::string("one") : fmt::format("{}th", stride), e.reference_step_nm, e.mean,
         e.p95, e.max);
 }
 
