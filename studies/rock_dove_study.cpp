@@ -457,7 +457,10 @@ std::string in_plane_sweep(const Run& run, const Built& b) {
     const gonio::BrdfRecord m = gonio::measure_brdf(*b.model, ip);
     const auto angles = gonio::filip2024_in_plane_light_angles();
     std::ofstream csv(run.dir / "brdf" / "in_plane.csv");
-    csv << "light angle (deg),simulation,simulation_err,Huang model,model_err\n";
+    csv << fmt::format(
+        "light angle (deg) at {:.0f} nm,simulation,simulation_err,Huang model,"
+        "model_err\n",
+        ip.wavelengths_nm.front());
     for (std::size_t p = 0; p < ip.pairs.size(); ++p) {
         csv << fmt::format("{:.1f},{:.6g},{:.6g},{:.6g},{:.6g}\n", angles[p] / kDeg, a.at(p, 0),
                            a.error_at(p, 0), m.at(p, 0), m.error_at(p, 0));
@@ -521,7 +524,9 @@ void compare_r_lobes(const gonio::BrdfRecord& a, const gonio::BrdfRecord& b,
     const int ra = lobe_index(a.lobes, "R"), rb = lobe_index(b.lobes, "R");
     const std::size_t np = v.pairs.size(), nl = v.wavelengths_nm.size();
     std::ofstream csv(csv_path);
-    csv << "view angle (deg),simulation R,simulation_err,model R,model_err\n";
+    csv << fmt::format(
+        "view angle (deg) at {:.0f} nm,simulation R,simulation_err,model R,model_err\n",
+        v.wavelengths_nm[nl / 2]);
     for (std::size_t p = 0; p < np; ++p) {
         for (std::size_t k = 0; k < nl; ++k) {
             const double sa = a.lobe_values[(static_cast<std::size_t>(ra) * np + p) * nl + k];
