@@ -210,6 +210,9 @@ def build_luminance(csv_path):
         ax.errorbar(x, [r[i] for r in rows], yerr=[r[i + 1] for r in rows], fmt="o-", ms=3, capsize=2,
                     color=c, label=name + " (simulation)")
         ax.plot(x, [r[i + 2] for r in rows], "--", color=c, lw=1, label=name + " (fitted Filip model)")
+    # L* = 100: a white Lambertian standard; a highlight reflects more than it towards the view.
+    ax.axhline(100.0, color="k", lw=0.6, ls="--")
+    ax.text(x[0], 100.0, " white standard (L* = 100)", va="bottom", fontsize=7)
     for angle, text in ((-45, "specular"), (45, "retro")):
         ax.axvline(angle, color="k", lw=0.6, ls=":")
         ax.text(angle, ax.get_ylim()[1], text, ha="center", va="bottom", fontsize=8)

@@ -878,7 +878,10 @@ std::string in_plane_section(const fs::path& dir, const SpeciesResult& result,
     std::string md =
         "## In-plane luminance (Filip Fig. 6a)\n\nView at 45° in the plane across the barbs, light "
         "from −81° to 81° (+45° retro-reflection, −45° the mirror direction); CIE L* (D65) of the "
-        "reflectance factor π f; simulation with 1σ error bars, fitted model dashed.\n\n"
+        "reflectance factor π f; simulation with 1σ error bars, fitted model dashed. L* = 100 is "
+        "a white Lambertian standard (π f = 1); a glossy feather near its mirror direction "
+        "reflects more than that towards the detector, so L* above 100 is a highlight, not an "
+        "error (L* = 160 is π f ≈ 3.5).\n\n"
         "![in-plane luminance](in_plane_luminance.png)\n\n"
         "| species | L* at −45° (specular) | L* at 0° | L* at +45° (retro) | peak at |\n"
         "|---|---|---|---|---|\n";
