@@ -61,12 +61,7 @@ const char* kSrgbDescription =
 }  // namespace
 
 std::array<float, 3> display_srgb(const optics::Xyz& xyz, double exposure) {
-    optics::Rgb c =
-        optics::linear_srgb_from_xyz({xyz.x * exposure, xyz.y * exposure, xyz.z * exposure});
-    for (double& v : c) v = std::max(0.0, v);
-    const double top = std::max({c[0], c[1], c[2]});
-    if (top > 1.0)
-        for (double& v : c) v /= top;
+    const optics::Rgb c = gonio::display_linear(xyz, exposure);
     return {static_cast<float>(optics::srgb_encode(c[0])),
             static_cast<float>(optics::srgb_encode(c[1])),
             static_cast<float>(optics::srgb_encode(c[2]))};

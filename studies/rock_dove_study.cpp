@@ -8,6 +8,7 @@
 #include <memory>
 
 #include <fmt/format.h>
+#include <fmt/ranges.h>
 
 #include "analysis/colour_quadrature.h"
 #include "analysis/compare.h"
@@ -645,12 +646,8 @@ std::string huang_fit(const Run& run, const Built& b, RockDoveResult& result) {
                              (fit.values[i] - expected[i]) / fit.standard_errors[i],
                              fit.at_bound[i] ? " (at its bound)" : "");
     }
-    const std::string names = [] {
-        std::string n;
-        for (auto v : analysis::kHuang2022ParameterNames)
-            n += (n.empty() ? "" : ", ") + std::string(v);
-        return n;
-    }();
+    const std::string names =
+        fmt::format("{}", fmt::join(analysis::kHuang2022ParameterNames, ", "));
     h5.write(
         "fit/values", std::span<const double>(values), {values.size()},
         {{"units", "b 1, phi0 rad, phi1 rad, H 1, d_um um, theta_d rad, mu rad"},

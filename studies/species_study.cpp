@@ -1291,8 +1291,11 @@ void finish(const Run& run, SpeciesResult& result, record::Hdf5Writer& h5, std::
     md += in_plane_section(dir, result, plots);
     run_plots(plots, dir / "plots.csv");
     std::string joined;
-    for (int p = 0; p < kFilip2024ParameterCount; ++p)
-        joined += (joined.empty() ? "" : ",") + std::string(kFilip2024ParameterTable[p].name);
+    for (int p = 0; p < kFilip2024ParameterCount; ++p) {
+        // Appended piecewise: GCC 12 warns (-Wrestrict, a false positive) on "" + std::string.
+        if (!joined.empty()) joined += ',';
+        joined += kFilip2024ParameterTable[p].name;
+    }
     h5.set_attribute("/", "parameter_names", joined);
     h5.set_attribute("/", "study", std::string(run.study_text));
     h5.commit();

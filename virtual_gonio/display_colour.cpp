@@ -28,13 +28,18 @@ optics::Xyz SpectrumToDisplay::xyz(std::span<const double> spectrum) const {
     return c;
 }
 
-std::array<std::uint8_t, 3> display_bytes(const optics::Xyz& xyz, double exposure) {
+optics::Rgb display_linear(const optics::Xyz& xyz, double exposure) {
     optics::Rgb c =
         optics::linear_srgb_from_xyz({xyz.x * exposure, xyz.y * exposure, xyz.z * exposure});
     for (double& v : c) v = std::max(0.0, v);
     const double top = std::max({c[0], c[1], c[2]});
     if (top > 1.0)
         for (double& v : c) v /= top;
+    return c;
+}
+
+std::array<std::uint8_t, 3> display_bytes(const optics::Xyz& xyz, double exposure) {
+    const optics::Rgb c = display_linear(xyz, exposure);
     std::array<std::uint8_t, 3> out{};
     for (int i = 0; i < 3; ++i)
         out[i] = static_cast<std::uint8_t>(std::lround(optics::srgb_encode(c[i]) * 255.0));

@@ -31,6 +31,9 @@ private:
     std::optional<optics::ReflectanceToXyz> to_xyz_;
 };
 
+// Linear display sRGB in [0, 1]: exposure, negatives clipped, over-range scaled by the largest
+// component (the rule above, before the transfer curve).
+optics::Rgb display_linear(const optics::Xyz& xyz, double exposure);
 std::array<std::uint8_t, 3> display_bytes(const optics::Xyz& xyz, double exposure);
 
 }  // namespace plumage::gonio
