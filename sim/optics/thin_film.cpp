@@ -87,7 +87,9 @@ std::optional<LosslessFilm> lossless_film(const FilmMedia& media, double thickne
     const double q3sq = (n3 * n3 - n1 * n1) + q1 * q1;
     // q² <= 0: evanescent (TIR) or exactly critical; q1 = 0: exactly grazing. The complex
     // path handles those (complex amplitudes, and the grazing limit).
-    if (!(q1 > 0.0) || !(q2sq > 0.0) || !(q3sq > 0.0)) return std::nullopt;
+    // The forms below are quartic in q: q >= 1e-50 (cos θ_i >= 1e-50 from air) keeps them
+    // clear of underflow once scaled by the largest q (lossless_film_intensities).
+    if (!(q1 >= 1e-50) || !(q2sq >= 1e-100) || !(q3sq >= 1e-100)) return std::nullopt;
     const double q2 = std::sqrt(q2sq), q3 = std::sqrt(q3sq);
     // δ/2 = k0 d q_2, the complex path's phase argument computed the same way, so both
     // paths see the same rounding of a phase that reaches ~300 rad at 5 µm.
@@ -99,6 +101,10 @@ std::optional<LosslessFilm> lossless_film(const FilmMedia& media, double thickne
 
 FilmIntensities lossless_film_intensities(double x1, double x2, double x3, double cos_sq,
                                           double sin_sq) {
+    // R and T are homogeneous of degree 0 in x: scale to max x = 1 so that no quartic term
+    // overflows or underflows for extreme (but passive, finite) indices.
+    const double scale = 1.0 / std::max({x1, x2, x3});
+    x1 *= scale, x2 *= scale, x3 *= scale;
     // P D = r_12 r_23 D², its sign that of r_12 r_23.
     const double p = (x1 - x2) * (x2 - x3) * ((x1 + x2) * (x2 + x3));
     const double x2sq = x2 * x2;

@@ -285,6 +285,28 @@ TEST(ThinFilm, LosslessFastPathEqualsComplexPath) {
     EXPECT_GT(evaluations, 100000);
 }
 
+TEST(ThinFilm, LosslessFastPathStaysFiniteAtExtremes) {
+    // Nearly grazing, index-matched and very large indices: the quartic real forms are scaled
+    // (or left to the complex path) so that nothing overflows or underflows to 0/0.
+    for (double cos_i : {1e-300, 1e-60, 1e-40, 1e-8}) {
+        for (const FilmMedia& m : {FilmMedia{1.0, Complex(1.0), Complex(1.0)},
+                                   FilmMedia{1.0, Complex(1.55), Complex(1.0)},
+                                   FilmMedia{1.0, Complex(1e30), Complex(1e-30)},
+                                   FilmMedia{1e-30, Complex(1e30), Complex(1.0)}}) {
+            for (Polarisation pol : kBoth) {
+                const FilmIntensities fast = airy_film_intensities(m, 0.595, 550.0, cos_i, pol);
+                const FilmIntensities slow =
+                    detail::airy_film_intensities_complex(m, 0.595, 550.0, cos_i, pol);
+                ASSERT_TRUE(std::isfinite(fast.reflectance) && std::isfinite(fast.transmittance))
+                    << cos_i << " " << m.film;
+                EXPECT_NEAR(fast.reflectance, slow.reflectance, 1e-12) << cos_i << " " << m.film;
+                EXPECT_NEAR(fast.transmittance, slow.transmittance, 1e-12)
+                    << cos_i << " " << m.film;
+            }
+        }
+    }
+}
+
 TEST(ThinFilm, RejectsBadInput) {
     using plumage::testing::input_error_message;
     const FilmMedia media{1.0, Complex(1.55), Complex(1.0)};
