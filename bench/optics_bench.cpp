@@ -29,6 +29,20 @@ void BM_AiryFilmUnpolarised(benchmark::State& state) {
 }
 BENCHMARK(BM_AiryFilmUnpolarised);
 
+// The Huang 2022 model's film: lossless keratin in air (real indices throughout), the
+// case of every facet node and wavelength of its tabulation.
+void BM_AiryFilmUnpolarisedLossless(benchmark::State& state) {
+    const FilmMedia media{1.0, Complex(1.55), Complex(1.0)};
+    std::size_t i = 0;
+    for (auto _ : state) {
+        benchmark::DoNotOptimize(
+            airy_film_intensities_unpolarised(media, 0.595, wavelength(i), cosine(i)));
+        ++i;
+    }
+    state.SetItemsProcessed(state.iterations());
+}
+BENCHMARK(BM_AiryFilmUnpolarisedLossless);
+
 void BM_TransferMatrixUnpolarised(benchmark::State& state) {
     std::vector<StackLayer> layers;
     for (int j = 0; j < state.range(0); ++j) {
