@@ -254,8 +254,10 @@ TEST(ThinFilm, LosslessFastPathEqualsComplexPath) {
                             // The long-double reference's own round-off, ε_L / cos θ_j, is ~1e-11
                             // at 1e-9 from a critical angle (q_2 ~ 1e-8); 6e-16 from air.
                             const double reference_tolerance =
-                                kTolerance +
-                                10.0 * std::numeric_limits<long double>::epsilon() / smallest_cos;
+                                kTolerance + 10.0 *
+                                                 static_cast<double>(
+                                                     std::numeric_limits<long double>::epsilon()) /
+                                                 smallest_cos;
                             ASSERT_LE(to_reference, reference_tolerance) << where();
                             ASSERT_LE(to_complex, tolerance) << where();
                             ASSERT_LE(to_tmm, tolerance) << where();
