@@ -662,30 +662,71 @@ def _loops(segments, tolerance):
     return closed, chains
 
 
-def build_geometry_preview(h5_path):
-    """A cut through the built geometry, in micrometres: filled phases (polygons, or the closed
-    outlines of a cut, filled by nesting: keratin inside, holes blank), the outlines, a legend,
-    a scale bar and the caption as title."""
+def _read_preview(h5_path):
+    """The preview record: phase names, colours, fill flags, caption, axis labels, cut segments
+    with their phase, and polygons (vertices, phase)."""
     import h5py
     import numpy as np
-    from matplotlib.lines import Line2D
-    from matplotlib.patches import Patch, Polygon
-    from mpl_toolkits.axes_grid1.anchored_artists import AnchoredSizeBar
 
     with h5py.File(h5_path, "r") as f:
-        names = _text(f.attrs["phase_names"]).split("|")
-        colours = _text(f.attrs["phase_colours"]).split("|")
-        filled = [c == "1" for c in _text(f.attrs["phase_filled"]).split("|")]
-        caption = _text(f.attrs["caption"])
-        xlabel, ylabel = _text(f.attrs["x_label"]), _text(f.attrs["y_label"])
-        segments = np.asarray(f["segments"]).reshape(-1, 4) if "segments" in f else np.zeros((0, 4))
-        seg_phase = np.asarray(f["segment_phase"]).astype(int) if "segments" in f else []
-        polys = []
+        d = {
+            "names": _text(f.attrs["phase_names"]).split("|"),
+            "colours": _text(f.attrs["phase_colours"]).split("|"),
+            "filled": [c == "1" for c in _text(f.attrs["phase_filled"]).split("|")],
+            "caption": _text(f.attrs["caption"]),
+            "labels": (_text(f.attrs["x_label"]), _text(f.attrs["y_label"])),
+            "segments": np.asarray(f["segments"]).reshape(-1, 4) if "segments" in f
+            else np.zeros((0, 4)),
+            "segment_phase": np.asarray(f["segment_phase"]).astype(int) if "segments" in f else [],
+            "polygons": [],
+        }
         if "polygon_vertices" in f:
             vertices = np.asarray(f["polygon_vertices"]).reshape(-1, 2)
             offsets = np.asarray(f["polygon_offsets"]).astype(int)
             phase = np.asarray(f["polygon_phase"]).astype(int)
-            polys = [(vertices[offsets[i]:offsets[i + 1]], phase[i]) for i in range(len(phase))]
+            d["polygons"] = [(vertices[offsets[i]:offsets[i + 1]], phase[i])
+                             for i in range(len(phase))]
+    return d
+
+
+def _fill_nested_loops(ax, closed, colour):
+    """Even-odd fill of closed outlines: a loop inside an even number of others is the phase,
+    inside an odd number a hole (left white)."""
+    from matplotlib.patches import Polygon
+    from matplotlib.path import Path
+    import numpy as np
+
+    paths = [Path(np.array(loop + [loop[0]])) for loop in closed]
+    for i, loop in enumerate(closed):
+        depth = sum(1 for j, p in enumerate(paths) if j != i and p.contains_point(loop[0]))
+        ax.add_patch(Polygon(loop, closed=True, facecolor=colour if depth % 2 == 0 else "white",
+                             lw=0))
+
+
+def _add_scale_bar(ax, width):
+    """A round-numbered scale bar about a quarter of the width, right of the axes."""
+    from mpl_toolkits.axes_grid1.anchored_artists import AnchoredSizeBar
+
+    nice = [0.01, 0.02, 0.05, 0.1, 0.2, 0.5, 1, 2, 5, 10, 20, 50, 100, 200, 500, 1000]
+    bar = max([n for n in nice if n <= 0.25 * width] or [nice[0]])
+    label = f"{bar * 1000:.0f} nm" if bar < 1 else f"{bar:g} µm"
+    ax.add_artist(AnchoredSizeBar(ax.transData, bar, label, "lower left", pad=0.4, sep=3,
+                                  frameon=False, size_vertical=0, bbox_to_anchor=(1.02, 0.0),
+                                  bbox_transform=ax.transAxes, borderpad=0.0,
+                                  fontproperties={"size": 8}))
+
+
+def build_geometry_preview(h5_path):
+    """A cut through the built geometry, in micrometres: filled phases (polygons, or the closed
+    outlines of a cut, filled by nesting: keratin inside, holes blank), the outlines, a legend,
+    a scale bar and the caption as title."""
+    import numpy as np
+    from matplotlib.lines import Line2D
+    from matplotlib.patches import Patch, Polygon
+
+    d = _read_preview(h5_path)
+    names, colours, filled = d["names"], d["colours"], d["filled"]
+    segments, seg_phase, polys = d["segments"], d["segment_phase"], d["polygons"]
     points = [segments[:, :2], segments[:, 2:]] + [p for p, _ in polys]
     allp = np.concatenate([p for p in points if len(p)]) if any(len(p) for p in points) else \
         np.zeros((1, 2))
@@ -701,26 +742,9 @@ def build_geometry_preview(h5_path):
         sel = segments[np.asarray(seg_phase) == ph] if len(segments) else segments
         if not len(sel):
             continue
-        tol = 1e-6 * float(np.max(span))
-        closed, chains = _loops(sel, tol)
-        if filled[ph]:
-            # Nesting depth decides keratin or hole: even-odd fill of the loops.
-            from matplotlib.path import Path
-            from matplotlib.patches import PathPatch
-
-            verts, codes = [], []
-            for loop in closed:
-                verts += loop + [loop[0]]
-                codes += [Path.MOVETO] + [Path.LINETO] * (len(loop) - 1) + [Path.CLOSEPOLY]
-            if verts:
-                paths = [Path(np.array(loop + [loop[0]])) for loop in closed]
-                for i, loop in enumerate(closed):
-                    depth = sum(1 for j, p in enumerate(paths) if j != i and
-                                p.contains_point(loop[0]))
-                    if depth % 2 == 0:
-                        ax.add_patch(Polygon(loop, closed=True, facecolor=colours[ph], lw=0))
-                    else:
-                        ax.add_patch(Polygon(loop, closed=True, facecolor="white", lw=0))
+        closed, chains = _loops(sel, 1e-6 * float(np.max(span)))
+        if filled[ph] and closed:
+            _fill_nested_loops(ax, closed, colours[ph])
         edge = "k" if filled[ph] else colours[ph]
         for line in closed:
             line = np.array(line + [line[0]])
@@ -732,19 +756,13 @@ def build_geometry_preview(h5_path):
     pad = 0.03 * span.max()
     ax.set_xlim(lo[0] - pad, hi[0] + pad)
     ax.set_ylim(lo[1] - pad, hi[1] + pad)
-    ax.set_xlabel(xlabel)
-    ax.set_ylabel(ylabel)
-    ax.set_title(caption, fontsize=10)
+    ax.set_xlabel(d["labels"][0])
+    ax.set_ylabel(d["labels"][1])
+    ax.set_title(d["caption"], fontsize=10)
     handles = [Patch(facecolor=colours[i], edgecolor="k", lw=0.4, label=n) if filled[i] else
                Line2D([], [], color=colours[i], lw=1.4, label=n) for i, n in enumerate(names)]
     ax.legend(handles=handles, fontsize=8, loc="upper left", bbox_to_anchor=(1.01, 1.0))
-    nice = [0.01, 0.02, 0.05, 0.1, 0.2, 0.5, 1, 2, 5, 10, 20, 50, 100, 200, 500, 1000]
-    bar = max([n for n in nice if n <= 0.25 * span[0]] or [nice[0]])
-    label = f"{bar * 1000:.0f} nm" if bar < 1 else f"{bar:g} µm"
-    ax.add_artist(AnchoredSizeBar(ax.transData, bar, label, "lower left", pad=0.4, sep=3,
-                                  frameon=False, size_vertical=0, bbox_to_anchor=(1.02, 0.0),
-                                  bbox_transform=ax.transAxes, borderpad=0.0,
-                                  fontproperties={"size": 8}))
+    _add_scale_bar(ax, span[0])
     fig.tight_layout()
     return fig
 

@@ -84,17 +84,8 @@ struct Settings {
     std::uint64_t seed = kDefaultSeed;
 };
 
-Settings read_settings(StudyFile& file, std::string& name, const fs::path& source) {
-    Settings s;
-    ParameterTable root = file.root();
-    name = read_study_name(root, source);
-    root.string("study", "rock_dove", {"rock_dove"}, "which study this file describes");
-    ParameterTable geometry = root.table("geometry");
-    s.row = read_barbule_row_params(geometry);
-    s.tolerance = read_tolerance(geometry.table("tessellation"));
-    ParameterTable spectrum = root.table("spectrum");
-    s.wavelengths = read_wavelengths(spectrum, WavelengthRule{});
-    ParameterTable sc = root.table("scatterometer");
+// [scatterometer] and [scatterometer.hemisphere]
+void read_scatterometer(ParameterTable sc, Settings& s) {
     s.image_size = static_cast<int>(
         sc.integer("image_size", s.image_size, 17, 1025, "pixels across the scatterogram"));
     s.scatter_quanta = static_cast<std::uint64_t>(
@@ -123,7 +114,10 @@ Settings read_settings(StudyFile& file, std::string& name, const fs::path& sourc
     s.hemisphere.target_median_error = he.number(
         "target_median_relative_error", 0.0, between(0.0, 1.0),
         "hemisphere light: stop the passes once the median per-pixel relative error is this");
-    ParameterTable go = root.table("goniometer");
+}
+
+// [goniometer]
+void read_goniometer(ParameterTable go, Settings& s) {
     s.direction_set = go.string("direction_set", s.direction_set,
                                 {"filip2024_btf", "filip2024_in_plane"}, "direction set");
     s.detector_half_angle = go.angle_deg("detector_half_angle_deg", s.detector_half_angle,
@@ -133,13 +127,10 @@ Settings read_settings(StudyFile& file, std::string& name, const fs::path& sourc
                    "quanta per light direction, wavelength and pass"));
     s.gonio_passes =
         static_cast<int>(go.integer("passes", s.gonio_passes, 1, 1000, "passes (at most)"));
-    s.time_budget_s = root.number(
-        "time_budget_s", s.time_budget_s, positive(),
-        "wall-time budget per measurement, s (progressive passes stop when it is spent)");
-    s.target_relative_error =
-        root.number("target_relative_error", 0.0, between(0.0, 1.0),
-                    "stop a measurement's passes once its estimated relative error is below this");
-    ParameterTable va = root.table("validation");
+}
+
+// [validation]
+void read_validation(ParameterTable va, Settings& s) {
     s.validation_cell_coupling =
         va.number("cell_coupling", s.validation_cell_coupling, {0.0, 0.1, true, false},
                   "r_theta (1 - cos theta_d) / (b^2 A) of the short cells");
@@ -152,7 +143,10 @@ Settings read_settings(StudyFile& file, std::string& name, const fs::path& sourc
     s.validation_detector_half_angle = va.angle_deg(
         "detector_half_angle_deg", s.validation_detector_half_angle, {0.0, 20.0, true, false},
         "detector cone half-angle: small enough to resolve the R lobe");
-    ParameterTable co = root.table("convergence");
+}
+
+// [convergence]
+void read_convergence(ParameterTable co, Settings& s) {
     s.convergence_passes =
         static_cast<int>(co.integer("passes", s.convergence_passes, 2, 1000, "passes"));
     s.convergence_quanta = static_cast<std::uint64_t>(
@@ -161,7 +155,10 @@ Settings read_settings(StudyFile& file, std::string& name, const fs::path& sourc
     s.convergence_reference_rings = static_cast<int>(
         co.integer("reference_rings", s.convergence_reference_rings, 4, 256,
                    "cubature rings of the exact reference (eval; its error is |rings − rings/2|)"));
-    ParameterTable fi = root.table("fit");
+}
+
+// [fit]
+void read_fit(ParameterTable fi, Settings& s) {
     s.fit = fi.boolean("enabled", s.fit, "fit Huang's parameters to a simulated beam scatterogram");
     s.fit_incidence = fi.angle_deg("beam_incidence_deg", s.fit_incidence, between(0.0, 80.0),
                                    "beam polar angle of the fitted scatterogram");
@@ -175,6 +172,29 @@ Settings read_settings(StudyFile& file, std::string& name, const fs::path& sourc
     s.fit_pixel_stride =
         static_cast<int>(fi.integer("pixel_stride", s.fit_pixel_stride, 1, 64,
                                     "fit the pixels with (row + column) % stride 0"));
+}
+
+Settings read_settings(StudyFile& file, std::string& name, const fs::path& source) {
+    Settings s;
+    ParameterTable root = file.root();
+    name = read_study_name(root, source);
+    root.string("study", "rock_dove", {"rock_dove"}, "which study this file describes");
+    ParameterTable geometry = root.table("geometry");
+    s.row = read_barbule_row_params(geometry);
+    s.tolerance = read_tolerance(geometry.table("tessellation"));
+    ParameterTable spectrum = root.table("spectrum");
+    s.wavelengths = read_wavelengths(spectrum, WavelengthRule{});
+    read_scatterometer(root.table("scatterometer"), s);
+    read_goniometer(root.table("goniometer"), s);
+    s.time_budget_s = root.number(
+        "time_budget_s", s.time_budget_s, positive(),
+        "wall-time budget per measurement, s (progressive passes stop when it is spent)");
+    s.target_relative_error =
+        root.number("target_relative_error", 0.0, between(0.0, 1.0),
+                    "stop a measurement's passes once its estimated relative error is below this");
+    read_validation(root.table("validation"), s);
+    read_convergence(root.table("convergence"), s);
+    read_fit(root.table("fit"), s);
     s.seed = read_seed(root);
     root.reject_unused();
     return s;
