@@ -698,13 +698,13 @@ std::string huang_fit(const Run& run, const Built& b, RockDoveResult& result) {
         "The explicit patch under a beam at θ = {:.0f}°, φ = {:.0f}° ({}×{} pixels, {} quanta at "
         "{} nm), fitted by Levenberg–Marquardt (analysis/huang2022_fit.h) from the parameters the "
         "patch was built with, φ0 and φ1 held (the arc's ends are hidden). {} observations, "
-        "reduced χ² {:.2f} (p = {:.2g}; σ² includes a 1 % model floor), {} iterations, {:.1f} s, "
+        "reduced χ² {:.2f} ({}; σ² includes a 1 % model floor), {} iterations, {:.1f} s, "
         "{}. A parameter many σ from the value the patch was built with is one the model, "
         "given the simulation, reads differently: the model leaves out interreflection and the "
         "curved film of long cells (next sections).\n\n{}\n",
         s.fit_incidence / kDeg, s.fit_azimuth / kDeg, c.image_size, c.image_size, c.quanta_per_pass,
-        fmt::join(c.wavelengths_nm, ", "), fit.observations, fit.reduced_chi_square, p,
-        fit.iterations, fit.wall_time_s,
+        fmt::join(c.wavelengths_nm, ", "), fit.observations, fit.reduced_chi_square,
+        p_value_text(p), fit.iterations, fit.wall_time_s,
         fit.converged ? "converged" : "not converged: " + fit.termination, table);
 }
 
@@ -738,9 +738,9 @@ std::string convergence_caption(const std::vector<analysis::ErrorAgainstReferenc
     text += fmt::format(
         "At the last pass ({:.1f} s) the true error is {:.3f} and the estimate {:.3f}; the "
         "reference's own cubature error is {:.3f}. χ² of the deviations against σ² + ε² is {:.1f} "
-        "over {} cells (p = {:.2g}): {}. ",
+        "over {} cells ({}): {}. ",
         times.back(), last.true_error, last.estimated, last.reference_floor, last.chi_square,
-        last.cells, last.p_value,
+        last.cells, p_value_text(last.p_value),
         consistent ? "the deviations are as large as the stated errors say"
                    : "the deviations are larger than the stated errors (bias, or a reference "
                      "worse than its estimated error)");

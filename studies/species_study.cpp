@@ -707,11 +707,6 @@ constexpr double kIndicativeOnlyError = 0.25;
 // The goodness-of-fit test's level.
 constexpr double kFitSignificance = 0.01;
 
-// "p = 0.011", or "p < 1e-15" where the χ² tail underflows the double's resolution near 1.
-std::string p_value_text(double p) {
-    return p < 1e-15 ? std::string("p < 1e-15") : fmt::format("p = {:.2g}", p);
-}
-
 // Does Filip's model describe the simulated BRDF within its Monte Carlo error? A χ² test of the
 // refit's residuals (σ² from the photon-count variance model) with its p-value, and the effect
 // size sqrt(χ²_red): the typical residual in units of σ, which says how far off the model is

@@ -74,6 +74,10 @@ double image_relative_l1_noise_floor(const gonio::Scatterogram& a, const gonio::
     return ref > 0.0 ? std::sqrt(2.0 / kPi) * noise / ref : 0.0;
 }
 
+std::string p_value_text(double p) {
+    return p < 1e-15 ? std::string("p < 1e-15") : fmt::format("p = {:.2g}", p);
+}
+
 int lobe_index(const std::vector<std::string>& lobes, const std::string& name) {
     for (std::size_t i = 0; i < lobes.size(); ++i)
         if (lobes[i] == name) return static_cast<int>(i);

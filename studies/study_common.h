@@ -30,6 +30,9 @@ double image_relative_l1(const gonio::Scatterogram& a, const gonio::Scatterogram
 // only: the records carry no per-lobe standard errors.
 double image_relative_l1_noise_floor(const gonio::Scatterogram& a, const gonio::Scatterogram& b);
 
+// "p = 0.011", or "p < 1e-15" where the χ² tail underflows the double's resolution near 1.
+std::string p_value_text(double p);
+
 // Index of a lobe name, or −1.
 int lobe_index(const std::vector<std::string>& lobes, const std::string& name);
 
