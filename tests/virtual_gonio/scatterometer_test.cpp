@@ -115,6 +115,18 @@ ChiSquare cosine_chi_square(const Scatterogram& s, double rho) {
     return c;
 }
 
+// Hemisphere light on a 21-pixel image at 550 nm: the setting of the tests below.
+ScatterometerConfig hemisphere_config(std::uint64_t quanta_per_pass, int passes, int strata) {
+    ScatterometerConfig c;
+    c.illumination = Illumination::hemisphere;
+    c.image_size = 21;
+    c.wavelengths_nm = {550.0};
+    c.quanta_per_pass = quanta_per_pass;
+    c.max_passes = passes;
+    c.illumination_strata = strata;
+    return c;
+}
+
 // Uniform radiance from the hemisphere on a mirror leaves as uniform radiance: I = ρ cos θ/π,
 // whatever the number of light directions per pass (7: prime, one row of cells; 60: not a
 // square, which the earlier square grid left partly unlit; 10 000), with 10 quanta each. The
@@ -124,13 +136,9 @@ TEST(Scatterometer, MirrorUnderHemisphereLightImagesAsCosineForAnyStrata) {
     const BlurredMirror mirror(0.8, 0.0);
     for (int strata : {7, 60, 10000}) {
         SCOPED_TRACE(strata);
-        ScatterometerConfig c;
-        c.illumination = Illumination::hemisphere;
-        c.image_size = 21;
-        c.wavelengths_nm = {550.0};
-        c.quanta_per_pass = 10 * static_cast<std::uint64_t>(strata);  // 10 quanta per direction
-        c.max_passes = 20000 / strata;                                // 20 000 directions in all
-        c.illumination_strata = strata;
+        // 10 quanta per direction, 20 000 directions in all.
+        const ScatterometerConfig c =
+            hemisphere_config(10 * static_cast<std::uint64_t>(strata), 20000 / strata, strata);
         const Scatterogram s = measure_scatterogram(mirror, c);
         const ChiSquare chi = cosine_chi_square(s, 0.8);
         ASSERT_GT(chi.pixels, 200);
@@ -148,13 +156,7 @@ TEST(Scatterometer, MirrorUnderHemisphereLightImagesAsCosineForAnyStrata) {
 // conservative).
 TEST(Scatterometer, LambertianUnderHemisphereLightPassesChiSquare) {
     const analysis::LambertianScatterer plate(0.7);
-    ScatterometerConfig c;
-    c.illumination = Illumination::hemisphere;
-    c.image_size = 21;
-    c.wavelengths_nm = {550.0};
-    c.quanta_per_pass = 100000;
-    c.max_passes = 2;
-    c.illumination_strata = 10000;
+    const ScatterometerConfig c = hemisphere_config(100000, 2, 10000);
     const Scatterogram s = measure_scatterogram(plate, c);
     const ChiSquare chi = cosine_chi_square(s, 0.7);
     const double k = chi.pixels;
@@ -173,13 +175,7 @@ TEST(Scatterometer, LambertianUnderHemisphereLightPassesChiSquare) {
 TEST(Scatterometer, StandardErrorMatchesTheScatterOverSeeds) {
     const BlurredMirror mirror(1.0, 0.25);
     constexpr int kSeeds = 24;
-    ScatterometerConfig c;
-    c.illumination = Illumination::hemisphere;
-    c.image_size = 21;
-    c.wavelengths_nm = {550.0};
-    c.quanta_per_pass = 40000;
-    c.max_passes = 1;
-    c.illumination_strata = 2000;
+    ScatterometerConfig c = hemisphere_config(40000, 1, 2000);
     std::vector<double> sum, sum_sq, reported;
     for (int seed = 0; seed < kSeeds; ++seed) {
         c.seed = 1000 + static_cast<std::uint64_t>(seed);
