@@ -21,6 +21,17 @@
 //       A_i normalisation leaves this implicit; without it the lobe would reflect
 //       light that passed between the barbules). Not reciprocal (as published): the
 //       average is weighted by visibility from ω_i only.
+//       Outgoing blocking is ignored: the light leaving a facet towards ω_o is not masked
+//       by the neighbouring barbules (only 1[ω_o·ω_m > 0] is applied), and the lobe is zero
+//       below the barb plane (ω_o,z ≤ 0). The explicit patch masks both, so the model's
+//       TRT is high where the exit is blocked (the default study's TRT relative L1
+//       against the simulated BRDF is 0.13).
+//       Quadrature (eval): E_q is computed to an estimated absolute error ≤ 1e-5 (it lies
+//       in [0, 1]), so f_TRT is within 1e-5 P_hit R_m / π, and within 1e-3 relative
+//       wherever E_q ≥ 1e-2: adaptive Gauss–Kronrod in φ_m and θ_m, with the θ_m support
+//       cut where ω_o·ω_m = 0 and the φ_m arc cut where that point leaves the support
+//       (details at Huang2022Bsdf::trt_efficiency). pdf() keeps a fixed rule (2 θ_m nodes):
+//       its integrand does not depend on ω_o.
 //  T    light passing between barbules unchanged, Eq. 15: a Dirac lobe at ω_o = −ω_i
 //       with mass 1 − Δh'/Δh. eval() cannot return a Dirac; sample() produces it.
 //
@@ -93,6 +104,9 @@ public:
     double hit_fraction_closed_form(const Vec3d& wi) const;
     // The same fraction by quadrature of the visible NDF: ∫ D ⟨ω_i, ω_m⟩ G_1 dω_m / ⟨ω_i, n⟩.
     double hit_fraction_by_quadrature(const Vec3d& wi) const;
+    // The front-facing φ_m ranges of the arc that the light from wi reaches (rad, within
+    // [phi0, phi1], barbule frame): the φ support of the hit-normal density q.
+    std::vector<std::array<double, 2>> visible_arc(const Vec3d& wi) const;
     // ∫ D(ω_m) ⟨ω_m, n⟩ dω_m over the whole arc (no visibility): exceeds 1 when the arc's
     // projected width exceeds H (the rock-dove case).
     double ndf_projected_integral() const;
@@ -105,6 +119,8 @@ private:
     Frame compute_frame(const Vec3d& wi_patch) const;
     const Frame& frame_for(const Vec3d& wi_patch) const;  // per-thread cache of the last ω_i
     void build_nodes(Frame& f) const;
+    // E_q[T(ω_i·ω_m) T(ω_o·ω_m) 1(ω_o·ω_m > 0)] to within 1e-5 (see the TRT lobe above).
+    double trt_efficiency(const Frame& f, const Vec3d& wo_barbule, double lambda_nm) const;
     double film_reflectance(double cos_theta, double lambda_nm) const;
     double film_transmittance(double cos_theta, double lambda_nm) const;
     double melanin_reflectance(double lambda_nm) const;
