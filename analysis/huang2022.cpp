@@ -4,6 +4,7 @@
 #include <atomic>
 #include <cmath>
 #include <functional>
+#include <limits>
 #include <span>
 #include <string_view>
 
@@ -49,6 +50,7 @@ constexpr std::array<double, 4> kK7Weights = {0.104656226026467265, 0.2684880898
                                               0.401397414775962223, 0.450916538658474142};
 constexpr std::array<double, 2> kG3Weights = {0.555555555555555556, 0.888888888888888889};
 constexpr GaussKronrod kGk15{kK15Nodes, kK15Weights, kG7Weights};
+constexpr std::size_t kPhiNodesPerPiece = 2 * kK15Nodes.size() - 1;  // TRT's base rule
 constexpr GaussKronrod kGk7{kK7Nodes, kK7Weights, kG3Weights};
 
 // ∫_a^b g by the Kronrod rule, bisecting until |Kronrod − Gauss| ≤ tol on every panel (the
@@ -56,7 +58,7 @@ constexpr GaussKronrod kGk7{kK7Nodes, kK7Weights, kG3Weights};
 // runs out: then the panel's Kronrod value is kept as it is.
 template <typename G>
 double adaptive_gauss_kronrod(const G& g, const GaussKronrod& rule, double a, double b, double tol,
-                              int depth) {
+                              double rel, int depth) {
     const double centre = 0.5 * (a + b), half = 0.5 * (b - a);
     const std::size_t n = rule.xk.size();
     // Both rules have an even number of entries: the centre (index n − 1) is a Gauss node.
@@ -70,9 +72,10 @@ double adaptive_gauss_kronrod(const G& g, const GaussKronrod& rule, double a, do
     }
     kronrod *= half;
     gauss *= half;
-    if (std::abs(kronrod - gauss) <= tol || depth <= 0) return kronrod;
-    return adaptive_gauss_kronrod(g, rule, a, centre, 0.5 * tol, depth - 1) +
-           adaptive_gauss_kronrod(g, rule, centre, b, 0.5 * tol, depth - 1);
+    if (std::abs(kronrod - gauss) <= std::max(tol, rel * std::abs(kronrod)) || depth <= 0)
+        return kronrod;
+    return adaptive_gauss_kronrod(g, rule, a, centre, 0.5 * tol, rel, depth - 1) +
+           adaptive_gauss_kronrod(g, rule, centre, b, 0.5 * tol, rel, depth - 1);
 }
 
 }  // namespace
@@ -93,6 +96,25 @@ struct Huang2022Bsdf::Frame {
     // Per node, for the wavelength last asked: T(ω_i·ω_m) R_m and I_R(ω_i·ω_m).
     mutable double nodes_lambda = -1.0;
     mutable std::vector<double> node_trt_in, node_r;
+    // TRT's base rule (eval), built once per ω_i: the visible arc in pieces of at most
+    // 0.5 rad, 15 Kronrod φ_m nodes each (7 of them Gauss), and 7 Kronrod θ_m nodes (3 of
+    // them Gauss) over each node's θ support. Weights include q's densities; T(ω_i·ω_m)
+    // at the θ nodes is kept for the wavelength last asked.
+    struct TrtPiece {
+        double a, c, mass;  // φ range and its q-mass
+        std::size_t first;  // first of its kGk15 φ nodes in trt_phi
+    };
+    struct TrtPhiNode {
+        double phi, wk, wg;  // outer weights: Kronrod, Gauss (0 off the Gauss nodes)
+        double theta_lo, theta_hi;
+        std::size_t first, count;  // its θ nodes in trt_m (count 0: empty support)
+    };
+    std::vector<TrtPiece> trt_pieces;
+    std::vector<TrtPhiNode> trt_phi;
+    std::vector<Vec3d> trt_m;
+    std::vector<double> trt_wk, trt_wg;
+    mutable double trt_lambda = -1.0;
+    mutable std::vector<double> trt_t_in;
     // Fraction of the incident light that hits the front (film side) of a barbule.
     double hit_fraction() const {
         return period > 0.0 ? std::min(1.0, visible_length / period) : 0.0;
@@ -305,6 +327,7 @@ Huang2022Bsdf::Frame Huang2022Bsdf::compute_frame(const Vec3d& wi_patch) const {
     }
     f.t_mass = 1.0 - std::min(hi - lo, f.period) / f.period;
     build_nodes(f);
+    build_trt_nodes(f);
     return f;
 }
 
@@ -505,29 +528,25 @@ double Huang2022Bsdf::trt_efficiency(const Frame& f, const Vec3d& wo_b, double l
     // bounded by 1 and both densities integrate to 1, so an absolute error is a fraction of
     // the lobe's scale P_hit R_m / π.
     //
-    // Error bound: |error| ≤ kTrtTolerance = 1e-5 on E_q (estimated), i.e. the TRT value is
-    // within 1e-5 P_hit R_m / π, a relative error ≤ 1e-3 wherever E_q ≥ 1e-2. Enforced by
-    // adaptive Gauss–Kronrod on both axes, each panel bisected until |Kronrod − Gauss| is
-    // below its share of the tolerance (the Kronrod value is kept, so the estimate is
-    // pessimistic for smooth panels):
+    // Error bound (estimated): |error| ≤ 8e-6 + 2e-4 E_q, so the TRT value is within
+    // (8e-6 + 2e-4 E_q) P_hit R_m / π: a relative error ≤ 1e-3 wherever E_q ≥ 1e-2.
+    // Enforced by adaptive Gauss–Kronrod on both axes, each panel bisected until
+    // |Kronrod − Gauss| ≤ max(its share of the absolute tolerance, kRelative · |Kronrod|)
+    // (the Kronrod value is kept, so the estimate is pessimistic for smooth panels):
     //  - θ_m (7-point Kronrod / 3-point Gauss): the support of p_θ is cut at the one point
     //    where ω_o·ω_m = A cos θ + B sin θ changes sign (T_o has a kink there, and it falls
     //    inside the support whenever the view is near the barbule axis or grazes the
     //    facet), and only the positive part is integrated: the panels are smooth. Share:
-    //    kInnerTolerance on each I(φ) (I ≤ 1).
+    //    kInnerTolerance + kRelative I(φ) on each I(φ) (I ≤ 1), so 1.6e-6 + 1e-4 E_q in all.
     //  - φ_m (15-point Kronrod / 7-point Gauss): the visible intervals are cut where the
     //    kink enters or leaves the θ support (ω_o·ω_m = 0 at θ = ±θ_d: cos(φ − φ_o) =
     //    ∓ ω_o,y tan θ_d / cos θ_o, up to four angles), where I(φ) has a kink, and into
-    //    pieces of at most 0.5 rad; each piece gets the tolerance in proportion to its
-    //    q-mass, known in closed form ((h(c) − h(a)) / Δh').
-    // Depth limits (kPhiDepth, kThetaDepth bisections, panels down to 1/256 of a piece)
-    // only guarantee termination: a panel that reaches one keeps its Kronrod value, and
-    // the bound is then not guaranteed there.
-    constexpr double kTrtTolerance = 1e-5;
+    //    pieces of at most 0.5 rad; each piece gets the absolute tolerance in proportion to
+    //    its q-mass, known in closed form ((h(c) − h(a)) / Δh'): 6.4e-6 + 1e-4 E_q in all.
+    constexpr double kTrtTolerance = 8e-6, kRelative = 1e-4;
     constexpr double kInnerTolerance = 0.2 * kTrtTolerance;
     constexpr double kOuterTolerance = kTrtTolerance - kInnerTolerance;
     constexpr int kPhiDepth = 8, kThetaDepth = 8;
-    constexpr double kMaxPiece = 0.5;  // rad
     if (!(f.visible_length > 0.0)) return 0.0;
     const double theta_d = params_.theta_d;
     const Ellipse e{params_.b};
@@ -551,7 +570,7 @@ double Huang2022Bsdf::trt_efficiency(const Frame& f, const Vec3d& wo_b, double l
             return td.density(theta) * film_transmittance(f.wi.dot(m), lambda_nm) *
                    film_transmittance(wo_b.dot(m), lambda_nm);
         };
-        return adaptive_gauss_kronrod(g, kGk7, a, b, kInnerTolerance, kThetaDepth);
+        return adaptive_gauss_kronrod(g, kGk7, a, b, kInnerTolerance, kRelative, kThetaDepth);
     };
     auto outer = [&](double phi) {
         return e.rho(phi) * std::cos(phi - f.phi_i) / f.visible_length * inner(phi);
@@ -576,31 +595,120 @@ double Huang2022Bsdf::trt_efficiency(const Frame& f, const Vec3d& wo_b, double l
         const auto q = e.point(phi);
         return q[0] * px + q[1] * pz;
     };
+    // T(ω_i·ω_m) at the base rule's θ nodes, for this wavelength.
+    // Filled on first use (NaN until then): a view from the other side skips many nodes.
+    if (f.trt_lambda != lambda_nm) {
+        f.trt_t_in.assign(f.trt_m.size(), std::numeric_limits<double>::quiet_NaN());
+        f.trt_lambda = lambda_nm;
+    }
+    // I(φ) at a base node: the cached rule when T_o has no kink on the support and the
+    // Kronrod–Gauss estimate meets kInnerTolerance; the adaptive cut rule otherwise.
+    auto base_inner = [&](const Frame::TrtPhiNode& node) {
+        if (node.count == 0) return 0.0;
+        const double x_lo = wo_b.dot(normal_at(node.phi, node.theta_lo));
+        const double x_hi = wo_b.dot(normal_at(node.phi, node.theta_hi));
+        if (x_lo <= 0.0 && x_hi <= 0.0) return 0.0;  // one sign change at most: none > 0
+        if (x_lo > 0.0 && x_hi > 0.0) {
+            double k_sum = 0.0, g_sum = 0.0;
+            for (std::size_t k = node.first; k < node.first + node.count; ++k) {
+                if (std::isnan(f.trt_t_in[k]))
+                    f.trt_t_in[k] = film_transmittance(f.wi.dot(f.trt_m[k]), lambda_nm);
+                const double v =
+                    f.trt_t_in[k] * film_transmittance(wo_b.dot(f.trt_m[k]), lambda_nm);
+                k_sum += f.trt_wk[k] * v;
+                g_sum += f.trt_wg[k] * v;
+            }
+            if (std::abs(k_sum - g_sum) <= std::max(kInnerTolerance, kRelative * k_sum))
+                return k_sum;
+        }
+        return inner(node.phi);
+    };
     double sum = 0.0;
     std::vector<double> edges;
-    for (const auto& [lo, hi] : f.intervals) {
-        edges.assign({lo, hi});
+    for (const Frame::TrtPiece& piece : f.trt_pieces) {
+        edges.assign({piece.a, piece.c});
         for (std::size_t c = 0; c < n_cuts; ++c) {
             for (int k = -2; k <= 2; ++k) {
                 const double phi = cuts[c] + 2.0 * kPi * k;
-                if (phi > lo && phi < hi) edges.push_back(phi);
+                if (phi > piece.a && phi < piece.c) edges.push_back(phi);
             }
         }
+        if (edges.size() == 2) {
+            double k_sum = 0.0, g_sum = 0.0;
+            for (std::size_t j = piece.first; j < piece.first + kPhiNodesPerPiece; ++j) {
+                const Frame::TrtPhiNode& node = f.trt_phi[j];
+                const double v = base_inner(node);
+                k_sum += node.wk * v;
+                g_sum += node.wg * v;
+            }
+            if (std::abs(k_sum - g_sum) <=
+                std::max(kOuterTolerance * piece.mass, kRelative * k_sum)) {
+                sum += k_sum;
+                continue;
+            }
+        }
+        // A cut inside the piece, or the estimate too large: adaptive, cut at the kinks.
         std::sort(edges.begin(), edges.end());
         for (std::size_t k = 0; k + 1 < edges.size(); ++k) {
             const double a = edges[k], c = edges[k + 1];
             if (!(c > a)) continue;
-            const int pieces = static_cast<int>(std::ceil((c - a) / kMaxPiece));
-            for (int piece = 0; piece < pieces; ++piece) {
-                const double a0 = a + (c - a) * piece / pieces;
-                const double c0 = a + (c - a) * (piece + 1) / pieces;
-                const double mass = std::max(0.0, h(c0) - h(a0)) / f.visible_length;
-                sum +=
-                    adaptive_gauss_kronrod(outer, kGk15, a0, c0, kOuterTolerance * mass, kPhiDepth);
-            }
+            const double mass = std::max(0.0, h(c) - h(a)) / f.visible_length;
+            sum += adaptive_gauss_kronrod(outer, kGk15, a, c, kOuterTolerance * mass, kRelative,
+                                          kPhiDepth);
         }
     }
     return sum;
+}
+
+void Huang2022Bsdf::build_trt_nodes(Frame& f) const {
+    constexpr double kMaxPiece = 0.5;  // rad
+    if (!(f.visible_length > 0.0)) return;
+    const Ellipse e{params_.b};
+    const double px = std::cos(f.phi_i), pz = -std::sin(f.phi_i);
+    auto h = [&](double phi) {
+        const auto q = e.point(phi);
+        return q[0] * px + q[1] * pz;
+    };
+    // Nodes of a rule on [centre − half, centre + half] in the order of its entries: each
+    // non-centre entry gives −x then +x, the centre comes last.
+    auto for_each_node = [](const GaussKronrod& rule, double centre, double half, auto&& emit) {
+        const std::size_t n = rule.xk.size();
+        for (std::size_t k = 0; k < n; ++k) {
+            const double wg = k % 2 == 1 ? rule.wg[k / 2] : 0.0;
+            if (k + 1 == n) {
+                emit(centre, half * rule.wk[k], half * wg);
+            } else {
+                emit(centre - half * rule.xk[k], half * rule.wk[k], half * wg);
+                emit(centre + half * rule.xk[k], half * rule.wk[k], half * wg);
+            }
+        }
+    };
+    for (const auto& [lo, hi] : f.intervals) {
+        const int pieces = std::max(1, static_cast<int>(std::ceil((hi - lo) / kMaxPiece)));
+        for (int piece = 0; piece < pieces; ++piece) {
+            const double a = lo + (hi - lo) * piece / pieces,
+                         c = lo + (hi - lo) * (piece + 1) / pieces;
+            f.trt_pieces.push_back(
+                {a, c, std::max(0.0, h(c) - h(a)) / f.visible_length, f.trt_phi.size()});
+            for_each_node(
+                kGk15, 0.5 * (a + c), 0.5 * (c - a), [&](double phi, double wk, double wg) {
+                    const double w = e.rho(phi) * std::cos(phi - f.phi_i) / f.visible_length;
+                    const ThetaDensity td = theta_density(f.cos_theta_i * std::cos(phi - f.phi_i),
+                                                          f.sin_theta_i, params_.theta_d);
+                    Frame::TrtPhiNode node{phi, wk * w, wg * w, td.lo, td.hi, f.trt_m.size(), 0};
+                    if (!td.empty()) {
+                        for_each_node(kGk7, 0.5 * (td.lo + td.hi), 0.5 * (td.hi - td.lo),
+                                      [&](double theta, double vk, double vg) {
+                                          f.trt_m.push_back(normal_at(phi, theta));
+                                          f.trt_wk.push_back(vk * td.density(theta));
+                                          f.trt_wg.push_back(vg * td.density(theta));
+                                          ++node.count;
+                                      });
+                    }
+                    f.trt_phi.push_back(node);
+                });
+        }
+    }
 }
 
 void Huang2022Bsdf::prepare_nodes(const Frame& f, double lambda_nm) const {
