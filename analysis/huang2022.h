@@ -38,7 +38,7 @@
 //       against a dense reference including grazing views along the barbule axis, where
 //       the former two-node θ_m rule was off by up to 30 %: composite Gauss–Legendre with
 //       the θ_m support cut where ω_o·ω_m = 0 (T_o's kink), and the film's T(cos θ)
-//       tabulated per wavelength to 1e-9 (details at Huang2022Bsdf::trt_efficiency).
+//       tabulated per wavelength to 1e-7 (details at Huang2022Bsdf::trt_efficiency).
 //       pdf() keeps a fixed rule (2 θ_m nodes): its integrand does not depend on ω_o.
 //  T    light passing between barbules unchanged, Eq. 15: a Dirac lobe at ω_o = −ω_i
 //       with mass 1 − Δh'/Δh. eval() cannot return a Dirac; sample() produces it.
