@@ -32,5 +32,6 @@ std::string shape_text(const Array& a);
 py::ssize_t broadcast_count(std::initializer_list<std::pair<py::ssize_t, const char*>> counts);
 
 void bind_models(py::module_& m);
+void bind_optics(py::module_& m);
 
 }  // namespace plumage::python
