@@ -1,6 +1,6 @@
-// plumage._core: the analytic models (models_binding.cpp) and the film optics (optics_binding.cpp)
-// for Python. The `plumage` package wraps this module; python/plumage/models.py and optics.py
-// document the API users see.
+// plumage._core: the analytic models (models_binding.cpp), the Huang fit (fit_binding.cpp) and the
+// film optics (optics_binding.cpp) for Python. The `plumage` package wraps this module;
+// python/plumage/models.py and optics.py document the API users see.
 //
 // Every vectorised call reads its numpy inputs, releases the GIL and loops in C++ with OpenMP
 // over the elements (schedule(static)). Each output element is computed on its own from its
@@ -93,4 +93,5 @@ PYBIND11_MODULE(_core, m) {
 
     bind_models(m);
     bind_optics(m);
+    bind_fit(m);
 }

@@ -21,13 +21,17 @@ Parameters are the C++ struct fields, with the C++ defaults (the published value
 An unknown keyword raises TypeError naming it and the valid ones; a value outside its range
 raises ValueError with the C++ message (InputError), as does an invalid direction in eval().
 `model.params` is every parameter's value; `model.lobe_names` the lobes' names.
+
+fit_huang2022(record, start, **options) fits Huang2022 to a scatterogram record with the C++
+fit (analysis/huang2022_fit.h); huang2022_scatterogram(params, record) is its forward model.
 """
 
 from __future__ import annotations
 
 from . import _core
 
-__all__ = ["Huang2022", "Filip2024", "PadronGriffe2024", "Lambertian", "Model", "filip2024_presets"]
+__all__ = ["Huang2022", "Filip2024", "PadronGriffe2024", "Lambertian", "Model", "filip2024_presets",
+           "fit_huang2022", "huang2022_scatterogram"]
 
 Model = _core.Model
 
@@ -55,3 +59,58 @@ def Lambertian(**params) -> Model:
 def filip2024_presets() -> list[str]:
     """The Table 1 presets Filip2024(preset=...) accepts."""
     return _core.filip2024_presets()
+
+
+def _scatterogram_arguments(record):
+    """The fit's view of an imaging-scatterometer record (plumage.read_record or a path)."""
+    import numpy as np
+
+    from .records import read_record
+
+    if not hasattr(record, "kind"):
+        record = read_record(record)
+    if record.kind != "imaging_scatterometer":
+        raise ValueError(f"{record.path}: a {record.kind} record; the Huang fit needs an "
+                         "imaging_scatterometer record (a scatterogram)")
+    inst = record.instrument
+    beam = inst.get("beam_direction", "0 0 1")
+    beam = np.array([float(x) for x in str(beam).split()]) if isinstance(beam, str) else beam
+    return (str(inst["illumination"]), np.asarray(beam, dtype=float),
+            float(np.radians(float(inst.get("cone_aperture_deg", 16.0)))),
+            np.asarray(record.wavelength_nm), np.asarray(record.image.value),
+            np.asarray(record.image.standard_error),
+            np.asarray(record.datasets["/image/solid_angle_sr"]))
+
+
+def _fit_options(options) -> "_core.HuangFitOptions":
+    o = _core.HuangFitOptions()
+    for key, value in options.items():
+        if key.startswith("_") or not hasattr(o, key):
+            valid = ", ".join(k for k in dir(o) if not k.startswith("_"))
+            raise TypeError(f"fit_huang2022: unknown option '{key}'; valid options: {valid}")
+        setattr(o, key, list(value) if key in ("fixed", "wavelengths_nm") else value)
+    return o
+
+
+def fit_huang2022(record, start=None, **options) -> dict:
+    """Fits Huang2022's parameters to a scatterogram record by Levenberg–Marquardt in C++
+    (analysis/huang2022_fit.h: its header states the objective, weights and cubature).
+
+    record: plumage.read_record(...) of an imaging_scatterometer record, or its path.
+    start: a Huang2022 model or a dict of its parameters (default: the published values).
+    options: HuangFitOptions' fields, e.g. fixed=["phi0", "phi1"], pixel_stride=2,
+    wavelengths_nm=[550.0], max_function_evaluations=200, threads=2.
+    Returns a dict: params, standard_errors, at_bound, free_parameters, covariance (free
+    parameters' order; None when singular), reduced_chi_square, residual_rms_per_sr,
+    observations, pixels, converged, termination, wall_time_s, ...
+    """
+    start = start.params if isinstance(start, Model) else dict(start or {})
+    return _core.fit_huang2022(*_scatterogram_arguments(record), start, _fit_options(options))
+
+
+def huang2022_scatterogram(params, record, **options):
+    """The model's image [rows, columns, λ] (1/sr) under the record's illumination, pixels and
+    wavelengths, by the fit's forward model: what fit_huang2022 compares with the record."""
+    params = params.params if isinstance(params, Model) else dict(params)
+    return _core.huang2022_scatterogram(*_scatterogram_arguments(record), params,
+                                        _fit_options(options))
