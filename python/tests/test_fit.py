@@ -44,3 +44,17 @@ def test_fit_errors(rock_dove_results):
     with pytest.raises(ValueError, match="unknown parameter.*phi2|phi2"):
         models.fit_huang2022(rock_dove_results / "fit/simulation.h5", fixed=["phi2"])
 
+
+def test_example_runs(rock_dove_results, tmp_path):
+    """examples/huang_fit.py on a fresh record: it fits, overlays and writes its figure."""
+    import os
+    import subprocess
+    import sys
+
+    from conftest import SOURCE_DIR
+
+    run = subprocess.run([sys.executable, str(SOURCE_DIR / "examples/huang_fit.py"),
+                          str(rock_dove_results / "fit/simulation.h5"), str(tmp_path)],
+                         capture_output=True, text=True, env=dict(os.environ))
+    assert run.returncode == 0, run.stderr
+    assert "d_um     +0.5" in run.stdout and (tmp_path / "huang_fit.png").stat().st_size > 10000
