@@ -30,9 +30,10 @@ write_pth() {  # DIR: 0 written or already current, 1 not writable, 2 someone el
   echo "plumage: $python imports plumage from $module_dir (through $file)" >&2
 }
 
-site_dir=$("$python" -c 'import site; print(site.getsitepackages()[0])')
+# PLUMAGE_SITE_DIR and PLUMAGE_USER_SITE_DIR replace the two folders (the tests use them).
+site_dir=${PLUMAGE_SITE_DIR:-$("$python" -c 'import site; print(site.getsitepackages()[0])')}
 status=0
 write_pth "$site_dir" || status=$?
 if ((status == 1)); then
-  write_pth "$("$python" -m site --user-site)" || true
+  write_pth "${PLUMAGE_USER_SITE_DIR:-$("$python" -m site --user-site)}" || true
 fi
