@@ -129,3 +129,27 @@ def test_invalid_values_raise_the_cpp_message():
         models.Huang2022().eval([[0, 0, 1], [0, 0, -1]], [0, 0, 1], 500.0)
     with pytest.raises(ValueError, match="threads"):
         models.Lambertian().eval([0, 0, 1], [0, 0, 1], 500.0, threads=0)
+
+
+def test_eval_releases_the_gil():
+    """Another Python thread runs while eval() loops in C++."""
+    import threading
+    import time
+
+    wo = hemisphere(200_000, 12)
+    m = models.Huang2022()
+    done = threading.Event()
+
+    def work():
+        m.eval([0.3, 0.1, np.sqrt(0.9)], wo, 550.0, threads=1)
+        done.set()
+
+    worker = threading.Thread(target=work)
+    ticks = 0
+    worker.start()
+    time.sleep(0.05)  # let the worker enter eval()
+    while not done.is_set():
+        ticks += 1  # Python bytecode: runs only when the worker does not hold the GIL
+        time.sleep(0.005)
+    worker.join()
+    assert ticks >= 20  # eval takes ~1 s; with the GIL held this loop could not run at all

@@ -88,3 +88,17 @@ def test_not_a_record(tmp_path):
     text.write_text("not hdf5")
     with pytest.raises(plumage.RecordError, match=r"text\.h5: not an HDF5 file"):
         plumage.read_record(text)
+
+
+def test_thin_film_chart(tmp_path):
+    import subprocess
+
+    from conftest import _binary
+
+    subprocess.run([str(_binary()), "thin-film", "--out", str(tmp_path), "--no-plots"],
+                   check=True, capture_output=True)
+    rec = plumage.read_record(tmp_path / "thin_film/thin_film_chart.h5")
+    assert rec.kind == "thin_film_chart" and rec.wavelength_nm is None
+    angles, thicknesses, nl = rec.datasets["/chart/reflectance"].shape
+    assert len(rec.datasets["/chart/wavelength_nm"]) == nl
+    assert rec.provenance["plumage_version"] and "config" in rec.provenance
