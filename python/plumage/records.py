@@ -35,8 +35,8 @@ class RecordError(ValueError):
 class Quantity(np.ndarray):
     """A numpy array that carries its record's `units` and `description` attributes.
 
-    Arithmetic gives plain values with the same attributes; units are not propagated through
-    operations (use `np.asarray(q)` for a bare array).
+    Slices and arithmetic keep the attributes as they are: units are neither checked nor
+    converted by operations (`np.asarray(q)` gives a bare array).
     """
 
     def __new__(cls, values, units: str = "", description: str = ""):
