@@ -16,3 +16,7 @@ if [[ ! -f "$build_dir/CMakeCache.txt" ]]; then
 fi
 # Two jobs: the machines we target have 2 cores; more only thrashes.
 cmake --build "$build_dir" --parallel "${PLUMAGE_JOBS:-2}" >&2
+# `import plumage` in /usr/bin/python3 from this build (python/): a path file, no copy.
+if [[ -d "$build_dir/python/plumage" ]]; then
+  "$root/scripts/install_python_path.sh" "$build_dir"
+fi

@@ -1,0 +1,116 @@
+"""The analytic feather models of analysis/, vectorised over directions and wavelengths.
+
+    m = plumage.models.Huang2022(d_um=0.55, mu=-0.3)    # keywords: the C++ parameter fields
+    f = m.eval(wi, wo, wavelength_nm)                   # wi, wo: (N, 3) or (3,); λ: (N,) or scalar
+    parts = m.eval(wi, wo, 550.0, lobes=True)           # {"total": f, "R": ..., "TRT": ..., "T": ...}
+
+eval() returns f(ωi, ωo, λ) in 1/sr as a float64 array of length N (the arguments broadcast: a
+single direction or wavelength is used for every element). It releases the GIL and loops in C++
+with OpenMP (`threads=` sets the count, default OpenMP's); every element is computed on its own by
+the same eval() the instruments call, so the result is the same for any thread count.
+
+Parameters are the C++ struct fields, with the C++ defaults (the published values):
+  Huang2022          analysis/huang2022.h  Huang2022Params: b, phi0, phi1, H, d_um, theta_d, mu
+  Filip2024          analysis/filip2024.h  Filip2024Parameters: phi_a_rad, c_b, c_a, c_s, c_r
+                     (R, G, B triples), alpha, beta, gamma, w, d_w, theta_max_rad,
+                     brdf_scale_per_sr; preset="parrot" | "rooster" | "flamingo" | "stork"
+                     (Table 1) sets them all first (default: the parrot's)
+  PadronGriffe2024   analysis/padrongriffe2024.h  PadronGriffe2024Params' own fields and its
+                     geometry's (geometry/barb.h BarbulePatchParams and BarbParams) by their names
+  Lambertian         analysis/lambertian.h  albedo (f = albedo/π)
+An unknown keyword raises TypeError naming it and the valid ones; a value outside its range
+raises ValueError with the C++ message (InputError), as does an invalid direction in eval().
+`model.params` is every parameter's value; `model.lobe_names` the lobes' names.
+
+fit_huang2022(record, start, **options) fits Huang2022 to a scatterogram record with the C++
+fit (analysis/huang2022_fit.h); huang2022_scatterogram(params, record) is its forward model.
+"""
+
+from __future__ import annotations
+
+from . import _core
+
+__all__ = ["Huang2022", "Filip2024", "PadronGriffe2024", "Lambertian", "Model", "filip2024_presets",
+           "fit_huang2022", "huang2022_scatterogram"]
+
+Model = _core.Model
+
+
+def Huang2022(**params) -> Model:
+    """Huang et al. 2022, rock-dove barbules: lobes R, TRT, T (T is a Dirac: 0 in eval)."""
+    return _core.make_huang2022(params)
+
+
+def Filip2024(preset: str | None = None, **params) -> Model:
+    """Filip et al. 2024's five-term BRDF; lobes background, anisotropic_highlight, ..."""
+    return _core.make_filip2024(preset, params)
+
+
+def PadronGriffe2024(**params) -> Model:
+    """Padrón-Griffe et al. 2024, barb and barbule fibres weighted by their masking."""
+    return _core.make_padrongriffe2024(params)
+
+
+def Lambertian(**params) -> Model:
+    """f = albedo/π above the patch (the instruments' white standard)."""
+    return _core.make_lambertian(params)
+
+
+def filip2024_presets() -> list[str]:
+    """The Table 1 presets Filip2024(preset=...) accepts."""
+    return _core.filip2024_presets()
+
+
+def _scatterogram_arguments(record):
+    """The fit's view of an imaging-scatterometer record (plumage.read_record or a path)."""
+    import numpy as np
+
+    from .records import read_record
+
+    if not hasattr(record, "kind"):
+        record = read_record(record)
+    if record.kind != "imaging_scatterometer":
+        raise ValueError(f"{record.path}: a {record.kind} record; the Huang fit needs an "
+                         "imaging_scatterometer record (a scatterogram)")
+    inst = record.instrument
+    beam = inst.get("beam_direction", "0 0 1")
+    beam = np.array([float(x) for x in str(beam).split()]) if isinstance(beam, str) else beam
+    return (str(inst["illumination"]), np.asarray(beam, dtype=float),
+            float(np.radians(float(inst.get("cone_aperture_deg", 16.0)))),
+            np.asarray(record.wavelength_nm), np.asarray(record.image.value),
+            np.asarray(record.image.standard_error),
+            np.asarray(record.datasets["/image/solid_angle_sr"]))
+
+
+def _fit_options(options) -> "_core.HuangFitOptions":
+    o = _core.HuangFitOptions()
+    for key, value in options.items():
+        if key.startswith("_") or not hasattr(o, key):
+            valid = ", ".join(k for k in dir(o) if not k.startswith("_"))
+            raise TypeError(f"fit_huang2022: unknown option '{key}'; valid options: {valid}")
+        setattr(o, key, list(value) if key in ("fixed", "wavelengths_nm") else value)
+    return o
+
+
+def fit_huang2022(record, start=None, **options) -> dict:
+    """Fits Huang2022's parameters to a scatterogram record by Levenberg–Marquardt in C++
+    (analysis/huang2022_fit.h: its header states the objective, weights and cubature).
+
+    record: plumage.read_record(...) of an imaging_scatterometer record, or its path.
+    start: a Huang2022 model or a dict of its parameters (default: the published values).
+    options: HuangFitOptions' fields, e.g. fixed=["phi0", "phi1"], pixel_stride=2,
+    wavelengths_nm=[550.0], max_function_evaluations=200, threads=2.
+    Returns a dict: params, standard_errors, at_bound, free_parameters, covariance (free
+    parameters' order; None when singular), reduced_chi_square, residual_rms_per_sr,
+    observations, pixels, converged, termination, wall_time_s, ...
+    """
+    start = start.params if isinstance(start, Model) else dict(start or {})
+    return _core.fit_huang2022(*_scatterogram_arguments(record), start, _fit_options(options))
+
+
+def huang2022_scatterogram(params, record, **options):
+    """The model's image [rows, columns, λ] (1/sr) under the record's illumination, pixels and
+    wavelengths, by the fit's forward model: what fit_huang2022 compares with the record."""
+    params = params.params if isinstance(params, Model) else dict(params)
+    return _core.huang2022_scatterogram(*_scatterogram_arguments(record), params,
+                                        _fit_options(options))

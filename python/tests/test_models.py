@@ -1,0 +1,155 @@
+"""plumage.models: the C++ models over numpy arrays (python/models_binding.cpp)."""
+
+import numpy as np
+import pytest
+
+import plumage
+from plumage import models
+
+
+def hemisphere(n, seed):
+    """n unit vectors uniform over the upper hemisphere (z > 0)."""
+    rng = np.random.default_rng(seed)
+    z = rng.uniform(0.05, 1.0, n)
+    phi = rng.uniform(0, 2 * np.pi, n)
+    s = np.sqrt(1 - z * z)
+    return np.stack([s * np.cos(phi), s * np.sin(phi), z], axis=1)
+
+
+def test_lambertian_is_albedo_over_pi():
+    wi, wo = hemisphere(100, 1), hemisphere(100, 2)
+    f = models.Lambertian(albedo=0.37).eval(wi, wo, np.linspace(400, 700, 100))
+    np.testing.assert_allclose(f, 0.37 / np.pi, rtol=1e-15)
+    assert f.shape == (100,) and f.dtype == np.float64
+
+
+def filip_reference(p, wi, wo, lam):
+    """Filip et al. 2024, Eqs. 1–6 as analysis/filip2024.h reads them, written in numpy."""
+    channel = np.where(lam < 490, 2, np.where(lam < 580, 1, 0))  # R, G, B = 0, 1, 2
+    pick = lambda rgb: np.asarray(rgb)[channel]
+    h = wi + wo
+    h /= np.linalg.norm(h, axis=1)[:, None]
+    u = np.array([np.sin(p["phi_a_rad"]), np.cos(p["phi_a_rad"]), 0.0])
+    x = 1 - np.abs(h @ u)
+    y = np.clip((x - p["w"] + p["d_w"]) / (2 * p["d_w"]), 0, 1)
+    mask = y * y * (3 - 2 * y)
+    theta_i, theta_o = np.arccos(wi[:, 2]), np.arccos(wo[:, 2])
+    e = 1.1 - wi[:, 2] * wo[:, 2]
+    phi_i, phi_o = np.arctan2(wi[:, 1], wi[:, 0]), np.arctan2(wo[:, 1], wo[:, 0])
+    wrap = lambda a: np.abs((a + np.pi) % (2 * np.pi) - np.pi) / (2 * np.pi)
+    d0, dpi = wrap(phi_i - phi_o), wrap(phi_i - phi_o - np.pi)
+    f_term = np.maximum(0, 1 - np.abs(theta_i - theta_o) / p["theta_max_rad"])
+    total = ((1 - mask) * pick(p["c_b"]) + mask * pick(p["c_a"])
+             + (1 - mask) * pick(p["c_s"]) * e * d0 * f_term
+             + (1 - mask) * pick(p["c_r"]) * e * dpi ** p["gamma"] * f_term
+             + mask * p["alpha"] * e ** p["beta"] * d0)
+    return p["brdf_scale_per_sr"] * total
+
+
+@pytest.mark.parametrize("preset", ["parrot", "rooster", "flamingo", "stork"])
+def test_filip2024_matches_the_equations(preset):
+    m = models.Filip2024(preset=preset)
+    wi, wo = hemisphere(5000, 3), hemisphere(5000, 4)
+    lam = np.random.default_rng(5).uniform(380, 780, 5000)
+    np.testing.assert_allclose(m.eval(wi, wo, lam), filip_reference(m.params, wi, wo, lam),
+                               rtol=1e-12, atol=1e-15)
+
+
+@pytest.mark.parametrize("make", [models.Huang2022, models.Filip2024, models.PadronGriffe2024,
+                                  models.Lambertian])
+def test_vectorised_equals_one_call_per_direction_and_lobes_sum(make):
+    m = make()
+    n = 40
+    wi, wo = hemisphere(n, 6), hemisphere(n, 7)
+    lam = np.linspace(400, 700, n)
+    f = m.eval(wi, wo, lam)
+    one_by_one = np.array([m.eval(wi[k], wo[k], lam[k], threads=1)[0] for k in range(n)])
+    np.testing.assert_array_equal(f, one_by_one)
+    parts = m.eval(wi, wo, lam, lobes=True)
+    assert list(parts) == ["total"] + m.lobe_names
+    np.testing.assert_array_equal(parts["total"], f)
+    np.testing.assert_allclose(sum(parts[k] for k in m.lobe_names), f, rtol=1e-12, atol=1e-300)
+    assert np.all(f >= 0) and np.any(f > 0)
+
+
+def test_broadcasting():
+    m = models.Huang2022()
+    wo = hemisphere(50, 8)
+    wi = np.array([0.3, 0.1, np.sqrt(0.9)])
+    full = m.eval(np.tile(wi, (50, 1)), wo, np.full(50, 550.0))
+    np.testing.assert_array_equal(m.eval(wi, wo, 550.0), full)
+    np.testing.assert_array_equal(m.eval(wi.tolist(), wo.tolist(), 550), full)  # lists, ints
+    with pytest.raises(ValueError, match="broadcast"):
+        m.eval(hemisphere(3, 1), wo, 550.0)
+    with pytest.raises(ValueError, match=r"wo: expected shape \(N, 3\)"):
+        m.eval(wi, np.zeros((4, 2)), 550.0)
+
+
+def test_thread_count_does_not_change_a_bit():
+    wi, wo = hemisphere(3000, 9), hemisphere(3000, 10)
+    lam = np.random.default_rng(11).uniform(400, 700, 3000)
+    for m in (models.Huang2022(), models.PadronGriffe2024(fibre_offsets=64)):
+        one = m.eval(wi, wo, lam, threads=1)
+        for t in (2, 3, 7):
+            np.testing.assert_array_equal(m.eval(wi, wo, lam, threads=t), one)
+
+
+def test_parameters_are_the_cpp_fields():
+    m = models.Huang2022(d_um=0.45, mu=-0.3)
+    assert m.params == {"b": 0.25, "phi0": -0.37, "phi1": 2.64, "H": 1.25, "d_um": 0.45,
+                        "theta_d": 0.0785, "mu": -0.3}
+    assert models.Filip2024(preset="stork", gamma=2).params["gamma"] == 2
+    assert models.PadronGriffe2024(barb_width_um=40).params["barb_width_um"] == 40
+    # A thinner film moves the R lobe's colour: the parameter reaches the C++ model.
+    wi = np.array([0.0, 0.0, 1.0])
+    lam = np.linspace(400, 700, 31)
+    thick = models.Huang2022().eval(wi, wi, lam, lobes=True)["R"]
+    thin = m.eval(wi, wi, lam, lobes=True)["R"]
+    assert not np.allclose(thick, thin)
+
+
+def test_unknown_keyword_names_it_and_the_valid_ones():
+    with pytest.raises(TypeError, match=r"unknown parameter 'd'; valid parameters: b, phi0, phi1, "
+                                        r"H, d_um, theta_d, mu"):
+        models.Huang2022(d=0.5)
+    with pytest.raises(TypeError, match="'albedo_'.*albedo"):
+        models.Lambertian(albedo_=0.5)
+    with pytest.raises(TypeError, match="'b' = 'thin': expected a number"):
+        models.Huang2022(b="thin")
+
+
+def test_invalid_values_raise_the_cpp_message():
+    with pytest.raises(ValueError, match=r"huang2022: b = 7: expected a value in \[1e-3, 1\]"):
+        models.Huang2022(b=7)
+    with pytest.raises(ValueError, match=r"lambertian: albedo = 1.5"):
+        models.Lambertian(albedo=1.5)
+    with pytest.raises(ValueError, match="parrot"):
+        models.Filip2024(preset="pigeon")
+    with pytest.raises(ValueError, match=r"element 1: huang2022: incident direction"):
+        models.Huang2022().eval([[0, 0, 1], [0, 0, -1]], [0, 0, 1], 500.0)
+    with pytest.raises(ValueError, match="threads"):
+        models.Lambertian().eval([0, 0, 1], [0, 0, 1], 500.0, threads=0)
+
+
+def test_eval_releases_the_gil():
+    """Another Python thread runs while eval() loops in C++."""
+    import threading
+    import time
+
+    wo = hemisphere(200_000, 12)
+    m = models.Huang2022()
+    done = threading.Event()
+
+    def work():
+        m.eval([0.3, 0.1, np.sqrt(0.9)], wo, 550.0, threads=1)
+        done.set()
+
+    worker = threading.Thread(target=work)
+    ticks = 0
+    worker.start()
+    time.sleep(0.05)  # let the worker enter eval()
+    while not done.is_set():
+        ticks += 1  # Python bytecode: runs only when the worker does not hold the GIL
+        time.sleep(0.005)
+    worker.join()
+    assert ticks >= 20  # eval takes ~1 s; with the GIL held this loop could not run at all
