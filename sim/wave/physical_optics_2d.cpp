@@ -48,7 +48,7 @@ void validate_stack(const SurfaceStack2d& stack, std::size_t curve) {
     for (const FilmLayer2d& film : stack.films) {
         if (!film.material) refuse(fmt::format("curve {} has a film without a material", curve));
         if (!std::isfinite(film.thickness_um) || film.thickness_um < 0.0)
-            refuse(fmt::format("curve {}: film thickness {} µm must be finite and >= 0", curve,
+            refuse(fmt::format("curve {}: film thickness {:.4g} µm must be finite and >= 0", curve,
                                film.thickness_um));
     }
 }
@@ -60,10 +60,11 @@ double checked_step(double lambda_nm, double step_um) {
     const double limit = 1e-3 * lambda_nm / 10.0;
     if (step_um == 0.0) return limit;
     if (!std::isfinite(step_um) || step_um < 0.0 || step_um > limit * (1.0 + 1e-12))
-        refuse(fmt::format(
-            "surface step {} µm exceeds the limit λ/10 = {} µm at λ = {} nm (the Kirchhoff "
-            "integral's quadrature needs at least 10 samples per wavelength)",
-            step_um, limit, lambda_nm));
+        refuse(
+            fmt::format("surface step {:.4g} µm exceeds the limit λ/10 = {:.4g} µm at λ = {:.4g} "
+                        "nm (the Kirchhoff "
+                        "integral's quadrature needs at least 10 samples per wavelength)",
+                        step_um, limit, lambda_nm));
     return step_um;
 }
 
@@ -116,7 +117,7 @@ double standard_normal(Rng& rng) {
 
 CrossSection2d flat_strip(double width_um, const SurfaceStack2d& stack) {
     if (!std::isfinite(width_um) || width_um <= 0.0)
-        refuse(fmt::format("strip width {} µm must be finite and > 0", width_um));
+        refuse(fmt::format("strip width {:.4g} µm must be finite and > 0", width_um));
     Curve2d curve;
     curve.point = [](double t) { return Vec(t, 0.0); };
     curve.normal = [](double) { return Vec(0.0, 1.0); };
@@ -128,7 +129,7 @@ CrossSection2d flat_strip(double width_um, const SurfaceStack2d& stack) {
 
 CrossSection2d barbule_arc(const geometry::EllipticalArc& arc, double film_um, double gap_um) {
     if (!std::isfinite(gap_um) || gap_um < 0.0)
-        refuse(fmt::format("air gap {} µm must be finite and >= 0", gap_um));
+        refuse(fmt::format("air gap {:.4g} µm must be finite and >= 0", gap_um));
     Curve2d curve;
     curve.point = [arc](double phi) { return arc.point(phi); };
     curve.normal = [arc](double phi) { return arc.normal(phi); };
@@ -142,7 +143,7 @@ CrossSection2d barbule_arc(const geometry::EllipticalArc& arc, double film_um, d
 
 CrossSection2d coated_ellipse(double a_x_um, double a_z_um, double shell_um) {
     if (!std::isfinite(shell_um) || shell_um < 0.0)
-        refuse(fmt::format("shell thickness {} µm must be finite and >= 0", shell_um));
+        refuse(fmt::format("shell thickness {:.4g} µm must be finite and >= 0", shell_um));
     const geometry::EllipticalArc core(a_x_um, a_z_um, -kPi, kPi);
     Curve2d curve;
     curve.point = [core, shell_um](double phi) {
@@ -158,7 +159,7 @@ CrossSection2d coated_ellipse(double a_x_um, double a_z_um, double shell_um) {
 
 SampledCrossSection2d sample_cross_section(const CrossSection2d& section, double step_um) {
     if (!std::isfinite(step_um) || step_um <= 0.0)
-        refuse(fmt::format("sampling step {} µm must be finite and > 0", step_um));
+        refuse(fmt::format("sampling step {:.4g} µm must be finite and > 0", step_um));
     if (section.curves.empty()) refuse("the cross-section has no curve");
     SampledCrossSection2d out;
     for (std::size_t c = 0; c < section.curves.size(); ++c) {
@@ -170,10 +171,10 @@ SampledCrossSection2d sample_cross_section(const CrossSection2d& section, double
         CurveTable table = tabulate(curve, kMinIntervals);
         double length = table.s.back();
         if (!(length >= step_um))
-            refuse(
-                fmt::format("curve {} is {} µm long, below the sampling step {} µm (a feature "
-                            "shorter than the step cannot be resolved)",
-                            c, length, step_um));
+            refuse(fmt::format(
+                "curve {} is {:.4g} µm long, below the sampling step {:.4g} µm (a feature "
+                "shorter than the step cannot be resolved)",
+                c, length, step_um));
         const int pieces = static_cast<int>(std::ceil(length / step_um * (1.0 - 1e-12)));
         if (8 * pieces > kMinIntervals) {
             table = tabulate(curve, 8 * pieces);
@@ -189,10 +190,10 @@ SampledCrossSection2d sample_cross_section(const CrossSection2d& section, double
             n_prev = n;
         }
         if (min_radius < step_um)
-            refuse(
-                fmt::format("curve {}: radius of curvature {} µm is below the sampling step {} "
-                            "µm (the locally planar stack and the quadrature need ρ >= step)",
-                            c, min_radius, step_um));
+            refuse(fmt::format(
+                "curve {}: radius of curvature {:.4g} µm is below the sampling step {:.4g} "
+                "µm (the locally planar stack and the quadrature need ρ >= step)",
+                c, min_radius, step_um));
         const double ds = length / pieces;
         for (int j = 0; j < pieces; ++j) {
             const double t_mid = parameter_at(table, (j + 0.5) * ds);
@@ -279,9 +280,9 @@ std::vector<std::complex<double>> far_field_integral(const CrossSection2d& secti
     if (bisector && part != FarFieldPart::reflected)
         refuse("the bisector Fresnel angle applies to the reflected part only");
     if (!std::isfinite(incidence.theta_i_rad))
-        refuse(fmt::format("theta_i = {} rad must be finite", incidence.theta_i_rad));
+        refuse(fmt::format("theta_i = {:.4g} rad must be finite", incidence.theta_i_rad));
     for (double th : theta_s_rad)
-        if (!std::isfinite(th)) refuse(fmt::format("theta_s = {} rad must be finite", th));
+        if (!std::isfinite(th)) refuse(fmt::format("theta_s = {:.4g} rad must be finite", th));
     const double limit = checked_step(incidence.lambda_nm, 0.0);
     for (const SurfaceSample2d& s : sampled.samples)
         if (s.ds_um > limit * (1.0 + 1e-12)) checked_step(incidence.lambda_nm, s.ds_um);
@@ -395,15 +396,15 @@ std::vector<double> scattering_width(const Row2d& row, const Incidence2d& incide
     if (row.count < 1) refuse(fmt::format("row count {} must be >= 1", row.count));
     if (row.realisations < 1) refuse(fmt::format("realisations {} must be >= 1", row.realisations));
     if (!std::isfinite(row.spacing_um) || row.spacing_um < 0.0)
-        refuse(fmt::format("row spacing {} µm must be finite and >= 0", row.spacing_um));
+        refuse(fmt::format("row spacing {:.4g} µm must be finite and >= 0", row.spacing_um));
     if (!std::isfinite(row.tilt_rad))
-        refuse(fmt::format("tilt {} rad must be finite", row.tilt_rad));
+        refuse(fmt::format("tilt {:.4g} rad must be finite", row.tilt_rad));
     if (!std::isfinite(row.jitter_position_um) || row.jitter_position_um < 0.0)
-        refuse(
-            fmt::format("position jitter {} µm must be finite and >= 0", row.jitter_position_um));
+        refuse(fmt::format("position jitter {:.4g} µm must be finite and >= 0",
+                           row.jitter_position_um));
     if (!std::isfinite(row.jitter_rotation_rad) || row.jitter_rotation_rad < 0.0)
-        refuse(
-            fmt::format("rotation jitter {} rad must be finite and >= 0", row.jitter_rotation_rad));
+        refuse(fmt::format("rotation jitter {:.4g} rad must be finite and >= 0",
+                           row.jitter_rotation_rad));
     const double dir_norm = row.direction.norm();
     if (!std::isfinite(dir_norm) || dir_norm == 0.0)
         refuse("row direction must be a non-zero vector");
