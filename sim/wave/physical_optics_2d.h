@@ -45,8 +45,9 @@
 // and outward normal there. The phase is integrated exactly across the piece's tangent line:
 //     ∫_piece e^{−ik q·r} ds ≈ ds e^{−ik q·r_j} sinc(k (q·t_j) ds/2),  q = ω_i + ω_s,
 // exact for a straight piece (the flat strip's far field is then its closed form to rounding);
-// on a curve the error is the sagitta's phase, k |q| ds²/(8ρ) ≤ 0.1 λ/ρ rad. |k q·t ds/2| ≤
-// 2π/10 · … ≤ 0.63, where sinc's Taylor series to x¹⁰ is exact to 1e-12.
+// on a curve the error is the sagitta's phase, k |q| ds²/(8ρ) ≤ (π/200) λ/ρ rad (|q| ≤ 2,
+// ds ≤ λ/10). The sinc's argument is at most k · 2 · (λ/10)/2 = 2π/10 ≈ 0.63, where its Taylor
+// series to x¹⁰ is exact to 1e-12.
 //
 // Illumination: a sample is lit when ω_i·n > 0 and the ray from it towards ω_i crosses no
 // chord of any curve (its own piece's chord excluded). The chords are grouped 32 at a time
@@ -76,8 +77,10 @@
 // (cos μ, sin μ) is mapped onto the patch frame, row along +x), then per cell jittered by a
 // Gaussian rotation (σ_rot) and a Gaussian displacement (σ_pos per coordinate). The far field of
 // one realisation is the coherent sum over all cells; σ is the incoherent mean over
-// `realisations`. Realisation m, cell c draws from Rng(derive_seed(seed,
-// "wave/physical_optics_2d/jitter", m), c): results do not depend on threads.
+// `realisations` (a row without jitter is computed once: its realisations are identical).
+// Realisation m, cell c draws from Rng(derive_seed(seed, "wave/physical_optics_2d/jitter", m),
+// c), three standard normals by Box–Muller (dx, dz, rotation): results do not depend on
+// threads. Cells may overlap under large jitter; nothing checks it.
 //
 // Parameter table:
 //  | name                   | unit | range                                                 |
