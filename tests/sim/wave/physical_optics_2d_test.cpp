@@ -132,6 +132,37 @@ TEST(PhysicalOptics2d, StripFarFieldIsTheClosedFormSinc) {
     }
 }
 
+// The TM sign (header: u = H_y, r = the stack's r_p unchanged). A near-perfect conductor
+// (n = 1 + 10⁴ i, |r ∓ 1| < 3e-4) must give Dirichlet (E_y = 0, r_s → −1) in TE and Neumann
+// (∂H_y/∂n = 0, r_p → +1) in TM, i.e. the textbook physical-optics strip (Balanis, Advanced
+// Engineering Electromagnetics, §11.3): σ = (W²/λ) cos²θ_i sinc²(X) for E along the strip's
+// edges and (W²/λ) cos²θ_s sinc²(X) for H along them, X = k W (sin θ_i + sin θ_s)/2 (Balanis'
+// width 2π ρ|E_s|²/|E_i|² is 2π times ours). A sign error in r_p would swap the obliquities.
+// 1e-3 relative: the conductor's |r ∓ 1| enters twice; away from sinc zeros.
+TEST(PhysicalOptics2d, ConductingStripHasTheTextbookObliquities) {
+    const double lambda = 500.0, width = 4.0, k = 2.0 * kPi / 0.5;
+    const SurfaceStack2d metal{
+        {},
+        std::make_shared<optics::ConstantMaterial>("conductor", std::complex<double>(1.0, 1e4))};
+    const double ti = 25.0 * kDeg;
+    const std::vector<double> theta = circle(361);
+    for (Polarisation2d pol : {Polarisation2d::te, Polarisation2d::tm}) {
+        const std::vector<double> sigma =
+            scattering_width(flat_strip(width, metal), {lambda, ti, pol}, theta);
+        int checked = 0;
+        for (std::size_t m = 0; m < theta.size(); ++m) {
+            const double x = 0.5 * k * width * (std::sin(ti) + std::sin(theta[m]));
+            const double c = pol == Polarisation2d::te ? std::cos(ti) : std::cos(theta[m]);
+            if (std::abs(std::sin(x)) < 0.05 || std::abs(c) < 0.05) continue;
+            const double sinc = x == 0.0 ? 1.0 : std::sin(x) / x;
+            const double expected = width * width / 0.5 * c * c * sinc * sinc;
+            EXPECT_NEAR(sigma[m] / expected, 1.0, 1e-3) << "θ_s = " << theta[m] / kDeg;
+            ++checked;
+        }
+        EXPECT_GT(checked, 300);
+    }
+}
+
 // 3. Reciprocity, reflected part, on the closed convex reference shell (c).
 // (a) With r at the bisector (FresnelAngle::bisector) the integrand r(h·n)(ω_i + ω_s)·n
 // e^{−ik(ω_i + ω_s)·r} and the mask (n·ω_i > 0 and n·ω_s > 0 on a convex curve) are symmetric
