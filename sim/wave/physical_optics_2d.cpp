@@ -270,48 +270,45 @@ std::vector<unsigned char> illuminated(const SampledCrossSection2d& sampled,
     return lit;
 }
 
-std::vector<std::complex<double>> far_field_integral(const CrossSection2d& section,
-                                                     const SampledCrossSection2d& sampled,
-                                                     const Incidence2d& incidence,
-                                                     std::span<const double> theta_s_rad,
-                                                     const PhysicalOpticsOptions& options) {
-    const FarFieldPart part = options.part;
-    const bool bisector = options.fresnel == FresnelAngle::bisector;
-    if (bisector && part != FarFieldPart::reflected)
-        refuse("the bisector Fresnel angle applies to the reflected part only");
+FarFieldKernel2d prepare_far_field(const CrossSection2d& section,
+                                   const SampledCrossSection2d& sampled,
+                                   const Incidence2d& incidence, FarFieldPart part, bool bisector) {
     if (!std::isfinite(incidence.theta_i_rad))
         refuse(fmt::format("theta_i = {:.4g} rad must be finite", incidence.theta_i_rad));
-    for (double th : theta_s_rad)
-        if (!std::isfinite(th)) refuse(fmt::format("theta_s = {:.4g} rad must be finite", th));
+    if (!std::isfinite(incidence.cos_elevation) || !(incidence.cos_elevation > 0.0) ||
+        incidence.cos_elevation > 1.0)
+        refuse(fmt::format("cos_elevation = {:.4g} must be in (0, 1]", incidence.cos_elevation));
     const double limit = checked_step(incidence.lambda_nm, 0.0);
     for (const SurfaceSample2d& s : sampled.samples)
         if (s.ds_um > limit * (1.0 + 1e-12)) checked_step(incidence.lambda_nm, s.ds_um);
-    const double lambda_um = 1e-3 * incidence.lambda_nm;
-    const double k = 2.0 * kPi / lambda_um;
-    const Vec wi = direction(incidence.theta_i_rad);
+    FarFieldKernel2d kernel;
+    kernel.k = 2.0 * kPi / (1e-3 * incidence.lambda_nm) * incidence.cos_elevation;
+    kernel.wi = direction(incidence.theta_i_rad);
+    kernel.lambda_nm = incidence.lambda_nm;
+    kernel.cos_elevation = incidence.cos_elevation;
+    kernel.polarisation = incidence.polarisation;
     const optics::Polarisation pol = incidence.polarisation == Polarisation2d::te
                                          ? optics::Polarisation::s
                                          : optics::Polarisation::p;
-    std::vector<std::vector<optics::StackLayer>> layers;
-    std::vector<Complex> substrate;
     for (std::size_t c = 0; c < section.curves.size(); ++c) {
         validate_stack(section.curves[c].stack, c);
-        layers.push_back(stack_layers(section.curves[c].stack, incidence.lambda_nm));
-        substrate.push_back(section.curves[c].stack.substrate->index(incidence.lambda_nm));
+        kernel.layers.push_back(stack_layers(section.curves[c].stack, incidence.lambda_nm));
+        kernel.substrate.push_back(section.curves[c].stack.substrate->index(incidence.lambda_nm));
     }
+    const Vec wi = kernel.wi;
     const std::vector<unsigned char> lit = illuminated(sampled, wi);
-
     // Lit samples, structure of arrays; a and b hold ds and the stack: amplitude = a ω_s·n + b.
-    std::vector<double> px, pz, nx, nz, tx, tz, ds;
-    std::vector<Complex> a, b;
     for (std::size_t j = 0; j < sampled.samples.size(); ++j) {
         if (!lit[j]) continue;
         const SurfaceSample2d& s = sampled.samples[j];
         const double ci = std::min(1.0, s.normal.dot(wi));
         Complex r = 0.0;
         if (part != FarFieldPart::shadow && !bisector) {
-            const optics::StackIndices stack{1.0, layers[s.curve], substrate[s.curve]};
-            r = optics::transfer_matrix_amplitudes(stack, incidence.lambda_nm, ci, pol).r;
+            const optics::StackIndices stack{1.0, kernel.layers[s.curve],
+                                             kernel.substrate[s.curve]};
+            r = optics::transfer_matrix_amplitudes(stack, incidence.lambda_nm,
+                                                   ci * incidence.cos_elevation, pol)
+                    .r;
         }
         Complex aj, bj;
         switch (part) {
@@ -328,22 +325,61 @@ std::vector<std::complex<double>> far_field_integral(const CrossSection2d& secti
                 bj = -ci;
                 break;
         }
-        px.push_back(s.point.x());
-        pz.push_back(s.point.y());
-        nx.push_back(s.normal.x());
-        nz.push_back(s.normal.y());
-        tx.push_back(s.tangent.x());
-        tz.push_back(s.tangent.y());
-        ds.push_back(s.ds_um);
-        a.push_back(aj * s.ds_um);
-        b.push_back(bj * s.ds_um);
+        kernel.px.push_back(s.point.x());
+        kernel.pz.push_back(s.point.y());
+        kernel.nx.push_back(s.normal.x());
+        kernel.nz.push_back(s.normal.y());
+        kernel.tx.push_back(s.tangent.x());
+        kernel.tz.push_back(s.tangent.y());
+        kernel.ds.push_back(s.ds_um);
+        kernel.curve.push_back(s.curve);
+        kernel.a.push_back(aj * s.ds_um);
+        kernel.b.push_back(bj * s.ds_um);
     }
-    const std::size_t n = px.size();
+    return kernel;
+}
+
+std::complex<double> far_field_at(const FarFieldKernel2d& kernel, double theta_s_rad) {
+    const Vec ws = direction(theta_s_rad);
+    const Vec wi = kernel.wi;
+    const double k = kernel.k;
+    const double qx = wi.x() + ws.x(), qz = wi.y() + ws.y();
+    double re = 0.0, im = 0.0;
+    const std::size_t n = kernel.px.size();
+    for (std::size_t j = 0; j < n; ++j) {
+        const double sn = kernel.nx[j] * ws.x() + kernel.nz[j] * ws.y();
+        const double phase = -k * (qx * kernel.px[j] + qz * kernel.pz[j]);
+        const double w =
+            sinc_small(0.5 * k * (qx * kernel.tx[j] + qz * kernel.tz[j]) * kernel.ds[j]);
+        const double ar = (kernel.a[j].real() * sn + kernel.b[j].real()) * w;
+        const double ai = (kernel.a[j].imag() * sn + kernel.b[j].imag()) * w;
+        const double c = std::cos(phase), s = std::sin(phase);
+        re += ar * c - ai * s;
+        im += ar * s + ai * c;
+    }
+    return {re, im};
+}
+
+std::vector<std::complex<double>> far_field_integral(const CrossSection2d& section,
+                                                     const SampledCrossSection2d& sampled,
+                                                     const Incidence2d& incidence,
+                                                     std::span<const double> theta_s_rad,
+                                                     const PhysicalOpticsOptions& options) {
+    const FarFieldPart part = options.part;
+    const bool bisector = options.fresnel == FresnelAngle::bisector;
+    if (bisector && part != FarFieldPart::reflected)
+        refuse("the bisector Fresnel angle applies to the reflected part only");
+    for (double th : theta_s_rad)
+        if (!std::isfinite(th)) refuse(fmt::format("theta_s = {:.4g} rad must be finite", th));
+    const FarFieldKernel2d kernel = prepare_far_field(section, sampled, incidence, part, bisector);
     std::vector<Complex> out(theta_s_rad.size());
     if (bisector) {
-        std::vector<int> curve_of;
-        for (std::size_t j = 0; j < sampled.samples.size(); ++j)
-            if (lit[j]) curve_of.push_back(sampled.samples[j].curve);
+        const optics::Polarisation pol = incidence.polarisation == Polarisation2d::te
+                                             ? optics::Polarisation::s
+                                             : optics::Polarisation::p;
+        const Vec wi = kernel.wi;
+        const double k = kernel.k;
+        const std::size_t n = kernel.px.size();
 #pragma omp parallel for schedule(static)
         for (std::ptrdiff_t is = 0; is < static_cast<std::ptrdiff_t>(theta_s_rad.size()); ++is) {
             const Vec ws = direction(theta_s_rad[static_cast<std::size_t>(is)]);
@@ -352,17 +388,21 @@ std::vector<std::complex<double>> far_field_integral(const CrossSection2d& secti
             Complex sum = 0.0;
             if (qn > 0.0) {
                 for (std::size_t j = 0; j < n; ++j) {
-                    const double cs = nx[j] * ws.x() + nz[j] * ws.y();
+                    const double cs = kernel.nx[j] * ws.x() + kernel.nz[j] * ws.y();
                     if (!(cs > 0.0)) continue;
-                    const double ci = nx[j] * wi.x() + nz[j] * wi.y();
-                    const double ch = std::min(1.0, (nx[j] * q.x() + nz[j] * q.y()) / qn);
-                    const optics::StackIndices stack{1.0, layers[curve_of[j]],
-                                                     substrate[curve_of[j]]};
+                    const double ci = kernel.nx[j] * wi.x() + kernel.nz[j] * wi.y();
+                    const double ch =
+                        std::min(1.0, (kernel.nx[j] * q.x() + kernel.nz[j] * q.y()) / qn);
+                    const int c = kernel.curve[j];
+                    const optics::StackIndices stack{1.0, kernel.layers[c], kernel.substrate[c]};
                     const Complex r =
-                        optics::transfer_matrix_amplitudes(stack, incidence.lambda_nm, ch, pol).r;
-                    const double phase = -k * (q.x() * px[j] + q.y() * pz[j]);
-                    const double w = sinc_small(0.5 * k * (q.x() * tx[j] + q.y() * tz[j]) * ds[j]);
-                    sum += r * ((ci + cs) * w * ds[j]) * std::polar(1.0, phase);
+                        optics::transfer_matrix_amplitudes(stack, incidence.lambda_nm,
+                                                           ch * kernel.cos_elevation, pol)
+                            .r;
+                    const double phase = -k * (q.x() * kernel.px[j] + q.y() * kernel.pz[j]);
+                    const double w = sinc_small(
+                        0.5 * k * (q.x() * kernel.tx[j] + q.y() * kernel.tz[j]) * kernel.ds[j]);
+                    sum += r * ((ci + cs) * w * kernel.ds[j]) * std::polar(1.0, phase);
                 }
             }
             out[static_cast<std::size_t>(is)] = sum;
@@ -370,29 +410,15 @@ std::vector<std::complex<double>> far_field_integral(const CrossSection2d& secti
         return out;
     }
 #pragma omp parallel for schedule(static)
-    for (std::ptrdiff_t is = 0; is < static_cast<std::ptrdiff_t>(theta_s_rad.size()); ++is) {
-        const Vec ws = direction(theta_s_rad[static_cast<std::size_t>(is)]);
-        const double qx = wi.x() + ws.x(), qz = wi.y() + ws.y();
-        double re = 0.0, im = 0.0;
-        for (std::size_t j = 0; j < n; ++j) {
-            const double sn = nx[j] * ws.x() + nz[j] * ws.y();
-            const double phase = -k * (qx * px[j] + qz * pz[j]);
-            const double w = sinc_small(0.5 * k * (qx * tx[j] + qz * tz[j]) * ds[j]);
-            const double ar = (a[j].real() * sn + b[j].real()) * w;
-            const double ai = (a[j].imag() * sn + b[j].imag()) * w;
-            const double c = std::cos(phase), s = std::sin(phase);
-            re += ar * c - ai * s;
-            im += ar * s + ai * c;
-        }
-        out[static_cast<std::size_t>(is)] = {re, im};
-    }
+    for (std::ptrdiff_t is = 0; is < static_cast<std::ptrdiff_t>(theta_s_rad.size()); ++is)
+        out[static_cast<std::size_t>(is)] =
+            far_field_at(kernel, theta_s_rad[static_cast<std::size_t>(is)]);
     return out;
 }
 
-std::vector<double> scattering_width(const Row2d& row, const Incidence2d& incidence,
-                                     std::span<const double> theta_s_rad,
-                                     const PhysicalOpticsOptions& options) {
-    const double step = checked_step(incidence.lambda_nm, options.step_um);
+namespace {
+
+void validate_row(const Row2d& row) {
     if (row.count < 1) refuse(fmt::format("row count {} must be >= 1", row.count));
     if (row.realisations < 1) refuse(fmt::format("realisations {} must be >= 1", row.realisations));
     if (!std::isfinite(row.spacing_um) || row.spacing_um < 0.0)
@@ -408,44 +434,62 @@ std::vector<double> scattering_width(const Row2d& row, const Incidence2d& incide
     const double dir_norm = row.direction.norm();
     if (!std::isfinite(dir_norm) || dir_norm == 0.0)
         refuse("row direction must be a non-zero vector");
-    const Vec u = row.direction / dir_norm;
+}
 
-    const SampledCrossSection2d cell = sample_cross_section(row.cell, step);
-    const double k = 2.0 * kPi / (1e-3 * incidence.lambda_nm);
-    std::vector<double> sigma(theta_s_rad.size(), 0.0);
-    const bool jittered = row.jitter_position_um > 0.0 || row.jitter_rotation_rad > 0.0;
-    const int realisations = jittered ? row.realisations : 1;  // identical rows: one suffices
-    for (int m = 0; m < realisations; ++m) {
-        const std::uint64_t stream_seed =
-            derive_seed(row.seed, "wave/physical_optics_2d/jitter", static_cast<std::uint64_t>(m));
-        SampledCrossSection2d placed;
-        const std::size_t per_cell = cell.samples.size();
-        placed.samples.reserve(per_cell * row.count);
-        placed.chord_a.reserve(per_cell * row.count);
-        placed.chord_b.reserve(per_cell * row.count);
-        for (int c = 0; c < row.count; ++c) {
-            double angle = row.tilt_rad;
-            Vec centre = (c - 0.5 * (row.count - 1)) * row.spacing_um * u;
-            if (jittered) {
-                Rng rng(stream_seed, static_cast<std::uint64_t>(c));
-                const double dx = standard_normal(rng), dz = standard_normal(rng);
-                const double dphi = standard_normal(rng);
-                centre += row.jitter_position_um * Vec(dx, dz);
-                angle += row.jitter_rotation_rad * dphi;
-            }
-            const double cs = std::cos(angle), sn = std::sin(angle);
-            for (std::size_t j = 0; j < per_cell; ++j) {
-                SurfaceSample2d s = cell.samples[j];
-                s.point = rotate(s.point, cs, sn) + centre;
-                s.normal = rotate(s.normal, cs, sn);
-                s.tangent = rotate(s.tangent, cs, sn);
-                placed.samples.push_back(s);
-                placed.chord_a.push_back(rotate(cell.chord_a[j], cs, sn) + centre);
-                placed.chord_b.push_back(rotate(cell.chord_b[j], cs, sn) + centre);
-            }
+bool row_is_jittered(const Row2d& row) {
+    return row.jitter_position_um > 0.0 || row.jitter_rotation_rad > 0.0;
+}
+
+}  // namespace
+
+SampledCrossSection2d place_row(const Row2d& row, const SampledCrossSection2d& cell,
+                                int realisation) {
+    validate_row(row);
+    const Vec u = row.direction.normalized();
+    const bool jittered = row_is_jittered(row);
+    const std::uint64_t stream_seed = derive_seed(row.seed, "wave/physical_optics_2d/jitter",
+                                                  static_cast<std::uint64_t>(realisation));
+    SampledCrossSection2d placed;
+    const std::size_t per_cell = cell.samples.size();
+    placed.samples.reserve(per_cell * row.count);
+    placed.chord_a.reserve(per_cell * row.count);
+    placed.chord_b.reserve(per_cell * row.count);
+    for (int c = 0; c < row.count; ++c) {
+        double angle = row.tilt_rad;
+        Vec centre = (c - 0.5 * (row.count - 1)) * row.spacing_um * u;
+        if (jittered) {
+            Rng rng(stream_seed, static_cast<std::uint64_t>(c));
+            const double dx = standard_normal(rng), dz = standard_normal(rng);
+            const double dphi = standard_normal(rng);
+            centre += row.jitter_position_um * Vec(dx, dz);
+            angle += row.jitter_rotation_rad * dphi;
         }
+        const double cs = std::cos(angle), sn = std::sin(angle);
+        for (std::size_t j = 0; j < per_cell; ++j) {
+            SurfaceSample2d s = cell.samples[j];
+            s.point = rotate(s.point, cs, sn) + centre;
+            s.normal = rotate(s.normal, cs, sn);
+            s.tangent = rotate(s.tangent, cs, sn);
+            placed.samples.push_back(s);
+            placed.chord_a.push_back(rotate(cell.chord_a[j], cs, sn) + centre);
+            placed.chord_b.push_back(rotate(cell.chord_b[j], cs, sn) + centre);
+        }
+    }
+    return placed;
+}
+
+std::vector<double> scattering_width(const Row2d& row, const Incidence2d& incidence,
+                                     std::span<const double> theta_s_rad,
+                                     const PhysicalOpticsOptions& options) {
+    const double step = checked_step(incidence.lambda_nm, options.step_um);
+    validate_row(row);
+    const SampledCrossSection2d cell = sample_cross_section(row.cell, step);
+    const double k = 2.0 * kPi / (1e-3 * incidence.lambda_nm) * incidence.cos_elevation;
+    std::vector<double> sigma(theta_s_rad.size(), 0.0);
+    const int realisations = row_is_jittered(row) ? row.realisations : 1;  // identical rows
+    for (int m = 0; m < realisations; ++m) {
         const std::vector<Complex> field =
-            far_field_integral(row.cell, placed, incidence, theta_s_rad, options);
+            far_field_integral(row.cell, place_row(row, cell, m), incidence, theta_s_rad, options);
         for (std::size_t i = 0; i < sigma.size(); ++i) sigma[i] += std::norm(field[i]);
     }
     const double scale = k / (8.0 * kPi) / realisations;

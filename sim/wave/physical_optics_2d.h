@@ -107,6 +107,7 @@
 
 #include "geometry/elliptical_arc.h"
 #include "sim/optics/material.h"
+#include "sim/optics/multilayer.h"
 #include "sim/random.h"
 #include "sim/wave/born_2d.h"  // Polarisation2d
 
@@ -185,6 +186,11 @@ struct Incidence2d {
     double lambda_nm;
     double theta_i_rad;
     Polarisation2d polarisation = Polarisation2d::te;
+    // Conical incidence (the 2.5D extrusion, physical_optics_25d.h): the cosine of the angle
+    // between the 3D incident direction and the x–z plane, in (0, 1]. The transverse problem
+    // then has k cos_elevation in every phase and σ, and each stack sees the 3D local angle,
+    // cos θ_local = cos_elevation · (ω_i·n); the stack's wavelength stays λ.
+    double cos_elevation = 1.0;
 };
 
 // Where the stack's r is evaluated. incidence: at ω_i·n (Kirchhoff's choice, the default).
@@ -217,5 +223,28 @@ std::vector<std::complex<double>> far_field_integral(const CrossSection2d& secti
                                                      const Incidence2d& incidence,
                                                      std::span<const double> theta_s_rad,
                                                      const PhysicalOpticsOptions& options = {});
+
+// The cells of one realisation of a row, placed (rotation, jitter) in the row frame.
+SampledCrossSection2d place_row(const Row2d& row, const SampledCrossSection2d& cell,
+                                int realisation);
+
+// The lit samples of one placed cross-section for one incidence, with their stack amplitudes:
+// U(θ_s) for any θ_s then costs one pass over them (far_field_at; σ = k/(8π)|U|² with this k).
+struct FarFieldKernel2d {
+    double k = 0.0;  // transverse wavenumber, µm⁻¹
+    Eigen::Vector2d wi = Eigen::Vector2d::UnitY();
+    double lambda_nm = 0.0, cos_elevation = 1.0;
+    Polarisation2d polarisation = Polarisation2d::te;
+    std::vector<double> px, pz, nx, nz, tx, tz, ds;
+    std::vector<int> curve;
+    std::vector<std::complex<double>> a, b;  // amplitude = a ω_s·n + b, ds included
+    std::vector<std::vector<optics::StackLayer>> layers;
+    std::vector<std::complex<double>> substrate;
+};
+FarFieldKernel2d prepare_far_field(const CrossSection2d& section,
+                                   const SampledCrossSection2d& sampled,
+                                   const Incidence2d& incidence, FarFieldPart part,
+                                   bool bisector = false);
+std::complex<double> far_field_at(const FarFieldKernel2d& kernel, double theta_s_rad);
 
 }  // namespace plumage::sim::wave
