@@ -6,6 +6,8 @@
 //    400–700 nm; TE and TM (14 far fields per iteration). Sampling at λ/10 per wavelength
 //    (3900–6900 samples for the row), the lit test, one transfer matrix per lit sample and the
 //    O(samples × angles) sum are all inside the timing. `threads` OpenMP threads.
+//  - BM_PhysicalOpticsRowVisibility/threads: one of those far fields (550 nm, TE, reflected
+//    part) with outgoing visibility.
 #include <cmath>
 #include <numbers>
 #include <vector>
@@ -48,6 +50,31 @@ void BM_PhysicalOpticsRow(benchmark::State& state) {
     omp_set_num_threads(saved);
 }
 BENCHMARK(BM_PhysicalOpticsRow)->Arg(1)->Arg(2)->UseRealTime()->Unit(benchmark::kMillisecond);
+
+// The same row, one far field (550 nm, TE, reflected part) with outgoing visibility: one ray
+// cast per lit sample and angle.
+void BM_PhysicalOpticsRowVisibility(benchmark::State& state) {
+    const int threads = static_cast<int>(state.range(0));
+    const int saved = omp_get_max_threads();
+    omp_set_num_threads(threads);
+    const Row2d row = rock_dove_row();
+    std::vector<double> theta(181);
+    for (int m = 0; m < 181; ++m) theta[m] = (m - 90) * std::numbers::pi / 180.0;
+    PhysicalOpticsOptions options;
+    options.part = FarFieldPart::reflected;
+    options.outgoing_visibility = true;
+    for (auto _ : state) {
+        const std::vector<double> sigma = scattering_width(
+            row, {550.0, 20.0 * std::numbers::pi / 180.0, Polarisation2d::te}, theta, options);
+        benchmark::DoNotOptimize(sigma.data());
+    }
+    omp_set_num_threads(saved);
+}
+BENCHMARK(BM_PhysicalOpticsRowVisibility)
+    ->Arg(1)
+    ->Arg(2)
+    ->UseRealTime()
+    ->Unit(benchmark::kMillisecond);
 
 }  // namespace
 }  // namespace plumage::sim::wave

@@ -212,60 +212,80 @@ SampledCrossSection2d sample_cross_section(const CrossSection2d& section, double
     return out;
 }
 
+namespace {
+
+// Chords grouped kBlock at a time under bounding boxes (header: why not a grid).
+constexpr std::size_t kBlock = 32;
+
+struct ChordBlocks {
+    std::vector<Vec> lo, hi;
+};
+
+ChordBlocks build_blocks(const SampledCrossSection2d& sampled) {
+    const std::size_t n = sampled.samples.size();
+    const std::size_t blocks = (n + kBlock - 1) / kBlock;
+    ChordBlocks out;
+    out.lo.resize(blocks);
+    out.hi.resize(blocks);
+    for (std::size_t b = 0; b < blocks; ++b) {
+        out.lo[b] = Vec::Constant(std::numeric_limits<double>::infinity());
+        out.hi[b] = -out.lo[b];
+        for (std::size_t j = b * kBlock; j < std::min(n, (b + 1) * kBlock); ++j) {
+            out.lo[b] = out.lo[b].cwiseMin(sampled.chord_a[j]).cwiseMin(sampled.chord_b[j]);
+            out.hi[b] = out.hi[b].cwiseMax(sampled.chord_a[j]).cwiseMax(sampled.chord_b[j]);
+        }
+    }
+    return out;
+}
+
+// Whether the ray o + t d, t > 0, crosses any chord but `skip` (the sample's own piece).
+bool ray_blocked(const SampledCrossSection2d& sampled, const ChordBlocks& blocks, const Vec& o,
+                 const Vec& d, std::size_t skip) {
+    const std::size_t n = sampled.samples.size();
+    const Vec inv(1.0 / d.x(), 1.0 / d.y());  // ±inf for an axis-parallel ray: handled below
+    const double eps = 1e-9 * (1.0 + o.cwiseAbs().maxCoeff());
+    for (std::size_t b = 0; b < blocks.lo.size(); ++b) {
+        double t0 = 0.0, t1 = std::numeric_limits<double>::infinity();
+        for (int axis = 0; axis < 2; ++axis) {
+            if (d[axis] == 0.0) {
+                if (o[axis] < blocks.lo[b][axis] || o[axis] > blocks.hi[b][axis])
+                    t0 = 1.0, t1 = 0.0;
+                continue;
+            }
+            double ta = (blocks.lo[b][axis] - o[axis]) * inv[axis];
+            double tb = (blocks.hi[b][axis] - o[axis]) * inv[axis];
+            if (ta > tb) std::swap(ta, tb);
+            t0 = std::max(t0, ta);
+            t1 = std::min(t1, tb);
+        }
+        if (t0 > t1) continue;
+        for (std::size_t k = b * kBlock; k < std::min(n, (b + 1) * kBlock); ++k) {
+            if (k == skip) continue;
+            const Vec e = sampled.chord_b[k] - sampled.chord_a[k];
+            const double denom = cross(d, e);
+            if (denom == 0.0) continue;
+            const Vec w = sampled.chord_a[k] - o;
+            const double t = cross(w, e) / denom;
+            const double u = cross(w, d) / denom;
+            if (t > eps && u >= 0.0 && u <= 1.0) return true;
+        }
+    }
+    return false;
+}
+
+}  // namespace
+
 std::vector<unsigned char> illuminated(const SampledCrossSection2d& sampled,
                                        const Eigen::Vector2d& omega_i) {
     const std::size_t n = sampled.samples.size();
-    constexpr std::size_t kBlock = 32;
-    const std::size_t blocks = (n + kBlock - 1) / kBlock;
-    std::vector<Vec> lo(blocks), hi(blocks);
-    for (std::size_t b = 0; b < blocks; ++b) {
-        lo[b] = Vec::Constant(std::numeric_limits<double>::infinity());
-        hi[b] = -lo[b];
-        for (std::size_t j = b * kBlock; j < std::min(n, (b + 1) * kBlock); ++j) {
-            lo[b] = lo[b].cwiseMin(sampled.chord_a[j]).cwiseMin(sampled.chord_b[j]);
-            hi[b] = hi[b].cwiseMax(sampled.chord_a[j]).cwiseMax(sampled.chord_b[j]);
-        }
-    }
-    const Vec d = omega_i;
-    const Vec inv(1.0 / d.x(), 1.0 / d.y());  // ±inf for an axis-parallel ray: slabs still work
+    const ChordBlocks blocks = build_blocks(sampled);
     std::vector<unsigned char> lit(n, 0);
 #pragma omp parallel for schedule(static)
     for (std::ptrdiff_t js = 0; js < static_cast<std::ptrdiff_t>(n); ++js) {
         const std::size_t j = static_cast<std::size_t>(js);
         const SurfaceSample2d& s = sampled.samples[j];
-        if (!(s.normal.dot(d) > 0.0)) continue;
-        const Vec o = s.point;
-        const double eps = 1e-9 * (1.0 + o.cwiseAbs().maxCoeff());
-        bool blocked = false;
-        for (std::size_t b = 0; b < blocks && !blocked; ++b) {
-            double t0 = 0.0, t1 = std::numeric_limits<double>::infinity();
-            for (int axis = 0; axis < 2; ++axis) {
-                if (d[axis] == 0.0) {
-                    if (o[axis] < lo[b][axis] || o[axis] > hi[b][axis]) t0 = 1.0, t1 = 0.0;
-                    continue;
-                }
-                double ta = (lo[b][axis] - o[axis]) * inv[axis];
-                double tb = (hi[b][axis] - o[axis]) * inv[axis];
-                if (ta > tb) std::swap(ta, tb);
-                t0 = std::max(t0, ta);
-                t1 = std::min(t1, tb);
-            }
-            if (t0 > t1) continue;
-            for (std::size_t k = b * kBlock; k < std::min(n, (b + 1) * kBlock); ++k) {
-                if (k == j) continue;
-                const Vec e = sampled.chord_b[k] - sampled.chord_a[k];
-                const double denom = cross(d, e);
-                if (denom == 0.0) continue;
-                const Vec w = sampled.chord_a[k] - o;
-                const double t = cross(w, e) / denom;
-                const double u = cross(w, d) / denom;
-                if (t > eps && u >= 0.0 && u <= 1.0) {
-                    blocked = true;
-                    break;
-                }
-            }
-        }
-        lit[j] = blocked ? 0 : 1;
+        if (!(s.normal.dot(omega_i) > 0.0)) continue;
+        lit[j] = ray_blocked(sampled, blocks, s.point, omega_i, j) ? 0 : 1;
     }
     return lit;
 }
@@ -333,6 +353,7 @@ FarFieldKernel2d prepare_far_field(const CrossSection2d& section,
         kernel.tz.push_back(s.tangent.y());
         kernel.ds.push_back(s.ds_um);
         kernel.curve.push_back(s.curve);
+        kernel.index.push_back(j);
         kernel.a.push_back(aj * s.ds_um);
         kernel.b.push_back(bj * s.ds_um);
     }
@@ -367,16 +388,22 @@ std::vector<std::complex<double>> far_field_integral(const CrossSection2d& secti
                                                      const PhysicalOpticsOptions& options) {
     const FarFieldPart part = options.part;
     const bool bisector = options.fresnel == FresnelAngle::bisector;
+    const bool visibility = options.outgoing_visibility;
     if (bisector && part != FarFieldPart::reflected)
         refuse("the bisector Fresnel angle applies to the reflected part only");
+    if (visibility && part != FarFieldPart::reflected)
+        refuse(
+            "outgoing visibility applies to the reflected part only (the shadow-forming wave "
+            "leaves through the body by construction)");
     for (double th : theta_s_rad)
         if (!std::isfinite(th)) refuse(fmt::format("theta_s = {:.4g} rad must be finite", th));
     const FarFieldKernel2d kernel = prepare_far_field(section, sampled, incidence, part, bisector);
     std::vector<Complex> out(theta_s_rad.size());
-    if (bisector) {
+    if (bisector || visibility) {
         const optics::Polarisation pol = incidence.polarisation == Polarisation2d::te
                                              ? optics::Polarisation::s
                                              : optics::Polarisation::p;
+        const ChordBlocks blocks = visibility ? build_blocks(sampled) : ChordBlocks{};
         const Vec wi = kernel.wi;
         const double k = kernel.k;
         const std::size_t n = kernel.px.size();
@@ -388,21 +415,32 @@ std::vector<std::complex<double>> far_field_integral(const CrossSection2d& secti
             Complex sum = 0.0;
             if (qn > 0.0) {
                 for (std::size_t j = 0; j < n; ++j) {
+                    // Both variants drop samples facing away from ω_s (hidden by their own body).
                     const double cs = kernel.nx[j] * ws.x() + kernel.nz[j] * ws.y();
                     if (!(cs > 0.0)) continue;
+                    if (visibility && ray_blocked(sampled, blocks, Vec(kernel.px[j], kernel.pz[j]),
+                                                  ws, kernel.index[j]))
+                        continue;
                     const double ci = kernel.nx[j] * wi.x() + kernel.nz[j] * wi.y();
-                    const double ch =
-                        std::min(1.0, (kernel.nx[j] * q.x() + kernel.nz[j] * q.y()) / qn);
-                    const int c = kernel.curve[j];
-                    const optics::StackIndices stack{1.0, kernel.layers[c], kernel.substrate[c]};
-                    const Complex r =
-                        optics::transfer_matrix_amplitudes(stack, incidence.lambda_nm,
-                                                           ch * kernel.cos_elevation, pol)
-                            .r;
+                    Complex amplitude;
+                    if (bisector) {
+                        const double ch =
+                            std::min(1.0, (kernel.nx[j] * q.x() + kernel.nz[j] * q.y()) / qn);
+                        const int c = kernel.curve[j];
+                        const optics::StackIndices stack{1.0, kernel.layers[c],
+                                                         kernel.substrate[c]};
+                        const Complex r =
+                            optics::transfer_matrix_amplitudes(stack, incidence.lambda_nm,
+                                                               ch * kernel.cos_elevation, pol)
+                                .r;
+                        amplitude = r * ((ci + cs) * kernel.ds[j]);
+                    } else {
+                        amplitude = kernel.a[j] * cs + kernel.b[j];
+                    }
                     const double phase = -k * (q.x() * kernel.px[j] + q.y() * kernel.pz[j]);
                     const double w = sinc_small(
                         0.5 * k * (q.x() * kernel.tx[j] + q.y() * kernel.tz[j]) * kernel.ds[j]);
-                    sum += r * ((ci + cs) * w * kernel.ds[j]) * std::polar(1.0, phase);
+                    sum += amplitude * w * std::polar(1.0, phase);
                 }
             }
             out[static_cast<std::size_t>(is)] = sum;
