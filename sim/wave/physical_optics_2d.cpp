@@ -290,6 +290,22 @@ std::vector<unsigned char> illuminated(const SampledCrossSection2d& sampled,
     return lit;
 }
 
+std::vector<unsigned char> rays_unblocked(const SampledCrossSection2d& sampled,
+                                          std::span<const std::size_t> from,
+                                          std::span<const Eigen::Vector2d> directions) {
+    if (from.size() != directions.size())
+        refuse(fmt::format("{} ray origins but {} directions", from.size(), directions.size()));
+    const ChordBlocks blocks = build_blocks(sampled);
+    std::vector<unsigned char> open(from.size(), 0);
+#pragma omp parallel for schedule(static)
+    for (std::ptrdiff_t ms = 0; ms < static_cast<std::ptrdiff_t>(from.size()); ++ms) {
+        const std::size_t m = static_cast<std::size_t>(ms);
+        const std::size_t j = from[m];
+        open[m] = ray_blocked(sampled, blocks, sampled.samples[j].point, directions[m], j) ? 0 : 1;
+    }
+    return open;
+}
+
 FarFieldKernel2d prepare_far_field(const CrossSection2d& section,
                                    const SampledCrossSection2d& sampled,
                                    const Incidence2d& incidence, FarFieldPart part, bool bisector) {

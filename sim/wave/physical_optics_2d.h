@@ -172,6 +172,13 @@ SampledCrossSection2d sample_cross_section(const CrossSection2d& section, double
 std::vector<unsigned char> illuminated(const SampledCrossSection2d& sampled,
                                        const Eigen::Vector2d& omega_i);
 
+// Per ray m: 1 when the ray from sample from[m] towards directions[m] (unit) crosses no chord
+// (that sample's own piece excluded): the lit test's ray cast for any direction (geometric
+// optics' outgoing visibility, geometric_optics_2d.h). OpenMP over the rays.
+std::vector<unsigned char> rays_unblocked(const SampledCrossSection2d& sampled,
+                                          std::span<const std::size_t> from,
+                                          std::span<const Eigen::Vector2d> directions);
+
 struct Row2d {
     CrossSection2d cell;
     int count = 1;

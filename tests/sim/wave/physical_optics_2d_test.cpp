@@ -16,6 +16,7 @@
 #include "common/constants.h"
 #include "common/error.h"
 #include "sim/optics/multilayer.h"
+#include "sim/wave/geometric_optics_2d.h"
 
 namespace plumage::sim::wave {
 namespace {
@@ -247,32 +248,12 @@ TEST(PhysicalOptics2d, OutgoingVisibilityMakesRowsReciprocalAndFollowsGeometricO
     visible.part = FarFieldPart::reflected;
     visible.outgoing_visibility = true;
     const std::vector<double> theta = circle(points_for(lambda, 17.0));
-    const Vec wi(0.0, 1.0);
-    // Geometric optics with the same rule: a lit element's power R cos θ ds counts when the ray
-    // towards its mirror direction crosses no chord (brute force over all chords).
+    // Geometric optics with the same rule (geometric_optics_2d.h): a lit element's power
+    // R cos θ ds counts when the ray towards its mirror direction crosses no chord.
     auto go_visible = [&](const SampledCrossSection2d& placed, Polarisation2d pol) {
-        const std::vector<unsigned char> lit = illuminated(placed, wi);
-        double power = 0.0;
-        for (std::size_t j = 0; j < placed.samples.size(); ++j) {
-            if (!lit[j]) continue;
-            const SurfaceSample2d& s = placed.samples[j];
-            const double c = s.normal.dot(wi);
-            const Vec d = 2.0 * c * s.normal - wi;
-            bool blocked = false;
-            for (std::size_t k = 0; k < placed.samples.size() && !blocked; ++k) {
-                if (k == j) continue;
-                const Vec e = placed.chord_b[k] - placed.chord_a[k];
-                const double denom = d.x() * e.y() - d.y() * e.x();
-                if (denom == 0.0) continue;
-                const Vec w = placed.chord_a[k] - s.point;
-                const double t = (w.x() * e.y() - w.y() * e.x()) / denom;
-                const double u = (w.x() * d.y() - w.y() * d.x()) / denom;
-                blocked = t > 1e-9 && u >= 0.0 && u <= 1.0;
-            }
-            if (!blocked)
-                power += stack_reflectance(row.cell.curves[0].stack, lambda, c, pol) * c * s.ds_um;
-        }
-        return power;
+        const FarFieldKernel2d kernel =
+            prepare_far_field(row.cell, placed, {lambda, 0.0, pol}, FarFieldPart::reflected);
+        return total_power(geometric_rays(kernel, placed, true));
     };
     const SampledCrossSection2d cell = sample_cross_section(row.cell, 0.055);
     Row2d one = row;
@@ -313,7 +294,6 @@ TEST(PhysicalOptics2d, BarbuleArcConvergesToGeometricOptics) {
     const double lambda = 550.0, step = 0.055;
     const std::vector<double> sizes = {2.0, 5.0, 10.0, 20.0, 50.0};
     const std::vector<double> factors = {0.97, 0.99, 1.01, 1.03};
-    const Vec wi(0.0, 1.0);
     constexpr int kBins = 36;
     auto bin_of = [](double theta) {
         const int b = static_cast<int>(std::floor((theta + kPi) / (2.0 * kPi) * kBins));
@@ -329,18 +309,13 @@ TEST(PhysicalOptics2d, BarbuleArcConvergesToGeometricOptics) {
                 const geometry::EllipticalArc arc(a_um, 0.25 * a_um, -0.37, 2.64);
                 const CrossSection2d section = barbule_arc(arc, 0.59, 0.3);
                 const SampledCrossSection2d sampled = sample_cross_section(section, step);
-                const std::vector<unsigned char> lit = illuminated(sampled, wi);
+                const FarFieldKernel2d kernel = prepare_far_field(
+                    section, sampled, {lambda, 0.0, pol}, FarFieldPart::reflected);
                 double go = 0.0;
                 std::vector<double> go_bins(kBins, 0.0), po_bins(kBins, 0.0);
-                for (std::size_t j = 0; j < sampled.samples.size(); ++j) {
-                    if (!lit[j]) continue;
-                    const SurfaceSample2d& s = sampled.samples[j];
-                    const double c = s.normal.dot(wi);
-                    const double p =
-                        stack_reflectance(section.curves[0].stack, lambda, c, pol) * c * s.ds_um;
-                    go += p;
-                    const Vec mirror = 2.0 * c * s.normal - wi;
-                    go_bins[bin_of(std::atan2(mirror.x(), mirror.y()))] += p;
+                for (const GeometricRay2d& ray : geometric_rays(kernel, sampled)) {
+                    go += ray.power_um;
+                    go_bins[bin_of(ray.theta_s_rad)] += ray.power_um;
                 }
                 PhysicalOpticsOptions options;
                 options.part = FarFieldPart::reflected;
@@ -486,16 +461,14 @@ TEST(PhysicalOptics2d, FullWaveReferenceCases) {
                     const SampledCrossSection2d sampled =
                         sample_cross_section(shape, 1e-3 * lambda / 10.0);
                     const std::vector<unsigned char> lit = illuminated(sampled, wi);
-                    double power = 0.0;
                     *lit_width = 0.0;
-                    for (std::size_t j = 0; j < sampled.samples.size(); ++j) {
-                        if (!lit[j]) continue;
-                        const double c = sampled.samples[j].normal.dot(wi);
-                        *lit_width += c * sampled.samples[j].ds_um;
-                        power += stack_reflectance(shape.curves[0].stack, lambda, c, pol) * c *
-                                 sampled.samples[j].ds_um;
-                    }
-                    return power;
+                    for (std::size_t j = 0; j < sampled.samples.size(); ++j)
+                        if (lit[j])
+                            *lit_width +=
+                                sampled.samples[j].normal.dot(wi) * sampled.samples[j].ds_um;
+                    const FarFieldKernel2d kernel =
+                        prepare_far_field(shape, sampled, incidence, FarFieldPart::reflected);
+                    return total_power(geometric_rays(kernel, sampled));
                 };
                 double single_width = 0.0, small_width = 0.0;
                 const double single_go = go(single, &single_width);
