@@ -27,8 +27,8 @@ double sampling_step(const Incidence2d& incidence, double step_um) {
 
 void check_window(const DetectorWindow& window) {
     if (!std::isfinite(window.half_angle_rad) || !(window.half_angle_rad > 0.0) ||
-        window.half_angle_rad > 0.5 * kPi)
-        refuse(fmt::format("detector window half-angle {:.4g} rad must be in (0, π/2]",
+        window.half_angle_rad > 0.25 * kPi)
+        refuse(fmt::format("detector window half-angle {:.4g} rad must be in (0, π/4]",
                            window.half_angle_rad));
 }
 
@@ -115,11 +115,30 @@ double total_power(std::span<const GeometricRay2d> rays, double max_abs_theta_ra
 std::vector<double> windowed(std::span<const GeometricRay2d> rays, const DetectorWindow& window,
                              std::span<const double> theta_out_rad) {
     check_window(window);
+    // Rays sorted by angle; each centre visits those within the kernel's support (and their
+    // images 2π away), in sorted order.
+    std::vector<GeometricRay2d> sorted(rays.begin(), rays.end());
+    std::sort(sorted.begin(), sorted.end(), [](const GeometricRay2d& a, const GeometricRay2d& b) {
+        return a.theta_s_rad < b.theta_s_rad;
+    });
+    const double support =
+        window.kernel == WindowKernel::box ? window.half_angle_rad : 4.0 * gaussian_sigma(window);
+    auto below = [&](double t) {
+        return std::lower_bound(
+            sorted.begin(), sorted.end(), t,
+            [](const GeometricRay2d& r, double x) { return r.theta_s_rad < x; });
+    };
     std::vector<double> out(theta_out_rad.size(), 0.0);
     for (std::size_t i = 0; i < out.size(); ++i) {
         double sum = 0.0;
-        for (const GeometricRay2d& r : rays)
-            sum += r.power_um * kernel_at(window, wrapped(theta_out_rad[i] - r.theta_s_rad));
+        for (double shift : {-2.0 * kPi, 0.0, 2.0 * kPi}) {
+            const double c = theta_out_rad[i] + shift;
+            for (auto it = below(c - support * (1.0 + 1e-12)); it != sorted.end(); ++it) {
+                if (it->theta_s_rad > c + support * (1.0 + 1e-12)) break;
+                sum +=
+                    it->power_um * kernel_at(window, wrapped(theta_out_rad[i] - it->theta_s_rad));
+            }
+        }
         out[i] = sum;
     }
     return out;

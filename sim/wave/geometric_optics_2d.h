@@ -32,7 +32,7 @@
 //  | name               | unit | range                                             |
 //  |--------------------|------|---------------------------------------------------|
 //  | incidence, row     |      | as physical_optics_2d.h                           |
-//  | window half_angle  | rad  | (0, π/2]                                          |
+//  | window half_angle  | rad  | (0, π/4] (the Gaussian's 4σ cut stays below π)    |
 #pragma once
 
 #include <span>

@@ -397,6 +397,42 @@ std::complex<double> far_field_at(const FarFieldKernel2d& kernel, double theta_s
     return {re, im};
 }
 
+void far_field_pair(const FarFieldKernel2d& first, const FarFieldKernel2d& second,
+                    std::span<const double> theta_s_rad, std::vector<std::complex<double>>& u_first,
+                    std::vector<std::complex<double>>& u_second) {
+    if (first.px != second.px || first.pz != second.pz || first.k != second.k ||
+        first.wi != second.wi)
+        refuse("a far-field pair needs two kernels on the same lit samples, k and incidence");
+    u_first.assign(theta_s_rad.size(), 0.0);
+    u_second.assign(theta_s_rad.size(), 0.0);
+    const Vec wi = first.wi;
+    const double k = first.k;
+    const std::size_t n = first.px.size();
+#pragma omp parallel for schedule(static)
+    for (std::ptrdiff_t is = 0; is < static_cast<std::ptrdiff_t>(theta_s_rad.size()); ++is) {
+        const Vec ws = direction(theta_s_rad[static_cast<std::size_t>(is)]);
+        const double qx = wi.x() + ws.x(), qz = wi.y() + ws.y();
+        double re1 = 0.0, im1 = 0.0, re2 = 0.0, im2 = 0.0;
+        for (std::size_t j = 0; j < n; ++j) {
+            const double sn = first.nx[j] * ws.x() + first.nz[j] * ws.y();
+            const double phase = -k * (qx * first.px[j] + qz * first.pz[j]);
+            const double w =
+                sinc_small(0.5 * k * (qx * first.tx[j] + qz * first.tz[j]) * first.ds[j]);
+            const double c = std::cos(phase), s = std::sin(phase);
+            const double ar1 = (first.a[j].real() * sn + first.b[j].real()) * w;
+            const double ai1 = (first.a[j].imag() * sn + first.b[j].imag()) * w;
+            const double ar2 = (second.a[j].real() * sn + second.b[j].real()) * w;
+            const double ai2 = (second.a[j].imag() * sn + second.b[j].imag()) * w;
+            re1 += ar1 * c - ai1 * s;
+            im1 += ar1 * s + ai1 * c;
+            re2 += ar2 * c - ai2 * s;
+            im2 += ar2 * s + ai2 * c;
+        }
+        u_first[static_cast<std::size_t>(is)] = {re1, im1};
+        u_second[static_cast<std::size_t>(is)] = {re2, im2};
+    }
+}
+
 std::vector<std::complex<double>> far_field_integral(const CrossSection2d& section,
                                                      const SampledCrossSection2d& sampled,
                                                      const Incidence2d& incidence,

@@ -264,5 +264,12 @@ FarFieldKernel2d prepare_far_field(const CrossSection2d& section,
                                    const Incidence2d& incidence, FarFieldPart part,
                                    bool bisector = false);
 std::complex<double> far_field_at(const FarFieldKernel2d& kernel, double theta_s_rad);
+// far_field_at of two kernels prepared on the same samples for the same wavelength and incidence
+// that differ in their amplitudes only (TE and TM): one phase, sinc and sin/cos per sample and
+// angle serve both, half the cost of two passes. InputError when the kernels' samples or k
+// differ. OpenMP over the angles (each sum sequential: identical for any thread count).
+void far_field_pair(const FarFieldKernel2d& first, const FarFieldKernel2d& second,
+                    std::span<const double> theta_s_rad, std::vector<std::complex<double>>& u_first,
+                    std::vector<std::complex<double>>& u_second);
 
 }  // namespace plumage::sim::wave

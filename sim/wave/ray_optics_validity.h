@@ -10,9 +10,11 @@
 // Per incidence θ_i and wavelength λ:
 //  - W_PO(θ), W_GO(θ): the ensemble means of the windowed readings (geometric_optics_2d.h:
 //    `windowed`) at detector centres θ = −89°, −88°, …, 89° (output_step), the reflected
-//    half-space; PO is sampled on a uniform grid of spacing δ = min(π/(2 k R_max), 0.25°)
-//    (R_max: the largest |r'| of any realisation; the Nyquist rate of |U|², header there)
-//    covering the centres ± the window's support.
+//    half-space; PO is sampled on a uniform grid of spacing δ = min(0.8 π/(k R_max), 0.25°)
+//    (R_max: the largest |r'| of any realisation) covering the centres ± the window's support.
+//    |U|² is band-limited to 2kR_max in θ, so the trapezoid rule integrates it against a smooth
+//    window exactly once δ < 2π/(2kR_max + the window's own bandwidth); 0.8 leaves that room
+//    for the Gaussian window (σ ≈ 2.9°: bandwidth ~ 4/σ ≈ 80 ≪ 2kR_max ≈ 600 for 20 µm rows).
 //  - relative L1 = Σ_θ |W_PO − W_GO| / Σ_θ W_PO.
 //  - its noise floor: the realisations are independent rows, so per centre the standard error
 //    of the mean of the paired difference d_m = W_PO,m − W_GO,m over the M realisations is
@@ -32,9 +34,12 @@
 // header), so a "PO needed" verdict for such barbules means that ray optics fails, not that PO
 // holds.
 //
-// Cost: each level is timed on its own (wall and process CPU, common/cpu_time.h): PO's lit test,
-// stack amplitudes and far-field sums; GO's lit test, stack amplitudes and rays (and their
-// outgoing visibility). The sampling and placement they share are charged to neither.
+// Cost: each level is timed on its own (wall and process CPU, common/cpu_time.h). The lit test
+// and the stack amplitudes (prepare_far_field, TE and TM) are computed once and their time is
+// charged to both levels, as either alone would pay it; then PO's far-field sums (both
+// polarisations in one pass, far_field_pair) and GO's rays. With outgoing visibility each level
+// runs on its own (PO: far_field_integral per polarisation; GO: its rays' ray casts). The
+// sampling, placement and windowing they share are charged to neither.
 #pragma once
 
 #include <span>

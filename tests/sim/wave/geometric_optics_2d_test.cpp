@@ -115,6 +115,26 @@ TEST(GeometricOptics2d, WindowOfASampledWidthMatchesTheWindowOfRays) {
     EXPECT_THROW(windowed(ray, bad, centres), InputError);
 }
 
+// far_field_pair (TE and TM in one pass) is far_field_at of each kernel, bit for bit: the same
+// operations in the same order.
+TEST(RayOpticsValidity2d, FarFieldPairIsTwoSinglePasses) {
+    const Row2d row = barbule_row_2d(1.5, 0.25, -0.37, 2.64, 0.59, 0.3, 1.25, -0.35, 3);
+    const SampledCrossSection2d cell = sample_cross_section(row.cell, 0.045);
+    const SampledCrossSection2d placed = place_row(row, cell, 0);
+    const FarFieldKernel2d te = prepare_far_field(
+        row.cell, placed, {450.0, 0.3, Polarisation2d::te}, FarFieldPart::reflected);
+    const FarFieldKernel2d tm = prepare_far_field(
+        row.cell, placed, {450.0, 0.3, Polarisation2d::tm}, FarFieldPart::reflected);
+    std::vector<double> theta;
+    for (int m = -90; m <= 90; m += 3) theta.push_back(m * kDeg);
+    std::vector<std::complex<double>> u_te, u_tm;
+    far_field_pair(te, tm, theta, u_te, u_tm);
+    for (std::size_t i = 0; i < theta.size(); ++i) {
+        EXPECT_EQ(u_te[i], far_field_at(te, theta[i]));
+        EXPECT_EQ(u_tm[i], far_field_at(tm, theta[i]));
+    }
+}
+
 // The metric on cases whose answer is known.
 // (a) A wide flat strip (40 µm) at normal incidence, 550 nm: its PO lobe is a sinc² of width
 // λ/W = 0.8°, whose 1/θ² tails carry ~ λ/(π² W Δ) ≈ 3 % of the power beyond Δ = 2.9° (the
