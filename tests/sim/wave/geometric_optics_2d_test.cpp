@@ -4,6 +4,8 @@
 // floor on cases whose answer is known.
 #include "sim/wave/geometric_optics_2d.h"
 
+#include <omp.h>
+
 #include <cmath>
 #include <cstdio>
 #include <numeric>
@@ -184,6 +186,38 @@ TEST(RayOpticsValidity2d, KnownCasesAndTheNoiseFloor) {
     EXPECT_EQ(row.realisations, 8);
     EXPECT_THROW(compare_ray_and_physical_optics(small, std::vector<double>{}, incidences),
                  InputError);
+}
+
+// The comparison's numbers (not its timings) are identical at 1, 2 and 3 threads: PO's sums run
+// per angle in a fixed order, the jitter comes from (seed, realisation, cell) streams, and the
+// windows and the ensemble statistics are sequential. (The quick study is not in
+// tests/records_across_threads.sh: three runs of it cost ~35 s; this covers its numbers.)
+TEST(RayOpticsValidity2d, NumbersDoNotDependOnTheThreadCount) {
+    Row2d row = barbule_row_2d(1.0, 0.25, -0.37, 2.64, 0.59, 0.3, 1.25, -0.35, 8);
+    row.jitter_position_um = 0.1;
+    row.jitter_rotation_rad = 0.05;
+    row.realisations = 3;
+    RayOpticsValidityOptions options;
+    options.max_step_um = 0.95 * barbule_row_min_radius_um(1.0, 0.25, -0.37, 2.64);
+    const std::vector<double> lambdas = {480.0, 620.0}, incidences = {0.0, 0.5};
+    const int saved = omp_get_max_threads();
+    std::vector<RayOpticsValidity2d> runs;
+    for (int threads : {1, 2, 3}) {
+        omp_set_num_threads(threads);
+        runs.push_back(compare_ray_and_physical_optics(row, lambdas, incidences, options));
+    }
+    omp_set_num_threads(saved);
+    for (std::size_t t = 1; t < runs.size(); ++t) {
+        ASSERT_EQ(runs[t].cases.size(), runs[0].cases.size());
+        for (std::size_t c = 0; c < runs[0].cases.size(); ++c) {
+            EXPECT_EQ(runs[t].cases[c].po, runs[0].cases[c].po);
+            EXPECT_EQ(runs[t].cases[c].go, runs[0].cases[c].go);
+            EXPECT_EQ(runs[t].cases[c].relative_l1, runs[0].cases[c].relative_l1);
+            EXPECT_EQ(runs[t].cases[c].relative_l1_noise_floor,
+                      runs[0].cases[c].relative_l1_noise_floor);
+            EXPECT_EQ(runs[t].cases[c].power_error, runs[0].cases[c].power_error);
+        }
+    }
 }
 
 }  // namespace
