@@ -11,6 +11,7 @@
 #include "common/constants.h"
 #include "common/cpu_time.h"
 #include "common/error.h"
+#include "common/interrupt.h"
 
 namespace plumage::sim::wave {
 namespace {
@@ -149,6 +150,9 @@ RayOpticsValidity2d compare_ray_and_physical_optics(const Row2d& row,
             std::vector<std::vector<double>> po_m(m_count), go_m(m_count);
             std::vector<double> po_power(m_count, 0.0), go_power(m_count, 0.0);
             for (int m = 0; m < m_count; ++m) {
+                // Ctrl-C stops the comparison within one realisation's sums (common/interrupt.h).
+                throw_if_interrupted(fmt::format("PO vs GO at {:g} nm, θ_i = {:.4g} rad, row {}",
+                                                 lambda, theta_i, m));
                 const SampledCrossSection2d& p = placed[static_cast<std::size_t>(m)];
                 std::vector<double> sigma(grid.size(), 0.0);
                 std::vector<double> go_w(n_out, 0.0);
