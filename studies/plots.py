@@ -813,10 +813,18 @@ def build_wave_validity_map(h5_path):
         else:
             vy = np.array([values[0] - 0.5, values[0] + 0.5])
         mesh = ax.pcolormesh(wx, vy, l1[i], norm=norm, cmap="magma_r", shading="flat")
-        if len(values) > 1 and len(widths) > 1 and l1[i].min() < threshold < l1[i].max():
-            cs = ax.contour(widths, values, l1[i], levels=[threshold], colors="cyan",
-                            linewidths=2.0)
-            ax.clabel(cs, fmt=lambda v: f"{v:g} %", fontsize=9)
+        if len(values) > 1 and len(widths) > 1:
+            # Context levels (thin, dashed) where the map crosses them, then the threshold.
+            context = [v for v in (10.0, 20.0, 50.0, 100.0)
+                       if v != threshold and l1[i].min() < v < l1[i].max()]
+            if context:
+                cs = ax.contour(widths, values, l1[i], levels=context, colors="0.5",
+                                linewidths=0.8, linestyles="dashed")
+                ax.clabel(cs, fmt=lambda v: f"{v:g} %", fontsize=8)
+            if l1[i].min() < threshold < l1[i].max():
+                cs = ax.contour(widths, values, l1[i], levels=[threshold], colors="cyan",
+                                linewidths=2.0)
+                ax.clabel(cs, fmt=lambda v: f"{v:g} %", fontsize=9)
         for v in range(len(values)):
             for w in range(len(widths)):
                 ax.text(widths[w], values[v], f"{l1[i, v, w]:.0f}\n±{floor[i, v, w]:.0f}",

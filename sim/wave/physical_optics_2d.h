@@ -61,7 +61,8 @@
 //    even when another part of the cross-section (a neighbouring barbule) stands in its way.
 //    This over-counts at grazing exit and along a row (tests: a row of three shells reflects
 //    3.2–3.4× one shell over all angles, 3.0× within 60° of the zenith; with visibility
-//    2.5–2.9×, as geometric optics under the same rule within 5 %).
+//    2.5–2.9×, as geometric optics under the same rule within 5 %; geometric_optics_2d.h is that
+//    level, ray_optics_validity.h the comparison).
 //    PhysicalOpticsOptions::outgoing_visibility removes it, at a cost (see there);
 //  - multiple reflections between surfaces (barbule to barbule, or inside a concave part);
 //  - transmission through the body: no light crosses the cross-section; the far side's
