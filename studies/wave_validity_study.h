@@ -50,6 +50,10 @@ struct WaveValidityMap {
     // [incidence][value]: the 5 % boundary width (µm); 0 = below the smallest, +inf = above the
     // largest width of the sweep.
     std::vector<std::vector<double>> boundary_um;
+    // [incidence][value]: where the boundary lies beyond the largest width, the width at which a
+    // power law fitted to the L1 of the largest (up to 4) widths reaches the threshold (log–log
+    // least squares; +inf when the L1 does not fall there); 0 when the boundary is inside.
+    std::vector<std::vector<double>> extrapolated_um;
 };
 
 struct WaveValidityResult {

@@ -92,7 +92,8 @@ TEST(WaveValidityStudy, QuickStudyRecordsWhatItReturns) {
                 EXPECT_EQ(l1.values[i * m.points.size() + k], m.points[k].relative_l1[i]);
         for (const char* name :
              {"values", "relative_l1", "relative_l1_noise_floor", "wavelength_at_max_nm",
-              "power_error", "po_wall_s", "go_cpu_s", "barbules_per_row", "boundary_width_um"}) {
+              "power_error", "po_wall_s", "go_cpu_s", "barbules_per_row", "boundary_width_um",
+              "extrapolated_boundary_um"}) {
             EXPECT_FALSE(record::read_string_attribute(h5, g + name, "units").empty()) << name;
             EXPECT_FALSE(record::read_string_attribute(h5, g + name, "description").empty());
         }
@@ -106,9 +107,9 @@ TEST(WaveValidityStudy, QuickStudyRecordsWhatItReturns) {
     for (std::string line; std::getline(csv, line);) ++lines;
     EXPECT_EQ(lines, rows + 1);
     const std::string report = testing::read_text_file(dir / "report.md");
-    for (const char* section :
-         {"## Maps", "5 % boundary at θ_i = 0°", "## Cost of each level", "## Statistical verdict",
-          "largest over the wavelengths", "width_x_film_thickness_um.png"})
+    for (const char* section : {"## Maps", "5 % boundary at θ_i = 0°", "extrapolated ≈",
+                                "## Cost of each level", "## Statistical verdict",
+                                "largest over the wavelengths", "width_x_film_thickness_um.png"})
         EXPECT_NE(report.find(section), std::string::npos) << section;
     fs::remove_all(root);
 }
