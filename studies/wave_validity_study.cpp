@@ -412,8 +412,9 @@ std::string boundary_table(const WaveValidityResult& r) {
                 md << " " << width_text(m.boundary_um[i][v], r.widths_um);
                 const double e = m.extrapolated_um[i][v];
                 if (e > 0.0)
-                    md << (std::isinf(e) ? std::string(" (L1 not falling)")
-                                         : fmt::format(" (extrapolated ≈ {:.2g} µm)", e));
+                    md << (std::isinf(e)
+                               ? std::string(" (L1 not falling)")
+                               : fmt::format(" (extrapolated ≈ {:.{}f} µm)", e, e < 10.0 ? 1 : 0));
                 md << " |";
             }
             md << "\n";
