@@ -17,6 +17,7 @@
   plots.py fingerprints H5 PNG   Filip 2024 Fig. 7 fingerprints at one exposure, with log luminance
   plots.py btf_tiles H5 PNG      BTF images of a few geometries (Filip 2024 Fig. 9), one exposure
   plots.py geometry_preview H5 PNG  a cut through built geometry in um: phases, legend, scale bar
+  plots.py wave_validity_map H5 PNG  PO vs GO relative L1 (%) over width x one parameter, 5 % contour
   plots.py batch CSV PNG         every plot a CSV lists (columns kind, input, png; PNG unused)
 """
 import csv
@@ -771,6 +772,80 @@ def build_geometry_preview(h5_path):
 # nothing to draw) and a resolution; the CLI saves the figure. Tests build the figures and
 # query them (tests/studies/plots_figures_test.py).
 
+def build_wave_validity_map(h5_path):
+    """The wave-validity study (studies/wave_validity_study.cpp): the relative L1 of physical
+    against geometric optics, in %, over barbule width (log) x one parameter, one panel per
+    incidence; the threshold's contour drawn and labelled, each cell annotated with L1 and its
+    noise floor."""
+    import h5py
+    import numpy as np
+    from matplotlib.colors import LogNorm
+
+    with h5py.File(h5_path, "r") as f:
+        widths = f["widths_um"][()]
+        incidence = f["incidence_deg"][()]
+        values = f["map/values"][()]
+        l1 = 100.0 * f["map/relative_l1"][()]  # [incidence][value][width]
+        floor = 100.0 * f["map/relative_l1_noise_floor"][()]
+        boundary = f["map/boundary_width_um"][()]
+        label = _text(f["map"].attrs["axis_label"])
+        title = _text(f.attrs["title"])
+        threshold = 100.0 * float(f.attrs["threshold"])
+        window = f"{float(f.attrs['window_half_angle_deg']):g}° {_text(f.attrs['window_kernel'])}"
+    order = np.argsort(values)
+    values, l1, floor, boundary = values[order], l1[:, order], floor[:, order], boundary[:, order]
+    n_inc = len(incidence)
+    fig, axes = plt.subplots(1, n_inc, figsize=(6.2 * n_inc, 4.8), squeeze=False)
+    positive = l1[l1 > 0]
+    low = max(0.5, float(positive.min()) if positive.size else 1.0)
+    high = max(low * 10.0, float(l1.max()) if l1.size else 100.0)
+    norm = LogNorm(vmin=min(low, threshold / 2.0), vmax=high)
+    for i, ax in enumerate(axes[0]):
+        # Cell edges halfway between samples (geometric in width).
+        lw = np.log(widths)
+        wx = np.exp(np.concatenate([[lw[0] - 0.5 * (lw[1] - lw[0])], 0.5 * (lw[1:] + lw[:-1]),
+                                    [lw[-1] + 0.5 * (lw[-1] - lw[-2])]])) if len(widths) > 1 \
+            else np.array([widths[0] / 1.2, widths[0] * 1.2])
+        if len(values) > 1:
+            vy = np.concatenate([[values[0] - 0.5 * (values[1] - values[0])],
+                                 0.5 * (values[1:] + values[:-1]),
+                                 [values[-1] + 0.5 * (values[-1] - values[-2])]])
+        else:
+            vy = np.array([values[0] - 0.5, values[0] + 0.5])
+        mesh = ax.pcolormesh(wx, vy, l1[i], norm=norm, cmap="magma_r", shading="flat")
+        if len(values) > 1 and len(widths) > 1:
+            # Context levels (thin, dashed) where the map crosses them, then the threshold.
+            context = [v for v in (10.0, 20.0, 50.0, 100.0)
+                       if v != threshold and l1[i].min() < v < l1[i].max()]
+            if context:
+                cs = ax.contour(widths, values, l1[i], levels=context, colors="0.5",
+                                linewidths=0.8, linestyles="dashed")
+                ax.clabel(cs, fmt=lambda v: f"{v:g} %", fontsize=8)
+            if l1[i].min() < threshold < l1[i].max():
+                cs = ax.contour(widths, values, l1[i], levels=[threshold], colors="cyan",
+                                linewidths=2.0)
+                ax.clabel(cs, fmt=lambda v: f"{v:g} %", fontsize=9)
+        for v in range(len(values)):
+            for w in range(len(widths)):
+                ax.text(widths[w], values[v], f"{l1[i, v, w]:.0f}\n±{floor[i, v, w]:.0f}",
+                        ha="center", va="center", fontsize=7,
+                        color="white" if l1[i, v, w] > np.sqrt(norm.vmin * norm.vmax) else "black")
+        ax.set_xscale("log")
+        ax.set_xticks(widths, [f"{w:g}" for w in widths])
+        ax.minorticks_off()
+        ax.set_xlabel("barbule width 2A (µm)")
+        ax.set_ylabel(label)
+        above = [b for b in boundary[i] if np.isfinite(b) and b > 0]
+        state = f"{threshold:g} % contour in cyan" if len(above) else \
+            f"no {threshold:g} % crossing inside the sweep"
+        ax.set_title(f"θ_i = {incidence[i]:g}°: {state}", fontsize=10)
+    fig.colorbar(mesh, ax=axes[0].tolist(),
+                 label="relative L1, PO vs GO (%), largest over wavelengths")
+    fig.suptitle(f"{title}\nwindow {window}; cells: L1 ± noise floor (%), largest floor "
+                 f"{floor.max():.1f} %", fontsize=10, y=1.06)
+    return fig
+
+
 KINDS = {  # kind -> (builder, dpi)
     "spectra": (build_spectra, 120),
     "chart": (build_chart, 120),
@@ -788,6 +863,7 @@ KINDS = {  # kind -> (builder, dpi)
     "fingerprints": (build_fingerprints, 100),
     "btf_tiles": (build_btf_tiles, 110),
     "geometry_preview": (build_geometry_preview, 110),
+    "wave_validity_map": (build_wave_validity_map, 110),
 }
 
 

@@ -22,6 +22,7 @@
 #include "geometry/barbule.h"
 #include "sim/optics/colour.h"
 #include "sim/tracer.h"
+#include "sim/wave/ray_optics_validity.h"
 #include "studies/figure_data.h"
 #include "studies/plots.h"
 #include "studies/sections.h"
@@ -840,6 +841,60 @@ std::string convergence(const Run& run, const Built& b,
            "\n\n![error vs time](convergence/error_vs_time.png)\n\n";
 }
 
+// ---- Level of physics: does this row need physical optics? ----------------------------------
+
+// The study's barbule row in 2D (its cross-section, spacing, tilt and rotation jitter; rows of
+// at least 4 barbules and 40 µm, fewer than the patch's when it is longer), PO against GO at the
+// study's wavelengths and the beam's incidence taken in the cross-section's plane
+// (sim/wave/ray_optics_validity.h: the 5° goniometer window, unpolarised).
+std::string level_of_physics(const Run& run, RockDoveResult& result) {
+    run.clock.say("level of physics: physical against geometric optics on the 2D barbule row");
+    const auto start = std::chrono::steady_clock::now();
+    const geometry::BarbuleRowParams& p = run.s.row;
+    const double a = p.cell.semi_major_um;
+    const int count =
+        std::min(p.barbules, std::max(4, static_cast<int>(std::ceil(40.0 / (p.H * a)))));
+    sim::wave::Row2d row =
+        sim::wave::barbule_row_2d(a, p.cell.b, p.cell.phi0, p.cell.phi1, p.cell.film_thickness_um,
+                                  p.cell.melanin_depth_um, p.H, p.mu, count);
+    row.jitter_rotation_rad = p.jitter_phi_rad;
+    row.realisations = p.jitter_phi_rad > 0.0 ? 8 : 1;
+    row.seed = run.s.seed;
+    sim::wave::RayOpticsValidityOptions options;
+    options.max_step_um =
+        0.95 * sim::wave::barbule_row_min_radius_um(a, p.cell.b, p.cell.phi0, p.cell.phi1);
+    const std::vector<double> incidence = {run.s.beam_incidence};
+    const sim::wave::RayOpticsValidity2d v =
+        sim::wave::compare_ray_and_physical_optics(row, run.s.wavelengths, incidence, options);
+    result.level_relative_l1 = v.max_relative_l1;
+    result.level_noise_floor = v.max_relative_l1_noise_floor;
+    result.level_power_error = v.cases[v.worst_case].power_error;
+    result.level_ray_optics_suffices = v.ray_optics_suffices;
+    result.level_seconds =
+        std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+    const sim::wave::LevelComparison2d& worst = v.cases[v.worst_case];
+    return fmt::format(
+        "## Level of physics\n\n"
+        "Physical optics (diffraction, coherent over the row) against ray optics + thin film on "
+        "this study's barbule cross-sections in 2D ({} barbules of width {:g} µm, H = {}, μ = "
+        "{:.2f} rad{}), θ_i = {:.0f}° in the cross-section's plane, unpolarised, through a 5° "
+        "window (sim/wave/ray_optics_validity.h): relative L1 **{:.1f} %** (largest over the {} "
+        "wavelengths, at {:g} nm; noise floor {:.1f} %{}), total reflected power {:+.1f} %. "
+        "**{}** ({:.2f} s; PO {:.2f} s, GO {:.3f} s wall). The map of where ray optics ends is "
+        "the wave_validity study.\n\n",
+        count, 2.0 * a, p.H, p.mu,
+        p.jitter_phi_rad > 0.0 ? fmt::format(", rotation jitter {:.3f} rad, {} realisations",
+                                             p.jitter_phi_rad, row.realisations)
+                               : ", no jitter",
+        run.s.beam_incidence / kDeg, 100.0 * v.max_relative_l1, run.s.wavelengths.size(),
+        worst.lambda_nm, 100.0 * v.max_relative_l1_noise_floor,
+        row.realisations > 1 ? "" : ": a regular row is deterministic", 100.0 * worst.power_error,
+        v.ray_optics_suffices ? "Within 5 %: ray optics + thin film suffices for these barbules"
+                              : "Above 5 %: these barbules diffract; physical optics is needed "
+                                "for their angular distribution",
+        result.level_seconds, v.po_wall_s, v.go_wall_s);
+}
+
 // ---- 5. Report. --------------------------------------------------------------------------------
 
 std::string departures(const Settings& s, const RockDoveResult& result) {
@@ -925,6 +980,7 @@ RockDoveResult run_rock_dove_study(const std::string& study_text, const fs::path
     // Every pass of the record, those of an interrupted earlier run resumed from the checkpoint
     // included (the passes of this process alone would lose them).
     md += convergence(run, built, brdfs.simulation.convergence);
+    md += level_of_physics(run, result);
     md += departures(s, result);  // report
     result.wall_seconds = clock.elapsed_s();
     md += run_time_by_stage(clock, out.path());

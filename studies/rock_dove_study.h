@@ -44,6 +44,12 @@ struct RockDoveResult {
     // The hemisphere scatterograms' median per-pixel relative standard error
     // (gonio::median_relative_standard_error, cells above 1 % of the peak).
     double hemisphere_median_sigma_simulation = 0.0, hemisphere_median_sigma_model = 0.0;
+    // Level of physics (sim/wave/ray_optics_validity.h) on the study's barbule row in 2D: PO vs
+    // GO relative L1 (largest over the study's wavelengths) with its noise floor, the
+    // total-power error, whether ray optics + thin film suffices (L1 <= 5 %), and the wall time.
+    double level_relative_l1 = 0.0, level_noise_floor = 0.0, level_power_error = 0.0;
+    bool level_ray_optics_suffices = false;
+    double level_seconds = 0.0;
 };
 
 // `study_text` is the TOML; `source_name` names it in errors (a path or "<default>").

@@ -42,7 +42,8 @@ struct StudyEntry {
     X(species)             \
     X(masking)             \
     X(calibration)         \
-    X(spongy)
+    X(spongy)              \
+    X(wave_validity)
 
 #define PLUMAGE_DECLARE_STUDY_ENTRY(kind) StudyEntry kind##_study_entry();
 PLUMAGE_STUDIES(PLUMAGE_DECLARE_STUDY_ENTRY)

@@ -117,6 +117,33 @@ double ParameterTable::number(std::string_view key, double default_value, Range 
     return *value;
 }
 
+std::vector<double> ParameterTable::numbers(std::string_view key,
+                                            const std::vector<double>& default_values, Range range,
+                                            std::size_t min_count, std::size_t max_count,
+                                            std::string_view what) {
+    const toml::node* node = find(key);
+    if (node == nullptr) return default_values;
+    const std::string expected = fmt::format("a list of {} to {} numbers, each {} ({})", min_count,
+                                             max_count, describe(range), what);
+    const auto* array = node->as_array();
+    if (array == nullptr) fail(key, fmt::format("is {}: expected {}", type_name(*node), expected));
+    if (array->size() < min_count || array->size() > max_count)
+        fail(key, fmt::format("has {} values: expected {}", array->size(), expected));
+    std::vector<double> values;
+    for (std::size_t i = 0; i < array->size(); ++i) {
+        const toml::node& item = *array->get(i);
+        std::optional<double> value;
+        if (const auto* f = item.as_floating_point()) value = f->get();
+        if (const auto* n = item.as_integer()) value = static_cast<double>(n->get());
+        if (!value)
+            fail(key, fmt::format("at [{}] is {}: expected {}", i, type_name(item), expected));
+        if (!within(range, *value))
+            fail(key, fmt::format("at [{}] = {}: expected {}", i, *value, expected));
+        values.push_back(*value);
+    }
+    return values;
+}
+
 double ParameterTable::required_number(std::string_view key, Range range, std::string_view what) {
     if (!has(key)) {
         file_->used_.insert(full_key(key));

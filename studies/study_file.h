@@ -48,6 +48,11 @@ public:
                      std::string_view what);
     long integer(std::string_view key, long default_value, long min, long max,
                  std::string_view what);
+    // A list of numbers (`key = [0.5, 1, 2]`), each within range, from min_count to max_count
+    // of them; an absent key gives default_values.
+    std::vector<double> numbers(std::string_view key, const std::vector<double>& default_values,
+                                Range range, std::size_t min_count, std::size_t max_count,
+                                std::string_view what);
     bool boolean(std::string_view key, bool default_value, std::string_view what);
     std::string string(std::string_view key, std::string_view default_value,
                        const std::vector<std::string>& allowed, std::string_view what);

@@ -236,6 +236,28 @@ def geometry_polygons(d):
     return path
 
 
+def wave_validity_map(d):
+    """Two incidences x 3 values x 4 widths, L1 falling through 5 % with width (the contour)."""
+    path = os.path.join(d, "wave_validity.h5")
+    widths = np.array([1.0, 3.0, 8.0, 20.0])
+    values = np.array([0.2, 0.4, 0.59])
+    l1 = np.array([[[0.5 / w * (1 + v) for w in widths] for v in values] for _ in range(2)])
+    with h5py.File(path, "w") as f:
+        f["widths_um"] = widths
+        f["incidence_deg"] = np.array([0.0, 30.0])
+        f["wavelengths_nm"] = np.array([500.0, 600.0])
+        f["map/values"] = values
+        f["map/relative_l1"] = l1
+        f["map/relative_l1_noise_floor"] = 0.1 * l1
+        f["map/boundary_width_um"] = np.full((2, 3), 12.0)
+        f["map"].attrs["axis_label"] = "film thickness d (µm)"
+        f.attrs["title"] = "PO vs GO: relative L1"
+        f.attrs["threshold"] = 0.05
+        f.attrs["window_half_angle_deg"] = 5.0
+        f.attrs["window_kernel"] = "gaussian"
+    return path
+
+
 # kind -> (input writers, what every panel must have, colour bar expected)
 #   panels: "all" (every non-colour-bar axes has a title and x and y labels),
 #           "titled" (every axes a title, labels on at least one), "sheet" (contact sheet:
@@ -257,6 +279,7 @@ CASES = {
     "fingerprints": ([fingerprints], "all", True),
     "btf_tiles": ([btf_tiles], "titled", False),
     "geometry_preview": ([geometry_lines, geometry_polygons], "all", False),
+    "wave_validity_map": ([wave_validity_map], "all", True),
 }
 
 

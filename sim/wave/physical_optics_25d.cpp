@@ -1,0 +1,149 @@
+// Physical optics in 2.5D (physical_optics_25d.h has the derivation).
+#include "sim/wave/physical_optics_25d.h"
+
+#include <algorithm>
+#include <cmath>
+
+#include <fmt/format.h>
+
+#include "common/constants.h"
+#include "common/error.h"
+
+namespace plumage::sim::wave {
+
+struct PhysicalOptics25d::Prepared {
+    Vec3d wi;
+    double lambda_nm;
+    double cos_ei;
+    std::vector<FarFieldKernel2d> kernels;  // TE and TM per realisation; σ_t is their mean
+};
+
+namespace {
+
+constexpr const char* kWhat = "physical optics 2.5D";
+
+}  // namespace
+
+PhysicalOptics25d::PhysicalOptics25d(PhysicalOptics25dParams params) : params_(std::move(params)) {
+    if (!std::isfinite(params_.theta_d) || !(params_.theta_d > 0.0) || params_.theta_d > kPi / 4.0)
+        throw InputError(
+            fmt::format("{}: theta_d = {:.4g} rad must be in (0, π/4] (θ_d = 0 is "
+                        "a straight extrusion, a δ on the cone: no f to evaluate)",
+                        kWhat, params_.theta_d));
+    if (!std::isfinite(params_.row.spacing_um) || !(params_.row.spacing_um > 0.0))
+        throw InputError(
+            fmt::format("{}: row spacing {:.4g} µm must be > 0 (it sets the patch "
+                        "width count · spacing)",
+                        kWhat, params_.row.spacing_um));
+    if (!std::isfinite(params_.step_um) || params_.step_um < 0.0)
+        throw InputError(
+            fmt::format("{}: step_um = {:.4g} must be finite and >= 0", kWhat, params_.step_um));
+    place_row(params_.row, SampledCrossSection2d{}, 0);  // validates the row's fields
+}
+
+const std::vector<std::string>& PhysicalOptics25d::lobe_names() const {
+    static const std::vector<std::string> names = {"R"};
+    return names;
+}
+
+double PhysicalOptics25d::patch_width_um() const {
+    return params_.row.count * params_.row.spacing_um;
+}
+
+std::shared_ptr<const PhysicalOptics25d::Prepared> PhysicalOptics25d::prepare(
+    const Vec3d& wi, double lambda_nm) const {
+    std::lock_guard<std::mutex> lock(mutex_);
+    if (last_ && last_->wi == wi && last_->lambda_nm == lambda_nm) return last_;
+    auto prepared = std::make_shared<Prepared>();
+    prepared->wi = wi;
+    prepared->lambda_nm = lambda_nm;
+    prepared->cos_ei = std::hypot(wi.x(), wi.z());
+    const double theta_i = std::atan2(wi.x(), wi.z());
+    const double step = params_.step_um > 0.0 ? params_.step_um : 1e-3 * lambda_nm / 10.0;
+    const SampledCrossSection2d cell = sample_cross_section(params_.row.cell, step);
+    const bool jittered =
+        params_.row.jitter_position_um > 0.0 || params_.row.jitter_rotation_rad > 0.0;
+    const int realisations = jittered ? params_.row.realisations : 1;
+    for (int m = 0; m < realisations; ++m) {
+        const SampledCrossSection2d placed = place_row(params_.row, cell, m);
+        for (Polarisation2d pol : {Polarisation2d::te, Polarisation2d::tm})
+            prepared->kernels.push_back(
+                prepare_far_field(params_.row.cell, placed,
+                                  {lambda_nm, theta_i, pol, std::min(1.0, prepared->cos_ei)},
+                                  FarFieldPart::reflected));
+    }
+    last_ = prepared;
+    last_sigma_ = -1.0;
+    return prepared;
+}
+
+double PhysicalOptics25d::sigma_t(const Prepared& prepared, double theta_o) const {
+    {
+        std::lock_guard<std::mutex> lock(mutex_);
+        if (last_.get() == &prepared && last_sigma_ >= 0.0 &&
+            std::abs(last_theta_o_ - theta_o) < 1e-12)
+            return last_sigma_;
+    }
+    double sum = 0.0;
+    for (const FarFieldKernel2d& kernel : prepared.kernels)
+        sum += kernel.k / (8.0 * kPi) * std::norm(far_field_at(kernel, theta_o));
+    const double sigma = sum / static_cast<double>(prepared.kernels.size());
+    std::lock_guard<std::mutex> lock(mutex_);
+    if (last_.get() == &prepared) {
+        last_theta_o_ = theta_o;
+        last_sigma_ = sigma;
+    }
+    return sigma;
+}
+
+double PhysicalOptics25d::eval(const Vec3d& wi, const Vec3d& wo, double lambda_nm,
+                               std::span<double> per_lobe) const {
+    if (!per_lobe.empty()) std::fill(per_lobe.begin(), per_lobe.end(), 0.0);
+    const double cos_ei = std::hypot(wi.x(), wi.z()), cos_eo = std::hypot(wo.x(), wo.z());
+    if (cos_ei < 1e-9 || cos_eo < 1e-9 || std::abs(wi.z()) < 1e-12 || std::abs(wo.z()) < 1e-12)
+        return 0.0;
+    const Vec3d s = wi + wo;
+    const double sn = s.norm();
+    if (sn < 1e-12) return 0.0;
+    const double hy = std::clamp(s.y() / sn, -1.0, 1.0);
+    if (std::abs(std::asin(hy)) > params_.theta_d) return 0.0;
+    // ∂θ_h/∂ε_o: e = ∂ω_o/∂ε_o at fixed θ_o; s·e = ω_i·e since ω_o·e = 0.
+    const Vec3d e(-wo.y() * wo.x() / cos_eo, cos_eo, -wo.y() * wo.z() / cos_eo);
+    const double dhy = (e.y() * sn - s.y() * wi.dot(e) / sn) / (sn * sn);
+    const double dtheta_h = std::abs(dhy) / std::sqrt(std::max(1e-300, 1.0 - hy * hy));
+    const std::shared_ptr<const Prepared> prepared = prepare(wi, lambda_nm);
+    const double sigma = sigma_t(*prepared, std::atan2(wo.x(), wo.z()));
+    const double f = cos_ei * sigma * dtheta_h / (2.0 * params_.theta_d) /
+                     (std::abs(wi.z()) * patch_width_um() * std::abs(wo.z()) * cos_eo);
+    if (!per_lobe.empty()) per_lobe[0] = f;
+    return f;
+}
+
+double PhysicalOptics25d::pdf(const Vec3d&, const Vec3d&, double) const { return 0.25 / kPi; }
+
+std::optional<ScatterEvent> PhysicalOptics25d::sample(const Vec3d& wi, double lambda_nm,
+                                                      const Vec2& position_um, Rng& rng) const {
+    const double z = 1.0 - 2.0 * rng.uniform();
+    const double phi = 2.0 * kPi * rng.uniform();
+    const double r = std::sqrt(std::max(0.0, 1.0 - z * z));
+    const Vec3d wo(r * std::cos(phi), r * std::sin(phi), z);
+    const double weight = eval(wi, wo, lambda_nm) * std::abs(z) * 4.0 * kPi;
+    if (!(weight > 0.0)) return std::nullopt;
+    return ScatterEvent{wo, weight, 0, position_um};
+}
+
+double PhysicalOptics25d::reflected_fraction_2d(const Vec3d& wi, double lambda_nm,
+                                                int angles) const {
+    const std::shared_ptr<const Prepared> prepared = prepare(wi, lambda_nm);
+    double sum = 0.0;
+    for (int m = 0; m < angles; ++m) {
+        const double theta = -kPi + 2.0 * kPi * (m + 1) / angles;
+        double s = 0.0;
+        for (const FarFieldKernel2d& kernel : prepared->kernels)
+            s += kernel.k / (8.0 * kPi) * std::norm(far_field_at(kernel, theta));
+        sum += s / static_cast<double>(prepared->kernels.size());
+    }
+    return prepared->cos_ei * sum * 2.0 * kPi / angles / (std::abs(wi.z()) * patch_width_um());
+}
+
+}  // namespace plumage::sim::wave

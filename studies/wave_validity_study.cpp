@@ -1,0 +1,633 @@
+#include "studies/wave_validity_study.h"
+
+#include <omp.h>
+
+#include <algorithm>
+#include <array>
+#include <cmath>
+#include <fstream>
+#include <limits>
+#include <map>
+#include <span>
+#include <sstream>
+
+#include <fmt/format.h>
+
+#include "common/constants.h"
+#include "common/cpu_time.h"
+#include "common/error.h"
+#include "common/version.h"
+#include "geometry/barbule.h"
+#include "sim/wave/ray_optics_validity.h"
+#include "studies/plots.h"
+#include "studies/sections.h"
+#include "studies/staged_directory.h"
+#include "studies/study.h"
+#include "studies/study_common.h"
+#include "studies/study_file.h"
+#include "virtual_gonio/hdf5_file.h"
+#include "virtual_gonio/record_provenance.h"
+
+namespace plumage::studies {
+namespace {
+
+namespace fs = std::filesystem;
+namespace wave = sim::wave;
+
+// ---- Read. -------------------------------------------------------------------------------------
+
+struct Barbule {  // Huang 2022's rock-dove cell and row (geometry/barbule.h defaults)
+    double b = 0.25, phi0 = -0.37, phi1 = 2.64, d = 0.59, g = 0.3, H = 1.25, mu = -0.35;
+};
+
+struct Axis {
+    std::string key, label;
+    std::vector<double> values;
+};
+
+struct Settings {
+    std::string name;
+    std::uint64_t seed = kDefaultSeed;
+    Barbule base;
+    double min_length_um = 40.0;
+    int min_count = 4;
+    double jitter_position = 0.1;  // × H·A
+    double jitter_rotation = 3.0 * kDeg;
+    int realisations = 8;
+    std::vector<double> widths_um;
+    std::vector<Axis> axes;
+    std::vector<double> wavelengths_nm;
+    std::vector<double> incidence_deg;
+    wave::RayOpticsValidityOptions options;
+};
+
+Barbule read_barbule(ParameterTable t) {
+    Barbule b;
+    b.b = t.number("b", b.b, between(1e-3, 1.0), "cross-section aspect: semi-minor / semi-major");
+    b.phi0 = t.angle_deg("phi0_deg", b.phi0, between(-360.0, 360.0),
+                         "first normal azimuth of the arc, deg from +z towards +x");
+    b.phi1 = t.angle_deg("phi1_deg", b.phi1, between(-360.0, 360.0),
+                         "last normal azimuth of the arc, deg");
+    if (!(b.phi0 < b.phi1 && b.phi1 <= b.phi0 + 2.0 * kPi))
+        throw InputError(
+            fmt::format("{}: barbule.phi1_deg = {:.4g}: expected phi0_deg < phi1_deg "
+                        "<= phi0_deg + 360 (phi0_deg = {:.4g})",
+                        t.location("phi1_deg"), b.phi1 / kDeg, b.phi0 / kDeg));
+    b.d = t.number("film_thickness_um", b.d, between(0.0, 5.0), "keratin film thickness d, µm");
+    b.g = t.number("melanin_depth_um", b.g, between(0.0, 5.0),
+                   "air gap between the film and the melanin, µm");
+    b.H = t.number("H", b.H, {0.0, 100.0, true, false},
+                   "barbule spacing, in units of the semi-major axis A");
+    b.mu = t.angle_deg("mu_deg", b.mu, {-90.0, 90.0, true, true}, "tilt of every barbule, deg");
+    return b;
+}
+
+Settings read_settings(const std::string& text, const fs::path& source) {
+    auto file = StudyFile::parse(text, source);
+    ParameterTable root = file->root();
+    Settings s;
+    s.name = read_study_name(root, source);
+    root.string("study", "wave_validity", {"wave_validity"}, "which study this file describes");
+    s.seed = read_seed(root);
+    s.base = read_barbule(root.table("barbule"));
+
+    ParameterTable row = root.table("row");
+    s.min_length_um = row.number("min_length_um", s.min_length_um, {0.0, 1000.0, true, false},
+                                 "a row holds at least this length of barbules, µm");
+    s.min_count = static_cast<int>(
+        row.integer("min_count", s.min_count, 1, 1000, "a row holds at least this many barbules"));
+    s.jitter_position = row.number("jitter_position", s.jitter_position, between(0.0, 1.0),
+                                   "σ of each barbule's displacement per coordinate, in units of "
+                                   "the spacing H·A");
+    s.jitter_rotation = row.angle_deg("jitter_rotation_deg", s.jitter_rotation, between(0.0, 30.0),
+                                      "σ of each barbule's rotation, deg");
+    s.realisations = static_cast<int>(row.integer("realisations", s.realisations, 1, 1000,
+                                                  "jittered rows averaged (the ensemble)"));
+
+    ParameterTable sweep = root.table("sweep");
+    const Range width_range{0.0, 200.0, true, false};
+    s.widths_um = sweep.numbers("widths_um", {0.5, 1, 2, 3, 5, 8, 12, 20}, width_range, 2, 64,
+                                "barbule widths 2A, µm, increasing");
+    for (std::size_t i = 1; i < s.widths_um.size(); ++i)
+        if (!(s.widths_um[i] > s.widths_um[i - 1]))
+            throw InputError(
+                fmt::format("{}: sweep.widths_um: expected increasing widths ({} "
+                            "then {})",
+                            sweep.location("widths_um"), s.widths_um[i - 1], s.widths_um[i]));
+    s.axes.push_back(
+        {"film_thickness_um", "film thickness d (µm)",
+         sweep.numbers("film_thickness_um", {0.2, 0.3, 0.4, 0.5, 0.59}, between(0.0, 5.0), 1, 64,
+                       "film thicknesses d of the map, µm")});
+    s.axes.push_back({"b", "cross-section aspect b (1 = circle)",
+                      sweep.numbers("b", {0.15, 0.25, 0.4, 0.6, 1.0}, between(1e-3, 1.0), 1, 64,
+                                    "aspects b of the map (curvature)")});
+    s.axes.push_back({"H", "spacing H (units of A)",
+                      sweep.numbers("H", {1.1, 1.25, 1.5, 2.0, 3.0}, {0.0, 100.0, true, false}, 1,
+                                    64, "spacings H of the map, units of A")});
+
+    ParameterTable spectrum = root.table("spectrum");
+    s.wavelengths_nm = read_wavelengths(spectrum, WavelengthRule{});
+    ParameterTable illumination = root.table("illumination");
+    s.incidence_deg = illumination.numbers("incidence_deg", {0.0, 30.0}, between(-80.0, 80.0), 1, 8,
+                                           "in-plane incidence angles θ_i, deg from +z");
+
+    ParameterTable detector = root.table("detector");
+    s.options.window.half_angle_rad =
+        detector.angle_deg("half_angle_deg", 5.0 * kDeg, {0.0, 45.0, true, false},
+                           "detector window half-angle (the goniometer's cone), deg");
+    const std::string kernel =
+        detector.string("kernel", "gaussian", {"gaussian", "box"},
+                        "window shape in θ_s (gaussian: the box's variance)");
+    s.options.window.kernel =
+        kernel == "box" ? wave::WindowKernel::box : wave::WindowKernel::gaussian;
+    s.options.output_step_rad =
+        detector.angle_deg("step_deg", 1.0 * kDeg, {0.0, 10.0, true, false},
+                           "spacing of the detector centres over the reflected half-space, deg");
+    s.options.threshold = detector.number("threshold", 0.05, {0.0, 1.0, true, false},
+                                          "relative L1 up to which ray optics suffices");
+    s.options.outgoing_visibility = detector.boolean(
+        "outgoing_visibility", false,
+        "both levels drop reflected light that a neighbour blocks (slower: ~100× PO's cost)");
+    root.reject_unused();
+    return s;
+}
+
+// ---- Build and measure. ------------------------------------------------------------------------
+
+Barbule with_axis(Barbule b, const std::string& axis, double v) {
+    if (axis == "film_thickness_um") b.d = v;
+    if (axis == "b") b.b = v;
+    if (axis == "H") b.H = v;
+    return b;
+}
+
+int row_count(const Settings& s, const Barbule& b, double a) {
+    return std::max(s.min_count, static_cast<int>(std::ceil(s.min_length_um / (b.H * a) - 1e-9)));
+}
+
+wave::Row2d build_row(const Settings& s, const Barbule& b, double a) {
+    wave::Row2d row =
+        wave::barbule_row_2d(a, b.b, b.phi0, b.phi1, b.d, b.g, b.H, b.mu, row_count(s, b, a));
+    row.jitter_position_um = s.jitter_position * b.H * a;
+    row.jitter_rotation_rad = s.jitter_rotation;
+    row.realisations = s.realisations;
+    row.seed = s.seed;
+    return row;
+}
+
+std::string verdict_of(double l1, double floor, double threshold) {
+    if (l1 - 2.0 * floor > threshold) return "PO needed";
+    if (l1 + 2.0 * floor <= threshold) return "GO suffices";
+    return "undecided";
+}
+
+WaveValidityPoint measure_point(const Settings& s, const Barbule& b, double value, double width) {
+    const double a = 0.5 * width;
+    const wave::Row2d row = build_row(s, b, a);
+    wave::RayOpticsValidityOptions options = s.options;
+    options.max_step_um = 0.95 * wave::barbule_row_min_radius_um(a, b.b, b.phi0, b.phi1);
+    std::vector<double> incidence;
+    for (double t : s.incidence_deg) incidence.push_back(t * kDeg);
+    const wave::RayOpticsValidity2d v =
+        wave::compare_ray_and_physical_optics(row, s.wavelengths_nm, incidence, options);
+    WaveValidityPoint p;
+    p.value = value;
+    p.width_um = width;
+    p.count = row.count;
+    const std::size_t n_l = s.wavelengths_nm.size();
+    for (std::size_t i = 0; i < incidence.size(); ++i) {
+        const wave::L1WithFloor w = wave::worst_over_wavelengths(v, i, n_l);
+        p.relative_l1.push_back(w.relative_l1);
+        p.noise_floor.push_back(w.noise_floor);
+        p.lambda_at_max_nm.push_back(w.lambda_nm);
+        double e = 0.0, se = 0.0;
+        for (std::size_t l = 0; l < n_l; ++l) {
+            const wave::LevelComparison2d& c = v.cases[i * n_l + l];
+            if (std::abs(c.power_error) >= std::abs(e))
+                e = c.power_error, se = c.power_error_standard_error;
+        }
+        p.power_error.push_back(e);
+        p.power_error_standard_error.push_back(se);
+        p.verdict.push_back(verdict_of(w.relative_l1, w.noise_floor, s.options.threshold));
+    }
+    p.po_wall_s = v.po_wall_s;
+    p.po_cpu_s = v.po_cpu_s;
+    p.go_wall_s = v.go_wall_s;
+    p.go_cpu_s = v.go_cpu_s;
+    return p;
+}
+
+// The width above which every L1 at this (incidence, value) is <= threshold (header).
+double boundary_width(const WaveValidityMap& m, std::size_t value, std::size_t incidence,
+                      std::size_t n_w, double threshold) {
+    int last_above = -1;
+    for (std::size_t w = 0; w < n_w; ++w)
+        if (m.points[value * n_w + w].relative_l1[incidence] > threshold)
+            last_above = static_cast<int>(w);
+    if (last_above < 0) return 0.0;
+    if (last_above == static_cast<int>(n_w) - 1) return std::numeric_limits<double>::infinity();
+    const WaveValidityPoint& hi = m.points[value * n_w + last_above];
+    const WaveValidityPoint& lo = m.points[value * n_w + last_above + 1];
+    const double e0 = std::log(hi.relative_l1[incidence]), e1 = std::log(lo.relative_l1[incidence]);
+    const double f = (std::log(threshold) - e0) / (e1 - e0);
+    return std::exp(std::log(hi.width_um) + f * (std::log(lo.width_um) - std::log(hi.width_um)));
+}
+
+// Beyond the sweep: a power law L1 ∝ W^s fitted (log–log least squares) to the largest widths.
+double extrapolated_width(const WaveValidityMap& m, std::size_t value, std::size_t incidence,
+                          std::size_t n_w, double threshold) {
+    const std::size_t first = n_w > 4 ? n_w - 4 : 0;
+    if (n_w - first < 2) return std::numeric_limits<double>::infinity();
+    double mx = 0.0, my = 0.0, sxy = 0.0, sxx = 0.0;
+    const double n = static_cast<double>(n_w - first);
+    for (std::size_t w = first; w < n_w; ++w) {
+        mx += std::log(m.points[value * n_w + w].width_um) / n;
+        my += std::log(m.points[value * n_w + w].relative_l1[incidence]) / n;
+    }
+    for (std::size_t w = first; w < n_w; ++w) {
+        const double x = std::log(m.points[value * n_w + w].width_um) - mx;
+        sxy += x * (std::log(m.points[value * n_w + w].relative_l1[incidence]) - my);
+        sxx += x * x;
+    }
+    const double slope = sxy / sxx;
+    if (!(slope < 0.0)) return std::numeric_limits<double>::infinity();
+    return std::exp(mx + (std::log(threshold) - my) / slope);
+}
+
+std::string width_text(double w, const std::vector<double>& widths) {
+    if (w == 0.0) return fmt::format("< {:g} µm", widths.front());
+    if (std::isinf(w)) return fmt::format("> {:g} µm", widths.back());
+    return fmt::format("{:.2g} µm", w);
+}
+
+// ---- Outputs. ----------------------------------------------------------------------------------
+
+std::vector<double> gather(const WaveValidityMap& m, std::size_t n_inc,
+                           const std::vector<double> WaveValidityPoint::*member) {
+    // [incidence][value][width]
+    std::vector<double> out;
+    const std::size_t n = m.points.size();
+    for (std::size_t i = 0; i < n_inc; ++i)
+        for (std::size_t k = 0; k < n; ++k) out.push_back((m.points[k].*member)[i]);
+    return out;
+}
+
+void write_map(record::Hdf5Writer& h5, const std::string& g, const WaveValidityMap& m,
+               const WaveValidityResult& r) {
+    const std::uint64_t n_inc = r.incidence_deg.size(), n_v = m.values.size(),
+                        n_w = r.widths_um.size();
+    using P = WaveValidityPoint;
+    h5.write(g + "/values", std::span<const double>(m.values), {n_v},
+             {{"units", m.axis == "film_thickness_um" ? "µm" : "1"},
+              {"description", "the map's second axis: " + m.label}});
+    auto per_point = [&](const std::string& name, auto member, const std::string& units,
+                         const std::string& description) {
+        h5.write(g + "/" + name, std::span<const double>(gather(m, n_inc, member)),
+                 {n_inc, n_v, n_w},
+                 {{"units", units}, {"description", description + ", [incidence][value][width]"}});
+    };
+    per_point("relative_l1", &P::relative_l1, "1",
+              "PO vs GO relative L1 Σ|W_PO − W_GO| / Σ W_PO over the detector centres, the "
+              "largest over the wavelengths");
+    per_point("relative_l1_noise_floor", &P::noise_floor, "1",
+              "that L1's noise floor sqrt(2/π) Σ s_θ / Σ W_PO (s_θ: standard error of the "
+              "ensemble mean of W_PO − W_GO)");
+    per_point("wavelength_at_max_nm", &P::lambda_at_max_nm, "nm",
+              "the wavelength of the largest L1");
+    per_point("power_error", &P::power_error, "1",
+              "P_PO / P_GO − 1 of the power into the reflected half-space, the largest in "
+              "magnitude over the wavelengths");
+    per_point("power_error_standard_error", &P::power_error_standard_error, "1",
+              "its standard error over the ensemble");
+    auto per_cell = [&](const std::string& name, double P::*member, const std::string& d) {
+        std::vector<double> v;
+        for (const P& p : m.points) v.push_back(p.*member);
+        h5.write(g + "/" + name, std::span<const double>(v), {n_v, n_w},
+                 {{"units", "s"},
+                  {"description", d + ", all wavelengths, incidences, "
+                                      "polarisations and realisations"}});
+    };
+    per_cell("po_wall_s", &P::po_wall_s, "wall time of physical optics");
+    per_cell("po_cpu_s", &P::po_cpu_s, "process CPU time of physical optics");
+    per_cell("go_wall_s", &P::go_wall_s, "wall time of geometric optics");
+    per_cell("go_cpu_s", &P::go_cpu_s, "process CPU time of geometric optics");
+    std::vector<double> count;
+    for (const P& p : m.points) count.push_back(p.count);
+    h5.write(g + "/barbules_per_row", std::span<const double>(count), {n_v, n_w},
+             {{"units", "1"}, {"description", "barbules in each row"}});
+    std::vector<double> boundary;
+    for (const auto& row : m.boundary_um) boundary.insert(boundary.end(), row.begin(), row.end());
+    h5.write(g + "/boundary_width_um", std::span<const double>(boundary), {n_inc, n_v},
+             {{"units", "µm"},
+              {"description",
+               "the width above which every L1 is <= the threshold, log-interpolated; 0: below "
+               "the smallest width, inf: above the largest, [incidence][value]"}});
+    std::vector<double> extrapolated;
+    for (const auto& row : m.extrapolated_um)
+        extrapolated.insert(extrapolated.end(), row.begin(), row.end());
+    h5.write(g + "/extrapolated_boundary_um", std::span<const double>(extrapolated), {n_inc, n_v},
+             {{"units", "µm"},
+              {"description",
+               "where the boundary lies beyond the largest width: the width at which a power law "
+               "fitted (log-log least squares) to the L1 of the largest 4 widths reaches the "
+               "threshold; inf when it does not fall; 0 when the boundary is inside the sweep, "
+               "[incidence][value]"}});
+    h5.set_attribute(g, "axis", m.axis);
+    h5.set_attribute(g, "axis_label", m.label);
+}
+
+void write_common(record::Hdf5Writer& h5, const WaveValidityResult& r, const Settings& s) {
+    h5.write(
+        "widths_um", std::span<const double>(r.widths_um), {r.widths_um.size()},
+        {{"units", "µm"}, {"description", "barbule width 2A (the cross-section's major axis)"}});
+    h5.write("incidence_deg", std::span<const double>(r.incidence_deg), {r.incidence_deg.size()},
+             {{"units", "deg"}, {"description", "in-plane incidence θ_i from +z towards +x"}});
+    h5.write("wavelengths_nm", std::span<const double>(r.wavelengths_nm), {r.wavelengths_nm.size()},
+             {{"units", "nm"}, {"description", "wavelengths (vacuum); unpolarised (TE + TM)/2"}});
+    h5.set_attribute("/", "threshold", r.threshold);
+    h5.set_attribute("/", "window_half_angle_deg", s.options.window.half_angle_rad / kDeg);
+    h5.set_attribute("/", "window_kernel",
+                     s.options.window.kernel == wave::WindowKernel::box
+                         ? "box"
+                         : "gaussian (the box's variance, σ = half-angle/√3)");
+    h5.set_attribute("/", "max_noise_floor", r.max_noise_floor);
+}
+
+void write_record(const fs::path& path, const WaveValidityResult& r, const Settings& s,
+                  const std::string& text, double cpu_s) {
+    record::Hdf5Writer h5(path);
+    write_common(h5, r, s);
+    for (const WaveValidityMap& m : r.maps) write_map(h5, "maps/" + m.axis, m, r);
+    h5.set_attribute("/", "description",
+                     "Physical optics (reflected part) against geometric optics (mirror rays) "
+                     "for 2D barbule rows: sim/wave/ray_optics_validity.h");
+    h5.set_attribute("/", "outgoing_visibility", s.options.outgoing_visibility ? "on" : "off");
+    h5.set_attribute("/", "realisations", static_cast<double>(s.realisations));
+    gonio::write_provenance(h5, {"physical_optics_2d vs geometric_optics_2d", s.seed,
+                                 omp_get_max_threads(), r.wall_seconds, cpu_s, text});
+    h5.commit();
+}
+
+// One figure's data: the map alone (studies/plots.py build_wave_validity_map).
+void write_figure(const fs::path& path, const WaveValidityMap& m, const WaveValidityResult& r,
+                  const Settings& s) {
+    record::Hdf5Writer h5(path);
+    write_common(h5, r, s);
+    write_map(h5, "map", m, r);
+    h5.set_attribute("/", "title",
+                     fmt::format("PO vs GO: relative L1 (largest over {}–{} nm), width × {}",
+                                 r.wavelengths_nm.front(), r.wavelengths_nm.back(), m.label));
+    h5.commit();
+}
+
+void write_csv(const fs::path& path, const WaveValidityResult& r) {
+    std::ofstream csv(path);
+    csv << "axis,value,width_um,barbules,theta_i_deg,relative_l1_max_over_wavelengths,"
+           "noise_floor,wavelength_at_max_nm,power_error,power_error_standard_error,verdict,"
+           "po_wall_s,po_cpu_s,go_wall_s,go_cpu_s\n";
+    for (const WaveValidityMap& m : r.maps)
+        for (const WaveValidityPoint& p : m.points)
+            for (std::size_t i = 0; i < r.incidence_deg.size(); ++i)
+                csv << fmt::format(
+                    "{},{:.6g},{:.6g},{},{:g},{:.6g},{:.6g},{:g},{:.6g},{:.6g},{},"
+                    "{:.4g},{:.4g},{:.4g},{:.4g}\n",
+                    m.axis, p.value, p.width_um, p.count, r.incidence_deg[i], p.relative_l1[i],
+                    p.noise_floor[i], p.lambda_at_max_nm[i], p.power_error[i],
+                    p.power_error_standard_error[i], p.verdict[i], p.po_wall_s, p.po_cpu_s,
+                    p.go_wall_s, p.go_cpu_s);
+    if (!csv) throw IoError(fmt::format("cannot write {}", path.string()));
+}
+
+std::string boundary_table(const WaveValidityResult& r) {
+    std::ostringstream md;
+    md << "| map axis | value |";
+    for (double t : r.incidence_deg) md << fmt::format(" 5 % boundary at θ_i = {:g}° |", t);
+    md << "\n|---|---|";
+    for (std::size_t i = 0; i < r.incidence_deg.size(); ++i) md << "---|";
+    md << "\n";
+    for (const WaveValidityMap& m : r.maps)
+        for (std::size_t v = 0; v < m.values.size(); ++v) {
+            md << fmt::format("| {} | {:g} |", m.label, m.values[v]);
+            for (std::size_t i = 0; i < r.incidence_deg.size(); ++i) {
+                md << " " << width_text(m.boundary_um[i][v], r.widths_um);
+                const double e = m.extrapolated_um[i][v];
+                if (e > 0.0)
+                    md << (std::isinf(e)
+                               ? std::string(" (L1 not falling)")
+                               : fmt::format(" (extrapolated ≈ {:.{}f} µm)", e, e < 10.0 ? 1 : 0));
+                md << " |";
+            }
+            md << "\n";
+        }
+    return md.str();
+}
+
+std::string cost_table(const WaveValidityResult& r) {
+    // Per width, summed over the maps' points of that width.
+    std::ostringstream md;
+    md << "| width 2A (µm) | barbules per row (base) | PO wall (s) | PO CPU (s) | GO wall (s) | GO "
+          "CPU (s) | PO/GO wall |\n|---|---|---|---|---|---|---|\n";
+    const std::size_t n_w = r.widths_um.size();
+    for (std::size_t w = 0; w < n_w; ++w) {
+        double pw = 0, pc = 0, gw = 0, gc = 0;
+        int points = 0, count = 0;
+        for (const WaveValidityMap& m : r.maps)
+            for (std::size_t v = 0; v < m.values.size(); ++v) {
+                const WaveValidityPoint& p = m.points[v * n_w + w];
+                pw += p.po_wall_s, pc += p.po_cpu_s, gw += p.go_wall_s, gc += p.go_cpu_s;
+                ++points;
+                if (m.axis == "b" && v == 0) count = p.count;
+            }
+        md << fmt::format("| {:g} | {} | {:.3g} | {:.3g} | {:.3g} | {:.3g} | {:.0f} |\n",
+                          r.widths_um[w], count, pw / points, pc / points, gw / points, gc / points,
+                          gw > 0.0 ? pw / gw : 0.0);
+    }
+    return md.str();
+}
+
+void write_report(const fs::path& path, const WaveValidityResult& r, const Settings& s,
+                  const std::string& text, const std::string& run_time,
+                  const std::vector<std::string>& pngs) {
+    std::ofstream md(path);
+    const Barbule& b = s.base;
+    md << "# Where ray optics ends: physical optics against geometric optics for barbule rows\n\n"
+       << fmt::format(
+              "Physical optics (PO, sim/wave/physical_optics_2d.h: the Kirchhoff far field of "
+              "each lit element's thin-film reflection, coherent over the row) against geometric "
+              "optics (GO, sim/wave/geometric_optics_2d.h: the same elements' |r|² cos θ ds sent "
+              "into their mirror directions). Both: single bounce, same samples, lit test and "
+              "stack, outgoing visibility {}; PO − GO is diffraction alone. Rows of rock-dove "
+              "barbule cross-sections (b = {}, φ0 = {:.2f}, φ1 = {:.2f} rad, d = {} µm over a {} "
+              "µm air gap over melanin, H = {}, μ = {:.2f} rad; one parameter varied per map), "
+              "at least {} barbules and {} µm long, jittered by {} H·A in position and {:.1f}° "
+              "in rotation, {} realisations; {} wavelengths {}–{} nm, unpolarised (TE + TM)/2; "
+              "θ_i = {}°.\n\n",
+              s.options.outgoing_visibility ? "on" : "off", b.b, b.phi0, b.phi1, b.d, b.g, b.H,
+              b.mu, s.min_count, s.min_length_um, s.jitter_position, s.jitter_rotation / kDeg,
+              s.realisations, r.wavelengths_nm.size(), r.wavelengths_nm.front(),
+              r.wavelengths_nm.back(), fmt::join(r.incidence_deg, "°, "))
+       << fmt::format(
+              "**Metric.** Both far fields read through a {} detector window of half-angle "
+              "{:g}° (centres every {:g}° over the reflected half-space): relative L1 = Σ|W_PO − "
+              "W_GO| / Σ W_PO, **the largest over the wavelengths** (the wavelength is in "
+              "wave_validity.csv). Its noise floor is sqrt(2/π) Σ s_θ / Σ W_PO, s_θ the standard "
+              "error of the ensemble mean of W_PO − W_GO: the L1 that the finite ensemble alone "
+              "would show. Threshold {:g} %.\n\n",
+              s.options.window.kernel == wave::WindowKernel::box ? "box"
+                                                                 : "Gaussian (the box's variance)",
+              s.options.window.half_angle_rad / kDeg, s.options.output_step_rad / kDeg,
+              100.0 * r.threshold);
+    md << "## Maps\n\n";
+    for (std::size_t k = 0; k < r.maps.size(); ++k)
+        md << fmt::format("![width × {}]({})\n\n", r.maps[k].label, pngs[k]);
+    md << "## The width below which ray optics is off by more than "
+       << fmt::format("{:g} %", 100.0 * r.threshold) << "\n\n"
+       << boundary_table(r)
+       << "\nExtrapolated: a power law L1 ∝ (2A)^s fitted to the largest four widths, carried to "
+          "the threshold; an indication of the scale, not a measurement (the L1 there includes "
+          "its noise floor).\n\n";
+    md << "## Cost of each level\n\nMean per map point (all wavelengths, incidences, both "
+          "polarisations, every realisation), by width:\n\n"
+       << cost_table(r)
+       << fmt::format(
+              "\nTotals: PO {:.1f} s wall ({:.1f} s CPU), GO {:.2f} s wall ({:.2f} s "
+              "CPU), on {} threads. The lit test and the stack amplitudes are computed once per "
+              "row and charged to both levels (either alone would pay them), so the two totals "
+              "overlap; GO's time is mostly that shared part.\n\n",
+              r.po_wall_s, r.po_cpu_s, r.go_wall_s, r.go_cpu_s, omp_get_max_threads());
+    const int total = r.po_needed + r.go_suffices + r.undecided;
+    md << "## Statistical verdict\n\n"
+       << fmt::format(
+              "Per point and incidence: *PO needed* when L1 − 2·floor > {0:g} %, *GO suffices* "
+              "when L1 + 2·floor <= {0:g} %, else *undecided*. Of {1} comparisons: {2} PO needed, "
+              "{3} GO suffices, {4} undecided. The largest noise floor is {5:.2g} % ({6}).\n\n",
+              100.0 * r.threshold, total, r.po_needed, r.go_suffices, r.undecided,
+              100.0 * r.max_noise_floor,
+              r.undecided == 0 ? "every call is decided beyond twice its floor"
+                               : "the undecided points sit within twice their floor of the "
+                                 "threshold: more realisations would decide them");
+    md << "*Validity of both levels:* barbules whose tips' radius of curvature (b²A) falls below "
+          "the film thickness or λ are outside PO's planar-stack assumption too; there a *PO "
+          "needed* means that ray optics fails, not that PO holds (sim/wave/"
+          "ray_optics_validity.h).\n\n";
+    md << run_time;
+    md << fmt::format("---\nplumage {}\n\n## Study file\n\n```toml\n{}\n```\n", kVersion, text);
+    if (!md) throw IoError(fmt::format("cannot write {}", path.string()));
+}
+
+}  // namespace
+
+WaveValidityResult run_wave_validity_study(const std::string& study_text,
+                                           const fs::path& source_name,
+                                           const fs::path& results_root, bool progress) {
+    const StudyProgress clock(progress);
+    const double cpu0 = process_cpu_seconds();
+    const Settings s = read_settings(study_text, source_name);  // read
+    StagedDirectory::prepare(results_root / s.name);
+    WaveValidityResult r;
+    r.widths_um = s.widths_um;
+    r.wavelengths_nm = s.wavelengths_nm;
+    r.incidence_deg = s.incidence_deg;
+    r.threshold = s.options.threshold;
+    const std::size_t n_inc = s.incidence_deg.size(), n_w = s.widths_um.size();
+    // The base point of one map is a point of the others: measured once.
+    std::map<std::array<double, 4>, WaveValidityPoint> measured;
+    for (const Axis& axis : s.axes) {  // build and measure, map by map
+        clock.say(fmt::format("map width × {}: {} values × {} widths", axis.key, axis.values.size(),
+                              n_w));
+        WaveValidityMap m;
+        m.axis = axis.key;
+        m.label = axis.label;
+        m.values = axis.values;
+        for (double v : axis.values) {
+            const Barbule b = with_axis(s.base, axis.key, v);
+            for (double w : s.widths_um) {
+                throw_if_interrupted(fmt::format("{} = {:g}, width {:g} µm", axis.key, v, w));
+                const std::array<double, 4> key = {b.b, b.d, b.H, w};
+                try {
+                    auto found = measured.find(key);
+                    if (found == measured.end())
+                        found = measured.emplace(key, measure_point(s, b, v, w)).first;
+                    m.points.push_back(found->second);
+                    m.points.back().value = v;
+                } catch (const InputError& e) {
+                    throw InputError(fmt::format("sweep.{} = {:g}, width {:g} µm: {}", axis.key, v,
+                                                 w, e.what()));
+                }
+            }
+        }
+        // Compare.
+        m.boundary_um.assign(n_inc, std::vector<double>(m.values.size()));
+        m.extrapolated_um.assign(n_inc, std::vector<double>(m.values.size(), 0.0));
+        for (std::size_t i = 0; i < n_inc; ++i)
+            for (std::size_t v = 0; v < m.values.size(); ++v) {
+                m.boundary_um[i][v] = boundary_width(m, v, i, n_w, r.threshold);
+                if (std::isinf(m.boundary_um[i][v]))
+                    m.extrapolated_um[i][v] = extrapolated_width(m, v, i, n_w, r.threshold);
+            }
+        for (const WaveValidityPoint& p : m.points) {
+            for (std::size_t i = 0; i < n_inc; ++i) {
+                r.max_noise_floor = std::max(r.max_noise_floor, p.noise_floor[i]);
+                r.po_needed += p.verdict[i] == "PO needed";
+                r.go_suffices += p.verdict[i] == "GO suffices";
+                r.undecided += p.verdict[i] == "undecided";
+            }
+        }
+        r.maps.push_back(std::move(m));
+    }
+
+    for (const auto& [key, p] : measured) {  // each measured point once
+        r.po_wall_s += p.po_wall_s, r.po_cpu_s += p.po_cpu_s;
+        r.go_wall_s += p.go_wall_s, r.go_cpu_s += p.go_cpu_s;
+    }
+
+    clock.say("report");  // report
+    StagedDirectory out(results_root / s.name);
+    const fs::path dir = out.path();
+    r.wall_seconds = clock.elapsed_s();
+    write_record(dir / "wave_validity.h5", r, s, study_text, process_cpu_seconds() - cpu0);
+    write_csv(dir / "wave_validity.csv", r);
+    std::vector<PlotJob> jobs;
+    std::vector<std::string> pngs;
+    for (const WaveValidityMap& m : r.maps) {
+        const std::string stem = "width_x_" + m.axis;
+        write_figure(dir / (stem + ".h5"), m, r, s);
+        jobs.push_back({"wave_validity_map", dir / (stem + ".h5"), dir / (stem + ".png")});
+        pngs.push_back(stem + ".png");
+    }
+    clock.say("plots");
+    run_plots(jobs, dir / "plots.csv");
+    write_report(dir / "report.md", r, s, study_text, run_time_by_stage(clock, dir), pngs);
+    out.commit();
+    r.output_dir = out.final_path();
+    clock.done("done: " + (r.output_dir / "report.md").string());
+    return r;
+}
+
+void check_wave_validity_study(const std::string& study_text, const fs::path& source_name) {
+    read_settings(study_text, source_name);
+}
+
+namespace {
+
+std::string run_from_command_line(const std::string& text, const fs::path& source,
+                                  const fs::path& root, const RunLimits& limits) {
+    refuse_limits("wave_validity", limits,
+                  "its cost is set by the sweep and the ensemble in the study file");
+    const WaveValidityResult r = run_wave_validity_study(text, source, root, true);
+    return fmt::format(
+        "plumage: wrote {} in {:.0f} s: {} PO needed, {} GO suffices, {} undecided (open "
+        "report.md)\n",
+        r.output_dir.string(), r.wall_seconds, r.po_needed, r.go_suffices, r.undecided);
+}
+
+}  // namespace
+
+StudyEntry wave_validity_study_entry() {
+    return {"wave_validity",
+            "where ray optics ends: physical against geometric optics for barbule rows, as maps "
+            "over width × film, aspect and spacing",
+            check_wave_validity_study, run_from_command_line};
+}
+
+}  // namespace plumage::studies

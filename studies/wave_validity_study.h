@@ -1,0 +1,78 @@
+// The wave-validity study (`study = "wave_validity"`, issue 16): where ray optics + thin film
+// (geometric optics, GO) stops describing a barbule row and physical optics (PO, diffraction) is
+// needed, as maps over the barbule width 2A against film thickness d, cross-section aspect b
+// (curvature) and spacing H, the other parameters at the rock-dove values.
+//
+// Physics on the floor: sim/wave/ray_optics_validity.h (PO's reflected part against GO's mirror
+// rays on the same samples, lit test and stack, unpolarised, through the same detector window;
+// relative L1 with the jitter ensemble's half-normal noise floor, total-power error, each
+// level's wall and CPU time). This file reads, builds the rows, measures, compares and reports.
+//
+// Per map point (axis value v, width 2A): a row of `count` = max(min_count, ⌈min_length/(H A)⌉)
+// barbule cross-sections (Huang's cell, barbule_row_2d) at spacing H·A, tilt μ, jittered per
+// cell by σ_pos = jitter_position · H·A per coordinate and σ_rot = jitter_rotation, averaged
+// over `realisations` rows; for each incidence the largest relative L1 over the wavelengths
+// (stated in every output) with its floor, and the wavelength where it is largest.
+//
+// The 5 % boundary: for each incidence and axis value, the width above which every L1 of the
+// sweep is <= the threshold, interpolated in log width between the last width above and the
+// next below ("< smallest" when none is above, "> largest" when the largest is still above).
+// Statistical verdict per point: "PO needed" when L1 − 2·floor > threshold, "GO suffices" when
+// L1 + 2·floor <= threshold, else "undecided" (the floor is the L1 that noise alone would give).
+//
+// Outputs in <results>/<name>/: wave_validity.h5 (every number, units and descriptions,
+// /provenance), wave_validity.csv, width_x_<axis>.png (via width_x_<axis>.h5, the figure's
+// data), report.md. Study files: studies/wave_validity.toml (full, a few minutes),
+// studies/wave_validity_quick.toml (seconds; the tests run it). Keys: studies/README.md.
+#pragma once
+
+#include <filesystem>
+#include <string>
+#include <vector>
+
+namespace plumage::studies {
+
+struct WaveValidityPoint {
+    double value = 0.0, width_um = 0.0;
+    int count = 0;
+    // Per incidence.
+    std::vector<double> relative_l1, noise_floor, lambda_at_max_nm;
+    std::vector<double> power_error, power_error_standard_error;  // at the L1's wavelength
+    std::vector<std::string> verdict;
+    double po_wall_s = 0.0, po_cpu_s = 0.0, go_wall_s = 0.0, go_cpu_s = 0.0;
+};
+
+struct WaveValidityMap {
+    std::string axis;   // key: film_thickness_um, b, H
+    std::string label;  // "film thickness d (µm)"
+    std::vector<double> values;
+    std::vector<WaveValidityPoint> points;  // value-major, then width
+    // [incidence][value]: the 5 % boundary width (µm); 0 = below the smallest, +inf = above the
+    // largest width of the sweep.
+    std::vector<std::vector<double>> boundary_um;
+    // [incidence][value]: where the boundary lies beyond the largest width, the width at which a
+    // power law fitted to the L1 of the largest (up to 4) widths reaches the threshold (log–log
+    // least squares; +inf when the L1 does not fall there); 0 when the boundary is inside.
+    std::vector<std::vector<double>> extrapolated_um;
+};
+
+struct WaveValidityResult {
+    std::filesystem::path output_dir;
+    std::vector<double> widths_um, wavelengths_nm, incidence_deg;
+    std::vector<WaveValidityMap> maps;
+    double threshold = 0.05;
+    double max_noise_floor = 0.0;
+    int po_needed = 0, go_suffices = 0, undecided = 0;
+    double po_wall_s = 0.0, po_cpu_s = 0.0, go_wall_s = 0.0, go_cpu_s = 0.0;
+    double wall_seconds = 0.0;
+};
+
+// InputError on any bad key or value (file:line:col), before anything is written.
+WaveValidityResult run_wave_validity_study(const std::string& study_text,
+                                           const std::filesystem::path& source_name,
+                                           const std::filesystem::path& results_root,
+                                           bool progress = true);
+void check_wave_validity_study(const std::string& study_text,
+                               const std::filesystem::path& source_name);
+
+}  // namespace plumage::studies

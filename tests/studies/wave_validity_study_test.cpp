@@ -1,0 +1,135 @@
+// The wave-validity study in its quick form: the records hold the numbers the study returns
+// (HDF5 with units on every dataset and /provenance, CSV, report), every L1 sits beside a finite
+// noise floor, the verdicts follow the stated rule, the base point is one measurement shared by
+// the maps, and bad study files fail with file:line:column before anything is written.
+#include "studies/wave_validity_study.h"
+
+#include <unistd.h>
+
+#include <cmath>
+#include <filesystem>
+#include <fstream>
+#include <string>
+#include <vector>
+
+#include <gtest/gtest.h>
+
+#include "common/error.h"
+#include "tests/test_util.h"
+#include "virtual_gonio/hdf5_file.h"
+
+namespace plumage::studies {
+namespace {
+
+namespace fs = std::filesystem;
+
+fs::path quick_study() {
+    return fs::path(PLUMAGE_SOURCE_DIR) / "studies" / "wave_validity_quick.toml";
+}
+
+fs::path temporary_root(const std::string& tag) {
+    const auto root = fs::temp_directory_path() /
+                      ("plumage_wave_validity_" + tag + "_" + std::to_string(::getpid()));
+    fs::remove_all(root);
+    return root;
+}
+
+std::string error_of(const std::string& text) {
+    try {
+        check_wave_validity_study(text, "bad.toml");
+    } catch (const InputError& e) {
+        return e.what();
+    }
+    return "(accepted)";
+}
+
+TEST(WaveValidityStudy, QuickStudyRecordsWhatItReturns) {
+    const fs::path root = temporary_root("quick");
+    const std::string text = testing::read_text_file(quick_study());
+    const WaveValidityResult r = run_wave_validity_study(text, quick_study(), root, false);
+    const fs::path dir = root / "wave_validity_quick";
+    ASSERT_EQ(r.output_dir, dir);
+    ASSERT_EQ(r.maps.size(), 3u);
+    const std::size_t n_w = r.widths_um.size(), n_inc = r.incidence_deg.size();
+    EXPECT_EQ(n_inc, 2u);
+    int rows = 0;
+    for (const WaveValidityMap& m : r.maps) {
+        ASSERT_EQ(m.points.size(), m.values.size() * n_w) << m.axis;
+        for (const WaveValidityPoint& p : m.points) {
+            for (std::size_t i = 0; i < n_inc; ++i) {
+                EXPECT_TRUE(std::isfinite(p.relative_l1[i]) && p.relative_l1[i] > 0.0);
+                // Jittered rows over 3 realisations: a finite, positive floor.
+                EXPECT_GT(p.noise_floor[i], 0.0);
+                EXPECT_LT(p.noise_floor[i], p.relative_l1[i]);
+                const double l1 = p.relative_l1[i], f = p.noise_floor[i];
+                const std::string expected = l1 - 2.0 * f > r.threshold    ? "PO needed"
+                                             : l1 + 2.0 * f <= r.threshold ? "GO suffices"
+                                                                           : "undecided";
+                EXPECT_EQ(p.verdict[i], expected);
+                ++rows;
+            }
+            EXPECT_GT(p.po_wall_s, 0.0);
+            EXPECT_GT(p.go_wall_s, 0.0);
+            // PO's sums over every angle cost more than GO's mirror rays.
+            EXPECT_GT(p.po_cpu_s, p.go_cpu_s);
+        }
+    }
+    // The base row (b 0.25, d 0.59, H 1.25) is in every map: measured once, the same numbers.
+    const WaveValidityPoint& film_base = r.maps[0].points[1 * n_w + 1];  // d = 0.59, width 8
+    const WaveValidityPoint& b_base = r.maps[1].points[0 * n_w + 1];     // b = 0.25
+    const WaveValidityPoint& h_base = r.maps[2].points[0 * n_w + 1];     // H = 1.25
+    EXPECT_EQ(film_base.relative_l1, b_base.relative_l1);
+    EXPECT_EQ(film_base.relative_l1, h_base.relative_l1);
+
+    // The HDF5 record: the numbers returned, units on every dataset, provenance.
+    const fs::path h5 = dir / "wave_validity.h5";
+    for (const WaveValidityMap& m : r.maps) {
+        const std::string g = "maps/" + m.axis + "/";
+        const record::Dataset l1 = record::read_dataset(h5, g + "relative_l1");
+        ASSERT_EQ(l1.dims, (std::vector<std::uint64_t>{n_inc, m.values.size(), n_w}));
+        for (std::size_t i = 0; i < n_inc; ++i)
+            for (std::size_t k = 0; k < m.points.size(); ++k)
+                EXPECT_EQ(l1.values[i * m.points.size() + k], m.points[k].relative_l1[i]);
+        for (const char* name :
+             {"values", "relative_l1", "relative_l1_noise_floor", "wavelength_at_max_nm",
+              "power_error", "po_wall_s", "go_cpu_s", "barbules_per_row", "boundary_width_um",
+              "extrapolated_boundary_um"}) {
+            EXPECT_FALSE(record::read_string_attribute(h5, g + name, "units").empty()) << name;
+            EXPECT_FALSE(record::read_string_attribute(h5, g + name, "description").empty());
+        }
+    }
+    EXPECT_EQ(record::read_string_attribute(h5, "/provenance", "config"), text);
+    EXPECT_EQ(record::read_dataset(h5, "wavelengths_nm").values, r.wavelengths_nm);
+
+    // CSV: a header and one row per (map point, incidence); the report's sections.
+    std::ifstream csv(dir / "wave_validity.csv");
+    int lines = 0;
+    for (std::string line; std::getline(csv, line);) ++lines;
+    EXPECT_EQ(lines, rows + 1);
+    const std::string report = testing::read_text_file(dir / "report.md");
+    for (const char* section : {"## Maps", "5 % boundary at θ_i = 0°", "extrapolated ≈",
+                                "## Cost of each level", "## Statistical verdict",
+                                "largest over the wavelengths", "width_x_film_thickness_um.png"})
+        EXPECT_NE(report.find(section), std::string::npos) << section;
+    fs::remove_all(root);
+}
+
+TEST(WaveValidityStudy, BadFilesNameTheKeyAndLine) {
+    EXPECT_EQ(error_of("study = \"wave_validity\"\nname = \"x\"\n"), "(accepted)");
+    const std::string unknown = error_of("study = \"wave_validity\"\n[sweep]\nwidth_um = [1, 2]\n");
+    EXPECT_NE(unknown.find("bad.toml:3:1"), std::string::npos) << unknown;
+    EXPECT_NE(unknown.find("sweep.width_um"), std::string::npos) << unknown;
+    const std::string order = error_of("study = \"wave_validity\"\n[sweep]\nwidths_um = [2, 1]\n");
+    EXPECT_NE(order.find("bad.toml:3"), std::string::npos) << order;
+    EXPECT_NE(order.find("increasing"), std::string::npos) << order;
+    const std::string range = error_of("study = \"wave_validity\"\n[sweep]\nb = [0.25, 2]\n");
+    EXPECT_NE(range.find("sweep.b at [1] = 2"), std::string::npos) << range;
+    const std::string type = error_of("study = \"wave_validity\"\n[sweep]\nH = 1.25\n");
+    EXPECT_NE(type.find("expected a list of 1 to 64 numbers"), std::string::npos) << type;
+    const std::string kernel =
+        error_of("study = \"wave_validity\"\n[detector]\nkernel = \"cone\"\n");
+    EXPECT_NE(kernel.find("detector.kernel"), std::string::npos) << kernel;
+}
+
+}  // namespace
+}  // namespace plumage::studies
