@@ -2,62 +2,78 @@
 """Full-wave reference for barbule cross-sections: 2D far-field scattering in Meep (issue 16).
 
     /usr/bin/python3 barbule_far_field_2d.py [--cases single small row3] [--polarisations TE TM]
-        [--resolutions 30 45] [--theta-i 0 30] [--out DIR] [--plot]
+        [--resolutions 40 60] [--theta-i 0 30] [--out DIR]
+    /usr/bin/python3 barbule_far_field_2d.py --report [--prune] [--out DIR]
+    /usr/bin/python3 barbule_far_field_2d.py --mie-check [--resolutions 40 60] [--out DIR]
 
-Writes, beside this script (or into --out), merging with rows already there (same key replaced),
-after every run so an interrupted sweep keeps what it finished:
-  far_field.csv   case, polarisation, theta_i_deg, lambda_nm, resolution_px_per_um, theta_s_deg,
-                  sigma_um_per_rad: the differential scattering width of the SCATTERED field
-                  (total minus the empty cell's), per radian, over the full circle every 0.5°;
-  totals.csv      case, polarisation, theta_i_deg, lambda_nm, resolution, scattering_width_um
-                  (closed flux box, scattered field), absorption_width_um (closed flux box, total
-                  field), wall_s (scattering run + its empty run);
-  checks.csv      the same key, then the diagnostics: the far-field integral of σ, the extinction
-                  width from the 2D optical theorem, the empty run's net flux through the box,
-                  the incident intensity from the flux line and from |field|², and the spread of
-                  the empty run's field over the object's footprint;
-  materials.csv   lambda_nm, the suite's n_keratin, n_melanin, k_melanin, and the n, k of the
-                  fitted Lorentzian media actually used;
-  sigma_<case>.png (--plot) σ(θ_s) on a log scale per case.
+Writes, beside this script (or into --out), merging with the rows already there (same key
+replaced), after every run, so an interrupted sweep keeps what it finished:
+  far_field.csv    case, polarisation, theta_i_deg, lambda_nm, resolution_px_per_um, theta_s_deg,
+                   sigma_um_per_rad: the differential scattering width of the SCATTERED field
+                   (total minus the empty cell's) per radian, the full circle every 0.5°;
+  totals.csv       case, polarisation, theta_i_deg, lambda_nm, resolution, scattering_width_um
+                   (closed flux box, scattered field), absorption_width_um (the same box, total
+                   field), wall_s (the run's wall time: the scattering run + its empty run, which
+                   give all three wavelengths together);
+  checks.csv       the same key, then diagnostics: ∫σ dθ_s, the extinction width from the 2D
+                   optical theorem, the empty run's net flux through the box (relative), the
+                   incident intensity from the flux line and from |u|², the spread of |u|² over
+                   the object's footprint, the back-hemisphere peak of σ, Meep version, decay;
+  materials.csv    lambda_nm, the suite's n_keratin, n_melanin, k_melanin, and the n, k of the
+                   fitted Lorentzian media the runs used.
+--report reads those, writes convergence.csv (coarsest vs finest resolution: max and RMS
+relative difference of σ where the finest σ exceeds 1 % of its peak, and of the two widths),
+prints the energy and symmetry checks and draws sigma_<case>.png; --prune then keeps only the
+finest resolution in far_field.csv (σ to 4 significant digits), to keep the committed file small.
+--mie-check runs the same pipeline on a circular cylinder (radius 1 µm) of the fitted melanin
+and writes mie_check.csv: σ and the widths against the exact series solution.
 
 Frame and definitions (the contract with the physical-optics solver). Meep's x is our x
-(horizontal) and Meep's y is our z (up); the invariant axis is Meep's z. TE: E along the invariant
+(horizontal), Meep's y is our z (up); the invariant axis is Meep's z. TE: E along the invariant
 axis (Meep Ez); TM: H along it (Meep Hz). Directions point away from the object: the light comes
 from ω_i = (sin θ_i, cos θ_i) and propagates along −ω_i; the far-field direction is
-ω_s = (sin θ_s, cos θ_s), θ_s ∈ (−180°, 180°] from +z towards +x. σ(θ_s) = r S_r / I_inc for
-r → ∞ (S: time-averaged Poynting vector of the scattered field, I_inc: the incident plane wave's
+ω_s = (sin θ_s, cos θ_s), θ_s ∈ (−180°, 180°], from +z towards +x. σ(θ_s) = lim r S_r / I_inc
+(S: time-averaged Poynting vector of the scattered field, I_inc: the incident plane wave's
 intensity), in µm per radian, so ∫σ dθ_s = scattered power per unit length / I_inc.
 
 Shape: a melanin elliptical core (semi-axes a_x, a_z) under a keratin shell of uniform thickness
-d, whose outer boundary is the outward normal offset of the core ellipse by d. Both are
-mp.Prism polygons of N_VERTICES vertices (keratin outer polygon first, melanin core on top), so
-Meep's subpixel averaging smooths the interfaces (a material function would give staircased
-interfaces and first-order convergence). Cases: "single" (5.0, 2.0, 0.30) µm, "small" (1.0, 0.4,
-0.30) µm, "row3" three "single" shapes at x = −11, 0, +11 µm.
+d whose outer boundary is the outward normal offset of the core ellipse by d: an mp.Prism of
+N_VERTICES vertices, parametrised by the normal's angle (largest sagitta 1.5 nm). The core, an
+exact ellipse, is mp.Ellipsoid on top of it (later objects win). Meep's subpixel averaging is
+OFF (eps_averaging=False, interfaces staircased, first-order convergence): with it, setting up
+the polygon took 2–3 minutes per run at 30 px/µm, the whole budget. Cases: "single"
+(5.0, 2.0, 0.30) µm, "small" (1.0, 0.4, 0.30) µm, "row3" three "single" at x = −11, 0, +11 µm.
 
 Materials (λ in nm): keratin n = 1.532 + 5890/λ², lossless; melanin n = 1.648 + 23700/λ²,
-k = 0.56 exp(−λ/270); air n = 1. Meep needs dispersive media for a broadband pulse: each is a
-sum of Lorentzian susceptibilities fitted (least squares in n and k, 430–670 nm, with extra
-weight at 450, 550 and 650 nm) when the script starts; materials.csv records the fitted n, k
-and the errors at the three wavelengths (≤ 1e-3 is required). Every run uses the fitted media.
+k = 0.56 exp(−λ/270); air n = 1. A broadband pulse needs dispersive media: each is ε_∞ plus
+Lorentzian susceptibilities (keratin one lossless term, melanin two), fitted by least squares in
+n and k over 430–670 nm with extra weight at 450, 550, 650 nm, resonances kept at ≤ F0_MAX and
+outside the band (a keratin resonance at 9 µm⁻¹ made the update unstable at 20 px/µm). The fit
+runs (deterministically) at start-up; materials.csv holds what the runs used.
 
-The simulation. A line source spanning the whole cell width (through the side PMLs) above the
-object, a Gaussian pulse covering 430–670 nm. Normal incidence: one run gives all three
-wavelengths (DFT at 450, 550, 650 nm). Oblique incidence: one run per wavelength, the source
-current phased as exp(i k_x x) with k_x = −k sin θ_i at that wavelength (complex fields), and the
-DFT at that wavelength only, where the plane wave has exactly θ_i; the cell is widened on the side
-the light comes from so that the object is lit by source points outside the PML. Every run is
-paired with an empty-cell run (same cell, source and resolution): its near2far and flux-box DFT
-fields are subtracted (load_minus_near2far_data, load_minus_flux_data), so the far field and the
-scattering width are those of the scattered field; its flux through a horizontal line at z = 0
-over the monitor box's width gives I_inc = flux / (width cos θ_i). Far fields at r = R_FAR_UM
-from the closed near2far box (2D Green's function). Absorption: minus the net outward flux of the
-total field through the same closed box. Stop: when |field|² at a probe below the object has
-decayed to DECAY of its peak.
+The simulation. A line source across the whole cell width, through the side PMLs, with
+is_integrated=True (Meep's rule for a plane-wave source that extends into PML: without it the
+incident |E|² over the object rippled by ±10 %), a Gaussian pulse over 430–670 nm, light going
+down (−y). One run gives the three wavelengths. Oblique incidence: the object is turned by −θ_i
+instead (the frame turned so the light comes straight down), and σ is read at θ_s − θ_i in Meep's
+frame; a Bloch-phased tilted source rippled the incident |E|² over the object by ±5 % (the
+tilted wave is damped crossing the side PML). Every run is paired with an empty-cell run (same
+cell, source, resolution); the scattered field on the monitor box is the scattering run's DFT
+field minus the empty run's (and load_minus_flux_data for the box flux). I_inc: the empty run's
+flux through a horizontal line at z = 0 over the box width, per unit width (Meep's Re E* × H).
 
-Not rerun in CI: a (case, polarisation) at normal incidence takes 10–300 s at 30–45 px/µm on one
-core, an oblique run about twice that per wavelength (README.md lists the measured times). The
-committed CSVs are what the tests read.
+Far field: the exterior Green's representation on the closed box, evaluated from ONE field
+component u (Ez for TE, Hz for TM) on the two grid lines that straddle each side (far_amplitude);
+σ = |f|²/|u_0|², u_0 the incident amplitude. Meep's own near2far (closed box, load_minus_
+near2far_data) was tried first and not used: it put a mirror image of the huge forward (shadow)
+lobe into θ_s = θ_i, about (kΔx/2)² as strong (for "single" at 30 px/µm, 450 nm: a 3°-wide
+spike of 12.9 µm/rad where the back lobe is 0.4; 35.6 at 15 px/µm), as an E and H taken half a
+cell (or half a step) apart would; this transform removes it (0.23 at 30 px/µm, smooth). Absorption: minus the net
+outward flux of the total field through the same box. Stop: when |u|² at a probe under the
+object has fallen to DECAY of its peak.
+
+Not rerun in CI: about 20 CPU-minutes for the whole default sweep on one core (README.md lists
+the measured times). The committed CSVs are what the tests read.
 """
 import argparse
 import csv
@@ -72,13 +88,16 @@ CASES = {  # a_x, a_z, d (µm), centres along x (µm)
     "single": (5.0, 2.0, 0.30, (0.0,)),
     "small": (1.0, 0.4, 0.30, (0.0,)),
     "row3": (5.0, 2.0, 0.30, (-11.0, 0.0, 11.0)),
+    # --mie-check only: a circular melanin cylinder (d = 0: the keratin polygon lies inside the
+    # melanin ellipse drawn over it), which has an exact series solution
+    "mie_cylinder": (1.0, 1.0, 0.0, (0.0,)),
 }
+REFERENCE_CASES = ("single", "small", "row3")
 N_VERTICES = 200  # of the keratin outer polygon (largest sagitta 1.5 nm, "single")
 THETA_S_STEP_DEG = 0.5
 PML_UM = 1.0
-MONITOR_GAP_UM = 0.5  # object bounding box → near2far / flux box
+MONITOR_GAP_UM = 0.5  # object bounding box → monitor box
 SOURCE_GAP_UM = 0.5  # box → source line, and box / source → PML
-R_FAR_UM = 1.0e6  # far-field radius
 DECAY = 1e-7  # stop when |field|² at the probe fell to this fraction of its peak
 SOURCE_BAND_NM = (430.0, 670.0)
 IS_INTEGRATED = True
@@ -263,10 +282,9 @@ def far_amplitude(sides, side_fields, k, theta_rad):
     u(x) = ∮ [u ∂Φ/∂ν − Φ ∂u/∂ν] ds, whose r → ∞ limit is
     f(θ) = e^{iπ/4}/√(8πk) ∮ [−ik (r̂·ν) u − ∂u/∂ν] e^{−ik r̂·y} ds.
     u and ∂u/∂ν are taken midway between the two grid lines that straddle the side
-    (mean and difference), so they are consistent on the grid: Meep's own near2far pairs E and H
-    that sit half a cell apart, and for the huge forward (shadow) beam of these objects that
-    mismatch leaked a mirror image of the forward lobe, (kΔx/2)² as strong, into θ_s = θ_i
-    (12.9 µm/rad at 30 px/µm for "single" at 450 nm, where the rest of the back lobe is 0.4)."""
+    (mean and difference), so they are consistent on the grid to O((kΔx)²/12). With Meep's own
+    near2far a mirror image of the huge forward (shadow) lobe, (kΔx/2)² as strong, appeared at
+    θ_s = θ_i (12.9 µm/rad at 30 px/µm for "single" at 450 nm, where the back lobe is 0.4)."""
     rhat = np.column_stack([np.sin(theta_rad), np.cos(theta_rad)])
     total = np.zeros(len(theta_rad), complex)
     for (axis, at, sign, lo, hi), (along, offsets, (u1, u2)) in zip(sides, side_fields):
@@ -469,57 +487,193 @@ def write_materials(out, keratin_p, melanin_p):
               "→", r[6])
 
 
-def plot(out, case):
+def read_far_field(out):
+    curves = {}
+    with open(out / "far_field.csv", newline="") as src:
+        for r in csv.DictReader(src):
+            key = (r["case"], r["polarisation"], r["theta_i_deg"], r["lambda_nm"],
+                   int(r["resolution_px_per_um"]))
+            curves.setdefault(key, []).append((float(r["theta_s_deg"]),
+                                               float(r["sigma_um_per_rad"])))
+    return {k: np.array(sorted(v)) for k, v in curves.items()}
+
+
+def read_keyed(path):
+    with open(path, newline="") as src:
+        return {(r["case"], r["polarisation"], r["theta_i_deg"], r["lambda_nm"],
+                 int(r["resolution"])): r for r in csv.DictReader(src)}
+
+
+def report(out, prune):
+    """convergence.csv, the checks printed, sigma_<case>.png; optionally prune far_field.csv."""
+    curves = read_far_field(out)
+    totals, checks = read_keyed(out / "totals.csv"), read_keyed(out / "checks.csv")
+    rows = []
+    for key in sorted(totals):
+        res = sorted(r for (*k, r) in totals if tuple(k) == key[:4])
+        if key[4] != res[-1] or len(res) < 2 or (key[:4] + (res[0],)) not in curves:
+            continue
+        coarse = key[:4] + (res[0],)
+        fine_s, coarse_s = curves[key][:, 1], curves[coarse][:, 1]
+        mask = fine_s > 0.01 * fine_s.max()
+        rel = (coarse_s[mask] - fine_s[mask]) / fine_s[mask]
+        widths = [float(totals[coarse][c]) / float(totals[key][c]) - 1
+                  for c in ("scattering_width_um", "absorption_width_um")]
+        rows.append(list(key[:4]) + [res[0], res[-1], f"{np.abs(rel).max():.4f}",
+                                     f"{np.sqrt(np.mean(rel ** 2)):.4f}",
+                                     f"{widths[0]:+.4f}", f"{widths[1]:+.4f}"])
+        print("convergence", *rows[-1])
+    if not rows:  # far_field.csv already pruned: keep the convergence.csv made before it was
+        print("one resolution per curve in far_field.csv: convergence.csv left as it is")
+    else:
+        with open(out / "convergence.csv", "w", newline="") as dst:
+            w = csv.writer(dst)
+            w.writerow(["case", "polarisation", "theta_i_deg", "lambda_nm", "coarse_px_per_um",
+                        "fine_px_per_um", "sigma_max_rel_diff", "sigma_rms_rel_diff",
+                        "scattering_width_rel_diff", "absorption_width_rel_diff"])
+            w.writerows(rows)
+    for key in sorted(totals):
+        t, c = totals[key], checks[key]
+        sca, ab = float(t["scattering_width_um"]), float(t["absorption_width_um"])
+        line = (f"{key}: C_sca {sca:.3f} C_abs {ab:.3f} | ∫σ/C_sca − 1 "
+                f"{float(c['far_field_integral_um']) / sca - 1:+.4f} | OT/(C_sca + C_abs) − 1 "
+                f"{float(c['extinction_optical_theorem_um']) / (sca + ab) - 1:+.4f} | empty net "
+                f"{c['empty_box_net_flux_rel']} | I_field/I_flux "
+                f"{float(c['intensity_field_mean']) / float(c['intensity_flux_line']):.4f} | "
+                f"spread {c['incident_footprint_spread']} | back peak "
+                f"{c['back_peak_theta_s_deg']}")
+        if key[2] == "0" and key in curves:  # mirror symmetry σ(θ) = σ(−θ)
+            th, sg = curves[key][:, 0], curves[key][:, 1]
+            inner = (th > 0) & (th < 180)
+            mirror = np.interp(-th[inner], th, sg)
+            big = np.maximum(sg[inner], mirror) > 0.01 * sg.max()
+            asym = np.abs(sg[inner] - mirror)[big] / np.maximum(sg[inner], mirror)[big]
+            line += f" | mirror asymmetry max {asym.max():.1e}"
+        print(line)
+    for case in sorted({k[0] for k in curves}):
+        plot(out, case, curves)
+    if prune:
+        with open(out / "far_field.csv", "w", newline="") as dst:
+            w = csv.writer(dst)
+            w.writerow(FAR_HEADER)
+            for key in sorted(curves, key=lambda k: (list(CASES).index(k[0]), k[1],
+                                                     float(k[2]), float(k[3]), k[4])):
+                finest = max(r for (*k, r) in curves if tuple(k) == key[:4])
+                if key[4] == finest:
+                    w.writerows([*key, f"{t:.1f}", f"{s:.4g}"] for t, s in curves[key])
+
+
+def mie_series(radius, m, lam_um, pol, theta_s_deg):
+    """Exact 2D scattering of a plane wave by a homogeneous circular cylinder (Bohren & Huffman
+    §8.4): σ(θ_s) per radian for light coming from θ_s = 0, and the widths C_sca, C_ext."""
+    from scipy.special import h1vp, hankel1, jv, jvp
+
+    k = 2 * np.pi / lam_um
+    x = k * radius
+    n = np.arange(0, int(abs(m) * x + 4 * (abs(m) * x) ** (1 / 3) + 10))
+    jmx, djmx, jx, djx = jv(n, m * x), jvp(n, m * x), jv(n, x), jvp(n, x)
+    hx, dhx = hankel1(n, x), h1vp(n, x)
+    if pol == "TE":  # E along the axis: BH's case I, b_n
+        c = (jmx * djx - m * djmx * jx) / (jmx * dhx - m * djmx * hx)
+    else:  # H along the axis: case II, a_n
+        c = (m * djx * jmx - jx * djmx) / (m * jmx * dhx - djmx * hx)
+    phi = np.radians(np.asarray(theta_s_deg) - 180.0)  # from the forward direction
+    t = c[0] + 2 * sum(c[i] * np.cos(i * phi) for i in range(1, len(n)))
+    sigma = 2 / (np.pi * k) * np.abs(t) ** 2
+    c_sca = 4 / k * (abs(c[0]) ** 2 + 2 * np.sum(np.abs(c[1:]) ** 2))
+    c_ext = 4 / k * np.real(c[0] + 2 * np.sum(c[1:]))
+    return sigma, c_sca, c_ext
+
+
+def mie_check(out, resolutions, keratin_p, melanin_p):
+    """mie_check.csv: the pipeline on a melanin cylinder of radius 1 µm (the fitted medium)
+    against the exact series with the fitted n, k."""
+    import meep as mp
+
+    radius = CASES["mie_cylinder"][0]
+    rows = []
+    for resolution in resolutions:
+        for pol in ("TE", "TM"):
+            for r in simulate("mie_cylinder", pol, 0.0, resolution, keratin_p, melanin_p):
+                n, k = fitted_nk(melanin_p, r["lambda_nm"])
+                exact, c_sca, c_ext = mie_series(radius, n + 1j * k, r["lambda_nm"] / 1000, pol,
+                                                 r["theta_s"])
+                big = exact > 0.01 * exact.max()
+                rel = (r["sigma"][big] - exact[big]) / exact[big]
+                rows.append([pol, f"{r['lambda_nm']:.0f}", resolution,
+                             f"{np.abs(rel).max():.4f}", f"{np.sqrt(np.mean(rel ** 2)):.4f}",
+                             f"{r['scattering_width']:.4f}", f"{c_sca:.4f}",
+                             f"{r['absorption_width']:.4f}", f"{c_ext - c_sca:.4f}",
+                             f"{r['extinction_optical_theorem']:.4f}", f"{c_ext:.4f}",
+                             f"{r['cpu']:.0f}", mp.__version__])
+                print("mie check", *rows[-1], flush=True)
+    with open(out / "mie_check.csv", "w", newline="") as dst:
+        w = csv.writer(dst)
+        w.writerow(["polarisation", "lambda_nm", "resolution", "sigma_max_rel_diff",
+                    "sigma_rms_rel_diff", "scattering_width_meep_um", "scattering_width_exact_um",
+                    "absorption_width_meep_um", "absorption_width_exact_um",
+                    "extinction_optical_theorem_meep_um", "extinction_exact_um", "cpu_s",
+                    "meep_version"])
+        w.writerows(rows)
+
+
+def plot(out, case, curves):
     import matplotlib
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
-    with open(out / "far_field.csv", newline="") as src:
-        rows = [r for r in csv.DictReader(src) if r["case"] == case]
-    keys = sorted({(r["theta_i_deg"], r["polarisation"], r["resolution_px_per_um"])
-                   for r in rows}, key=lambda k: (float(k[0]), k[1], float(k[2])))
-    fig, axes = plt.subplots(len(keys), 1, figsize=(7, 2.2 * len(keys)), sharex=True,
+    panels = sorted({(k[2], k[1]) for k in curves if k[0] == case},
+                    key=lambda p: (float(p[0]), p[1]))
+    fig, axes = plt.subplots(len(panels), 1, figsize=(7, 2.0 * len(panels)), sharex=True,
                              squeeze=False)
-    for axis, (ti, pol, res) in zip(axes[:, 0], keys):
+    for axis, (ti, pol) in zip(axes[:, 0], panels):
+        res = sorted({k[4] for k in curves if k[:3] == (case, pol, ti)})
         for lam, colour in zip(WAVELENGTHS_NM, ("tab:blue", "tab:green", "tab:red")):
-            sel = [r for r in rows if (r["theta_i_deg"], r["polarisation"],
-                                       r["resolution_px_per_um"]) == (ti, pol, res)
-                   and float(r["lambda_nm"]) == lam]
-            if sel:
-                axis.semilogy([float(r["theta_s_deg"]) for r in sel],
-                              [max(float(r["sigma_um_per_rad"]), 1e-6) for r in sel],
-                              color=colour, lw=0.7, label=f"{lam:.0f} nm")
-        axis.set_title(f"{case} {pol} θi={ti}° {res} px/µm", fontsize=8)
-        axis.set_ylabel("σ (µm/rad)", fontsize=8)
+            for r, style in zip(res[::-1], ("-", ":")):
+                c = curves.get((case, pol, ti, f"{lam:.0f}", r))
+                if c is not None:
+                    axis.semilogy(c[:, 0], np.maximum(c[:, 1], 1e-5), style, color=colour,
+                                  lw=0.6, label=f"{lam:.0f} nm, {r} px/µm")
+        axis.set_title(f"{case}  {pol}  θi = {ti}°", fontsize=8)
+        axis.set_ylabel("σ (µm/rad)", fontsize=7)
         axis.tick_params(labelsize=7)
-        axis.legend(fontsize=6, loc="upper right")
-    axes[-1, 0].set_xlabel("θs (deg)")
+        axis.grid(alpha=0.3, lw=0.4)
+    axes[0, 0].legend(fontsize=5, ncol=3, loc="upper center")
+    axes[-1, 0].set_xlabel("θs (deg)", fontsize=8)
     axes[-1, 0].set_xlim(-180, 180)
+    axes[-1, 0].set_xticks(range(-180, 181, 30))
     fig.tight_layout()
-    fig.savefig(out / f"sigma_{case}.png", dpi=70)
+    fig.savefig(out / f"sigma_{case}.png", dpi=60)
     plt.close(fig)
 
 
 def main():
     parser = argparse.ArgumentParser(description=__doc__.split("\n")[0])
-    parser.add_argument("--cases", nargs="+", default=list(CASES))
+    parser.add_argument("--cases", nargs="+", default=list(REFERENCE_CASES))
     parser.add_argument("--polarisations", nargs="+", default=["TE", "TM"])
     parser.add_argument("--resolutions", type=int, nargs="+", default=[40, 60])
     parser.add_argument("--theta-i", type=float, nargs="+", default=[0.0, 30.0],
                         help="incidence angles; non-zero ones only for 'single'")
     parser.add_argument("--out", type=pathlib.Path, default=pathlib.Path(__file__).parent)
-    parser.add_argument("--plot", action="store_true", help="only redraw sigma_<case>.png")
+    parser.add_argument("--report", action="store_true",
+                        help="no runs: convergence.csv, the checks, sigma_<case>.png")
+    parser.add_argument("--prune", action="store_true",
+                        help="with --report: keep only the finest resolution in far_field.csv")
+    parser.add_argument("--mie-check", action="store_true",
+                        help="no reference runs: mie_check.csv (melanin cylinder vs exact series)")
     args = parser.parse_args()
     args.out.mkdir(parents=True, exist_ok=True)
-    if args.plot:
-        for case in args.cases:
-            plot(args.out, case)
+    if args.report:
+        report(args.out, args.prune)
         return
     import meep as mp
 
     keratin_p = fit_lorentzians(keratin_nk, 1, lossless=True)
     melanin_p = fit_lorentzians(melanin_nk, 2, lossless=False)
     write_materials(args.out, keratin_p, melanin_p)
+    if args.mie_check:
+        mie_check(args.out, args.resolutions, keratin_p, melanin_p)
+        return
     for case in args.cases:
         for theta_i in args.theta_i:
             if theta_i != 0 and case != "single":
@@ -531,7 +685,7 @@ def main():
                     far, tot, chk = [], [], []
                     for r in results:
                         k2 = key + [f"{r['lambda_nm']:.0f}", resolution]
-                        far += [k2 + [f"{t:.1f}", f"{s:.6e}"]
+                        far += [k2 + [f"{t:.1f}", f"{s:.4g}"]
                                 for t, s in zip(r["theta_s"], r["sigma"])]
                         tot.append(k2 + [f"{r['scattering_width']:.6f}",
                                          f"{r['absorption_width']:.6f}", f"{r['wall']:.1f}"])
