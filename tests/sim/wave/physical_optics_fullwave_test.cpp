@@ -390,13 +390,14 @@ TEST(PhysicalOpticsFullWave, SingleShellLobesWithinEdgeDiffractionAndMeepResolut
             << " % at " << r.worst_band_centre << "° from θi";
         // Forward (shadow) lobe: Kirchhoff's shadow is the Fraunhofer pattern of the geometric
         // width W (σ peak W²/λ); the true extinction exceeds 2W by the tips' edge (Fock)
-        // term, Meep: +1.3–2.8 % of 2W, squared in the lobe's peak: 8 %.
+        // term, Meep: up to +2.8 % of 2W, squared in the lobe's peak: 8 %.
         EXPECT_NEAR(r.lobe_ratio, 1.0, std::max(0.08, floor_rms(r)))
             << at
             << ": forward lobe (±2λ/W) PO/Meep; tolerance max(8 % edge extinction, 2× "
                "Meep 40/60 RMS)";
         // Totals: PO's scattering width is W (shadow) + reflected power, its extinction
-        // exactly 2W (the extinction paradox); Meep's has the edge excess on top: 8 %.
+        // exactly 2W (the extinction paradox); Meep's has the edge excess on top (up to 2.8 %
+        // of 2W, ≈ 5 % of C_sca) plus its own C_sca error (2× <= 1.4 %): 8 %.
         EXPECT_NEAR(r.sca_po / r.sca_meep, 1.0, 0.08)
             << at << ": scattering width PO ∫σ/Meep box; tolerance 8 % (edge extinction)";
     }
@@ -421,12 +422,18 @@ TEST(PhysicalOpticsFullWave, RowMatchesWithin60DegreesWhereNeighboursDoNotBlock)
                               << ": back-hemisphere L1; tolerance 25 %: grazing exits "
                                  "blocked or re-reflected by the neighbours";
         EXPECT_LT(r.l1_visibility, 0.25) << at << ": the same with outgoing visibility";
+        // The single's 5 % plus the grazing bins' overcount (1–2 % of the power each, counted
+        // up to 3.5× by PO, which lets the blocked flank light out): 8 %.
         EXPECT_NEAR(r.reflected_ratio, 1.0, std::max(0.08, floor_rms(r)))
-            << at << ": back-hemisphere power PO/Meep; tolerance max(8 %, 2× Meep 40/60 RMS)";
+            << at
+            << ": back-hemisphere power PO/Meep; tolerance max(5 % tip diffraction + 3 % "
+               "blocked grazing light PO counts, 2× Meep 40/60 RMS)";
         EXPECT_NEAR(r.lobe_ratio, 1.0, std::max(0.08, floor_rms(r)))
             << at << ": forward lobe PO/Meep; tolerance max(8 % edge extinction, 2× Meep RMS)";
         EXPECT_NEAR(r.sca_po / r.sca_meep, 1.0, 0.08)
-            << at << ": scattering width PO/Meep; tolerance 8 % (edge extinction)";
+            << at
+            << ": scattering width PO/Meep; tolerance 8 % (edge extinction, up to 4.2 % of "
+               "2W in Meep's row)";
     }
 }
 
@@ -465,7 +472,7 @@ TEST(PhysicalOpticsFullWave, MeepsFittedMediaChangeLittle) {
 
 // Energy: for an opaque body what the lit side does not reflect is absorbed, so PO's
 // reflected power + Meep's absorption ≈ W. Meep's extinction exceeds 2W by the edge term
-// (+1.3–2.8 %), partly absorbed at the tips, so the sum may exceed W by a few %: [0.98, 1.08].
+// (up to +4.2 %), partly absorbed at the tips, so the sum may exceed W by a few %: [0.98, 1.08].
 TEST(PhysicalOpticsFullWave, ReflectedPlusAbsorbedIsTheProjectedWidth) {
     for (const Residual& r : residuals()) {
         if (std::get<0>(r.key) == "small") continue;  // outside PO, reported in the table
