@@ -76,7 +76,7 @@
 // TE/TM, 450–650 nm) the back hemisphere in 10° bins agrees to a relative L1 of 1.6–5.5 % and
 // in power within 3 %, at or below Meep's own resolution error; only the grazing exits fed by
 // the tips and creeping waves (bins with 1–4 % of the power) are off by up to 61 %. The
-// forward lobe and C_sca are low by <= 4 % / 6 %: PO's extinction is exactly 2W, Meep's
+// forward lobe and C_sca agree within 4 % / 6 %, mostly low: PO's extinction is exactly 2W, Meep's
 // exceeds it by up to 2.8 % (the edge term). A row of three, 0.4 µm apart: L1 2.4–8.2 %
 // within 60° of θ_i, 4.3–18 % overall, the rest being the neighbours' blocking and multiple
 // reflection at grazing exit. The 2.6 µm (4–6 λ) shell is outside PO: L1 53–83 %, its
