@@ -71,6 +71,16 @@
 //  - edge and creeping-wave diffraction beyond Kirchhoff's abrupt lit/dark boundary (the
 //    Kirchhoff boundary is exact for a flat strip only in the paraxial sense);
 //  - the stack is planar at each point (curvature radius ≫ film thickness and λ).
+// Against full wave (Meep, tests/reference/barbule_2d/README.md "Against full wave";
+// physical_optics_fullwave_test.cpp): for the 10.6 × 4.6 µm reference shell (θ_i 0° and 30°,
+// TE/TM, 450–650 nm) the back hemisphere in 10° bins agrees to a relative L1 of 1.6–5.5 % and
+// in power within 3 %, at or below Meep's own resolution error; only the grazing exits fed by
+// the tips and creeping waves (bins with 1–4 % of the power) are off by up to 61 %. The
+// forward lobe and C_sca agree within 4 % / 6 %, mostly low: PO's extinction is exactly 2W, Meep's
+// exceeds it by up to 2.8 % (the edge term). A row of three, 0.4 µm apart: L1 2.4–8.2 %
+// within 60° of θ_i, 4.3–18 % overall, the rest being the neighbours' blocking and multiple
+// reflection at grazing exit. The 2.6 µm (4–6 λ) shell is outside PO: L1 53–83 %, its
+// reflected power 0.17–0.79 of Meep's, its C_sca 0.55–1.06 (a resonant extinction).
 // Reciprocity: r is taken at the incidence angle (by default), so σ(ω_i → ω_s) and
 // σ(ω_s → ω_i) differ away from stationary (specular) points, and the lit/dark boundary of
 // one direction is not that of the other; FresnelAngle::bisector is the symmetric variant.
