@@ -26,6 +26,7 @@
 
 #include "common/constants.h"
 #include "sim/optics/material.h"
+#include "sim/wave/geometric_optics_2d.h"
 #include "sim/wave/physical_optics_2d.h"
 
 namespace plumage::sim::wave {
@@ -220,12 +221,27 @@ struct Residual {
     double abs_meep = 0.0, refl_po = 0.0;  // Meep's absorption; PO reflected part, circle
     double shadow_po = 0.0;      // PO's shadow part over the circle: W (the extinction paradox)
     double fitted_change = 0.0;  // max |Δ| of the back bins' P_PO with the fitted media, rel.
-    Convergence resolution;      // Meep 40 vs 60 px/µm
+    double l1_go = 0.0;          // ray optics (geometric_optics_2d.h): back L1 against Meep
+    double reflected_ratio_go = 0.0;  // ∫_back GO / ∫_back σ_Meep
+    Convergence resolution;           // Meep 40 vs 60 px/µm
 };
 
 std::vector<double> back_bins(const std::vector<double>& sigma, double theta_i_deg) {
     std::vector<double> p(18);
     for (int b = 0; b < 18; ++b) p[b] = band(sigma, theta_i_deg, -90.0 + 10 * b, -80.0 + 10 * b);
+    return p;
+}
+
+// Ray optics' powers (each ray at its mirror angle) in the same 10° back bins; a ray on a bin
+// edge is split between the two bins, as band() splits a grid point.
+std::vector<double> go_back_bins(const std::vector<GeometricRay2d>& rays, double theta_i_deg) {
+    std::vector<double> p(18);
+    for (const GeometricRay2d& ray : rays) {
+        const double a = wrap_deg(ray.theta_s_rad / kDeg - theta_i_deg) + 90.0;
+        if (a < 0.0 || a > 180.0) continue;
+        const int b = std::min(17, static_cast<int>(a / 10.0));
+        p[b] += ray.power_um;
+    }
     return p;
 }
 
@@ -292,6 +308,11 @@ Residual measure(const Key& key, const std::vector<double>& sigma_meep,
     for (int b = 0; b < 18; ++b)
         if (pm[b] >= 0.01 * back_meep)
             r.fitted_change = std::max(r.fitted_change, std::abs(pf[b] / pp[b] - 1.0));
+    const std::vector<double> pg = go_back_bins(geometric_rays(row, inc), theta_i_deg);
+    r.l1_go = relative_l1(pg, pm, 0, 18);
+    double back_go = 0.0;
+    for (double v : pg) back_go += v;
+    r.reflected_ratio_go = back_go / back_meep;
     if (name == "row3")
         r.l1_visibility = relative_l1(
             back_bins(po_sigma(row, inc, FarFieldPart::total, true), theta_i_deg), pm, 0, 18);
@@ -465,6 +486,33 @@ TEST(PhysicalOpticsFullWave, SmallShellIsOutsidePhysicalOptics) {
 // The media: PO uses optics::keratin()/melanin() (the contract's formulas); Meep ran fitted
 // Lorentzians, |Δn|, |Δk| <= 7e-4 at these wavelengths (materials.csv). Swapping them into
 // PO moves every back band (>= 1 % of the power) by < 1 %, far below the residuals above.
+// The other level of physics against the same reference: ray optics + thin film (each lit
+// element's |r|² cos θ ds at its mirror angle, single bounce, geometric_optics_2d.h) has no
+// diffraction, so it should miss Meep by more than physical optics does, most on the small
+// shell. What ray optics costs is what the wave-validity study maps (studies/README.md).
+TEST(PhysicalOpticsFullWave, RayOpticsMissesMoreThanPhysicalOptics) {
+    std::printf(
+        "| case | pol | θi | λ | back L1 ray optics | back L1 physical optics | "
+        "reflected power ray/Meep |\n");
+    double single_go = 0.0, single_po = 0.0, small_go = 1e300;
+    for (const Residual& r : residuals()) {
+        const auto& [name, pol, ti, lambda] = r.key;
+        std::printf("| %s | %s | %d | %d | %.3f | %.3f | %.3f |\n", name.c_str(), pol.c_str(), ti,
+                    lambda, r.l1_go, r.l1, r.reflected_ratio_go);
+        RecordProperty(property(r, "l1_ray_optics"), std::to_string(r.l1_go));
+        if (name == "single") {
+            single_go = std::max(single_go, r.l1_go);
+            single_po = std::max(single_po, r.l1);
+        }
+        if (name == "small") small_go = std::min(small_go, r.l1_go);
+        // Within Meep's own error, ray optics may tie physical optics; it must not beat it by
+        // more than that, or diffraction would be making physical optics worse.
+        EXPECT_GE(r.l1_go, r.l1 - floor_rms(r)) << label(r);
+    }
+    EXPECT_GT(single_go, single_po) << "the 10 µm shell: ray optics should miss by more";
+    EXPECT_GT(small_go, 0.4) << "the 2.6 µm shell diffracts: ray optics cannot hold there";
+}
+
 TEST(PhysicalOpticsFullWave, MeepsFittedMediaChangeLittle) {
     for (const Residual& r : residuals()) {
         RecordProperty(property(r, "fitted_media_change"), std::to_string(r.fitted_change));
