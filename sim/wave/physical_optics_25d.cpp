@@ -2,7 +2,9 @@
 #include "sim/wave/physical_optics_25d.h"
 
 #include <algorithm>
+#include <atomic>
 #include <cmath>
+#include <cstdint>
 
 #include <fmt/format.h>
 
@@ -10,6 +12,14 @@
 #include "common/error.h"
 
 namespace plumage::sim::wave {
+namespace {
+
+std::uint64_t next_generation() {
+    static std::atomic<std::uint64_t> counter{0};
+    return ++counter;
+}
+
+}  // namespace
 
 struct PhysicalOptics25d::Prepared {
     Vec3d wi;
@@ -24,7 +34,8 @@ constexpr const char* kWhat = "physical optics 2.5D";
 
 }  // namespace
 
-PhysicalOptics25d::PhysicalOptics25d(PhysicalOptics25dParams params) : params_(std::move(params)) {
+PhysicalOptics25d::PhysicalOptics25d(PhysicalOptics25dParams params)
+    : params_(std::move(params)), generation_(next_generation()) {
     if (!std::isfinite(params_.theta_d) || !(params_.theta_d > 0.0) || params_.theta_d > kPi / 4.0)
         throw InputError(
             fmt::format("{}: theta_d = {:.4g} rad must be in (0, π/4] (θ_d = 0 is "
@@ -50,10 +61,33 @@ double PhysicalOptics25d::patch_width_um() const {
     return params_.row.count * params_.row.spacing_um;
 }
 
+// The last (ω_i, λ) and θ_o asked on this thread, for this object: instruments sweep ω_o at
+// fixed ω_i, each thread its own cells. Per thread, not shared behind a lock: a shared entry
+// made threads wait for each other and evict each other's work. generation_ tells apart objects
+// that reuse an address.
+struct PhysicalOptics25d::ThreadCache {
+    const PhysicalOptics25d* owner = nullptr;
+    std::uint64_t generation = 0;
+    Vec3d wi = Vec3d::Zero();
+    double lambda_nm = -1.0;
+    std::shared_ptr<const Prepared> prepared;
+    double theta_o = 0.0, sigma = -1.0;
+};
+
+PhysicalOptics25d::ThreadCache& PhysicalOptics25d::cache() const {
+    thread_local ThreadCache cache;
+    if (cache.owner != this || cache.generation != generation_) {
+        cache = ThreadCache{};
+        cache.owner = this;
+        cache.generation = generation_;
+    }
+    return cache;
+}
+
 std::shared_ptr<const PhysicalOptics25d::Prepared> PhysicalOptics25d::prepare(
     const Vec3d& wi, double lambda_nm) const {
-    std::lock_guard<std::mutex> lock(mutex_);
-    if (last_ && last_->wi == wi && last_->lambda_nm == lambda_nm) return last_;
+    ThreadCache& c = cache();
+    if (c.prepared && c.wi == wi && c.lambda_nm == lambda_nm) return c.prepared;
     auto prepared = std::make_shared<Prepared>();
     prepared->wi = wi;
     prepared->lambda_nm = lambda_nm;
@@ -72,26 +106,24 @@ std::shared_ptr<const PhysicalOptics25d::Prepared> PhysicalOptics25d::prepare(
                                   {lambda_nm, theta_i, pol, std::min(1.0, prepared->cos_ei)},
                                   FarFieldPart::reflected));
     }
-    last_ = prepared;
-    last_sigma_ = -1.0;
+    c.wi = wi;
+    c.lambda_nm = lambda_nm;
+    c.prepared = prepared;
+    c.sigma = -1.0;
     return prepared;
 }
 
 double PhysicalOptics25d::sigma_t(const Prepared& prepared, double theta_o) const {
-    {
-        std::lock_guard<std::mutex> lock(mutex_);
-        if (last_.get() == &prepared && last_sigma_ >= 0.0 &&
-            std::abs(last_theta_o_ - theta_o) < 1e-12)
-            return last_sigma_;
-    }
+    ThreadCache& c = cache();
+    const bool current = c.prepared.get() == &prepared;
+    if (current && c.sigma >= 0.0 && std::abs(c.theta_o - theta_o) < 1e-12) return c.sigma;
     double sum = 0.0;
     for (const FarFieldKernel2d& kernel : prepared.kernels)
         sum += kernel.k / (8.0 * kPi) * std::norm(far_field_at(kernel, theta_o));
     const double sigma = sum / static_cast<double>(prepared.kernels.size());
-    std::lock_guard<std::mutex> lock(mutex_);
-    if (last_.get() == &prepared) {
-        last_theta_o_ = theta_o;
-        last_sigma_ = sigma;
+    if (current) {
+        c.theta_o = theta_o;
+        c.sigma = sigma;
     }
     return sigma;
 }

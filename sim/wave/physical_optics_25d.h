@@ -38,8 +38,8 @@
 //
 // Cost: eval() prepares the lit samples and stack amplitudes once per (ω_i, λ) and keeps σ_t of
 // the last θ_o (to 1e-12 rad: atan2 of (cos ε sin θ, cos ε cos θ) varies in the last bit with ε),
-// behind a mutex (one entry each: callers that sweep ω_o at fixed ω_i are fast;
-// interleaved ω_i recompute, correctly).
+// per thread (callers that sweep ω_o at fixed ω_i are fast; interleaved ω_i recompute,
+// correctly; no lock, so threads measuring different cells do not wait for each other).
 //
 // Parameter table:
 //  | name     | unit | range                                               |
@@ -49,8 +49,8 @@
 //  | step_um  | µm   | 0 (λ/10) or in (0, λ/10]                            |
 #pragma once
 
+#include <cstdint>
 #include <memory>
-#include <mutex>
 #include <optional>
 #include <string>
 #include <vector>
@@ -87,11 +87,11 @@ private:
     struct Prepared;
     std::shared_ptr<const Prepared> prepare(const Vec3d& wi, double lambda_nm) const;
     double sigma_t(const Prepared& prepared, double theta_o) const;
+    struct ThreadCache;
+    ThreadCache& cache() const;  // this thread's, for this object
 
     PhysicalOptics25dParams params_;
-    mutable std::mutex mutex_;
-    mutable std::shared_ptr<const Prepared> last_;
-    mutable double last_theta_o_ = 0.0, last_sigma_ = -1.0;
+    std::uint64_t generation_;  // distinguishes objects that reuse an address, for the cache
 };
 
 }  // namespace plumage::sim::wave
