@@ -21,6 +21,7 @@
 #include "common/error.h"
 #include "virtual_gonio/btf.h"
 #include "virtual_gonio/display_colour.h"
+#include "virtual_gonio/goniometer.h"
 #include "virtual_gonio/scatterometer.h"
 
 namespace plumage::gonio {
@@ -178,7 +179,7 @@ SpectralImage scatterogram_exr_image(const Scatterogram& s, const std::string& n
     image.values = s.intensity;
     if (!s.standard_error.empty()) image.layers.push_back({"stderr", s.standard_error});
     const std::size_t size = s.intensity.size();
-    for (std::size_t l = 0; l < s.lobes.size(); ++l) {
+    for (std::size_t l = 0; l < s.lobes.size() && s.lobe_intensity.size() >= (l + 1) * size; ++l) {
         const auto first = s.lobe_intensity.begin() + static_cast<std::ptrdiff_t>(l * size);
         image.layers.push_back(
             {"lobe." + s.lobes[l],
@@ -187,6 +188,38 @@ SpectralImage scatterogram_exr_image(const Scatterogram& s, const std::string& n
     image.attributes["scatterer"] = s.scatterer;
     image.attributes["layers"] =
         "stderr: standard error of the intensity; lobe.<name>: the intensity of that lobe";
+    return image;
+}
+
+SpectralImage fingerprint_exr_image(const BrdfRecord& record, int lights, int views,
+                                    const std::string& name) {
+    const std::size_t pairs = static_cast<std::size_t>(lights) * static_cast<std::size_t>(views);
+    PLUMAGE_CHECK(
+        lights > 0 && views > 0 && record.config.pairs.size() == pairs,
+        fmt::format("fingerprint {} x {} of {} pairs", lights, views, record.config.pairs.size()));
+    SpectralImage image;
+    image.name = name;
+    image.width = views;
+    image.height = lights;
+    image.wavelengths_nm = record.config.wavelengths_nm;
+    image.units = "1/sr";
+    image.quantity_description = "BRDF averaged over the detector cone, per wavelength";
+    image.description =
+        "BRDF fingerprint (Filip et al. 2024, Fig. 7): one pixel per (light, view) pair of a "
+        "light-major pair list, row = light direction, column = view direction (pair = row * "
+        "width + column, as in the record's /instrument/angles_deg)";
+    image.values = record.value;
+    if (!record.standard_error.empty()) image.layers.push_back({"stderr", record.standard_error});
+    const std::size_t size = record.value.size();
+    for (std::size_t l = 0; l < record.lobes.size() && record.lobe_values.size() >= (l + 1) * size;
+         ++l) {
+        const auto first = record.lobe_values.begin() + static_cast<std::ptrdiff_t>(l * size);
+        image.layers.push_back(
+            {"lobe." + record.lobes[l],
+             std::vector<double>(first, first + static_cast<std::ptrdiff_t>(size))});
+    }
+    image.attributes["scatterer"] = record.scatterer;
+    image.attributes["direction_set"] = record.config.direction_set;
     return image;
 }
 

@@ -38,6 +38,7 @@ namespace plumage::gonio {
 
 struct Scatterogram;
 struct BtfRecord;
+struct BrdfRecord;
 
 struct SpectralImage {
     enum class Quantity { emissive, reflective };
@@ -72,6 +73,12 @@ void write_spectral_exr(const std::filesystem::path& path, const std::vector<Spe
 // A scatterogram (scatterometer.h) as an image: intensity per unit incident power in 1/sr, its
 // standard error (`stderr`) and each lobe's share (`lobe.<name>`); 0 outside the disc.
 SpectralImage scatterogram_exr_image(const Scatterogram& s, const std::string& name);
+// A BRDF fingerprint (Filip et al. 2024, Fig. 7; goniometer.h brdf_fingerprint) of a
+// light-major pair list: one pixel per pair, rows the `lights` light directions, columns the
+// `views` view directions; the BRDF averaged over the detector cone (1/sr), its standard error
+// and each lobe's share.
+SpectralImage fingerprint_exr_image(const BrdfRecord& record, int lights, int views,
+                                    const std::string& name);
 // One (light, view) pair of a BTF record (btf.h): the BRDF of each pixel's patch area (1/sr),
 // with its standard error.
 SpectralImage btf_exr_image(const BtfRecord& record, std::size_t pair, const std::string& name);
