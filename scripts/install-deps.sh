@@ -17,6 +17,7 @@ packages=(
   libfmt-dev
   libfftw3-dev           # power spectra of spongy volumes (sim/wave)
   libstb-dev libpng-dev  # PNG output
+  libopenexr-dev         # HDR and spectral images (OpenEXR 3)
   python3-numpy python3-h5py python3-matplotlib  # plots; these belong to /usr/bin/python3
   pybind11-dev python3-pybind11 python3-dev  # the `plumage` Python module (python/), for /usr/bin/python3
   python3-pytest         # its tests (python/tests, run by ctest)

@@ -26,6 +26,7 @@
 #include "studies/study.h"
 #include "studies/study_common.h"
 #include "studies/study_file.h"
+#include "virtual_gonio/exr_image.h"
 #include "virtual_gonio/hdf5_file.h"
 #include "virtual_gonio/scatterometer.h"
 
@@ -259,6 +260,15 @@ Measured measure(const Run& run, const BarbuleRowParams& params) {
     return m;
 }
 
+// A scatterogram's PNG (display colour at the run's exposure) and, beside it with the same
+// stem, its spectra as OpenEXR (virtual_gonio/exr_image.h).
+void write_images(const fs::path& png, const gonio::Scatterogram& s, double exposure,
+                  const std::string& name) {
+    record::write_png(png, gonio::scatterogram_srgb(s, exposure));
+    gonio::write_spectral_exr(fs::path(png).replace_extension(".exr"),
+                              {gonio::scatterogram_exr_image(s, name)}, "ablation");
+}
+
 // The base values first: every sweep passes through them, and their model's brightest pixel
 // sets the one exposure of every image.
 void measure_base(Run& run, const std::string& geometry_location) {
@@ -272,10 +282,8 @@ void measure_base(Run& run, const std::string& geometry_location) {
     run.base_point = compare(*base.sim, *base.mod);
     const double peak = gonio::scatterogram_peak_luminance(*base.mod);
     run.exposure = peak > 0.0 ? 1.0 / peak : 1.0;
-    record::write_png(run.dir / "base" / "simulation.png",
-                      gonio::scatterogram_srgb(*base.sim, run.exposure));
-    record::write_png(run.dir / "base" / "model.png",
-                      gonio::scatterogram_srgb(*base.mod, run.exposure));
+    write_images(run.dir / "base" / "simulation.png", *base.sim, run.exposure, "simulation");
+    write_images(run.dir / "base" / "model.png", *base.mod, run.exposure, "model");
     gonio::write_scatterogram_record(*base.sim, run.dir / "base" / "simulation.h5");
     gonio::write_scatterogram_record(*base.mod, run.dir / "base" / "model.h5");
 }
@@ -316,8 +324,8 @@ SweptValue measure_value(const Run& run, const Sweep& sweep, std::size_t i, cons
             const std::string tag = file_tag(i, v);
             out.sim_png = (pdir / (tag + "_simulation.png")).string();
             out.mod_png = (pdir / (tag + "_model.png")).string();
-            record::write_png(out.sim_png, gonio::scatterogram_srgb(*m.sim, run.exposure));
-            record::write_png(out.mod_png, gonio::scatterogram_srgb(*m.mod, run.exposure));
+            write_images(out.sim_png, *m.sim, run.exposure, "simulation");
+            write_images(out.mod_png, *m.mod, run.exposure, "model");
         } else {
             out.point.skipped = true;
             out.point.reason = m.reason;

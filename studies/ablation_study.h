@@ -15,7 +15,8 @@
 // Outputs in <results>/<name>/ (replaced atomically): report.md (summary table, then per
 // parameter the error plot, the contact sheet and a table), per parameter
 // <parameter>/contact_sheet.png (rows: values; columns: simulation | model),
-// <parameter>/error.png, the single images, errors.csv (every value) and ablation.h5.
+// <parameter>/error.png, the single images (each with its spectra as OpenEXR beside it, same
+// stem: virtual_gonio/exr_image.h), errors.csv (every value) and ablation.h5.
 //
 // Study file (`study = "ablation"`): [geometry.*], [spectrum] and the beam keys of
 // [scatterometer] as in the rock-dove study, plus

@@ -31,6 +31,7 @@
 #include "studies/study_common.h"
 #include "studies/study_file.h"
 #include "virtual_gonio/direction_sets.h"
+#include "virtual_gonio/exr_image.h"
 #include "virtual_gonio/goniometer.h"
 #include "virtual_gonio/hdf5_file.h"
 #include "virtual_gonio/scatterometer.h"
@@ -305,6 +306,10 @@ std::string scatterogram_pair(const Run& run, const Built& b, gonio::Illuminatio
     h5.commit();
     run_plot("scatterogram_comparison", dir / (label + "_comparison.h5"),
              dir / (label + "_comparison.png"));
+    gonio::write_spectral_exr(dir / (label + "_comparison.exr"),
+                              {gonio::scatterogram_exr_image(sim_s, "simulation"),
+                               gonio::scatterogram_exr_image(mod_s, "model")},
+                              "rock_dove");
     const double sigma_sim = gonio::median_relative_standard_error(sim_s, kSignalFraction);
     const double sigma_mod = gonio::median_relative_standard_error(mod_s, kSignalFraction);
     if (mode == gonio::Illumination::hemisphere) {
@@ -413,6 +418,11 @@ std::string brdf_section(const Run& run, const Brdfs& m, RockDoveResult& result)
             {{"simulation", &m.simulation}, {"Huang 2022 model", &m.model}}, 61, 60);
         run_plot("fingerprints", run.dir / "brdf" / "fingerprints.h5",
                  run.dir / "brdf" / "fingerprints.png");
+        gonio::write_spectral_exr(
+            run.dir / "brdf" / "fingerprints.exr",
+            {gonio::fingerprint_exr_image(m.simulation, 61, 60, "simulation"),
+             gonio::fingerprint_exr_image(m.model, 61, 60, "Huang 2022 model")},
+            "rock_dove");
         md = "## BRDF (Filip 2024 set, 61 light × 60 view directions)\n\nFingerprints (rows: light "
              "directions, columns: view directions, grouped by polar angle; simulation left, model "
              "right; colour at one exposure for both, luminance below on one logarithmic scale; "

@@ -38,6 +38,7 @@
 #include "virtual_gonio/btf.h"
 #include "virtual_gonio/direction_sets.h"
 #include "virtual_gonio/display_colour.h"
+#include "virtual_gonio/exr_image.h"
 #include "virtual_gonio/goniometer.h"
 #include "virtual_gonio/hdf5_file.h"
 #include "virtual_gonio/png_image.h"
@@ -1130,6 +1131,12 @@ void compare_models(const Specimen& x, Measured& m, SpeciesOutcome& o) {
                               {"Filip 2024 Table 1 model", &m.table1_brdf}},
                              61, 60);
     run_plot("fingerprints", x.dir / "fingerprints.h5", x.dir / "fingerprints.png");
+    gonio::write_spectral_exr(
+        x.dir / "fingerprints.exr",
+        {gonio::fingerprint_exr_image(m.brdf, 61, 60, "simulation"),
+         gonio::fingerprint_exr_image(m.fit_brdf, 61, 60, "fitted Filip 2024 model"),
+         gonio::fingerprint_exr_image(m.table1_brdf, 61, 60, "Filip 2024 Table 1 model")},
+        "species");
 }
 
 // ---- Measure: in-plane sweep, albedo, BTF. --------------------------------------------------
@@ -1215,6 +1222,20 @@ void measure_species_btf(const Run& run, const Specimen& x, SpeciesOutcome& o) {
                      fmt::format("{}: virtual BTF, Filip 2024 Fig. 9 geometries", x.spec.name), btf,
                      figure9_pairs(run.pairs));
     run_plot("btf_tiles", x.dir / "btf_figure9.h5", x.dir / "btf.png");
+    // The tiles of btf.png, one part each, named by their light and view directions.
+    std::vector<gonio::SpectralImage> tiles;
+    for (const std::size_t p : figure9_pairs(run.pairs)) {
+        const auto& pair = btf.config.pairs[p];
+        auto angles = [](const Vec3d& w) {
+            return fmt::format("theta {:.0f} phi {:.0f}",
+                               std::acos(std::clamp(w.z(), -1.0, 1.0)) / kDeg,
+                               std::atan2(w.y(), w.x()) / kDeg);
+        };
+        tiles.push_back(gonio::btf_exr_image(
+            btf, p,
+            fmt::format("pair {}: light {}, view {}", p, angles(pair.wi), angles(pair.wo))));
+    }
+    gonio::write_spectral_exr(x.dir / "btf.exr", tiles, "species");
 }
 
 // ---- Report. ---------------------------------------------------------------------------------

@@ -30,7 +30,8 @@
 //
 // Outputs in <results>/<name>/ (replaced atomically): report.md, species.h5 (fits, albedo,
 // in-plane L*), fits.csv, in_plane_luminance.csv/.png, per species <species>/brdf.h5,
-// fit.h5, fingerprints.png, btf.png, btf.h5.
+// fit.h5, fingerprints.png, btf.png, btf.h5, and beside the two PNGs fingerprints.exr and
+// btf.exr (their spectra, OpenEXR: virtual_gonio/RECORD.md).
 //
 // Study file: studies/species.toml (full) and studies/species_quick.toml (tests); keys in
 // studies/README.md.

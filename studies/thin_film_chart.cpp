@@ -18,6 +18,7 @@
 #include "sim/optics/thin_film.h"
 #include "studies/plots.h"
 #include "studies/staged_directory.h"
+#include "virtual_gonio/exr_image.h"
 #include "virtual_gonio/hdf5_file.h"
 #include "virtual_gonio/png_image.h"
 
@@ -196,6 +197,34 @@ ChartImage chart_image(const Chart& c, double exposure) {
     return out;
 }
 
+// The chart's spectra as the pixel PNG lays them out (thickness across, 90° at the top).
+gonio::SpectralImage chart_exr_image(const Chart& c) {
+    gonio::SpectralImage image;
+    image.name = "thin_film_chart";
+    image.width = static_cast<int>(c.nt);
+    image.height = static_cast<int>(c.na);
+    image.wavelengths_nm.assign(c.grid.nm().begin(), c.grid.nm().end());
+    image.quantity = gonio::SpectralImage::Quantity::reflective;
+    image.units = std::string("1");  // move, not assign: GCC 12 -Wrestrict false positive
+    image.quantity_description = "unpolarised Airy reflectance of air|keratin|air";
+    image.description = fmt::format(
+        "thin-film chart: keratin film thickness {} to {} nm left to right (column c: {} nm * "
+        "c), incidence angle 90 deg at the top row to 0 deg at the bottom (row r: 90 deg - {} "
+        "deg * r)",
+        c.thickness.front(), c.thickness.back(), c.nt > 1 ? c.thickness[1] - c.thickness[0] : 0.0,
+        c.na > 1 ? c.angle[1] - c.angle[0] : 0.0);
+    image.values.resize(c.na * c.nt * c.nl);
+    for (std::size_t a = 0; a < c.na; ++a) {
+        const std::size_t row = c.na - 1 - a;
+        for (std::size_t t = 0; t < c.nt; ++t) {
+            for (std::size_t k = 0; k < c.nl; ++k)
+                image.values[(row * c.nt + t) * c.nl + k] =
+                    c.reflectance[(a * c.nt + t) * c.nl + k];
+        }
+    }
+    return image;
+}
+
 // The named films' colours at normal incidence, with the chart grid's colour error.
 std::vector<FilmColour> film_colours(const NormalIncidenceSpectra& spectra,
                                      const optics::ReflectanceToXyz& spectra_xyz,
@@ -325,7 +354,8 @@ void write_report(const fs::path& path, const ThinFilmChartOptions& options, con
     md << fmt::format(
         "\nRun time {:.2f} s on {} threads (plumage {}). Files: "
         "thin_film_chart.h5 (all numbers, h5py/MATLAB), "
-        "thin_film_chart_pixels.png (one pixel per cell, 90° at the top), "
+        "thin_film_chart_pixels.png (one pixel per cell, 90° at the top) and "
+        "thin_film_chart_pixels.exr (its reflectance spectra, OpenEXR), "
         "spectra_normal_incidence.csv.\n",
         result.wall_seconds, omp_get_max_threads(), kVersion);
     if (!md) throw IoError(fmt::format("cannot write {}", path.string()));
@@ -375,6 +405,8 @@ ThinFilmChartResult run_thin_film_chart(const ThinFilmChartOptions& options) {
     h5.set_attribute("/", "config", options_text(options));
     h5.commit();
     record::write_png(dir / "thin_film_chart_pixels.png", image.image);
+    gonio::write_spectral_exr(dir / "thin_film_chart_pixels.exr", {chart_exr_image(chart)},
+                              "thin_film");
     write_spectra_csv(dir / "spectra_normal_incidence.csv", spectra);
     bool plotted = false;  // a failed plot is a warning: the report then shows the pixel chart
     if (options.plots) {

@@ -6,6 +6,7 @@
 
 #include <unistd.h>
 
+#include <algorithm>
 #include <cmath>
 #include <filesystem>
 #include <fstream>
@@ -18,6 +19,7 @@
 #include "geometry/barbule.h"
 #include "sim/tracer.h"
 #include "tests/test_util.h"
+#include "tests/virtual_gonio/exr_test_util.h"
 #include "virtual_gonio/hdf5_file.h"
 #include "virtual_gonio/scatterometer.h"
 
@@ -130,6 +132,21 @@ TEST(AblationStudy, QuickVariantRunsAndItsNumbersHold) {
             EXPECT_TRUE(std::filesystem::exists(dir / path)) << path;
         }
     }
+    // Every single scatterogram PNG has its spectra beside it as OpenEXR (issue 18, 4b).
+    int images = 0;
+    for (const auto& entry : std::filesystem::recursive_directory_iterator(dir)) {
+        if (entry.path().extension() != ".png") continue;
+        const std::string stem = entry.path().stem().string();
+        if (!stem.ends_with("simulation") && !stem.ends_with("model")) continue;
+        ++images;
+        const auto exr = std::filesystem::path(entry.path()).replace_extension(".exr");
+        ASSERT_TRUE(std::filesystem::exists(exr)) << exr;
+        Imf::MultiPartInputFile file(exr.c_str());
+        EXPECT_EQ(file.header(0).name(), stem.ends_with("model") ? "model" : "simulation");
+        const auto names = testing::exr_channel_names(file.header(0));
+        EXPECT_NE(std::find(names.begin(), names.end(), "R"), names.end()) << exr;
+    }
+    EXPECT_GE(images, 2 * 7 + 2);  // base, and at least one other value per parameter
     EXPECT_NE(report.find("H = 0.65: the geometry rejects it"), std::string::npos);
     const auto l1 = record::read_dataset(dir / "ablation.h5", "H/relative_l1");
     ASSERT_EQ(l1.dims[0], 3u);

@@ -5,14 +5,18 @@
 
 #include <unistd.h>
 
+#include <algorithm>
 #include <cmath>
 #include <filesystem>
 #include <fstream>
 #include <sstream>
+#include <string>
+#include <vector>
 
 #include <gtest/gtest.h>
 
 #include "tests/test_util.h"
+#include "tests/virtual_gonio/exr_test_util.h"
 #include "virtual_gonio/hdf5_file.h"
 
 namespace plumage::studies {
@@ -83,6 +87,29 @@ TEST(RockDoveStudy, QuickVariantRunsAndItsNumbersHold) {
         EXPECT_NE(report.find(figure), std::string::npos) << figure;
         EXPECT_TRUE(std::filesystem::exists(dir / figure)) << figure;
     }
+    // Beside each comparison PNG its scatterograms as OpenEXR (issue 18, 4b), opened by
+    // OpenEXR's reader: parts simulation and model, linear sRGB, S0 per wavelength (450, 550,
+    // 650 nm), standard error and lobes; the values those of the scatterogram records.
+    for (const char* label : {"beam", "cone", "hemisphere"}) {
+        const auto exr = dir / "scatterograms" / (std::string(label) + "_comparison.exr");
+        ASSERT_TRUE(std::filesystem::exists(exr)) << exr;
+        Imf::MultiPartInputFile file(exr.c_str());
+        ASSERT_EQ(file.parts(), 2) << label;
+        EXPECT_EQ(file.header(0).name(), "simulation");
+        EXPECT_EQ(file.header(1).name(), "model");
+        const auto names = testing::exr_channel_names(file.header(0));
+        for (const char* c : {"R", "G", "B", "S0.450nm", "S0.550nm", "S0.650nm", "stderr.S0.550nm",
+                              "lobe.R.S0.550nm", "lobe.TRT.S0.550nm"})
+            EXPECT_NE(std::find(names.begin(), names.end(), c), names.end()) << label << " " << c;
+        const auto intensity = record::read_dataset(
+            dir / "scatterograms" / (std::string(label) + "_simulation.h5"), "image/intensity");
+        const std::vector<float> s550 = testing::exr_channel(file, 0, "S0.550nm");
+        ASSERT_EQ(s550.size() * 3, intensity.values.size());
+        for (std::size_t p = 0; p < s550.size(); ++p)
+            ASSERT_EQ(s550[p], static_cast<float>(intensity.values[3 * p + 1])) << label << p;
+    }
+    EXPECT_TRUE(std::filesystem::exists(dir / "scatterograms" / "beam_comparison.png"));
+
     // Level of physics: PO vs GO on the study's own row (4 barbules of 20 µm, no jitter: a
     // deterministic floor of 0). 20 µm rock-dove barbules diffract: measured L1 34.9 % over the
     // quick study's 3 wavelengths (the largest at 650 nm), power +16 %, 0.8 s on a loaded

@@ -17,6 +17,7 @@
 
 #include <unistd.h>
 
+#include <algorithm>
 #include <cmath>
 #include <filesystem>
 #include <fstream>
@@ -27,6 +28,7 @@
 #include "analysis/statistics.h"
 #include "common/error.h"
 #include "tests/test_util.h"
+#include "tests/virtual_gonio/exr_test_util.h"
 #include "virtual_gonio/hdf5_file.h"
 
 namespace plumage::studies {
@@ -133,6 +135,26 @@ TEST(SpeciesStudy, QuickVariantReproducesEachPatchsColourAndOrientation) {
              {"brdf.h5", "fit.h5", "in_plane.h5", "btf.h5", "btf.png", "fingerprints.png"}) {
             EXPECT_TRUE(std::filesystem::exists(dir / o.species / f)) << o.species << "/" << f;
         }
+        // Beside the PNGs, their spectra as OpenEXR, opened by OpenEXR: the fingerprints of
+        // simulation and both models (61 lights x 60 views), the BTF tiles.
+        Imf::MultiPartInputFile fingerprints((dir / o.species / "fingerprints.exr").c_str());
+        ASSERT_EQ(fingerprints.parts(), 3);
+        EXPECT_EQ(fingerprints.header(0).name(), "simulation");
+        const auto window = fingerprints.header(0).dataWindow();
+        EXPECT_EQ(window.max.x - window.min.x + 1, 60);
+        EXPECT_EQ(window.max.y - window.min.y + 1, 61);
+        const auto names = testing::exr_channel_names(fingerprints.header(0));
+        for (const char* c : {"R", "G", "B"})
+            EXPECT_NE(std::find(names.begin(), names.end(), c), names.end()) << c;
+        auto starting = [&names](const std::string& prefix) {
+            return std::count_if(names.begin(), names.end(),
+                                 [&](const std::string& n) { return n.rfind(prefix, 0) == 0; });
+        };
+        EXPECT_GT(starting("S0."), 1);
+        EXPECT_EQ(starting("stderr.S0."), starting("S0."));
+        Imf::MultiPartInputFile btf((dir / o.species / "btf.exr").c_str());
+        EXPECT_GE(btf.parts(), 1);
+        EXPECT_NE(testing::exr_channel_names(btf.header(0)).size(), 0u);
     }
     const std::string report = read(dir / "report.md");
     EXPECT_NE(report.find("## Fitted parameters beside Table 1"), std::string::npos);

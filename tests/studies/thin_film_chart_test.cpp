@@ -4,11 +4,16 @@
 
 #include <unistd.h>
 
+#include <algorithm>
 #include <filesystem>
+#include <string>
+
+#include <OpenEXR/ImfStringAttribute.h>
 
 #include <gtest/gtest.h>
 
 #include "tests/test_util.h"
+#include "tests/virtual_gonio/exr_test_util.h"
 #include "virtual_gonio/hdf5_file.h"
 
 namespace plumage::studies {
@@ -73,6 +78,37 @@ TEST(ThinFilmStudy, RockDoveFilmsAreGreenAndPurpleAtNormalIncidence) {
     EXPECT_TRUE(std::filesystem::exists(dir / "spectra_normal_incidence.csv"));
     EXPECT_TRUE(std::filesystem::exists(dir / "thin_film_chart_pixels.png"));
     EXPECT_TRUE(std::filesystem::exists(dir / "report.md"));
+    std::filesystem::remove_all(scratch_root());
+}
+
+// Issue 18 (4b): the chart's spectra as OpenEXR beside its PNG, opened by OpenEXR's reader:
+// linear sRGB plus one reflectance channel per chart wavelength, the record's values.
+TEST(ThinFilmStudy, ChartExrBesidePngOpensWithOpenExr) {
+    const auto dir = scratch_root() / "thin_film_exr";
+    run_thin_film_chart(quick_options(dir));
+    const auto exr = dir / "thin_film_chart_pixels.exr";
+    ASSERT_TRUE(std::filesystem::exists(dir / "thin_film_chart_pixels.png"));
+    ASSERT_TRUE(std::filesystem::exists(exr));
+    Imf::MultiPartInputFile file(exr.c_str());
+    ASSERT_EQ(file.parts(), 1);
+    const Imf::Header& h = file.header(0);
+    const auto window = h.dataWindow();
+    EXPECT_EQ(window.max.x - window.min.x + 1, 201);  // thicknesses
+    EXPECT_EQ(window.max.y - window.min.y + 1, 19);   // angles
+    const auto names = testing::exr_channel_names(h);
+    ASSERT_EQ(names.size(), 3u + 81u);  // R, G, B and 380–780 nm in 5 nm steps
+    for (const char* c : {"R", "G", "B", "T.380nm", "T.555nm", "T.780nm"})
+        EXPECT_NE(std::find(names.begin(), names.end(), c), names.end()) << c;
+    EXPECT_EQ(h.findTypedAttribute<Imf::StringAttribute>("units")->value(), "1");
+    EXPECT_EQ(h.findTypedAttribute<Imf::StringAttribute>("study")->value(), "thin_film");
+    // Row 0 is 90° incidence (the record's last angle), as in the PNG.
+    const auto reflectance = record::read_dataset(dir / "thin_film_chart.h5", "chart/reflectance");
+    const std::vector<float> t555 = testing::exr_channel(file, 0, "T.555nm");
+    const std::size_t k555 = (555 - 380) / 5;
+    for (std::size_t t : {0u, 100u, 200u}) {
+        EXPECT_EQ(t555[t], static_cast<float>(reflectance.values[(18 * 201 + t) * 81 + k555]));
+        EXPECT_EQ(t555[18 * 201 + t], static_cast<float>(reflectance.values[t * 81 + k555]));
+    }
     std::filesystem::remove_all(scratch_root());
 }
 
