@@ -36,6 +36,20 @@
 // Lobe: "R" only, PO's reflected part (the shadow-forming wave is the missing unhindered
 // light, not scattered light); what PO leaves out is listed in physical_optics_2d.h.
 //
+// Against the 3D ray tracer (tests/sim/wave/physical_optics_tracer_test.cpp): one cell per
+// patch width H A (H = 6, no neighbour shadowing within 60°) against the tracer on the explicit
+// barbule row (saddle cells of length 0.2 A, beam averaged over one period), both with keratin
+// 0.59 µm directly on melanin, coherent, single bounce (tracer max_events = 1; the default row
+// scene's Lambertian melanin sheet and PO's coherent air gap have no counterpart on the other
+// side, so neither is used), measured by the goniometer (5° cones, in-plane lights 0°, ±30°, ±60°
+// × views −60°…60°). Relative L1 at 550 nm: 0.147, 0.082, 0.044, 0.027 for A = 2, 5, 10, 20 µm
+// (tracer noise floor 0.018; 450 nm: 0.153, 0.086, 0.045, 0.031), PO's summed BRDF 7.4 % high at
+// A = 2 and 0.9 % at 20; L1 ∝ A^−0.75 raw, A^−0.87 (450 nm: −0.80) with the floor removed in
+// quadrature. The same cells in 2D (PO against geometric_optics_2d) give 0.168, 0.076, 0.033,
+// 0.016, A^−1.0: the 3D difference tracks the 2D diffraction (within 30 % of it or two noise
+// floors at every A), i.e. O(λ/A); the shallower 3D rate is the A >= 10 residual sitting within
+// one or two floors of the tracer's noise.
+//
 // Cost: eval() prepares the lit samples and stack amplitudes once per (ω_i, λ) and keeps σ_t of
 // the last θ_o (to 1e-12 rad: atan2 of (cos ε sin θ, cos ε cos θ) varies in the last bit with ε),
 // per thread (callers that sweep ω_o at fixed ω_i are fast; interleaved ω_i recompute,
