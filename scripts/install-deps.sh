@@ -13,6 +13,7 @@ packages=(
   libeigen3-dev          # small dense linear algebra (transfer matrices, fits)
   libhdf5-dev            # records (C and C++ APIs)
   libgtest-dev libgmock-dev libbenchmark-dev
+  liblcms2-dev           # Little-CMS: cross-check of Lab/CIEDE2000 in tests only
   libcli11-dev           # command line
   libtomlplusplus-dev    # study files
   libfmt-dev
