@@ -7,6 +7,7 @@
 
 #include <fmt/format.h>
 
+#include "analysis/statistics.h"
 #include "common/constants.h"
 #include "common/error.h"
 #include "common/require.h"
@@ -33,43 +34,6 @@ double FibreFrame::azimuth(const Vec3d& w) const { return std::atan2(w.dot(side)
 Vec3d FibreFrame::direction(double theta, double psi) const {
     const double c = std::cos(theta);
     return std::sin(theta) * axis + c * (std::cos(psi) * up + std::sin(psi) * side);
-}
-
-double normal_quantile(double p) {
-    if (!(p > 0.0)) return -std::numeric_limits<double>::infinity();
-    if (!(p < 1.0)) return std::numeric_limits<double>::infinity();
-    // Acklam's rational approximation (relative error 1.2e-9) as the starting point.
-    static constexpr double a[] = {-3.969683028665376e+01, 2.209460984245205e+02,
-                                   -2.759285104469687e+02, 1.383577518672690e+02,
-                                   -3.066479806614716e+01, 2.506628277459239e+00};
-    static constexpr double b[] = {-5.447609879822406e+01, 1.615858368580409e+02,
-                                   -1.556989798598866e+02, 6.680131188771972e+01,
-                                   -1.328068155288572e+01};
-    static constexpr double c[] = {-7.784894002430293e-03, -3.223964580411365e-01,
-                                   -2.400758277161838e+00, -2.549671010050217e+00,
-                                   4.374664141464968e+00,  2.938163982698783e+00};
-    static constexpr double d[] = {7.784695709041462e-03, 3.224671290700398e-01,
-                                   2.445134137142996e+00, 3.754408661907416e+00};
-    constexpr double kLow = 0.02425;
-    double x;
-    if (p < kLow) {
-        const double q = std::sqrt(-2.0 * std::log(p));
-        x = (((((c[0] * q + c[1]) * q + c[2]) * q + c[3]) * q + c[4]) * q + c[5]) /
-            ((((d[0] * q + d[1]) * q + d[2]) * q + d[3]) * q + 1.0);
-    } else if (p <= 1.0 - kLow) {
-        const double q = p - 0.5, r = q * q;
-        x = (((((a[0] * r + a[1]) * r + a[2]) * r + a[3]) * r + a[4]) * r + a[5]) * q /
-            (((((b[0] * r + b[1]) * r + b[2]) * r + b[3]) * r + b[4]) * r + 1.0);
-    } else {
-        const double q = std::sqrt(-2.0 * std::log1p(-p));
-        x = -(((((c[0] * q + c[1]) * q + c[2]) * q + c[3]) * q + c[4]) * q + c[5]) /
-            ((((d[0] * q + d[1]) * q + d[2]) * q + d[3]) * q + 1.0);
-    }
-    // One Halley step on Φ(x) − p: cubic convergence takes 1e-9 to round-off. In the lower tail
-    // the residual is taken against p directly (erfc keeps its relative accuracy there).
-    const double e = 0.5 * std::erfc(-x / kSqrt2) - p;
-    const double u = e * std::sqrt(kTwoPi) * std::exp(0.5 * x * x);
-    return x - u / (1.0 + 0.5 * x * u);
 }
 
 LongitudinalLobe::LongitudinalLobe(double theta_i, double alpha, double beta)

@@ -71,6 +71,7 @@
 #include <string>
 #include <vector>
 
+#include "analysis/statistics.h"  // normal_quantile, which the lobes sample with
 #include "common/constants.h"
 #include "sim/scatterer.h"
 
@@ -86,10 +87,6 @@ struct FibreFrame {
     double azimuth(const Vec3d& w) const;
     Vec3d direction(double theta, double psi) const;
 };
-
-// The standard normal quantile Φ⁻¹(p), p ∈ (0, 1) (rational first guess refined by one Halley
-// step against erfc: full double precision).
-double normal_quantile(double p);
 
 // Marschner's longitudinal lobe as a density of θo: Gaussian of mean 2α − θi and standard
 // deviation 2β, truncated to [−π/2, π/2] and normalised there.

@@ -4,62 +4,92 @@
 #include <cmath>
 #include <limits>
 #include <numbers>
+#include <stdexcept>
+#include <string_view>
+
+#include <fmt/format.h>
+#include <boost/math/distributions/chi_squared.hpp>
+#include <boost/math/distributions/normal.hpp>
+#include <boost/math/policies/policy.hpp>
+#include <boost/math/special_functions/erf.hpp>
+#include <boost/math/special_functions/gamma.hpp>
+
+#include "common/error.h"
+#include "common/require.h"
 
 namespace plumage::analysis {
+namespace {
+
+// Domain and evaluation errors throw (we check the domain first, so any left are bugs, caught
+// below); overflow returns ±∞ and underflow 0, without touching errno's meaning for callers.
+namespace bmp = boost::math::policies;
+using Policy =
+    bmp::policy<bmp::domain_error<bmp::throw_on_error>, bmp::pole_error<bmp::throw_on_error>,
+                bmp::overflow_error<bmp::ignore_error>, bmp::underflow_error<bmp::ignore_error>,
+                bmp::denorm_error<bmp::ignore_error>, bmp::evaluation_error<bmp::throw_on_error>>;
+
+constexpr double kNaN = std::numeric_limits<double>::quiet_NaN();
+
+// Runs a Boost.Math call; its exceptions become InvariantError naming our function and the
+// arguments (which passed our own checks, so a throw is a bug here, not a user error). The
+// arguments are formatted only then: normal_quantile runs once per sampled lobe direction.
+template <class Compute, class Describe>
+double guarded(std::string_view function, Compute&& compute, Describe&& arguments) {
+    try {
+        return compute();
+    } catch (const std::exception& e) {
+        throw InvariantError(fmt::format("analysis::{}({}): Boost.Math failed: {}", function,
+                                         arguments(), e.what()));
+    }
+}
+
+}  // namespace
 
 double regularized_gamma_q(double a, double x) {
-    if (!(a > 0.0) || !(x >= 0.0)) return std::numeric_limits<double>::quiet_NaN();
-    if (x == 0.0) return 1.0;
-    const double log_prefactor = -x + a * std::log(x) - std::lgamma(a);
-    constexpr double kEpsilon = 1e-16;
-    constexpr int kMaxTerms = 100'000;
-    if (x < a + 1.0) {
-        // P(a, x) = x^a e^−x / Γ(a + 1) Σ_n x^n / ((a + 1) ... (a + n)).
-        double term = 1.0 / a;
-        double sum = term;
-        for (int n = 1; n < kMaxTerms; ++n) {
-            term *= x / (a + n);
-            sum += term;
-            if (std::abs(term) < std::abs(sum) * kEpsilon) break;
-        }
-        return std::clamp(1.0 - sum * std::exp(log_prefactor), 0.0, 1.0);
-    }
-    // Q(a, x) = x^a e^−x / Γ(a) · 1 / (x + 1 − a − 1 (1 − a) / (x + 3 − a − 2 (2 − a) / ...)).
-    constexpr double kTiny = 1e-300;
-    double b = x + 1.0 - a;
-    double c = 1.0 / kTiny;
-    double d = 1.0 / b;
-    double h = d;
-    for (int i = 1; i < kMaxTerms; ++i) {
-        const double an = -i * (i - a);
-        b += 2.0;
-        d = an * d + b;
-        if (std::abs(d) < kTiny) d = kTiny;
-        c = b + an / c;
-        if (std::abs(c) < kTiny) c = kTiny;
-        d = 1.0 / d;
-        const double delta = d * c;
-        h *= delta;
-        if (std::abs(delta - 1.0) < kEpsilon) break;
-    }
-    return std::clamp(std::exp(log_prefactor) * h, 0.0, 1.0);
+    if (!(a > 0.0) || !std::isfinite(a) || !(x >= 0.0)) return kNaN;
+    if (std::isinf(x)) return 0.0;
+    return guarded(
+        "regularized_gamma_q", [&] { return boost::math::gamma_q(a, x, Policy()); },
+        [&] { return fmt::format("a = {}, x = {}", a, x); });
 }
 
 double chi_square_p_value(double statistic, int dof) {
-    return dof > 0 ? regularized_gamma_q(0.5 * dof, 0.5 * statistic) : 1.0;
+    if (dof <= 0) return 1.0;
+    if (!(statistic >= 0.0)) return kNaN;
+    if (std::isinf(statistic)) return 0.0;
+    return guarded(
+        "chi_square_p_value",
+        [&] {
+            const boost::math::chi_squared_distribution<double, Policy> chi2(dof);
+            return boost::math::cdf(boost::math::complement(chi2, statistic));
+        },
+        [&] { return fmt::format("statistic = {}, dof = {}", statistic, dof); });
 }
 
 double sidak_significance(double family, int tests) {
+    require(family > 0.0 && family < 1.0, "sidak_significance", "family", family,
+            "a family-wise significance in (0, 1)");
     return -std::expm1(std::log1p(-family) / std::max(tests, 1));
 }
 
 double two_sided_normal_quantile(double p) {
-    double lo = 0.0, hi = 40.0;
-    for (int i = 0; i < 200; ++i) {
-        const double mid = 0.5 * (lo + hi);
-        (std::erfc(mid / std::numbers::sqrt2) > p ? lo : hi) = mid;
-    }
-    return 0.5 * (lo + hi);
+    require(p > 0.0 && p <= 1.0, "two_sided_normal_quantile", "p", p,
+            "a two-sided tail probability in (0, 1]");
+    return guarded(
+        "two_sided_normal_quantile",
+        [&] { return std::numbers::sqrt2 * boost::math::erfc_inv(p, Policy()); },
+        [&] { return fmt::format("p = {}", p); });
+}
+
+double normal_quantile(double p) {
+    if (!(p > 0.0)) return -std::numeric_limits<double>::infinity();
+    if (!(p < 1.0)) return std::numeric_limits<double>::infinity();
+    return guarded(
+        "normal_quantile",
+        [&] {
+            return boost::math::quantile(boost::math::normal_distribution<double, Policy>(), p);
+        },
+        [&] { return fmt::format("p = {}", p); });
 }
 
 }  // namespace plumage::analysis

@@ -9,9 +9,11 @@ packages=(
   libembree-dev          # ray tracing (Embree 3)
   libcgal-dev            # mesh validation and repair
   libopenvdb-dev libboost-iostreams-dev libtbb-dev libblosc-dev  # spongy volumes; OpenVDB's CMake module needs boost-iostreams
+  libboost-dev           # Boost.Math special functions and distributions (analysis/statistics)
   libeigen3-dev          # small dense linear algebra (transfer matrices, fits)
   libhdf5-dev            # records (C and C++ APIs)
   libgtest-dev libgmock-dev libbenchmark-dev
+  liblcms2-dev           # Little-CMS: cross-check of Lab/CIEDE2000 in tests only
   libcli11-dev           # command line
   libtomlplusplus-dev    # study files
   libfmt-dev
