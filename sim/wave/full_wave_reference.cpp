@@ -109,6 +109,9 @@ FullWaveReference read_full_wave_reference(const fs::path& folder) {
                                    "resolution_px_per_um", "theta_s_deg", "sigma_um_per_rad"});
     for (std::size_t r = 0; r < ff.rows.size(); ++r) {
         const FullWaveKey key = ff.key(r);
+        if (key.polarisation != "TE" && key.polarisation != "TM")
+            throw InputError(fmt::format("{}:{}: polarisation = '{}': expected TE or TM",
+                                         ff.path.string(), ff.lines[r], key.polarisation));
         FullWaveCurve& curve = ref.far_field[key];
         const double theta = ff.number(r, "theta_s_deg");
         const double expected =
