@@ -724,8 +724,12 @@ std::string full_wave_section(const WaveValidityResult& r, const Settings& s) {
               "1 % of its peak, the larger polarisation): the pointwise form, as the 40 px/µm "
               "curves are not shipped; windowing averages pointwise errors, so it is the "
               "conservative one. The shells are not the map's barbule arcs (closed, no air gap, "
-              "no jitter): widths are comparable, shapes only roughly.\n\n",
-              s.full_wave_key);
+              "no jitter): widths are comparable, shapes only roughly.{}\n\n",
+              s.full_wave_key,
+              s.options.outgoing_visibility
+                  ? " The map runs with outgoing visibility; this check runs without it (PO's "
+                    "total part has none), so its PO vs GO is not the map's number there."
+                  : "");
     md << "| shape | pol. | θ_i (°) | λ (nm) | width (µm) | GO vs Meep | PO vs Meep | PO vs GO | "
           "Meep floor | shadow | PO − GO as GO's error "
           "|\n|---|---|---|---|---|---|---|---|---|---|---|\n";
