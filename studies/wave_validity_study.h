@@ -20,6 +20,18 @@
 // Statistical verdict per point: "PO needed" when L1 − 2·floor > threshold, "GO suffices" when
 // L1 + 2·floor <= threshold, else "undecided" (the floor is the L1 that noise alone would give).
 //
+// Full-wave check (optional, `[full_wave] reference = "<folder>"`, relative to the study file's
+// folder; the Meep reference of tests/reference/barbule_2d, read by
+// sim/wave/full_wave_reference.h): per reference curve (shape, θ_i, λ; unpolarised (TE + TM)/2
+// where both polarisations exist) the map's metric (the same detector window, the same centres
+// over the reflected half-space |θ_s| < 90°, relative L1) for GO vs Meep, PO vs Meep (PO's total
+// part: Meep's σ is the scattered field, shadow-forming wave included) and PO vs GO (PO's
+// reflected part, the map's own number), beside Meep's floor 2 × its 40/60 px/µm RMS difference
+// (the larger of the polarisations; the 40 px/µm curves are not shipped, so not windowed) and
+// the share of PO's shadow part in the window over the half-space (GO has none). The verdict
+// says whether the map's PO − GO is a fair measure of ray optics' error (PO's own error against
+// Meep well below it) or PO's error dominates.
+//
 // Outputs in <results>/<name>/: wave_validity.h5 (every number, units and descriptions,
 // /provenance), wave_validity.csv, width_x_<axis>.png (via width_x_<axis>.h5, the figure's
 // data), report.md. Study files: studies/wave_validity.toml (full, a few minutes),
@@ -56,6 +68,16 @@ struct WaveValidityMap {
     std::vector<std::vector<double>> extrapolated_um;
 };
 
+// One reference curve of the full-wave check (header), unpolarised where both exist.
+struct WaveValidityFullWaveRow {
+    std::string shape, polarisations;  // "single", "TE+TM"
+    double theta_i_deg = 0.0, lambda_nm = 0.0;
+    double width_um = 0.0;  // the shape's projected width at θ_i
+    double go_vs_full_wave = 0.0, po_vs_full_wave = 0.0, po_vs_go = 0.0;  // relative L1
+    double full_wave_floor = 0.0;  // 2 × Meep's 40/60 RMS relative difference
+    double shadow_share = 0.0;     // Σ W_PO,shadow / Σ W_PO,total over the centres
+};
+
 struct WaveValidityResult {
     std::filesystem::path output_dir;
     std::vector<double> widths_um, wavelengths_nm, incidence_deg;
@@ -65,6 +87,8 @@ struct WaveValidityResult {
     int po_needed = 0, go_suffices = 0, undecided = 0;
     double po_wall_s = 0.0, po_cpu_s = 0.0, go_wall_s = 0.0, go_cpu_s = 0.0;
     double wall_seconds = 0.0;
+    std::vector<WaveValidityFullWaveRow> full_wave;  // empty without [full_wave]
+    std::string full_wave_verdict;                   // the report's generated sentence(s)
 };
 
 // InputError on any bad key or value (file:line:col), before anything is written.

@@ -111,6 +111,47 @@ TEST(WaveValidityStudy, QuickStudyRecordsWhatItReturns) {
                                 "## Cost of each level", "## Statistical verdict",
                                 "largest over the wavelengths", "width_x_film_thickness_um.png"})
         EXPECT_NE(report.find(section), std::string::npos) << section;
+
+    // The full-wave check: the 24 Meep curves as 12 unpolarised rows (single: θ_i 0° and 30°),
+    // each with its numbers in the report, the record (units, descriptions) and the CSV.
+    ASSERT_EQ(r.full_wave.size(), 12u);
+    for (const WaveValidityFullWaveRow& f : r.full_wave) {
+        EXPECT_EQ(f.polarisations, "TE+TM") << f.shape;
+        for (double l1 : {f.go_vs_full_wave, f.po_vs_full_wave, f.po_vs_go})
+            EXPECT_TRUE(std::isfinite(l1) && l1 > 0.0) << f.shape << " " << f.lambda_nm;
+        EXPECT_GT(f.full_wave_floor, 0.0);
+        EXPECT_GE(f.shadow_share, 0.0);
+        EXPECT_LT(f.shadow_share, 0.1) << f.shape << ": the shadow part over |θ_s| < 90°";
+        if (f.shape == "small") {
+            EXPECT_GT(f.go_vs_full_wave, 0.4) << "the 2.6 µm shell diffracts";
+        }
+        if (f.shape == "single") {
+            EXPECT_LT(f.po_vs_full_wave, 0.2) << f.theta_i_deg << " " << f.lambda_nm;
+            EXPECT_LT(f.go_vs_full_wave, 0.3) << f.theta_i_deg << " " << f.lambda_nm;
+        }
+    }
+    EXPECT_NE(report.find("## Against full wave"), std::string::npos);
+    EXPECT_NE(report.find("| single | TE+TM | 30 | 650 |"), std::string::npos);
+    EXPECT_NE(report.find("**Verdict.**"), std::string::npos);
+    EXPECT_NE(report.find(r.full_wave_verdict), std::string::npos);
+    EXPECT_NE(r.full_wave_verdict.find("The map's headline"), std::string::npos);
+    for (const char* name : {"go_vs_full_wave", "po_vs_full_wave", "po_vs_go", "full_wave_floor",
+                             "shadow_share", "theta_i_deg", "lambda_nm", "projected_width_um"}) {
+        const std::string path = std::string("full_wave/") + name;
+        EXPECT_EQ(record::read_dataset(h5, path).dims,
+                  (std::vector<std::uint64_t>{r.full_wave.size()}))
+            << name;
+        EXPECT_FALSE(record::read_string_attribute(h5, path, "units").empty()) << name;
+        EXPECT_FALSE(record::read_string_attribute(h5, path, "description").empty()) << name;
+    }
+    const record::Dataset go = record::read_dataset(h5, "full_wave/go_vs_full_wave");
+    for (std::size_t k = 0; k < r.full_wave.size(); ++k)
+        EXPECT_EQ(go.values[k], r.full_wave[k].go_vs_full_wave);
+    EXPECT_EQ(record::read_string_attribute(h5, "full_wave", "verdict"), r.full_wave_verdict);
+    std::ifstream fw_csv(dir / "full_wave_check.csv");
+    int fw_lines = 0;
+    for (std::string line; std::getline(fw_csv, line);) ++fw_lines;
+    EXPECT_EQ(fw_lines, 13);
     fs::remove_all(root);
 }
 
@@ -129,6 +170,12 @@ TEST(WaveValidityStudy, BadFilesNameTheKeyAndLine) {
     const std::string kernel =
         error_of("study = \"wave_validity\"\n[detector]\nkernel = \"cone\"\n");
     EXPECT_NE(kernel.find("detector.kernel"), std::string::npos) << kernel;
+    // The full-wave folder is checked when the file is read, naming the key and the file.
+    const std::string folder =
+        error_of("study = \"wave_validity\"\n[full_wave]\nreference = \"no/such/folder\"\n");
+    EXPECT_NE(folder.find("bad.toml:3"), std::string::npos) << folder;
+    EXPECT_NE(folder.find("full_wave.reference = \"no/such/folder\""), std::string::npos) << folder;
+    EXPECT_NE(folder.find("expected a folder"), std::string::npos) << folder;
 }
 
 }  // namespace

@@ -14,10 +14,8 @@
 #include <complex>
 #include <cstdio>
 #include <filesystem>
-#include <fstream>
 #include <map>
 #include <memory>
-#include <sstream>
 #include <string>
 #include <tuple>
 #include <vector>
@@ -26,6 +24,7 @@
 
 #include "common/constants.h"
 #include "sim/optics/material.h"
+#include "sim/wave/full_wave_reference.h"
 #include "sim/wave/geometric_optics_2d.h"
 #include "sim/wave/physical_optics_2d.h"
 
@@ -36,70 +35,28 @@ namespace fs = std::filesystem;
 
 fs::path reference_dir() { return fs::path(PLUMAGE_SOURCE_DIR) / "tests/reference/barbule_2d"; }
 
-// far_field.csv's grid: θ_s = −179.5° + 0.5° m, m = 0 … 719.
+// far_field.csv's grid: θ_s = −179.5° + 0.5° m, m = 0 … 719 (full_wave_reference.h).
 constexpr int kAngles = 720;
 constexpr double kStepDeg = 0.5;
 double grid_deg(int m) { return -179.5 + kStepDeg * m; }
 
-using Key = std::tuple<std::string, std::string, int, int>;  // case, pol, θ_i (°), λ (nm)
-
-struct Table {
-    std::vector<std::string> header;
-    std::vector<std::vector<std::string>> rows;
-    std::size_t column(const std::string& name) const {
-        const auto it = std::find(header.begin(), header.end(), name);
-        EXPECT_NE(it, header.end()) << name;
-        return static_cast<std::size_t>(it - header.begin());
-    }
-};
-
-// The CSVs are written by Python's csv module: CRLF line ends.
-std::vector<std::string> split(std::string line) {
-    if (!line.empty() && line.back() == '\r') line.pop_back();
-    std::vector<std::string> out;
-    std::stringstream s(line);
-    std::string cell;
-    while (std::getline(s, cell, ',')) out.push_back(cell);
-    return out;
-}
-
-Table read_csv(const fs::path& path) {
-    std::ifstream in(path);
-    EXPECT_TRUE(in.good()) << path;
-    Table t;
-    std::string line;
-    if (std::getline(in, line)) t.header = split(line);
-    while (std::getline(in, line))
-        if (!line.empty() && line != "\r") t.rows.push_back(split(line));
-    return t;
-}
-
-Key key_of(const Table& t, const std::vector<std::string>& row) {
-    return {row[t.column("case")], row[t.column("polarisation")],
-            std::stoi(row[t.column("theta_i_deg")]), std::stoi(row[t.column("lambda_nm")])};
-}
+using Key = FullWaveKey;  // case, pol, θ_i (°), λ (nm)
 
 std::map<Key, std::vector<double>> read_far_field() {
-    const Table t = read_csv(reference_dir() / "far_field.csv");
     std::map<Key, std::vector<double>> out;
-    const std::size_t th = t.column("theta_s_deg"), sg = t.column("sigma_um_per_rad");
-    for (const auto& row : t.rows) {
-        std::vector<double>& curve = out[key_of(t, row)];
-        const int m = static_cast<int>(std::lround((std::stod(row[th]) + 179.5) / kStepDeg));
-        EXPECT_EQ(m, static_cast<int>(curve.size())) << row[th];
-        curve.push_back(std::stod(row[sg]));
-    }
+    for (const auto& [key, curve] : read_full_wave_reference(reference_dir()).far_field)
+        out[key] = curve.sigma_um_per_rad;
     return out;
 }
 
 // totals.csv: the box's scattering and absorption widths at one resolution.
 std::map<Key, std::pair<double, double>> read_totals(int resolution) {
-    const Table t = read_csv(reference_dir() / "totals.csv");
+    const ReferenceCsv t = read_reference_csv(reference_dir() / "totals.csv");
     std::map<Key, std::pair<double, double>> out;
-    for (const auto& row : t.rows)
-        if (std::stoi(row[t.column("resolution")]) == resolution)
-            out[key_of(t, row)] = {std::stod(row[t.column("scattering_width_um")]),
-                                   std::stod(row[t.column("absorption_width_um")])};
+    for (std::size_t r = 0; r < t.rows.size(); ++r)
+        if (t.integer(r, "resolution") == resolution)
+            out[t.key(r)] = {t.number(r, "scattering_width_um"),
+                             t.number(r, "absorption_width_um")};
     return out;
 }
 
@@ -107,45 +64,21 @@ struct Convergence {
     double max_rel = 0.0, rms_rel = 0.0, sca_rel = 0.0;
 };
 std::map<Key, Convergence> read_convergence() {
-    const Table t = read_csv(reference_dir() / "convergence.csv");
     std::map<Key, Convergence> out;
-    for (const auto& row : t.rows)
-        out[key_of(t, row)] = {std::stod(row[t.column("sigma_max_rel_diff")]),
-                               std::stod(row[t.column("sigma_rms_rel_diff")]),
-                               std::stod(row[t.column("scattering_width_rel_diff")])};
+    for (const auto& [key, c] : read_full_wave_reference(reference_dir()).convergence)
+        out[key] = {c.sigma_max_rel_diff, c.sigma_rms_rel_diff, c.scattering_width_rel_diff};
     return out;
 }
 
 // materials.csv: the fitted media Meep ran with (n_keratin, n + ik melanin) per wavelength.
 std::map<int, std::pair<double, std::complex<double>>> read_fitted_media() {
-    const Table t = read_csv(reference_dir() / "materials.csv");
+    const ReferenceCsv t = read_reference_csv(reference_dir() / "materials.csv");
     std::map<int, std::pair<double, std::complex<double>>> out;
-    for (const auto& row : t.rows)
-        out[std::stoi(row[t.column("lambda_nm")])] = {
-            std::stod(row[t.column("n_keratin_fitted")]),
-            {std::stod(row[t.column("n_melanin_fitted")]),
-             std::stod(row[t.column("k_melanin_fitted")])}};
+    for (std::size_t r = 0; r < t.rows.size(); ++r)
+        out[t.integer(r, "lambda_nm")] = {
+            t.number(r, "n_keratin_fitted"),
+            {t.number(r, "n_melanin_fitted"), t.number(r, "k_melanin_fitted")}};
     return out;
-}
-
-// The contract's shapes (README "Shape"): outer boundary = core ellipse offset by d.
-struct Shape {
-    double a_x, a_z, d;
-    int count;  // cells at x = (m − (count − 1)/2) · 11 µm
-};
-Shape shape_of(const std::string& name) {
-    if (name == "single") return {5.0, 2.0, 0.3, 1};
-    if (name == "small") return {1.0, 0.4, 0.3, 1};
-    EXPECT_EQ(name, "row3");
-    return {5.0, 2.0, 0.3, 3};
-}
-
-// Projected width of the shape seen from ω_i: the offset curve's support function is the
-// core's plus d, h(u) = sqrt(a_x² u_x² + a_z² u_z²) + d with u ⟂ ω_i; cells of the row do
-// not overlap in projection at normal incidence (gaps 0.4 µm).
-double projected_width(const Shape& s, double theta_i) {
-    const double ux = std::cos(theta_i), uz = -std::sin(theta_i);
-    return s.count * 2.0 * (std::sqrt(s.a_x * s.a_x * ux * ux + s.a_z * s.a_z * uz * uz) + s.d);
 }
 
 // σ on the grid for the given part; with visibility the reflected part drops the light a
@@ -259,11 +192,7 @@ Residual measure(const Key& key, const std::vector<double>& sigma_meep,
                  const std::pair<double, double>& totals, const Convergence& resolution,
                  const std::pair<double, std::complex<double>>& fitted) {
     const auto& [name, pol_name, theta_i_deg, lambda] = key;
-    const Shape s = shape_of(name);
-    Row2d row;
-    row.cell = coated_ellipse(s.a_x, s.a_z, s.d);  // optics::keratin()/melanin(): the formulas
-    row.count = s.count;
-    row.spacing_um = 11.0;
+    const Row2d row = full_wave_row(name);  // optics::keratin()/melanin(): the formulas
     const double ti = theta_i_deg * kDeg;
     const Incidence2d inc{static_cast<double>(lambda), ti,
                           pol_name == "TE" ? Polarisation2d::te : Polarisation2d::tm};
@@ -271,7 +200,7 @@ Residual measure(const Key& key, const std::vector<double>& sigma_meep,
     Residual r;
     r.key = key;
     r.resolution = resolution;
-    r.width = projected_width(s, ti);
+    r.width = full_wave_projected_width(name, ti);
     const std::vector<double> pm = back_bins(sigma_meep, theta_i_deg);
     const std::vector<double> pp = back_bins(po, theta_i_deg);
     r.l1 = relative_l1(pp, pm, 0, 18);
@@ -338,7 +267,7 @@ const std::vector<Residual>& residuals() {
             EXPECT_EQ(sigma.size(), static_cast<std::size_t>(kAngles));
             if (sigma.size() != static_cast<std::size_t>(kAngles)) continue;
             out.push_back(
-                measure(key, sigma, totals.at(key), conv.at(key), fitted.at(std::get<3>(key))));
+                measure(key, sigma, totals.at(key), conv.at(key), fitted.at(key.lambda_nm)));
         }
         std::printf(
             "| case | pol | θi | λ | back L1 | L1 ≤60° | refl. PO/Meep | worst band (centre, "
@@ -385,7 +314,7 @@ double floor_max(const Residual& r) { return 2.0 * r.resolution.max_rel; }
 
 TEST(PhysicalOpticsFullWave, SingleShellLobesWithinEdgeDiffractionAndMeepResolution) {
     for (const Residual& r : residuals()) {
-        if (std::get<0>(r.key) != "single") continue;
+        if (r.key.shape != "single") continue;
         const std::string at = label(r);
         RecordProperty(property(r, "back_l1"), std::to_string(r.l1));
         // Back hemisphere: the specular lobe comes from the top, kρ = 120–180 (ρ = 12.8 µm),
@@ -433,7 +362,7 @@ TEST(PhysicalOpticsFullWave, SingleShellLobesWithinEdgeDiffractionAndMeepResolut
 // reported with and without outgoing visibility.
 TEST(PhysicalOpticsFullWave, RowMatchesWithin60DegreesWhereNeighboursDoNotBlock) {
     for (const Residual& r : residuals()) {
-        if (std::get<0>(r.key) != "row3") continue;
+        if (r.key.shape != "row3") continue;
         const std::string at = label(r);
         RecordProperty(property(r, "back_l1"), std::to_string(r.l1));
         RecordProperty(property(r, "back_l1_visibility"), std::to_string(r.l1_visibility));
@@ -466,15 +395,15 @@ TEST(PhysicalOpticsFullWave, RowMatchesWithin60DegreesWhereNeighboursDoNotBlock)
 TEST(PhysicalOpticsFullWave, SmallShellIsOutsidePhysicalOptics) {
     std::map<std::tuple<std::string, int>, double> single_l1;
     for (const Residual& r : residuals())
-        if (std::get<0>(r.key) == "single" && std::get<2>(r.key) == 0)
-            single_l1[{std::get<1>(r.key), std::get<3>(r.key)}] = r.l1;
+        if (r.key.shape == "single" && r.key.theta_i_deg == 0)
+            single_l1[{r.key.polarisation, r.key.lambda_nm}] = r.l1;
     for (const Residual& r : residuals()) {
-        if (std::get<0>(r.key) != "small") continue;
+        if (r.key.shape != "small") continue;
         const std::string at = label(r);
         RecordProperty(property(r, "back_l1"), std::to_string(r.l1));
         RecordProperty(property(r, "reflected_ratio"), std::to_string(r.reflected_ratio));
         RecordProperty(property(r, "scattering_ratio"), std::to_string(r.sca_po / r.sca_meep));
-        const double single = single_l1.at({std::get<1>(r.key), std::get<3>(r.key)});
+        const double single = single_l1.at({r.key.polarisation, r.key.lambda_nm});
         // Meep's own error here is up to 2 × 14 % RMS (450 nm); PO's must exceed it and the
         // single's several times over to count as PO's failure rather than Meep's.
         EXPECT_GT(r.l1, std::max(0.4, floor_rms(r)))
@@ -525,7 +454,7 @@ TEST(PhysicalOpticsFullWave, MeepsFittedMediaChangeLittle) {
 // (up to +4.2 %), partly absorbed at the tips, so the sum may exceed W by a few %: [0.98, 1.08].
 TEST(PhysicalOpticsFullWave, ReflectedPlusAbsorbedIsTheProjectedWidth) {
     for (const Residual& r : residuals()) {
-        if (std::get<0>(r.key) == "small") continue;  // outside PO, reported in the table
+        if (r.key.shape == "small") continue;  // outside PO, reported in the table
         const double ratio = (r.refl_po + r.abs_meep) / r.width;
         RecordProperty(property(r, "reflected_plus_absorbed_over_w"), std::to_string(ratio));
         EXPECT_GT(ratio, 0.98) << label(r);
@@ -540,7 +469,7 @@ TEST(PhysicalOpticsFullWave, ReflectedPlusAbsorbedIsTheProjectedWidth) {
 // (measured −1.0 to −2.2 % in all: 3 %). Meep's C_sca is then compared in the tests above.
 TEST(PhysicalOpticsFullWave, PhysicalOpticsScatteringWidthIsWPlusReflected) {
     for (const Residual& r : residuals()) {
-        if (std::get<0>(r.key) == "small") continue;  // kW = 25–36: reported only
+        if (r.key.shape == "small") continue;  // kW = 25–36: reported only
         RecordProperty(property(r, "shadow_over_w"), std::to_string(r.shadow_po / r.width));
         EXPECT_NEAR(r.shadow_po / r.width, 1.0, 0.01) << label(r) << ": PO shadow part / W";
         EXPECT_NEAR(r.sca_po / (r.width + r.refl_po), 1.0, 0.03)
