@@ -37,8 +37,6 @@ constexpr std::array<double, 8> kGl8Weights = {
 // when the support is cut. Chosen against the dense reference (see trt_efficiency): with
 // 0.25 rad or 3 θ_m nodes the error at grazing views along the barbule axis was 0.3–0.5 %.
 constexpr double kTrtPiece = 0.125;  // rad
-constexpr const std::array<double, 8>& kTrtPhiNodes = kGl8Nodes;
-constexpr const std::array<double, 8>& kTrtPhiWeights = kGl8Weights;
 constexpr std::array<double, 5> kTrtThetaNodes = {-0.9061798459386640, -0.5384693101056831, 0.0,
                                                   0.5384693101056831, 0.9061798459386640};
 constexpr std::array<double, 5> kTrtThetaWeights = {0.2369268850561891, 0.4786286704993665,
@@ -186,7 +184,7 @@ struct Huang2022Bsdf::Frame {
     // Per node, for the wavelength last asked: T(ω_i·ω_m) R_m and I_R(ω_i·ω_m).
     mutable double nodes_lambda = -1.0;
     mutable std::vector<double> node_trt_in, node_r;
-    // TRT's rule (eval), built once per ω_i: Gauss–Legendre, kTrtPhiNodes per piece of at
+    // TRT's rule (eval), built once per ω_i: Gauss–Legendre, 8 φ_m nodes per piece of at
     // most kTrtPiece rad of the visible arc, and kTrtThetaNodes over each φ node's θ support
     // (trt_efficiency). Weights include q's densities; T(ω_i·ω_m) at the θ nodes is kept
     // for the wavelength last asked.
@@ -544,6 +542,35 @@ std::optional<ScatterEvent> Huang2022Bsdf::sample(const Vec3d& wi, double lambda
     return ScatterEvent{wo, weight, kTRT, position_um};
 }
 
+namespace {
+
+// The φ_m nodes of q's composite Gauss–Legendre rule over a frame's visible arc (kGl8Nodes per
+// piece of at most piece_rad): emit(φ, w, p_θ) with w = the node's weight times
+// ρ cos(φ − φ_i) / Δh' and p_θ(θ | φ) the conditional density (possibly empty). A template,
+// so that it can take the model's private Frame.
+template <typename FrameT, typename Emit>
+void for_each_q_phi_node(const FrameT& f, double b, double theta_d, double piece_rad,
+                         const Emit& emit) {
+    const Ellipse e{b};
+    for (const auto& [lo, hi] : f.intervals) {
+        const int pieces = std::max(1, static_cast<int>(std::ceil((hi - lo) / piece_rad)));
+        for (int piece = 0; piece < pieces; ++piece) {
+            const double a = lo + (hi - lo) * piece / pieces,
+                         c = lo + (hi - lo) * (piece + 1) / pieces;
+            for (std::size_t i = 0; i < kGl8Nodes.size(); ++i) {
+                const double phi = 0.5 * (a + c) + 0.5 * (c - a) * kGl8Nodes[i];
+                const double w = 0.5 * (c - a) * kGl8Weights[i] * e.rho(phi) *
+                                 std::cos(phi - f.phi_i) / f.visible_length;
+                emit(
+                    phi, w,
+                    theta_density(f.cos_theta_i * std::cos(phi - f.phi_i), f.sin_theta_i, theta_d));
+            }
+        }
+    }
+}
+
+}  // namespace
+
 void Huang2022Bsdf::build_nodes(Frame& f) const {
     // q(ω_m) dω_m = [ρ cos(φ_m − φ_i) / Δh'] dφ_m · p_θ(θ_m | φ_m) dθ_m: Gauss–Legendre,
     // 8 nodes per 0.25 rad of φ_m and 2 over the θ support (±θ_d is a few degrees: the
@@ -552,27 +579,15 @@ void Huang2022Bsdf::build_nodes(Frame& f) const {
     // nodes here were up to 30 % off for views along the barbule axis).
     static constexpr std::array<double, 2> n2 = {-0.5773502691896258, 0.5773502691896258};
     if (!(f.visible_length > 0.0)) return;
-    const Ellipse e{params_.b};
-    for (const auto& [lo, hi] : f.intervals) {
-        const int pieces = std::max(1, static_cast<int>(std::ceil((hi - lo) / 0.25)));
-        for (int piece = 0; piece < pieces; ++piece) {
-            const double a = lo + (hi - lo) * piece / pieces,
-                         c = lo + (hi - lo) * (piece + 1) / pieces;
-            for (std::size_t i = 0; i < kGl8Nodes.size(); ++i) {
-                const double phi = 0.5 * (a + c) + 0.5 * (c - a) * kGl8Nodes[i];
-                const double w_phi = 0.5 * (c - a) * kGl8Weights[i] * e.rho(phi) *
-                                     std::cos(phi - f.phi_i) / f.visible_length;
-                const ThetaDensity td = theta_density(f.cos_theta_i * std::cos(phi - f.phi_i),
-                                                      f.sin_theta_i, params_.theta_d);
-                if (td.empty()) continue;
-                for (std::size_t j = 0; j < n2.size(); ++j) {
-                    const double theta = 0.5 * (td.lo + td.hi) + 0.5 * (td.hi - td.lo) * n2[j];
-                    f.nodes.emplace_back(normal_at(phi, theta),
-                                         w_phi * 0.5 * (td.hi - td.lo) * td.density(theta));
-                }
+    for_each_q_phi_node(
+        f, params_.b, params_.theta_d, 0.25, [&](double phi, double w_phi, const ThetaDensity& td) {
+            if (td.empty()) return;
+            for (double x : n2) {
+                const double theta = 0.5 * (td.lo + td.hi) + 0.5 * (td.hi - td.lo) * x;
+                f.nodes.emplace_back(normal_at(phi, theta),
+                                     w_phi * 0.5 * (td.hi - td.lo) * td.density(theta));
             }
-        }
-    }
+        });
 }
 
 double Huang2022Bsdf::trt_efficiency(const Frame& f, const Vec3d& wo_b, double lambda_nm) const {
@@ -590,7 +605,7 @@ double Huang2022Bsdf::trt_efficiency(const Frame& f, const Vec3d& wo_b, double l
     // continuously differentiable, and composite Gauss–Legendre converges at its h³ rate
     // at worst.
     //
-    // Error bound: the rule (kTrtPhiNodes per kTrtPiece rad, kTrtThetaNodes per panel,
+    // Error bound: the rule (8 φ_m nodes per kTrtPiece rad, kTrtThetaNodes per panel,
     // kTrtCutNodes per cut panel) was chosen by refining it against a 10⁴-node midpoint
     // reference, and a 16 × denser one where that is least accurate, over a grid of 2760
     // (ω_i, ω_o, λ) including grazing views along the barbule axis (test
@@ -649,34 +664,22 @@ double Huang2022Bsdf::trt_efficiency(const Frame& f, const Vec3d& wo_b, double l
 
 void Huang2022Bsdf::build_trt_nodes(Frame& f) const {
     if (!(f.visible_length > 0.0)) return;
-    const Ellipse e{params_.b};
-    for (const auto& [lo, hi] : f.intervals) {
-        const int pieces = std::max(1, static_cast<int>(std::ceil((hi - lo) / kTrtPiece)));
-        for (int piece = 0; piece < pieces; ++piece) {
-            const double a = lo + (hi - lo) * piece / pieces,
-                         c = lo + (hi - lo) * (piece + 1) / pieces;
-            for (std::size_t i = 0; i < kTrtPhiNodes.size(); ++i) {
-                const double phi = 0.5 * (a + c) + 0.5 * (c - a) * kTrtPhiNodes[i];
-                const double w = 0.5 * (c - a) * kTrtPhiWeights[i] * e.rho(phi) *
-                                 std::cos(phi - f.phi_i) / f.visible_length;
-                const ThetaDensity td = theta_density(f.cos_theta_i * std::cos(phi - f.phi_i),
-                                                      f.sin_theta_i, params_.theta_d);
-                Frame::TrtPhiNode node{
-                    phi, std::sin(phi),         std::cos(phi),         w,
-                    td,  normal_at(phi, td.lo), normal_at(phi, td.hi), f.trt_m.size(),
-                    0};
-                for (std::size_t j = 0; j < kTrtThetaNodes.size() && !td.empty(); ++j) {
-                    const double theta =
-                        0.5 * (td.lo + td.hi) + 0.5 * (td.hi - td.lo) * kTrtThetaNodes[j];
-                    f.trt_m.push_back(normal_at(phi, theta));
-                    f.trt_w.push_back(0.5 * (td.hi - td.lo) * kTrtThetaWeights[j] *
-                                      td.density(theta));
-                    ++node.count;
-                }
-                f.trt_phi.push_back(node);
+    for_each_q_phi_node(
+        f, params_.b, params_.theta_d, kTrtPiece,
+        [&](double phi, double w, const ThetaDensity& td) {
+            Frame::TrtPhiNode node{
+                phi, std::sin(phi),         std::cos(phi),         w,
+                td,  normal_at(phi, td.lo), normal_at(phi, td.hi), f.trt_m.size(),
+                0};
+            for (std::size_t j = 0; j < kTrtThetaNodes.size() && !td.empty(); ++j) {
+                const double theta =
+                    0.5 * (td.lo + td.hi) + 0.5 * (td.hi - td.lo) * kTrtThetaNodes[j];
+                f.trt_m.push_back(normal_at(phi, theta));
+                f.trt_w.push_back(0.5 * (td.hi - td.lo) * kTrtThetaWeights[j] * td.density(theta));
+                ++node.count;
             }
-        }
-    }
+            f.trt_phi.push_back(node);
+        });
 }
 
 void Huang2022Bsdf::prepare_nodes(const Frame& f, double lambda_nm) const {
