@@ -49,6 +49,7 @@ struct RockDoveResult {
     // total-power error, whether ray optics + thin film suffices (L1 <= 5 %), and the wall time.
     double level_relative_l1 = 0.0, level_noise_floor = 0.0, level_power_error = 0.0;
     bool level_ray_optics_suffices = false;
+    double level_relative_l1_gap_closed = 0.0;  // the same row, keratin directly on melanin
     double level_seconds = 0.0;
 };
 
