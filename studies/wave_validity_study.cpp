@@ -87,16 +87,7 @@ Barbule read_barbule(ParameterTable t) {
     return b;
 }
 
-Settings read_settings(const std::string& text, const fs::path& source) {
-    auto file = StudyFile::parse(text, source);
-    ParameterTable root = file->root();
-    Settings s;
-    s.name = read_study_name(root, source);
-    root.string("study", "wave_validity", {"wave_validity"}, "which study this file describes");
-    s.seed = read_seed(root);
-    s.base = read_barbule(root.table("barbule"));
-
-    ParameterTable row = root.table("row");
+void read_row(ParameterTable row, Settings& s) {
     s.min_length_um = row.number("min_length_um", s.min_length_um, {0.0, 1000.0, true, false},
                                  "a row holds at least this length of barbules, µm");
     s.min_count = static_cast<int>(
@@ -108,8 +99,9 @@ Settings read_settings(const std::string& text, const fs::path& source) {
                                       "σ of each barbule's rotation, deg");
     s.realisations = static_cast<int>(row.integer("realisations", s.realisations, 1, 1000,
                                                   "jittered rows averaged (the ensemble)"));
+}
 
-    ParameterTable sweep = root.table("sweep");
+void read_sweep(ParameterTable sweep, Settings& s) {
     const Range width_range{0.0, 200.0, true, false};
     s.widths_um = sweep.numbers("widths_um", {0.5, 1, 2, 3, 5, 8, 12, 20}, width_range, 2, 64,
                                 "barbule widths 2A, µm, increasing");
@@ -129,14 +121,9 @@ Settings read_settings(const std::string& text, const fs::path& source) {
     s.axes.push_back({"H", "spacing H (units of A)",
                       sweep.numbers("H", {1.1, 1.25, 1.5, 2.0, 3.0}, {0.0, 100.0, true, false}, 1,
                                     64, "spacings H of the map, units of A")});
+}
 
-    ParameterTable spectrum = root.table("spectrum");
-    s.wavelengths_nm = read_wavelengths(spectrum, WavelengthRule{});
-    ParameterTable illumination = root.table("illumination");
-    s.incidence_deg = illumination.numbers("incidence_deg", {0.0, 30.0}, between(-80.0, 80.0), 1, 8,
-                                           "in-plane incidence angles θ_i, deg from +z");
-
-    ParameterTable detector = root.table("detector");
+void read_detector(ParameterTable detector, Settings& s) {
     s.options.window.half_angle_rad =
         detector.angle_deg("half_angle_deg", 5.0 * kDeg, {0.0, 45.0, true, false},
                            "detector window half-angle (the goniometer's cone), deg");
@@ -153,8 +140,9 @@ Settings read_settings(const std::string& text, const fs::path& source) {
     s.options.outgoing_visibility = detector.boolean(
         "outgoing_visibility", false,
         "both levels drop reflected light that a neighbour blocks (slower: ~100× PO's cost)");
+}
 
-    ParameterTable full_wave = root.table("full_wave");
+void read_full_wave(ParameterTable full_wave, const fs::path& source, Settings& s) {
     s.full_wave_key = full_wave.string(
         "reference", "", {},
         "folder of the full-wave (Meep) reference, far_field.csv and convergence.csv, relative "
@@ -173,6 +161,27 @@ Settings read_settings(const std::string& text, const fs::path& source) {
                             full_wave.location("reference"), s.full_wave_key, e.what()));
         }
     }
+}
+
+Settings read_settings(const std::string& text, const fs::path& source) {
+    auto file = StudyFile::parse(text, source);
+    ParameterTable root = file->root();
+    Settings s;
+    s.name = read_study_name(root, source);
+    root.string("study", "wave_validity", {"wave_validity"}, "which study this file describes");
+    s.seed = read_seed(root);
+    s.base = read_barbule(root.table("barbule"));
+
+    read_row(root.table("row"), s);
+    read_sweep(root.table("sweep"), s);
+    ParameterTable spectrum = root.table("spectrum");
+    s.wavelengths_nm = read_wavelengths(spectrum, WavelengthRule{});
+    ParameterTable illumination = root.table("illumination");
+    s.incidence_deg = illumination.numbers("incidence_deg", {0.0, 30.0}, between(-80.0, 80.0), 1, 8,
+                                           "in-plane incidence angles θ_i, deg from +z");
+
+    read_detector(root.table("detector"), s);
+    read_full_wave(root.table("full_wave"), source, s);
     root.reject_unused();
     return s;
 }
@@ -310,6 +319,84 @@ double sum_of(const std::vector<double>& v) {
     return s;
 }
 
+// One reference curve group (shape, θ_i, λ; its polarisations in keys) through the map's window at
+// the centres (support: the window's reach beyond a centre).
+WaveValidityFullWaveRow full_wave_row_check(const Settings& s, const std::string& shape,
+                                            int theta_i_deg, int lambda,
+                                            const std::vector<wave::FullWaveKey>& keys,
+                                            const std::vector<double>& centres, double support) {
+    const wave::DetectorWindow& window = s.options.window;
+    throw_if_interrupted(fmt::format("full-wave check, {} at {} nm", shape, lambda));
+    const wave::FullWaveShape fs_shape = wave::full_wave_shape(shape);
+    const wave::Row2d row = wave::full_wave_row(shape);
+    const double ti = theta_i_deg * kDeg, k = 2.0 * kPi / (1e-3 * lambda);
+    // PO's grid as the map's: δ = min(0.8π/(k R_max), 0.25°) over the centres ± support.
+    const double r_max =
+        0.5 * (fs_shape.count - 1) * fs_shape.spacing_um + fs_shape.a_x_um + fs_shape.shell_um;
+    const double delta = std::min(0.8 * kPi / (k * r_max), 0.25 * kDeg);
+    const double lo = centres.front() - support - delta, hi = centres.back() + support + delta;
+    const int n_grid = static_cast<int>(std::ceil((hi - lo) / delta)) + 1;
+    std::vector<double> grid(static_cast<std::size_t>(n_grid));
+    for (int j = 0; j < n_grid; ++j) grid[j] = lo + (hi - lo) * j / (n_grid - 1.0);
+    const double n_pol = static_cast<double>(keys.size());
+    std::vector<double> meep(centres.size(), 0.0), go(centres.size(), 0.0);
+    std::vector<double> total(grid.size(), 0.0), reflected(grid.size(), 0.0),
+        shadow(grid.size(), 0.0);
+    WaveValidityFullWaveRow r;
+    r.shape = shape;
+    r.theta_i_deg = theta_i_deg;
+    r.lambda_nm = lambda;
+    r.width_um = wave::full_wave_projected_width(shape, ti);
+    // One sampling (λ/10, as scattering_width) and lit test serve every part and
+    // polarisation: the reflected kernels of the polarisations in pairs, the shadow kernel
+    // (r-free, the same for TE and TM) once; total = |U_reflected + U_shadow|².
+    const wave::SampledCrossSection2d placed =
+        wave::place_row(row, wave::sample_cross_section(row.cell, 1e-4 * lambda), 0);
+    std::vector<wave::FarFieldKernel2d> kernels;
+    for (const wave::FullWaveKey& key : keys) {
+        r.polarisations += (r.polarisations.empty() ? "" : "+") + key.polarisation;
+        const wave::FullWaveCurve& curve = s.full_wave.far_field.at(key);
+        const std::vector<double> w =
+            wave::windowed(curve.theta_s_rad, curve.sigma_um_per_rad, window, centres);
+        for (std::size_t i = 0; i < centres.size(); ++i) meep[i] += w[i] / n_pol;
+        r.full_wave_floor =
+            std::max(r.full_wave_floor, 2.0 * s.full_wave.convergence.at(key).sigma_rms_rel_diff);
+        const wave::Incidence2d inc{
+            static_cast<double>(lambda), ti,
+            key.polarisation == "TM" ? wave::Polarisation2d::tm : wave::Polarisation2d::te};
+        kernels.push_back(
+            wave::prepare_far_field(row.cell, placed, inc, wave::FarFieldPart::reflected));
+        const std::vector<double> g =
+            wave::windowed(wave::geometric_rays(kernels.back(), placed), window, centres);
+        for (std::size_t i = 0; i < centres.size(); ++i) go[i] += g[i] / n_pol;
+    }
+    const wave::FarFieldKernel2d shadow_kernel = wave::prepare_far_field(
+        row.cell, placed, {static_cast<double>(lambda), ti}, wave::FarFieldPart::shadow);
+    std::vector<std::complex<double>> u_shadow, u_first, u_second;
+    wave::far_field_pair(shadow_kernel, kernels.front(), grid, u_shadow, u_first);
+    std::vector<std::vector<std::complex<double>>> u_reflected = {u_first};
+    if (kernels.size() > 1) {
+        wave::far_field_pair(kernels[1], kernels[1], grid, u_second, u_first);
+        u_reflected.push_back(u_second);
+    }
+    const double to_sigma = kernels.front().k / (8.0 * kPi);
+    for (std::size_t j = 0; j < grid.size(); ++j) {
+        shadow[j] = to_sigma * std::norm(u_shadow[j]);
+        for (const auto& u : u_reflected) {
+            reflected[j] += to_sigma * std::norm(u[j]) / n_pol;
+            total[j] += to_sigma * std::norm(u[j] + u_shadow[j]) / n_pol;
+        }
+    }
+    const std::vector<double> po_total = wave::windowed(grid, total, window, centres);
+    const std::vector<double> po_reflected = wave::windowed(grid, reflected, window, centres);
+    const std::vector<double> po_shadow = wave::windowed(grid, shadow, window, centres);
+    r.go_vs_full_wave = relative_l1(go, meep);
+    r.po_vs_full_wave = relative_l1(po_total, meep);
+    r.po_vs_go = relative_l1(go, po_reflected);  // the map's Σ|W_PO − W_GO| / Σ W_PO
+    r.shadow_share = sum_of(po_shadow) / sum_of(po_total);
+    return r;
+}
+
 // Every reference curve (shape, θ_i, λ), unpolarised over the polarisations it has, through the
 // map's window at the map's centres: GO vs Meep, PO (total) vs Meep, PO (reflected) vs GO.
 std::vector<WaveValidityFullWaveRow> full_wave_check(const Settings& s) {
@@ -325,75 +412,7 @@ std::vector<WaveValidityFullWaveRow> full_wave_check(const Settings& s) {
     std::vector<WaveValidityFullWaveRow> out;
     for (const auto& [group, keys] : groups) {
         const auto& [shape, theta_i_deg, lambda] = group;
-        throw_if_interrupted(fmt::format("full-wave check, {} at {} nm", shape, lambda));
-        const wave::FullWaveShape fs_shape = wave::full_wave_shape(shape);
-        const wave::Row2d row = wave::full_wave_row(shape);
-        const double ti = theta_i_deg * kDeg, k = 2.0 * kPi / (1e-3 * lambda);
-        // PO's grid as the map's: δ = min(0.8π/(k R_max), 0.25°) over the centres ± support.
-        const double r_max =
-            0.5 * (fs_shape.count - 1) * fs_shape.spacing_um + fs_shape.a_x_um + fs_shape.shell_um;
-        const double delta = std::min(0.8 * kPi / (k * r_max), 0.25 * kDeg);
-        const double lo = centres.front() - support - delta, hi = centres.back() + support + delta;
-        const int n_grid = static_cast<int>(std::ceil((hi - lo) / delta)) + 1;
-        std::vector<double> grid(static_cast<std::size_t>(n_grid));
-        for (int j = 0; j < n_grid; ++j) grid[j] = lo + (hi - lo) * j / (n_grid - 1.0);
-        const double n_pol = static_cast<double>(keys.size());
-        std::vector<double> meep(centres.size(), 0.0), go(centres.size(), 0.0);
-        std::vector<double> total(grid.size(), 0.0), reflected(grid.size(), 0.0),
-            shadow(grid.size(), 0.0);
-        WaveValidityFullWaveRow r;
-        r.shape = shape;
-        r.theta_i_deg = theta_i_deg;
-        r.lambda_nm = lambda;
-        r.width_um = wave::full_wave_projected_width(shape, ti);
-        // One sampling (λ/10, as scattering_width) and lit test serve every part and
-        // polarisation: the reflected kernels of the polarisations in pairs, the shadow kernel
-        // (r-free, the same for TE and TM) once; total = |U_reflected + U_shadow|².
-        const wave::SampledCrossSection2d placed =
-            wave::place_row(row, wave::sample_cross_section(row.cell, 1e-4 * lambda), 0);
-        std::vector<wave::FarFieldKernel2d> kernels;
-        for (const wave::FullWaveKey& key : keys) {
-            r.polarisations += (r.polarisations.empty() ? "" : "+") + key.polarisation;
-            const wave::FullWaveCurve& curve = s.full_wave.far_field.at(key);
-            const std::vector<double> w =
-                wave::windowed(curve.theta_s_rad, curve.sigma_um_per_rad, window, centres);
-            for (std::size_t i = 0; i < centres.size(); ++i) meep[i] += w[i] / n_pol;
-            r.full_wave_floor = std::max(r.full_wave_floor,
-                                         2.0 * s.full_wave.convergence.at(key).sigma_rms_rel_diff);
-            const wave::Incidence2d inc{
-                static_cast<double>(lambda), ti,
-                key.polarisation == "TM" ? wave::Polarisation2d::tm : wave::Polarisation2d::te};
-            kernels.push_back(
-                wave::prepare_far_field(row.cell, placed, inc, wave::FarFieldPart::reflected));
-            const std::vector<double> g =
-                wave::windowed(wave::geometric_rays(kernels.back(), placed), window, centres);
-            for (std::size_t i = 0; i < centres.size(); ++i) go[i] += g[i] / n_pol;
-        }
-        const wave::FarFieldKernel2d shadow_kernel = wave::prepare_far_field(
-            row.cell, placed, {static_cast<double>(lambda), ti}, wave::FarFieldPart::shadow);
-        std::vector<std::complex<double>> u_shadow, u_first, u_second;
-        wave::far_field_pair(shadow_kernel, kernels.front(), grid, u_shadow, u_first);
-        std::vector<std::vector<std::complex<double>>> u_reflected = {u_first};
-        if (kernels.size() > 1) {
-            wave::far_field_pair(kernels[1], kernels[1], grid, u_second, u_first);
-            u_reflected.push_back(u_second);
-        }
-        const double to_sigma = kernels.front().k / (8.0 * kPi);
-        for (std::size_t j = 0; j < grid.size(); ++j) {
-            shadow[j] = to_sigma * std::norm(u_shadow[j]);
-            for (const auto& u : u_reflected) {
-                reflected[j] += to_sigma * std::norm(u[j]) / n_pol;
-                total[j] += to_sigma * std::norm(u[j] + u_shadow[j]) / n_pol;
-            }
-        }
-        const std::vector<double> po_total = wave::windowed(grid, total, window, centres);
-        const std::vector<double> po_reflected = wave::windowed(grid, reflected, window, centres);
-        const std::vector<double> po_shadow = wave::windowed(grid, shadow, window, centres);
-        r.go_vs_full_wave = relative_l1(go, meep);
-        r.po_vs_full_wave = relative_l1(po_total, meep);
-        r.po_vs_go = relative_l1(go, po_reflected);  // the map's Σ|W_PO − W_GO| / Σ W_PO
-        r.shadow_share = sum_of(po_shadow) / sum_of(po_total);
-        out.push_back(std::move(r));
+        out.push_back(full_wave_row_check(s, shape, theta_i_deg, lambda, keys, centres, support));
     }
     return out;
 }
@@ -866,6 +885,79 @@ void write_report(const fs::path& path, const WaveValidityResult& r, const Setti
     if (!md) throw IoError(fmt::format("cannot write {}", path.string()));
 }
 
+// Build and measure one map (width × axis); points already measured for another map (the base
+// point) are taken from `measured`.
+WaveValidityMap measure_map(const Settings& s, const Axis& axis,
+                            std::map<std::array<double, 4>, WaveValidityPoint>& measured) {
+    WaveValidityMap m;
+    m.axis = axis.key;
+    m.label = axis.label;
+    m.values = axis.values;
+    for (double v : axis.values) {
+        const Barbule b = with_axis(s.base, axis.key, v);
+        for (double w : s.widths_um) {
+            throw_if_interrupted(fmt::format("{} = {:g}, width {:g} µm", axis.key, v, w));
+            const std::array<double, 4> key = {b.b, b.d, b.H, w};
+            try {
+                auto found = measured.find(key);
+                if (found == measured.end())
+                    found = measured.emplace(key, measure_point(s, b, v, w)).first;
+                m.points.push_back(found->second);
+                m.points.back().value = v;
+            } catch (const InputError& e) {
+                throw InputError(
+                    fmt::format("sweep.{} = {:g}, width {:g} µm: {}", axis.key, v, w, e.what()));
+            }
+        }
+    }
+    return m;
+}
+
+// Compare: each map's 5 % boundary per axis value and incidence, and the verdict counts.
+void compare_map(WaveValidityMap& m, std::size_t n_inc, std::size_t n_w, WaveValidityResult& r) {
+    m.boundary_um.assign(n_inc, std::vector<double>(m.values.size()));
+    m.extrapolated_um.assign(n_inc, std::vector<double>(m.values.size(), 0.0));
+    for (std::size_t i = 0; i < n_inc; ++i)
+        for (std::size_t v = 0; v < m.values.size(); ++v) {
+            m.boundary_um[i][v] = boundary_width(m, v, i, n_w, r.threshold);
+            if (std::isinf(m.boundary_um[i][v]))
+                m.extrapolated_um[i][v] = extrapolated_width(m, v, i, n_w, r.threshold);
+        }
+    for (const WaveValidityPoint& p : m.points) {
+        for (std::size_t i = 0; i < n_inc; ++i) {
+            r.max_noise_floor = std::max(r.max_noise_floor, p.noise_floor[i]);
+            r.po_needed += p.verdict[i] == "PO needed";
+            r.go_suffices += p.verdict[i] == "GO suffices";
+            r.undecided += p.verdict[i] == "undecided";
+        }
+    }
+}
+
+// Report: record, CSVs, figures and report.md, staged and committed together.
+fs::path write_outputs(const Settings& s, WaveValidityResult& r, const std::string& study_text,
+                       const fs::path& results_root, const StudyProgress& clock, double cpu0) {
+    clock.say("report");  // report
+    StagedDirectory out(results_root / s.name);
+    const fs::path dir = out.path();
+    r.wall_seconds = clock.elapsed_s();
+    write_record(dir / "wave_validity.h5", r, s, study_text, process_cpu_seconds() - cpu0);
+    write_csv(dir / "wave_validity.csv", r);
+    if (!r.full_wave.empty()) write_full_wave_csv(dir / "full_wave_check.csv", r);
+    std::vector<PlotJob> jobs;
+    std::vector<std::string> pngs;
+    for (const WaveValidityMap& m : r.maps) {
+        const std::string stem = "width_x_" + m.axis;
+        write_figure(dir / (stem + ".h5"), m, r, s);
+        jobs.push_back({"wave_validity_map", dir / (stem + ".h5"), dir / (stem + ".png")});
+        pngs.push_back(stem + ".png");
+    }
+    clock.say("plots");
+    run_plots(jobs, dir / "plots.csv");
+    write_report(dir / "report.md", r, s, study_text, run_time_by_stage(clock, dir), pngs);
+    out.commit();
+    return out.final_path();
+}
+
 }  // namespace
 
 WaveValidityResult run_wave_validity_study(const std::string& study_text,
@@ -886,44 +978,8 @@ WaveValidityResult run_wave_validity_study(const std::string& study_text,
     for (const Axis& axis : s.axes) {  // build and measure, map by map
         clock.say(fmt::format("map width × {}: {} values × {} widths", axis.key, axis.values.size(),
                               n_w));
-        WaveValidityMap m;
-        m.axis = axis.key;
-        m.label = axis.label;
-        m.values = axis.values;
-        for (double v : axis.values) {
-            const Barbule b = with_axis(s.base, axis.key, v);
-            for (double w : s.widths_um) {
-                throw_if_interrupted(fmt::format("{} = {:g}, width {:g} µm", axis.key, v, w));
-                const std::array<double, 4> key = {b.b, b.d, b.H, w};
-                try {
-                    auto found = measured.find(key);
-                    if (found == measured.end())
-                        found = measured.emplace(key, measure_point(s, b, v, w)).first;
-                    m.points.push_back(found->second);
-                    m.points.back().value = v;
-                } catch (const InputError& e) {
-                    throw InputError(fmt::format("sweep.{} = {:g}, width {:g} µm: {}", axis.key, v,
-                                                 w, e.what()));
-                }
-            }
-        }
-        // Compare.
-        m.boundary_um.assign(n_inc, std::vector<double>(m.values.size()));
-        m.extrapolated_um.assign(n_inc, std::vector<double>(m.values.size(), 0.0));
-        for (std::size_t i = 0; i < n_inc; ++i)
-            for (std::size_t v = 0; v < m.values.size(); ++v) {
-                m.boundary_um[i][v] = boundary_width(m, v, i, n_w, r.threshold);
-                if (std::isinf(m.boundary_um[i][v]))
-                    m.extrapolated_um[i][v] = extrapolated_width(m, v, i, n_w, r.threshold);
-            }
-        for (const WaveValidityPoint& p : m.points) {
-            for (std::size_t i = 0; i < n_inc; ++i) {
-                r.max_noise_floor = std::max(r.max_noise_floor, p.noise_floor[i]);
-                r.po_needed += p.verdict[i] == "PO needed";
-                r.go_suffices += p.verdict[i] == "GO suffices";
-                r.undecided += p.verdict[i] == "undecided";
-            }
-        }
+        WaveValidityMap m = measure_map(s, axis, measured);
+        compare_map(m, n_inc, n_w, r);
         r.maps.push_back(std::move(m));
     }
 
@@ -939,26 +995,7 @@ WaveValidityResult run_wave_validity_study(const std::string& study_text,
         r.full_wave_verdict = full_wave_verdict(r);
     }
 
-    clock.say("report");  // report
-    StagedDirectory out(results_root / s.name);
-    const fs::path dir = out.path();
-    r.wall_seconds = clock.elapsed_s();
-    write_record(dir / "wave_validity.h5", r, s, study_text, process_cpu_seconds() - cpu0);
-    write_csv(dir / "wave_validity.csv", r);
-    if (!r.full_wave.empty()) write_full_wave_csv(dir / "full_wave_check.csv", r);
-    std::vector<PlotJob> jobs;
-    std::vector<std::string> pngs;
-    for (const WaveValidityMap& m : r.maps) {
-        const std::string stem = "width_x_" + m.axis;
-        write_figure(dir / (stem + ".h5"), m, r, s);
-        jobs.push_back({"wave_validity_map", dir / (stem + ".h5"), dir / (stem + ".png")});
-        pngs.push_back(stem + ".png");
-    }
-    clock.say("plots");
-    run_plots(jobs, dir / "plots.csv");
-    write_report(dir / "report.md", r, s, study_text, run_time_by_stage(clock, dir), pngs);
-    out.commit();
-    r.output_dir = out.final_path();
+    r.output_dir = write_outputs(s, r, study_text, results_root, clock, cpu0);
     clock.done("done: " + (r.output_dir / "report.md").string());
     return r;
 }
