@@ -288,6 +288,7 @@ private:
 
     Filip2024Parameters parameters_;
     std::string label_;
+    double sin_phi_a_, cos_phi_a_;  // of the highlight axis φa, for every evaluation
 };
 
 }  // namespace plumage::analysis
