@@ -15,7 +15,8 @@ out=$(cd / && env -u LD_LIBRARY_PATH "$prefix/x/bin/plumage" --version 2>&1) || 
   echo "FAIL: installed plumage --version: $out"; exit 1; }
 [[ $out == "plumage $version"* ]] || { echo "FAIL: --version printed '$out'"; exit 1; }
 for f in share/plumage/studies/rock_dove.toml share/plumage/studies/geometry/rock_dove_row.toml \
-         share/doc/plumage/README.md share/doc/plumage/LICENSE share/doc/plumage/CITATION.cff; do
+         share/doc/plumage/README.md share/doc/plumage/LICENSE share/doc/plumage/CITATION.cff \
+         share/plumage/tests/reference/barbule_2d/far_field.csv; do
   [[ -f $prefix/x/$f ]] || { echo "FAIL: $f not installed"; exit 1; }
 done
 # CITATION.cff cites the version CMakeLists.txt builds.
