@@ -34,5 +34,6 @@ py::ssize_t broadcast_count(std::initializer_list<std::pair<py::ssize_t, const c
 void bind_models(py::module_& m);
 void bind_optics(py::module_& m);
 void bind_fit(py::module_& m);
+void bind_studies(py::module_& m);
 
 }  // namespace plumage::python

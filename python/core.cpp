@@ -19,6 +19,7 @@
 #include <omp.h>
 
 #include "common/error.h"
+#include "common/interrupt.h"
 #include "python/binding_util.h"
 
 namespace plumage::python {
@@ -88,10 +89,13 @@ PYBIND11_MODULE(_core, m) {
             PyErr_SetString(PyExc_OSError, e.what());
         } catch (const InvariantError& e) {
             PyErr_SetString(PyExc_RuntimeError, e.what());
+        } catch (const Interrupted& e) {
+            PyErr_SetString(PyExc_KeyboardInterrupt, e.what());
         }
     });
 
     bind_models(m);
     bind_optics(m);
     bind_fit(m);
+    bind_studies(m);
 }

@@ -5,13 +5,16 @@
     model = plumage.models.Huang2022(d_um=0.55)                           # models.py
     f = model.eval(wi, wo, 550.0)                                         # N×3, N×3, N or scalar
     R = plumage.optics.thin_film_reflectance(0.59, wavelengths, theta_rad=0.3)  # optics.py
+    plumage.run_study({"study": "calibration", ...}, out="results")       # studies.py
 
 Conventions are the C++ ones: lengths in µm, wavelengths in nm, angles in radians, BRDF in 1/sr,
 directions unit vectors in the patch frame (+z the patch normal, +x the barb axis) pointing away
 from the patch. Built for Debian's /usr/bin/python3 (numpy, h5py); README.md "Python".
 """
 
-from . import models, optics
+from . import models, optics, studies
 from .records import Measurement, Quantity, Record, RecordError, read_record
+from .studies import run_study, study_kinds
 
-__all__ = ["read_record", "Record", "Measurement", "Quantity", "RecordError", "models", "optics"]
+__all__ = ["read_record", "Record", "Measurement", "Quantity", "RecordError", "models", "optics",
+           "studies", "run_study", "study_kinds"]

@@ -1,0 +1,99 @@
+"""plumage.run_study: a study from a file or a dict, as `plumage run` runs it."""
+
+import os
+import pathlib
+import signal
+import subprocess
+import sys
+import time
+import tomllib
+
+import h5py
+import numpy as np
+import pytest
+
+import plumage
+from conftest import SOURCE_DIR, run_study as run_binary
+
+
+def calibration_dict(name: str) -> dict:
+    with open(SOURCE_DIR / "studies/calibration.toml", "rb") as handle:
+        study = tomllib.load(handle)
+    study["name"] = name
+    return study
+
+
+def datasets(path: pathlib.Path) -> dict:
+    """Every numeric dataset of a record but provenance and convergence (their wall times
+    differ between runs)."""
+    found = {}
+    with h5py.File(path, "r") as f:
+        def visit(name, node):
+            if isinstance(node, h5py.Dataset) and "provenance" not in name and \
+                    "convergence" not in name and node.dtype.kind in "fiu":
+                found[name] = node[()]
+        f.visititems(visit)
+    return found
+
+
+def test_dict_study_equals_the_command_line(tmp_path):
+    """The same keys as a dict (with numpy values) and as a file through the binary: the same
+    records to the bit."""
+    study = calibration_dict("from_dict")
+    study["standard"]["albedo"] = np.float64(study["standard"]["albedo"])
+    summary = plumage.run_study(study, out=tmp_path, threads=2, plots=False)
+    assert "agrees" in summary
+    text = (SOURCE_DIR / "studies/calibration.toml").read_text().replace(
+        'name = "calibration"', 'name = "from_binary"')
+    run_binary(text, tmp_path, "from_binary")
+    python_values = datasets(tmp_path / "from_dict/brdf.h5")
+    binary_values = datasets(tmp_path / "from_binary/brdf.h5")
+    assert python_values.keys() == binary_values.keys() and "brdf/value" in python_values
+    for name, values in python_values.items():
+        np.testing.assert_array_equal(values, binary_values[name], err_msg=name)
+
+
+def test_toml_of_a_dict_round_trips():
+    study = {"study": "x", "a": 1.5e-7, "b": [1, 2.5], "s": 'q"uote', "t": {"u": True, "v": {"w": -3}},
+             "inf": float("inf")}
+    assert tomllib.loads(plumage.studies.to_toml(study)) == study
+
+
+def test_bad_values_name_the_key_before_any_work(tmp_path):
+    study = calibration_dict("bad")
+    study["goniometer"]["passes"] = -1
+    with pytest.raises(ValueError, match=r"<dict>: goniometer\.passes = -1: expected an integer"):
+        plumage.run_study(study, out=tmp_path, plots=False)
+    study["goniometer"]["passes"] = 4
+    study["goniometer"]["pases"] = 4
+    with pytest.raises(ValueError, match=r"unknown key 'goniometer\.pases'"):
+        plumage.run_study(study, out=tmp_path, plots=False)
+    with pytest.raises(ValueError, match="threads"):
+        plumage.run_study(calibration_dict("t"), out=tmp_path, threads=0)
+    with pytest.raises(TypeError, match="set cannot go into a study"):
+        plumage.run_study({"study": "calibration", "x": {1, 2}}, out=tmp_path)
+    assert list(tmp_path.iterdir()) == []
+    assert "calibration" in plumage.study_kinds()
+
+
+def test_ctrl_c_raises_keyboard_interrupt_and_leaves_nothing_half_written(tmp_path):
+    """SIGINT while a study runs in C++: KeyboardInterrupt within seconds, no results folder and
+    no staging folder left."""
+    script = (
+        "import plumage, tomllib\n"
+        f"study = tomllib.load(open({str(SOURCE_DIR / 'studies/rock_dove_quick.toml')!r}, 'rb'))\n"
+        "print('started', flush=True)\n"
+        f"plumage.run_study(study, out={str(tmp_path)!r}, threads=2, plots=False)\n")
+    process = subprocess.Popen([sys.executable, "-c", script], stdout=subprocess.PIPE,
+                               stderr=subprocess.PIPE, text=True, env=os.environ.copy())
+    assert process.stdout.readline().strip() == "started"
+    time.sleep(2.0)
+    sent = time.monotonic()
+    process.send_signal(signal.SIGINT)
+    _, stderr = process.communicate(timeout=60)
+    stopped_after = time.monotonic() - sent
+    assert process.returncode != 0
+    assert "KeyboardInterrupt" in stderr, stderr
+    assert stopped_after < 10.0, f"{stopped_after:.1f} s to stop"
+    left = [p.name for p in tmp_path.iterdir()]
+    assert "rock_dove_quick" not in left and not any(".partial-" in n for n in left), left
