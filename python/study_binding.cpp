@@ -14,6 +14,7 @@
 
 #include "common/interrupt.h"
 #include "python/binding_util.h"
+#include "studies/geometry_study.h"
 #include "studies/plots.h"
 #include "studies/study.h"
 
@@ -66,9 +67,34 @@ std::string run_study_text(const std::string& text, const std::string& source,
     }
 }
 
+py::dict build_geometry_text(const std::string& text, const std::string& source,
+                             const std::string& results_root, std::optional<int> threads,
+                             bool plots) {
+    if (threads && (*threads < 1 || *threads > 4096))
+        throw py::value_error("threads: expected a whole number from 1 to 4096");
+    studies::GeometryStudyResult r;
+    {
+        py::gil_scoped_release release;
+        const ThreadCount thread_count(threads);
+        studies::set_plots_enabled(plots);
+        const ScopedInterruptHandler interrupt;
+        r = studies::run_geometry_study(text, std::filesystem::path(source), results_root);
+    }
+    py::dict result;
+    result["output_dir"] = r.output_dir.string();
+    result["kind"] = r.kind;
+    result["triangles"] = r.triangles;
+    result["instances"] = r.instances;
+    result["memory_bytes"] = r.memory_bytes;
+    result["wall_seconds"] = r.wall_seconds;
+    return result;
+}
+
 }  // namespace
 
 void bind_studies(py::module_& m) {
+    m.def("build_geometry_text", &build_geometry_text, py::arg("text"), py::arg("source"),
+          py::arg("results_root"), py::arg("threads"), py::arg("plots"));
     m.def("run_study_text", &run_study_text, py::arg("text"), py::arg("source"),
           py::arg("results_root"), py::arg("threads"), py::arg("time_budget_s"),
           py::arg("target_relative_error"), py::arg("plots"));

@@ -349,10 +349,12 @@ Built import_geometry(ParameterTable geometry, bool vdb, const std::filesystem::
 
 }  // namespace
 
-GeometryStudyResult run_geometry_study(const std::filesystem::path& study_file,
-                                       const std::filesystem::path& results_root) {
-    const auto start = std::chrono::steady_clock::now();
-    auto file = StudyFile::load(study_file);
+namespace {
+
+GeometryStudyResult run_geometry_file(const std::shared_ptr<StudyFile>& file,
+                                      const std::filesystem::path& study_file,
+                                      const std::filesystem::path& results_root,
+                                      std::chrono::steady_clock::time_point start) {
     ParameterTable root = file->root();
     if (root.has("study") && !root.has("geometry")) {
         throw InputError(fmt::format(
@@ -398,6 +400,20 @@ GeometryStudyResult run_geometry_study(const std::filesystem::path& study_file,
     }
     out.commit();
     return {out.final_path(), kind, built.triangles, built.instances, built.memory, seconds};
+}
+
+}  // namespace
+
+GeometryStudyResult run_geometry_study(const std::filesystem::path& study_file,
+                                       const std::filesystem::path& results_root) {
+    const auto start = std::chrono::steady_clock::now();
+    return run_geometry_file(StudyFile::load(study_file), study_file, results_root, start);
+}
+
+GeometryStudyResult run_geometry_study(const std::string& text, const std::filesystem::path& source,
+                                       const std::filesystem::path& results_root) {
+    const auto start = std::chrono::steady_clock::now();
+    return run_geometry_file(StudyFile::parse(text, source), source, results_root, start);
 }
 
 }  // namespace plumage::studies

@@ -41,5 +41,8 @@ struct GeometryStudyResult {
 
 GeometryStudyResult run_geometry_study(const std::filesystem::path& study_file,
                                        const std::filesystem::path& results_root);
+// The same from the file's text; relative paths inside it are relative to source's folder.
+GeometryStudyResult run_geometry_study(const std::string& text, const std::filesystem::path& source,
+                                       const std::filesystem::path& results_root);
 
 }  // namespace plumage::studies

@@ -1,4 +1,4 @@
-"""Studies from Python: `plumage run` on a study file or on a dict with the same keys.
+"""Studies from Python: `plumage run` and `plumage geometry` on a file or on a dict of its keys.
 
     import plumage
     summary = plumage.run_study("studies/rock_dove_quick.toml", out="results")
@@ -6,6 +6,7 @@
     study["name"] = "my_ablation"
     plumage.run_study(study, out="results", threads=2, plots=False)
     rec = plumage.read_record("results/my_ablation/...h5")
+    plumage.build_geometry({"name": "row", "geometry": {"kind": "barbule_row"}}, out="results")
 
 A dict is written as TOML and read by the same parser as a file, so every key, range and
 cross-key rule is checked the same way and a bad value raises ValueError naming its full key and
@@ -28,7 +29,7 @@ from typing import Any
 
 from . import _core
 
-__all__ = ["run_study", "study_kinds", "to_toml"]
+__all__ = ["run_study", "build_geometry", "study_kinds", "to_toml"]
 
 _DICT_SOURCE = "<dict>"
 _BARE_KEY = re.compile(r"^[A-Za-z0-9_-]+$")
@@ -92,6 +93,29 @@ def to_toml(study: Mapping[str, Any]) -> str:
     return "\n".join(lines).lstrip("\n") + "\n"
 
 
+def _text_and_source(study, base_dir) -> tuple[str, str]:
+    if isinstance(study, Mapping):
+        if "name" not in study:
+            raise ValueError(f"{_DICT_SOURCE}: name: a dict needs a name (its results folder)")
+        folder = os.fspath(base_dir) if base_dir is not None else os.getcwd()
+        return to_toml(study), os.path.join(folder, _DICT_SOURCE)
+    path = os.fspath(study)
+    with open(path, encoding="utf-8") as handle:
+        return handle.read(), path
+
+
+def _call(study, function, *arguments):
+    try:
+        return function(*arguments)
+    except ValueError as error:
+        if not isinstance(study, Mapping):
+            raise
+        # Lines and columns of the generated text mean nothing to the dict's owner: the message
+        # keeps the full key, which is what names the value.
+        message = re.sub(r"\S*" + re.escape(_DICT_SOURCE) + r"(:\d+)*", _DICT_SOURCE, str(error))
+        raise ValueError(message) from None
+
+
 def run_study(study: Mapping[str, Any] | str | os.PathLike, out: str | os.PathLike = "results",
               *, threads: int | None = None, time_budget_s: float | None = None,
               target_error: float | None = None, plots: bool = True,
@@ -101,23 +125,18 @@ def run_study(study: Mapping[str, Any] | str | os.PathLike, out: str | os.PathLi
     threads, time_budget_s and target_error are the command line's --threads, --time-budget and
     --target-error; plots=False is --no-plots.
     """
-    if isinstance(study, Mapping):
-        text = to_toml(study)
-        source = os.path.join(os.fspath(base_dir) if base_dir is not None else os.getcwd(),
-                              _DICT_SOURCE)
-    else:
-        path = os.fspath(study)
-        with open(path, encoding="utf-8") as handle:
-            text = handle.read()
-        source = path
-    try:
-        return _core.run_study_text(text, source, os.fspath(out), threads,
-                                    float(time_budget_s or 0.0), float(target_error or 0.0),
-                                    bool(plots))
-    except ValueError as error:
-        if not isinstance(study, Mapping):
-            raise
-        # Lines and columns of the generated text mean nothing to the dict's owner: the message
-        # keeps the full key, which is what names the value.
-        message = re.sub(r"\S*" + re.escape(_DICT_SOURCE) + r"(:\d+)*", _DICT_SOURCE, str(error))
-        raise ValueError(message) from None
+    text, source = _text_and_source(study, base_dir)
+    return _call(study, _core.run_study_text, text, source, os.fspath(out), threads,
+                 float(time_budget_s or 0.0), float(target_error or 0.0), bool(plots))
+
+
+def build_geometry(geometry: Mapping[str, Any] | str | os.PathLike,
+                   out: str | os.PathLike = "results", *, threads: int | None = None,
+                   plots: bool = True, base_dir: str | os.PathLike | None = None) -> dict:
+    """`plumage geometry`: builds a geometry file's (or dict's) geometry into out/<name>/.
+
+    Returns output_dir, kind, triangles, instances, memory_bytes and wall_seconds.
+    """
+    text, source = _text_and_source(geometry, base_dir)
+    return _call(geometry, _core.build_geometry_text, text, source, os.fspath(out), threads,
+                 bool(plots))

@@ -71,7 +71,7 @@ def test_bad_values_name_the_key_before_any_work(tmp_path):
     with pytest.raises(ValueError, match="threads"):
         plumage.run_study(calibration_dict("t"), out=tmp_path, threads=0)
     with pytest.raises(TypeError, match="set cannot go into a study"):
-        plumage.run_study({"study": "calibration", "x": {1, 2}}, out=tmp_path)
+        plumage.run_study({"study": "calibration", "name": "c", "x": {1, 2}}, out=tmp_path)
     assert list(tmp_path.iterdir()) == []
     assert "calibration" in plumage.study_kinds()
 
@@ -97,3 +97,29 @@ def test_ctrl_c_raises_keyboard_interrupt_and_leaves_nothing_half_written(tmp_pa
     assert stopped_after < 10.0, f"{stopped_after:.1f} s to stop"
     left = [p.name for p in tmp_path.iterdir()]
     assert "rock_dove_quick" not in left and not any(".partial-" in n for n in left), left
+
+
+def test_geometry_from_a_dict_equals_the_file(tmp_path):
+    """plumage.build_geometry on the rock-dove row as a dict and as its file: the same meshes."""
+    path = SOURCE_DIR / "studies/geometry/rock_dove_row.toml"
+    with open(path, "rb") as handle:
+        geometry = tomllib.load(handle)
+    geometry["name"] = "from_dict"
+    geometry["geometry"]["row"]["barbules"] = 2  # small and quick
+    built = plumage.build_geometry(geometry, out=tmp_path, threads=2, plots=False)
+    assert built["kind"] == "barbule_row" and built["triangles"] > 0
+    text = path.read_text().replace("barbules = 8", "barbules = 2")
+    (tmp_path / "from_file.toml").write_text(text)
+    from_file = plumage.build_geometry(tmp_path / "from_file.toml", out=tmp_path, plots=False)
+    assert from_file["triangles"] == built["triangles"]
+    meshes = sorted(p.name for p in (tmp_path / "from_dict").glob("*.ply"))
+    assert meshes
+    for mesh in meshes:
+        assert (tmp_path / "from_dict" / mesh).read_bytes() == \
+            (tmp_path / "from_file" / mesh).read_bytes(), mesh
+    geometry["geometry"]["row"]["H"] = -1
+    with pytest.raises(ValueError, match=r"<dict>: geometry\.row\.H = -1"):
+        plumage.build_geometry(geometry, out=tmp_path, plots=False)
+    del geometry["name"]
+    with pytest.raises(ValueError, match="needs a name"):
+        plumage.build_geometry(geometry, out=tmp_path, plots=False)
