@@ -18,6 +18,7 @@
   plots.py btf_tiles H5 PNG      BTF images of a few geometries (Filip 2024 Fig. 9), one exposure
   plots.py geometry_preview H5 PNG  a cut through built geometry in um: phases, legend, scale bar
   plots.py wave_validity_map H5 PNG  PO vs GO relative L1 (%) over width x one parameter, 5 % contour
+  plots.py fit_residuals H5 PNG  a fit's (model - data)/sigma per wavelength on the data's grid
   plots.py batch CSV PNG         every plot a CSV lists (columns kind, input, png; PNG unused)
 """
 import csv
@@ -768,6 +769,43 @@ def build_geometry_preview(h5_path):
     return fig
 
 
+def build_fit_residuals(h5_path):
+    """A fit's residual map (studies/fit_command.h): one panel per wavelength of (model - data)/σ
+    on the data's grid, one diverging colour scale for all panels, symmetric about 0."""
+    import h5py
+    import numpy as np
+
+    with h5py.File(h5_path, "r") as f:
+        z = np.asarray(f["residual"])
+        a = {k: _text(v) for k, v in f.attrs.items()}
+    titles = a["panel_titles"].split("|")
+    extent = [float(v) for v in a["extent"].split()]
+    finite = z[np.isfinite(z)]
+    limit = max(3.0, float(np.max(np.abs(finite)))) if finite.size else 3.0
+    n = len(titles)
+    cols = min(n, 3)
+    rows = (n + cols - 1) // cols
+    fig, axes = plt.subplots(rows, cols, figsize=(4.2 * cols + 1.2, 3.9 * rows + 0.6),
+                             squeeze=False)
+    image = None
+    for i, ax in enumerate(axes.flat):
+        if i >= n:
+            ax.axis("off")
+            continue
+        image = ax.imshow(np.ma.masked_invalid(z[i]), cmap="RdBu_r", vmin=-limit, vmax=limit,
+                          extent=extent, origin="upper", interpolation="nearest",
+                          aspect="equal" if a.get("aspect") == "equal" else "auto")
+        ax.set_facecolor("#dddddd")
+        ax.set_title(titles[i], fontsize=9)
+        ax.set_xlabel(a["x_label"], fontsize=8)
+        ax.set_ylabel(a["y_label"], fontsize=8)
+        ax.tick_params(labelsize=7)
+    fig.suptitle(a["title"] + "\n(grey: no observation)", fontsize=10)
+    bar = fig.colorbar(image, ax=axes.ravel().tolist(), shrink=0.85)
+    bar.set_label(a["colour_label"])
+    return fig
+
+
 # ---- The command line: every kind is a builder (input -> Figure, or None when there is
 # nothing to draw) and a resolution; the CLI saves the figure. Tests build the figures and
 # query them (tests/studies/plots_figures_test.py).
@@ -864,6 +902,7 @@ KINDS = {  # kind -> (builder, dpi)
     "btf_tiles": (build_btf_tiles, 110),
     "geometry_preview": (build_geometry_preview, 110),
     "wave_validity_map": (build_wave_validity_map, 110),
+    "fit_residuals": (build_fit_residuals, 110),
 }
 
 

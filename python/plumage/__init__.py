@@ -12,6 +12,8 @@ from the patch. Built for Debian's /usr/bin/python3 (numpy, h5py); README.md "Py
 """
 
 from . import models, optics
+from .models import fit_filip2024, fit_huang2022
 from .records import Measurement, Quantity, Record, RecordError, read_record
 
-__all__ = ["read_record", "Record", "Measurement", "Quantity", "RecordError", "models", "optics"]
+__all__ = ["read_record", "Record", "Measurement", "Quantity", "RecordError", "models", "optics",
+           "fit_huang2022", "fit_filip2024"]
