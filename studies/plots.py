@@ -790,7 +790,7 @@ def build_fit_residuals(h5_path):
     image = None
     for i, ax in enumerate(axes.flat):
         if i >= n:
-            ax.axis("off")
+            ax.set_visible(False)
             continue
         image = ax.imshow(np.ma.masked_invalid(z[i]), cmap="RdBu_r", vmin=-limit, vmax=limit,
                           extent=extent, origin="upper", interpolation="nearest",
