@@ -51,8 +51,10 @@ std::string json_number(double v) { return std::isfinite(v) ? fmt::format("{:.17
 
 std::string json_bool(bool b) { return b ? "true" : "false"; }
 
-template <class Fit>
-void fill_quality(const Fit& fit, FitSummary& s) {
+// What both fits' results hold alike; `name(i)` names parameter i.
+template <class Fit, class Name>
+void fill_quality(const Fit& fit, Name name, FitSummary& s) {
+    for (int i : fit.free_parameters) s.covariance_parameters.emplace_back(name(i));
     s.reduced_chi_square = fit.reduced_chi_square;
     s.degrees_of_freedom = fit.degrees_of_freedom;
     s.chi_square = fit.reduced_chi_square * fit.degrees_of_freedom;
@@ -79,9 +81,8 @@ FitSummary summarise_fit(const HuangFitResult& fit, const HuangFitOptions& optio
         s.parameters.push_back({name, kHuangRanges[i].unit, fit.values[i], fit.standard_errors[i],
                                 kHuangRanges[i].min, kHuangRanges[i].max, fixed, fit.at_bound[i]});
     }
-    for (int i : fit.free_parameters)
-        s.covariance_parameters.emplace_back(kHuang2022ParameterNames[i]);
-    fill_quality(fit, s);
+    fill_quality(
+        fit, [](int i) { return kHuang2022ParameterNames[i]; }, s);
     provenance.wavelengths_nm = fit.wavelengths_nm;
     s.provenance = std::move(provenance);
     return s;
@@ -100,9 +101,8 @@ FitSummary summarise_fit(const Filip2024FitResult& fit, const Filip2024FitOption
                                 fit.standard_errors[i], info.min, info.max, options.fixed[i],
                                 fit.at_bound[i]});
     }
-    for (int i : fit.free_parameters)
-        s.covariance_parameters.emplace_back(kFilip2024ParameterTable[i].name);
-    fill_quality(fit, s);
+    fill_quality(
+        fit, [](int i) { return kFilip2024ParameterTable[i].name; }, s);
     s.provenance = std::move(provenance);
     return s;
 }

@@ -90,6 +90,19 @@ py::dict dict_of(const analysis::Huang2022Params& p) {
     return d;
 }
 
+// What both fits' results hold alike: covariance and quality, under the same keys.
+template <class Fit>
+void put_fit_quality(py::dict& d, const Fit& r) {
+    d["covariance"] = r.covariance_available ? py::cast(r.covariance) : py::none();
+    d["residual_rms_per_sr"] = r.residual_rms;
+    d["reduced_chi_square"] = r.reduced_chi_square;
+    d["chi_square"] = r.reduced_chi_square * r.degrees_of_freedom;
+    d["observations"] = r.observations;
+    d["degrees_of_freedom"] = r.degrees_of_freedom;
+    d["converged"] = r.converged;
+    d["termination"] = r.termination;
+}
+
 py::dict fit(const std::string& illumination, const Array& beam_direction, double cone_aperture_rad,
              const Array& wavelengths_nm, const Array& intensity, const Array& standard_error,
              const Array& solid_angle_sr, const py::dict& start,
@@ -115,19 +128,12 @@ py::dict fit(const std::string& illumination, const Array& beam_direction, doubl
     d["standard_errors"] = errors;
     d["at_bound"] = at_bound;
     d["free_parameters"] = free;
-    d["covariance"] = r.covariance_available ? py::cast(r.covariance) : py::none();
-    d["residual_rms_per_sr"] = r.residual_rms;
-    d["reduced_chi_square"] = r.reduced_chi_square;
-    d["observations"] = r.observations;
+    put_fit_quality(d, r);
     d["pixels"] = r.pixels;
     d["wavelengths_nm"] = r.wavelengths_nm;
-    d["degrees_of_freedom"] = r.degrees_of_freedom;
     d["iterations"] = r.iterations;
     d["function_evaluations"] = r.function_evaluations;
-    d["converged"] = r.converged;
-    d["termination"] = r.termination;
     d["wall_time_s"] = r.wall_time_s;
-    d["chi_square"] = r.reduced_chi_square * r.degrees_of_freedom;
     // The documented JSON of `plumage fit` (analysis/fit_summary.h, docs/user_data.md).
     d["json"] = analysis::summarise_fit(r, options,
                                         {data_file.empty() ? "numpy arrays" : data_file,
@@ -219,14 +225,7 @@ py::dict fit_filip_observations(const analysis::BrdfData& data, const py::dict& 
     d["standard_errors"] = errors;
     d["at_bound"] = at_bound;
     d["free_parameters"] = free_names;
-    d["covariance"] = r.covariance_available ? py::cast(r.covariance) : py::none();
-    d["residual_rms_per_sr"] = r.residual_rms;
-    d["reduced_chi_square"] = r.reduced_chi_square;
-    d["chi_square"] = r.reduced_chi_square * r.degrees_of_freedom;
-    d["observations"] = r.observations;
-    d["degrees_of_freedom"] = r.degrees_of_freedom;
-    d["converged"] = r.converged;
-    d["termination"] = r.termination;
+    put_fit_quality(d, r);
     d["model_per_sr"] = model_out;
     d["residuals"] = residual;
     d["json"] =
