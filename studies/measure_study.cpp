@@ -60,6 +60,7 @@
 #include "virtual_gonio/direction_sets.h"
 #include "virtual_gonio/exr_image.h"
 #include "virtual_gonio/goniometer.h"
+#include "virtual_gonio/hdf5_file.h"
 #include "virtual_gonio/scatterometer.h"
 
 namespace plumage::studies {
@@ -321,7 +322,9 @@ Measured measure_brdf_record(const Built& b, const gonio::GoniometerConfig& c, c
         write_fingerprint_figure(dir / "brdf_fingerprint.h5", "Measured sample: BRDF fingerprint",
                                  {{"sample", &r}}, 61, 60);
         run_plot("fingerprints", dir / "brdf_fingerprint.h5", dir / "brdf.png");
-        files += ", brdf_fingerprint.h5, brdf.png";
+        gonio::write_spectral_exr(dir / "brdf.exr",
+                                  {gonio::fingerprint_exr_image(r, 61, 60, "sample")}, "measure");
+        files += ", brdf_fingerprint.h5, brdf.png, brdf.exr";
     } else {
         // BRDF against the pair's light angle, one curve per wavelength (plots.py `curves`).
         const bool mirror = c.direction_set == "mirror";
@@ -358,16 +361,22 @@ Measured measure_scatterogram_record(const Built& b, const gonio::ScatterometerC
     clock.say(fmt::format("scatterogram ({} px)", c.image_size));
     const gonio::Scatterogram s = gonio::measure_scatterogram(*b.scatterer, c);
     gonio::write_scatterogram_record(s, dir / "scatterogram.h5");
-    record::write_png(dir / "scatterogram.png", gonio::scatterogram_srgb(s));
+    {
+        record::Hdf5Writer h5(dir / "scatterogram_figure.h5");
+        write_scatterogram_figure(h5, s, s, "measured sample");
+        h5.commit();
+    }
+    run_plot("scatterogram", dir / "scatterogram_figure.h5", dir / "scatterogram.png");
     gonio::write_spectral_exr(dir / "scatterogram.exr",
                               {gonio::scatterogram_exr_image(s, "sample")}, "measure");
-    return {"imaging scatterometer",
-            fmt::format("{0}×{0} px × {1} λ, {2} quanta per λ", c.image_size,
-                        c.wavelengths_nm.size(), s.quanta),
-            "scatterogram.h5, scatterogram.png (brightest pixel white, D65), scatterogram.exr",
-            median_relative_standard_error(s),
-            "median per-pixel relative standard error",
-            s.wall_time_s};
+    return {
+        "imaging scatterometer",
+        fmt::format("{0}×{0} px × {1} λ, {2} quanta per λ", c.image_size, c.wavelengths_nm.size(),
+                    s.quanta),
+        "scatterogram.h5, scatterogram.png (its data: scatterogram_figure.h5), scatterogram.exr",
+        median_relative_standard_error(s),
+        "median per-pixel relative standard error",
+        s.wall_time_s};
 }
 
 Measured measure_btf_record(const Built& b, const gonio::BtfConfig& c, const fs::path& dir,

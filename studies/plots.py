@@ -14,6 +14,7 @@
   plots.py spongy_map H5 PNG     spongy study: peak wavelength and colour over length scale x fraction
   plots.py spongy_angles H5 PNG  spongy study: the base slab's spectrum at several incidence angles
   plots.py scatterogram_comparison H5 PNG  simulation | model | signed difference (figure/ group)
+  plots.py scatterogram H5 PNG   one scatterogram (the comparison's figure/ group) on hemisphere axes
   plots.py fingerprints H5 PNG   Filip 2024 Fig. 7 fingerprints at one exposure, with log luminance
   plots.py btf_tiles H5 PNG      BTF images of a few geometries (Filip 2024 Fig. 9), one exposure
   plots.py geometry_preview H5 PNG  a cut through built geometry in um: phases, legend, scale bar
@@ -475,6 +476,29 @@ def _hemisphere_frame(ax, dark):
         side.set_visible(False)
 
 
+def build_scatterogram(h5_path):
+    """One scatterogram (the `figure/` group of build_scatterogram_comparison's input, its
+    simulation image) on the hemisphere's axes, with its exposure stated."""
+    import h5py
+    import numpy as np
+
+    with h5py.File(h5_path, "r") as f:
+        g = f["figure"]
+        rgb = np.asarray(g["simulation_srgb"], dtype=float)
+        theta = np.asarray(g["theta_deg"], dtype=float)
+        white = float(g.attrs["white_luminance_per_sr"])
+        title = _text(g.attrs.get("title", ""))
+    inside = np.isfinite(theta)
+    fig, ax = plt.subplots(figsize=(6.2, 6.4))
+    rgba = np.concatenate([np.clip(rgb, 0, 1), inside[..., None].astype(float)], axis=2)
+    ax.imshow(rgba, extent=(-90.0, 90.0, -90.0, 90.0), origin="upper", interpolation="nearest")
+    _hemisphere_frame(ax, True)
+    ax.set_title(f"Scatterogram, {title}\nradiant intensity per unit incident power under D65;\n"
+                 f"white = luminance {white:.3g} 1/sr", fontsize=9)
+    fig.tight_layout()
+    return fig
+
+
 def build_scatterogram_comparison(h5_path):
     """Simulation | Huang model at one exposure | signed luminance difference (diverging map
     symmetric about 0, scaled to its own range, colour bar in 1/sr)."""
@@ -898,6 +922,7 @@ KINDS = {  # kind -> (builder, dpi)
     "spongy_map": (build_spongy_map, 120),
     "spongy_angles": (build_spongy_angles, 120),
     "scatterogram_comparison": (build_scatterogram_comparison, 110),
+    "scatterogram": (build_scatterogram, 110),
     "fingerprints": (build_fingerprints, 100),
     "btf_tiles": (build_btf_tiles, 110),
     "geometry_preview": (build_geometry_preview, 110),

@@ -294,6 +294,7 @@ CASES = {
     "spongy_map": ([spongy], "all", True),
     "spongy_angles": ([spongy], "all", False),
     "scatterogram_comparison": ([scatterogram_comparison], "all", True),
+    "scatterogram": ([scatterogram_comparison], "all", False),
     "fingerprints": ([fingerprints], "all", True),
     "btf_tiles": ([btf_tiles], "titled", False),
     "geometry_preview": ([geometry_lines, geometry_polygons], "all", False),
