@@ -19,11 +19,13 @@
 
 #include "analysis/filip2024.h"
 #include "analysis/huang2022_fit.h"
+#include "analysis/user_data.h"
 #include "common/seed.h"
 #include "sim/random.h"
 #include "studies/fit_command.h"
 #include "tests/test_util.h"
 #include "virtual_gonio/direction_sets.h"
+#include "virtual_gonio/goniometer.h"
 #include "virtual_gonio/hdf5_file.h"
 #include "virtual_gonio/scatterometer.h"
 
@@ -219,6 +221,39 @@ TEST(FitCommand, BadDataIsRefusedNamingTheLineAndNothingIsWritten) {
         message(header + "10,0,20,180,550,0.3\n", "huang2022").find("expected a scatterogram"),
         std::string::npos);
     EXPECT_FALSE(fs::exists(dir / "results"));
+    fs::remove_all(dir);
+}
+
+// A goniometer record (the instrument's own writer) read back as observations: every cell with a
+// standard error, in pair-major order, directions and values to the bit; cells without one
+// (σ = 0: no quantum counted) left out and counted.
+TEST(FitCommand, GoniometerRecordIsReadAsObservations) {
+    const fs::path dir = scratch("record");
+    gonio::BrdfRecord r;
+    r.config.pairs = gonio::filip2024_in_plane_pairs();
+    r.config.wavelengths_nm = {450.0, 650.0};
+    r.scatterer = "synthetic";
+    const std::size_t cells = r.config.pairs.size() * 2;
+    for (std::size_t k = 0; k < cells; ++k) {
+        r.value.push_back(0.1 + 0.001 * static_cast<double>(k));
+        r.standard_error.push_back(k % 10 == 3 ? 0.0 : 0.01);
+    }
+    gonio::write_brdf_record(r, dir / "brdf.h5");
+    const analysis::BrdfData data = analysis::read_brdf_data(dir / "brdf.h5");
+    EXPECT_EQ(data.format, "brdf_record");
+    EXPECT_EQ(data.left_out, cells / 10 + (cells % 10 > 3 ? 1 : 0));
+    ASSERT_EQ(data.observations.size(), cells - data.left_out);
+    std::size_t next = 0;
+    for (std::size_t k = 0; k < cells; ++k) {
+        if (r.standard_error[k] == 0.0) continue;
+        const analysis::BrdfObservation& o = data.observations[next++];
+        const auto& pair = r.config.pairs[k / 2];
+        EXPECT_EQ(o.value, r.value[k]);
+        EXPECT_EQ(*o.standard_error, 0.01);
+        EXPECT_EQ(*o.lambda_nm, r.config.wavelengths_nm[k % 2]);
+        EXPECT_LT((o.wi - pair.wi).norm(), 1e-15);
+        EXPECT_LT((o.wo - pair.wo).norm(), 1e-15);
+    }
     fs::remove_all(dir);
 }
 
