@@ -320,13 +320,7 @@ Built import_geometry(ParameterTable geometry, bool vdb, const std::filesystem::
             fmt::format("keratin fraction {:.4f}", geometry::measure_keratin_fraction(*level_set)));
         out.memory = level_set->memUsage();
     } else {
-        geometry::MeshImportOptions options;
-        // From picometres to metres per file unit: beyond either, a feather's micrometre features
-        // would be below double's resolution of the file's numbers or above any scanner's field.
-        options.scale_to_um =
-            m.number("scale_to_um", 1.0, between(1e-6, 1e6), "micrometres per file unit");
-        options.require_closed = m.boolean("require_closed", true, "reject open meshes");
-        options.repair = m.boolean("repair", true, "repair what is safe to repair");
+        const geometry::MeshImportOptions options = read_mesh_import_options(m);
         const geometry::ImportedMesh imported = geometry::import_mesh(file, options);
         mesh = imported.mesh;
         out.files = {"mesh.ply"};

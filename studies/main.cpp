@@ -20,6 +20,7 @@
 #include "common/interrupt.h"
 #include "common/version.h"
 #include "studies/default_study.h"
+#include "studies/fit_command.h"
 #include "studies/geometry_study.h"
 #include "studies/plots.h"
 #include "studies/study.h"
@@ -144,6 +145,30 @@ std::string run_geometry(const std::string& file, const CommonOptions& o) {
         static_cast<double>(r.memory_bytes) / 1e6, r.wall_seconds);
 }
 
+// `plumage fit`: --start NAME=VALUE pairs into the command.
+std::string run_fit(st::FitCommand command, const std::vector<std::string>& starts,
+                    const CommonOptions& o) {
+    st::refuse_limits("fit", o.limits, "a fit is not a progressive measurement");
+    for (const std::string& s : starts) {
+        const auto eq = s.find('=');
+        double value = 0.0;
+        if (eq == std::string::npos || !CLI::detail::lexical_cast(s.substr(eq + 1), value)) {
+            throw plumage::InputError(
+                fmt::format("--start {}: expected NAME=VALUE, e.g. --start d_um=0.55", s));
+        }
+        command.start[s.substr(0, eq)] = value;
+    }
+    const auto r = st::run_fit_command(command, o.output);
+    std::string summary =
+        fmt::format("plumage: wrote {}: chi2/dof {:.4g} over {} observations\n",
+                    r.output_dir.string(), r.summary.reduced_chi_square, r.summary.observations);
+    for (const auto& p : r.summary.parameters) {
+        if (!p.fixed)
+            summary += fmt::format("  {} = {:.6g} ± {:.3g} {}\n", p.name, p.value, p.sigma, p.unit);
+    }
+    return summary;
+}
+
 // The command line: options, subcommands and what they were given.
 struct CommandLine {
     CLI::App app{
@@ -154,7 +179,11 @@ struct CommandLine {
     CommonOptions common;
     st::ThinFilmChartOptions thin_film;
     std::string run_file, geometry_file;
-    CLI::App *thin_film_cmd = nullptr, *run_cmd = nullptr, *geometry_cmd = nullptr;
+    st::FitCommand fit;
+    std::vector<std::string> fit_starts;
+    std::string fit_data;
+    CLI::App *thin_film_cmd = nullptr, *run_cmd = nullptr, *geometry_cmd = nullptr,
+             *fit_cmd = nullptr;
 
     CommandLine() {
         // The commit too: what a record's /provenance@git_commit will say.
@@ -188,8 +217,32 @@ struct CommandLine {
             ->add_option("STUDY", geometry_file,
                          "geometry file (TOML), e.g. studies/geometry/rock_dove_row.toml")
             ->required();
-        for (CLI::App* sub : {thin_film_cmd, run_cmd, geometry_cmd})
+        add_fit_command();
+        for (CLI::App* sub : {thin_film_cmd, run_cmd, geometry_cmd, fit_cmd})
             add_common_options(*sub, common);
+    }
+
+    void add_fit_command() {
+        fit_cmd = app.add_subcommand(
+            "fit",
+            "fit Huang 2022 (to a scatterogram record) or Filip 2024 (to a BRDF CSV or record); "
+            "write parameters.json, the residual map and a report (docs/user_data.md)");
+        fit_cmd->add_option("DATA", fit_data, "the data: .csv or .h5 (docs/user_data.md)")
+            ->required();
+        fit_cmd->add_option("--model", fit.model, "huang2022 or filip2024")
+            ->required()
+            ->check(CLI::IsMember({"huang2022", "filip2024"}));
+        fit_cmd->add_option("--name", fit.name, "results folder (default fit_<model>_<data stem>)");
+        fit_cmd->add_option("--preset", fit.preset, "filip2024: start from this preset (parrot)");
+        fit_cmd->add_option("--start", fit_starts, "a starting value, NAME=VALUE (repeatable)");
+        fit_cmd->add_option("--fix", fit.fixed, "hold a parameter at its start (repeatable)");
+        fit_cmd->add_option("--free", fit.free,
+                            "fit a parameter held by default (huang2022: phi0, phi1; filip2024: "
+                            "theta_max, brdf_scale)");
+        fit_cmd
+            ->add_option("--pixel-stride", fit.pixel_stride,
+                         "huang2022: fit the pixels with (row + column) % N == 0")
+            ->capture_default_str();
     }
 };
 
@@ -197,6 +250,10 @@ struct CommandLine {
 std::string run_command(CommandLine& cli) {
     const CommonOptions& common = cli.common;
     if (cli.geometry_cmd->parsed()) return run_geometry(cli.geometry_file, common);
+    if (cli.fit_cmd->parsed()) {
+        cli.fit.data = cli.fit_data;
+        return run_fit(cli.fit, cli.fit_starts, common);
+    }
     if (cli.thin_film_cmd->parsed()) {
         st::refuse_limits("thin-film", common.limits, "the chart is an exact evaluation");
         cli.thin_film.output_dir = fs::path(common.output) / "thin_film";

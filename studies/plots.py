@@ -14,10 +14,12 @@
   plots.py spongy_map H5 PNG     spongy study: peak wavelength and colour over length scale x fraction
   plots.py spongy_angles H5 PNG  spongy study: the base slab's spectrum at several incidence angles
   plots.py scatterogram_comparison H5 PNG  simulation | model | signed difference (figure/ group)
+  plots.py scatterogram H5 PNG   one scatterogram (the comparison's figure/ group) on hemisphere axes
   plots.py fingerprints H5 PNG   Filip 2024 Fig. 7 fingerprints at one exposure, with log luminance
   plots.py btf_tiles H5 PNG      BTF images of a few geometries (Filip 2024 Fig. 9), one exposure
   plots.py geometry_preview H5 PNG  a cut through built geometry in um: phases, legend, scale bar
   plots.py wave_validity_map H5 PNG  PO vs GO relative L1 (%) over width x one parameter, 5 % contour
+  plots.py fit_residuals H5 PNG  a fit's (model - data)/sigma per wavelength on the data's grid
   plots.py batch CSV PNG         every plot a CSV lists (columns kind, input, png; PNG unused)
 """
 import csv
@@ -474,6 +476,29 @@ def _hemisphere_frame(ax, dark):
         side.set_visible(False)
 
 
+def build_scatterogram(h5_path):
+    """One scatterogram (the `figure/` group of build_scatterogram_comparison's input, its
+    simulation image) on the hemisphere's axes, with its exposure stated."""
+    import h5py
+    import numpy as np
+
+    with h5py.File(h5_path, "r") as f:
+        g = f["figure"]
+        rgb = np.asarray(g["simulation_srgb"], dtype=float)
+        theta = np.asarray(g["theta_deg"], dtype=float)
+        white = float(g.attrs["white_luminance_per_sr"])
+        title = _text(g.attrs.get("title", ""))
+    inside = np.isfinite(theta)
+    fig, ax = plt.subplots(figsize=(6.2, 6.4))
+    rgba = np.concatenate([np.clip(rgb, 0, 1), inside[..., None].astype(float)], axis=2)
+    ax.imshow(rgba, extent=(-90.0, 90.0, -90.0, 90.0), origin="upper", interpolation="nearest")
+    _hemisphere_frame(ax, True)
+    ax.set_title(f"Scatterogram, {title}\nradiant intensity per unit incident power under D65;\n"
+                 f"white = luminance {white:.3g} 1/sr", fontsize=9)
+    fig.tight_layout()
+    return fig
+
+
 def build_scatterogram_comparison(h5_path):
     """Simulation | Huang model at one exposure | signed luminance difference (diverging map
     symmetric about 0, scaled to its own range, colour bar in 1/sr)."""
@@ -768,6 +793,43 @@ def build_geometry_preview(h5_path):
     return fig
 
 
+def build_fit_residuals(h5_path):
+    """A fit's residual map (studies/fit_command.h): one panel per wavelength of (model - data)/σ
+    on the data's grid, one diverging colour scale for all panels, symmetric about 0."""
+    import h5py
+    import numpy as np
+
+    with h5py.File(h5_path, "r") as f:
+        z = np.asarray(f["residual"])
+        a = {k: _text(v) for k, v in f.attrs.items()}
+    titles = a["panel_titles"].split("|")
+    extent = [float(v) for v in a["extent"].split()]
+    finite = z[np.isfinite(z)]
+    limit = max(3.0, float(np.max(np.abs(finite)))) if finite.size else 3.0
+    n = len(titles)
+    cols = min(n, 3)
+    rows = (n + cols - 1) // cols
+    fig, axes = plt.subplots(rows, cols, figsize=(4.2 * cols + 1.2, 3.9 * rows + 0.6),
+                             squeeze=False)
+    image = None
+    for i, ax in enumerate(axes.flat):
+        if i >= n:
+            ax.set_visible(False)
+            continue
+        image = ax.imshow(np.ma.masked_invalid(z[i]), cmap="RdBu_r", vmin=-limit, vmax=limit,
+                          extent=extent, origin="upper", interpolation="nearest",
+                          aspect="equal" if a.get("aspect") == "equal" else "auto")
+        ax.set_facecolor("#dddddd")
+        ax.set_title(titles[i], fontsize=9)
+        ax.set_xlabel(a["x_label"], fontsize=8)
+        ax.set_ylabel(a["y_label"], fontsize=8)
+        ax.tick_params(labelsize=7)
+    fig.suptitle(a["title"] + "\n(grey: no observation)", fontsize=10)
+    bar = fig.colorbar(image, ax=axes.ravel().tolist(), shrink=0.85)
+    bar.set_label(a["colour_label"])
+    return fig
+
+
 # ---- The command line: every kind is a builder (input -> Figure, or None when there is
 # nothing to draw) and a resolution; the CLI saves the figure. Tests build the figures and
 # query them (tests/studies/plots_figures_test.py).
@@ -860,10 +922,12 @@ KINDS = {  # kind -> (builder, dpi)
     "spongy_map": (build_spongy_map, 120),
     "spongy_angles": (build_spongy_angles, 120),
     "scatterogram_comparison": (build_scatterogram_comparison, 110),
+    "scatterogram": (build_scatterogram, 110),
     "fingerprints": (build_fingerprints, 100),
     "btf_tiles": (build_btf_tiles, 110),
     "geometry_preview": (build_geometry_preview, 110),
     "wave_validity_map": (build_wave_validity_map, 110),
+    "fit_residuals": (build_fit_residuals, 110),
 }
 
 

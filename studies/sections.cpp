@@ -89,6 +89,17 @@ geometry::TessellationTolerance read_tolerance(ParameterTable t) {
     return tol;
 }
 
+geometry::MeshImportOptions read_mesh_import_options(ParameterTable& m) {
+    geometry::MeshImportOptions options;
+    // From picometres to metres per file unit: beyond either, a feather's micrometre features
+    // would be below double's resolution of the file's numbers or above any scanner's field.
+    options.scale_to_um =
+        m.number("scale_to_um", 1.0, between(1e-6, 1e6), "micrometres per file unit");
+    options.require_closed = m.boolean("require_closed", true, "reject open meshes");
+    options.repair = m.boolean("repair", true, "repair what is safe to repair");
+    return options;
+}
+
 geometry::BarbuleRowParams read_barbule_row_params(ParameterTable& geometry) {
     geometry::BarbuleRowParams p;
     ParameterTable cell = geometry.table("cell");

@@ -11,6 +11,7 @@
 
 #include "geometry/barb.h"
 #include "geometry/barbule.h"
+#include "geometry/mesh_import.h"
 #include "geometry/tessellation.h"
 #include "studies/study_file.h"
 
@@ -57,5 +58,8 @@ geometry::BarbuleRowParams read_barbule_row_params(ParameterTable& geometry);
 geometry::BarbulePatchParams read_barb_patch_params(ParameterTable& geometry);
 // [tessellation]: how finely curved surfaces are faceted.
 geometry::TessellationTolerance read_tolerance(ParameterTable tessellation);
+// How an imported mesh is read (`geometry` and `measure` studies): scale_to_um, require_closed,
+// repair of `table` (geometry/mesh_import.h).
+geometry::MeshImportOptions read_mesh_import_options(ParameterTable& table);
 
 }  // namespace plumage::studies

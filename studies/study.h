@@ -43,7 +43,8 @@ struct StudyEntry {
     X(masking)             \
     X(calibration)         \
     X(spongy)              \
-    X(wave_validity)
+    X(wave_validity)       \
+    X(measure)
 
 #define PLUMAGE_DECLARE_STUDY_ENTRY(kind) StudyEntry kind##_study_entry();
 PLUMAGE_STUDIES(PLUMAGE_DECLARE_STUDY_ENTRY)

@@ -13,8 +13,10 @@ from the patch. Built for Debian's /usr/bin/python3 (numpy, h5py); README.md "Py
 """
 
 from . import models, optics, studies
+from .models import fit_filip2024, fit_huang2022
 from .records import Measurement, Quantity, Record, RecordError, read_record
 from .studies import build_geometry, run_study, study_kinds
 
 __all__ = ["read_record", "Record", "Measurement", "Quantity", "RecordError", "models", "optics",
-           "studies", "run_study", "build_geometry", "study_kinds"]
+           "studies", "run_study", "build_geometry", "study_kinds", "fit_huang2022",
+           "fit_filip2024"]

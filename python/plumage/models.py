@@ -24,6 +24,9 @@ raises ValueError with the C++ message (InputError), as does an invalid directio
 
 fit_huang2022(record, start, **options) fits Huang2022 to a scatterogram record with the C++
 fit (analysis/huang2022_fit.h); huang2022_scatterogram(params, record) is its forward model.
+fit_filip2024(data, start, ...) fits Filip2024 to BRDF data (a CSV, a goniometer record or numpy
+arrays; analysis/filip2024_fit.h). Both return the parameters with their σ and, under "json", the
+fitted-parameters JSON of `plumage fit` (docs/user_data.md).
 """
 
 from __future__ import annotations
@@ -31,7 +34,7 @@ from __future__ import annotations
 from . import _core
 
 __all__ = ["Huang2022", "Filip2024", "PadronGriffe2024", "Lambertian", "Model", "filip2024_presets",
-           "fit_huang2022", "huang2022_scatterogram"]
+           "fit_huang2022", "huang2022_scatterogram", "fit_filip2024"]
 
 Model = _core.Model
 
@@ -67,6 +70,14 @@ def _scatterogram_arguments(record):
 
     from .records import read_record
 
+    if isinstance(record, dict):  # numpy arrays (docs/user_data.md, "From Python")
+        r = record
+        return (str(r.get("illumination", "beam")),
+                np.asarray(r.get("beam_direction", (0.0, 0.0, 1.0)), dtype=float),
+                float(r.get("cone_aperture_rad", np.radians(16.0))),
+                np.asarray(r["wavelength_nm"], dtype=float), np.asarray(r["intensity"], dtype=float),
+                np.asarray(r["standard_error"], dtype=float),
+                np.asarray(r["solid_angle_sr"], dtype=float))
     if not hasattr(record, "kind"):
         record = read_record(record)
     if record.kind != "imaging_scatterometer":
@@ -96,16 +107,24 @@ def fit_huang2022(record, start=None, **options) -> dict:
     """Fits Huang2022's parameters to a scatterogram record by Levenberg–Marquardt in C++
     (analysis/huang2022_fit.h: its header states the objective, weights and cubature).
 
-    record: plumage.read_record(...) of an imaging_scatterometer record, or its path.
+    record: plumage.read_record(...) of an imaging_scatterometer record, or its path, or a dict
+    of numpy arrays: intensity, standard_error [rows, rows, λ], solid_angle_sr [rows, rows],
+    wavelength_nm [λ], illumination ("beam"), beam_direction (3,), cone_aperture_rad.
     start: a Huang2022 model or a dict of its parameters (default: the published values).
     options: HuangFitOptions' fields, e.g. fixed=["phi0", "phi1"], pixel_stride=2,
     wavelengths_nm=[550.0], max_function_evaluations=200, threads=2.
     Returns a dict: params, standard_errors, at_bound, free_parameters, covariance (free
     parameters' order; None when singular), reduced_chi_square, residual_rms_per_sr,
-    observations, pixels, converged, termination, wall_time_s, ...
+    observations, pixels, converged, termination, wall_time_s, chi_square, json (the documented
+    fitted-parameters JSON, docs/user_data.md), ...
     """
+    import os
+
     start = start.params if isinstance(start, Model) else dict(start or {})
-    return _core.fit_huang2022(*_scatterogram_arguments(record), start, _fit_options(options))
+    data_file = os.fspath(record) if isinstance(record, (str, os.PathLike)) else \
+        str(getattr(record, "path", ""))
+    return _core.fit_huang2022(*_scatterogram_arguments(record), start, _fit_options(options),
+                               data_file)
 
 
 def huang2022_scatterogram(params, record, **options):
@@ -114,3 +133,38 @@ def huang2022_scatterogram(params, record, **options):
     params = params.params if isinstance(params, Model) else dict(params)
     return _core.huang2022_scatterogram(*_scatterogram_arguments(record), params,
                                         _fit_options(options))
+
+
+def fit_filip2024(data, start=None, *, fixed=(), free=(), preset=None, sigma=None) -> dict:
+    """Fits Filip2024's parameters to BRDF data by Levenberg–Marquardt in C++
+    (analysis/filip2024_fit.h).
+
+    data: a path to a CSV table or a goniometer record (docs/user_data.md), or a dict of numpy
+    arrays with keys theta_i_deg, phi_i_deg, theta_o_deg, phi_o_deg, wavelength_nm, value (1/sr)
+    and optionally sigma (1/sr; or give sigma= here). Without σ every observation weighs the same.
+    start: a Filip2024 model or a dict of parameter values by the table's names (phi_a, C_b[R],
+    ..., alpha, beta, gamma, w, d_w, theta_max, brdf_scale), over preset (default "parrot").
+    fixed / free: names to hold / to fit (theta_max and brdf_scale are held by default).
+    Returns a dict: params, standard_errors, at_bound, free_parameters, covariance, chi_square,
+    reduced_chi_square, degrees_of_freedom, observations, residual_rms_per_sr, converged,
+    termination, model_per_sr and residuals ((model − value)/σ) per observation, json.
+    """
+    import os
+
+    import numpy as np
+
+    if isinstance(start, Model):
+        raise TypeError("fit_filip2024: give start as a dict of the table's names "
+                        "(e.g. {'alpha': 3.0}) and preset= for a preset")
+    start = dict(start or {})
+    if isinstance(data, (str, os.PathLike)):
+        return _core.fit_filip2024_file(os.fspath(data), start, list(fixed), list(free),
+                                        preset or "")
+    columns = ("theta_i_deg", "phi_i_deg", "theta_o_deg", "phi_o_deg")
+    angles = np.stack([np.asarray(data[c], dtype=float) for c in columns], axis=1)
+    if sigma is None and "sigma" in data:
+        sigma = data["sigma"]
+    return _core.fit_filip2024_arrays(angles, np.asarray(data["wavelength_nm"], dtype=float),
+                                      np.asarray(data["value"], dtype=float),
+                                      None if sigma is None else np.asarray(sigma, dtype=float),
+                                      start, list(fixed), list(free), preset or "")

@@ -258,6 +258,24 @@ def wave_validity_map(d):
     return path
 
 
+def fit_residuals(d):
+    """Four panels (one grid cell left empty) of residuals with gaps, as studies/fit_command.cpp
+    writes them."""
+    path = os.path.join(d, "residuals.h5")
+    z = np.random.default_rng(1).standard_normal((4, 5, 6))
+    z[:, 0, 0] = np.nan
+    with h5py.File(path, "w") as f:
+        f["residual"] = z
+        f.attrs["panel_titles"] = "450 nm|550 nm|650 nm|700 nm"
+        f.attrs["title"] = "fit: residuals"
+        f.attrs["x_label"] = "view direction (index)"
+        f.attrs["y_label"] = "light direction (index)"
+        f.attrs["colour_label"] = "(model - data) / sigma"
+        f.attrs["extent"] = "-0.5 5.5 4.5 -0.5"
+        f.attrs["aspect"] = "auto"
+    return path
+
+
 # kind -> (input writers, what every panel must have, colour bar expected)
 #   panels: "all" (every non-colour-bar axes has a title and x and y labels),
 #           "titled" (every axes a title, labels on at least one), "sheet" (contact sheet:
@@ -276,10 +294,12 @@ CASES = {
     "spongy_map": ([spongy], "all", True),
     "spongy_angles": ([spongy], "all", False),
     "scatterogram_comparison": ([scatterogram_comparison], "all", True),
+    "scatterogram": ([scatterogram_comparison], "all", False),
     "fingerprints": ([fingerprints], "all", True),
     "btf_tiles": ([btf_tiles], "titled", False),
     "geometry_preview": ([geometry_lines, geometry_polygons], "all", False),
     "wave_validity_map": ([wave_validity_map], "all", True),
+    "fit_residuals": ([fit_residuals], "all", True),
 }
 
 

@@ -1,0 +1,489 @@
+// The measure study (`study = "measure"`): the user's own sample — an imported PLY/OBJ mesh or
+// OpenVDB level set, validated as `plumage geometry` validates it — given a material and an
+// optional thin film, traced by the explicit tracer (sim/tracer.h) and measured by any of the
+// instruments: the goniometer (BRDF), the imaging scatterometer (scatterogram), the BTF camera.
+//
+// read → build → measure → report, each a named step below. There is no model to compare with:
+// the report gives, per measurement, its estimated error and its wall time.
+//
+// Study file keys (units, ranges; studies/README.md, "measure"):
+//   name, seed                                          (studies/sections.h)
+//   time_budget_s, target_relative_error                per progressive measurement (BRDF,
+//                                                       scatterogram); --time-budget and
+//                                                       --target-error override them
+//   [spectrum]     first_nm, last_nm, step_nm           (360–830 nm; default 400–700, 50 nm)
+//   [sample]       file                                 .ply, .obj or .vdb, relative to the study
+//                                                       file
+//                  scale_to_um, require_closed, repair  as `plumage geometry` reads a mesh
+//                  grid                                 .vdb: the level-set grid (default keratin)
+//                  offset_um                            [x, y, z] added after scaling, µm
+//                  material                             what the mesh encloses: keratin | melanin
+//                                                       | air | lambertian (an opaque diffuse
+//                                                       surface of `albedo`, [0, 1])
+//                  max_events                           tracer events per path, [1, 10⁶]
+//   [sample.film]  material, thickness_um               optional: a thin film on the surface
+//                                                       (keratin | melanin; thickness (0, 50] µm)
+//   [brdf]         direction_set                        filip2024_in_plane (55 pairs),
+//                                                       filip2024_btf (3660), mirror (one specular
+//                                                       pair per angle of mirror_angles_deg, in
+//                                                       the y–z plane)
+//                  detector_half_angle_deg, beam_radius_um, quanta_per_pass, passes
+//   [scatterogram] beam_incidence_deg, beam_azimuth_deg, beam_radius_um, image_size,
+//                  quanta_per_pass, passes
+//   [btf]          mirror_angles_deg (pairs as [brdf]'s mirror set), patch_size_um, pixels,
+//                  detector_half_angle_deg, quanta_per_light
+// At least one instrument table. The beam and the BTF patch are centred on the origin of the
+// patch frame (+z the normal, light from above): place the sample there with offset_um.
+#include <chrono>
+#include <fstream>
+#include <numbers>
+#include <optional>
+
+#include <fmt/format.h>
+
+#include "common/error.h"
+#include "common/interrupt.h"
+#include "common/seed.h"
+#include "common/version.h"
+#include "geometry/mesh_import.h"
+#include "geometry/spongy_volume.h"
+#include "sim/optics/material.h"
+#include "sim/scene.h"
+#include "sim/tracer.h"
+#include "studies/figure_data.h"
+#include "studies/plots.h"
+#include "studies/sections.h"
+#include "studies/staged_directory.h"
+#include "studies/study.h"
+#include "studies/study_common.h"
+#include "virtual_gonio/btf.h"
+#include "virtual_gonio/direction_sets.h"
+#include "virtual_gonio/exr_image.h"
+#include "virtual_gonio/goniometer.h"
+#include "virtual_gonio/hdf5_file.h"
+#include "virtual_gonio/scatterometer.h"
+
+namespace plumage::studies {
+namespace {
+
+namespace fs = std::filesystem;
+constexpr double kDeg = std::numbers::pi / 180.0;
+constexpr double kMaxFilmUm = 50.0;  // the Huang model's and the film tables' range
+
+struct Sample {
+    fs::path file;
+    std::string file_location;  // file:line:col of [sample] file, for errors found later
+    std::string grid = "keratin";
+    geometry::MeshImportOptions import;
+    Vec3d offset_um = Vec3d::Zero();
+    std::string material = "keratin";
+    double albedo = 0.0;                                 // material = lambertian
+    std::optional<std::pair<std::string, double>> film;  // material, thickness in µm
+    int max_events = 1000;
+};
+
+struct Settings {
+    std::string name;
+    Sample sample;
+    std::optional<gonio::GoniometerConfig> brdf;
+    std::optional<gonio::ScatterometerConfig> scatterogram;
+    std::optional<gonio::BtfConfig> btf;
+};
+
+std::shared_ptr<const optics::Material> material_named(const std::string& name) {
+    if (name == "keratin") return optics::keratin();
+    if (name == "melanin") return optics::melanin();
+    return optics::air();
+}
+
+Sample read_sample(ParameterTable t, const fs::path& source) {
+    Sample s;
+    const std::string file = t.required_string(
+        "file", {},
+        "the sample's mesh (.ply, .obj) or level set (.vdb), relative to the study file");
+    s.file_location = t.location("file");
+    s.file = source.parent_path() / file;
+    if (!fs::is_regular_file(s.file)) {
+        throw InputError(fmt::format("{}: sample.file = \"{}\": no such file ({})", s.file_location,
+                                     file, s.file.string()));
+    }
+    if (s.file.extension() == ".vdb") {
+        s.grid = t.string("grid", s.grid, {}, "level-set grid name");
+    } else {
+        s.import = read_mesh_import_options(t);
+    }
+    const auto offset = t.numbers("offset_um", {0.0, 0.0, 0.0}, between(-1e6, 1e6), 3, 3,
+                                  "translation of the sample after scaling, um");
+    s.offset_um = Vec3d(offset[0], offset[1], offset[2]);
+    s.material = t.required_string("material", {"keratin", "melanin", "air", "lambertian"},
+                                   "what the surface encloses (lambertian: an opaque diffuse "
+                                   "surface)");
+    if (s.material == "lambertian") {
+        s.albedo = t.required_number("albedo", between(0.0, 1.0), "albedo of the diffuse surface");
+    }
+    s.max_events = static_cast<int>(
+        t.integer("max_events", s.max_events, 1, 1000000, "tracer events per path"));
+    if (t.has("film")) {
+        ParameterTable f = t.table("film");
+        const std::string material =
+            f.required_string("material", {"keratin", "melanin"}, "film material");
+        const double d =
+            f.required_number("thickness_um", {0.0, kMaxFilmUm, true, false}, "film thickness, um");
+        if (s.material == "lambertian") {
+            throw InputError(fmt::format(
+                "{}: sample.film: a film needs a dielectric beneath it, not a lambertian surface",
+                f.location()));
+        }
+        s.film = {{material, d}};
+    } else if (s.material == "air") {
+        throw InputError(fmt::format(
+            "{}: sample.material = \"air\" without [sample.film]: the sample would not scatter",
+            t.location("material")));
+    }
+    return s;
+}
+
+// A specular pair per angle, light at (θ, φ = 90°), view at (θ, φ = 270°): the y–z plane.
+std::vector<gonio::DirectionPair> mirror_pairs(ParameterTable& t) {
+    const auto angles = t.numbers("mirror_angles_deg", {15.0, 45.0, 75.0}, between(0.0, 85.0), 1,
+                                  90, "polar angles of the specular pairs, deg");
+    std::vector<gonio::DirectionPair> pairs;
+    for (double a : angles) {
+        pairs.push_back({gonio::direction_from_angles(a * kDeg, 90.0 * kDeg),
+                         gonio::direction_from_angles(a * kDeg, 270.0 * kDeg)});
+    }
+    return pairs;
+}
+
+gonio::GoniometerConfig read_brdf(ParameterTable t, const std::vector<double>& wavelengths,
+                                  std::uint64_t seed) {
+    gonio::GoniometerConfig c;
+    c.direction_set = t.string("direction_set", "filip2024_in_plane",
+                               {"filip2024_in_plane", "filip2024_btf", "mirror"}, "direction set");
+    c.pairs = c.direction_set == "filip2024_btf"        ? gonio::filip2024_btf_pairs()
+              : c.direction_set == "filip2024_in_plane" ? gonio::filip2024_in_plane_pairs()
+                                                        : mirror_pairs(t);
+    c.wavelengths_nm = wavelengths;
+    c.detector_half_angle_rad = t.angle_deg("detector_half_angle_deg", 2.5 * kDeg,
+                                            {0.0, 20.0, true, false}, "detector cone half-angle");
+    c.beam_radius_um = t.number("beam_radius_um", c.beam_radius_um, positive(), "beam radius, um");
+    c.quanta_per_pass = static_cast<std::uint64_t>(t.integer(
+        "quanta_per_pass", 20000, 100, 100000000, "quanta per light direction and wavelength"));
+    c.max_passes = static_cast<int>(t.integer("passes", 4, 1, 1000, "passes (at most)"));
+    c.estimator = gonio::Estimator::photon;
+    c.seed = derive_seed(seed, "measure/brdf");
+    return c;
+}
+
+gonio::ScatterometerConfig read_scatterogram(ParameterTable t,
+                                             const std::vector<double>& wavelengths,
+                                             std::uint64_t seed) {
+    gonio::ScatterometerConfig c;
+    const double theta =
+        t.angle_deg("beam_incidence_deg", 30.0 * kDeg, between(0.0, 80.0), "beam polar angle");
+    const double phi = t.angle_deg("beam_azimuth_deg", 90.0 * kDeg, between(-360.0, 360.0),
+                                   "beam azimuth from +x");
+    c.beam_direction = polar(theta, phi);
+    c.beam_radius_um = t.number("beam_radius_um", c.beam_radius_um, positive(), "beam radius, um");
+    c.image_size =
+        static_cast<int>(t.integer("image_size", 65, 17, 1025, "pixels across the scatterogram"));
+    c.quanta_per_pass = static_cast<std::uint64_t>(
+        t.integer("quanta_per_pass", 200000, 1000, 100000000, "quanta per wavelength and pass"));
+    c.max_passes = static_cast<int>(t.integer("passes", 2, 1, 1000, "passes (at most)"));
+    c.wavelengths_nm = wavelengths;
+    c.seed = derive_seed(seed, "measure/scatterogram");
+    return c;
+}
+
+gonio::BtfConfig read_btf(ParameterTable t, const std::vector<double>& wavelengths,
+                          std::uint64_t seed) {
+    gonio::BtfConfig c;
+    c.pairs = mirror_pairs(t);
+    c.wavelengths_nm = wavelengths;
+    c.patch_size_um =
+        t.number("patch_size_um", 100.0, positive(), "side of the imaged square patch, um");
+    c.pixels = static_cast<int>(t.integer("pixels", 16, 1, 1024, "pixels per side"));
+    c.detector_half_angle_rad = t.angle_deg("detector_half_angle_deg", c.detector_half_angle_rad,
+                                            {0.0, 20.0, true, false}, "detector cone half-angle");
+    c.quanta_per_light = static_cast<std::uint64_t>(t.integer(
+        "quanta_per_light", 200000, 100, 1000000000, "quanta per light direction and wavelength"));
+    c.seed = derive_seed(seed, "measure/btf");
+    return c;
+}
+
+Settings read(const std::string& text, const fs::path& source) {
+    auto file = StudyFile::parse(text, source);
+    ParameterTable root = file->root();
+    root.string("study", "measure", {"measure"}, "which study this file describes");
+    Settings s;
+    s.name = read_study_name(root, source);
+    const std::uint64_t seed = read_seed(root);
+    ParameterTable spectrum = root.table("spectrum");
+    const std::vector<double> wavelengths = read_wavelengths(spectrum, WavelengthRule{});
+    const double budget = root.number("time_budget_s", std::numeric_limits<double>::infinity(),
+                                      positive(), "wall-time budget per measurement, s");
+    const double target = root.number("target_relative_error", 0.0, between(0.0, 1.0),
+                                      "stop a measurement once its relative error is below this");
+    s.sample = read_sample(root.table("sample"), source);
+    if (root.has("brdf")) s.brdf = read_brdf(root.table("brdf"), wavelengths, seed);
+    if (root.has("scatterogram")) {
+        s.scatterogram = read_scatterogram(root.table("scatterogram"), wavelengths, seed);
+    }
+    if (root.has("btf")) s.btf = read_btf(root.table("btf"), wavelengths, seed);
+    if (!s.brdf && !s.scatterogram && !s.btf) {
+        throw InputError(fmt::format(
+            "{}: expected at least one instrument table: [brdf], [scatterogram] or [btf]",
+            source.string()));
+    }
+    if (s.brdf) {
+        s.brdf->time_budget_s = budget;
+        s.brdf->target_relative_error = target;
+        s.brdf->config_text = text;
+    }
+    if (s.scatterogram) {
+        s.scatterogram->time_budget_s = budget;
+        s.scatterogram->target_relative_error = target;
+        s.scatterogram->config_text = text;
+    }
+    if (s.btf) s.btf->config_text = text;
+    root.reject_unused();
+    return s;
+}
+
+struct Built {
+    std::shared_ptr<const sim::ExplicitScatterer> scatterer;
+    std::vector<std::string> facts;  // report lines
+};
+
+sim::SurfaceMaterial surface_of(const Sample& s) {
+    if (s.material == "lambertian") return sim::diffuse_layer(sim::constant_albedo(s.albedo));
+    const auto inside = material_named(s.material);
+    if (s.film)
+        return sim::thin_film_interface(material_named(s.film->first), s.film->second,
+                                        optics::air(), inside);
+    return sim::dielectric_interface(inside);
+}
+
+// The mesh as `plumage geometry` imports it (InputErrors name the study file's key), one
+// surface of the sample's material, placed by offset_um.
+Built build(const Sample& s) {
+    Built b;
+    geometry::TriangleMesh mesh;
+    try {
+        if (s.file.extension() == ".vdb") {
+            mesh = geometry::level_set_to_mesh(*geometry::load_level_set(s.file, s.grid));
+        } else {
+            const geometry::ImportedMesh imported = geometry::import_mesh(s.file, s.import);
+            mesh = imported.mesh;
+            b.facts.push_back(imported.report.clean() ? "mesh validation: clean"
+                                                      : "mesh validation:\n\n```\n" +
+                                                            imported.report.summary() + "\n```");
+        }
+    } catch (const InputError& e) {
+        throw InputError(fmt::format("{}: sample.file: {}", s.file_location, e.what()));
+    }
+    sim::SceneDescription scene;
+    scene.units.push_back({"sample", {{"sample", mesh, surface_of(s)}}});
+    sim::Instance instance;
+    instance.transform = Eigen::Translation3d(s.offset_um);
+    scene.instances.push_back(instance);
+    const auto box = scene.bounds();
+    b.facts.push_back(fmt::format(
+        "{} triangles; extent x [{:.4g}, {:.4g}], y [{:.4g}, {:.4g}], z [{:.4g}, {:.4g}] um",
+        mesh.triangles.size(), box.min().x(), box.max().x(), box.min().y(), box.max().y(),
+        box.min().z(), box.max().z()));
+    sim::TracerOptions options;
+    options.max_events = s.max_events;
+    b.scatterer = std::make_shared<sim::ExplicitScatterer>(std::move(scene), options);
+    return b;
+}
+
+// One row of the report's measurement table.
+struct Measured {
+    std::string instrument, cells, files;
+    double error = 0.0;  // see error_meaning
+    std::string error_meaning;
+    double wall_s = 0.0;
+};
+
+Measured measure_brdf_record(const Built& b, const gonio::GoniometerConfig& c, const fs::path& dir,
+                             const fs::path& checkpoint, const StudyProgress& clock) {
+    clock.say(fmt::format("BRDF on {} ({} pairs)", c.direction_set, c.pairs.size()));
+    gonio::RunControl control;
+    control.checkpoint = checkpoint;
+    fs::create_directories(checkpoint.parent_path());
+    const gonio::BrdfRecord r = gonio::measure_brdf(*b.scatterer, c, control);
+    if (r.interrupted) {
+        throw Interrupted(interrupted_with_checkpoint("the BRDF", r.passes, checkpoint));
+    }
+    gonio::write_brdf_record(r, dir / "brdf.h5");
+    std::string files = "brdf.h5";
+    if (c.direction_set == "filip2024_btf") {
+        write_fingerprint_figure(dir / "brdf_fingerprint.h5", "Measured sample: BRDF fingerprint",
+                                 {{"sample", &r}}, 61, 60);
+        run_plot("fingerprints", dir / "brdf_fingerprint.h5", dir / "brdf.png");
+        gonio::write_spectral_exr(dir / "brdf.exr",
+                                  {gonio::fingerprint_exr_image(r, 61, 60, "sample")}, "measure");
+        files += ", brdf_fingerprint.h5, brdf.png, brdf.exr";
+    } else {
+        // BRDF against the pair's light angle, one curve per wavelength (plots.py `curves`).
+        const bool mirror = c.direction_set == "mirror";
+        std::ofstream csv(dir / "brdf_curves.csv");
+        csv << (mirror ? "mirror angle (deg)" : "signed light angle (deg; view at 45 deg)");
+        for (double l : c.wavelengths_nm) csv << fmt::format(",{:g} nm,{:g} nm error", l, l);
+        csv << '\n';
+        const auto angles = gonio::filip2024_in_plane_light_angles();
+        for (std::size_t p = 0; p < c.pairs.size(); ++p) {
+            const double x = mirror ? std::acos(c.pairs[p].wi.z()) / kDeg : angles[p] / kDeg;
+            csv << fmt::format("{:.6g}", x);
+            for (std::size_t l = 0; l < c.wavelengths_nm.size(); ++l)
+                csv << fmt::format(",{:.9g},{:.9g}", r.at(p, l), r.error_at(p, l));
+            csv << '\n';
+        }
+        if (!csv) throw IoError("cannot write brdf_curves.csv");
+        csv.close();
+        run_plot("curves", dir / "brdf_curves.csv", dir / "brdf.png");
+        files += ", brdf_curves.csv, brdf.png";
+    }
+    const double error =
+        r.convergence.empty() ? 0.0 : r.convergence.back().estimated_relative_rms_error;
+    return {"goniometer (BRDF)",
+            fmt::format("{} pairs × {} λ, {} quanta per light and λ", c.pairs.size(),
+                        c.wavelengths_nm.size(), r.quanta),
+            files,
+            error,
+            "estimated relative RMS error",
+            r.wall_time_s};
+}
+
+Measured measure_scatterogram_record(const Built& b, const gonio::ScatterometerConfig& c,
+                                     const fs::path& dir, const StudyProgress& clock) {
+    clock.say(fmt::format("scatterogram ({} px)", c.image_size));
+    const gonio::Scatterogram s = gonio::measure_scatterogram(*b.scatterer, c);
+    gonio::write_scatterogram_record(s, dir / "scatterogram.h5");
+    {
+        record::Hdf5Writer h5(dir / "scatterogram_figure.h5");
+        write_scatterogram_figure(h5, s, s, "measured sample");
+        h5.commit();
+    }
+    run_plot("scatterogram", dir / "scatterogram_figure.h5", dir / "scatterogram.png");
+    gonio::write_spectral_exr(dir / "scatterogram.exr",
+                              {gonio::scatterogram_exr_image(s, "sample")}, "measure");
+    return {
+        "imaging scatterometer",
+        fmt::format("{0}×{0} px × {1} λ, {2} quanta per λ", c.image_size, c.wavelengths_nm.size(),
+                    s.quanta),
+        "scatterogram.h5, scatterogram.png (its data: scatterogram_figure.h5), scatterogram.exr",
+        median_relative_standard_error(s),
+        "median per-pixel relative standard error",
+        s.wall_time_s};
+}
+
+Measured measure_btf_record(const Built& b, const gonio::BtfConfig& c, const fs::path& dir,
+                            const StudyProgress& clock) {
+    clock.say(fmt::format("BTF ({} pairs, {} px)", c.pairs.size(), c.pixels));
+    const gonio::BtfRecord r = gonio::measure_btf(*b.scatterer, c);
+    gonio::write_btf_record(r, dir / "btf.h5");
+    std::vector<std::size_t> pairs(c.pairs.size());
+    for (std::size_t p = 0; p < pairs.size(); ++p) pairs[p] = p;
+    write_btf_figure(dir / "btf_figure.h5", "Measured sample: BTF", r, pairs);
+    run_plot("btf_tiles", dir / "btf_figure.h5", dir / "btf.png");
+    std::vector<gonio::SpectralImage> parts;
+    for (std::size_t p : pairs)
+        parts.push_back(gonio::btf_exr_image(r, p, fmt::format("pair{}", p)));
+    gonio::write_spectral_exr(dir / "btf.exr", parts, "measure");
+    // Relative error of the whole patch's mean per (pair, λ): Σσ²/(Σv)², the pixels independent.
+    double sum_rel2 = 0.0;
+    std::size_t cells = 0;
+    for (std::size_t p = 0; p < pairs.size(); ++p) {
+        for (std::size_t l = 0; l < c.wavelengths_nm.size(); ++l) {
+            double v = 0.0, v2 = 0.0;
+            for (int row = 0; row < c.pixels; ++row) {
+                for (int col = 0; col < c.pixels; ++col) {
+                    v += r.value[r.index(p, row, col, l)];
+                    v2 += std::pow(r.standard_error[r.index(p, row, col, l)], 2);
+                }
+            }
+            if (v > 0.0) sum_rel2 += v2 / (v * v), ++cells;
+        }
+    }
+    return {
+        "BTF camera",
+        fmt::format("{} pairs × {}² px × {} λ", c.pairs.size(), c.pixels, c.wavelengths_nm.size()),
+        "btf.h5, btf_figure.h5, btf.png, btf.exr",
+        cells ? std::sqrt(sum_rel2 / static_cast<double>(cells)) : 0.0,
+        "relative RMS error of the patch-mean BRDF",
+        r.wall_time_s};
+}
+
+void write_report(const fs::path& path, const Settings& s, const Built& b,
+                  const std::vector<Measured>& rows, const std::string& text,
+                  const std::string& run_time) {
+    std::ofstream md(path);
+    md << fmt::format("# Measurement: {}\n\nSample `{}` ({}", s.name,
+                      s.sample.file.filename().string(), s.sample.material);
+    if (s.sample.material == "lambertian") md << fmt::format(", albedo {}", s.sample.albedo);
+    if (s.sample.film) {
+        md << fmt::format(", with a {} film {} µm thick", s.sample.film->first,
+                          s.sample.film->second);
+    }
+    md << ") traced by the explicit tracer (sim/tracer.h), plumage " << kVersion << ".\n\n";
+    for (const auto& f : b.facts) md << "- " << f << '\n';
+    md << "\n| instrument | cells | error | what the error is | wall time (s) | files |\n"
+          "|---|---|---|---|---|---|\n";
+    for (const auto& r : rows) {
+        md << fmt::format("| {} | {} | {:.3g} | {} | {:.2f} | {} |\n", r.instrument, r.cells,
+                          r.error, r.error_meaning, r.wall_s, r.files);
+    }
+    md << "\nRecords: virtual_gonio/RECORD.md.\n\n" << run_time;
+    md << "## Study file\n\n```toml\n" << text << "\n```\n";
+    if (!md) throw IoError(fmt::format("cannot write {}", path.string()));
+}
+
+std::string run(const std::string& text, const fs::path& source, const fs::path& results_root,
+                const RunLimits& limits) {
+    const StudyProgress clock(true);
+    Settings s = read(text, source);  // read
+    StagedDirectory::prepare(results_root / s.name);
+    if (s.brdf && limits.time_budget_s > 0.0) s.brdf->time_budget_s = limits.time_budget_s;
+    if (s.brdf && limits.target_relative_error > 0.0)
+        s.brdf->target_relative_error = limits.target_relative_error;
+    if (s.scatterogram && limits.time_budget_s > 0.0)
+        s.scatterogram->time_budget_s = limits.time_budget_s;
+    if (s.scatterogram && limits.target_relative_error > 0.0)
+        s.scatterogram->target_relative_error = limits.target_relative_error;
+    clock.say("importing the sample and building its scene");
+    const Built b = build(s.sample);  // build
+    StagedDirectory out(results_root / s.name);
+    std::vector<Measured> rows;  // measure
+    if (s.brdf) {
+        rows.push_back(measure_brdf_record(
+            b, *s.brdf, out.path(), checkpoint_folder(results_root, s.name) / "brdf.checkpoint",
+            clock));
+    }
+    if (s.scatterogram)
+        rows.push_back(measure_scatterogram_record(b, *s.scatterogram, out.path(), clock));
+    if (s.btf) rows.push_back(measure_btf_record(b, *s.btf, out.path(), clock));
+    clock.say("writing the report");  // report
+    write_report(out.path() / "report.md", s, b, rows, text, run_time_by_stage(clock, out.path()));
+    out.commit();
+    remove_checkpoints(results_root, s.name);
+    clock.done(fmt::format("done: {}", (out.final_path() / "report.md").string()));
+    std::string summary = fmt::format("plumage: wrote {}:", out.final_path().string());
+    for (const auto& r : rows)
+        summary += fmt::format(" {} {:.3g} in {:.1f} s;", r.instrument, r.error, r.wall_s);
+    return summary + "\n";
+}
+
+void check(const std::string& text, const fs::path& source) { read(text, source); }
+
+}  // namespace
+
+StudyEntry measure_study_entry() {
+    return {"measure",
+            "an imported mesh or level set with a material and film, measured by the goniometer, "
+            "scatterometer and/or BTF camera",
+            check, run};
+}
+
+}  // namespace plumage::studies
