@@ -848,7 +848,13 @@ std::vector<float> estimate_ndf(const BrdfFunction& f, const RglBsdfSettings& s,
             std::fill(d.begin(), d.end(), 1.0 / kPi);
             break;
         }
-        for (std::size_t k = 0; k < W * H; ++k) d[k] = next[k] / norm;
+        double change = 0.0, largest = 0.0;
+        for (std::size_t k = 0; k < W * H; ++k) {
+            change = std::max(change, std::abs(next[k] / norm - d[k]));
+            largest = std::max(largest, next[k] / norm);
+            d[k] = next[k] / norm;
+        }
+        if (change <= 1e-6 * largest) break;  // converged to well below float32's rounding
     }
     if (!isotropic) {  // φ = −π and φ = π are one direction: one value
         for (std::size_t a = 0; a < W; ++a) d[(H - 1) * W + a] = d[a];
@@ -889,6 +895,11 @@ RglBsdfTables tabulate_rgl_bsdf(const BrdfFunction& f, const RglBsdfSettings& se
         for (int k = 0; k < settings.phi_i_count; ++k) {
             t.phi_i.push_back(static_cast<float>(-kPi + kTwoPi * k / (settings.phi_i_count - 1)));
         }
+        // float(±π) lies outside [−π, π]: a direction built from it comes back from atan2 at
+        // the other end of the circle. The end nodes are rounded towards zero instead (3e-7
+        // rad inside), so each node's direction reads back on its own node.
+        t.phi_i.front() = std::nextafter(static_cast<float>(-kPi), 0.0f);
+        t.phi_i.back() = std::nextafter(static_cast<float>(kPi), 0.0f);
     }
     for (double lambda : settings.wavelengths_nm)
         t.wavelengths.push_back(static_cast<float>(lambda));

@@ -84,7 +84,8 @@
 //  | vndf_resolution   | 1    | 64      | [2, 1024], W_v = H_v of the vndf grid           |
 //  | ndf_resolution    | 1    | 64      | [2, 1024], W_d = H_d (H_d = 2 when isotropic)   |
 //  | ndf_floor         | 1    | 0.1     | (0, 1], share of the cosine NDF mixed in        |
-//  | ndf_iterations    | 1    | 30      | [0, 1000] power iterations (0: cosine NDF only) |
+//  | ndf_iterations    | 1    | 30      | [0, 1000] power iterations at most (0: cosine   |
+//  |                   |      |         | NDF only); stops once a step changes D < 1e-6   |
 #pragma once
 
 #include <array>
