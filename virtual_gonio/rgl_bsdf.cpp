@@ -65,6 +65,8 @@ double elevation(const Vec3d& d) {
 Vec3d spherical(double theta, double phi) {
     return {std::sin(theta) * std::cos(phi), std::sin(theta) * std::sin(phi), std::cos(theta)};
 }
+// x clamped to [lo, hi], NaN to lo (a table of extreme values must not make an index of NaN).
+double clamp_or_low(double x, double lo, double hi) { return x > lo ? (x < hi ? x : hi) : lo; }
 // |dω/du| of the unit square: dω = sin θ dθ dφ, θ = u_x² π/2, φ = (2u_y − 1)π.
 double square_jacobian(double u_x) { return 2.0 * kPi * kPi * u_x * std::sin(u_to_theta(u_x)); }
 
@@ -318,7 +320,7 @@ BilinearWarp2D::Weights BilinearWarp2D::weights(std::span<const double> param) c
         const std::size_t i = static_cast<std::size_t>(
             std::clamp<std::ptrdiff_t>((first_not_below - nodes.begin()) - 1, 0,
                                        static_cast<std::ptrdiff_t>(nodes.size()) - 2));
-        const double t = std::clamp((p - nodes[i]) / (nodes[i + 1] - nodes[i]), 0.0, 1.0);
+        const double t = clamp_or_low((p - nodes[i]) / (nodes[i + 1] - nodes[i]), 0.0, 1.0);
         w.weight[2 * k] = 1.0 - t;
         w.weight[2 * k + 1] = t;
         w.stride[k] = stride;
@@ -348,8 +350,8 @@ double BilinearWarp2D::lookup(const std::vector<double>& table, std::size_t per_
 double BilinearWarp2D::eval(const Vec2& pos, std::span<const double> param) const {
     const Weights w = weights(param);
     const std::size_t n = static_cast<std::size_t>(width_) * static_cast<std::size_t>(height_);
-    const double px = std::clamp(pos.x(), 0.0, 1.0) * (width_ - 1);
-    const double py = std::clamp(pos.y(), 0.0, 1.0) * (height_ - 1);
+    const double px = clamp_or_low(pos.x(), 0.0, 1.0) * (width_ - 1);
+    const double py = clamp_or_low(pos.y(), 0.0, 1.0) * (height_ - 1);
     const int ix = std::min(static_cast<int>(px), width_ - 2);
     const int iy = std::min(static_cast<int>(py), height_ - 2);
     const double tx = px - ix, ty = py - iy;
@@ -370,8 +372,8 @@ BilinearWarp2D::Result BilinearWarp2D::sample(const Vec2& u, std::span<const dou
     const std::size_t W = static_cast<std::size_t>(width_), H = static_cast<std::size_t>(height_);
     const std::size_t n = W * H;
     const double eps = avoid_extrema ? 0x1p-24 : 0.0;  // Mitsuba's float Epsilon
-    double sx = std::clamp(u.x(), eps, 1.0 - eps);
-    double sy = std::clamp(u.y(), eps, 1.0 - eps);
+    double sx = clamp_or_low(u.x(), eps, 1.0 - eps);
+    double sy = clamp_or_low(u.y(), eps, 1.0 - eps);
 
     // Row: the last node of the blended marginal CDF below sy, within [0, H − 2].
     auto marginal = [&](std::size_t i) { return lookup(marginal_cdf_, H, w, i); };
@@ -423,8 +425,8 @@ BilinearWarp2D::Result BilinearWarp2D::invert(const Vec2& point,
     const Weights w = weights(param);
     const std::size_t W = static_cast<std::size_t>(width_), H = static_cast<std::size_t>(height_);
     const std::size_t n = W * H;
-    double sx = std::clamp(point.x(), 0.0, 1.0) * static_cast<double>(W - 1);
-    double sy = std::clamp(point.y(), 0.0, 1.0) * static_cast<double>(H - 1);
+    double sx = clamp_or_low(point.x(), 0.0, 1.0) * static_cast<double>(W - 1);
+    double sy = clamp_or_low(point.y(), 0.0, 1.0) * static_cast<double>(H - 1);
     const std::size_t px = std::min(static_cast<std::size_t>(sx), W - 2);
     const std::size_t py = std::min(static_cast<std::size_t>(sy), H - 2);
     sx -= static_cast<double>(px);
@@ -635,9 +637,10 @@ RglBsdf::RglBsdf(RglBsdfTables tables) : tables_(std::move(tables)) {
     const auto& t = tables_;
     isotropic_ = t.phi_i.size() <= 2;
     if (!isotropic_) {
-        reduction_ = static_cast<int>(std::rint(kTwoPi / (t.phi_i.back() - t.phi_i.front())));
-        require(reduction_ == 1 || reduction_ == 2 || reduction_ == 4, kWhat,
+        const double reduction = std::rint(kTwoPi / (t.phi_i.back() - t.phi_i.front()));
+        require(reduction == 1.0 || reduction == 2.0 || reduction == 4.0, kWhat,
                 "phi_i: the azimuth nodes must span 2π, π or π/2 (Mitsuba's reductions 1, 2, 4)");
+        reduction_ = static_cast<int>(reduction);
     }
     const std::vector<double> theta = doubles(t.theta_i), phi = doubles(t.phi_i),
                               lambda = doubles(t.wavelengths);
@@ -879,17 +882,15 @@ std::vector<double> luminance_weights(const std::vector<double>& wavelengths) {
 
 }  // namespace
 
-RglBsdfTables tabulate_rgl_bsdf(const BrdfFunction& f, const RglBsdfSettings& settings) {
-    settings.validate();
-    const bool isotropic = settings.phi_i_count == 1;
-    RglBsdfTables t;
-    t.description = settings.description;
-    t.jacobian = true;
+namespace {
+
+// θ_i, φ_i and wavelength nodes, as float32.
+void parameter_nodes(const RglBsdfSettings& settings, RglBsdfTables& t) {
     for (int k = 0; k < settings.theta_i_count; ++k) {
         t.theta_i.push_back(
             static_cast<float>(settings.theta_max_deg * kDeg * k / (settings.theta_i_count - 1)));
     }
-    if (isotropic) {
+    if (settings.phi_i_count == 1) {
         t.phi_i = {0.0f};
     } else {
         for (int k = 0; k < settings.phi_i_count; ++k) {
@@ -901,136 +902,166 @@ RglBsdfTables tabulate_rgl_bsdf(const BrdfFunction& f, const RglBsdfSettings& se
         t.phi_i.front() = std::nextafter(static_cast<float>(-kPi), 0.0f);
         t.phi_i.back() = std::nextafter(static_cast<float>(kPi), 0.0f);
     }
-    for (double lambda : settings.wavelengths_nm)
+    for (double lambda : settings.wavelengths_nm) {
         t.wavelengths.push_back(static_cast<float>(lambda));
+    }
+}
 
-    // NDF and σ on one grid (two identical φ rows when isotropic).
+// The NDF estimate and σ = ∫ D ⟨ω, m⟩⁺ dm of the stored NDF, on one grid (two identical φ rows
+// when isotropic).
+void ndf_and_sigma(const BrdfFunction& f, const RglBsdfSettings& settings, RglBsdfTables& t) {
+    const bool isotropic = settings.phi_i_count == 1;
     t.ndf_width = settings.ndf_resolution;
     t.ndf_height = isotropic ? 2 : settings.ndf_resolution;
     const HemisphereQuadrature q =
         hemisphere_quadrature(std::max(64, 2 * t.ndf_width), std::max(64, 2 * t.ndf_height));
     t.ndf = estimate_ndf(f, settings, t.ndf_width, t.ndf_height, q);
-    {
-        const std::vector<double> d_nodes = at_nodes(q, t.ndf, t.ndf_width, t.ndf_height);
-        const std::size_t W = static_cast<std::size_t>(t.ndf_width);
-        const std::size_t H = static_cast<std::size_t>(t.ndf_height);
-        t.sigma.resize(W * H);
+    const std::vector<double> d_nodes = at_nodes(q, t.ndf, t.ndf_width, t.ndf_height);
+    const std::size_t W = static_cast<std::size_t>(t.ndf_width);
+    const std::size_t H = static_cast<std::size_t>(t.ndf_height);
+    t.sigma.resize(W * H);
 #pragma omp parallel for schedule(static)
-        for (std::size_t k = 0; k < W * H; ++k) {
-            const std::size_t a = k % W, b = k / W;
-            const double theta = u_to_theta(static_cast<double>(a) / static_cast<double>(W - 1));
-            // Row H − 1 (φ = π) is row 0's direction (φ = −π): computed as that one.
-            const double phi =
-                isotropic
-                    ? 0.0
-                    : (b == H - 1 ? -kPi
-                                  : u_to_phi(static_cast<double>(b) / static_cast<double>(H - 1)));
-            t.sigma[k] = static_cast<float>(projected_area(q, d_nodes, spherical(theta, phi)));
-        }
+    for (std::size_t k = 0; k < W * H; ++k) {
+        const std::size_t a = k % W, b = k / W;
+        const double theta = u_to_theta(static_cast<double>(a) / static_cast<double>(W - 1));
+        // Row H − 1 (φ = π) is row 0's direction (φ = −π): computed as that one.
+        const double phi =
+            isotropic
+                ? 0.0
+                : (b == H - 1 ? -kPi
+                              : u_to_phi(static_cast<double>(b) / static_cast<double>(H - 1)));
+        t.sigma[k] = static_cast<float>(projected_area(q, d_nodes, spherical(theta, phi)));
     }
-    const BilinearWarp2D ndf(t.ndf, t.ndf_width, t.ndf_height, {}, false);
-    const BilinearWarp2D sigma(t.sigma, t.ndf_width, t.ndf_height, {}, false);
+}
 
-    const std::size_t n_phi = t.phi_i.size(), n_theta = t.theta_i.size();
+// The slices of one parameter direction (θ_i node k, φ_i node p) and what they share.
+struct SliceContext {
+    const RglBsdfTables& t;
+    bool isotropic;
+    BilinearWarp2D ndf, sigma;
+    explicit SliceContext(const RglBsdfTables& tables)
+        : t(tables),
+          isotropic(tables.phi_i.size() == 1),
+          ndf(tables.ndf, tables.ndf_width, tables.ndf_height, {}, false),
+          sigma(tables.sigma, tables.ndf_width, tables.ndf_height, {}, false) {}
+    std::size_t n_theta() const { return t.theta_i.size(); }
     // Slices to compute: the last φ node repeats the first (same direction) when anisotropic.
-    const std::size_t computed_phi = isotropic ? 1 : n_phi - 1;
-    auto direction_of = [&](std::size_t p, std::size_t k) {
-        return spherical(static_cast<double>(t.theta_i[k]), static_cast<double>(t.phi_i[p]));
-    };
+    std::size_t computed() const { return (isotropic ? 1 : t.phi_i.size() - 1) * n_theta(); }
+    double phi(std::size_t slice) const { return t.phi_i[slice / n_theta()]; }
+    double theta(std::size_t slice) const { return t.theta_i[slice % n_theta()]; }
+    Vec3d direction(std::size_t slice) const { return spherical(theta(slice), phi(slice)); }
+    double sigma_of(std::size_t slice) const {
+        return sigma.eval(Vec2(theta_to_u(theta(slice)), phi_to_u(phi(slice))));
+    }
+    // The half vector of a point u_m of the unit square (relative azimuth when isotropic).
+    Vec3d half_vector(std::size_t slice, const Vec2& u_m) const {
+        return spherical(u_to_theta(u_m.x()), u_to_phi(u_m.y()) + (isotropic ? phi(slice) : 0.0));
+    }
+    // Anisotropic tables: the φ = π slices are copies of the φ = −π ones.
+    void repeat_first_phi(std::vector<float>& table, std::size_t per_slice) const {
+        if (isotropic) return;
+        const std::size_t block = n_theta() * per_slice;
+        std::copy_n(table.begin(), block,
+                    table.begin() + static_cast<std::ptrdiff_t>((t.phi_i.size() - 1) * block));
+    }
+};
 
-    // vndf: D(m) ⟨ω_v, m⟩⁺ J(u) / σ(ω_v) on the u_m nodes.
+// vndf: D(m) ⟨ω_v, m⟩⁺ J(u) / σ(ω_v) on the u_m nodes.
+void vndf_tables(const RglBsdfSettings& settings, const SliceContext& c, RglBsdfTables& t) {
     t.vndf_width = t.vndf_height = settings.vndf_resolution;
-    const std::size_t Wv = static_cast<std::size_t>(t.vndf_width), Hv = Wv;
-    t.vndf.assign(n_phi * n_theta * Wv * Hv, 0.0f);
+    const std::size_t W = static_cast<std::size_t>(t.vndf_width), n = W * W;
+    t.vndf.assign(t.phi_i.size() * c.n_theta() * n, 0.0f);
 #pragma omp parallel for schedule(dynamic, 1)
-    for (std::size_t slice = 0; slice < computed_phi * n_theta; ++slice) {
-        const std::size_t p = slice / n_theta, k = slice % n_theta;
-        const Vec3d wv = direction_of(p, k);
-        const double phi_v = static_cast<double>(t.phi_i[p]);
-        const double sigma_v = sigma.eval(Vec2(theta_to_u(t.theta_i[k]), phi_to_u(phi_v)));
-        float* out = t.vndf.data() + (p * n_theta + k) * Wv * Hv;
-        for (std::size_t b = 0; b < Hv; ++b) {
-            for (std::size_t a = 0; a < Wv; ++a) {
-                const Vec2 u(static_cast<double>(a) / static_cast<double>(Wv - 1),
-                             static_cast<double>(b) / static_cast<double>(Hv - 1));
-                const Vec3d m =
-                    spherical(u_to_theta(u.x()), u_to_phi(u.y()) + (isotropic ? phi_v : 0.0));
-                const double c = std::max(0.0, wv.dot(m));
-                out[b * Wv + a] =
-                    static_cast<float>(ndf.eval(u) * c * square_jacobian(u.x()) / sigma_v);
-            }
+    for (std::size_t slice = 0; slice < c.computed(); ++slice) {
+        const Vec3d wv = c.direction(slice);
+        const double sigma_v = c.sigma_of(slice);
+        float* out = t.vndf.data() + slice * n;
+        for (std::size_t i = 0; i < n; ++i) {
+            const Vec2 u(static_cast<double>(i % W) / static_cast<double>(W - 1),
+                         static_cast<double>(i / W) / static_cast<double>(W - 1));
+            const double cosine = std::max(0.0, wv.dot(c.half_vector(slice, u)));
+            out[i] = static_cast<float>(c.ndf.eval(u) * cosine * square_jacobian(u.x()) / sigma_v);
         }
     }
-    if (!isotropic) {
-        std::copy_n(t.vndf.begin(), n_theta * Wv * Hv,
-                    t.vndf.begin() + static_cast<std::ptrdiff_t>((n_phi - 1) * n_theta * Wv * Hv));
-    }
-    const std::vector<double> theta_nodes = doubles(t.theta_i), phi_nodes = doubles(t.phi_i);
-    const BilinearWarp2D vndf(t.vndf, t.vndf_width, t.vndf_height, {phi_nodes, theta_nodes}, true);
+    c.repeat_first_phi(t.vndf, n);
+}
 
-    // spectra and luminance on the sample square.
-    t.sample_resolution = settings.sample_resolution;
+// spectra and luminance of one slice on the sample square's nodes: the light direction is the
+// reflection of ω_v about the warped half vector; spectra = q · 4σ / D (jacobian = 1).
+void spectra_slice(const BrdfFunction& f, const RglBsdfSettings& settings, const SliceContext& c,
+                   const BilinearWarp2D& vndf, const std::vector<double>& y_weight,
+                   std::size_t slice, RglBsdfTables& t) {
     const std::size_t N = static_cast<std::size_t>(t.sample_resolution);
     const std::size_t n_lambda = t.wavelengths.size();
-    t.spectra.assign(n_phi * n_theta * n_lambda * N * N, 0.0f);
-    t.luminance.assign(n_phi * n_theta * N * N, 0.0f);
-    const std::vector<double> y_weight = luminance_weights(settings.wavelengths_nm);
     const double y_total = std::accumulate(y_weight.begin(), y_weight.end(), 0.0);
+    const Vec3d wv = c.direction(slice);
+    const double params[2] = {c.phi(slice), c.theta(slice)};
+    const double four_sigma = 4.0 * c.sigma_of(slice);
+    float* spectra = t.spectra.data() + slice * n_lambda * N * N;
+    float* luminance = t.luminance.data() + slice * N * N;
+    float max_luminance = 0.0f;
+    for (std::size_t i = 0; i < N * N; ++i) {
+        const Vec2 s(static_cast<double>(i % N) / static_cast<double>(N - 1),
+                     static_cast<double>(i / N) / static_cast<double>(N - 1));
+        const Vec2 u_m = vndf.sample(s, params, false).point;
+        const Vec3d m = c.half_vector(slice, u_m);
+        const Vec3d wl = (2.0 * wv.dot(m) * m - wv).normalized();
+        const double scale = four_sigma / c.ndf.eval(u_m);
+        double lum = 0.0;
+        for (std::size_t l = 0; l < n_lambda; ++l) {
+            double value = 0.0;
+            if (wl.z() > 0.0) {
+                const double lambda = settings.wavelengths_nm[l];
+                value = checked(f(wl, wv, lambda), "", wl, wv, lambda) * wl.z() * scale;
+            }
+            spectra[l * N * N + i] = static_cast<float>(value);
+            lum += y_weight[l] * static_cast<double>(static_cast<float>(value));
+        }
+        luminance[i] = static_cast<float>(lum / y_total);
+        max_luminance = std::max(max_luminance, luminance[i]);
+    }
+    const float floor = max_luminance > 0.0f ? 1e-3f * max_luminance : 1.0f;
+    for (std::size_t i = 0; i < N * N; ++i) luminance[i] = std::max(luminance[i], floor);
+}
+
+void spectra_tables(const BrdfFunction& f, const RglBsdfSettings& settings, const SliceContext& c,
+                    RglBsdfTables& t) {
+    const BilinearWarp2D vndf(t.vndf, t.vndf_width, t.vndf_height,
+                              {doubles(t.phi_i), doubles(t.theta_i)}, true);
+    t.sample_resolution = settings.sample_resolution;
+    const std::size_t n = static_cast<std::size_t>(t.sample_resolution * t.sample_resolution);
+    const std::size_t slices = t.phi_i.size() * c.n_theta();
+    t.spectra.assign(slices * t.wavelengths.size() * n, 0.0f);
+    t.luminance.assign(slices * n, 0.0f);
+    const std::vector<double> y_weight = luminance_weights(settings.wavelengths_nm);
     std::atomic<bool> stopped{false};
     FirstError error;
 #pragma omp parallel for schedule(dynamic, 1)
-    for (std::size_t slice = 0; slice < computed_phi * n_theta; ++slice) {
+    for (std::size_t slice = 0; slice < c.computed(); ++slice) {
         if (stopped.load(std::memory_order_relaxed) || interrupt_requested()) {
             stopped = true;
             continue;
         }
-        error.run([&] {
-            const std::size_t p = slice / n_theta, k = slice % n_theta;
-            const Vec3d wv = direction_of(p, k);
-            const double phi_v = static_cast<double>(t.phi_i[p]);
-            const double params[2] = {phi_v, static_cast<double>(t.theta_i[k])};
-            const double four_sigma =
-                4.0 * sigma.eval(Vec2(theta_to_u(t.theta_i[k]), phi_to_u(phi_v)));
-            float* spectra = t.spectra.data() + (p * n_theta + k) * n_lambda * N * N;
-            float* luminance = t.luminance.data() + (p * n_theta + k) * N * N;
-            float max_luminance = 0.0f;
-            for (std::size_t j = 0; j < N; ++j) {
-                for (std::size_t i = 0; i < N; ++i) {
-                    const Vec2 s(static_cast<double>(i) / static_cast<double>(N - 1),
-                                 static_cast<double>(j) / static_cast<double>(N - 1));
-                    const Vec2 u_m = vndf.sample(s, params, false).point;
-                    const Vec3d m = spherical(u_to_theta(u_m.x()),
-                                              u_to_phi(u_m.y()) + (isotropic ? phi_v : 0.0));
-                    const Vec3d wl = (2.0 * wv.dot(m) * m - wv).normalized();
-                    const double scale = four_sigma / ndf.eval(u_m);
-                    double lum = 0.0;
-                    for (std::size_t l = 0; l < n_lambda; ++l) {
-                        double value = 0.0;
-                        if (wl.z() > 0.0) {
-                            const double lambda = settings.wavelengths_nm[l];
-                            value = checked(f(wl, wv, lambda), "", wl, wv, lambda) * wl.z() * scale;
-                        }
-                        spectra[(l * N + j) * N + i] = static_cast<float>(value);
-                        lum += y_weight[l] * static_cast<double>(static_cast<float>(value));
-                    }
-                    luminance[j * N + i] = static_cast<float>(lum / y_total);
-                    max_luminance = std::max(max_luminance, luminance[j * N + i]);
-                }
-            }
-            const float floor = max_luminance > 0.0f ? 1e-3f * max_luminance : 1.0f;
-            for (std::size_t i = 0; i < N * N; ++i) luminance[i] = std::max(luminance[i], floor);
-        });
+        error.run([&] { spectra_slice(f, settings, c, vndf, y_weight, slice, t); });
     }
     error.rethrow();
     if (stopped) throw_if_interrupted("finishing a .bsdf export");
-    if (!isotropic) {
-        std::copy_n(t.spectra.begin(), n_theta * n_lambda * N * N,
-                    t.spectra.begin() +
-                        static_cast<std::ptrdiff_t>((n_phi - 1) * n_theta * n_lambda * N * N));
-        std::copy_n(
-            t.luminance.begin(), n_theta * N * N,
-            t.luminance.begin() + static_cast<std::ptrdiff_t>((n_phi - 1) * n_theta * N * N));
-    }
+    c.repeat_first_phi(t.spectra, t.wavelengths.size() * n);
+    c.repeat_first_phi(t.luminance, n);
+}
+
+}  // namespace
+
+RglBsdfTables tabulate_rgl_bsdf(const BrdfFunction& f, const RglBsdfSettings& settings) {
+    settings.validate();
+    RglBsdfTables t;
+    t.description = settings.description;
+    t.jacobian = true;
+    parameter_nodes(settings, t);
+    ndf_and_sigma(f, settings, t);
+    const SliceContext context(t);
+    vndf_tables(settings, context, t);
+    spectra_tables(f, settings, context, t);
     return t;
 }
 
