@@ -3,6 +3,7 @@
 #include <unistd.h>
 
 #include <algorithm>
+#include <array>
 #include <atomic>
 #include <bit>
 #include <cmath>
@@ -30,26 +31,11 @@ constexpr char kMagic[12] = {'t', 'e', 'n', 's', 'o', 'r', '_', 'f', 'i', 'l', '
 constexpr std::uint8_t kVersionMajor = 1, kVersionMinor = 0;
 constexpr std::string_view kWhat = "rgl_bsdf";
 
+// Bytes per element of each dtype code (0: not a dtype): 1 uint8, 2 int8, 3 uint16, 4 int16,
+// 5 uint32, 6 int32, 7 uint64, 8 int64, 9 float16, 10 float32, 11 float64.
+constexpr std::array<std::size_t, 12> kDtypeSize = {0, 1, 1, 2, 2, 4, 4, 8, 8, 2, 4, 8};
 std::size_t dtype_size(std::uint8_t dtype) {
-    switch (dtype) {
-        case 1:  // uint8
-        case 2:  // int8
-            return 1;
-        case 3:  // uint16
-        case 4:  // int16
-        case 9:  // float16
-            return 2;
-        case 5:   // uint32
-        case 6:   // int32
-        case 10:  // float32
-            return 4;
-        case 7:   // uint64
-        case 8:   // int64
-        case 11:  // float64
-            return 8;
-        default:
-            return 0;
-    }
+    return dtype < kDtypeSize.size() ? kDtypeSize[dtype] : 0;
 }
 
 // ---- the unit-square parameterisation of Dupuy & Jakob (Mitsuba's theta2u etc.) ----------

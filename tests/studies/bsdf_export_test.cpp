@@ -7,6 +7,7 @@
 #include <unistd.h>
 
 #include <cmath>
+#include <csignal>
 #include <filesystem>
 #include <string>
 #include <vector>
@@ -18,6 +19,7 @@
 #include "analysis/huang2022_fit.h"
 #include "common/constants.h"
 #include "common/error.h"
+#include "common/interrupt.h"
 #include "tests/test_util.h"
 #include "virtual_gonio/hdf5_file.h"
 #include "virtual_gonio/rgl_bsdf.h"
@@ -154,6 +156,20 @@ TEST(BsdfExport, BadSourcesAreInputErrorsBeforeAnythingIsWritten) {
     o.phi_nodes = 2;
     EXPECT_NE(error(o).find("phi_i_count"), std::string::npos);
     EXPECT_FALSE(fs::exists(dir / "huang2022.bsdf"));
+}
+
+TEST(BsdfExport, InterruptStopsItAndLeavesNoFile) {
+    const fs::path dir = scratch_dir() / "interrupted";
+    fs::create_directories(dir);
+    BsdfExportOptions o = small("huang2022");
+    o.output = dir / "huang2022.bsdf";
+    {
+        const ScopedInterruptHandler handler;
+        request_interrupt(SIGINT);
+        EXPECT_THROW(export_bsdf(o), Interrupted);
+    }
+    EXPECT_FALSE(interrupt_requested());
+    EXPECT_TRUE(fs::is_empty(dir));
 }
 
 }  // namespace

@@ -95,6 +95,15 @@ void expect_tables_bit_equal(const RglBsdfTables& a, const RglBsdfTables& b) {
     expect_bit_equal(a.spectra, b.spectra, "spectra");
 }
 
+// Writes the tables, reads the file back and checks that every stored value is bit-equal.
+RglBsdf written_and_read_back(const RglBsdfTables& written, const std::string& name) {
+    const auto path = scratch(name);
+    write_rgl_bsdf(path, written);
+    RglBsdf bsdf = RglBsdf::read(path);
+    expect_tables_bit_equal(written, bsdf.tables());
+    return bsdf;
+}
+
 TEST(RglBsdfWarp, SampleIsTheInverseOfInvertAndItsPdfIsTheDensity) {
     // Two parameters (3 × 2 nodes), a 5 × 4 grid per slice with one zero node.
     const int w = 5, h = 4;
@@ -138,11 +147,8 @@ TEST(RglBsdfRoundTrip, LambertianReadsBackAsAlbedoOverPi) {
     settings.vndf_resolution = 32;
     settings.ndf_resolution = 32;
     settings.description = "Lambertian 0.8";
-    const RglBsdfTables written = tabulate_rgl_bsdf(lambert, settings);
-    const auto path = scratch("lambert.bsdf");
-    write_rgl_bsdf(path, written);
-    const RglBsdf bsdf = RglBsdf::read(path);
-    expect_tables_bit_equal(written, bsdf.tables());
+    const RglBsdf bsdf =
+        written_and_read_back(tabulate_rgl_bsdf(lambert, settings), "lambert.bsdf");
     EXPECT_TRUE(bsdf.isotropic());
 
     // At the nodes: ρ/π to float32 rounding (a few ulps through spectra, ndf, σ; measured
@@ -227,11 +233,7 @@ TEST(RglBsdfRoundTrip, Huang2022AnisotropicNodesAndInterpolation) {
     settings.sample_resolution = 24;
     settings.vndf_resolution = 32;
     settings.ndf_resolution = 32;
-    const RglBsdfTables written = tabulate_rgl_bsdf(huang, settings);
-    const auto path = scratch("huang.bsdf");
-    write_rgl_bsdf(path, written);
-    const RglBsdf bsdf = RglBsdf::read(path);
-    expect_tables_bit_equal(written, bsdf.tables());
+    const RglBsdf bsdf = written_and_read_back(tabulate_rgl_bsdf(huang, settings), "huang.bsdf");
     EXPECT_FALSE(bsdf.isotropic());
 
     // At the nodes: the source's f to float32 rounding, wherever f is not negligible (above
