@@ -12,6 +12,7 @@
 #include "analysis/filip2024.h"
 #include "analysis/huang2022.h"
 #include "analysis/huang2022_fit.h"
+#include "common/constants.h"
 #include "common/error.h"
 #include "common/interrupt.h"
 #include "common/require.h"
@@ -23,11 +24,14 @@ namespace {
 
 namespace fs = std::filesystem;
 
-// One model to write: the scatterer, where it goes and what the file says it is.
+// One model to write: the scatterer, where it goes and what the file says it is. mount_rad:
+// the azimuth of the barb axis in the frame the model was fitted in (the species study's
+// instrument frame); the file is written in the patch frame (barb axis +x).
 struct Export {
     std::unique_ptr<Scatterer> model;
     fs::path path;
     std::string description;
+    double mount_rad = 0.0;
 };
 
 fs::path output_or(const BsdfExportOptions& o, const fs::path& fallback) {
@@ -65,10 +69,14 @@ std::vector<Export> species_exports(const BsdfExportOptions& o, const fs::path& 
         std::array<double, analysis::kFilip2024ParameterCount> v{};
         std::copy(d.values.begin(), d.values.end(), v.begin());
         const fs::path folder = o.output.empty() ? file.parent_path() : o.output;
+        const double mount_deg = record::read_number_attribute(file, "/" + species, "mount_deg");
         out.push_back({std::make_unique<analysis::Filip2024Brdf>(analysis::from_vector(v)),
                        folder / (species + "_filip2024.bsdf"),
-                       fmt::format("Filip 2024 feather BRDF of the {}, parameters fitted in {}",
-                                   species, file.string())});
+                       fmt::format("Filip 2024 feather BRDF of the {}, parameters fitted in {} "
+                                   "(instrument frame, barb axis at {} deg), turned into the "
+                                   "patch frame (barb axis +x)",
+                                   species, file.string(), mount_deg),
+                       mount_deg * kDeg});
     }
     require(!out.empty(), "export-bsdf",
             fmt::format("{}: no /<species>/fit/values dataset (is it a species study's "
@@ -123,14 +131,27 @@ BsdfExportResult export_bsdf(const BsdfExportOptions& o) {
     settings.sample_resolution = o.resolution;
     // The vndf and NDF grids twice as fine as the sample square, as the defaults (64 for 32).
     settings.vndf_resolution = settings.ndf_resolution = 2 * o.resolution;
-    settings.validate();
+    try {
+        settings.validate();
+    } catch (const InputError& e) {
+        throw InputError(fmt::format(
+            "export-bsdf: --theta-nodes {}, --phi-nodes {}, --resolution "
+            "{}, --first-nm {}, --last-nm {}, --step-nm {}: {}",
+            o.theta_nodes, o.phi_nodes, o.resolution, o.first_nm, o.last_nm, o.step_nm, e.what()));
+    }
     std::vector<Export> exports = exports_of(o);  // every input checked before any work
 
     BsdfExportResult result;
     for (Export& e : exports) {
         throw_if_interrupted("tabulating " + e.path.string());
         settings.description = e.description;
-        gonio::write_rgl_bsdf(e.path, gonio::tabulate_rgl_bsdf(*e.model, settings));
+        const Eigen::Matrix3d to_fit_frame =
+            Eigen::AngleAxisd(e.mount_rad, Vec3d::UnitZ()).toRotationMatrix();
+        const Scatterer& model = *e.model;
+        const gonio::BrdfFunction f = [&](const Vec3d& wi, const Vec3d& wo, double lambda) {
+            return model.eval(to_fit_frame * wi, to_fit_frame * wo, lambda);
+        };
+        gonio::write_rgl_bsdf(e.path, gonio::tabulate_rgl_bsdf(f, settings));
         result.files.push_back(e.path);
     }
     result.wall_seconds =

@@ -7,6 +7,8 @@
 //                                                        → huang2022_fit.bsdf beside it
 //   <results>/<species study>/species.h5               Filip 2024 with /<species>/fit/values
 //                                                        → <species>_filip2024.bsdf beside it
+//     (fitted in the instrument frame, where the barb axis lies at /<species>@mount_deg: the
+//     model is turned by that angle so that every file is in the patch frame, barb axis +x)
 //   huang2022                                           the published rock-dove parameters
 //   filip2024:<preset>                                  a Table 1 preset (parrot, rooster, …)
 #pragma once

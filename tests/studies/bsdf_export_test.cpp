@@ -53,7 +53,7 @@ BsdfExportOptions small(const std::string& source) {
 // nodes), where the model's f is above 1e-3 of its maximum there. Largest at the grazing
 // pairs of this coarse grid (view 85°, light 87°): the half vector of two nearly opposite
 // directions carries their rounding over |ω_v + ω_l|; measured 1.2e-5, bound 3e-5.
-double node_error(const gonio::RglBsdf& bsdf, const Scatterer& model, double lambda) {
+double node_error(const gonio::RglBsdf& bsdf, const gonio::BrdfFunction& model, double lambda) {
     const auto& t = bsdf.tables();
     double largest = 0.0, worst = 0.0;
     for (int pass = 0; pass < 2; ++pass) {
@@ -74,7 +74,7 @@ double node_error(const gonio::RglBsdf& bsdf, const Scatterer& model, double lam
                     // turns it into ~1e-4 of the NDF grid (Mitsuba's float32: ~1e-2), so the
                     // value reads back to ~2e-4 only.
                     if (wl.z() < 0.05 || k % n == 0) continue;
-                    const double f = model.eval(wl, wv, lambda);
+                    const double f = model(wl, wv, lambda);
                     if (pass == 0) largest = std::max(largest, f);
                     if (pass == 1 && f > 1e-3 * largest) {
                         worst = std::max(worst, std::abs(bsdf.eval(wl, wv, lambda) / f - 1.0));
@@ -84,6 +84,12 @@ double node_error(const gonio::RglBsdf& bsdf, const Scatterer& model, double lam
         }
     }
     return worst;
+}
+
+gonio::BrdfFunction eval_of(const Scatterer& model) {
+    return [&model](const Vec3d& wi, const Vec3d& wo, double lambda) {
+        return model.eval(wi, wo, lambda);
+    };
 }
 
 TEST(BsdfExport, RockDoveFitRecordGivesTheFittedHuangModel) {
@@ -105,9 +111,10 @@ TEST(BsdfExport, RockDoveFitRecordGivesTheFittedHuangModel) {
     EXPECT_EQ(r.files[0], dir / "huang2022_fit.bsdf");
     const gonio::RglBsdf bsdf = gonio::RglBsdf::read(r.files[0]);
     EXPECT_NE(bsdf.tables().description.find("d_um"), std::string::npos);
-    EXPECT_LT(node_error(bsdf, analysis::Huang2022Bsdf(fitted), 550.0), 3e-5);
+    const analysis::Huang2022Bsdf model(fitted), published{analysis::Huang2022Params{}};
+    EXPECT_LT(node_error(bsdf, eval_of(model), 550.0), 3e-5);
     // Not the published parameters: the film thickness changes the colour at the nodes.
-    EXPECT_GT(node_error(bsdf, analysis::Huang2022Bsdf(analysis::Huang2022Params{}), 550.0), 0.05);
+    EXPECT_GT(node_error(bsdf, eval_of(published), 550.0), 0.05);
 }
 
 TEST(BsdfExport, SpeciesRecordGivesOneFilePerSpecies) {
@@ -122,6 +129,7 @@ TEST(BsdfExport, SpeciesRecordGivesOneFilePerSpecies) {
             const auto v = analysis::to_vector(p);
             h5.write(std::string("/") + name + "/fit/values",
                      std::span<const double>(v.data(), v.size()), {v.size()});
+            h5.set_attribute(std::string("/") + name, "mount_deg", 30.0);
         }
         h5.commit();
     }
@@ -129,10 +137,17 @@ TEST(BsdfExport, SpeciesRecordGivesOneFilePerSpecies) {
     ASSERT_EQ(r.files.size(), 2u);
     EXPECT_EQ(r.files[0], dir / "parrot_filip2024.bsdf");
     EXPECT_EQ(r.files[1], dir / "stork_filip2024.bsdf");
-    // Filip's model is discontinuous at the pole and along F's kink, so compare at 550 nm
-    // (green band) on the nodes only, where the file must hold the model's value.
+    // The fit's frame is the instrument's, with the barb axis at mount_deg = 30°; the file is in
+    // the patch frame: f_file(ω_i, ω_o) = f_fit(R ω_i, R ω_o), R the turn by 30° about z. On the
+    // nodes (Filip's model has kinks between them) at 550 nm (the green band).
     const gonio::RglBsdf bsdf = gonio::RglBsdf::read(r.files[0]);
-    EXPECT_LT(node_error(bsdf, analysis::Filip2024Brdf(parrot), 550.0), 3e-5);
+    const analysis::Filip2024Brdf model(parrot);
+    const Eigen::Matrix3d turn = Eigen::AngleAxisd(30.0 * kDeg, Vec3d::UnitZ()).toRotationMatrix();
+    const auto turned = [&](const Vec3d& wi, const Vec3d& wo, double lambda) {
+        return model.eval(turn * wi, turn * wo, lambda);
+    };
+    EXPECT_LT(node_error(bsdf, turned, 550.0), 3e-5);
+    EXPECT_GT(node_error(bsdf, eval_of(model), 550.0), 0.01);  // not left in the fit's frame
 }
 
 TEST(BsdfExport, BadSourcesAreInputErrorsBeforeAnythingIsWritten) {
