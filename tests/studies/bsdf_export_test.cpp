@@ -29,11 +29,19 @@ namespace {
 
 namespace fs = std::filesystem;
 
-fs::path scratch_dir() {
-    const auto dir =
+// A folder of this process, removed when the process ends.
+struct ScratchFolder {
+    fs::path path =
         fs::temp_directory_path() / ("plumage_bsdf_export_test_" + std::to_string(::getpid()));
-    fs::create_directories(dir);
-    return dir;
+    ScratchFolder() { fs::create_directories(path); }
+    ~ScratchFolder() {
+        std::error_code ignored;
+        fs::remove_all(path, ignored);
+    }
+};
+fs::path scratch_dir() {
+    static const ScratchFolder folder;
+    return folder.path;
 }
 
 BsdfExportOptions small(const std::string& source) {

@@ -31,11 +31,19 @@
 namespace plumage::gonio {
 namespace {
 
+// A folder of this process, removed when the process ends.
+struct ScratchFolder {
+    std::filesystem::path path = std::filesystem::temp_directory_path() /
+                                 ("plumage_rgl_bsdf_test_" + std::to_string(::getpid()));
+    ScratchFolder() { std::filesystem::create_directories(path); }
+    ~ScratchFolder() {
+        std::error_code ignored;
+        std::filesystem::remove_all(path, ignored);
+    }
+};
 std::filesystem::path scratch(const std::string& name) {
-    const auto dir = std::filesystem::temp_directory_path() /
-                     ("plumage_rgl_bsdf_test_" + std::to_string(::getpid()));
-    std::filesystem::create_directories(dir);
-    return dir / name;
+    static const ScratchFolder folder;
+    return folder.path / name;
 }
 
 Vec3d spherical(double theta, double phi) {
