@@ -19,6 +19,7 @@
 #include "common/error.h"
 #include "common/interrupt.h"
 #include "common/version.h"
+#include "studies/bsdf_export.h"
 #include "studies/default_study.h"
 #include "studies/fit_command.h"
 #include "studies/geometry_study.h"
@@ -184,6 +185,8 @@ struct CommandLine {
     std::string fit_data;
     CLI::App *thin_film_cmd = nullptr, *run_cmd = nullptr, *geometry_cmd = nullptr,
              *fit_cmd = nullptr;
+    st::BsdfExportOptions bsdf;
+    CLI::App* bsdf_cmd = nullptr;
 
     CommandLine() {
         // The commit too: what a record's /provenance@git_commit will say.
@@ -220,6 +223,31 @@ struct CommandLine {
         add_fit_command();
         for (CLI::App* sub : {thin_film_cmd, run_cmd, geometry_cmd, fit_cmd})
             add_common_options(*sub, common);
+        add_bsdf_export();
+    }
+
+    // `export-bsdf` (studies/bsdf_export.h): a model of a study as an RGL tensor .bsdf.
+    void add_bsdf_export() {
+        bsdf_cmd = app.add_subcommand(
+            "export-bsdf",
+            "write a study's fitted model as a measured BRDF (.bsdf: Mitsuba 3 `measured`, "
+            "pbrt-v4 \"measured\")");
+        bsdf_cmd
+            ->add_option("SOURCE", bsdf.source,
+                         "a rock-dove study's fit/huang2022_fit.h5, a species study's species.h5, "
+                         "'huang2022' or 'filip2024:<preset>'")
+            ->required();
+        bsdf_cmd->add_option("-o,--output", bsdf.output,
+                             "file, or folder (default: beside SOURCE)");
+        bsdf_cmd->add_option("--theta-nodes", bsdf.theta_nodes, "θ_i nodes over 0–85°")
+            ->capture_default_str();
+        bsdf_cmd->add_option("--phi-nodes", bsdf.phi_nodes, "φ_i nodes over ±180° (1: isotropic)")
+            ->capture_default_str();
+        bsdf_cmd->add_option("--resolution", bsdf.resolution, "N of the N × N sample square")
+            ->capture_default_str();
+        bsdf_cmd->add_option("--first-nm", bsdf.first_nm)->capture_default_str();
+        bsdf_cmd->add_option("--last-nm", bsdf.last_nm)->capture_default_str();
+        bsdf_cmd->add_option("--step-nm", bsdf.step_nm)->capture_default_str();
     }
 
     void add_fit_command() {
@@ -253,6 +281,13 @@ std::string run_command(CommandLine& cli) {
     if (cli.fit_cmd->parsed()) {
         cli.fit.data = cli.fit_data;
         return run_fit(cli.fit, cli.fit_starts, common);
+    }
+    if (cli.bsdf_cmd->parsed()) {
+        const auto r = st::export_bsdf(cli.bsdf);
+        std::string summary;
+        for (const fs::path& f : r.files) summary += fmt::format("plumage: wrote {}\n", f.string());
+        return summary +
+               fmt::format("plumage: {} file(s) in {:.1f} s\n", r.files.size(), r.wall_seconds);
     }
     if (cli.thin_film_cmd->parsed()) {
         st::refuse_limits("thin-film", common.limits, "the chart is an exact evaluation");

@@ -1,0 +1,199 @@
+// `plumage export-bsdf` (studies/bsdf_export.h): from a study's fit records to .bsdf files that
+// read back as the fitted model. The fit records are written here the way the rock-dove and
+// species studies write them (fit/values; /<species>/fit/values), with parameters that differ
+// from the published ones, so a file that read back the defaults would fail.
+#include "studies/bsdf_export.h"
+
+#include <unistd.h>
+
+#include <cmath>
+#include <csignal>
+#include <filesystem>
+#include <string>
+#include <vector>
+
+#include <gtest/gtest.h>
+
+#include "analysis/filip2024.h"
+#include "analysis/huang2022.h"
+#include "analysis/huang2022_fit.h"
+#include "common/constants.h"
+#include "common/error.h"
+#include "common/interrupt.h"
+#include "tests/test_util.h"
+#include "virtual_gonio/hdf5_file.h"
+#include "virtual_gonio/rgl_bsdf.h"
+
+namespace plumage::studies {
+namespace {
+
+namespace fs = std::filesystem;
+
+// A folder of this process, removed when the process ends.
+struct ScratchFolder {
+    fs::path path =
+        fs::temp_directory_path() / ("plumage_bsdf_export_test_" + std::to_string(::getpid()));
+    ScratchFolder() { fs::create_directories(path); }
+    ~ScratchFolder() {
+        std::error_code ignored;
+        fs::remove_all(path, ignored);
+    }
+};
+fs::path scratch_dir() {
+    static const ScratchFolder folder;
+    return folder.path;
+}
+
+BsdfExportOptions small(const std::string& source) {
+    BsdfExportOptions o;
+    o.source = source;
+    o.theta_nodes = 3;
+    o.phi_nodes = 5;
+    o.resolution = 8;
+    o.first_nm = 450.0;
+    o.last_nm = 650.0;
+    o.step_nm = 100.0;
+    return o;
+}
+
+// The largest relative difference between the file and the model at pairs of directions that
+// lie on the file's nodes (the view on a θ_i/φ_i node, the light on the sample square's
+// nodes), where the model's f is above 1e-3 of its maximum there. Largest at the grazing
+// pairs of this coarse grid (view 85°, light 87°): the half vector of two nearly opposite
+// directions carries their rounding over |ω_v + ω_l|; measured 1.2e-5, bound 3e-5.
+double node_error(const gonio::RglBsdf& bsdf, const gonio::BrdfFunction& model, double lambda) {
+    const auto& t = bsdf.tables();
+    double largest = 0.0, worst = 0.0;
+    for (int pass = 0; pass < 2; ++pass) {
+        for (std::size_t p = 0; p + 1 < t.phi_i.size(); ++p) {
+            for (float theta : t.theta_i) {
+                const Vec3d wv(std::sin(theta) * std::cos(t.phi_i[p]),
+                               std::sin(theta) * std::sin(t.phi_i[p]), std::cos(theta));
+                const int n = t.sample_resolution;
+                for (int k = 0; k < n * n; ++k) {
+                    const Vec2 u = bsdf.warp_sample(
+                        wv, Vec2((k % n) / double(n - 1), (k / n) / double(n - 1)));
+                    const double th = u.x() * u.x() * kPi / 2, ph = (2 * u.y() - 1) * kPi;
+                    const Vec3d m(std::sin(th) * std::cos(ph), std::sin(th) * std::sin(ph),
+                                  std::cos(th));
+                    const Vec3d wl = (2 * wv.dot(m) * m - wv).normalized();
+                    // Not the column s_x = 0, the half vector's pole: there the reader's
+                    // θ_m is the rounding of normalize(ω_v + ω_l), ~1e-8, and u = √(2θ_m/π)
+                    // turns it into ~1e-4 of the NDF grid (Mitsuba's float32: ~1e-2), so the
+                    // value reads back to ~2e-4 only.
+                    if (wl.z() < 0.05 || k % n == 0) continue;
+                    const double f = model(wl, wv, lambda);
+                    if (pass == 0) largest = std::max(largest, f);
+                    if (pass == 1 && f > 1e-3 * largest) {
+                        worst = std::max(worst, std::abs(bsdf.eval(wl, wv, lambda) / f - 1.0));
+                    }
+                }
+            }
+        }
+    }
+    return worst;
+}
+
+gonio::BrdfFunction eval_of(const Scatterer& model) {
+    return [&model](const Vec3d& wi, const Vec3d& wo, double lambda) {
+        return model.eval(wi, wo, lambda);
+    };
+}
+
+TEST(BsdfExport, RockDoveFitRecordGivesTheFittedHuangModel) {
+    const fs::path dir = scratch_dir() / "rock_dove" / "fit";
+    fs::create_directories(dir);
+    analysis::Huang2022Params fitted;
+    fitted.d_um = 0.52;
+    fitted.theta_d = 0.11;
+    fitted.mu = -0.30;
+    const auto values = analysis::huang2022_values(fitted);
+    {
+        record::Hdf5Writer h5(dir / "huang2022_fit.h5");
+        h5.write("fit/values", std::span<const double>(values.data(), values.size()),
+                 {values.size()});
+        h5.commit();
+    }
+    const BsdfExportResult r = export_bsdf(small((dir / "huang2022_fit.h5").string()));
+    ASSERT_EQ(r.files.size(), 1u);
+    EXPECT_EQ(r.files[0], dir / "huang2022_fit.bsdf");
+    const gonio::RglBsdf bsdf = gonio::RglBsdf::read(r.files[0]);
+    EXPECT_NE(bsdf.tables().description.find("d_um"), std::string::npos);
+    const analysis::Huang2022Bsdf model(fitted), published{analysis::Huang2022Params{}};
+    EXPECT_LT(node_error(bsdf, eval_of(model), 550.0), 3e-5);
+    // Not the published parameters: the film thickness changes the colour at the nodes.
+    EXPECT_GT(node_error(bsdf, eval_of(published), 550.0), 0.05);
+}
+
+TEST(BsdfExport, SpeciesRecordGivesOneFilePerSpecies) {
+    const fs::path dir = scratch_dir() / "species";
+    fs::create_directories(dir);
+    analysis::Filip2024Parameters parrot = analysis::filip2024_preset("parrot");
+    parrot.c_b = {0.1, 0.3, 0.2};
+    const analysis::Filip2024Parameters stork = analysis::filip2024_preset("stork");
+    {
+        record::Hdf5Writer h5(dir / "species.h5");
+        for (const auto& [name, p] : {std::pair{"parrot", parrot}, std::pair{"stork", stork}}) {
+            const auto v = analysis::to_vector(p);
+            h5.write(std::string("/") + name + "/fit/values",
+                     std::span<const double>(v.data(), v.size()), {v.size()});
+            h5.set_attribute(std::string("/") + name, "mount_deg", 30.0);
+        }
+        h5.commit();
+    }
+    const BsdfExportResult r = export_bsdf(small((dir / "species.h5").string()));
+    ASSERT_EQ(r.files.size(), 2u);
+    EXPECT_EQ(r.files[0], dir / "parrot_filip2024.bsdf");
+    EXPECT_EQ(r.files[1], dir / "stork_filip2024.bsdf");
+    // The fit's frame is the instrument's, with the barb axis at mount_deg = 30°; the file is in
+    // the patch frame: f_file(ω_i, ω_o) = f_fit(R ω_i, R ω_o), R the turn by 30° about z. On the
+    // nodes (Filip's model has kinks between them) at 550 nm (the green band).
+    const gonio::RglBsdf bsdf = gonio::RglBsdf::read(r.files[0]);
+    const analysis::Filip2024Brdf model(parrot);
+    const Eigen::Matrix3d turn = Eigen::AngleAxisd(30.0 * kDeg, Vec3d::UnitZ()).toRotationMatrix();
+    const auto turned = [&](const Vec3d& wi, const Vec3d& wo, double lambda) {
+        return model.eval(turn * wi, turn * wo, lambda);
+    };
+    EXPECT_LT(node_error(bsdf, turned, 550.0), 3e-5);
+    EXPECT_GT(node_error(bsdf, eval_of(model), 550.0), 0.01);  // not left in the fit's frame
+}
+
+TEST(BsdfExport, BadSourcesAreInputErrorsBeforeAnythingIsWritten) {
+    const fs::path dir = scratch_dir() / "bad";
+    fs::create_directories(dir);
+    auto error = [](const BsdfExportOptions& o) {
+        return plumage::testing::input_error_message([&] { export_bsdf(o); });
+    };
+    EXPECT_NE(error(small((dir / "absent.h5").string())).find("expected a huang2022_fit.h5"),
+              std::string::npos);
+    EXPECT_NE(error(small("filip2024:pigeon")).find("pigeon"), std::string::npos);
+    {
+        record::Hdf5Writer h5(dir / "other.h5");
+        const std::vector<double> x = {1.0, 2.0};
+        h5.write("brdf/value", std::span<const double>(x), {2});
+        h5.commit();
+    }
+    EXPECT_NE(error(small((dir / "other.h5").string())).find("no /<species>/fit/values"),
+              std::string::npos);
+    BsdfExportOptions o = small("huang2022");
+    o.phi_nodes = 2;
+    EXPECT_NE(error(o).find("phi_i_count"), std::string::npos);
+    EXPECT_FALSE(fs::exists(dir / "huang2022.bsdf"));
+}
+
+TEST(BsdfExport, InterruptStopsItAndLeavesNoFile) {
+    const fs::path dir = scratch_dir() / "interrupted";
+    fs::create_directories(dir);
+    BsdfExportOptions o = small("huang2022");
+    o.output = dir / "huang2022.bsdf";
+    {
+        const ScopedInterruptHandler handler;
+        request_interrupt(SIGINT);
+        EXPECT_THROW(export_bsdf(o), Interrupted);
+    }
+    EXPECT_FALSE(interrupt_requested());
+    EXPECT_TRUE(fs::is_empty(dir));
+}
+
+}  // namespace
+}  // namespace plumage::studies
