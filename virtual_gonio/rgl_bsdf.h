@@ -70,7 +70,7 @@
 //
 // Accuracy (measured; tests/virtual_gonio/rgl_bsdf_test.cpp unless said otherwise):
 //  - at the nodes (view on a θ_i/φ_i node, light on a node of the sample square) a file gives
-//    the source's f to float32 rounding (Lambertian 1.9e-6, Huang 2022 5.8e-8 relative), except
+//    the source's f to float32 rounding (Lambertian 1.9e-6, Huang 2022 5.5e-7 relative), except
 //    on the sample square's column s_x = 0 (the half vector's pole, where u = √(2θ_m/π) turns
 //    the ~1e-8 rounding of θ_m into ~1e-4 of the NDF grid) and for grazing pairs whose half
 //    vector is ill-conditioned (1.2e-5 at view 85°, light 87°);
