@@ -34,8 +34,10 @@
 //                  detector_half_angle_deg, quanta_per_light
 // At least one instrument table. The beam and the BTF patch are centred on the origin of the
 // patch frame (+z the normal, light from above): place the sample there with offset_um.
-#include <chrono>
+#include <algorithm>
+#include <cmath>
 #include <fstream>
+#include <limits>
 #include <numbers>
 #include <optional>
 
@@ -252,6 +254,7 @@ Settings read(const std::string& text, const fs::path& source) {
 
 struct Built {
     std::shared_ptr<const sim::ExplicitScatterer> scatterer;
+    Eigen::AlignedBox3d bounds;      // the placed sample, patch frame, µm
     std::vector<std::string> facts;  // report lines
 };
 
@@ -288,6 +291,7 @@ Built build(const Sample& s) {
     instance.transform = Eigen::Translation3d(s.offset_um);
     scene.instances.push_back(instance);
     const auto box = scene.bounds();
+    b.bounds = box;
     b.facts.push_back(fmt::format(
         "{} triangles; extent x [{:.4g}, {:.4g}], y [{:.4g}, {:.4g}], z [{:.4g}, {:.4g}] um",
         mesh.triangles.size(), box.min().x(), box.max().x(), box.min().y(), box.max().y(),
@@ -296,6 +300,24 @@ Built build(const Sample& s) {
     options.max_events = s.max_events;
     b.scatterer = std::make_shared<sim::ExplicitScatterer>(std::move(scene), options);
     return b;
+}
+
+// Where the beam's footprint (its radius over cos θ_i, along the light's azimuth) reaches past
+// the sample's outline in the patch plane: that light passes the sample by, and the instrument
+// reads the sample per unit power of the whole beam. Said in the report, not refused: a sample
+// smaller than the beam is a measurement too.
+void check_footprint(const Built& b, double beam_radius_um, const std::vector<Vec3d>& lights,
+                     const std::string& instrument, std::vector<std::string>& facts) {
+    const double reach = std::min(
+        {-b.bounds.min().x(), b.bounds.max().x(), -b.bounds.min().y(), b.bounds.max().y()});
+    double footprint = 0.0;
+    for (const Vec3d& wi : lights) footprint = std::max(footprint, beam_radius_um / wi.z());
+    if (footprint > reach) {
+        facts.push_back(fmt::format(
+            "{}: the beam's footprint reaches {:.4g} um from the origin at the most oblique "
+            "light, the sample's outline only {:.4g} um: light beyond it misses the sample",
+            instrument, footprint, reach));
+    }
 }
 
 // One row of the report's measurement table.
@@ -401,7 +423,8 @@ Measured measure_btf_record(const Built& b, const gonio::BtfConfig& c, const fs:
             for (int row = 0; row < c.pixels; ++row) {
                 for (int col = 0; col < c.pixels; ++col) {
                     v += r.value[r.index(p, row, col, l)];
-                    v2 += std::pow(r.standard_error[r.index(p, row, col, l)], 2);
+                    const double se = r.standard_error[r.index(p, row, col, l)];
+                    v2 += se * se;
                 }
             }
             if (v > 0.0) sum_rel2 += v2 / (v * v), ++cells;
@@ -453,7 +476,16 @@ std::string run(const std::string& text, const fs::path& source, const fs::path&
     if (s.scatterogram && limits.target_relative_error > 0.0)
         s.scatterogram->target_relative_error = limits.target_relative_error;
     clock.say("importing the sample and building its scene");
-    const Built b = build(s.sample);  // build
+    Built b = build(s.sample);  // build
+    if (s.brdf) {
+        std::vector<Vec3d> lights;
+        for (const auto& pair : s.brdf->pairs) lights.push_back(pair.wi);
+        check_footprint(b, s.brdf->beam_radius_um, lights, "BRDF", b.facts);
+    }
+    if (s.scatterogram) {
+        check_footprint(b, s.scatterogram->beam_radius_um, {s.scatterogram->beam_direction},
+                        "scatterogram", b.facts);
+    }
     StagedDirectory out(results_root / s.name);
     std::vector<Measured> rows;  // measure
     if (s.brdf) {
