@@ -22,9 +22,16 @@
 
 namespace plumage {
 
+void Bytes::append(const void* bytes, std::size_t n) {
+    if (n == 0) return;
+    const std::size_t at = data_.size();
+    data_.resize(at + n);
+    std::memcpy(data_.data() + at, bytes, n);
+}
+
 void Bytes::put_string(const std::string& s) {
     put(static_cast<std::uint64_t>(s.size()));
-    data_.insert(data_.end(), s.begin(), s.end());
+    append(s.data(), s.size());
 }
 
 std::string Bytes::get_string() {
@@ -196,7 +203,7 @@ void work_for_rank0(const std::function<Bytes(std::size_t)>& work) {
     for (;;) {
         Bytes message;
         message.put(index);
-        message.data().insert(message.data().end(), result.data().begin(), result.data().end());
+        message.append(result.data().data(), result.data().size());
         MPI_Request send;
         MPI_Isend(message.data().data(), message_size(message.data().size()), MPI_BYTE, 0,
                   kTagResult, MPI_COMM_WORLD, &send);
@@ -216,8 +223,7 @@ void work_for_rank0(const std::function<Bytes(std::size_t)>& work) {
 Bytes pack(std::vector<std::optional<Bytes>>& results) {
     Bytes all;
     for (const auto& r : results) all.put(static_cast<std::uint64_t>(r->data().size()));
-    for (const auto& r : results)
-        all.data().insert(all.data().end(), r->data().begin(), r->data().end());
+    for (const auto& r : results) all.append(r->data().data(), r->data().size());
     return all;
 }
 

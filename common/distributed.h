@@ -50,15 +50,13 @@ public:
     template <class T>
     void put(const T& value) {
         static_assert(std::is_trivially_copyable_v<T>);
-        const auto* p = reinterpret_cast<const char*>(&value);
-        data_.insert(data_.end(), p, p + sizeof(T));
+        append(&value, sizeof(T));
     }
     template <class T>
     void put_vector(const std::vector<T>& values) {
         static_assert(std::is_trivially_copyable_v<T>);
         put(static_cast<std::uint64_t>(values.size()));
-        const auto* p = reinterpret_cast<const char*>(values.data());
-        data_.insert(data_.end(), p, p + values.size() * sizeof(T));
+        append(values.data(), values.size() * sizeof(T));
     }
     void put_string(const std::string& s);
 
@@ -81,6 +79,8 @@ public:
 
     const std::vector<char>& data() const { return data_; }
     std::vector<char>& data() { return data_; }
+
+    void append(const void* bytes, std::size_t n);
 
 private:
     const char* take(std::size_t n);  // Error when fewer than n bytes are left

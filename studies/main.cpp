@@ -5,15 +5,18 @@
 #include <omp.h>
 
 #include <algorithm>
+#include <cerrno>
 #include <chrono>
 #include <cstdio>
 #include <cstdlib>
 #include <filesystem>
 #include <fstream>
 #include <iostream>
+#include <optional>
 #include <sstream>
 #include <thread>
 
+#include <signal.h>
 #include <unistd.h>
 
 #include <fmt/format.h>
@@ -256,12 +259,34 @@ int report_failure(const std::exception& e, const std::string& output) {
     std::_Exit(code);
 }
 
+// A zombie (killed, not yet reaped: a killed rank's launcher may be gone) counts as gone.
+bool process_alive(pid_t pid) {
+    if (::kill(pid, 0) != 0 && errno == ESRCH) return false;
+    std::ifstream stat(fmt::format("/proc/{}/stat", pid));
+    std::string line;
+    std::getline(stat, line);
+    const auto close = line.rfind(')');
+    return close == std::string::npos || close + 2 >= line.size() || line[close + 2] != 'Z';
+}
+
 // Under MPI every rank runs the study (common/distributed.h); only rank 0 writes into --out.
-// The others write into a scratch root of their own, removed at the end, and draw no plots.
+// The others write into a scratch root of their own in the node's temporary folder,
+// "plumage-scratch-<host>-<pid>", removed at the end; one left by a killed rank of this host
+// (its process gone) is removed by the next rank that starts here.
 std::string rank_scratch_root() {
-    const fs::path root =
-        fs::temp_directory_path() /
-        fmt::format("plumage-rank{}-{}", plumage::distributed::rank(), ::getpid());
+    char host[256] = {};
+    ::gethostname(host, sizeof host - 1);
+    const std::string prefix = fmt::format("plumage-scratch-{}-", host);
+    std::error_code ignored;
+    for (const auto& entry : fs::directory_iterator(fs::temp_directory_path(), ignored)) {
+        const std::string name = entry.path().filename().string();
+        if (name.rfind(prefix, 0) != 0) continue;
+        const std::string pid = name.substr(prefix.size());
+        if (pid.empty() || pid.find_first_not_of("0123456789") != std::string::npos) continue;
+        if (!process_alive(static_cast<pid_t>(std::stol(pid))))
+            fs::remove_all(entry.path(), ignored);
+    }
+    const fs::path root = fs::temp_directory_path() / (prefix + std::to_string(::getpid()));
     fs::create_directories(root);
     return root.string();
 }
@@ -284,9 +309,11 @@ int main(int argc, char** argv) {
     plumage::distributed::init(&argc, &argv);
     const bool rank0 = plumage::distributed::rank() == 0;
     std::string scratch;
+    std::optional<plumage::CleanupRegistration> scratch_cleanup;  // removed by a forced stop too
     if (!rank0) {
         plumage::distributed::silence_other_ranks();
         scratch = rank_scratch_root();
+        scratch_cleanup.emplace(scratch);
         cli.common.output = scratch;
         cli.common.no_plots = true;
     }
