@@ -14,6 +14,7 @@
 
 #include <fmt/format.h>
 
+#include "common/cpu_time.h"
 #include "common/error.h"
 
 #ifdef PLUMAGE_HAVE_MPI
@@ -108,6 +109,60 @@ std::optional<Bytes> read_chunk(const ChunkOptions& o, std::size_t n, std::size_
     return Bytes(std::vector<char>(file.data().begin() + header_size, file.data().end()));
 }
 
+// PLUMAGE_CHUNK_LOG=<file>: rank 0 appends one CSV line per chunk (which rank ran it, its compute
+// time and result size) and one per deal_chunks call (chunk = -1: the call's wall time and the
+// bytes broadcast): the measurements of scripts/mpi_scaling_model.py.
+class ChunkLog {
+public:
+    static ChunkLog& get() {
+        static ChunkLog log;
+        return log;
+    }
+    void chunk(std::size_t index, int by_rank, double wall_s, double cpu_s, std::size_t bytes) {
+        if (file_ == nullptr) return;
+        std::fputs(fmt::format("{},{},{},{},{:.6f},{:.6f},{}\n", call_, chunks_, index, by_rank,
+                               wall_s, cpu_s, bytes)
+                       .c_str(),
+                   file_);
+    }
+    void begin_call(std::size_t chunks) { ++call_, chunks_ = chunks; }
+    void end_call(double seconds, std::size_t bytes) {
+        if (file_ == nullptr) return;
+        std::fputs(
+            fmt::format("{},{},-1,{},{:.6f},,{}\n", call_, chunks_, g_size, seconds, bytes).c_str(),
+            file_);
+        std::fflush(file_);
+    }
+
+private:
+    ChunkLog() {
+        const char* path = std::getenv("PLUMAGE_CHUNK_LOG");
+        if (path == nullptr || g_rank != 0) return;
+        file_ = std::fopen(path, "a");
+        if (file_ != nullptr && std::ftell(file_) == 0)
+            std::fputs("call,chunks,chunk,rank,wall_s,cpu_s,result_bytes\n", file_);
+    }
+    std::FILE* file_ = nullptr;
+    std::size_t call_ = 0, chunks_ = 0;
+};
+
+double seconds_since(std::chrono::steady_clock::time_point start) {
+    return std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+}
+
+// A chunk's result with its wall and CPU seconds (the rank's process: all its threads).
+struct Timed {
+    Bytes result;
+    double wall_s = 0.0, cpu_s = 0.0;
+};
+
+Timed timed(const std::function<Bytes(std::size_t)>& work, std::size_t i) {
+    const auto start = std::chrono::steady_clock::now();
+    const double cpu_start = process_cpu_seconds();
+    Bytes result = work(i);
+    return {std::move(result), seconds_since(start), process_cpu_seconds() - cpu_start};
+}
+
 // What rank 0 (or the only process) keeps while chunks are dealt.
 struct Ledger {
     const ChunkOptions& options;
@@ -137,8 +192,11 @@ struct Ledger {
         if (k >= pending.size()) return std::nullopt;
         return pending[k];
     }
-    void finish(std::size_t index, Bytes result) {
+    void finish(std::size_t index, Timed timed_result, int by_rank) {
+        Bytes& result = timed_result.result;
         const std::lock_guard lock(mutex);
+        ChunkLog::get().chunk(index, by_rank, timed_result.wall_s, timed_result.cpu_s,
+                              result.data().size());
         if (!options.checkpoint_dir.empty()) write_chunk(options, n, index, result);
         results[index] = std::move(result);
         ++done;
@@ -184,10 +242,15 @@ void serve_workers(Ledger& ledger) {
         MPI_Recv(message.data(), count, MPI_BYTE, status.MPI_SOURCE, kTagResult, MPI_COMM_WORLD,
                  MPI_STATUS_IGNORE);
         std::int64_t index = -1;
+        double seconds[2] = {0.0, 0.0};  // wall, CPU
+        constexpr std::size_t header = sizeof index + sizeof seconds;
         std::memcpy(&index, message.data(), sizeof index);
+        std::memcpy(seconds, message.data() + sizeof index, sizeof seconds);
         if (index >= 0) {
             ledger.finish(static_cast<std::size_t>(index),
-                          Bytes(std::vector<char>(message.begin() + sizeof index, message.end())));
+                          {Bytes(std::vector<char>(message.begin() + header, message.end())),
+                           seconds[0], seconds[1]},
+                          status.MPI_SOURCE);
         }
         const auto next = ledger.take();
         const std::int64_t reply = next ? static_cast<std::int64_t>(*next) : -1;
@@ -199,11 +262,13 @@ void serve_workers(Ledger& ledger) {
 // Another rank: sends its last result (none at first), receives the next index, until stop.
 void work_for_rank0(const std::function<Bytes(std::size_t)>& work) {
     std::int64_t index = -1;
-    Bytes result;
+    Timed result;  // with its times, for the chunk log
     for (;;) {
         Bytes message;
         message.put(index);
-        message.append(result.data().data(), result.data().size());
+        message.put(result.wall_s);
+        message.put(result.cpu_s);
+        message.append(result.result.data().data(), result.result.data().size());
         MPI_Request send;
         MPI_Isend(message.data().data(), message_size(message.data().size()), MPI_BYTE, 0,
                   kTagResult, MPI_COMM_WORLD, &send);
@@ -214,7 +279,7 @@ void work_for_rank0(const std::function<Bytes(std::size_t)>& work) {
         wait_politely(receive);
         if (reply < 0) return;
         index = reply;
-        result = work(static_cast<std::size_t>(index));
+        result = timed(work, static_cast<std::size_t>(index));
     }
 }
 #endif
@@ -317,13 +382,16 @@ void print_error(const std::string& message) {
 ChunkResults deal_chunks(std::size_t n, const std::function<Bytes(std::size_t)>& work,
                          const ChunkOptions& options) {
     ChunkResults out;
+    const auto start = std::chrono::steady_clock::now();
+    ChunkLog::get().begin_call(n);
     if (!active()) {
         Ledger ledger(options, n);
         out.resumed = ledger.done;
-        while (const auto i = ledger.take()) ledger.finish(*i, work(*i));
+        while (const auto i = ledger.take()) ledger.finish(*i, timed(work, *i), 0);
         out.interrupted = ledger.stopped.load();
         if (!out.interrupted)
             for (auto& r : ledger.results) out.results.push_back(std::move(*r));
+        ChunkLog::get().end_call(seconds_since(start), 0);
         return out;
     }
 #ifdef PLUMAGE_HAVE_MPI
@@ -334,7 +402,7 @@ ChunkResults deal_chunks(std::size_t n, const std::function<Bytes(std::size_t)>&
         std::exception_ptr failure;
         std::thread dealer([&ledger] { serve_workers(ledger); });
         try {
-            while (const auto i = ledger.take()) ledger.finish(*i, work(*i));
+            while (const auto i = ledger.take()) ledger.finish(*i, timed(work, *i), 0);
         } catch (...) {
             failure = std::current_exception();
             ledger.stopped.store(true);  // the others finish their chunk and are told to stop
@@ -348,7 +416,9 @@ ChunkResults deal_chunks(std::size_t n, const std::function<Bytes(std::size_t)>&
     }
     out.interrupted = broadcast_flag(out.interrupted);
     if (out.interrupted) return out;
+    const std::size_t bytes = all.data().size();
     out.results = unpack(broadcast_bytes(std::move(all)), n);
+    ChunkLog::get().end_call(seconds_since(start), bytes);
 #endif
     return out;
 }

@@ -23,6 +23,10 @@
 // <checkpoint_dir>/chunk-<index>.bin (temporary name, then renamed) with the caller's key; a
 // later run with the same key and chunk count loads them and deals only the others.
 //
+// Measurements: with PLUMAGE_CHUNK_LOG=<file> rank 0 appends a CSV line per chunk (rank, compute
+// time, result bytes) and per call (wall time, bytes broadcast); scripts/mpi_scaling_model.py
+// reads it.
+//
 // Failures: a rank that dies ends the job (Open MPI's default error handler; mpirun names the
 // rank); an exception on any rank ends the job through abort_job(), which names the rank.
 // An interrupt (SIGINT/SIGTERM) is taken from rank 0's flag: it stops dealing, the chunks in
