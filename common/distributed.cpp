@@ -170,7 +170,8 @@ struct Ledger {
     std::vector<std::optional<Bytes>> results;
     std::vector<std::size_t> pending;
     std::atomic<std::size_t> next{0};
-    std::atomic<bool> stopped{false};  // by an interrupt
+    std::atomic<bool> stopped{false};    // by an interrupt
+    std::atomic<bool> abandoned{false};  // rank 0's own chunk failed: stop serving at once
     std::mutex mutex;
     std::size_t done = 0;
 
@@ -228,7 +229,7 @@ int message_size(std::size_t bytes) {
 // Rank 0's service thread: answers every other rank until each has been told to stop.
 void serve_workers(Ledger& ledger) {
     int stopped_ranks = 0;
-    while (stopped_ranks < g_size - 1) {
+    while (stopped_ranks < g_size - 1 && !ledger.abandoned.load()) {
         int arrived = 0;
         MPI_Status status;
         MPI_Iprobe(MPI_ANY_SOURCE, kTagResult, MPI_COMM_WORLD, &arrived, &status);
@@ -404,8 +405,11 @@ ChunkResults deal_chunks(std::size_t n, const std::function<Bytes(std::size_t)>&
         try {
             while (const auto i = ledger.take()) ledger.finish(*i, timed(work, *i), 0);
         } catch (...) {
+            // An error or an interrupt (mpirun turns Ctrl-C into SIGTERM and soon SIGKILL): rank
+            // 0 unwinds at once, removing its staging folder, and its exit ends the job.
             failure = std::current_exception();
-            ledger.stopped.store(true);  // the others finish their chunk and are told to stop
+            ledger.stopped.store(true);
+            ledger.abandoned.store(true);
         }
         dealer.join();
         if (failure) std::rethrow_exception(failure);
