@@ -54,6 +54,9 @@ namespace distributed {
 namespace {
 
 bool g_active = false;  // MPI initialised (any size)
+// Inside a chunk the rank works alone: a measurement that deals its own chunks (a goniometer
+// inside a dealt study point) runs them in-process, as its callers on other ranks are busy.
+std::atomic<int> g_inside_chunk{0};
 int g_rank = 0, g_size = 1;
 int g_stderr = 2;  // the rank's original stderr
 
@@ -159,6 +162,10 @@ struct Timed {
 Timed timed(const std::function<Bytes(std::size_t)>& work, std::size_t i) {
     const auto start = std::chrono::steady_clock::now();
     const double cpu_start = process_cpu_seconds();
+    ++g_inside_chunk;
+    struct Leave {
+        ~Leave() { --g_inside_chunk; }
+    } leave;
     Bytes result = work(i);
     return {std::move(result), seconds_since(start), process_cpu_seconds() - cpu_start};
 }
@@ -348,9 +355,9 @@ void abort_job(int code, const std::string& message) {
     std::_Exit(code);
 }
 
-bool active() { return g_active && g_size > 1; }
-int rank() { return g_rank; }
-int size() { return g_size; }
+bool active() { return g_active && g_size > 1 && g_inside_chunk.load() == 0; }
+int rank() { return g_inside_chunk.load() == 0 ? g_rank : 0; }
+int size() { return g_inside_chunk.load() == 0 ? g_size : 1; }
 bool built_with_mpi() {
 #ifdef PLUMAGE_HAVE_MPI
     return true;

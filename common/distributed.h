@@ -102,9 +102,11 @@ void finalize();
 // the rank's stderr; without MPI, a plain exit. Never returns.
 [[noreturn]] void abort_job(int code, const std::string& message);
 
-bool active();  // MPI initialised with more than one rank
-int rank();     // 0 without MPI
-int size();     // 1 without MPI
+// MPI initialised with more than one rank, and not inside a chunk (work called by deal_chunks):
+// there every call of this header acts as in a single process.
+bool active();
+int rank();  // 0 without MPI, and inside a chunk
+int size();  // 1 without MPI, and inside a chunk
 bool built_with_mpi();
 
 // On ranks other than 0: stdout and stderr to /dev/null, the original stderr kept for
