@@ -10,6 +10,7 @@
 #include <atomic>
 #include <filesystem>
 #include <fstream>
+#include <functional>
 #include <vector>
 
 namespace plumage::distributed {
@@ -23,6 +24,14 @@ Bytes square(std::size_t i) {
     b.put_string("chunk " + std::to_string(i));
     b.put_vector(std::vector<int>(i, 7));
     return b;
+}
+
+// square(), noting which chunks ran.
+std::function<Bytes(std::size_t)> logging_square(std::vector<std::size_t>& ran) {
+    return [&ran](std::size_t i) {
+        ran.push_back(i);
+        return square(i);
+    };
 }
 
 void expect_squares(ChunkResults& r, std::size_t n) {
@@ -81,13 +90,7 @@ TEST_F(DistributedAlone, ResumesFinishedChunksFromCheckpoints) {
     // Rerun: only the three others run; the results equal an uninterrupted run's.
     stop = false;
     std::vector<std::size_t> rerun;
-    auto second = deal_chunks(
-        6,
-        [&](std::size_t i) {
-            rerun.push_back(i);
-            return square(i);
-        },
-        options);
+    auto second = deal_chunks(6, logging_square(rerun), options);
     EXPECT_EQ(second.resumed, 3u);
     EXPECT_EQ(rerun, (std::vector<std::size_t>{3, 4, 5}));
     expect_squares(second, 6);
@@ -102,13 +105,7 @@ TEST_F(DistributedAlone, IgnoresCheckpointsOfAnotherKeyOrCutShort) {
     const fs::path two = dir / "chunk-000002.bin";
     fs::resize_file(two, fs::file_size(two) - 1);
     std::vector<std::size_t> rerun;
-    auto again = deal_chunks(
-        4,
-        [&](std::size_t i) {
-            rerun.push_back(i);
-            return square(i);
-        },
-        options);
+    auto again = deal_chunks(4, logging_square(rerun), options);
     EXPECT_EQ(rerun, (std::vector<std::size_t>{2}));
     expect_squares(again, 4);
     // Another key (a changed study), or another chunk count: nothing is resumed.
