@@ -30,7 +30,9 @@
 // Failures: a rank that dies ends the job (Open MPI's default error handler; mpirun names the
 // rank); an exception on any rank ends the job through abort_job(), which names the rank.
 // An interrupt (SIGINT/SIGTERM) is taken from rank 0's flag: it stops dealing, the chunks in
-// flight finish, and every rank returns interrupted = true together.
+// flight finish, and every rank returns interrupted = true together. If it stops rank 0's own
+// chunk instead (mpirun turns Ctrl-C into SIGTERM for every rank, then SIGKILL a second later),
+// rank 0 unwinds at once and ends the job; the chunks finished so far stay checkpointed.
 #pragma once
 
 #include <atomic>

@@ -5,7 +5,6 @@
 #include <omp.h>
 
 #include <algorithm>
-#include <cerrno>
 #include <chrono>
 #include <cstdio>
 #include <cstdlib>
@@ -16,7 +15,6 @@
 #include <sstream>
 #include <thread>
 
-#include <signal.h>
 #include <unistd.h>
 
 #include <fmt/format.h>
@@ -30,6 +28,7 @@
 #include "studies/default_study.h"
 #include "studies/geometry_study.h"
 #include "studies/plots.h"
+#include "studies/staged_directory.h"
 #include "studies/study.h"
 #include "studies/thin_film_chart.h"
 
@@ -259,16 +258,6 @@ int report_failure(const std::exception& e, const std::string& output) {
     std::_Exit(code);
 }
 
-// A zombie (killed, not yet reaped: a killed rank's launcher may be gone) counts as gone.
-bool process_alive(pid_t pid) {
-    if (::kill(pid, 0) != 0 && errno == ESRCH) return false;
-    std::ifstream stat(fmt::format("/proc/{}/stat", pid));
-    std::string line;
-    std::getline(stat, line);
-    const auto close = line.rfind(')');
-    return close == std::string::npos || close + 2 >= line.size() || line[close + 2] != 'Z';
-}
-
 // Under MPI every rank runs the study (common/distributed.h); only rank 0 writes into --out.
 // The others write into a scratch root of their own in the node's temporary folder,
 // "plumage-scratch-<host>-<pid>", removed at the end; one left by a killed rank of this host
@@ -283,7 +272,7 @@ std::string rank_scratch_root() {
         if (name.rfind(prefix, 0) != 0) continue;
         const std::string pid = name.substr(prefix.size());
         if (pid.empty() || pid.find_first_not_of("0123456789") != std::string::npos) continue;
-        if (!process_alive(static_cast<pid_t>(std::stol(pid))))
+        if (!st::process_running(static_cast<int>(std::stol(pid))))
             fs::remove_all(entry.path(), ignored);
     }
     const fs::path root = fs::temp_directory_path() / (prefix + std::to_string(::getpid()));
