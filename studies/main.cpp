@@ -301,7 +301,11 @@ int main(int argc, char** argv) {
     std::optional<plumage::CleanupRegistration> scratch_cleanup;  // removed by a forced stop too
     if (!rank0) {
         plumage::distributed::silence_other_ranks();
-        scratch = rank_scratch_root();
+        try {
+            scratch = rank_scratch_root();
+        } catch (const std::exception& e) {
+            plumage::distributed::abort_job(1, fmt::format("no scratch folder: {}", e.what()));
+        }
         scratch_cleanup.emplace(scratch);
         cli.common.output = scratch;
         cli.common.no_plots = true;
