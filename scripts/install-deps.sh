@@ -23,6 +23,7 @@ packages=(
   python3-numpy python3-h5py python3-matplotlib  # plots; these belong to /usr/bin/python3
   pybind11-dev python3-pybind11 python3-dev  # the `plumage` Python module (python/), for /usr/bin/python3
   python3-pytest         # its tests (python/tests, run by ctest)
+  openmpi-bin libopenmpi-dev  # `mpirun -np N plumage run STUDY` (common/distributed.h; tests/mpi)
 )
 
 missing=()

@@ -14,7 +14,9 @@
 
 #include "analysis/huang2022.h"
 #include "common/constants.h"
+#include "common/distributed.h"
 #include "common/error.h"
+#include "common/interrupt.h"
 #include "common/version.h"
 #include "geometry/barbule.h"
 #include "sim/optics/colour.h"
@@ -197,6 +199,12 @@ struct Measured {
     std::string reason;
 };
 
+// The values to measure: the base first, then every sweep's values but the base value.
+struct ValueJob {
+    const Sweep* sweep = nullptr;  // null: the base
+    std::size_t index = 0;
+};
+
 struct Run {
     const Settings& s;
     gonio::ScatterometerConfig config;
@@ -204,6 +212,15 @@ struct Run {
     fs::path dir;
     double exposure = 1.0;  // of every image: the base model's brightest pixel → white
     AblationPoint base_point;
+    std::vector<ValueJob> jobs;      // every value measured, in chunk order
+    std::vector<Measured> measured;  // [job]
+
+    const Measured& measured_at(const Sweep& sweep, std::size_t index) const {
+        for (std::size_t j = 0; j < jobs.size(); ++j)
+            if (jobs[j].sweep == &sweep && jobs[j].index == index) return measured[j];
+        throw Error(
+            fmt::format("ablation: {} value {} was not measured", sweep.parameter->key, index));
+    }
 };
 
 gonio::ScatterometerConfig scatterometer_config(const Settings& s, const std::string& study_text,
@@ -260,6 +277,90 @@ Measured measure(const Run& run, const BarbuleRowParams& params) {
     return m;
 }
 
+// ---- Every value at once, one chunk each, dealt over the MPI ranks (common/distributed.h). ----
+
+// A scatterogram as a chunk result: everything but its configuration (the run's, on every rank).
+void put_scatterogram(Bytes& b, const gonio::Scatterogram& s) {
+    b.put_string(s.scatterer);
+    b.put(static_cast<std::uint64_t>(s.lobes.size()));
+    for (const std::string& lobe : s.lobes) b.put_string(lobe);
+    for (const auto* v : {&s.intensity, &s.standard_error, &s.lobe_intensity, &s.solid_angle_sr,
+                          &s.transmitted, &s.transmitted_lobes})
+        b.put_vector(*v);
+    b.put_vector(s.convergence);
+    b.put(s.passes);
+    b.put(s.quanta);
+    b.put(s.wall_time_s);
+    b.put(s.cpu_time_s);
+}
+
+gonio::Scatterogram get_scatterogram(Bytes& b, const gonio::ScatterometerConfig& config) {
+    gonio::Scatterogram s;
+    s.config = config;
+    s.scatterer = b.get_string();
+    s.lobes.resize(b.get<std::uint64_t>());
+    for (std::string& lobe : s.lobes) lobe = b.get_string();
+    for (auto* v : {&s.intensity, &s.standard_error, &s.lobe_intensity, &s.solid_angle_sr,
+                    &s.transmitted, &s.transmitted_lobes})
+        *v = b.get_vector<double>();
+    s.convergence = b.get_vector<gonio::ConvergenceRow>();
+    s.passes = b.get<int>();
+    s.quanta = b.get<std::uint64_t>();
+    s.wall_time_s = b.get<double>();
+    s.cpu_time_s = b.get<double>();
+    return s;
+}
+
+// Every value's simulation and model, keyed like the jobs. Each value is one chunk: measured
+// by some rank, checkpointed by rank 0 as it arrives, skipped when a rerun finds it there.
+std::vector<Measured> measure_all(const Run& run, const fs::path& checkpoints,
+                                  const std::string& key) {
+    const std::vector<ValueJob>& jobs = run.jobs;
+    // The rank count stays out of the stage's name: stages.csv is the same for any count.
+    run.clock.say(
+        fmt::format("{} values (the base and the sweeps): simulation and model", jobs.size()));
+    if (distributed::active())
+        run.clock.done(fmt::format("  dealt over {} MPI ranks", distributed::size()));
+    auto work = [&](std::size_t j) {
+        BarbuleRowParams params = run.s.row;
+        if (jobs[j].sweep != nullptr)
+            jobs[j].sweep->parameter->set(params, jobs[j].sweep->values[jobs[j].index]);
+        const Measured m = measure(run, params);
+        Bytes b;
+        b.put_string(m.reason);
+        b.put(static_cast<char>(m.sim.has_value()));
+        if (m.sim) put_scatterogram(b, *m.sim), put_scatterogram(b, *m.mod);
+        return b;
+    };
+    distributed::ChunkOptions options;
+    options.interrupt = &interrupt_flag();
+    options.checkpoint_dir = checkpoints;
+    options.checkpoint_key = key;
+    options.on_chunk = [&](std::size_t done, std::size_t total) {
+        run.clock.done(fmt::format("  {} of {} values measured", done, total));
+    };
+    distributed::ChunkResults results = distributed::deal_chunks(jobs.size(), work, options);
+    if (results.interrupted) {
+        throw Interrupted(
+            fmt::format("interrupted while measuring the ablation values; the "
+                        "finished ones are kept in {}",
+                        checkpoints.string()));
+    }
+    if (results.resumed > 0)
+        run.clock.done(
+            fmt::format("  {} values resumed from {}", results.resumed, checkpoints.string()));
+    std::vector<Measured> measured(jobs.size());
+    for (std::size_t j = 0; j < jobs.size(); ++j) {
+        Bytes& b = results.results[j];
+        measured[j].reason = b.get_string();
+        if (b.get<char>() != 0) {
+            measured[j].sim = get_scatterogram(b, run.config);
+            measured[j].mod = get_scatterogram(b, run.config);
+        }
+    }
+    return measured;
+}
+
 // A scatterogram's PNG (display colour at the run's exposure) and, beside it with the same
 // stem, its spectra as OpenEXR (virtual_gonio/exr_image.h).
 void write_images(const fs::path& png, const gonio::Scatterogram& s, double exposure,
@@ -271,10 +372,8 @@ void write_images(const fs::path& png, const gonio::Scatterogram& s, double expo
 
 // The base values first: every sweep passes through them, and their model's brightest pixel
 // sets the one exposure of every image.
-void measure_base(Run& run, const std::string& geometry_location) {
+void measure_base(Run& run, const std::string& geometry_location, const Measured& base) {
     fs::create_directories(run.dir / "base");
-    run.clock.say("base values (the study's [geometry]): simulation and model");
-    const Measured base = measure(run, run.s.row);
     if (!base.sim) {
         throw InputError(fmt::format("{}: [geometry] (the base of every sweep): {}",
                                      geometry_location, base.reason));
@@ -305,6 +404,15 @@ bool is_base_value(const Sweep& sweep, double v, double base_value) {
            std::max(0.01 * step, 1e-9 * std::max(1.0, std::abs(base_value)));
 }
 
+std::vector<ValueJob> value_jobs(const Settings& s) {
+    std::vector<ValueJob> jobs(1);  // the base
+    for (const Sweep& sweep : s.sweeps)
+        for (std::size_t i = 0; i < sweep.values.size(); ++i)
+            if (!is_base_value(sweep, sweep.values[i], sweep.parameter->get(s.row)))
+                jobs.push_back({&sweep, i});
+    return jobs;
+}
+
 SweptValue measure_value(const Run& run, const Sweep& sweep, std::size_t i, const fs::path& pdir) {
     const Parameter& p = *sweep.parameter;
     const double v = sweep.values[i], base_value = p.get(run.s.row);
@@ -315,10 +423,7 @@ SweptValue measure_value(const Run& run, const Sweep& sweep, std::size_t i, cons
         out.sim_png = (run.dir / "base" / "simulation.png").string();
         out.mod_png = (run.dir / "base" / "model.png").string();
     } else {
-        BarbuleRowParams params = run.s.row;
-        p.set(params, v);
-        run.clock.say(fmt::format("{} = {}: simulation and model", p.key, format_value(v)));
-        const Measured m = measure(run, params);
+        const Measured& m = run.measured_at(sweep, i);
         if (m.sim) {
             out.point = compare(*m.sim, *m.mod);
             const std::string tag = file_tag(i, v);
@@ -562,7 +667,7 @@ std::string report_introduction(const Settings& s, const AblationPoint& base_poi
 }
 
 void write_report(const fs::path& path, const Settings& s, const AblationPoint& base_point,
-                  ReportParts& parts, double wall_seconds, double base_seconds,
+                  ReportParts& parts, double wall_seconds, double measure_seconds,
                   const std::string& run_time) {
     std::ofstream report(path);
     report << report_introduction(s, base_point) << "## Summary\n\n" << parts.summary << "\n";
@@ -589,11 +694,12 @@ void write_report(const fs::path& path, const Settings& s, const AblationPoint& 
     }
     report << parts.sections << run_time
            << fmt::format(
-                  "---\nRun time {:.0f} s (base values {:.1f} s; plumage {}). Every number is in "
+                  "---\nRun time {:.0f} s (measuring every value {:.1f} s; plumage {}). Every "
+                  "number is in "
                   "errors.csv "
                   "and ablation.h5; the base scatterograms as records (virtual_gonio/RECORD.md) in "
                   "base/.\n",
-                  wall_seconds, base_seconds, kVersion);
+                  wall_seconds, measure_seconds, kVersion);
     if (!report) throw IoError("cannot write report.md");
 }
 
@@ -614,10 +720,13 @@ AblationResult run_ablation_study(const std::string& study_text, const fs::path&
     const Settings s = read_settings(*file, name, source_name);  // read
     StagedDirectory::prepare(results_root / name);
     StagedDirectory out(results_root / name);
-    Run run{s, scatterometer_config(s, study_text, limits), clock, out.path(), 1.0, {}};
-    measure_base(run,
-                 file->root().table("geometry").location());  // build and measure, value by value
-    const double base_seconds = clock.elapsed_s();
+    Run run{s, scatterometer_config(s, study_text, limits), clock, out.path(), 1.0, {}, {}, {}};
+    run.jobs = value_jobs(s);  // build and measure, value by value
+    run.measured = measure_all(run, checkpoint_folder(results_root, name) / "values",
+                               fmt::format("{}|{:.17g}|{:.17g}", study_text, limits.time_budget_s,
+                                           limits.target_relative_error));
+    measure_base(run, file->root().table("geometry").location(), run.measured.front());
+    const double measure_seconds = clock.elapsed_s();
 
     AblationResult result;
     ReportParts parts;
@@ -642,9 +751,10 @@ AblationResult run_ablation_study(const std::string& study_text, const fs::path&
     run_plots(plots, run.dir / "plots.csv");
     fs::remove(run.dir / "plots.csv");
     result.wall_seconds = clock.elapsed_s();
-    write_report(run.dir / "report.md", s, run.base_point, parts, result.wall_seconds, base_seconds,
-                 run_time_by_stage(clock, run.dir));
+    write_report(run.dir / "report.md", s, run.base_point, parts, result.wall_seconds,
+                 measure_seconds, run_time_by_stage(clock, run.dir));
     out.commit();
+    remove_checkpoints(results_root, name);
     result.output_dir = out.final_path();
     clock.done("done: " + (result.output_dir / "report.md").string());
     return result;

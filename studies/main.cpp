@@ -5,17 +5,23 @@
 #include <omp.h>
 
 #include <algorithm>
+#include <chrono>
 #include <cstdio>
 #include <cstdlib>
 #include <filesystem>
 #include <fstream>
 #include <iostream>
+#include <optional>
 #include <sstream>
+#include <thread>
+
+#include <unistd.h>
 
 #include <fmt/format.h>
 #include <CLI/CLI.hpp>
 
 #include "common/build_info.h"
+#include "common/distributed.h"
 #include "common/error.h"
 #include "common/interrupt.h"
 #include "common/version.h"
@@ -24,6 +30,7 @@
 #include "studies/fit_command.h"
 #include "studies/geometry_study.h"
 #include "studies/plots.h"
+#include "studies/staged_directory.h"
 #include "studies/study.h"
 #include "studies/thin_film_chart.h"
 
@@ -329,11 +336,40 @@ int report_failure(const std::exception& e, const std::string& output) {
 // Ends the process with `code`, the interrupt handler still installed: a Ctrl-C that arrives
 // after the work is done (during the exit sequence) must not kill the process by signal.
 // Every file is closed by now; only the streams need flushing.
+// Under MPI (common/distributed.h): success finalises on every rank; a failure on any rank
+// ends the whole job at once (the others may be waiting for it), the message naming the rank.
 [[noreturn]] void finish(int code) {
     std::cout.flush();
     std::cerr.flush();
     std::fflush(nullptr);
+    if (code != 0 && plumage::distributed::active()) {
+        plumage::distributed::abort_job(
+            code, fmt::format("stopping all {} ranks", plumage::distributed::size()));
+    }
+    plumage::distributed::finalize();
     std::_Exit(code);
+}
+
+// Under MPI every rank runs the study (common/distributed.h); only rank 0 writes into --out.
+// The others write into a scratch root of their own in the node's temporary folder,
+// "plumage-scratch-<host>-<pid>", removed at the end; one left by a killed rank of this host
+// (its process gone) is removed by the next rank that starts here.
+std::string rank_scratch_root() {
+    char host[256] = {};
+    ::gethostname(host, sizeof host - 1);
+    const std::string prefix = fmt::format("plumage-scratch-{}-", host);
+    std::error_code ignored;
+    for (const auto& entry : fs::directory_iterator(fs::temp_directory_path(), ignored)) {
+        const std::string name = entry.path().filename().string();
+        if (name.rfind(prefix, 0) != 0) continue;
+        const std::string pid = name.substr(prefix.size());
+        if (pid.empty() || pid.find_first_not_of("0123456789") != std::string::npos) continue;
+        if (!st::process_running(static_cast<int>(std::stol(pid))))
+            fs::remove_all(entry.path(), ignored);
+    }
+    const fs::path root = fs::temp_directory_path() / (prefix + std::to_string(::getpid()));
+    fs::create_directories(root);
+    return root.string();
 }
 
 }  // namespace
@@ -351,11 +387,40 @@ int main(int argc, char** argv) {
         finish(code);
     }
     if (cli.common.threads > 0) omp_set_num_threads(cli.common.threads);
-    st::set_plots_enabled(!cli.common.no_plots);
-    try {
-        std::cout << run_command(cli);
-        finish(0);
-    } catch (const std::exception& e) {
-        finish(report_failure(e, cli.common.output));
+    plumage::distributed::init(&argc, &argv);
+    const bool rank0 = plumage::distributed::rank() == 0;
+    std::string scratch;
+    std::optional<plumage::CleanupRegistration> scratch_cleanup;  // removed by a forced stop too
+    if (!rank0) {
+        plumage::distributed::silence_other_ranks();
+        try {
+            scratch = rank_scratch_root();
+        } catch (const std::exception& e) {
+            plumage::distributed::abort_job(1, fmt::format("no scratch folder: {}", e.what()));
+        }
+        scratch_cleanup.emplace(scratch);
+        cli.common.output = scratch;
+        cli.common.no_plots = true;
     }
+    st::set_plots_enabled(!cli.common.no_plots);
+    int code = 0;
+    std::string failure;
+    try {
+        const std::string summary = run_command(cli);
+        if (rank0) std::cout << summary;
+    } catch (const std::exception& e) {
+        code = report_failure(e, cli.common.output);
+        failure = e.what();
+    }
+    if (!scratch.empty()) {
+        std::error_code ignored;
+        fs::remove_all(scratch, ignored);
+    }
+    if (code != 0 && !rank0) {
+        // The same bad input or interrupt reaches rank 0, which says it once and ends the job;
+        // a failure of this rank alone is said by this rank after that grace time.
+        std::this_thread::sleep_for(std::chrono::seconds(2));
+        plumage::distributed::abort_job(code, failure);
+    }
+    finish(code);
 }

@@ -35,8 +35,6 @@ std::optional<pid_t> pid_suffix(const std::string& folder, const std::string& ki
     return static_cast<pid_t>(pid);
 }
 
-bool process_alive(pid_t pid) { return ::kill(pid, 0) == 0 || errno == EPERM; }
-
 void refuse_foreign(const fs::path& final_path) {
     std::error_code error;
     if (!fs::exists(final_path, error)) return;
@@ -61,7 +59,7 @@ std::vector<std::string> StagedDirectory::remove_orphans(const fs::path& results
         const std::string folder = dir.filename().string();
         for (const std::string kind : {"partial", "previous"}) {
             const auto pid = pid_suffix(folder, kind);
-            if (!pid || *pid == ::getpid() || process_alive(*pid)) continue;
+            if (!pid || *pid == ::getpid() || process_running(*pid)) continue;
             if (!has_marker(dir)) {
                 actions.push_back(
                     fmt::format("left {} in place: it looks like an unfinished run's "
@@ -142,6 +140,17 @@ void StagedDirectory::commit() {
     committed_ = true;
     cleanup_.reset();
     if (had_previous) fs::remove_all(previous, error);
+}
+
+bool process_running(int pid) {
+    if (::kill(pid, 0) != 0 && errno != EPERM) return false;
+    // A zombie (killed, not yet reaped: an MPI rank whose launcher is gone, under an init that
+    // reaps late) is gone too: its folders are orphans.
+    std::ifstream stat(fmt::format("/proc/{}/stat", pid));
+    std::string line;
+    std::getline(stat, line);
+    const auto close = line.rfind(')');
+    return close == std::string::npos || close + 2 >= line.size() || line[close + 2] != 'Z';
 }
 
 }  // namespace plumage::studies

@@ -50,4 +50,7 @@ private:
     bool committed_ = false;
 };
 
+// Whether process `pid` runs on this host (a zombie does not): whose orphans may be removed.
+bool process_running(int pid);
+
 }  // namespace plumage::studies

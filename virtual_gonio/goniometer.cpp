@@ -12,6 +12,7 @@
 
 #include "common/constants.h"
 #include "common/cpu_time.h"
+#include "common/distributed.h"
 #include "common/error.h"
 #include "common/require.h"
 #include "virtual_gonio/display_colour.h"
@@ -22,6 +23,9 @@ namespace plumage::gonio {
 namespace {
 
 constexpr std::uint64_t kChunk = 2048;  // quanta per work item: the unit of reduction order
+// Under MPI a pass's items are dealt in this many blocks per rank (common/distributed.h): enough
+// for a slow block not to hold up the pass, few enough that a block keeps a rank's threads busy.
+constexpr std::size_t kBlocksPerRank = 4;
 
 // The name that prefixes this file's input errors.
 constexpr std::string_view kWhat = "goniometer";
@@ -122,6 +126,31 @@ bool read_checkpoint(const std::filesystem::path& path, Sums& sums, BrdfRecord& 
                        ? record::read_number_attribute(path, "/", "cpu_time_s")
                        : 0.0;
     return true;
+}
+
+// Under MPI only rank 0 reads the checkpoint: its resume state, sent to every rank, so that all
+// run the same passes. Returns whether there was one.
+bool share_resumed_state(bool resumed, Sums& sums, BrdfRecord& r) {
+    Bytes state;
+    if (distributed::rank() == 0) {
+        state.put(static_cast<char>(resumed));
+        for (const auto* v : {&sums.sum, &sums.sum_sq, &sums.lobe_sum, &sums.lobe_sum_sq})
+            state.put_vector(*v);
+        state.put_vector(r.convergence);
+        state.put(r.passes);
+        state.put(r.wall_time_s);
+        state.put(r.cpu_time_s);
+    }
+    state = distributed::broadcast_bytes(std::move(state));
+    if (distributed::rank() == 0) return resumed;
+    resumed = state.get<char>() != 0;
+    for (auto* v : {&sums.sum, &sums.sum_sq, &sums.lobe_sum, &sums.lobe_sum_sq})
+        *v = state.get_vector<double>();
+    r.convergence = state.get_vector<ConvergenceRow>();
+    r.passes = state.get<int>();
+    r.wall_time_s = state.get<double>();
+    r.cpu_time_s = state.get<double>();
+    return resumed;
 }
 
 }  // namespace
@@ -300,7 +329,8 @@ BrdfRecord measure_brdf(const Scatterer& scatterer, const GoniometerConfig& conf
     Sums sums{std::vector<double>(np * nl, 0.0), std::vector<double>(np * nl, 0.0),
               std::vector<double>(nlobes * np * nl, 0.0),
               std::vector<double>(nlobes * np * nl, 0.0)};
-    const bool resumed = read_checkpoint(control.checkpoint, sums, r, hash);
+    bool resumed = distributed::rank() == 0 && read_checkpoint(control.checkpoint, sums, r, hash);
+    if (distributed::active()) resumed = share_resumed_state(resumed, sums, r);
     if (resumed && control.progress) {
         std::cerr << fmt::format("  {}: resuming after {} completed passes from {}\n", r.scatterer,
                                  r.passes, control.checkpoint.string());
@@ -343,12 +373,14 @@ BrdfRecord measure_brdf(const Scatterer& scatterer, const GoniometerConfig& conf
     if (resumed && r.passes > 0) finish_row(r.passes);
 
     while (r.passes < config.max_passes) {
+        bool stop = false;
         if (!r.convergence.empty()) {
             const ConvergenceRow& last = r.convergence.back();
-            if (last.estimated_relative_rms_error <= config.target_relative_error) break;
-            if (last.wall_time_s >= config.time_budget_s) break;
+            stop = last.estimated_relative_rms_error <= config.target_relative_error ||
+                   last.wall_time_s >= config.time_budget_s;
         }
-        const int pass = r.passes;  // 0-based index of the pass being run
+        if (distributed::broadcast_flag(stop)) break;  // rank 0's clock decides for every rank
+        const int pass = r.passes;                     // 0-based index of the pass being run
         std::vector<Item> items;
         for (std::size_t g = 0; g < groups.size(); ++g)
             for (std::size_t k = 0; k < nl; ++k)
@@ -358,54 +390,77 @@ BrdfRecord measure_brdf(const Scatterer& scatterer, const GoniometerConfig& conf
                     items.push_back(
                         {g, k, first, std::min(kChunk, config.quanta_per_pass - c * kChunk)});
                 }
-        // Per item: its cells' partial sums, in the group's pair order.
+        // Per item: its cells' partial sums, in the group's pair order. Under MPI the items are
+        // dealt in blocks over the ranks and every rank gets all of them back (rank 0 polls the
+        // interrupt between blocks); alone, one block holds them all and is not copied.
         std::vector<std::vector<double>> partial(items.size());
         std::atomic<bool> abandoned{false};
+        const bool alone = !distributed::active();
+        const std::size_t blocks =
+            alone ? 1
+                  : std::min(items.size(),
+                             kBlocksPerRank * static_cast<std::size_t>(distributed::size()));
+        auto block = [&](std::size_t b) {
+            const std::size_t lo = b * items.size() / blocks, hi = (b + 1) * items.size() / blocks;
 #pragma omp parallel for schedule(dynamic, 1)
-        for (std::size_t it = 0; it < items.size(); ++it) {
-            if (abandoned.load(std::memory_order_relaxed)) continue;
-            if (control.interrupt != nullptr && control.interrupt->load()) {
-                abandoned.store(true);
-                continue;
-            }
-            const Item& item = items[it];
-            const Group& group = groups[item.group];
-            const std::size_t m = group.pairs.size();
-            std::vector<double>& acc = partial[it];
-            acc.assign(m * (2 + 2 * nlobes), 0.0);  // Σx, Σx², then Σx and Σx² per lobe
-            Vec3d e1, e2;
-            orthonormal_frame(group.wi, e1, e2);
-            const std::uint64_t stream = (item.group * nl + item.wavelength) << 40;
-            for (std::uint64_t q = item.first; q < item.first + item.count; ++q) {
-                Rng rng(config.seed, stream + q);
-                // Beam position: uniform over the beam's cross-section, projected along ω_i
-                // onto the patch plane.
-                const double radius = config.beam_radius_um * std::sqrt(rng.uniform());
-                const double angle = 2.0 * kPi * rng.uniform();
-                const Vec3d offset = radius * (std::cos(angle) * e1 + std::sin(angle) * e2);
-                const Vec2 position(offset.x() - offset.z() * group.wi.x() / group.wi.z(),
-                                    offset.y() - offset.z() * group.wi.y() / group.wi.z());
-                const auto event = scatterer.sample(
-                    group.wi, config.wavelengths_nm[item.wavelength], position, rng);
-                if (!event || !(event->weight > 0.0)) continue;
-                PLUMAGE_CHECK(std::isfinite(event->weight),
-                              "non-finite quantum weight from " + scatterer.name());
-                for (std::size_t j = 0; j < m; ++j) {
-                    const Vec3d& wo = config.pairs[group.pairs[j]].wo;
-                    if (event->wo.dot(wo) < cos_alpha) continue;
-                    const double x = event->weight / (projected * wo.z());
-                    acc[j] += x;
-                    acc[m + j] += x * x;
-                    if (event->lobe >= 0 && static_cast<std::size_t>(event->lobe) < nlobes) {
-                        acc[(2 + static_cast<std::size_t>(event->lobe)) * m + j] += x;
-                        acc[(2 + nlobes + static_cast<std::size_t>(event->lobe)) * m + j] += x * x;
+            for (std::size_t it = lo; it < hi; ++it) {
+                if (abandoned.load(std::memory_order_relaxed)) continue;
+                if (alone && control.interrupt != nullptr && control.interrupt->load()) {
+                    abandoned.store(true);
+                    continue;
+                }
+                const Item& item = items[it];
+                const Group& group = groups[item.group];
+                const std::size_t m = group.pairs.size();
+                std::vector<double>& acc = partial[it];
+                acc.assign(m * (2 + 2 * nlobes), 0.0);  // Σx, Σx², then Σx and Σx² per lobe
+                Vec3d e1, e2;
+                orthonormal_frame(group.wi, e1, e2);
+                const std::uint64_t stream = (item.group * nl + item.wavelength) << 40;
+                for (std::uint64_t q = item.first; q < item.first + item.count; ++q) {
+                    Rng rng(config.seed, stream + q);
+                    // Beam position: uniform over the beam's cross-section, projected along ω_i
+                    // onto the patch plane.
+                    const double radius = config.beam_radius_um * std::sqrt(rng.uniform());
+                    const double angle = 2.0 * kPi * rng.uniform();
+                    const Vec3d offset = radius * (std::cos(angle) * e1 + std::sin(angle) * e2);
+                    const Vec2 position(offset.x() - offset.z() * group.wi.x() / group.wi.z(),
+                                        offset.y() - offset.z() * group.wi.y() / group.wi.z());
+                    const auto event = scatterer.sample(
+                        group.wi, config.wavelengths_nm[item.wavelength], position, rng);
+                    if (!event || !(event->weight > 0.0)) continue;
+                    PLUMAGE_CHECK(std::isfinite(event->weight),
+                                  "non-finite quantum weight from " + scatterer.name());
+                    for (std::size_t j = 0; j < m; ++j) {
+                        const Vec3d& wo = config.pairs[group.pairs[j]].wo;
+                        if (event->wo.dot(wo) < cos_alpha) continue;
+                        const double x = event->weight / (projected * wo.z());
+                        acc[j] += x;
+                        acc[m + j] += x * x;
+                        if (event->lobe >= 0 && static_cast<std::size_t>(event->lobe) < nlobes) {
+                            acc[(2 + static_cast<std::size_t>(event->lobe)) * m + j] += x;
+                            acc[(2 + nlobes + static_cast<std::size_t>(event->lobe)) * m + j] +=
+                                x * x;
+                        }
                     }
                 }
             }
-        }
-        if (abandoned.load()) {
+            Bytes sums_of_block;
+            if (!alone)
+                for (std::size_t it = lo; it < hi; ++it) sums_of_block.put_vector(partial[it]);
+            return sums_of_block;
+        };
+        distributed::ChunkOptions dealing;
+        dealing.interrupt = control.interrupt;
+        distributed::ChunkResults dealt = distributed::deal_chunks(blocks, block, dealing);
+        if (abandoned.load() || dealt.interrupted) {
             r.interrupted = true;
             break;  // the unfinished pass is discarded; the checkpoint holds the last one
+        }
+        for (std::size_t b = 0; b < blocks && !alone; ++b) {
+            for (std::size_t it = b * items.size() / blocks; it < (b + 1) * items.size() / blocks;
+                 ++it)
+                partial[it] = dealt.results[b].get_vector<double>();
         }
         for (std::size_t it = 0; it < items.size(); ++it) {
             const Item& item = items[it];
@@ -423,7 +478,8 @@ BrdfRecord measure_brdf(const Scatterer& scatterer, const GoniometerConfig& conf
         }
         r.passes = pass + 1;
         r.convergence.push_back(finish_row(r.passes));
-        if (!control.checkpoint.empty()) write_checkpoint(control.checkpoint, sums, r, hash);
+        if (!control.checkpoint.empty() && distributed::rank() == 0)
+            write_checkpoint(control.checkpoint, sums, r, hash);
         if (control.progress) {
             const auto& row = r.convergence.back();
             std::cerr << fmt::format(
