@@ -41,6 +41,7 @@ AvianRecordComparison compare_records_avian(const gonio::BrdfRecord& test,
     c.system = system.name;
     for (std::size_t i = 0; i < kAvianCones; ++i) c.cone_names[i] = system.cones[i].name;
     c.pairs = np;
+    c.signal_fraction = signal_fraction;
     c.captured_share = catches.captured_share();
     double brightest = 0.0;
     std::vector<double> mean(np, 0.0);
@@ -73,6 +74,13 @@ AvianRecordComparison compare_records_avian(const gonio::BrdfRecord& test,
     c.median = quantile_of(distances, 0.5);
     c.p95 = quantile_of(distances, 0.95);
     c.median_noise_floor = quantile_of(floors, 0.5);
+    auto rms_of = [](const std::vector<double>& v) {
+        double s = 0.0;
+        for (double x : v) s += x * x;
+        return v.empty() ? 0.0 : std::sqrt(s / static_cast<double>(v.size()));
+    };
+    c.rms = rms_of(distances);
+    c.rms_noise_floor = rms_of(floors);
     if (!distances.empty()) {
         c.share_above_one_jnd =
             static_cast<double>(std::count_if(distances.begin(), distances.end(),
@@ -88,14 +96,22 @@ std::string avian_comparison_markdown(const std::vector<AvianRecordComparison>& 
                                       const std::string& reference_name) {
     const auto& wl = reference.config.wavelengths_nm;
     std::string md = fmt::format(
-        "| bird ({} against {}) | pairs with signal | ΔS median (JND) | 95th pct | max | noise "
-        "floor (median) | pairs > 1 JND |\n|---|---|---|---|---|---|---|\n",
+        "| bird ({} against {}) | pairs with signal | ΔS RMS (JND) | its noise floor (RMS) | "
+        "median | median floor | 95th pct | max | pairs > 1 JND |\n"
+        "|---|---|---|---|---|---|---|---|---|\n",
         test_name, reference_name);
     for (const auto& r : rows) {
-        md += fmt::format("| {} | {} of {} | {:.2f} | {:.2f} | {:.2f} | {:.2f} | {:.0f} % |\n",
-                          r.system, r.pairs_with_signal, r.pairs, r.median, r.p95, r.max,
-                          r.median_noise_floor, 100.0 * r.share_above_one_jnd);
+        md += fmt::format(
+            "| {} | {} of {} | {:.2f} | {:.2f} | {:.2f} | {:.2f} | {:.2f} | {:.2f} | {:.0f} % |\n",
+            r.system, r.pairs_with_signal, r.pairs, r.rms, r.rms_noise_floor, r.median,
+            r.median_noise_floor, r.p95, r.max, 100.0 * r.share_above_one_jnd);
     }
+    md += fmt::format(
+        "\nNoise floor: per pair, the RMS ΔS that the two records' standard errors alone put "
+        "between equal spectra (first order in σ/R); a ΔS at its floor is noise, one well above "
+        "it the model's. Pairs with signal: the reference's mean π·f at least {:g} % of its "
+        "brightest pair's.\n",
+        rows.empty() ? 0.0 : 100.0 * rows.front().signal_fraction);
     md += fmt::format(
         "\nWhat the grid ({}–{} nm) holds of each cone's catch of a white under D65 over "
         "300–800 nm:",
@@ -107,6 +123,7 @@ std::string avian_comparison_markdown(const std::vector<AvianRecordComparison>& 
                               i + 1 < kAvianCones ? "," : ";");
         }
     }
+    if (md.back() == ';') md.back() = '.';
     md += "\n";
     return md;
 }

@@ -24,11 +24,15 @@ struct AvianRecordComparison {
     std::string system;
     std::array<std::string, kAvianCones> cone_names;
     std::size_t pairs = 0, pairs_with_signal = 0;
+    double signal_fraction = 0.0;               // the threshold used (see above)
     double median = 0.0, p95 = 0.0, max = 0.0;  // ΔS (JND) over pairs carrying signal
-    double median_noise_floor = 0.0;            // the first-order ΔS of the noise alone
-    double share_above_one_jnd = 0.0;           // of the pairs carrying signal
-    std::size_t max_pair = 0;                   // where ΔS is largest
-    ConeVector captured_share{};                // ConeCatches::captured_share on the grid
+    double rms = 0.0;                           // √(mean ΔS²) over the same pairs
+    // The noise floor per pair is √E[ΔS²] of the noise alone (first order); its median over
+    // the pairs, and its RMS (to set beside `rms`: like against like).
+    double median_noise_floor = 0.0, rms_noise_floor = 0.0;
+    double share_above_one_jnd = 0.0;  // of the pairs carrying signal
+    std::size_t max_pair = 0;          // where ΔS is largest
+    ConeVector captured_share{};       // ConeCatches::captured_share on the grid
 };
 
 // InputError if the records' pairs or wavelengths differ or the grid cannot feed the cones.
