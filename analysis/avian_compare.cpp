@@ -154,16 +154,23 @@ std::vector<std::size_t> pavo_export_pairs(const gonio::BrdfRecord& reference,
 
 std::string rnl_matrix_markdown(const std::vector<std::string>& names,
                                 const std::vector<std::vector<double>>& spectra,
+                                const std::vector<std::vector<double>>& errors,
                                 const std::vector<double>& wavelengths_nm,
                                 const AvianVisualSystem& system) {
     PLUMAGE_CHECK(names.size() == spectra.size(), "one name per spectrum");
     const ConeCatches catches(system, optics::WavelengthGrid(wavelengths_nm));
+    PLUMAGE_CHECK(errors.size() == spectra.size(), "one error list per spectrum");
     std::vector<ConeVector> q;
     std::vector<bool> usable;
-    for (const auto& s : spectra) {
+    std::vector<double> floor;
+    for (std::size_t i = 0; i < spectra.size(); ++i) {
+        const auto& s = spectra[i];
         q.push_back(catches(s));
         usable.push_back(
             std::all_of(q.back().begin(), q.back().end(), [](double v) { return v > 0.0; }));
+        floor.push_back(usable.back()
+                            ? rnl_noise_floor(catches.log_catch_covariance(s, errors[i]), system)
+                            : 0.0);
     }
     std::string md = fmt::format("| {} |", system.name);
     for (const auto& n : names) md += fmt::format(" {} |", n);
@@ -173,8 +180,14 @@ std::string rnl_matrix_markdown(const std::vector<std::string>& names,
     for (std::size_t i = 0; i < names.size(); ++i) {
         md += fmt::format("| {} |", names[i]);
         for (std::size_t j = 0; j < names.size(); ++j) {
-            md += usable[i] && usable[j] ? fmt::format(" {:.1f} |", rnl_delta_s(q[i], q[j], system))
-                                         : std::string(" – |");
+            if (i == j) {
+                md += " 0 |";
+                continue;
+            }
+            md += usable[i] && usable[j]
+                      ? fmt::format(" {:.1f} ({:.1f}) |", rnl_delta_s(q[i], q[j], system),
+                                    std::hypot(floor[i], floor[j]))
+                      : std::string(" – |");
         }
         md += "\n";
     }

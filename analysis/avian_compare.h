@@ -53,10 +53,12 @@ std::string avian_comparison_markdown(const std::vector<AvianRecordComparison>& 
 std::vector<std::size_t> pavo_export_pairs(const gonio::BrdfRecord& reference,
                                            const std::vector<AvianRecordComparison>& rows);
 
-// Markdown: the RNL ΔS (JND) between every two of `spectra` (reflectance on `wavelengths_nm`),
-// a symmetric matrix; "–" where a spectrum gives a cone no catch.
+// Markdown: the RNL ΔS (JND) between every two of `spectra` (reflectance on `wavelengths_nm`,
+// with standard errors `errors`), a symmetric matrix, each entry beside its noise floor
+// √(floor_i² + floor_j²); "–" where a spectrum gives a cone no catch.
 std::string rnl_matrix_markdown(const std::vector<std::string>& names,
                                 const std::vector<std::vector<double>>& spectra,
+                                const std::vector<std::vector<double>>& errors,
                                 const std::vector<double>& wavelengths_nm,
                                 const AvianVisualSystem& system);
 

@@ -1289,8 +1289,10 @@ SpeciesOutcome run_one_species(const Run& run, const Specimen& x, record::Hdf5Wr
     o.brdf_seconds = m.brdf.wall_time_s;
     o.mean_brdf_rgb = mean_brdf_rgb(m.brdf, run.s.wavelengths);
     const std::size_t mirror = figure9_pairs(run.pairs)[6];  // light 30° at 180°, view 30° at 0°
-    for (std::size_t k = 0; k < run.nl(); ++k)
+    for (std::size_t k = 0; k < run.nl(); ++k) {
         o.mirror_reflectance.push_back(kPi * m.brdf.at(mirror, k));
+        o.mirror_reflectance_error.push_back(kPi * m.brdf.error_at(mirror, k));
+    }
     reciprocity(m.brdf, run.nl(), o);
     fit_filip(run, x.spec, m, o);
     compare_models(x, m, o);
@@ -1306,10 +1308,11 @@ SpeciesOutcome run_one_species(const Run& run, const Specimen& x, record::Hdf5Wr
 // avian_compare.h) and in pavo's layout (spectra_pavo.csv).
 std::string avian_section(const fs::path& dir, const Run& run, const SpeciesResult& result) {
     std::vector<std::string> names;
-    std::vector<std::vector<double>> spectra, percent;
+    std::vector<std::vector<double>> spectra, errors, percent;
     for (const auto& o : result.species) {
         names.push_back(o.species);
         spectra.push_back(o.mirror_reflectance);
+        errors.push_back(o.mirror_reflectance_error);
         percent.emplace_back();
         for (double r : o.mirror_reflectance) percent.back().push_back(100.0 * r);
     }
@@ -1321,11 +1324,15 @@ std::string avian_section(const fs::path& dir, const Run& run, const SpeciesResu
         "bird: receptor-noise-limited ΔS in just-noticeable differences (Vorobyev & Osorio 1998; "
         "analysis/avian_vision.h), on the study's {}–{} nm grid (no light below it reaches the "
         "UV/violet cone). Spectra in pavo's layout: `spectra_pavo.csv` (`wl` in nm, one column "
-        "per species, per cent).\n\n",
+        "per species, per cent). In brackets each ΔS's noise floor (the RMS ΔS the Monte Carlo "
+        "errors alone give, to first order: it misses the noise of cells that caught no light, "
+        "whose σ is 0, so a floor near 0 beside a spectrum with zeros is not to be trusted); "
+        "\"–\": a cone catches nothing (zero reflectance on the grid).\n\n",
         run.s.wavelengths.front(), run.s.wavelengths.back());
     for (const auto* system :
          {&analysis::ultraviolet_sensitive_system(), &analysis::violet_sensitive_system()}) {
-        md += analysis::rnl_matrix_markdown(names, spectra, run.s.wavelengths, *system) + "\n";
+        md += analysis::rnl_matrix_markdown(names, spectra, errors, run.s.wavelengths, *system) +
+              "\n";
     }
     return md;
 }
