@@ -39,8 +39,11 @@
 // predicted peak sensitivities (which include oil-droplet and ocular-media filtering), without
 // the droplets' narrowing of the bands (their λcut were not available to us), so its bands are
 // broader than the real cones' on the short-wavelength side. Ocular media are modelled for
-// neither system: UVS birds' media transmit to about 310–320 nm, so the UVS cone's catch below
-// that is overstated (it is a small part: the β band and droplet-free UVS cone peak at 371 nm).
+// neither system: birds' ocular media cut off in the near UV (50 % transmission at roughly
+// 310–340 nm in UVS species, longer in VS species; Hart 2001), so the short-wavelength cone's
+// catch below that is overstated here (at 300–330 nm it is mostly the β band and the α band's
+// flank); the VS bands sit at peaks that include the media's effect but keep the bare
+// template's UV flank, which the media would remove.
 
 namespace plumage::analysis {
 
