@@ -89,8 +89,7 @@ RecordComparison compare_records(const gonio::BrdfRecord& a, const gonio::BrdfRe
                      lobe_block(a.lobe_standard_error, la, np * nl),
                      lobe_block(b.lobe_standard_error, lb, np * nl), a));
     }
-    c.colour_available = nl >= 2 && ca.wavelengths_nm.front() >= optics::kCmfMinNm &&
-                         ca.wavelengths_nm.back() <= optics::kCmfMaxNm;
+    c.colour_available = optics::carries_colour(ca.wavelengths_nm);
     if (c.colour_available) {
         const optics::ReflectanceToXyz to_xyz(optics::WavelengthGrid(ca.wavelengths_nm),
                                               optics::Illuminant::d65);

@@ -39,7 +39,7 @@ struct RecordComparison {
     ErrorMeasures total;
     std::vector<std::pair<std::string, ErrorMeasures>> lobes;
     double mean_delta_e00 = 0.0, max_delta_e00 = 0.0, delta_e00_noise_floor = 0.0;
-    bool colour_available = false;  // wavelengths inside 360–830 nm and at least two
+    bool colour_available = false;  // optics::carries_colour (300–830 nm, UV weight 0)
     std::vector<CellDifference> worst;
 };
 

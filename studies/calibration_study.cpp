@@ -7,7 +7,7 @@
 //
 // Study file keys (units, ranges):
 //   name, seed                                        (studies/sections.h)
-//   [spectrum]   first_nm, last_nm, step_nm           (360–830 nm; default 400–700, 50 nm)
+//   [spectrum]   first_nm, last_nm, step_nm           (300–800 nm; default 400–700, 50 nm)
 //   [standard]   albedo                               ρ of the standard, [0, 1]; default 0.99
 //   [goniometer] direction_set                        "filip2024_in_plane" (55 pairs) or
 //                                                     "filip2024_btf" (3660); default in-plane

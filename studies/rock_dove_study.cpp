@@ -10,6 +10,7 @@
 #include <fmt/format.h>
 #include <fmt/ranges.h>
 
+#include "analysis/avian_compare.h"
 #include "analysis/colour_quadrature.h"
 #include "analysis/compare.h"
 #include "analysis/convergence.h"
@@ -446,7 +447,7 @@ std::string brdf_section(const Run& run, const Brdfs& m, RockDoveResult& result)
 std::string colour_quadrature(const Run& run, const Built& b, const Brdfs& m,
                               RockDoveResult& result) {
     const std::vector<double>& wl = m.model.config.wavelengths_nm;
-    if (wl.size() < 2 || wl.front() < optics::kCmfMinNm || wl.back() > optics::kCmfMaxNm) {
+    if (!optics::carries_colour(wl)) {
         return {};
     }
     run.clock.say("colour quadrature: Huang model on the study's wavelengths against 1 nm");
@@ -472,6 +473,48 @@ std::string colour_quadrature(const Run& run, const Built& b, const Brdfs& m,
         wl.size(), wl.front(), wl.back(), count, pairs.size(),
         stride == 1 ? std::string("one") : fmt::format("{}th", stride), e.reference_step_nm, e.mean,
         e.p95, e.max);
+}
+
+// The BRDFs as birds see them (analysis/avian_compare.h), and the spectra of a few pairs in
+// pavo's layout (brdf/spectra_pavo.csv).
+std::string avian_vision(const Run& run, const Brdfs& m, RockDoveResult& result) {
+    const auto& wl = m.model.config.wavelengths_nm;
+    if (wl.size() < 2 || wl.front() < 300.0) return {};
+    run.clock.say("avian vision: UVS and VS distances, simulation against model");
+    std::vector<analysis::AvianRecordComparison> rows;
+    for (const auto* system :
+         {&analysis::ultraviolet_sensitive_system(), &analysis::violet_sensitive_system()}) {
+        rows.push_back(analysis::compare_records_avian(m.simulation, m.model, *system));
+    }
+    result.avian_median_delta_s = {rows[0].median, rows[1].median};
+    result.avian_median_noise_floor = {rows[0].median_noise_floor, rows[1].median_noise_floor};
+    std::vector<std::string> names;
+    std::vector<std::vector<double>> columns;
+    for (std::size_t p : analysis::pavo_export_pairs(m.model, rows)) {
+        for (const auto& [name, record] :
+             {std::pair{"simulation", &m.simulation}, std::pair{"model", &m.model}}) {
+            names.push_back(analysis::pavo_pair_name(name, record->config.pairs[p]));
+            std::vector<double>& c = columns.emplace_back();
+            for (std::size_t k = 0; k < wl.size(); ++k) c.push_back(100.0 * kPi * record->at(p, k));
+        }
+    }
+    std::ofstream(run.dir / "brdf" / "spectra_pavo.csv")
+        << analysis::pavo_csv_text(wl, names, columns);
+    return "## Avian vision\n\nColour differences as a bird sees them: receptor-noise-limited "
+           "distance ΔS (Vorobyev & Osorio 1998; 1 = one just-noticeable difference) between the "
+           "spectra of π·f under D65 at each direction pair, for an ultraviolet-sensitive (blue "
+           "tit) and a violet-sensitive (peafowl) tetrachromat (analysis/avian_vision.h), beside "
+           "the ΔS the Monte Carlo error alone gives:\n\n" +
+           analysis::avian_comparison_markdown(rows, m.model, "simulation", "Huang model") +
+           (wl.front() > 300.0
+                ? fmt::format("\nThe grid starts at {:.0f} nm: the UV/violet cone gets no light "
+                              "below it, so its catch, and ΔS, rest on the part of its "
+                              "sensitivity the grid covers (shares above).",
+                              wl.front())
+                : std::string()) +
+           "\nSpectra of the pairs above (brightest, largest ΔS, median) in pavo's layout: "
+           "`brdf/spectra_pavo.csv` (`wl` in nm, then one column per sample, 100·π·f in per "
+           "cent).\n\n";
 }
 
 // In-plane curves at the middle wavelength (the set's own order of light angles).
@@ -1009,6 +1052,7 @@ RockDoveResult run_rock_dove_study(const std::string& study_text, const fs::path
     const Brdfs brdfs = measure_brdfs(run, built, checkpoints / "brdf_simulation.checkpoint");
     md += brdf_section(run, brdfs, result);
     md += colour_quadrature(run, built, brdfs, result);
+    md += avian_vision(run, brdfs, result);
     md += in_plane_sweep(run, built);
     md += validation(run, built, result);
     md += huang_fit(run, built, result);

@@ -16,6 +16,7 @@
 // and studies/rock_dove_quick.toml (seconds; used by the tests).
 #pragma once
 
+#include <array>
 #include <filesystem>
 #include <string>
 #include <vector>
@@ -37,6 +38,9 @@ struct RockDoveResult {
     double brdf_relative_l1 = 0.0;  // total BRDF, simulation against model
     // ΔE00 of the model's colours on the study's wavelengths against 1 nm, largest over pairs.
     double colour_quadrature_max_delta_e00 = 0.0;
+    // Avian vision (UVS, VS): median RNL ΔS (JND) over BRDF pairs with signal, simulation
+    // against model, and the median ΔS the standard errors alone give.
+    std::array<double, 2> avian_median_delta_s{}, avian_median_noise_floor{};
     double fit_reduced_chi_square = 0.0;      // Huang fitted to a simulated beam scatterogram
     double simulated_multi_share = 0.0;       // of the reflected power, hemispheric light
     double simulated_t = 0.0, model_t = 0.0;  // T lobe at the beam's incidence

@@ -36,9 +36,11 @@ struct WavelengthRule {
     double first_nm = 400.0;  // defaults
     double last_nm = 700.0;
     double step_nm = 50.0;
-    double min_nm = 360.0;  // the range a study accepts, and why
-    double max_nm = 830.0;
-    std::string_view range_reason = "the CIE 1931 colour-matching functions' range";
+    double min_nm = 300.0;  // the range a study accepts, and why
+    double max_nm = 800.0;
+    std::string_view range_reason =
+        "the range of keratin and melanin dispersion (sim/optics/material.h; CIE colour weighs "
+        "light below 360 nm 0)";
 };
 std::vector<double> read_wavelengths(ParameterTable& table, const WavelengthRule& rule);
 // Studies that compare against Filip 2024, whose colour bands are defined on 380-780 nm.

@@ -14,6 +14,7 @@
 
 #include <fmt/format.h>
 
+#include "analysis/avian_compare.h"
 #include "analysis/filip2024_fit.h"
 #include "analysis/statistics.h"
 #include "common/constants.h"
@@ -340,7 +341,7 @@ Settings read_settings(StudyFile& file, std::string& name, const fs::path& sourc
 std::shared_ptr<const optics::Material> keratin_of(const SpeciesSpec& s) {
     if (s.pigment_k <= 0.0) return optics::keratin();
     std::vector<double> lambda, n, k;
-    for (double l = 360.0; l <= 830.0 + 1e-9; l += 1.0) {
+    for (double l = optics::kDispersionMinNm; l <= optics::kDispersionMaxNm + 1e-9; l += 1.0) {
         lambda.push_back(l);
         n.push_back(optics::keratin()->index(l).real());
         const double u = (l - s.pigment_peak_nm) / s.pigment_width_nm;
@@ -1287,6 +1288,11 @@ SpeciesOutcome run_one_species(const Run& run, const Specimen& x, record::Hdf5Wr
     m.brdf = measure_species_brdf(run, x, m);
     o.brdf_seconds = m.brdf.wall_time_s;
     o.mean_brdf_rgb = mean_brdf_rgb(m.brdf, run.s.wavelengths);
+    const std::size_t mirror = figure9_pairs(run.pairs)[6];  // light 30° at 180°, view 30° at 0°
+    for (std::size_t k = 0; k < run.nl(); ++k) {
+        o.mirror_reflectance.push_back(kPi * m.brdf.at(mirror, k));
+        o.mirror_reflectance_error.push_back(kPi * m.brdf.error_at(mirror, k));
+    }
     reciprocity(m.brdf, run.nl(), o);
     fit_filip(run, x.spec, m, o);
     compare_models(x, m, o);
@@ -1298,6 +1304,39 @@ SpeciesOutcome run_one_species(const Run& run, const Specimen& x, record::Hdf5Wr
     return o;
 }
 
+// The species' spectra at the mirror pair as birds tell them apart (RNL ΔS, analysis/
+// avian_compare.h) and in pavo's layout (spectra_pavo.csv).
+std::string avian_section(const fs::path& dir, const Run& run, const SpeciesResult& result) {
+    std::vector<std::string> names;
+    std::vector<std::vector<double>> spectra, errors, percent;
+    for (const auto& o : result.species) {
+        names.push_back(o.species);
+        spectra.push_back(o.mirror_reflectance);
+        errors.push_back(o.mirror_reflectance_error);
+        percent.emplace_back();
+        for (double r : o.mirror_reflectance) percent.back().push_back(100.0 * r);
+    }
+    std::ofstream(dir / "spectra_pavo.csv")
+        << analysis::pavo_csv_text(run.s.wavelengths, names, percent);
+    std::string md = fmt::format(
+        "## Avian vision\n\nThe simulated spectra π·f at the mirror pair (light 30° at azimuth "
+        "180°, view 30° at 0°) under D65, told apart by an ultraviolet- and a violet-sensitive "
+        "bird: receptor-noise-limited ΔS in just-noticeable differences (Vorobyev & Osorio 1998; "
+        "analysis/avian_vision.h), on the study's {}–{} nm grid (no light below it reaches the "
+        "UV/violet cone). Spectra in pavo's layout: `spectra_pavo.csv` (`wl` in nm, one column "
+        "per species, per cent). In brackets each ΔS's noise floor (the RMS ΔS the Monte Carlo "
+        "errors alone give, to first order: it misses the noise of cells that caught no light, "
+        "whose σ is 0, so a floor near 0 beside a spectrum with zeros is not to be trusted); "
+        "\"–\": a cone catches nothing (zero reflectance on the grid).\n\n",
+        run.s.wavelengths.front(), run.s.wavelengths.back());
+    for (const auto* system :
+         {&analysis::ultraviolet_sensitive_system(), &analysis::violet_sensitive_system()}) {
+        md += analysis::rnl_matrix_markdown(names, spectra, errors, run.s.wavelengths, *system) +
+              "\n";
+    }
+    return md;
+}
+
 // After the species: Table 1 beside the fits, Fig. 6a, the records' index; then commit.
 void finish(const Run& run, SpeciesResult& result, record::Hdf5Writer& h5, std::string& md,
             StagedDirectory& out) {
@@ -1305,6 +1344,7 @@ void finish(const Run& run, SpeciesResult& result, record::Hdf5Writer& h5, std::
     std::vector<PlotJob> plots;
     md += fits_section(dir, result);
     md += in_plane_section(dir, result, plots);
+    md += avian_section(dir, run, result);
     run_plots(plots, dir / "plots.csv");
     std::string joined;
     for (int p = 0; p < kFilip2024ParameterCount; ++p) {

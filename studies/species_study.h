@@ -83,6 +83,9 @@ struct SpeciesOutcome {
     double in_plane_peak_deg = 0.0;
     double brdf_seconds = 0.0;  // wall time of the 61 × 60 measurement
     double btf_seconds = 0.0;   // wall time of the 61 × 60 BTF
+    // π f at the mirror pair (light 30° at 180°, view 30° at 0°) per wavelength: the spectrum
+    // the avian-vision section compares across species.
+    std::vector<double> mirror_reflectance, mirror_reflectance_error;
 };
 
 struct SpeciesResult {

@@ -10,8 +10,7 @@ constexpr double kD65X = 0.95047, kD65Z = 1.08883;
 }  // namespace
 
 SpectrumToDisplay::SpectrumToDisplay(const std::vector<double>& wavelengths_nm) {
-    if (wavelengths_nm.size() >= 2 && wavelengths_nm.front() >= optics::kCmfMinNm &&
-        wavelengths_nm.back() <= optics::kCmfMaxNm) {
+    if (optics::carries_colour(wavelengths_nm)) {
         to_xyz_.emplace(optics::WavelengthGrid(wavelengths_nm), optics::Illuminant::d65);
     }
 }

@@ -4,8 +4,8 @@
 //  - XYZ under D65 with the CIE 1931 2° observer on the record's wavelength grid,
 //    white-balanced so that a flat spectrum maps to the D65 white point on any grid
 //    (a few wavelengths do not span the visible; colour casts must be the scatterer's,
-//    not the sampling's). Grids that cannot carry colour (one wavelength, or outside
-//    360–830 nm) give grey from the mean.
+//    not the sampling's). Grids that cannot carry colour (optics::carries_colour: one
+//    wavelength, or outside 300–830 nm) give grey from the mean; UV samples weigh 0.
 //  - Display: exposure scales luminance; negative (out-of-gamut) sRGB components clip to
 //    0; over-range colours are scaled by their largest component so the hue survives;
 //    then the sRGB transfer curve, 8 bits.

@@ -24,12 +24,17 @@ Xyz colour_matching(double lambda_nm) {
             interpolate_uniform_table(kCie1931Z, kCmfFirstNm, kCmfStepNm, lambda_nm)};
 }
 
+bool carries_colour(std::span<const double> wavelengths_nm) {
+    return wavelengths_nm.size() >= 2 && wavelengths_nm.front() >= kColourGridMinNm &&
+           wavelengths_nm.back() <= kCmfMaxNm && wavelengths_nm.back() > kCmfMinNm;
+}
+
 ReflectanceToXyz::ReflectanceToXyz(const WavelengthGrid& grid, Illuminant illuminant) {
-    if (grid.first() < kCmfMinNm || grid.last() > kCmfMaxNm) {
+    if (grid.first() < kColourGridMinNm || grid.last() > kCmfMaxNm) {
         throw InputError(fmt::format(
-            "colour needs wavelengths within the CIE 1931 colour-matching range {}–{} nm; the "
-            "grid spans {}–{} nm",
-            kCmfMinNm, kCmfMaxNm, grid.first(), grid.last()));
+            "colour needs wavelengths within {}–{} nm (the CIE 1931 colour-matching functions "
+            "cover {}–{} nm; below that UV light has weight 0); the grid spans {}–{} nm",
+            kColourGridMinNm, kCmfMaxNm, kCmfMinNm, kCmfMaxNm, grid.first(), grid.last()));
     }
     const std::size_t n = grid.size();
     wx_.assign(n, 0.0);

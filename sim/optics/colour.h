@@ -36,10 +36,16 @@ Xyz colour_matching(double lambda_nm);
 
 inline constexpr double kCmfMinNm = 360.0;
 inline constexpr double kCmfMaxNm = 830.0;
+// Grids reaching into the ultraviolet (birds see it) still give a colour: D65 is tabulated from
+// 300 nm, and below 360 nm the colour-matching functions are zero, so UV light is invisible in
+// CIE colour (weight 0): colour integrates only over the part of the grid within 360–830 nm.
+inline constexpr double kColourGridMinNm = 300.0;
+// At least two wavelengths, all within kColourGridMinNm–kCmfMaxNm, the last above kCmfMinNm.
+bool carries_colour(std::span<const double> wavelengths_nm);
 
 class ReflectanceToXyz {
 public:
-    // Throws InputError if the grid reaches outside 360–830 nm.
+    // Throws InputError if the grid reaches outside 300–830 nm or has no sample above 360 nm.
     ReflectanceToXyz(const WavelengthGrid& grid, Illuminant illuminant);
 
     // reflectance.size() must equal the grid's size.

@@ -11,6 +11,33 @@
 //
 // Valid ranges: A > 0, B >= 0, C >= 0, D > 0; n(λ) must stay positive. Tabulated
 // materials interpolate linearly and reject wavelengths outside their table.
+//
+// Spectral range of keratin() and melanin(): kDispersionMinNm–kDispersionMaxNm (300–800 nm),
+// one formula across it (so n, k and their derivatives are continuous at every join), each
+// sub-range with its source and how far it can be trusted:
+//
+//  | range (nm) | keratin                                 | melanin                               |
+//  |------------|-----------------------------------------|---------------------------------------|
+//  | 400–700    | measured: Leertouwer, Wilts & Stavenga  | measured: Stavenga, Leertouwer, Osorio|
+//  |            | 2011, Opt. Express 19:24061 (Jamin-     | & Wilts 2015, Light Sci. Appl. 4:e243 |
+//  |            | Lebedeff, goose barbules; 1.569, 1.556, | (Jamin-Lebedeff, Parotia barbules,    |
+//  |            | 1.548 at 400, 500, 600 nm)              | n 1.7–1.8, k from absorbance)         |
+//  | 700–800    | Cauchy extrapolated 100 nm: no          | Cauchy and exponential k extrapolated:|
+//  |            | absorption band nearby, the B/λ² term   | n changes by 0.011 from 700 to 800 nm,|
+//  |            | changes n by 0.0028 over the range; off | k by 0.013; off by ≲ 0.01 in n, k    |
+//  |            | by ≲ 0.002                              | (melanin's absorption is monotone)    |
+//  | 300–400    | Cauchy extrapolated 100 nm: n(300) =    | extrapolated: n(300) = 1.911,         |
+//  |            | 1.597. Keratin absorbs below ~300 nm    | k(300) = 0.18. Melanin absorbs ever   |
+//  |            | (aromatic residues, peak ~280 nm), and  | more strongly into the UV (k rises    |
+//  |            | near-UV anomalous dispersion of feather | monotonically, as the formula does),  |
+//  |            | keratin was reported by Brink & van der | but no measurement of n below 400 nm  |
+//  |            | Berg 2004, J. Phys. D 37:813; so the    | was found: n may be off by ~0.05.     |
+//  |            | true n near 300 nm is likely higher, by |                                       |
+//  |            | an estimated ≲ 0.03, and k > 0 (not     |                                       |
+//  |            | modelled)                               |                                       |
+//
+// Study files refuse wavelengths outside this range (studies/sections.h, WavelengthRule);
+// index() itself accepts any positive wavelength (the formulas are defined there).
 #pragma once
 
 #include <complex>
@@ -64,6 +91,9 @@ private:
     std::string name_;
     std::vector<double> lambda_nm_, n_, k_;
 };
+
+inline constexpr double kDispersionMinNm = 300.0;
+inline constexpr double kDispersionMaxNm = 800.0;
 
 std::shared_ptr<const Material> keratin();
 std::shared_ptr<const Material> melanin();

@@ -2,7 +2,7 @@
 //
 // A grid is any strictly increasing list of finite positive wavelengths. It is not
 // restricted to the visible range (birds see UV); only colour conversion (colour.h)
-// requires the grid to lie within the colour-matching functions' 360–830 nm.
+// requires the grid to lie within 300–830 nm (colour.h: UV below 360 nm has weight 0).
 #pragma once
 
 #include <cstddef>

@@ -69,13 +69,43 @@ TEST(Colour, SrgbTransferCurve) {
 
 TEST(Colour, RejectsGridsOutsideTheColourMatchingRange) {
     using plumage::testing::input_error_message;
-    const auto uv = WavelengthGrid::uniform(300.0, 700.0, 10.0);
-    EXPECT_NE(input_error_message([&] { ReflectanceToXyz(uv, Illuminant::d65); }).find("300"),
+    const auto deep_uv = WavelengthGrid::uniform(290.0, 700.0, 10.0);
+    EXPECT_NE(input_error_message([&] {
+                  ReflectanceToXyz(deep_uv, Illuminant::d65);
+              }).find("the grid spans 290–700 nm"),
               std::string::npos);
     const auto ir = WavelengthGrid::uniform(400.0, 900.0, 10.0);
     EXPECT_NE(
-        input_error_message([&] { ReflectanceToXyz(ir, Illuminant::d65); }).find("360–830 nm"),
+        input_error_message([&] { ReflectanceToXyz(ir, Illuminant::d65); }).find("300–830 nm"),
         std::string::npos);
+    const auto only_uv = WavelengthGrid::uniform(300.0, 350.0, 10.0);
+    EXPECT_FALSE(carries_colour(only_uv.nm()));
+    EXPECT_THROW(ReflectanceToXyz(only_uv, Illuminant::d65), InputError);
+}
+
+// UV light is invisible in CIE colour: on a 300–800 nm grid a spectrum's colour does not depend
+// on its values below 360 nm, and equals the colour of the same spectrum on the grid's visible
+// part (the colour-matching functions are zero below 360 nm, and 360 nm is a grid node).
+TEST(Colour, UltravioletHasNoWeightInCieColour) {
+    const auto grid = WavelengthGrid::uniform(300.0, 800.0, 10.0);
+    const auto visible = WavelengthGrid::uniform(360.0, 800.0, 10.0);
+    ASSERT_TRUE(carries_colour(grid.nm()));
+    const ReflectanceToXyz to_xyz(grid, Illuminant::d65), to_xyz_visible(visible, Illuminant::d65);
+    std::vector<double> r(grid.size()), r_uv(grid.size()), r_visible;
+    for (std::size_t i = 0; i < grid.size(); ++i) {
+        r[i] = 0.3 + 0.2 * std::sin(grid[i] / 37.0);
+        r_uv[i] = grid[i] < 360.0 ? 5.0 : r[i];  // a strong UV reflector, same visible part
+        if (grid[i] >= 360.0) r_visible.push_back(r[i]);
+    }
+    const Xyz a = to_xyz(r), b = to_xyz(r_uv), c = to_xyz_visible(r_visible);
+    EXPECT_DOUBLE_EQ(a.x, b.x);
+    EXPECT_DOUBLE_EQ(a.y, b.y);
+    EXPECT_DOUBLE_EQ(a.z, b.z);
+    // Same nodes from 360 nm on; the only difference is the 360 nm node's half-interval to the
+    // left (x̄ȳz̄(360) ~ 1e-4 of their peaks).
+    EXPECT_NEAR(a.y, c.y, 1e-4);
+    EXPECT_NEAR(a.x, c.x, 1e-4);
+    EXPECT_NEAR(to_xyz.white().y, 1.0, 1e-12);
 }
 
 struct SharmaPair {

@@ -1,6 +1,7 @@
 #include "sim/optics/material.h"
 
 #include <cmath>
+#include <limits>
 
 #include <gtest/gtest.h>
 
@@ -20,6 +21,40 @@ TEST(Material, KeratinAndMelaninFollowThePublishedDispersion) {
     }
     EXPECT_NEAR(keratin()->index(500.0).real(), 1.55556, 1e-5);
     EXPECT_EQ(air()->index(500.0), std::complex<double>(1.0, 0.0));
+}
+
+// Across 300–800 nm (sim/optics/material.h: measured 400–700 nm, extrapolated 100 nm either
+// side) the indices are one smooth formula: continuous at the joins of the cited ranges, n
+// decreasing with λ (normal dispersion, away from absorption bands) and melanin's k decreasing
+// (its absorption rises monotonically into the UV).
+TEST(Material, DispersionIsContinuousAndMonotoneOver300To800Nanometres) {
+    for (const auto& material : {keratin(), melanin()}) {
+        double previous_n = std::numeric_limits<double>::infinity();
+        double previous_k = std::numeric_limits<double>::infinity();
+        for (double l = kDispersionMinNm; l <= kDispersionMaxNm + 1e-9; l += 0.5) {
+            const auto n = material->index(l);
+            EXPECT_LT(n.real(), previous_n) << material->name() << " " << l;
+            EXPECT_LE(n.imag(), previous_k) << material->name() << " " << l;
+            previous_n = n.real();
+            previous_k = n.imag();
+        }
+        // At the joins (400 and 700 nm) the two sides meet to within the step's own change:
+        // |n(λ ± 0.01) − n(λ)| ≤ |dn/dλ| · 0.01 (dn/dλ = −2B/λ³).
+        for (double join : {400.0, 700.0}) {
+            const double slope =
+                std::abs(material->index(join + 0.5).real() - material->index(join - 0.5).real());
+            EXPECT_LE(
+                std::abs(material->index(join + 0.01).real() - material->index(join - 0.01).real()),
+                0.021 * slope)
+                << material->name() << " at " << join;
+        }
+    }
+    // The extrapolated ends, as the parameter table quotes them.
+    EXPECT_NEAR(keratin()->index(300.0).real(), 1.5974, 1e-4);
+    EXPECT_NEAR(keratin()->index(800.0).real(), 1.5412, 1e-4);
+    EXPECT_NEAR(melanin()->index(300.0).real(), 1.9113, 1e-4);
+    EXPECT_NEAR(melanin()->index(300.0).imag(), 0.184, 1e-3);
+    EXPECT_NEAR(melanin()->index(800.0).imag(), 0.0290, 1e-4);
 }
 
 TEST(Material, TabulatedInterpolatesAndRejectsOutOfRange) {

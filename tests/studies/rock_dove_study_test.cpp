@@ -125,6 +125,16 @@ TEST(RockDoveStudy, QuickVariantRunsAndItsNumbersHold) {
     EXPECT_LT(r.level_relative_l1_gap_closed, 0.5 * r.level_relative_l1);
     EXPECT_NE(report.find("air gap under the film closed"), std::string::npos);
     EXPECT_NE(report.find("physical optics is needed"), std::string::npos);
+    // Avian vision (issue 18): ΔS between simulation and model beside its noise floor, both
+    // positive and finite (the quick run's 3 wavelengths from 450 nm: the UV cone sees a tail),
+    // and the spectra in pavo's layout.
+    EXPECT_NE(report.find("## Avian vision"), std::string::npos);
+    for (int system = 0; system < 2; ++system) {
+        EXPECT_GT(r.avian_median_delta_s[system], 0.0);
+        EXPECT_TRUE(std::isfinite(r.avian_median_delta_s[system]));
+        EXPECT_GT(r.avian_median_noise_floor[system], 0.0);
+    }
+    EXPECT_EQ(read(dir / "brdf" / "spectra_pavo.csv").rfind("wl,simulation_", 0), 0u);
     const auto values = record::read_dataset(dir / "brdf" / "simulation.h5", "brdf/value");
     EXPECT_EQ(values.dims[0], 55u);
     std::filesystem::remove_all(root);

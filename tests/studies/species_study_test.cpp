@@ -174,6 +174,11 @@ TEST(SpeciesStudy, QuickVariantReproducesEachPatchsColourAndOrientation) {
     EXPECT_NE(report.find("in_plane_luminance.png"), std::string::npos);
     EXPECT_TRUE(std::filesystem::exists(dir / "in_plane_luminance.png"));
     EXPECT_TRUE(std::filesystem::exists(dir / "fits.csv"));
+    // Issue 18: the species' mirror-pair spectra in pavo's layout, and their avian ΔS matrices.
+    const std::string pavo = read(dir / "spectra_pavo.csv");
+    EXPECT_EQ(pavo.rfind("wl,", 0), 0u) << pavo;
+    EXPECT_NE(report.find("## Avian vision"), std::string::npos);
+    EXPECT_NE(report.find("| UVS (blue tit) |"), std::string::npos);
     EXPECT_FALSE(std::filesystem::exists(root / ".checkpoints"));
     std::filesystem::remove_all(root);
 }
