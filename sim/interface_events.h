@@ -147,5 +147,10 @@ Vec3d reflect(const Vec3d& direction, const Vec3d& normal);
 bool refract(const Vec3d& direction, const Vec3d& normal, double eta, Vec3d* refracted);
 // Cosine-weighted direction about the unit normal (density cos θ / π).
 Vec3d sample_cosine_hemisphere(const Vec3d& normal, Rng& rng);
+// Unpolarised Fresnel R and T from the lossless medium n_in at cos_i ∈ [0, 1] into the
+// lossless medium n_out, in real arithmetic: optics::fresnel_intensities_unpolarised with
+// k = 0 on both sides (to round-off; T = 1 − R). dielectric_event takes it when neither
+// side absorbs.
+optics::FresnelIntensities lossless_fresnel_unpolarised(double n_in, double n_out, double cos_i);
 
 }  // namespace plumage::sim

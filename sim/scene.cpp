@@ -5,6 +5,7 @@
 #include <map>
 
 #include <fmt/format.h>
+#include <Eigen/Eigenvalues>
 
 #include "common/error.h"
 #include "sim/optics/fresnel.h"
@@ -62,7 +63,53 @@ void validate_mesh(const geometry::TriangleMesh& mesh, const std::string& where)
 
 double max_abs(const Vec3d& v) { return v.cwiseAbs().maxCoeff(); }
 
+// Σ over the unit's triangles of the surface area of their bounding boxes in the frame whose
+// axes are the columns of `axes`: the leaf term of the SAH cost a BVH built in that frame pays.
+double box_area_sum(const UnitMesh& unit, const Eigen::Matrix3d& axes) {
+    double sum = 0.0;
+    for (const Surface& surface : unit.surfaces) {
+        const geometry::TriangleMesh& mesh = surface.mesh;
+        for (const geometry::Triangle& t : mesh.triangles) {
+            Eigen::AlignedBox3d box;
+            for (std::uint32_t v : t) box.extend(axes.transpose() * mesh.positions[v]);
+            const Vec3d d = box.diagonal();
+            sum += d.x() * d.y() + d.y() * d.z() + d.z() * d.x();
+        }
+    }
+    return sum;
+}
+
 }  // namespace
+
+Scene::BvhFrame Scene::bvh_frame(const UnitMesh& unit) {
+    std::size_t count = 0;
+    Vec3d mean = Vec3d::Zero();
+    for (const Surface& surface : unit.surfaces) {
+        for (const Vec3d& p : surface.mesh.positions) mean += p;
+        count += surface.mesh.positions.size();
+    }
+    mean /= static_cast<double>(std::max<std::size_t>(count, 1));
+    Eigen::Matrix3d covariance = Eigen::Matrix3d::Zero();
+    for (const Surface& surface : unit.surfaces) {
+        for (const Vec3d& p : surface.mesh.positions)
+            covariance += (p - mean) * (p - mean).transpose();
+    }
+    const Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d> solver(covariance);
+    Eigen::Matrix3d principal = solver.eigenvectors();
+    if (principal.determinant() < 0.0) principal.col(0) = -principal.col(0);
+    BvhFrame frame;
+    frame.rotation = Eigen::Matrix3d::Identity();
+    if (solver.info() == Eigen::Success && principal.allFinite() &&
+        box_area_sum(unit, principal) < box_area_sum(unit, frame.rotation)) {
+        frame.rotation = principal;
+    }
+    Eigen::AlignedBox3d box;
+    for (const Surface& surface : unit.surfaces) {
+        for (const Vec3d& p : surface.mesh.positions) box.extend(frame.rotation.transpose() * p);
+    }
+    frame.centre = box.isEmpty() ? Vec3d::Zero() : Vec3d(frame.rotation * box.center());
+    return frame;
+}
 
 AlbedoSpectrum constant_albedo(double albedo) {
     if (!std::isfinite(albedo) || albedo < 0.0 || albedo > 1.0) {
@@ -351,6 +398,8 @@ Scene::Scene(SceneDescription description, std::shared_ptr<const EmbreeDevice> d
     // One Embree scene per unit, one triangle geometry per surface (geomID = its index).
     for (const UnitMesh& unit : description_.units) {
         unit_first_surface_.push_back(static_cast<std::uint32_t>(surfaces_.size()));
+        const BvhFrame frame = bvh_frame(unit);
+        unit_frames_.push_back(frame);
         EmbreeScene unit_scene(dev, RTC_SCENE_FLAG_ROBUST, RTC_BUILD_QUALITY_HIGH);
         for (std::size_t s = 0; s < unit.surfaces.size(); ++s) {
             const Surface& surface = unit.surfaces[s];
@@ -360,8 +409,9 @@ Scene::Scene(SceneDescription description, std::shared_ptr<const EmbreeDevice> d
             std::vector<float> xyz;
             xyz.reserve(3 * surface.mesh.positions.size());
             for (const Vec3d& p : surface.mesh.positions) {
-                xyz.insert(xyz.end(), {static_cast<float>(p.x()), static_cast<float>(p.y()),
-                                       static_cast<float>(p.z())});
+                const Vec3d q = frame.rotation.transpose() * (p - frame.centre);
+                xyz.insert(xyz.end(), {static_cast<float>(q.x()), static_cast<float>(q.y()),
+                                       static_cast<float>(q.z())});
             }
             vertex_buffers_.push_back(padded_vertex_buffer(xyz));
             EmbreeGeometry geometry(dev, RTC_GEOMETRY_TYPE_TRIANGLE);
@@ -386,19 +436,22 @@ Scene::Scene(SceneDescription description, std::shared_ptr<const EmbreeDevice> d
     for (std::size_t i = 0; i < description_.instances.size(); ++i) {
         const Instance& instance = description_.instances[i];
         const Eigen::Matrix3d linear = instance.transform.linear();
+        // What Embree applies: the instance's transform after the unit's BVH frame.
+        const BvhFrame& frame = unit_frames_[instance.unit];
+        const Eigen::Matrix3d embree_linear = linear * frame.rotation;
+        const Vec3d embree_translation = instance.transform * frame.centre;
         instances_.push_back({instance.transform, linear.inverse().transpose(),
-                              linear.cwiseAbs().rowwise().sum().maxCoeff(),
-                              max_abs(instance.transform.translation()),
+                              embree_linear.cwiseAbs().rowwise().sum().maxCoeff(),
+                              max_abs(embree_translation),
                               static_cast<std::uint32_t>(instance.unit)});
         EmbreeGeometry geometry(dev, RTC_GEOMETRY_TYPE_INSTANCE);
         rtcSetGeometryInstancedScene(geometry.get(), unit_scenes_[instance.unit].get());
         // Column-major 3×4: the three columns of L, then t.
         float m[12];
         for (int c = 0; c < 3; ++c) {
-            for (int r = 0; r < 3; ++r) m[3 * c + r] = static_cast<float>(linear(r, c));
+            for (int r = 0; r < 3; ++r) m[3 * c + r] = static_cast<float>(embree_linear(r, c));
         }
-        for (int r = 0; r < 3; ++r)
-            m[9 + r] = static_cast<float>(instance.transform.translation()(r));
+        for (int r = 0; r < 3; ++r) m[9 + r] = static_cast<float>(embree_translation(r));
         rtcSetGeometryTransform(geometry.get(), 0, RTC_FORMAT_FLOAT3X4_COLUMN_MAJOR, m);
         dev.check("rtcSetGeometryInstancedScene / rtcSetGeometryTransform");
         const unsigned id = geometry.commit_and_attach(dev, *top_);
@@ -472,7 +525,14 @@ std::optional<SurfaceHit> Scene::intersect(const Vec3d& origin, const Vec3d& dir
                 shading = interpolated;
             }
         }
-        const double vertex_extent = std::max({max_abs(a), max_abs(b), max_abs(c)});
+        // The vertices as Embree stores them (in the unit's BVH frame, float).
+        const float* stored = vertex_buffers_[global].data();
+        float vertex_extent_f = 0.0f;
+        for (std::uint32_t vertex : tri) {
+            for (int k = 0; k < 3; ++k)
+                vertex_extent_f = std::max(vertex_extent_f, std::abs(stored[3 * vertex + k]));
+        }
+        const double vertex_extent = vertex_extent_f;
         const double offset =
             kSpawnOffsetUlps * kFloatRoundoff *
             (max_abs(position) + instance.linear_norm * vertex_extent + instance.translation_norm);

@@ -71,6 +71,12 @@ void TracerOptions::validate() const {
         throw InputError(fmt::format("tracer: roulette_after_events = {}: expected >= 1",
                                      roulette_after_events));
     }
+    if (!std::isfinite(roulette_below_weight) || roulette_below_weight < 0.0 ||
+        roulette_below_weight >= 1.0) {
+        throw InputError(fmt::format(
+            "tracer: roulette_below_weight = {}: expected a path weight in [0, 1) (0: off)",
+            roulette_below_weight));
+    }
     if (!std::isfinite(film_table_tolerance) || !(film_table_tolerance > 0.0) ||
         film_table_tolerance > 0.01) {
         throw InputError(
@@ -225,14 +231,20 @@ PathResult ExplicitScatterer::trace(const Vec3d& wi, double lambda_nm, const Vec
         path.event = ScatterEvent{direction.normalized(), weight, lobe_of(path), exit};
     };
 
-    // Russian roulette once the path is long: survive with q = weight (<= 1), weight / q.
+    // Russian roulette once the path is long (survivors carry 1) or its weight is low
+    // (survivors carry w_min): survive with q = weight / carried, weight / q.
     auto survives_roulette = [&]() {
-        if (path.events < options_.roulette_after_events || !(weight < 1.0)) return true;
-        if (rng.uniform() >= weight) {
+        double carried = 1.0;
+        if (path.events < options_.roulette_after_events) {
+            if (!(weight < options_.roulette_below_weight)) return true;
+            carried = options_.roulette_below_weight;
+        }
+        if (!(weight < carried)) return true;
+        if (rng.uniform() * carried >= weight) {
             path.ended_by_roulette = true;
             return false;
         }
-        weight = 1.0;
+        weight = carried;
         return true;
     };
 
@@ -274,7 +286,8 @@ PathResult ExplicitScatterer::trace(const Vec3d& wi, double lambda_nm, const Vec
                 if (!(weight > 0.0) || !survives_roulette()) return path;
                 continue;
             }
-            if (!(weight > 0.0)) return path;
+            // Before the event: a film met from inside melanin is evaluated directly.
+            if (!(weight > 0.0) || !survives_roulette()) return path;
         }
 
         if (path.events >= options_.max_events) {

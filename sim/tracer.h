@@ -49,6 +49,14 @@
 // Russian roulette after `roulette_after_events` events: the path survives with
 // probability q = min(1, weight) and its weight is divided by q (unbiased). Lossless
 // scenes keep weight 1 (to round-off) and practically never lose a path to it.
+// Before that, a path whose weight falls below w_min = `roulette_below_weight` (after an
+// event, or on arriving through an absorbing medium, before its event is evaluated) survives
+// with probability weight / w_min and carries w_min on (unbiased; its second moment grows from
+// w² to w · w_min, at most w_min² = 10⁻⁴ of a unit-weight path's). Why: light refracted into
+// melanin (a barbule core, the medulla's core) is attenuated to 10⁻⁹ and less within a few
+// µm but was traced on until the 8th event, each hit from inside a film evaluated directly
+// (its table is refused there, sim/film_table.h): 23 % of the parrot's rays and 44 % of the
+// rooster's carried a weight below 10⁻³ (species study, 2026-11-26). 0 turns it off.
 //
 // Determinism: sample() draws only from the Rng it is given, so a path depends on
 // (scene, ω_i, λ, position, rng state) alone; trace_many() seeds one stream per sample
@@ -59,6 +67,7 @@
 //  |-----------------------|---------|---------------|-----------------------------------------|
 //  | max_events            | 1000    | [1, 10⁶]      | events per path (1: single-event lobes) |
 //  | roulette_after_events | 8       | >= 1          | events before Russian roulette starts   |
+//  | roulette_below_weight | 0.01    | [0, 1)        | w_min of the low-weight roulette        |
 //  | tabulate_films        | true    |               | per-λ film tables (sim/film_table.h)    |
 //  | film_table_tolerance  | 1e-5    | (0, 0.01]     | absolute R, T error of the tables       |
 #pragma once
@@ -83,6 +92,7 @@ namespace plumage::sim {
 struct TracerOptions {
     int max_events = 1000;
     int roulette_after_events = 8;
+    double roulette_below_weight = 0.01;
     bool tabulate_films = true;
     double film_table_tolerance = FilmTable::kDefaultTolerance;
 

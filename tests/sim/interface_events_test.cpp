@@ -81,6 +81,26 @@ TEST(InterfaceEvents, DielectricReflectsWithFresnelProbability) {
     }
 }
 
+// The real-arithmetic Fresnel that dielectric_event takes between lossless media is the optics
+// library's unpolarised Fresnel with k = 0: both sides denser, index-matched, normal to grazing
+// and beyond the critical angle. (At exactly grazing incidence on an index-matched pair the
+// library reports no flux at all, R = T = 0; events never arrive at cos θ = 0.)
+TEST(InterfaceEvents, LosslessFresnelMatchesTheOpticsLibrary) {
+    for (const auto& [n_in, n_out] : std::vector<std::pair<double, double>>{
+             {1.0, 1.55}, {1.55, 1.0}, {1.55, 1.3}, {1.3, 1.55}, {1.2, 1.2}, {1.0, 3.5}}) {
+        for (int i = n_in == n_out ? 1 : 0; i <= 1000; ++i) {
+            const double c = i / 1000.0;
+            const optics::FresnelIntensities fast = lossless_fresnel_unpolarised(n_in, n_out, c);
+            const optics::FresnelIntensities reference =
+                optics::fresnel_intensities_unpolarised(n_in, Complex(n_out), c);
+            ASSERT_NEAR(fast.reflectance, reference.reflectance, 1e-12)
+                << n_in << " -> " << n_out << " at cos " << c;
+            ASSERT_NEAR(fast.transmittance, reference.transmittance, 1e-12)
+                << n_in << " -> " << n_out << " at cos " << c;
+        }
+    }
+}
+
 TEST(InterfaceEvents, TotalInternalReflectionInsideKeratin) {
     const Complex keratin = optics::keratin()->index(550.0);
     const double critical = std::asin(1.0 / keratin.real());

@@ -10,6 +10,7 @@
 #include <cmath>
 #include <span>
 
+#include <fmt/format.h>
 #include <gtest/gtest.h>
 
 #include "analysis/huang2022.h"
@@ -177,6 +178,11 @@ TEST(TracerOptions, BadInputIsAnInputErrorNamingTheValue) {
     EXPECT_NE(testing::input_error_message([&] { options.validate(); }).find("max_events = 0"),
               std::string::npos);
     options = {};
+    options.roulette_below_weight = 1.0;
+    EXPECT_NE(
+        testing::input_error_message([&] { options.validate(); }).find("roulette_below_weight = 1"),
+        std::string::npos);
+    options = {};
     options.film_table_tolerance = 0.5;
     EXPECT_NE(testing::input_error_message([&] {
                   options.validate();
@@ -241,47 +247,69 @@ TEST(TracerEnergy, LosslessClosedDielectricsConserveEnergy) {
 // meets the film cosine-distributed, so it leaves with T̄ = ∫ T(c) 2c dc and returns with
 // R̄ = 1 − T̄ (specular reflection keeps the distribution): a geometric series
 //     total = R(θ_i) + T(θ_i) a T̄ / (1 − a R̄),   TRT lobe = T(θ_i) a T̄,   R lobe = R(θ_i).
+struct FilmOverPlate {
+    static constexpr double kLambda = 530.0, kFilmUm = 0.59;
+    double albedo;
+    double t_bar = 0.0;  // ∫ T(c) 2c dc
+
+    explicit FilmOverPlate(double a) : albedo(a) {
+        const optics::FilmMedia media{1.0, optics::keratin()->index(kLambda), Complex(1.0)};
+        constexpr int kNodes = 20'000;  // midpoint rule on a smooth integrand: error ~1e-9
+        for (int i = 0; i < kNodes; ++i) {
+            const double c = (i + 0.5) / kNodes;
+            t_bar += optics::airy_film_intensities_unpolarised(media, kFilmUm, kLambda, c)
+                         .transmittance *
+                     2.0 * c / kNodes;
+        }
+    }
+    ExplicitScatterer tracer(const TracerOptions& options = {}) const {
+        SceneDescription desc;
+        UnitMesh unit{"film over plate", {}};
+        unit.surfaces.push_back({"film", testing::square_mesh(300.0, 0.3),
+                                 thin_film_interface(optics::keratin(), kFilmUm)});
+        // The plate reaches beyond the film, so light wandering past the film's edge (odds
+        // ~(0.3 µm / 300 µm)² per bounce) still cannot leave downward.
+        unit.surfaces.push_back(
+            {"plate", testing::square_mesh(1000.0, 0.0), diffuse_layer(constant_albedo(albedo))});
+        desc.units.push_back(std::move(unit));
+        desc.instances.push_back({0, Eigen::Affine3d::Identity()});
+        return ExplicitScatterer(std::move(desc), options);
+    }
+    optics::FilmIntensities film(const Vec3d& wi) const {
+        const optics::FilmMedia media{1.0, optics::keratin()->index(kLambda), Complex(1.0)};
+        return optics::airy_film_intensities_unpolarised(media, kFilmUm, kLambda, wi.z());
+    }
+    double total(const Vec3d& wi) const {
+        const auto f = film(wi);
+        return f.reflectance + f.transmittance * albedo * t_bar / (1.0 - albedo * (1.0 - t_bar));
+    }
+};
+
+// Standard error of the mean total weight of n paths.
+double total_standard_error(const Paths& r) {
+    double s = 0.0, s2 = 0.0;
+    for (const auto& e : r.events) {
+        if (e) s += e->weight, s2 += e->weight * e->weight;
+    }
+    const auto n = static_cast<double>(r.events.size());
+    const double m = s / n;
+    return std::sqrt((s2 / n - m * m) / (n - 1.0));
+}
+
 // With a = 0.5 most paths pass 8 events and meet Russian roulette.
 TEST(TracerEnergy, FilmOverLambertianPlateMatchesTheGeometricSeries) {
     constexpr std::size_t kPaths = 200'000;
-    const double lambda = 530.0, d_um = 0.59, albedo = 0.5;
-    SceneDescription desc;
-    UnitMesh unit{"film over plate", {}};
-    unit.surfaces.push_back(
-        {"film", testing::square_mesh(300.0, 0.3), thin_film_interface(optics::keratin(), d_um)});
-    // The plate reaches beyond the film, so light wandering past the film's edge (odds
-    // ~(0.3 µm / 300 µm)² per bounce) still cannot leave downward.
-    unit.surfaces.push_back(
-        {"plate", testing::square_mesh(1000.0, 0.0), diffuse_layer(constant_albedo(albedo))});
-    desc.units.push_back(std::move(unit));
-    desc.instances.push_back({0, Eigen::Affine3d::Identity()});
-    const ExplicitScatterer tracer(std::move(desc));
-
-    const optics::FilmMedia media{1.0, optics::keratin()->index(lambda), Complex(1.0)};
-    double t_bar = 0.0;
-    constexpr int kNodes = 20'000;  // midpoint rule on a smooth integrand: error ~1e-9
-    for (int i = 0; i < kNodes; ++i) {
-        const double c = (i + 0.5) / kNodes;
-        t_bar += optics::airy_film_intensities_unpolarised(media, d_um, lambda, c).transmittance *
-                 2.0 * c / kNodes;
-    }
+    const FilmOverPlate setup(0.5);
+    const ExplicitScatterer tracer = setup.tracer();
     for (double theta : {0.0, 40.0}) {
         const Vec3d wi = from_angle(theta);
-        const auto film = optics::airy_film_intensities_unpolarised(media, d_um, lambda, wi.z());
+        const auto film = setup.film(wi);
         const double r_lobe = film.reflectance;
-        const double trt_lobe = film.transmittance * albedo * t_bar;
-        const double total =
-            r_lobe + film.transmittance * albedo * t_bar / (1.0 - albedo * (1.0 - t_bar));
-        const Paths r = run_paths(tracer, wi, lambda, kCentre, kPaths);
+        const double trt_lobe = film.transmittance * setup.albedo * setup.t_bar;
+        const double total = setup.total(wi);
+        const Paths r = run_paths(tracer, wi, FilmOverPlate::kLambda, kCentre, kPaths);
         const LobeTally& t = r.tally;
-        const double total_se = [&] {
-            double s = 0.0, s2 = 0.0;
-            for (const auto& e : r.events) {
-                if (e) s += e->weight, s2 += e->weight * e->weight;
-            }
-            const double m = s / kPaths;
-            return std::sqrt((s2 / kPaths - m * m) / (kPaths - 1.0));
-        }();
+        const double total_se = total_standard_error(r);
         EXPECT_NEAR(t.total(), total, kSigmas * total_se) << theta;
         EXPECT_NEAR(t.mean(ExplicitScatterer::kR), r_lobe,
                     kSigmas * t.standard_error(ExplicitScatterer::kR));
@@ -298,6 +326,33 @@ TEST(TracerEnergy, FilmOverLambertianPlateMatchesTheGeometricSeries) {
                                           t.standard_error(ExplicitScatterer::kTRT)) +
                            " TRT; roulette ends " + std::to_string(r.roulette));
     }
+}
+
+// With a = 0.05 the weight drops below the low-weight roulette's w_min = 0.01 at the second
+// bounce on the plate, long before the 8th event: the series still holds, with fewer rays
+// than with that roulette off.
+TEST(TracerEnergy, LowWeightRouletteKeepsTheGeometricSeries) {
+    constexpr std::size_t kPaths = 200'000;
+    const FilmOverPlate setup(0.05);
+    TracerOptions late;
+    late.roulette_after_events = 1000;  // only the low-weight rule
+    TracerOptions off = late;
+    off.roulette_below_weight = 0.0;
+    const Vec3d wi = from_angle(20.0);
+    const Paths with = run_paths(setup.tracer(late), wi, FilmOverPlate::kLambda, kCentre, kPaths);
+    const Paths without = run_paths(setup.tracer(off), wi, FilmOverPlate::kLambda, kCentre, kPaths);
+    const double total = setup.total(wi);
+    EXPECT_NEAR(with.tally.total(), total, kSigmas * total_standard_error(with));
+    EXPECT_NEAR(without.tally.total(), total, kSigmas * total_standard_error(without));
+    EXPECT_GT(with.roulette, 0);
+    EXPECT_EQ(without.roulette, 0);
+    EXPECT_LT(with.rays, without.rays);
+    RecordProperty(
+        "low_weight_roulette",
+        fmt::format("total {:.6f} +- {:.6f} (roulette, {} rays), {:.6f} +- {:.6f} "
+                    "(off, {} rays), expected {:.6f}",
+                    with.tally.total(), total_standard_error(with), with.rays,
+                    without.tally.total(), total_standard_error(without), without.rays, total));
 }
 
 // --- 3. Lambertian plate: the cosine law by chi-square ------------------------------------

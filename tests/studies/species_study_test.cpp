@@ -66,7 +66,9 @@ void check_patch(const SpeciesOutcome& o) {
     // Reciprocity of the simulated BRDF (the tracer's physics is reciprocal; the patch
     // average over a beam covering a barb period is then too): the largest |z| over the
     // cells held both ways stays below the Šidák bound for a 1 % family-wise error.
-    ASSERT_GT(o.reciprocity_dof, 1000);
+    // (800: the tracer's low-weight roulette, sim/tracer.h, empties the quick rooster's cells
+    // that only light below 1 % of its power reached; 898 remain, 1481 before.)
+    ASSERT_GT(o.reciprocity_dof, 800);
     const double bound =
         analysis::two_sided_normal_quantile(analysis::sidak_significance(0.01, o.reciprocity_dof));
     EXPECT_LT(o.reciprocity_max_z, bound) << "over " << o.reciprocity_dof << " cells";
