@@ -51,6 +51,9 @@ def rank_pid(launcher_pid, rank):
 
 def kill_rank_when(cmd, chunks, checkpoints, rank, at_least):
     """Runs cmd; SIGKILLs `rank` once `at_least` checkpoint files are there. (exit, stderr)."""
+    # Checkpoints a killed job kept count only once this job has added two of its own: the kept
+    # ones alone would satisfy `at_least` before mpirun has started the ranks.
+    at_least = max(at_least, len(chunks(checkpoints)) + 2)
     proc = subprocess.Popen(cmd, stdout=subprocess.DEVNULL, stderr=subprocess.PIPE, text=True)
     deadline = time.monotonic() + 120
     while len(chunks(checkpoints)) < at_least and proc.poll() is None:
