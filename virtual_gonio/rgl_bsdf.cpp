@@ -650,20 +650,28 @@ RglBsdf RglBsdf::read(const std::filesystem::path& path) {
 
 double RglBsdf::eval_mitsuba(const Vec3d& wi_in, const Vec3d& wo_in, double lambda_nm) const {
     if (!(wi_in.z() > 0.0 && wo_in.z() > 0.0)) return 0.0;
-    Vec3d wi = wi_in, wo = wo_in;
-    fold(wi, wo);
-    const Vec3d m = (wi + wo).normalized();
-    const double theta_i = elevation(wi), phi_i = std::atan2(wi.y(), wi.x());
-    const double theta_m = elevation(m), phi_m = std::atan2(m.y(), m.x());
-    const Vec2 u_wi(theta_to_u(theta_i), phi_to_u(phi_i));
-    Vec2 u_m(theta_to_u(theta_m), phi_to_u(isotropic_ ? phi_m - phi_i : phi_m));
-    u_m.y() -= std::floor(u_m.y());
-    const double params[2] = {phi_i, theta_i};
-    const Vec2 s = vndf_.invert(u_m, params).point;
-    const double params_spectra[3] = {phi_i, theta_i, lambda_nm};
+    const HalfVectorFrame h = half_vector_frame(wi_in, wo_in);
+    const Vec2 u_wi(theta_to_u(h.theta_i), phi_to_u(h.phi_i));
+    const double params[2] = {h.phi_i, h.theta_i};
+    const Vec2 s = vndf_.invert(h.u_m, params).point;
+    const double params_spectra[3] = {h.phi_i, h.theta_i, lambda_nm};
     double value = spectra_.eval(s, params_spectra);
-    if (tables_.jacobian) value *= ndf_.eval(u_m) / (4.0 * sigma_.eval(u_wi));
+    if (tables_.jacobian) value *= ndf_.eval(h.u_m) / (4.0 * sigma_.eval(u_wi));
     return value;
+}
+
+RglBsdf::HalfVectorFrame RglBsdf::half_vector_frame(const Vec3d& wi_in, const Vec3d& wo_in) const {
+    HalfVectorFrame h;
+    h.wi = wi_in;
+    Vec3d wo = wo_in;
+    fold(h.wi, wo);
+    h.m = (h.wi + wo).normalized();
+    h.theta_i = elevation(h.wi);
+    h.phi_i = std::atan2(h.wi.y(), h.wi.x());
+    const double theta_m = elevation(h.m), phi_m = std::atan2(h.m.y(), h.m.x());
+    h.u_m = Vec2(theta_to_u(theta_m), phi_to_u(isotropic_ ? phi_m - h.phi_i : phi_m));
+    h.u_m.y() -= std::floor(h.u_m.y());
+    return h;
 }
 
 double RglBsdf::eval(const Vec3d& wi, const Vec3d& wo, double lambda_nm) const {
@@ -678,18 +686,12 @@ Vec2 RglBsdf::warp_sample(const Vec3d& wv, const Vec2& s) const {
 
 double RglBsdf::pdf_mitsuba(const Vec3d& wi_in, const Vec3d& wo_in) const {
     if (!(wi_in.z() > 0.0 && wo_in.z() > 0.0)) return 0.0;
-    Vec3d wi = wi_in, wo = wo_in;
-    fold(wi, wo);
-    const Vec3d m = (wi + wo).normalized();
-    const double theta_i = elevation(wi), phi_i = std::atan2(wi.y(), wi.x());
-    const double theta_m = elevation(m), phi_m = std::atan2(m.y(), m.x());
-    Vec2 u_m(theta_to_u(theta_m), phi_to_u(isotropic_ ? phi_m - phi_i : phi_m));
-    u_m.y() -= std::floor(u_m.y());
-    const double params[2] = {phi_i, theta_i};
-    const auto [s, vndf_pdf] = vndf_.invert(u_m, params);
-    const double sin_theta_m = std::sqrt(m.x() * m.x() + m.y() * m.y());
+    const HalfVectorFrame h = half_vector_frame(wi_in, wo_in);
+    const double params[2] = {h.phi_i, h.theta_i};
+    const auto [s, vndf_pdf] = vndf_.invert(h.u_m, params);
+    const double sin_theta_m = std::sqrt(h.m.x() * h.m.x() + h.m.y() * h.m.y());
     const double jacobian =
-        std::max(2.0 * kPi * kPi * u_m.x() * sin_theta_m, 1e-6) * 4.0 * wi.dot(m);
+        std::max(2.0 * kPi * kPi * h.u_m.x() * sin_theta_m, 1e-6) * 4.0 * h.wi.dot(h.m);
     return vndf_pdf * luminance_.eval(s, params) / jacobian;
 }
 

@@ -247,6 +247,14 @@ public:
     const RglBsdfTables& tables() const { return tables_; }
 
 private:
+    // What eval and pdf share: the folded pair, its half vector m and m's warp coordinates u_m
+    // (φ_m relative to φ_i when isotropic), wrapped into [0, 1).
+    struct HalfVectorFrame {
+        Vec3d wi, m;
+        double theta_i, phi_i;
+        Vec2 u_m;
+    };
+    HalfVectorFrame half_vector_frame(const Vec3d& wi, const Vec3d& wo) const;
     void fold(Vec3d& wi, Vec3d& wo) const;  // Mitsuba's reductions 2 and 4
 
     RglBsdfTables tables_;
