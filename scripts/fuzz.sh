@@ -3,7 +3,7 @@
 # (clang, ASan, UBSan) in the instrumented build it shares with scripts/sanitize.sh
 # (scripts/instrumented-build.sh), then runs each on a copy of its committed corpus.
 #   scripts/fuzz.sh [SECONDS_PER_TARGET] [TARGET...]   (default $PLUMAGE_FUZZ_SECONDS or 60 s;
-#                                                       targets: study ply obj vdb record)
+#                                                       targets: study ply obj vdb record bsdf)
 #   PLUMAGE_JOBS=N: parallel compile jobs (default 2).
 # Prints per target the inputs tried, crashes, hangs (inputs over 10 s), leaks, out-of-memory
 # and files written outside the fuzzer's temporary folder; exits 1 on any finding, whose input
@@ -15,7 +15,7 @@ root=$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)
 seconds=${1:-${PLUMAGE_FUZZ_SECONDS:-60}}
 shift || true
 targets=("$@")
-[[ ${#targets[@]} -gt 0 ]] || targets=(study ply obj vdb record)
+[[ ${#targets[@]} -gt 0 ]] || targets=(study ply obj vdb record bsdf)
 
 start=$(date +%s)
 build=$("$root/scripts/instrumented-build.sh" $(printf 'plumage_fuzz_%s ' "${targets[@]}"))
