@@ -155,6 +155,10 @@ double ParameterTable::required_number(std::string_view key, Range range, std::s
 double ParameterTable::angle_deg(std::string_view key, double default_radians, Range range_deg,
                                  std::string_view what) {
     PLUMAGE_CHECK(key.ends_with("_deg"), std::string(key));
+    // An absent key gives the default exactly: the round trip through degrees is not the
+    // identity (0.0785 rad comes back as 0.07850000000000001), and a geometry built from a
+    // study file that leaves a key out must equal the one built from the same defaults in code.
+    if (find(key) == nullptr) return default_radians;
     return number(key, default_radians / kDeg, range_deg, what) * kDeg;
 }
 
