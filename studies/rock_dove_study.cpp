@@ -210,7 +210,8 @@ struct Run {
     const std::string& study_text;
     const StudyProgress& clock;
     bool progress;
-    fs::path dir;  // the staging folder
+    fs::path dir;                         // the staging folder
+    std::vector<MeasurementCost>& costs;  // each measurement's error and time, in order
 };
 
 // The explicit patch and the analytic model of the same parameters.
@@ -311,8 +312,13 @@ std::string scatterogram_pair(const Run& run, const Built& b, gonio::Illuminatio
                               {gonio::scatterogram_exr_image(sim_s, "simulation"),
                                gonio::scatterogram_exr_image(mod_s, "model")},
                               "rock_dove");
-    const double sigma_sim = gonio::median_relative_standard_error(sim_s, kSignalFraction);
-    const double sigma_mod = gonio::median_relative_standard_error(mod_s, kSignalFraction);
+    const MeasurementCost sim_cost =
+        scatterogram_cost("scatterogram (" + label + "): simulation", sim_s, kSignalFraction);
+    const MeasurementCost mod_cost =
+        scatterogram_cost("scatterogram (" + label + "): Huang model", mod_s, kSignalFraction);
+    run.costs.push_back(sim_cost);
+    run.costs.push_back(mod_cost);
+    const double sigma_sim = sim_cost.error, sigma_mod = mod_cost.error;
     if (mode == gonio::Illumination::hemisphere) {
         result.hemisphere_median_sigma_simulation = sigma_sim;
         result.hemisphere_median_sigma_model = sigma_mod;
@@ -530,6 +536,8 @@ std::string in_plane_sweep(const Run& run, const Built& b) {
     const gonio::BrdfRecord a = gonio::measure_brdf(*b.simulation, ip);
     ip.estimator = gonio::Estimator::eval;
     const gonio::BrdfRecord m = gonio::measure_brdf(*b.model, ip);
+    run.costs.push_back(brdf_cost("in-plane sweep: simulation", a));
+    run.costs.push_back(brdf_cost("in-plane sweep: Huang model", m));
     const auto angles = gonio::filip2024_in_plane_light_angles();
     std::ofstream csv(run.dir / "brdf" / "in_plane.csv");
     csv << fmt::format(
@@ -1046,10 +1054,15 @@ RockDoveResult run_rock_dove_study(const std::string& study_text, const fs::path
     for (const char* part : {"scatterograms", "brdf", "validation", "convergence", "fit"}) {
         fs::create_directories(out.path() / part);
     }
-    const Run run{s, study_text, clock, progress, out.path()};
+    std::vector<MeasurementCost> costs;
+    const Run run{s, study_text, clock, progress, out.path(), costs};
     const fs::path checkpoints = checkpoint_folder(results_root, name);
     std::string md = scatterograms(run, built, result);  // measure and compare, section by section
     const Brdfs brdfs = measure_brdfs(run, built, checkpoints / "brdf_simulation.checkpoint");
+    costs.push_back(brdf_cost(fmt::format("BRDF on {} ({} pairs): simulation", s.direction_set,
+                                          brdfs.simulation.config.pairs.size()),
+                              brdfs.simulation));
+    costs.push_back(brdf_cost("BRDF: Huang model", brdfs.model));
     md += brdf_section(run, brdfs, result);
     md += colour_quadrature(run, built, brdfs, result);
     md += avian_vision(run, brdfs, result);
@@ -1062,6 +1075,7 @@ RockDoveResult run_rock_dove_study(const std::string& study_text, const fs::path
     md += level_of_physics(run, result);
     md += departures(s, result);  // report
     result.wall_seconds = clock.elapsed_s();
+    md += measurement_cost_section(costs);
     md += run_time_by_stage(clock, out.path());
     write_report(out.path() / "report.md", s, md, result);
     out.commit();

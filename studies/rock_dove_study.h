@@ -10,6 +10,7 @@
 //  4. Where and why the model departs: interreflection (the "multi" lobe), light passing
 //     between barbules (T), the curved film of real-length cells (Eq. 7's coupling).
 //  5. Error against run time: estimated and true error of the R lobe against wall time.
+//  6. Error and time per measurement: each record's own error estimate, wall and CPU time.
 //
 // Everything goes to <results>/<name>/ (replaced atomically) with report.md on top.
 // Study file keys: see studies/rock_dove.toml (the default study, embedded in the binary)

@@ -6,6 +6,7 @@
 #include <cmath>
 #include <fstream>
 #include <iostream>
+#include <limits>
 
 #include <fmt/format.h>
 
@@ -219,6 +220,47 @@ void write_stages_csv(const std::filesystem::path& path, std::span<const StageTi
     }
     csv.close();
     if (!csv) throw IoError(fmt::format("cannot write {}", path.string()));
+}
+
+MeasurementCost scatterogram_cost(const std::string& measurement, const gonio::Scatterogram& s,
+                                  double signal_fraction) {
+    return {measurement,
+            fmt::format("{} quanta/λ × {} pass{}, {} px", s.config.quanta_per_pass, s.passes,
+                        s.passes == 1 ? "" : "es", s.config.image_size),
+            fmt::format("median per-pixel σ/I (pixels above {:g} % of the peak)",
+                        100.0 * signal_fraction),
+            gonio::median_relative_standard_error(s, signal_fraction),
+            s.wall_time_s,
+            s.cpu_time_s};
+}
+
+MeasurementCost brdf_cost(const std::string& measurement, const gonio::BrdfRecord& r) {
+    const bool photon = r.estimator_used == gonio::Estimator::photon;
+    const std::string samples =
+        photon ? fmt::format("photon estimator, {} quanta/λ per light × {} pass{}", r.quanta,
+                             r.passes, r.passes == 1 ? "" : "es")
+               : fmt::format("eval cubature, {} rings per cone", r.config.eval_rings);
+    const double error = r.convergence.empty() ? std::numeric_limits<double>::quiet_NaN()
+                                               : r.convergence.back().estimated_relative_rms_error;
+    return {measurement,
+            samples,
+            photon ? "relative RMS standard error over the cells > 0"
+                   : "relative RMS of the rule against the half-rings rule, cells > 0",
+            error,
+            r.wall_time_s,
+            r.cpu_time_s};
+}
+
+std::string measurement_cost_section(std::span<const MeasurementCost> costs) {
+    std::string md =
+        "## Error and time per measurement\n\nEach measurement's own error estimate (from its "
+        "record; the comparisons above set their differences beside these) and its wall and CPU "
+        "time.\n\n| measurement | samples | estimated error | of what | wall (s) | CPU (s) |\n"
+        "|---|---|---|---|---|---|\n";
+    for (const MeasurementCost& c : costs)
+        md += fmt::format("| {} | {} | {:.2f} % | {} | {:.2f} | {:.2f} |\n", c.measurement,
+                          c.samples, 100.0 * c.error, c.error_kind, c.wall_s, c.cpu_s);
+    return md + "\n";
 }
 
 std::string run_time_by_stage(const StudyProgress& clock, const std::filesystem::path& dir) {

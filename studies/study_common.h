@@ -10,6 +10,7 @@
 
 #include "analysis/huang2022.h"
 #include "geometry/barbule.h"
+#include "virtual_gonio/goniometer.h"
 #include "virtual_gonio/png_image.h"
 #include "virtual_gonio/scatterometer.h"
 
@@ -85,6 +86,25 @@ void write_stages_csv(const std::filesystem::path& path, std::span<const StageTi
 // The report section "## Run time by stage" (stage_table of the clock's stages now), with the
 // same figures written to <dir>/stages.csv.
 std::string run_time_by_stage(const StudyProgress& clock, const std::filesystem::path& dir);
+
+// One measurement's accuracy and what it cost, for a report's "Error and time per
+// measurement" table: every measurement says how accurate it is and what that took.
+struct MeasurementCost {
+    std::string measurement;  // "scatterogram (beam): simulation"
+    std::string samples;      // "photon estimator, 6000 quanta/λ × 1 pass"
+    std::string error_kind;   // what `error` is (its definition, briefly)
+    double error;             // relative, 1 = 100 %
+    double wall_s, cpu_s;
+};
+// A scatterogram: its median per-pixel relative standard error over the cells above
+// signal_fraction of their wavelength's brightest pixel (gonio::median_relative_standard_error).
+MeasurementCost scatterogram_cost(const std::string& measurement, const gonio::Scatterogram& s,
+                                  double signal_fraction);
+// A BRDF record: the estimated relative RMS error of its last pass (its convergence table), the
+// photon estimator's standard errors or the eval cubature's against half its rings.
+MeasurementCost brdf_cost(const std::string& measurement, const gonio::BrdfRecord& r);
+// "## Error and time per measurement": the table, one row each, in measuring order.
+std::string measurement_cost_section(std::span<const MeasurementCost> costs);
 
 // Where a study keeps the checkpoints of its measurements: <results root>/.checkpoints/<name>/.
 std::filesystem::path checkpoint_folder(const std::filesystem::path& results_root,

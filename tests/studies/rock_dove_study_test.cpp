@@ -135,6 +135,28 @@ TEST(RockDoveStudy, QuickVariantRunsAndItsNumbersHold) {
         EXPECT_GT(r.avian_median_noise_floor[system], 0.0);
     }
     EXPECT_EQ(read(dir / "brdf" / "spectra_pavo.csv").rfind("wl,simulation_", 0), 0u);
+    // Every measurement states its error and its time (issue 15): ten rows (three
+    // scatterogram pairs, the BRDF pair, the in-plane pair), each error a finite percentage
+    // between 0 and 100 % at these few quanta, each time positive.
+    const auto section = report.find("## Error and time per measurement");
+    ASSERT_NE(section, std::string::npos);
+    std::istringstream rows(report.substr(section, report.find("## Run time by stage") - section));
+    int measured = 0;
+    for (std::string row; std::getline(rows, row);) {
+        if (!row.starts_with("| scatterogram") && !row.starts_with("| BRDF") &&
+            !row.starts_with("| in-plane"))
+            continue;
+        ++measured;
+        std::vector<std::string> cells;
+        std::istringstream ss(row);
+        for (std::string cell; std::getline(ss, cell, '|');) cells.push_back(cell);
+        ASSERT_EQ(cells.size(), 7u) << row;  // leading empty cell, six columns
+        const double error = std::stod(cells[3]), wall = std::stod(cells[5]);
+        EXPECT_GT(error, 0.0) << row;
+        EXPECT_LT(error, 100.0) << row;
+        EXPECT_GT(wall, 0.0) << row;
+    }
+    EXPECT_EQ(measured, 10);
     const auto values = record::read_dataset(dir / "brdf" / "simulation.h5", "brdf/value");
     EXPECT_EQ(values.dims[0], 55u);
     std::filesystem::remove_all(root);
