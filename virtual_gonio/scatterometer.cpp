@@ -109,6 +109,312 @@ std::optional<Vec3d> Scatterogram::direction(int column, int row) const {
     return Vec3d(std::sin(theta) * std::cos(phi), std::sin(theta) * std::sin(phi), std::cos(theta));
 }
 
+namespace {
+
+// The equidistant map's pixel solid angles, dω = (π/2) sin(πr/2)/r du dv (→ π²/4 at the
+// centre); 0 outside the unit disc.
+std::vector<double> pixel_solid_angles(int n) {
+    std::vector<double> omega(static_cast<std::size_t>(n) * n, 0.0);
+    const double pixel = 2.0 / n;
+    for (int row = 0; row < n; ++row) {
+        for (int column = 0; column < n; ++column) {
+            const double u = (column + 0.5) * pixel - 1.0, v = 1.0 - (row + 0.5) * pixel;
+            const double r = std::hypot(u, v);
+            if (r > 1.0) continue;
+            const double jacobian =
+                r > 1e-12 ? 0.5 * kPi * std::sin(0.5 * kPi * r) / r : 0.25 * kPi * kPi;
+            omega[static_cast<std::size_t>(row) * n + column] = jacobian * pixel * pixel;
+        }
+    }
+    return omega;
+}
+
+struct Hit {
+    long pixel;
+    int lobe;
+    double weight;
+    std::size_t wavelength;
+};
+
+struct GroupSum {  // one group's weight (or a pair's difference) into one (pixel, λ) cell
+    std::size_t cell;
+    double weight;
+};
+
+// The sums over every pass so far, per (pixel, λ) cell: Σ of the quanta's weights / Ω, Σ of
+// the squared group sums, per lobe; and the power below the patch, in total and per lobe.
+struct Sums {
+    std::vector<double> sum, sum_sq, lobe_sum, below, below_lobes;
+};
+
+// One pass's results per work item, added to the Sums in item order (thread-independent).
+struct PassItems {
+    std::vector<std::vector<Hit>> hits;
+    std::vector<std::vector<GroupSum>> group_sums;
+    std::vector<double> below;  // [item][λ][total, then per lobe]
+};
+
+// Quanta form groups that share their randomness beyond the quantum's own stream: under the
+// beam each quantum is a group; under cone and hemisphere light a group is the quanta of one
+// wavelength sent along one illumination direction. The standard error comes from the group
+// sums (quanta that share a direction are correlated: counting them as independent would
+// understate the error), see estimate() below.
+struct QuantumGroups {
+    bool directional;
+    std::uint64_t directions, group, per_pass;
+    IlluminationGrid grid;
+
+    explicit QuantumGroups(const ScatterometerConfig& c)
+        : directional(c.illumination != Illumination::beam),
+          directions(directional ? static_cast<std::uint64_t>(c.illumination_strata) : 1),
+          group(directional ? (c.quanta_per_pass + directions - 1) / directions : 1),
+          per_pass(directional ? directions * group : c.quanta_per_pass),
+          grid(illumination_grid(c.illumination_strata)) {}
+};
+
+// The group's hits (out[from, end)) summed by cell, in cell order, into `into`.
+void group_cells(const std::vector<Hit>& out, std::size_t from, std::size_t nl,
+                 std::vector<GroupSum>& into) {
+    into.clear();
+    for (std::size_t h = from; h < out.size(); ++h)
+        into.push_back(
+            {static_cast<std::size_t>(out[h].pixel) * nl + out[h].wavelength, out[h].weight});
+    std::stable_sort(into.begin(), into.end(),
+                     [](const GroupSum& x, const GroupSum& y) { return x.cell < y.cell; });
+    std::size_t kept = 0;
+    for (std::size_t i = 0; i < into.size(); ++i) {
+        if (kept > 0 && into[kept - 1].cell == into[i].cell)
+            into[kept - 1].weight += into[i].weight;
+        else
+            into[kept++] = into[i];
+    }
+    into.resize(kept);
+}
+
+// Two cell-ordered group sums a and b merged into their difference a − b, appended to `sums`.
+void append_difference(const std::vector<GroupSum>& a, const std::vector<GroupSum>& b,
+                       std::vector<GroupSum>& sums) {
+    std::size_t i = 0, j = 0;
+    while (i < a.size() || j < b.size()) {
+        if (j == b.size() || (i < a.size() && a[i].cell < b[j].cell)) {
+            sums.push_back(a[i++]);
+        } else if (i == a.size() || b[j].cell < a[i].cell) {
+            sums.push_back({b[j].cell, -b[j].weight});
+            ++j;
+        } else {
+            sums.push_back({a[i].cell, a[i].weight - b[j].weight});
+            ++i, ++j;
+        }
+    }
+}
+
+// One pass's work items: under the beam, chunks of one wavelength's quanta; otherwise blocks
+// of illumination directions, each direction's quanta for every wavelength in turn (a
+// scatterer that prepares per incident direction prepares once for all wavelengths).
+class PassWork {
+public:
+    PassWork(const Scatterer& scatterer, const ScatterometerConfig& config,
+             const std::vector<double>& solid_angle, std::size_t nlobes, const QuantumGroups& g,
+             std::uint64_t pass)
+        : scatterer_(scatterer),
+          config_(config),
+          solid_angle_(solid_angle),
+          g_(g),
+          pass_(pass),
+          nl_(config.wavelengths_nm.size()),
+          nlobes_(nlobes),
+          chunks_((config.quanta_per_pass + kChunk - 1) / kChunk),
+          // Even, so that the pairs of directions below fall within one item.
+          block_(2 * std::max<std::uint64_t>(1, kChunk / (2 * g.group * nl_))),
+          jitter_seed_(derive_seed(config.seed, "scatterometer/illumination", pass)) {
+        orthonormal_frame(config.beam_direction, e1_, e2_);
+        for (std::size_t k = 0; k < nl_; ++k)
+            quantum_seeds_.push_back(derive_seed(config.seed, "scatterometer/quantum", k));
+    }
+
+    std::size_t items() const {
+        return g_.directional ? (g_.directions + block_ - 1) / block_ : nl_ * chunks_;
+    }
+    PassItems empty_items() const {
+        const std::size_t n = items();
+        return {std::vector<std::vector<Hit>>(n), std::vector<std::vector<GroupSum>>(n),
+                std::vector<double>(n * nl_ * (nlobes_ + 1), 0.0)};
+    }
+    void run(std::size_t it, PassItems& out) const {
+        if (g_.directional)
+            directional_item(it, out);
+        else
+            beam_item(it, out);
+    }
+
+private:
+    // Plays one quantum along wi (f1, f2 complete it to a frame); its stream is rng.
+    void play(const Vec3d& wi, const Vec3d& f1, const Vec3d& f2, std::size_t k, Rng& rng,
+              std::size_t it, PassItems& items) const {
+        const double radius = config_.beam_radius_um * std::sqrt(rng.uniform()),
+                     angle = 2.0 * kPi * rng.uniform();
+        const Vec3d offset = radius * (std::cos(angle) * f1 + std::sin(angle) * f2);
+        const Vec2 position(offset.x() - offset.z() * wi.x() / wi.z(),
+                            offset.y() - offset.z() * wi.y() / wi.z());
+        const auto event = scatterer_.sample(wi, config_.wavelengths_nm[k], position, rng);
+        if (!event || !(event->weight > 0.0)) return;
+        PLUMAGE_CHECK(std::isfinite(event->weight),
+                      "non-finite quantum weight from " + scatterer_.name());
+        if (event->wo.z() <= 0.0) {
+            double* below_k = &items.below[(it * nl_ + k) * (nlobes_ + 1)];
+            below_k[0] += event->weight;
+            if (event->lobe >= 0 && static_cast<std::size_t>(event->lobe) < nlobes_)
+                below_k[1 + static_cast<std::size_t>(event->lobe)] += event->weight;
+            return;
+        }
+        const long p = pixel_of(event->wo, config_.image_size);
+        if (p >= 0 && solid_angle_[static_cast<std::size_t>(p)] > 0.0)
+            items.hits[it].push_back({p, event->lobe, event->weight, k});
+    }
+
+    // A chunk of one wavelength's quanta along the beam, each quantum its own group.
+    void beam_item(std::size_t it, PassItems& items) const {
+        const std::size_t k = it / chunks_;
+        const std::uint64_t c = it % chunks_;
+        const Vec3d& wi = config_.beam_direction;
+        Vec3d f1, f2;
+        orthonormal_frame(wi, f1, f2);
+        const std::uint64_t first = pass_ * config_.quanta_per_pass + c * kChunk;
+        const std::uint64_t count = std::min(kChunk, config_.quanta_per_pass - c * kChunk);
+        std::vector<GroupSum> cells;
+        for (std::uint64_t q = first; q < first + count; ++q) {
+            Rng rng(config_.seed, (static_cast<std::uint64_t>(k) << 52) + q);
+            const std::size_t from = items.hits[it].size();
+            play(wi, f1, f2, k, rng, it, items);
+            group_cells(items.hits[it], from, nl_, cells);
+            items.group_sums[it].insert(items.group_sums[it].end(), cells.begin(), cells.end());
+        }
+    }
+
+    // A block of illumination directions. Directions 2j and 2j + 1 (neighbouring cells) form a
+    // pair; the item's group sums receive, per wavelength and cell, the difference of the
+    // pair's group sums (a direction without a partner, the last of an odd count, its own sum:
+    // conservative).
+    void directional_item(std::size_t it, PassItems& items) const {
+        std::vector<std::vector<GroupSum>> even(nl_);
+        std::vector<GroupSum> cells;
+        std::vector<GroupSum>& sums = items.group_sums[it];
+        const std::uint64_t end = std::min(g_.directions, (it + 1) * block_);
+        for (std::uint64_t d = it * block_; d < end; ++d) {
+            // Direction d of this pass: jittered within its cell of the grid over the unit
+            // square, which maps area-preservingly onto the illumination.
+            Rng jitter(jitter_seed_, d);
+            const double u1 = (static_cast<double>(d / g_.grid.columns) + jitter.uniform()) /
+                              static_cast<double>(g_.grid.rows);
+            const double u2 = (static_cast<double>(d % g_.grid.columns) + jitter.uniform()) /
+                              static_cast<double>(g_.grid.columns);
+            const Vec3d wi = illumination_direction(config_, e1_, e2_, u1, u2);
+            Vec3d f1, f2;
+            orthonormal_frame(wi, f1, f2);
+            for (std::size_t k = 0; k < nl_; ++k) {
+                const std::size_t from = items.hits[it].size();
+                for (std::uint64_t q = 0; q < g_.group; ++q) {
+                    Rng rng(quantum_seeds_[k], ((pass_ * g_.directions) + d) * g_.group + q);
+                    play(wi, f1, f2, k, rng, it, items);
+                }
+                if (d % 2 == 0) {
+                    group_cells(items.hits[it], from, nl_, even[k]);
+                    if (d + 1 == g_.directions)
+                        sums.insert(sums.end(), even[k].begin(), even[k].end());
+                    continue;
+                }
+                group_cells(items.hits[it], from, nl_, cells);
+                append_difference(even[k], cells, sums);
+            }
+        }
+    }
+
+    const Scatterer& scatterer_;
+    const ScatterometerConfig& config_;
+    const std::vector<double>& solid_angle_;
+    const QuantumGroups& g_;
+    std::uint64_t pass_;
+    std::size_t nl_, nlobes_;
+    std::uint64_t chunks_, block_, jitter_seed_;
+    Vec3d e1_, e2_;
+    std::vector<std::uint64_t> quantum_seeds_;
+};
+
+// The pass's items added to the sums, in item order.
+void add_pass(const PassItems& items, const std::vector<double>& solid_angle, std::size_t nl,
+              std::size_t nlobes, Sums& t) {
+    const std::size_t np = solid_angle.size();
+    for (std::size_t it = 0; it < items.hits.size(); ++it) {
+        for (std::size_t k = 0; k < nl; ++k) {
+            const double* below_k = &items.below[(it * nl + k) * (nlobes + 1)];
+            t.below[k] += below_k[0];
+            for (std::size_t l = 0; l < nlobes; ++l) t.below_lobes[l * nl + k] += below_k[1 + l];
+        }
+        for (const Hit& h : items.hits[it]) {
+            const std::size_t cell = static_cast<std::size_t>(h.pixel) * nl + h.wavelength;
+            const double x = h.weight / solid_angle[static_cast<std::size_t>(h.pixel)];
+            t.sum[cell] += x;
+            if (h.lobe >= 0 && static_cast<std::size_t>(h.lobe) < nlobes)
+                t.lobe_sum[static_cast<std::size_t>(h.lobe) * np * nl + cell] += x;
+        }
+        for (const GroupSum& g : items.group_sums[it]) {
+            const double x = g.weight / solid_angle[g.cell / nl];
+            t.sum_sq[g.cell] += x * x;
+        }
+    }
+}
+
+// The image, its standard errors and the light below from the sums after s.passes passes;
+// returns the power-weighted relative error Σ Ω σ / Σ Ω I (bright pixels dominate).
+double estimate(const Sums& t, const QuantumGroups& g, Scatterogram& s) {
+    const std::size_t np = s.pixels(), nl = s.config.wavelengths_nm.size();
+    // Per wavelength: quanta and independent groups of them (see QuantumGroups).
+    const double quanta = static_cast<double>(s.passes) * static_cast<double>(g.per_pass);
+    const double groups = quanta / static_cast<double>(g.group);
+    const double group_sq = static_cast<double>(g.group) * static_cast<double>(g.group);
+    s.intensity.assign(np * nl, 0.0);
+    s.standard_error.assign(np * nl, 0.0);
+    s.lobe_intensity.assign(t.lobe_sum.size(), 0.0);
+    double power = 0.0, variance = 0.0;
+    for (std::size_t i = 0; i < np * nl; ++i) {
+        const double mean = t.sum[i] / quanta;
+        s.intensity[i] = mean;
+        // Beam: the spread of the quanta about the mean. Cone and hemisphere: each pair of
+        // neighbouring directions' (G_a − G_b)² estimates the variance of G_a + G_b, with
+        // G = group sum / group (Cochran's collapsed strata: unbiased where neighbouring
+        // cells have equal means, otherwise an overestimate); Var = Σ (G_a − G_b)² / J².
+        const double var = g.directional ? t.sum_sq[i] / (group_sq * groups * groups)
+                                         : std::max(0.0, t.sum_sq[i] / groups - mean * mean) /
+                                               std::max(1.0, groups - 1.0);
+        s.standard_error[i] = std::sqrt(var);
+        power += mean * s.solid_angle_sr[i / nl];
+        variance += s.standard_error[i] * s.solid_angle_sr[i / nl];
+    }
+    for (std::size_t i = 0; i < t.lobe_sum.size(); ++i)
+        s.lobe_intensity[i] = t.lobe_sum[i] / quanta;
+    s.transmitted.assign(nl, 0.0);
+    for (std::size_t k = 0; k < nl; ++k) s.transmitted[k] = t.below[k] / quanta;
+    s.transmitted_lobes.assign(t.below_lobes.size(), 0.0);
+    for (std::size_t i = 0; i < t.below_lobes.size(); ++i)
+        s.transmitted_lobes[i] = t.below_lobes[i] / quanta;
+    s.quanta = static_cast<std::uint64_t>(quanta);
+    return power > 0.0 ? variance / power : 1.0;
+}
+
+// Whether the image is good enough, or its time spent, before another pass.
+bool done(const Scatterogram& s, const ScatterometerConfig& config) {
+    if (s.passes >= config.max_passes) return true;
+    if (s.convergence.empty()) return false;
+    const auto& last = s.convergence.back();
+    if (last.estimated_relative_rms_error <= config.target_relative_error ||
+        last.wall_time_s >= config.time_budget_s)
+        return true;
+    return config.target_median_relative_error > 0.0 &&
+           median_relative_standard_error(s, 0.01) <= config.target_median_relative_error;
+}
+
+}  // namespace
+
 Scatterogram measure_scatterogram(const Scatterer& scatterer, const ScatterometerConfig& config,
                                   const RunControl& control) {
     config.validate();
@@ -118,192 +424,25 @@ Scatterogram measure_scatterogram(const Scatterer& scatterer, const Scatteromete
     s.config = config;
     s.scatterer = scatterer.name();
     s.lobes = scatterer.lobe_names();
-    const int n = config.image_size;
+    s.solid_angle_sr = pixel_solid_angles(config.image_size);
     const std::size_t np = s.pixels(), nl = config.wavelengths_nm.size(), nlobes = s.lobes.size();
-    s.solid_angle_sr.assign(np, 0.0);
-    const double pixel = 2.0 / n;
-    for (int row = 0; row < n; ++row) {
-        for (int column = 0; column < n; ++column) {
-            const double u = (column + 0.5) * pixel - 1.0, v = 1.0 - (row + 0.5) * pixel;
-            const double r = std::hypot(u, v);
-            if (r > 1.0) continue;
-            // Equidistant map: dω = (π/2) sin(πr/2)/r du dv (→ π²/4 at the centre).
-            const double jacobian =
-                r > 1e-12 ? 0.5 * kPi * std::sin(0.5 * kPi * r) / r : 0.25 * kPi * kPi;
-            s.solid_angle_sr[static_cast<std::size_t>(row) * n + column] = jacobian * pixel * pixel;
-        }
-    }
-    std::vector<double> sum(np * nl, 0.0), sum_sq(np * nl, 0.0), lobe_sum(nlobes * np * nl, 0.0);
-    std::vector<double> below(nl, 0.0), below_lobes(nlobes * nl, 0.0);
-    Vec3d e1, e2;
-    orthonormal_frame(config.beam_direction, e1, e2);
-
-    // Quanta form groups that share their randomness beyond the quantum's own stream: under
-    // the beam each quantum is a group; under cone and hemisphere light a group is the quanta
-    // of one wavelength sent along one illumination direction. The standard error comes from
-    // the group sums (quanta that share a direction are correlated: counting them as
-    // independent would understate the error), see the estimate below.
-    const bool directional = config.illumination != Illumination::beam;
-    const std::uint64_t directions =
-        directional ? static_cast<std::uint64_t>(config.illumination_strata) : 1;
-    const std::uint64_t group =
-        directional ? (config.quanta_per_pass + directions - 1) / directions : 1;
-    const std::uint64_t per_pass = directional ? directions * group : config.quanta_per_pass;
-    const IlluminationGrid grid = illumination_grid(config.illumination_strata);
-    std::vector<std::uint64_t> quantum_seeds(nl);
-    for (std::size_t k = 0; k < nl; ++k)
-        quantum_seeds[k] = derive_seed(config.seed, "scatterometer/quantum", k);
-
-    struct Hit {
-        long pixel;
-        int lobe;
-        double weight;
-        std::size_t wavelength;
-    };
-    struct GroupSum {  // one group's weight (or a pair's difference) into one (pixel, λ) cell
-        std::size_t cell;
-        double weight;
-    };
-    while (s.passes < config.max_passes) {
-        if (!s.convergence.empty()) {
-            const auto& last = s.convergence.back();
-            if (last.estimated_relative_rms_error <= config.target_relative_error ||
-                last.wall_time_s >= config.time_budget_s) {
-                break;
-            }
-            if (config.target_median_relative_error > 0.0 &&
-                median_relative_standard_error(s, 0.01) <= config.target_median_relative_error) {
-                break;
-            }
-        }
-        // Work items: under the beam, chunks of one wavelength's quanta; otherwise blocks of
-        // illumination directions, each direction's quanta for every wavelength in turn (a
-        // scatterer that prepares per incident direction prepares once for all wavelengths).
-        const std::uint64_t chunks = (config.quanta_per_pass + kChunk - 1) / kChunk;
-        // Even, so that the pairs of directions below fall within one item.
-        const std::uint64_t block = 2 * std::max<std::uint64_t>(1, kChunk / (2 * group * nl));
-        const std::size_t items = directional ? (directions + block - 1) / block : nl * chunks;
-        std::vector<std::vector<Hit>> hits(items);
-        std::vector<std::vector<GroupSum>> group_sums(items);
-        std::vector<double> item_below(items * nl * (nlobes + 1), 0.0);  // total, then per lobe
+    Sums sums{std::vector<double>(np * nl, 0.0), std::vector<double>(np * nl, 0.0),
+              std::vector<double>(nlobes * np * nl, 0.0), std::vector<double>(nl, 0.0),
+              std::vector<double>(nlobes * nl, 0.0)};
+    const QuantumGroups groups(config);
+    while (!done(s, config)) {
+        const PassWork work(scatterer, config, s.solid_angle_sr, nlobes, groups,
+                            static_cast<std::uint64_t>(s.passes));
+        PassItems items = work.empty_items();
         std::atomic<bool> abandoned{false};
-        const auto pass = static_cast<std::uint64_t>(s.passes);
-        const std::uint64_t jitter_seed =
-            derive_seed(config.seed, "scatterometer/illumination", pass);
 #pragma omp parallel for schedule(dynamic, 1)
-        for (std::size_t it = 0; it < items; ++it) {
+        for (std::size_t it = 0; it < work.items(); ++it) {
             if (abandoned.load(std::memory_order_relaxed)) continue;
             if (control.interrupt != nullptr && control.interrupt->load()) {
                 abandoned.store(true);
                 continue;
             }
-            auto& out = hits[it];
-            auto& sums = group_sums[it];
-            // Plays one quantum along wi; the quantum's stream is rng.
-            auto play = [&](const Vec3d& wi, const Vec3d& f1, const Vec3d& f2, std::size_t k,
-                            Rng& rng) {
-                const double radius = config.beam_radius_um * std::sqrt(rng.uniform()),
-                             angle = 2.0 * kPi * rng.uniform();
-                const Vec3d offset = radius * (std::cos(angle) * f1 + std::sin(angle) * f2);
-                const Vec2 position(offset.x() - offset.z() * wi.x() / wi.z(),
-                                    offset.y() - offset.z() * wi.y() / wi.z());
-                const auto event = scatterer.sample(wi, config.wavelengths_nm[k], position, rng);
-                if (!event || !(event->weight > 0.0)) return;
-                PLUMAGE_CHECK(std::isfinite(event->weight),
-                              "non-finite quantum weight from " + scatterer.name());
-                if (event->wo.z() <= 0.0) {
-                    double* below_k = &item_below[(it * nl + k) * (nlobes + 1)];
-                    below_k[0] += event->weight;
-                    if (event->lobe >= 0 && static_cast<std::size_t>(event->lobe) < nlobes)
-                        below_k[1 + static_cast<std::size_t>(event->lobe)] += event->weight;
-                    return;
-                }
-                const long p = pixel_of(event->wo, n);
-                if (p >= 0 && s.solid_angle_sr[static_cast<std::size_t>(p)] > 0.0)
-                    out.push_back({p, event->lobe, event->weight, k});
-            };
-            // The group's hits (out[from, end)) summed by cell, in pixel order.
-            // The group's hits (out[from, end)) summed by cell, in cell order, into `into`.
-            auto group_cells = [&](std::size_t from, std::vector<GroupSum>& into) {
-                into.clear();
-                for (std::size_t h = from; h < out.size(); ++h)
-                    into.push_back({static_cast<std::size_t>(out[h].pixel) * nl + out[h].wavelength,
-                                    out[h].weight});
-                std::stable_sort(
-                    into.begin(), into.end(),
-                    [](const GroupSum& x, const GroupSum& y) { return x.cell < y.cell; });
-                std::size_t kept = 0;
-                for (std::size_t i = 0; i < into.size(); ++i) {
-                    if (kept > 0 && into[kept - 1].cell == into[i].cell)
-                        into[kept - 1].weight += into[i].weight;
-                    else
-                        into[kept++] = into[i];
-                }
-                into.resize(kept);
-            };
-            std::vector<GroupSum> cells;
-            if (!directional) {
-                const std::size_t k = it / chunks;
-                const std::uint64_t c = it % chunks;
-                const Vec3d& wi = config.beam_direction;
-                Vec3d f1, f2;
-                orthonormal_frame(wi, f1, f2);
-                const std::uint64_t first = pass * config.quanta_per_pass + c * kChunk;
-                const std::uint64_t count = std::min(kChunk, config.quanta_per_pass - c * kChunk);
-                for (std::uint64_t q = first; q < first + count; ++q) {
-                    Rng rng(config.seed, (static_cast<std::uint64_t>(k) << 52) + q);
-                    const std::size_t from = out.size();
-                    play(wi, f1, f2, k, rng);
-                    group_cells(from, cells);
-                    sums.insert(sums.end(), cells.begin(), cells.end());
-                }
-                continue;
-            }
-            // Directions 2j and 2j + 1 (neighbouring cells) form a pair; sums receives, per
-            // wavelength and cell, the difference of the pair's group sums (a direction
-            // without a partner, the last of an odd count, its own sum: conservative).
-            std::vector<std::vector<GroupSum>> even(nl);
-            const std::uint64_t end = std::min(directions, (it + 1) * block);
-            for (std::uint64_t d = it * block; d < end; ++d) {
-                // Direction d of this pass: jittered within its cell of the grid over the unit
-                // square, which maps area-preservingly onto the illumination.
-                Rng jitter(jitter_seed, d);
-                const double u1 = (static_cast<double>(d / grid.columns) + jitter.uniform()) /
-                                  static_cast<double>(grid.rows);
-                const double u2 = (static_cast<double>(d % grid.columns) + jitter.uniform()) /
-                                  static_cast<double>(grid.columns);
-                const Vec3d wi = illumination_direction(config, e1, e2, u1, u2);
-                Vec3d f1, f2;
-                orthonormal_frame(wi, f1, f2);
-                for (std::size_t k = 0; k < nl; ++k) {
-                    const std::size_t from = out.size();
-                    for (std::uint64_t q = 0; q < group; ++q) {
-                        Rng rng(quantum_seeds[k], ((pass * directions) + d) * group + q);
-                        play(wi, f1, f2, k, rng);
-                    }
-                    if (d % 2 == 0) {
-                        group_cells(from, even[k]);
-                        if (d + 1 == directions)
-                            sums.insert(sums.end(), even[k].begin(), even[k].end());
-                        continue;
-                    }
-                    group_cells(from, cells);
-                    // Merge the two cell-ordered lists into their difference.
-                    const std::vector<GroupSum>& x = even[k];
-                    std::size_t i = 0, j = 0;
-                    while (i < x.size() || j < cells.size()) {
-                        if (j == cells.size() || (i < x.size() && x[i].cell < cells[j].cell)) {
-                            sums.push_back(x[i++]);
-                        } else if (i == x.size() || cells[j].cell < x[i].cell) {
-                            sums.push_back({cells[j].cell, -cells[j].weight});
-                            ++j;
-                        } else {
-                            sums.push_back({x[i].cell, x[i].weight - cells[j].weight});
-                            ++i, ++j;
-                        }
-                    }
-                }
-            }
+            work.run(it, items);
         }
         if (abandoned.load()) {
             // No checkpoint keeps a scatterogram's passes: a partial image must not flow on.
@@ -311,67 +450,18 @@ Scatterogram measure_scatterogram(const Scatterer& scatterer, const Scatteromete
                 "interrupted while measuring the scatterogram of {} (pass {} of at most {})",
                 s.scatterer, s.passes + 1, config.max_passes));
         }
-        for (std::size_t it = 0; it < items; ++it) {
-            for (std::size_t k = 0; k < nl; ++k) {
-                const double* below_k = &item_below[(it * nl + k) * (nlobes + 1)];
-                below[k] += below_k[0];
-                for (std::size_t l = 0; l < nlobes; ++l) below_lobes[l * nl + k] += below_k[1 + l];
-            }
-            for (const Hit& h : hits[it]) {
-                const std::size_t cell = static_cast<std::size_t>(h.pixel) * nl + h.wavelength;
-                const double x = h.weight / s.solid_angle_sr[static_cast<std::size_t>(h.pixel)];
-                sum[cell] += x;
-                if (h.lobe >= 0 && static_cast<std::size_t>(h.lobe) < nlobes)
-                    lobe_sum[static_cast<std::size_t>(h.lobe) * np * nl + cell] += x;
-            }
-            for (const GroupSum& g : group_sums[it]) {
-                const double x = g.weight / s.solid_angle_sr[g.cell / nl];
-                sum_sq[g.cell] += x * x;
-            }
-        }
+        add_pass(items, s.solid_angle_sr, nl, nlobes, sums);
         ++s.passes;
-        // Per wavelength: quanta and independent groups of them (see above).
-        const double quanta = static_cast<double>(s.passes) * static_cast<double>(per_pass);
-        const double groups = quanta / static_cast<double>(group);
-        const double group_sq = static_cast<double>(group) * static_cast<double>(group);
-        s.intensity.assign(np * nl, 0.0);
-        s.standard_error.assign(np * nl, 0.0);
-        s.lobe_intensity.assign(nlobes * np * nl, 0.0);
-        double power = 0.0, variance = 0.0;
-        for (std::size_t i = 0; i < np * nl; ++i) {
-            const double mean = sum[i] / quanta;
-            s.intensity[i] = mean;
-            // Beam: the spread of the quanta about the mean. Cone and hemisphere: each pair of
-            // neighbouring directions' (G_a − G_b)² estimates the variance of G_a + G_b, with
-            // G = group sum / group (Cochran's collapsed strata: unbiased where neighbouring
-            // cells have equal means, otherwise an overestimate); Var = Σ (G_a − G_b)² / J².
-            const double var = directional ? sum_sq[i] / (group_sq * groups * groups)
-                                           : std::max(0.0, sum_sq[i] / groups - mean * mean) /
-                                                 std::max(1.0, groups - 1.0);
-            s.standard_error[i] = std::sqrt(var);
-            // Power-weighted relative error: Σ Ω σ / Σ Ω I (bright pixels dominate).
-            power += mean * s.solid_angle_sr[i / nl];
-            variance += s.standard_error[i] * s.solid_angle_sr[i / nl];
-        }
-        for (std::size_t i = 0; i < lobe_sum.size(); ++i)
-            s.lobe_intensity[i] = lobe_sum[i] / quanta;
-        s.transmitted.assign(nl, 0.0);
-        for (std::size_t k = 0; k < nl; ++k) s.transmitted[k] = below[k] / quanta;
-        s.transmitted_lobes.assign(nlobes * nl, 0.0);
-        for (std::size_t i = 0; i < below_lobes.size(); ++i)
-            s.transmitted_lobes[i] = below_lobes[i] / quanta;
-        s.quanta = static_cast<std::uint64_t>(quanta);
+        const double error = estimate(sums, groups, s);
         s.wall_time_s =
             std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
         s.cpu_time_s = process_cpu_seconds() - cpu_start;
-        s.convergence.push_back(
-            {s.passes, s.wall_time_s, s.quanta, power > 0.0 ? variance / power : 1.0});
+        s.convergence.push_back({s.passes, s.wall_time_s, s.quanta, error});
         if (control.progress) {
             std::cerr << fmt::format(
                              "\r  scatterogram of {}: pass {} of at most {}, est. error {:.3g} %, "
                              "{:.1f} s   ",
-                             scatterer.name(), s.passes, config.max_passes,
-                             100.0 * s.convergence.back().estimated_relative_rms_error,
+                             scatterer.name(), s.passes, config.max_passes, 100.0 * error,
                              s.wall_time_s)
                       << std::flush;
         }
