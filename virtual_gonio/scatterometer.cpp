@@ -12,6 +12,7 @@
 
 #include "common/constants.h"
 #include "common/cpu_time.h"
+#include "common/distributed.h"
 #include "common/error.h"
 #include "common/interrupt.h"
 #include "common/require.h"
@@ -23,6 +24,9 @@ namespace plumage::gonio {
 namespace {
 
 constexpr std::uint64_t kChunk = 4096;
+// Under MPI a pass's work items are dealt in this many blocks per rank (common/distributed.h),
+// as the goniometer's: enough for a slow block not to hold up the pass.
+constexpr std::size_t kBlocksPerRank = 4;
 
 // The name that prefixes this file's input errors.
 constexpr std::string_view kWhat = "scatterometer";
@@ -401,6 +405,51 @@ double estimate(const Sums& t, const QuantumGroups& g, Scatterogram& s) {
     return power > 0.0 ? variance / power : 1.0;
 }
 
+// Runs the pass's work items into `items`; false if interrupted. Alone, every item runs here
+// on all threads. Under MPI the items are dealt in blocks over the ranks (rank 0 polls the
+// interrupt between blocks) and every rank gets every block's results back, so the sums are
+// added in item order on every rank whatever ran where.
+bool run_pass(const PassWork& work, const RunControl& control, PassItems& items) {
+    const bool alone = !distributed::active();
+    const std::size_t n = work.items(), stride = items.below.size() / n;  // below, per item
+    const std::size_t blocks =
+        alone ? 1 : std::min(n, kBlocksPerRank * static_cast<std::size_t>(distributed::size()));
+    std::atomic<bool> abandoned{false};
+    auto block = [&](std::size_t b) {
+        const std::size_t lo = b * n / blocks, hi = (b + 1) * n / blocks;
+#pragma omp parallel for schedule(dynamic, 1)
+        for (std::size_t it = lo; it < hi; ++it) {
+            if (abandoned.load(std::memory_order_relaxed)) continue;
+            if (alone && control.interrupt != nullptr && control.interrupt->load()) {
+                abandoned.store(true);
+                continue;
+            }
+            work.run(it, items);
+        }
+        Bytes results;
+        for (std::size_t it = lo; it < hi && !alone; ++it) {
+            results.put_vector(items.hits[it]);
+            results.put_vector(items.group_sums[it]);
+            results.put_vector(std::vector<double>(items.below.begin() + it * stride,
+                                                   items.below.begin() + (it + 1) * stride));
+        }
+        return results;
+    };
+    distributed::ChunkOptions dealing;
+    dealing.interrupt = control.interrupt;
+    distributed::ChunkResults dealt = distributed::deal_chunks(blocks, block, dealing);
+    if (abandoned.load() || dealt.interrupted) return false;
+    for (std::size_t b = 0; b < blocks && !alone; ++b) {
+        for (std::size_t it = b * n / blocks; it < (b + 1) * n / blocks; ++it) {
+            items.hits[it] = dealt.results[b].get_vector<Hit>();
+            items.group_sums[it] = dealt.results[b].get_vector<GroupSum>();
+            const auto below = dealt.results[b].get_vector<double>();
+            std::copy(below.begin(), below.end(), items.below.begin() + it * stride);
+        }
+    }
+    return true;
+}
+
 // Whether the image is good enough, or its time spent, before another pass.
 bool done(const Scatterogram& s, const ScatterometerConfig& config) {
     if (s.passes >= config.max_passes) return true;
@@ -430,21 +479,12 @@ Scatterogram measure_scatterogram(const Scatterer& scatterer, const Scatteromete
               std::vector<double>(nlobes * np * nl, 0.0), std::vector<double>(nl, 0.0),
               std::vector<double>(nlobes * nl, 0.0)};
     const QuantumGroups groups(config);
-    while (!done(s, config)) {
+    // Rank 0's clock decides for every rank when to stop (the passes are collective under MPI).
+    while (!distributed::broadcast_flag(done(s, config))) {
         const PassWork work(scatterer, config, s.solid_angle_sr, nlobes, groups,
                             static_cast<std::uint64_t>(s.passes));
         PassItems items = work.empty_items();
-        std::atomic<bool> abandoned{false};
-#pragma omp parallel for schedule(dynamic, 1)
-        for (std::size_t it = 0; it < work.items(); ++it) {
-            if (abandoned.load(std::memory_order_relaxed)) continue;
-            if (control.interrupt != nullptr && control.interrupt->load()) {
-                abandoned.store(true);
-                continue;
-            }
-            work.run(it, items);
-        }
-        if (abandoned.load()) {
+        if (!run_pass(work, control, items)) {
             // No checkpoint keeps a scatterogram's passes: a partial image must not flow on.
             throw Interrupted(fmt::format(
                 "interrupted while measuring the scatterogram of {} (pass {} of at most {})",

@@ -32,7 +32,9 @@
 // the spread over all groups would not). Deterministic streams: under the beam (seed,
 // wavelength, quantum); otherwise (seed, "scatterometer/quantum", wavelength) with the
 // quantum's index in the run;
-// reduced in a fixed order, so the image does not depend on the thread count.
+// reduced in a fixed order, so the image does not depend on the thread count. Under MPI
+// (common/distributed.h) a pass's work items are dealt in blocks over the ranks and their hit
+// lists come back to every rank, added in the same item order: nor on the rank count.
 #pragma once
 
 #include <array>
