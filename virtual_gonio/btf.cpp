@@ -6,6 +6,7 @@
 #include <atomic>
 #include <chrono>
 #include <cmath>
+#include <limits>
 #include <optional>
 #include <string_view>
 
@@ -154,6 +155,10 @@ BtfRecord measure_btf(const Scatterer& scatterer, const BtfConfig& config) {
     }
     r.wall_time_s = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
     r.cpu_time_s = process_cpu_seconds() - cpu_start;
+    double signal = 0.0, error = 0.0;
+    for (std::size_t i = 0; i < cells; ++i) signal += r.value[i], error += r.standard_error[i];
+    r.convergence = {{1, r.wall_time_s, config.quanta_per_light,
+                      signal > 0.0 ? error / signal : std::numeric_limits<double>::infinity()}};
     return r;
 }
 
@@ -217,6 +222,9 @@ void write_btf_record(const BtfRecord& r, const std::filesystem::path& path) {
              {{"units", "1/sr"},
               {"description",
                "Monte Carlo standard error of btf/value, [pair, row, column, wavelength]"}});
+    write_convergence(h5, r.convergence,
+                      convergence_attributes("pass, wall_time_s, quanta_per_light_and_wavelength, "
+                                             "power_weighted_relative_error"));
     write_provenance(h5, {.scatterer = r.scatterer,
                           .seed = c.seed,
                           .threads = omp_get_max_threads(),

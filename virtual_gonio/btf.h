@@ -22,6 +22,7 @@
 
 #include "sim/scatterer.h"
 #include "virtual_gonio/direction_sets.h"
+#include "virtual_gonio/goniometer.h"  // ConvergenceRow
 #include "virtual_gonio/png_image.h"
 
 namespace plumage::gonio {
@@ -46,6 +47,10 @@ struct BtfRecord {
     std::vector<double> value, standard_error;
     double wall_time_s = 0.0;
     double cpu_time_s = 0.0;  // process CPU time (all threads) over the same span
+    // One row (the BTF is one pass): wall time, quanta per light direction and wavelength, and
+    // the power-weighted relative error Σσ / Σf over every pixel of every pair and wavelength
+    // (bright pixels dominate; a relative RMS would be ruled by the pixels one quantum reached).
+    std::vector<ConvergenceRow> convergence;
     std::size_t index(std::size_t pair, int row, int column, std::size_t wavelength) const {
         const std::size_t n = static_cast<std::size_t>(config.pixels);
         return ((pair * n + static_cast<std::size_t>(row)) * n + static_cast<std::size_t>(column)) *

@@ -7,7 +7,7 @@
     rec.brdf.lobes["R"].value     # per lobe (with its standard error where the record has one)
     rec.wavelength_nm             # Quantity [wavelengths], units "nm"
     rec.instrument                # attributes and arrays of /instrument (a dict)
-    rec.convergence               # {"pass": ..., "wall_time_s": ..., ...} or None (BTF)
+    rec.convergence               # {"pass": ..., "wall_time_s": ..., ...} or None (BTFs before 2026-11-26)
     rec.provenance                # dict: scatterer, seed, threads, config, git_commit, ...
     rec.datasets                  # every dataset of the file by path, "/brdf/value" → Quantity
     rec.attributes                # every group's attributes by path, "/" the root

@@ -40,6 +40,16 @@ TEST(BtfCamera, LambertianPlateIsFlatAndErrorsAreHonest) {
     const double fraction = static_cast<double>(inside) / total;
     EXPECT_GT(fraction, 0.90);
     EXPECT_LT(fraction, 0.99);
+    // The record's one convergence row states the error the pixels show: Σσ/Σf against the
+    // RMS relative deviation from the truth (equal in expectation for a flat image; the RMS
+    // over 512 pixels is itself known to ~3 %, so 15 % is five of its σ).
+    ASSERT_EQ(r.convergence.size(), 1u);
+    EXPECT_EQ(r.convergence[0].quanta, c.quanta_per_light);
+    EXPECT_GT(r.convergence[0].wall_time_s, 0.0);
+    double deviation_sq = 0.0;
+    for (double v : r.value) deviation_sq += std::pow(v / truth - 1.0, 2);
+    const double rms = std::sqrt(deviation_sq / static_cast<double>(r.value.size()));
+    EXPECT_NEAR(rms / r.convergence[0].estimated_relative_rms_error, 1.0, 0.15);
     const auto image = btf_image(r, 0);
     EXPECT_EQ(image.width, 16);
 }
