@@ -3,6 +3,7 @@
 #include <fcntl.h>
 #include <unistd.h>
 
+#include <algorithm>
 #include <chrono>
 #include <cstdio>
 #include <cstdlib>
@@ -432,6 +433,38 @@ ChunkResults deal_chunks(std::size_t n, const std::function<Bytes(std::size_t)>&
     ChunkLog::get().end_call(seconds_since(start), bytes);
 #endif
     return out;
+}
+
+bool run_items(std::size_t n, const std::function<void(std::size_t)>& run,
+               const ItemTransport& transport, const std::atomic<bool>* interrupt,
+               std::size_t blocks_per_rank) {
+    const bool alone = !active();
+    const std::size_t blocks =
+        alone || n == 0 ? 1 : std::min(n, blocks_per_rank * static_cast<std::size_t>(size()));
+    std::atomic<bool> abandoned{false};
+    auto block = [&](std::size_t b) {
+        const std::size_t lo = b * n / blocks, hi = (b + 1) * n / blocks;
+#pragma omp parallel for schedule(dynamic, 1)
+        for (std::size_t it = lo; it < hi; ++it) {
+            if (abandoned.load(std::memory_order_relaxed)) continue;
+            if (alone && interrupt != nullptr && interrupt->load()) {
+                abandoned.store(true);
+                continue;
+            }
+            run(it);
+        }
+        Bytes out;
+        for (std::size_t it = lo; it < hi && !alone; ++it) transport.pack(it, out);
+        return out;
+    };
+    ChunkOptions dealing;
+    dealing.interrupt = interrupt;
+    ChunkResults dealt = deal_chunks(blocks, block, dealing);
+    if (abandoned.load() || dealt.interrupted) return false;
+    for (std::size_t b = 0; b < blocks && !alone; ++b)
+        for (std::size_t it = b * n / blocks; it < (b + 1) * n / blocks; ++it)
+            transport.unpack(it, dealt.results[b]);
+    return true;
 }
 
 bool broadcast_flag(bool value) {

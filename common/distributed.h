@@ -139,6 +139,22 @@ struct ChunkResults {
 ChunkResults deal_chunks(std::size_t n, const std::function<Bytes(std::size_t)>& work,
                          const ChunkOptions& options = {});
 
+// One pass of independent work items [0, n), each run once somewhere in the job, for callers
+// that add the items' results up afterwards in item order on every rank (so a result depends
+// on neither the thread count nor the rank count). Alone: every item runs here on all OpenMP
+// threads, `interrupt` polled before each. Under MPI: the items are dealt in
+// blocks_per_rank × size() contiguous blocks (deal_chunks; rank 0 polls `interrupt` between
+// blocks), each block's items packed by pack(item, bytes) in item order and unpacked on every
+// rank by unpack(item, bytes). run(item) may write only that item's results. False when
+// interrupted: the pass is incomplete and must be discarded.
+struct ItemTransport {
+    std::function<void(std::size_t item, Bytes& out)> pack;
+    std::function<void(std::size_t item, Bytes& in)> unpack;
+};
+bool run_items(std::size_t n, const std::function<void(std::size_t item)>& run,
+               const ItemTransport& transport, const std::atomic<bool>* interrupt,
+               std::size_t blocks_per_rank = 4);
+
 // Rank 0's value on every rank (decisions taken from rank 0's clock or files).
 bool broadcast_flag(bool value);
 // Rank 0's bytes on every rank.

@@ -83,59 +83,38 @@ BtfRecord measure_btf(const Scatterer& scatterer, const BtfConfig& config) {
         double x;
     };
     std::vector<std::vector<Hit>> hits(items);
-    std::atomic<bool> abandoned{false};
-    // Under MPI the items are dealt in blocks over the ranks (common/distributed.h) and every
-    // rank gets all the hits back (rank 0 polls the interrupt between blocks); alone, one block
-    // holds them all and is not copied. Either way they are summed below in item order.
-    const bool alone = !distributed::active();
-    const std::size_t blocks =
-        alone ? 1 : std::min(items, 4 * static_cast<std::size_t>(distributed::size()));
-    auto block = [&](std::size_t b) {
-        const std::size_t lo = b * items / blocks, hi = (b + 1) * items / blocks;
-#pragma omp parallel for schedule(dynamic, 1)
-        for (std::size_t it = lo; it < hi; ++it) {
-            if (abandoned.load(std::memory_order_relaxed)) continue;
-            if (alone && interrupt_requested()) {
-                abandoned.store(true);
-                continue;
-            }
-            const std::size_t l = it / (nl * chunks), k = (it / chunks) % nl;
-            const std::uint64_t c = it % chunks;
-            const Vec3d& wi = config.pairs[lights[l].front()].wi;
-            for (std::uint64_t q = c * kChunk;
-                 q < std::min(config.quanta_per_light, (c + 1) * kChunk); ++q) {
-                Rng rng(config.seed, (static_cast<std::uint64_t>(l * nl + k) << 40) + q);
-                // Uniform over the patch plane: what a wide, collimated beam deposits.
-                const Vec2 position((rng.uniform() - 0.5) * config.patch_size_um,
-                                    (rng.uniform() - 0.5) * config.patch_size_um);
-                const auto event = scatterer.sample(wi, config.wavelengths_nm[k], position, rng);
-                if (!event || !(event->weight > 0.0)) continue;
-                const Vec2& exit = event->exit_position_um;
-                if (std::abs(exit.x()) >= half || std::abs(exit.y()) >= half) continue;
-                const int column = std::min(n - 1, static_cast<int>((exit.x() + half) / pixel));
-                const int row = std::min(n - 1, static_cast<int>((half - exit.y()) / pixel));
-                for (const std::size_t p : lights[l]) {
-                    const Vec3d& wo = config.pairs[p].wo;
-                    if (event->wo.dot(wo) < cos_alpha) continue;
-                    hits[it].push_back(
-                        {r.index(p, row, column, k), event->weight / (projected * wo.z())});
-                }
+    // One item: a chunk of one light direction's quanta at one wavelength.
+    auto image_item = [&](std::size_t it) {
+        const std::size_t l = it / (nl * chunks), k = (it / chunks) % nl;
+        const std::uint64_t c = it % chunks;
+        const Vec3d& wi = config.pairs[lights[l].front()].wi;
+        for (std::uint64_t q = c * kChunk; q < std::min(config.quanta_per_light, (c + 1) * kChunk);
+             ++q) {
+            Rng rng(config.seed, (static_cast<std::uint64_t>(l * nl + k) << 40) + q);
+            // Uniform over the patch plane: what a wide, collimated beam deposits.
+            const Vec2 position((rng.uniform() - 0.5) * config.patch_size_um,
+                                (rng.uniform() - 0.5) * config.patch_size_um);
+            const auto event = scatterer.sample(wi, config.wavelengths_nm[k], position, rng);
+            if (!event || !(event->weight > 0.0)) continue;
+            const Vec2& exit = event->exit_position_um;
+            if (std::abs(exit.x()) >= half || std::abs(exit.y()) >= half) continue;
+            const int column = std::min(n - 1, static_cast<int>((exit.x() + half) / pixel));
+            const int row = std::min(n - 1, static_cast<int>((half - exit.y()) / pixel));
+            for (const std::size_t p : lights[l]) {
+                const Vec3d& wo = config.pairs[p].wo;
+                if (event->wo.dot(wo) < cos_alpha) continue;
+                hits[it].push_back(
+                    {r.index(p, row, column, k), event->weight / (projected * wo.z())});
             }
         }
-        Bytes hits_of_block;
-        if (!alone)
-            for (std::size_t it = lo; it < hi; ++it) hits_of_block.put_vector(hits[it]);
-        return hits_of_block;
     };
-    distributed::ChunkOptions dealing;
-    dealing.interrupt = &interrupt_flag();
-    distributed::ChunkResults dealt = distributed::deal_chunks(blocks, block, dealing);
-    if (abandoned.load() || dealt.interrupted) {
+    // Alone on every thread; under MPI dealt over the ranks, every item's hits back on every
+    // rank (common/distributed.h). Either way they are summed below in item order.
+    distributed::ItemTransport transport;
+    transport.pack = [&](std::size_t it, Bytes& out) { out.put_vector(hits[it]); };
+    transport.unpack = [&](std::size_t it, Bytes& in) { hits[it] = in.get_vector<Hit>(); };
+    if (!distributed::run_items(items, image_item, transport, &interrupt_flag()))
         throw Interrupted(fmt::format("interrupted while imaging the BTF of {}", r.scatterer));
-    }
-    for (std::size_t b = 0; b < blocks && !alone; ++b)
-        for (std::size_t it = b * items / blocks; it < (b + 1) * items / blocks; ++it)
-            hits[it] = dealt.results[b].get_vector<Hit>();
     for (const auto& list : hits) {
         for (const Hit& h : list) {
             sum[h.cell] += h.x;

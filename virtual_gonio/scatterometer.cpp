@@ -405,49 +405,27 @@ double estimate(const Sums& t, const QuantumGroups& g, Scatterogram& s) {
     return power > 0.0 ? variance / power : 1.0;
 }
 
-// Runs the pass's work items into `items`; false if interrupted. Alone, every item runs here
-// on all threads. Under MPI the items are dealt in blocks over the ranks (rank 0 polls the
-// interrupt between blocks) and every rank gets every block's results back, so the sums are
-// added in item order on every rank whatever ran where.
+// Runs the pass's work items into `items` (common/distributed.h's run_items: alone on every
+// thread; under MPI dealt over the ranks, every item's hits back on every rank); false if
+// interrupted.
 bool run_pass(const PassWork& work, const RunControl& control, PassItems& items) {
-    const bool alone = !distributed::active();
     const std::size_t n = work.items(), stride = items.below.size() / n;  // below, per item
-    const std::size_t blocks =
-        alone ? 1 : std::min(n, kBlocksPerRank * static_cast<std::size_t>(distributed::size()));
-    std::atomic<bool> abandoned{false};
-    auto block = [&](std::size_t b) {
-        const std::size_t lo = b * n / blocks, hi = (b + 1) * n / blocks;
-#pragma omp parallel for schedule(dynamic, 1)
-        for (std::size_t it = lo; it < hi; ++it) {
-            if (abandoned.load(std::memory_order_relaxed)) continue;
-            if (alone && control.interrupt != nullptr && control.interrupt->load()) {
-                abandoned.store(true);
-                continue;
-            }
-            work.run(it, items);
-        }
-        Bytes results;
-        for (std::size_t it = lo; it < hi && !alone; ++it) {
-            results.put_vector(items.hits[it]);
-            results.put_vector(items.group_sums[it]);
-            results.put_vector(std::vector<double>(items.below.begin() + it * stride,
-                                                   items.below.begin() + (it + 1) * stride));
-        }
-        return results;
+    distributed::ItemTransport transport;
+    transport.pack = [&](std::size_t it, Bytes& out) {
+        out.put_vector(items.hits[it]);
+        out.put_vector(items.group_sums[it]);
+        out.put_vector(std::vector<double>(items.below.begin() + it * stride,
+                                           items.below.begin() + (it + 1) * stride));
     };
-    distributed::ChunkOptions dealing;
-    dealing.interrupt = control.interrupt;
-    distributed::ChunkResults dealt = distributed::deal_chunks(blocks, block, dealing);
-    if (abandoned.load() || dealt.interrupted) return false;
-    for (std::size_t b = 0; b < blocks && !alone; ++b) {
-        for (std::size_t it = b * n / blocks; it < (b + 1) * n / blocks; ++it) {
-            items.hits[it] = dealt.results[b].get_vector<Hit>();
-            items.group_sums[it] = dealt.results[b].get_vector<GroupSum>();
-            const auto below = dealt.results[b].get_vector<double>();
-            std::copy(below.begin(), below.end(), items.below.begin() + it * stride);
-        }
-    }
-    return true;
+    transport.unpack = [&](std::size_t it, Bytes& in) {
+        items.hits[it] = in.get_vector<Hit>();
+        items.group_sums[it] = in.get_vector<GroupSum>();
+        const auto below = in.get_vector<double>();
+        std::copy(below.begin(), below.end(), items.below.begin() + it * stride);
+    };
+    return distributed::run_items(
+        n, [&](std::size_t it) { work.run(it, items); }, transport, control.interrupt,
+        kBlocksPerRank);
 }
 
 // Whether the image is good enough, or its time spent, before another pass.
