@@ -81,6 +81,35 @@ double box_area_sum(const UnitMesh& unit, const Eigen::Matrix3d& axes) {
 
 }  // namespace
 
+std::vector<Scene::Facet> Scene::facets_of(const geometry::TriangleMesh& mesh,
+                                           const std::vector<float>& stored_xyz) {
+    std::vector<Facet> facets;
+    facets.reserve(mesh.triangles.size());
+    for (const geometry::Triangle& tri : mesh.triangles) {
+        const Vec3d& a = mesh.positions[tri[0]];
+        const Vec3d& b = mesh.positions[tri[1]];
+        const Vec3d& c = mesh.positions[tri[2]];
+        float extent = 0.0f;
+        for (std::uint32_t vertex : tri) {
+            for (int k = 0; k < 3; ++k)
+                extent = std::max(extent, std::abs(stored_xyz[3 * vertex + k]));
+        }
+        facets.push_back({a, b, c, (b - a).cross(c - a), extent});
+    }
+    return facets;
+}
+
+std::vector<Scene::ShadingFacet> Scene::shading_facets_of(const geometry::TriangleMesh& mesh) {
+    std::vector<ShadingFacet> shading;
+    if (mesh.shading_normals.empty()) return shading;
+    shading.reserve(mesh.triangles.size());
+    for (const geometry::Triangle& tri : mesh.triangles) {
+        shading.push_back({mesh.shading_normals[tri[0]], mesh.shading_normals[tri[1]],
+                           mesh.shading_normals[tri[2]]});
+    }
+    return shading;
+}
+
 Scene::BvhFrame Scene::bvh_frame(const UnitMesh& unit) {
     std::size_t count = 0;
     Vec3d mean = Vec3d::Zero();
@@ -403,9 +432,6 @@ Scene::Scene(SceneDescription description, std::shared_ptr<const EmbreeDevice> d
         EmbreeScene unit_scene(dev, RTC_SCENE_FLAG_ROBUST, RTC_BUILD_QUALITY_HIGH);
         for (std::size_t s = 0; s < unit.surfaces.size(); ++s) {
             const Surface& surface = unit.surfaces[s];
-            surfaces_.push_back(
-                {&surface, medium_for(surface.material.outside, surface.material.outside_medium),
-                 medium_for(surface.material.inside, surface.material.inside_medium)});
             std::vector<float> xyz;
             xyz.reserve(3 * surface.mesh.positions.size());
             for (const Vec3d& p : surface.mesh.positions) {
@@ -413,6 +439,10 @@ Scene::Scene(SceneDescription description, std::shared_ptr<const EmbreeDevice> d
                 xyz.insert(xyz.end(), {static_cast<float>(q.x()), static_cast<float>(q.y()),
                                        static_cast<float>(q.z())});
             }
+            surfaces_.push_back(
+                {&surface, medium_for(surface.material.outside, surface.material.outside_medium),
+                 medium_for(surface.material.inside, surface.material.inside_medium),
+                 facets_of(surface.mesh, xyz), shading_facets_of(surface.mesh)});
             vertex_buffers_.push_back(padded_vertex_buffer(xyz));
             EmbreeGeometry geometry(dev, RTC_GEOMETRY_TYPE_TRIANGLE);
             rtcSetSharedGeometryBuffer(geometry.get(), RTC_BUFFER_TYPE_VERTEX, 0, RTC_FORMAT_FLOAT3,
@@ -500,42 +530,26 @@ std::optional<SurfaceHit> Scene::intersect(const Vec3d& origin, const Vec3d& dir
         }
         const InstanceData& instance = instances_[primitive.instance];
         const std::uint32_t global = unit_first_surface_[instance.unit] + primitive.surface;
-        const geometry::TriangleMesh& mesh = surfaces_[global].surface->mesh;
-        const geometry::Triangle& tri = mesh.triangles[primitive.triangle];
-        const Vec3d& a = mesh.positions[tri[0]];
-        const Vec3d& b = mesh.positions[tri[1]];
-        const Vec3d& c = mesh.positions[tri[2]];
-        const Vec3d normal_local = (b - a).cross(c - a);
-        const Vec3d geometric = (instance.normal_matrix * normal_local).normalized();
-        // A facet with no orientation (zero area) is not a surface.
-        if (!geometric.allFinite()) {
-            rh.ray.tnear = std::nextafter(rh.ray.tfar, std::numeric_limits<float>::infinity());
-            continue;
-        }
+        const SurfaceData& data = surfaces_[global];
+        const Facet& facet = data.facets[primitive.triangle];
+        // Finite for every facet: the vertices and the transform are finite (validated), and
+        // a zero-area facet gives the zero vector, which the tracer skips (no projected area).
+        const Vec3d geometric = (instance.normal_matrix * facet.normal).normalized();
         const double u = rh.hit.u, v = rh.hit.v, w = 1.0 - u - v;
-        const Vec3d local = w * a + u * b + v * c;
+        const Vec3d local = w * facet.a + u * facet.b + v * facet.c;
         const Vec3d position = instance.transform * local;
         Vec3d shading = geometric;
-        if (!mesh.shading_normals.empty()) {
-            const Vec3d interpolated = (instance.normal_matrix * (w * mesh.shading_normals[tri[0]] +
-                                                                  u * mesh.shading_normals[tri[1]] +
-                                                                  v * mesh.shading_normals[tri[2]]))
-                                           .normalized();
+        if (!data.shading.empty()) {
+            const ShadingFacet& s = data.shading[primitive.triangle];
+            const Vec3d interpolated =
+                (instance.normal_matrix * (w * s.a + u * s.b + v * s.c)).normalized();
             if (interpolated.allFinite() && interpolated.dot(geometric) > 0.0) {
                 shading = interpolated;
             }
         }
-        // The vertices as Embree stores them (in the unit's BVH frame, float).
-        const float* stored = vertex_buffers_[global].data();
-        float vertex_extent_f = 0.0f;
-        for (std::uint32_t vertex : tri) {
-            for (int k = 0; k < 3; ++k)
-                vertex_extent_f = std::max(vertex_extent_f, std::abs(stored[3 * vertex + k]));
-        }
-        const double vertex_extent = vertex_extent_f;
-        const double offset =
-            kSpawnOffsetUlps * kFloatRoundoff *
-            (max_abs(position) + instance.linear_norm * vertex_extent + instance.translation_norm);
+        const double offset = kSpawnOffsetUlps * kFloatRoundoff *
+                              (max_abs(position) + instance.linear_norm * facet.vertex_extent +
+                               instance.translation_norm);
         return SurfaceHit{
             (position - origin).norm(), position, {shading, geometric}, global, primitive, offset};
     }

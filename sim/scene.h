@@ -322,10 +322,27 @@ public:
     static BvhFrame bvh_frame(const UnitMesh& unit);
 
 private:
+    // What Scene::intersect needs of one facet, gathered at build time so that a hit reads
+    // one record instead of an index triple, three vertices and three stored floats, and
+    // does not recompute the facet's normal. Unit-local, double precision: the same values
+    // the description's mesh gives, so hits are bit-identical to computing them there.
+    struct Facet {
+        Vec3d a, b, c;         // the vertices
+        Vec3d normal;          // (b − a) × (c − a), not normalised
+        double vertex_extent;  // largest |coordinate| of a, b, c as Embree stores them (float)
+    };
+    struct ShadingFacet {
+        Vec3d a, b, c;  // the vertices' shading normals
+    };
     struct SurfaceData {
         const Surface* surface;
         std::shared_ptr<const Medium> outside_medium, inside_medium;
+        std::vector<Facet> facets;          // one per triangle
+        std::vector<ShadingFacet> shading;  // one per triangle; empty without shading normals
     };
+    static std::vector<Facet> facets_of(const geometry::TriangleMesh& mesh,
+                                        const std::vector<float>& stored_xyz);
+    static std::vector<ShadingFacet> shading_facets_of(const geometry::TriangleMesh& mesh);
     struct InstanceData {
         Eigen::Affine3d transform;
         Eigen::Matrix3d normal_matrix;  // inverse transpose of the linear part
