@@ -589,10 +589,10 @@ std::optional<SurfaceHit> Scene::intersect(const Vec3d& origin, const Vec3d& dir
         const double offset = kSpawnOffsetUlps * kFloatRoundoff *
                               (max_abs(position) + instance.linear_norm * facet.vertex_extent +
                                instance.translation_norm);
-        // Along the unit direction: no square root on the way to the tracer.
-        const double distance = (position - origin).dot(direction);
-        return SurfaceHit{distance,          position,  {shading, geometric},
-                          primitive.surface, primitive, offset};
+        // The Euclidean distance, not the projection on the direction: a hit within float
+        // error of the origin can lie a little behind it, and a distance must not be negative.
+        return SurfaceHit{(position - origin).norm(), position,  {shading, geometric},
+                          primitive.surface,          primitive, offset};
     }
 }
 

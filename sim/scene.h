@@ -38,9 +38,7 @@
 // the double-precision mesh, so it lies on the facet to double rounding. The facet data it
 // needs (first vertex, edges, unit normal, the stored vertices' extent) is gathered per
 // triangle when the scene is built, and instances that are a rotation times a scale (all
-// that the builders make) map normals by their own linear part without a normalisation;
-// the distance is the hit's projection on the unit ray direction (it differs from the
-// Euclidean distance to the float ray's hit by the square of its 10⁻⁷ relative offset).
+// that the builders make) map normals by their own linear part without a normalisation.
 // These are double-precision rewritings: they move results by rounding (10⁻¹⁶), not by
 // anything the spawn offset below must cover. The next ray
 // starts from that point moved off the facet along its geometric normal, to the side the
