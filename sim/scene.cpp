@@ -435,7 +435,7 @@ Scene::Scene(SceneDescription description, std::shared_ptr<const EmbreeDevice> d
         return m;
     };
 
-    // One Embree scene per unit, one triangle geometry per surface (geomID = its index).
+    // One Embree scene per unit, one triangle geometry per surface (geomID = its global index).
     for (const UnitMesh& unit : description_.units) {
         const BvhFrame frame = bvh_frame(unit);
         unit_frames_.push_back(frame);
