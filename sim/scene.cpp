@@ -63,6 +63,14 @@ void validate_mesh(const geometry::TriangleMesh& mesh, const std::string& where)
 
 double max_abs(const Vec3d& v) { return v.cwiseAbs().maxCoeff(); }
 
+// Whether `linear` is s R (R a rotation or reflection, s > 0) to 1e-14 relative: then LᵀL = s² I.
+bool is_scaled_rotation(const Eigen::Matrix3d& linear) {
+    const Eigen::Matrix3d gram = linear.transpose() * linear;
+    const double s2 = gram.trace() / 3.0;
+    return s2 > 0.0 &&
+           (gram - s2 * Eigen::Matrix3d::Identity()).cwiseAbs().maxCoeff() <= 1e-14 * s2;
+}
+
 // Σ over the unit's triangles of the surface area of their bounding boxes in the frame whose
 // axes are the columns of `axes`: the leaf term of the SAH cost a BVH built in that frame pays.
 double box_area_sum(const UnitMesh& unit, const Eigen::Matrix3d& axes) {
@@ -80,6 +88,38 @@ double box_area_sum(const UnitMesh& unit, const Eigen::Matrix3d& axes) {
 }
 
 }  // namespace
+
+std::vector<Scene::Facet> Scene::facets_of(const geometry::TriangleMesh& mesh,
+                                           const std::vector<float>& stored_xyz) {
+    std::vector<Facet> facets;
+    facets.reserve(mesh.triangles.size());
+    for (const geometry::Triangle& tri : mesh.triangles) {
+        const Vec3d& a = mesh.positions[tri[0]];
+        const Vec3d& b = mesh.positions[tri[1]];
+        const Vec3d& c = mesh.positions[tri[2]];
+        float extent = 0.0f;
+        for (std::uint32_t vertex : tri) {
+            for (int k = 0; k < 3; ++k)
+                extent = std::max(extent, std::abs(stored_xyz[3 * vertex + k]));
+        }
+        const Vec3d e1 = b - a, e2 = c - a;
+        const Vec3d normal = e1.cross(e2);
+        const double area2 = normal.norm();
+        facets.push_back({a, e1, e2, area2 > 0.0 ? Vec3d(normal / area2) : Vec3d::Zero(), extent});
+    }
+    return facets;
+}
+
+std::vector<Scene::ShadingFacet> Scene::shading_facets_of(const geometry::TriangleMesh& mesh) {
+    std::vector<ShadingFacet> shading;
+    if (mesh.shading_normals.empty()) return shading;
+    shading.reserve(mesh.triangles.size());
+    for (const geometry::Triangle& tri : mesh.triangles) {
+        shading.push_back({mesh.shading_normals[tri[0]], mesh.shading_normals[tri[1]],
+                           mesh.shading_normals[tri[2]]});
+    }
+    return shading;
+}
 
 Scene::BvhFrame Scene::bvh_frame(const UnitMesh& unit) {
     std::size_t count = 0;
@@ -395,17 +435,13 @@ Scene::Scene(SceneDescription description, std::shared_ptr<const EmbreeDevice> d
         return m;
     };
 
-    // One Embree scene per unit, one triangle geometry per surface (geomID = its index).
+    // One Embree scene per unit, one triangle geometry per surface (geomID = its global index).
     for (const UnitMesh& unit : description_.units) {
-        unit_first_surface_.push_back(static_cast<std::uint32_t>(surfaces_.size()));
         const BvhFrame frame = bvh_frame(unit);
         unit_frames_.push_back(frame);
         EmbreeScene unit_scene(dev, RTC_SCENE_FLAG_ROBUST, RTC_BUILD_QUALITY_HIGH);
         for (std::size_t s = 0; s < unit.surfaces.size(); ++s) {
             const Surface& surface = unit.surfaces[s];
-            surfaces_.push_back(
-                {&surface, medium_for(surface.material.outside, surface.material.outside_medium),
-                 medium_for(surface.material.inside, surface.material.inside_medium)});
             std::vector<float> xyz;
             xyz.reserve(3 * surface.mesh.positions.size());
             for (const Vec3d& p : surface.mesh.positions) {
@@ -413,6 +449,10 @@ Scene::Scene(SceneDescription description, std::shared_ptr<const EmbreeDevice> d
                 xyz.insert(xyz.end(), {static_cast<float>(q.x()), static_cast<float>(q.y()),
                                        static_cast<float>(q.z())});
             }
+            surfaces_.push_back(
+                {&surface, medium_for(surface.material.outside, surface.material.outside_medium),
+                 medium_for(surface.material.inside, surface.material.inside_medium),
+                 facets_of(surface.mesh, xyz), shading_facets_of(surface.mesh)});
             vertex_buffers_.push_back(padded_vertex_buffer(xyz));
             EmbreeGeometry geometry(dev, RTC_GEOMETRY_TYPE_TRIANGLE);
             rtcSetSharedGeometryBuffer(geometry.get(), RTC_BUFFER_TYPE_VERTEX, 0, RTC_FORMAT_FLOAT3,
@@ -424,8 +464,12 @@ Scene::Scene(SceneDescription description, std::shared_ptr<const EmbreeDevice> d
                                        surface.mesh.triangles.data(), 0, sizeof(geometry::Triangle),
                                        surface.mesh.triangles.size());
             dev.check("rtcSetSharedGeometryBuffer (indices)");
-            const unsigned id = geometry.commit_and_attach(dev, unit_scene);
-            PLUMAGE_CHECK(id == s, "Embree geometry IDs are assigned in attach order");
+            // Embree's geomID is the global surface index, so that a hit finds its facet
+            // without first reading its instance's record (the two loads overlap).
+            rtcCommitGeometry(geometry.get());
+            rtcAttachGeometryByID(unit_scene.get(), geometry.get(),
+                                  static_cast<unsigned>(surfaces_.size() - 1));
+            dev.check("rtcCommitGeometry / rtcAttachGeometryByID");
         }
         unit_scene.commit(dev);
         unit_scenes_.push_back(std::move(unit_scene));
@@ -440,10 +484,18 @@ Scene::Scene(SceneDescription description, std::shared_ptr<const EmbreeDevice> d
         const BvhFrame& frame = unit_frames_[instance.unit];
         const Eigen::Matrix3d embree_linear = linear * frame.rotation;
         const Vec3d embree_translation = instance.transform * frame.centre;
-        instances_.push_back({instance.transform, linear.inverse().transpose(),
+        double normal_scale = 0.0;
+        std::uint32_t general_normal = 0;
+        if (is_scaled_rotation(linear)) {
+            // (s R)^-T = R / s = linear / s²: normalised, a unit normal maps to linear · n / s.
+            normal_scale = 1.0 / std::sqrt((linear.transpose() * linear).trace() / 3.0);
+        } else {
+            general_normal = static_cast<std::uint32_t>(general_normal_matrices_.size());
+            general_normal_matrices_.push_back(linear.inverse().transpose());
+        }
+        instances_.push_back({linear, instance.transform.translation(), normal_scale,
                               embree_linear.cwiseAbs().rowwise().sum().maxCoeff(),
-                              max_abs(embree_translation),
-                              static_cast<std::uint32_t>(instance.unit)});
+                              max_abs(embree_translation), general_normal});
         EmbreeGeometry geometry(dev, RTC_GEOMETRY_TYPE_INSTANCE);
         rtcSetGeometryInstancedScene(geometry.get(), unit_scenes_[instance.unit].get());
         // Column-major 3×4: the three columns of L, then t.
@@ -499,45 +551,48 @@ std::optional<SurfaceHit> Scene::intersect(const Vec3d& origin, const Vec3d& dir
             continue;
         }
         const InstanceData& instance = instances_[primitive.instance];
-        const std::uint32_t global = unit_first_surface_[instance.unit] + primitive.surface;
-        const geometry::TriangleMesh& mesh = surfaces_[global].surface->mesh;
-        const geometry::Triangle& tri = mesh.triangles[primitive.triangle];
-        const Vec3d& a = mesh.positions[tri[0]];
-        const Vec3d& b = mesh.positions[tri[1]];
-        const Vec3d& c = mesh.positions[tri[2]];
-        const Vec3d normal_local = (b - a).cross(c - a);
-        const Vec3d geometric = (instance.normal_matrix * normal_local).normalized();
-        // A facet with no orientation (zero area) is not a surface.
-        if (!geometric.allFinite()) {
-            rh.ray.tnear = std::nextafter(rh.ray.tfar, std::numeric_limits<float>::infinity());
-            continue;
-        }
-        const double u = rh.hit.u, v = rh.hit.v, w = 1.0 - u - v;
-        const Vec3d local = w * a + u * b + v * c;
-        const Vec3d position = instance.transform * local;
-        Vec3d shading = geometric;
-        if (!mesh.shading_normals.empty()) {
-            const Vec3d interpolated = (instance.normal_matrix * (w * mesh.shading_normals[tri[0]] +
-                                                                  u * mesh.shading_normals[tri[1]] +
-                                                                  v * mesh.shading_normals[tri[2]]))
-                                           .normalized();
-            if (interpolated.allFinite() && interpolated.dot(geometric) > 0.0) {
-                shading = interpolated;
+        const SurfaceData& data = surfaces_[primitive.surface];
+        const Facet& facet = data.facets[primitive.triangle];
+        const double u = rh.hit.u, v = rh.hit.v;
+        const Vec3d position =
+            instance.linear * (facet.a + u * facet.e1 + v * facet.e2) + instance.translation;
+        // A zero-area facet has the zero normal, which the tracer skips (no projected area).
+        Vec3d geometric, shading;
+        if (instance.normal_scale > 0.0) {
+            // linear = s R: unit normals map to R n = linear n / s. The shading normal is
+            // interpolated, tested against the facet and normalised in the unit frame (R
+            // keeps lengths and signs of dot products up to the factor s), so that its
+            // square root and division do not wait for the transform.
+            geometric = instance.normal_scale * (instance.linear * facet.normal);
+            shading = geometric;
+            if (!data.shading.empty()) {
+                const ShadingFacet& s = data.shading[primitive.triangle];
+                const Vec3d interpolated = (1.0 - u - v) * s.a + u * s.b + v * s.c;
+                // Zero, and then rejected, when the interpolated normal vanishes.
+                if (interpolated.dot(facet.normal) > 0.0) {
+                    shading = (instance.normal_scale / interpolated.norm()) *
+                              (instance.linear * interpolated);
+                }
+            }
+        } else {
+            const Eigen::Matrix3d& normal_matrix =
+                general_normal_matrices_[instance.general_normal];
+            geometric = (normal_matrix * facet.normal).normalized();
+            shading = geometric;
+            if (!data.shading.empty()) {
+                const ShadingFacet& s = data.shading[primitive.triangle];
+                const Vec3d interpolated =
+                    (normal_matrix * ((1.0 - u - v) * s.a + u * s.b + v * s.c)).normalized();
+                if (interpolated.dot(geometric) > 0.0) shading = interpolated;
             }
         }
-        // The vertices as Embree stores them (in the unit's BVH frame, float).
-        const float* stored = vertex_buffers_[global].data();
-        float vertex_extent_f = 0.0f;
-        for (std::uint32_t vertex : tri) {
-            for (int k = 0; k < 3; ++k)
-                vertex_extent_f = std::max(vertex_extent_f, std::abs(stored[3 * vertex + k]));
-        }
-        const double vertex_extent = vertex_extent_f;
-        const double offset =
-            kSpawnOffsetUlps * kFloatRoundoff *
-            (max_abs(position) + instance.linear_norm * vertex_extent + instance.translation_norm);
-        return SurfaceHit{
-            (position - origin).norm(), position, {shading, geometric}, global, primitive, offset};
+        const double offset = kSpawnOffsetUlps * kFloatRoundoff *
+                              (max_abs(position) + instance.linear_norm * facet.vertex_extent +
+                               instance.translation_norm);
+        // The Euclidean distance, not the projection on the direction: a hit within float
+        // error of the origin can lie a little behind it, and a distance must not be negative.
+        return SurfaceHit{(position - origin).norm(), position,  {shading, geometric},
+                          primitive.surface,          primitive, offset};
     }
 }
 

@@ -35,7 +35,12 @@
 //
 // Numerical robustness (Scene::intersect, Scene::spawn_point). Embree intersects in
 // single precision; the hit point is recomputed in double from Embree's barycentrics on
-// the double-precision mesh, so it lies on the facet to double rounding. The next ray
+// the double-precision mesh, so it lies on the facet to double rounding. The facet data it
+// needs (first vertex, edges, unit normal, the stored vertices' extent) is gathered per
+// triangle when the scene is built, and instances that are a rotation times a scale (all
+// that the builders make) map normals by their own linear part without a normalisation.
+// These are double-precision rewritings: they move results by rounding (10⁻¹⁶), not by
+// anything the spawn offset below must cover. The next ray
 // starts from that point moved off the facet along its geometric normal, to the side the
 // light continues on (the incidence side after a reflection, the other after a
 // transmission), by
@@ -268,7 +273,7 @@ geometry::TriangleMesh medulla_core_mesh(const geometry::BarbulePatch& patch, do
 SceneDescription single_mesh_scene(geometry::TriangleMesh mesh, SurfaceMaterial material,
                                    std::string name = "mesh");
 
-// Identifies a facet: instance, surface within its unit, triangle.
+// Identifies a facet: instance, surface (global index, Scene::surface_material), triangle.
 struct PrimitiveRef {
     static constexpr std::uint32_t kNone = std::numeric_limits<std::uint32_t>::max();
     std::uint32_t instance = kNone;
@@ -322,24 +327,50 @@ public:
     static BvhFrame bvh_frame(const UnitMesh& unit);
 
 private:
+    // What Scene::intersect needs of one facet, gathered at build time so that a hit reads
+    // one record instead of an index triple, three vertices and three stored floats, and
+    // does not recompute the facet's normal. Unit-local, double precision from the
+    // description's mesh: a hit point a + u e1 + v e2 lies on the double-precision facet to
+    // double rounding (≈ 10⁻¹⁶ × its coordinates, eight orders below the spawn offset δ).
+    struct Facet {
+        Vec3d a;               // first vertex
+        Vec3d e1, e2;          // b − a, c − a
+        Vec3d normal;          // unit (e1 × e2 normalised); zero for a zero-area facet
+        double vertex_extent;  // largest |coordinate| of a, b, c as Embree stores them (float)
+    };
+    struct ShadingFacet {
+        Vec3d a, b, c;  // the vertices' shading normals
+    };
     struct SurfaceData {
         const Surface* surface;
         std::shared_ptr<const Medium> outside_medium, inside_medium;
+        std::vector<Facet> facets;          // one per triangle
+        std::vector<ShadingFacet> shading;  // one per triangle; empty without shading normals
     };
-    struct InstanceData {
-        Eigen::Affine3d transform;
-        Eigen::Matrix3d normal_matrix;  // inverse transpose of the linear part
-        double linear_norm;             // ‖L R‖∞: Embree's linear part (R: the BVH frame)
-        double translation_norm;        // |t + L c|∞: Embree's translation (c: the BVH frame's)
-        std::uint32_t unit;
+    static std::vector<Facet> facets_of(const geometry::TriangleMesh& mesh,
+                                        const std::vector<float>& stored_xyz);
+    static std::vector<ShadingFacet> shading_facets_of(const geometry::TriangleMesh& mesh);
+    // Per instance, what a hit reads: 128 bytes, two cache lines (the rock dove has 4000
+    // instances, 512 KB of records, and a hit reads a random one).
+    struct alignas(64) InstanceData {
+        Eigen::Matrix3d linear;  // the instance transform: p ↦ linear p + translation
+        Vec3d translation;
+        // When `linear` is s R (R orthogonal, s > 0; every instance the builders make), a
+        // unit-local unit normal n maps to the unit normal normal_scale · linear · n with
+        // normal_scale = 1/s. Otherwise normal_scale is 0 and the normal is
+        // general_normal_matrices_[general_normal] · n normalised (the inverse transpose).
+        double normal_scale;
+        double linear_norm;       // ‖L R‖∞: Embree's linear part (R: the BVH frame)
+        double translation_norm;  // |t + L c|∞: Embree's translation (c: the BVH frame's)
+        std::uint32_t general_normal;
     };
 
     SceneDescription description_;
     std::shared_ptr<const EmbreeDevice> device_;
     std::vector<SurfaceData> surfaces_;
-    std::vector<std::uint32_t> unit_first_surface_;
     std::vector<BvhFrame> unit_frames_;
     std::vector<InstanceData> instances_;
+    std::vector<Eigen::Matrix3d> general_normal_matrices_;
     std::vector<std::vector<float>> vertex_buffers_;  // shared with Embree; padded
     std::vector<EmbreeScene> unit_scenes_;
     std::optional<EmbreeScene> top_;

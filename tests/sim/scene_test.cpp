@@ -107,6 +107,49 @@ TEST(SceneInstancing, HitsCarryInstanceDoublePositionAndTransformedNormals) {
     EXPECT_LT((scene.spawn_point(*far_hit, false) - far_hit->position).dot(normal), 0.0);
 }
 
+// Scene::intersect maps normals of a scaled rotation by the instance's own linear part and
+// tests the shading normal in the unit frame; any other linear map takes the inverse
+// transpose. Both must give the unit normals the inverse transpose gives, computed here
+// independently, geometric and shading (a constant tilted shading normal interpolates to
+// itself).
+TEST(SceneInstancing, ScaledRotationsAndGeneralMapsGiveTheInverseTransposeNormals) {
+    geometry::TriangleMesh mesh = testing::square_mesh(1.0);
+    const Vec3d tilted = Vec3d(0.3, -0.2, 1.0).normalized();
+    mesh.shading_normals.assign(mesh.positions.size(), tilted);
+    SceneDescription d;
+    UnitMesh unit{"tile", {}};
+    unit.surfaces.push_back({"square", mesh, absorber()});
+    d.units.push_back(std::move(unit));
+    const Eigen::Matrix3d rotation =
+        Eigen::AngleAxisd(0.7, Vec3d(1.0, 2.0, 3.0).normalized()).toRotationMatrix();
+    Eigen::Affine3d scaled_rotation = Eigen::Affine3d::Identity();
+    scaled_rotation.translate(Vec3d(40.0, -7.0, 3.0));
+    scaled_rotation.linear() = 2.5 * rotation;
+    Eigen::Affine3d general = Eigen::Affine3d::Identity();
+    general.translate(Vec3d(-60.0, 20.0, -5.0));
+    general.linear() = rotation * Vec3d(1.0, 3.0, 0.5).asDiagonal();
+    general.linear()(0, 1) += 0.4;  // and a shear
+    d.instances = {{0, scaled_rotation}, {0, general}};
+    const Scene scene(d);
+
+    for (std::uint32_t i = 0; i < 2; ++i) {
+        const Eigen::Affine3d& t = d.instances[i].transform;
+        const Eigen::Matrix3d inverse_transpose = t.linear().inverse().transpose();
+        const Vec3d normal = (inverse_transpose * Vec3d::UnitZ()).normalized();
+        const Vec3d shading = (inverse_transpose * tilted).normalized();
+        const Vec3d target = t * Vec3d(0.3, 0.2, 0.0);
+        const auto hit = scene.intersect(target + 3.0 * normal, -normal);
+        ASSERT_TRUE(hit) << "instance " << i;
+        EXPECT_EQ(hit->primitive.instance, i);
+        EXPECT_EQ(hit->surface, 0u);
+        EXPECT_NEAR(hit->normals.geometric.norm(), 1.0, 1e-15) << "instance " << i;
+        EXPECT_NEAR((hit->normals.geometric - normal).norm(), 0.0, 1e-15) << "instance " << i;
+        EXPECT_NEAR((hit->normals.shading - shading).norm(), 0.0, 1e-15) << "instance " << i;
+        EXPECT_NEAR((hit->position - target).dot(normal), 0.0, 1e-13) << "instance " << i;
+        EXPECT_NEAR(hit->distance_um, 3.0, 1e-5) << "instance " << i;
+    }
+}
+
 TEST(SceneBuilders, BarbuleRowIsOneUnitWithFilmAndMelanin) {
     geometry::BarbuleRowParams params;
     params.barbules = 3;
