@@ -302,6 +302,7 @@ struct Huang2022Bsdf::Frame {
     Vec3d wi;            // barbule frame
     double phi_i = 0.0;  // azimuth of ω_i's projection on the x–z plane
     double cos_theta_i = 0.0, sin_theta_i = 0.0;
+    double cos_mu = 1.0, sin_mu = 0.0;             // of the barb-plane tilt, for ω_o
     double period = 0.0;                           // Δh = H cos(φ_i + μ)
     std::vector<std::array<double, 2>> intervals;  // visible, front-facing φ_m ranges
     std::vector<double> h_cumulative;              // projected visible length up to interval k
@@ -374,10 +375,11 @@ struct Ellipse {
     }
 };
 
-Vec3d to_barbule(const Vec3d& w, double mu) {
-    const double c = std::cos(mu), s = std::sin(mu);
-    return {w.x() * c - w.z() * s, w.y(), w.x() * s + w.z() * c};
+Vec3d to_barbule(const Vec3d& w, double cos_mu, double sin_mu) {
+    return {w.x() * cos_mu - w.z() * sin_mu, w.y(), w.x() * sin_mu + w.z() * cos_mu};
 }
+
+Vec3d to_barbule(const Vec3d& w, double mu) { return to_barbule(w, std::cos(mu), std::sin(mu)); }
 
 Vec3d to_patch(const Vec3d& w, double mu) {
     const double c = std::cos(mu), s = std::sin(mu);
@@ -440,6 +442,8 @@ Huang2022Bsdf::Frame Huang2022Bsdf::compute_frame(const Vec3d& wi_patch, int trt
     }
     Frame f;
     f.trt_refine = trt_refine;
+    f.cos_mu = std::cos(params_.mu);
+    f.sin_mu = std::sin(params_.mu);
     f.wi = to_barbule(wi_patch, params_.mu);
     f.cos_theta_i = std::hypot(f.wi.x(), f.wi.z());
     f.sin_theta_i = f.wi.y();
@@ -852,7 +856,7 @@ template <typename Transmittance>
 double Huang2022Bsdf::eval_in_frame(const Frame& f, const Vec3d& wo, double lambda_nm, double r_m,
                                     const Transmittance& transmittance,
                                     std::span<double> per_lobe) const {
-    const Vec3d wo_b = to_barbule(wo, params_.mu);
+    const Vec3d wo_b = to_barbule(wo, f.cos_mu, f.sin_mu);
     const Ellipse e{params_.b};
     double f_r = 0.0, f_trt = 0.0;
     const double cos_o_patch = std::abs(wo.z());

@@ -41,6 +41,12 @@
 //       tabulated per wavelength over the whole of [0, 1], grazing facets included, to a
 //       relative 5e-7 (the TRT lobe within 1e-6 relative of the same rule with direct Airy
 //       evaluation, eval_reference; details at Huang2022Bsdf::eval_in_frame).
+//       Not within those bounds: within ~10 nm of a wavelength whose film resonance sits at
+//       grazing incidence (≈ 471 and 694 nm at d = 0.59 µm) T(c) steps from 0 to ≈ 1 over a
+//       small c, i.e. at ω_o's terminator on the arc, which the per-ω_i φ_m rule does not
+//       resolve: TRT off by up to 4e-4 at 700 nm and 2.3e-3 at 694 nm against a converged rule
+//       (test Huang2022.PointTableOnTheFilipSetIsConvergedTo1e4); elsewhere the model's values
+//       on the Filip 2024 set are within 1e-5 of it.
 //       pdf() keeps a fixed rule (2 θ_m nodes): its integrand does not depend on ω_o.
 //  T    light passing between barbules unchanged, Eq. 15: a Dirac lobe at ω_o = −ω_i
 //       with mass 1 − Δh'/Δh. eval() cannot return a Dirac; sample() produces it.
