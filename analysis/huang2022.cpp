@@ -43,6 +43,25 @@ constexpr std::array<double, 5> kTrtThetaWeights = {0.2369268850561891, 0.478628
                                                     0.5688888888888889, 0.4786286704993665,
                                                     0.2369268850561891};
 constexpr const std::array<double, 8>& kTrtCutNodes = kGl8Nodes;
+// Near a film resonance at grazing (steep_at_grazing), T(c) rises from 0 to ≈ 1 over
+// c ≲ |g(0)|: at ω_o's terminator on the arc, at ω_i's (the ends of the front-facing arc) and
+// at the cut of a θ support, which the fixed rule does not resolve (TRT off by up to 1.2e-2 at
+// 470 and 694 nm on the Filip set). There the rule is graded towards those points: geometric
+// sub-pieces (ratio kGrade, kGradeLevels levels) of the φ_m pieces and θ_m panels that hold
+// them, computed per call. kSteepG: g below which this applies (|g_p(0)| < 0.15: 442–502 nm and
+// above 632 nm for the rock-dove film, resonances at 471 and 694 nm); chosen on the scan of test
+// Huang2022.PointTableOnTheFilipSetIsConvergedTo1e4.
+constexpr double kGrade = 4.0;
+constexpr int kGradeLevels = 3;
+constexpr double kSteepG = 0.15;
+
+// Whether the film's T(c) rises from 0 steeply near grazing: min(|g_s(0)|, |g_p(0)|) <
+// kSteepG (FilmTransmittanceTable's g; n the keratin index, k0_d = 2π d / λ).
+bool steep_at_grazing(double n, double k0_d) {
+    const double q0 = std::sqrt(n * n - 1.0);
+    const double gs = std::sin(k0_d * q0) * (n * n - 1.0) / (2.0 * q0);
+    return std::abs(gs) / (n * n) < kSteepG;
+}
 constexpr const std::array<double, 8>& kTrtCutWeights = kGl8Weights;
 
 // Cubic (4-point Lagrange) interpolation of `Channels` interleaved functions on a uniform grid
@@ -325,7 +344,8 @@ struct Huang2022Bsdf::Frame {
         std::size_t first, count;  // its θ nodes in trt_m (count 0: empty support)
     };
     int trt_refine = 1;
-    std::vector<TrtPhiNode> trt_phi;
+    std::vector<TrtPhiNode> trt_phi;                // kGl8Nodes.size() per piece, in order
+    std::vector<std::array<double, 2>> trt_pieces;  // the φ_m pieces
     std::vector<Vec3d> trt_m;
     std::vector<double> trt_w;
     // Per wavelength asked (the last few): trt_w · T(ω_i·ω_m) at the θ nodes, filled on first
@@ -545,6 +565,7 @@ struct Huang2022Bsdf::Spectral {
     std::uint64_t generation;
     double lambda_nm;
     double melanin_reflectance;
+    bool steep;  // steep_at_grazing
     FilmTransmittanceTable transmittance;
 };
 
@@ -565,8 +586,9 @@ const Huang2022Bsdf::Spectral& Huang2022Bsdf::spectral(double lambda_nm) const {
     const double n = keratin_->index(lambda_nm).real();
     const double k0_d = 2.0 * kPi * params_.d_um * 1000.0 / lambda_nm;
     cache.push_back({this, generation_, lambda_nm, melanin_reflectance(lambda_nm),
-                     FilmTransmittanceTable(
-                         n, k0_d, [&](double c) { return film_transmittance(c, lambda_nm); })});
+                     steep_at_grazing(n, k0_d), FilmTransmittanceTable(n, k0_d, [&](double c) {
+                         return film_transmittance(c, lambda_nm);
+                     })});
     return *(last = &cache.back());
 }
 
@@ -717,28 +739,31 @@ std::optional<ScatterEvent> Huang2022Bsdf::sample(const Vec3d& wi, double lambda
 
 namespace {
 
-// The φ_m nodes of q's composite Gauss–Legendre rule over a frame's visible arc (kGl8Nodes per
-// piece of at most piece_rad): emit(φ, w, p_θ) with w = the node's weight times
-// ρ cos(φ − φ_i) / Δh' and p_θ(θ | φ) the conditional density (possibly empty). A template,
-// so that it can take the model's private Frame.
+// q's φ_m nodes on one piece [a, c] of a frame's visible arc, Gauss–Legendre (kGl8Nodes):
+// emit(φ, w, p_θ) with w = the node's weight times ρ cos(φ − φ_i) / Δh' and p_θ(θ | φ) the
+// conditional density (possibly empty). A template, so that it can take the model's private
+// Frame.
 template <typename FrameT, typename Emit>
-void for_each_q_phi_node(const FrameT& f, double b, double theta_d, double piece_rad,
-                         const Emit& emit) {
+void q_phi_nodes_on(const FrameT& f, double b, double theta_d, double a, double c,
+                    const Emit& emit) {
     const Ellipse e{b};
+    for (std::size_t i = 0; i < kGl8Nodes.size(); ++i) {
+        const double phi = 0.5 * (a + c) + 0.5 * (c - a) * kGl8Nodes[i];
+        const double w = 0.5 * (c - a) * kGl8Weights[i] * e.rho(phi) * std::cos(phi - f.phi_i) /
+                         f.visible_length;
+        emit(phi, w,
+             theta_density(f.cos_theta_i * std::cos(phi - f.phi_i), f.sin_theta_i, theta_d));
+    }
+}
+
+// The pieces of q's composite rule over a frame's visible arc: piece(a, c) for each piece of
+// at most piece_rad, interval by interval.
+template <typename FrameT, typename Piece>
+void for_each_q_piece(const FrameT& f, double piece_rad, const Piece& piece) {
     for (const auto& [lo, hi] : f.intervals) {
         const int pieces = std::max(1, static_cast<int>(std::ceil((hi - lo) / piece_rad)));
-        for (int piece = 0; piece < pieces; ++piece) {
-            const double a = lo + (hi - lo) * piece / pieces,
-                         c = lo + (hi - lo) * (piece + 1) / pieces;
-            for (std::size_t i = 0; i < kGl8Nodes.size(); ++i) {
-                const double phi = 0.5 * (a + c) + 0.5 * (c - a) * kGl8Nodes[i];
-                const double w = 0.5 * (c - a) * kGl8Weights[i] * e.rho(phi) *
-                                 std::cos(phi - f.phi_i) / f.visible_length;
-                emit(
-                    phi, w,
-                    theta_density(f.cos_theta_i * std::cos(phi - f.phi_i), f.sin_theta_i, theta_d));
-            }
-        }
+        for (int k = 0; k < pieces; ++k)
+            piece(lo + (hi - lo) * k / pieces, lo + (hi - lo) * (k + 1) / pieces);
     }
 }
 
@@ -752,15 +777,18 @@ void Huang2022Bsdf::build_nodes(Frame& f) const {
     // (two nodes here were up to 30 % off for views along the barbule axis).
     static constexpr std::array<double, 2> n2 = {-0.5773502691896258, 0.5773502691896258};
     if (!(f.visible_length > 0.0)) return;
-    for_each_q_phi_node(
-        f, params_.b, params_.theta_d, 0.25, [&](double phi, double w_phi, const ThetaDensity& td) {
-            if (td.empty()) return;
-            for (double x : n2) {
-                const double theta = 0.5 * (td.lo + td.hi) + 0.5 * (td.hi - td.lo) * x;
-                f.nodes.emplace_back(normal_at(phi, theta),
-                                     w_phi * 0.5 * (td.hi - td.lo) * td.density(theta));
-            }
-        });
+    for_each_q_piece(f, 0.25, [&](double a, double c) {
+        q_phi_nodes_on(
+            f, params_.b, params_.theta_d, a, c,
+            [&](double phi, double w_phi, const ThetaDensity& td) {
+                if (td.empty()) return;
+                for (double x : n2) {
+                    const double theta = 0.5 * (td.lo + td.hi) + 0.5 * (td.hi - td.lo) * x;
+                    f.nodes.emplace_back(normal_at(phi, theta),
+                                         w_phi * 0.5 * (td.hi - td.lo) * td.density(theta));
+                }
+            });
+    });
 }
 
 namespace {
@@ -768,44 +796,127 @@ namespace {
 // TRT's efficiency E_q (eval_in_frame) by a frame's rule, given wt[k] = trt_w[k] · T(ω_i·ω_m) at
 // its θ nodes and T(c) (c ∈ [0, 1]): a template, so that the reference path (direct film, finer
 // rule) runs the same code as eval().
+// ∫ p_θ(θ | φ) T(ω_i·ω_m) T(ω_o·ω_m) dθ over the part of the θ support where ω_o·ω_m > 0, at
+// one φ_m (sin φ, cos φ) whose support meets that part: kTrtCutNodes per panel, f.trt_refine
+// panels.
+template <typename FrameT, typename Transmittance>
+double positive_part_integral(const FrameT& f, double sin_phi, double cos_phi,
+                              const ThetaDensity& td, const Vec3d& wo_b,
+                              const Transmittance& transmittance, bool steep) {
+    // ω_o·ω_m > 0 on (γ − π/2, γ + π/2) mod 2π; the support is at most π/2 wide, so it meets
+    // that set in one interval.
+    const double gamma = std::atan2(wo_b.y(), wo_b.x() * sin_phi + wo_b.z() * cos_phi);
+    double a = 0.0, b = 0.0;
+    for (int k = -1; k <= 1; ++k) {
+        const double lo = std::max(td.lo, gamma - 0.5 * kPi + 2.0 * kPi * k);
+        const double hi = std::min(td.hi, gamma + 0.5 * kPi + 2.0 * kPi * k);
+        if (hi > lo) a = lo, b = hi;
+    }
+    double inner = 0.0;
+    auto panel_sum = [&](double pa, double pb) {
+        for (std::size_t j = 0; j < kTrtCutNodes.size(); ++j) {
+            const double theta = 0.5 * (pa + pb) + 0.5 * (pb - pa) * kTrtCutNodes[j];
+            double st = 0.0, ct = 0.0;
+            small_angle_sincos(theta, st, ct);
+            const Vec3d m(sin_phi * ct, st, cos_phi * ct);  // normal_at(φ, θ)
+            inner += 0.5 * (pb - pa) * kTrtCutWeights[j] * td.density(theta, st, ct) *
+                     transmittance(f.wi.dot(m)) * transmittance(wo_b.dot(m));
+        }
+    };
+    for (int panel = 0; panel < f.trt_refine && b > a; ++panel) {
+        const double pa = a + (b - a) * panel / f.trt_refine,
+                     pb = a + (b - a) * (panel + 1) / f.trt_refine;
+        const bool cut_lo = steep && panel == 0 && a > td.lo,
+                   cut_hi = steep && panel == f.trt_refine - 1 && b < td.hi;
+        if (cut_lo != cut_hi) {
+            // Graded towards the cut, where T(ω_o·ω_m) rises from 0 steeply.
+            const double t = cut_lo ? pa : pb, len = pb - pa, dir = cut_lo ? 1.0 : -1.0;
+            double edge = t;
+            for (int g = kGradeLevels; g >= 1; --g) {
+                const double next = t + dir * len * std::pow(kGrade, -g);
+                panel_sum(std::min(edge, next), std::max(edge, next));
+                edge = next;
+            }
+            panel_sum(std::min(edge, cut_lo ? pb : pa), std::max(edge, cut_lo ? pb : pa));
+        } else {
+            panel_sum(pa, pb);
+        }
+    }
+    return inner;
+}
+
+// TRT's efficiency E_q (eval_in_frame) by a frame's rule, given wt[k] = trt_w[k] · T(ω_i·ω_m)
+// at its θ nodes and T(c) (c ∈ [0, 1]): a template, so that the reference path (direct film,
+// finer rule) runs the same code as eval(). steep: the film's T rises from 0 over a small c
+// (a resonance near grazing, steep_at_grazing), so the pieces that hold ω_o's terminator on
+// the arc are integrated afresh, graded towards it.
 template <typename FrameT, typename Transmittance>
 double trt_efficiency_sum(const FrameT& f, const Vec3d& wo_b, const std::vector<double>& wt,
-                          const Transmittance& transmittance) {
+                          const Transmittance& transmittance, bool steep, double b,
+                          double theta_d) {
     double sum = 0.0;
-    for (const auto& node : f.trt_phi) {
-        if (node.count == 0) continue;
-        const double x_lo = wo_b.dot(node.m_lo), x_hi = wo_b.dot(node.m_hi);
-        if (x_lo <= 0.0 && x_hi <= 0.0) continue;  // one sign change at most: none > 0
-        double inner = 0.0;
-        if (x_lo > 0.0 && x_hi > 0.0) {
-            for (std::size_t k = node.first; k < node.first + node.count; ++k)
-                inner += wt[k] * transmittance(wo_b.dot(f.trt_m[k]));
-        } else {
-            // ω_o·ω_m > 0 on (γ − π/2, γ + π/2) mod 2π; the support is at most π/2 wide,
-            // so it meets that set in one interval.
-            const double gamma =
-                std::atan2(wo_b.y(), wo_b.x() * node.sin_phi + wo_b.z() * node.cos_phi);
-            double a = 0.0, b = 0.0;
-            for (int k = -1; k <= 1; ++k) {
-                const double lo = std::max(node.theta.lo, gamma - 0.5 * kPi + 2.0 * kPi * k);
-                const double hi = std::min(node.theta.hi, gamma + 0.5 * kPi + 2.0 * kPi * k);
-                if (hi > lo) a = lo, b = hi;
+    // ω_o's terminators on the arc: A(φ) = ω_o,x sin φ + ω_o,z cos φ = 0.
+    const double r_o = std::hypot(wo_b.x(), wo_b.z());
+    steep = steep && r_o > 1e-12;
+    const double phi_o = steep ? std::atan2(wo_b.x(), wo_b.z()) : 0.0;
+    auto fresh = [&](double phi, double w, const ThetaDensity& td) {
+        if (td.empty()) return;
+        const double sp = std::sin(phi), cp = std::cos(phi);
+        if (wo_b.dot(normal_at(phi, td.lo)) <= 0.0 && wo_b.dot(normal_at(phi, td.hi)) <= 0.0)
+            return;
+        sum += w * positive_part_integral(f, sp, cp, td, wo_b, transmittance, steep);
+    };
+    constexpr std::size_t kPerPiece = kGl8Nodes.size();
+    for (std::size_t piece = 0; piece < f.trt_pieces.size(); ++piece) {
+        const auto [pa, pc] = f.trt_pieces[piece];
+        if (steep) {
+            double terminator = std::numeric_limits<double>::quiet_NaN();
+            for (double t : {phi_o + 0.5 * kPi, phi_o - 0.5 * kPi}) {
+                const double shifted = t - 2.0 * kPi * std::floor((t - pa) / (2.0 * kPi));
+                if (shifted > pa && shifted < pc) terminator = shifted;
             }
-            for (int panel = 0; panel < f.trt_refine && b > a; ++panel) {
-                const double pa = a + (b - a) * panel / f.trt_refine,
-                             pb = a + (b - a) * (panel + 1) / f.trt_refine;
-                for (std::size_t j = 0; j < kTrtCutNodes.size(); ++j) {
-                    const double theta = 0.5 * (pa + pb) + 0.5 * (pb - pa) * kTrtCutNodes[j];
-                    double st = 0.0, ct = 0.0;
-                    small_angle_sincos(theta, st, ct);
-                    const Vec3d m(node.sin_phi * ct, st, node.cos_phi * ct);  // normal_at(φ, θ)
-                    inner += 0.5 * (pb - pa) * kTrtCutWeights[j] *
-                             node.theta.density(theta, st, ct) * transmittance(f.wi.dot(m)) *
-                             transmittance(wo_b.dot(m));
+            // ω_i's terminator: an end of a visible interval where cos(φ − φ_i) = 0.
+            if (std::isnan(terminator) && std::abs(std::cos(pa - f.phi_i)) < 1e-9) terminator = pa;
+            if (std::isnan(terminator) && std::abs(std::cos(pc - f.phi_i)) < 1e-9) terminator = pc;
+            if (!std::isnan(terminator)) {
+                // Geometric sub-pieces towards it, ratio kGrade, kGradeLevels on each side.
+                const double left = terminator - pa, right = pc - terminator;
+                if (left > 0.0) {
+                    double edge = pa;
+                    for (int g = 1; g <= kGradeLevels; ++g) {
+                        const double next = terminator - left * std::pow(kGrade, -g);
+                        q_phi_nodes_on(f, b, theta_d, edge, next, fresh);
+                        edge = next;
+                    }
+                    q_phi_nodes_on(f, b, theta_d, edge, terminator, fresh);
                 }
+                if (right > 0.0) {
+                    double edge = terminator;
+                    for (int g = kGradeLevels; g >= 1; --g) {
+                        const double next = terminator + right * std::pow(kGrade, -g);
+                        q_phi_nodes_on(f, b, theta_d, edge, next, fresh);
+                        edge = next;
+                    }
+                    q_phi_nodes_on(f, b, theta_d, edge, pc, fresh);
+                }
+                continue;
             }
         }
-        sum += node.weight * inner;
+        for (std::size_t i = piece * kPerPiece; i < (piece + 1) * kPerPiece; ++i) {
+            const auto& node = f.trt_phi[i];
+            if (node.count == 0) continue;
+            const double x_lo = wo_b.dot(node.m_lo), x_hi = wo_b.dot(node.m_hi);
+            if (x_lo <= 0.0 && x_hi <= 0.0) continue;  // one sign change at most: none > 0
+            double inner = 0.0;
+            if (x_lo > 0.0 && x_hi > 0.0) {
+                for (std::size_t k = node.first; k < node.first + node.count; ++k)
+                    inner += wt[k] * transmittance(wo_b.dot(f.trt_m[k]));
+            } else {
+                inner = positive_part_integral(f, node.sin_phi, node.cos_phi, node.theta, wo_b,
+                                               transmittance, steep);
+            }
+            sum += node.weight * inner;
+        }
     }
     return sum;
 }
@@ -854,7 +965,7 @@ const std::vector<double>& weighted_incident_transmittance(const FrameT& f, doub
 // 1e-6 relative of the same rule with direct Airy evaluations (eval_reference with refine 1).
 template <typename Transmittance>
 double Huang2022Bsdf::eval_in_frame(const Frame& f, const Vec3d& wo, double lambda_nm, double r_m,
-                                    const Transmittance& transmittance,
+                                    bool steep, const Transmittance& transmittance,
                                     std::span<double> per_lobe) const {
     const Vec3d wo_b = to_barbule(wo, f.cos_mu, f.sin_mu);
     const Ellipse e{params_.b};
@@ -888,7 +999,10 @@ double Huang2022Bsdf::eval_in_frame(const Frame& f, const Vec3d& wo, double lamb
         if (wo.z() > 0.0) {
             const std::vector<double>& wt =
                 weighted_incident_transmittance(f, lambda_nm, transmittance);
-            f_trt = f.hit_fraction() * r_m * trt_efficiency_sum(f, wo_b, wt, transmittance) / kPi;
+            f_trt =
+                f.hit_fraction() * r_m *
+                trt_efficiency_sum(f, wo_b, wt, transmittance, steep, params_.b, params_.theta_d) /
+                kPi;
         }
     }
     if (!per_lobe.empty()) {
@@ -904,8 +1018,8 @@ double Huang2022Bsdf::eval(const Vec3d& wi, const Vec3d& wo, double lambda_nm,
                            std::span<double> per_lobe) const {
     const Frame& f = frame_for(wi);
     const Spectral& terms = spectral(lambda_nm);
-    return eval_in_frame(f, wo, lambda_nm, terms.melanin_reflectance, terms.transmittance,
-                         per_lobe);
+    return eval_in_frame(f, wo, lambda_nm, terms.melanin_reflectance, terms.steep,
+                         terms.transmittance, per_lobe);
 }
 
 double Huang2022Bsdf::eval_reference(const Vec3d& wi, const Vec3d& wo, double lambda_nm,
@@ -913,32 +1027,37 @@ double Huang2022Bsdf::eval_reference(const Vec3d& wi, const Vec3d& wo, double la
     require(trt_refine >= 1 && trt_refine <= 64, kWhat, "trt_refine", trt_refine,
             "a refinement factor in [1, 64]");
     const Frame f = compute_frame(wi, trt_refine);
+    const double n = keratin_->index(lambda_nm).real();
+    const double k0_d = 2.0 * kPi * params_.d_um * 1000.0 / lambda_nm;
     return eval_in_frame(
-        f, wo, lambda_nm, melanin_reflectance(lambda_nm),
+        f, wo, lambda_nm, melanin_reflectance(lambda_nm), steep_at_grazing(n, k0_d),
         [&](double c) { return film_transmittance(c, lambda_nm); }, per_lobe);
 }
 
 void Huang2022Bsdf::build_trt_nodes(Frame& f) const {
     if (!(f.visible_length > 0.0)) return;
     const int refine = f.trt_refine;
-    for_each_q_phi_node(
-        f, params_.b, params_.theta_d, kTrtPiece / refine,
-        [&](double phi, double w, const ThetaDensity& td) {
-            Frame::TrtPhiNode node{
-                std::sin(phi),         std::cos(phi),  w, td, normal_at(phi, td.lo),
-                normal_at(phi, td.hi), f.trt_m.size(), 0};
-            for (int panel = 0; panel < refine && !td.empty(); ++panel) {
-                const double a = td.lo + (td.hi - td.lo) * panel / refine,
-                             b = td.lo + (td.hi - td.lo) * (panel + 1) / refine;
-                for (std::size_t j = 0; j < kTrtThetaNodes.size(); ++j) {
-                    const double theta = 0.5 * (a + b) + 0.5 * (b - a) * kTrtThetaNodes[j];
-                    f.trt_m.push_back(normal_at(phi, theta));
-                    f.trt_w.push_back(0.5 * (b - a) * kTrtThetaWeights[j] * td.density(theta));
-                    ++node.count;
+    for_each_q_piece(f, kTrtPiece / refine, [&](double a, double c) {
+        f.trt_pieces.push_back({a, c});
+        q_phi_nodes_on(
+            f, params_.b, params_.theta_d, a, c, [&](double phi, double w, const ThetaDensity& td) {
+                Frame::TrtPhiNode node{
+                    std::sin(phi),         std::cos(phi),  w, td, normal_at(phi, td.lo),
+                    normal_at(phi, td.hi), f.trt_m.size(), 0};
+                for (int panel = 0; panel < refine && !td.empty(); ++panel) {
+                    const double pa = td.lo + (td.hi - td.lo) * panel / refine,
+                                 pb = td.lo + (td.hi - td.lo) * (panel + 1) / refine;
+                    for (std::size_t j = 0; j < kTrtThetaNodes.size(); ++j) {
+                        const double theta = 0.5 * (pa + pb) + 0.5 * (pb - pa) * kTrtThetaNodes[j];
+                        f.trt_m.push_back(normal_at(phi, theta));
+                        f.trt_w.push_back(0.5 * (pb - pa) * kTrtThetaWeights[j] *
+                                          td.density(theta));
+                        ++node.count;
+                    }
                 }
-            }
-            f.trt_phi.push_back(node);
-        });
+                f.trt_phi.push_back(node);
+            });
+    });
 }
 
 void Huang2022Bsdf::prepare_nodes(const Frame& f, double lambda_nm) const {
