@@ -44,16 +44,18 @@ constexpr std::array<double, 5> kTrtThetaWeights = {0.2369268850561891, 0.478628
                                                     0.2369268850561891};
 constexpr const std::array<double, 8>& kTrtCutNodes = kGl8Nodes;
 // Near a film resonance at grazing (steep_at_grazing), T(c) rises from 0 to ≈ 1 over
-// c ≲ |g(0)|: at ω_o's terminator on the arc, at ω_i's (the ends of the front-facing arc) and
-// at the cut of a θ support, which the fixed rule does not resolve (TRT off by up to 1.2e-2 at
-// 470 and 694 nm on the Filip set). There the rule is graded towards those points: geometric
-// sub-pieces (ratio kGrade, kGradeLevels levels) of the φ_m pieces and θ_m panels that hold
-// them, computed per call. kSteepG: g below which this applies (|g_p(0)| < 0.15: 442–502 nm and
-// above 632 nm for the rock-dove film, resonances at 471 and 694 nm); chosen on the scan of test
+// c ≲ |g(0)|, so T(ω_o·ω_m) steps at ω_o's terminator on the arc, which the fixed φ_m rule does
+// not resolve (TRT off by up to 1.2e-2 at 470 and 694 nm on the Filip set). There the φ_m piece
+// that holds the terminator is integrated per call, graded towards it: geometric sub-pieces
+// (ratio kGrade, kGradeLevels levels each side). kSteepG: g below which this applies
+// (|g_p(0)| < 0.08: 456–486 nm and above 662 nm for the rock-dove film, resonances at 471 and
+// 694 nm), chosen on a 2 nm scan of 440–720 nm against the converged rule: ≤ 7.6e-5 relative
+// everywhere but within ~1 nm of 694 nm (2.1e-4; grading ω_i's terminator and the θ_m cut as
+// well brought that to 1.1e-4 at 4 × the cost per call, not kept). Test
 // Huang2022.PointTableOnTheFilipSetIsConvergedTo1e4.
 constexpr double kGrade = 4.0;
 constexpr int kGradeLevels = 3;
-constexpr double kSteepG = 0.15;
+constexpr double kSteepG = 0.08;
 
 // Whether the film's T(c) rises from 0 steeply near grazing: min(|g_s(0)|, |g_p(0)|) <
 // kSteepG (FilmTransmittanceTable's g; n the keratin index, k0_d = 2π d / λ).
@@ -802,7 +804,7 @@ namespace {
 template <typename FrameT, typename Transmittance>
 double positive_part_integral(const FrameT& f, double sin_phi, double cos_phi,
                               const ThetaDensity& td, const Vec3d& wo_b,
-                              const Transmittance& transmittance, bool steep) {
+                              const Transmittance& transmittance) {
     // ω_o·ω_m > 0 on (γ − π/2, γ + π/2) mod 2π; the support is at most π/2 wide, so it meets
     // that set in one interval.
     const double gamma = std::atan2(wo_b.y(), wo_b.x() * sin_phi + wo_b.z() * cos_phi);
@@ -823,33 +825,16 @@ double positive_part_integral(const FrameT& f, double sin_phi, double cos_phi,
                      transmittance(f.wi.dot(m)) * transmittance(wo_b.dot(m));
         }
     };
-    for (int panel = 0; panel < f.trt_refine && b > a; ++panel) {
-        const double pa = a + (b - a) * panel / f.trt_refine,
-                     pb = a + (b - a) * (panel + 1) / f.trt_refine;
-        const bool cut_lo = steep && panel == 0 && a > td.lo,
-                   cut_hi = steep && panel == f.trt_refine - 1 && b < td.hi;
-        if (cut_lo != cut_hi) {
-            // Graded towards the cut, where T(ω_o·ω_m) rises from 0 steeply.
-            const double t = cut_lo ? pa : pb, len = pb - pa, dir = cut_lo ? 1.0 : -1.0;
-            double edge = t;
-            for (int g = kGradeLevels; g >= 1; --g) {
-                const double next = t + dir * len * std::pow(kGrade, -g);
-                panel_sum(std::min(edge, next), std::max(edge, next));
-                edge = next;
-            }
-            panel_sum(std::min(edge, cut_lo ? pb : pa), std::max(edge, cut_lo ? pb : pa));
-        } else {
-            panel_sum(pa, pb);
-        }
-    }
+    for (int panel = 0; panel < f.trt_refine && b > a; ++panel)
+        panel_sum(a + (b - a) * panel / f.trt_refine, a + (b - a) * (panel + 1) / f.trt_refine);
     return inner;
 }
 
 // TRT's efficiency E_q (eval_in_frame) by a frame's rule, given wt[k] = trt_w[k] · T(ω_i·ω_m)
 // at its θ nodes and T(c) (c ∈ [0, 1]): a template, so that the reference path (direct film,
 // finer rule) runs the same code as eval(). steep: the film's T rises from 0 over a small c
-// (a resonance near grazing, steep_at_grazing), so the pieces that hold ω_o's terminator on
-// the arc are integrated afresh, graded towards it.
+// (a resonance near grazing, steep_at_grazing), so the piece that holds ω_o's terminator on
+// the arc is integrated afresh, graded towards it.
 template <typename FrameT, typename Transmittance>
 double trt_efficiency_sum(const FrameT& f, const Vec3d& wo_b, const std::vector<double>& wt,
                           const Transmittance& transmittance, bool steep, double b,
@@ -864,7 +849,7 @@ double trt_efficiency_sum(const FrameT& f, const Vec3d& wo_b, const std::vector<
         const double sp = std::sin(phi), cp = std::cos(phi);
         if (wo_b.dot(normal_at(phi, td.lo)) <= 0.0 && wo_b.dot(normal_at(phi, td.hi)) <= 0.0)
             return;
-        sum += w * positive_part_integral(f, sp, cp, td, wo_b, transmittance, steep);
+        sum += w * positive_part_integral(f, sp, cp, td, wo_b, transmittance);
     };
     constexpr std::size_t kPerPiece = kGl8Nodes.size();
     for (std::size_t piece = 0; piece < f.trt_pieces.size(); ++piece) {
@@ -875,9 +860,6 @@ double trt_efficiency_sum(const FrameT& f, const Vec3d& wo_b, const std::vector<
                 const double shifted = t - 2.0 * kPi * std::floor((t - pa) / (2.0 * kPi));
                 if (shifted > pa && shifted < pc) terminator = shifted;
             }
-            // ω_i's terminator: an end of a visible interval where cos(φ − φ_i) = 0.
-            if (std::isnan(terminator) && std::abs(std::cos(pa - f.phi_i)) < 1e-9) terminator = pa;
-            if (std::isnan(terminator) && std::abs(std::cos(pc - f.phi_i)) < 1e-9) terminator = pc;
             if (!std::isnan(terminator)) {
                 // Geometric sub-pieces towards it, ratio kGrade, kGradeLevels on each side.
                 const double left = terminator - pa, right = pc - terminator;
@@ -913,7 +895,7 @@ double trt_efficiency_sum(const FrameT& f, const Vec3d& wo_b, const std::vector<
                     inner += wt[k] * transmittance(wo_b.dot(f.trt_m[k]));
             } else {
                 inner = positive_part_integral(f, node.sin_phi, node.cos_phi, node.theta, wo_b,
-                                               transmittance, steep);
+                                               transmittance);
             }
             sum += node.weight * inner;
         }
