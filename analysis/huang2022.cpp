@@ -844,12 +844,27 @@ double trt_efficiency_sum(const FrameT& f, const Vec3d& wo_b, const std::vector<
     const double r_o = std::hypot(wo_b.x(), wo_b.z());
     steep = steep && r_o > 1e-12;
     const double phi_o = steep ? std::atan2(wo_b.x(), wo_b.z()) : 0.0;
-    auto fresh = [&](double phi, double w, const ThetaDensity& td) {
-        if (td.empty()) return;
-        const double sp = std::sin(phi), cp = std::cos(phi);
-        if (wo_b.dot(normal_at(phi, td.lo)) <= 0.0 && wo_b.dot(normal_at(phi, td.hi)) <= 0.0)
-            return;
-        sum += w * positive_part_integral(f, sp, cp, td, wo_b, transmittance);
+    // q's Gauss–Legendre φ_m nodes on [a, c] (as q_phi_nodes_on), each θ support's positive
+    // part integrated afresh. A node is skipped first where ω_o·ω_m ≤ 0 at both θ_m = ±θ_d:
+    // ω_o·ω_m = A cos θ + B sin θ is > 0 on an arc of length π, which a range ≤ π/2 wide
+    // cannot hold strictly inside, so it is ≤ 0 on the whole support then (the dark side of the
+    // terminator, half the nodes, for the price of a sincos).
+    const Ellipse e{b};
+    const double sin_d = std::sin(theta_d), cos_d = std::cos(theta_d);
+    auto graded_piece = [&](double a, double c) {
+        for (std::size_t i = 0; i < kGl8Nodes.size(); ++i) {
+            const double phi = 0.5 * (a + c) + 0.5 * (c - a) * kGl8Nodes[i];
+            const double sp = std::sin(phi), cp = std::cos(phi);
+            const double big_a = wo_b.x() * sp + wo_b.z() * cp;
+            if (big_a * cos_d + wo_b.y() * sin_d <= 0.0 && big_a * cos_d - wo_b.y() * sin_d <= 0.0)
+                continue;
+            const double cos_rel = std::cos(phi - f.phi_i);
+            const ThetaDensity td = theta_density(f.cos_theta_i * cos_rel, f.sin_theta_i, theta_d);
+            if (td.empty()) continue;
+            const double w =
+                0.5 * (c - a) * kGl8Weights[i] * e.rho(phi) * cos_rel / f.visible_length;
+            sum += w * positive_part_integral(f, sp, cp, td, wo_b, transmittance);
+        }
     };
     constexpr std::size_t kPerPiece = kGl8Nodes.size();
     for (std::size_t piece = 0; piece < f.trt_pieces.size(); ++piece) {
@@ -867,19 +882,19 @@ double trt_efficiency_sum(const FrameT& f, const Vec3d& wo_b, const std::vector<
                     double edge = pa;
                     for (int g = 1; g <= kGradeLevels; ++g) {
                         const double next = terminator - left * std::pow(kGrade, -g);
-                        q_phi_nodes_on(f, b, theta_d, edge, next, fresh);
+                        graded_piece(edge, next);
                         edge = next;
                     }
-                    q_phi_nodes_on(f, b, theta_d, edge, terminator, fresh);
+                    graded_piece(edge, terminator);
                 }
                 if (right > 0.0) {
                     double edge = terminator;
                     for (int g = kGradeLevels; g >= 1; --g) {
                         const double next = terminator + right * std::pow(kGrade, -g);
-                        q_phi_nodes_on(f, b, theta_d, edge, next, fresh);
+                        graded_piece(edge, next);
                         edge = next;
                     }
-                    q_phi_nodes_on(f, b, theta_d, edge, pc, fresh);
+                    graded_piece(edge, pc);
                 }
                 continue;
             }
