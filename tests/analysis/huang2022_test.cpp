@@ -448,11 +448,10 @@ TrtReference reference_trt(const Huang2022Bsdf& model, const Vec3d& wi_patch, co
     return out;
 }
 
-TEST(Huang2022, TrtLobeMatchesADenseReference) {
-    // Directions: a coarse hemisphere grid, and views along the barbule axis (patch ±y,
-    // where every facet is seen nearly edge-on and 1(ω_o·ω_m > 0) cuts the θ_m support in
-    // two) and near grazing.
-    const Huang2022Bsdf model({});
+// Views for the TRT checks: a coarse hemisphere grid, and views along the barbule axis (patch
+// ±y, where every facet is seen nearly edge-on and 1(ω_o·ω_m > 0) cuts the θ_m support in two)
+// and near grazing.
+std::vector<Vec3d> trt_views() {
     std::vector<Vec3d> views;
     for (double theta : {0.0, 30.0, 60.0, 80.0, 88.0}) {
         for (double phi : {0.0, 45.0, 90.0, 135.0, 180.0, 225.0, 270.0, 315.0})
@@ -462,6 +461,12 @@ TEST(Huang2022, TrtLobeMatchesADenseReference) {
         for (double phi : {88.0, 90.0, 92.0, 268.0, 270.0, 272.0})
             views.push_back(direction(theta, phi));
     }
+    return views;
+}
+
+TEST(Huang2022, TrtLobeMatchesADenseReference) {
+    const Huang2022Bsdf model({});
+    const std::vector<Vec3d> views = trt_views();
     double worst = 0.0, worst_below_cut = 0.0;
     int compared = 0;
     for (const Vec3d& wi : {direction(10.0, 0.0), direction(40.0, 90.0), direction(60.0, 200.0),
@@ -580,15 +585,7 @@ TEST(Huang2022, EvalMatchesTheDirectFilmReference) {
     // grazing views along the barbule axis, at 400–700 nm and the grazing resonances. Bound:
     // TRT within 1e-6 relative (two film factors per node, each ≤ 5e-7), R identical.
     const Huang2022Bsdf model({});
-    std::vector<Vec3d> views;
-    for (double theta : {0.0, 30.0, 60.0, 80.0, 88.0}) {
-        for (double phi : {0.0, 45.0, 90.0, 135.0, 180.0, 225.0, 270.0, 315.0})
-            views.push_back(direction(theta, phi));
-    }
-    for (double theta : {70.0, 87.0, 89.5}) {
-        for (double phi : {88.0, 90.0, 92.0, 268.0, 270.0, 272.0})
-            views.push_back(direction(theta, phi));
-    }
+    const std::vector<Vec3d> views = trt_views();
     std::vector<double> wavelengths = {400.0, 550.0, 700.0};
     for (double r : grazing_resonance_wavelengths(model.params())) wavelengths.push_back(r);
     double worst = 0.0;
