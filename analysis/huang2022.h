@@ -44,7 +44,7 @@
 //       Near a wavelength whose film resonance sits at grazing incidence (≈ 471 and 694 nm
 //       at d = 0.59 µm) T(c) steps from 0 to ≈ 1 over a small c; there the φ_m piece at ω_o's
 //       terminator is graded per call (without it TRT was off by up to 1.2e-2). The model's
-//       values on the Filip 2024 set at 400–700 nm are within 1e-5 of a converged rule, and
+//       values on the Filip 2024 set at 400–700 nm are within 2e-5 of a converged rule, and
 //       within 3e-4 at ±2 nm of those resonances (test
 //       Huang2022.PointTableOnTheFilipSetIsConvergedTo1e4).
 //       pdf() keeps a fixed rule (2 θ_m nodes): its integrand does not depend on ω_o.
