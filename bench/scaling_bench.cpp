@@ -4,7 +4,8 @@
 // go up to the machine's core count). Wall time (UseRealTime), so the rate is what a user waits
 // for; compare the 1- and 2-thread rows of the same run.
 //  - Huang table: the rock-dove Huang model on the 3660-pair Filip set at the default study's
-//    7 wavelengths, eval estimator (the default study's "BRDF: Huang model" stage).
+//    7 wavelengths, eval estimator (the default study's "BRDF: Huang model" stage); and the
+//    model's point values on the same cells (no detector cone).
 //  - Filip table: the parrot preset on the same set (the species study's model tables).
 //  - Filip fit: the rooster preset's BRDF with 2 % noise on the same set at 7 wavelengths
 //    (25 620 observations, 18 free parameters), fitted from the parrot's Table 1 row: a start
@@ -59,6 +60,33 @@ BENCHMARK(BM_HuangTable3660x7)
     ->UseRealTime()
     ->Unit(benchmark::kSecond)
     ->Iterations(1);
+
+// The Huang model's own values f(ω_i, ω_o, λ) at the same 3660 pairs × 7 wavelengths (no detector
+// cone): issue 15's "Huang model tabulated on the 3660-pair set" (its accuracy: test
+// Huang2022.PointTableOnTheFilipSetIsConvergedTo1e4). Pairs in a static schedule: each value is
+// a function of its pair alone, so the table is the same on any thread count.
+void BM_HuangPointTable3660x7(benchmark::State& state) {
+    omp_set_num_threads(static_cast<int>(state.range(0)));
+    const analysis::Huang2022Bsdf model({});
+    const std::vector<gonio::DirectionPair> pairs = gonio::filip2024_btf_pairs();
+    const std::vector<double> wavelengths = seven_wavelengths();
+    std::vector<double> table(pairs.size() * wavelengths.size());
+    for (auto _ : state) {
+#pragma omp parallel for schedule(static)
+        for (std::size_t p = 0; p < pairs.size(); ++p) {
+            for (std::size_t k = 0; k < wavelengths.size(); ++k)
+                table[p * wavelengths.size() + k] =
+                    model.eval(pairs[p].wi, pairs[p].wo, wavelengths[k]);
+        }
+        benchmark::DoNotOptimize(table.data());
+    }
+    state.counters["values_per_s"] =
+        benchmark::Counter(static_cast<double>(table.size()), benchmark::Counter::kIsRate);
+}
+BENCHMARK(BM_HuangPointTable3660x7)
+    ->Apply(thread_arguments)
+    ->UseRealTime()
+    ->Unit(benchmark::kMillisecond);
 
 void BM_FilipTable3660x7(benchmark::State& state) {
     tabulate(state, analysis::Filip2024Brdf(analysis::filip2024_preset("parrot")));
