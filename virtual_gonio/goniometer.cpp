@@ -43,6 +43,9 @@ std::string canonical(const GoniometerConfig& c, const std::string& scatterer,
                                 c.detector_half_angle_rad, c.beam_radius_um, c.seed,
                                 c.quanta_per_pass, static_cast<int>(estimator));
     for (double l : c.wavelengths_nm) s += fmt::format("{:.17g},", l);
+    // Options added later enter only when not at their default, so that the checkpoints of
+    // runs made before them still resume.
+    if (c.aperture != Aperture::view_cone) s += fmt::format("aperture={}|", to_string(c.aperture));
     // The study text describes the scene the scatterer was built from (its name alone does not:
     // a changed geometry under the same instrument must not resume another run's sums).
     s += c.config_text + "|";
@@ -155,6 +158,37 @@ bool share_resumed_state(bool resumed, Sums& sums, BrdfRecord& r) {
 
 }  // namespace
 
+const char* to_string(Aperture aperture) {
+    switch (aperture) {
+        case Aperture::view_cone:
+            return "view_cone";
+        case Aperture::both_cones:
+            return "both_cones";
+    }
+    return "?";
+}
+
+Aperture parse_aperture(std::string_view text, std::string_view key) {
+    for (Aperture a : {Aperture::view_cone, Aperture::both_cones})
+        if (text == to_string(a)) return a;
+    throw InputError(fmt::format(
+        "{} = \"{}\": expected \"view_cone\" (the detector cone around the view, light exact) or "
+        "\"both_cones\" (light and detector cones of the same half-angle: reciprocal)",
+        key, text));
+}
+
+Vec3d cone_direction_by_projected_area(const Vec3d& axis, double half_angle_rad, double d1,
+                                       double d2) {
+    // The cap's orthographic projection on the patch plane: centre cos α · axis_xy, semi-axis
+    // sin α · cos θ along the axis's azimuth (radial) and sin α across it.
+    const double rho = std::hypot(axis.x(), axis.y());
+    const Vec2 radial = rho > 0.0 ? Vec2(axis.x() / rho, axis.y() / rho) : Vec2(1.0, 0.0);
+    const Vec2 across(-radial.y(), radial.x());
+    const double sin_a = std::sin(half_angle_rad), cos_a = std::cos(half_angle_rad);
+    const Vec2 p = cos_a * axis.head<2>() + sin_a * (d1 * axis.z() * radial + d2 * across);
+    return Vec3d(p.x(), p.y(), std::sqrt(std::max(0.0, 1.0 - p.squaredNorm())));
+}
+
 void GoniometerConfig::validate() const {
     require(!pairs.empty(), kWhat, "no direction pairs: expected at least one (light, view) pair");
     for (std::size_t i = 0; i < pairs.size(); ++i) {
@@ -168,6 +202,13 @@ void GoniometerConfig::validate() const {
                             "cone must stay "
                             "above the patch plane",
                             i, std::acos(std::clamp(p.wo.z(), -1.0, 1.0)) * 180.0 / kPi));
+        require(aperture != Aperture::both_cones || p.wi.z() > std::sin(detector_half_angle_rad),
+                kWhat,
+                fmt::format("pair {}: light direction at {:.2f} deg from the normal: with aperture "
+                            "both_cones its source cone (half-angle {:.2f} deg) must stay above "
+                            "the patch plane",
+                            i, std::acos(std::clamp(p.wi.z(), -1.0, 1.0)) * 180.0 / kPi,
+                            detector_half_angle_rad * 180.0 / kPi));
     }
     require(!wavelengths_nm.empty(), kWhat, "no wavelengths");
     for (double l : wavelengths_nm)
@@ -232,9 +273,42 @@ BrdfRecord measure_by_eval(const Scatterer& scatterer, const GoniometerConfig& c
     // scale with threads, and the allocator is shared).
     struct Scratch {
         std::vector<double> per_lobe, acc, lobes;
+        std::vector<Vec3d> lights, views;  // both_cones: the rule's directions on each cone
+    };
+    // both_cones: the rule on the unit disc (u = r², γ), mapped onto each cone's projected
+    // ellipse; the map is affine, so the disc weights are projected-solid-angle weights.
+    auto double_cone_average = [&](const DirectionPair& p, double lambda,
+                                   const std::vector<Node>& rule, Scratch& scratch,
+                                   bool keep_lobes) {
+        scratch.lights.clear();
+        scratch.views.clear();
+        for (const Node& n : rule) {
+            const double radius = std::sqrt(n.u), d1 = radius * std::cos(n.gamma),
+                         d2 = radius * std::sin(n.gamma);
+            scratch.lights.push_back(cone_direction_by_projected_area(p.wi, alpha, d1, d2));
+            scratch.views.push_back(cone_direction_by_projected_area(p.wo, alpha, d1, d2));
+        }
+        double num = 0.0, den = 0.0;
+        std::fill(scratch.acc.begin(), scratch.acc.end(), 0.0);
+        for (std::size_t i = 0; i < rule.size(); ++i) {
+            for (std::size_t j = 0; j < rule.size(); ++j) {
+                const double weight = rule[i].w * rule[j].w;
+                num += weight * scatterer.eval(scratch.lights[i], scratch.views[j], lambda,
+                                               scratch.per_lobe);
+                for (std::size_t l = 0; l < nlobes; ++l)
+                    scratch.acc[l] += weight * scratch.per_lobe[l];
+                den += weight;
+            }
+        }
+        if (keep_lobes) {
+            for (std::size_t l = 0; l < nlobes; ++l) scratch.lobes[l] = scratch.acc[l] / den;
+        }
+        return num / den;
     };
     auto cone_average = [&](const DirectionPair& p, double lambda, const std::vector<Node>& rule,
                             Scratch& scratch, bool keep_lobes) {
+        if (c.aperture == Aperture::both_cones)
+            return double_cone_average(p, lambda, rule, scratch, keep_lobes);
         Vec3d e1, e2;
         orthonormal_frame(p.wo, e1, e2);
         double num = 0.0, den = 0.0;
@@ -260,8 +334,11 @@ BrdfRecord measure_by_eval(const Scatterer& scatterer, const GoniometerConfig& c
     std::atomic<bool> abandoned{false};
 #pragma omp parallel
     {
-        Scratch scratch{std::vector<double>(nlobes), std::vector<double>(nlobes),
-                        std::vector<double>(nlobes)};
+        Scratch scratch{std::vector<double>(nlobes),
+                        std::vector<double>(nlobes),
+                        std::vector<double>(nlobes),
+                        {},
+                        {}};
 #pragma omp for schedule(dynamic, 4)
         for (std::size_t p = 0; p < c.pairs.size(); ++p) {
             if (abandoned.load(std::memory_order_relaxed)) continue;
@@ -426,8 +503,17 @@ BrdfRecord measure_brdf(const Scatterer& scatterer, const GoniometerConfig& conf
                     const Vec3d offset = radius * (std::cos(angle) * e1 + std::sin(angle) * e2);
                     const Vec2 position(offset.x() - offset.z() * group.wi.x() / group.wi.z(),
                                         offset.y() - offset.z() * group.wi.y() / group.wi.z());
-                    const auto event = scatterer.sample(
-                        group.wi, config.wavelengths_nm[item.wavelength], position, rng);
+                    // both_cones: this quantum's light direction, by projected solid angle
+                    // over the source cone (goniometer.h, "Aperture").
+                    Vec3d wi = group.wi;
+                    if (config.aperture == Aperture::both_cones) {
+                        const double disc_r = std::sqrt(rng.uniform()),
+                                     disc_g = 2.0 * kPi * rng.uniform();
+                        wi = cone_direction_by_projected_area(
+                            group.wi, alpha, disc_r * std::cos(disc_g), disc_r * std::sin(disc_g));
+                    }
+                    const auto event =
+                        scatterer.sample(wi, config.wavelengths_nm[item.wavelength], position, rng);
                     if (!event || !(event->weight > 0.0)) continue;
                     PLUMAGE_CHECK(std::isfinite(event->weight),
                                   "non-finite quantum weight from " + scatterer.name());
@@ -563,15 +649,27 @@ void write_brdf_record(const BrdfRecord& r, const std::filesystem::path& path) {
                      c.detector_half_angle_rad * 180.0 / kPi);
     h5.set_attribute("/instrument", "detector_solid_angle_sr", r.detector_solid_angle_sr);
     h5.set_attribute("/instrument", "beam_radius_um", c.beam_radius_um);
+    h5.set_attribute(
+        "/instrument", "aperture",
+        c.aperture == Aperture::both_cones
+            ? "both_cones: the light from a cone of the detector's half-angle around the light "
+              "direction and the detector cone around the view, both cosine-weighted; f averaged "
+              "over both, symmetric under light <-> view (virtual_gonio/goniometer.h)"
+            : "view_cone: the light exactly along the light direction, f averaged over the "
+              "detector cone around the view, cosine-weighted (virtual_gonio/goniometer.h)");
     h5.set_attribute("/instrument", "estimator",
                      r.estimator_used == Estimator::eval ? "eval" : "photon");
     write_polarisation(h5);
     h5.write("wavelength_nm", std::span<const double>(c.wavelengths_nm), Dims{nl},
              {{"units", "nm"}, {"description", "vacuum wavelengths of the measurement"}});
-    h5.write("brdf/value", std::span<const double>(r.value), Dims{np, nl},
-             {{"units", "1/sr"},
-              {"description",
-               "BRDF averaged over each detector cone (cosine-weighted), [pair, wavelength]"}});
+    h5.write(
+        "brdf/value", std::span<const double>(r.value), Dims{np, nl},
+        {{"units", "1/sr"},
+         {"description", c.aperture == Aperture::both_cones
+                             ? "BRDF averaged over each pair's source and detector cones (both "
+                               "cosine-weighted, instrument@aperture), [pair, wavelength]"
+                             : "BRDF averaged over each detector cone (cosine-weighted), [pair, "
+                               "wavelength]"}});
     h5.write(
         "brdf/standard_error", std::span<const double>(r.standard_error), Dims{np, nl},
         {{"units", "1/sr"},
