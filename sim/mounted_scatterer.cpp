@@ -36,6 +36,20 @@ std::optional<ScatterEvent> MountedScatterer::sample(const Vec3d& wi, double lam
     return event;
 }
 
+std::optional<SpectralScatterEvent> MountedScatterer::sample_spectral(
+    const Vec3d& wi, std::span<const double> lambdas_nm, const Vec2& position_um, Rng& rng,
+    std::span<double> weights) const {
+    const Vec3d p = to_sample(Vec3d(position_um.x(), position_um.y(), 0.0));
+    auto event =
+        inner_->sample_spectral(to_sample(wi), lambdas_nm, Vec2(p.x(), p.y()), rng, weights);
+    if (!event) return event;
+    event->wo = to_instrument(event->wo);
+    const Vec3d exit =
+        to_instrument(Vec3d(event->exit_position_um.x(), event->exit_position_um.y(), 0.0));
+    event->exit_position_um = Vec2(exit.x(), exit.y());
+    return event;
+}
+
 double MountedScatterer::eval(const Vec3d& wi, const Vec3d& wo, double lambda_nm,
                               std::span<double> per_lobe) const {
     return inner_->eval(to_sample(wi), to_sample(wo), lambda_nm, per_lobe);

@@ -2,6 +2,7 @@
 
 #include <omp.h>
 
+#include <array>
 #include <chrono>
 #include <cmath>
 #include <iostream>
@@ -46,6 +47,7 @@ std::string canonical(const GoniometerConfig& c, const std::string& scatterer,
     // Options added later enter only when not at their default, so that the checkpoints of
     // runs made before them still resume.
     if (c.aperture != Aperture::view_cone) s += fmt::format("aperture={}|", to_string(c.aperture));
+    if (c.share_wavelength_paths) s += "shared_paths|";
     // The study text describes the scene the scatterer was built from (its name alone does not:
     // a changed geometry under the same instrument must not resume another run's sums).
     s += c.config_text + "|";
@@ -381,6 +383,9 @@ BrdfRecord measure_brdf(const Scatterer& scatterer, const GoniometerConfig& conf
     r.lobes = scatterer.lobe_names();
     r.threads = omp_get_max_threads();
     r.detector_solid_angle_sr = 2.0 * kPi * (1.0 - std::cos(config.detector_half_angle_rad));
+    r.wavelength_paths_shared = config.share_wavelength_paths && scatterer.can_share_paths() &&
+                                config.wavelengths_nm.size() > 1 &&
+                                config.wavelengths_nm.size() <= Scatterer::kMaxSharedWavelengths;
     r.estimator_used = config.estimator == Estimator::automatic
                            ? (scatterer.can_evaluate() ? Estimator::eval : Estimator::photon)
                            : config.estimator;
@@ -399,6 +404,9 @@ BrdfRecord measure_brdf(const Scatterer& scatterer, const GoniometerConfig& conf
     const std::size_t nl = config.wavelengths_nm.size(), np = config.pairs.size(),
                       nlobes = r.lobes.size();
     const std::vector<Group> groups = group_by_light(config.pairs);
+    // Spectral path sharing (goniometer.h): one item, one path per quantum for every λ.
+    const bool shared = r.wavelength_paths_shared;
+    const std::size_t item_wavelengths = shared ? nl : 1;
     const double alpha = config.detector_half_angle_rad, cos_alpha = std::cos(alpha);
     const double projected = kPi * std::pow(std::sin(alpha), 2);  // × cos θ_v per pair
     const std::uint64_t hash = fnv1a(canonical(config, r.scatterer, r.estimator_used));
@@ -460,7 +468,7 @@ BrdfRecord measure_brdf(const Scatterer& scatterer, const GoniometerConfig& conf
         const int pass = r.passes;                     // 0-based index of the pass being run
         std::vector<Item> items;
         for (std::size_t g = 0; g < groups.size(); ++g)
-            for (std::size_t k = 0; k < nl; ++k)
+            for (std::size_t k = 0; k < nl / item_wavelengths; ++k)
                 for (std::uint64_t c = 0; c < chunks; ++c) {
                     const std::uint64_t first =
                         static_cast<std::uint64_t>(pass) * config.quanta_per_pass + c * kChunk;
@@ -490,10 +498,16 @@ BrdfRecord measure_brdf(const Scatterer& scatterer, const GoniometerConfig& conf
                 const Group& group = groups[item.group];
                 const std::size_t m = group.pairs.size();
                 std::vector<double>& acc = partial[it];
-                acc.assign(m * (2 + 2 * nlobes), 0.0);  // Σx, Σx², then Σx and Σx² per lobe
+                // Per wavelength of the item: Σx, Σx², then Σx and Σx² per lobe.
+                const std::size_t stride = m * (2 + 2 * nlobes);
+                acc.assign(item_wavelengths * stride, 0.0);
                 Vec3d e1, e2;
                 orthonormal_frame(group.wi, e1, e2);
-                const std::uint64_t stream = (item.group * nl + item.wavelength) << 40;
+                // Shared paths draw from streams no per-wavelength item uses.
+                const std::uint64_t stream =
+                    (shared ? groups.size() * nl + item.group : item.group * nl + item.wavelength)
+                    << 40;
+                std::array<double, Scatterer::kMaxSharedWavelengths> weights{};
                 for (std::uint64_t q = item.first; q < item.first + item.count; ++q) {
                     Rng rng(config.seed, stream + q);
                     // Beam position: uniform over the beam's cross-section, projected along ω_i
@@ -512,21 +526,42 @@ BrdfRecord measure_brdf(const Scatterer& scatterer, const GoniometerConfig& conf
                         wi = cone_direction_by_projected_area(
                             group.wi, alpha, disc_r * std::cos(disc_g), disc_r * std::sin(disc_g));
                     }
-                    const auto event =
-                        scatterer.sample(wi, config.wavelengths_nm[item.wavelength], position, rng);
-                    if (!event || !(event->weight > 0.0)) continue;
-                    PLUMAGE_CHECK(std::isfinite(event->weight),
-                                  "non-finite quantum weight from " + scatterer.name());
+                    Vec3d wo_event;
+                    int lobe = -1;
+                    if (shared) {
+                        const auto event =
+                            scatterer.sample_spectral(wi, config.wavelengths_nm, position, rng,
+                                                      std::span<double>(weights.data(), nl));
+                        if (!event) continue;
+                        wo_event = event->wo;
+                        lobe = event->lobe;
+                    } else {
+                        const auto event = scatterer.sample(
+                            wi, config.wavelengths_nm[item.wavelength], position, rng);
+                        if (!event || !(event->weight > 0.0)) continue;
+                        wo_event = event->wo;
+                        lobe = event->lobe;
+                        weights[0] = event->weight;
+                    }
+                    for (std::size_t k = 0; k < item_wavelengths; ++k)
+                        PLUMAGE_CHECK(std::isfinite(weights[k]),
+                                      "non-finite quantum weight from " + scatterer.name());
+                    const bool has_lobe = lobe >= 0 && static_cast<std::size_t>(lobe) < nlobes;
+                    const auto l = static_cast<std::size_t>(std::max(lobe, 0));
                     for (std::size_t j = 0; j < m; ++j) {
                         const Vec3d& wo = config.pairs[group.pairs[j]].wo;
-                        if (event->wo.dot(wo) < cos_alpha) continue;
-                        const double x = event->weight / (projected * wo.z());
-                        acc[j] += x;
-                        acc[m + j] += x * x;
-                        if (event->lobe >= 0 && static_cast<std::size_t>(event->lobe) < nlobes) {
-                            acc[(2 + static_cast<std::size_t>(event->lobe)) * m + j] += x;
-                            acc[(2 + nlobes + static_cast<std::size_t>(event->lobe)) * m + j] +=
-                                x * x;
+                        if (wo_event.dot(wo) < cos_alpha) continue;
+                        const double to_brdf = 1.0 / (projected * wo.z());
+                        for (std::size_t k = 0; k < item_wavelengths; ++k) {
+                            if (!(weights[k] > 0.0)) continue;
+                            double* a = acc.data() + k * stride;
+                            const double x = weights[k] * to_brdf;
+                            a[j] += x;
+                            a[m + j] += x * x;
+                            if (has_lobe) {
+                                a[(2 + l) * m + j] += x;
+                                a[(2 + nlobes + l) * m + j] += x * x;
+                            }
                         }
                     }
                 }
@@ -552,13 +587,17 @@ BrdfRecord measure_brdf(const Scatterer& scatterer, const GoniometerConfig& conf
             const Item& item = items[it];
             const Group& group = groups[item.group];
             const std::size_t m = group.pairs.size();
-            for (std::size_t j = 0; j < m; ++j) {
-                const std::size_t cell = group.pairs[j] * nl + item.wavelength;
-                sums.sum[cell] += partial[it][j];
-                sums.sum_sq[cell] += partial[it][m + j];
-                for (std::size_t l = 0; l < nlobes; ++l) {
-                    sums.lobe_sum[l * np * nl + cell] += partial[it][(2 + l) * m + j];
-                    sums.lobe_sum_sq[l * np * nl + cell] += partial[it][(2 + nlobes + l) * m + j];
+            const std::size_t stride = m * (2 + 2 * nlobes);
+            for (std::size_t k = 0; k < item_wavelengths; ++k) {
+                const double* a = partial[it].data() + k * stride;
+                for (std::size_t j = 0; j < m; ++j) {
+                    const std::size_t cell = group.pairs[j] * nl + item.wavelength + k;
+                    sums.sum[cell] += a[j];
+                    sums.sum_sq[cell] += a[m + j];
+                    for (std::size_t l = 0; l < nlobes; ++l) {
+                        sums.lobe_sum[l * np * nl + cell] += a[(2 + l) * m + j];
+                        sums.lobe_sum_sq[l * np * nl + cell] += a[(2 + nlobes + l) * m + j];
+                    }
                 }
             }
         }
@@ -657,6 +696,13 @@ void write_brdf_record(const BrdfRecord& r, const std::filesystem::path& path) {
               "over both, symmetric under light <-> view (virtual_gonio/goniometer.h)"
             : "view_cone: the light exactly along the light direction, f averaged over the "
               "detector cone around the view, cosine-weighted (virtual_gonio/goniometer.h)");
+    if (r.estimator_used == Estimator::photon) {
+        h5.set_attribute("/instrument", "wavelength_paths",
+                         r.wavelength_paths_shared
+                             ? "shared: one path per quantum for every wavelength, re-weighted "
+                               "per wavelength (sim/tracer.h, spectral path sharing)"
+                             : "separate: one path per quantum and wavelength");
+    }
     h5.set_attribute("/instrument", "estimator",
                      r.estimator_used == Estimator::eval ? "eval" : "photon");
     write_polarisation(h5);

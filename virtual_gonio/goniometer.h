@@ -34,6 +34,11 @@
 //    average above; under both_cones each quantum first draws its own light direction ω'
 //    from C(ω_i) by projected solid angle (two uniforms from its stream after the beam
 //    position's). Works for every scatterer (the tracer too).
+//    With share_wavelength_paths (and a scatterer that can_share_paths(), sim/scatterer.h)
+//    a quantum is one path for every wavelength, carrying a weight per λ (sim/tracer.h,
+//    spectral path sharing), its stream seeded from (seed, light direction, quantum index)
+//    in streams the per-wavelength quanta do not use; each cell's estimate and standard
+//    error are as before (the quanta are independent; one quantum's λs are correlated).
 //    Standard errors from the per-quantum variance. Streams are seeded from (seed, light
 //    direction, wavelength, quantum index), and partial sums are combined in a fixed
 //    order: results do not depend on thread count, and a resumed run equals an
@@ -89,6 +94,9 @@ struct GoniometerConfig {
     std::uint64_t seed = kDefaultSeed;
     Estimator estimator = Estimator::automatic;
     Aperture aperture = Aperture::view_cone;
+    // Photon estimator, scatterers that can_share_paths() (the tracer), 2 … 64 wavelengths:
+    // one path per quantum for all wavelengths (sim/tracer.h); otherwise ignored.
+    bool share_wavelength_paths = false;
     std::uint64_t quanta_per_pass = 20000;  // per light direction and wavelength
     int max_passes = 100;
     double time_budget_s = std::numeric_limits<double>::infinity();
@@ -111,6 +119,7 @@ struct BrdfRecord {
     std::string scatterer;
     std::vector<std::string> lobes;
     Estimator estimator_used = Estimator::photon;
+    bool wavelength_paths_shared = false;  // share_wavelength_paths took effect
     // Row-major [pair][wavelength]; lobe_values [lobe][pair][wavelength], 1/sr.
     std::vector<double> value, standard_error, lobe_values, lobe_standard_error;
     std::vector<ConvergenceRow> convergence;
