@@ -80,12 +80,29 @@ struct Sums {
     std::vector<double> sum, sum_sq, lobe_sum, lobe_sum_sq;
 };
 
-double relative_rms(const std::vector<double>& value, const std::vector<double>& error) {
+// The cells that carry signal (GoniometerConfig::signal_fraction): value >= fraction × the
+// mean of the cells at the same wavelength, and > 0. Row-major [pair][wavelength], 1 or 0.
+std::vector<std::uint8_t> signal_cells(const std::vector<double>& value, std::size_t nl,
+                                       double fraction) {
+    std::vector<double> mean(nl, 0.0);
+    const std::size_t np = value.size() / nl;
+    for (std::size_t i = 0; i < value.size(); ++i) mean[i % nl] += value[i];
+    for (double& m : mean) m /= static_cast<double>(np);
+    std::vector<std::uint8_t> mask(value.size(), 0);
+    for (std::size_t i = 0; i < value.size(); ++i)
+        mask[i] = value[i] > 0.0 && value[i] >= fraction * mean[i % nl];
+    return mask;
+}
+
+// Relative RMS standard error over the signal cells (see signal_cells).
+double relative_rms(BrdfRecord& r) {
+    r.signal_cells =
+        signal_cells(r.value, r.config.wavelengths_nm.size(), r.config.signal_fraction);
     double acc = 0.0;
     std::size_t n = 0;
-    for (std::size_t i = 0; i < value.size(); ++i) {
-        if (value[i] > 0.0) {
-            acc += std::pow(error[i] / value[i], 2);
+    for (std::size_t i = 0; i < r.value.size(); ++i) {
+        if (r.signal_cells[i] != 0) {
+            acc += std::pow(r.standard_error[i] / r.value[i], 2);
             ++n;
         }
     }
@@ -225,6 +242,9 @@ void GoniometerConfig::validate() const {
     require(max_passes >= 1, kWhat, "max_passes must be >= 1");
     require(time_budget_s > 0.0, kWhat, "time budget must be > 0 s");
     require(target_relative_error >= 0.0, kWhat, "target relative error must be >= 0");
+    require(std::isfinite(signal_fraction) && signal_fraction >= 0.0 && signal_fraction < 1.0,
+            kWhat, "signal_fraction", signal_fraction,
+            "a fraction of the mean cell in [0, 1) (0: every cell with a positive value)");
     require(eval_rings >= 1 && eval_rings <= 64, kWhat,
             fmt::format("eval_rings = {}: expected 1..64", eval_rings));
 }
@@ -366,7 +386,7 @@ BrdfRecord measure_by_eval(const Scatterer& scatterer, const GoniometerConfig& c
     r.passes = 1;
     r.quanta = 0;
     r.wall_time_s = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
-    r.convergence.push_back({1, r.wall_time_s, 0, relative_rms(r.value, r.standard_error)});
+    r.convergence.push_back({1, r.wall_time_s, 0, relative_rms(r)});
     return r;
 }
 
@@ -453,7 +473,7 @@ BrdfRecord measure_brdf(const Scatterer& scatterer, const GoniometerConfig& conf
             previous_wall +
             std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
         r.cpu_time_s = previous_cpu + (process_cpu_seconds() - cpu_start);
-        return ConvergenceRow{pass, r.wall_time_s, n, relative_rms(r.value, r.standard_error)};
+        return ConvergenceRow{pass, r.wall_time_s, n, relative_rms(r)};
     };
     if (resumed && r.passes > 0) finish_row(r.passes);
 
@@ -688,6 +708,8 @@ void write_brdf_record(const BrdfRecord& r, const std::filesystem::path& path) {
                      c.detector_half_angle_rad * 180.0 / kPi);
     h5.set_attribute("/instrument", "detector_solid_angle_sr", r.detector_solid_angle_sr);
     h5.set_attribute("/instrument", "beam_radius_um", c.beam_radius_um);
+    if (c.signal_fraction > 0.0)
+        h5.set_attribute("/instrument", "signal_fraction", c.signal_fraction);
     h5.set_attribute(
         "/instrument", "aperture",
         c.aperture == Aperture::both_cones
@@ -716,6 +738,15 @@ void write_brdf_record(const BrdfRecord& r, const std::filesystem::path& path) {
                                "cosine-weighted, instrument@aperture), [pair, wavelength]"
                              : "BRDF averaged over each detector cone (cosine-weighted), [pair, "
                                "wavelength]"}});
+    if (c.signal_fraction > 0.0 && r.signal_cells.size() == r.value.size()) {
+        h5.write("brdf/signal_cells", std::span<const std::uint8_t>(r.signal_cells), Dims{np, nl},
+                 {{"units", "1"},
+                  {"description",
+                   fmt::format("1: the cell counts in /convergence's estimated relative RMS "
+                               "error (value > 0 and value >= {} x the mean of the cells at its "
+                               "wavelength, instrument@signal_fraction), [pair, wavelength]",
+                               c.signal_fraction)}});
+    }
     h5.write(
         "brdf/standard_error", std::span<const double>(r.standard_error), Dims{np, nl},
         {{"units", "1/sr"},

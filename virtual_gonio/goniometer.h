@@ -101,8 +101,13 @@ struct GoniometerConfig {
     int max_passes = 100;
     double time_budget_s = std::numeric_limits<double>::infinity();
     double target_relative_error = 0.0;  // stop once the estimated relative RMS error is below
-    int eval_rings = 4;                  // eval estimator: cubature rings (see above)
-    std::string config_text;             // the study text, for provenance
+    // The cells that carry signal, over which the estimated relative RMS error (convergence
+    // table, target) is taken: value > 0 and value >= signal_fraction × the mean of all cells at
+    // the same wavelength, judged on the current estimate at every pass (the record stores the
+    // final set). 0: every cell with a positive value (the historical rule).
+    double signal_fraction = 0.0;
+    int eval_rings = 4;       // eval estimator: cubature rings (see above)
+    std::string config_text;  // the study text, for provenance
 
     void validate() const;  // InputError naming the field
 };
@@ -122,6 +127,7 @@ struct BrdfRecord {
     bool wavelength_paths_shared = false;  // share_wavelength_paths took effect
     // Row-major [pair][wavelength]; lobe_values [lobe][pair][wavelength], 1/sr.
     std::vector<double> value, standard_error, lobe_values, lobe_standard_error;
+    std::vector<std::uint8_t> signal_cells;  // [pair][wavelength]: 1 if in the error's set
     std::vector<ConvergenceRow> convergence;
     int passes = 0;
     std::uint64_t quanta = 0;
