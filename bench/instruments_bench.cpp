@@ -72,18 +72,29 @@ void BM_TimeTo1PercentHuangRLobe3660(benchmark::State& state) {
 }
 BENCHMARK(BM_TimeTo1PercentHuangRLobe3660)->Iterations(1)->Unit(benchmark::kSecond);
 
-void BM_ProjectedTimeTo1PercentExplicitRockDove3660(benchmark::State& state) {
+// The explicit rock-dove patch of the cases below (48 barbules × 30 cells, 0.01 µm / 0.02 rad)
+// and its goniometer: the 3660-pair set, detector 5°, beam radius 60 µm, photon estimator.
+sim::ExplicitScatterer rock_dove_patch() {
     geometry::BarbuleRowParams row;
     row.barbules = 48;
     row.cells_per_barbule = 30;
-    const sim::ExplicitScatterer patch(
+    return sim::ExplicitScatterer(
         sim::barbule_row_scene(geometry::build_barbule_row(row, {0.01, 0.02})));
+}
+
+GoniometerConfig rock_dove_config() {
     GoniometerConfig c;
     c.direction_set = "filip2024_btf";
     c.pairs = filip2024_btf_pairs();
     c.detector_half_angle_rad = 5.0 * kDeg;
     c.beam_radius_um = 60.0;
     c.estimator = Estimator::photon;
+    return c;
+}
+
+void BM_ProjectedTimeTo1PercentExplicitRockDove3660(benchmark::State& state) {
+    const sim::ExplicitScatterer patch = rock_dove_patch();
+    GoniometerConfig c = rock_dove_config();
     c.quanta_per_pass = 20000;
     c.max_passes = 2;
     BrdfRecord r;
@@ -96,7 +107,7 @@ void BM_ProjectedTimeTo1PercentExplicitRockDove3660(benchmark::State& state) {
 BENCHMARK(BM_ProjectedTimeTo1PercentExplicitRockDove3660)->Iterations(1)->Unit(benchmark::kSecond);
 
 // Issue 15's case: the explicit rock-dove patch, full spectral (7 wavelengths, 400–700 nm, all
-// lobes), the 3660-pair set, detector 5°, both apertures' view cone; one path per quantum and
+// lobes), the 3660-pair set, detector 5° (view cone); one path per quantum and
 // wavelength (separate, arg 0) against one path per quantum for all seven (shared, arg 1), on
 // 1 or 2 threads (second arg). Each runs passes of 2000 quanta per light direction for a
 // budget of kBudgetS, then projects t(1 %) = t · (ε / 1 %)² from the last pass. ε is the
@@ -108,18 +119,9 @@ void BM_RockDoveSpectral3660(benchmark::State& state) {
     constexpr double kBudgetS = 40.0;
     const bool shared = state.range(0) != 0;
     const int threads = static_cast<int>(state.range(1));
-    geometry::BarbuleRowParams row;
-    row.barbules = 48;
-    row.cells_per_barbule = 30;
-    const sim::ExplicitScatterer patch(
-        sim::barbule_row_scene(geometry::build_barbule_row(row, {0.01, 0.02})));
-    GoniometerConfig c;
-    c.direction_set = "filip2024_btf";
-    c.pairs = filip2024_btf_pairs();
+    const sim::ExplicitScatterer patch = rock_dove_patch();
+    GoniometerConfig c = rock_dove_config();
     c.wavelengths_nm = {400.0, 450.0, 500.0, 550.0, 600.0, 650.0, 700.0};
-    c.detector_half_angle_rad = 5.0 * kDeg;
-    c.beam_radius_um = 60.0;
-    c.estimator = Estimator::photon;
     c.share_wavelength_paths = shared;
     c.signal_fraction = 0.1;
     c.quanta_per_pass = 2000;

@@ -46,6 +46,7 @@ public:
 private:
     Vec3d to_sample(const Vec3d& w) const;      // instrument → sample frame: R(−ψ)
     Vec3d to_instrument(const Vec3d& w) const;  // sample → instrument frame: R(+ψ)
+    void to_instrument(Vec3d& wo, Vec2& exit_position_um) const;  // an event's, in place
 
     std::shared_ptr<const Scatterer> inner_;
     double azimuth_rad_;

@@ -59,6 +59,47 @@ void record(PathResult& path, EventKind kind) {
     ++path.events;
 }
 
+void check_path_request(const Vec3d& wi, const Vec2& position_um) {
+    if (!wi.allFinite() || std::abs(wi.norm() - 1.0) > 1e-9 || wi.z() == 0.0) {
+        throw InputError(fmt::format(
+            "tracer: wi = ({}, {}, {}): expected a unit direction off the patch plane (wi.z != 0)",
+            wi.x(), wi.y(), wi.z()));
+    }
+    if (!position_um.allFinite()) {
+        throw InputError(fmt::format("tracer: position = ({}, {}) um: expected finite values",
+                                     position_um.x(), position_um.y()));
+    }
+}
+
+// Where light leaving from origin along direction crosses the top plane (upward) or the
+// bottom plane (downward); a horizontal ray keeps its (x, y).
+Vec2 exit_point(const Vec3d& origin, const Vec3d& direction, double top_z, double bottom_z) {
+    Vec2 exit = origin.head<2>();
+    if (direction.z() != 0.0) {
+        const double plane = direction.z() > 0.0 ? top_z : bottom_z;
+        const double t = (plane - origin.z()) / direction.z();
+        if (t > 0.0) exit += t * direction.head<2>();
+    }
+    return exit;
+}
+
+// Russian roulette once the path is long (survivors carry 1) or its weight is low (survivors
+// carry w_min): survive with q = weight / carried. Returns the weight the path carries on
+// (its own, or `carried`), 0 when roulette ends it.
+double roulette(PathResult& path, double weight, const TracerOptions& options, Rng& rng) {
+    double carried = 1.0;
+    if (path.events < options.roulette_after_events) {
+        if (!(weight < options.roulette_below_weight)) return weight;
+        carried = options.roulette_below_weight;
+    }
+    if (!(weight < carried)) return weight;
+    if (rng.uniform() * carried >= weight) {
+        path.ended_by_roulette = true;
+        return 0.0;
+    }
+    return carried;
+}
+
 }  // namespace
 
 void TracerOptions::validate() const {
@@ -250,16 +291,8 @@ std::optional<ScatterEvent> ExplicitScatterer::sample(const Vec3d& wi, double la
 
 PathResult ExplicitScatterer::trace(const Vec3d& wi, double lambda_nm, const Vec2& position_um,
                                     Rng& rng, std::vector<RaySegment>* rays) const {
-    if (!wi.allFinite() || std::abs(wi.norm() - 1.0) > 1e-9 || wi.z() == 0.0) {
-        throw InputError(fmt::format(
-            "tracer: wi = ({}, {}, {}): expected a unit direction off the patch plane (wi.z != 0)",
-            wi.x(), wi.y(), wi.z()));
-    }
+    check_path_request(wi, position_um);
     optics::require_wavelength(lambda_nm);
-    if (!position_um.allFinite()) {
-        throw InputError(fmt::format("tracer: position = ({}, {}) um: expected finite values",
-                                     position_um.x(), position_um.y()));
-    }
     const Spectral& spectral_data = spectral(lambda_nm);
 
     PathResult path;
@@ -271,30 +304,15 @@ PathResult ExplicitScatterer::trace(const Vec3d& wi, double lambda_nm, const Vec
 
     auto escape = [&]() {
         if (expected != spectral_data.ambient) ++path.medium_mismatches;
-        Vec2 exit = origin.head<2>();
-        if (direction.z() != 0.0) {
-            const double plane = direction.z() > 0.0 ? top_z_ : bottom_z_;
-            const double t = (plane - origin.z()) / direction.z();
-            if (t > 0.0) exit += t * direction.head<2>();
-        }
+        const Vec2 exit = exit_point(origin, direction, top_z_, bottom_z_);
         PLUMAGE_CHECK(std::isfinite(weight) && weight >= 0.0,
                       fmt::format("path weight {} after {} events", weight, path.events));
         path.event = ScatterEvent{direction.normalized(), weight, lobe_of(path), exit};
     };
 
-    // Russian roulette once the path is long (survivors carry 1) or its weight is low
-    // (survivors carry w_min): survive with q = weight / carried, weight / q.
     auto survives_roulette = [&]() {
-        double carried = 1.0;
-        if (path.events < options_.roulette_after_events) {
-            if (!(weight < options_.roulette_below_weight)) return true;
-            carried = options_.roulette_below_weight;
-        }
-        if (!(weight < carried)) return true;
-        if (rng.uniform() * carried >= weight) {
-            path.ended_by_roulette = true;
-            return false;
-        }
+        const double carried = roulette(path, weight, options_, rng);
+        if (!(carried > 0.0)) return false;
         weight = carried;
         return true;
     };
@@ -433,16 +451,8 @@ PathResult ExplicitScatterer::trace_spectral(const Vec3d& wi, std::span<const do
             "tracer: {} wavelengths and {} weights for one shared path: expected 1..{} of each", n,
             weights.size(), kMaxSharedWavelengths));
     }
-    if (!wi.allFinite() || std::abs(wi.norm() - 1.0) > 1e-9 || wi.z() == 0.0) {
-        throw InputError(fmt::format(
-            "tracer: wi = ({}, {}, {}): expected a unit direction off the patch plane (wi.z != 0)",
-            wi.x(), wi.y(), wi.z()));
-    }
+    check_path_request(wi, position_um);
     for (double l : lambdas_nm) optics::require_wavelength(l);
-    if (!position_um.allFinite()) {
-        throw InputError(fmt::format("tracer: position = ({}, {}) um: expected finite values",
-                                     position_um.x(), position_um.y()));
-    }
     const SpectralSet& set = spectral_set(lambdas_nm);
     std::fill(weights.begin(), weights.end(), 0.0);
 
@@ -480,12 +490,7 @@ PathResult ExplicitScatterer::trace_spectral(const Vec3d& wi, std::span<const do
 
     auto escape = [&]() {
         if (expected != hs.ambient) ++path.medium_mismatches;
-        Vec2 exit = origin.head<2>();
-        if (direction.z() != 0.0) {
-            const double plane = direction.z() > 0.0 ? top_z_ : bottom_z_;
-            const double t = (plane - origin.z()) / direction.z();
-            if (t > 0.0) exit += t * direction.head<2>();
-        }
+        const Vec2 exit = exit_point(origin, direction, top_z_, bottom_z_);
         for (std::size_t k = 0; k < n; ++k) {
             PLUMAGE_CHECK(std::isfinite(w[k]) && w[k] >= 0.0,
                           fmt::format("path weight {} at {} nm after {} events", w[k],
@@ -498,17 +503,9 @@ PathResult ExplicitScatterer::trace_spectral(const Vec3d& wi, std::span<const do
     // As in trace(), on the largest weight; every λ is scaled alike.
     auto survives_roulette = [&]() {
         const double weight = largest();
-        double carried = 1.0;
-        if (path.events < options_.roulette_after_events) {
-            if (!(weight < options_.roulette_below_weight)) return true;
-            carried = options_.roulette_below_weight;
-        }
-        if (!(weight < carried)) return true;
-        if (rng.uniform() * carried >= weight) {
-            path.ended_by_roulette = true;
-            return false;
-        }
-        scale(carried / weight);
+        const double carried = roulette(path, weight, options_, rng);
+        if (!(carried > 0.0)) return false;
+        if (carried != weight) scale(carried / weight);
         return true;
     };
 
@@ -571,52 +568,59 @@ PathResult ExplicitScatterer::trace_spectral(const Vec3d& wi, std::span<const do
             path.reached_max_events = true;
             return path;
         }
-        InterfaceEvent event{};
-        switch (surface.kind) {
-            case Spectral::Kind::film: {
-                if (!set.film_shared[surface_index]) collapse();
-                if (single) {
-                    const TabulatedFilmResponse source(
-                        surface.film, lambdas_nm[hero],
-                        surface.table_outside ? &*surface.table_outside : nullptr,
-                        surface.table_inside ? &*surface.table_inside : nullptr);
-                    event = thin_film_event(direction, hit->normals, surface.film, source, rng);
-                    w[hero] *= event.throughput;
-                } else {
-                    const SharedFilmResponse source(set.at, lambdas_nm, surface_index);
-                    event = thin_film_event(direction, hit->normals, surface.film, source, rng);
-                    const double p = source.mean_reflect_probability;
-                    if (event.kind == EventKind::film_reflect) {
-                        for (std::size_t k = 0; k < n; ++k)
-                            w[k] *= event.throughput * source.reflectance[k] / p;
-                    } else if (event.kind == EventKind::film_transmit) {
-                        for (std::size_t k = 0; k < n; ++k)
-                            w[k] *= event.throughput * source.transmittance[k] / (1.0 - p);
+        // The event for the path's direction; each λ's weight takes its own factor.
+        const InterfaceEvent event = [&]() -> InterfaceEvent {
+            switch (surface.kind) {
+                case Spectral::Kind::film: {
+                    if (!set.film_shared[surface_index]) collapse();
+                    if (single) {
+                        const TabulatedFilmResponse source(
+                            surface.film, lambdas_nm[hero],
+                            surface.table_outside ? &*surface.table_outside : nullptr,
+                            surface.table_inside ? &*surface.table_inside : nullptr);
+                        const InterfaceEvent e =
+                            thin_film_event(direction, hit->normals, surface.film, source, rng);
+                        w[hero] *= e.throughput;
+                        return e;
                     }
+                    const SharedFilmResponse source(set.at, lambdas_nm, surface_index);
+                    const InterfaceEvent e =
+                        thin_film_event(direction, hit->normals, surface.film, source, rng);
+                    const double p = source.mean_reflect_probability;
+                    if (e.kind == EventKind::film_reflect) {
+                        for (std::size_t k = 0; k < n; ++k)
+                            w[k] *= e.throughput * source.reflectance[k] / p;
+                    } else if (e.kind == EventKind::film_transmit) {
+                        for (std::size_t k = 0; k < n; ++k)
+                            w[k] *= e.throughput * source.transmittance[k] / (1.0 - p);
+                    }
+                    return e;
                 }
-                break;
-            }
-            case Spectral::Kind::dielectric:
-                if (!set.dielectric_shared[surface_index]) collapse();
-                event =
-                    dielectric_event(direction, hit->normals, surface.outside, surface.inside, rng);
-                scale(event.throughput);
-                break;
-            case Spectral::Kind::diffuse:
-                if (single) {
-                    event = diffuse_event(direction, hit->normals, surface.albedo, rng);
-                    w[hero] *= event.throughput;
-                } else {
+                case Spectral::Kind::dielectric: {
+                    if (!set.dielectric_shared[surface_index]) collapse();
+                    const InterfaceEvent e = dielectric_event(direction, hit->normals,
+                                                              surface.outside, surface.inside, rng);
+                    scale(e.throughput);
+                    return e;
+                }
+                case Spectral::Kind::diffuse: {
+                    if (single) {
+                        const InterfaceEvent e =
+                            diffuse_event(direction, hit->normals, surface.albedo, rng);
+                        w[hero] *= e.throughput;
+                        return e;
+                    }
                     // The direction for all; each λ its albedo (diffuse_event's clamp).
-                    event = diffuse_event(direction, hit->normals, 1.0, rng);
+                    const InterfaceEvent e = diffuse_event(direction, hit->normals, 1.0, rng);
                     for (std::size_t k = 0; k < n; ++k)
                         w[k] *= std::clamp(set.at[k]->surfaces[surface_index].albedo, 0.0, 1.0);
+                    return e;
                 }
-                break;
-            case Spectral::Kind::absorber:
-                event = absorber_event(direction, hit->normals);
-                break;
-        }
+                case Spectral::Kind::absorber:
+                    break;
+            }
+            return absorber_event(direction, hit->normals);
+        }();
         record(path, event.kind);
         if (event.kind == EventKind::absorb || !(largest() > 0.0)) return path;
 
