@@ -23,6 +23,12 @@ struct ExplicitScatterer::Spectral {
         double albedo = 0.0;
         const Medium* medium_outside = nullptr;  // null when inactive at λ
         const Medium* medium_inside = nullptr;
+
+        // The film's responses at λ (its tables where they hold).
+        TabulatedFilmResponse film_source(double lambda_nm) const {
+            return TabulatedFilmResponse(film, lambda_nm, table_outside ? &*table_outside : nullptr,
+                                         table_inside ? &*table_inside : nullptr);
+        }
     };
     double lambda_nm;
     optics::Complex ambient;
@@ -366,10 +372,7 @@ PathResult ExplicitScatterer::trace(const Vec3d& wi, double lambda_nm, const Vec
         const InterfaceEvent event = [&]() -> InterfaceEvent {
             switch (surface.kind) {
                 case Spectral::Kind::film: {
-                    const TabulatedFilmResponse source(
-                        surface.film, lambda_nm,
-                        surface.table_outside ? &*surface.table_outside : nullptr,
-                        surface.table_inside ? &*surface.table_inside : nullptr);
+                    const TabulatedFilmResponse source = surface.film_source(lambda_nm);
                     return thin_film_event(direction, hit->normals, surface.film, source, rng);
                 }
                 case Spectral::Kind::dielectric:
@@ -419,9 +422,7 @@ FilmResponse SharedFilmResponse::response(bool from_outside, double cos_theta) c
     double p = 0.0;
     for (std::size_t k = 0; k < lambdas_nm_.size(); ++k) {
         const ExplicitScatterer::Spectral::Surface& s = at_[k]->surfaces[surface_];
-        const TabulatedFilmResponse source(s.film, lambdas_nm_[k],
-                                           s.table_outside ? &*s.table_outside : nullptr,
-                                           s.table_inside ? &*s.table_inside : nullptr);
+        const TabulatedFilmResponse source = s.film_source(lambdas_nm_[k]);
         const FilmResponse r = source.response(from_outside, cos_theta);
         reflectance[k] = std::max(0.0, r.reflectance);
         transmittance[k] = std::max(0.0, r.transmittance);
@@ -574,10 +575,7 @@ PathResult ExplicitScatterer::trace_spectral(const Vec3d& wi, std::span<const do
                 case Spectral::Kind::film: {
                     if (!set.film_shared[surface_index]) collapse();
                     if (single) {
-                        const TabulatedFilmResponse source(
-                            surface.film, lambdas_nm[hero],
-                            surface.table_outside ? &*surface.table_outside : nullptr,
-                            surface.table_inside ? &*surface.table_inside : nullptr);
+                        const TabulatedFilmResponse source = surface.film_source(lambdas_nm[hero]);
                         const InterfaceEvent e =
                             thin_film_event(direction, hit->normals, surface.film, source, rng);
                         w[hero] *= e.throughput;
