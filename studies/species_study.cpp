@@ -807,11 +807,14 @@ std::string section_albedo_reciprocity(const Run& run, const SpeciesOutcome& o) 
             "detector's half-angle ({:.1f}°) around ω_i and the detector is the cone around "
             "ω_o, both weighted by projected solid angle (aperture = \"both_cones\", "
             "virtual_gonio/goniometer.h), so a cell is the same double-cone average of f "
-            "whichever way the pair is lit, and the tracer's physics is reciprocal.{}\n\n",
+            "whichever way the pair is lit. {}\n\n",
             run.s.detector_half_angle / kDeg,
-            holds ? ""
-                  : " A failure here points at the simulation (paths the tracer treats "
-                    "asymmetrically), not at the instrument.");
+            holds ? "The simulated patch is reciprocal within its noise."
+                  : "A significant excess is then the simulation's own: paths the tracer weighs "
+                    "differently one way than the other. A candidate is the shading normals: a "
+                    "specular event about an interpolated normal is weighted by the facet's "
+                    "cosine on one side only (Veach 1997, ch. 5), an asymmetry that shrinks with "
+                    "the tessellation's normal error ([tessellation] max_normal_error_deg).");
     } else {
         md +=
             "The tracer's physics is reciprocal, but this instrument is not exactly "
