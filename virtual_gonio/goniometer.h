@@ -48,7 +48,7 @@
 //    product rule over the detector cone (cosine-weighted; `eval_rings` Gauss rings in
 //    projected area × 2·rings azimuths). both_cones: the same product rule on the unit
 //    disc mapped onto both cones' ellipses (equal Jacobian, so the disc weights are the
-//    projected-solid-angle weights) and taken as a double sum, (4·rings²)² evaluations of
+//    projected-solid-angle weights) and taken as a double sum, (2·rings²)² evaluations of
 //    f per cell and wavelength (1024 at the default 4 rings): fine for smooth models,
 //    expensive for Huang's. Narrow lobes (Huang's R) need more rings than smooth ones.
 //  automatic picks eval when available.
