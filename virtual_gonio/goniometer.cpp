@@ -571,11 +571,13 @@ BrdfRecord measure_brdf(const Scatterer& scatterer, const GoniometerConfig& conf
                     for (std::size_t j = 0; j < m; ++j) {
                         const Vec3d& wo = config.pairs[group.pairs[j]].wo;
                         if (wo_event.dot(wo) < cos_alpha) continue;
-                        const double to_brdf = 1.0 / (projected * wo.z());
+                        // Divided, not multiplied by a reciprocal: the same bits as before
+                        // spectral paths for the per-wavelength estimator.
+                        const double projected_wo = projected * wo.z();
                         for (std::size_t k = 0; k < item_wavelengths; ++k) {
                             if (!(weights[k] > 0.0)) continue;
                             double* a = acc.data() + k * stride;
-                            const double x = weights[k] * to_brdf;
+                            const double x = weights[k] / projected_wo;
                             a[j] += x;
                             a[m + j] += x * x;
                             if (has_lobe) {
