@@ -811,10 +811,9 @@ std::string section_albedo_reciprocity(const Run& run, const SpeciesOutcome& o) 
             run.s.detector_half_angle / kDeg,
             holds ? "The simulated patch is reciprocal within its noise."
                   : "A significant excess is then the simulation's own: paths the tracer weighs "
-                    "differently one way than the other. A candidate is the shading normals: a "
-                    "specular event about an interpolated normal is weighted by the facet's "
-                    "cosine on one side only (Veach 1997, ch. 5), an asymmetry that shrinks with "
-                    "the tessellation's normal error ([tessellation] max_normal_error_deg).");
+                    "differently one way than the other, or light the finite patch loses at its "
+                    "edges differently for the two directions; its source is not identified "
+                    "yet.");
     } else {
         md +=
             "The tracer's physics is reciprocal, but this instrument is not exactly "
