@@ -5,9 +5,14 @@
 //  - the explicit rock-dove patch (tracer): two passes of the photon estimator, and the
 //    projection t(1 %) = t · (ε / 1 %)² from the measured 1/√t convergence.
 // Each runs once (Iterations(1)); the counters carry the figures.
+#include <omp.h>
+
 #include <cmath>
+#include <cstdlib>
+#include <fstream>
 
 #include <benchmark/benchmark.h>
+#include <fmt/format.h>
 
 #include "analysis/huang2022.h"
 #include "analysis/lambertian.h"
@@ -67,18 +72,29 @@ void BM_TimeTo1PercentHuangRLobe3660(benchmark::State& state) {
 }
 BENCHMARK(BM_TimeTo1PercentHuangRLobe3660)->Iterations(1)->Unit(benchmark::kSecond);
 
-void BM_ProjectedTimeTo1PercentExplicitRockDove3660(benchmark::State& state) {
+// The explicit rock-dove patch of the cases below (48 barbules × 30 cells, 0.01 µm / 0.02 rad)
+// and its goniometer: the 3660-pair set, detector 5°, beam radius 60 µm, photon estimator.
+sim::ExplicitScatterer rock_dove_patch() {
     geometry::BarbuleRowParams row;
     row.barbules = 48;
     row.cells_per_barbule = 30;
-    const sim::ExplicitScatterer patch(
+    return sim::ExplicitScatterer(
         sim::barbule_row_scene(geometry::build_barbule_row(row, {0.01, 0.02})));
+}
+
+GoniometerConfig rock_dove_config() {
     GoniometerConfig c;
     c.direction_set = "filip2024_btf";
     c.pairs = filip2024_btf_pairs();
     c.detector_half_angle_rad = 5.0 * kDeg;
     c.beam_radius_um = 60.0;
     c.estimator = Estimator::photon;
+    return c;
+}
+
+void BM_ProjectedTimeTo1PercentExplicitRockDove3660(benchmark::State& state) {
+    const sim::ExplicitScatterer patch = rock_dove_patch();
+    GoniometerConfig c = rock_dove_config();
     c.quanta_per_pass = 20000;
     c.max_passes = 2;
     BrdfRecord r;
@@ -89,6 +105,64 @@ void BM_ProjectedTimeTo1PercentExplicitRockDove3660(benchmark::State& state) {
     state.counters["projected_s_to_1pct"] = r.wall_time_s * std::pow(error / 0.01, 2);
 }
 BENCHMARK(BM_ProjectedTimeTo1PercentExplicitRockDove3660)->Iterations(1)->Unit(benchmark::kSecond);
+
+// Issue 15's case: the explicit rock-dove patch, full spectral (7 wavelengths, 400–700 nm, all
+// lobes), the 3660-pair set, detector 5° (view cone); one path per quantum and
+// wavelength (separate, arg 0) against one path per quantum for all seven (shared, arg 1), on
+// 1 or 2 threads (second arg). Each runs passes of 2000 quanta per light direction for a
+// budget of kBudgetS, then projects t(1 %) = t · (ε / 1 %)² from the last pass. ε is the
+// relative RMS standard error over the cells that carry signal: value ≥ 10 % of the mean of
+// the cells at its wavelength (GoniometerConfig::signal_fraction; the record stores the set).
+// With PLUMAGE_BENCH_CSV set, every pass's (wall time, error) is appended to that file for
+// the error-against-time figure (bench/plot_error_vs_time.py).
+void BM_RockDoveSpectral3660(benchmark::State& state) {
+    constexpr double kBudgetS = 40.0;
+    const bool shared = state.range(0) != 0;
+    const int threads = static_cast<int>(state.range(1));
+    const sim::ExplicitScatterer patch = rock_dove_patch();
+    GoniometerConfig c = rock_dove_config();
+    c.wavelengths_nm = {400.0, 450.0, 500.0, 550.0, 600.0, 650.0, 700.0};
+    c.share_wavelength_paths = shared;
+    c.signal_fraction = 0.1;
+    c.quanta_per_pass = 2000;
+    c.max_passes = 100000;
+    c.time_budget_s = kBudgetS;
+    const int before = omp_get_max_threads();
+    omp_set_num_threads(threads);
+    BrdfRecord r;
+    for (auto _ : state) r = measure_brdf(patch, c);
+    omp_set_num_threads(before);
+    const double error = r.convergence.back().estimated_relative_rms_error;
+    std::size_t signal = 0;
+    for (std::uint8_t m : r.signal_cells) signal += m;
+    state.counters["wall_s"] = r.wall_time_s;
+    state.counters["cpu_s"] = r.cpu_time_s;
+    state.counters["passes"] = r.passes;
+    state.counters["error"] = error;
+    state.counters["signal_cells"] = static_cast<double>(signal);
+    state.counters["projected_s_to_1pct"] = r.wall_time_s * std::pow(error / 0.01, 2);
+    if (const char* csv = std::getenv("PLUMAGE_BENCH_CSV")) {
+        std::ofstream out(csv, std::ios::app);
+        for (const ConvergenceRow& row_ : r.convergence) {
+            out << (shared ? "shared" : "separate") << ',' << threads << ',' << row_.pass << ','
+                << row_.wall_time_s << ',' << row_.quanta << ','
+                << row_.estimated_relative_rms_error << ',' << signal << ','
+                << r.signal_cells.size() << '\n';
+        }
+    }
+    if (const char* h5 = std::getenv("PLUMAGE_BENCH_RECORD")) {
+        write_brdf_record(r,
+                          fmt::format("{}_{}_{}t.h5", h5, shared ? "shared" : "separate", threads));
+    }
+}
+BENCHMARK(BM_RockDoveSpectral3660)
+    ->Args({0, 1})
+    ->Args({1, 1})
+    ->Args({0, 2})
+    ->Args({1, 2})
+    ->Iterations(1)
+    ->Unit(benchmark::kSecond)
+    ->UseRealTime();
 
 }  // namespace
 }  // namespace plumage::gonio

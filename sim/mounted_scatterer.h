@@ -30,6 +30,11 @@ public:
     const std::vector<std::string>& lobe_names() const override { return inner_->lobe_names(); }
     std::optional<ScatterEvent> sample(const Vec3d& wi, double lambda_nm, const Vec2& position_um,
                                        Rng& rng) const override;
+    bool can_share_paths() const override { return inner_->can_share_paths(); }
+    std::optional<SpectralScatterEvent> sample_spectral(const Vec3d& wi,
+                                                        std::span<const double> lambdas_nm,
+                                                        const Vec2& position_um, Rng& rng,
+                                                        std::span<double> weights) const override;
     bool can_evaluate() const override { return inner_->can_evaluate(); }
     double eval(const Vec3d& wi, const Vec3d& wo, double lambda_nm,
                 std::span<double> per_lobe = {}) const override;
@@ -41,6 +46,7 @@ public:
 private:
     Vec3d to_sample(const Vec3d& w) const;      // instrument → sample frame: R(−ψ)
     Vec3d to_instrument(const Vec3d& w) const;  // sample → instrument frame: R(+ψ)
+    void to_instrument(Vec3d& wo, Vec2& exit_position_um) const;  // an event's, in place
 
     std::shared_ptr<const Scatterer> inner_;
     double azimuth_rad_;

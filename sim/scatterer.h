@@ -17,6 +17,10 @@
 //    weight = f |cos θ_o| / pdf. No return value means the quantum was absorbed.
 //  - Lobes: each scatterer names its lobes (lobe_names()); a sample carries the index
 //    of the lobe that produced it, so records keep per-lobe values.
+//  - Spectral path sharing (optional, can_share_paths()): sample_spectral() plays one quantum
+//    for several wavelengths at once: one escape direction and one weight per wavelength,
+//    each meeting sample()'s contract for its own λ (the weights of one quantum are
+//    correlated across λ, those of different quanta independent).
 #pragma once
 
 #include <cmath>
@@ -42,6 +46,14 @@ struct ScatterEvent {
     Vec2 exit_position_um;  // where the light leaves the patch (entry point for models)
 };
 
+// One quantum's escape for all the wavelengths of sample_spectral(); the weights are
+// returned separately, one per wavelength.
+struct SpectralScatterEvent {
+    Vec3d wo;               // unit, away from the patch
+    int lobe;               // index into lobe_names()
+    Vec2 exit_position_um;  // as ScatterEvent
+};
+
 // Two unit vectors completing the unit vector a to a right-handed orthonormal frame.
 inline void orthonormal_frame(const Vec3d& a, Vec3d& e1, Vec3d& e2) {
     e1 = (std::abs(a.z()) < 0.9 ? Vec3d::UnitZ() : Vec3d::UnitX()).cross(a).normalized();
@@ -64,6 +76,18 @@ public:
     // (size lobe_names().size()).
     virtual double eval(const Vec3d& wi, const Vec3d& wo, double lambda_nm,
                         std::span<double> per_lobe = {}) const;
+    // Spectral path sharing: whether sample_spectral() is available.
+    virtual bool can_share_paths() const { return false; }
+    static constexpr std::size_t kMaxSharedWavelengths = 64;
+    // One quantum for every wavelength of lambdas_nm (1 … kMaxSharedWavelengths of them) at
+    // once; weights (same size) receives one weight per wavelength with sample()'s contract:
+    // E[weights[k] · 1{ω_o ∈ Ω}] = ∫_Ω f(ω_i, ω_o, λ_k) |cos θ_o| dω_o. No return value: no
+    // light left at any wavelength (weights then all 0).
+    virtual std::optional<SpectralScatterEvent> sample_spectral(const Vec3d& wi,
+                                                                std::span<const double> lambdas_nm,
+                                                                const Vec2& position_um, Rng& rng,
+                                                                std::span<double> weights) const;
+
     // Solid-angle density of sample()'s ωo (including any discrete T lobe's share as a
     // separate mass, which pdf() does not report).
     virtual double pdf(const Vec3d& wi, const Vec3d& wo, double lambda_nm) const;

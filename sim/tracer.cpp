@@ -23,6 +23,12 @@ struct ExplicitScatterer::Spectral {
         double albedo = 0.0;
         const Medium* medium_outside = nullptr;  // null when inactive at λ
         const Medium* medium_inside = nullptr;
+
+        // The film's responses at λ (its tables where they hold).
+        TabulatedFilmResponse film_source(double lambda_nm) const {
+            return TabulatedFilmResponse(film, lambda_nm, table_outside ? &*table_outside : nullptr,
+                                         table_inside ? &*table_inside : nullptr);
+        }
     };
     double lambda_nm;
     optics::Complex ambient;
@@ -57,6 +63,47 @@ int lobe_of(const PathResult& path) {
 void record(PathResult& path, EventKind kind) {
     if (path.events < PathResult::kRecordedEvents) path.kinds[path.events] = kind;
     ++path.events;
+}
+
+void check_path_request(const Vec3d& wi, const Vec2& position_um) {
+    if (!wi.allFinite() || std::abs(wi.norm() - 1.0) > 1e-9 || wi.z() == 0.0) {
+        throw InputError(fmt::format(
+            "tracer: wi = ({}, {}, {}): expected a unit direction off the patch plane (wi.z != 0)",
+            wi.x(), wi.y(), wi.z()));
+    }
+    if (!position_um.allFinite()) {
+        throw InputError(fmt::format("tracer: position = ({}, {}) um: expected finite values",
+                                     position_um.x(), position_um.y()));
+    }
+}
+
+// Where light leaving from origin along direction crosses the top plane (upward) or the
+// bottom plane (downward); a horizontal ray keeps its (x, y).
+Vec2 exit_point(const Vec3d& origin, const Vec3d& direction, double top_z, double bottom_z) {
+    Vec2 exit = origin.head<2>();
+    if (direction.z() != 0.0) {
+        const double plane = direction.z() > 0.0 ? top_z : bottom_z;
+        const double t = (plane - origin.z()) / direction.z();
+        if (t > 0.0) exit += t * direction.head<2>();
+    }
+    return exit;
+}
+
+// Russian roulette once the path is long (survivors carry 1) or its weight is low (survivors
+// carry w_min): survive with q = weight / carried. Returns the weight the path carries on
+// (its own, or `carried`), 0 when roulette ends it.
+double roulette(PathResult& path, double weight, const TracerOptions& options, Rng& rng) {
+    double carried = 1.0;
+    if (path.events < options.roulette_after_events) {
+        if (!(weight < options.roulette_below_weight)) return weight;
+        carried = options.roulette_below_weight;
+    }
+    if (!(weight < carried)) return weight;
+    if (rng.uniform() * carried >= weight) {
+        path.ended_by_roulette = true;
+        return 0.0;
+    }
+    return carried;
 }
 
 }  // namespace
@@ -163,17 +210,8 @@ std::shared_ptr<const ExplicitScatterer::Spectral> ExplicitScatterer::build_spec
     return s;
 }
 
-const ExplicitScatterer::Spectral& ExplicitScatterer::spectral(double lambda_nm) const {
-    // Per thread, the last wavelength: instruments trace many paths per wavelength, so
-    // this is the common case and takes no lock.
-    struct Last {
-        std::uint64_t owner = 0;
-        double lambda_nm = 0.0;
-        std::shared_ptr<const Spectral> data;
-    };
-    thread_local Last last;
-    if (last.owner == id_ && last.lambda_nm == lambda_nm) return *last.data;
-
+std::shared_ptr<const ExplicitScatterer::Spectral> ExplicitScatterer::lookup_spectral(
+    double lambda_nm) const {
     const std::uint64_t key = wavelength_key(lambda_nm);
     std::shared_ptr<const Spectral> data;
     {
@@ -188,8 +226,68 @@ const ExplicitScatterer::Spectral& ExplicitScatterer::spectral(double lambda_nm)
         if (cache_.size() >= kMaxCachedWavelengths) cache_.clear();
         data = cache_.try_emplace(key, data).first->second;
     }
-    last = {id_, lambda_nm, std::move(data)};
+    return data;
+}
+
+const ExplicitScatterer::Spectral& ExplicitScatterer::spectral(double lambda_nm) const {
+    // Per thread, the last wavelength: instruments trace many paths per wavelength, so
+    // this is the common case and takes no lock.
+    struct Last {
+        std::uint64_t owner = 0;
+        double lambda_nm = 0.0;
+        std::shared_ptr<const Spectral> data;
+    };
+    thread_local Last last;
+    if (last.owner == id_ && last.lambda_nm == lambda_nm) return *last.data;
+    last = {id_, lambda_nm, lookup_spectral(lambda_nm)};
     return *last.data;
+}
+
+struct ExplicitScatterer::SpectralSet {
+    std::vector<double> lambdas_nm;
+    std::vector<std::shared_ptr<const Spectral>> at;  // per wavelength
+    // Per surface: whether a shared path may pass it without choosing its hero (tracer.h).
+    std::vector<char> film_shared, dielectric_shared;
+    // Per surface and side (0 outside, 1 inside): a medium that scatters at some λ.
+    std::vector<std::array<char, 2>> scatters;
+};
+
+const ExplicitScatterer::SpectralSet& ExplicitScatterer::spectral_set(
+    std::span<const double> lambdas_nm) const {
+    struct Last {
+        std::uint64_t owner = 0;
+        SpectralSet set;
+    };
+    thread_local Last last;
+    if (last.owner == id_ && std::equal(lambdas_nm.begin(), lambdas_nm.end(),
+                                        last.set.lambdas_nm.begin(), last.set.lambdas_nm.end()))
+        return last.set;
+    SpectralSet set;
+    set.lambdas_nm.assign(lambdas_nm.begin(), lambdas_nm.end());
+    for (double l : lambdas_nm) set.at.push_back(lookup_spectral(l));
+    const std::size_t surfaces = scene_->surface_count();
+    set.film_shared.assign(surfaces, 1);
+    set.dielectric_shared.assign(surfaces, 1);
+    set.scatters.assign(surfaces, {0, 0});
+    auto scatters = [](const Medium* m) {
+        return m != nullptr && dynamic_cast<const HomogeneousAbsorbingMedium*>(m) == nullptr;
+    };
+    for (std::size_t i = 0; i < surfaces; ++i) {
+        const Spectral::Surface& first = set.at.front()->surfaces[i];
+        for (const auto& at : set.at) {
+            const Spectral::Surface& s = at->surfaces[i];
+            // Refraction through a film bends by the outside/inside indices (the film's own
+            // index does not change the direction); at a bare interface R depends on both.
+            if (s.outside.real() != first.outside.real() || s.inside.real() != first.inside.real())
+                set.film_shared[i] = 0;
+            if (s.outside != first.outside || s.inside != first.inside)
+                set.dielectric_shared[i] = 0;
+            set.scatters[i][0] = set.scatters[i][0] || scatters(s.medium_outside);
+            set.scatters[i][1] = set.scatters[i][1] || scatters(s.medium_inside);
+        }
+    }
+    last = {id_, std::move(set)};
+    return last.set;
 }
 
 std::optional<ScatterEvent> ExplicitScatterer::sample(const Vec3d& wi, double lambda_nm,
@@ -199,16 +297,8 @@ std::optional<ScatterEvent> ExplicitScatterer::sample(const Vec3d& wi, double la
 
 PathResult ExplicitScatterer::trace(const Vec3d& wi, double lambda_nm, const Vec2& position_um,
                                     Rng& rng, std::vector<RaySegment>* rays) const {
-    if (!wi.allFinite() || std::abs(wi.norm() - 1.0) > 1e-9 || wi.z() == 0.0) {
-        throw InputError(fmt::format(
-            "tracer: wi = ({}, {}, {}): expected a unit direction off the patch plane (wi.z != 0)",
-            wi.x(), wi.y(), wi.z()));
-    }
+    check_path_request(wi, position_um);
     optics::require_wavelength(lambda_nm);
-    if (!position_um.allFinite()) {
-        throw InputError(fmt::format("tracer: position = ({}, {}) um: expected finite values",
-                                     position_um.x(), position_um.y()));
-    }
     const Spectral& spectral_data = spectral(lambda_nm);
 
     PathResult path;
@@ -220,30 +310,15 @@ PathResult ExplicitScatterer::trace(const Vec3d& wi, double lambda_nm, const Vec
 
     auto escape = [&]() {
         if (expected != spectral_data.ambient) ++path.medium_mismatches;
-        Vec2 exit = origin.head<2>();
-        if (direction.z() != 0.0) {
-            const double plane = direction.z() > 0.0 ? top_z_ : bottom_z_;
-            const double t = (plane - origin.z()) / direction.z();
-            if (t > 0.0) exit += t * direction.head<2>();
-        }
+        const Vec2 exit = exit_point(origin, direction, top_z_, bottom_z_);
         PLUMAGE_CHECK(std::isfinite(weight) && weight >= 0.0,
                       fmt::format("path weight {} after {} events", weight, path.events));
         path.event = ScatterEvent{direction.normalized(), weight, lobe_of(path), exit};
     };
 
-    // Russian roulette once the path is long (survivors carry 1) or its weight is low
-    // (survivors carry w_min): survive with q = weight / carried, weight / q.
     auto survives_roulette = [&]() {
-        double carried = 1.0;
-        if (path.events < options_.roulette_after_events) {
-            if (!(weight < options_.roulette_below_weight)) return true;
-            carried = options_.roulette_below_weight;
-        }
-        if (!(weight < carried)) return true;
-        if (rng.uniform() * carried >= weight) {
-            path.ended_by_roulette = true;
-            return false;
-        }
+        const double carried = roulette(path, weight, options_, rng);
+        if (!(carried > 0.0)) return false;
         weight = carried;
         return true;
     };
@@ -297,10 +372,7 @@ PathResult ExplicitScatterer::trace(const Vec3d& wi, double lambda_nm, const Vec
         const InterfaceEvent event = [&]() -> InterfaceEvent {
             switch (surface.kind) {
                 case Spectral::Kind::film: {
-                    const TabulatedFilmResponse source(
-                        surface.film, lambda_nm,
-                        surface.table_outside ? &*surface.table_outside : nullptr,
-                        surface.table_inside ? &*surface.table_inside : nullptr);
+                    const TabulatedFilmResponse source = surface.film_source(lambda_nm);
                     return thin_film_event(direction, hit->normals, surface.film, source, rng);
                 }
                 case Spectral::Kind::dielectric:
@@ -316,6 +388,239 @@ PathResult ExplicitScatterer::trace(const Vec3d& wi, double lambda_nm, const Vec
         record(path, event.kind);
         weight *= event.throughput;
         if (event.kind == EventKind::absorb || !(weight > 0.0)) return path;
+
+        expected = event.to_outside ? surface.outside : surface.inside;
+        origin = scene_->spawn_point(*hit, event.to_outside);
+        direction = event.direction;
+        skip = hit->primitive;
+        if (!survives_roulette()) return path;
+    }
+}
+
+namespace {
+
+// The film's responses at every wavelength of a shared path, at the cos θ the event asks
+// for; it answers the event with the mean choice probability p̄ (tracer.h), so the event
+// picks reflection with p̄ and the caller re-weights each λ from R_k, T_k.
+class SharedFilmResponse final : public FilmResponseSource {
+public:
+    using Set = std::vector<std::shared_ptr<const ExplicitScatterer::Spectral>>;
+    SharedFilmResponse(const Set& at, std::span<const double> lambdas_nm, std::size_t surface)
+        : at_(at), lambdas_nm_(lambdas_nm), surface_(surface) {}
+    FilmResponse response(bool from_outside, double cos_theta) const override;
+
+    mutable std::array<double, Scatterer::kMaxSharedWavelengths> reflectance{}, transmittance{};
+    mutable double mean_reflect_probability = 0.0;
+
+private:
+    const Set& at_;
+    std::span<const double> lambdas_nm_;
+    std::size_t surface_;
+};
+
+FilmResponse SharedFilmResponse::response(bool from_outside, double cos_theta) const {
+    double p = 0.0;
+    for (std::size_t k = 0; k < lambdas_nm_.size(); ++k) {
+        const ExplicitScatterer::Spectral::Surface& s = at_[k]->surfaces[surface_];
+        const TabulatedFilmResponse source = s.film_source(lambdas_nm_[k]);
+        const FilmResponse r = source.response(from_outside, cos_theta);
+        reflectance[k] = std::max(0.0, r.reflectance);
+        transmittance[k] = std::max(0.0, r.transmittance);
+        const double total = reflectance[k] + transmittance[k];
+        if (total > 0.0) p += reflectance[k] / total;
+    }
+    mean_reflect_probability = p / static_cast<double>(lambdas_nm_.size());
+    return {mean_reflect_probability, 1.0 - mean_reflect_probability};
+}
+
+}  // namespace
+
+std::optional<SpectralScatterEvent> ExplicitScatterer::sample_spectral(
+    const Vec3d& wi, std::span<const double> lambdas_nm, const Vec2& position_um, Rng& rng,
+    std::span<double> weights) const {
+    const PathResult path = trace_spectral(wi, lambdas_nm, position_um, rng, weights);
+    if (!path.event) return std::nullopt;
+    return SpectralScatterEvent{path.event->wo, path.event->lobe, path.event->exit_position_um};
+}
+
+PathResult ExplicitScatterer::trace_spectral(const Vec3d& wi, std::span<const double> lambdas_nm,
+                                             const Vec2& position_um, Rng& rng,
+                                             std::span<double> weights) const {
+    const std::size_t n = lambdas_nm.size();
+    if (n < 1 || n > kMaxSharedWavelengths || weights.size() != n) {
+        throw InputError(fmt::format(
+            "tracer: {} wavelengths and {} weights for one shared path: expected 1..{} of each", n,
+            weights.size(), kMaxSharedWavelengths));
+    }
+    check_path_request(wi, position_um);
+    for (double l : lambdas_nm) optics::require_wavelength(l);
+    const SpectralSet& set = spectral_set(lambdas_nm);
+    std::fill(weights.begin(), weights.end(), 0.0);
+
+    // The hero: the one wavelength that goes on once the path's geometry depends on λ.
+    const std::size_t hero =
+        std::min(n - 1, static_cast<std::size_t>(rng.uniform() * static_cast<double>(n)));
+    const Spectral& hs = *set.at[hero];
+    std::array<double, kMaxSharedWavelengths> w{};
+    std::fill(w.begin(), w.begin() + static_cast<std::ptrdiff_t>(n), 1.0);
+    bool single = n == 1;
+    auto collapse = [&]() {
+        if (single) return;
+        const double carried = w[hero] * static_cast<double>(n);
+        std::fill(w.begin(), w.begin() + static_cast<std::ptrdiff_t>(n), 0.0);
+        w[hero] = carried;
+        single = true;
+    };
+    auto largest = [&]() {
+        if (single) return w[hero];
+        return *std::max_element(w.begin(), w.begin() + static_cast<std::ptrdiff_t>(n));
+    };
+    auto scale = [&](double factor) {
+        if (single) {
+            w[hero] *= factor;
+        } else {
+            for (std::size_t k = 0; k < n; ++k) w[k] *= factor;
+        }
+    };
+
+    PathResult path;
+    Vec3d origin(position_um.x(), position_um.y(), wi.z() > 0.0 ? top_z_ : bottom_z_);
+    Vec3d direction = -wi;
+    PrimitiveRef skip;
+    optics::Complex expected = hs.ambient;
+
+    auto escape = [&]() {
+        if (expected != hs.ambient) ++path.medium_mismatches;
+        const Vec2 exit = exit_point(origin, direction, top_z_, bottom_z_);
+        for (std::size_t k = 0; k < n; ++k) {
+            PLUMAGE_CHECK(std::isfinite(w[k]) && w[k] >= 0.0,
+                          fmt::format("path weight {} at {} nm after {} events", w[k],
+                                      lambdas_nm[k], path.events));
+            weights[k] = w[k];
+        }
+        path.event = ScatterEvent{direction.normalized(), largest(), lobe_of(path), exit};
+    };
+
+    // As in trace(), on the largest weight; every λ is scaled alike.
+    auto survives_roulette = [&]() {
+        const double weight = largest();
+        const double carried = roulette(path, weight, options_, rng);
+        if (!(carried > 0.0)) return false;
+        if (carried != weight) scale(carried / weight);
+        return true;
+    };
+
+    for (;;) {
+        ++path.rays;
+        const std::optional<SurfaceHit> hit =
+            scene_->intersect(origin, direction, skip, &path.self_hits_rejected);
+        if (!hit) {
+            escape();
+            return path;
+        }
+        const std::size_t surface_index = hit->surface;
+        const Spectral::Surface& surface = hs.surfaces[surface_index];
+        const double facing = direction.dot(hit->normals.geometric);
+        if (facing == 0.0) {
+            skip = hit->primitive;
+            continue;
+        }
+        const bool from_outside = facing < 0.0;
+        if ((from_outside ? surface.outside : surface.inside) != expected) ++path.medium_mismatches;
+
+        // The medium between the last event and this surface: a scattering one takes the
+        // hero alone; absorbing ones weigh each λ.
+        if (set.scatters[surface_index][from_outside ? 0 : 1]) collapse();
+        if (single) {
+            if (const Medium* medium =
+                    from_outside ? surface.medium_outside : surface.medium_inside) {
+                const MediumFlight flight = medium->fly(hit->distance_um, lambdas_nm[hero], rng);
+                w[hero] *= flight.weight;
+                if (flight.scattered) {
+                    if (path.events >= options_.max_events) {
+                        path.reached_max_events = true;
+                        return path;
+                    }
+                    record(path, EventKind::medium_scatter);
+                    ++path.medium_scatters;
+                    const MediumScatter scatter = medium->scatter(direction, lambdas_nm[hero], rng);
+                    w[hero] *= scatter.weight;
+                    origin += flight.distance_um * direction;
+                    direction = scatter.direction;
+                    skip = {};
+                    if (!(w[hero] > 0.0) || !survives_roulette()) return path;
+                    continue;
+                }
+                if (!(w[hero] > 0.0) || !survives_roulette()) return path;
+            }
+        } else {
+            bool met_medium = false;
+            for (std::size_t k = 0; k < n; ++k) {
+                const Spectral::Surface& sk = set.at[k]->surfaces[surface_index];
+                if (const Medium* medium = from_outside ? sk.medium_outside : sk.medium_inside) {
+                    w[k] *= medium->fly(hit->distance_um, lambdas_nm[k], rng).weight;
+                    met_medium = true;
+                }
+            }
+            if (met_medium && (!(largest() > 0.0) || !survives_roulette())) return path;
+        }
+
+        if (path.events >= options_.max_events) {
+            path.reached_max_events = true;
+            return path;
+        }
+        // The event for the path's direction; each λ's weight takes its own factor.
+        const InterfaceEvent event = [&]() -> InterfaceEvent {
+            switch (surface.kind) {
+                case Spectral::Kind::film: {
+                    if (!set.film_shared[surface_index]) collapse();
+                    if (single) {
+                        const TabulatedFilmResponse source = surface.film_source(lambdas_nm[hero]);
+                        const InterfaceEvent e =
+                            thin_film_event(direction, hit->normals, surface.film, source, rng);
+                        w[hero] *= e.throughput;
+                        return e;
+                    }
+                    const SharedFilmResponse source(set.at, lambdas_nm, surface_index);
+                    const InterfaceEvent e =
+                        thin_film_event(direction, hit->normals, surface.film, source, rng);
+                    const double p = source.mean_reflect_probability;
+                    if (e.kind == EventKind::film_reflect) {
+                        for (std::size_t k = 0; k < n; ++k)
+                            w[k] *= e.throughput * source.reflectance[k] / p;
+                    } else if (e.kind == EventKind::film_transmit) {
+                        for (std::size_t k = 0; k < n; ++k)
+                            w[k] *= e.throughput * source.transmittance[k] / (1.0 - p);
+                    }
+                    return e;
+                }
+                case Spectral::Kind::dielectric: {
+                    if (!set.dielectric_shared[surface_index]) collapse();
+                    const InterfaceEvent e = dielectric_event(direction, hit->normals,
+                                                              surface.outside, surface.inside, rng);
+                    scale(e.throughput);
+                    return e;
+                }
+                case Spectral::Kind::diffuse: {
+                    if (single) {
+                        const InterfaceEvent e =
+                            diffuse_event(direction, hit->normals, surface.albedo, rng);
+                        w[hero] *= e.throughput;
+                        return e;
+                    }
+                    // The direction for all; each λ its albedo (diffuse_event's clamp).
+                    const InterfaceEvent e = diffuse_event(direction, hit->normals, 1.0, rng);
+                    for (std::size_t k = 0; k < n; ++k)
+                        w[k] *= std::clamp(set.at[k]->surfaces[surface_index].albedo, 0.0, 1.0);
+                    return e;
+                }
+                case Spectral::Kind::absorber:
+                    break;
+            }
+            return absorber_event(direction, hit->normals);
+        }();
+        record(path, event.kind);
+        if (event.kind == EventKind::absorb || !(largest() > 0.0)) return path;
 
         expected = event.to_outside ? surface.outside : surface.inside;
         origin = scene_->spawn_point(*hit, event.to_outside);

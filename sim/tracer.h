@@ -32,13 +32,36 @@
 // HomogeneousAbsorbingMedium, which never scatters; other scenes keep the four lobes above,
 // so their records do not change.
 //
-// One wavelength per path: the instruments average over wavelength grids and keep
-// per-wavelength records (spectra, then colour), so each path answers for the one λ it
-// was asked about. A hero-wavelength set would carry several λ along a path chosen for
-// one of them; every other λ's weight then needs the ratio of its event probabilities
-// (and dispersion bends its rays differently, which a shared path cannot follow), and
-// per-λ records would receive correlated, re-weighted samples. Not worth it here.
-//
+// One wavelength per path (sample()), or one path for several (sample_spectral(), spectral
+// path sharing, sim/scatterer.h). A shared path is traced once for N wavelengths λ_1 … λ_N with
+// a weight w_k per wavelength, all 1 at the start; at each event:
+//  - film reflection or transmission (direction independent of λ when the indices on the two
+//    sides are the same at every λ, e.g. the rock dove's keratin film in air): the walk for
+//    λ_k alone chooses reflection with p_k = R_k/(R_k+T_k) and multiplies by R_k+T_k, so its
+//    expected factor on the reflected branch is R_k (T_k on the transmitted one). The shared
+//    path chooses with the mean p̄ = (1/N) Σ p_k and multiplies w_k by R_k/p̄ (reflected) or
+//    T_k/(1 − p̄) (transmitted): each λ's expected factor is again R_k and T_k, so each w_k is
+//    unbiased; p̄ >= p_k/N keeps the ratios below N.
+//  - diffuse reflection (cosine direction, independent of λ): w_k ×= albedo_k.
+//  - a bare dielectric interface whose indices are the same at every λ: the one Fresnel
+//    factor for all.
+//  - an absorbing (non-scattering) medium along a segment: w_k ×= exp(−μ_k d).
+//  - where the geometry depends on λ — refraction into a dispersive medium (keratin's n(λ)
+//    at a bare dielectric or at a film between different media) and flights through a
+//    scattering medium (μ_s(λ) sets the free paths) — the path continues for one wavelength
+//    only, the hero h, drawn uniformly from {1 … N} by the quantum's own stream (one uniform
+//    at the start of every shared path): w_h ×= N, every other w_k = 0, then the walk of λ_h
+//    alone. Unbiased for each λ_k: with probability 1/N it is the hero and carries N times
+//    what its own walk from that point would, so its expectation is that walk's (1/N · N = 1);
+//    the variance grows by up to N for paths that reach such an event (each λ lives on 1/N of
+//    them), which is the price of sharing the rest of the path.
+//  - Russian roulette acts on w_max = max_k w_k in place of the weight: survive with
+//    q = w_max / carried, then every w_k ×= 1/q (unbiased for each λ).
+// Determinism as for sample(): everything comes from the Rng given.
+// What it buys: the tracing (Embree queries, hit reconstruction, roulette) is done once for N
+// wavelengths; a film hit still evaluates N table entries. Per-λ records receive correlated
+// samples; each cell's standard error is still from independent quanta.
+
 // Leaving out what the scene does not need: a scene without films never evaluates Airy;
 // surfaces whose media do not absorb at λ (k = 0) run no medium code; max_events = 1 (an
 // "R only" request) stops every path at its first event (a path that would meet a second
@@ -131,6 +154,15 @@ public:
     const std::vector<std::string>& lobe_names() const override;
     std::optional<ScatterEvent> sample(const Vec3d& wi, double lambda_nm, const Vec2& position_um,
                                        Rng& rng) const override;
+    bool can_share_paths() const override { return true; }
+    std::optional<SpectralScatterEvent> sample_spectral(const Vec3d& wi,
+                                                        std::span<const double> lambdas_nm,
+                                                        const Vec2& position_um, Rng& rng,
+                                                        std::span<double> weights) const override;
+    // The same path as sample_spectral(), with its diagnostics (event->weight: the hero's
+    // weight, or the largest when the path stayed shared).
+    PathResult trace_spectral(const Vec3d& wi, std::span<const double> lambdas_nm,
+                              const Vec2& position_um, Rng& rng, std::span<double> weights) const;
 
     // The same path as sample(), with its diagnostics; `rays` (optional) receives every
     // ray cast.
@@ -142,10 +174,13 @@ public:
     double top_z_um() const { return top_z_; }
     double bottom_z_um() const { return bottom_z_; }
 
-    struct Spectral;  // per-wavelength optics of every surface
+    struct Spectral;     // per-wavelength optics of every surface
+    struct SpectralSet;  // the optics at several wavelengths, and what a shared path may share
 
 private:
     const Spectral& spectral(double lambda_nm) const;
+    std::shared_ptr<const Spectral> lookup_spectral(double lambda_nm) const;
+    const SpectralSet& spectral_set(std::span<const double> lambdas_nm) const;
     std::shared_ptr<const Spectral> build_spectral(double lambda_nm) const;
 
     std::shared_ptr<const Scene> scene_;

@@ -2,6 +2,7 @@
 
 #include <omp.h>
 
+#include <array>
 #include <chrono>
 #include <cmath>
 #include <iostream>
@@ -43,6 +44,10 @@ std::string canonical(const GoniometerConfig& c, const std::string& scatterer,
                                 c.detector_half_angle_rad, c.beam_radius_um, c.seed,
                                 c.quanta_per_pass, static_cast<int>(estimator));
     for (double l : c.wavelengths_nm) s += fmt::format("{:.17g},", l);
+    // Options added later enter only when not at their default, so that the checkpoints of
+    // runs made before them still resume.
+    if (c.aperture != Aperture::view_cone) s += fmt::format("aperture={}|", to_string(c.aperture));
+    if (c.share_wavelength_paths) s += "shared_paths|";
     // The study text describes the scene the scatterer was built from (its name alone does not:
     // a changed geometry under the same instrument must not resume another run's sums).
     s += c.config_text + "|";
@@ -75,12 +80,29 @@ struct Sums {
     std::vector<double> sum, sum_sq, lobe_sum, lobe_sum_sq;
 };
 
-double relative_rms(const std::vector<double>& value, const std::vector<double>& error) {
+// The cells that carry signal (GoniometerConfig::signal_fraction): value >= fraction × the
+// mean of the cells at the same wavelength, and > 0. Row-major [pair][wavelength], 1 or 0.
+std::vector<std::uint8_t> signal_cells(const std::vector<double>& value, std::size_t nl,
+                                       double fraction) {
+    std::vector<double> mean(nl, 0.0);
+    const std::size_t np = value.size() / nl;
+    for (std::size_t i = 0; i < value.size(); ++i) mean[i % nl] += value[i];
+    for (double& m : mean) m /= static_cast<double>(np);
+    std::vector<std::uint8_t> mask(value.size(), 0);
+    for (std::size_t i = 0; i < value.size(); ++i)
+        mask[i] = value[i] > 0.0 && value[i] >= fraction * mean[i % nl];
+    return mask;
+}
+
+// Relative RMS standard error over the signal cells (see signal_cells).
+double relative_rms(BrdfRecord& r) {
+    r.signal_cells =
+        signal_cells(r.value, r.config.wavelengths_nm.size(), r.config.signal_fraction);
     double acc = 0.0;
     std::size_t n = 0;
-    for (std::size_t i = 0; i < value.size(); ++i) {
-        if (value[i] > 0.0) {
-            acc += std::pow(error[i] / value[i], 2);
+    for (std::size_t i = 0; i < r.value.size(); ++i) {
+        if (r.signal_cells[i] != 0) {
+            acc += std::pow(r.standard_error[i] / r.value[i], 2);
             ++n;
         }
     }
@@ -155,6 +177,37 @@ bool share_resumed_state(bool resumed, Sums& sums, BrdfRecord& r) {
 
 }  // namespace
 
+const char* to_string(Aperture aperture) {
+    switch (aperture) {
+        case Aperture::view_cone:
+            return "view_cone";
+        case Aperture::both_cones:
+            return "both_cones";
+    }
+    return "?";
+}
+
+Aperture parse_aperture(std::string_view text, std::string_view key) {
+    for (Aperture a : {Aperture::view_cone, Aperture::both_cones})
+        if (text == to_string(a)) return a;
+    throw InputError(fmt::format(
+        "{} = \"{}\": expected \"view_cone\" (the detector cone around the view, light exact) or "
+        "\"both_cones\" (light and detector cones of the same half-angle: reciprocal)",
+        key, text));
+}
+
+Vec3d cone_direction_by_projected_area(const Vec3d& axis, double half_angle_rad, double d1,
+                                       double d2) {
+    // The cap's orthographic projection on the patch plane: centre cos α · axis_xy, semi-axis
+    // sin α · cos θ along the axis's azimuth (radial) and sin α across it.
+    const double rho = std::hypot(axis.x(), axis.y());
+    const Vec2 radial = rho > 0.0 ? Vec2(axis.x() / rho, axis.y() / rho) : Vec2(1.0, 0.0);
+    const Vec2 across(-radial.y(), radial.x());
+    const double sin_a = std::sin(half_angle_rad), cos_a = std::cos(half_angle_rad);
+    const Vec2 p = cos_a * axis.head<2>() + sin_a * (d1 * axis.z() * radial + d2 * across);
+    return Vec3d(p.x(), p.y(), std::sqrt(std::max(0.0, 1.0 - p.squaredNorm())));
+}
+
 void GoniometerConfig::validate() const {
     require(!pairs.empty(), kWhat, "no direction pairs: expected at least one (light, view) pair");
     for (std::size_t i = 0; i < pairs.size(); ++i) {
@@ -168,6 +221,13 @@ void GoniometerConfig::validate() const {
                             "cone must stay "
                             "above the patch plane",
                             i, std::acos(std::clamp(p.wo.z(), -1.0, 1.0)) * 180.0 / kPi));
+        require(aperture != Aperture::both_cones || p.wi.z() > std::sin(detector_half_angle_rad),
+                kWhat,
+                fmt::format("pair {}: light direction at {:.2f} deg from the normal: with aperture "
+                            "both_cones its source cone (half-angle {:.2f} deg) must stay above "
+                            "the patch plane",
+                            i, std::acos(std::clamp(p.wi.z(), -1.0, 1.0)) * 180.0 / kPi,
+                            detector_half_angle_rad * 180.0 / kPi));
     }
     require(!wavelengths_nm.empty(), kWhat, "no wavelengths");
     for (double l : wavelengths_nm)
@@ -182,6 +242,9 @@ void GoniometerConfig::validate() const {
     require(max_passes >= 1, kWhat, "max_passes must be >= 1");
     require(time_budget_s > 0.0, kWhat, "time budget must be > 0 s");
     require(target_relative_error >= 0.0, kWhat, "target relative error must be >= 0");
+    require(std::isfinite(signal_fraction) && signal_fraction >= 0.0 && signal_fraction < 1.0,
+            kWhat, "signal_fraction", signal_fraction,
+            "a fraction of the mean cell in [0, 1) (0: every cell with a positive value)");
     require(eval_rings >= 1 && eval_rings <= 64, kWhat,
             fmt::format("eval_rings = {}: expected 1..64", eval_rings));
 }
@@ -232,9 +295,42 @@ BrdfRecord measure_by_eval(const Scatterer& scatterer, const GoniometerConfig& c
     // scale with threads, and the allocator is shared).
     struct Scratch {
         std::vector<double> per_lobe, acc, lobes;
+        std::vector<Vec3d> lights, views;  // both_cones: the rule's directions on each cone
+    };
+    // both_cones: the rule on the unit disc (u = r², γ), mapped onto each cone's projected
+    // ellipse; the map is affine, so the disc weights are projected-solid-angle weights.
+    auto double_cone_average = [&](const DirectionPair& p, double lambda,
+                                   const std::vector<Node>& rule, Scratch& scratch,
+                                   bool keep_lobes) {
+        scratch.lights.clear();
+        scratch.views.clear();
+        for (const Node& n : rule) {
+            const double radius = std::sqrt(n.u), d1 = radius * std::cos(n.gamma),
+                         d2 = radius * std::sin(n.gamma);
+            scratch.lights.push_back(cone_direction_by_projected_area(p.wi, alpha, d1, d2));
+            scratch.views.push_back(cone_direction_by_projected_area(p.wo, alpha, d1, d2));
+        }
+        double num = 0.0, den = 0.0;
+        std::fill(scratch.acc.begin(), scratch.acc.end(), 0.0);
+        for (std::size_t i = 0; i < rule.size(); ++i) {
+            for (std::size_t j = 0; j < rule.size(); ++j) {
+                const double weight = rule[i].w * rule[j].w;
+                num += weight * scatterer.eval(scratch.lights[i], scratch.views[j], lambda,
+                                               scratch.per_lobe);
+                for (std::size_t l = 0; l < nlobes; ++l)
+                    scratch.acc[l] += weight * scratch.per_lobe[l];
+                den += weight;
+            }
+        }
+        if (keep_lobes) {
+            for (std::size_t l = 0; l < nlobes; ++l) scratch.lobes[l] = scratch.acc[l] / den;
+        }
+        return num / den;
     };
     auto cone_average = [&](const DirectionPair& p, double lambda, const std::vector<Node>& rule,
                             Scratch& scratch, bool keep_lobes) {
+        if (c.aperture == Aperture::both_cones)
+            return double_cone_average(p, lambda, rule, scratch, keep_lobes);
         Vec3d e1, e2;
         orthonormal_frame(p.wo, e1, e2);
         double num = 0.0, den = 0.0;
@@ -260,8 +356,11 @@ BrdfRecord measure_by_eval(const Scatterer& scatterer, const GoniometerConfig& c
     std::atomic<bool> abandoned{false};
 #pragma omp parallel
     {
-        Scratch scratch{std::vector<double>(nlobes), std::vector<double>(nlobes),
-                        std::vector<double>(nlobes)};
+        Scratch scratch{std::vector<double>(nlobes),
+                        std::vector<double>(nlobes),
+                        std::vector<double>(nlobes),
+                        {},
+                        {}};
 #pragma omp for schedule(dynamic, 4)
         for (std::size_t p = 0; p < c.pairs.size(); ++p) {
             if (abandoned.load(std::memory_order_relaxed)) continue;
@@ -287,7 +386,7 @@ BrdfRecord measure_by_eval(const Scatterer& scatterer, const GoniometerConfig& c
     r.passes = 1;
     r.quanta = 0;
     r.wall_time_s = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
-    r.convergence.push_back({1, r.wall_time_s, 0, relative_rms(r.value, r.standard_error)});
+    r.convergence.push_back({1, r.wall_time_s, 0, relative_rms(r)});
     return r;
 }
 
@@ -304,6 +403,9 @@ BrdfRecord measure_brdf(const Scatterer& scatterer, const GoniometerConfig& conf
     r.lobes = scatterer.lobe_names();
     r.threads = omp_get_max_threads();
     r.detector_solid_angle_sr = 2.0 * kPi * (1.0 - std::cos(config.detector_half_angle_rad));
+    r.wavelength_paths_shared = config.share_wavelength_paths && scatterer.can_share_paths() &&
+                                config.wavelengths_nm.size() > 1 &&
+                                config.wavelengths_nm.size() <= Scatterer::kMaxSharedWavelengths;
     r.estimator_used = config.estimator == Estimator::automatic
                            ? (scatterer.can_evaluate() ? Estimator::eval : Estimator::photon)
                            : config.estimator;
@@ -322,6 +424,9 @@ BrdfRecord measure_brdf(const Scatterer& scatterer, const GoniometerConfig& conf
     const std::size_t nl = config.wavelengths_nm.size(), np = config.pairs.size(),
                       nlobes = r.lobes.size();
     const std::vector<Group> groups = group_by_light(config.pairs);
+    // Spectral path sharing (goniometer.h): one item, one path per quantum for every λ.
+    const bool shared = r.wavelength_paths_shared;
+    const std::size_t item_wavelengths = shared ? nl : 1;
     const double alpha = config.detector_half_angle_rad, cos_alpha = std::cos(alpha);
     const double projected = kPi * std::pow(std::sin(alpha), 2);  // × cos θ_v per pair
     const std::uint64_t hash = fnv1a(canonical(config, r.scatterer, r.estimator_used));
@@ -368,7 +473,7 @@ BrdfRecord measure_brdf(const Scatterer& scatterer, const GoniometerConfig& conf
             previous_wall +
             std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
         r.cpu_time_s = previous_cpu + (process_cpu_seconds() - cpu_start);
-        return ConvergenceRow{pass, r.wall_time_s, n, relative_rms(r.value, r.standard_error)};
+        return ConvergenceRow{pass, r.wall_time_s, n, relative_rms(r)};
     };
     if (resumed && r.passes > 0) finish_row(r.passes);
 
@@ -383,7 +488,7 @@ BrdfRecord measure_brdf(const Scatterer& scatterer, const GoniometerConfig& conf
         const int pass = r.passes;                     // 0-based index of the pass being run
         std::vector<Item> items;
         for (std::size_t g = 0; g < groups.size(); ++g)
-            for (std::size_t k = 0; k < nl; ++k)
+            for (std::size_t k = 0; k < nl / item_wavelengths; ++k)
                 for (std::uint64_t c = 0; c < chunks; ++c) {
                     const std::uint64_t first =
                         static_cast<std::uint64_t>(pass) * config.quanta_per_pass + c * kChunk;
@@ -413,10 +518,16 @@ BrdfRecord measure_brdf(const Scatterer& scatterer, const GoniometerConfig& conf
                 const Group& group = groups[item.group];
                 const std::size_t m = group.pairs.size();
                 std::vector<double>& acc = partial[it];
-                acc.assign(m * (2 + 2 * nlobes), 0.0);  // Σx, Σx², then Σx and Σx² per lobe
+                // Per wavelength of the item: Σx, Σx², then Σx and Σx² per lobe.
+                const std::size_t stride = m * (2 + 2 * nlobes);
+                acc.assign(item_wavelengths * stride, 0.0);
                 Vec3d e1, e2;
                 orthonormal_frame(group.wi, e1, e2);
-                const std::uint64_t stream = (item.group * nl + item.wavelength) << 40;
+                // Shared paths draw from streams no per-wavelength item uses.
+                const std::uint64_t stream =
+                    (shared ? groups.size() * nl + item.group : item.group * nl + item.wavelength)
+                    << 40;
+                std::array<double, Scatterer::kMaxSharedWavelengths> weights{};
                 for (std::uint64_t q = item.first; q < item.first + item.count; ++q) {
                     Rng rng(config.seed, stream + q);
                     // Beam position: uniform over the beam's cross-section, projected along ω_i
@@ -426,21 +537,53 @@ BrdfRecord measure_brdf(const Scatterer& scatterer, const GoniometerConfig& conf
                     const Vec3d offset = radius * (std::cos(angle) * e1 + std::sin(angle) * e2);
                     const Vec2 position(offset.x() - offset.z() * group.wi.x() / group.wi.z(),
                                         offset.y() - offset.z() * group.wi.y() / group.wi.z());
-                    const auto event = scatterer.sample(
-                        group.wi, config.wavelengths_nm[item.wavelength], position, rng);
-                    if (!event || !(event->weight > 0.0)) continue;
-                    PLUMAGE_CHECK(std::isfinite(event->weight),
-                                  "non-finite quantum weight from " + scatterer.name());
+                    // both_cones: this quantum's light direction, by projected solid angle
+                    // over the source cone (goniometer.h, "Aperture").
+                    Vec3d wi = group.wi;
+                    if (config.aperture == Aperture::both_cones) {
+                        const double disc_r = std::sqrt(rng.uniform()),
+                                     disc_g = 2.0 * kPi * rng.uniform();
+                        wi = cone_direction_by_projected_area(
+                            group.wi, alpha, disc_r * std::cos(disc_g), disc_r * std::sin(disc_g));
+                    }
+                    Vec3d wo_event;
+                    int lobe = -1;
+                    if (shared) {
+                        const auto event =
+                            scatterer.sample_spectral(wi, config.wavelengths_nm, position, rng,
+                                                      std::span<double>(weights.data(), nl));
+                        if (!event) continue;
+                        wo_event = event->wo;
+                        lobe = event->lobe;
+                    } else {
+                        const auto event = scatterer.sample(
+                            wi, config.wavelengths_nm[item.wavelength], position, rng);
+                        if (!event || !(event->weight > 0.0)) continue;
+                        wo_event = event->wo;
+                        lobe = event->lobe;
+                        weights[0] = event->weight;
+                    }
+                    for (std::size_t k = 0; k < item_wavelengths; ++k)
+                        PLUMAGE_CHECK(std::isfinite(weights[k]),
+                                      "non-finite quantum weight from " + scatterer.name());
+                    const bool has_lobe = lobe >= 0 && static_cast<std::size_t>(lobe) < nlobes;
+                    const auto l = static_cast<std::size_t>(std::max(lobe, 0));
                     for (std::size_t j = 0; j < m; ++j) {
                         const Vec3d& wo = config.pairs[group.pairs[j]].wo;
-                        if (event->wo.dot(wo) < cos_alpha) continue;
-                        const double x = event->weight / (projected * wo.z());
-                        acc[j] += x;
-                        acc[m + j] += x * x;
-                        if (event->lobe >= 0 && static_cast<std::size_t>(event->lobe) < nlobes) {
-                            acc[(2 + static_cast<std::size_t>(event->lobe)) * m + j] += x;
-                            acc[(2 + nlobes + static_cast<std::size_t>(event->lobe)) * m + j] +=
-                                x * x;
+                        if (wo_event.dot(wo) < cos_alpha) continue;
+                        // Divided, not multiplied by a reciprocal: the same bits as before
+                        // spectral paths for the per-wavelength estimator.
+                        const double projected_wo = projected * wo.z();
+                        for (std::size_t k = 0; k < item_wavelengths; ++k) {
+                            if (!(weights[k] > 0.0)) continue;
+                            double* a = acc.data() + k * stride;
+                            const double x = weights[k] / projected_wo;
+                            a[j] += x;
+                            a[m + j] += x * x;
+                            if (has_lobe) {
+                                a[(2 + l) * m + j] += x;
+                                a[(2 + nlobes + l) * m + j] += x * x;
+                            }
                         }
                     }
                 }
@@ -466,13 +609,17 @@ BrdfRecord measure_brdf(const Scatterer& scatterer, const GoniometerConfig& conf
             const Item& item = items[it];
             const Group& group = groups[item.group];
             const std::size_t m = group.pairs.size();
-            for (std::size_t j = 0; j < m; ++j) {
-                const std::size_t cell = group.pairs[j] * nl + item.wavelength;
-                sums.sum[cell] += partial[it][j];
-                sums.sum_sq[cell] += partial[it][m + j];
-                for (std::size_t l = 0; l < nlobes; ++l) {
-                    sums.lobe_sum[l * np * nl + cell] += partial[it][(2 + l) * m + j];
-                    sums.lobe_sum_sq[l * np * nl + cell] += partial[it][(2 + nlobes + l) * m + j];
+            const std::size_t stride = m * (2 + 2 * nlobes);
+            for (std::size_t k = 0; k < item_wavelengths; ++k) {
+                const double* a = partial[it].data() + k * stride;
+                for (std::size_t j = 0; j < m; ++j) {
+                    const std::size_t cell = group.pairs[j] * nl + item.wavelength + k;
+                    sums.sum[cell] += a[j];
+                    sums.sum_sq[cell] += a[m + j];
+                    for (std::size_t l = 0; l < nlobes; ++l) {
+                        sums.lobe_sum[l * np * nl + cell] += a[(2 + l) * m + j];
+                        sums.lobe_sum_sq[l * np * nl + cell] += a[(2 + nlobes + l) * m + j];
+                    }
                 }
             }
         }
@@ -563,15 +710,45 @@ void write_brdf_record(const BrdfRecord& r, const std::filesystem::path& path) {
                      c.detector_half_angle_rad * 180.0 / kPi);
     h5.set_attribute("/instrument", "detector_solid_angle_sr", r.detector_solid_angle_sr);
     h5.set_attribute("/instrument", "beam_radius_um", c.beam_radius_um);
+    if (c.signal_fraction > 0.0)
+        h5.set_attribute("/instrument", "signal_fraction", c.signal_fraction);
+    h5.set_attribute(
+        "/instrument", "aperture",
+        c.aperture == Aperture::both_cones
+            ? "both_cones: the light from a cone of the detector's half-angle around the light "
+              "direction and the detector cone around the view, both cosine-weighted; f averaged "
+              "over both, symmetric under light <-> view (virtual_gonio/goniometer.h)"
+            : "view_cone: the light exactly along the light direction, f averaged over the "
+              "detector cone around the view, cosine-weighted (virtual_gonio/goniometer.h)");
+    if (r.estimator_used == Estimator::photon) {
+        h5.set_attribute("/instrument", "wavelength_paths",
+                         r.wavelength_paths_shared
+                             ? "shared: one path per quantum for every wavelength, re-weighted "
+                               "per wavelength (sim/tracer.h, spectral path sharing)"
+                             : "separate: one path per quantum and wavelength");
+    }
     h5.set_attribute("/instrument", "estimator",
                      r.estimator_used == Estimator::eval ? "eval" : "photon");
     write_polarisation(h5);
     h5.write("wavelength_nm", std::span<const double>(c.wavelengths_nm), Dims{nl},
              {{"units", "nm"}, {"description", "vacuum wavelengths of the measurement"}});
-    h5.write("brdf/value", std::span<const double>(r.value), Dims{np, nl},
-             {{"units", "1/sr"},
-              {"description",
-               "BRDF averaged over each detector cone (cosine-weighted), [pair, wavelength]"}});
+    h5.write(
+        "brdf/value", std::span<const double>(r.value), Dims{np, nl},
+        {{"units", "1/sr"},
+         {"description", c.aperture == Aperture::both_cones
+                             ? "BRDF averaged over each pair's source and detector cones (both "
+                               "cosine-weighted, instrument@aperture), [pair, wavelength]"
+                             : "BRDF averaged over each detector cone (cosine-weighted), [pair, "
+                               "wavelength]"}});
+    if (c.signal_fraction > 0.0 && r.signal_cells.size() == r.value.size()) {
+        h5.write("brdf/signal_cells", std::span<const std::uint8_t>(r.signal_cells), Dims{np, nl},
+                 {{"units", "1"},
+                  {"description",
+                   fmt::format("1: the cell counts in /convergence's estimated relative RMS "
+                               "error (value > 0 and value >= {} x the mean of the cells at its "
+                               "wavelength, instrument@signal_fraction), [pair, wavelength]",
+                               c.signal_fraction)}});
+    }
     h5.write(
         "brdf/standard_error", std::span<const double>(r.standard_error), Dims{np, nl},
         {{"units", "1/sr"},

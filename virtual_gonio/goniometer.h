@@ -5,21 +5,52 @@
 //
 // Geometry: the patch frame of sim/scatterer.h (+z normal). The light is a collimated
 // beam of radius beam_radius_um (its footprint on the patch is the beam's cross-section
-// projected along ω_i); each view direction has a detector: a cone of half-angle α
-// around it, solid angle Ω = 2π(1 − cos α), projected solid angle π sin²α cos θ_v.
+// projected along ω_i); each view direction has a detector: a cone C(ω_o) of half-angle α
+// around it, solid angle Ω = 2π(1 − cos α), projected solid angle
+// P(ω_o) = ∫_C cos θ dω = π sin²α cos θ_v (exact for a cone wholly above the patch plane).
+//
+// Aperture: what a cell is the average of.
+//  - view_cone (default, the historical instrument): the light exactly along ω_i, the
+//    detector cone around ω_o, cosine-weighted:
+//        f̄(ω_i, ω_o) = (1/P(ω_o)) ∫_{C(ω_o)} f(ω_i, ω) cos θ dω.
+//    NOT symmetric: for a lobe narrower than the cone, f̄(a, b) / f̄(b, a) → (cos θ_a /
+//    cos θ_b)² near the specular pair, so a reciprocal scatterer reads non-reciprocal.
+//  - both_cones (reciprocal): the light too comes from a cone of the same half-angle α
+//    around ω_i (an extended source of uniform radiance), each direction weighted by the
+//    irradiance it gives the patch (cos θ):
+//        f̄(ω_i, ω_o) = (1/(P(ω_i) P(ω_o))) ∫_{C(ω_i)} ∫_{C(ω_o)} f(ω', ω) cos θ' cos θ dω dω'.
+//    For a reciprocal f (f(a, b) = f(b, a)) this is symmetric under ω_i ↔ ω_o exactly (swap
+//    the integration variables). Both directions of a pair must then stay above the patch
+//    plane by the cone (cos θ > sin α); the beam footprint stays that of the central ω_i.
+//  Directions over a cone are drawn (or integrated) by projected solid angle through
+//  cone_direction_by_projected_area(): the cap C(a) projects orthographically onto the
+//  patch plane as an ellipse (centre cos α·a_xy, semi-axes sin α·cos θ_a radially and sin α
+//  across) of area P(a); a point uniform in it, lifted to the unit sphere, has density
+//  cos θ / P(a) over the cap (Malley's method restricted to the cap).
 //
 // Estimators:
 //  - photon: play quanta through sample() and count what enters each detector:
-//    f̂ = mean(weight · 1[ω_o ∈ cone]) / (π sin²α cos θ_v). Unbiased for the cone-averaged
-//    BRDF (cosine-weighted over the cone); works for every scatterer (the tracer too).
+//    f̂ = mean(weight · 1[ω_o ∈ cone]) / (π sin²α cos θ_v). Unbiased for the cell's
+//    average above; under both_cones each quantum first draws its own light direction ω'
+//    from C(ω_i) by projected solid angle (two uniforms from its stream after the beam
+//    position's). Works for every scatterer (the tracer too).
+//    With share_wavelength_paths (and a scatterer that can_share_paths(), sim/scatterer.h)
+//    a quantum is one path for every wavelength, carrying a weight per λ (sim/tracer.h,
+//    spectral path sharing), its stream seeded from (seed, light direction, quantum index)
+//    in streams the per-wavelength quanta do not use; each cell's estimate and standard
+//    error are as before (the quanta are independent; one quantum's λs are correlated).
 //    Standard errors from the per-quantum variance. Streams are seeded from (seed, light
 //    direction, wavelength, quantum index), and partial sums are combined in a fixed
 //    order: results do not depend on thread count, and a resumed run equals an
 //    uninterrupted one bit for bit.
-//  - eval: for scatterers that can evaluate f, the cone average by a product cubature
-//    (cosine-weighted; `eval_rings` Gauss rings in projected area × 2·rings azimuths);
-//    its error is estimated against the rule with half the rings. Deterministic. Narrow
-//    lobes (Huang's R) need more rings than smooth ones.
+//  - eval: for scatterers that can evaluate f, the cell's average by cubature; its error
+//    is estimated against the rule with half the rings. Deterministic. view_cone: a
+//    product rule over the detector cone (cosine-weighted; `eval_rings` Gauss rings in
+//    projected area × 2·rings azimuths). both_cones: the same product rule on the unit
+//    disc mapped onto both cones' ellipses (equal Jacobian, so the disc weights are the
+//    projected-solid-angle weights) and taken as a double sum, (2·rings²)² evaluations of
+//    f per cell and wavelength (1024 at the default 4 rings): fine for smooth models,
+//    expensive for Huang's. Narrow lobes (Huang's R) need more rings than smooth ones.
 //  automatic picks eval when available.
 #pragma once
 
@@ -29,6 +60,7 @@
 #include <functional>
 #include <limits>
 #include <string>
+#include <string_view>
 #include <vector>
 
 #include "common/interrupt.h"
@@ -40,6 +72,19 @@ namespace plumage::gonio {
 
 enum class Estimator { automatic, photon, eval };
 
+// See "Aperture" above. Study files: aperture = "view_cone" | "both_cones".
+enum class Aperture { view_cone, both_cones };
+const char* to_string(Aperture aperture);
+// InputError naming `key` (e.g. "[goniometer] aperture") unless text is one of the names.
+Aperture parse_aperture(std::string_view text, std::string_view key);
+
+// The direction at the point (d1, d2) of the unit disc (d1² + d2² <= 1) for the cone of
+// half-angle `half_angle_rad` around the unit vector `axis` (axis.z > sin(half_angle)):
+// uniform points of the disc give directions distributed over the cone by projected solid
+// angle, density cos θ / (π sin²α cos θ_axis). See "Aperture" above.
+Vec3d cone_direction_by_projected_area(const Vec3d& axis, double half_angle_rad, double d1,
+                                       double d2);
+
 struct GoniometerConfig {
     std::string direction_set = "custom";
     std::vector<DirectionPair> pairs;
@@ -48,12 +93,21 @@ struct GoniometerConfig {
     double beam_radius_um = 50.0;
     std::uint64_t seed = kDefaultSeed;
     Estimator estimator = Estimator::automatic;
+    Aperture aperture = Aperture::view_cone;
+    // Photon estimator, scatterers that can_share_paths() (the tracer), 2 … 64 wavelengths:
+    // one path per quantum for all wavelengths (sim/tracer.h); otherwise ignored.
+    bool share_wavelength_paths = false;
     std::uint64_t quanta_per_pass = 20000;  // per light direction and wavelength
     int max_passes = 100;
     double time_budget_s = std::numeric_limits<double>::infinity();
     double target_relative_error = 0.0;  // stop once the estimated relative RMS error is below
-    int eval_rings = 4;                  // eval estimator: cubature rings (see above)
-    std::string config_text;             // the study text, for provenance
+    // The cells that carry signal, over which the estimated relative RMS error (convergence
+    // table, target) is taken: value > 0 and value >= signal_fraction × the mean of all cells at
+    // the same wavelength, judged on the current estimate at every pass (the record stores the
+    // final set). 0: every cell with a positive value (the historical rule).
+    double signal_fraction = 0.0;
+    int eval_rings = 4;       // eval estimator: cubature rings (see above)
+    std::string config_text;  // the study text, for provenance
 
     void validate() const;  // InputError naming the field
 };
@@ -70,8 +124,10 @@ struct BrdfRecord {
     std::string scatterer;
     std::vector<std::string> lobes;
     Estimator estimator_used = Estimator::photon;
+    bool wavelength_paths_shared = false;  // share_wavelength_paths took effect
     // Row-major [pair][wavelength]; lobe_values [lobe][pair][wavelength], 1/sr.
     std::vector<double> value, standard_error, lobe_values, lobe_standard_error;
+    std::vector<std::uint8_t> signal_cells;  // [pair][wavelength]: 1 if in the error's set
     std::vector<ConvergenceRow> convergence;
     int passes = 0;
     std::uint64_t quanta = 0;

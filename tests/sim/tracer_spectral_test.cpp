@@ -1,0 +1,228 @@
+// Spectral path sharing (sim/tracer.h): one path for several wavelengths must give, at every
+// wavelength, the same expectations as one path per wavelength. Checked by a χ² test of the
+// two estimators on cells of (wavelength, lobe, hemisphere) and (wavelength, escape polar
+// angle), with their combined standard errors, on the rock-dove barbule row (film in air over
+// melanin: nothing depends on λ but the weights) and on a keratin sphere (dispersive
+// refraction: the hero wavelength carries the path); and through the goniometer on a patch,
+// cell by cell, with the same bits on 1 and 2 threads.
+#include <omp.h>
+
+#include <cmath>
+
+#include <gtest/gtest.h>
+
+#include "analysis/statistics.h"
+#include "common/constants.h"
+#include "common/error.h"
+#include "geometry/barbule.h"
+#include "sim/optics/material.h"
+#include "sim/tracer.h"
+#include "tests/sim/sim_test_util.h"
+#include "virtual_gonio/goniometer.h"
+
+namespace plumage::sim {
+namespace {
+
+const std::vector<double> kSeven = {400.0, 450.0, 500.0, 550.0, 600.0, 650.0, 700.0};
+constexpr int kThetaBins = 9;
+
+Vec3d from_angle(double theta_deg, double phi_deg = 0.0) {
+    const double t = theta_deg * kDeg, p = phi_deg * kDeg;
+    return {std::sin(t) * std::cos(p), std::sin(t) * std::sin(p), std::cos(t)};
+}
+
+// Σx and Σx² per cell: per wavelength, (lobe, up/down) then polar-angle bins of ω_o.
+struct Cells {
+    std::size_t per_wavelength;
+    std::vector<double> sum, sum_sq;
+    std::size_t quanta = 0;
+
+    Cells(std::size_t wavelengths, std::size_t lobes)
+        : per_wavelength(2 * lobes + kThetaBins),
+          sum(wavelengths * per_wavelength, 0.0),
+          sum_sq(wavelengths * per_wavelength, 0.0) {}
+    void add(std::size_t k, int lobe, const Vec3d& wo, double w) {
+        const std::size_t base = k * per_wavelength;
+        const std::size_t a = base + 2 * static_cast<std::size_t>(lobe) + (wo.z() > 0.0 ? 0 : 1);
+        const auto bin = std::min<std::size_t>(
+            kThetaBins - 1,
+            static_cast<std::size_t>(std::acos(std::clamp(wo.z(), -1.0, 1.0)) / kPi * kThetaBins));
+        for (std::size_t c : {a, base + per_wavelength - kThetaBins + bin}) {
+            sum[c] += w;
+            sum_sq[c] += w * w;
+        }
+    }
+    double mean(std::size_t c) const { return sum[c] / static_cast<double>(quanta); }
+    double error(std::size_t c) const {
+        const double n = static_cast<double>(quanta), m = mean(c);
+        return std::sqrt(std::max(0.0, sum_sq[c] / n - m * m) / (n - 1.0));
+    }
+};
+
+Vec2 position(const BeamFootprint& fp, Rng& rng) {
+    const double u = rng.uniform(), v = rng.uniform();
+    return fp.min_um + Vec2(u * (fp.max_um - fp.min_um).x(), v * (fp.max_um - fp.min_um).y());
+}
+
+Cells separate_paths(const ExplicitScatterer& tracer, const Vec3d& wi, const BeamFootprint& fp,
+                     std::size_t quanta) {
+    Cells cells(kSeven.size(), tracer.lobe_names().size());
+    cells.quanta = quanta;
+    for (std::size_t k = 0; k < kSeven.size(); ++k) {
+        for (std::size_t i = 0; i < quanta; ++i) {
+            Rng rng(11, (k << 40) + i);
+            const Vec2 p = position(fp, rng);
+            const auto e = tracer.sample(wi, kSeven[k], p, rng);
+            if (e) cells.add(k, e->lobe, e->wo, e->weight);
+        }
+    }
+    return cells;
+}
+
+Cells shared_paths(const ExplicitScatterer& tracer, const Vec3d& wi, const BeamFootprint& fp,
+                   std::size_t quanta, std::size_t* collapsed = nullptr) {
+    Cells cells(kSeven.size(), tracer.lobe_names().size());
+    cells.quanta = quanta;
+    std::vector<double> w(kSeven.size());
+    for (std::size_t i = 0; i < quanta; ++i) {
+        Rng rng(12, i);
+        const Vec2 p = position(fp, rng);
+        const PathResult path = tracer.trace_spectral(wi, kSeven, p, rng, w);
+        if (!path.event) continue;
+        std::size_t alive = 0;
+        for (std::size_t k = 0; k < kSeven.size(); ++k) {
+            alive += w[k] > 0.0;
+            cells.add(k, path.event->lobe, path.event->wo, w[k]);
+        }
+        if (collapsed != nullptr && alive == 1) ++*collapsed;
+    }
+    return cells;
+}
+
+// χ² of the two estimators over the cells either reaches; p-value and largest |z| against the
+// Šidák bound for a 1 % family-wise error.
+void expect_agreement(const Cells& a, const Cells& b, const std::string& what) {
+    double chi2 = 0.0, max_z = 0.0;
+    int dof = 0;
+    for (std::size_t c = 0; c < a.sum.size(); ++c) {
+        const double var = std::pow(a.error(c), 2) + std::pow(b.error(c), 2);
+        if (!(var > 0.0)) continue;
+        const double z = (a.mean(c) - b.mean(c)) / std::sqrt(var);
+        chi2 += z * z;
+        max_z = std::max(max_z, std::abs(z));
+        ++dof;
+    }
+    ASSERT_GT(dof, 30) << what;
+    const double p = analysis::chi_square_p_value(chi2, dof);
+    const double bound =
+        analysis::two_sided_normal_quantile(analysis::sidak_significance(0.01, dof));
+    EXPECT_GT(p, 1e-3) << what << ": chi2/dof " << chi2 / dof << " over " << dof;
+    EXPECT_LT(max_z, bound) << what;
+    ::testing::Test::RecordProperty(what + "_chi2_per_dof", std::to_string(chi2 / dof));
+    ::testing::Test::RecordProperty(what + "_max_z", std::to_string(max_z));
+}
+
+TEST(TracerSpectral, KeratinDispersionBendsRefractedRaysApart) {
+    // Why the hero is needed: keratin's n(λ) turns a ray refracted at 45° by a measurable angle
+    // between 400 and 700 nm, so a path through a keratin body cannot serve every λ.
+    const double n400 = optics::keratin()->index(400.0).real();
+    const double n700 = optics::keratin()->index(700.0).real();
+    const double s = std::sin(45.0 * kDeg);
+    const double spread = std::asin(s / n700) - std::asin(s / n400);
+    RecordProperty("refraction_spread_deg", std::to_string(spread / kDeg));
+    EXPECT_GT(spread, 1e-3);
+}
+
+TEST(TracerSpectral, SharedPathsMatchSeparatePathsOnTheRockDoveRow) {
+    const geometry::BarbuleRow row = geometry::build_barbule_row({}, {0.01, 0.02});
+    const ExplicitScatterer tracer(barbule_row_scene(row));
+    const double period = row.params.H * row.params.cell.semi_major_um;
+    const BeamFootprint fp{{-period, -30.0}, {period, 30.0}};
+    for (double theta : {10.0, 50.0}) {
+        const Vec3d wi = from_angle(theta, 20.0);
+        std::size_t collapsed = 0;
+        const Cells shared = shared_paths(tracer, wi, fp, 20000, &collapsed);
+        expect_agreement(separate_paths(tracer, wi, fp, 20000), shared,
+                         "rock_dove_" + std::to_string(static_cast<int>(theta)));
+        // Film in air and a diffuse layer: no path needs its hero (absorption aside).
+        EXPECT_LT(collapsed, 200u);
+    }
+}
+
+TEST(TracerSpectral, HeroWavelengthKeepsADispersiveSphereUnbiased) {
+    const ExplicitScatterer tracer(single_mesh_scene(
+        testing::sphere_mesh(10.0, 4), dielectric_interface(optics::keratin()), "keratin sphere"));
+    const Vec3d wi = from_angle(20.0, 30.0);
+    const double shift = tracer.top_z_um() * std::tan(20.0 * kDeg);
+    const Vec2 centre = shift * Vec2(std::cos(kPi / 6.0), std::sin(kPi / 6.0));
+    const BeamFootprint fp{centre - Vec2(11.0, 11.0), centre + Vec2(11.0, 11.0)};
+    std::size_t collapsed = 0;
+    const Cells shared = shared_paths(tracer, wi, fp, 30000, &collapsed);
+    expect_agreement(separate_paths(tracer, wi, fp, 30000), shared, "keratin_sphere");
+    EXPECT_GT(collapsed, 10000u);  // most quanta meet the sphere: their hero carries them
+}
+
+TEST(TracerSpectral, RefusesBadRequests) {
+    const ExplicitScatterer tracer(barbule_row_scene(geometry::build_barbule_row({}, {0.1, 0.2})));
+    Rng rng(1, 1);
+    std::vector<double> w(2);
+    EXPECT_THROW(tracer.sample_spectral(Vec3d::UnitZ(), kSeven, Vec2::Zero(), rng, w), InputError);
+    std::vector<double> none;
+    EXPECT_THROW(tracer.sample_spectral(Vec3d::UnitZ(), none, Vec2::Zero(), rng, none), InputError);
+    const std::vector<double> bad = {550.0, -1.0};
+    EXPECT_THROW(tracer.sample_spectral(Vec3d::UnitZ(), bad, Vec2::Zero(), rng, w), InputError);
+}
+
+gonio::GoniometerConfig patch_config(bool share) {
+    gonio::GoniometerConfig c;
+    c.pairs = gonio::filip2024_in_plane_pairs();
+    c.wavelengths_nm = kSeven;
+    c.detector_half_angle_rad = 8.0 * kDeg;
+    c.beam_radius_um = 20.0;
+    c.estimator = gonio::Estimator::photon;
+    c.share_wavelength_paths = share;
+    c.seed = 3;
+    c.quanta_per_pass = 6000;
+    c.max_passes = 1;
+    return c;
+}
+
+TEST(TracerSpectral, GoniometerCellsAgreeAndDoNotDependOnThreads) {
+    geometry::BarbuleRowParams params;
+    params.barbules = 12;
+    params.cells_per_barbule = 8;
+    const ExplicitScatterer patch(
+        barbule_row_scene(geometry::build_barbule_row(params, {0.01, 0.02})));
+    const int before = omp_get_max_threads();
+    omp_set_num_threads(1);
+    const gonio::BrdfRecord one = gonio::measure_brdf(patch, patch_config(true));
+    omp_set_num_threads(2);
+    const gonio::BrdfRecord two = gonio::measure_brdf(patch, patch_config(true));
+    const gonio::BrdfRecord separate = gonio::measure_brdf(patch, patch_config(false));
+    omp_set_num_threads(before);
+    EXPECT_TRUE(one.wavelength_paths_shared);
+    EXPECT_FALSE(separate.wavelength_paths_shared);
+    EXPECT_EQ(one.value, two.value);
+    EXPECT_EQ(one.standard_error, two.standard_error);
+    EXPECT_EQ(one.lobe_values, two.lobe_values);
+    double chi2 = 0.0, max_z = 0.0;
+    int dof = 0;
+    for (std::size_t i = 0; i < one.value.size(); ++i) {
+        const double var =
+            std::pow(one.standard_error[i], 2) + std::pow(separate.standard_error[i], 2);
+        if (!(var > 0.0)) continue;
+        const double z = (one.value[i] - separate.value[i]) / std::sqrt(var);
+        chi2 += z * z;
+        max_z = std::max(max_z, std::abs(z));
+        ++dof;
+    }
+    ASSERT_GT(dof, 300);
+    RecordProperty("cells", std::to_string(dof));
+    RecordProperty("chi2_per_dof", std::to_string(chi2 / dof));
+    RecordProperty("max_z", std::to_string(max_z));
+    EXPECT_GT(analysis::chi_square_p_value(chi2, dof), 1e-3) << chi2 / dof;
+    EXPECT_LT(max_z, analysis::two_sided_normal_quantile(analysis::sidak_significance(0.01, dof)));
+}
+
+}  // namespace
+}  // namespace plumage::sim
