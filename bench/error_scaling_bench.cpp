@@ -2,12 +2,13 @@
 // the rock-dove patch through the goniometer's photon estimator, on subsets of the 61 × 60
 // Filip 2024 set, on 1 to 7 wavelengths and on patches of 1/4 to 4 times the area, each
 // projected to 1 % from a few passes by the measured 1/√t convergence,
-// t(1 %) = t · (ε / 1 %)², ε the record's estimated relative RMS error over its cells with
-// signal. One axis varies at a time; the exponent of each is the least-squares slope of
-// log t(1 %) against log n. Not a Google Benchmark program: the figures are a table and its
-// fits, not a rate.
+// t(1 %) = t · (ε / 1 %)², ε the record's estimated relative RMS error over its signal cells
+// (value ≥ 10 % of the mean at that wavelength, GoniometerConfig::signal_fraction), with the
+// wavelengths sharing their paths (share_wavelength_paths) unless --separate. One axis varies at a
+// time; the exponent of each is the least-squares slope of log t(1 %) against log n. Not a Google
+// Benchmark program: the figures are a table and its fits, not a rate.
 //
-//   build/bench/plumage_bench_error_scaling [--quick] [--csv FILE]
+//   build/bench/plumage_bench_error_scaling [--quick] [--separate] [--csv FILE]
 //
 // --quick runs each point with a tenth of the quanta (a smoke test of the program; its
 // projections are noisier).
@@ -39,7 +40,7 @@ struct Point {
 // 0.6 × 0.6 mm), beam radius 60 µm, 5° detectors, 550 nm. `scale` multiplies the patch's
 // side and the beam's radius alike, so the lit share of the patch stays the same.
 Point measure(const std::string& axis, double n, std::size_t lights, std::size_t wavelengths,
-              double scale, std::uint64_t quanta) {
+              double scale, std::uint64_t quanta, bool shared) {
     geometry::BarbuleRowParams row;
     row.barbules = static_cast<int>(std::lround(48 * scale));
     row.cells_per_barbule = static_cast<int>(std::lround(30 * scale));
@@ -61,6 +62,8 @@ Point measure(const std::string& axis, double n, std::size_t lights, std::size_t
     c.estimator = Estimator::photon;
     c.quanta_per_pass = quanta;
     c.max_passes = 2;
+    c.share_wavelength_paths = shared;
+    c.signal_fraction = 0.1;
     const BrdfRecord r = measure_brdf(patch, c);
     const double error = r.convergence.back().estimated_relative_rms_error;
     return {axis,
@@ -90,28 +93,31 @@ double exponent(const std::vector<Point>& points, const std::string& axis) {
 
 int main(int argc, char** argv) {
     using namespace plumage::gonio;
-    bool quick = false;
+    bool quick = false, shared = true;
     std::string csv;
     for (int i = 1; i < argc; ++i) {
         const std::string a = argv[i];
         if (a == "--quick") {
             quick = true;
+        } else if (a == "--separate") {
+            shared = false;
         } else if (a == "--csv" && i + 1 < argc) {
             csv = argv[++i];
         } else {
-            std::fprintf(stderr, "usage: %s [--quick] [--csv FILE]\n", argv[0]);
+            std::fprintf(stderr, "usage: %s [--quick] [--separate] [--csv FILE]\n", argv[0]);
             return 2;
         }
     }
     const std::uint64_t quanta = quick ? 2000 : 20000;
     std::vector<Point> points;
     for (std::size_t lights : {8u, 15u, 30u, 61u})
-        points.push_back(
-            measure("light directions", static_cast<double>(lights), lights, 1, 1.0, quanta));
+        points.push_back(measure("light directions", static_cast<double>(lights), lights, 1, 1.0,
+                                 quanta, shared));
     for (std::size_t wl : {1u, 3u, 7u})
-        points.push_back(measure("wavelengths", static_cast<double>(wl), 61, wl, 1.0, quanta));
+        points.push_back(
+            measure("wavelengths", static_cast<double>(wl), 61, wl, 1.0, quanta, shared));
     for (double scale : {0.5, 1.0, 2.0})
-        points.push_back(measure("patch area", scale * scale, 61, 1, scale, quanta));
+        points.push_back(measure("patch area", scale * scale, 61, 1, scale, quanta, shared));
 
     fmt::print(
         "| axis | value | pairs | wavelengths | patch side (µm) | wall (s) | ε | t(1 %) (s) |\n"

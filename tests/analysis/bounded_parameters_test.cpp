@@ -26,7 +26,9 @@ TEST(BoundedParameters, VariableOfParameterRoundTrips) {
         EXPECT_GE(p, kRange.min);
         EXPECT_LE(p, kRange.max);
         // Far out, p rounds onto its bound and the inset takes over.
-        if (std::abs(u) < 15.0) EXPECT_NEAR(kRange.variable(p), u, 1e-8 * (1.0 + std::abs(u)));
+        if (std::abs(u) < 15.0) {
+            EXPECT_NEAR(kRange.variable(p), u, 1e-8 * (1.0 + std::abs(u)));
+        }
     }
 }
 

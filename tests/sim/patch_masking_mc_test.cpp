@@ -231,7 +231,9 @@ TEST(PatchMaskingMonteCarlo, ConvergesToTheAuthorsTermAsBarbulesShrink) {
             "[ info ] fibres %.2f um thick: max |MC - authors' term| %.2e (%.2f of the "
             "sampling bound)\n",
             p.barbule_axis_ratio * p.barbule_width_um, largest, largest_excess);
-        if (scale == 0.0625) EXPECT_LE(largest_excess, 1.0) << "thinnest fibres";
+        if (scale == 0.0625) {
+            EXPECT_LE(largest_excess, 1.0) << "thinnest fibres";
+        }
     }
     EXPECT_GE(worst[0] / worst[1], 2.5);
     EXPECT_LT(worst[2], worst[1]);
