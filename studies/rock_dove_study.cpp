@@ -68,6 +68,9 @@ struct Settings {
     double detector_half_angle = 5.0 * kDeg;
     std::uint64_t gonio_quanta = 20000;
     int gonio_passes = 2;
+    // One traced path per quantum for every wavelength (GoniometerConfig::share_wavelength_paths):
+    // the rock dove's film lies in air, so no path needs a hero wavelength.
+    bool share_wavelength_paths = false;
     double time_budget_s = std::numeric_limits<double>::infinity();  // per measurement
     double target_relative_error = 0.0;
     // validation and convergence
@@ -130,6 +133,9 @@ void read_goniometer(ParameterTable go, Settings& s) {
                    "quanta per light direction, wavelength and pass"));
     s.gonio_passes =
         static_cast<int>(go.integer("passes", s.gonio_passes, 1, 1000, "passes (at most)"));
+    s.share_wavelength_paths =
+        go.boolean("share_wavelength_paths", s.share_wavelength_paths,
+                   "trace one path per quantum for all wavelengths (true) or one per wavelength");
 }
 
 // [validation]
@@ -384,6 +390,7 @@ gonio::GoniometerConfig goniometer_config(const Run& run) {
     g.target_relative_error = s.target_relative_error;
     g.config_text = run.study_text;
     g.estimator = gonio::Estimator::photon;
+    g.share_wavelength_paths = s.share_wavelength_paths;
     return g;
 }
 

@@ -237,8 +237,9 @@ MeasurementCost scatterogram_cost(const std::string& measurement, const gonio::S
 MeasurementCost brdf_cost(const std::string& measurement, const gonio::BrdfRecord& r) {
     const bool photon = r.estimator_used == gonio::Estimator::photon;
     const std::string samples =
-        photon ? fmt::format("photon estimator, {} quanta/λ per light × {} pass{}", r.quanta,
-                             r.passes, r.passes == 1 ? "" : "es")
+        photon ? fmt::format("photon estimator, {} quanta/λ per light × {} pass{}{}",
+                             r.config.quanta_per_pass, r.passes, r.passes == 1 ? "" : "es",
+                             r.wavelength_paths_shared ? ", wavelengths sharing paths" : "")
                : fmt::format("eval cubature, {} rings per cone", r.config.eval_rings);
     const double error = r.convergence.empty() ? std::numeric_limits<double>::quiet_NaN()
                                                : r.convergence.back().estimated_relative_rms_error;

@@ -495,115 +495,94 @@ BrdfRecord measure_brdf(const Scatterer& scatterer, const GoniometerConfig& conf
                     items.push_back(
                         {g, k, first, std::min(kChunk, config.quanta_per_pass - c * kChunk)});
                 }
-        // Per item: its cells' partial sums, in the group's pair order. Under MPI the items are
-        // dealt in blocks over the ranks and every rank gets all of them back (rank 0 polls the
-        // interrupt between blocks); alone, one block holds them all and is not copied.
+        // Per item: its cells' partial sums, in the group's pair order. Alone every item runs
+        // here on every thread; under MPI they are dealt over the ranks and every rank gets all
+        // of them back (common/distributed.h, run_items).
         std::vector<std::vector<double>> partial(items.size());
-        std::atomic<bool> abandoned{false};
-        const bool alone = !distributed::active();
-        const std::size_t blocks =
-            alone ? 1
-                  : std::min(items.size(),
-                             kBlocksPerRank * static_cast<std::size_t>(distributed::size()));
-        auto block = [&](std::size_t b) {
-            const std::size_t lo = b * items.size() / blocks, hi = (b + 1) * items.size() / blocks;
-#pragma omp parallel for schedule(dynamic, 1)
-            for (std::size_t it = lo; it < hi; ++it) {
-                if (abandoned.load(std::memory_order_relaxed)) continue;
-                if (alone && control.interrupt != nullptr && control.interrupt->load()) {
-                    abandoned.store(true);
-                    continue;
+        auto play_item = [&](std::size_t it) {
+            const Item& item = items[it];
+            const Group& group = groups[item.group];
+            const std::size_t m = group.pairs.size();
+            std::vector<double>& acc = partial[it];
+            // Per wavelength of the item: Σx, Σx², then Σx and Σx² per lobe.
+            const std::size_t stride = m * (2 + 2 * nlobes);
+            acc.assign(item_wavelengths * stride, 0.0);
+            Vec3d e1, e2;
+            orthonormal_frame(group.wi, e1, e2);
+            // Shared paths draw from streams no per-wavelength item uses.
+            const std::uint64_t stream =
+                (shared ? groups.size() * nl + item.group : item.group * nl + item.wavelength)
+                << 40;
+            std::array<double, Scatterer::kMaxSharedWavelengths> weights{};
+            for (std::uint64_t q = item.first; q < item.first + item.count; ++q) {
+                Rng rng(config.seed, stream + q);
+                // Beam position: uniform over the beam's cross-section, projected along ω_i
+                // onto the patch plane.
+                const double radius = config.beam_radius_um * std::sqrt(rng.uniform());
+                const double angle = 2.0 * kPi * rng.uniform();
+                const Vec3d offset = radius * (std::cos(angle) * e1 + std::sin(angle) * e2);
+                const Vec2 position(offset.x() - offset.z() * group.wi.x() / group.wi.z(),
+                                    offset.y() - offset.z() * group.wi.y() / group.wi.z());
+                // both_cones: this quantum's light direction, by projected solid angle
+                // over the source cone (goniometer.h, "Aperture").
+                Vec3d wi = group.wi;
+                if (config.aperture == Aperture::both_cones) {
+                    const double disc_r = std::sqrt(rng.uniform()),
+                                 disc_g = 2.0 * kPi * rng.uniform();
+                    wi = cone_direction_by_projected_area(
+                        group.wi, alpha, disc_r * std::cos(disc_g), disc_r * std::sin(disc_g));
                 }
-                const Item& item = items[it];
-                const Group& group = groups[item.group];
-                const std::size_t m = group.pairs.size();
-                std::vector<double>& acc = partial[it];
-                // Per wavelength of the item: Σx, Σx², then Σx and Σx² per lobe.
-                const std::size_t stride = m * (2 + 2 * nlobes);
-                acc.assign(item_wavelengths * stride, 0.0);
-                Vec3d e1, e2;
-                orthonormal_frame(group.wi, e1, e2);
-                // Shared paths draw from streams no per-wavelength item uses.
-                const std::uint64_t stream =
-                    (shared ? groups.size() * nl + item.group : item.group * nl + item.wavelength)
-                    << 40;
-                std::array<double, Scatterer::kMaxSharedWavelengths> weights{};
-                for (std::uint64_t q = item.first; q < item.first + item.count; ++q) {
-                    Rng rng(config.seed, stream + q);
-                    // Beam position: uniform over the beam's cross-section, projected along ω_i
-                    // onto the patch plane.
-                    const double radius = config.beam_radius_um * std::sqrt(rng.uniform());
-                    const double angle = 2.0 * kPi * rng.uniform();
-                    const Vec3d offset = radius * (std::cos(angle) * e1 + std::sin(angle) * e2);
-                    const Vec2 position(offset.x() - offset.z() * group.wi.x() / group.wi.z(),
-                                        offset.y() - offset.z() * group.wi.y() / group.wi.z());
-                    // both_cones: this quantum's light direction, by projected solid angle
-                    // over the source cone (goniometer.h, "Aperture").
-                    Vec3d wi = group.wi;
-                    if (config.aperture == Aperture::both_cones) {
-                        const double disc_r = std::sqrt(rng.uniform()),
-                                     disc_g = 2.0 * kPi * rng.uniform();
-                        wi = cone_direction_by_projected_area(
-                            group.wi, alpha, disc_r * std::cos(disc_g), disc_r * std::sin(disc_g));
-                    }
-                    Vec3d wo_event;
-                    int lobe = -1;
-                    if (shared) {
-                        const auto event =
-                            scatterer.sample_spectral(wi, config.wavelengths_nm, position, rng,
-                                                      std::span<double>(weights.data(), nl));
-                        if (!event) continue;
-                        wo_event = event->wo;
-                        lobe = event->lobe;
-                    } else {
-                        const auto event = scatterer.sample(
-                            wi, config.wavelengths_nm[item.wavelength], position, rng);
-                        if (!event || !(event->weight > 0.0)) continue;
-                        wo_event = event->wo;
-                        lobe = event->lobe;
-                        weights[0] = event->weight;
-                    }
-                    for (std::size_t k = 0; k < item_wavelengths; ++k)
-                        PLUMAGE_CHECK(std::isfinite(weights[k]),
-                                      "non-finite quantum weight from " + scatterer.name());
-                    const bool has_lobe = lobe >= 0 && static_cast<std::size_t>(lobe) < nlobes;
-                    const auto l = static_cast<std::size_t>(std::max(lobe, 0));
-                    for (std::size_t j = 0; j < m; ++j) {
-                        const Vec3d& wo = config.pairs[group.pairs[j]].wo;
-                        if (wo_event.dot(wo) < cos_alpha) continue;
-                        // Divided, not multiplied by a reciprocal: the same bits as before
-                        // spectral paths for the per-wavelength estimator.
-                        const double projected_wo = projected * wo.z();
-                        for (std::size_t k = 0; k < item_wavelengths; ++k) {
-                            if (!(weights[k] > 0.0)) continue;
-                            double* a = acc.data() + k * stride;
-                            const double x = weights[k] / projected_wo;
-                            a[j] += x;
-                            a[m + j] += x * x;
-                            if (has_lobe) {
-                                a[(2 + l) * m + j] += x;
-                                a[(2 + nlobes + l) * m + j] += x * x;
-                            }
+                Vec3d wo_event;
+                int lobe = -1;
+                if (shared) {
+                    const auto event =
+                        scatterer.sample_spectral(wi, config.wavelengths_nm, position, rng,
+                                                  std::span<double>(weights.data(), nl));
+                    if (!event) continue;
+                    wo_event = event->wo;
+                    lobe = event->lobe;
+                } else {
+                    const auto event =
+                        scatterer.sample(wi, config.wavelengths_nm[item.wavelength], position, rng);
+                    if (!event || !(event->weight > 0.0)) continue;
+                    wo_event = event->wo;
+                    lobe = event->lobe;
+                    weights[0] = event->weight;
+                }
+                for (std::size_t k = 0; k < item_wavelengths; ++k)
+                    PLUMAGE_CHECK(std::isfinite(weights[k]),
+                                  "non-finite quantum weight from " + scatterer.name());
+                const bool has_lobe = lobe >= 0 && static_cast<std::size_t>(lobe) < nlobes;
+                const auto l = static_cast<std::size_t>(std::max(lobe, 0));
+                for (std::size_t j = 0; j < m; ++j) {
+                    const Vec3d& wo = config.pairs[group.pairs[j]].wo;
+                    if (wo_event.dot(wo) < cos_alpha) continue;
+                    // Divided, not multiplied by a reciprocal: the same bits as before
+                    // spectral paths for the per-wavelength estimator.
+                    const double projected_wo = projected * wo.z();
+                    for (std::size_t k = 0; k < item_wavelengths; ++k) {
+                        if (!(weights[k] > 0.0)) continue;
+                        double* a = acc.data() + k * stride;
+                        const double x = weights[k] / projected_wo;
+                        a[j] += x;
+                        a[m + j] += x * x;
+                        if (has_lobe) {
+                            a[(2 + l) * m + j] += x;
+                            a[(2 + nlobes + l) * m + j] += x * x;
                         }
                     }
                 }
             }
-            Bytes sums_of_block;
-            if (!alone)
-                for (std::size_t it = lo; it < hi; ++it) sums_of_block.put_vector(partial[it]);
-            return sums_of_block;
         };
-        distributed::ChunkOptions dealing;
-        dealing.interrupt = control.interrupt;
-        distributed::ChunkResults dealt = distributed::deal_chunks(blocks, block, dealing);
-        if (abandoned.load() || dealt.interrupted) {
+        distributed::ItemTransport transport;
+        transport.pack = [&](std::size_t it, Bytes& out) { out.put_vector(partial[it]); };
+        transport.unpack = [&](std::size_t it, Bytes& in) {
+            partial[it] = in.get_vector<double>();
+        };
+        if (!distributed::run_items(items.size(), play_item, transport, control.interrupt,
+                                    kBlocksPerRank)) {
             r.interrupted = true;
             break;  // the unfinished pass is discarded; the checkpoint holds the last one
-        }
-        for (std::size_t b = 0; b < blocks && !alone; ++b) {
-            for (std::size_t it = b * items.size() / blocks; it < (b + 1) * items.size() / blocks;
-                 ++it)
-                partial[it] = dealt.results[b].get_vector<double>();
         }
         for (std::size_t it = 0; it < items.size(); ++it) {
             const Item& item = items[it];
