@@ -80,6 +80,135 @@ struct Sums {
     std::vector<double> sum, sum_sq, lobe_sum, lobe_sum_sq;
 };
 
+// A work item of the photon estimator: quanta [first, first + count) of one light direction's
+// group and one wavelength (or every wavelength, shared).
+struct PhotonItem {
+    std::size_t group, wavelength;
+    std::uint64_t first, count;
+};
+
+// Plays one work item's quanta (one light direction; one wavelength, or all of them when the
+// wavelengths share paths) into acc: per wavelength of the item, Σx, Σx², then Σx and Σx² per
+// lobe, in the group's pair order. Its streams: (seed, group × wavelength item, quantum).
+void play_item(const Scatterer& scatterer, const GoniometerConfig& config,
+               const std::vector<Group>& groups, const PhotonItem& item, std::size_t nlobes,
+               bool shared, std::vector<double>& acc) {
+    const std::size_t nl = config.wavelengths_nm.size(), item_wavelengths = shared ? nl : 1;
+    const double alpha = config.detector_half_angle_rad, cos_alpha = std::cos(alpha);
+    const double projected = kPi * std::pow(std::sin(alpha), 2);  // × cos θ_v per pair
+    const Group& group = groups[item.group];
+    const std::size_t m = group.pairs.size();
+    // Per wavelength of the item: Σx, Σx², then Σx and Σx² per lobe.
+    const std::size_t stride = m * (2 + 2 * nlobes);
+    acc.assign(item_wavelengths * stride, 0.0);
+    Vec3d e1, e2;
+    orthonormal_frame(group.wi, e1, e2);
+    // Shared paths draw from streams no per-wavelength item uses.
+    const std::uint64_t stream =
+        (shared ? groups.size() * nl + item.group : item.group * nl + item.wavelength) << 40;
+    std::array<double, Scatterer::kMaxSharedWavelengths> weights{};
+    for (std::uint64_t q = item.first; q < item.first + item.count; ++q) {
+        Rng rng(config.seed, stream + q);
+        // Beam position: uniform over the beam's cross-section, projected along ω_i
+        // onto the patch plane.
+        const double radius = config.beam_radius_um * std::sqrt(rng.uniform());
+        const double angle = 2.0 * kPi * rng.uniform();
+        const Vec3d offset = radius * (std::cos(angle) * e1 + std::sin(angle) * e2);
+        const Vec2 position(offset.x() - offset.z() * group.wi.x() / group.wi.z(),
+                            offset.y() - offset.z() * group.wi.y() / group.wi.z());
+        // both_cones: this quantum's light direction, by projected solid angle
+        // over the source cone (goniometer.h, "Aperture").
+        Vec3d wi = group.wi;
+        if (config.aperture == Aperture::both_cones) {
+            const double disc_r = std::sqrt(rng.uniform()), disc_g = 2.0 * kPi * rng.uniform();
+            wi = cone_direction_by_projected_area(group.wi, alpha, disc_r * std::cos(disc_g),
+                                                  disc_r * std::sin(disc_g));
+        }
+        Vec3d wo_event;
+        int lobe = -1;
+        if (shared) {
+            const auto event = scatterer.sample_spectral(wi, config.wavelengths_nm, position, rng,
+                                                         std::span<double>(weights.data(), nl));
+            if (!event) continue;
+            wo_event = event->wo;
+            lobe = event->lobe;
+        } else {
+            const auto event =
+                scatterer.sample(wi, config.wavelengths_nm[item.wavelength], position, rng);
+            if (!event || !(event->weight > 0.0)) continue;
+            wo_event = event->wo;
+            lobe = event->lobe;
+            weights[0] = event->weight;
+        }
+        for (std::size_t k = 0; k < item_wavelengths; ++k)
+            PLUMAGE_CHECK(std::isfinite(weights[k]),
+                          "non-finite quantum weight from " + scatterer.name());
+        const bool has_lobe = lobe >= 0 && static_cast<std::size_t>(lobe) < nlobes;
+        const auto l = static_cast<std::size_t>(std::max(lobe, 0));
+        for (std::size_t j = 0; j < m; ++j) {
+            const Vec3d& wo = config.pairs[group.pairs[j]].wo;
+            if (wo_event.dot(wo) < cos_alpha) continue;
+            // Divided, not multiplied by a reciprocal: the same bits as before
+            // spectral paths for the per-wavelength estimator.
+            const double projected_wo = projected * wo.z();
+            for (std::size_t k = 0; k < item_wavelengths; ++k) {
+                if (!(weights[k] > 0.0)) continue;
+                double* a = acc.data() + k * stride;
+                const double x = weights[k] / projected_wo;
+                a[j] += x;
+                a[m + j] += x * x;
+                if (has_lobe) {
+                    a[(2 + l) * m + j] += x;
+                    a[(2 + nlobes + l) * m + j] += x * x;
+                }
+            }
+        }
+    }
+}
+
+// A work item's partial sums (per wavelength of the item, in the group's pair order: Σx, Σx²,
+// then Σx and Σx² per lobe) added into the run's sums; items are added in item order.
+void add_item_sums(const std::vector<double>& partial, const Group& group, std::size_t wavelength,
+                   std::size_t item_wavelengths, std::size_t nl, std::size_t nlobes, Sums& sums) {
+    const std::size_t m = group.pairs.size(), cells = sums.sum.size();
+    const std::size_t stride = m * (2 + 2 * nlobes);
+    for (std::size_t k = 0; k < item_wavelengths; ++k) {
+        const double* a = partial.data() + k * stride;
+        for (std::size_t j = 0; j < m; ++j) {
+            const std::size_t cell = group.pairs[j] * nl + wavelength + k;
+            sums.sum[cell] += a[j];
+            sums.sum_sq[cell] += a[m + j];
+            for (std::size_t l = 0; l < nlobes; ++l) {
+                sums.lobe_sum[l * cells + cell] += a[(2 + l) * m + j];
+                sums.lobe_sum_sq[l * cells + cell] += a[(2 + nlobes + l) * m + j];
+            }
+        }
+    }
+}
+
+// The record's values and standard errors, total and per lobe, from the sums of n quanta per
+// light direction and wavelength: the mean and the standard error of the mean.
+void estimate_from_sums(const Sums& sums, std::uint64_t n, BrdfRecord& r) {
+    const std::size_t cells = sums.sum.size();
+    r.value.assign(cells, 0.0);
+    r.standard_error.assign(cells, 0.0);
+    r.lobe_values.assign(sums.lobe_sum.size(), 0.0);
+    const double dn = static_cast<double>(n);
+    for (std::size_t i = 0; i < cells; ++i) {
+        const double mean = sums.sum[i] / dn;
+        r.value[i] = mean;
+        r.standard_error[i] =
+            std::sqrt(std::max(0.0, sums.sum_sq[i] / dn - mean * mean) / std::max(1.0, dn - 1.0));
+    }
+    r.lobe_standard_error.assign(sums.lobe_sum.size(), 0.0);
+    for (std::size_t i = 0; i < r.lobe_values.size(); ++i) {
+        r.lobe_values[i] = sums.lobe_sum[i] / dn;
+        r.lobe_standard_error[i] = std::sqrt(
+            std::max(0.0, sums.lobe_sum_sq[i] / dn - r.lobe_values[i] * r.lobe_values[i]) /
+            std::max(1.0, dn - 1.0));
+    }
+}
+
 // The cells that carry signal (GoniometerConfig::signal_fraction): value >= fraction × the
 // mean of the cells at the same wavelength, and > 0. Row-major [pair][wavelength], 1 or 0.
 std::vector<std::uint8_t> signal_cells(const std::vector<double>& value, std::size_t nl,
@@ -427,8 +556,6 @@ BrdfRecord measure_brdf(const Scatterer& scatterer, const GoniometerConfig& conf
     // Spectral path sharing (goniometer.h): one item, one path per quantum for every λ.
     const bool shared = r.wavelength_paths_shared;
     const std::size_t item_wavelengths = shared ? nl : 1;
-    const double alpha = config.detector_half_angle_rad, cos_alpha = std::cos(alpha);
-    const double projected = kPi * std::pow(std::sin(alpha), 2);  // × cos θ_v per pair
     const std::uint64_t hash = fnv1a(canonical(config, r.scatterer, r.estimator_used));
 
     Sums sums{std::vector<double>(np * nl, 0.0), std::vector<double>(np * nl, 0.0),
@@ -443,31 +570,10 @@ BrdfRecord measure_brdf(const Scatterer& scatterer, const GoniometerConfig& conf
     const double previous_wall = resumed ? r.wall_time_s : 0.0;
     const double previous_cpu = resumed ? r.cpu_time_s : 0.0;
 
-    // Work items: (group, wavelength, chunk) — reduced in this order.
-    struct Item {
-        std::size_t group, wavelength;
-        std::uint64_t first, count;
-    };
     const std::uint64_t chunks = (config.quanta_per_pass + kChunk - 1) / kChunk;
     auto finish_row = [&](int pass) {
         const std::uint64_t n = static_cast<std::uint64_t>(pass) * config.quanta_per_pass;
-        r.value.assign(np * nl, 0.0);
-        r.standard_error.assign(np * nl, 0.0);
-        r.lobe_values.assign(nlobes * np * nl, 0.0);
-        const double dn = static_cast<double>(n);
-        for (std::size_t i = 0; i < np * nl; ++i) {
-            const double mean = sums.sum[i] / dn;
-            r.value[i] = mean;
-            r.standard_error[i] = std::sqrt(std::max(0.0, sums.sum_sq[i] / dn - mean * mean) /
-                                            std::max(1.0, dn - 1.0));
-        }
-        r.lobe_standard_error.assign(nlobes * np * nl, 0.0);
-        for (std::size_t i = 0; i < r.lobe_values.size(); ++i) {
-            r.lobe_values[i] = sums.lobe_sum[i] / dn;
-            r.lobe_standard_error[i] = std::sqrt(
-                std::max(0.0, sums.lobe_sum_sq[i] / dn - r.lobe_values[i] * r.lobe_values[i]) /
-                std::max(1.0, dn - 1.0));
-        }
+        estimate_from_sums(sums, n, r);
         r.quanta = n;
         r.wall_time_s =
             previous_wall +
@@ -486,7 +592,7 @@ BrdfRecord measure_brdf(const Scatterer& scatterer, const GoniometerConfig& conf
         }
         if (distributed::broadcast_flag(stop)) break;  // rank 0's clock decides for every rank
         const int pass = r.passes;                     // 0-based index of the pass being run
-        std::vector<Item> items;
+        std::vector<PhotonItem> items;  // (group, wavelength, chunk): reduced in this order
         for (std::size_t g = 0; g < groups.size(); ++g)
             for (std::size_t k = 0; k < nl / item_wavelengths; ++k)
                 for (std::uint64_t c = 0; c < chunks; ++c) {
@@ -499,109 +605,22 @@ BrdfRecord measure_brdf(const Scatterer& scatterer, const GoniometerConfig& conf
         // here on every thread; under MPI they are dealt over the ranks and every rank gets all
         // of them back (common/distributed.h, run_items).
         std::vector<std::vector<double>> partial(items.size());
-        auto play_item = [&](std::size_t it) {
-            const Item& item = items[it];
-            const Group& group = groups[item.group];
-            const std::size_t m = group.pairs.size();
-            std::vector<double>& acc = partial[it];
-            // Per wavelength of the item: Σx, Σx², then Σx and Σx² per lobe.
-            const std::size_t stride = m * (2 + 2 * nlobes);
-            acc.assign(item_wavelengths * stride, 0.0);
-            Vec3d e1, e2;
-            orthonormal_frame(group.wi, e1, e2);
-            // Shared paths draw from streams no per-wavelength item uses.
-            const std::uint64_t stream =
-                (shared ? groups.size() * nl + item.group : item.group * nl + item.wavelength)
-                << 40;
-            std::array<double, Scatterer::kMaxSharedWavelengths> weights{};
-            for (std::uint64_t q = item.first; q < item.first + item.count; ++q) {
-                Rng rng(config.seed, stream + q);
-                // Beam position: uniform over the beam's cross-section, projected along ω_i
-                // onto the patch plane.
-                const double radius = config.beam_radius_um * std::sqrt(rng.uniform());
-                const double angle = 2.0 * kPi * rng.uniform();
-                const Vec3d offset = radius * (std::cos(angle) * e1 + std::sin(angle) * e2);
-                const Vec2 position(offset.x() - offset.z() * group.wi.x() / group.wi.z(),
-                                    offset.y() - offset.z() * group.wi.y() / group.wi.z());
-                // both_cones: this quantum's light direction, by projected solid angle
-                // over the source cone (goniometer.h, "Aperture").
-                Vec3d wi = group.wi;
-                if (config.aperture == Aperture::both_cones) {
-                    const double disc_r = std::sqrt(rng.uniform()),
-                                 disc_g = 2.0 * kPi * rng.uniform();
-                    wi = cone_direction_by_projected_area(
-                        group.wi, alpha, disc_r * std::cos(disc_g), disc_r * std::sin(disc_g));
-                }
-                Vec3d wo_event;
-                int lobe = -1;
-                if (shared) {
-                    const auto event =
-                        scatterer.sample_spectral(wi, config.wavelengths_nm, position, rng,
-                                                  std::span<double>(weights.data(), nl));
-                    if (!event) continue;
-                    wo_event = event->wo;
-                    lobe = event->lobe;
-                } else {
-                    const auto event =
-                        scatterer.sample(wi, config.wavelengths_nm[item.wavelength], position, rng);
-                    if (!event || !(event->weight > 0.0)) continue;
-                    wo_event = event->wo;
-                    lobe = event->lobe;
-                    weights[0] = event->weight;
-                }
-                for (std::size_t k = 0; k < item_wavelengths; ++k)
-                    PLUMAGE_CHECK(std::isfinite(weights[k]),
-                                  "non-finite quantum weight from " + scatterer.name());
-                const bool has_lobe = lobe >= 0 && static_cast<std::size_t>(lobe) < nlobes;
-                const auto l = static_cast<std::size_t>(std::max(lobe, 0));
-                for (std::size_t j = 0; j < m; ++j) {
-                    const Vec3d& wo = config.pairs[group.pairs[j]].wo;
-                    if (wo_event.dot(wo) < cos_alpha) continue;
-                    // Divided, not multiplied by a reciprocal: the same bits as before
-                    // spectral paths for the per-wavelength estimator.
-                    const double projected_wo = projected * wo.z();
-                    for (std::size_t k = 0; k < item_wavelengths; ++k) {
-                        if (!(weights[k] > 0.0)) continue;
-                        double* a = acc.data() + k * stride;
-                        const double x = weights[k] / projected_wo;
-                        a[j] += x;
-                        a[m + j] += x * x;
-                        if (has_lobe) {
-                            a[(2 + l) * m + j] += x;
-                            a[(2 + nlobes + l) * m + j] += x * x;
-                        }
-                    }
-                }
-            }
+        auto play = [&](std::size_t it) {
+            play_item(scatterer, config, groups, items[it], nlobes, shared, partial[it]);
         };
         distributed::ItemTransport transport;
         transport.pack = [&](std::size_t it, Bytes& out) { out.put_vector(partial[it]); };
         transport.unpack = [&](std::size_t it, Bytes& in) {
             partial[it] = in.get_vector<double>();
         };
-        if (!distributed::run_items(items.size(), play_item, transport, control.interrupt,
+        if (!distributed::run_items(items.size(), play, transport, control.interrupt,
                                     kBlocksPerRank)) {
             r.interrupted = true;
             break;  // the unfinished pass is discarded; the checkpoint holds the last one
         }
-        for (std::size_t it = 0; it < items.size(); ++it) {
-            const Item& item = items[it];
-            const Group& group = groups[item.group];
-            const std::size_t m = group.pairs.size();
-            const std::size_t stride = m * (2 + 2 * nlobes);
-            for (std::size_t k = 0; k < item_wavelengths; ++k) {
-                const double* a = partial[it].data() + k * stride;
-                for (std::size_t j = 0; j < m; ++j) {
-                    const std::size_t cell = group.pairs[j] * nl + item.wavelength + k;
-                    sums.sum[cell] += a[j];
-                    sums.sum_sq[cell] += a[m + j];
-                    for (std::size_t l = 0; l < nlobes; ++l) {
-                        sums.lobe_sum[l * np * nl + cell] += a[(2 + l) * m + j];
-                        sums.lobe_sum_sq[l * np * nl + cell] += a[(2 + nlobes + l) * m + j];
-                    }
-                }
-            }
-        }
+        for (std::size_t it = 0; it < items.size(); ++it)
+            add_item_sums(partial[it], groups[items[it].group], items[it].wavelength,
+                          item_wavelengths, nl, nlobes, sums);
         r.passes = pass + 1;
         r.convergence.push_back(finish_row(r.passes));
         if (!control.checkpoint.empty() && distributed::rank() == 0)
