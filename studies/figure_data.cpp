@@ -58,6 +58,30 @@ const char* kSrgbDescription =
     "display sRGB in [0, 1] (D65, CIE 1931; exposure: /@white_luminance_per_sr maps to white; "
     "over-range colours scaled by their largest component), [row, column, rgb]";
 
+// Which pixels of a scatterogram lie on the hemisphere's disc, and their directions' polar
+// angle and azimuth in degrees (NaN outside).
+struct PixelDirections {
+    std::vector<bool> inside;
+    std::vector<double> theta_deg, phi_deg;
+};
+
+PixelDirections pixel_directions(const gonio::Scatterogram& s) {
+    const int n = s.config.image_size;
+    PixelDirections d{std::vector<bool>(s.pixels()), std::vector<double>(s.pixels(), kNaN),
+                      std::vector<double>(s.pixels(), kNaN)};
+    for (int row = 0; row < n; ++row) {
+        for (int column = 0; column < n; ++column) {
+            const std::size_t p = static_cast<std::size_t>(row) * n + column;
+            const auto w = s.direction(column, row);
+            d.inside[p] = w.has_value() && s.solid_angle_sr[p] > 0.0;
+            if (!d.inside[p]) continue;
+            d.theta_deg[p] = degrees(std::acos(std::clamp(w->z(), -1.0, 1.0)));
+            d.phi_deg[p] = degrees(std::atan2(w->y(), w->x()));
+        }
+    }
+    return d;
+}
+
 }  // namespace
 
 std::array<float, 3> display_srgb(const optics::Xyz& xyz, double exposure) {
@@ -74,18 +98,9 @@ void write_scatterogram_figure(record::Hdf5Writer& h5, const gonio::Scatterogram
                   "scatterograms differ in size or wavelengths");
     const int n = simulation.config.image_size;
     const std::size_t pixels = simulation.pixels();
-    std::vector<bool> inside(pixels);
-    std::vector<double> theta(pixels, kNaN), phi(pixels, kNaN);
-    for (int row = 0; row < n; ++row) {
-        for (int column = 0; column < n; ++column) {
-            const std::size_t p = static_cast<std::size_t>(row) * n + column;
-            const auto w = simulation.direction(column, row);
-            inside[p] = w.has_value() && simulation.solid_angle_sr[p] > 0.0;
-            if (!inside[p]) continue;
-            theta[p] = degrees(std::acos(std::clamp(w->z(), -1.0, 1.0)));
-            phi[p] = degrees(std::atan2(w->y(), w->x()));
-        }
-    }
+    const PixelDirections grid = pixel_directions(simulation);
+    const std::vector<bool>& inside = grid.inside;
+    const std::vector<double>&theta = grid.theta_deg, &phi = grid.phi_deg;
     const auto& wl = simulation.config.wavelengths_nm;
     const Colours cs = colours_of(wl, simulation.intensity.data(), pixels, inside);
     const Colours cm = colours_of(wl, model.intensity.data(), pixels, inside);

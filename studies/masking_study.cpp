@@ -750,13 +750,8 @@ void write_patch_section(std::ofstream& md, const MaskingStudyResult& result) {
           "3D direction), masking.png.\n\n";
 }
 
-void write_report(const fs::path& path, const MaskingStudyResult& result, const Settings& s,
-                  const std::string& text, const std::string& run_time) {
-    std::ofstream md(path);
-    md << "# Masking: Padrón-Griffe et al. 2024's barb/barbule masking term against Monte Carlo "
-          "on the explicit cross-section and the explicit 3D patch\n\n"
-       << result.verdict << "\n\n";
-    write_changes_section(md);
+// "What is compared on the 2D section": the fractions, the MC estimator and its errors.
+void write_method_section(std::ofstream& md, const MaskingStudyResult& result, const Settings& s) {
     md << "## What is compared on the 2D section\n\n"
        << fmt::format(
               "For a direction in the y–z plane (across the barbs; θ from +z towards +y), the "
@@ -793,7 +788,10 @@ void write_report(const fs::path& path, const MaskingStudyResult& result, const 
               result.comparisons, result.z_bound, result.family_significance,
               result.configurations.size() * kMaskingComponentCount,
               result.chi_square_significance);
+}
 
+// "Results on the 2D section": the table per configuration, the overall line and the figure.
+void write_results_section(std::ofstream& md, const MaskingStudyResult& result) {
     md << "## Results on the 2D section\n\n"
        << "| configuration | period (µm) | polygon offset (µm) | max abs(analytic − MC) (where) | "
           "max abs(z) | χ² barb (p) | χ² barbule (p) | χ² gap (p) | dof | max abs(analytic − "
@@ -821,7 +819,17 @@ void write_report(const fs::path& path, const MaskingStudyResult& result, const 
           "(dashed). Right: abs(MC − analytic) on a log scale (exact agreement drawn at the "
           "axis), the largest σ of the three components and the deterministic stratified bound "
           "(dashed): the differences sit at the bound's scale, orders of magnitude below σ.*\n\n";
+}
 
+void write_report(const fs::path& path, const MaskingStudyResult& result, const Settings& s,
+                  const std::string& text, const std::string& run_time) {
+    std::ofstream md(path);
+    md << "# Masking: Padrón-Griffe et al. 2024's barb/barbule masking term against Monte Carlo "
+          "on the explicit cross-section and the explicit 3D patch\n\n"
+       << result.verdict << "\n\n";
+    write_changes_section(md);
+    write_method_section(md, result, s);
+    write_results_section(md, result);
     write_patch_section(md, result);
     md << run_time;
     md << fmt::format("---\nplumage {}\n\n## Study file\n\n```toml\n{}\n```\n", kVersion, text);

@@ -695,6 +695,53 @@ std::vector<double> fit_wavelengths(const std::vector<double>& grid) {
     return picked;
 }
 
+using HuangValues = std::array<double, analysis::kHuang2022ParameterCount>;
+
+// The fitted parameters against those the patch was built with, in standard errors.
+std::string huang_fit_table(const analysis::HuangFitResult& fit, const HuangValues& expected) {
+    std::string table =
+        "| parameter | fitted | standard error | built with | (fitted − built) / σ |\n"
+        "|---|---|---|---|---|\n";
+    for (int i = 0; i < analysis::kHuang2022ParameterCount; ++i) {
+        const std::string name(analysis::kHuang2022ParameterNames[i]);
+        if (std::isnan(fit.standard_errors[i])) {
+            table += fmt::format("| {} | {:.5g} (held) | — | {:.5g} | — |\n", name, fit.values[i],
+                                 expected[i]);
+            continue;
+        }
+        table += fmt::format("| {} | {:.5g} | {:.2g} | {:.5g} | {:+.1f}{} |\n", name, fit.values[i],
+                             fit.standard_errors[i], expected[i],
+                             (fit.values[i] - expected[i]) / fit.standard_errors[i],
+                             fit.at_bound[i] ? " (at its bound)" : "");
+    }
+    return table;
+}
+
+// fit/huang2022_fit.h5: the fitted values, their standard errors and the built-with values.
+void write_huang_fit_record(const fs::path& path, const analysis::HuangFitResult& fit,
+                            const HuangValues& expected) {
+    const std::vector<double> values(fit.values.begin(), fit.values.end()),
+        errors(fit.standard_errors.begin(), fit.standard_errors.end());
+    record::Hdf5Writer h5(path);
+    const std::string names =
+        fmt::format("{}", fmt::join(analysis::kHuang2022ParameterNames, ", "));
+    h5.write(
+        "fit/values", std::span<const double>(values), {values.size()},
+        {{"units", "b 1, phi0 rad, phi1 rad, H 1, d_um um, theta_d rad, mu rad"},
+         {"description", "Huang 2022 parameters fitted to fit/simulation.h5 (" + names + ")"}});
+    h5.write("fit/standard_errors", std::span<const double>(errors), {errors.size()},
+             {{"units", "as fit/values"},
+              {"description", "standard errors from the covariance at the optimum; NaN: held"}});
+    h5.write("fit/built_with", std::span<const double>(expected.data(), expected.size()),
+             {expected.size()},
+             {{"units", "as fit/values"},
+              {"description", "the parameters the explicit patch was built from"}});
+    h5.set_attribute("/fit", "reduced_chi_square", fit.reduced_chi_square);
+    h5.set_attribute("/fit", "observations", static_cast<double>(fit.observations));
+    h5.set_attribute("/fit", "termination", fit.termination);
+    h5.commit();
+}
+
 // The explicit patch was built from Huang's rock-dove parameters; fitting the model to its
 // simulated scatterogram asks whether the model, given the simulation, gives them back, and by
 // how many standard errors it misses each (the model leaves out interreflection and the curved
@@ -724,42 +771,8 @@ std::string huang_fit(const Run& run, const Built& b, RockDoveResult& result) {
     throw_if_interrupted("the Huang fit");
     result.fit_reduced_chi_square = fit.reduced_chi_square;
     const auto expected = analysis::huang2022_values(truth);
-    std::string table =
-        "| parameter | fitted | standard error | built with | (fitted − built) / σ |\n"
-        "|---|---|---|---|---|\n";
-    record::Hdf5Writer h5(run.dir / "fit" / "huang2022_fit.h5");
-    std::vector<double> values, errors;
-    for (int i = 0; i < analysis::kHuang2022ParameterCount; ++i) {
-        const std::string name(analysis::kHuang2022ParameterNames[i]);
-        values.push_back(fit.values[i]);
-        errors.push_back(fit.standard_errors[i]);
-        if (std::isnan(fit.standard_errors[i])) {
-            table += fmt::format("| {} | {:.5g} (held) | — | {:.5g} | — |\n", name, fit.values[i],
-                                 expected[i]);
-            continue;
-        }
-        table += fmt::format("| {} | {:.5g} | {:.2g} | {:.5g} | {:+.1f}{} |\n", name, fit.values[i],
-                             fit.standard_errors[i], expected[i],
-                             (fit.values[i] - expected[i]) / fit.standard_errors[i],
-                             fit.at_bound[i] ? " (at its bound)" : "");
-    }
-    const std::string names =
-        fmt::format("{}", fmt::join(analysis::kHuang2022ParameterNames, ", "));
-    h5.write(
-        "fit/values", std::span<const double>(values), {values.size()},
-        {{"units", "b 1, phi0 rad, phi1 rad, H 1, d_um um, theta_d rad, mu rad"},
-         {"description", "Huang 2022 parameters fitted to fit/simulation.h5 (" + names + ")"}});
-    h5.write("fit/standard_errors", std::span<const double>(errors), {errors.size()},
-             {{"units", "as fit/values"},
-              {"description", "standard errors from the covariance at the optimum; NaN: held"}});
-    h5.write("fit/built_with", std::span<const double>(expected.data(), expected.size()),
-             {expected.size()},
-             {{"units", "as fit/values"},
-              {"description", "the parameters the explicit patch was built from"}});
-    h5.set_attribute("/fit", "reduced_chi_square", fit.reduced_chi_square);
-    h5.set_attribute("/fit", "observations", static_cast<double>(fit.observations));
-    h5.set_attribute("/fit", "termination", fit.termination);
-    h5.commit();
+    const std::string table = huang_fit_table(fit, expected);
+    write_huang_fit_record(run.dir / "fit" / "huang2022_fit.h5", fit, expected);
     const int dof = fit.degrees_of_freedom;
     const double p = analysis::chi_square_p_value(fit.reduced_chi_square * dof, dof);
     return fmt::format(
