@@ -108,8 +108,9 @@ BENCHMARK(BM_ProjectedTimeTo1PercentExplicitRockDove3660)->Iterations(1)->Unit(b
 
 // Issue 15's case: the explicit rock-dove patch, full spectral (7 wavelengths, 400–700 nm, all
 // lobes), the 3660-pair set, detector 5° (view cone); one path per quantum and
-// wavelength (separate, arg 0) against one path per quantum for all seven (shared, arg 1), on
-// 1 or 2 threads (second arg). Each runs passes of 2000 quanta per light direction for a
+// wavelength (separate, arg 0) against one path per quantum for all seven (shared, arg 1),
+// shared and split at the first film (arg 2), and split with guided diffuse reflection, f = 0.5
+// (arg 3) or 0.8 (arg 4) (sim/tracer.h), on 1 or 2 threads (second arg). Each runs passes of 2000 quanta per light direction for a
 // budget of kBudgetS, then projects t(1 %) = t · (ε / 1 %)² from the last pass. ε is the
 // relative RMS standard error over the cells that carry signal: value ≥ 10 % of the mean of
 // the cells at its wavelength (GoniometerConfig::signal_fraction; the record stores the set).
@@ -117,12 +118,15 @@ BENCHMARK(BM_ProjectedTimeTo1PercentExplicitRockDove3660)->Iterations(1)->Unit(b
 // the error-against-time figure (bench/plot_error_vs_time.py).
 void BM_RockDoveSpectral3660(benchmark::State& state) {
     constexpr double kBudgetS = 40.0;
-    const bool shared = state.range(0) != 0;
+    const bool shared = state.range(0) != 0, split = state.range(0) >= 2;
+    const double guided = state.range(0) == 3 ? 0.5 : state.range(0) == 4 ? 0.8 : 0.0;
     const int threads = static_cast<int>(state.range(1));
     const sim::ExplicitScatterer patch = rock_dove_patch();
     GoniometerConfig c = rock_dove_config();
     c.wavelengths_nm = {400.0, 450.0, 500.0, 550.0, 600.0, 650.0, 700.0};
     c.share_wavelength_paths = shared;
+    c.split_paths = split;
+    c.guided_fraction = guided;
     c.signal_fraction = 0.1;
     c.quanta_per_pass = 2000;
     c.max_passes = 100000;
@@ -133,6 +137,10 @@ void BM_RockDoveSpectral3660(benchmark::State& state) {
     for (auto _ : state) r = measure_brdf(patch, c);
     omp_set_num_threads(before);
     const double error = r.convergence.back().estimated_relative_rms_error;
+    const std::string kind = guided > 0.0 ? fmt::format("guided{:.0f}", 100 * guided)
+                             : split      ? std::string("split")
+                             : shared     ? std::string("shared")
+                                          : std::string("separate");
     std::size_t signal = 0;
     for (std::uint8_t m : r.signal_cells) signal += m;
     state.counters["wall_s"] = r.wall_time_s;
@@ -144,15 +152,13 @@ void BM_RockDoveSpectral3660(benchmark::State& state) {
     if (const char* csv = std::getenv("PLUMAGE_BENCH_CSV")) {
         std::ofstream out(csv, std::ios::app);
         for (const ConvergenceRow& row_ : r.convergence) {
-            out << (shared ? "shared" : "separate") << ',' << threads << ',' << row_.pass << ','
-                << row_.wall_time_s << ',' << row_.quanta << ','
-                << row_.estimated_relative_rms_error << ',' << signal << ','
+            out << kind << ',' << threads << ',' << row_.pass << ',' << row_.wall_time_s << ','
+                << row_.quanta << ',' << row_.estimated_relative_rms_error << ',' << signal << ','
                 << r.signal_cells.size() << '\n';
         }
     }
     if (const char* h5 = std::getenv("PLUMAGE_BENCH_RECORD")) {
-        write_brdf_record(r,
-                          fmt::format("{}_{}_{}t.h5", h5, shared ? "shared" : "separate", threads));
+        write_brdf_record(r, fmt::format("{}_{}_{}t.h5", h5, kind, threads));
     }
 }
 BENCHMARK(BM_RockDoveSpectral3660)
@@ -160,6 +166,10 @@ BENCHMARK(BM_RockDoveSpectral3660)
     ->Args({1, 1})
     ->Args({0, 2})
     ->Args({1, 2})
+    ->Args({2, 1})
+    ->Args({2, 2})
+    ->Args({3, 2})
+    ->Args({4, 2})
     ->Iterations(1)
     ->Unit(benchmark::kSecond)
     ->UseRealTime();

@@ -8,6 +8,7 @@
 #include <fmt/format.h>
 
 #include "common/error.h"
+#include "sim/scatterer.h"
 
 namespace plumage::sim {
 namespace {
@@ -210,6 +211,36 @@ InterfaceEvent diffuse_event(const Vec3d& direction, const SurfaceNormals& norma
     if (!(albedo > 0.0)) return {EventKind::absorb, Vec3d::Zero(), 0.0, in.from_outside, true};
     return {EventKind::diffuse_reflect, sample_cosine_hemisphere(in.facet, rng),
             std::min(albedo, 1.0), in.from_outside, true};
+}
+
+InterfaceEvent guided_diffuse_event(const Vec3d& direction, const SurfaceNormals& normals,
+                                    std::span<const Vec3d> cone_axes, double cos_half_angle,
+                                    double fraction, Rng& rng) {
+    const Incidence in = incidence(direction, normals);
+    const auto m = static_cast<double>(cone_axes.size());
+    Vec3d out;
+    if (cone_axes.empty() || rng.uniform() >= fraction) {
+        out = sample_cosine_hemisphere(in.facet, rng);
+    } else {
+        const std::size_t j =
+            std::min(cone_axes.size() - 1, static_cast<std::size_t>(rng.uniform() * m));
+        const double cos_t = 1.0 - rng.uniform() * (1.0 - cos_half_angle);
+        const double sin_t = std::sqrt(std::max(0.0, 1.0 - cos_t * cos_t));
+        const double phi = 2.0 * std::numbers::pi * rng.uniform();
+        const Vec3d& a = cone_axes[j];
+        Vec3d e1, e2;
+        orthonormal_frame(a, e1, e2);
+        out = (cos_t * a + sin_t * (std::cos(phi) * e1 + std::sin(phi) * e2)).normalized();
+    }
+    const double cos_n = out.dot(in.facet);
+    if (!(cos_n > 0.0)) return {EventKind::absorb, Vec3d::Zero(), 0.0, in.from_outside, true};
+    int inside = 0;
+    for (const Vec3d& a : cone_axes) inside += out.dot(a) >= cos_half_angle ? 1 : 0;
+    const double cone_solid_angle = 2.0 * std::numbers::pi * (1.0 - cos_half_angle);
+    const double lambertian = cos_n / std::numbers::pi;
+    const double density = (cone_axes.empty() ? 1.0 : 1.0 - fraction) * lambertian +
+                           (cone_axes.empty() ? 0.0 : fraction * inside / (m * cone_solid_angle));
+    return {EventKind::diffuse_reflect, out, lambertian / density, in.from_outside, true};
 }
 
 InterfaceEvent absorber_event(const Vec3d& direction, const SurfaceNormals& normals) {

@@ -38,6 +38,8 @@
 // analog; with absorption no path is killed at random for it.
 #pragma once
 
+#include <span>
+
 #include <Eigen/Core>
 
 #include "sim/optics/fresnel.h"
@@ -136,6 +138,18 @@ InterfaceEvent dielectric_event(const Vec3d& direction, const SurfaceNormals& no
 // correct side (the shading normal differs from it by the tessellation's normal error).
 InterfaceEvent diffuse_event(const Vec3d& direction, const SurfaceNormals& normals, double albedo,
                              Rng& rng);
+
+// Lambertian reflection guided towards detector cones (sim/tracer.h, "Guided diffuse
+// reflection"): the direction d is drawn from the mixture
+//     p(d) = (1 − f) · max(0, d·n)/π + f · (1/m) Σ_j 1[d·a_j >= cos α] / (2π(1 − cos α))
+// (n the facet normal on the arriving side; m = cone_axes.size() cones of half-angle α, each
+// picked with probability 1/m and sampled uniformly in solid angle) and the event carries
+// throughput (max(0, d·n)/π) / p(d) for an albedo of 1 (the caller multiplies by its albedo):
+// an unbiased estimate of the cosine lobe for every direction. The throughput can exceed 1
+// (at most 1/(1 − f)); a direction below the facet carries 0 (kind absorb). f in [0, 1).
+InterfaceEvent guided_diffuse_event(const Vec3d& direction, const SurfaceNormals& normals,
+                                    std::span<const Vec3d> cone_axes, double cos_half_angle,
+                                    double fraction, Rng& rng);
 
 // Opaque black surface.
 InterfaceEvent absorber_event(const Vec3d& direction, const SurfaceNormals& normals);

@@ -17,6 +17,20 @@ std::optional<SpectralScatterEvent> Scatterer::sample_spectral(const Vec3d&,
         name() + " cannot trace one path for several wavelengths (check can_share_paths())");
 }
 
+std::size_t Scatterer::sample_spectral_branches(const Vec3d& wi, std::span<const double> lambdas_nm,
+                                                const Vec2& position_um, Rng& rng,
+                                                const BranchOptions&,
+                                                std::span<SpectralScatterEvent> events,
+                                                std::span<double> weights) const {
+    const std::size_t n = lambdas_nm.size();
+    PLUMAGE_CHECK(!events.empty() && weights.size() >= n,
+                  "sample_spectral_branches: room for one branch at least");
+    const auto event = sample_spectral(wi, lambdas_nm, position_um, rng, weights.first(n));
+    if (!event) return 0;
+    events[0] = *event;
+    return 1;
+}
+
 double Scatterer::pdf(const Vec3d&, const Vec3d&, double) const {
     throw InvariantError(name() + " has no sampling density (check can_evaluate())");
 }

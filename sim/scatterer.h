@@ -21,6 +21,13 @@
 //    for several wavelengths at once: one escape direction and one weight per wavelength,
 //    each meeting sample()'s contract for its own λ (the weights of one quantum are
 //    correlated across λ, those of different quanta independent).
+//  - Path splitting (optional, can_split_paths()): sample_spectral_branches() plays the
+//    quantum of sample_spectral() as up to kMaxBranches branches, each an escape with its own
+//    weights; the contract holds for their sum (a branch's weights already include the
+//    probability of the branch, so no weight is divided by a choice probability there). An
+//    instrument adds a quantum's branches before it squares (they are one quantum's parts).
+//    The same call takes the instrument's detector cones (BranchOptions): a scatterer may draw
+//    its directions towards them (importance sampling, unbiased for every direction).
 #pragma once
 
 #include <cmath>
@@ -52,6 +59,20 @@ struct SpectralScatterEvent {
     Vec3d wo;               // unit, away from the patch
     int lobe;               // index into lobe_names()
     Vec2 exit_position_um;  // as ScatterEvent
+};
+
+// What an instrument asks of sample_spectral_branches().
+struct BranchOptions {
+    // Split the path at its first film event into a reflected and a transmitted branch.
+    bool split_first_film = false;
+    // The detectors the instrument reads (unit axes, away from the patch; cones of
+    // detector_half_angle_rad). With guided_fraction f in (0, 1), a scatterer may draw its
+    // diffuse directions from a mixture: with 1 − f from its own density, with f uniformly
+    // within one of the cones, each weighed by its own density over the mixture's (sim/tracer.h,
+    // "Guided diffuse reflection"). Unbiased for every direction, covered by a cone or not.
+    std::span<const Vec3d> detector_axes;
+    double detector_half_angle_rad = 0.0;
+    double guided_fraction = 0.0;
 };
 
 // Two unit vectors completing the unit vector a to a right-handed orthonormal frame.
@@ -87,6 +108,21 @@ public:
                                                                 std::span<const double> lambdas_nm,
                                                                 const Vec2& position_um, Rng& rng,
                                                                 std::span<double> weights) const;
+
+    // Path splitting: whether sample_spectral_branches() can return more than one branch.
+    virtual bool can_split_paths() const { return false; }
+    static constexpr std::size_t kMaxBranches = 2;
+    // The quantum of sample_spectral() as branches b = 0 … count−1 (count returned, at most
+    // kMaxBranches): events[b] its escape, weights[b·n + k] its weight at lambdas_nm[k]
+    // (n = lambdas_nm.size(); events.size() >= kMaxBranches, weights.size() >= kMaxBranches·n),
+    // with E[Σ_b weights[b·n + k] · 1{ω_o,b ∈ Ω}] = ∫_Ω f(ω_i, ω_o, λ_k) |cos θ_o| dω_o.
+    // Default: sample_spectral() as the one branch, options ignored.
+    virtual std::size_t sample_spectral_branches(const Vec3d& wi,
+                                                 std::span<const double> lambdas_nm,
+                                                 const Vec2& position_um, Rng& rng,
+                                                 const BranchOptions& options,
+                                                 std::span<SpectralScatterEvent> events,
+                                                 std::span<double> weights) const;
 
     // Solid-angle density of sample()'s ωo (including any discrete T lobe's share as a
     // separate mass, which pdf() does not report).

@@ -9,6 +9,7 @@
 #include <fmt/format.h>
 #include <omp.h>
 
+#include "common/constants.h"
 #include "common/error.h"
 
 namespace plumage::sim {
@@ -433,7 +434,58 @@ FilmResponse SharedFilmResponse::response(bool from_outside, double cos_theta) c
     return {mean_reflect_probability, 1.0 - mean_reflect_probability};
 }
 
+// A film's response with the choice made in advance: the event takes the given side with
+// probability 1 and throughput 1 (interface_events.cpp's choose()); `inner`'s R and T stay
+// available to weigh the branch.
+class ForcedFilmChoice final : public FilmResponseSource {
+public:
+    ForcedFilmChoice(const FilmResponseSource& inner, bool reflect)
+        : inner_(inner), reflect_(reflect) {}
+    FilmResponse response(bool from_outside, double cos_theta) const override {
+        const FilmResponse r = inner_.response(from_outside, cos_theta);
+        taken = std::max(0.0, reflect_ ? r.reflectance : r.transmittance);
+        return reflect_ ? FilmResponse{1.0, 0.0} : FilmResponse{0.0, 1.0};
+    }
+    mutable double taken = 0.0;  // the inner R (reflect) or T of the last response
+
+private:
+    const FilmResponseSource& inner_;
+    bool reflect_;
+};
+
 }  // namespace
+
+std::size_t ExplicitScatterer::sample_spectral_branches(const Vec3d& wi,
+                                                        std::span<const double> lambdas_nm,
+                                                        const Vec2& position_um, Rng& rng,
+                                                        const BranchOptions& options,
+                                                        std::span<SpectralScatterEvent> events,
+                                                        std::span<double> weights) const {
+    const std::size_t n = lambdas_nm.size();
+    PLUMAGE_CHECK(events.size() >= kMaxBranches && weights.size() >= kMaxBranches * n,
+                  "sample_spectral_branches: room for two branches");
+    const bool guide_valid = options.guided_fraction >= 0.0 && options.guided_fraction < 1.0 &&
+                             options.detector_half_angle_rad > 0.0 &&
+                             options.detector_half_angle_rad < 0.5 * kPi;
+    PLUMAGE_CHECK(options.guided_fraction == 0.0 || guide_valid,
+                  "sample_spectral_branches: guided_fraction in [0, 1), cones of 0 … 90°");
+    std::size_t count = 0;
+    auto play = [&](Rng& stream, FirstFilm branch) {
+        const PathResult path = trace_spectral(wi, lambdas_nm, position_um, stream,
+                                               weights.subspan(count * n, n), branch, &options);
+        if (path.event)
+            events[count++] = {path.event->wo, path.event->lobe, path.event->exit_position_um};
+    };
+    if (!options.split_first_film) {
+        play(rng, FirstFilm::sampled);
+        return count;
+    }
+    // The reflected branch on a copy of the stream: both branches draw the same hero.
+    Rng reflected_rng = rng;
+    play(reflected_rng, FirstFilm::reflect);
+    play(rng, FirstFilm::transmit);
+    return count;
+}
 
 std::optional<SpectralScatterEvent> ExplicitScatterer::sample_spectral(
     const Vec3d& wi, std::span<const double> lambdas_nm, const Vec2& position_um, Rng& rng,
@@ -445,8 +497,12 @@ std::optional<SpectralScatterEvent> ExplicitScatterer::sample_spectral(
 
 PathResult ExplicitScatterer::trace_spectral(const Vec3d& wi, std::span<const double> lambdas_nm,
                                              const Vec2& position_um, Rng& rng,
-                                             std::span<double> weights) const {
+                                             std::span<double> weights, FirstFilm first_film,
+                                             const BranchOptions* guide) const {
     const std::size_t n = lambdas_nm.size();
+    const bool guided =
+        guide != nullptr && guide->guided_fraction > 0.0 && !guide->detector_axes.empty();
+    const double cos_guide = guided ? std::cos(guide->detector_half_angle_rad) : 1.0;
     if (n < 1 || n > kMaxSharedWavelengths || weights.size() != n) {
         throw InputError(fmt::format(
             "tracer: {} wavelengths and {} weights for one shared path: expected 1..{} of each", n,
@@ -514,7 +570,11 @@ PathResult ExplicitScatterer::trace_spectral(const Vec3d& wi, std::span<const do
         ++path.rays;
         const std::optional<SurfaceHit> hit =
             scene_->intersect(origin, direction, skip, &path.self_hits_rejected);
+        // Splitting (tracer.h): only a path whose first event is at a film has a reflected
+        // branch; any other first event belongs to the transmitted branch alone.
+        const bool first_event = path.events == 0;
         if (!hit) {
+            if (first_event && first_film == FirstFilm::reflect) return path;
             escape();
             return path;
         }
@@ -527,6 +587,9 @@ PathResult ExplicitScatterer::trace_spectral(const Vec3d& wi, std::span<const do
         }
         const bool from_outside = facing < 0.0;
         if ((from_outside ? surface.outside : surface.inside) != expected) ++path.medium_mismatches;
+        const bool forced =
+            first_event && first_film != FirstFilm::sampled && surface.kind == Spectral::Kind::film;
+        if (first_event && first_film == FirstFilm::reflect && !forced) return path;
 
         // The medium between the last event and this surface: a scattering one takes the
         // hero alone; absorbing ones weigh each λ.
@@ -537,6 +600,7 @@ PathResult ExplicitScatterer::trace_spectral(const Vec3d& wi, std::span<const do
                 const MediumFlight flight = medium->fly(hit->distance_um, lambdas_nm[hero], rng);
                 w[hero] *= flight.weight;
                 if (flight.scattered) {
+                    if (first_event && first_film == FirstFilm::reflect) return path;
                     if (path.events >= options_.max_events) {
                         path.reached_max_events = true;
                         return path;
@@ -574,14 +638,30 @@ PathResult ExplicitScatterer::trace_spectral(const Vec3d& wi, std::span<const do
             switch (surface.kind) {
                 case Spectral::Kind::film: {
                     if (!set.film_shared[surface_index]) collapse();
+                    const bool reflect = first_film == FirstFilm::reflect;
                     if (single) {
                         const TabulatedFilmResponse source = surface.film_source(lambdas_nm[hero]);
+                        if (forced) {
+                            const ForcedFilmChoice choice(source, reflect);
+                            const InterfaceEvent e =
+                                thin_film_event(direction, hit->normals, surface.film, choice, rng);
+                            w[hero] *= choice.taken;
+                            return e;
+                        }
                         const InterfaceEvent e =
                             thin_film_event(direction, hit->normals, surface.film, source, rng);
                         w[hero] *= e.throughput;
                         return e;
                     }
                     const SharedFilmResponse source(set.at, lambdas_nm, surface_index);
+                    if (forced) {
+                        const ForcedFilmChoice choice(source, reflect);
+                        const InterfaceEvent e =
+                            thin_film_event(direction, hit->normals, surface.film, choice, rng);
+                        for (std::size_t k = 0; k < n; ++k)
+                            w[k] *= reflect ? source.reflectance[k] : source.transmittance[k];
+                        return e;
+                    }
                     const InterfaceEvent e =
                         thin_film_event(direction, hit->normals, surface.film, source, rng);
                     const double p = source.mean_reflect_probability;
@@ -602,6 +682,20 @@ PathResult ExplicitScatterer::trace_spectral(const Vec3d& wi, std::span<const do
                     return e;
                 }
                 case Spectral::Kind::diffuse: {
+                    if (guided) {
+                        const InterfaceEvent e =
+                            guided_diffuse_event(direction, hit->normals, guide->detector_axes,
+                                                 cos_guide, guide->guided_fraction, rng);
+                        if (single) {
+                            w[hero] *= std::clamp(surface.albedo, 0.0, 1.0) * e.throughput;
+                        } else {
+                            for (std::size_t k = 0; k < n; ++k)
+                                w[k] *= std::clamp(set.at[k]->surfaces[surface_index].albedo, 0.0,
+                                                   1.0) *
+                                        e.throughput;
+                        }
+                        return e;
+                    }
                     if (single) {
                         const InterfaceEvent e =
                             diffuse_event(direction, hit->normals, surface.albedo, rng);

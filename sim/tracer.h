@@ -62,6 +62,30 @@
 // wavelengths; a film hit still evaluates N table entries. Per-λ records receive correlated
 // samples; each cell's standard error is still from independent quanta.
 
+// Splitting at the first film (sample_spectral_branches(), sim/scatterer.h): a shared path
+// whose first event is a film hit is played as two branches from there, the reflected one
+// with w_k ×= R_k and the transmitted one with w_k ×= T_k, both traced on (each then walks as
+// above). The sum of the branches has the expectation of the single walk, which takes
+// reflection with p̄ and weighs w_k ×= R_k/p̄ (T_k/(1 − p̄)): the same two terms, without the
+// coin. Why: on a keratin film p̄ is about 0.05–0.15, so a single walk sends only that share of
+// its quanta into the R lobe, each carrying R_k/p̄; the reflected branch sends every quantum
+// there with R_k, dividing the R lobe's variance by about 1/p̄ for one more ray per quantum.
+// A path whose first event is not a film (it passes between the barbules, or meets a diffuse
+// or bare surface first) is one branch, the transmitted branch's. The branches share the
+// hero and, after the split, the random numbers: correlated parts of one quantum, which the
+// instrument adds before it squares.
+//
+// Guided diffuse reflection (BranchOptions::guided_fraction f, sim/scatterer.h): at a diffuse
+// event the direction is drawn from a mixture of the cosine lobe (1 − f) and the instrument's
+// detector cones (f, one cone at random, uniform within it), and every λ's weight takes
+// albedo_k · (cos θ/π)/p_mixture (sim/interface_events.h, guided_diffuse_event): unbiased for
+// every direction. Why: on the rock dove the TRT lobe held 60 % of the BRDF's variance; a
+// cosine direction enters a given 5° detector about 0.3 % of the time, a guided one about f/m
+// of the time for each of the m detectors of the light direction. In the film-in-air scenes the
+// film does not bend the light, so a direction aimed at a detector leaves towards it when
+// nothing blocks it; where the light refracts on its way out, the guide is still unbiased, only
+// less useful.
+//
 // Leaving out what the scene does not need: a scene without films never evaluates Airy;
 // surfaces whose media do not absorb at λ (k = 0) run no medium code; max_events = 1 (an
 // "R only" request) stops every path at its first event (a path that would meet a second
@@ -155,14 +179,27 @@ public:
     std::optional<ScatterEvent> sample(const Vec3d& wi, double lambda_nm, const Vec2& position_um,
                                        Rng& rng) const override;
     bool can_share_paths() const override { return true; }
+    bool can_split_paths() const override { return true; }
+    std::size_t sample_spectral_branches(const Vec3d& wi, std::span<const double> lambdas_nm,
+                                         const Vec2& position_um, Rng& rng,
+                                         const BranchOptions& options,
+                                         std::span<SpectralScatterEvent> events,
+                                         std::span<double> weights) const override;
     std::optional<SpectralScatterEvent> sample_spectral(const Vec3d& wi,
                                                         std::span<const double> lambdas_nm,
                                                         const Vec2& position_um, Rng& rng,
                                                         std::span<double> weights) const override;
+    // The first film event of a shared path: chosen at random (sample_spectral()), or one of
+    // the two branches of sample_spectral_branches(). The reflected branch ends without an
+    // event when the path's first event is not at a film (that path has no such branch).
+    enum class FirstFilm { sampled, reflect, transmit };
     // The same path as sample_spectral(), with its diagnostics (event->weight: the hero's
-    // weight, or the largest when the path stayed shared).
+    // weight, or the largest when the path stayed shared). guide: the detector cones that
+    // diffuse events aim at (guided diffuse reflection), or none.
     PathResult trace_spectral(const Vec3d& wi, std::span<const double> lambdas_nm,
-                              const Vec2& position_um, Rng& rng, std::span<double> weights) const;
+                              const Vec2& position_um, Rng& rng, std::span<double> weights,
+                              FirstFilm first_film = FirstFilm::sampled,
+                              const BranchOptions* guide = nullptr) const;
 
     // The same path as sample(), with its diagnostics; `rays` (optional) receives every
     // ray cast.

@@ -48,6 +48,8 @@ std::string canonical(const GoniometerConfig& c, const std::string& scatterer,
     // runs made before them still resume.
     if (c.aperture != Aperture::view_cone) s += fmt::format("aperture={}|", to_string(c.aperture));
     if (c.share_wavelength_paths) s += "shared_paths|";
+    if (c.split_paths) s += "split_paths|";
+    if (c.guided_fraction > 0.0) s += fmt::format("guided={:.17g}|", c.guided_fraction);
     // The study text describes the scene the scatterer was built from (its name alone does not:
     // a changed geometry under the same instrument must not resume another run's sums).
     s += c.config_text + "|";
@@ -90,9 +92,12 @@ struct PhotonItem {
 // Plays one work item's quanta (one light direction; one wavelength, or all of them when the
 // wavelengths share paths) into acc: per wavelength of the item, Σx, Σx², then Σx and Σx² per
 // lobe, in the group's pair order. Its streams: (seed, group × wavelength item, quantum).
+// With branched (shared paths, split or guided) a quantum is the sum of its branches
+// (sim/scatterer.h): each cell's x is the sum of the branches that enter its cone, and per lobe the
+// sum of those of that lobe, before they are squared.
 void play_item(const Scatterer& scatterer, const GoniometerConfig& config,
                const std::vector<Group>& groups, const PhotonItem& item, std::size_t nlobes,
-               bool shared, std::vector<double>& acc) {
+               bool shared, bool branched, std::vector<double>& acc) {
     const std::size_t nl = config.wavelengths_nm.size(), item_wavelengths = shared ? nl : 1;
     const double alpha = config.detector_half_angle_rad, cos_alpha = std::cos(alpha);
     const double projected = kPi * std::pow(std::sin(alpha), 2);  // × cos θ_v per pair
@@ -106,7 +111,16 @@ void play_item(const Scatterer& scatterer, const GoniometerConfig& config,
     // Shared paths draw from streams no per-wavelength item uses.
     const std::uint64_t stream =
         (shared ? groups.size() * nl + item.group : item.group * nl + item.wavelength) << 40;
-    std::array<double, Scatterer::kMaxSharedWavelengths> weights{};
+    constexpr std::size_t kBranches = Scatterer::kMaxBranches;
+    std::array<double, kBranches * Scatterer::kMaxSharedWavelengths> weights{};
+    std::array<SpectralScatterEvent, kBranches> branches{};
+    std::vector<Vec3d> detector_axes;
+    for (std::size_t p : group.pairs) detector_axes.push_back(config.pairs[p].wo);
+    BranchOptions options;
+    options.split_first_film = config.split_paths;
+    options.detector_axes = detector_axes;
+    options.detector_half_angle_rad = alpha;
+    options.guided_fraction = config.guided_fraction;
     for (std::uint64_t q = item.first; q < item.first + item.count; ++q) {
         Rng rng(config.seed, stream + q);
         // Beam position: uniform over the beam's cross-section, projected along ω_i
@@ -124,42 +138,64 @@ void play_item(const Scatterer& scatterer, const GoniometerConfig& config,
             wi = cone_direction_by_projected_area(group.wi, alpha, disc_r * std::cos(disc_g),
                                                   disc_r * std::sin(disc_g));
         }
-        Vec3d wo_event;
-        int lobe = -1;
-        if (shared) {
+        std::size_t count = 0;
+        if (branched) {
+            count = scatterer.sample_spectral_branches(wi, config.wavelengths_nm, position, rng,
+                                                       options, branches, weights);
+        } else if (shared) {
             const auto event = scatterer.sample_spectral(wi, config.wavelengths_nm, position, rng,
                                                          std::span<double>(weights.data(), nl));
             if (!event) continue;
-            wo_event = event->wo;
-            lobe = event->lobe;
+            branches[0] = *event;
+            count = 1;
         } else {
             const auto event =
                 scatterer.sample(wi, config.wavelengths_nm[item.wavelength], position, rng);
             if (!event || !(event->weight > 0.0)) continue;
-            wo_event = event->wo;
-            lobe = event->lobe;
+            branches[0] = {event->wo, event->lobe, event->exit_position_um};
             weights[0] = event->weight;
+            count = 1;
         }
-        for (std::size_t k = 0; k < item_wavelengths; ++k)
+        for (std::size_t k = 0; k < count * item_wavelengths; ++k)
             PLUMAGE_CHECK(std::isfinite(weights[k]),
                           "non-finite quantum weight from " + scatterer.name());
-        const bool has_lobe = lobe >= 0 && static_cast<std::size_t>(lobe) < nlobes;
-        const auto l = static_cast<std::size_t>(std::max(lobe, 0));
         for (std::size_t j = 0; j < m; ++j) {
             const Vec3d& wo = config.pairs[group.pairs[j]].wo;
-            if (wo_event.dot(wo) < cos_alpha) continue;
+            // The branches that enter this detector (one, without splitting).
+            std::array<std::size_t, kBranches> in{};
+            std::size_t hits = 0;
+            for (std::size_t b = 0; b < count; ++b)
+                if (!(branches[b].wo.dot(wo) < cos_alpha)) in[hits++] = b;
+            if (hits == 0) continue;
             // Divided, not multiplied by a reciprocal: the same bits as before
             // spectral paths for the per-wavelength estimator.
             const double projected_wo = projected * wo.z();
             for (std::size_t k = 0; k < item_wavelengths; ++k) {
-                if (!(weights[k] > 0.0)) continue;
                 double* a = acc.data() + k * stride;
-                const double x = weights[k] / projected_wo;
+                double x = 0.0;
+                for (std::size_t h = 0; h < hits; ++h) {
+                    const double wk = weights[in[h] * item_wavelengths + k];
+                    if (wk > 0.0) x += wk / projected_wo;
+                }
+                if (!(x > 0.0)) continue;
                 a[j] += x;
                 a[m + j] += x * x;
-                if (has_lobe) {
-                    a[(2 + l) * m + j] += x;
-                    a[(2 + nlobes + l) * m + j] += x * x;
+                // Per lobe: the sum of this quantum's branches of each lobe.
+                for (std::size_t h = 0; h < hits; ++h) {
+                    const int lobe = branches[in[h]].lobe;
+                    if (lobe < 0 || static_cast<std::size_t>(lobe) >= nlobes) continue;
+                    bool first = true;  // of its lobe among the hits
+                    for (std::size_t g = 0; g < h; ++g)
+                        first = first && branches[in[g]].lobe != lobe;
+                    if (!first) continue;
+                    double xl = 0.0;
+                    for (std::size_t g = h; g < hits; ++g) {
+                        const double wk = weights[in[g] * item_wavelengths + k];
+                        if (branches[in[g]].lobe == lobe && wk > 0.0) xl += wk / projected_wo;
+                    }
+                    const auto l = static_cast<std::size_t>(lobe);
+                    a[(2 + l) * m + j] += xl;
+                    a[(2 + nlobes + l) * m + j] += xl * xl;
                 }
             }
         }
@@ -374,6 +410,9 @@ void GoniometerConfig::validate() const {
     require(std::isfinite(signal_fraction) && signal_fraction >= 0.0 && signal_fraction < 1.0,
             kWhat, "signal_fraction", signal_fraction,
             "a fraction of the mean cell in [0, 1) (0: every cell with a positive value)");
+    require(std::isfinite(guided_fraction) && guided_fraction >= 0.0 && guided_fraction < 1.0,
+            kWhat, "guided_fraction", guided_fraction,
+            "a share of the diffuse directions aimed at the detectors in [0, 1) (0: none)");
     require(eval_rings >= 1 && eval_rings <= 64, kWhat,
             fmt::format("eval_rings = {}: expected 1..64", eval_rings));
 }
@@ -535,6 +574,9 @@ BrdfRecord measure_brdf(const Scatterer& scatterer, const GoniometerConfig& conf
     r.wavelength_paths_shared = config.share_wavelength_paths && scatterer.can_share_paths() &&
                                 config.wavelengths_nm.size() > 1 &&
                                 config.wavelengths_nm.size() <= Scatterer::kMaxSharedWavelengths;
+    r.paths_split = r.wavelength_paths_shared && config.split_paths && scatterer.can_split_paths();
+    r.diffuse_guided =
+        r.wavelength_paths_shared && config.guided_fraction > 0.0 && scatterer.can_split_paths();
     r.estimator_used = config.estimator == Estimator::automatic
                            ? (scatterer.can_evaluate() ? Estimator::eval : Estimator::photon)
                            : config.estimator;
@@ -606,7 +648,8 @@ BrdfRecord measure_brdf(const Scatterer& scatterer, const GoniometerConfig& conf
         // of them back (common/distributed.h, run_items).
         std::vector<std::vector<double>> partial(items.size());
         auto play = [&](std::size_t it) {
-            play_item(scatterer, config, groups, items[it], nlobes, shared, partial[it]);
+            play_item(scatterer, config, groups, items[it], nlobes, shared,
+                      r.paths_split || r.diffuse_guided, partial[it]);
         };
         distributed::ItemTransport transport;
         transport.pack = [&](std::size_t it, Bytes& out) { out.put_vector(partial[it]); };
@@ -724,6 +767,14 @@ void write_brdf_record(const BrdfRecord& r, const std::filesystem::path& path) {
                              ? "shared: one path per quantum for every wavelength, re-weighted "
                                "per wavelength (sim/tracer.h, spectral path sharing)"
                              : "separate: one path per quantum and wavelength");
+        h5.set_attribute("/instrument", "path_splitting",
+                         r.paths_split
+                             ? "first film: each quantum's path split at its first film event "
+                               "into a reflected and a transmitted branch (sim/tracer.h)"
+                             : "none");
+        if (r.diffuse_guided) {
+            h5.set_attribute("/instrument", "diffuse_guided_fraction", c.guided_fraction);
+        }
     }
     h5.set_attribute("/instrument", "estimator",
                      r.estimator_used == Estimator::eval ? "eval" : "photon");

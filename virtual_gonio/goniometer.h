@@ -39,6 +39,8 @@
 //    spectral path sharing), its stream seeded from (seed, light direction, quantum index)
 //    in streams the per-wavelength quanta do not use; each cell's estimate and standard
 //    error are as before (the quanta are independent; one quantum's λs are correlated).
+//    With split_paths as well, a quantum is the sum of its branches (sim/scatterer.h, path
+//    splitting): x per cell is the sum of the branches that enter its cone, then squared.
 //    Standard errors from the per-quantum variance. Streams are seeded from (seed, light
 //    direction, wavelength, quantum index), and partial sums are combined in a fixed
 //    order: results do not depend on thread count, and a resumed run equals an
@@ -97,6 +99,14 @@ struct GoniometerConfig {
     // Photon estimator, scatterers that can_share_paths() (the tracer), 2 … 64 wavelengths:
     // one path per quantum for all wavelengths (sim/tracer.h); otherwise ignored.
     bool share_wavelength_paths = false;
+    // With shared paths and a scatterer that can_split_paths() (the tracer): each quantum split
+    // at its first film event into a reflected and a transmitted branch (sim/tracer.h,
+    // "Splitting"); otherwise ignored.
+    bool split_paths = false;
+    // With shared paths and a scatterer that can_split_paths(): this share of its diffuse
+    // directions aimed at the light direction's detector cones (sim/tracer.h, "Guided diffuse
+    // reflection"), in [0, 1); 0: none.
+    double guided_fraction = 0.0;
     std::uint64_t quanta_per_pass = 20000;  // per light direction and wavelength
     int max_passes = 100;
     double time_budget_s = std::numeric_limits<double>::infinity();
@@ -125,6 +135,8 @@ struct BrdfRecord {
     std::vector<std::string> lobes;
     Estimator estimator_used = Estimator::photon;
     bool wavelength_paths_shared = false;  // share_wavelength_paths took effect
+    bool paths_split = false;              // split_paths took effect
+    bool diffuse_guided = false;           // guided_fraction took effect
     // Row-major [pair][wavelength]; lobe_values [lobe][pair][wavelength], 1/sr.
     std::vector<double> value, standard_error, lobe_values, lobe_standard_error;
     std::vector<std::uint8_t> signal_cells;  // [pair][wavelength]: 1 if in the error's set
