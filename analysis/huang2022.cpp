@@ -69,7 +69,9 @@ constexpr const std::array<double, 8>& kTrtCutWeights = kGl8Weights;
 // Cubic (4-point Lagrange) interpolation of `Channels` interleaved functions on a uniform grid
 // over [lo, hi]; the end intervals use the nearest four nodes. Each interval keeps its cubic in
 // the power basis of t ∈ [0, 1] (Horner: 3 multiply-adds a lookup instead of the Lagrange
-// weights, which were half of eval()'s instructions).
+// weights, which were half of eval()'s instructions). One more interval past hi holds the value
+// at hi as a constant, so that a lookup clamps its coordinate instead of its interval index
+// (c = hi, or above it by rounding, lands there; the value at hi is the same either way).
 template <std::size_t Channels>
 class UniformCubicTable {
 public:
@@ -78,7 +80,8 @@ public:
     UniformCubicTable(double lo, double hi, const std::vector<double>& values)
         : lo_(lo), nodes_(static_cast<int>(values.size() / Channels)) {
         scale_ = (nodes_ - 1) / (hi - lo);
-        coefficients_.resize(static_cast<std::size_t>(nodes_ - 1) * 4 * Channels);
+        x_max_ = nodes_ - 1;
+        coefficients_.resize(static_cast<std::size_t>(nodes_) * 4 * Channels, 0.0);
         for (int i = 0; i + 1 < nodes_; ++i) {
             const int s = std::clamp(i - 1, 0, nodes_ - 4);  // the stencil s … s + 3
             const double d = i - s;                          // node i in stencil coordinates
@@ -103,12 +106,18 @@ public:
                 c[3] = e3 / 6.0;
             }
         }
+        // The constant past hi: the last interval's cubic at t = 1, evaluated as a lookup does.
+        const double* last =
+            coefficients_.data() + static_cast<std::size_t>(nodes_ - 2) * Channels * 4;
+        double* pad = coefficients_.data() + static_cast<std::size_t>(nodes_ - 1) * Channels * 4;
+        for (std::size_t j = 0; j < Channels; ++j)
+            pad[4 * j] = ((last[4 * j + 3] + last[4 * j + 2]) + last[4 * j + 1]) + last[4 * j];
     }
     int nodes() const { return nodes_; }
     // c in [lo, hi].
     std::array<double, Channels> operator()(double c) const {
-        const double x = (c - lo_) * scale_;
-        const int i = std::min(static_cast<int>(x), nodes_ - 2);
+        const double x = std::min((c - lo_) * scale_, x_max_);
+        const int i = static_cast<int>(x);
         const double t = x - i;
         const double* p = coefficients_.data() + static_cast<std::size_t>(i) * Channels * 4;
         std::array<double, Channels> out;
@@ -118,7 +127,7 @@ public:
     }
 
 private:
-    double lo_ = 0.0, scale_ = 0.0;
+    double lo_ = 0.0, scale_ = 0.0, x_max_ = 0.0;
     int nodes_ = 0;
     std::vector<double> coefficients_;
 };
@@ -324,6 +333,7 @@ struct Huang2022Bsdf::Frame {
     double phi_i = 0.0;  // azimuth of ω_i's projection on the x–z plane
     double cos_theta_i = 0.0, sin_theta_i = 0.0;
     double cos_mu = 1.0, sin_mu = 0.0;             // of the barb-plane tilt, for ω_o
+    double sin_theta_d = 0.0, cos_theta_d = 1.0;   // of the longitudinal half-opening
     double period = 0.0;                           // Δh = H cos(φ_i + μ)
     std::vector<std::array<double, 2>> intervals;  // visible, front-facing φ_m ranges
     std::vector<double> h_cumulative;              // projected visible length up to interval k
@@ -338,16 +348,22 @@ struct Huang2022Bsdf::Frame {
     // most kTrtPiece / trt_refine rad of the visible arc, and trt_refine panels of
     // kTrtThetaNodes over each φ node's θ support (eval_in_frame; trt_refine = 1 but in the
     // reference path). Weights include q's densities.
+    // A facet normal is ω_m = (sin φ cos θ, sin θ, cos φ cos θ), so for any direction ω,
+    // ω·ω_m = A cos θ + ω_y sin θ with A = ω_x sin φ + ω_z cos φ: one A per φ node and ω, then
+    // two products per θ node (eval's hot loop) instead of a dot product with a stored normal.
     struct TrtPhiNode {
         double sin_phi, cos_phi;
-        double weight;             // of the outer rule, times w(φ) = ρ cos(φ − φ_i) / Δh'
-        ThetaDensity theta;        // p_θ(θ | φ)
-        Vec3d m_lo, m_hi;          // the facet normals at the ends of its θ support
-        std::size_t first, count;  // its θ nodes in trt_m (count 0: empty support)
+        double weight;  // of the outer rule, times w(φ) = ρ cos(φ − φ_i) / Δh'
+        double a_i;     // ω_i's A at this φ
+        // cos θ and sin θ at the ends of its θ support
+        double cos_lo, sin_lo, cos_hi, sin_hi;
+        std::size_t first, count;  // its θ nodes in trt_cos etc. (count 0: empty support)
     };
     int trt_refine = 1;
     std::vector<TrtPhiNode> trt_phi;                // kGl8Nodes.size() per piece, in order
+    std::vector<ThetaDensity> trt_theta;            // p_θ(θ | φ) per φ node, for the cut panels
     std::vector<std::array<double, 2>> trt_pieces;  // the φ_m pieces
+    std::vector<double> trt_cos, trt_sin;           // cos θ and sin θ per θ node
     std::vector<Vec3d> trt_m;
     std::vector<double> trt_w;
     // Per wavelength asked (the last few): trt_w · T(ω_i·ω_m) at the θ nodes, filled on first
@@ -466,6 +482,8 @@ Huang2022Bsdf::Frame Huang2022Bsdf::compute_frame(const Vec3d& wi_patch, int trt
     f.trt_refine = trt_refine;
     f.cos_mu = std::cos(params_.mu);
     f.sin_mu = std::sin(params_.mu);
+    f.sin_theta_d = std::sin(params_.theta_d);
+    f.cos_theta_d = std::cos(params_.theta_d);
     f.wi = to_barbule(wi_patch, params_.mu);
     f.cos_theta_i = std::hypot(f.wi.x(), f.wi.z());
     f.sin_theta_i = f.wi.y();
@@ -795,34 +813,48 @@ void Huang2022Bsdf::build_nodes(Frame& f) const {
 
 namespace {
 
-// TRT's efficiency E_q (eval_in_frame) by a frame's rule, given wt[k] = trt_w[k] · T(ω_i·ω_m) at
-// its θ nodes and T(c) (c ∈ [0, 1]): a template, so that the reference path (direct film, finer
-// rule) runs the same code as eval().
-// ∫ p_θ(θ | φ) T(ω_i·ω_m) T(ω_o·ω_m) dθ over the part of the θ support where ω_o·ω_m > 0, at
-// one φ_m (sin φ, cos φ) whose support meets that part: kTrtCutNodes per panel, f.trt_refine
-// panels.
+// atan x for |x| ≤ 0.1 by its series to x¹⁵ (the first omitted term, x¹⁷/17, is below 1e-17 of
+// x there: libm's value to an ulp or two at a fraction of its cost); larger |x| go to libm. The
+// cut points of TRT's θ_m supports, |θ| ≤ θ_d (0.0785 rad by default), take it.
+double small_atan(double x) {
+    if (!(std::abs(x) <= 0.1)) return std::atan(x);
+    const double x2 = x * x;
+    // Horner in x² with the coefficients (−1)ᵏ/(2k+1).
+    double s = -1.0 / 15.0;
+    s = s * x2 + 1.0 / 13.0;
+    s = s * x2 - 1.0 / 11.0;
+    s = s * x2 + 1.0 / 9.0;
+    s = s * x2 - 1.0 / 7.0;
+    s = s * x2 + 1.0 / 5.0;
+    s = s * x2 - 1.0 / 3.0;
+    return x + x * x2 * s;
+}
+
+// ∫ p_θ(θ | φ) T(ω_i·ω_m) T(ω_o·ω_m) dθ over the part of the θ support where ω_o·ω_m > 0, at one
+// φ_m: kTrtCutNodes per panel, f.trt_refine panels. ω·ω_m = A cos θ + ω_y sin θ (Frame's
+// TrtPhiNode), a_i and a_o the A of ω_i and ω_o at this φ_m; c_lo and c_hi are ω_o·ω_m at the
+// support's ends. ω_o·ω_m is a sinusoid in θ with zeros π apart and the support is at most π/2
+// wide, so it holds one zero at most, where tan θ = −A_o / ω_o,y, and the positive part is the
+// side of it whose end is positive.
 template <typename FrameT, typename Transmittance>
-double positive_part_integral(const FrameT& f, double sin_phi, double cos_phi,
-                              const ThetaDensity& td, const Vec3d& wo_b,
+double positive_part_integral(const FrameT& f, const ThetaDensity& td, double a_i, double a_o,
+                              const Vec3d& wo_b, double c_lo, double c_hi,
                               const Transmittance& transmittance) {
-    // ω_o·ω_m > 0 on (γ − π/2, γ + π/2) mod 2π; the support is at most π/2 wide, so it meets
-    // that set in one interval.
-    const double gamma = std::atan2(wo_b.y(), wo_b.x() * sin_phi + wo_b.z() * cos_phi);
-    double a = 0.0, b = 0.0;
-    for (int k = -1; k <= 1; ++k) {
-        const double lo = std::max(td.lo, gamma - 0.5 * kPi + 2.0 * kPi * k);
-        const double hi = std::min(td.hi, gamma + 0.5 * kPi + 2.0 * kPi * k);
-        if (hi > lo) a = lo, b = hi;
+    if (!(c_lo > 0.0) && !(c_hi > 0.0)) return 0.0;
+    double a = td.lo, b = td.hi;
+    if (!(c_lo > 0.0 && c_hi > 0.0)) {
+        const double cut = std::clamp(small_atan(-a_o / wo_b.y()), td.lo, td.hi);
+        (c_lo > 0.0 ? b : a) = cut;
     }
+    const double b_i = f.wi.y(), b_o = wo_b.y();
     double inner = 0.0;
     auto panel_sum = [&](double pa, double pb) {
         for (std::size_t j = 0; j < kTrtCutNodes.size(); ++j) {
             const double theta = 0.5 * (pa + pb) + 0.5 * (pb - pa) * kTrtCutNodes[j];
             double st = 0.0, ct = 0.0;
             small_angle_sincos(theta, st, ct);
-            const Vec3d m(sin_phi * ct, st, cos_phi * ct);  // normal_at(φ, θ)
             inner += 0.5 * (pb - pa) * kTrtCutWeights[j] * td.density(theta, st, ct) *
-                     transmittance(f.wi.dot(m)) * transmittance(wo_b.dot(m));
+                     transmittance(a_i * ct + b_i * st) * transmittance(a_o * ct + b_o * st);
         }
     };
     for (int panel = 0; panel < f.trt_refine && b > a; ++panel)
@@ -841,32 +873,39 @@ double trt_efficiency_sum(const FrameT& f, const Vec3d& wo_b, const std::vector<
                           double theta_d) {
     double sum = 0.0;
     // ω_o's terminators on the arc: A(φ) = ω_o,x sin φ + ω_o,z cos φ = 0.
-    const double r_o = std::hypot(wo_b.x(), wo_b.z());
-    steep = steep && r_o > 1e-12;
+    steep = steep && std::hypot(wo_b.x(), wo_b.z()) > 1e-12;
     const double phi_o = steep ? std::atan2(wo_b.x(), wo_b.z()) : 0.0;
+    const double b_o = wo_b.y();
     // q's Gauss–Legendre φ_m nodes on [a, c] (as q_phi_nodes_on), each θ support's positive
     // part integrated afresh. A node is skipped first where ω_o·ω_m ≤ 0 at both θ_m = ±θ_d:
     // ω_o·ω_m = A cos θ + B sin θ is > 0 on an arc of length π, which a range ≤ π/2 wide
     // cannot hold strictly inside, so it is ≤ 0 on the whole support then (the dark side of the
     // terminator, half the nodes, for the price of a sincos).
     const Ellipse e{b};
-    const double sin_d = std::sin(theta_d), cos_d = std::cos(theta_d);
+    const double sin_d = f.sin_theta_d, cos_d = f.cos_theta_d;
     auto graded_piece = [&](double a, double c) {
         for (std::size_t i = 0; i < kGl8Nodes.size(); ++i) {
             const double phi = 0.5 * (a + c) + 0.5 * (c - a) * kGl8Nodes[i];
             const double sp = std::sin(phi), cp = std::cos(phi);
-            const double big_a = wo_b.x() * sp + wo_b.z() * cp;
-            if (big_a * cos_d + wo_b.y() * sin_d <= 0.0 && big_a * cos_d - wo_b.y() * sin_d <= 0.0)
-                continue;
+            const double a_o = wo_b.x() * sp + wo_b.z() * cp;
+            if (a_o * cos_d + b_o * sin_d <= 0.0 && a_o * cos_d - b_o * sin_d <= 0.0) continue;
             const double cos_rel = std::cos(phi - f.phi_i);
             const ThetaDensity td = theta_density(f.cos_theta_i * cos_rel, f.sin_theta_i, theta_d);
             if (td.empty()) continue;
             const double w =
                 0.5 * (c - a) * kGl8Weights[i] * e.rho(phi) * cos_rel / f.visible_length;
-            sum += w * positive_part_integral(f, sp, cp, td, wo_b, transmittance);
+            double s_lo = 0.0, c_lo = 0.0, s_hi = 0.0, c_hi = 0.0;
+            small_angle_sincos(td.lo, s_lo, c_lo);
+            small_angle_sincos(td.hi, s_hi, c_hi);
+            sum += w * positive_part_integral(f, td, f.wi.x() * sp + f.wi.z() * cp, a_o, wo_b,
+                                              a_o * c_lo + b_o * s_lo, a_o * c_hi + b_o * s_hi,
+                                              transmittance);
         }
     };
     constexpr std::size_t kPerPiece = kGl8Nodes.size();
+    const double* cos_theta = f.trt_cos.data();
+    const double* sin_theta = f.trt_sin.data();
+    const double* weight = wt.data();
     for (std::size_t piece = 0; piece < f.trt_pieces.size(); ++piece) {
         const auto [pa, pc] = f.trt_pieces[piece];
         if (steep) {
@@ -902,14 +941,16 @@ double trt_efficiency_sum(const FrameT& f, const Vec3d& wo_b, const std::vector<
         for (std::size_t i = piece * kPerPiece; i < (piece + 1) * kPerPiece; ++i) {
             const auto& node = f.trt_phi[i];
             if (node.count == 0) continue;
-            const double x_lo = wo_b.dot(node.m_lo), x_hi = wo_b.dot(node.m_hi);
-            if (x_lo <= 0.0 && x_hi <= 0.0) continue;  // one sign change at most: none > 0
+            const double a_o = wo_b.x() * node.sin_phi + wo_b.z() * node.cos_phi;
+            const double c_lo = a_o * node.cos_lo + b_o * node.sin_lo,
+                         c_hi = a_o * node.cos_hi + b_o * node.sin_hi;
+            if (c_lo <= 0.0 && c_hi <= 0.0) continue;  // one sign change at most: none > 0
             double inner = 0.0;
-            if (x_lo > 0.0 && x_hi > 0.0) {
+            if (c_lo > 0.0 && c_hi > 0.0) {
                 for (std::size_t k = node.first; k < node.first + node.count; ++k)
-                    inner += wt[k] * transmittance(wo_b.dot(f.trt_m[k]));
+                    inner += weight[k] * transmittance(a_o * cos_theta[k] + b_o * sin_theta[k]);
             } else {
-                inner = positive_part_integral(f, node.sin_phi, node.cos_phi, node.theta, wo_b,
+                inner = positive_part_integral(f, f.trt_theta[i], node.a_i, a_o, wo_b, c_lo, c_hi,
                                                transmittance);
             }
             sum += node.weight * inner;
@@ -971,7 +1012,10 @@ double Huang2022Bsdf::eval_in_frame(const Frame& f, const Vec3d& wo, double lamb
     if (f.visible_length > 0.0 && cos_o_patch > 1e-12) {
         // R: the half vector must be a hit normal the sampler can produce.
         const Vec3d h = f.wi + wo_b;
-        if (h.norm() > 1e-12) {
+        // |θ_m| ≤ θ_d needs |m_y| ≤ sin θ_d: most ω_o fail that before the atan2 and asin
+        // (the margin keeps the exact test below the one that decides).
+        if (h.norm() > 1e-12 && std::abs(h.y()) <= f.sin_theta_d * (1.0 + 1e-9) * h.norm() &&
+            f.wi.dot(h) > 0.0) {
             const Vec3d m = h.normalized();
             const double phi_m = wrap_into(std::atan2(m.x(), m.z()), params_.phi0);
             const double theta_m = std::asin(std::clamp(m.y(), -1.0, 1.0));
@@ -1038,15 +1082,26 @@ void Huang2022Bsdf::build_trt_nodes(Frame& f) const {
         f.trt_pieces.push_back({a, c});
         q_phi_nodes_on(
             f, params_.b, params_.theta_d, a, c, [&](double phi, double w, const ThetaDensity& td) {
-                Frame::TrtPhiNode node{
-                    std::sin(phi),         std::cos(phi),  w, td, normal_at(phi, td.lo),
-                    normal_at(phi, td.hi), f.trt_m.size(), 0};
+                const double sp = std::sin(phi), cp = std::cos(phi);
+                Frame::TrtPhiNode node{sp,
+                                       cp,
+                                       w,
+                                       f.wi.x() * sp + f.wi.z() * cp,
+                                       std::cos(td.lo),
+                                       std::sin(td.lo),
+                                       std::cos(td.hi),
+                                       std::sin(td.hi),
+                                       f.trt_m.size(),
+                                       0};
+                f.trt_theta.push_back(td);
                 for (int panel = 0; panel < refine && !td.empty(); ++panel) {
                     const double pa = td.lo + (td.hi - td.lo) * panel / refine,
                                  pb = td.lo + (td.hi - td.lo) * (panel + 1) / refine;
                     for (std::size_t j = 0; j < kTrtThetaNodes.size(); ++j) {
                         const double theta = 0.5 * (pa + pb) + 0.5 * (pb - pa) * kTrtThetaNodes[j];
                         f.trt_m.push_back(normal_at(phi, theta));
+                        f.trt_cos.push_back(std::cos(theta));
+                        f.trt_sin.push_back(std::sin(theta));
                         f.trt_w.push_back(0.5 * (pb - pa) * kTrtThetaWeights[j] *
                                           td.density(theta));
                         ++node.count;
