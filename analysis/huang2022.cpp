@@ -37,6 +37,9 @@ constexpr std::array<double, 8> kGl8Weights = {
 // when the support is cut. Chosen against the dense reference (see eval_in_frame): with
 // 0.25 rad or 3 θ_m nodes the error at grazing views along the barbule axis was 0.3–0.5 %.
 constexpr double kTrtPiece = 0.125;  // rad
+// A pair of adjacent pieces takes one 8-node rule where every facet of the pair faces both ω_i
+// and ω_o by at least this cosine (Frame::TrtPair, eval_in_frame).
+constexpr double kTrtSmoothCos = 0.05;
 constexpr std::array<double, 5> kTrtThetaNodes = {-0.9061798459386640, -0.5384693101056831, 0.0,
                                                   0.5384693101056831, 0.9061798459386640};
 constexpr std::array<double, 5> kTrtThetaWeights = {0.2369268850561891, 0.4786286704993665,
@@ -291,8 +294,8 @@ ThetaDensity theta_density(double a, double b, double theta_d) {
 
 // sin θ and cos θ for |θ| ≤ π/4 (every θ_m: the support is within ±θ_d ≤ π/4) by their
 // Taylor series to θ¹⁵ and θ¹⁶: the first omitted terms are below 5e-17 there, so the values
-// are libm's to a few ulp at a quarter of its cost (TRT's cut panels take 8 of each per panel).
-// Larger |θ| go to libm.
+// are libm's to a few ulp at a quarter of its cost (TRT's cut panels take 8 of each per panel);
+// for |θ| ≤ 0.1 to θ⁹ and θ¹⁰ (omitted terms below 3e-19). Larger |θ| go to libm.
 void small_angle_sincos(double theta, double& sin_theta, double& cos_theta) {
     if (!(std::abs(theta) <= 0.25 * kPi)) {
         sin_theta = std::sin(theta);
@@ -301,6 +304,20 @@ void small_angle_sincos(double theta, double& sin_theta, double& cos_theta) {
     }
     const double t2 = theta * theta;
     // Horner in θ² with the coefficients (−1)ᵏ/(2k+1)! and (−1)ᵏ/(2k)!.
+    if (std::abs(theta) <= 0.1) {  // every θ_m at the default θ_d = 0.0785 rad
+        double s = 1.0 / 362880.0;
+        s = s * t2 - 1.0 / 5040.0;
+        s = s * t2 + 1.0 / 120.0;
+        s = s * t2 - 1.0 / 6.0;
+        sin_theta = theta + theta * t2 * s;
+        double c = -1.0 / 3628800.0;
+        c = c * t2 + 1.0 / 40320.0;
+        c = c * t2 - 1.0 / 720.0;
+        c = c * t2 + 1.0 / 24.0;
+        c = c * t2 - 0.5;
+        cos_theta = 1.0 + t2 * c;
+        return;
+    }
     double s = -1.0 / 1307674368000.0;
     s = s * t2 + 1.0 / 6227020800.0;
     s = s * t2 - 1.0 / 39916800.0;
@@ -360,10 +377,25 @@ struct Huang2022Bsdf::Frame {
         std::size_t first, count;  // its θ nodes in trt_cos etc. (count 0: empty support)
     };
     int trt_refine = 1;
-    std::vector<TrtPhiNode> trt_phi;                // kGl8Nodes.size() per piece, in order
-    std::vector<ThetaDensity> trt_theta;            // p_θ(θ | φ) per φ node, for the cut panels
-    std::vector<std::array<double, 2>> trt_pieces;  // the φ_m pieces
-    std::vector<double> trt_cos, trt_sin;           // cos θ and sin θ per θ node
+    std::vector<TrtPhiNode> trt_phi;      // kGl8Nodes.size() per piece, in order
+    std::vector<ThetaDensity> trt_theta;  // p_θ(θ | φ) per φ node, for the cut panels
+    // The φ_m pieces, kGl8Nodes.size() nodes each (in trt_phi, in order), and sin, cos of their
+    // ends (eval_in_frame classifies each piece by ω_o from them).
+    struct TrtPiece {
+        double a, c;
+        double sin_a, cos_a, sin_c, cos_c;
+    };
+    std::vector<TrtPiece> trt_pieces;
+    // Adjacent pairs of pieces within a visible interval on which every facet faces ω_i by
+    // ω_i·ω_m ≥ kTrtSmoothCos, with one 8-node φ_m rule over the pair (nodes in trt_phi after
+    // the pieces'): eval takes it for an ω_o that all the pair's facets face by as much
+    // (eval_in_frame). Built for trt_refine = 1 only.
+    struct TrtPair {
+        std::size_t piece;       // its first piece; the second is piece + 1
+        std::size_t first_node;  // its kGl8Nodes.size() nodes in trt_phi
+    };
+    std::vector<TrtPair> trt_pairs;        // in the order of their pieces
+    std::vector<double> trt_cos, trt_sin;  // cos θ and sin θ per θ node
     std::vector<Vec3d> trt_m;
     std::vector<double> trt_w;
     // Per wavelength asked (the last few): trt_w · T(ω_i·ω_m) at the θ nodes, filled on first
@@ -906,8 +938,72 @@ double trt_efficiency_sum(const FrameT& f, const Vec3d& wo_b, const std::vector<
     const double* cos_theta = f.trt_cos.data();
     const double* sin_theta = f.trt_sin.data();
     const double* weight = wt.data();
+    // The frame's φ nodes first … last − 1, each θ support's positive part.
+    auto node_sum = [&](std::size_t first, std::size_t last) {
+        for (std::size_t i = first; i < last; ++i) {
+            const auto& node = f.trt_phi[i];
+            if (node.count == 0) continue;
+            const double a_o = wo_b.x() * node.sin_phi + wo_b.z() * node.cos_phi;
+            const double c_lo = a_o * node.cos_lo + b_o * node.sin_lo,
+                         c_hi = a_o * node.cos_hi + b_o * node.sin_hi;
+            if (c_lo <= 0.0 && c_hi <= 0.0) continue;  // one sign change at most: none > 0
+            double inner = 0.0;
+            if (c_lo > 0.0 && c_hi > 0.0) {
+                for (std::size_t k = node.first; k < node.first + node.count; ++k)
+                    inner += weight[k] * transmittance(a_o * cos_theta[k] + b_o * sin_theta[k]);
+            } else {
+                inner = positive_part_integral(f, f.trt_theta[i], node.a_i, a_o, wo_b, c_lo, c_hi,
+                                               transmittance);
+            }
+            sum += node.weight * inner;
+        }
+    };
+    // Each piece classified by ω_o first: ω_o·ω_m ≤ A_o cos θ_d + |ω_o,y| sin θ_d on a facet's
+    // whole θ range, and ≥ A_o cos θ_d − |ω_o,y| sin θ_d; A_o = r_o cos(φ − φ_o) at a piece's ends
+    // bounds it inside (it exceeds, or stays below, a value on one arc shorter than π). A piece
+    // below 0 (dark) contributes nothing: each of its nodes would be skipped. A piece above 0
+    // (lit) has no cut node and no terminator. A smooth pair (Frame::TrtPair) lit by at least
+    // kTrtSmoothCos takes its one rule.
+    const double reach = std::abs(b_o) * sin_d;
+    auto facing = [&](double sin_phi, double cos_phi) {
+        return wo_b.x() * sin_phi + wo_b.z() * cos_phi;
+    };
+    auto lit_sum = [&](std::size_t first, std::size_t last) {
+        for (std::size_t i = first; i < last; ++i) {
+            const auto& node = f.trt_phi[i];
+            const double a_o = wo_b.x() * node.sin_phi + wo_b.z() * node.cos_phi;
+            double inner = 0.0;
+            for (std::size_t k = node.first; k < node.first + node.count; ++k)
+                inner += weight[k] * transmittance(a_o * cos_theta[k] + b_o * sin_theta[k]);
+            sum += node.weight * inner;
+        }
+    };
+    auto pair = f.trt_pairs.begin();
     for (std::size_t piece = 0; piece < f.trt_pieces.size(); ++piece) {
-        const auto [pa, pc] = f.trt_pieces[piece];
+        const auto& pp = f.trt_pieces[piece];
+        const double pa = pp.a, pc = pp.c;
+        const double a_a = facing(pp.sin_a, pp.cos_a);
+        if (pair != f.trt_pairs.end() && pair->piece == piece) {
+            const std::size_t first = pair->first_node;
+            ++pair;
+            const auto& second = f.trt_pieces[piece + 1];
+            const double a_c = facing(second.sin_c, second.cos_c);
+            if (std::max(a_a, a_c) * cos_d + reach <= 0.0) {
+                ++piece;  // both pieces dark
+                continue;
+            }
+            if (!steep && std::min(a_a, a_c) * cos_d - reach >= kTrtSmoothCos) {
+                lit_sum(first, first + kPerPiece);
+                ++piece;
+                continue;
+            }
+        }
+        const double a_c = facing(pp.sin_c, pp.cos_c);
+        if (std::max(a_a, a_c) * cos_d + reach <= 0.0) continue;  // dark
+        if (std::min(a_a, a_c) * cos_d - reach > 1e-12) {         // lit
+            lit_sum(piece * kPerPiece, (piece + 1) * kPerPiece);
+            continue;
+        }
         if (steep) {
             double terminator = std::numeric_limits<double>::quiet_NaN();
             for (double t : {phi_o + 0.5 * kPi, phi_o - 0.5 * kPi}) {
@@ -938,23 +1034,7 @@ double trt_efficiency_sum(const FrameT& f, const Vec3d& wo_b, const std::vector<
                 continue;
             }
         }
-        for (std::size_t i = piece * kPerPiece; i < (piece + 1) * kPerPiece; ++i) {
-            const auto& node = f.trt_phi[i];
-            if (node.count == 0) continue;
-            const double a_o = wo_b.x() * node.sin_phi + wo_b.z() * node.cos_phi;
-            const double c_lo = a_o * node.cos_lo + b_o * node.sin_lo,
-                         c_hi = a_o * node.cos_hi + b_o * node.sin_hi;
-            if (c_lo <= 0.0 && c_hi <= 0.0) continue;  // one sign change at most: none > 0
-            double inner = 0.0;
-            if (c_lo > 0.0 && c_hi > 0.0) {
-                for (std::size_t k = node.first; k < node.first + node.count; ++k)
-                    inner += weight[k] * transmittance(a_o * cos_theta[k] + b_o * sin_theta[k]);
-            } else {
-                inner = positive_part_integral(f, f.trt_theta[i], node.a_i, a_o, wo_b, c_lo, c_hi,
-                                               transmittance);
-            }
-            sum += node.weight * inner;
-        }
+        node_sum(piece * kPerPiece, (piece + 1) * kPerPiece);
     }
     return sum;
 }
@@ -1078,38 +1158,61 @@ double Huang2022Bsdf::eval_reference(const Vec3d& wi, const Vec3d& wo, double la
 void Huang2022Bsdf::build_trt_nodes(Frame& f) const {
     if (!(f.visible_length > 0.0)) return;
     const int refine = f.trt_refine;
-    for_each_q_piece(f, kTrtPiece / refine, [&](double a, double c) {
-        f.trt_pieces.push_back({a, c});
-        q_phi_nodes_on(
-            f, params_.b, params_.theta_d, a, c, [&](double phi, double w, const ThetaDensity& td) {
-                const double sp = std::sin(phi), cp = std::cos(phi);
-                Frame::TrtPhiNode node{sp,
-                                       cp,
-                                       w,
-                                       f.wi.x() * sp + f.wi.z() * cp,
-                                       std::cos(td.lo),
-                                       std::sin(td.lo),
-                                       std::cos(td.hi),
-                                       std::sin(td.hi),
-                                       f.trt_m.size(),
-                                       0};
-                f.trt_theta.push_back(td);
-                for (int panel = 0; panel < refine && !td.empty(); ++panel) {
-                    const double pa = td.lo + (td.hi - td.lo) * panel / refine,
-                                 pb = td.lo + (td.hi - td.lo) * (panel + 1) / refine;
-                    for (std::size_t j = 0; j < kTrtThetaNodes.size(); ++j) {
-                        const double theta = 0.5 * (pa + pb) + 0.5 * (pb - pa) * kTrtThetaNodes[j];
-                        f.trt_m.push_back(normal_at(phi, theta));
-                        f.trt_cos.push_back(std::cos(theta));
-                        f.trt_sin.push_back(std::sin(theta));
-                        f.trt_w.push_back(0.5 * (pb - pa) * kTrtThetaWeights[j] *
-                                          td.density(theta));
-                        ++node.count;
-                    }
-                }
-                f.trt_phi.push_back(node);
-            });
-    });
+    auto add_phi_node = [&](double phi, double w, const ThetaDensity& td) {
+        const double sp = std::sin(phi), cp = std::cos(phi);
+        Frame::TrtPhiNode node{sp,
+                               cp,
+                               w,
+                               f.wi.x() * sp + f.wi.z() * cp,
+                               std::cos(td.lo),
+                               std::sin(td.lo),
+                               std::cos(td.hi),
+                               std::sin(td.hi),
+                               f.trt_m.size(),
+                               0};
+        f.trt_theta.push_back(td);
+        for (int panel = 0; panel < refine && !td.empty(); ++panel) {
+            const double pa = td.lo + (td.hi - td.lo) * panel / refine,
+                         pb = td.lo + (td.hi - td.lo) * (panel + 1) / refine;
+            for (std::size_t j = 0; j < kTrtThetaNodes.size(); ++j) {
+                const double theta = 0.5 * (pa + pb) + 0.5 * (pb - pa) * kTrtThetaNodes[j];
+                f.trt_m.push_back(normal_at(phi, theta));
+                f.trt_cos.push_back(std::cos(theta));
+                f.trt_sin.push_back(std::sin(theta));
+                f.trt_w.push_back(0.5 * (pb - pa) * kTrtThetaWeights[j] * td.density(theta));
+                ++node.count;
+            }
+        }
+        f.trt_phi.push_back(node);
+    };
+    // The pieces, interval by interval (as for_each_q_piece), and the pairs they could form.
+    std::vector<std::size_t> pair_candidates;
+    for (const auto& [lo, hi] : f.intervals) {
+        const int pieces =
+            std::max(1, static_cast<int>(std::ceil((hi - lo) / (kTrtPiece / refine))));
+        for (int k = 0; k < pieces; ++k) {
+            const double a = lo + (hi - lo) * k / pieces, c = lo + (hi - lo) * (k + 1) / pieces;
+            if (k % 2 == 1) pair_candidates.push_back(f.trt_pieces.size() - 1);
+            f.trt_pieces.push_back({a, c, std::sin(a), std::cos(a), std::sin(c), std::cos(c)});
+            q_phi_nodes_on(f, params_.b, params_.theta_d, a, c, add_phi_node);
+        }
+    }
+    if (refine != 1) return;
+    // ω_i·ω_m ≥ A_i(φ) cos θ_d − |ω_i,y| sin θ_d on the whole θ range, and A_i at the pair's ends
+    // bounds it inside (A_i = r_i cos(φ − φ_i) exceeds a value ≥ 0 on one arc shorter than π).
+    auto facing = [&](double sp, double cp, const Vec3d& w) {
+        return (w.x() * sp + w.z() * cp) * f.cos_theta_d - std::abs(w.y()) * f.sin_theta_d;
+    };
+    for (std::size_t piece : pair_candidates) {
+        const auto &first = f.trt_pieces[piece], &second = f.trt_pieces[piece + 1];
+        if (facing(first.sin_a, first.cos_a, f.wi) < kTrtSmoothCos ||
+            facing(second.sin_c, second.cos_c, f.wi) < kTrtSmoothCos)
+            continue;
+        const Frame::TrtPair pair{piece, f.trt_phi.size()};
+        const double a = first.a, c = second.c;
+        q_phi_nodes_on(f, params_.b, params_.theta_d, a, c, add_phi_node);
+        f.trt_pairs.push_back(pair);
+    }
 }
 
 void Huang2022Bsdf::prepare_nodes(const Frame& f, double lambda_nm) const {
