@@ -292,32 +292,35 @@ ThetaDensity theta_density(double a, double b, double theta_d) {
     return t;
 }
 
-// sin θ and cos θ for |θ| ≤ π/4 (every θ_m: the support is within ±θ_d ≤ π/4) by their
-// Taylor series to θ¹⁵ and θ¹⁶: the first omitted terms are below 5e-17 there, so the values
-// are libm's to a few ulp at a quarter of its cost (TRT's cut panels take 8 of each per panel);
-// for |θ| ≤ 0.1 to θ⁹ and θ¹⁰ (omitted terms below 3e-19). Larger |θ| go to libm.
+// sin θ and cos θ for |θ| ≤ 0.1 (every θ_m at the default θ_d = 0.0785 rad) by their Taylor
+// series to θ⁹ and θ¹⁰: the omitted terms are below 3e-19 there, so the values are libm's to an
+// ulp or two at a fraction of its cost (TRT's cut panels take 8 of each per panel).
+void short_sincos(double theta, double& sin_theta, double& cos_theta) {
+    const double t2 = theta * theta;
+    // Horner in θ² with the coefficients (−1)ᵏ/(2k+1)! and (−1)ᵏ/(2k)!.
+    double s = 1.0 / 362880.0;
+    s = s * t2 - 1.0 / 5040.0;
+    s = s * t2 + 1.0 / 120.0;
+    s = s * t2 - 1.0 / 6.0;
+    sin_theta = theta + theta * t2 * s;
+    double c = -1.0 / 3628800.0;
+    c = c * t2 + 1.0 / 40320.0;
+    c = c * t2 - 1.0 / 720.0;
+    c = c * t2 + 1.0 / 24.0;
+    c = c * t2 - 0.5;
+    cos_theta = 1.0 + t2 * c;
+}
+
+// The same for |θ| ≤ π/4 (every θ_m: the support is within ±θ_d ≤ π/4), to θ¹⁵ and θ¹⁶ (the
+// first omitted terms are below 5e-17 there) beyond 0.1; larger |θ| go to libm.
 void small_angle_sincos(double theta, double& sin_theta, double& cos_theta) {
+    if (std::abs(theta) <= 0.1) return short_sincos(theta, sin_theta, cos_theta);
     if (!(std::abs(theta) <= 0.25 * kPi)) {
         sin_theta = std::sin(theta);
         cos_theta = std::cos(theta);
         return;
     }
     const double t2 = theta * theta;
-    // Horner in θ² with the coefficients (−1)ᵏ/(2k+1)! and (−1)ᵏ/(2k)!.
-    if (std::abs(theta) <= 0.1) {  // every θ_m at the default θ_d = 0.0785 rad
-        double s = 1.0 / 362880.0;
-        s = s * t2 - 1.0 / 5040.0;
-        s = s * t2 + 1.0 / 120.0;
-        s = s * t2 - 1.0 / 6.0;
-        sin_theta = theta + theta * t2 * s;
-        double c = -1.0 / 3628800.0;
-        c = c * t2 + 1.0 / 40320.0;
-        c = c * t2 - 1.0 / 720.0;
-        c = c * t2 + 1.0 / 24.0;
-        c = c * t2 - 0.5;
-        cos_theta = 1.0 + t2 * c;
-        return;
-    }
     double s = -1.0 / 1307674368000.0;
     s = s * t2 + 1.0 / 6227020800.0;
     s = s * t2 - 1.0 / 39916800.0;
@@ -884,7 +887,10 @@ double positive_part_integral(const FrameT& f, const ThetaDensity& td, double a_
         for (std::size_t j = 0; j < kTrtCutNodes.size(); ++j) {
             const double theta = 0.5 * (pa + pb) + 0.5 * (pb - pa) * kTrtCutNodes[j];
             double st = 0.0, ct = 0.0;
-            small_angle_sincos(theta, st, ct);
+            if (std::abs(theta) <= 0.1)
+                short_sincos(theta, st, ct);
+            else
+                small_angle_sincos(theta, st, ct);
             inner += 0.5 * (pb - pa) * kTrtCutWeights[j] * td.density(theta, st, ct) *
                      transmittance(a_i * ct + b_i * st) * transmittance(a_o * ct + b_o * st);
         }
