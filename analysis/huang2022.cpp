@@ -1164,28 +1164,27 @@ double Huang2022Bsdf::eval_reference(const Vec3d& wi, const Vec3d& wo, double la
 void Huang2022Bsdf::build_trt_nodes(Frame& f) const {
     if (!(f.visible_length > 0.0)) return;
     const int refine = f.trt_refine;
+    // θ_m's sines and cosines by small_angle_sincos (|θ_m| ≤ θ_d ≤ π/4): a new ω_i builds a
+    // thousand or more of them.
     auto add_phi_node = [&](double phi, double w, const ThetaDensity& td) {
         const double sp = std::sin(phi), cp = std::cos(phi);
-        Frame::TrtPhiNode node{sp,
-                               cp,
-                               w,
-                               f.wi.x() * sp + f.wi.z() * cp,
-                               std::cos(td.lo),
-                               std::sin(td.lo),
-                               std::cos(td.hi),
-                               std::sin(td.hi),
-                               f.trt_m.size(),
-                               0};
+        Frame::TrtPhiNode node{
+            sp, cp, w, f.wi.x() * sp + f.wi.z() * cp, 1.0, 0.0, 1.0, 0.0, f.trt_m.size(), 0};
+        small_angle_sincos(td.lo, node.sin_lo, node.cos_lo);
+        small_angle_sincos(td.hi, node.sin_hi, node.cos_hi);
         f.trt_theta.push_back(td);
         for (int panel = 0; panel < refine && !td.empty(); ++panel) {
             const double pa = td.lo + (td.hi - td.lo) * panel / refine,
                          pb = td.lo + (td.hi - td.lo) * (panel + 1) / refine;
             for (std::size_t j = 0; j < kTrtThetaNodes.size(); ++j) {
                 const double theta = 0.5 * (pa + pb) + 0.5 * (pb - pa) * kTrtThetaNodes[j];
-                f.trt_m.push_back(normal_at(phi, theta));
-                f.trt_cos.push_back(std::cos(theta));
-                f.trt_sin.push_back(std::sin(theta));
-                f.trt_w.push_back(0.5 * (pb - pa) * kTrtThetaWeights[j] * td.density(theta));
+                double st = 0.0, ct = 1.0;
+                small_angle_sincos(theta, st, ct);
+                f.trt_m.emplace_back(sp * ct, st, cp * ct);  // normal_at(φ, θ)
+                f.trt_cos.push_back(ct);
+                f.trt_sin.push_back(st);
+                f.trt_w.push_back(0.5 * (pb - pa) * kTrtThetaWeights[j] *
+                                  td.density(theta, st, ct));
                 ++node.count;
             }
         }
