@@ -38,7 +38,8 @@ constexpr std::array<double, 8> kGl8Weights = {
 // 0.25 rad or 3 θ_m nodes the error at grazing views along the barbule axis was 0.3–0.5 %.
 constexpr double kTrtPiece = 0.125;  // rad
 // A pair of adjacent pieces takes one 8-node rule where every facet of the pair faces both ω_i
-// and ω_o by at least this cosine (Frame::TrtPair, eval_in_frame).
+// and ω_o by at least this cosine (Frame::TrtPair, eval_in_frame; 0.2 and 0 moved E_q by 3e-8
+// and 1.4e-7 at most against the per-piece rule, this 5.5e-8).
 constexpr double kTrtSmoothCos = 0.05;
 constexpr std::array<double, 5> kTrtThetaNodes = {-0.9061798459386640, -0.5384693101056831, 0.0,
                                                   0.5384693101056831, 0.9061798459386640};
@@ -1087,6 +1088,16 @@ const std::vector<double>& weighted_incident_transmittance(const FrameT& f, doub
 // Gauss| estimate sent a third of the pieces to bisection. The film's T(cos θ) comes from a
 // per-wavelength table (relative error ≤ 5e-7, FilmTransmittanceTable), so E_q is within
 // 1e-6 relative of the same rule with direct Airy evaluations (eval_reference with refine 1).
+//
+// Smooth pairs (Frame::TrtPair; with the per-piece classification of trt_efficiency_sum they
+// took a sweep's eval from 11.2k to 8.2k instructions): where every facet of two adjacent pieces
+// faces both ω_i and ω_o by ω·ω_m ≥ kTrtSmoothCos, the integrand has no kink (no cut, no clipped
+// θ support) and T's complex poles (c ≈ ±i g(0), FilmTransmittanceTable) stay at |g(0)| ≥ 0.08
+// from the real axis (pairs are not used near the grazing resonances, `steep`), so one 8-node rule
+// over the pair (≤ 0.25 rad) converges as the per-piece rule does. Measured against the per-piece
+// rule on 42 ω_i (grazing ones included) × 340 ω_o (views along the barbule axis and at 88.2°
+// included) × 15 λ (400–720 nm, 470–472 and 693–695 nm among them): TRT within 5.5e-8 relative
+// (1.9e-8 at the 99.9th percentile), R identical; the errors of the tests above are unchanged.
 template <typename Transmittance>
 double Huang2022Bsdf::eval_in_frame(const Frame& f, const Vec3d& wo, double lambda_nm, double r_m,
                                     bool steep, const Transmittance& transmittance,
