@@ -9,6 +9,10 @@
 #include <optional>
 #include <span>
 #include <string_view>
+#include <type_traits>
+#if defined(__SSE2__)
+#include <emmintrin.h>
+#endif
 
 #include <fmt/format.h>
 
@@ -129,6 +133,30 @@ public:
             out[j] = ((p[3] * t + p[2]) * t + p[1]) * t + p[0];
         return out;
     }
+#if defined(__SSE2__)
+    // The one channel at two c in [lo, hi] at once, each lane by operator()'s operations (so to
+    // the bit its value); the parameters broadcast once, for a loop.
+    struct Pair {
+        __m128d lo, scale, x_max;
+        const double* coefficients;
+        __m128d operator()(__m128d c) const {
+            const __m128d x = _mm_min_pd(_mm_mul_pd(_mm_sub_pd(c, lo), scale), x_max);
+            const __m128i i = _mm_cvttpd_epi32(x);
+            const __m128d t = _mm_sub_pd(x, _mm_cvtepi32_pd(i));
+            const double* p = coefficients + static_cast<std::size_t>(_mm_cvtsi128_si32(i)) * 4;
+            const double* q =
+                coefficients +
+                static_cast<std::size_t>(_mm_cvtsi128_si32(_mm_shuffle_epi32(i, 1))) * 4;
+            auto both = [&](int j) { return _mm_loadh_pd(_mm_load_sd(p + j), q + j); };
+            __m128d r = _mm_add_pd(_mm_mul_pd(both(3), t), both(2));
+            r = _mm_add_pd(_mm_mul_pd(r, t), both(1));
+            return _mm_add_pd(_mm_mul_pd(r, t), both(0));
+        }
+    };
+    Pair pair() const requires(Channels == 1) {
+        return {_mm_set1_pd(lo_), _mm_set1_pd(scale_), _mm_set1_pd(x_max_), coefficients_.data()};
+    }
+#endif
 
 private:
     double lo_ = 0.0, scale_ = 0.0, x_max_ = 0.0;
@@ -240,6 +268,10 @@ public:
         const auto g = grazing_(c);
         return from_g(c * c, g[0], g[1]);
     }
+#if defined(__SSE2__)
+    // T at two c ∈ [kGrazingCos, 1] at once, each to the bit operator()'s.
+    UniformCubicTable<1>::Pair smooth_pair() const { return smooth_.pair(); }
+#endif
     double worst_relative_error() const { return worst_; }
     int nodes() const { return smooth_.nodes() + grazing_.nodes(); }
 
@@ -388,6 +420,7 @@ struct Huang2022Bsdf::Frame {
     struct TrtPiece {
         double a, c;
         double sin_a, cos_a, sin_c, cos_c;
+        std::size_t theta_first, theta_last;  // its θ nodes
     };
     std::vector<TrtPiece> trt_pieces;
     // Adjacent pairs of pieces within a visible interval on which every facet faces ω_i by
@@ -395,15 +428,17 @@ struct Huang2022Bsdf::Frame {
     // the pieces'): eval takes it for an ω_o that all the pair's facets face by as much
     // (eval_in_frame). Built for trt_refine = 1 only.
     struct TrtPair {
-        std::size_t piece;       // its first piece; the second is piece + 1
-        std::size_t first_node;  // its kGl8Nodes.size() nodes in trt_phi
+        std::size_t piece;                    // its first piece; the second is piece + 1
+        std::size_t theta_first, theta_last;  // the θ nodes of its own φ nodes
     };
     std::vector<TrtPair> trt_pairs;        // in the order of their pieces
     std::vector<double> trt_cos, trt_sin;  // cos θ and sin θ per θ node
+    std::vector<double> trt_mx, trt_mz;    // ω_m's x and z per θ node (its y is trt_sin)
     std::vector<Vec3d> trt_m;
     std::vector<double> trt_w;
-    // Per wavelength asked (the last few): trt_w · T(ω_i·ω_m) at the θ nodes, filled on first
-    // use of that wavelength with this ω_i.
+    // Per wavelength asked (the last few): trt_w · T(ω_i·ω_m) at the θ nodes, and after them the
+    // same times their φ node's weight (for lit pieces, one flat sum), filled on first use of
+    // that wavelength with this ω_i.
     mutable std::vector<std::pair<double, std::vector<double>>> trt_wt;
     // Fraction of the incident light that hits the front (film side) of a barbule.
     double hit_fraction() const {
@@ -975,15 +1010,46 @@ double trt_efficiency_sum(const FrameT& f, const Vec3d& wo_b, const std::vector<
     auto facing = [&](double sin_phi, double cos_phi) {
         return wo_b.x() * sin_phi + wo_b.z() * cos_phi;
     };
-    auto lit_sum = [&](std::size_t first, std::size_t last) {
-        for (std::size_t i = first; i < last; ++i) {
-            const auto& node = f.trt_phi[i];
-            const double a_o = wo_b.x() * node.sin_phi + wo_b.z() * node.cos_phi;
-            double inner = 0.0;
-            for (std::size_t k = node.first; k < node.first + node.count; ++k)
-                inner += weight[k] * transmittance(a_o * cos_theta[k] + b_o * sin_theta[k]);
-            sum += node.weight * inner;
+    // A lit piece's or pair's θ nodes k0 … k1 − 1 in one flat sum, the φ nodes' weights in
+    // wt's second half.
+    const double* flat = wt.data() + f.trt_m.size();
+    const double *m_x = f.trt_mx.data(), *m_z = f.trt_mz.data();
+    auto lit_sum = [&](std::size_t k0, std::size_t k1) {
+        double lit = 0.0;
+        std::size_t k = k0;
+#if defined(__SSE2__)
+        if constexpr (std::is_same_v<Transmittance, FilmTransmittanceTable>) {
+            // Two θ nodes at a time (SSE2 is in every x86-64): the same T values, summed in two
+            // lanes.
+            const __m128d wx = _mm_set1_pd(wo_b.x()), wy = _mm_set1_pd(b_o),
+                          wz = _mm_set1_pd(wo_b.z());
+            const __m128d grazing = _mm_set1_pd(FilmTransmittanceTable::kGrazingCos);
+            const auto smooth = transmittance.smooth_pair();
+            const double *mx = m_x, *my = sin_theta, *mz = m_z, *w = flat;
+            __m128d lanes = _mm_setzero_pd();
+            for (; k + 2 <= k1; k += 2) {
+                const __m128d c = _mm_add_pd(_mm_add_pd(_mm_mul_pd(wx, _mm_loadu_pd(mx + k)),
+                                                        _mm_mul_pd(wy, _mm_loadu_pd(my + k))),
+                                             _mm_mul_pd(wz, _mm_loadu_pd(mz + k)));
+                __m128d t;
+                if (_mm_movemask_pd(_mm_cmplt_pd(c, grazing)) == 0) {
+                    t = smooth(c);
+                } else {
+                    alignas(16) double cs[2];
+                    _mm_store_pd(cs, c);
+                    t = _mm_set_pd(transmittance(cs[1]), transmittance(cs[0]));
+                }
+                lanes = _mm_add_pd(lanes, _mm_mul_pd(_mm_loadu_pd(w + k), t));
+            }
+            alignas(16) double sums[2];
+            _mm_store_pd(sums, lanes);
+            lit = sums[0] + sums[1];
         }
+#endif
+        for (; k < k1; ++k)
+            lit +=
+                flat[k] * transmittance(wo_b.x() * m_x[k] + b_o * sin_theta[k] + wo_b.z() * m_z[k]);
+        sum += lit;
     };
     auto pair = f.trt_pairs.begin();
     for (std::size_t piece = 0; piece < f.trt_pieces.size(); ++piece) {
@@ -991,7 +1057,7 @@ double trt_efficiency_sum(const FrameT& f, const Vec3d& wo_b, const std::vector<
         const double pa = pp.a, pc = pp.c;
         const double a_a = facing(pp.sin_a, pp.cos_a);
         if (pair != f.trt_pairs.end() && pair->piece == piece) {
-            const std::size_t first = pair->first_node;
+            const std::size_t k0 = pair->theta_first, k1 = pair->theta_last;
             ++pair;
             const auto& second = f.trt_pieces[piece + 1];
             const double a_c = facing(second.sin_c, second.cos_c);
@@ -1000,7 +1066,7 @@ double trt_efficiency_sum(const FrameT& f, const Vec3d& wo_b, const std::vector<
                 continue;
             }
             if (!steep && std::min(a_a, a_c) * cos_d - reach >= kTrtSmoothCos) {
-                lit_sum(first, first + kPerPiece);
+                lit_sum(k0, k1);
                 ++piece;
                 continue;
             }
@@ -1008,7 +1074,7 @@ double trt_efficiency_sum(const FrameT& f, const Vec3d& wo_b, const std::vector<
         const double a_c = facing(pp.sin_c, pp.cos_c);
         if (std::max(a_a, a_c) * cos_d + reach <= 0.0) continue;  // dark
         if (std::min(a_a, a_c) * cos_d - reach > 1e-12) {         // lit
-            lit_sum(piece * kPerPiece, (piece + 1) * kPerPiece);
+            lit_sum(pp.theta_first, pp.theta_last);
             continue;
         }
         if (steep) {
@@ -1046,7 +1112,8 @@ double trt_efficiency_sum(const FrameT& f, const Vec3d& wo_b, const std::vector<
     return sum;
 }
 
-// The frame's trt_w · T(ω_i·ω_m) for one wavelength, kept for the last 16 asked.
+// The frame's trt_w · T(ω_i·ω_m) for one wavelength, and after them the same times their φ
+// node's weight, kept for the last 16 wavelengths asked.
 template <typename FrameT, typename Transmittance>
 const std::vector<double>& weighted_incident_transmittance(const FrameT& f, double lambda_nm,
                                                            const Transmittance& transmittance) {
@@ -1054,9 +1121,13 @@ const std::vector<double>& weighted_incident_transmittance(const FrameT& f, doub
         if (lambda == lambda_nm) return wt;
     }
     if (f.trt_wt.size() >= 16) f.trt_wt.clear();
-    std::vector<double> wt(f.trt_m.size());
-    for (std::size_t k = 0; k < wt.size(); ++k)
-        wt[k] = f.trt_w[k] * transmittance(f.wi.dot(f.trt_m[k]));
+    const std::size_t n = f.trt_m.size();
+    std::vector<double> wt(2 * n);
+    for (std::size_t k = 0; k < n; ++k) wt[k] = f.trt_w[k] * transmittance(f.wi.dot(f.trt_m[k]));
+    for (const auto& node : f.trt_phi) {
+        for (std::size_t k = node.first; k < node.first + node.count; ++k)
+            wt[n + k] = node.weight * wt[k];
+    }
     f.trt_wt.emplace_back(lambda_nm, std::move(wt));
     return f.trt_wt.back().second;
 }
@@ -1192,6 +1263,8 @@ void Huang2022Bsdf::build_trt_nodes(Frame& f) const {
                 double st = 0.0, ct = 1.0;
                 small_angle_sincos(theta, st, ct);
                 f.trt_m.emplace_back(sp * ct, st, cp * ct);  // normal_at(φ, θ)
+                f.trt_mx.push_back(sp * ct);
+                f.trt_mz.push_back(cp * ct);
                 f.trt_cos.push_back(ct);
                 f.trt_sin.push_back(st);
                 f.trt_w.push_back(0.5 * (pb - pa) * kTrtThetaWeights[j] *
@@ -1209,8 +1282,10 @@ void Huang2022Bsdf::build_trt_nodes(Frame& f) const {
         for (int k = 0; k < pieces; ++k) {
             const double a = lo + (hi - lo) * k / pieces, c = lo + (hi - lo) * (k + 1) / pieces;
             if (k % 2 == 1) pair_candidates.push_back(f.trt_pieces.size() - 1);
-            f.trt_pieces.push_back({a, c, std::sin(a), std::cos(a), std::sin(c), std::cos(c)});
+            const std::size_t theta_first = f.trt_m.size();
             q_phi_nodes_on(f, params_.b, params_.theta_d, a, c, add_phi_node);
+            f.trt_pieces.push_back({a, c, std::sin(a), std::cos(a), std::sin(c), std::cos(c),
+                                    theta_first, f.trt_m.size()});
         }
     }
     if (refine != 1) return;
@@ -1224,9 +1299,9 @@ void Huang2022Bsdf::build_trt_nodes(Frame& f) const {
         if (facing(first.sin_a, first.cos_a, f.wi) < kTrtSmoothCos ||
             facing(second.sin_c, second.cos_c, f.wi) < kTrtSmoothCos)
             continue;
-        const Frame::TrtPair pair{piece, f.trt_phi.size()};
-        const double a = first.a, c = second.c;
-        q_phi_nodes_on(f, params_.b, params_.theta_d, a, c, add_phi_node);
+        Frame::TrtPair pair{piece, f.trt_m.size(), 0};
+        q_phi_nodes_on(f, params_.b, params_.theta_d, first.a, second.c, add_phi_node);
+        pair.theta_last = f.trt_m.size();
         f.trt_pairs.push_back(pair);
     }
 }
