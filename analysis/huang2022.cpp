@@ -325,23 +325,34 @@ ThetaDensity theta_density(double a, double b, double theta_d) {
     return t;
 }
 
+// c[0] y^(N−1) + … + c[N−1] by Horner (the series below, in y = θ² or x²).
+template <std::size_t N>
+double horner(double y, const std::array<double, N>& c) {
+    double s = c[0];
+    for (std::size_t k = 1; k < N; ++k) s = s * y + c[k];
+    return s;
+}
+
+// (sin θ / θ − 1) / θ² and (cos θ − 1) / θ² in θ², to θ⁹ and θ¹⁰ and to θ¹⁵ and θ¹⁶: the
+// coefficients (−1)ᵏ/(2k+1)! and (−1)ᵏ/(2k)!, highest first.
+constexpr std::array<double, 4> kSinShort = {1.0 / 362880.0, -1.0 / 5040.0, 1.0 / 120.0,
+                                             -1.0 / 6.0};
+constexpr std::array<double, 5> kCosShort = {-1.0 / 3628800.0, 1.0 / 40320.0, -1.0 / 720.0,
+                                             1.0 / 24.0, -0.5};
+constexpr std::array<double, 7> kSinLong = {
+    -1.0 / 1307674368000.0, 1.0 / 6227020800.0, -1.0 / 39916800.0, 1.0 / 362880.0,
+    -1.0 / 5040.0,          1.0 / 120.0,        -1.0 / 6.0};
+constexpr std::array<double, 8> kCosLong = {
+    1.0 / 20922789888000.0, -1.0 / 87178291200.0, 1.0 / 479001600.0, -1.0 / 3628800.0,
+    1.0 / 40320.0,          -1.0 / 720.0,         1.0 / 24.0,        -0.5};
+
 // sin θ and cos θ for |θ| ≤ 0.1 (every θ_m at the default θ_d = 0.0785 rad) by their Taylor
 // series to θ⁹ and θ¹⁰: the omitted terms are below 3e-19 there, so the values are libm's to an
 // ulp or two at a fraction of its cost (TRT's cut panels take 8 of each per panel).
 void short_sincos(double theta, double& sin_theta, double& cos_theta) {
     const double t2 = theta * theta;
-    // Horner in θ² with the coefficients (−1)ᵏ/(2k+1)! and (−1)ᵏ/(2k)!.
-    double s = 1.0 / 362880.0;
-    s = s * t2 - 1.0 / 5040.0;
-    s = s * t2 + 1.0 / 120.0;
-    s = s * t2 - 1.0 / 6.0;
-    sin_theta = theta + theta * t2 * s;
-    double c = -1.0 / 3628800.0;
-    c = c * t2 + 1.0 / 40320.0;
-    c = c * t2 - 1.0 / 720.0;
-    c = c * t2 + 1.0 / 24.0;
-    c = c * t2 - 0.5;
-    cos_theta = 1.0 + t2 * c;
+    sin_theta = theta + theta * t2 * horner(t2, kSinShort);
+    cos_theta = 1.0 + t2 * horner(t2, kCosShort);
 }
 
 // The same for |θ| ≤ π/4 (every θ_m: the support is within ±θ_d ≤ π/4), to θ¹⁵ and θ¹⁶ (the
@@ -354,23 +365,8 @@ void small_angle_sincos(double theta, double& sin_theta, double& cos_theta) {
         return;
     }
     const double t2 = theta * theta;
-    double s = -1.0 / 1307674368000.0;
-    s = s * t2 + 1.0 / 6227020800.0;
-    s = s * t2 - 1.0 / 39916800.0;
-    s = s * t2 + 1.0 / 362880.0;
-    s = s * t2 - 1.0 / 5040.0;
-    s = s * t2 + 1.0 / 120.0;
-    s = s * t2 - 1.0 / 6.0;
-    sin_theta = theta + theta * t2 * s;
-    double c = 1.0 / 20922789888000.0;
-    c = c * t2 - 1.0 / 87178291200.0;
-    c = c * t2 + 1.0 / 479001600.0;
-    c = c * t2 - 1.0 / 3628800.0;
-    c = c * t2 + 1.0 / 40320.0;
-    c = c * t2 - 1.0 / 720.0;
-    c = c * t2 + 1.0 / 24.0;
-    c = c * t2 - 0.5;
-    cos_theta = 1.0 + t2 * c;
+    sin_theta = theta + theta * t2 * horner(t2, kSinLong);
+    cos_theta = 1.0 + t2 * horner(t2, kCosLong);
 }
 
 Vec3d normal_at(double phi, double theta) {
@@ -889,16 +885,11 @@ namespace {
 // cut points of TRT's θ_m supports, |θ| ≤ θ_d (0.0785 rad by default), take it.
 double small_atan(double x) {
     if (!(std::abs(x) <= 0.1)) return std::atan(x);
+    // The coefficients (−1)ᵏ/(2k+1), k = 7 … 1, in x².
+    constexpr std::array<double, 7> kAtan = {-1.0 / 15.0, 1.0 / 13.0, -1.0 / 11.0, 1.0 / 9.0,
+                                             -1.0 / 7.0,  1.0 / 5.0,  -1.0 / 3.0};
     const double x2 = x * x;
-    // Horner in x² with the coefficients (−1)ᵏ/(2k+1).
-    double s = -1.0 / 15.0;
-    s = s * x2 + 1.0 / 13.0;
-    s = s * x2 - 1.0 / 11.0;
-    s = s * x2 + 1.0 / 9.0;
-    s = s * x2 - 1.0 / 7.0;
-    s = s * x2 + 1.0 / 5.0;
-    s = s * x2 - 1.0 / 3.0;
-    return x + x * x2 * s;
+    return x + x * x2 * horner(x2, kAtan);
 }
 
 // ∫ p_θ(θ | φ) T(ω_i·ω_m) T(ω_o·ω_m) dθ over the part of the θ support where ω_o·ω_m > 0, at one
