@@ -9,6 +9,10 @@
 #include <optional>
 #include <span>
 #include <string_view>
+#include <type_traits>
+#if defined(__SSE2__)
+#include <emmintrin.h>
+#endif
 
 #include <fmt/format.h>
 
@@ -37,6 +41,10 @@ constexpr std::array<double, 8> kGl8Weights = {
 // when the support is cut. Chosen against the dense reference (see eval_in_frame): with
 // 0.25 rad or 3 θ_m nodes the error at grazing views along the barbule axis was 0.3–0.5 %.
 constexpr double kTrtPiece = 0.125;  // rad
+// A pair of adjacent pieces takes one 8-node rule where every facet of the pair faces both ω_i
+// and ω_o by at least this cosine (Frame::TrtPair, eval_in_frame; 0.2 and 0 moved E_q by 3e-8
+// and 1.4e-7 at most against the per-piece rule, this 5.5e-8).
+constexpr double kTrtSmoothCos = 0.05;
 constexpr std::array<double, 5> kTrtThetaNodes = {-0.9061798459386640, -0.5384693101056831, 0.0,
                                                   0.5384693101056831, 0.9061798459386640};
 constexpr std::array<double, 5> kTrtThetaWeights = {0.2369268850561891, 0.4786286704993665,
@@ -69,7 +77,9 @@ constexpr const std::array<double, 8>& kTrtCutWeights = kGl8Weights;
 // Cubic (4-point Lagrange) interpolation of `Channels` interleaved functions on a uniform grid
 // over [lo, hi]; the end intervals use the nearest four nodes. Each interval keeps its cubic in
 // the power basis of t ∈ [0, 1] (Horner: 3 multiply-adds a lookup instead of the Lagrange
-// weights, which were half of eval()'s instructions).
+// weights, which were half of eval()'s instructions). One more interval past hi holds the value
+// at hi as a constant, so that a lookup clamps its coordinate instead of its interval index
+// (c = hi, or above it by rounding, lands there; the value at hi is the same either way).
 template <std::size_t Channels>
 class UniformCubicTable {
 public:
@@ -78,7 +88,8 @@ public:
     UniformCubicTable(double lo, double hi, const std::vector<double>& values)
         : lo_(lo), nodes_(static_cast<int>(values.size() / Channels)) {
         scale_ = (nodes_ - 1) / (hi - lo);
-        coefficients_.resize(static_cast<std::size_t>(nodes_ - 1) * 4 * Channels);
+        x_max_ = nodes_ - 1;
+        coefficients_.resize(static_cast<std::size_t>(nodes_) * 4 * Channels, 0.0);
         for (int i = 0; i + 1 < nodes_; ++i) {
             const int s = std::clamp(i - 1, 0, nodes_ - 4);  // the stencil s … s + 3
             const double d = i - s;                          // node i in stencil coordinates
@@ -103,12 +114,18 @@ public:
                 c[3] = e3 / 6.0;
             }
         }
+        // The constant past hi: the last interval's cubic at t = 1, evaluated as a lookup does.
+        const double* last =
+            coefficients_.data() + static_cast<std::size_t>(nodes_ - 2) * Channels * 4;
+        double* pad = coefficients_.data() + static_cast<std::size_t>(nodes_ - 1) * Channels * 4;
+        for (std::size_t j = 0; j < Channels; ++j)
+            pad[4 * j] = ((last[4 * j + 3] + last[4 * j + 2]) + last[4 * j + 1]) + last[4 * j];
     }
     int nodes() const { return nodes_; }
     // c in [lo, hi].
     std::array<double, Channels> operator()(double c) const {
-        const double x = (c - lo_) * scale_;
-        const int i = std::min(static_cast<int>(x), nodes_ - 2);
+        const double x = std::min((c - lo_) * scale_, x_max_);
+        const int i = static_cast<int>(x);
         const double t = x - i;
         const double* p = coefficients_.data() + static_cast<std::size_t>(i) * Channels * 4;
         std::array<double, Channels> out;
@@ -116,9 +133,33 @@ public:
             out[j] = ((p[3] * t + p[2]) * t + p[1]) * t + p[0];
         return out;
     }
+#if defined(__SSE2__)
+    // The one channel at two c in [lo, hi] at once, each lane by operator()'s operations (so to
+    // the bit its value); the parameters broadcast once, for a loop.
+    struct Pair {
+        __m128d lo, scale, x_max;
+        const double* coefficients;
+        __m128d operator()(__m128d c) const {
+            const __m128d x = _mm_min_pd(_mm_mul_pd(_mm_sub_pd(c, lo), scale), x_max);
+            const __m128i i = _mm_cvttpd_epi32(x);
+            const __m128d t = _mm_sub_pd(x, _mm_cvtepi32_pd(i));
+            const double* p = coefficients + static_cast<std::size_t>(_mm_cvtsi128_si32(i)) * 4;
+            const double* q =
+                coefficients +
+                static_cast<std::size_t>(_mm_cvtsi128_si32(_mm_shuffle_epi32(i, 1))) * 4;
+            auto both = [&](int j) { return _mm_loadh_pd(_mm_load_sd(p + j), q + j); };
+            __m128d r = _mm_add_pd(_mm_mul_pd(both(3), t), both(2));
+            r = _mm_add_pd(_mm_mul_pd(r, t), both(1));
+            return _mm_add_pd(_mm_mul_pd(r, t), both(0));
+        }
+    };
+    Pair pair() const requires(Channels == 1) {
+        return {_mm_set1_pd(lo_), _mm_set1_pd(scale_), _mm_set1_pd(x_max_), coefficients_.data()};
+    }
+#endif
 
 private:
-    double lo_ = 0.0, scale_ = 0.0;
+    double lo_ = 0.0, scale_ = 0.0, x_max_ = 0.0;
     int nodes_ = 0;
     std::vector<double> coefficients_;
 };
@@ -227,6 +268,10 @@ public:
         const auto g = grazing_(c);
         return from_g(c * c, g[0], g[1]);
     }
+#if defined(__SSE2__)
+    // T at two c ∈ [kGrazingCos, 1] at once, each to the bit operator()'s.
+    UniformCubicTable<1>::Pair smooth_pair() const { return smooth_.pair(); }
+#endif
     double worst_relative_error() const { return worst_; }
     int nodes() const { return smooth_.nodes() + grazing_.nodes(); }
 
@@ -280,35 +325,48 @@ ThetaDensity theta_density(double a, double b, double theta_d) {
     return t;
 }
 
-// sin θ and cos θ for |θ| ≤ π/4 (every θ_m: the support is within ±θ_d ≤ π/4) by their
-// Taylor series to θ¹⁵ and θ¹⁶: the first omitted terms are below 5e-17 there, so the values
-// are libm's to a few ulp at a quarter of its cost (TRT's cut panels take 8 of each per panel).
-// Larger |θ| go to libm.
+// c[0] y^(N−1) + … + c[N−1] by Horner (the series below, in y = θ² or x²).
+template <std::size_t N>
+double horner(double y, const std::array<double, N>& c) {
+    double s = c[0];
+    for (std::size_t k = 1; k < N; ++k) s = s * y + c[k];
+    return s;
+}
+
+// (sin θ / θ − 1) / θ² and (cos θ − 1) / θ² in θ², to θ⁹ and θ¹⁰ and to θ¹⁵ and θ¹⁶: the
+// coefficients (−1)ᵏ/(2k+1)! and (−1)ᵏ/(2k)!, highest first.
+constexpr std::array<double, 4> kSinShort = {1.0 / 362880.0, -1.0 / 5040.0, 1.0 / 120.0,
+                                             -1.0 / 6.0};
+constexpr std::array<double, 5> kCosShort = {-1.0 / 3628800.0, 1.0 / 40320.0, -1.0 / 720.0,
+                                             1.0 / 24.0, -0.5};
+constexpr std::array<double, 7> kSinLong = {
+    -1.0 / 1307674368000.0, 1.0 / 6227020800.0, -1.0 / 39916800.0, 1.0 / 362880.0,
+    -1.0 / 5040.0,          1.0 / 120.0,        -1.0 / 6.0};
+constexpr std::array<double, 8> kCosLong = {
+    1.0 / 20922789888000.0, -1.0 / 87178291200.0, 1.0 / 479001600.0, -1.0 / 3628800.0,
+    1.0 / 40320.0,          -1.0 / 720.0,         1.0 / 24.0,        -0.5};
+
+// sin θ and cos θ for |θ| ≤ 0.1 (every θ_m at the default θ_d = 0.0785 rad) by their Taylor
+// series to θ⁹ and θ¹⁰: the omitted terms are below 3e-19 there, so the values are libm's to an
+// ulp or two at a fraction of its cost (TRT's cut panels take 8 of each per panel).
+void short_sincos(double theta, double& sin_theta, double& cos_theta) {
+    const double t2 = theta * theta;
+    sin_theta = theta + theta * t2 * horner(t2, kSinShort);
+    cos_theta = 1.0 + t2 * horner(t2, kCosShort);
+}
+
+// The same for |θ| ≤ π/4 (every θ_m: the support is within ±θ_d ≤ π/4), to θ¹⁵ and θ¹⁶ (the
+// first omitted terms are below 5e-17 there) beyond 0.1; larger |θ| go to libm.
 void small_angle_sincos(double theta, double& sin_theta, double& cos_theta) {
+    if (std::abs(theta) <= 0.1) return short_sincos(theta, sin_theta, cos_theta);
     if (!(std::abs(theta) <= 0.25 * kPi)) {
         sin_theta = std::sin(theta);
         cos_theta = std::cos(theta);
         return;
     }
     const double t2 = theta * theta;
-    // Horner in θ² with the coefficients (−1)ᵏ/(2k+1)! and (−1)ᵏ/(2k)!.
-    double s = -1.0 / 1307674368000.0;
-    s = s * t2 + 1.0 / 6227020800.0;
-    s = s * t2 - 1.0 / 39916800.0;
-    s = s * t2 + 1.0 / 362880.0;
-    s = s * t2 - 1.0 / 5040.0;
-    s = s * t2 + 1.0 / 120.0;
-    s = s * t2 - 1.0 / 6.0;
-    sin_theta = theta + theta * t2 * s;
-    double c = 1.0 / 20922789888000.0;
-    c = c * t2 - 1.0 / 87178291200.0;
-    c = c * t2 + 1.0 / 479001600.0;
-    c = c * t2 - 1.0 / 3628800.0;
-    c = c * t2 + 1.0 / 40320.0;
-    c = c * t2 - 1.0 / 720.0;
-    c = c * t2 + 1.0 / 24.0;
-    c = c * t2 - 0.5;
-    cos_theta = 1.0 + t2 * c;
+    sin_theta = theta + theta * t2 * horner(t2, kSinLong);
+    cos_theta = 1.0 + t2 * horner(t2, kCosLong);
 }
 
 Vec3d normal_at(double phi, double theta) {
@@ -324,6 +382,7 @@ struct Huang2022Bsdf::Frame {
     double phi_i = 0.0;  // azimuth of ω_i's projection on the x–z plane
     double cos_theta_i = 0.0, sin_theta_i = 0.0;
     double cos_mu = 1.0, sin_mu = 0.0;             // of the barb-plane tilt, for ω_o
+    double sin_theta_d = 0.0, cos_theta_d = 1.0;   // of the longitudinal half-opening
     double period = 0.0;                           // Δh = H cos(φ_i + μ)
     std::vector<std::array<double, 2>> intervals;  // visible, front-facing φ_m ranges
     std::vector<double> h_cumulative;              // projected visible length up to interval k
@@ -338,20 +397,44 @@ struct Huang2022Bsdf::Frame {
     // most kTrtPiece / trt_refine rad of the visible arc, and trt_refine panels of
     // kTrtThetaNodes over each φ node's θ support (eval_in_frame; trt_refine = 1 but in the
     // reference path). Weights include q's densities.
+    // A facet normal is ω_m = (sin φ cos θ, sin θ, cos φ cos θ), so for any direction ω,
+    // ω·ω_m = A cos θ + ω_y sin θ with A = ω_x sin φ + ω_z cos φ: one A per φ node and ω, then
+    // two products per θ node (eval's hot loop) instead of a dot product with a stored normal.
     struct TrtPhiNode {
         double sin_phi, cos_phi;
-        double weight;             // of the outer rule, times w(φ) = ρ cos(φ − φ_i) / Δh'
-        ThetaDensity theta;        // p_θ(θ | φ)
-        Vec3d m_lo, m_hi;          // the facet normals at the ends of its θ support
-        std::size_t first, count;  // its θ nodes in trt_m (count 0: empty support)
+        double weight;  // of the outer rule, times w(φ) = ρ cos(φ − φ_i) / Δh'
+        double a_i;     // ω_i's A at this φ
+        // cos θ and sin θ at the ends of its θ support
+        double cos_lo, sin_lo, cos_hi, sin_hi;
+        std::size_t first, count;  // its θ nodes in trt_cos etc. (count 0: empty support)
     };
     int trt_refine = 1;
-    std::vector<TrtPhiNode> trt_phi;                // kGl8Nodes.size() per piece, in order
-    std::vector<std::array<double, 2>> trt_pieces;  // the φ_m pieces
+    std::vector<TrtPhiNode> trt_phi;      // kGl8Nodes.size() per piece, in order
+    std::vector<ThetaDensity> trt_theta;  // p_θ(θ | φ) per φ node, for the cut panels
+    // The φ_m pieces, kGl8Nodes.size() nodes each (in trt_phi, in order), and sin, cos of their
+    // ends (eval_in_frame classifies each piece by ω_o from them).
+    struct TrtPiece {
+        double a, c;
+        double sin_a, cos_a, sin_c, cos_c;
+        std::size_t theta_first, theta_last;  // its θ nodes
+    };
+    std::vector<TrtPiece> trt_pieces;
+    // Adjacent pairs of pieces within a visible interval on which every facet faces ω_i by
+    // ω_i·ω_m ≥ kTrtSmoothCos, with one 8-node φ_m rule over the pair (nodes in trt_phi after
+    // the pieces'): eval takes it for an ω_o that all the pair's facets face by as much
+    // (eval_in_frame). Built for trt_refine = 1 only.
+    struct TrtPair {
+        std::size_t piece;                    // its first piece; the second is piece + 1
+        std::size_t theta_first, theta_last;  // the θ nodes of its own φ nodes
+    };
+    std::vector<TrtPair> trt_pairs;        // in the order of their pieces
+    std::vector<double> trt_cos, trt_sin;  // cos θ and sin θ per θ node
+    std::vector<double> trt_mx, trt_mz;    // ω_m's x and z per θ node (its y is trt_sin)
     std::vector<Vec3d> trt_m;
     std::vector<double> trt_w;
-    // Per wavelength asked (the last few): trt_w · T(ω_i·ω_m) at the θ nodes, filled on first
-    // use of that wavelength with this ω_i.
+    // Per wavelength asked (the last few): trt_w · T(ω_i·ω_m) at the θ nodes, and after them the
+    // same times their φ node's weight (for lit pieces, one flat sum), filled on first use of
+    // that wavelength with this ω_i.
     mutable std::vector<std::pair<double, std::vector<double>>> trt_wt;
     // Fraction of the incident light that hits the front (film side) of a barbule.
     double hit_fraction() const {
@@ -466,6 +549,8 @@ Huang2022Bsdf::Frame Huang2022Bsdf::compute_frame(const Vec3d& wi_patch, int trt
     f.trt_refine = trt_refine;
     f.cos_mu = std::cos(params_.mu);
     f.sin_mu = std::sin(params_.mu);
+    f.sin_theta_d = std::sin(params_.theta_d);
+    f.cos_theta_d = std::cos(params_.theta_d);
     f.wi = to_barbule(wi_patch, params_.mu);
     f.cos_theta_i = std::hypot(f.wi.x(), f.wi.z());
     f.sin_theta_i = f.wi.y();
@@ -795,34 +880,46 @@ void Huang2022Bsdf::build_nodes(Frame& f) const {
 
 namespace {
 
-// TRT's efficiency E_q (eval_in_frame) by a frame's rule, given wt[k] = trt_w[k] · T(ω_i·ω_m) at
-// its θ nodes and T(c) (c ∈ [0, 1]): a template, so that the reference path (direct film, finer
-// rule) runs the same code as eval().
-// ∫ p_θ(θ | φ) T(ω_i·ω_m) T(ω_o·ω_m) dθ over the part of the θ support where ω_o·ω_m > 0, at
-// one φ_m (sin φ, cos φ) whose support meets that part: kTrtCutNodes per panel, f.trt_refine
-// panels.
+// atan x for |x| ≤ 0.1 by its series to x¹⁵ (the first omitted term, x¹⁷/17, is below 1e-17 of
+// x there: libm's value to an ulp or two at a fraction of its cost); larger |x| go to libm. The
+// cut points of TRT's θ_m supports, |θ| ≤ θ_d (0.0785 rad by default), take it.
+double small_atan(double x) {
+    if (!(std::abs(x) <= 0.1)) return std::atan(x);
+    // The coefficients (−1)ᵏ/(2k+1), k = 7 … 1, in x².
+    constexpr std::array<double, 7> kAtan = {-1.0 / 15.0, 1.0 / 13.0, -1.0 / 11.0, 1.0 / 9.0,
+                                             -1.0 / 7.0,  1.0 / 5.0,  -1.0 / 3.0};
+    const double x2 = x * x;
+    return x + x * x2 * horner(x2, kAtan);
+}
+
+// ∫ p_θ(θ | φ) T(ω_i·ω_m) T(ω_o·ω_m) dθ over the part of the θ support where ω_o·ω_m > 0, at one
+// φ_m: kTrtCutNodes per panel, f.trt_refine panels. ω·ω_m = A cos θ + ω_y sin θ (Frame's
+// TrtPhiNode), a_i and a_o the A of ω_i and ω_o at this φ_m; c_lo and c_hi are ω_o·ω_m at the
+// support's ends. ω_o·ω_m is a sinusoid in θ with zeros π apart and the support is at most π/2
+// wide, so it holds one zero at most, where tan θ = −A_o / ω_o,y, and the positive part is the
+// side of it whose end is positive.
 template <typename FrameT, typename Transmittance>
-double positive_part_integral(const FrameT& f, double sin_phi, double cos_phi,
-                              const ThetaDensity& td, const Vec3d& wo_b,
+double positive_part_integral(const FrameT& f, const ThetaDensity& td, double a_i, double a_o,
+                              const Vec3d& wo_b, double c_lo, double c_hi,
                               const Transmittance& transmittance) {
-    // ω_o·ω_m > 0 on (γ − π/2, γ + π/2) mod 2π; the support is at most π/2 wide, so it meets
-    // that set in one interval.
-    const double gamma = std::atan2(wo_b.y(), wo_b.x() * sin_phi + wo_b.z() * cos_phi);
-    double a = 0.0, b = 0.0;
-    for (int k = -1; k <= 1; ++k) {
-        const double lo = std::max(td.lo, gamma - 0.5 * kPi + 2.0 * kPi * k);
-        const double hi = std::min(td.hi, gamma + 0.5 * kPi + 2.0 * kPi * k);
-        if (hi > lo) a = lo, b = hi;
+    if (!(c_lo > 0.0) && !(c_hi > 0.0)) return 0.0;
+    double a = td.lo, b = td.hi;
+    if (!(c_lo > 0.0 && c_hi > 0.0)) {
+        const double cut = std::clamp(small_atan(-a_o / wo_b.y()), td.lo, td.hi);
+        (c_lo > 0.0 ? b : a) = cut;
     }
+    const double b_i = f.wi.y(), b_o = wo_b.y();
     double inner = 0.0;
     auto panel_sum = [&](double pa, double pb) {
         for (std::size_t j = 0; j < kTrtCutNodes.size(); ++j) {
             const double theta = 0.5 * (pa + pb) + 0.5 * (pb - pa) * kTrtCutNodes[j];
             double st = 0.0, ct = 0.0;
-            small_angle_sincos(theta, st, ct);
-            const Vec3d m(sin_phi * ct, st, cos_phi * ct);  // normal_at(φ, θ)
+            if (std::abs(theta) <= 0.1)
+                short_sincos(theta, st, ct);
+            else
+                small_angle_sincos(theta, st, ct);
             inner += 0.5 * (pb - pa) * kTrtCutWeights[j] * td.density(theta, st, ct) *
-                     transmittance(f.wi.dot(m)) * transmittance(wo_b.dot(m));
+                     transmittance(a_i * ct + b_i * st) * transmittance(a_o * ct + b_o * st);
         }
     };
     for (int panel = 0; panel < f.trt_refine && b > a; ++panel)
@@ -841,34 +938,136 @@ double trt_efficiency_sum(const FrameT& f, const Vec3d& wo_b, const std::vector<
                           double theta_d) {
     double sum = 0.0;
     // ω_o's terminators on the arc: A(φ) = ω_o,x sin φ + ω_o,z cos φ = 0.
-    const double r_o = std::hypot(wo_b.x(), wo_b.z());
-    steep = steep && r_o > 1e-12;
+    steep = steep && std::hypot(wo_b.x(), wo_b.z()) > 1e-12;
     const double phi_o = steep ? std::atan2(wo_b.x(), wo_b.z()) : 0.0;
+    const double b_o = wo_b.y();
     // q's Gauss–Legendre φ_m nodes on [a, c] (as q_phi_nodes_on), each θ support's positive
     // part integrated afresh. A node is skipped first where ω_o·ω_m ≤ 0 at both θ_m = ±θ_d:
     // ω_o·ω_m = A cos θ + B sin θ is > 0 on an arc of length π, which a range ≤ π/2 wide
     // cannot hold strictly inside, so it is ≤ 0 on the whole support then (the dark side of the
     // terminator, half the nodes, for the price of a sincos).
     const Ellipse e{b};
-    const double sin_d = std::sin(theta_d), cos_d = std::cos(theta_d);
+    const double sin_d = f.sin_theta_d, cos_d = f.cos_theta_d;
     auto graded_piece = [&](double a, double c) {
         for (std::size_t i = 0; i < kGl8Nodes.size(); ++i) {
             const double phi = 0.5 * (a + c) + 0.5 * (c - a) * kGl8Nodes[i];
             const double sp = std::sin(phi), cp = std::cos(phi);
-            const double big_a = wo_b.x() * sp + wo_b.z() * cp;
-            if (big_a * cos_d + wo_b.y() * sin_d <= 0.0 && big_a * cos_d - wo_b.y() * sin_d <= 0.0)
-                continue;
+            const double a_o = wo_b.x() * sp + wo_b.z() * cp;
+            if (a_o * cos_d + b_o * sin_d <= 0.0 && a_o * cos_d - b_o * sin_d <= 0.0) continue;
             const double cos_rel = std::cos(phi - f.phi_i);
             const ThetaDensity td = theta_density(f.cos_theta_i * cos_rel, f.sin_theta_i, theta_d);
             if (td.empty()) continue;
             const double w =
                 0.5 * (c - a) * kGl8Weights[i] * e.rho(phi) * cos_rel / f.visible_length;
-            sum += w * positive_part_integral(f, sp, cp, td, wo_b, transmittance);
+            double s_lo = 0.0, c_lo = 0.0, s_hi = 0.0, c_hi = 0.0;
+            small_angle_sincos(td.lo, s_lo, c_lo);
+            small_angle_sincos(td.hi, s_hi, c_hi);
+            sum += w * positive_part_integral(f, td, f.wi.x() * sp + f.wi.z() * cp, a_o, wo_b,
+                                              a_o * c_lo + b_o * s_lo, a_o * c_hi + b_o * s_hi,
+                                              transmittance);
         }
     };
     constexpr std::size_t kPerPiece = kGl8Nodes.size();
+    const double* cos_theta = f.trt_cos.data();
+    const double* sin_theta = f.trt_sin.data();
+    const double* weight = wt.data();
+    // The frame's φ nodes first … last − 1, each θ support's positive part.
+    auto node_sum = [&](std::size_t first, std::size_t last) {
+        for (std::size_t i = first; i < last; ++i) {
+            const auto& node = f.trt_phi[i];
+            if (node.count == 0) continue;
+            const double a_o = wo_b.x() * node.sin_phi + wo_b.z() * node.cos_phi;
+            const double c_lo = a_o * node.cos_lo + b_o * node.sin_lo,
+                         c_hi = a_o * node.cos_hi + b_o * node.sin_hi;
+            if (c_lo <= 0.0 && c_hi <= 0.0) continue;  // one sign change at most: none > 0
+            double inner = 0.0;
+            if (c_lo > 0.0 && c_hi > 0.0) {
+                for (std::size_t k = node.first; k < node.first + node.count; ++k)
+                    inner += weight[k] * transmittance(a_o * cos_theta[k] + b_o * sin_theta[k]);
+            } else {
+                inner = positive_part_integral(f, f.trt_theta[i], node.a_i, a_o, wo_b, c_lo, c_hi,
+                                               transmittance);
+            }
+            sum += node.weight * inner;
+        }
+    };
+    // Each piece classified by ω_o first: ω_o·ω_m ≤ A_o cos θ_d + |ω_o,y| sin θ_d on a facet's
+    // whole θ range, and ≥ A_o cos θ_d − |ω_o,y| sin θ_d; A_o = r_o cos(φ − φ_o) at a piece's ends
+    // bounds it inside (it exceeds, or stays below, a value on one arc shorter than π). A piece
+    // below 0 (dark) contributes nothing: each of its nodes would be skipped. A piece above 0
+    // (lit) has no cut node and no terminator. A smooth pair (Frame::TrtPair) lit by at least
+    // kTrtSmoothCos takes its one rule.
+    const double reach = std::abs(b_o) * sin_d;
+    auto facing = [&](double sin_phi, double cos_phi) {
+        return wo_b.x() * sin_phi + wo_b.z() * cos_phi;
+    };
+    // A lit piece's or pair's θ nodes k0 … k1 − 1 in one flat sum, the φ nodes' weights in
+    // wt's second half.
+    const double* flat = wt.data() + f.trt_m.size();
+    const double *m_x = f.trt_mx.data(), *m_z = f.trt_mz.data();
+    auto lit_sum = [&](std::size_t k0, std::size_t k1) {
+        double lit = 0.0;
+        std::size_t k = k0;
+#if defined(__SSE2__)
+        if constexpr (std::is_same_v<Transmittance, FilmTransmittanceTable>) {
+            // Two θ nodes at a time (SSE2 is in every x86-64): the same T values, summed in two
+            // lanes.
+            const __m128d wx = _mm_set1_pd(wo_b.x()), wy = _mm_set1_pd(b_o),
+                          wz = _mm_set1_pd(wo_b.z());
+            const __m128d grazing = _mm_set1_pd(FilmTransmittanceTable::kGrazingCos);
+            const auto smooth = transmittance.smooth_pair();
+            const double *mx = m_x, *my = sin_theta, *mz = m_z, *w = flat;
+            __m128d lanes = _mm_setzero_pd();
+            for (; k + 2 <= k1; k += 2) {
+                const __m128d c = _mm_add_pd(_mm_add_pd(_mm_mul_pd(wx, _mm_loadu_pd(mx + k)),
+                                                        _mm_mul_pd(wy, _mm_loadu_pd(my + k))),
+                                             _mm_mul_pd(wz, _mm_loadu_pd(mz + k)));
+                __m128d t;
+                if (_mm_movemask_pd(_mm_cmplt_pd(c, grazing)) == 0) {
+                    t = smooth(c);
+                } else {
+                    alignas(16) double cs[2];
+                    _mm_store_pd(cs, c);
+                    t = _mm_set_pd(transmittance(cs[1]), transmittance(cs[0]));
+                }
+                lanes = _mm_add_pd(lanes, _mm_mul_pd(_mm_loadu_pd(w + k), t));
+            }
+            alignas(16) double sums[2];
+            _mm_store_pd(sums, lanes);
+            lit = sums[0] + sums[1];
+        }
+#endif
+        for (; k < k1; ++k)
+            lit +=
+                flat[k] * transmittance(wo_b.x() * m_x[k] + b_o * sin_theta[k] + wo_b.z() * m_z[k]);
+        sum += lit;
+    };
+    auto pair = f.trt_pairs.begin();
     for (std::size_t piece = 0; piece < f.trt_pieces.size(); ++piece) {
-        const auto [pa, pc] = f.trt_pieces[piece];
+        const auto& pp = f.trt_pieces[piece];
+        const double pa = pp.a, pc = pp.c;
+        const double a_a = facing(pp.sin_a, pp.cos_a);
+        if (pair != f.trt_pairs.end() && pair->piece == piece) {
+            const std::size_t k0 = pair->theta_first, k1 = pair->theta_last;
+            ++pair;
+            const auto& second = f.trt_pieces[piece + 1];
+            const double a_c = facing(second.sin_c, second.cos_c);
+            if (std::max(a_a, a_c) * cos_d + reach <= 0.0) {
+                ++piece;  // both pieces dark
+                continue;
+            }
+            if (!steep && std::min(a_a, a_c) * cos_d - reach >= kTrtSmoothCos) {
+                lit_sum(k0, k1);
+                ++piece;
+                continue;
+            }
+        }
+        const double a_c = facing(pp.sin_c, pp.cos_c);
+        if (std::max(a_a, a_c) * cos_d + reach <= 0.0) continue;  // dark
+        if (std::min(a_a, a_c) * cos_d - reach > 1e-12) {         // lit
+            lit_sum(pp.theta_first, pp.theta_last);
+            continue;
+        }
         if (steep) {
             double terminator = std::numeric_limits<double>::quiet_NaN();
             for (double t : {phi_o + 0.5 * kPi, phi_o - 0.5 * kPi}) {
@@ -899,26 +1098,13 @@ double trt_efficiency_sum(const FrameT& f, const Vec3d& wo_b, const std::vector<
                 continue;
             }
         }
-        for (std::size_t i = piece * kPerPiece; i < (piece + 1) * kPerPiece; ++i) {
-            const auto& node = f.trt_phi[i];
-            if (node.count == 0) continue;
-            const double x_lo = wo_b.dot(node.m_lo), x_hi = wo_b.dot(node.m_hi);
-            if (x_lo <= 0.0 && x_hi <= 0.0) continue;  // one sign change at most: none > 0
-            double inner = 0.0;
-            if (x_lo > 0.0 && x_hi > 0.0) {
-                for (std::size_t k = node.first; k < node.first + node.count; ++k)
-                    inner += wt[k] * transmittance(wo_b.dot(f.trt_m[k]));
-            } else {
-                inner = positive_part_integral(f, node.sin_phi, node.cos_phi, node.theta, wo_b,
-                                               transmittance);
-            }
-            sum += node.weight * inner;
-        }
+        node_sum(piece * kPerPiece, (piece + 1) * kPerPiece);
     }
     return sum;
 }
 
-// The frame's trt_w · T(ω_i·ω_m) for one wavelength, kept for the last 16 asked.
+// The frame's trt_w · T(ω_i·ω_m) for one wavelength, and after them the same times their φ
+// node's weight, kept for the last 16 wavelengths asked.
 template <typename FrameT, typename Transmittance>
 const std::vector<double>& weighted_incident_transmittance(const FrameT& f, double lambda_nm,
                                                            const Transmittance& transmittance) {
@@ -926,9 +1112,13 @@ const std::vector<double>& weighted_incident_transmittance(const FrameT& f, doub
         if (lambda == lambda_nm) return wt;
     }
     if (f.trt_wt.size() >= 16) f.trt_wt.clear();
-    std::vector<double> wt(f.trt_m.size());
-    for (std::size_t k = 0; k < wt.size(); ++k)
-        wt[k] = f.trt_w[k] * transmittance(f.wi.dot(f.trt_m[k]));
+    const std::size_t n = f.trt_m.size();
+    std::vector<double> wt(2 * n);
+    for (std::size_t k = 0; k < n; ++k) wt[k] = f.trt_w[k] * transmittance(f.wi.dot(f.trt_m[k]));
+    for (const auto& node : f.trt_phi) {
+        for (std::size_t k = node.first; k < node.first + node.count; ++k)
+            wt[n + k] = node.weight * wt[k];
+    }
     f.trt_wt.emplace_back(lambda_nm, std::move(wt));
     return f.trt_wt.back().second;
 }
@@ -960,6 +1150,16 @@ const std::vector<double>& weighted_incident_transmittance(const FrameT& f, doub
 // Gauss| estimate sent a third of the pieces to bisection. The film's T(cos θ) comes from a
 // per-wavelength table (relative error ≤ 5e-7, FilmTransmittanceTable), so E_q is within
 // 1e-6 relative of the same rule with direct Airy evaluations (eval_reference with refine 1).
+//
+// Smooth pairs (Frame::TrtPair; with the per-piece classification of trt_efficiency_sum they
+// took a sweep's eval from 11.2k to 8.2k instructions): where every facet of two adjacent pieces
+// faces both ω_i and ω_o by ω·ω_m ≥ kTrtSmoothCos, the integrand has no kink (no cut, no clipped
+// θ support) and T's complex poles (c ≈ ±i g(0), FilmTransmittanceTable) stay at |g(0)| ≥ 0.08
+// from the real axis (pairs are not used near the grazing resonances, `steep`), so one 8-node rule
+// over the pair (≤ 0.25 rad) converges as the per-piece rule does. Measured against the per-piece
+// rule on 42 ω_i (grazing ones included) × 340 ω_o (views along the barbule axis and at 88.2°
+// included) × 15 λ (400–720 nm, 470–472 and 693–695 nm among them): TRT within 5.5e-8 relative
+// (1.9e-8 at the 99.9th percentile), R identical; the errors of the tests above are unchanged.
 template <typename Transmittance>
 double Huang2022Bsdf::eval_in_frame(const Frame& f, const Vec3d& wo, double lambda_nm, double r_m,
                                     bool steep, const Transmittance& transmittance,
@@ -971,7 +1171,10 @@ double Huang2022Bsdf::eval_in_frame(const Frame& f, const Vec3d& wo, double lamb
     if (f.visible_length > 0.0 && cos_o_patch > 1e-12) {
         // R: the half vector must be a hit normal the sampler can produce.
         const Vec3d h = f.wi + wo_b;
-        if (h.norm() > 1e-12) {
+        // |θ_m| ≤ θ_d needs |m_y| ≤ sin θ_d: most ω_o fail that before the atan2 and asin
+        // (the margin keeps the exact test below the one that decides).
+        if (h.norm() > 1e-12 && std::abs(h.y()) <= f.sin_theta_d * (1.0 + 1e-9) * h.norm() &&
+            f.wi.dot(h) > 0.0) {
             const Vec3d m = h.normalized();
             const double phi_m = wrap_into(std::atan2(m.x(), m.z()), params_.phi0);
             const double theta_m = std::asin(std::clamp(m.y(), -1.0, 1.0));
@@ -1034,27 +1237,76 @@ double Huang2022Bsdf::eval_reference(const Vec3d& wi, const Vec3d& wo, double la
 void Huang2022Bsdf::build_trt_nodes(Frame& f) const {
     if (!(f.visible_length > 0.0)) return;
     const int refine = f.trt_refine;
-    for_each_q_piece(f, kTrtPiece / refine, [&](double a, double c) {
-        f.trt_pieces.push_back({a, c});
-        q_phi_nodes_on(
-            f, params_.b, params_.theta_d, a, c, [&](double phi, double w, const ThetaDensity& td) {
-                Frame::TrtPhiNode node{
-                    std::sin(phi),         std::cos(phi),  w, td, normal_at(phi, td.lo),
-                    normal_at(phi, td.hi), f.trt_m.size(), 0};
-                for (int panel = 0; panel < refine && !td.empty(); ++panel) {
-                    const double pa = td.lo + (td.hi - td.lo) * panel / refine,
-                                 pb = td.lo + (td.hi - td.lo) * (panel + 1) / refine;
-                    for (std::size_t j = 0; j < kTrtThetaNodes.size(); ++j) {
-                        const double theta = 0.5 * (pa + pb) + 0.5 * (pb - pa) * kTrtThetaNodes[j];
-                        f.trt_m.push_back(normal_at(phi, theta));
-                        f.trt_w.push_back(0.5 * (pb - pa) * kTrtThetaWeights[j] *
-                                          td.density(theta));
-                        ++node.count;
-                    }
-                }
-                f.trt_phi.push_back(node);
-            });
-    });
+    // θ_m's sines and cosines by small_angle_sincos (|θ_m| ≤ θ_d ≤ π/4): a new ω_i builds a
+    // thousand or more of them.
+    auto add_phi_node = [&](double phi, double w, const ThetaDensity& td) {
+        const double sp = std::sin(phi), cp = std::cos(phi);
+        Frame::TrtPhiNode node{
+            sp, cp, w, f.wi.x() * sp + f.wi.z() * cp, 1.0, 0.0, 1.0, 0.0, f.trt_m.size(), 0};
+        small_angle_sincos(td.lo, node.sin_lo, node.cos_lo);
+        small_angle_sincos(td.hi, node.sin_hi, node.cos_hi);
+        f.trt_theta.push_back(td);
+        for (int panel = 0; panel < refine && !td.empty(); ++panel) {
+            const double pa = td.lo + (td.hi - td.lo) * panel / refine,
+                         pb = td.lo + (td.hi - td.lo) * (panel + 1) / refine;
+            for (std::size_t j = 0; j < kTrtThetaNodes.size(); ++j) {
+                const double theta = 0.5 * (pa + pb) + 0.5 * (pb - pa) * kTrtThetaNodes[j];
+                double st = 0.0, ct = 1.0;
+                small_angle_sincos(theta, st, ct);
+                f.trt_m.emplace_back(sp * ct, st, cp * ct);  // normal_at(φ, θ)
+                f.trt_mx.push_back(sp * ct);
+                f.trt_mz.push_back(cp * ct);
+                f.trt_cos.push_back(ct);
+                f.trt_sin.push_back(st);
+                f.trt_w.push_back(0.5 * (pb - pa) * kTrtThetaWeights[j] *
+                                  td.density(theta, st, ct));
+                ++node.count;
+            }
+        }
+        f.trt_phi.push_back(node);
+    };
+    // The pieces, interval by interval (as for_each_q_piece), and the pairs they could form; room
+    // for them all reserved first (a new ω_i every call spent a fifth of its time growing these).
+    std::size_t most_pieces = 0;
+    for (const auto& [lo, hi] : f.intervals)
+        most_pieces += static_cast<std::size_t>(std::ceil((hi - lo) / (kTrtPiece / refine))) + 1;
+    const std::size_t most_phi = kGl8Nodes.size() * (most_pieces + most_pieces / 2);
+    const std::size_t most_theta =
+        most_phi * kTrtThetaNodes.size() * static_cast<std::size_t>(refine);
+    f.trt_pieces.reserve(most_pieces);
+    f.trt_phi.reserve(most_phi);
+    f.trt_theta.reserve(most_phi);
+    for (auto* v : {&f.trt_cos, &f.trt_sin, &f.trt_mx, &f.trt_mz, &f.trt_w}) v->reserve(most_theta);
+    f.trt_m.reserve(most_theta);
+    std::vector<std::size_t> pair_candidates;
+    for (const auto& [lo, hi] : f.intervals) {
+        const int pieces =
+            std::max(1, static_cast<int>(std::ceil((hi - lo) / (kTrtPiece / refine))));
+        for (int k = 0; k < pieces; ++k) {
+            const double a = lo + (hi - lo) * k / pieces, c = lo + (hi - lo) * (k + 1) / pieces;
+            if (k % 2 == 1) pair_candidates.push_back(f.trt_pieces.size() - 1);
+            const std::size_t theta_first = f.trt_m.size();
+            q_phi_nodes_on(f, params_.b, params_.theta_d, a, c, add_phi_node);
+            f.trt_pieces.push_back({a, c, std::sin(a), std::cos(a), std::sin(c), std::cos(c),
+                                    theta_first, f.trt_m.size()});
+        }
+    }
+    if (refine != 1) return;
+    // ω_i·ω_m ≥ A_i(φ) cos θ_d − |ω_i,y| sin θ_d on the whole θ range, and A_i at the pair's ends
+    // bounds it inside (A_i = r_i cos(φ − φ_i) exceeds a value ≥ 0 on one arc shorter than π).
+    auto facing = [&](double sp, double cp, const Vec3d& w) {
+        return (w.x() * sp + w.z() * cp) * f.cos_theta_d - std::abs(w.y()) * f.sin_theta_d;
+    };
+    for (std::size_t piece : pair_candidates) {
+        const auto &first = f.trt_pieces[piece], &second = f.trt_pieces[piece + 1];
+        if (facing(first.sin_a, first.cos_a, f.wi) < kTrtSmoothCos ||
+            facing(second.sin_c, second.cos_c, f.wi) < kTrtSmoothCos)
+            continue;
+        Frame::TrtPair pair{piece, f.trt_m.size(), 0};
+        q_phi_nodes_on(f, params_.b, params_.theta_d, first.a, second.c, add_phi_node);
+        pair.theta_last = f.trt_m.size();
+        f.trt_pairs.push_back(pair);
+    }
 }
 
 void Huang2022Bsdf::prepare_nodes(const Frame& f, double lambda_nm) const {
