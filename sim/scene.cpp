@@ -616,9 +616,4 @@ std::optional<SurfaceHit> Scene::intersect(const Vec3d& origin, const Vec3d& dir
     }
 }
 
-Vec3d Scene::spawn_point(const SurfaceHit& hit, bool to_outside) const {
-    return hit.position +
-           (to_outside ? hit.spawn_offset_um : -hit.spawn_offset_um) * hit.normals.geometric;
-}
-
 }  // namespace plumage::sim

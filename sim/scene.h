@@ -309,7 +309,11 @@ public:
                                         const PrimitiveRef& skip = {},
                                         int* skipped = nullptr) const;
     // Where a ray leaving the hit continues from (see above).
-    Vec3d spawn_point(const SurfaceHit& hit, bool to_outside) const;
+    // Inline: the tracer calls it after every event.
+    Vec3d spawn_point(const SurfaceHit& hit, bool to_outside) const {
+        return hit.position +
+               (to_outside ? hit.spawn_offset_um : -hit.spawn_offset_um) * hit.normals.geometric;
+    }
 
     const SceneDescription& description() const { return description_; }
     std::size_t surface_count() const { return surfaces_.size(); }
