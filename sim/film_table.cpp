@@ -24,38 +24,27 @@ std::optional<FilmTable> FilmTable::build(const FilmOptics& film, bool from_outs
     FilmTable table;
     for (int nodes = kMinNodes; nodes <= kMaxNodes; nodes = 2 * nodes - 1) {
         const double h = (1.0 - kMinCos) / (nodes - 1);
-        table.reflectance_.resize(nodes);
-        table.transmittance_.resize(nodes);
+        table.nodes_.resize(nodes);
         for (int i = 0; i < nodes; ++i) {
-            const FilmResponse r = film_response(film, from_outside, lambda_nm, kMinCos + i * h);
-            table.reflectance_[i] = r.reflectance;
-            table.transmittance_[i] = r.transmittance;
+            table.nodes_[i] = film_response(film, from_outside, lambda_nm, kMinCos + i * h);
         }
         table.scale_ = 1.0 / h;
         double worst = 0.0;
         for (int i = 0; i + 1 < nodes; ++i) {
             const FilmResponse exact =
                 film_response(film, from_outside, lambda_nm, kMinCos + (i + 0.5) * h);
-            worst =
-                std::max({worst,
-                          std::abs(0.5 * (table.reflectance_[i] + table.reflectance_[i + 1]) -
-                                   exact.reflectance),
-                          std::abs(0.5 * (table.transmittance_[i] + table.transmittance_[i + 1]) -
-                                   exact.transmittance)});
+            worst = std::max(
+                {worst,
+                 std::abs(0.5 * (table.nodes_[i].reflectance + table.nodes_[i + 1].reflectance) -
+                          exact.reflectance),
+                 std::abs(0.5 *
+                              (table.nodes_[i].transmittance + table.nodes_[i + 1].transmittance) -
+                          exact.transmittance)});
         }
         table.midpoint_error_ = worst;
         if (worst <= 0.25 * tolerance) return table;
     }
     return std::nullopt;
-}
-
-FilmResponse FilmTable::operator()(double cos_theta) const {
-    const double x = (std::clamp(cos_theta, kMinCos, 1.0) - kMinCos) * scale_;
-    const auto last = reflectance_.size() - 2;
-    const std::size_t i = std::min(static_cast<std::size_t>(x), last);
-    const double f = x - static_cast<double>(i);
-    return {reflectance_[i] + f * (reflectance_[i + 1] - reflectance_[i]),
-            transmittance_[i] + f * (transmittance_[i + 1] - transmittance_[i])};
 }
 
 }  // namespace plumage::sim

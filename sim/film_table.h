@@ -29,6 +29,8 @@
 // whose fringes in c are too dense: flag them incoherent, see sim/optics/multilayer.h).
 #pragma once
 
+#include <algorithm>
+#include <cstddef>
 #include <optional>
 #include <vector>
 
@@ -47,14 +49,23 @@ public:
 
     static constexpr double kMinCos = 0.125;  // below: not tabulated (see above)
 
-    // cos_theta in [kMinCos, 1] (clamped to it).
-    FilmResponse operator()(double cos_theta) const;
-    int nodes() const { return static_cast<int>(reflectance_.size()); }
+    // cos_theta in [kMinCos, 1] (clamped to it). Inline: the tracer calls it at every film hit.
+    FilmResponse operator()(double cos_theta) const {
+        const double x = (std::clamp(cos_theta, kMinCos, 1.0) - kMinCos) * scale_;
+        const std::size_t i = std::min(static_cast<std::size_t>(x), nodes_.size() - 2);
+        const double f = x - static_cast<double>(i);
+        const FilmResponse& lo = nodes_[i];
+        const FilmResponse& hi = nodes_[i + 1];
+        return {lo.reflectance + f * (hi.reflectance - lo.reflectance),
+                lo.transmittance + f * (hi.transmittance - lo.transmittance)};
+    }
+    int nodes() const { return static_cast<int>(nodes_.size()); }
     // Largest |interpolated − exact| found at the interval midpoints (R and T).
     double midpoint_error() const { return midpoint_error_; }
 
 private:
-    std::vector<double> reflectance_, transmittance_;
+    // R and T side by side: a look-up reads one or two adjacent cache lines, not two apart.
+    std::vector<FilmResponse> nodes_;
     double scale_ = 0.0;  // c ↦ (c − kMinCos) · scale_ is the fractional node index
     double midpoint_error_ = 0.0;
 };

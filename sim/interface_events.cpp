@@ -23,6 +23,20 @@ struct SpecularGeometry {
     bool geometric;
 };
 
+// refract() for a normal that faces the incidence side (cos_i = −direction · normal > 0).
+inline bool refract_facing(const Vec3d& direction, const Vec3d& normal, double cos_i, double eta,
+                           Vec3d* refracted) {
+    if (eta == 1.0) {
+        *refracted = direction;  // index-matched: exactly straight on
+        return true;
+    }
+    const double sin2_t = eta * eta * std::max(0.0, 1.0 - cos_i * cos_i);
+    if (sin2_t >= 1.0) return false;
+    const double cos_t = std::sqrt(1.0 - sin2_t);
+    *refracted = (eta * direction + (eta * cos_i - cos_t) * normal).normalized();
+    return true;
+}
+
 bool specular_geometry_with(const Vec3d& direction, const Vec3d& normal, const Vec3d& facet,
                             double eta, bool geometric, SpecularGeometry* out) {
     const double cos_i = -direction.dot(normal);
@@ -32,7 +46,7 @@ bool specular_geometry_with(const Vec3d& direction, const Vec3d& normal, const V
     out->geometric = geometric;
     out->reflected = reflect(direction, normal);
     if (!geometric && !(out->reflected.dot(facet) > 0.0)) return false;
-    out->can_transmit = refract(direction, normal, eta, &out->transmitted);
+    out->can_transmit = refract_facing(direction, normal, cos_i, eta, &out->transmitted);
     if (!geometric && out->can_transmit && !(out->transmitted.dot(facet) < 0.0)) return false;
     return true;
 }
@@ -108,18 +122,9 @@ Vec3d reflect(const Vec3d& direction, const Vec3d& normal) {
 
 bool refract(const Vec3d& direction, const Vec3d& normal, double eta, Vec3d* refracted) {
     // Orient the normal against the direction: cos_i > 0.
-    double cos_i = -direction.dot(normal);
-    const Vec3d n = cos_i >= 0.0 ? normal : Vec3d(-normal);
-    cos_i = std::abs(cos_i);
-    if (eta == 1.0) {
-        *refracted = direction;  // index-matched: exactly straight on
-        return true;
-    }
-    const double sin2_t = eta * eta * std::max(0.0, 1.0 - cos_i * cos_i);
-    if (sin2_t >= 1.0) return false;
-    const double cos_t = std::sqrt(1.0 - sin2_t);
-    *refracted = (eta * direction + (eta * cos_i - cos_t) * n).normalized();
-    return true;
+    const double cos_i = -direction.dot(normal);
+    return cos_i >= 0.0 ? refract_facing(direction, normal, cos_i, eta, refracted)
+                        : refract_facing(direction, -normal, -cos_i, eta, refracted);
 }
 
 Vec3d sample_cosine_hemisphere(const Vec3d& normal, Rng& rng) {

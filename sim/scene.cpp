@@ -1,7 +1,9 @@
 #include "sim/scene.h"
 
 #include <algorithm>
+#include <array>
 #include <cmath>
+#include <cstring>
 #include <map>
 
 #include <fmt/format.h>
@@ -108,6 +110,11 @@ std::vector<Scene::Facet> Scene::facets_of(const geometry::TriangleMesh& mesh,
         facets.push_back({a, e1, e2, area2 > 0.0 ? Vec3d(normal / area2) : Vec3d::Zero(), extent});
     }
     return facets;
+}
+
+bool Scene::uses_shading_normal(const SurfaceMaterial& material) {
+    return std::holds_alternative<ThinFilmInterface>(material.layer) ||
+           std::holds_alternative<DielectricInterface>(material.layer);
 }
 
 std::vector<Scene::ShadingFacet> Scene::shading_facets_of(const geometry::TriangleMesh& mesh) {
@@ -452,7 +459,9 @@ Scene::Scene(SceneDescription description, std::shared_ptr<const EmbreeDevice> d
             surfaces_.push_back(
                 {&surface, medium_for(surface.material.outside, surface.material.outside_medium),
                  medium_for(surface.material.inside, surface.material.inside_medium),
-                 facets_of(surface.mesh, xyz), shading_facets_of(surface.mesh)});
+                 facets_of(surface.mesh, xyz),
+                 uses_shading_normal(surface.material) ? shading_facets_of(surface.mesh)
+                                                       : std::vector<ShadingFacet>{}});
             vertex_buffers_.push_back(padded_vertex_buffer(xyz));
             EmbreeGeometry geometry(dev, RTC_GEOMETRY_TYPE_TRIANGLE);
             rtcSetSharedGeometryBuffer(geometry.get(), RTC_BUFFER_TYPE_VERTEX, 0, RTC_FORMAT_FLOAT3,
@@ -477,6 +486,8 @@ Scene::Scene(SceneDescription description, std::shared_ptr<const EmbreeDevice> d
 
     top_.emplace(dev, RTC_SCENE_FLAG_ROBUST, RTC_BUILD_QUALITY_HIGH);
     instances_.reserve(description_.instances.size());
+    // Distinct (unit, linear part), by the bits of the matrix entries.
+    std::map<std::array<std::uint64_t, 10>, std::uint32_t> linear_part_of;
     for (std::size_t i = 0; i < description_.instances.size(); ++i) {
         const Instance& instance = description_.instances[i];
         const Eigen::Matrix3d linear = instance.transform.linear();
@@ -484,18 +495,27 @@ Scene::Scene(SceneDescription description, std::shared_ptr<const EmbreeDevice> d
         const BvhFrame& frame = unit_frames_[instance.unit];
         const Eigen::Matrix3d embree_linear = linear * frame.rotation;
         const Vec3d embree_translation = instance.transform * frame.centre;
-        double normal_scale = 0.0;
-        std::uint32_t general_normal = 0;
-        if (is_scaled_rotation(linear)) {
-            // (s R)^-T = R / s = linear / s²: normalised, a unit normal maps to linear · n / s.
-            normal_scale = 1.0 / std::sqrt((linear.transpose() * linear).trace() / 3.0);
-        } else {
-            general_normal = static_cast<std::uint32_t>(general_normal_matrices_.size());
-            general_normal_matrices_.push_back(linear.inverse().transpose());
+        std::array<std::uint64_t, 10> key{instance.unit};
+        std::memcpy(key.data() + 1, linear.data(), 9 * sizeof(double));
+        const auto [part, added] =
+            linear_part_of.try_emplace(key, static_cast<std::uint32_t>(linear_parts_.size()));
+        if (added) {
+            double normal_scale = 0.0;
+            std::uint32_t general_normal = 0;
+            if (is_scaled_rotation(linear)) {
+                // (s R)^-T = R / s = linear / s²: normalised, a unit normal maps to
+                // linear · n / s.
+                normal_scale = 1.0 / std::sqrt((linear.transpose() * linear).trace() / 3.0);
+            } else {
+                general_normal = static_cast<std::uint32_t>(general_normal_matrices_.size());
+                general_normal_matrices_.push_back(linear.inverse().transpose());
+            }
+            linear_parts_.push_back({linear, normal_scale,
+                                     embree_linear.cwiseAbs().rowwise().sum().maxCoeff(),
+                                     general_normal});
         }
-        instances_.push_back({linear, instance.transform.translation(), normal_scale,
-                              embree_linear.cwiseAbs().rowwise().sum().maxCoeff(),
-                              max_abs(embree_translation), general_normal});
+        instances_.push_back(
+            {instance.transform.translation(), max_abs(embree_translation), part->second});
         EmbreeGeometry geometry(dev, RTC_GEOMETRY_TYPE_INSTANCE);
         rtcSetGeometryInstancedScene(geometry.get(), unit_scenes_[instance.unit].get());
         // Column-major 3×4: the three columns of L, then t.
@@ -551,32 +571,32 @@ std::optional<SurfaceHit> Scene::intersect(const Vec3d& origin, const Vec3d& dir
             continue;
         }
         const InstanceData& instance = instances_[primitive.instance];
+        const LinearPart& part = linear_parts_[instance.linear_part];
         const SurfaceData& data = surfaces_[primitive.surface];
         const Facet& facet = data.facets[primitive.triangle];
         const double u = rh.hit.u, v = rh.hit.v;
         const Vec3d position =
-            instance.linear * (facet.a + u * facet.e1 + v * facet.e2) + instance.translation;
+            part.linear * (facet.a + u * facet.e1 + v * facet.e2) + instance.translation;
         // A zero-area facet has the zero normal, which the tracer skips (no projected area).
         Vec3d geometric, shading;
-        if (instance.normal_scale > 0.0) {
+        if (part.normal_scale > 0.0) {
             // linear = s R: unit normals map to R n = linear n / s. The shading normal is
             // interpolated, tested against the facet and normalised in the unit frame (R
             // keeps lengths and signs of dot products up to the factor s), so that its
             // square root and division do not wait for the transform.
-            geometric = instance.normal_scale * (instance.linear * facet.normal);
+            geometric = part.normal_scale * (part.linear * facet.normal);
             shading = geometric;
             if (!data.shading.empty()) {
                 const ShadingFacet& s = data.shading[primitive.triangle];
                 const Vec3d interpolated = (1.0 - u - v) * s.a + u * s.b + v * s.c;
                 // Zero, and then rejected, when the interpolated normal vanishes.
                 if (interpolated.dot(facet.normal) > 0.0) {
-                    shading = (instance.normal_scale / interpolated.norm()) *
-                              (instance.linear * interpolated);
+                    shading =
+                        (part.normal_scale / interpolated.norm()) * (part.linear * interpolated);
                 }
             }
         } else {
-            const Eigen::Matrix3d& normal_matrix =
-                general_normal_matrices_[instance.general_normal];
+            const Eigen::Matrix3d& normal_matrix = general_normal_matrices_[part.general_normal];
             geometric = (normal_matrix * facet.normal).normalized();
             shading = geometric;
             if (!data.shading.empty()) {
@@ -587,18 +607,13 @@ std::optional<SurfaceHit> Scene::intersect(const Vec3d& origin, const Vec3d& dir
             }
         }
         const double offset = kSpawnOffsetUlps * kFloatRoundoff *
-                              (max_abs(position) + instance.linear_norm * facet.vertex_extent +
+                              (max_abs(position) + part.linear_norm * facet.vertex_extent +
                                instance.translation_norm);
         // The Euclidean distance, not the projection on the direction: a hit within float
         // error of the origin can lie a little behind it, and a distance must not be negative.
         return SurfaceHit{(position - origin).norm(), position,  {shading, geometric},
                           primitive.surface,          primitive, offset};
     }
-}
-
-Vec3d Scene::spawn_point(const SurfaceHit& hit, bool to_outside) const {
-    return hit.position +
-           (to_outside ? hit.spawn_offset_um : -hit.spawn_offset_um) * hit.normals.geometric;
 }
 
 }  // namespace plumage::sim

@@ -285,7 +285,9 @@ struct PrimitiveRef {
 struct SurfaceHit {
     double distance_um;      // from the ray origin along the unit direction
     Vec3d position;          // on the facet, patch frame (double precision)
-    SurfaceNormals normals;  // patch frame, unit; geometric points to the outside
+    SurfaceNormals normals;  // patch frame, unit; geometric points to the outside. On a
+                             // diffuse or absorbing surface shading = geometric (its events
+                             // use the geometric normal, so its mesh's normals are not read)
     std::size_t surface;     // global surface index (Scene::surface_material)
     PrimitiveRef primitive;
     double spawn_offset_um;  // δ above
@@ -307,7 +309,11 @@ public:
                                         const PrimitiveRef& skip = {},
                                         int* skipped = nullptr) const;
     // Where a ray leaving the hit continues from (see above).
-    Vec3d spawn_point(const SurfaceHit& hit, bool to_outside) const;
+    // Inline: the tracer calls it after every event.
+    Vec3d spawn_point(const SurfaceHit& hit, bool to_outside) const {
+        return hit.position +
+               (to_outside ? hit.spawn_offset_um : -hit.spawn_offset_um) * hit.normals.geometric;
+    }
 
     const SceneDescription& description() const { return description_; }
     std::size_t surface_count() const { return surfaces_.size(); }
@@ -346,23 +352,35 @@ private:
         std::shared_ptr<const Medium> outside_medium, inside_medium;
         std::vector<Facet> facets;          // one per triangle
         std::vector<ShadingFacet> shading;  // one per triangle; empty without shading normals
+                                            // or when the events do not read them
     };
     static std::vector<Facet> facets_of(const geometry::TriangleMesh& mesh,
                                         const std::vector<float>& stored_xyz);
     static std::vector<ShadingFacet> shading_facets_of(const geometry::TriangleMesh& mesh);
-    // Per instance, what a hit reads: 128 bytes, two cache lines (the rock dove has 4000
-    // instances, 512 KB of records, and a hit reads a random one).
-    struct alignas(64) InstanceData {
+    // Whether the surface's events read the shading normal: films and bare interfaces do;
+    // diffuse and absorbing ones use the geometric normal (sim/interface_events.h), so their
+    // shading normals are not gathered and a hit reports the geometric normal in both fields.
+    static bool uses_shading_normal(const SurfaceMaterial& material);
+    // What a hit needs of an instance's linear part. Instances share it (the rock-dove patch's
+    // 4000 cells have one, the barb patch's 485 fibres two), so it is kept once per distinct
+    // (unit, linear part) and the per-instance record stays small: a hit reads a random
+    // instance, and the records of a large patch would otherwise crowd Embree's nodes out of
+    // the cache (4000 × 128 bytes, as large as the L2 cache of the machine in bench/README.md).
+    struct LinearPart {
         Eigen::Matrix3d linear;  // the instance transform: p ↦ linear p + translation
-        Vec3d translation;
         // When `linear` is s R (R orthogonal, s > 0; every instance the builders make), a
         // unit-local unit normal n maps to the unit normal normal_scale · linear · n with
         // normal_scale = 1/s. Otherwise normal_scale is 0 and the normal is
         // general_normal_matrices_[general_normal] · n normalised (the inverse transpose).
         double normal_scale;
-        double linear_norm;       // ‖L R‖∞: Embree's linear part (R: the BVH frame)
-        double translation_norm;  // |t + L c|∞: Embree's translation (c: the BVH frame's)
+        double linear_norm;  // ‖L R‖∞: Embree's linear part (R: the BVH frame)
         std::uint32_t general_normal;
+    };
+    // Per instance: one cache line.
+    struct alignas(64) InstanceData {
+        Vec3d translation;
+        double translation_norm;    // |t + L c|∞: Embree's translation (c: the BVH frame's)
+        std::uint32_t linear_part;  // index in linear_parts_
     };
 
     SceneDescription description_;
@@ -370,6 +388,7 @@ private:
     std::vector<SurfaceData> surfaces_;
     std::vector<BvhFrame> unit_frames_;
     std::vector<InstanceData> instances_;
+    std::vector<LinearPart> linear_parts_;
     std::vector<Eigen::Matrix3d> general_normal_matrices_;
     std::vector<std::vector<float>> vertex_buffers_;  // shared with Embree; padded
     std::vector<EmbreeScene> unit_scenes_;

@@ -21,16 +21,17 @@ struct ExplicitScatterer::Spectral {
         optics::Complex outside, inside;  // indices of the two sides at λ
         FilmOptics film{};
         std::optional<FilmTable> table_outside, table_inside;
+        // The film's responses at λ (its tables where they hold), made once per λ: it points
+        // at the tables above, so it is set when `surfaces` is complete and no Surface moves.
+        std::optional<TabulatedFilmResponse> film_source;
         double albedo = 0.0;
         const Medium* medium_outside = nullptr;  // null when inactive at λ
         const Medium* medium_inside = nullptr;
-
-        // The film's responses at λ (its tables where they hold).
-        TabulatedFilmResponse film_source(double lambda_nm) const {
-            return TabulatedFilmResponse(film, lambda_nm, table_outside ? &*table_outside : nullptr,
-                                         table_inside ? &*table_inside : nullptr);
-        }
     };
+    Spectral() = default;
+    Spectral(const Spectral&) = delete;  // film_source points into `surfaces`
+    Spectral& operator=(const Spectral&) = delete;
+
     double lambda_nm;
     optics::Complex ambient;
     std::vector<Surface> surfaces;
@@ -208,6 +209,12 @@ std::shared_ptr<const ExplicitScatterer::Spectral> ExplicitScatterer::build_spec
         }
         s->surfaces.push_back(std::move(out));
     }
+    for (Spectral::Surface& surface : s->surfaces) {
+        if (surface.kind != Spectral::Kind::film) continue;
+        surface.film_source.emplace(surface.film, lambda_nm,
+                                    surface.table_outside ? &*surface.table_outside : nullptr,
+                                    surface.table_inside ? &*surface.table_inside : nullptr);
+    }
     return s;
 }
 
@@ -238,7 +245,8 @@ const ExplicitScatterer::Spectral& ExplicitScatterer::spectral(double lambda_nm)
         double lambda_nm = 0.0;
         std::shared_ptr<const Spectral> data;
     };
-    thread_local Last last;
+    thread_local Last last_of_thread;
+    Last& last = last_of_thread;  // one look-up of the thread's copy
     if (last.owner == id_ && last.lambda_nm == lambda_nm) return *last.data;
     last = {id_, lambda_nm, lookup_spectral(lambda_nm)};
     return *last.data;
@@ -372,10 +380,9 @@ PathResult ExplicitScatterer::trace(const Vec3d& wi, double lambda_nm, const Vec
         }
         const InterfaceEvent event = [&]() -> InterfaceEvent {
             switch (surface.kind) {
-                case Spectral::Kind::film: {
-                    const TabulatedFilmResponse source = surface.film_source(lambda_nm);
-                    return thin_film_event(direction, hit->normals, surface.film, source, rng);
-                }
+                case Spectral::Kind::film:
+                    return thin_film_event(direction, hit->normals, surface.film,
+                                           *surface.film_source, rng);
                 case Spectral::Kind::dielectric:
                     return dielectric_event(direction, hit->normals, surface.outside,
                                             surface.inside, rng);
@@ -423,8 +430,7 @@ FilmResponse SharedFilmResponse::response(bool from_outside, double cos_theta) c
     double p = 0.0;
     for (std::size_t k = 0; k < lambdas_nm_.size(); ++k) {
         const ExplicitScatterer::Spectral::Surface& s = at_[k]->surfaces[surface_];
-        const TabulatedFilmResponse source = s.film_source(lambdas_nm_[k]);
-        const FilmResponse r = source.response(from_outside, cos_theta);
+        const FilmResponse r = s.film_source->response(from_outside, cos_theta);
         reflectance[k] = std::max(0.0, r.reflectance);
         transmittance[k] = std::max(0.0, r.transmittance);
         const double total = reflectance[k] + transmittance[k];
@@ -640,7 +646,7 @@ PathResult ExplicitScatterer::trace_spectral(const Vec3d& wi, std::span<const do
                     if (!set.film_shared[surface_index]) collapse();
                     const bool reflect = first_film == FirstFilm::reflect;
                     if (single) {
-                        const TabulatedFilmResponse source = surface.film_source(lambdas_nm[hero]);
+                        const TabulatedFilmResponse& source = *surface.film_source;
                         if (forced) {
                             const ForcedFilmChoice choice(source, reflect);
                             const InterfaceEvent e =

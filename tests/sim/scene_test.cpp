@@ -118,7 +118,7 @@ TEST(SceneInstancing, ScaledRotationsAndGeneralMapsGiveTheInverseTransposeNormal
     mesh.shading_normals.assign(mesh.positions.size(), tilted);
     SceneDescription d;
     UnitMesh unit{"tile", {}};
-    unit.surfaces.push_back({"square", mesh, absorber()});
+    unit.surfaces.push_back({"square", mesh, dielectric_interface(optics::keratin())});
     d.units.push_back(std::move(unit));
     const Eigen::Matrix3d rotation =
         Eigen::AngleAxisd(0.7, Vec3d(1.0, 2.0, 3.0).normalized()).toRotationMatrix();
@@ -147,6 +147,28 @@ TEST(SceneInstancing, ScaledRotationsAndGeneralMapsGiveTheInverseTransposeNormal
         EXPECT_NEAR((hit->normals.shading - shading).norm(), 0.0, 1e-15) << "instance " << i;
         EXPECT_NEAR((hit->position - target).dot(normal), 0.0, 1e-13) << "instance " << i;
         EXPECT_NEAR(hit->distance_um, 3.0, 1e-5) << "instance " << i;
+    }
+}
+
+// Diffuse and absorbing surfaces: their events read the geometric normal only, so the scene
+// reports it as the shading normal too, whatever normals their mesh carries; a bare interface
+// with the same mesh keeps its tilted shading normal.
+TEST(SceneInstancing, DiffuseAndAbsorbingSurfacesReportTheGeometricNormal) {
+    geometry::TriangleMesh mesh = testing::square_mesh(1.0);
+    const Vec3d tilted = Vec3d(0.3, -0.2, 1.0).normalized();
+    mesh.shading_normals.assign(mesh.positions.size(), tilted);
+    const SurfaceMaterial materials[] = {diffuse_layer(constant_albedo(0.5)), absorber(),
+                                         dielectric_interface(optics::keratin())};
+    for (const SurfaceMaterial& material : materials) {
+        const Scene scene(single_mesh_scene(mesh, material));
+        const auto hit = scene.intersect({0.3, 0.2, 3.0}, -Vec3d::UnitZ());
+        ASSERT_TRUE(hit);
+        EXPECT_EQ(hit->normals.geometric, Vec3d::UnitZ());
+        const Vec3d expected =
+            material.has_film() || std::holds_alternative<DielectricInterface>(material.layer)
+                ? tilted
+                : Vec3d::UnitZ();
+        EXPECT_NEAR((hit->normals.shading - expected).norm(), 0.0, 1e-15);
     }
 }
 
