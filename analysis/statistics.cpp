@@ -92,4 +92,22 @@ double normal_quantile(double p) {
         [&] { return fmt::format("p = {}", p); });
 }
 
+double reciprocity_z(const ReciprocityCell& a, const ReciprocityCell& b, std::uint64_t quanta) {
+    const double n = static_cast<double>(quanta), n1 = std::max(1.0, n - 1.0);
+    // Each cell's mean of x and of x² (x = w / (P cos θ_view) on a hit), from the record.
+    auto second_moment = [n1](const ReciprocityCell& c) {
+        return c.standard_error * c.standard_error * n1 + c.value * c.value;
+    };
+    const double first = a.cos_view * a.value + b.cos_view * b.value;
+    if (!(first > 0.0)) return std::numeric_limits<double>::quiet_NaN();
+    const double kappa =
+        (a.cos_view * a.cos_view * second_moment(a) + b.cos_view * b.cos_view * second_moment(b)) /
+        first;  // κ / P
+    const double mu = first / (a.cos_view + b.cos_view);
+    const double var =
+        (mu * kappa / a.cos_view - mu * mu) / n1 + (mu * kappa / b.cos_view - mu * mu) / n1;
+    if (!(var > 0.0)) return std::numeric_limits<double>::quiet_NaN();
+    return (a.value - b.value) / std::sqrt(var);
+}
+
 }  // namespace plumage::analysis

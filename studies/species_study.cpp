@@ -800,7 +800,7 @@ std::string section_albedo_reciprocity(const Run& run, const SpeciesOutcome& o) 
         "{:.2f} ({}), largest |z| = {:.2f} against the Šidák bound {:.2f} (a 1 % family-wise "
         "error over {} cells): {}. Each couple's z is a score test, its variance estimated "
         "under f(ω_i, ω_o) = f(ω_o, ω_i) from both cells' hits (reciprocity_z, "
-        "studies/species_study.h): a cell viewed near grazing has few hits of weight "
+        "analysis/statistics.h): a cell viewed near grazing has few hits of weight "
         "1/cos θ_v, and its own standard error would make z of unequal cells non-normal. ",
         o.reciprocity_dof, o.reciprocity_chi_square / dof, p_value_text(p), o.reciprocity_max_z,
         sidak, o.reciprocity_dof,
@@ -1023,28 +1023,6 @@ std::array<double, 3> mean_brdf_rgb(const gonio::BrdfRecord& brdf,
     return mean;
 }
 
-}  // namespace
-
-double reciprocity_z(const ReciprocityCell& a, const ReciprocityCell& b, std::uint64_t quanta) {
-    const double n = static_cast<double>(quanta), n1 = std::max(1.0, n - 1.0);
-    // Each cell's mean of x and of x² (x = w / (P cos θ_view) on a hit), from the record.
-    auto second_moment = [n1](const ReciprocityCell& c) {
-        return c.standard_error * c.standard_error * n1 + c.value * c.value;
-    };
-    const double first = a.cos_view * a.value + b.cos_view * b.value;
-    if (!(first > 0.0)) return std::numeric_limits<double>::quiet_NaN();
-    const double kappa =
-        (a.cos_view * a.cos_view * second_moment(a) + b.cos_view * b.cos_view * second_moment(b)) /
-        first;  // κ / P
-    const double mu = first / (a.cos_view + b.cos_view);
-    const double var =
-        (mu * kappa / a.cos_view - mu * mu) / n1 + (mu * kappa / b.cos_view - mu * mu) / n1;
-    if (!(var > 0.0)) return std::numeric_limits<double>::quiet_NaN();
-    return (a.value - b.value) / std::sqrt(var);
-}
-
-namespace {
-
 // Reciprocity over the pairs the set holds both ways (both polar angles ≥ 15°): each couple's
 // score z (reciprocity_z), per wavelength.
 void reciprocity(const gonio::BrdfRecord& brdf, std::size_t nl, SpeciesOutcome& o) {
@@ -1065,9 +1043,9 @@ void reciprocity(const gonio::BrdfRecord& brdf, std::size_t nl, SpeciesOutcome& 
             const std::size_t a = li * views.size() + vi, b = l2 * views.size() + v2;
             if (b <= a) continue;  // each couple once; a == b is the same cell
             for (std::size_t k = 0; k < nl; ++k) {
-                const double z =
-                    reciprocity_z({brdf.at(a, k), brdf.error_at(a, k), views[vi].z()},
-                                  {brdf.at(b, k), brdf.error_at(b, k), views[v2].z()}, brdf.quanta);
+                const double z = analysis::reciprocity_z(
+                    {brdf.at(a, k), brdf.error_at(a, k), views[vi].z()},
+                    {brdf.at(b, k), brdf.error_at(b, k), views[v2].z()}, brdf.quanta);
                 if (std::isnan(z)) continue;  // neither cell has a hit
                 chi2 += z * z;
                 max_z = std::max(max_z, std::abs(z));

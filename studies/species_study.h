@@ -38,7 +38,6 @@
 #pragma once
 
 #include <array>
-#include <cstdint>
 #include <filesystem>
 #include <memory>
 #include <string>
@@ -122,36 +121,5 @@ SpeciesScene build_species_scene(const std::string& study_text,
                                  const std::filesystem::path& source_name,
                                  const std::string& species,
                                  const std::vector<double>& extra_wavelengths_nm = {});
-
-// The reciprocity test of one couple: cell a = f̄(u, v) and cell b = f̄(v, u) of a both_cones
-// photon record (virtual_gonio/goniometer.h), each the mean over `quanta` quanta of
-// x = w · 1[ω_o ∈ cone] / (π sin²α cos θ_view), w the path's weight, with its standard error.
-// Returns z = (a − b) / √(var_a + var_b) with the variances estimated under the hypothesis
-// f̄(u, v) = f̄(v, u) = μ (a score test), or NaN when neither cell has a hit.
-//
-// Why not each cell's own standard error (the Wald z): a cell's hits are few at grazing
-// views and each weighs 1/cos θ_view, so the two cells of a couple have hit sizes up to
-// cos 15°/cos 75° = 3.7 apart; with few hits a cell's sample variance grows with its own
-// fluctuation (a cell that drew few hits reads low AND precise), which biases the Wald z
-// towards the heavier cell and inflates χ² (measured on the four quick species patches at
-// 3000 quanta, two seeds each: χ²/dof 1.07–1.15 by Wald, 0.98–1.04 by this test; couples in which a
-// cell has fewer than 5 effective hits carry the excess, while two seeds of the same cell, whose
-// hit sizes are equal, agree at χ²/dof 0.98–1.02 either way).
-//
-// Under the hypothesis: a cell with view cosine c receives hits at a rate ∝ μ c (its
-// projected detector solid angle), and reversed paths carry the same weights (power
-// transmittances are reciprocal), so the hit-weight moment κ = E[w²]/E[w] is common and
-// E[x_c²] = μ κ / (P c), P = π sin²α. From the record, S1 = mean x = value and
-// S2 = mean x² = σ²(N − 1) + value² (the goniometer's variance estimator, inverted); pooled:
-// κ/P = (c_a² S2_a + c_b² S2_b) / (c_a S1_a + c_b S1_b), μ̂ = (c_a a + c_b b) / (c_a + c_b) (the
-// common mean that maximises the Poisson likelihood of both cells' hits), and
-// var_c = (μ̂ κ/(P c) − μ̂²) / (N − 1). With equal cosines and equal weights this is the
-// classical score test of two Poisson counts, (n_a − n_b) / √(n_a + n_b).
-struct ReciprocityCell {
-    double value = 0.0;           // 1/sr
-    double standard_error = 0.0;  // 1/sr
-    double cos_view = 1.0;        // cos θ of the cell's view direction, > 0
-};
-double reciprocity_z(const ReciprocityCell& a, const ReciprocityCell& b, std::uint64_t quanta);
 
 }  // namespace plumage::studies

@@ -218,16 +218,17 @@ SyntheticChi2 synthetic_reciprocity(double lo, double hi, double ratio, std::uin
         }
         const double n = static_cast<double>(kQuanta), mean = s1 / n;
         // The goniometer's estimator (virtual_gonio/goniometer.cpp, estimate_from_sums).
-        return ReciprocityCell{mean, std::sqrt(std::max(0.0, s2 / n - mean * mean) / (n - 1.0)), c};
+        return analysis::ReciprocityCell{
+            mean, std::sqrt(std::max(0.0, s2 / n - mean * mean) / (n - 1.0)), c};
     };
     SyntheticChi2 out;
     for (int i = 0; i < kCouples; ++i) {
         Rng rng(seed, static_cast<std::uint64_t>(i));
         const double ca = i % 2 == 0 ? c15 : c75, cb = i % 2 == 0 ? c75 : c15;
         const double hits = lo * std::exp(rng.uniform() * std::log(hi / lo));
-        const ReciprocityCell a = cell(rng, ratio * hits * ca / kQuanta, ca);
-        const ReciprocityCell b = cell(rng, hits * cb / kQuanta, cb);
-        const double z = reciprocity_z(a, b, kQuanta);
+        const analysis::ReciprocityCell a = cell(rng, ratio * hits * ca / kQuanta, ca);
+        const analysis::ReciprocityCell b = cell(rng, hits * cb / kQuanta, cb);
+        const double z = analysis::reciprocity_z(a, b, kQuanta);
         if (std::isnan(z)) continue;
         out.score += z * z;
         const double wald = (a.value - b.value) / std::hypot(a.standard_error, b.standard_error);
