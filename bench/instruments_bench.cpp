@@ -110,12 +110,12 @@ BENCHMARK(BM_ProjectedTimeTo1PercentExplicitRockDove3660)->Iterations(1)->Unit(b
 // lobes), the 3660-pair set, detector 5° (view cone); one path per quantum and
 // wavelength (separate, arg 0) against one path per quantum for all seven (shared, arg 1),
 // shared and split at the first film (arg 2), and split with guided diffuse reflection, f = 0.5
-// (arg 3) or 0.8 (arg 4) (sim/tracer.h), on 1 or 2 threads (second arg). Each runs passes of 2000 quanta per light direction for a
-// budget of kBudgetS, then projects t(1 %) = t · (ε / 1 %)² from the last pass. ε is the
-// relative RMS standard error over the cells that carry signal: value ≥ 10 % of the mean of
-// the cells at its wavelength (GoniometerConfig::signal_fraction; the record stores the set).
-// With PLUMAGE_BENCH_CSV set, every pass's (wall time, error) is appended to that file for
-// the error-against-time figure (bench/plot_error_vs_time.py).
+// (arg 3) or 0.8 (arg 4) (sim/tracer.h), on 1 or 2 threads (second arg). Each runs passes of 2000
+// quanta per light direction for a budget of kBudgetS, then projects t(1 %) = t · (ε / 1 %)² from
+// the last pass. ε is the relative RMS standard error over the cells that carry signal: value ≥ 10
+// % of the mean of the cells at its wavelength (GoniometerConfig::signal_fraction; the record
+// stores the set). With PLUMAGE_BENCH_CSV set, every pass's (wall time, error) is appended to that
+// file for the error-against-time figure (bench/plot_error_vs_time.py).
 void BM_RockDoveSpectral3660(benchmark::State& state) {
     constexpr double kBudgetS = 40.0;
     const bool shared = state.range(0) != 0, split = state.range(0) >= 2;

@@ -6,7 +6,8 @@ Usage: /usr/bin/python3 bench/plot_error_vs_time.py CONVERGENCE.csv OUT_STEM
 CONVERGENCE.csv is what the benchmark appends with PLUMAGE_BENCH_CSV set (no header):
 paths, threads, pass, wall_time_s, quanta_per_light, relative_rms_error, signal_cells, cells.
 Writes OUT_STEM.csv (the same rows with a header and each curve's fitted slope) and
-OUT_STEM.png: log-log, one curve per (paths, threads), the least-squares slope of
+OUT_STEM.png: log-log, one curve per (estimator, threads): separate, shared, split (shared and
+split at the first film), guided50/guided80 (split and guided diffuse reflection), the least-squares slope of
 log(error) against log(time) over the passes after the first (1/sqrt(t) is -0.5), the 1 %
 target and each curve's projected time to it.
 """
@@ -32,7 +33,8 @@ def main(source, stem):
                 (int(row[2]), float(row[3]), int(row[4]), float(row[5]), int(row[6]), int(row[7])))
     fig, ax = plt.subplots(figsize=(7.5, 5.0))
     out_rows = []
-    colours = {"separate": "tab:red", "shared": "tab:blue"}
+    colours = {"separate": "tab:red", "shared": "tab:blue", "split": "tab:orange",
+               "guided50": "tab:olive", "guided80": "tab:green"}
     styles = {1: "-", 2: "--"}
     for (paths, threads), rows in sorted(curves.items()):
         rows.sort()
@@ -52,7 +54,8 @@ def main(source, stem):
     ax.set_xlabel("wall time (s)")
     ax.set_ylabel("relative RMS standard error over the signal cells (%)")
     ax.set_title("Explicit rock-dove patch, 3660 pairs × 7 wavelengths (400–700 nm):\n"
-                 "error against time, one path per wavelength vs shared paths")
+                 "error against time per estimator (" + ", ".join(sorted({k[0] for k in curves}))
+                 + ")")
     ax.grid(True, which="both", alpha=0.3)
     ax.legend(fontsize=8)
     fig.tight_layout()

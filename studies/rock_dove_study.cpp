@@ -71,6 +71,10 @@ struct Settings {
     // One traced path per quantum for every wavelength (GoniometerConfig::share_wavelength_paths):
     // the rock dove's film lies in air, so no path needs a hero wavelength.
     bool share_wavelength_paths = false;
+    // With shared paths: split at the first film, and the share of diffuse directions aimed at
+    // the detectors (GoniometerConfig::split_paths, guided_fraction; sim/tracer.h).
+    bool split_paths = false;
+    double guided_fraction = 0.0;
     double time_budget_s = std::numeric_limits<double>::infinity();  // per measurement
     double target_relative_error = 0.0;
     // validation and convergence
@@ -136,6 +140,11 @@ void read_goniometer(ParameterTable go, Settings& s) {
     s.share_wavelength_paths =
         go.boolean("share_wavelength_paths", s.share_wavelength_paths,
                    "trace one path per quantum for all wavelengths (true) or one per wavelength");
+    s.split_paths = go.boolean("split_paths", s.split_paths,
+                               "split each shared path at its first film into its reflected and "
+                               "transmitted branches (true) or choose one");
+    s.guided_fraction = go.number("guided_fraction", s.guided_fraction, {0.0, 1.0, false, true},
+                                  "share of the diffuse directions aimed at the detector cones");
 }
 
 // [validation]
@@ -391,6 +400,8 @@ gonio::GoniometerConfig goniometer_config(const Run& run) {
     g.config_text = run.study_text;
     g.estimator = gonio::Estimator::photon;
     g.share_wavelength_paths = s.share_wavelength_paths;
+    g.split_paths = s.split_paths;
+    g.guided_fraction = s.guided_fraction;
     return g;
 }
 

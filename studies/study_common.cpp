@@ -237,9 +237,14 @@ MeasurementCost scatterogram_cost(const std::string& measurement, const gonio::S
 MeasurementCost brdf_cost(const std::string& measurement, const gonio::BrdfRecord& r) {
     const bool photon = r.estimator_used == gonio::Estimator::photon;
     const std::string samples =
-        photon ? fmt::format("photon estimator, {} quanta/λ per light × {} pass{}{}",
+        photon ? fmt::format("photon estimator, {} quanta/λ per light × {} pass{}{}{}{}",
                              r.config.quanta_per_pass, r.passes, r.passes == 1 ? "" : "es",
-                             r.wavelength_paths_shared ? ", wavelengths sharing paths" : "")
+                             r.wavelength_paths_shared ? ", wavelengths sharing paths" : "",
+                             r.paths_split ? ", split at the first film" : "",
+                             r.diffuse_guided ? fmt::format(", {:.0f} % of diffuse directions "
+                                                            "guided to the detectors",
+                                                            100.0 * r.config.guided_fraction)
+                                              : "")
                : fmt::format("eval cubature, {} rings per cone", r.config.eval_rings);
     const double error = r.convergence.empty() ? std::numeric_limits<double>::quiet_NaN()
                                                : r.convergence.back().estimated_relative_rms_error;

@@ -574,9 +574,10 @@ BrdfRecord measure_brdf(const Scatterer& scatterer, const GoniometerConfig& conf
     r.wavelength_paths_shared = config.share_wavelength_paths && scatterer.can_share_paths() &&
                                 config.wavelengths_nm.size() > 1 &&
                                 config.wavelengths_nm.size() <= Scatterer::kMaxSharedWavelengths;
-    r.paths_split = r.wavelength_paths_shared && config.split_paths && scatterer.can_split_paths();
-    r.diffuse_guided =
-        r.wavelength_paths_shared && config.guided_fraction > 0.0 && scatterer.can_split_paths();
+    // Branches need one path for all the item's wavelengths: shared paths, or one wavelength.
+    const bool one_path = r.wavelength_paths_shared || config.wavelengths_nm.size() == 1;
+    r.paths_split = one_path && config.split_paths && scatterer.can_split_paths();
+    r.diffuse_guided = one_path && config.guided_fraction > 0.0 && scatterer.can_split_paths();
     r.estimator_used = config.estimator == Estimator::automatic
                            ? (scatterer.can_evaluate() ? Estimator::eval : Estimator::photon)
                            : config.estimator;

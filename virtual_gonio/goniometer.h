@@ -99,13 +99,13 @@ struct GoniometerConfig {
     // Photon estimator, scatterers that can_share_paths() (the tracer), 2 … 64 wavelengths:
     // one path per quantum for all wavelengths (sim/tracer.h); otherwise ignored.
     bool share_wavelength_paths = false;
-    // With shared paths and a scatterer that can_split_paths() (the tracer): each quantum split
-    // at its first film event into a reflected and a transmitted branch (sim/tracer.h,
-    // "Splitting"); otherwise ignored.
+    // With shared paths (or one wavelength) and a scatterer that can_split_paths() (the
+    // tracer): each quantum split at its first film event into a reflected and a transmitted
+    // branch (sim/tracer.h, "Splitting"); otherwise ignored.
     bool split_paths = false;
-    // With shared paths and a scatterer that can_split_paths(): this share of its diffuse
-    // directions aimed at the light direction's detector cones (sim/tracer.h, "Guided diffuse
-    // reflection"), in [0, 1); 0: none.
+    // With shared paths (or one wavelength) and a scatterer that can_split_paths(): this share
+    // of its diffuse directions aimed at the light direction's detector cones (sim/tracer.h,
+    // "Guided diffuse reflection"), in [0, 1); 0: none.
     double guided_fraction = 0.0;
     std::uint64_t quanta_per_pass = 20000;  // per light direction and wavelength
     int max_passes = 100;
