@@ -264,7 +264,7 @@ std::string measurement_cost_section(std::span<const MeasurementCost> costs) {
         "time.\n\n| measurement | samples | estimated error | of what | wall (s) | CPU (s) |\n"
         "|---|---|---|---|---|---|\n";
     for (const MeasurementCost& c : costs)
-        md += fmt::format("| {} | {} | {:.2f} % | {} | {:.2f} | {:.2f} |\n", c.measurement,
+        md += fmt::format("| {} | {} | {:.2f} % | {} | {:.3g} | {:.3g} |\n", c.measurement,
                           c.samples, 100.0 * c.error, c.error_kind, c.wall_s, c.cpu_s);
     return md + "\n";
 }

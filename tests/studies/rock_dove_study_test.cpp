@@ -29,14 +29,7 @@ std::string read(const std::filesystem::path& p) {
     return s.str();
 }
 
-TEST(RockDoveStudy, QuickVariantRunsAndItsNumbersHold) {
-    const auto root = std::filesystem::temp_directory_path() /
-                      ("plumage_rock_dove_" + std::to_string(::getpid()));
-    const std::filesystem::path study =
-        std::filesystem::path(PLUMAGE_SOURCE_DIR) / "studies" / "rock_dove_quick.toml";
-    const RockDoveResult r = run_rock_dove_study(read(study), study, root, false);
-    const auto dir = root / "rock_dove_quick";
-    ASSERT_EQ(r.output_dir, dir);
+void check_model_agreement(const RockDoveResult& r) {
     // Where the model's assumptions hold (R only, short cells), simulation and model
     // agree within Monte Carlo error: the largest deviation over n cells stays below
     // the family-wise 0.1 % Gaussian bound sqrt(2 ln(n / 0.001)).
@@ -61,6 +54,9 @@ TEST(RockDoveStudy, QuickVariantRunsAndItsNumbersHold) {
     EXPECT_LT(r.hemisphere_median_sigma_simulation, 0.5);
     EXPECT_GT(r.hemisphere_median_sigma_model, 0.01);
     EXPECT_LT(r.hemisphere_median_sigma_model, 0.5);
+}
+
+void check_convergence(const std::filesystem::path& dir) {
     // The error-vs-time table: the estimated error falls like 1/√(passes).
     const auto csv = read(dir / "convergence" / "error_vs_time.csv");
     std::istringstream lines(csv);
@@ -77,8 +73,10 @@ TEST(RockDoveStudy, QuickVariantRunsAndItsNumbersHold) {
     }
     ASSERT_EQ(estimated.size(), 3u);
     EXPECT_NEAR(estimated.back() / estimated.front(), 1.0 / std::sqrt(3.0), 0.2);
+}
+
+void check_report_figures(const std::filesystem::path& dir, const std::string& report) {
     // The report and its figures exist; the records are readable.
-    const std::string report = read(dir / "report.md");
     EXPECT_NE(report.find("median per-pixel σ (sim / model)"), std::string::npos);
     for (const char* figure :
          {"scatterograms/beam_comparison.png", "scatterograms/cone_comparison.png",
@@ -87,6 +85,9 @@ TEST(RockDoveStudy, QuickVariantRunsAndItsNumbersHold) {
         EXPECT_NE(report.find(figure), std::string::npos) << figure;
         EXPECT_TRUE(std::filesystem::exists(dir / figure)) << figure;
     }
+}
+
+void check_exr_beside_comparisons(const std::filesystem::path& dir) {
     // Beside each comparison PNG its scatterograms as OpenEXR (issue 18, 4b), opened by
     // OpenEXR's reader: parts simulation and model, linear sRGB, S0 per wavelength (450, 550,
     // 650 nm), standard error and lobes; the values those of the scatterogram records.
@@ -109,7 +110,9 @@ TEST(RockDoveStudy, QuickVariantRunsAndItsNumbersHold) {
             ASSERT_EQ(s550[p], static_cast<float>(intensity.values[3 * p + 1])) << label << p;
     }
     EXPECT_TRUE(std::filesystem::exists(dir / "scatterograms" / "beam_comparison.png"));
+}
 
+void check_level_of_physics(const RockDoveResult& r, const std::string& report) {
     // Level of physics: PO vs GO on the study's own row (4 barbules of 20 µm, no jitter: a
     // deterministic floor of 0). 20 µm rock-dove barbules diffract: measured L1 34.9 % over the
     // quick study's 3 wavelengths (the largest at 650 nm), power +16 %, 0.8 s on a loaded
@@ -125,6 +128,10 @@ TEST(RockDoveStudy, QuickVariantRunsAndItsNumbersHold) {
     EXPECT_LT(r.level_relative_l1_gap_closed, 0.5 * r.level_relative_l1);
     EXPECT_NE(report.find("air gap under the film closed"), std::string::npos);
     EXPECT_NE(report.find("physical optics is needed"), std::string::npos);
+}
+
+void check_avian_vision(const RockDoveResult& r, const std::filesystem::path& dir,
+                        const std::string& report) {
     // Avian vision (issue 18): ΔS between simulation and model beside its noise floor, both
     // positive and finite (the quick run's 3 wavelengths from 450 nm: the UV cone sees a tail),
     // and the spectra in pavo's layout.
@@ -135,6 +142,9 @@ TEST(RockDoveStudy, QuickVariantRunsAndItsNumbersHold) {
         EXPECT_GT(r.avian_median_noise_floor[system], 0.0);
     }
     EXPECT_EQ(read(dir / "brdf" / "spectra_pavo.csv").rfind("wl,simulation_", 0), 0u);
+}
+
+void check_error_and_time(const std::filesystem::path& dir, const std::string& report) {
     // Every measurement states its error and its time (issue 15): ten rows (three
     // scatterogram pairs, the BRDF pair, the in-plane pair), each error a finite percentage
     // between 0 and 100 % at these few quanta, each time positive.
@@ -159,6 +169,25 @@ TEST(RockDoveStudy, QuickVariantRunsAndItsNumbersHold) {
     EXPECT_EQ(measured, 10);
     const auto values = record::read_dataset(dir / "brdf" / "simulation.h5", "brdf/value");
     EXPECT_EQ(values.dims[0], 55u);
+}
+
+// Runs the quick study once and checks each part of what it returned and wrote.
+TEST(RockDoveStudy, QuickVariantRunsAndItsNumbersHold) {
+    const auto root = std::filesystem::temp_directory_path() /
+                      ("plumage_rock_dove_" + std::to_string(::getpid()));
+    const std::filesystem::path study =
+        std::filesystem::path(PLUMAGE_SOURCE_DIR) / "studies" / "rock_dove_quick.toml";
+    const RockDoveResult r = run_rock_dove_study(read(study), study, root, false);
+    const auto dir = root / "rock_dove_quick";
+    ASSERT_EQ(r.output_dir, dir);
+    const std::string report = read(dir / "report.md");
+    check_model_agreement(r);
+    check_convergence(dir);
+    check_report_figures(dir, report);
+    check_exr_beside_comparisons(dir);
+    check_level_of_physics(r, report);
+    check_avian_vision(r, dir, report);
+    check_error_and_time(dir, report);
     std::filesystem::remove_all(root);
 }
 
