@@ -311,7 +311,7 @@ PathResult ExplicitScatterer::trace(const Vec3d& wi, double lambda_nm, const Vec
     const Spectral& spectral_data = spectral(lambda_nm);
 
     PathResult path;
-    Vec3d origin(position_um.x(), position_um.y(), wi.z() > 0.0 ? top_z_ : bottom_z_);
+    Vec3d origin = entry_origin(position_um, wi);
     Vec3d direction = -wi;
     double weight = 1.0;
     PrimitiveRef skip;
@@ -476,20 +476,25 @@ std::size_t ExplicitScatterer::sample_spectral_branches(const Vec3d& wi,
     PLUMAGE_CHECK(options.guided_fraction == 0.0 || guide_valid,
                   "sample_spectral_branches: guided_fraction in [0, 1), cones of 0 … 90°");
     std::size_t count = 0;
-    auto play = [&](Rng& stream, FirstFilm branch) {
-        const PathResult path = trace_spectral(wi, lambdas_nm, position_um, stream,
-                                               weights.subspan(count * n, n), branch, &options);
+    auto play = [&](Rng& stream, FirstFilm branch, const FirstHit* first) {
+        const PathResult path =
+            walk_spectral(wi, lambdas_nm, position_um, stream, weights.subspan(count * n, n),
+                          branch, &options, first);
         if (path.event)
             events[count++] = {path.event->wo, path.event->lobe, path.event->exit_position_um};
     };
     if (!options.split_first_film) {
-        play(rng, FirstFilm::sampled);
+        play(rng, FirstFilm::sampled, nullptr);
         return count;
     }
+    // The entry ray is the same for both branches (it draws no random number): cast once.
+    check_path_request(wi, position_um);
+    FirstHit first;
+    first.hit = scene_->intersect(entry_origin(position_um, wi), -wi, {}, &first.skipped);
     // The reflected branch on a copy of the stream: both branches draw the same hero.
     Rng reflected_rng = rng;
-    play(reflected_rng, FirstFilm::reflect);
-    play(rng, FirstFilm::transmit);
+    play(reflected_rng, FirstFilm::reflect, &first);
+    play(rng, FirstFilm::transmit, &first);
     return count;
 }
 
@@ -505,6 +510,14 @@ PathResult ExplicitScatterer::trace_spectral(const Vec3d& wi, std::span<const do
                                              const Vec2& position_um, Rng& rng,
                                              std::span<double> weights, FirstFilm first_film,
                                              const BranchOptions* guide) const {
+    return walk_spectral(wi, lambdas_nm, position_um, rng, weights, first_film, guide, nullptr);
+}
+
+PathResult ExplicitScatterer::walk_spectral(const Vec3d& wi, std::span<const double> lambdas_nm,
+                                            const Vec2& position_um, Rng& rng,
+                                            std::span<double> weights, FirstFilm first_film,
+                                            const BranchOptions* guide,
+                                            const FirstHit* first) const {
     const std::size_t n = lambdas_nm.size();
     const bool guided =
         guide != nullptr && guide->guided_fraction > 0.0 && !guide->detector_axes.empty();
@@ -546,7 +559,7 @@ PathResult ExplicitScatterer::trace_spectral(const Vec3d& wi, std::span<const do
     };
 
     PathResult path;
-    Vec3d origin(position_um.x(), position_um.y(), wi.z() > 0.0 ? top_z_ : bottom_z_);
+    Vec3d origin = entry_origin(position_um, wi);
     Vec3d direction = -wi;
     PrimitiveRef skip;
     optics::Complex expected = hs.ambient;
@@ -574,8 +587,12 @@ PathResult ExplicitScatterer::trace_spectral(const Vec3d& wi, std::span<const do
 
     for (;;) {
         ++path.rays;
+        // A branch's entry ray was cast once for both (sample_spectral_branches()).
+        const bool entry_cast = first != nullptr && path.rays == 1;
+        if (entry_cast) path.self_hits_rejected += first->skipped;
         const std::optional<SurfaceHit> hit =
-            scene_->intersect(origin, direction, skip, &path.self_hits_rejected);
+            entry_cast ? first->hit
+                       : scene_->intersect(origin, direction, skip, &path.self_hits_rejected);
         // Splitting (tracer.h): only a path whose first event is at a film has a reflected
         // branch; any other first event belongs to the transmitted branch alone.
         const bool first_event = path.events == 0;

@@ -215,6 +215,20 @@ public:
     struct SpectralSet;  // the optics at several wavelengths, and what a shared path may share
 
 private:
+    // Where the light enters: on the top plane, or the bottom plane for light from below.
+    Vec3d entry_origin(const Vec2& position_um, const Vec3d& wi) const {
+        return {position_um.x(), position_um.y(), wi.z() > 0.0 ? top_z_ : bottom_z_};
+    }
+    // The entry ray's hit, cast once for the two branches of a split path.
+    struct FirstHit {
+        std::optional<SurfaceHit> hit;
+        int skipped = 0;
+    };
+    // trace_spectral(), from `first`'s entry hit when given (it must be the entry ray's).
+    PathResult walk_spectral(const Vec3d& wi, std::span<const double> lambdas_nm,
+                             const Vec2& position_um, Rng& rng, std::span<double> weights,
+                             FirstFilm first_film, const BranchOptions* guide,
+                             const FirstHit* first) const;
     const Spectral& spectral(double lambda_nm) const;
     std::shared_ptr<const Spectral> lookup_spectral(double lambda_nm) const;
     const SpectralSet& spectral_set(std::span<const double> lambdas_nm) const;

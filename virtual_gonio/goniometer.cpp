@@ -2,11 +2,14 @@
 
 #include <omp.h>
 
+#include <algorithm>
 #include <array>
 #include <chrono>
 #include <cmath>
 #include <iostream>
 #include <map>
+#include <numeric>
+#include <span>
 #include <string_view>
 
 #include <fmt/format.h>
@@ -77,6 +80,37 @@ std::vector<Group> group_by_light(const std::vector<DirectionPair>& pairs) {
     return groups;
 }
 
+// A light direction's detector axes ordered by cos θ, to find the cones that may hold a
+// direction without testing all of them: a cone of half-angle α about a holds d only if
+// |θ_d − θ_a| <= α, so a.z lies within [cos(θ_d + α), cos(θ_d − α)] (clamped at the poles).
+struct ConesByElevation {
+    std::vector<std::size_t> order;  // detector indices, by increasing axis z
+    std::vector<double> z;           // their axes' z, increasing
+    double cos_alpha, sin_alpha;
+
+    ConesByElevation(std::span<const Vec3d> axes, double alpha)
+        : order(axes.size()), cos_alpha(std::cos(alpha)), sin_alpha(std::sin(alpha)) {
+        std::iota(order.begin(), order.end(), std::size_t{0});
+        std::stable_sort(order.begin(), order.end(),
+                         [&](std::size_t a, std::size_t b) { return axes[a].z() < axes[b].z(); });
+        for (std::size_t j : order) z.push_back(axes[j].z());
+    }
+    // [first, last) of `order` that may hold d (a superset: the caller tests each).
+    std::pair<std::size_t, std::size_t> candidates(const Vec3d& d) const {
+        constexpr double kMargin = 1e-9;  // round-off of the bounds; never drops a true hit
+        const double dz = std::clamp(d.z(), -1.0, 1.0);
+        const double sin_d = std::sqrt(std::max(0.0, 1.0 - dz * dz));
+        // cos(θ_d ± α); past a pole (θ_d + α > π or θ_d − α < 0) the bound is that pole's.
+        const bool below_south = sin_d * cos_alpha < -dz * sin_alpha;  // θ_d + α > π
+        const bool past_north = sin_d * cos_alpha < dz * sin_alpha;    // θ_d − α < 0
+        const double lo = below_south ? -1.0 : dz * cos_alpha - sin_d * sin_alpha - kMargin;
+        const double hi = past_north ? 1.0 : dz * cos_alpha + sin_d * sin_alpha + kMargin;
+        const auto first = std::lower_bound(z.begin(), z.end(), lo) - z.begin();
+        const auto last = std::upper_bound(z.begin(), z.end(), hi) - z.begin();
+        return {static_cast<std::size_t>(first), static_cast<std::size_t>(last)};
+    }
+};
+
 // Accumulators of the photon estimator, per (pair, wavelength): Σx, Σx², and Σx per lobe.
 struct Sums {
     std::vector<double> sum, sum_sq, lobe_sum, lobe_sum_sq;
@@ -116,6 +150,7 @@ void play_item(const Scatterer& scatterer, const GoniometerConfig& config,
     std::array<SpectralScatterEvent, kBranches> branches{};
     std::vector<Vec3d> detector_axes;
     for (std::size_t p : group.pairs) detector_axes.push_back(config.pairs[p].wo);
+    const ConesByElevation cones(detector_axes, alpha);
     BranchOptions options;
     options.split_first_film = config.split_paths;
     options.detector_axes = detector_axes;
@@ -159,7 +194,15 @@ void play_item(const Scatterer& scatterer, const GoniometerConfig& config,
         for (std::size_t k = 0; k < count * item_wavelengths; ++k)
             PLUMAGE_CHECK(std::isfinite(weights[k]),
                           "non-finite quantum weight from " + scatterer.name());
-        for (std::size_t j = 0; j < m; ++j) {
+        // Only the detectors near a branch's elevation can hold it (the same sums, fewer tests).
+        std::size_t near_first = m, near_last = 0;
+        for (std::size_t b = 0; b < count; ++b) {
+            const auto [f, l] = cones.candidates(branches[b].wo);
+            near_first = std::min(near_first, f);
+            near_last = std::max(near_last, l);
+        }
+        for (std::size_t s = near_first; s < near_last; ++s) {
+            const std::size_t j = cones.order[s];
             const Vec3d& wo = config.pairs[group.pairs[j]].wo;
             // The branches that enter this detector (one, without splitting).
             std::array<std::size_t, kBranches> in{};
