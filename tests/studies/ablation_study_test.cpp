@@ -65,39 +65,44 @@ double rock_dove_quick_beam_error() {
     return diff / ref;
 }
 
-TEST(AblationStudy, QuickVariantRunsAndItsNumbersHold) {
-    const auto root =
-        std::filesystem::temp_directory_path() / ("plumage_ablation_" + std::to_string(::getpid()));
-    const std::filesystem::path study =
-        std::filesystem::path(PLUMAGE_SOURCE_DIR) / "studies" / "ablation_quick.toml";
-    const AblationResult r = run_ablation_study(read(study), study, root, false);
-    const auto dir = root / "ablation_quick";
-    ASSERT_EQ(r.output_dir, dir);
+using PointsByParameter = std::map<std::string, std::vector<const AblationPoint*>>;
 
-    // Seven parameters, three values each; H = 0.65 and μ = −15.05° make the barbules
-    // interpenetrate: skipped with the reason, not a failure.
+// One point of a sweep: skipped only where the geometry refuses it, with the reason; else its
+// error and power budget hold.
+void check_point(const AblationPoint& p) {
+    if (p.skipped) {
+        EXPECT_TRUE((p.parameter == "H" && std::abs(p.value - 0.65) < 1e-9) ||
+                    (p.parameter == "mu_deg" && std::abs(p.value + 15.05) < 1e-9))
+            << p.parameter << " = " << p.value;
+        EXPECT_NE(p.reason.find("interpenetrate"), std::string::npos) << p.reason;
+        return;
+    }
+    // Finite, bounded, and not below the Monte Carlo noise no model can beat.
+    EXPECT_TRUE(std::isfinite(p.relative_l1)) << p.parameter << " = " << p.value;
+    EXPECT_LT(p.relative_l1, 0.8) << p.parameter << " = " << p.value;
+    EXPECT_GT(p.noise_floor, 0.0);
+    EXPECT_GT(p.relative_l1, 0.8 * p.noise_floor) << p.parameter << " = " << p.value;
+    // Power is accounted for: reflected + below ≤ 1 in both.
+    EXPECT_GT(p.simulated_reflected, 0.05);
+    EXPECT_LE(p.simulated_reflected + p.simulated_transmitted, 1.0 + 1e-9);
+    EXPECT_LE(p.model_reflected + p.model_transmitted, 1.0 + 1e-9);
+}
+
+// Seven parameters, three values each; H = 0.65 and μ = −15.05° make the barbules
+// interpenetrate: skipped with the reason, not a failure.
+void check_points(const AblationResult& r) {
     ASSERT_EQ(r.points.size(), 21u);
     EXPECT_EQ(r.skipped, 2);
-    std::map<std::string, std::vector<const AblationPoint*>> by_parameter;
-    for (const auto& p : r.points) {
-        by_parameter[p.parameter].push_back(&p);
-        if (p.skipped) {
-            EXPECT_TRUE((p.parameter == "H" && std::abs(p.value - 0.65) < 1e-9) ||
-                        (p.parameter == "mu_deg" && std::abs(p.value + 15.05) < 1e-9))
-                << p.parameter << " = " << p.value;
-            EXPECT_NE(p.reason.find("interpenetrate"), std::string::npos) << p.reason;
-            continue;
-        }
-        // Finite, bounded, and not below the Monte Carlo noise no model can beat.
-        EXPECT_TRUE(std::isfinite(p.relative_l1)) << p.parameter << " = " << p.value;
-        EXPECT_LT(p.relative_l1, 0.8) << p.parameter << " = " << p.value;
-        EXPECT_GT(p.noise_floor, 0.0);
-        EXPECT_GT(p.relative_l1, 0.8 * p.noise_floor) << p.parameter << " = " << p.value;
-        // Power is accounted for: reflected + below ≤ 1 in both.
-        EXPECT_GT(p.simulated_reflected, 0.05);
-        EXPECT_LE(p.simulated_reflected + p.simulated_transmitted, 1.0 + 1e-9);
-        EXPECT_LE(p.model_reflected + p.model_transmitted, 1.0 + 1e-9);
-    }
+    for (const auto& p : r.points) check_point(p);
+}
+
+PointsByParameter points_by_parameter(const AblationResult& r) {
+    PointsByParameter by_parameter;
+    for (const auto& p : r.points) by_parameter[p.parameter].push_back(&p);
+    return by_parameter;
+}
+
+void check_sweeps_share_the_base(const AblationResult& r, const PointsByParameter& by_parameter) {
     ASSERT_EQ(by_parameter.size(), 7u);
     for (const auto& [name, points] : by_parameter) {
         ASSERT_EQ(points.size(), 3u) << name;
@@ -105,28 +110,33 @@ TEST(AblationStudy, QuickVariantRunsAndItsNumbersHold) {
         EXPECT_TRUE(points[1]->is_base) << name;
         EXPECT_EQ(points[1]->relative_l1, r.base()->relative_l1) << name;
     }
+}
 
-    // The base value is the rock-dove quick study's beam comparison: same patch, beam,
-    // seed and quanta, in that study's normalisation, so the same number to rounding. (It
-    // was 8e-5 apart for a while: the study file's reader sent the absent θ_d = 0.0785 rad
-    // through degrees and back, 1 ulp off, and the tracer's per-unit BVH frames turned that
-    // ulp into different paths.)
+// The base value is the rock-dove quick study's beam comparison: same patch, beam,
+// seed and quanta, in that study's normalisation, so the same number to rounding. (It
+// was 8e-5 apart for a while: the study file's reader sent the absent θ_d = 0.0785 rad
+// through degrees and back, 1 ulp off, and the tracer's per-unit BVH frames turned that
+// ulp into different paths.)
+void check_base_is_rock_dove_beam(const AblationResult& r) {
     ASSERT_NE(r.base(), nullptr);
     EXPECT_NEAR(r.base()->relative_l1_model_reference, rock_dove_quick_beam_error(),
                 1e-12 * rock_dove_quick_beam_error());
+}
 
-    // Barbules further apart let light through, in the simulation and in the model
-    // (Eq. 15: 1 − Δh'/Δh, 0.038 at H = 1.85 under the normal beam, 0 at 1.25 where the
-    // arcs' projections still overlap). The simulation's light below also holds the
-    // little that crosses the films (multi), so it sits a bit above the model's T.
+// Barbules further apart let light through, in the simulation and in the model
+// (Eq. 15: 1 − Δh'/Δh, 0.038 at H = 1.85 under the normal beam, 0 at 1.25 where the
+// arcs' projections still overlap). The simulation's light below also holds the
+// little that crosses the films (multi), so it sits a bit above the model's T.
+void check_light_between_barbules(const PointsByParameter& by_parameter) {
     const auto& h = by_parameter.at("H");
     EXPECT_EQ(h[1]->model_transmitted, 0.0);
     EXPECT_NEAR(h[2]->model_transmitted, 0.0382, 0.006);  // 4σ of 18000 sampled quanta
     EXPECT_GT(h[2]->simulated_transmitted, h[1]->simulated_transmitted + 0.02);
     EXPECT_NEAR(h[2]->simulated_transmitted, h[2]->model_transmitted, 0.015);
+}
 
-    // The report, the figures and the records.
-    const std::string report = read(dir / "report.md");
+// The report and the figures.
+void check_report_figures(const std::filesystem::path& dir, const std::string& report) {
     for (const char* key :
          {"b", "phi0_deg", "phi1_deg", "H", "film_thickness_um", "theta_d_deg", "mu_deg"}) {
         for (const char* figure : {"contact_sheet.png", "error.png"}) {
@@ -135,7 +145,10 @@ TEST(AblationStudy, QuickVariantRunsAndItsNumbersHold) {
             EXPECT_TRUE(std::filesystem::exists(dir / path)) << path;
         }
     }
-    // Every single scatterogram PNG has its spectra beside it as OpenEXR (issue 18, 4b).
+}
+
+// Every single scatterogram PNG has its spectra beside it as OpenEXR (issue 18, 4b).
+void check_exr_beside_scatterograms(const std::filesystem::path& dir) {
     int images = 0;
     for (const auto& entry : std::filesystem::recursive_directory_iterator(dir)) {
         if (entry.path().extension() != ".png") continue;
@@ -150,6 +163,12 @@ TEST(AblationStudy, QuickVariantRunsAndItsNumbersHold) {
         EXPECT_NE(std::find(names.begin(), names.end(), "R"), names.end()) << exr;
     }
     EXPECT_GE(images, 2 * 7 + 2);  // base, and at least one other value per parameter
+}
+
+// The records: the skipped value in the report and as NaN in the HDF5 record, the base
+// value as returned, one CSV row per value.
+void check_records(const std::filesystem::path& dir, const AblationResult& r,
+                   const std::string& report) {
     EXPECT_NE(report.find("H = 0.65: the geometry rejects it"), std::string::npos);
     const auto l1 = record::read_dataset(dir / "ablation.h5", "H/relative_l1");
     ASSERT_EQ(l1.dims[0], 3u);
@@ -160,6 +179,28 @@ TEST(AblationStudy, QuickVariantRunsAndItsNumbersHold) {
     int lines = 0;
     while (std::getline(csv, line)) ++lines;
     EXPECT_EQ(lines, 22);  // header + 21 values
+}
+
+// Runs the quick study once and checks each part of what it returned and wrote. A fatal
+// failure in a check stops the test, as when the checks were inline (later ones index
+// what the failed one asserted).
+TEST(AblationStudy, QuickVariantRunsAndItsNumbersHold) {
+    const auto root =
+        std::filesystem::temp_directory_path() / ("plumage_ablation_" + std::to_string(::getpid()));
+    const std::filesystem::path study =
+        std::filesystem::path(PLUMAGE_SOURCE_DIR) / "studies" / "ablation_quick.toml";
+    const AblationResult r = run_ablation_study(read(study), study, root, false);
+    const auto dir = root / "ablation_quick";
+    ASSERT_EQ(r.output_dir, dir);
+    ASSERT_NO_FATAL_FAILURE(check_points(r));
+    const PointsByParameter by_parameter = points_by_parameter(r);
+    ASSERT_NO_FATAL_FAILURE(check_sweeps_share_the_base(r, by_parameter));
+    ASSERT_NO_FATAL_FAILURE(check_base_is_rock_dove_beam(r));
+    check_light_between_barbules(by_parameter);
+    const std::string report = read(dir / "report.md");
+    check_report_figures(dir, report);
+    ASSERT_NO_FATAL_FAILURE(check_exr_beside_scatterograms(dir));
+    ASSERT_NO_FATAL_FAILURE(check_records(dir, r, report));
     std::filesystem::remove_all(root);
 }
 

@@ -43,36 +43,34 @@ std::string error_of(const std::string& text) {
     return "(accepted)";
 }
 
-TEST(WaveValidityStudy, QuickStudyRecordsWhatItReturns) {
-    const fs::path root = temporary_root("quick");
-    const std::string text = testing::read_text_file(quick_study());
-    const WaveValidityResult r = run_wave_validity_study(text, quick_study(), root, false);
-    const fs::path dir = root / "wave_validity_quick";
-    ASSERT_EQ(r.output_dir, dir);
+// Every point of a map: a finite L1 beside a finite, positive noise floor, the verdict the
+// stated rule gives, and the cost of each level.
+void check_map_point(const WaveValidityPoint& p, std::size_t n_inc, double threshold) {
+    for (std::size_t i = 0; i < n_inc; ++i) {
+        EXPECT_TRUE(std::isfinite(p.relative_l1[i]) && p.relative_l1[i] > 0.0);
+        // Jittered rows over 3 realisations: a finite, positive floor.
+        EXPECT_GT(p.noise_floor[i], 0.0);
+        EXPECT_LT(p.noise_floor[i], p.relative_l1[i]);
+        const double l1 = p.relative_l1[i], f = p.noise_floor[i];
+        const std::string expected = l1 - 2.0 * f > threshold    ? "PO needed"
+                                     : l1 + 2.0 * f <= threshold ? "GO suffices"
+                                                                 : "undecided";
+        EXPECT_EQ(p.verdict[i], expected);
+    }
+    EXPECT_GT(p.po_wall_s, 0.0);
+    EXPECT_GT(p.go_wall_s, 0.0);
+    // PO's sums over every angle cost more than GO's mirror rays.
+    EXPECT_GT(p.po_cpu_s, p.go_cpu_s);
+}
+
+// The three maps as returned: their shapes, every point, and the base point shared by all.
+void check_maps(const WaveValidityResult& r) {
     ASSERT_EQ(r.maps.size(), 3u);
     const std::size_t n_w = r.widths_um.size(), n_inc = r.incidence_deg.size();
     EXPECT_EQ(n_inc, 2u);
-    int rows = 0;
     for (const WaveValidityMap& m : r.maps) {
         ASSERT_EQ(m.points.size(), m.values.size() * n_w) << m.axis;
-        for (const WaveValidityPoint& p : m.points) {
-            for (std::size_t i = 0; i < n_inc; ++i) {
-                EXPECT_TRUE(std::isfinite(p.relative_l1[i]) && p.relative_l1[i] > 0.0);
-                // Jittered rows over 3 realisations: a finite, positive floor.
-                EXPECT_GT(p.noise_floor[i], 0.0);
-                EXPECT_LT(p.noise_floor[i], p.relative_l1[i]);
-                const double l1 = p.relative_l1[i], f = p.noise_floor[i];
-                const std::string expected = l1 - 2.0 * f > r.threshold    ? "PO needed"
-                                             : l1 + 2.0 * f <= r.threshold ? "GO suffices"
-                                                                           : "undecided";
-                EXPECT_EQ(p.verdict[i], expected);
-                ++rows;
-            }
-            EXPECT_GT(p.po_wall_s, 0.0);
-            EXPECT_GT(p.go_wall_s, 0.0);
-            // PO's sums over every angle cost more than GO's mirror rays.
-            EXPECT_GT(p.po_cpu_s, p.go_cpu_s);
-        }
+        for (const WaveValidityPoint& p : m.points) check_map_point(p, n_inc, r.threshold);
     }
     // The base row (b 0.25, d 0.59, H 1.25) is in every map: measured once, the same numbers.
     const WaveValidityPoint& film_base = r.maps[0].points[1 * n_w + 1];  // d = 0.59, width 8
@@ -80,9 +78,11 @@ TEST(WaveValidityStudy, QuickStudyRecordsWhatItReturns) {
     const WaveValidityPoint& h_base = r.maps[2].points[0 * n_w + 1];     // H = 1.25
     EXPECT_EQ(film_base.relative_l1, b_base.relative_l1);
     EXPECT_EQ(film_base.relative_l1, h_base.relative_l1);
+}
 
-    // The HDF5 record: the numbers returned, units on every dataset, provenance.
-    const fs::path h5 = dir / "wave_validity.h5";
+// The HDF5 record: the numbers returned, units on every dataset, provenance.
+void check_map_records(const fs::path& h5, const WaveValidityResult& r, const std::string& text) {
+    const std::size_t n_w = r.widths_um.size(), n_inc = r.incidence_deg.size();
     for (const WaveValidityMap& m : r.maps) {
         const std::string g = "maps/" + m.axis + "/";
         const record::Dataset l1 = record::read_dataset(h5, g + "relative_l1");
@@ -100,20 +100,25 @@ TEST(WaveValidityStudy, QuickStudyRecordsWhatItReturns) {
     }
     EXPECT_EQ(record::read_string_attribute(h5, "/provenance", "config"), text);
     EXPECT_EQ(record::read_dataset(h5, "wavelengths_nm").values, r.wavelengths_nm);
+}
 
-    // CSV: a header and one row per (map point, incidence); the report's sections.
+// CSV: a header and one row per (map point, incidence); the report's sections.
+void check_map_csv_and_report(const fs::path& dir, const WaveValidityResult& r,
+                              const std::string& report) {
+    std::size_t rows = 0;
+    for (const WaveValidityMap& m : r.maps) rows += m.points.size() * r.incidence_deg.size();
     std::ifstream csv(dir / "wave_validity.csv");
-    int lines = 0;
+    std::size_t lines = 0;
     for (std::string line; std::getline(csv, line);) ++lines;
     EXPECT_EQ(lines, rows + 1);
-    const std::string report = testing::read_text_file(dir / "report.md");
     for (const char* section : {"## Maps", "5 % boundary at θ_i = 0°", "extrapolated ≈",
                                 "## Cost of each level", "## Statistical verdict",
                                 "largest over the wavelengths", "width_x_film_thickness_um.png"})
         EXPECT_NE(report.find(section), std::string::npos) << section;
+}
 
-    // The full-wave check: the 24 Meep curves as 12 unpolarised rows (single: θ_i 0° and 30°),
-    // each with its numbers in the report, the record (units, descriptions) and the CSV.
+// The full-wave check: the 24 Meep curves as 12 unpolarised rows (single: θ_i 0° and 30°).
+void check_full_wave_rows(const WaveValidityResult& r) {
     ASSERT_EQ(r.full_wave.size(), 12u);
     for (const WaveValidityFullWaveRow& f : r.full_wave) {
         EXPECT_EQ(f.polarisations, "TE+TM") << f.shape;
@@ -130,11 +135,17 @@ TEST(WaveValidityStudy, QuickStudyRecordsWhatItReturns) {
             EXPECT_LT(f.go_vs_full_wave, 0.3) << f.theta_i_deg << " " << f.lambda_nm;
         }
     }
+}
+
+// Each full-wave row's numbers in the report, the record (units, descriptions) and the CSV.
+void check_full_wave_records(const fs::path& dir, const WaveValidityResult& r,
+                             const std::string& report) {
     EXPECT_NE(report.find("## Against full wave"), std::string::npos);
     EXPECT_NE(report.find("| single | TE+TM | 30 | 650 |"), std::string::npos);
     EXPECT_NE(report.find("**Verdict.**"), std::string::npos);
     EXPECT_NE(report.find(r.full_wave_verdict), std::string::npos);
     EXPECT_NE(r.full_wave_verdict.find("The map's headline"), std::string::npos);
+    const fs::path h5 = dir / "wave_validity.h5";
     for (const char* name : {"go_vs_full_wave", "po_vs_full_wave", "po_vs_go", "full_wave_floor",
                              "shadow_share", "theta_i_deg", "lambda_nm", "projected_width_um"}) {
         const std::string path = std::string("full_wave/") + name;
@@ -152,6 +163,23 @@ TEST(WaveValidityStudy, QuickStudyRecordsWhatItReturns) {
     int fw_lines = 0;
     for (std::string line; std::getline(fw_csv, line);) ++fw_lines;
     EXPECT_EQ(fw_lines, 13);
+}
+
+// Runs the quick study once and checks each part of what it returned and wrote. A fatal
+// failure in a check stops the test, as when the checks were inline (later ones index
+// what the failed one asserted).
+TEST(WaveValidityStudy, QuickStudyRecordsWhatItReturns) {
+    const fs::path root = temporary_root("quick");
+    const std::string text = testing::read_text_file(quick_study());
+    const WaveValidityResult r = run_wave_validity_study(text, quick_study(), root, false);
+    const fs::path dir = root / "wave_validity_quick";
+    ASSERT_EQ(r.output_dir, dir);
+    ASSERT_NO_FATAL_FAILURE(check_maps(r));
+    ASSERT_NO_FATAL_FAILURE(check_map_records(dir / "wave_validity.h5", r, text));
+    const std::string report = testing::read_text_file(dir / "report.md");
+    check_map_csv_and_report(dir, r, report);
+    ASSERT_NO_FATAL_FAILURE(check_full_wave_rows(r));
+    check_full_wave_records(dir, r, report);
     fs::remove_all(root);
 }
 
