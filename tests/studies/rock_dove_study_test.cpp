@@ -181,13 +181,14 @@ TEST(RockDoveStudy, QuickVariantRunsAndItsNumbersHold) {
     const auto dir = root / "rock_dove_quick";
     ASSERT_EQ(r.output_dir, dir);
     const std::string report = read(dir / "report.md");
-    check_model_agreement(r);
-    check_convergence(dir);
-    check_report_figures(dir, report);
-    check_exr_beside_comparisons(dir);
-    check_level_of_physics(r, report);
-    check_avian_vision(r, dir, report);
-    check_error_and_time(dir, report);
+    // A helper's ASSERT ends the test, as it did before the checks were functions.
+    ASSERT_NO_FATAL_FAILURE(check_model_agreement(r));
+    ASSERT_NO_FATAL_FAILURE(check_convergence(dir));
+    ASSERT_NO_FATAL_FAILURE(check_report_figures(dir, report));
+    ASSERT_NO_FATAL_FAILURE(check_exr_beside_comparisons(dir));
+    ASSERT_NO_FATAL_FAILURE(check_level_of_physics(r, report));
+    ASSERT_NO_FATAL_FAILURE(check_avian_vision(r, dir, report));
+    ASSERT_NO_FATAL_FAILURE(check_error_and_time(dir, report));
     std::filesystem::remove_all(root);
 }
 

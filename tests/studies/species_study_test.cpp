@@ -202,7 +202,7 @@ TEST(SpeciesStudy, QuickVariantReproducesEachPatchsColourAndOrientation) {
     check_parrot_axis_along_barbs(r);
     for (const auto& o : r.species) {
         SCOPED_TRACE(o.species);
-        check_patch(o);
+        ASSERT_NO_FATAL_FAILURE(check_patch(o));
     }
     for (const auto& o : r.species) {
         ASSERT_NO_FATAL_FAILURE(check_patch_records(dir, o));
