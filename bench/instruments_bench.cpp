@@ -109,8 +109,9 @@ BENCHMARK(BM_ProjectedTimeTo1PercentExplicitRockDove3660)->Iterations(1)->Unit(b
 // Issue 15's case: the explicit rock-dove patch, full spectral (7 wavelengths, 400–700 nm, all
 // lobes), the 3660-pair set, detector 5° (view cone); one path per quantum and
 // wavelength (separate, arg 0) against one path per quantum for all seven (shared, arg 1),
-// shared and split at the first film (arg 2), and split with guided diffuse reflection, f = 0.5
-// (arg 3) or 0.8 (arg 4) (sim/tracer.h), on 1 or 2 threads (second arg). Each runs passes of 2000
+// shared and split at the first film (arg 2), split with guided diffuse reflection, f = 0.5
+// (arg 3) or 0.8 (arg 4), and split with 1 or 2 guided diffuse branches at the first diffuse
+// event (args 5, 6) (sim/tracer.h), on 1 or 2 threads (second arg). Each runs passes of 2000
 // quanta per light direction for a budget of kBudgetS, then projects t(1 %) = t · (ε / 1 %)² from
 // the last pass. ε is the relative RMS standard error over the cells that carry signal: value ≥ 10
 // % of the mean of the cells at its wavelength (GoniometerConfig::signal_fraction; the record
@@ -120,6 +121,8 @@ void BM_RockDoveSpectral3660(benchmark::State& state) {
     constexpr double kBudgetS = 40.0;
     const bool shared = state.range(0) != 0, split = state.range(0) >= 2;
     const double guided = state.range(0) == 3 ? 0.5 : state.range(0) == 4 ? 0.8 : 0.0;
+    const std::size_t branches =
+        state.range(0) >= 5 ? static_cast<std::size_t>(state.range(0) - 4) : 0;
     const int threads = static_cast<int>(state.range(1));
     const sim::ExplicitScatterer patch = rock_dove_patch();
     GoniometerConfig c = rock_dove_config();
@@ -127,6 +130,7 @@ void BM_RockDoveSpectral3660(benchmark::State& state) {
     c.share_wavelength_paths = shared;
     c.split_paths = split;
     c.guided_fraction = guided;
+    c.guided_branches = branches;
     c.signal_fraction = 0.1;
     c.quanta_per_pass = 2000;
     c.max_passes = 100000;
@@ -137,10 +141,11 @@ void BM_RockDoveSpectral3660(benchmark::State& state) {
     for (auto _ : state) r = measure_brdf(patch, c);
     omp_set_num_threads(before);
     const double error = r.convergence.back().estimated_relative_rms_error;
-    const std::string kind = guided > 0.0 ? fmt::format("guided{:.0f}", 100 * guided)
-                             : split      ? std::string("split")
-                             : shared     ? std::string("shared")
-                                          : std::string("separate");
+    const std::string kind = branches > 0   ? fmt::format("branches{}", branches)
+                             : guided > 0.0 ? fmt::format("guided{:.0f}", 100 * guided)
+                             : split        ? std::string("split")
+                             : shared       ? std::string("shared")
+                                            : std::string("separate");
     std::size_t signal = 0;
     for (std::uint8_t m : r.signal_cells) signal += m;
     state.counters["wall_s"] = r.wall_time_s;
@@ -170,6 +175,8 @@ BENCHMARK(BM_RockDoveSpectral3660)
     ->Args({2, 2})
     ->Args({3, 2})
     ->Args({4, 2})
+    ->Args({5, 2})
+    ->Args({6, 2})
     ->Iterations(1)
     ->Unit(benchmark::kSecond)
     ->UseRealTime();

@@ -218,34 +218,72 @@ InterfaceEvent diffuse_event(const Vec3d& direction, const SurfaceNormals& norma
             std::min(albedo, 1.0), in.from_outside, true};
 }
 
+namespace {
+
+// A direction uniform in solid angle within one of the cones, picked with probability 1/m.
+Vec3d sample_in_cones(std::span<const Vec3d> cone_axes, double cos_half_angle, Rng& rng) {
+    const auto m = static_cast<double>(cone_axes.size());
+    const std::size_t j =
+        std::min(cone_axes.size() - 1, static_cast<std::size_t>(rng.uniform() * m));
+    const double cos_t = 1.0 - rng.uniform() * (1.0 - cos_half_angle);
+    const double sin_t = std::sqrt(std::max(0.0, 1.0 - cos_t * cos_t));
+    const double phi = 2.0 * std::numbers::pi * rng.uniform();
+    const Vec3d& a = cone_axes[j];
+    Vec3d e1, e2;
+    orthonormal_frame(a, e1, e2);
+    return (cos_t * a + sin_t * (std::cos(phi) * e1 + std::sin(phi) * e2)).normalized();
+}
+
+// How many of the cones hold d.
+int cones_holding(const Vec3d& d, std::span<const Vec3d> cone_axes, double cos_half_angle) {
+    int inside = 0;
+    for (const Vec3d& a : cone_axes) inside += d.dot(a) >= cos_half_angle ? 1 : 0;
+    return inside;
+}
+
+}  // namespace
+
 InterfaceEvent guided_diffuse_event(const Vec3d& direction, const SurfaceNormals& normals,
                                     std::span<const Vec3d> cone_axes, double cos_half_angle,
                                     double fraction, Rng& rng) {
     const Incidence in = incidence(direction, normals);
-    const auto m = static_cast<double>(cone_axes.size());
-    Vec3d out;
-    if (cone_axes.empty() || rng.uniform() >= fraction) {
-        out = sample_cosine_hemisphere(in.facet, rng);
-    } else {
-        const std::size_t j =
-            std::min(cone_axes.size() - 1, static_cast<std::size_t>(rng.uniform() * m));
-        const double cos_t = 1.0 - rng.uniform() * (1.0 - cos_half_angle);
-        const double sin_t = std::sqrt(std::max(0.0, 1.0 - cos_t * cos_t));
-        const double phi = 2.0 * std::numbers::pi * rng.uniform();
-        const Vec3d& a = cone_axes[j];
-        Vec3d e1, e2;
-        orthonormal_frame(a, e1, e2);
-        out = (cos_t * a + sin_t * (std::cos(phi) * e1 + std::sin(phi) * e2)).normalized();
-    }
+    const Vec3d out = cone_axes.empty() || rng.uniform() >= fraction
+                          ? sample_cosine_hemisphere(in.facet, rng)
+                          : sample_in_cones(cone_axes, cos_half_angle, rng);
     const double cos_n = out.dot(in.facet);
     if (!(cos_n > 0.0)) return {EventKind::absorb, Vec3d::Zero(), 0.0, in.from_outside, true};
-    int inside = 0;
-    for (const Vec3d& a : cone_axes) inside += out.dot(a) >= cos_half_angle ? 1 : 0;
+    const int inside = cones_holding(out, cone_axes, cos_half_angle);
+    const auto m = static_cast<double>(cone_axes.size());
     const double cone_solid_angle = 2.0 * std::numbers::pi * (1.0 - cos_half_angle);
     const double lambertian = cos_n / std::numbers::pi;
     const double density = (cone_axes.empty() ? 1.0 : 1.0 - fraction) * lambertian +
                            (cone_axes.empty() ? 0.0 : fraction * inside / (m * cone_solid_angle));
     return {EventKind::diffuse_reflect, out, lambertian / density, in.from_outside, true};
+}
+
+std::size_t guided_diffuse_branches(const Vec3d& direction, const SurfaceNormals& normals,
+                                    std::span<const Vec3d> cone_axes, double cos_half_angle,
+                                    std::size_t guided, Rng& rng,
+                                    std::span<InterfaceEvent> events) {
+    PLUMAGE_CHECK(!cone_axes.empty() && events.size() >= 1 + guided,
+                  "guided_diffuse_branches: cones, and room for 1 + k directions");
+    const Incidence in = incidence(direction, normals);
+    const auto k = static_cast<double>(guided), m = static_cast<double>(cone_axes.size());
+    const double cone_solid_angle = 2.0 * std::numbers::pi * (1.0 - cos_half_angle);
+    for (std::size_t i = 0; i <= guided; ++i) {
+        const Vec3d out = i == 0 ? sample_cosine_hemisphere(in.facet, rng)
+                                 : sample_in_cones(cone_axes, cos_half_angle, rng);
+        const double cos_n = out.dot(in.facet);
+        if (!(cos_n > 0.0)) {
+            events[i] = {EventKind::absorb, Vec3d::Zero(), 0.0, in.from_outside, true};
+            continue;
+        }
+        const double lambertian = cos_n / std::numbers::pi;
+        const double density =
+            lambertian + k * cones_holding(out, cone_axes, cos_half_angle) / (m * cone_solid_angle);
+        events[i] = {EventKind::diffuse_reflect, out, lambertian / density, in.from_outside, true};
+    }
+    return 1 + guided;
 }
 
 InterfaceEvent absorber_event(const Vec3d& direction, const SurfaceNormals& normals) {

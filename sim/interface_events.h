@@ -151,6 +151,20 @@ InterfaceEvent guided_diffuse_event(const Vec3d& direction, const SurfaceNormals
                                     std::span<const Vec3d> cone_axes, double cos_half_angle,
                                     double fraction, Rng& rng);
 
+// Lambertian reflection as 1 + k directions at once (sim/tracer.h, "Guided diffuse
+// branches"): events[0] drawn by the cosine law about the facet normal, events[1 … k] each
+// uniformly within one of the cones (picked with probability 1/m, as above). Every direction d
+// carries the multi-sample balance heuristic's throughput, for an albedo of 1,
+//     (max(0, d·n)/π) / (p_c(d) + k p_g(d)),
+// p_c the cosine density and p_g the cones' (the guided_diffuse_event mixture's second term):
+// unbiased for their sum, E[Σ_i throughput_i g(d_i)] = ∫ g(d) cos θ/π dω for every g, and
+// never above 1 (a direction outside every cone carries exactly 1, as a plain diffuse event;
+// inside one, much less). A direction below the facet carries 0 (kind absorb). Returns 1 + k;
+// cone_axes not empty, events.size() >= 1 + k.
+std::size_t guided_diffuse_branches(const Vec3d& direction, const SurfaceNormals& normals,
+                                    std::span<const Vec3d> cone_axes, double cos_half_angle,
+                                    std::size_t guided, Rng& rng, std::span<InterfaceEvent> events);
+
 // Opaque black surface.
 InterfaceEvent absorber_event(const Vec3d& direction, const SurfaceNormals& normals);
 

@@ -73,6 +73,12 @@ struct BranchOptions {
     std::span<const Vec3d> detector_axes;
     double detector_half_angle_rad = 0.0;
     double guided_fraction = 0.0;
+    // With k = guided_branches in 1 … kMaxGuidedBranches, a scatterer may instead branch at a
+    // path's first diffuse event: one branch in its own direction and k aimed within the cones,
+    // all weighed by the multi-sample balance heuristic (sim/tracer.h, "Guided diffuse
+    // branches"); later diffuse events then follow guided_fraction. 0: no such branches.
+    std::size_t guided_branches = 0;
+    static constexpr std::size_t kMaxGuidedBranches = 3;
 };
 
 // Two unit vectors completing the unit vector a to a right-handed orthonormal frame.
@@ -111,7 +117,8 @@ public:
 
     // Path splitting: whether sample_spectral_branches() can return more than one branch.
     virtual bool can_split_paths() const { return false; }
-    static constexpr std::size_t kMaxBranches = 2;
+    // Two film branches, each with up to 1 + BranchOptions::kMaxGuidedBranches diffuse ones.
+    static constexpr std::size_t kMaxBranches = 2 * (1 + BranchOptions::kMaxGuidedBranches);
     // The quantum of sample_spectral() as branches b = 0 … count−1 (count returned, at most
     // kMaxBranches): events[b] its escape, weights[b·n + k] its weight at lambdas_nm[k]
     // (n = lambdas_nm.size(); events.size() >= kMaxBranches, weights.size() >= kMaxBranches·n),

@@ -469,19 +469,34 @@ std::size_t ExplicitScatterer::sample_spectral_branches(const Vec3d& wi,
                                                         std::span<double> weights) const {
     const std::size_t n = lambdas_nm.size();
     PLUMAGE_CHECK(events.size() >= kMaxBranches && weights.size() >= kMaxBranches * n,
-                  "sample_spectral_branches: room for two branches");
+                  "sample_spectral_branches: room for kMaxBranches branches");
     const bool guide_valid = options.guided_fraction >= 0.0 && options.guided_fraction < 1.0 &&
                              options.detector_half_angle_rad > 0.0 &&
                              options.detector_half_angle_rad < 0.5 * kPi;
     PLUMAGE_CHECK(options.guided_fraction == 0.0 || guide_valid,
                   "sample_spectral_branches: guided_fraction in [0, 1), cones of 0 … 90°");
+    PLUMAGE_CHECK(
+        options.guided_branches <= BranchOptions::kMaxGuidedBranches &&
+            (options.guided_branches == 0 || (guide_valid && !options.detector_axes.empty())),
+        "sample_spectral_branches: guided_branches in [0, 3], with cones of 0 … 90°");
+    const bool diffuse_branches = options.guided_branches > 0;
     std::size_t count = 0;
-    auto play = [&](Rng& stream, FirstFilm branch, const FirstHit* first) {
-        const PathResult path =
-            walk_spectral(wi, lambdas_nm, position_um, stream, weights.subspan(count * n, n),
-                          branch, &options, first);
+    auto keep = [&](const PathResult& path) {
         if (path.event)
             events[count++] = {path.event->wo, path.event->lobe, path.event->exit_position_um};
+    };
+    auto play = [&](Rng& stream, FirstFilm branch, const FirstHit* first) {
+        PendingBranches pending;
+        keep(walk_spectral(wi, lambdas_nm, position_um, stream, weights.subspan(count * n, n),
+                           branch, &options, first, nullptr,
+                           diffuse_branches ? &pending : nullptr));
+        // The guided branches of its first diffuse event, each on its own stream.
+        for (std::size_t b = 0; b < pending.count; ++b) {
+            Rng branch_rng = pending.at[b].rng;
+            keep(walk_spectral(wi, lambdas_nm, position_um, branch_rng,
+                               weights.subspan(count * n, n), branch, &options, nullptr,
+                               &pending.at[b]));
+        }
     };
     if (!options.split_first_film) {
         play(rng, FirstFilm::sampled, nullptr);
@@ -516,8 +531,9 @@ PathResult ExplicitScatterer::trace_spectral(const Vec3d& wi, std::span<const do
 PathResult ExplicitScatterer::walk_spectral(const Vec3d& wi, std::span<const double> lambdas_nm,
                                             const Vec2& position_um, Rng& rng,
                                             std::span<double> weights, FirstFilm first_film,
-                                            const BranchOptions* guide,
-                                            const FirstHit* first) const {
+                                            const BranchOptions* guide, const FirstHit* first,
+                                            const WalkState* resume,
+                                            PendingBranches* pending) const {
     const std::size_t n = lambdas_nm.size();
     const bool guided =
         guide != nullptr && guide->guided_fraction > 0.0 && !guide->detector_axes.empty();
@@ -534,11 +550,33 @@ PathResult ExplicitScatterer::walk_spectral(const Vec3d& wi, std::span<const dou
 
     // The hero: the one wavelength that goes on once the path's geometry depends on λ.
     const std::size_t hero =
-        std::min(n - 1, static_cast<std::size_t>(rng.uniform() * static_cast<double>(n)));
+        resume != nullptr
+            ? resume->hero
+            : std::min(n - 1, static_cast<std::size_t>(rng.uniform() * static_cast<double>(n)));
     const Spectral& hs = *set.at[hero];
-    std::array<double, kMaxSharedWavelengths> w{};
-    std::fill(w.begin(), w.begin() + static_cast<std::ptrdiff_t>(n), 1.0);
-    bool single = n == 1;
+    WalkState st;
+    if (resume != nullptr) {
+        st = *resume;
+    } else {
+        st.origin = entry_origin(position_um, wi);
+        st.direction = -wi;
+        st.expected = hs.ambient;
+        std::fill(st.w.begin(), st.w.begin() + static_cast<std::ptrdiff_t>(n), 1.0);
+        st.single = n == 1;
+        st.hero = hero;
+    }
+    auto& w = st.w;
+    bool& single = st.single;
+    PathResult& path = st.path;
+    Vec3d& origin = st.origin;
+    Vec3d& direction = st.direction;
+    PrimitiveRef& skip = st.skip;
+    optics::Complex& expected = st.expected;
+    // Guided diffuse branches (tracer.h): at this walk's first diffuse event.
+    const bool branch_diffuse = pending != nullptr && guide != nullptr &&
+                                guide->guided_branches > 0 && !guide->detector_axes.empty() &&
+                                !st.diffuse_branched;
+    const double cos_cones = branch_diffuse ? std::cos(guide->detector_half_angle_rad) : 1.0;
     auto collapse = [&]() {
         if (single) return;
         const double carried = w[hero] * static_cast<double>(n);
@@ -557,12 +595,6 @@ PathResult ExplicitScatterer::walk_spectral(const Vec3d& wi, std::span<const dou
             for (std::size_t k = 0; k < n; ++k) w[k] *= factor;
         }
     };
-
-    PathResult path;
-    Vec3d origin = entry_origin(position_um, wi);
-    Vec3d direction = -wi;
-    PrimitiveRef skip;
-    optics::Complex expected = hs.ambient;
 
     auto escape = [&]() {
         if (expected != hs.ambient) ++path.medium_mismatches;
@@ -583,6 +615,22 @@ PathResult ExplicitScatterer::walk_spectral(const Vec3d& wi, std::span<const dou
         if (!(carried > 0.0)) return false;
         if (carried != weight) scale(carried / weight);
         return true;
+    };
+
+    // The first diffuse event's guided directions (branch_diffuse): fork[1 … forked − 1].
+    std::array<InterfaceEvent, 1 + BranchOptions::kMaxGuidedBranches> fork{};
+    std::size_t forked = 0;
+    std::array<double, kMaxSharedWavelengths> before_fork{};
+    // A diffuse event's weights: each λ its albedo (diffuse_event's clamp) times throughput.
+    auto diffuse_weights = [&](std::array<double, kMaxSharedWavelengths>& weights_k,
+                               std::size_t surface_index, double throughput) {
+        if (single) {
+            weights_k[hero] *= std::clamp(hs.surfaces[surface_index].albedo, 0.0, 1.0) * throughput;
+        } else {
+            for (std::size_t k = 0; k < n; ++k)
+                weights_k[k] *=
+                    std::clamp(set.at[k]->surfaces[surface_index].albedo, 0.0, 1.0) * throughput;
+        }
     };
 
     for (;;) {
@@ -705,6 +753,15 @@ PathResult ExplicitScatterer::walk_spectral(const Vec3d& wi, std::span<const dou
                     return e;
                 }
                 case Spectral::Kind::diffuse: {
+                    if (branch_diffuse && !st.diffuse_branched) {
+                        st.diffuse_branched = true;
+                        forked =
+                            guided_diffuse_branches(direction, hit->normals, guide->detector_axes,
+                                                    cos_cones, guide->guided_branches, rng, fork);
+                        before_fork = w;
+                        diffuse_weights(w, surface_index, fork[0].throughput);
+                        return fork[0];
+                    }
                     if (guided) {
                         const InterfaceEvent e =
                             guided_diffuse_event(direction, hit->normals, guide->detector_axes,
@@ -736,6 +793,25 @@ PathResult ExplicitScatterer::walk_spectral(const Vec3d& wi, std::span<const dou
             }
             return absorber_event(direction, hit->normals);
         }();
+        if (forked > 0) {
+            // The guided branches wait, each from this event with its own direction and stream.
+            const std::uint64_t fork_seed =
+                (static_cast<std::uint64_t>(rng.next_u32()) << 32) | rng.next_u32();
+            for (std::size_t b = 1; b < forked; ++b) {
+                if (fork[b].kind != EventKind::diffuse_reflect) continue;
+                WalkState& branch = pending->at[pending->count++];
+                branch = st;
+                branch.w = before_fork;
+                diffuse_weights(branch.w, surface_index, fork[b].throughput);
+                record(branch.path, fork[b].kind);
+                branch.expected = fork[b].to_outside ? surface.outside : surface.inside;
+                branch.origin = scene_->spawn_point(*hit, fork[b].to_outside);
+                branch.direction = fork[b].direction;
+                branch.skip = hit->primitive;
+                branch.rng = Rng(fork_seed, b);
+            }
+            forked = 0;
+        }
         record(path, event.kind);
         if (event.kind == EventKind::absorb || !(largest() > 0.0)) return path;
 

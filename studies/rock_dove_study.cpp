@@ -71,10 +71,12 @@ struct Settings {
     // One traced path per quantum for every wavelength (GoniometerConfig::share_wavelength_paths):
     // the rock dove's film lies in air, so no path needs a hero wavelength.
     bool share_wavelength_paths = false;
-    // With shared paths: split at the first film, and the share of diffuse directions aimed at
-    // the detectors (GoniometerConfig::split_paths, guided_fraction; sim/tracer.h).
+    // With shared paths: split at the first film, the share of diffuse directions aimed at the
+    // detectors, and guided branches at the first diffuse event (GoniometerConfig::split_paths,
+    // guided_fraction, guided_branches; sim/tracer.h).
     bool split_paths = false;
     double guided_fraction = 0.0;
+    int guided_branches = 0;
     double time_budget_s = std::numeric_limits<double>::infinity();  // per measurement
     double target_relative_error = 0.0;
     // validation and convergence
@@ -145,6 +147,10 @@ void read_goniometer(ParameterTable go, Settings& s) {
                                "transmitted branches (true) or choose one");
     s.guided_fraction = go.number("guided_fraction", s.guided_fraction, {0.0, 1.0, false, true},
                                   "share of the diffuse directions aimed at the detector cones");
+    s.guided_branches = static_cast<int>(
+        go.integer("guided_branches", s.guided_branches, 0, 3,
+                   "directions aimed at the detector cones beside the cosine one at each path's "
+                   "first diffuse event"));
 }
 
 // [validation]
@@ -402,6 +408,7 @@ gonio::GoniometerConfig goniometer_config(const Run& run) {
     g.share_wavelength_paths = s.share_wavelength_paths;
     g.split_paths = s.split_paths;
     g.guided_fraction = s.guided_fraction;
+    g.guided_branches = static_cast<std::size_t>(s.guided_branches);
     return g;
 }
 

@@ -234,6 +234,24 @@ MeasurementCost scatterogram_cost(const std::string& measurement, const gonio::S
             s.cpu_time_s};
 }
 
+namespace {
+
+// How the photon estimator aimed its diffuse directions at the detectors (GoniometerConfig).
+std::string guided_description(const gonio::GoniometerConfig& c) {
+    std::string text;
+    if (c.guided_branches > 0) {
+        text += fmt::format(", {} guided branch{} at the first diffuse event", c.guided_branches,
+                            c.guided_branches == 1 ? "" : "es");
+    }
+    if (c.guided_fraction > 0.0) {
+        text += fmt::format(", {:.0f} % of {}diffuse directions guided to the detectors",
+                            100.0 * c.guided_fraction, c.guided_branches > 0 ? "later " : "");
+    }
+    return text;
+}
+
+}  // namespace
+
 MeasurementCost brdf_cost(const std::string& measurement, const gonio::BrdfRecord& r) {
     const bool photon = r.estimator_used == gonio::Estimator::photon;
     const std::string samples =
@@ -241,10 +259,7 @@ MeasurementCost brdf_cost(const std::string& measurement, const gonio::BrdfRecor
                              r.config.quanta_per_pass, r.passes, r.passes == 1 ? "" : "es",
                              r.wavelength_paths_shared ? ", wavelengths sharing paths" : "",
                              r.paths_split ? ", split at the first film" : "",
-                             r.diffuse_guided ? fmt::format(", {:.0f} % of diffuse directions "
-                                                            "guided to the detectors",
-                                                            100.0 * r.config.guided_fraction)
-                                              : "")
+                             r.diffuse_guided ? guided_description(r.config) : "")
                : fmt::format("eval cubature, {} rings per cone", r.config.eval_rings);
     const double error = r.convergence.empty() ? std::numeric_limits<double>::quiet_NaN()
                                                : r.convergence.back().estimated_relative_rms_error;

@@ -53,6 +53,7 @@ std::string canonical(const GoniometerConfig& c, const std::string& scatterer,
     if (c.share_wavelength_paths) s += "shared_paths|";
     if (c.split_paths) s += "split_paths|";
     if (c.guided_fraction > 0.0) s += fmt::format("guided={:.17g}|", c.guided_fraction);
+    if (c.guided_branches > 0) s += fmt::format("guided_branches={}|", c.guided_branches);
     // The study text describes the scene the scatterer was built from (its name alone does not:
     // a changed geometry under the same instrument must not resume another run's sums).
     s += c.config_text + "|";
@@ -156,6 +157,7 @@ void play_item(const Scatterer& scatterer, const GoniometerConfig& config,
     options.detector_axes = detector_axes;
     options.detector_half_angle_rad = alpha;
     options.guided_fraction = config.guided_fraction;
+    options.guided_branches = config.guided_branches;
     for (std::uint64_t q = item.first; q < item.first + item.count; ++q) {
         Rng rng(config.seed, stream + q);
         // Beam position: uniform over the beam's cross-section, projected along ω_i
@@ -456,6 +458,9 @@ void GoniometerConfig::validate() const {
     require(std::isfinite(guided_fraction) && guided_fraction >= 0.0 && guided_fraction < 1.0,
             kWhat, "guided_fraction", guided_fraction,
             "a share of the diffuse directions aimed at the detectors in [0, 1) (0: none)");
+    require(guided_branches <= BranchOptions::kMaxGuidedBranches, kWhat,
+            fmt::format("guided_branches = {}: expected 0..{}", guided_branches,
+                        BranchOptions::kMaxGuidedBranches));
     require(eval_rings >= 1 && eval_rings <= 64, kWhat,
             fmt::format("eval_rings = {}: expected 1..64", eval_rings));
 }
@@ -620,7 +625,8 @@ BrdfRecord measure_brdf(const Scatterer& scatterer, const GoniometerConfig& conf
     // Branches need one path for all the item's wavelengths: shared paths, or one wavelength.
     const bool one_path = r.wavelength_paths_shared || config.wavelengths_nm.size() == 1;
     r.paths_split = one_path && config.split_paths && scatterer.can_split_paths();
-    r.diffuse_guided = one_path && config.guided_fraction > 0.0 && scatterer.can_split_paths();
+    r.diffuse_guided = one_path && (config.guided_fraction > 0.0 || config.guided_branches > 0) &&
+                       scatterer.can_split_paths();
     r.estimator_used = config.estimator == Estimator::automatic
                            ? (scatterer.can_evaluate() ? Estimator::eval : Estimator::photon)
                            : config.estimator;
@@ -818,6 +824,8 @@ void write_brdf_record(const BrdfRecord& r, const std::filesystem::path& path) {
                              : "none");
         if (r.diffuse_guided) {
             h5.set_attribute("/instrument", "diffuse_guided_fraction", c.guided_fraction);
+            h5.set_attribute("/instrument", "diffuse_guided_branches",
+                             static_cast<double>(c.guided_branches));
         }
     }
     h5.set_attribute("/instrument", "estimator",

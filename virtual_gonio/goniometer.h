@@ -107,6 +107,11 @@ struct GoniometerConfig {
     // of its diffuse directions aimed at the light direction's detector cones (sim/tracer.h,
     // "Guided diffuse reflection"), in [0, 1); 0: none.
     double guided_fraction = 0.0;
+    // With shared paths (or one wavelength) and a scatterer that can_split_paths(): at each
+    // path's first diffuse event one branch by the cosine law and this many aimed within the
+    // light direction's detector cones (sim/tracer.h, "Guided diffuse branches"); later
+    // diffuse events follow guided_fraction. 0 … 3; 0: none.
+    std::size_t guided_branches = 0;
     std::uint64_t quanta_per_pass = 20000;  // per light direction and wavelength
     int max_passes = 100;
     double time_budget_s = std::numeric_limits<double>::infinity();
@@ -136,7 +141,7 @@ struct BrdfRecord {
     Estimator estimator_used = Estimator::photon;
     bool wavelength_paths_shared = false;  // share_wavelength_paths took effect
     bool paths_split = false;              // split_paths took effect
-    bool diffuse_guided = false;           // guided_fraction took effect
+    bool diffuse_guided = false;           // guided_fraction or guided_branches took effect
     // Row-major [pair][wavelength]; lobe_values [lobe][pair][wavelength], 1/sr.
     std::vector<double> value, standard_error, lobe_values, lobe_standard_error;
     std::vector<std::uint8_t> signal_cells;  // [pair][wavelength]: 1 if in the error's set

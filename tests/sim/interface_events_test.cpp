@@ -4,6 +4,7 @@
 #include "sim/interface_events.h"
 #include "common/constants.h"
 
+#include <array>
 #include <cmath>
 #include <random>
 
@@ -290,47 +291,100 @@ TEST(InterfaceFilmTable, RefusesKinksAndDenseFringes) {
                  InputError);
 }
 
-// Guided diffuse reflection is an unbiased estimate of the cosine lobe for every direction:
-// E[throughput · g(d)] = ∫ g(d) cos θ/π dω for g = 1 (all of it), g = the indicator of one of
-// the guide's cones (where the guide concentrates) and g = the indicator of a cone it does not
-// aim at; each mean within 5 σ (its Monte Carlo error) of the closed form.
-TEST(InterfaceEvents, GuidedDiffuseReflectionIsUnbiasedForEveryDirection) {
-    const Vec3d normal = Vec3d(0.3, -0.2, 1.0).normalized();
-    const SurfaceNormals normals{normal, normal};
-    const Vec3d incoming = -normal;
-    const double alpha = 5.0 * kDeg, cos_alpha = std::cos(alpha);
+// The guide's test case: a tilted facet, four cones above it and one below (whose directions
+// must carry nothing), and the three test functions g of the checks below: g = 1 (all of it),
+// the indicator of one of the guide's cones (where it concentrates) and the indicator of a
+// cone it does not aim at.
+struct GuideCase {
+    Vec3d normal = Vec3d(0.3, -0.2, 1.0).normalized();
+    SurfaceNormals normals{normal, normal};
+    double alpha = 5.0 * kDeg, cos_alpha = std::cos(alpha);
     std::vector<Vec3d> axes;
-    for (double theta : {0.0, 30.0, 60.0, 75.0})
-        axes.push_back(Vec3d(std::sin(theta * kDeg), 0.0, std::cos(theta * kDeg)));
-    axes.push_back(-normal);  // below the facet: its directions must carry nothing
-    const Vec3d elsewhere = Vec3d(-0.5, 0.6, 0.62).normalized();
-    // ∫ over a cone of half-angle α around a (wholly above the facet) of cos θ/π dω:
-    // (a·n) sin²α (the cap's projected area over π).
-    auto cone_integral = [&](const Vec3d& a) {
-        return a.dot(normal) * std::pow(std::sin(alpha), 2);
-    };
+    Vec3d elsewhere = Vec3d(-0.5, 0.6, 0.62).normalized();
+
+    GuideCase() {
+        for (double theta : {0.0, 30.0, 60.0, 75.0})
+            axes.push_back(Vec3d(std::sin(theta * kDeg), 0.0, std::cos(theta * kDeg)));
+        axes.push_back(-normal);
+    }
+    std::array<double, 3> g(const Vec3d& d) const {
+        return {1.0, d.dot(axes[2]) >= cos_alpha ? 1.0 : 0.0,
+                d.dot(elsewhere) >= cos_alpha ? 1.0 : 0.0};
+    }
+    // ∫ g(d) cos θ/π dω for the three g; over a cone of half-angle α around a (wholly above the
+    // facet) it is (a·n) sin²α (the cap's projected area over π).
+    std::array<double, 3> expected() const {
+        const double s2 = std::pow(std::sin(alpha), 2);
+        return {1.0, axes[2].dot(normal) * s2, elsewhere.dot(normal) * s2};
+    }
+    // Each of the n estimates x (one per g) within 5 σ (its Monte Carlo error) of the closed form.
+    static void check_means(const std::array<double, 3>& sum, const std::array<double, 3>& sum_sq,
+                            int n, const std::array<double, 3>& expected) {
+        for (int k = 0; k < 3; ++k) {
+            const double mean = sum[k] / n;
+            const double sigma = std::sqrt((sum_sq[k] / n - mean * mean) / (n - 1));
+            EXPECT_NEAR(mean, expected[k], 5.0 * sigma) << "test function " << k;
+        }
+    }
+};
+
+// E[throughput · g(d)] = ∫ g(d) cos θ/π dω for the three g of GuideCase.
+TEST(InterfaceEvents, GuidedDiffuseReflectionIsUnbiasedForEveryDirection) {
+    const GuideCase c;
     Rng rng(11, 5);
     const int n = 400000;
-    double sum[3] = {0, 0, 0}, sum_sq[3] = {0, 0, 0};
+    std::array<double, 3> sum{}, sum_sq{};
     for (int i = 0; i < n; ++i) {
-        const InterfaceEvent e = guided_diffuse_event(incoming, normals, axes, cos_alpha, 0.8, rng);
-        const double g[3] = {1.0, e.direction.dot(axes[2]) >= cos_alpha ? 1.0 : 0.0,
-                             e.direction.dot(elsewhere) >= cos_alpha ? 1.0 : 0.0};
+        const InterfaceEvent e =
+            guided_diffuse_event(-c.normal, c.normals, c.axes, c.cos_alpha, 0.8, rng);
+        const std::array<double, 3> g = c.g(e.direction);
         for (int k = 0; k < 3; ++k) {
             const double x = e.throughput * g[k];
             sum[k] += x;
             sum_sq[k] += x * x;
         }
         if (e.kind == EventKind::diffuse_reflect) {
-            ASSERT_GT(e.direction.dot(normal), 0.0);
+            ASSERT_GT(e.direction.dot(c.normal), 0.0);
             ASSERT_LE(e.throughput, 1.0 / (1.0 - 0.8) + 1e-12);
         }
     }
-    const double expected[3] = {1.0, cone_integral(axes[2]), cone_integral(elsewhere)};
-    for (int k = 0; k < 3; ++k) {
-        const double mean = sum[k] / n;
-        const double sigma = std::sqrt((sum_sq[k] / n - mean * mean) / (n - 1));
-        EXPECT_NEAR(mean, expected[k], 5.0 * sigma) << "test function " << k;
+    GuideCase::check_means(sum, sum_sq, n, c.expected());
+}
+
+// The 1 + k directions of guided_diffuse_branches as one estimate, E[Σ_i throughput_i g(d_i)]
+// = ∫ g(d) cos θ/π dω for the three g of GuideCase, for k = 1 and 3; every throughput at most 1,
+// and exactly 1 outside every cone (a plain diffuse event's).
+TEST(InterfaceEvents, GuidedDiffuseBranchesAreUnbiasedForEveryDirection) {
+    const GuideCase c;
+    for (std::size_t k : {std::size_t{1}, std::size_t{3}}) {
+        SCOPED_TRACE(k);
+        Rng rng(11, 6 + k);
+        const int n = 200000;
+        std::array<double, 3> sum{}, sum_sq{};
+        std::array<InterfaceEvent, 4> events{};
+        for (int i = 0; i < n; ++i) {
+            ASSERT_EQ(
+                guided_diffuse_branches(-c.normal, c.normals, c.axes, c.cos_alpha, k, rng, events),
+                1 + k);
+            std::array<double, 3> x{};
+            for (std::size_t b = 0; b <= k; ++b) {
+                const InterfaceEvent& e = events[b];
+                const std::array<double, 3> g = c.g(e.direction);
+                for (int t = 0; t < 3; ++t) x[t] += e.throughput * g[t];
+                if (e.kind != EventKind::diffuse_reflect) continue;
+                ASSERT_GT(e.direction.dot(c.normal), 0.0);
+                ASSERT_LE(e.throughput, 1.0 + 1e-12);
+                bool in_cone = false;
+                for (const Vec3d& a : c.axes)
+                    in_cone = in_cone || e.direction.dot(a) >= c.cos_alpha;
+                if (!in_cone) ASSERT_NEAR(e.throughput, 1.0, 1e-12);
+            }
+            for (int t = 0; t < 3; ++t) {
+                sum[t] += x[t];
+                sum_sq[t] += x[t] * x[t];
+            }
+        }
+        GuideCase::check_means(sum, sum_sq, n, c.expected());
     }
 }
 

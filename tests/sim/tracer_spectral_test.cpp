@@ -228,9 +228,10 @@ TEST(TracerSpectral, GoniometerCellsAgreeAndDoNotDependOnThreads) {
     EXPECT_LT(max_z, analysis::two_sided_normal_quantile(analysis::sidak_significance(0.01, dof)));
 }
 
-// Splitting at the first film and guided diffuse reflection (sim/tracer.h) against the plain
-// shared walk, cell by cell: χ² per wavelength at 0.1 %/7 and no |z| beyond the Šidák bound
-// at 1 %; each alone and both together; and the same bits on 1 and 2 threads.
+// Splitting at the first film, guided diffuse reflection and guided diffuse branches
+// (sim/tracer.h) against the plain shared walk, cell by cell: χ² per wavelength at 0.1 %/7 and
+// no |z| beyond the Šidák bound at 1 %; each alone and together; and the same bits on 1 and 2
+// threads.
 TEST(TracerSpectral, SplitAndGuidedPathsAgreeWithThePlainWalk) {
     const ExplicitScatterer patch = small_barbule_row();
     const int before = omp_get_max_threads();
@@ -246,15 +247,19 @@ TEST(TracerSpectral, SplitAndGuidedPathsAgreeWithThePlainWalk) {
         const char* name;
         bool split;
         double guided;
+        std::size_t branches;
     };
-    for (const Variant v : {Variant{"split", true, 0.0}, Variant{"guided", false, 0.8},
-                            Variant{"split_guided", true, 0.8}}) {
+    for (const Variant v :
+         {Variant{"split", true, 0.0, 0}, Variant{"guided", false, 0.8, 0},
+          Variant{"split_guided", true, 0.8, 0}, Variant{"guided_branches", false, 0.0, 2},
+          Variant{"split_guided_branches", true, 0.5, 3}}) {
         gonio::GoniometerConfig c = patch_config(true);
         c.split_paths = v.split;
         c.guided_fraction = v.guided;
+        c.guided_branches = v.branches;
         const gonio::BrdfRecord r = gonio::measure_brdf(patch, c);
         EXPECT_EQ(r.paths_split, v.split) << v.name;
-        EXPECT_EQ(r.diffuse_guided, v.guided > 0.0) << v.name;
+        EXPECT_EQ(r.diffuse_guided, v.guided > 0.0 || v.branches > 0) << v.name;
         // One quantum's wavelengths are correlated (a shared path), so the χ² is taken per
         // wavelength, over pairs (independent quanta), each at 0.1 %/7; max |z| over all cells.
         const std::size_t nl = kSeven.size();
@@ -283,7 +288,7 @@ TEST(TracerSpectral, SplitAndGuidedPathsAgreeWithThePlainWalk) {
         EXPECT_LT(max_z,
                   analysis::two_sided_normal_quantile(analysis::sidak_significance(0.01, cells)))
             << v.name;
-        if (v.split && v.guided > 0.0) {
+        if (v.split && (v.guided > 0.0 || v.branches > 0)) {
             omp_set_num_threads(1);
             const gonio::BrdfRecord one = gonio::measure_brdf(patch, c);
             omp_set_num_threads(2);
