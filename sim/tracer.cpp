@@ -486,13 +486,17 @@ std::size_t ExplicitScatterer::sample_spectral_branches(const Vec3d& wi,
             events[count++] = {path.event->wo, path.event->lobe, path.event->exit_position_um};
     };
     auto play = [&](Rng& stream, FirstFilm branch, const FirstHit* first) {
+        if (!diffuse_branches) {
+            keep(walk_spectral(wi, lambdas_nm, position_um, stream, weights.subspan(count * n, n),
+                               branch, &options, first));
+            return;
+        }
         PendingBranches pending;
         keep(walk_spectral(wi, lambdas_nm, position_um, stream, weights.subspan(count * n, n),
-                           branch, &options, first, nullptr,
-                           diffuse_branches ? &pending : nullptr));
+                           branch, &options, first, nullptr, &pending));
         // The guided branches of its first diffuse event, each on its own stream.
         for (std::size_t b = 0; b < pending.count; ++b) {
-            Rng branch_rng = pending.at[b].rng;
+            Rng branch_rng(pending.at[b].stream_seed, pending.at[b].stream_item);
             keep(walk_spectral(wi, lambdas_nm, position_um, branch_rng,
                                weights.subspan(count * n, n), branch, &options, nullptr,
                                &pending.at[b]));
@@ -618,9 +622,9 @@ PathResult ExplicitScatterer::walk_spectral(const Vec3d& wi, std::span<const dou
     };
 
     // The first diffuse event's guided directions (branch_diffuse): fork[1 … forked − 1].
-    std::array<InterfaceEvent, 1 + BranchOptions::kMaxGuidedBranches> fork{};
+    std::array<InterfaceEvent, 1 + BranchOptions::kMaxGuidedBranches> fork;
     std::size_t forked = 0;
-    std::array<double, kMaxSharedWavelengths> before_fork{};
+    std::array<double, kMaxSharedWavelengths> before_fork;  // w at that event, before it
     // A diffuse event's weights: each λ its albedo (diffuse_event's clamp) times throughput.
     auto diffuse_weights = [&](std::array<double, kMaxSharedWavelengths>& weights_k,
                                std::size_t surface_index, double throughput) {
@@ -808,7 +812,8 @@ PathResult ExplicitScatterer::walk_spectral(const Vec3d& wi, std::span<const dou
                 branch.origin = scene_->spawn_point(*hit, fork[b].to_outside);
                 branch.direction = fork[b].direction;
                 branch.skip = hit->primitive;
-                branch.rng = Rng(fork_seed, b);
+                branch.stream_seed = fork_seed;
+                branch.stream_item = b;
             }
             forked = 0;
         }

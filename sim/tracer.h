@@ -242,12 +242,12 @@ private:
         Vec3d origin = Vec3d::Zero(), direction = Vec3d::Zero();
         PrimitiveRef skip;
         optics::Complex expected;
-        std::array<double, kMaxSharedWavelengths> w{};
+        std::array<double, kMaxSharedWavelengths> w;  // set before use (walk_spectral)
         bool single = false;
         std::size_t hero = 0;
         bool diffuse_branched = false;  // its path's first diffuse event has branched
         PathResult path;
-        Rng rng{0, 0};  // the branch's own stream
+        std::uint64_t stream_seed = 0, stream_item = 0;  // a branch's own stream: Rng(seed, item)
     };
     // The guided branches a walk left at its first diffuse event, to be walked on.
     struct PendingBranches {
@@ -255,7 +255,7 @@ private:
         std::size_t count = 0;
     };
     // trace_spectral(), from `first`'s entry hit when given (it must be the entry ray's), or
-    // on from `resume` (a pending branch; rng its stream); with `pending`, the first diffuse
+    // on from `resume` (a pending branch; rng its own stream); with `pending`, the first diffuse
     // event branches (guide->guided_branches) and the guided branches are left there.
     PathResult walk_spectral(const Vec3d& wi, std::span<const double> lambdas_nm,
                              const Vec2& position_um, Rng& rng, std::span<double> weights,
