@@ -1,6 +1,9 @@
 #include "sim/mounted_scatterer.h"
 
+#include <algorithm>
+#include <array>
 #include <cmath>
+#include <vector>
 
 #include "common/error.h"
 
@@ -24,6 +27,11 @@ Vec3d MountedScatterer::to_instrument(const Vec3d& w) const {
     return {cos_ * w.x() - sin_ * w.y(), sin_ * w.x() + cos_ * w.y(), w.z()};
 }
 
+Vec2 MountedScatterer::to_sample(const Vec2& position_um) const {
+    const Vec3d p = to_sample(Vec3d(position_um.x(), position_um.y(), 0.0));
+    return {p.x(), p.y()};
+}
+
 void MountedScatterer::to_instrument(Vec3d& wo, Vec2& exit_position_um) const {
     wo = to_instrument(wo);
     const Vec3d exit = to_instrument(Vec3d(exit_position_um.x(), exit_position_um.y(), 0.0));
@@ -32,8 +40,7 @@ void MountedScatterer::to_instrument(Vec3d& wo, Vec2& exit_position_um) const {
 
 std::optional<ScatterEvent> MountedScatterer::sample(const Vec3d& wi, double lambda_nm,
                                                      const Vec2& position_um, Rng& rng) const {
-    const Vec3d p = to_sample(Vec3d(position_um.x(), position_um.y(), 0.0));
-    auto event = inner_->sample(to_sample(wi), lambda_nm, Vec2(p.x(), p.y()), rng);
+    auto event = inner_->sample(to_sample(wi), lambda_nm, to_sample(position_um), rng);
     if (event) to_instrument(event->wo, event->exit_position_um);
     return event;
 }
@@ -41,11 +48,35 @@ std::optional<ScatterEvent> MountedScatterer::sample(const Vec3d& wi, double lam
 std::optional<SpectralScatterEvent> MountedScatterer::sample_spectral(
     const Vec3d& wi, std::span<const double> lambdas_nm, const Vec2& position_um, Rng& rng,
     std::span<double> weights) const {
-    const Vec3d p = to_sample(Vec3d(position_um.x(), position_um.y(), 0.0));
     auto event =
-        inner_->sample_spectral(to_sample(wi), lambdas_nm, Vec2(p.x(), p.y()), rng, weights);
+        inner_->sample_spectral(to_sample(wi), lambdas_nm, to_sample(position_um), rng, weights);
     if (event) to_instrument(event->wo, event->exit_position_um);
     return event;
+}
+
+std::size_t MountedScatterer::sample_spectral_branches(const Vec3d& wi,
+                                                       std::span<const double> lambdas_nm,
+                                                       const Vec2& position_um, Rng& rng,
+                                                       const BranchOptions& options,
+                                                       std::span<SpectralScatterEvent> events,
+                                                       std::span<double> weights) const {
+    // The detector axes in the sample's frame: on the stack for the instruments' sets, on the
+    // heap beyond (sim/mounted_scatterer.h); each call its own, so nested mounts do not share.
+    const std::size_t axes = options.detector_axes.size();
+    std::array<Vec3d, kStackAxes> on_stack;
+    std::vector<Vec3d> on_heap;
+    std::span<Vec3d> turned(on_stack.data(), std::min(axes, kStackAxes));
+    if (axes > kStackAxes) {
+        on_heap.resize(axes);
+        turned = on_heap;
+    }
+    for (std::size_t a = 0; a < axes; ++a) turned[a] = to_sample(options.detector_axes[a]);
+    BranchOptions inner_options = options;
+    inner_options.detector_axes = turned;
+    const std::size_t count = inner_->sample_spectral_branches(
+        to_sample(wi), lambdas_nm, to_sample(position_um), rng, inner_options, events, weights);
+    for (std::size_t b = 0; b < count; ++b) to_instrument(events[b].wo, events[b].exit_position_um);
+    return count;
 }
 
 double MountedScatterer::eval(const Vec3d& wi, const Vec3d& wo, double lambda_nm,

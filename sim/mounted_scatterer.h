@@ -10,6 +10,13 @@
 // and sampled directions and exit positions are turned back by +ψ. The rotation is exact in
 // double precision up to round-off; no resampling, so the wrapped scatterer's statistics carry
 // over unchanged (unbiased weights, same lobes).
+//
+// Shared paths and branches (sim/scatterer.h) are forwarded the same way, and so are the
+// instrument's detector cones of BranchOptions (instrument-frame axes, turned by −ψ like ω_i):
+// a guide aimed at the unturned axes would stay unbiased but miss the detectors. The turned axes
+// live on the stack for up to kStackAxes detectors (the 61 × 60 set has 60 per light
+// direction), in a heap vector beyond: no allocation per quantum for the instruments' sets, and
+// no scratch shared between calls, so mounts may nest (a mount of a mount).
 #pragma once
 
 #include <memory>
@@ -35,17 +42,27 @@ public:
                                                         std::span<const double> lambdas_nm,
                                                         const Vec2& position_um, Rng& rng,
                                                         std::span<double> weights) const override;
+    bool can_split_paths() const override { return inner_->can_split_paths(); }
+    std::size_t sample_spectral_branches(const Vec3d& wi, std::span<const double> lambdas_nm,
+                                         const Vec2& position_um, Rng& rng,
+                                         const BranchOptions& options,
+                                         std::span<SpectralScatterEvent> events,
+                                         std::span<double> weights) const override;
     bool can_evaluate() const override { return inner_->can_evaluate(); }
     double eval(const Vec3d& wi, const Vec3d& wo, double lambda_nm,
                 std::span<double> per_lobe = {}) const override;
     double pdf(const Vec3d& wi, const Vec3d& wo, double lambda_nm) const override;
 
+    // Detector axes turned on the stack up to this many (see above).
+    static constexpr std::size_t kStackAxes = 128;
+
     double azimuth_rad() const { return azimuth_rad_; }
     const Scatterer& inner() const { return *inner_; }
 
 private:
-    Vec3d to_sample(const Vec3d& w) const;      // instrument → sample frame: R(−ψ)
-    Vec3d to_instrument(const Vec3d& w) const;  // sample → instrument frame: R(+ψ)
+    Vec3d to_sample(const Vec3d& w) const;          // instrument → sample frame: R(−ψ)
+    Vec3d to_instrument(const Vec3d& w) const;      // sample → instrument frame: R(+ψ)
+    Vec2 to_sample(const Vec2& position_um) const;  // a beam position, R(−ψ)
     void to_instrument(Vec3d& wo, Vec2& exit_position_um) const;  // an event's, in place
 
     std::shared_ptr<const Scatterer> inner_;

@@ -22,6 +22,23 @@ std::optional<ScatterEvent> PeriodCellEntry::sample(const Vec3d& wi, double lamb
     return inner_->sample(wi, lambda_nm, draw_entry(rng), rng);
 }
 
+std::optional<SpectralScatterEvent> PeriodCellEntry::sample_spectral(
+    const Vec3d& wi, std::span<const double> lambdas_nm, const Vec2& /*beam position*/, Rng& rng,
+    std::span<double> weights) const {
+    const Vec2 entry = draw_entry(rng);
+    return inner_->sample_spectral(wi, lambdas_nm, entry, rng, weights);
+}
+
+std::size_t PeriodCellEntry::sample_spectral_branches(const Vec3d& wi,
+                                                      std::span<const double> lambdas_nm,
+                                                      const Vec2& /*beam position*/, Rng& rng,
+                                                      const BranchOptions& options,
+                                                      std::span<SpectralScatterEvent> events,
+                                                      std::span<double> weights) const {
+    const Vec2 entry = draw_entry(rng);
+    return inner_->sample_spectral_branches(wi, lambdas_nm, entry, rng, options, events, weights);
+}
+
 Vec2 PeriodCellEntry::draw_entry(Rng& rng) const {
     const double x = (rng.uniform() - 0.5) * pitch_x_;
     const double y = y0_ + (rng.uniform() - 0.5) * period_y_;

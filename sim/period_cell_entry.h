@@ -9,6 +9,9 @@
 // Exit points stay where the light leaves (every exit is collected by the detector's cone).
 // Directions are not touched: the wrapper goes inside MountedScatterer, in the sample's own
 // frame. The beam position passed to sample() is ignored.
+// Shared paths and branches (sim/scatterer.h) are forwarded when the inner scatterer has them,
+// each quantum's entry drawn exactly as in sample(): two uniforms from its stream, then the
+// inner scatterer on the same stream.
 #pragma once
 
 #include <memory>
@@ -29,6 +32,17 @@ public:
     const std::vector<std::string>& lobe_names() const override { return inner_->lobe_names(); }
     std::optional<ScatterEvent> sample(const Vec3d& wi, double lambda_nm,
                                        const Vec2& /*beam position*/, Rng& rng) const override;
+    bool can_share_paths() const override { return inner_->can_share_paths(); }
+    std::optional<SpectralScatterEvent> sample_spectral(const Vec3d& wi,
+                                                        std::span<const double> lambdas_nm,
+                                                        const Vec2& /*beam position*/, Rng& rng,
+                                                        std::span<double> weights) const override;
+    bool can_split_paths() const override { return inner_->can_split_paths(); }
+    std::size_t sample_spectral_branches(const Vec3d& wi, std::span<const double> lambdas_nm,
+                                         const Vec2& /*beam position*/, Rng& rng,
+                                         const BranchOptions& options,
+                                         std::span<SpectralScatterEvent> events,
+                                         std::span<double> weights) const override;
     // An entry point uniform over the cell (two uniforms from rng).
     Vec2 draw_entry(Rng& rng) const;
 
