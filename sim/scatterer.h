@@ -66,8 +66,8 @@ struct BranchOptions {
     // Split the path at its first film event into a reflected and a transmitted branch.
     bool split_first_film = false;
     // The detectors the instrument reads (unit axes, away from the patch; cones of
-    // detector_half_angle_rad). With guided_fraction f in (0, 1), a scatterer may draw its
-    // diffuse directions from a mixture: with 1 − f from its own density, with f uniformly
+    // detector_half_angle_rad). With guided_fraction f in (0, 1), a scatterer may draw a path's
+    // first diffuse direction from a mixture: with 1 − f from its own density, with f uniformly
     // within one of the cones, each weighed by its own density over the mixture's (sim/tracer.h,
     // "Guided diffuse reflection"). Unbiased for every direction, covered by a cone or not.
     std::span<const Vec3d> detector_axes;
@@ -76,7 +76,7 @@ struct BranchOptions {
     // With k = guided_branches in 1 … kMaxGuidedBranches, a scatterer may instead branch at a
     // path's first diffuse event: one branch in its own direction and k aimed within the cones,
     // all weighed by the multi-sample balance heuristic (sim/tracer.h, "Guided diffuse
-    // branches"); later diffuse events then follow guided_fraction. 0: no such branches.
+    // branches"); it then takes precedence over guided_fraction. 0: no such branches.
     std::size_t guided_branches = 0;
     static constexpr std::size_t kMaxGuidedBranches = 3;
 };

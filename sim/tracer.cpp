@@ -576,10 +576,9 @@ PathResult ExplicitScatterer::walk_spectral(const Vec3d& wi, std::span<const dou
     Vec3d& direction = st.direction;
     PrimitiveRef& skip = st.skip;
     optics::Complex& expected = st.expected;
-    // Guided diffuse branches (tracer.h): at this walk's first diffuse event.
+    // Guided diffuse branches (tracer.h): at the path's first diffuse event.
     const bool branch_diffuse = pending != nullptr && guide != nullptr &&
-                                guide->guided_branches > 0 && !guide->detector_axes.empty() &&
-                                !st.diffuse_branched;
+                                guide->guided_branches > 0 && !guide->detector_axes.empty();
     const double cos_cones = branch_diffuse ? std::cos(guide->detector_half_angle_rad) : 1.0;
     auto collapse = [&]() {
         if (single) return;
@@ -757,8 +756,10 @@ PathResult ExplicitScatterer::walk_spectral(const Vec3d& wi, std::span<const dou
                     return e;
                 }
                 case Spectral::Kind::diffuse: {
-                    if (branch_diffuse && !st.diffuse_branched) {
-                        st.diffuse_branched = true;
+                    // Guiding acts at the path's first diffuse event only (tracer.h).
+                    const bool first_diffuse = !st.diffuse_met;
+                    st.diffuse_met = true;
+                    if (branch_diffuse && first_diffuse) {
                         forked =
                             guided_diffuse_branches(direction, hit->normals, guide->detector_axes,
                                                     cos_cones, guide->guided_branches, rng, fork);
@@ -766,18 +767,11 @@ PathResult ExplicitScatterer::walk_spectral(const Vec3d& wi, std::span<const dou
                         diffuse_weights(w, surface_index, fork[0].throughput);
                         return fork[0];
                     }
-                    if (guided) {
+                    if (guided && first_diffuse) {
                         const InterfaceEvent e =
                             guided_diffuse_event(direction, hit->normals, guide->detector_axes,
                                                  cos_guide, guide->guided_fraction, rng);
-                        if (single) {
-                            w[hero] *= std::clamp(surface.albedo, 0.0, 1.0) * e.throughput;
-                        } else {
-                            for (std::size_t k = 0; k < n; ++k)
-                                w[k] *= std::clamp(set.at[k]->surfaces[surface_index].albedo, 0.0,
-                                                   1.0) *
-                                        e.throughput;
-                        }
+                        diffuse_weights(w, surface_index, e.throughput);
                         return e;
                     }
                     if (single) {

@@ -151,6 +151,12 @@ void read_goniometer(ParameterTable go, Settings& s) {
         go.integer("guided_branches", s.guided_branches, 0, 3,
                    "directions aimed at the detector cones beside the cosine one at each path's "
                    "first diffuse event"));
+    if (s.guided_branches > 0 && s.guided_fraction > 0.0) {
+        throw InputError(fmt::format(
+            "{}: goniometer.guided_branches = {} with guided_fraction = {}: both guide the first "
+            "diffuse event; set one of them (the other 0)",
+            go.location("guided_branches"), s.guided_branches, s.guided_fraction));
+    }
 }
 
 // [validation]

@@ -244,8 +244,8 @@ std::string guided_description(const gonio::GoniometerConfig& c) {
                             c.guided_branches == 1 ? "" : "es");
     }
     if (c.guided_fraction > 0.0) {
-        text += fmt::format(", {:.0f} % of {}diffuse directions guided to the detectors",
-                            100.0 * c.guided_fraction, c.guided_branches > 0 ? "later " : "");
+        text += fmt::format(", {:.0f} % of first diffuse directions guided to the detectors",
+                            100.0 * c.guided_fraction);
     }
     return text;
 }

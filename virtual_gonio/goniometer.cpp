@@ -461,6 +461,10 @@ void GoniometerConfig::validate() const {
     require(guided_branches <= BranchOptions::kMaxGuidedBranches, kWhat,
             fmt::format("guided_branches = {}: expected 0..{}", guided_branches,
                         BranchOptions::kMaxGuidedBranches));
+    require(guided_branches == 0 || guided_fraction == 0.0, kWhat,
+            fmt::format("guided_fraction = {} and guided_branches = {}: both guide the first "
+                        "diffuse event; set one of them (the other 0)",
+                        guided_fraction, guided_branches));
     require(eval_rings >= 1 && eval_rings <= 64, kWhat,
             fmt::format("eval_rings = {}: expected 1..64", eval_rings));
 }

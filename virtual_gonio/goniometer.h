@@ -104,13 +104,13 @@ struct GoniometerConfig {
     // branch (sim/tracer.h, "Splitting"); otherwise ignored.
     bool split_paths = false;
     // With shared paths (or one wavelength) and a scatterer that can_split_paths(): this share
-    // of its diffuse directions aimed at the light direction's detector cones (sim/tracer.h,
-    // "Guided diffuse reflection"), in [0, 1); 0: none.
+    // of its paths' first diffuse directions aimed at the light direction's detector cones
+    // (sim/tracer.h, "Guided diffuse reflection"), in [0, 1); 0: none.
     double guided_fraction = 0.0;
     // With shared paths (or one wavelength) and a scatterer that can_split_paths(): at each
     // path's first diffuse event one branch by the cosine law and this many aimed within the
-    // light direction's detector cones (sim/tracer.h, "Guided diffuse branches"); later
-    // diffuse events follow guided_fraction. 0 … 3; 0: none.
+    // light direction's detector cones (sim/tracer.h, "Guided diffuse branches"), in place of
+    // guided_fraction (set one of the two). 0 … 3; 0: none.
     std::size_t guided_branches = 0;
     std::uint64_t quanta_per_pass = 20000;  // per light direction and wavelength
     int max_passes = 100;

@@ -252,7 +252,7 @@ TEST(TracerSpectral, SplitAndGuidedPathsAgreeWithThePlainWalk) {
     for (const Variant v :
          {Variant{"split", true, 0.0, 0}, Variant{"guided", false, 0.8, 0},
           Variant{"split_guided", true, 0.8, 0}, Variant{"guided_branches", false, 0.0, 2},
-          Variant{"split_guided_branches", true, 0.5, 3}}) {
+          Variant{"split_guided_branches", true, 0.0, 3}}) {
         gonio::GoniometerConfig c = patch_config(true);
         c.split_paths = v.split;
         c.guided_fraction = v.guided;

@@ -193,6 +193,14 @@ TEST(Goniometer, RejectsBadConfigurations) {
     c.detector_half_angle_rad = 0.05;
     c.pairs = {{Vec3d(0, 0, -1), Vec3d(0, 0, 1)}};
     EXPECT_THROW(measure_brdf(plate, c), InputError);
+    c.pairs = {{Vec3d(0, 0, 1), Vec3d(0, 0, 1)}};
+    c.guided_branches = 4;  // at most BranchOptions::kMaxGuidedBranches
+    EXPECT_THROW(measure_brdf(plate, c), InputError);
+    c.guided_branches = 1;
+    c.guided_fraction = 0.5;  // both guide the first diffuse event
+    const std::string message = testing::input_error_message([&] { measure_brdf(plate, c); });
+    EXPECT_NE(message.find("guided_fraction = 0.5 and guided_branches = 1"), std::string::npos)
+        << message;
 }
 
 }  // namespace
