@@ -7,7 +7,8 @@ CONVERGENCE.csv is what the benchmark appends with PLUMAGE_BENCH_CSV set (no hea
 paths, threads, pass, wall_time_s, quanta_per_light, relative_rms_error, signal_cells, cells.
 Writes OUT_STEM.csv (the same rows with a header and each curve's fitted slope) and
 OUT_STEM.png: log-log, one curve per (estimator, threads): separate, shared, split (shared and
-split at the first film), guided50/guided80 (split and guided diffuse reflection), the least-squares slope of
+split at the first film), guided50/guided80 (split and guided diffuse reflection), branches1/
+branches2 (split and guided diffuse branches), the least-squares slope of
 log(error) against log(time) over the passes after the first (1/sqrt(t) is -0.5), the 1 %
 target and each curve's projected time to it.
 """
@@ -34,7 +35,8 @@ def main(source, stem):
     fig, ax = plt.subplots(figsize=(7.5, 5.0))
     out_rows = []
     colours = {"separate": "tab:red", "shared": "tab:blue", "split": "tab:orange",
-               "guided50": "tab:olive", "guided80": "tab:green"}
+               "guided50": "tab:olive", "guided80": "tab:green", "branches1": "tab:purple",
+               "branches2": "tab:brown"}
     styles = {1: "-", 2: "--"}
     for (paths, threads), rows in sorted(curves.items()):
         rows.sort()

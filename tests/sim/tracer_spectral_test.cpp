@@ -18,6 +18,7 @@
 #include "sim/optics/material.h"
 #include "sim/tracer.h"
 #include "tests/sim/sim_test_util.h"
+#include "tests/virtual_gonio/record_agreement.h"
 #include "virtual_gonio/goniometer.h"
 
 namespace plumage::sim {
@@ -263,30 +264,19 @@ TEST(TracerSpectral, SplitAndGuidedPathsAgreeWithThePlainWalk) {
         // One quantum's wavelengths are correlated (a shared path), so the χ² is taken per
         // wavelength, over pairs (independent quanta), each at 0.1 %/7; max |z| over all cells.
         const std::size_t nl = kSeven.size();
-        double max_z = 0.0;
-        int cells = 0;
+        const testing::RecordAgreement agreement = testing::compare_per_wavelength(r, plain);
         for (std::size_t k = 0; k < nl; ++k) {
-            double chi2 = 0.0;
-            int dof = 0;
-            for (std::size_t i = k; i < r.value.size(); i += nl) {
-                const double var =
-                    std::pow(r.standard_error[i], 2) + std::pow(plain.standard_error[i], 2);
-                if (!(var > 0.0)) continue;
-                const double z = (r.value[i] - plain.value[i]) / std::sqrt(var);
-                chi2 += z * z;
-                max_z = std::max(max_z, std::abs(z));
-                ++dof;
-            }
+            const double chi2 = agreement.chi2[k];
+            const int dof = agreement.dof[k];
             ASSERT_GT(dof, 40) << v.name;
-            cells += dof;
             RecordProperty(std::string(v.name) + "_chi2_per_dof_" + std::to_string(k),
                            std::to_string(chi2 / dof));
             EXPECT_GT(analysis::chi_square_p_value(chi2, dof), 1e-3 / static_cast<double>(nl))
                 << v.name << ' ' << kSeven[k] << " nm: chi2/dof " << chi2 / dof;
         }
-        RecordProperty(std::string(v.name) + "_max_z", std::to_string(max_z));
-        EXPECT_LT(max_z,
-                  analysis::two_sided_normal_quantile(analysis::sidak_significance(0.01, cells)))
+        RecordProperty(std::string(v.name) + "_max_z", std::to_string(agreement.max_z));
+        EXPECT_LT(agreement.max_z, analysis::two_sided_normal_quantile(
+                                       analysis::sidak_significance(0.01, agreement.cells)))
             << v.name;
         if (v.split && (v.guided > 0.0 || v.branches > 0)) {
             omp_set_num_threads(1);

@@ -26,6 +26,7 @@
 #include "sim/mounted_scatterer.h"
 #include "sim/period_cell_entry.h"
 #include "sim/tracer.h"
+#include "tests/virtual_gonio/record_agreement.h"
 #include "virtual_gonio/goniometer.h"
 
 namespace plumage::sim {
@@ -107,30 +108,19 @@ void expect_features_agree_with_plain_walk(const Scatterer& wrapped, gonio::Aper
     EXPECT_TRUE(featured.wavelength_paths_shared) << what;
     EXPECT_TRUE(featured.paths_split) << what;
     EXPECT_TRUE(featured.diffuse_guided) << what;
-    const std::size_t nl = kFive.size();
-    double max_z = 0.0;
-    int cells = 0;
-    for (std::size_t k = 0; k < nl; ++k) {
-        double chi2 = 0.0;
-        int dof = 0;
-        for (std::size_t i = k; i < plain.value.size(); i += nl) {
-            const double var =
-                std::pow(plain.standard_error[i], 2) + std::pow(featured.standard_error[i], 2);
-            if (!(var > 0.0)) continue;
-            const double z = (featured.value[i] - plain.value[i]) / std::sqrt(var);
-            chi2 += z * z;
-            max_z = std::max(max_z, std::abs(z));
-            ++dof;
-        }
+    const testing::RecordAgreement agreement = testing::compare_per_wavelength(featured, plain);
+    for (std::size_t k = 0; k < kFive.size(); ++k) {
+        const double chi2 = agreement.chi2[k];
+        const int dof = agreement.dof[k];
         ASSERT_EQ(dof, static_cast<int>(plain.config.pairs.size())) << what << ": empty cells";
-        cells += dof;
         const double p = analysis::chi_square_p_value(chi2, dof);
         ::testing::Test::RecordProperty(what + "_chi2_" + std::to_string(k),
                                         std::to_string(chi2) + " dof " + std::to_string(dof));
         EXPECT_GT(p, 1e-3) << what << ' ' << kFive[k] << " nm: chi2 " << chi2 << " on " << dof;
     }
-    ::testing::Test::RecordProperty(what + "_max_z", std::to_string(max_z));
-    EXPECT_LT(max_z, analysis::two_sided_normal_quantile(analysis::sidak_significance(0.01, cells)))
+    ::testing::Test::RecordProperty(what + "_max_z", std::to_string(agreement.max_z));
+    EXPECT_LT(agreement.max_z, analysis::two_sided_normal_quantile(
+                                   analysis::sidak_significance(0.01, agreement.cells)))
         << what;
 }
 
