@@ -793,8 +793,9 @@ PathResult ExplicitScatterer::walk_spectral(const Vec3d& wi, std::span<const dou
         }();
         if (forked > 0) {
             // The guided branches wait, each from this event with its own direction and stream.
-            const std::uint64_t fork_seed =
-                (static_cast<std::uint64_t>(rng.next_u32()) << 32) | rng.next_u32();
+            // Two draws, in this order (the operands of one expression would be unsequenced).
+            const std::uint64_t high = rng.next_u32();
+            const std::uint64_t fork_seed = (high << 32) | rng.next_u32();
             for (std::size_t b = 1; b < forked; ++b) {
                 if (fork[b].kind != EventKind::diffuse_reflect) continue;
                 WalkState& branch = pending->at[pending->count++];
