@@ -541,7 +541,11 @@ PathResult ExplicitScatterer::walk_spectral(const Vec3d& wi, std::span<const dou
     const std::size_t n = lambdas_nm.size();
     const bool guided =
         guide != nullptr && guide->guided_fraction > 0.0 && !guide->detector_axes.empty();
-    const double cos_guide = guided ? std::cos(guide->detector_half_angle_rad) : 1.0;
+    // The detector cones' cos α, for either way of guiding (one value for the whole walk).
+    const double cos_guide =
+        guide != nullptr && (guide->guided_fraction > 0.0 || guide->guided_branches > 0)
+            ? std::cos(guide->detector_half_angle_rad)
+            : 1.0;
     if (n < 1 || n > kMaxSharedWavelengths || weights.size() != n) {
         throw InputError(fmt::format(
             "tracer: {} wavelengths and {} weights for one shared path: expected 1..{} of each", n,
@@ -579,7 +583,6 @@ PathResult ExplicitScatterer::walk_spectral(const Vec3d& wi, std::span<const dou
     // Guided diffuse branches (tracer.h): at the path's first diffuse event.
     const bool branch_diffuse = pending != nullptr && guide != nullptr &&
                                 guide->guided_branches > 0 && !guide->detector_axes.empty();
-    const double cos_cones = branch_diffuse ? std::cos(guide->detector_half_angle_rad) : 1.0;
     auto collapse = [&]() {
         if (single) return;
         const double carried = w[hero] * static_cast<double>(n);
@@ -762,7 +765,7 @@ PathResult ExplicitScatterer::walk_spectral(const Vec3d& wi, std::span<const dou
                     if (branch_diffuse && first_diffuse) {
                         forked =
                             guided_diffuse_branches(direction, hit->normals, guide->detector_axes,
-                                                    cos_cones, guide->guided_branches, rng, fork);
+                                                    cos_guide, guide->guided_branches, rng, fork);
                         before_fork = w;
                         diffuse_weights(w, surface_index, fork[0].throughput);
                         return fork[0];
