@@ -18,6 +18,7 @@
 #include "analysis/levenberg_marquardt.h"
 #include "common/constants.h"
 #include "common/error.h"
+#include "common/interrupt.h"
 #include "common/require.h"
 
 namespace plumage::analysis {
@@ -380,7 +381,9 @@ void predict(const Huang2022Params& params, const Layout& layout, int threads,
     std::vector<double> centre_value(static_cast<std::size_t>(n) * n, 0.0);
     std::vector<bool> edge(layout.used.size(), false);
     std::exception_ptr error;
+    // Work is skipped once Ctrl-C is pressed (common/interrupt.h); the node loop then throws.
     auto guarded = [&error](auto&& body) {
+        if (interrupt_requested()) return;
         try {
             body();
         } catch (...) {
@@ -393,6 +396,7 @@ void predict(const Huang2022Params& params, const Layout& layout, int threads,
         return std::pair{(column + 0.5) * pixel - 1.0, 1.0 - (row + 0.5) * pixel};
     };
     for (const auto& node : layout.illumination) {
+        throw_if_interrupted("the next illumination direction of the Huang 2022 model image");
         // Plain variables, not a structured binding: OpenMP regions below use them, and
         // clang before 16 cannot capture bindings there.
         const Vec3d& wi = node.first;
@@ -475,6 +479,7 @@ void predict(const Huang2022Params& params, const Layout& layout, int threads,
             if (error) std::rethrow_exception(error);
         }
     }
+    throw_if_interrupted("the end of the Huang 2022 model image");
 }
 
 void validate_options(const HuangFitOptions& o) {
@@ -650,6 +655,8 @@ struct Residuals {
     const ParameterMap& map;
     double step;
     int threads;
+    const HuangFitOptions& options;
+    std::chrono::steady_clock::time_point start;
     mutable int evaluations = 0;
     mutable int jacobians = 0;
     mutable std::vector<double> prediction;
@@ -662,6 +669,14 @@ struct Residuals {
         for (std::size_t k = 0; k < problem.data.size(); ++k) {
             r[static_cast<Eigen::Index>(k)] =
                 (prediction[k] - problem.data[k]) * problem.inverse_sigma[k];
+        }
+        if (options.progress) {
+            const double elapsed =
+                std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+            options.progress({evaluations, options.max_function_evaluations,
+                              static_cast<int>(map.free.size()), problem.layout.observations,
+                              problem.layout.used.size(), problem.layout.illumination.size(),
+                              elapsed, r.squaredNorm()});
         }
         return 0;
     }
@@ -784,7 +799,9 @@ HuangFitResult fit_huang2022(const gonio::Scatterogram& data, const Huang2022Par
 
     const int threads = thread_count(options);
     Eigen::VectorXd u = map.variables(map.base);
-    Residuals residuals{problem, map, options.finite_difference_step, threads, 0, 0, {}};
+    Residuals residuals{problem, map,     options.finite_difference_step,
+                        threads, options, std::chrono::steady_clock::now(),
+                        0,       0,       {}};
     Eigen::LevenbergMarquardt<Residuals> lm(residuals);
     lm.parameters.maxfev = options.max_function_evaluations;
     lm.parameters.ftol = options.relative_tolerance;

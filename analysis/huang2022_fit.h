@@ -77,6 +77,8 @@
 #pragma once
 
 #include <array>
+#include <cstddef>
+#include <functional>
 #include <string>
 #include <string_view>
 #include <vector>
@@ -105,6 +107,16 @@ inline constexpr std::array<std::string_view, kHuang2022ParameterCount> kHuang20
 std::array<double, kHuang2022ParameterCount> huang2022_values(const Huang2022Params& p);
 Huang2022Params huang2022_params(const std::array<double, kHuang2022ParameterCount>& values);
 
+// What a fit has done so far, after each residual evaluation (HuangFitOptions::progress).
+struct HuangFitProgress {
+    int evaluations = 0;      // residual evaluations so far, finite differences included
+    int max_evaluations = 0;  // the fit stops at this many
+    int free_parameters = 0;  // an iteration costs about 2 × this + 1 evaluations
+    std::size_t observations = 0, pixels = 0, illumination_directions = 0;
+    double elapsed_s = 0.0;   // wall time since the fit started
+    double chi_square = 0.0;  // of the evaluation just made
+};
+
 struct HuangFitOptions {
     // Parameters held at their starting value, by name (kHuang2022ParameterNames); an unknown
     // name is an InputError naming it.
@@ -125,6 +137,10 @@ struct HuangFitOptions {
     int max_function_evaluations = 400;    // residual evaluations, finite differences included
     double relative_tolerance = 1e-5;      // on the sum of squares and on the parameters
     int threads = 0;                       // OpenMP threads; 0: OpenMP's default
+    // Called after every residual evaluation (the command line prints progress and the expected
+    // cost from it); empty: silent. The fit polls Ctrl-C (common/interrupt.h) between the
+    // illumination directions of every evaluation and throws Interrupted.
+    std::function<void(const HuangFitProgress&)> progress;
 };
 
 struct HuangFitResult {

@@ -12,12 +12,16 @@
 #include <fmt/format.h>
 
 #include "common/error.h"
-#include "virtual_gonio/hdf5_file.h"
+#include "sim/optics/spectrum.h"
+#include "virtual_gonio/hdf5_reader.h"
 
 namespace plumage::analysis {
 namespace {
 
 namespace fs = std::filesystem;
+
+// The longest name-like string attribute read (kind, illumination, a direction).
+constexpr std::size_t kMaxNameBytes = 256;
 
 std::string trim(std::string_view s) {
     const auto first = s.find_first_not_of(" \t\r");
@@ -128,19 +132,84 @@ BrdfObservation observation_of(const std::vector<std::string>& cells, const Colu
     return o;
 }
 
-record::Dataset dataset(const fs::path& path, const std::string& name, std::size_t rank) {
-    record::Dataset d;
-    try {
-        d = record::read_dataset(path, name);
-    } catch (const Error& e) {
-        throw InputError(fmt::format("{}: cannot read the dataset /{} ({}); docs/user_data.md",
-                                     path.string(), name, e.what()));
+// A record's numeric dataset whose values must all satisfy `valid` ("finite", ...), named in the
+// error with the first offending value.
+void require_values(const record::Hdf5Reader& file, const std::string& name,
+                    const record::Dataset& d, bool (*valid)(double), std::string_view expected) {
+    for (std::size_t i = 0; i < d.values.size(); ++i) {
+        if (!valid(d.values[i])) {
+            throw InputError(
+                fmt::format("HDF5 file '{}': /{}: value {} (flat index {}) = {}; "
+                            "expected {}",
+                            file.file().string(), name, i, i, d.values[i], expected));
+        }
     }
-    if (d.dims.size() != rank) {
-        throw InputError(fmt::format("{}: /{} has {} dimensions, expected {}", path.string(), name,
-                                     d.dims.size(), rank));
+}
+
+bool finite(double v) { return std::isfinite(v); }
+bool finite_non_negative(double v) { return std::isfinite(v) && v >= 0.0; }
+bool positive_finite(double v) { return std::isfinite(v) && v > 0.0; }
+// The wavelengths a Huang fit evaluates: the range of the keratin and melanin dispersion the
+// model uses (sim/optics/material.h), as a study file's [spectrum] accepts.
+bool huang_wavelength(double v) { return v >= 300.0 && v <= 800.0; }
+
+// Unit direction vectors above the patch, [n, 3] (float32 rounding allowed).
+void require_directions(const record::Hdf5Reader& file, const std::string& name,
+                        const record::Dataset& d) {
+    for (std::size_t i = 0; i < d.dims[0]; ++i) {
+        const Vec3d w(d.values[3 * i], d.values[3 * i + 1], d.values[3 * i + 2]);
+        if (!(w.allFinite() && std::abs(w.norm() - 1.0) <= 1e-5 && w.z() > 0.0)) {
+            throw InputError(fmt::format(
+                "HDF5 file '{}': /{}: row {} = ({}, {}, {}); expected a unit vector (to 1e-5) "
+                "above the patch (z > 0)",
+                file.file().string(), name, i, w.x(), w.y(), w.z()));
+        }
     }
-    return d;
+}
+
+// A record's /instrument@illumination, @beam_direction and @cone_aperture_deg, range-checked as
+// a study file's [scatterometer] keys are.
+void read_illumination(const record::Hdf5Reader& file, gonio::ScatterometerConfig& c) {
+    const std::string where = fmt::format("HDF5 file '{}': /instrument@", file.file().string());
+    const std::string illumination =
+        file.string_attribute("/instrument", "illumination", kMaxNameBytes);
+    if (illumination == "beam")
+        c.illumination = gonio::Illumination::beam;
+    else if (illumination == "cone")
+        c.illumination = gonio::Illumination::cone;
+    else if (illumination == "hemisphere")
+        c.illumination = gonio::Illumination::hemisphere;
+    else {
+        throw InputError(fmt::format("{}illumination = '{}': expected beam, cone or hemisphere",
+                                     where, illumination));
+    }
+    // The beam's (and the cone's axis) direction; the hemisphere needs none.
+    if (c.illumination != gonio::Illumination::hemisphere) {
+        const std::string text =
+            file.string_attribute("/instrument", "beam_direction", kMaxNameBytes);
+        std::istringstream beam(text);
+        double x = 0, y = 0, z = 0;
+        std::string rest;
+        if (!(beam >> x >> y >> z) || (beam >> rest) || !std::isfinite(x) || !std::isfinite(y) ||
+            !(std::isfinite(z) && z > 0.0)) {
+            throw InputError(fmt::format(
+                "{}beam_direction = '{}': expected \"x y z\", three finite numbers towards the "
+                "light, z > 0",
+                where, text.substr(0, 80)));
+        }
+        c.beam_direction = Vec3d(x, y, z).normalized();
+    }
+    if (c.illumination == gonio::Illumination::cone) {
+        const double aperture_deg = file.number_attribute("/instrument", "cone_aperture_deg");
+        const double axis_deg = std::acos(c.beam_direction.z()) * 180.0 / std::numbers::pi;
+        if (!(aperture_deg > 0.0 && aperture_deg < 90.0 && axis_deg + 0.5 * aperture_deg < 90.0)) {
+            throw InputError(fmt::format(
+                "{}cone_aperture_deg = {}: expected a full aperture in (0, 90) deg whose cone "
+                "stays above the patch (axis {:.4g} deg from the normal + half the aperture < 90)",
+                where, aperture_deg, axis_deg));
+        }
+        c.cone_aperture_rad = aperture_deg * std::numbers::pi / 180.0;
+    }
 }
 
 void require_file(const fs::path& path) {
@@ -189,20 +258,36 @@ BrdfData read_brdf_csv(const fs::path& path) {
 }
 
 BrdfData read_brdf_record(const fs::path& path) {
-    require_file(path);
-    const record::Dataset lights = dataset(path, "instrument/light_directions", 2);
-    const record::Dataset views = dataset(path, "instrument/view_directions", 2);
-    const record::Dataset wavelengths = dataset(path, "wavelength_nm", 1);
-    const record::Dataset value = dataset(path, "brdf/value", 2);
-    const record::Dataset error = dataset(path, "brdf/standard_error", 2);
-    const std::size_t pairs = lights.dims[0], nl = wavelengths.dims[0];
-    if (lights.dims[1] != 3 || views.dims != lights.dims || value.dims[0] != pairs ||
-        value.dims[1] != nl || error.dims != value.dims) {
-        throw InputError(
-            fmt::format("{}: expected light and view directions [pairs, 3], /brdf/value and "
-                        "/brdf/standard_error [pairs, wavelengths]: the shapes do not match",
-                        path.string()));
+    const record::Hdf5Reader file(path);
+    // Shapes first, then data: nothing is read before every shape agrees.
+    const auto wavelength_dims =
+        file.shape("wavelength_nm", {1, optics::WavelengthGrid::kMaxWavelengths});
+    const auto light_dims = file.shape("instrument/light_directions", {2});
+    const auto view_dims = file.shape("instrument/view_directions", {2});
+    const auto value_dims = file.shape("brdf/value", {2});
+    const auto error_dims = file.shape("brdf/standard_error", {2});
+    const std::size_t pairs = light_dims[0], nl = wavelength_dims[0];
+    if (light_dims[1] != 3 || view_dims != light_dims || value_dims[0] != pairs ||
+        value_dims[1] != nl || error_dims != value_dims || pairs == 0 || nl == 0) {
+        throw InputError(fmt::format(
+            "HDF5 file '{}': expected /instrument/light_directions and view_directions [pairs, "
+            "3], /brdf/value and /brdf/standard_error [pairs, wavelengths] with /wavelength_nm "
+            "[wavelengths]; found [{}], [{}], [{}], [{}] and [{}]",
+            path.string(), fmt::join(light_dims, ", "), fmt::join(view_dims, ", "),
+            fmt::join(value_dims, ", "), fmt::join(error_dims, ", "),
+            fmt::join(wavelength_dims, ", ")));
     }
+    const record::Dataset wavelengths = file.dataset("wavelength_nm");
+    require_values(file, "wavelength_nm", wavelengths, positive_finite, "a wavelength > 0 nm");
+    const record::Dataset lights = file.dataset("instrument/light_directions");
+    const record::Dataset views = file.dataset("instrument/view_directions");
+    require_directions(file, "instrument/light_directions", lights);
+    require_directions(file, "instrument/view_directions", views);
+    const record::Dataset value = file.dataset("brdf/value");
+    require_values(file, "brdf/value", value, finite, "a finite BRDF value, 1/sr");
+    const record::Dataset error = file.dataset("brdf/standard_error");
+    require_values(file, "brdf/standard_error", error, finite_non_negative,
+                   "a finite standard error >= 0, 1/sr (0: no estimate, the cell is left out)");
     BrdfData data;
     data.format = "brdf_record";
     data.has_standard_errors = true;
@@ -215,8 +300,8 @@ BrdfData read_brdf_record(const fs::path& path) {
                 ++data.left_out;
                 continue;
             }
-            data.observations.push_back(
-                {wi, wo, std::nullopt, wavelengths.values[l], value.values[p * nl + l], sigma});
+            data.observations.push_back({wi.normalized(), wo.normalized(), std::nullopt,
+                                         wavelengths.values[l], value.values[p * nl + l], sigma});
         }
     }
     if (data.observations.empty()) {
@@ -235,12 +320,14 @@ std::string data_kind(const fs::path& path) {
             "{}: expected a .csv table or an HDF5 record (.h5, .hdf5); docs/user_data.md",
             path.string()));
     }
-    try {
-        return record::read_string_attribute(path, "/instrument", "kind");
-    } catch (const Error& e) {
-        throw InputError(fmt::format("{}: not a plumage record (no /instrument@kind: {})",
-                                     path.string(), e.what()));
+    const record::Hdf5Reader file(path);
+    if (!file.has_object("/instrument") || !file.has_attribute("/instrument", "kind")) {
+        throw InputError(
+            fmt::format("HDF5 file '{}': /instrument@kind: missing; expected a plumage record "
+                        "(virtual_gonio/RECORD.md, docs/user_data.md)",
+                        path.string()));
     }
+    return file.string_attribute("/instrument", "kind", kMaxNameBytes);
 }
 
 BrdfData read_brdf_data(const fs::path& path) {
@@ -260,52 +347,44 @@ gonio::Scatterogram read_scatterogram_record(const fs::path& path) {
             fmt::format("{}: a {} {}; expected a scatterogram (an imaging-scatterometer record)",
                         path.string(), kind, kind == "csv" ? "table" : "record"));
     }
+    const record::Hdf5Reader file(path);
     gonio::Scatterogram s;
     gonio::ScatterometerConfig& c = s.config;
-    const std::string illumination =
-        record::read_string_attribute(path, "/instrument", "illumination");
-    if (illumination == "beam")
-        c.illumination = gonio::Illumination::beam;
-    else if (illumination == "cone")
-        c.illumination = gonio::Illumination::cone;
-    else if (illumination == "hemisphere")
-        c.illumination = gonio::Illumination::hemisphere;
-    else {
-        throw InputError(
-            fmt::format("{}: /instrument@illumination = '{}': expected beam, cone or "
-                        "hemisphere",
-                        path.string(), illumination));
+    read_illumination(file, c);
+    // Shapes first, then data: nothing is read before every shape agrees.
+    const auto wavelength_dims =
+        file.shape("wavelength_nm", {1, optics::WavelengthGrid::kMaxWavelengths});
+    const auto intensity_dims = file.shape("image/intensity", {3});
+    const auto error_dims = file.shape("image/standard_error", {3});
+    const auto omega_dims = file.shape("image/solid_angle_sr", {2});
+    const std::uint64_t n = intensity_dims[0];
+    if (intensity_dims[1] != n || intensity_dims[2] != wavelength_dims[0] ||
+        error_dims != intensity_dims || omega_dims[0] != n || omega_dims[1] != n) {
+        throw InputError(fmt::format(
+            "HDF5 file '{}': expected /image/intensity and /image/standard_error [rows, rows, "
+            "wavelengths], /image/solid_angle_sr [rows, rows] and /wavelength_nm [wavelengths]; "
+            "found [{}], [{}], [{}] and [{}]",
+            path.string(), fmt::join(intensity_dims, ", "), fmt::join(error_dims, ", "),
+            fmt::join(omega_dims, ", "), fmt::join(wavelength_dims, ", ")));
     }
-    // The beam's (and the cone's axis) direction; the hemisphere needs none.
-    if (c.illumination != gonio::Illumination::hemisphere) {
-        std::istringstream beam(
-            record::read_string_attribute(path, "/instrument", "beam_direction"));
-        double x = 0, y = 0, z = 0;
-        if (!(beam >> x >> y >> z) || !(z > 0.0)) {
-            throw InputError(fmt::format(
-                "{}: /instrument@beam_direction: expected \"x y z\" towards the light, z > 0",
-                path.string()));
-        }
-        c.beam_direction = Vec3d(x, y, z).normalized();
+    if (n < 9 || n > 4096 || wavelength_dims[0] == 0) {
+        throw InputError(fmt::format(
+            "HDF5 file '{}': /image/intensity: {} x {} pixels, {} wavelengths; expected 9..4096 "
+            "rows (an imaging scatterometer's range) and at least one wavelength",
+            path.string(), n, n, wavelength_dims[0]));
     }
-    if (c.illumination == gonio::Illumination::cone) {
-        c.cone_aperture_rad =
-            record::read_number_attribute(path, "/instrument", "cone_aperture_deg") *
-            std::numbers::pi / 180.0;
-    }
-    const record::Dataset wavelengths = dataset(path, "wavelength_nm", 1);
-    const record::Dataset intensity = dataset(path, "image/intensity", 3);
-    const record::Dataset error = dataset(path, "image/standard_error", 3);
-    const record::Dataset omega = dataset(path, "image/solid_angle_sr", 2);
-    const std::uint64_t n = intensity.dims[0];
-    if (intensity.dims[1] != n || intensity.dims[2] != wavelengths.dims[0] ||
-        error.dims != intensity.dims || omega.dims[0] != n || omega.dims[1] != n) {
-        throw InputError(
-            fmt::format("{}: expected /image/intensity and /image/standard_error "
-                        "[rows, rows, wavelengths], /image/solid_angle_sr [rows, "
-                        "rows]: the shapes do not match",
-                        path.string()));
-    }
+    const record::Dataset wavelengths = file.dataset("wavelength_nm");
+    require_values(file, "wavelength_nm", wavelengths, huang_wavelength,
+                   "a wavelength in 300..800 nm (the model's dispersion data)");
+    const record::Dataset intensity = file.dataset("image/intensity");
+    require_values(file, "image/intensity", intensity, finite_non_negative,
+                   "a finite intensity >= 0, 1/sr");
+    const record::Dataset error = file.dataset("image/standard_error");
+    require_values(file, "image/standard_error", error, finite_non_negative,
+                   "a finite standard error >= 0, 1/sr");
+    const record::Dataset omega = file.dataset("image/solid_angle_sr");
+    require_values(file, "image/solid_angle_sr", omega, finite_non_negative,
+                   "a finite solid angle >= 0, sr");
     c.image_size = static_cast<int>(n);
     c.wavelengths_nm = wavelengths.values;
     s.scatterer = "record " + path.filename().string();

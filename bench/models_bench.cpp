@@ -8,6 +8,7 @@
 #include <benchmark/benchmark.h>
 
 #include "analysis/huang2022.h"
+#include "analysis/huang2022_fit.h"
 
 #include "analysis/fibre_baseline.h"
 #include "analysis/filip2024.h"
@@ -199,6 +200,47 @@ void BM_PadronGriffe2024Masking(benchmark::State& state) {
     state.SetItemsProcessed(state.iterations());
 }
 BENCHMARK(BM_PadronGriffe2024Masking);
+
+// The Huang 2022 fit of a scatterogram under a 16° illumination cone (issue 42: a user's cone
+// record gave no answer for minutes and printed nothing): the image is the model's own at the
+// published parameters with 3 % standard errors, the fit starts from d = 0.55 µm and H = 1.0 with
+// φ0, φ1 fixed, as `plumage fit` does. Arguments: rows of the image, wavelengths (450–650 nm).
+// Reported: the fit's wall time per run, its evaluations and the time of one model evaluation,
+// which the command line prints as the fit's expected cost before it goes on.
+void BM_Huang2022FitCone(benchmark::State& state) {
+    gonio::ScatterometerConfig config;
+    config.illumination = gonio::Illumination::cone;
+    config.beam_direction = Vec3d(std::sin(0.35), 0.0, std::cos(0.35));
+    config.cone_aperture_rad = 16.0 * kPi / 180.0;
+    config.image_size = static_cast<int>(state.range(0));
+    const auto nl = static_cast<std::size_t>(state.range(1));
+    config.wavelengths_nm.clear();
+    for (std::size_t l = 0; l < nl; ++l)
+        config.wavelengths_nm.push_back(nl == 1 ? 550.0 : 450.0 + 200.0 * l / (nl - 1));
+    HuangFitOptions options;
+    options.fixed = {"phi0", "phi1"};
+    options.threads = 0;
+    gonio::Scatterogram data = huang2022_scatterogram({}, config, options);
+    data.standard_error.resize(data.intensity.size());
+    for (std::size_t i = 0; i < data.intensity.size(); ++i)
+        data.standard_error[i] = 0.03 * data.intensity[i];
+    Huang2022Params start;
+    start.d_um = 0.55;
+    start.H = 1.0;
+    HuangFitResult fit;
+    for (auto _ : state) fit = fit_huang2022(data, start, options);
+    state.counters["evaluations"] = fit.function_evaluations;
+    state.counters["s_per_evaluation"] = fit.wall_time_s / fit.function_evaluations;
+    state.counters["d_um"] = fit.parameters.d_um;
+    state.counters["illumination_directions"] =
+        options.illumination_nodes_radial * options.illumination_nodes_azimuthal;
+}
+BENCHMARK(BM_Huang2022FitCone)
+    ->Args({41, 3})
+    ->Args({101, 3})
+    ->Iterations(1)
+    ->Unit(benchmark::kSecond)
+    ->UseRealTime();
 
 }  // namespace
 }  // namespace plumage::analysis

@@ -2,8 +2,8 @@
 """Every library includes only what it links (docs/architecture.md).
 
 Reads each library's sources and links from the CMakeLists.txt files (add_library,
-target_link_libraries), gives each header the library of its .cpp (or, for a header without one,
-of its folder's sources), and checks every `#include "dir/file.h"` of every library source and
+target_link_libraries), gives each header the library that lists it or the library of its .cpp (or,
+for a header with neither, of its folder's sources), and checks every `#include "dir/file.h"` of every library source and
 header: the included file's library must be the file's own or one it links, directly or through
 another. Prints each violation as file:line and exits 1 if there is any.
 
@@ -34,7 +34,8 @@ for cmake in sorted(root.rglob("CMakeLists.txt")):
         continue
     text = cmake.read_text()
     for args in cmake_calls(text, "add_library"):
-        name, sources = args[0], [a for a in args[1:] if a.endswith(".cpp")]
+        # Sources, and headers listed with them (an internal header without a .cpp of its own).
+        name, sources = args[0], [a for a in args[1:] if a.endswith((".cpp", ".h"))]
         for s in sources:
             path = (rel / s).as_posix()
             library_of[path] = name
@@ -46,6 +47,8 @@ for cmake in sorted(root.rglob("CMakeLists.txt")):
 def library(path):
     """The library a repository file belongs to, or None (tests, programs, generated files)."""
     p = pathlib.PurePosixPath(path)
+    if path in library_of:
+        return library_of[path]
     cpp = p.with_suffix(".cpp").as_posix()
     if cpp in library_of:
         return library_of[cpp]

@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <array>
 #include <chrono>
+#include <cmath>
 #include <functional>
 #include <memory>
 
@@ -40,7 +41,8 @@ fs::path output_or(const BsdfExportOptions& o, const fs::path& fallback) {
 }
 
 std::vector<Export> huang_fit_exports(const BsdfExportOptions& o, const fs::path& file) {
-    const record::Dataset d = record::read_dataset(file, "fit/values");
+    const record::Dataset d = record::read_dataset(
+        file, "fit/values", {-1, static_cast<std::uint64_t>(analysis::kHuang2022ParameterCount)});
     require(d.values.size() == analysis::kHuang2022ParameterCount, "export-bsdf",
             fmt::format("{}: fit/values has {} values, expected Huang 2022's {} ({})",
                         file.string(), d.values.size(), analysis::kHuang2022ParameterCount,
@@ -62,7 +64,18 @@ std::vector<Export> species_exports(const BsdfExportOptions& o, const fs::path& 
     for (const std::string& path : record::dataset_paths(file)) {
         if (path.size() <= suffix.size() || !path.ends_with(suffix)) continue;
         const std::string species = path.substr(0, path.size() - suffix.size());
-        const record::Dataset d = record::read_dataset(file, path);
+        // The species' name becomes a file name: one plain name, never a path out of the folder
+        // (a group named ".." would otherwise write beside the source's folder).
+        if (species.empty() || species == "." || species == ".." ||
+            species.find_first_not_of("ABCDEFGHIJKLMNOPQRSTUVWXYZabcdefghijklmnopqrstuvwxyz"
+                                      "0123456789_-.") != std::string::npos) {
+            throw InputError(fmt::format(
+                "HDF5 file '{}': /{}: expected a species name of letters, digits, '_', '-' and "
+                "'.' (it names the output file), not '.' or '..'",
+                file.string(), path));
+        }
+        const record::Dataset d = record::read_dataset(
+            file, path, {-1, static_cast<std::uint64_t>(analysis::kFilip2024ParameterCount)});
         require(d.values.size() == analysis::kFilip2024ParameterCount, "export-bsdf",
                 fmt::format("{}: {} has {} values, expected Filip 2024's {}", file.string(), path,
                             d.values.size(), analysis::kFilip2024ParameterCount));
@@ -70,6 +83,12 @@ std::vector<Export> species_exports(const BsdfExportOptions& o, const fs::path& 
         std::copy(d.values.begin(), d.values.end(), v.begin());
         const fs::path folder = o.output.empty() ? file.parent_path() : o.output;
         const double mount_deg = record::read_number_attribute(file, "/" + species, "mount_deg");
+        if (!std::isfinite(mount_deg) || std::abs(mount_deg) > 360.0) {
+            throw InputError(
+                fmt::format("HDF5 file '{}': /{}@mount_deg = {}: expected a finite "
+                            "azimuth in [-360, 360] deg",
+                            file.string(), species, mount_deg));
+        }
         out.push_back({std::make_unique<analysis::Filip2024Brdf>(analysis::from_vector(v)),
                        folder / (species + "_filip2024.bsdf"),
                        fmt::format("Filip 2024 feather BRDF of the {}, parameters fitted in {} "

@@ -3,6 +3,8 @@
 #include <algorithm>
 #include <cmath>
 #include <fstream>
+#include <functional>
+#include <iostream>
 #include <limits>
 #include <numbers>
 #include <set>
@@ -209,6 +211,31 @@ Fitted fit_filip(const FitCommand& c) {
 
 // ---- huang2022 on a scatterogram ---------------------------------------------------------------
 
+// Progress on stderr: the cost of one model evaluation and the most the fit can take, after the
+// first evaluation, then a line at most every kProgressEvery (a cone or hemisphere scatterogram
+// evaluates the model once per illumination direction, so a fit can take minutes).
+std::function<void(const analysis::HuangFitProgress&)> huang_progress_printer() {
+    constexpr double kProgressEvery = 5.0;  // s
+    return [last = 0.0](const analysis::HuangFitProgress& p) mutable {
+        if (p.evaluations == 1) {
+            std::cerr << fmt::format(
+                "  huang2022 fit: {} observations ({} pixels, {} illumination direction{}), {} "
+                "free parameters; one model evaluation {:.3g} s, an iteration about {} "
+                "evaluations, the fit at most {} ({:.3g} s); Ctrl-C stops it\n",
+                p.observations, p.pixels, p.illumination_directions,
+                p.illumination_directions == 1 ? "" : "s", p.free_parameters, p.elapsed_s,
+                2 * p.free_parameters + 1, p.max_evaluations, p.elapsed_s * p.max_evaluations);
+            last = p.elapsed_s;
+        } else if (p.elapsed_s - last >= kProgressEvery) {
+            std::cerr << fmt::format(
+                "  huang2022 fit: {} of at most {} evaluations in {:.1f} s, chi2 of the last "
+                "{:.6g}\n",
+                p.evaluations, p.max_evaluations, p.elapsed_s, p.chi_square);
+            last = p.elapsed_s;
+        }
+    };
+}
+
 Fitted fit_huang(const FitCommand& c) {
     const gonio::Scatterogram data = analysis::read_scatterogram_record(c.data);
     analysis::HuangFitOptions options;
@@ -218,6 +245,7 @@ Fitted fit_huang(const FitCommand& c) {
             options.fixed.push_back(name);
     for (const auto& name : c.free) std::erase(options.fixed, name);
     options.pixel_stride = c.pixel_stride;
+    options.progress = huang_progress_printer();
     auto values = analysis::huang2022_values({});
     for (const auto& [name, value] : c.start) {
         const auto& names = analysis::kHuang2022ParameterNames;

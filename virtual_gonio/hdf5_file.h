@@ -16,6 +16,8 @@
 #include <utility>
 #include <vector>
 
+#include "virtual_gonio/hdf5_reader.h"
+
 namespace plumage::record {
 
 using Attributes = std::vector<std::pair<std::string, std::string>>;
@@ -66,30 +68,5 @@ private:
     std::filesystem::path temporary_path_;
     std::int64_t file_ = -1;
 };
-
-// Read a whole dataset as doubles (any numeric type) and its dimensions; for tests
-// and for resuming runs.
-struct Dataset {
-    std::vector<double> values;
-    std::vector<std::uint64_t> dims;
-};
-Dataset read_dataset(const std::filesystem::path& file, const std::string& dataset_path);
-std::string read_string_attribute(const std::filesystem::path& file, const std::string& object_path,
-                                  const std::string& name);
-double read_number_attribute(const std::filesystem::path& file, const std::string& object_path,
-                             const std::string& name);
-// An unsigned integer attribute, exact (IoError if it is not stored as an integer).
-std::uint64_t read_unsigned_attribute(const std::filesystem::path& file,
-                                      const std::string& object_path, const std::string& name);
-// Whether the object has the attribute (IoError if the file or the object cannot be opened).
-bool has_attribute(const std::filesystem::path& file, const std::string& object_path,
-                   const std::string& name);
-
-// How an attribute is stored: what a reader in h5py or MATLAB gets back.
-enum class AttributeType { string, signed_integer, unsigned_integer, floating_point, other };
-AttributeType attribute_type(const std::filesystem::path& file, const std::string& object_path,
-                             const std::string& name);
-// Every dataset in the file, by path without the leading '/' ("brdf/value"), in name order.
-std::vector<std::string> dataset_paths(const std::filesystem::path& file);
 
 }  // namespace plumage::record

@@ -17,6 +17,12 @@ the same way, with kind "study_data" or "thin_film_chart": their datasets and at
 
 Every array is read into memory (records are small: the largest, a 61 × 60 BTF, is tens of MB),
 so the file is closed when read_record returns. Errors name the file and what is missing.
+
+Files made elsewhere (h5py, MATLAB) are read as the C++ reader reads them
+(virtual_gonio/hdf5_reader.h): every dataset's size is checked before it is read (at most
+MAX_DATASET_VALUES values), links into other files and data stored outside the file are refused,
+the record's kind must be one string, and any other fault of the file (a type numpy cannot hold,
+a filter HDF5 lacks, damage) is a RecordError naming the file and the object.
 """
 
 from __future__ import annotations
@@ -30,6 +36,10 @@ import numpy as np
 
 class RecordError(ValueError):
     """A file that is not a Plumage record, or one that lacks a dataset its kind requires."""
+
+
+# The most values one dataset may hold (as the C++ reader, virtual_gonio/hdf5_reader.h).
+MAX_DATASET_VALUES = 1 << 25
 
 
 class Quantity(np.ndarray):
@@ -107,7 +117,12 @@ def _attributes(node) -> dict[str, Any]:
     return {key: _text(value) for key, value in node.attrs.items()}
 
 
-def _quantity(dataset) -> Quantity:
+def _quantity(path: str, name: str, dataset) -> Quantity:
+    if dataset.size > MAX_DATASET_VALUES:
+        raise RecordError(f"{path}: {name}: shape {dataset.shape}, {dataset.size} values; expected "
+                          f"at most {MAX_DATASET_VALUES} (the reader's limit)")
+    if dataset.is_virtual or dataset.external:
+        raise RecordError(f"{path}: {name}: its data lie in other files; expected them in this file")
     attrs = _attributes(dataset)
     data = dataset[()]
     if isinstance(data, bytes) or (isinstance(data, np.ndarray) and data.dtype.kind in "SO"):
@@ -128,7 +143,7 @@ class _Reader:
 
         def visit(name, node):
             if isinstance(node, h5py.Dataset):
-                self.datasets["/" + name] = _quantity(node)
+                self.datasets["/" + name] = _quantity(path, "/" + name, node)
             else:
                 self.attributes["/" + name] = _attributes(node)
 
@@ -178,7 +193,9 @@ def _convergence(reader: _Reader) -> dict[str, Quantity] | None:
 
 
 def read_record(path: str | os.PathLike) -> Record:
-    """Reads a Plumage record (one HDF5 file of virtual_gonio/RECORD.md) into memory."""
+    """Reads a Plumage record (one HDF5 file of virtual_gonio/RECORD.md) into memory.
+
+    Raises FileNotFoundError for a missing file and RecordError for any fault of the file."""
     import h5py
 
     path = os.fspath(path)
@@ -189,60 +206,89 @@ def read_record(path: str | os.PathLike) -> Record:
     except OSError as e:
         raise RecordError(f"{path}: not an HDF5 file ({e})") from e
     with handle:
-        kind = ""
-        if "instrument" in handle:
-            kind = str(_text(handle["instrument"].attrs.get("kind", "")))
-        elif "chart" in handle:
-            kind = "thin_film_chart"
-        elif len(handle) > 0:
-            # Study data beside the records (a fit's /fit, a figure's /figure, ...): read as is.
-            kind = "study_data"
-        else:
-            raise RecordError(f"{path}: an empty HDF5 file, not a Plumage record")
-        reader = _Reader(path, handle, kind)
-        instrument = {}
-        if "instrument" in handle:
-            instrument = _attributes(handle["instrument"])
-            for name, q in reader.datasets.items():
-                if name.startswith("/instrument/"):
-                    instrument[name[len("/instrument/"):]] = q
-        if "provenance" in handle:
-            provenance = _attributes(handle["provenance"])
-        elif kind in _INSTRUMENTS:
-            raise RecordError(f"{path}: missing group /provenance (virtual_gonio/RECORD.md)")
-        else:
-            provenance = _attributes(handle)  # the chart keeps its provenance at the root
-        convergence = _convergence(reader)
-        fields: dict[str, Any] = {}
-        if kind == "goniometer":
-            fields["brdf"] = reader.measurement("brdf", "value", "standard_error", "lobe_standard_errors")
-            reader.require("/instrument/light_directions")
-            reader.require("/instrument/view_directions")
-        elif kind == "imaging_scatterometer":
-            fields["image"] = reader.measurement("image", "intensity", "standard_error", None)
-            reader.require("/image/solid_angle_sr")
-            t = reader.optional("/transmitted_fraction")
-            if t is not None:
-                lobes = {
-                    n[len("/transmitted_lobes/"):]: Measurement(q, None, q.units)
-                    for n, q in reader.datasets.items()
-                    if n.startswith("/transmitted_lobes/")
-                }
-                fields["transmitted_fraction"] = Measurement(t, None, t.units, lobes)
-        elif kind == "btf_camera":
-            fields["btf"] = reader.measurement("btf", "value", "standard_error", None)
-        wavelength = reader.optional("/wavelength_nm")
-        if wavelength is None and kind in _INSTRUMENTS:
-            reader.require("/wavelength_nm")
-        return Record(
-            path=path,
-            kind=kind,
-            format=str(_text(handle.attrs.get("format", ""))),
-            wavelength_nm=wavelength,
-            instrument=instrument,
-            provenance=provenance,
-            convergence=convergence,
-            datasets=reader.datasets,
-            attributes=reader.attributes,
-            **fields,
-        )
+        try:
+            return _read_open_record(path, handle)
+        except RecordError:
+            raise
+        except (OSError, KeyError, TypeError, ValueError, RuntimeError, UnicodeError,
+                OverflowError, MemoryError) as e:
+            raise RecordError(f"{path}: cannot be read as a record ({type(e).__name__}: {e})") from e
+
+
+def _external_link(handle, name: str) -> bool:
+    import h5py
+
+    return isinstance(handle.get(name, getlink=True), h5py.ExternalLink)
+
+
+def _read_open_record(path: str, handle) -> Record:
+    import h5py
+
+    for name in ("instrument", "provenance", "chart"):
+        if name in handle.keys() and _external_link(handle, name):
+            raise RecordError(f"{path}: /{name} is a link into another file; expected it in this file")
+    kind = ""
+    if "instrument" in handle:
+        if not isinstance(handle["instrument"], h5py.Group):
+            raise RecordError(f"{path}: /instrument is a dataset; expected a group")
+        kind_value = _text(handle["instrument"].attrs.get("kind", ""))
+        if not isinstance(kind_value, str):
+            raise RecordError(f"{path}: /instrument@kind: found {type(kind_value).__name__} "
+                              f"{getattr(kind_value, 'shape', '')}; expected one string")
+        kind = kind_value
+    elif "chart" in handle:
+        kind = "thin_film_chart"
+    elif len(handle) > 0:
+        # Study data beside the records (a fit's /fit, a figure's /figure, ...): read as is.
+        kind = "study_data"
+    else:
+        raise RecordError(f"{path}: an empty HDF5 file, not a Plumage record")
+    reader = _Reader(path, handle, kind)
+    instrument = {}
+    if "instrument" in handle:
+        instrument = _attributes(handle["instrument"])
+        for name, q in reader.datasets.items():
+            if name.startswith("/instrument/"):
+                instrument[name[len("/instrument/"):]] = q
+    if "provenance" in handle:
+        if not isinstance(handle["provenance"], h5py.Group):
+            raise RecordError(f"{path}: /provenance is a dataset; expected a group")
+        provenance = _attributes(handle["provenance"])
+    elif kind in _INSTRUMENTS:
+        raise RecordError(f"{path}: missing group /provenance (virtual_gonio/RECORD.md)")
+    else:
+        provenance = _attributes(handle)  # the chart keeps its provenance at the root
+    convergence = _convergence(reader)
+    fields: dict[str, Any] = {}
+    if kind == "goniometer":
+        fields["brdf"] = reader.measurement("brdf", "value", "standard_error", "lobe_standard_errors")
+        reader.require("/instrument/light_directions")
+        reader.require("/instrument/view_directions")
+    elif kind == "imaging_scatterometer":
+        fields["image"] = reader.measurement("image", "intensity", "standard_error", None)
+        reader.require("/image/solid_angle_sr")
+        t = reader.optional("/transmitted_fraction")
+        if t is not None:
+            lobes = {
+                n[len("/transmitted_lobes/"):]: Measurement(q, None, q.units)
+                for n, q in reader.datasets.items()
+                if n.startswith("/transmitted_lobes/")
+            }
+            fields["transmitted_fraction"] = Measurement(t, None, t.units, lobes)
+    elif kind == "btf_camera":
+        fields["btf"] = reader.measurement("btf", "value", "standard_error", None)
+    wavelength = reader.optional("/wavelength_nm")
+    if wavelength is None and kind in _INSTRUMENTS:
+        reader.require("/wavelength_nm")
+    return Record(
+        path=path,
+        kind=kind,
+        format=str(_text(handle.attrs.get("format", ""))),
+        wavelength_nm=wavelength,
+        instrument=instrument,
+        provenance=provenance,
+        convergence=convergence,
+        datasets=reader.datasets,
+        attributes=reader.attributes,
+        **fields,
+    )

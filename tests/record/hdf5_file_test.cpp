@@ -62,7 +62,7 @@ TEST(Hdf5Record, IntegerAttributesAreExactAndTyped) {
     EXPECT_EQ(attribute_type(path, "/", "threads"), AttributeType::signed_integer);
     EXPECT_EQ(attribute_type(path, "/", "time"), AttributeType::floating_point);
     EXPECT_EQ(attribute_type(path, "/values", "units"), AttributeType::string);
-    EXPECT_THROW(read_unsigned_attribute(path, "/", "time"), IoError);
+    EXPECT_THROW(read_unsigned_attribute(path, "/", "time"), InputError);
 }
 
 TEST(Hdf5Record, ListsEveryDatasetButNotGroups) {
