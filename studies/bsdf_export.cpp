@@ -16,7 +16,10 @@
 #include "common/constants.h"
 #include "common/error.h"
 #include "common/interrupt.h"
+#include "common/memory_limit.h"
 #include "common/require.h"
+#include "common/version.h"
+#include "sim/optics/spectrum.h"
 #include "virtual_gonio/hdf5_file.h"
 #include "virtual_gonio/rgl_bsdf.h"
 
@@ -24,6 +27,9 @@ namespace plumage::studies {
 namespace {
 
 namespace fs = std::filesystem;
+
+// In every file's description: what marks a file as this suite's (written_by_plumage).
+constexpr const char* kWrittenBy = "written by plumage";
 
 // One model to write: the scatterer, where it goes and what the file says it is. mount_rad:
 // the azimuth of the barb axis in the frame the model was fitted in (the species study's
@@ -108,6 +114,85 @@ std::vector<Export> species_exports(const BsdfExportOptions& o, const fs::path& 
     return out;
 }
 
+// --first-nm, --last-nm, --step-nm as the grid, its size checked before it is built.
+std::vector<double> wavelength_grid(const BsdfExportOptions& o) {
+    const double span = o.last_nm - o.first_nm;
+    const double count = std::floor(span / o.step_nm + 1e-9) + 1.0;
+    const auto max_count = optics::WavelengthGrid::kMaxWavelengths;
+    if (!(std::isfinite(o.first_nm) && std::isfinite(o.last_nm) && o.step_nm > 0.0 &&
+          std::isfinite(count) && span >= 0.0 && count <= static_cast<double>(max_count))) {
+        throw InputError(fmt::format(
+            "export-bsdf --first-nm {} --last-nm {} --step-nm {}: expected finite wavelengths, "
+            "first <= last, step > 0 and at most {} wavelengths (step >= {:.4g} nm here)",
+            o.first_nm, o.last_nm, o.step_nm, max_count,
+            std::isfinite(span) ? span / static_cast<double>(max_count - 1) : 0.0));
+    }
+    std::vector<double> grid;
+    for (std::size_t k = 0; k < static_cast<std::size_t>(count); ++k)
+        grid.push_back(o.first_nm + static_cast<double>(k) * o.step_nm);
+    return grid;
+}
+
+// The tensor file's tables as float32 (spectra, luminance, vndf, ndf and sigma), twice: the
+// tables and the fields they are written from.
+double tables_bytes(const gonio::RglBsdfSettings& s) {
+    const double directions = static_cast<double>(s.theta_i_count) * s.phi_i_count;
+    const double samples = static_cast<double>(s.sample_resolution) * s.sample_resolution;
+    const double spectra =
+        directions * (static_cast<double>(s.wavelengths_nm.size()) + 1.0) * samples;
+    const double vndf = directions * s.vndf_resolution * s.vndf_resolution;
+    const double ndf = 2.0 * s.ndf_resolution * s.ndf_resolution;
+    return 2.0 * 4.0 * (spectra + vndf + ndf);
+}
+
+// Whether `path` is a tensor file this suite wrote (its description says so): only such a file
+// is replaced without --force.
+bool written_by_plumage(const fs::path& path) {
+    try {
+        const gonio::TensorFields fields = gonio::read_tensor_file(path);
+        const auto it = fields.find("description");
+        if (it == fields.end()) return false;
+        const std::string text(it->second.bytes.begin(), it->second.bytes.end());
+        return text.find(kWrittenBy) != std::string::npos;
+    } catch (const Error&) {
+        return false;
+    }
+}
+
+// An output may replace nothing but a regular file this suite wrote (or any regular file with
+// --force): never a device, a folder, a link or a file of the user's. Checked for every output
+// before any work.
+void check_replaceable(const fs::path& path, bool force) {
+    std::error_code error;
+    const fs::file_status status = fs::symlink_status(path, error);
+    const fs::path parent = path.has_parent_path() ? path.parent_path() : fs::path(".");
+    if (status.type() == fs::file_type::not_found) {
+        if (!fs::is_directory(parent, error)) {
+            throw InputError(fmt::format("export-bsdf: '{}': its folder '{}' does not exist",
+                                         path.string(), parent.string()));
+        }
+        return;
+    }
+    if (status.type() == fs::file_type::symlink) {
+        throw InputError(fmt::format(
+            "export-bsdf: '{}' is a symbolic link: plumage writes no file over or through a "
+            "link; give the file's own path",
+            path.string()));
+    }
+    if (status.type() != fs::file_type::regular) {
+        throw InputError(fmt::format(
+            "export-bsdf: '{}' exists and is not a regular file (a device, folder, pipe or "
+            "socket): plumage replaces only a .bsdf it wrote",
+            path.string()));
+    }
+    if (!force && !written_by_plumage(path)) {
+        throw InputError(fmt::format(
+            "export-bsdf: '{}' exists and is not a .bsdf written by plumage: it is kept; choose "
+            "another --output, or add --force to replace it",
+            path.string()));
+    }
+}
+
 std::vector<Export> exports_of(const BsdfExportOptions& o) {
     std::vector<Export> out;
     if (o.source == "huang2022") {
@@ -140,11 +225,7 @@ std::vector<Export> exports_of(const BsdfExportOptions& o) {
 BsdfExportResult export_bsdf(const BsdfExportOptions& o) {
     const auto start = std::chrono::steady_clock::now();
     gonio::RglBsdfSettings settings;
-    require(o.step_nm > 0.0 && o.last_nm >= o.first_nm, "export-bsdf",
-            "wavelengths: expected first <= last and step > 0");
-    for (double l = o.first_nm; l <= o.last_nm + 1e-9; l += o.step_nm) {
-        settings.wavelengths_nm.push_back(l);
-    }
+    settings.wavelengths_nm = wavelength_grid(o);
     settings.theta_i_count = o.theta_nodes;
     settings.phi_i_count = o.phi_nodes;
     settings.sample_resolution = o.resolution;
@@ -158,12 +239,18 @@ BsdfExportResult export_bsdf(const BsdfExportOptions& o) {
             "{}, --first-nm {}, --last-nm {}, --step-nm {}: {}",
             o.theta_nodes, o.phi_nodes, o.resolution, o.first_nm, o.last_nm, o.step_nm, e.what()));
     }
+    require_memory(
+        tables_bytes(settings),
+        fmt::format("export-bsdf --theta-nodes {} --phi-nodes {} --resolution {} with "
+                    "{} wavelengths",
+                    o.theta_nodes, o.phi_nodes, o.resolution, settings.wavelengths_nm.size()));
     std::vector<Export> exports = exports_of(o);  // every input checked before any work
+    for (const Export& e : exports) check_replaceable(e.path, o.force);
 
     BsdfExportResult result;
     for (Export& e : exports) {
         throw_if_interrupted("tabulating " + e.path.string());
-        settings.description = e.description;
+        settings.description = e.description + "; " + kWrittenBy + " " + kVersion;
         const Eigen::Matrix3d to_fit_frame =
             Eigen::AngleAxisd(e.mount_rad, Vec3d::UnitZ()).toRotationMatrix();
         const Scatterer& model = *e.model;

@@ -26,6 +26,9 @@ struct BsdfExportOptions {
     int phi_nodes = 25;            // φ_i nodes over [−180°, 180°] (15°); 1: isotropic
     int resolution = 32;           // N × N sample square
     double first_nm = 400.0, last_nm = 700.0, step_nm = 20.0;
+    // Replace an existing regular file that plumage did not write (never a device, folder or
+    // link: those are always refused).
+    bool force = false;
 };
 
 struct BsdfExportResult {
@@ -34,7 +37,8 @@ struct BsdfExportResult {
 };
 
 // InputError (before anything is written) for an unknown source, a file without the fit's
-// datasets or bad options; each file is written atomically.
+// datasets, bad options, tables over the memory limit (common/memory_limit.h) or an output that
+// is not a new path or a .bsdf plumage wrote (see `force`); each file is written atomically.
 BsdfExportResult export_bsdf(const BsdfExportOptions& options);
 
 }  // namespace plumage::studies

@@ -255,6 +255,9 @@ struct CommandLine {
         bsdf_cmd->add_option("--first-nm", bsdf.first_nm)->capture_default_str();
         bsdf_cmd->add_option("--last-nm", bsdf.last_nm)->capture_default_str();
         bsdf_cmd->add_option("--step-nm", bsdf.step_nm)->capture_default_str();
+        bsdf_cmd->add_flag("--force", bsdf.force,
+                           "replace an existing regular file that plumage did not write (never "
+                           "a device, folder or link)");
     }
 
     void add_fit_command() {

@@ -9,7 +9,10 @@
 #include <cmath>
 #include <csignal>
 #include <filesystem>
+#include <fstream>
+#include <limits>
 #include <string>
+#include <tuple>
 #include <vector>
 
 #include <gtest/gtest.h>
@@ -193,6 +196,96 @@ TEST(BsdfExport, InterruptStopsItAndLeavesNoFile) {
     }
     EXPECT_FALSE(interrupt_requested());
     EXPECT_TRUE(fs::is_empty(dir));
+}
+
+// Issue 43: an output replaces nothing but a .bsdf plumage wrote; the grid's size and memory are
+// checked before any work. Each case failed before (exit 0, the target replaced or memory
+// exhausted).
+TEST(BsdfExport, OutputsReplaceOnlyFilesPlumageWrote) {
+    const fs::path dir = scratch_dir() / "outputs";
+    fs::create_directories(dir);
+    auto error = [](const BsdfExportOptions& o) {
+        return plumage::testing::input_error_message([&] { export_bsdf(o); });
+    };
+    BsdfExportOptions o = small("huang2022");
+    // A device node: refused, still a device (as root, a rename would have replaced /dev/null).
+    o.output = "/dev/null";
+    EXPECT_NE(error(o).find("not a regular file"), std::string::npos);
+    EXPECT_TRUE(fs::is_character_file("/dev/null"));
+    // A file of the user's: kept byte for byte; --force replaces it.
+    const fs::path mine = dir / "mine.bsdf";
+    { std::ofstream(mine) << "my notes\n"; }
+    o.output = mine;
+    EXPECT_NE(error(o).find("not a .bsdf written by plumage"), std::string::npos);
+    EXPECT_EQ(fs::file_size(mine), 9u);
+    // A symbolic link to it: refused even with --force, the link and its target kept.
+    const fs::path link = dir / "link.bsdf";
+    fs::create_symlink(mine, link);
+    o.output = link;
+    o.force = true;
+    EXPECT_NE(error(o).find("symbolic link"), std::string::npos);
+    EXPECT_TRUE(fs::is_symlink(link));
+    EXPECT_EQ(fs::file_size(mine), 9u);
+    // A folder where the file would go (an output folder gets huang2022.bsdf): refused.
+    fs::create_directories(dir / "out" / "huang2022.bsdf");
+    o.output = dir / "out";
+    o.force = true;
+    EXPECT_NE(error(o).find("not a regular file"), std::string::npos);
+    // A new file, then the same file again: a .bsdf plumage wrote is replaced without --force.
+    o.output = dir / "new.bsdf";
+    o.force = false;
+    EXPECT_EQ(export_bsdf(o).files.at(0), dir / "new.bsdf");
+    EXPECT_EQ(export_bsdf(o).files.at(0), dir / "new.bsdf");
+    o.output = mine;
+    o.force = true;
+    EXPECT_EQ(export_bsdf(o).files.at(0), mine);
+    EXPECT_GT(fs::file_size(mine), 9u);
+}
+
+TEST(BsdfExport, GridsAreBoundedBeforeAnyWork) {
+    auto error = [](const BsdfExportOptions& o) {
+        return plumage::testing::input_error_message([&] { export_bsdf(o); });
+    };
+    for (const auto& [first, last, step] :
+         {std::tuple{400.0, 700.0, 1e-320}, std::tuple{400.0, 700.0, 1e-9},
+          std::tuple{400.0, std::numeric_limits<double>::infinity(), 20.0},
+          std::tuple{std::numeric_limits<double>::quiet_NaN(), 700.0, 20.0}}) {
+        BsdfExportOptions o = small("huang2022");
+        o.first_nm = first;
+        o.last_nm = last;
+        o.step_nm = step;
+        EXPECT_NE(error(o).find("at most 4701 wavelengths"), std::string::npos) << step;
+    }
+    BsdfExportOptions o = small("huang2022");
+    o.theta_nodes = 256;
+    o.phi_nodes = 361;
+    o.resolution = 512;
+    const std::string message = error(o);
+    EXPECT_NE(message.find("needs an estimated"), std::string::npos) << message;
+    EXPECT_NE(message.find("over the limit of"), std::string::npos) << message;
+}
+
+TEST(BsdfExport, SpeciesNamesAndMountsFromTheFileAreChecked) {
+    const fs::path dir = scratch_dir() / "species_paths";
+    fs::create_directories(dir / "inner");
+    const auto v = analysis::to_vector(analysis::filip2024_preset("parrot"));
+    auto write = [&](const std::string& species, double mount_deg) {
+        record::Hdf5Writer h5(dir / "inner" / "species.h5");
+        h5.write("/" + species + "/fit/values", std::span<const double>(v.data(), v.size()),
+                 {v.size()});
+        h5.set_attribute("/" + species, "mount_deg", mount_deg);
+        h5.commit();
+    };
+    auto error = [&] {
+        return plumage::testing::input_error_message(
+            [&] { export_bsdf(small((dir / "inner" / "species.h5").string())); });
+    };
+    write("..", 0.0);  // would write inner/.._filip2024.bsdf → beside inner/
+    EXPECT_NE(error().find("expected a species name"), std::string::npos);
+    write("parrot", std::numeric_limits<double>::quiet_NaN());  // gave an all-zero file
+    EXPECT_NE(error().find("mount_deg = nan"), std::string::npos);
+    EXPECT_FALSE(fs::exists(dir / "inner" / "parrot_filip2024.bsdf"));
+    EXPECT_FALSE(fs::exists(dir / "inner" / ".._filip2024.bsdf"));
 }
 
 }  // namespace
