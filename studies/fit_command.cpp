@@ -99,6 +99,31 @@ std::string panel_title(double key) {
     return std::string(1, "RGB"[static_cast<int>(-1.0 - key)]) + " channel";
 }
 
+// The map's rows (light directions) and columns (view directions) at most this many each: with
+// more distinct directions, consecutive ones in the sorted order share a row or column, and a
+// cell shows its largest residual. Bounded memory (kMaxMapAxis² × 9 panels × 8 bytes = 75 MB)
+// whatever the data; one row per direction would need N² cells (20 000 CSV rows: 29 GB).
+constexpr std::size_t kMaxMapAxis = 1024;
+
+// Index of `key` in the sorted `all`, then its bin of `bins` over all.size() entries.
+std::size_t bin_of(const std::vector<std::pair<double, double>>& all,
+                   const std::pair<double, double>& key, std::size_t bins) {
+    const auto index =
+        static_cast<std::size_t>(std::lower_bound(all.begin(), all.end(), key) - all.begin());
+    return all.size() <= bins ? index : index * bins / all.size();
+}
+
+// Each bin's first direction's (θ, φ), [bins, 2] flattened.
+std::vector<double> bin_angles(const std::vector<std::pair<double, double>>& all,
+                               std::size_t bins) {
+    std::vector<double> angles;
+    for (std::size_t b = 0; b < bins; ++b) {
+        const auto& [t, p] = all[all.size() <= bins ? b : (b * all.size() + bins - 1) / bins];
+        angles.insert(angles.end(), {t, p});
+    }
+    return angles;
+}
+
 ResidualMap filip_residual_map(const analysis::BrdfData& data, const std::vector<double>& model) {
     std::set<std::pair<double, double>> lights, views;
     std::set<double> keys;
@@ -111,8 +136,9 @@ ResidualMap filip_residual_map(const analysis::BrdfData& data, const std::vector
         v(views.begin(), views.end());
     const std::vector<double> all_keys(keys.begin(), keys.end());
     ResidualMap m;
-    m.rows = l.size();
-    m.columns = v.size();
+    m.rows = std::min(l.size(), kMaxMapAxis);
+    m.columns = std::min(v.size(), kMaxMapAxis);
+    const bool binned = m.rows < l.size() || m.columns < v.size();
     std::vector<double> shown_keys;
     for (std::size_t i : panels_shown(all_keys.size())) shown_keys.push_back(all_keys[i]);
     m.values.assign(shown_keys.size() * m.rows * m.columns, kNaN);
@@ -121,16 +147,20 @@ ResidualMap filip_residual_map(const analysis::BrdfData& data, const std::vector
         const auto& o = data.observations[i];
         const auto p = std::find(shown_keys.begin(), shown_keys.end(), panel_key(o));
         if (p == shown_keys.end()) continue;
-        const std::size_t row = static_cast<std::size_t>(
-            std::lower_bound(l.begin(), l.end(), angles_of(o.wi)) - l.begin());
-        const std::size_t col = static_cast<std::size_t>(
-            std::lower_bound(v.begin(), v.end(), angles_of(o.wo)) - v.begin());
-        const double sigma = o.standard_error.value_or(1.0);
-        m.values[(static_cast<std::size_t>(p - shown_keys.begin()) * m.rows + row) * m.columns +
-                 col] = (model[i] - o.value) / sigma;
+        const std::size_t row = bin_of(l, angles_of(o.wi), m.rows);
+        const std::size_t col = bin_of(v, angles_of(o.wo), m.columns);
+        const double residual = (model[i] - o.value) / o.standard_error.value_or(1.0);
+        double& cell =
+            m.values[(static_cast<std::size_t>(p - shown_keys.begin()) * m.rows + row) * m.columns +
+                     col];
+        if (!(std::abs(cell) >= std::abs(residual))) cell = residual;
     }
     m.title = fmt::format(
-        "Filip 2024 fit: residuals over {} light x {} view directions{}", m.rows, m.columns,
+        "Filip 2024 fit: residuals over {} light x {} view directions{}{}", l.size(), v.size(),
+        binned ? fmt::format(" (in {} x {} cells of consecutive directions, each showing its "
+                             "largest residual)",
+                             m.rows, m.columns)
+               : "",
         shown_keys.size() < all_keys.size()
             ? fmt::format(" ({} of {} wavelengths)", shown_keys.size(), all_keys.size())
             : "");
@@ -140,10 +170,9 @@ ResidualMap filip_residual_map(const analysis::BrdfData& data, const std::vector
                                               : "model - data (1/sr; the data give no sigma)";
     m.extent = {-0.5, static_cast<double>(m.columns) - 0.5, static_cast<double>(m.rows) - 0.5,
                 -0.5};
-    std::vector<double> lt, vt;
-    for (const auto& [t, p] : l) lt.insert(lt.end(), {t, p});
-    for (const auto& [t, p] : v) vt.insert(vt.end(), {t, p});
-    m.extra = {{"light_angles_deg", lt}, {"view_angles_deg", vt}};
+    // Each row's and column's direction (binned: the first of its cell).
+    m.extra = {{"light_angles_deg", bin_angles(l, m.rows)},
+               {"view_angles_deg", bin_angles(v, m.columns)}};
     return m;
 }
 

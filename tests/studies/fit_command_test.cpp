@@ -8,11 +8,13 @@
 //    forward model, σ = 3 % of I (+ the fit's 1 % floor, which it adds in quadrature).
 #include <unistd.h>
 
+#include <algorithm>
 #include <cmath>
 #include <filesystem>
 #include <fstream>
 #include <numbers>
 #include <string>
+#include <vector>
 
 #include <fmt/format.h>
 #include <gtest/gtest.h>
@@ -54,12 +56,12 @@ std::pair<double, double> angles(const Vec3d& w) {
 }
 
 // The Filip model at `truth` on the BTF set × 450/550/650 nm with noise, as the documented CSV.
-void write_filip_csv(const fs::path& path, const analysis::Filip2024Parameters& truth,
-                     std::uint64_t seed) {
+void write_filip_csv(
+    const fs::path& path, const analysis::Filip2024Parameters& truth, std::uint64_t seed,
+    const std::vector<gonio::DirectionPair>& pairs = gonio::filip2024_btf_pairs()) {
     std::ofstream csv(path);
     csv << "# synthetic: Filip 2024 parrot preset, sigma = 3 % of f + 0.002 1/sr\n"
            "theta_i_deg,phi_i_deg,theta_o_deg,phi_o_deg,wavelength_nm,value_per_sr,sigma_per_sr\n";
-    const auto pairs = gonio::filip2024_btf_pairs();
     std::array<double, analysis::kFilip2024ParameterCount> gradient{};
     for (std::size_t p = 0; p < pairs.size(); ++p) {
         Rng rng(derive_seed(seed, "test/fit/filip"), p);
@@ -227,6 +229,37 @@ TEST(FitCommand, BadDataIsRefusedNamingTheLineAndNothingIsWritten) {
 // A goniometer record (the instrument's own writer) read back as observations: every cell with a
 // standard error, in pair-major order, directions and values to the bit; cells without one
 // (σ = 0: no quantum counted) left out and counted.
+// Issue 43: the residual map has at most 1024 rows and columns whatever the data (one per distinct
+// direction was N² cells: 20 000 CSV rows of distinct directions needed 6.3 GB); 1100 distinct
+// light and view directions share 1024 rows and columns, a cell showing its largest residual.
+// Peak memory on 10⁵ rows: bench/fit_memory_bench.cpp.
+TEST(FitCommand, ResidualMapOfManyDistinctDirectionsIsBounded) {
+    const fs::path dir = scratch("map");
+    std::vector<gonio::DirectionPair> pairs;
+    Rng rng(derive_seed(kDefaultSeed, "test/fit/map"), 0);
+    auto direction = [&rng] {
+        const double z = 0.1 + 0.9 * rng.uniform(), phi = 2.0 * std::numbers::pi * rng.uniform();
+        const double s = std::sqrt(1.0 - z * z);
+        return Vec3d(s * std::cos(phi), s * std::sin(phi), z);
+    };
+    for (int p = 0; p < 1100; ++p) pairs.push_back({direction(), direction()});
+    write_filip_csv(dir / "distinct.csv", analysis::filip2024_preset("parrot"), 1, pairs);
+    FitCommand c;
+    c.model = "filip2024";
+    c.data = dir / "distinct.csv";
+    const FitCommandResult r = run_fit_command(c, dir);
+    const record::Dataset map = record::read_dataset(r.output_dir / "residuals.h5", "residual");
+    EXPECT_EQ(map.dims, (std::vector<std::uint64_t>{3, 1024, 1024}));
+    EXPECT_NE(record::read_string_attribute(r.output_dir / "residuals.h5", "/", "title")
+                  .find("1100 light x 1100 view directions (in 1024 x 1024 cells"),
+              std::string::npos);
+    const std::size_t filled = static_cast<std::size_t>(std::count_if(
+        map.values.begin(), map.values.end(), [](double v) { return std::isfinite(v); }));
+    EXPECT_GE(filled, 3u * 1024u);  // every pair in some cell of each wavelength's panel
+    EXPECT_LE(filled, 3u * 1100u);
+    fs::remove_all(dir);
+}
+
 TEST(FitCommand, GoniometerRecordIsReadAsObservations) {
     const fs::path dir = scratch("record");
     gonio::BrdfRecord r;
