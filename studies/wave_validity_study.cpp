@@ -133,8 +133,9 @@ void read_detector(ParameterTable detector, Settings& s) {
     s.options.window.kernel =
         kernel == "box" ? wave::WindowKernel::box : wave::WindowKernel::gaussian;
     s.options.output_step_rad =
-        detector.angle_deg("step_deg", 1.0 * kDeg, {0.0, 10.0, true, false},
-                           "spacing of the detector centres over the reflected half-space, deg");
+        detector.angle_deg("step_deg", 1.0 * kDeg, {0.01, 10.0, false, false},
+                           "spacing of the detector centres over the reflected half-space, deg; "
+                           "at least 0.01 (17 800 centres over ±89°)");
     s.options.threshold = detector.number("threshold", 0.05, {0.0, 1.0, true, false},
                                           "relative L1 up to which ray optics suffices");
     s.options.outgoing_visibility = detector.boolean(

@@ -96,10 +96,12 @@ RayOpticsValidity2d compare_ray_and_physical_optics(const Row2d& row,
     for (double t : theta_i_rad)
         if (!std::isfinite(t) || std::abs(t) >= 0.5 * kPi)
             refuse(fmt::format("incidence {:.4g} rad must be finite and within ±π/2", t));
-    if (!std::isfinite(options.output_step_rad) || !(options.output_step_rad > 0.0) ||
+    // At least 0.01°: at most 17 800 detector centres over ±89° (a smaller step made the centres'
+    // table grow until memory ran out).
+    if (!std::isfinite(options.output_step_rad) || !(options.output_step_rad >= 0.01 * kDeg) ||
         options.output_step_rad > 10.0 * kDeg)
-        refuse(
-            fmt::format("detector step {:.4g} rad must be in (0, 10°]", options.output_step_rad));
+        refuse(fmt::format("detector step {:.4g} rad must be in [0.01°, 10°]",
+                           options.output_step_rad));
     if (!std::isfinite(options.max_step_um) || options.max_step_um < 0.0)
         refuse(fmt::format("max_step_um {:.4g} must be finite and >= 0", options.max_step_um));
     if (!(options.window.half_angle_rad > 0.0) || options.window.half_angle_rad > 0.25 * kPi)
