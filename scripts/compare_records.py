@@ -6,8 +6,8 @@ aside. Exit 0 when identical, 1 with one line per difference.
     scripts/compare_records.py RESULTS_A RESULTS_B
 
 What is set aside, and why: values that measure the run rather than the scene (wall time,
-CPU time and CPU/wall, thread count, the version string, and /provenance's date, host and git
-commit: a resumed run, or the same code on another day, machine or commit, writes the same
+CPU time and CPU/wall, the wave-validity map's per-cell times (RUN_DATASETS), thread count,
+the version string, and /provenance's date, host and git commit: a resumed run, or the same code on another day, machine or commit, writes the same
 numbers; the compiler and library versions are compared), the wall-time column of convergence
 tables, and CSV columns whose header names a time (a study's stages.csv: its wall, CPU and
 CPU/wall columns; the stage names are compared).
@@ -22,6 +22,9 @@ import numpy as np
 
 RUN_ATTRIBUTES = {"wall_time_s", "wall_seconds", "compute_wall_time_s", "cpu_time_s", "cpu_per_wall",
                   "threads", "plumage_version", "date", "host", "git_commit"}
+# Datasets that are clocks themselves (the wave-validity map's per-cell wall and CPU times of
+# each level): by the last part of their name.
+RUN_DATASETS = {"po_wall_s", "po_cpu_s", "go_wall_s", "go_cpu_s"}
 # Convergence tables: [pass, wall time (s), quanta, estimated error]; column 1 is the clock.
 CONVERGENCE_TIME_COLUMN = 1
 
@@ -58,6 +61,10 @@ def compare_h5(path_a, path_b, label, problems):
             x, y = a[name], b[name]
             compare_attributes(f"{label}:/{name}", x, y, problems)
             if isinstance(x, h5py.Dataset) and isinstance(y, h5py.Dataset):
+                if name.split("/")[-1] in RUN_DATASETS:
+                    if x.shape != y.shape:
+                        problems.append(f"{label}:/{name}: shapes differ")
+                    continue
                 u, v = x[()], y[()]
                 if name.split("/")[-1] == "convergence" and np.ndim(u) == 2 and np.shape(u) == np.shape(v):
                     u, v = np.array(u), np.array(v)
@@ -72,7 +79,8 @@ def compare_h5(path_a, path_b, label, problems):
 
 def timed_columns(header):
     """Columns that measure the run: "wall time (s)", "cpu time (s)", "cpu/wall", "seconds"..."""
-    return {i for i, h in enumerate(header) if "wall" in h or "time (s)" in h or h.strip() == "seconds"}
+    return {i for i, h in enumerate(header)
+            if "wall" in h or "time (s)" in h or h.strip() in {"seconds"} | RUN_DATASETS}
 
 
 def compare_csv(path_a, path_b, label, problems):

@@ -6,6 +6,7 @@
 
 #include <algorithm>
 #include <chrono>
+#include <cmath>
 #include <cstdio>
 #include <cstdlib>
 #include <filesystem>
@@ -15,6 +16,8 @@
 #include <sstream>
 #include <thread>
 
+#include <sys/resource.h>
+#include <sys/statvfs.h>
 #include <unistd.h>
 
 #include <fmt/format.h>
@@ -24,6 +27,7 @@
 #include "common/distributed.h"
 #include "common/error.h"
 #include "common/interrupt.h"
+#include "common/memory_limit.h"
 #include "common/version.h"
 #include "studies/bsdf_export.h"
 #include "studies/default_study.h"
@@ -48,6 +52,22 @@ struct CommonOptions {
     bool no_plots = false;
 };
 
+// A number in [lo, hi] (lo excluded when `above`); NaN and infinities refused (CLI11's
+// PositiveNumber and Range let NaN through: every comparison with it is false).
+CLI::Validator finite_in(const char* option, double lo, double hi, const char* expected,
+                         bool above) {
+    return CLI::Validator(
+        [=](std::string& value) -> std::string {
+            double v = 0.0;
+            if (!CLI::detail::lexical_cast(value, v) || !std::isfinite(v) || v < lo || v > hi ||
+                (above && v == lo)) {
+                return fmt::format("{} {}: expected {}", option, value, expected);
+            }
+            return {};
+        },
+        "");
+}
+
 void add_common_options(CLI::App& app, CommonOptions& o) {
     app.add_option("--threads", o.threads, "worker threads (default 0: all cores)")
         ->type_name("N")
@@ -67,12 +87,12 @@ void add_common_options(CLI::App& app, CommonOptions& o) {
     app.add_option("--time-budget", o.limits.time_budget_s,
                    "wall-time budget in seconds for each progressive measurement of a study")
         ->type_name("SECONDS")
-        ->check(CLI::PositiveNumber.description(""));
+        ->check(finite_in("--time-budget", 0.0, 1e12, "a number of seconds > 0", true));
     app.add_option("--target-error", o.limits.target_relative_error,
                    "stop each measurement once its estimated relative RMS error is below this "
                    "(e.g. 0.05)")
         ->type_name("FRACTION")
-        ->check(CLI::Range(0.0, 1.0).description(""));
+        ->check(finite_in("--target-error", 0.0, 1.0, "a fraction in [0, 1]", false));
     app.add_flag("--no-plots", o.no_plots,
                  "skip the matplotlib figures (records and reports stay)");
 }
@@ -110,13 +130,22 @@ void suggest(const CLI::App& app, int argc, char** argv) {
     for (const CLI::App* sub : app.get_subcommands([](const CLI::App*) { return true; })) {
         names.push_back(sub->get_name());
     }
-    std::vector<std::string> subcommands = names;
+    std::vector<std::string> subcommands = names, taking_values;
     for (const CLI::Option* option : app.get_options()) {
-        for (const std::string& long_name : option->get_lnames()) names.push_back("--" + long_name);
+        for (const std::string& long_name : option->get_lnames()) {
+            names.push_back("--" + long_name);
+            if (option->get_type_size() > 0) taking_values.push_back("--" + long_name);
+        }
     }
     for (int i = 1; i < argc; ++i) {
         std::string arg = argv[i];
         if (arg.rfind("--", 0) == 0) arg = arg.substr(0, arg.find('='));
+        // The value of an option ("--time-budget nan") is no misspelt subcommand.
+        if (arg == argv[i] &&
+            std::find(taking_values.begin(), taking_values.end(), arg) != taking_values.end()) {
+            ++i;
+            continue;
+        }
         const bool known = std::find(names.begin(), names.end(), arg) != names.end();
         if (known || (arg.rfind("-", 0) != 0 && fs::exists(arg))) continue;
         const auto& pool = arg.rfind("-", 0) == 0 ? names : subcommands;
@@ -284,9 +313,23 @@ struct CommandLine {
     }
 };
 
+// Each worker thread reserves a stack (RLIMIT_STACK, 8 MiB by default): --threads 1000 under a
+// memory limit aborted in the OpenMP runtime (exit 134) instead of being refused.
+void require_thread_memory(int threads) {
+    rlimit stack{};
+    const double per_thread =
+        ::getrlimit(RLIMIT_STACK, &stack) == 0 && stack.rlim_cur != RLIM_INFINITY
+            ? static_cast<double>(stack.rlim_cur)
+            : 8.0 * 1024 * 1024;
+    plumage::require_memory(
+        threads * per_thread,
+        fmt::format("--threads {} (a stack of {:.3g} MB each)", threads, per_thread / 1e6));
+}
+
 // Runs what the command line asks for; returns the summary for stdout.
 std::string run_command(CommandLine& cli) {
     const CommonOptions& common = cli.common;
+    if (common.threads > 0) require_thread_memory(common.threads);
     if (cli.geometry_cmd->parsed()) return run_geometry(cli.geometry_file, common);
     if (cli.fit_cmd->parsed()) {
         cli.fit.data = cli.fit_data;
@@ -317,6 +360,22 @@ std::string run_command(CommandLine& cli) {
 // The exit code of a failure, with its message on stderr. Whatever a stage threw once a
 // signal had arrived (an abandoned measurement's partial result, say) is the interruption's
 // doing.
+// "; no space left on device ..." when the results root's file system is full (a write that
+// failed for that reason says only that it failed).
+std::string full_disk_note(const std::string& output) {
+    struct statvfs fs_info {};
+    fs::path probe = output;
+    std::error_code ignored;
+    while (!probe.empty() && !fs::exists(probe, ignored)) probe = probe.parent_path();
+    if (probe.empty()) probe = ".";
+    if (::statvfs(probe.c_str(), &fs_info) != 0) return {};
+    const double free_bytes = static_cast<double>(fs_info.f_bavail) * fs_info.f_frsize;
+    if (free_bytes >= 1024.0 * 1024.0) return {};
+    return fmt::format(
+        "; the file system of '{}' is full ({:.0f} kB free): no space left on device",
+        probe.string(), free_bytes / 1024.0);
+}
+
 int report_failure(const std::exception& e, const std::string& output) {
     if (plumage::interrupt_signal() != 0) {
         std::cerr << fmt::format(
@@ -332,7 +391,7 @@ int report_failure(const std::exception& e, const std::string& output) {
         std::cerr << "plumage: error: " << e.what() << '\n';
         return 2;
     }
-    std::cerr << "plumage: failed: " << e.what() << '\n';
+    std::cerr << "plumage: failed: " << e.what() << full_disk_note(output) << '\n';
     return 1;
 }
 
@@ -387,7 +446,8 @@ int main(int argc, char** argv) {
     } catch (const CLI::ParseError& e) {
         const int code = cli.app.exit(e);
         if (code != 0) suggest(cli.app, argc, argv);
-        finish(code);
+        // Bad input exits 2, the command line's included (CLI11's own codes are 104-109).
+        finish(code == 0 ? 0 : 2);
     }
     if (cli.common.threads > 0) omp_set_num_threads(cli.common.threads);
     plumage::distributed::init(&argc, &argv);

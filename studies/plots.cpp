@@ -105,14 +105,32 @@ void stop_child(pid_t pid) {
     ::waitpid(pid, nullptr, 0);
 }
 
+// How long one plotter may run: PLUMAGE_PLOT_TIMEOUT_S (seconds > 0), default 600 (the default
+// study's batch of figures takes about 30 s). A plotter that never returns (a hung backend, a
+// stuck file system) is stopped then and its plot counts as failed: the run goes on and keeps its
+// records and report, instead of blocking for ever.
+double plot_timeout_s() {
+    const char* text = std::getenv("PLUMAGE_PLOT_TIMEOUT_S");
+    if (text == nullptr) return 600.0;
+    char* end = nullptr;
+    const double seconds = std::strtod(text, &end);
+    if (end == text || *end != '\0' || !(seconds > 0.0)) {
+        throw InputError(
+            fmt::format("PLUMAGE_PLOT_TIMEOUT_S = '{}': expected a number of seconds > 0", text));
+    }
+    return seconds;
+}
+
 // Runs the interpreter with the embedded script on its standard input and waits for it,
 // polling the interrupt flag: on Ctrl-C or SIGTERM the plotter is stopped at once and
 // Interrupted is thrown, so the plot stage stops as promptly as any other (popen's pclose
 // would wait for the plotter, which the signal to plumage alone does not reach, and leave
 // it running after the watchdog's forced exit). Returns whether the whole script was
-// written; `status` receives waitpid's status.
+// written; `status` receives waitpid's status, and -2 when the plotter was stopped after
+// plot_timeout_s().
 bool run_plotter(const std::vector<std::string>& args, const std::filesystem::path& png,
                  int& status) {
+    const double timeout_s = plot_timeout_s();
     // A plotter that dies before reading its script must not take plumage with it.
     std::signal(SIGPIPE, SIG_IGN);
     int fds[2];
@@ -143,10 +161,17 @@ bool run_plotter(const std::vector<std::string>& args, const std::filesystem::pa
         done += static_cast<std::size_t>(n);
     }
     ::close(fds[1]);
+    const auto start = std::chrono::steady_clock::now();
     while (::waitpid(pid, &status, WNOHANG) == 0) {
         if (interrupt_requested()) {
             stop_child(pid);
             throw Interrupted("interrupted while drawing " + png.filename().string());
+        }
+        if (std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count() >
+            timeout_s) {
+            stop_child(pid);
+            status = -2;
+            return false;
         }
         std::this_thread::sleep_for(std::chrono::milliseconds(10));
     }
@@ -165,6 +190,13 @@ bool run_plot(const std::string& kind, const std::filesystem::path& input,
     int status = -1;
     const bool written =
         run_plotter({python_interpreter(), "-", kind, input.string(), png.string()}, png, status);
+    if (status == -2) {
+        warn(
+            fmt::format("plot '{}' of {} stopped after {:g} s (PLUMAGE_PLOT_TIMEOUT_S); the "
+                        "records and the report are kept",
+                        kind, input.string(), plot_timeout_s()));
+        return false;
+    }
     if (!written || status == -1 || !WIFEXITED(status) || WEXITSTATUS(status) != 0) {
         warn(
             fmt::format("plot '{}' of {} failed (exit status {}; its message is above); the "

@@ -2,6 +2,9 @@
 
 #include <unistd.h>
 
+#include <cerrno>
+#include <cstring>
+
 #include <functional>
 #include <numeric>
 
@@ -14,8 +17,12 @@
 namespace plumage::record {
 namespace {
 
+// A write that failed for want of space says so (HDF5 reports only that the write failed).
 [[noreturn]] void fail(const std::filesystem::path& file, const std::string& what) {
-    throw IoError(fmt::format("HDF5 file '{}': {}", file.string(), what));
+    const int error = errno;
+    const bool full = error == ENOSPC || error == EDQUOT;
+    throw IoError(fmt::format("HDF5 file '{}': {}{}", file.string(), what,
+                              full ? fmt::format(" ({})", std::strerror(error)) : ""));
 }
 
 void check(herr_t status, const std::filesystem::path& file, const std::string& what) {
