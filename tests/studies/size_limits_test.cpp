@@ -1,7 +1,7 @@
 // Issue 43: every size a run will allocate is estimated from its validated inputs and refused at
 // read time, naming the key, the value, the estimate and the limit (common/memory_limit.h), where
 // before each ran until memory was gone: the spongy study at its documented maximum of 512 voxels
-// per side (about 41 GB) and the wave-validity detector step 1e-300 deg.
+// per side (about 41 GB), the wave-validity detector step 1e-300 deg and its rows of b = 0.001.
 #include <cstdlib>
 #include <filesystem>
 #include <fstream>
@@ -59,6 +59,18 @@ TEST(SizeLimits, WaveValidityDetectorStepHasALowerBound) {
         EXPECT_NE(message.find("step_deg"), std::string::npos) << message;
         EXPECT_NE(message.find("0.01"), std::string::npos) << message;
     }
+}
+
+TEST(SizeLimits, WaveValidityRowsOfThinBarbulesAreRefusedAtReadTime) {
+    // b = 0.001: tips of radius b²A, sampled at 0.95 of it: 6.5 × 10⁷ samples in the 2 µm row,
+    // which ran without end before.
+    const std::string text = with_line("wave_validity", "^b = .*$", "b = [0.001, 0.25]");
+    const std::string message =
+        plumage::testing::input_error_message([&] { check_study(text, quick("wave_validity")); });
+    EXPECT_NE(message.find("the row of b = 0.001"), std::string::npos) << message;
+    EXPECT_NE(message.find("at most 100000"), std::string::npos) << message;
+    EXPECT_NO_THROW(check_study(with_line("wave_validity", "^b = .*$", "b = [0.1, 0.25]"),
+                                quick("wave_validity")));
 }
 
 }  // namespace
