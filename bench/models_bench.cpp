@@ -237,7 +237,6 @@ void BM_Huang2022FitCone(benchmark::State& state) {
 }
 BENCHMARK(BM_Huang2022FitCone)
     ->Args({41, 3})
-    ->Args({101, 3})
     ->Iterations(1)
     ->Unit(benchmark::kSecond)
     ->UseRealTime();
