@@ -325,6 +325,17 @@ Fitted fit_huang(const FitCommand& c) {
     return {analysis::summarise_fit(fit, options, std::move(provenance)), m, "", ""};
 }
 
+// The fit, its refusals naming the data file (the model's own checks, "0 observations with
+// signal", do not know which file the observations came from).
+Fitted fitted_naming_the_data(const FitCommand& c) {
+    try {
+        return c.model == "filip2024" ? fit_filip(c) : fit_huang(c);
+    } catch (const InputError& e) {
+        if (std::string(e.what()).find(c.data.string()) != std::string::npos) throw;
+        throw InputError(fmt::format("{}: {}", c.data.string(), e.what()));
+    }
+}
+
 void write_report(const fs::path& path, const FitCommand& c, const Fitted& f) {
     const analysis::FitSummary& s = f.summary;
     std::ofstream md(path);
@@ -364,13 +375,18 @@ FitCommandResult run_fit_command(const FitCommand& c, const fs::path& results_ro
         throw InputError(fmt::format("--pixel-stride {}: expected 1 to 64", c.pixel_stride));
     const std::string name =
         c.name.empty() ? fmt::format("fit_{}_{}", c.model, c.data.stem().string()) : c.name;
-    if (const std::string problem = study_name_problem(name); !problem.empty())
-        throw InputError(fmt::format("--name {}: {}", name, problem));
+    if (const std::string problem = study_name_problem(name); !problem.empty()) {
+        if (!c.name.empty()) throw InputError(fmt::format("--name {}: {}", name, problem));
+        throw InputError(fmt::format(
+            "{}: the results folder's name is made from the data file's, '{}', which {}; give "
+            "one with --name",
+            c.data.string(), name, problem));
+    }
     analysis::data_kind(c.data);  // the file exists and is a table or a record
     StagedDirectory::prepare(results_root / name);
     // Everything that can refuse the input (data, parameters, the fit itself) runs before the
     // results folder is created.
-    const Fitted f = c.model == "filip2024" ? fit_filip(c) : fit_huang(c);
+    const Fitted f = fitted_naming_the_data(c);
     StagedDirectory out(results_root / name);
     if (!f.residuals_csv.empty()) {
         std::ofstream csv(out.path() / "residuals.csv");
