@@ -194,7 +194,7 @@ void read_illumination(const record::Hdf5Reader& file, gonio::ScatterometerConfi
             !(std::isfinite(z) && z > 0.0)) {
             throw InputError(fmt::format(
                 "{}beam_direction = '{}': expected \"x y z\", three finite numbers towards the "
-                "light, z > 0",
+                "light, of length >= 1e-9, z > 0",
                 where, text.substr(0, 80)));
         }
         c.beam_direction = Vec3d(x, y, z).normalized();
@@ -210,6 +210,12 @@ void read_illumination(const record::Hdf5Reader& file, gonio::ScatterometerConfi
         }
         c.cone_aperture_rad = aperture_deg * std::numbers::pi / 180.0;
     }
+}
+
+// "an" before a vowel ("an imaging_scatterometer record"), else "a".
+const char* article(const std::string& word) {
+    return !word.empty() && std::string_view("aeiou").find(word[0]) != std::string_view::npos ? "an"
+                                                                                              : "a";
 }
 
 void require_file(const fs::path& path) {
@@ -233,6 +239,8 @@ BrdfData read_brdf_csv(const fs::path& path) {
     std::optional<Columns> columns;
     std::string line;
     for (int number = 1; std::getline(in, line); ++number) {
+        // Excel's "CSV UTF-8" starts with a byte-order mark.
+        if (number == 1 && line.rfind("\xEF\xBB\xBF", 0) == 0) line.erase(0, 3);
         const std::string text = trim(line);
         if (text.empty() || text[0] == '#') continue;
         const std::string where = fmt::format("{}:{}", path.string(), number);
@@ -335,17 +343,17 @@ BrdfData read_brdf_data(const fs::path& path) {
     if (kind == "csv") return read_brdf_csv(path);
     if (kind == "goniometer") return read_brdf_record(path);
     throw InputError(
-        fmt::format("{}: a {} record; expected BRDF data (a goniometer record or a "
+        fmt::format("{}: {} {} record; expected BRDF data (a goniometer record or a "
                     "CSV table)",
-                    path.string(), kind));
+                    path.string(), article(kind), kind));
 }
 
 gonio::Scatterogram read_scatterogram_record(const fs::path& path) {
     const std::string kind = data_kind(path);
     if (kind != "imaging_scatterometer") {
         throw InputError(
-            fmt::format("{}: a {} {}; expected a scatterogram (an imaging-scatterometer record)",
-                        path.string(), kind, kind == "csv" ? "table" : "record"));
+            fmt::format("{}: {} {} {}; expected a scatterogram (an imaging-scatterometer record)",
+                        path.string(), article(kind), kind, kind == "csv" ? "table" : "record"));
     }
     const record::Hdf5Reader file(path);
     gonio::Scatterogram s;

@@ -257,9 +257,9 @@ struct CommandLine {
                          "geometry file (TOML), e.g. studies/geometry/rock_dove_row.toml")
             ->required();
         add_fit_command();
-        for (CLI::App* sub : {thin_film_cmd, run_cmd, geometry_cmd, fit_cmd})
-            add_common_options(*sub, common);
         add_bsdf_export();
+        for (CLI::App* sub : {thin_film_cmd, run_cmd, geometry_cmd, fit_cmd, bsdf_cmd})
+            add_common_options(*sub, common);
     }
 
     // `export-bsdf` (studies/bsdf_export.h): a model of a study as an RGL tensor .bsdf.

@@ -264,10 +264,9 @@ std::vector<std::uint64_t> Hdf5Reader::shape(const std::string& dataset_path,
     }
     const auto count = count_of(*dims);
     if (!count || *count > expected.max_values) {
-        refuse(where, fmt::format("found {}{}; expected at most {} values (the reader's limit: "
-                                  "{} MiB as doubles)",
-                                  found, count ? fmt::format(", {} values", *count) : "",
-                                  expected.max_values, expected.max_values * 8 >> 20));
+        refuse(where,
+               fmt::format("found {}{}; expected at most {} values", found,
+                           count ? fmt::format(", {} values", *count) : "", expected.max_values));
     }
     return *dims;
 }
