@@ -722,9 +722,12 @@ AblationResult run_ablation_study(const std::string& study_text, const fs::path&
     StagedDirectory out(results_root / name);
     Run run{s, scatterometer_config(s, study_text, limits), clock, out.path(), 1.0, {}, {}, {}};
     run.jobs = value_jobs(s);  // build and measure, value by value
-    run.measured = measure_all(run, checkpoint_folder(results_root, name) / "values",
-                               fmt::format("{}|{:.17g}|{:.17g}", study_text, limits.time_budget_s,
-                                           limits.target_relative_error));
+    // The values' checkpoints belong to this build, study text and limits (the study reads no
+    // input file: its geometry is made from the text).
+    run.measured =
+        measure_all(run, checkpoint_folder(results_root, name) / "values",
+                    fmt::format("{}|{}|{:.17g}|{:.17g}", gonio::checkpoint_build(), study_text,
+                                limits.time_budget_s, limits.target_relative_error));
     measure_base(run, file->root().table("geometry").location(), run.measured.front());
     const double measure_seconds = clock.elapsed_s();
 

@@ -74,7 +74,8 @@ constexpr double kMaxFilmUm = 50.0;  // the Huang model's and the film tables' r
 
 struct Sample {
     fs::path file;
-    std::string file_location;  // file:line:col of [sample] file, for errors found later
+    std::string file_as_written;  // [sample] file, relative to the study file
+    std::string file_location;    // file:line:col of [sample] file, for errors found later
     std::string grid = "keratin";
     geometry::MeshImportOptions import;
     Vec3d offset_um = Vec3d::Zero();
@@ -105,6 +106,7 @@ Sample read_sample(ParameterTable t, const fs::path& source) {
         "the sample's mesh (.ply, .obj) or level set (.vdb), relative to the study file");
     s.file_location = t.location("file");
     s.file = source.parent_path() / file;
+    s.file_as_written = file;
     if (!fs::is_regular_file(s.file)) {
         throw InputError(fmt::format("{}: sample.file = \"{}\": no such file ({})", s.file_location,
                                      file, s.file.string()));
@@ -328,11 +330,16 @@ struct Measured {
     double wall_s = 0.0;
 };
 
+// The BRDF, checkpointed in `checkpoint` under the identity of the study text, the
+// configuration and `inputs` (the sample file's content).
 Measured measure_brdf_record(const Built& b, const gonio::GoniometerConfig& c, const fs::path& dir,
-                             const fs::path& checkpoint, const StudyProgress& clock) {
+                             const fs::path& checkpoint,
+                             const std::vector<gonio::CheckpointPart>& inputs,
+                             const StudyProgress& clock) {
     clock.say(fmt::format("BRDF on {} ({} pairs)", c.direction_set, c.pairs.size()));
     gonio::RunControl control;
     control.checkpoint = checkpoint;
+    control.checkpoint_inputs = inputs;
     fs::create_directories(checkpoint.parent_path());
     const gonio::BrdfRecord r = gonio::measure_brdf(*b.scatterer, c, control);
     if (r.interrupted) {
@@ -476,6 +483,16 @@ std::string run(const std::string& text, const fs::path& source, const fs::path&
     if (s.scatterogram && limits.target_relative_error > 0.0)
         s.scatterogram->target_relative_error = limits.target_relative_error;
     clock.say("importing the sample and building its scene");
+    // The sample file's content keys the BRDF's checkpoint. Hashed before it is imported: a file
+    // changed in between leaves a checkpoint keyed by content it was not made from, which no
+    // later run resumes (hashed after, a checkpoint of the old content would carry the new
+    // content's key).
+    std::vector<gonio::CheckpointPart> inputs;
+    if (s.brdf) {
+        inputs.push_back(input_file_part(
+            fmt::format("the content of the sample file '{}'", s.sample.file_as_written),
+            s.sample.file));
+    }
     Built b = build(s.sample);  // build
     if (s.brdf) {
         std::vector<Vec3d> lights;
@@ -491,7 +508,7 @@ std::string run(const std::string& text, const fs::path& source, const fs::path&
     if (s.brdf) {
         rows.push_back(measure_brdf_record(
             b, *s.brdf, out.path(), checkpoint_folder(results_root, s.name) / "brdf.checkpoint",
-            clock));
+            inputs, clock));
     }
     if (s.scatterogram)
         rows.push_back(measure_scatterogram_record(b, *s.scatterogram, out.path(), clock));

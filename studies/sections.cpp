@@ -7,6 +7,7 @@
 #include "geometry/barbule.h"
 #include "sim/optics/spectrum.h"
 #include "sim/random.h"
+#include "studies/staged_directory.h"
 
 namespace plumage::studies {
 
@@ -24,7 +25,7 @@ std::string study_name_problem(std::string_view name) {
                                c == '/' ? std::string("/") : std::string(1, c));
         }
     }
-    return {};
+    return staging_name_problem(name);  // names the results root's own entries could take
 }
 
 std::string read_study_name(ParameterTable& root, const std::filesystem::path& source) {

@@ -19,8 +19,10 @@ namespace plumage::studies {
 
 // `name`: the results folder, <results root>/<name>. One plain folder name: 1 to
 // kMaxStudyNameLength characters from [A-Za-z0-9._-], not "." or "..", so that a name can
-// never reach outside the results root. Defaults to the study file's stem (which must obey
-// the same rule, or the file must set `name`).
+// never reach outside the results root, and none that plumage's own entries in the root could
+// take (staging_name_problem, studies/staged_directory.h: ".partial-", ".previous-", ...).
+// Defaults to the study file's stem (which must obey the same rule, or the file must set
+// `name`).
 inline constexpr std::size_t kMaxStudyNameLength = 100;
 std::string read_study_name(ParameterTable& root, const std::filesystem::path& source);
 // The rule itself: empty when `name` is a valid study name, else what is wrong with it.

@@ -9,16 +9,20 @@
 #include <iostream>
 #include <map>
 #include <numeric>
+#include <random>
 #include <span>
 #include <string_view>
+#include <tuple>
 
 #include <fmt/format.h>
 
+#include "common/build_info.h"
 #include "common/constants.h"
 #include "common/cpu_time.h"
 #include "common/distributed.h"
 #include "common/error.h"
 #include "common/require.h"
+#include "common/version.h"
 #include "virtual_gonio/display_colour.h"
 #include "virtual_gonio/hdf5_file.h"
 #include "virtual_gonio/record_provenance.h"
@@ -34,7 +38,7 @@ constexpr std::size_t kBlocksPerRank = 4;
 // The name that prefixes this file's input errors.
 constexpr std::string_view kWhat = "goniometer";
 
-// FNV-1a: a stable hash of the configuration, to refuse resuming a different run.
+// FNV-1a: a stable hash of a checkpoint's parts, to tell a different run's checkpoint.
 std::uint64_t fnv1a(const std::string& text) {
     std::uint64_t h = 1469598103934665603ULL;
     for (unsigned char c : text) h = (h ^ c) * 1099511628211ULL;
@@ -54,9 +58,6 @@ std::string canonical(const GoniometerConfig& c, const std::string& scatterer,
     if (c.split_paths) s += "split_paths|";
     if (c.guided_fraction > 0.0) s += fmt::format("guided={:.17g}|", c.guided_fraction);
     if (c.guided_branches > 0) s += fmt::format("guided_branches={}|", c.guided_branches);
-    // The study text describes the scene the scatterer was built from (its name alone does not:
-    // a changed geometry under the same instrument must not resume another run's sums).
-    s += c.config_text + "|";
     for (const auto& p : c.pairs) {
         s += fmt::format("{:.17g},{:.17g},{:.17g},{:.17g},{:.17g},{:.17g};", p.wi.x(), p.wi.y(),
                          p.wi.z(), p.wo.x(), p.wo.y(), p.wo.z());
@@ -320,8 +321,53 @@ double relative_rms(BrdfRecord& r) {
                  : std::numeric_limits<double>::infinity();
 }
 
-void write_checkpoint(const std::filesystem::path& path, const Sums& sums, const BrdfRecord& r,
-                      std::uint64_t hash) {
+constexpr const char* kBuildPart = "the build";
+
+// What this run's checkpoint is made from (goniometer.h, "Checkpoints"). The study text
+// describes the scene the scatterer was built from (its name alone does not: a changed geometry
+// under the same instrument must not resume another run's sums); the input files' content, which
+// the text only names, comes from the caller.
+std::vector<CheckpointPart> checkpoint_identity(const GoniometerConfig& c,
+                                                const std::string& scatterer, Estimator estimator,
+                                                const RunControl& control) {
+    std::vector<CheckpointPart> parts = {
+        {kBuildPart, checkpoint_build()},
+        {"the study file", fmt::format("{:016x}", fnv1a(c.config_text))},
+        {"the measurement's configuration",
+         fmt::format("{:016x}", fnv1a(canonical(c, scatterer, estimator)))}};
+    parts.insert(parts.end(), control.checkpoint_inputs.begin(), control.checkpoint_inputs.end());
+    return parts;
+}
+
+// One part per line, "what<TAB>value" (tabs and line breaks inside either become spaces).
+std::string identity_text(const std::vector<CheckpointPart>& parts) {
+    auto flat = [](std::string text) {
+        std::replace_if(
+            text.begin(), text.end(), [](char c) { return c == '\t' || c == '\n' || c == '\r'; },
+            ' ');
+        return text;
+    };
+    std::string text;
+    for (const CheckpointPart& p : parts) text += flat(p.what) + '\t' + flat(p.value) + '\n';
+    return text;
+}
+
+std::vector<CheckpointPart> parse_identity(const std::string& text) {
+    std::vector<CheckpointPart> parts;
+    std::size_t start = 0;
+    while (start < text.size()) {
+        std::size_t end = text.find('\n', start);
+        if (end == std::string::npos) end = text.size();
+        const std::string line = text.substr(start, end - start);
+        const auto tab = line.find('\t');
+        if (tab != std::string::npos) parts.push_back({line.substr(0, tab), line.substr(tab + 1)});
+        start = end + 1;
+    }
+    return parts;
+}
+
+void write_checkpoint_file(const std::filesystem::path& path, const Sums& sums, const BrdfRecord& r,
+                           const std::vector<CheckpointPart>& identity) {
     record::Hdf5Writer h5(path);
     using Dims = std::vector<std::uint64_t>;
     h5.write("sum", std::span<const double>(sums.sum), Dims{sums.sum.size()});
@@ -330,34 +376,99 @@ void write_checkpoint(const std::filesystem::path& path, const Sums& sums, const
     h5.write("lobe_sum_sq", std::span<const double>(sums.lobe_sum_sq),
              Dims{sums.lobe_sum_sq.size()});
     write_convergence(h5, r.convergence);
-    h5.set_attribute("/", "config_hash", fmt::format("{}", hash));
+    h5.set_attribute("/", "checkpoint_identity", identity_text(identity));
     h5.set_attribute("/", "passes", static_cast<double>(r.passes));
     h5.set_attribute("/", "wall_time_s", r.wall_time_s);
     h5.set_attribute("/", "cpu_time_s", r.cpu_time_s);
     h5.commit();
 }
 
-bool read_checkpoint(const std::filesystem::path& path, Sums& sums, BrdfRecord& r,
-                     std::uint64_t hash) {
-    if (path.empty() || !std::filesystem::exists(path)) return false;
-    if (record::read_string_attribute(path, "/", "config_hash") != fmt::format("{}", hash)) {
-        throw InputError(
-            fmt::format("goniometer: checkpoint '{}' belongs to a different measurement (its "
-                        "configuration differs); remove it to start afresh",
-                        path.string()));
+// Written under a name of this process alone, then renamed over `path`. Another run of the same
+// study may share the checkpoint (runs of one identity write the same sums pass by pass, so
+// either's checkpoint is good for both), and in another PID namespace it may have our pid, which
+// is all the writer's own temporary name carries. A run of it that finished meanwhile may have
+// removed the folder.
+void write_checkpoint(const std::filesystem::path& path, const Sums& sums, const BrdfRecord& r,
+                      const std::vector<CheckpointPart>& identity) {
+    std::error_code error;
+    std::filesystem::create_directories(path.parent_path(), error);
+    static std::random_device random;
+    std::filesystem::path unique = path;
+    unique += fmt::format(".{:08x}{:08x}", random(), random());
+    write_checkpoint_file(unique, sums, r, identity);
+    std::filesystem::rename(unique, path, error);
+    if (error) {
+        std::filesystem::remove(unique, error);
+        throw IoError(fmt::format("cannot rename checkpoint {} into place", path.string()));
     }
-    sums.sum = record::read_dataset(path, "sum").values;
-    sums.sum_sq = record::read_dataset(path, "sum_sq").values;
-    sums.lobe_sum = record::read_dataset(path, "lobe_sum").values;
-    sums.lobe_sum_sq = record::read_dataset(path, "lobe_sum_sq").values;
-    for (const ConvergenceRow& row : read_convergence(path)) r.convergence.push_back(row);
-    r.passes = static_cast<int>(record::read_number_attribute(path, "/", "passes"));
-    r.wall_time_s = record::read_number_attribute(path, "/", "wall_time_s");
+}
+
+// The sums and passes of a checkpoint made from `identity`, into `sums` (sized for this run) and
+// `r`, each checked; "" when resumable, else why not (`sums` and `r` then untouched).
+std::string load_checkpoint(const std::filesystem::path& path, Sums& sums, BrdfRecord& r,
+                            const std::vector<CheckpointPart>& identity) {
+    const record::Hdf5Reader h5(path);
+    if (!h5.has_attribute("/", "checkpoint_identity")) {
+        return "it was written by an earlier plumage that did not record what it was made from";
+    }
+    std::string why = checkpoint_differences(
+        parse_identity(h5.string_attribute("/", "checkpoint_identity")), identity);
+    if (!why.empty()) return why;
+    Sums loaded;
+    for (auto [name, to, from] : {std::tuple{"sum", &loaded.sum, &sums.sum},
+                                  {"sum_sq", &loaded.sum_sq, &sums.sum_sq},
+                                  {"lobe_sum", &loaded.lobe_sum, &sums.lobe_sum},
+                                  {"lobe_sum_sq", &loaded.lobe_sum_sq, &sums.lobe_sum_sq}}) {
+        *to = h5.dataset(name, {1, std::max<std::uint64_t>(from->size(), 1)}).values;
+        if (to->size() != from->size() ||
+            !std::all_of(to->begin(), to->end(), [](double v) { return std::isfinite(v); })) {
+            return fmt::format(
+                "it is damaged (its '{}' has {} values, or values that are not "
+                "finite; this measurement has {})",
+                name, to->size(), from->size());
+        }
+    }
+    const std::vector<ConvergenceRow> convergence = read_convergence(path);
+    const double passes = h5.number_attribute("/", "passes");
+    const double wall = h5.number_attribute("/", "wall_time_s");
     // Checkpoints written before CPU time was recorded lack it: their passes count as none.
-    r.cpu_time_s = record::has_attribute(path, "/", "cpu_time_s")
-                       ? record::read_number_attribute(path, "/", "cpu_time_s")
-                       : 0.0;
-    return true;
+    const double cpu =
+        h5.has_attribute("/", "cpu_time_s") ? h5.number_attribute("/", "cpu_time_s") : 0.0;
+    if (!(passes >= 0.0 && passes <= 1e9 && passes == std::floor(passes)) ||
+        convergence.size() != static_cast<std::size_t>(passes) || !(wall >= 0.0) || !(cpu >= 0.0) ||
+        !std::isfinite(wall) || !std::isfinite(cpu)) {
+        return fmt::format(
+            "it is damaged ({} passes with {} convergence rows, wall {} s, CPU {} s)", passes,
+            convergence.size(), wall, cpu);
+    }
+    sums = std::move(loaded);
+    r.convergence = convergence;
+    r.passes = static_cast<int>(passes);
+    r.wall_time_s = wall;
+    r.cpu_time_s = cpu;
+    return {};
+}
+
+// Whether the run resumes from `path` (goniometer.h, "Checkpoints"): a checkpoint that is
+// missing, unreadable, damaged or made from anything else is not resumed, saying why on stderr,
+// and stays until this run's first pass replaces it.
+bool read_checkpoint(const std::filesystem::path& path, Sums& sums, BrdfRecord& r,
+                     const std::vector<CheckpointPart>& identity) {
+    std::error_code error;
+    if (path.empty() || !std::filesystem::exists(path, error)) return false;
+    std::string why;
+    try {
+        why = load_checkpoint(path, sums, r, identity);
+        if (why.empty()) return true;
+    } catch (const Interrupted&) {
+        throw;
+    } catch (const std::exception& e) {
+        why = fmt::format("it cannot be read ({})", e.what());
+    }
+    std::cerr << fmt::format(
+        "plumage: not resuming {}: {}; starting afresh (this run's first pass replaces it)\n",
+        path.string(), why);
+    return false;
 }
 
 // Under MPI only rank 0 reads the checkpoint: its resume state, sent to every rank, so that all
@@ -386,6 +497,38 @@ bool share_resumed_state(bool resumed, Sums& sums, BrdfRecord& r) {
 }
 
 }  // namespace
+
+std::string checkpoint_build() {
+    return fmt::format("plumage {}, git {}, {}", kVersion, git_commit(), compiler());
+}
+
+std::string checkpoint_differences(const std::vector<CheckpointPart>& stored,
+                                   const std::vector<CheckpointPart>& current) {
+    auto find = [](const std::vector<CheckpointPart>& parts, const std::string& what) {
+        return std::find_if(parts.begin(), parts.end(),
+                            [&](const CheckpointPart& p) { return p.what == what; });
+    };
+    std::vector<std::string> differences;
+    for (const CheckpointPart& now : current) {
+        const auto then = find(stored, now.what);
+        if (then == stored.end()) {
+            differences.push_back(fmt::format("{} is new", now.what));
+        } else if (then->value != now.value) {
+            // The build is said in words; the other parts are hashes, which would tell nothing.
+            differences.push_back(
+                now.what == kBuildPart
+                    ? fmt::format("the build changed (from {} to {})", then->value, now.value)
+                    : fmt::format("{} changed", now.what));
+        }
+    }
+    for (const CheckpointPart& then : stored) {
+        if (find(current, then.what) == current.end())
+            differences.push_back(fmt::format("{} is no longer an input", then.what));
+    }
+    std::string text;
+    for (const std::string& d : differences) text += (text.empty() ? "" : "; ") + d;
+    return text;
+}
 
 const char* to_string(Aperture aperture) {
     switch (aperture) {
@@ -652,12 +795,16 @@ BrdfRecord measure_brdf(const Scatterer& scatterer, const GoniometerConfig& conf
     // Spectral path sharing (goniometer.h): one item, one path per quantum for every λ.
     const bool shared = r.wavelength_paths_shared;
     const std::size_t item_wavelengths = shared ? nl : 1;
-    const std::uint64_t hash = fnv1a(canonical(config, r.scatterer, r.estimator_used));
+    const std::vector<CheckpointPart> identity =
+        control.checkpoint.empty()
+            ? std::vector<CheckpointPart>{}
+            : checkpoint_identity(config, r.scatterer, r.estimator_used, control);
 
     Sums sums{std::vector<double>(np * nl, 0.0), std::vector<double>(np * nl, 0.0),
               std::vector<double>(nlobes * np * nl, 0.0),
               std::vector<double>(nlobes * np * nl, 0.0)};
-    bool resumed = distributed::rank() == 0 && read_checkpoint(control.checkpoint, sums, r, hash);
+    bool resumed =
+        distributed::rank() == 0 && read_checkpoint(control.checkpoint, sums, r, identity);
     if (distributed::active()) resumed = share_resumed_state(resumed, sums, r);
     if (resumed && control.progress) {
         std::cerr << fmt::format("  {}: resuming after {} completed passes from {}\n", r.scatterer,
@@ -721,7 +868,7 @@ BrdfRecord measure_brdf(const Scatterer& scatterer, const GoniometerConfig& conf
         r.passes = pass + 1;
         r.convergence.push_back(finish_row(r.passes));
         if (!control.checkpoint.empty() && distributed::rank() == 0)
-            write_checkpoint(control.checkpoint, sums, r, hash);
+            write_checkpoint(control.checkpoint, sums, r, identity);
         if (control.progress) {
             const auto& row = r.convergence.back();
             std::cerr << fmt::format(

@@ -3,8 +3,13 @@
 // wavelength step without a lower bound (200 001 wavelengths, or allocation until out of
 // memory); orphaned staging folders after a kill; a failed plot losing the whole study; and
 // an interrupt that only the goniometer's pass loop heard. They run through the same entry
-// points as `plumage run` (studies/study.h), for every study kind.
+// points as `plumage run` (studies/study.h), for every study kind. Issue 43's staging defects
+// (each reproduced on 880503c): a staging folder of a run in another PID namespace taken for an
+// orphan, and study names that collide with the staging folders.
+#include <fcntl.h>
 #include <signal.h>
+#include <sys/file.h>
+#include <sys/stat.h>
 #include <sys/wait.h>
 #include <unistd.h>
 
@@ -26,6 +31,7 @@
 #include "studies/sections.h"
 #include "studies/staged_directory.h"
 #include "studies/study.h"
+#include "studies/study_common.h"
 #include "tests/test_util.h"
 
 namespace plumage::studies {
@@ -103,6 +109,12 @@ TEST_F(Reliability, StudyNameRule) {
     for (const char* bad : {"", ".", "..", "/abs", "a/b", "a\\b", "é", "a b", "a\nb"}) {
         EXPECT_NE(study_name_problem(bad), "") << bad;
     }
+    // Issue 43: the names of plumage's own entries in a results root.
+    for (const char* reserved : {"x.partial-999999", "y.previous-999998", "a.partial-",
+                                 ".checkpoints", ".plumage-results", ".plumage-owner"}) {
+        EXPECT_NE(study_name_problem(reserved).find("reserved"), std::string::npos) << reserved;
+    }
+    EXPECT_EQ(study_name_problem("partial-1.previous"), "");
     std::string text = read(quick("masking"));
     text = std::regex_replace(text, std::regex("^name = .*$", std::regex::multiline), "");
     const std::string message =
@@ -141,30 +153,193 @@ pid_t dead_pid() {
     return child;
 }
 
+std::string first_line(const fs::path& p) {
+    std::ifstream in(p);
+    std::string line;
+    std::getline(in, line);
+    return line;
+}
+
+// An owner record (studies/staged_directory.h) as process `pid` of this host, boot and PID
+// namespace would write it; tests change one field to make a foreign owner.
+struct Owner {
+    long pid;
+    std::string host, boot_id, pid_namespace, start_time = "1";
+};
+Owner owner_here(long pid) {
+    char host[256] = {};
+    ::gethostname(host, sizeof host - 1);
+    struct stat ns = {};
+    ::stat("/proc/self/ns/pid", &ns);
+    return {pid, host, first_line("/proc/sys/kernel/random/boot_id"), std::to_string(ns.st_ino)};
+}
+// A staging folder as a run of `owner` leaves it: the marker and the owner record.
+void write_staged(const fs::path& dir, const Owner& o) {
+    write(dir / kResultsMarker, "");
+    write(dir / kOwnerRecord,
+          fmt::format("host={}\nboot_id={}\npid_namespace={}\npid={}\nstart_time={}\n", o.host,
+                      o.boot_id, o.pid_namespace, o.pid, o.start_time));
+}
+
+// Field 22 of /proc/<pid>/stat.
+std::string start_time(pid_t pid) {
+    const std::string line = first_line(fmt::format("/proc/{}/stat", pid));
+    std::istringstream fields(line.substr(line.rfind(')') + 1));
+    std::string field;
+    for (int number = 3; number <= 22; ++number) fields >> field;
+    return field;
+}
+
 // Defect 4: staging folders of killed runs are removed on the next start (and said so); a
 // result displaced by a commit that was killed halfway is restored; folders without the
-// marker, and folders of live processes, are left alone.
+// marker, and folders of live processes, are left alone. Issue 43: "live" is told by the owner
+// record's lock, and by the pid with its start time.
 TEST_F(Reliability, OrphanedStagingFoldersAreRemovedOnStart) {
     const pid_t gone = dead_pid();
     const fs::path results = root_ / "results";
-    write(results / fmt::format("masking_quick.partial-{}", gone) / kResultsMarker, "");
-    write(results / fmt::format("masking_quick.partial-{}", gone) / "half.h5", "x");
-    write(results / fmt::format("rock_dove.previous-{}", gone) / kResultsMarker, "");
-    write(results / fmt::format("rock_dove.previous-{}", gone) / "report.md", "kept");
+    const fs::path orphan = results / fmt::format("masking_quick.partial-{}-0000000a", gone);
+    write_staged(orphan, owner_here(gone));
+    write(orphan / "half.h5", "x");
+    const fs::path displaced = results / fmt::format("rock_dove.previous-{}-0000000b", gone);
+    write_staged(displaced, owner_here(gone));
+    write(displaced / "report.md", "kept");
     write(results / fmt::format("notes.partial-{}", gone) / "mine.txt", "no marker");
-    write(results / fmt::format("other.partial-{}", ::getppid()) / kResultsMarker, "");
+    // Alive by its pid and start time (our parent), though nobody holds its lock.
+    Owner parent = owner_here(::getppid());
+    parent.start_time = start_time(::getppid());
+    write_staged(results / "other.partial-1-0000000c", parent);
+    // Alive by its lock, though its pid is gone.
+    const fs::path locked = results / fmt::format("held.partial-{}-0000000d", gone);
+    write_staged(locked, owner_here(gone));
+    const int fd = ::open((locked / kOwnerRecord).c_str(), O_RDONLY);
+    ASSERT_EQ(::flock(fd, LOCK_EX), 0);
 
     const std::vector<std::string> actions = StagedDirectory::remove_orphans(results);
-    EXPECT_EQ(actions.size(), 3u);
-    EXPECT_FALSE(fs::exists(results / fmt::format("masking_quick.partial-{}", gone)));
+    ::close(fd);
+    EXPECT_EQ(actions.size(), 3u) << ::testing::PrintToString(actions);
+    EXPECT_FALSE(fs::exists(orphan));
     EXPECT_EQ(read(results / "rock_dove" / "report.md"), "kept");
+    EXPECT_FALSE(fs::exists(results / "rock_dove" / kOwnerRecord));
     EXPECT_TRUE(fs::exists(results / fmt::format("notes.partial-{}", gone) / "mine.txt"));
-    EXPECT_TRUE(fs::exists(results / fmt::format("other.partial-{}", ::getppid())));
+    EXPECT_TRUE(fs::exists(results / "other.partial-1-0000000c"));
+    EXPECT_TRUE(fs::exists(locked));
+    // What is left alone is said once per process.
+    EXPECT_EQ(StagedDirectory::remove_orphans(results).size(), 1u);  // now `held`: its lock is free
 
     // And through a study's start.
-    write(results / fmt::format("ablation.partial-{}", gone) / kResultsMarker, "");
+    write_staged(results / fmt::format("ablation.partial-{}-0000000e", gone), owner_here(gone));
     run_masking_study(read(quick("masking")), quick("masking"), results, false);
-    EXPECT_FALSE(fs::exists(results / fmt::format("ablation.partial-{}", gone)));
+    EXPECT_FALSE(fs::exists(results / fmt::format("ablation.partial-{}-0000000e", gone)));
+}
+
+// Issue 43: a run in another container, on another host or before a reboot shared --out; its
+// pid means nothing here. A folder whose owner cannot be proven gone is never removed, and said
+// so once; one of this boot whose lock is free is gone, whatever its PID namespace.
+TEST_F(Reliability, StagingFoldersOfOwnersNotProvenGoneAreLeftAlone) {
+    const pid_t gone = dead_pid();
+    const fs::path results = root_ / "results";
+    Owner other_boot = owner_here(gone), other_host = owner_here(gone), incomplete = owner_here(0);
+    other_boot.boot_id = "00000000-0000-0000-0000-000000000000";
+    other_host.host = "another-node";
+    incomplete.pid_namespace = "";
+    write_staged(results / "a.partial-7-00000001", other_boot);
+    write_staged(results / "b.previous-7-00000002", other_host);
+    write_staged(results / "c.partial-7-00000003", incomplete);
+    write(results / "x.partial-999999" / kResultsMarker, "");  // an older plumage's result
+    write(results / "x.partial-999999" / "report.md", "mine");
+    Owner other_namespace = owner_here(gone);
+    other_namespace.pid_namespace = "4026531999";
+    write_staged(results / "d.partial-7-00000004", other_namespace);
+
+    const std::vector<std::string> actions = StagedDirectory::remove_orphans(results);
+    const std::string said = ::testing::PrintToString(actions);
+    EXPECT_EQ(actions.size(), 5u) << said;
+    for (const char* kept : {"a.partial-7-00000001", "b.previous-7-00000002",
+                             "c.partial-7-00000003", "x.partial-999999"}) {
+        EXPECT_TRUE(fs::exists(results / kept / kResultsMarker)) << kept;
+        EXPECT_NE(said.find(fmt::format("left {} alone", (results / kept).string())),
+                  std::string::npos)
+            << kept << ": " << said;
+    }
+    EXPECT_NE(said.find("did not run on this host and boot"), std::string::npos) << said;
+    EXPECT_NE(said.find("no owner record"), std::string::npos) << said;
+    EXPECT_FALSE(fs::exists(results / "b"));  // not restored either
+    EXPECT_EQ(read(results / "x.partial-999999" / "report.md"), "mine");
+    EXPECT_FALSE(fs::exists(results / "d.partial-7-00000004"));
+    EXPECT_TRUE(StagedDirectory::remove_orphans(results).empty());  // said once
+}
+
+// Issue 43: study names that plumage's own entries take are refused when the file is read, in
+// every study kind, with file:line:column; results already there under such names are kept.
+TEST_F(Reliability, ReservedNamesAreRefusedAtReadTimeAndSuchFoldersKept) {
+    for (const std::string& kind : kKinds) {
+        for (const char* name : {"x.partial-999999", "y.previous-999998", ".checkpoints"}) {
+            const std::string text =
+                with_line(kind, "^name = .*$", fmt::format("name = \"{}\"", name));
+            const fs::path source = root_ / (kind + ".toml");
+            const std::string message = input_error_message([&] { check_study(text, source); });
+            EXPECT_TRUE(std::regex_search(
+                message, std::regex(fmt::format(
+                             "{}:[0-9]+:[0-9]+: name = \"{}\" .*reserved", source.string(),
+                             std::regex_replace(name, std::regex("\\."), "\\.")))))
+                << kind << ": " << message;
+        }
+    }
+    const fs::path results = root_ / "results";
+    for (const char* name : {"x.partial-999999", "y.previous-999998"}) {
+        write(results / name / kResultsMarker, "");
+        write(results / name / "report.md", "mine");
+    }
+    run_masking_study(read(quick("masking")), quick("masking"), results, false);
+    EXPECT_EQ(read(results / "x.partial-999999" / "report.md"), "mine");
+    EXPECT_EQ(read(results / "y.previous-999998" / "report.md"), "mine");
+    EXPECT_FALSE(fs::exists(results / "y"));
+}
+
+// Two runs of the same study (the same pid in two PID namespaces) never share a staging folder;
+// a committed result carries no owner record and leaves no displaced folder behind.
+TEST_F(Reliability, StagingFoldersAreUniqueAndResultsCarryNoOwnerRecord) {
+    const fs::path final_path = root_ / "results" / "study";
+    StagedDirectory first(final_path);
+    StagedDirectory second(final_path);
+    EXPECT_NE(first.path(), second.path());
+    for (const StagedDirectory* d : {&first, &second}) {
+        EXPECT_TRUE(fs::exists(d->path() / kOwnerRecord));
+        EXPECT_TRUE(fs::exists(d->path() / kResultsMarker));
+        EXPECT_NE(read(d->path() / kOwnerRecord).find(fmt::format("pid={}\n", ::getpid())),
+                  std::string::npos);
+    }
+    EXPECT_TRUE(StagedDirectory::remove_orphans(root_ / "results").empty());  // both alive
+    write(first.path() / "report.md", "first");
+    first.commit();
+    write(second.path() / "report.md", "second");
+    second.commit();
+    EXPECT_EQ(read(final_path / "report.md"), "second");
+    EXPECT_FALSE(fs::exists(final_path / kOwnerRecord));
+    EXPECT_EQ(std::distance(fs::directory_iterator(root_ / "results"), fs::directory_iterator{}),
+              1);
+}
+
+// Two runs of one study sharing --out share its checkpoints (the same identity, the same sums
+// pass by pass); the first to finish used to remove them under the other, whose next checkpoint
+// then failed (exit 1). Now they stay while another run holds them in use.
+TEST_F(Reliability, CheckpointsStayWhileAnotherRunOfTheStudyUsesThem) {
+    const fs::path folder = checkpoint_folder(root_, "study");
+    EXPECT_EQ(checkpoint_folder(root_, "study"), folder);
+    ASSERT_TRUE(fs::exists(folder / kCheckpointsInUse));
+    write(folder / "brdf.checkpoint", "passes");
+    const int other = ::open((folder / kCheckpointsInUse).c_str(), O_RDONLY);  // another run
+    ASSERT_EQ(::flock(other, LOCK_SH), 0);
+    remove_checkpoints(root_, "study");
+    EXPECT_EQ(read(folder / "brdf.checkpoint"), "passes");
+    ::close(other);  // it ends (or is killed)
+    checkpoint_folder(root_, "study");
+    remove_checkpoints(root_, "study");
+    EXPECT_FALSE(fs::exists(root_ / ".checkpoints"));
+    // Interrupted before a first pass: nothing kept, nothing left.
+    const fs::path checkpoint = checkpoint_folder(root_, "study") / "brdf.checkpoint";
+    interrupted_with_checkpoint("the BRDF", 0, checkpoint);
+    EXPECT_FALSE(fs::exists(root_ / ".checkpoints"));
 }
 
 // Defect 2: a tiny wavelength step is an error naming the bound, at read time, for

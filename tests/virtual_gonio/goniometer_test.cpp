@@ -133,15 +133,25 @@ TEST(Goniometer, InterruptedRunLeavesNoRecordAndResumesToTheSameResult) {
     const BrdfRecord first = run(true);
     EXPECT_TRUE(first.interrupted);
     EXPECT_EQ(first.passes, 2);
-    // A different study (another scene under the same instrument) must not resume these sums.
+    // A different study (another scene under the same instrument) must not resume these sums,
+    // nor be stopped by them (issue 43): it starts afresh, saying why; stopped before its first
+    // pass, it leaves the checkpoint as it was.
     {
         GoniometerConfig other = c;
         other.config_text = c.config_text + "\n# the scene changed";
+        const std::atomic<bool> stop_at_once{true};
         RunControl control;
         control.checkpoint = checkpoint;
-        const std::string message =
-            testing::input_error_message([&] { measure_brdf(plate, other, control); });
-        EXPECT_NE(message.find("belongs to a different measurement"), std::string::npos) << message;
+        control.interrupt = &stop_at_once;
+        const std::string before = testing::read_text_file(checkpoint);
+        ::testing::internal::CaptureStderr();
+        const BrdfRecord r = measure_brdf(plate, other, control);
+        const std::string said = ::testing::internal::GetCapturedStderr();
+        EXPECT_EQ(r.passes, 0);
+        EXPECT_NE(said.find("not resuming " + checkpoint.string() + ": the study file changed"),
+                  std::string::npos)
+            << said;
+        EXPECT_EQ(testing::read_text_file(checkpoint), before);
     }
     EXPECT_FALSE(std::filesystem::exists(record_path));  // no partial record
     EXPECT_TRUE(std::filesystem::exists(checkpoint));
