@@ -9,12 +9,14 @@
 #include <filesystem>
 #include <fstream>
 #include <string>
+#include <utility>
 #include <vector>
 
 #include <gtest/gtest.h>
 #include <hdf5.h>
 
 #include "common/error.h"
+#include "tests/test_util.h"
 
 namespace plumage::record {
 namespace {
@@ -73,15 +75,10 @@ protected:
     hid_t file_ = -1;
 };
 
-// The message of the InputError `f` throws (empty if it throws none).
+// The message of the InputError `f` throws.
 template <typename F>
 std::string refusal(F&& f) {
-    try {
-        f();
-    } catch (const InputError& e) {
-        return e.what();
-    }
-    return {};
+    return plumage::testing::input_error_message(std::forward<F>(f));
 }
 
 TEST_F(Hdf5ReaderTest, ReadsScalarAndOneElementStringsOfEitherKind) {
