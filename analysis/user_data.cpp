@@ -139,9 +139,8 @@ void require_values(const record::Hdf5Reader& file, const std::string& name,
     for (std::size_t i = 0; i < d.values.size(); ++i) {
         if (!valid(d.values[i])) {
             throw InputError(
-                fmt::format("HDF5 file '{}': /{}: value {} (flat index {}) = {}; "
-                            "expected {}",
-                            file.file().string(), name, i, i, d.values[i], expected));
+                fmt::format("HDF5 file '{}': /{}: the value at flat index {} is {}; expected {}",
+                            file.file().string(), name, i, d.values[i], expected));
         }
     }
 }
@@ -190,8 +189,10 @@ void read_illumination(const record::Hdf5Reader& file, gonio::ScatterometerConfi
         std::istringstream beam(text);
         double x = 0, y = 0, z = 0;
         std::string rest;
-        if (!(beam >> x >> y >> z) || (beam >> rest) || !std::isfinite(x) || !std::isfinite(y) ||
-            !(std::isfinite(z) && z > 0.0)) {
+        const bool parsed = (beam >> x >> y >> z) && !(beam >> rest);
+        const double length = std::hypot(x, y, z);
+        if (!parsed || !std::isfinite(x) || !std::isfinite(y) || !(std::isfinite(z) && z > 0.0) ||
+            !(length >= 1e-9 && z / length >= 1e-9)) {
             throw InputError(fmt::format(
                 "{}beam_direction = '{}': expected \"x y z\", three finite numbers towards the "
                 "light, of length >= 1e-9, z > 0",
