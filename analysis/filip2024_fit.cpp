@@ -374,6 +374,7 @@ Filip2024FitResult fit_filip2024(std::span<const BrdfObservation> data,
     LeastSquaresOptions lm;
     lm.max_function_evaluations = options.max_function_evaluations;
     lm.relative_tolerance = options.relative_tolerance;
+    lm.progress = options.progress;
     const LeastSquaresResult minimised = minimise_least_squares(problem, u, lm);
 
     Filip2024FitResult result;

@@ -26,6 +26,7 @@
 #pragma once
 
 #include <array>
+#include <functional>
 #include <optional>
 #include <span>
 #include <string>
@@ -58,6 +59,9 @@ struct Filip2024FitOptions {
     }();
     int max_function_evaluations = 4000;
     double relative_tolerance = 1e-10;  // on the sum of squares and on the parameters
+    // After every evaluation: the evaluations so far, χ² and the seconds since the fit started
+    // (the command line prints progress from it); empty: silent.
+    std::function<void(int evaluations, double chi_square, double elapsed_s)> progress;
 };
 
 struct Filip2024FitResult {

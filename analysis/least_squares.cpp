@@ -1,5 +1,7 @@
 #include "analysis/least_squares.h"
 
+#include <chrono>
+
 #include <algorithm>
 #include <cmath>
 #include <limits>
@@ -131,6 +133,13 @@ LeastSquaresResult minimise_least_squares(ChunkedLeastSquares& problem, Eigen::V
     }
     const double tol = options.relative_tolerance;
     LeastSquaresResult result;
+    const auto started = std::chrono::steady_clock::now();
+    const auto report = [&](double sum_of_squares) {
+        if (!options.progress) return;
+        options.progress(
+            result.function_evaluations, sum_of_squares,
+            std::chrono::duration<double>(std::chrono::steady_clock::now() - started).count());
+    };
 
     check_interrupt();
     problem.set_point(u);
@@ -138,6 +147,7 @@ LeastSquaresResult minimise_least_squares(ChunkedLeastSquares& problem, Eigen::V
     ++result.function_evaluations;
     ++result.jacobian_evaluations;
     result.sum_of_squares = at_u.sum_of_squares;
+    report(at_u.sum_of_squares);
 
     // D: each column's norm, never decreasing (Moré's scaling); 1 for a column that is zero.
     Eigen::VectorXd scale(n);
@@ -179,6 +189,7 @@ LeastSquaresResult minimise_least_squares(ChunkedLeastSquares& problem, Eigen::V
             NormalEquations at_trial = total_normal_equations(problem);
             const double s_trial = at_trial.sum_of_squares;
             ++result.function_evaluations;
+            report(s_trial);
 
             // Reductions relative to S, as MINPACK's lmder: actual, predicted by the linear model
             // (‖Jδ‖² + 2μ‖Dδ‖²), and the directional derivative along δ.

@@ -38,6 +38,7 @@
 #pragma once
 
 #include <cstddef>
+#include <functional>
 #include <string>
 #include <vector>
 
@@ -97,6 +98,10 @@ struct LeastSquaresOptions {
     int max_function_evaluations = 4000;
     double relative_tolerance = 1e-10;  // on the sum of squares and on the parameters
     double gradient_tolerance = 0.0;    // 0: the gradient test only stops at an exact zero
+    // Called after every evaluation with the evaluations so far, the sum of squares just
+    // computed and the seconds since the minimisation started (a caller prints progress from
+    // it); empty: silent.
+    std::function<void(int evaluations, double sum_of_squares, double elapsed_s)> progress;
 };
 
 struct LeastSquaresResult {

@@ -204,6 +204,25 @@ struct Fitted {
 Fitted fit_filip(const FitCommand& c) {
     const analysis::BrdfData data = analysis::read_brdf_data(c.data);
     analysis::Filip2024FitOptions options;
+    options.progress = [last = 0.0, n = data.observations.size(),
+                        most = options.max_function_evaluations](int evaluations, double chi2,
+                                                                 double elapsed_s) mutable {
+        // As the Huang fit's (huang_progress_printer): the cost after the first evaluation, then
+        // a line every 5 s, so that a long fit of a large table is never silent.
+        if (evaluations == 1) {
+            std::cerr << fmt::format(
+                "  filip2024 fit: {} observations; one evaluation {:.3g} s, the fit at most {} "
+                "({:.3g} s); Ctrl-C stops it\n",
+                n, elapsed_s, most, elapsed_s * most);
+            last = elapsed_s;
+        } else if (elapsed_s - last >= 5.0) {
+            std::cerr << fmt::format(
+                "  filip2024 fit: {} of at most {} evaluations in {:.1f} s, chi2 of the last "
+                "{:.6g}\n",
+                evaluations, most, elapsed_s, chi2);
+            last = elapsed_s;
+        }
+    };
     const analysis::Filip2024Parameters start = filip_start(c, options);
     throw_if_interrupted("fitting");
     const analysis::Filip2024FitResult fit =
