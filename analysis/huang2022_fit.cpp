@@ -696,6 +696,38 @@ struct Residuals {
     }
 };
 
+// The parameters' covariance and standard errors at the optimum u from the residuals'
+// Jacobian in u: covariance_u = s² (J_uᵀJ_u)⁻¹, inverted after scaling to a unit diagonal so that
+// the singularity test does not depend on the variables' scales; then M covariance_u Mᵀ.
+void set_covariance(HuangFitResult& result, const Eigen::MatrixXd& jacobian,
+                    const ParameterMap& map, const Eigen::VectorXd& u) {
+    const int n_free = static_cast<int>(map.free.size());
+    const Eigen::MatrixXd normal = normal_matrix(jacobian);
+    const Eigen::VectorXd diagonal = normal.diagonal();
+    result.covariance =
+        Eigen::MatrixXd::Constant(n_free, n_free, std::numeric_limits<double>::quiet_NaN());
+    if ((diagonal.array() > 0.0).all() && jacobian.allFinite()) {
+        const Eigen::VectorXd scale = diagonal.array().rsqrt();
+        const Eigen::MatrixXd scaled = scale.asDiagonal() * normal * scale.asDiagonal();
+        const Eigen::SelfAdjointEigenSolver<Eigen::MatrixXd> eigen(scaled);
+        const Eigen::VectorXd lambda = eigen.eigenvalues();
+        if (eigen.info() == Eigen::Success &&
+            lambda.minCoeff() > kSingularRatio * lambda.maxCoeff()) {
+            const Eigen::MatrixXd inverse = eigen.eigenvectors() *
+                                            lambda.cwiseInverse().asDiagonal() *
+                                            eigen.eigenvectors().transpose();
+            const Eigen::MatrixXd covariance_u =
+                result.reduced_chi_square * scale.asDiagonal() * inverse * scale.asDiagonal();
+            const Eigen::MatrixXd m = map.derivative(u);
+            result.covariance = m * covariance_u * m.transpose();
+            result.covariance_available = true;
+            for (int j = 0; j < n_free; ++j) {
+                result.standard_errors[map.free[j]] = std::sqrt(result.covariance(j, j));
+            }
+        }
+    }
+}
+
 }  // namespace
 
 std::array<double, kHuang2022ParameterCount> huang2022_values(const Huang2022Params& p) {
@@ -839,32 +871,7 @@ HuangFitResult fit_huang2022(const gonio::Scatterogram& data, const Huang2022Par
         result.at_bound[i] = map.at_bound(i, result.values);
     }
 
-    // covariance_u = s² (J_uᵀJ_u)⁻¹, inverted after scaling to a unit diagonal so that the
-    // singularity test does not depend on the variables' scales; then M covariance_u Mᵀ.
-    const Eigen::MatrixXd normal = normal_matrix(jacobian);
-    const Eigen::VectorXd diagonal = normal.diagonal();
-    result.covariance =
-        Eigen::MatrixXd::Constant(n_free, n_free, std::numeric_limits<double>::quiet_NaN());
-    if ((diagonal.array() > 0.0).all() && jacobian.allFinite()) {
-        const Eigen::VectorXd scale = diagonal.array().rsqrt();
-        const Eigen::MatrixXd scaled = scale.asDiagonal() * normal * scale.asDiagonal();
-        const Eigen::SelfAdjointEigenSolver<Eigen::MatrixXd> eigen(scaled);
-        const Eigen::VectorXd lambda = eigen.eigenvalues();
-        if (eigen.info() == Eigen::Success &&
-            lambda.minCoeff() > kSingularRatio * lambda.maxCoeff()) {
-            const Eigen::MatrixXd inverse = eigen.eigenvectors() *
-                                            lambda.cwiseInverse().asDiagonal() *
-                                            eigen.eigenvectors().transpose();
-            const Eigen::MatrixXd covariance_u =
-                result.reduced_chi_square * scale.asDiagonal() * inverse * scale.asDiagonal();
-            const Eigen::MatrixXd m = map.derivative(u);
-            result.covariance = m * covariance_u * m.transpose();
-            result.covariance_available = true;
-            for (int j = 0; j < n_free; ++j) {
-                result.standard_errors[map.free[j]] = std::sqrt(result.covariance(j, j));
-            }
-        }
-    }
+    set_covariance(result, jacobian, map, u);
     result.wall_time_s =
         std::chrono::duration<double>(std::chrono::steady_clock::now() - clock_start).count();
     return result;

@@ -245,6 +245,29 @@ class Runner:
             self.wait_for(cmd[0])
         return rec
 
+    def _wait(self, p, t0, stderr_file):
+        """Waits for p; returns (exit code, hung, slow). A hang is a run that says nothing for
+        --timeout seconds (at most 60). A fit that prints progress (every 5 s) and is still going
+        at --timeout is "slow": a legitimate long fit of a large valid record, stopped to bound
+        the campaign, listed but not a finding."""
+        last_output, last_size = t0, 0
+        while True:
+            try:
+                return p.wait(timeout=0.5), False, False
+            except subprocess.TimeoutExpired:
+                pass
+            now = time.monotonic()
+            size = os.path.getsize(stderr_file)
+            if size != last_size:
+                last_output, last_size = now, size
+            if now - t0 >= self.args.timeout:
+                hung = now - last_output >= min(self.args.timeout, 60.0) - 1e-9 or last_size == 0
+                try:
+                    os.killpg(p.pid, signal.SIGKILL)
+                except ProcessLookupError:
+                    pass
+                return p.wait(), hung, not hung
+
     def _run_process(self, cmd, run_dir, input_path, out_dir, kind):
         """Runs cmd in run_dir/cwd with TMPDIR run_dir/tmp; returns the run's record."""
         cwd, tmp, infolder = (os.path.join(run_dir, x) for x in ("cwd", "tmp", "in"))
@@ -259,32 +282,7 @@ class Runner:
                                      stderr=se, stdin=subprocess.DEVNULL, start_new_session=True)
             except OSError as e:  # the binary missing for a moment (a rebuild)
                 return {"rc": None, "start_failed": str(e), "seconds": 0.0, "kinds": []}
-            # A hang is a run that says nothing for --timeout seconds. A fit that prints progress
-            # (every 5 s) and is still going at --timeout is "slow": a legitimate long fit of a
-            # large valid record, stopped to bound the campaign, listed but not a finding.
-            hung = slow = False
-            last_output, last_size = t0, 0
-            stderr_file = os.path.join(run_dir, "stderr.txt")
-            while True:
-                try:
-                    rc = p.wait(timeout=0.5)
-                    break
-                except subprocess.TimeoutExpired:
-                    pass
-                now = time.monotonic()
-                size = os.path.getsize(stderr_file)
-                if size != last_size:
-                    last_output, last_size = now, size
-                if now - t0 >= self.args.timeout:
-                    hung = now - last_output >= min(self.args.timeout, 60.0) - 1e-9 or \
-                        last_size == 0
-                    slow = not hung
-                    try:
-                        os.killpg(p.pid, signal.SIGKILL)
-                    except ProcessLookupError:
-                        pass
-                    rc = p.wait()
-                    break
+            rc, hung, slow = self._wait(p, t0, os.path.join(run_dir, "stderr.txt"))
         seconds = time.monotonic() - t0
         if rc == 127 and self.prefix() and not os.path.exists(cmd[0]):
             return {"rc": None, "start_failed": "missing", "seconds": 0.0, "kinds": []}
