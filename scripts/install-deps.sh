@@ -24,6 +24,7 @@ packages=(
   pybind11-dev python3-pybind11 python3-dev  # the `plumage` Python module (python/), for /usr/bin/python3
   python3-pytest         # its tests (python/tests, run by ctest)
   openmpi-bin libopenmpi-dev  # `mpirun -np N plumage run STUDY` (common/distributed.h; tests/mpi)
+  libmeep-dev            # full wave (sim/fullwave): Meep's FDTD library, linked
 )
 
 missing=()

@@ -1,0 +1,227 @@
+#include "sim/fullwave/cross_section_2d.h"
+
+#include <algorithm>
+#include <cmath>
+#include <limits>
+
+#include <fmt/format.h>
+
+#include "common/require.h"
+
+namespace plumage::sim::fullwave {
+
+namespace {
+
+constexpr double kInf = std::numeric_limits<double>::infinity();
+
+bool finite(const Eigen::Vector2d& v) { return std::isfinite(v.x()) && std::isfinite(v.y()); }
+
+// Distance from (y0, y1), both >= 0, to the ellipse (x/e0)² + (z/e1)² = 1 with e0 >= e1
+// (Eberly 2013, "Distance from a point to an ellipse, an ellipsoid, or a hyperellipsoid").
+double distance_first_quadrant(double e0, double e1, double y0, double y1) {
+    if (y1 > 0.0) {
+        if (y0 > 0.0) {
+            const double z0 = y0 / e0, z1 = y1 / e1, g = z0 * z0 + z1 * z1 - 1.0;
+            if (g == 0.0) return 0.0;
+            const double r0 = (e0 / e1) * (e0 / e1), n0 = r0 * z0;
+            double s0 = z1 - 1.0, s1 = g < 0.0 ? 0.0 : std::hypot(n0, z1) - 1.0, s = 0.0;
+            for (int i = 0; i < 200; ++i) {  // bisection of the root's bracket to rounding
+                s = 0.5 * (s0 + s1);
+                if (s == s0 || s == s1) break;
+                const double a = n0 / (s + r0), b = z1 / (s + 1.0), gs = a * a + b * b - 1.0;
+                if (gs > 0.0)
+                    s0 = s;
+                else if (gs < 0.0)
+                    s1 = s;
+                else
+                    break;
+            }
+            const double x0 = r0 * y0 / (s + r0), x1 = y1 / (s + 1.0);
+            return std::hypot(x0 - y0, x1 - y1);
+        }
+        return std::abs(y1 - e1);
+    }
+    const double numer0 = e0 * y0, denom0 = e0 * e0 - e1 * e1;
+    if (numer0 < denom0) {
+        const double xde0 = numer0 / denom0, x0 = e0 * xde0, x1 = e1 * std::sqrt(1.0 - xde0 * xde0);
+        return std::hypot(x0 - y0, x1);
+    }
+    return std::abs(y0 - e0);
+}
+
+// A point in an ellipse's own frame (centre at the origin, axes along x and z).
+Eigen::Vector2d to_local(const Eigen::Vector2d& p, const Eigen::Vector2d& centre, double c,
+                         double s) {
+    const Eigen::Vector2d d = p - centre;
+    return {c * d.x() + s * d.y(), -s * d.x() + c * d.y()};
+}
+
+Box2d rotated_ellipse_box(const Eigen::Vector2d& centre, double a, double b, double c, double s) {
+    const double hx = std::hypot(a * c, b * s), hz = std::hypot(a * s, b * c);
+    return {centre - Eigen::Vector2d(hx, hz), centre + Eigen::Vector2d(hx, hz)};
+}
+
+class Ellipse final : public Shape2d {
+public:
+    Ellipse(Eigen::Vector2d centre, double a, double b, double angle)
+        : centre_(centre), a_(a), b_(b), angle_(angle), c_(std::cos(angle)), s_(std::sin(angle)) {}
+    bool contains(const Eigen::Vector2d& p) const override {
+        const Eigen::Vector2d q = to_local(p, centre_, c_, s_);
+        return (q.x() / a_) * (q.x() / a_) + (q.y() / b_) * (q.y() / b_) <= 1.0;
+    }
+    Box2d bounds() const override { return rotated_ellipse_box(centre_, a_, b_, c_, s_); }
+    double thinnest_um() const override { return 2.0 * std::min(a_, b_); }
+    std::string describe() const override {
+        return fmt::format("ellipse ({}, {}) µm at ({}, {}) µm, turned {} rad", a_, b_, centre_.x(),
+                           centre_.y(), angle_);
+    }
+
+private:
+    Eigen::Vector2d centre_;
+    double a_, b_, angle_, c_, s_;
+};
+
+class EllipseShell final : public Shape2d {
+public:
+    EllipseShell(Eigen::Vector2d centre, double a, double b, double d, double angle)
+        : centre_(centre),
+          a_(a),
+          b_(b),
+          d_(d),
+          angle_(angle),
+          c_(std::cos(angle)),
+          s_(std::sin(angle)) {}
+    bool contains(const Eigen::Vector2d& p) const override {
+        const Eigen::Vector2d q = to_local(p, centre_, c_, s_);
+        const double x = std::abs(q.x()), z = std::abs(q.y());
+        if (x > a_ + d_ || z > b_ + d_) return false;  // the offset curve lies within a + d, b + d
+        if ((x / a_) * (x / a_) + (z / b_) * (z / b_) <= 1.0) return true;
+        const double dist = a_ >= b_ ? distance_first_quadrant(a_, b_, x, z)
+                                     : distance_first_quadrant(b_, a_, z, x);
+        return dist <= d_;
+    }
+    Box2d bounds() const override { return rotated_ellipse_box(centre_, a_ + d_, b_ + d_, c_, s_); }
+    double thinnest_um() const override { return d_; }
+    std::string describe() const override {
+        return fmt::format("ellipse shell ({}, {}) µm + {} µm at ({}, {}) µm, turned {} rad", a_,
+                           b_, d_, centre_.x(), centre_.y(), angle_);
+    }
+
+private:
+    Eigen::Vector2d centre_;
+    double a_, b_, d_, angle_, c_, s_;
+};
+
+double point_segment_distance(const Eigen::Vector2d& p, const Eigen::Vector2d& a,
+                              const Eigen::Vector2d& b) {
+    const Eigen::Vector2d ab = b - a;
+    const double t = std::clamp((p - a).dot(ab) / ab.squaredNorm(), 0.0, 1.0);
+    return (a + t * ab - p).norm();
+}
+
+class Polygon final : public Shape2d {
+public:
+    explicit Polygon(std::vector<Eigen::Vector2d> v) : v_(std::move(v)) {
+        box_ = {v_.front(), v_.front()};
+        for (const auto& p : v_) {
+            box_.min = box_.min.cwiseMin(p);
+            box_.max = box_.max.cwiseMax(p);
+        }
+        const std::size_t n = v_.size();
+        thinnest_ = kInf;
+        for (std::size_t i = 0; i < n; ++i)
+            for (std::size_t j = 0; j < n; ++j) {
+                const std::size_t k = (j + 1) % n;
+                if (j == i || k == i) continue;  // edges touching vertex i
+                thinnest_ = std::min(thinnest_, point_segment_distance(v_[i], v_[j], v_[k]));
+            }
+        if (n == 3) {  // a triangle has no edge apart from its vertices': its smallest height
+            for (std::size_t i = 0; i < 3; ++i)
+                thinnest_ = std::min(
+                    thinnest_, point_segment_distance(v_[i], v_[(i + 1) % 3], v_[(i + 2) % 3]));
+        }
+    }
+    bool contains(const Eigen::Vector2d& p) const override {
+        if (p.x() < box_.min.x() || p.x() > box_.max.x() || p.y() < box_.min.y() ||
+            p.y() > box_.max.y())
+            return false;
+        bool inside = false;
+        for (std::size_t i = 0, j = v_.size() - 1; i < v_.size(); j = i++) {
+            const Eigen::Vector2d &a = v_[i], &b = v_[j];
+            if ((a.y() > p.y()) != (b.y() > p.y()) &&
+                p.x() < (b.x() - a.x()) * (p.y() - a.y()) / (b.y() - a.y()) + a.x())
+                inside = !inside;
+        }
+        return inside;
+    }
+    Box2d bounds() const override { return box_; }
+    double thinnest_um() const override { return thinnest_; }
+    std::string describe() const override {
+        return fmt::format("polygon of {} vertices in x [{}, {}], z [{}, {}] µm", v_.size(),
+                           box_.min.x(), box_.max.x(), box_.min.y(), box_.max.y());
+    }
+
+private:
+    std::vector<Eigen::Vector2d> v_;
+    Box2d box_;
+    double thinnest_ = 0.0;
+};
+
+class Layer final : public Shape2d {
+public:
+    Layer(double z0, double z1) : z0_(z0), z1_(z1) {}
+    bool contains(const Eigen::Vector2d& p) const override { return p.y() >= z0_ && p.y() <= z1_; }
+    Box2d bounds() const override { return {{-kInf, z0_}, {kInf, z1_}}; }
+    double thinnest_um() const override { return z1_ - z0_; }
+    bool is_layer() const override { return true; }
+    std::string describe() const override { return fmt::format("layer z [{}, {}] µm", z0_, z1_); }
+
+private:
+    double z0_, z1_;
+};
+
+void require_positive(double v, std::string_view shape, std::string_view key) {
+    require(std::isfinite(v) && v > 0.0, shape, key, v, "a finite length > 0 (µm)");
+}
+
+}  // namespace
+
+std::shared_ptr<const Shape2d> ellipse(Eigen::Vector2d centre, double semi_x, double semi_z,
+                                       double angle_rad) {
+    require(finite(centre), "ellipse", "the centre must be finite");
+    require_positive(semi_x, "ellipse", "semi_x");
+    require_positive(semi_z, "ellipse", "semi_z");
+    require(std::isfinite(angle_rad), "ellipse", "angle", angle_rad, "a finite angle (rad)");
+    return std::make_shared<Ellipse>(centre, semi_x, semi_z, angle_rad);
+}
+
+std::shared_ptr<const Shape2d> ellipse_shell(Eigen::Vector2d centre, double semi_x, double semi_z,
+                                             double thickness, double angle_rad) {
+    require(finite(centre), "ellipse shell", "the centre must be finite");
+    require_positive(semi_x, "ellipse shell", "semi_x");
+    require_positive(semi_z, "ellipse shell", "semi_z");
+    require_positive(thickness, "ellipse shell", "thickness");
+    require(std::isfinite(angle_rad), "ellipse shell", "angle", angle_rad, "a finite angle (rad)");
+    return std::make_shared<EllipseShell>(centre, semi_x, semi_z, thickness, angle_rad);
+}
+
+std::shared_ptr<const Shape2d> polygon(std::vector<Eigen::Vector2d> vertices) {
+    require(vertices.size() >= 3, "polygon", "at least 3 vertices are needed");
+    for (const auto& v : vertices) require(finite(v), "polygon", "every vertex must be finite");
+    return std::make_shared<Polygon>(std::move(vertices));
+}
+
+std::shared_ptr<const Shape2d> layer(double z_bottom, double z_top) {
+    require(std::isfinite(z_top), "layer", "z_top", z_top, "a finite height (µm)");
+    require(!std::isnan(z_bottom) && z_bottom < z_top, "layer", "z_bottom", z_bottom,
+            fmt::format("a height below z_top = {} µm (or −∞)", z_top));
+    return std::make_shared<Layer>(z_bottom, z_top);
+}
+
+int CrossSection2d::body_at(const Eigen::Vector2d& p) const {
+    for (int i = static_cast<int>(bodies.size()) - 1; i >= 0; --i)
+        if (bodies[static_cast<std::size_t>(i)].shape->contains(p)) return i;
+    return -1;
+}
+
+}  // namespace plumage::sim::fullwave

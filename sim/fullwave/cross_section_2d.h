@@ -1,0 +1,79 @@
+// The bodies of a 2D cross-section as the full-wave level sees them: shapes painted in order
+// (a later body wins where bodies overlap) over air, each with a material of
+// sim/optics/material.h. The full-wave solver (full_wave_2d.h) asks one question of a shape,
+// "is this point inside?", at the grid's sample points and, for subpixel smoothing, at many
+// points inside each pixel a boundary crosses; so the tests below are analytic and cheap.
+//
+// Frame as physical_optics_2d.h: x horizontal, z up, the structure invariant along y; lengths
+// in µm, angles in rad, a positive angle turning +x towards +z.
+//
+// Shapes:
+//  - ellipse: centre, semi-axes along its own x and z, turned by `angle`; a circle when the
+//    semi-axes are equal.
+//  - ellipse shell: the region within `thickness` of an ellipse or inside it, i.e. bounded by
+//    the outward normal offset of the ellipse (the keratin cortex of physical_optics_2d.h's
+//    barbule, drawn under its melanin core). Distance to the ellipse by Eberly's bisection
+//    ("Distance from a point to an ellipse", 2013), to 1e-12 of the semi-major axis.
+//  - polygon: simple, vertices in order (either sense), at least 3; even–odd rule.
+//  - layer: z_bottom ≤ z ≤ z_top for every x (films and substrates of planar stacks; z_bottom
+//    may be −∞ for a substrate). Only the periodic solver (full_wave_stack) takes layers.
+//
+// thinnest_um() is the narrowest part of a shape (an ellipse's minor diameter, a shell's
+// thickness, a layer's thickness, a polygon's smallest distance from a vertex to an edge not
+// touching it): the solver refuses a grid whose cells do not fit twice across it.
+//
+// Parameter table:
+//  | name              | unit | range                          |
+//  |-------------------|------|--------------------------------|
+//  | centre, vertices  | µm   | finite                         |
+//  | semi_x, semi_z    | µm   | finite, > 0                    |
+//  | thickness         | µm   | finite, > 0                    |
+//  | angle             | rad  | finite                         |
+//  | z_bottom, z_top   | µm   | z_bottom < z_top; z_top finite |
+#pragma once
+
+#include <memory>
+#include <string>
+#include <vector>
+
+#include <Eigen/Core>
+
+#include "sim/optics/material.h"
+
+namespace plumage::sim::fullwave {
+
+struct Box2d {
+    Eigen::Vector2d min, max;  // may hold ±∞ (layers)
+};
+
+class Shape2d {
+public:
+    virtual ~Shape2d() = default;
+    virtual bool contains(const Eigen::Vector2d& p) const = 0;
+    virtual Box2d bounds() const = 0;
+    virtual double thinnest_um() const = 0;
+    virtual bool is_layer() const { return false; }
+    virtual std::string describe() const = 0;  // for messages: "ellipse (5, 2) µm at (0, 0)"
+};
+
+// InputError (naming the shape and the key) outside the parameter table.
+std::shared_ptr<const Shape2d> ellipse(Eigen::Vector2d centre, double semi_x, double semi_z,
+                                       double angle_rad = 0.0);
+std::shared_ptr<const Shape2d> ellipse_shell(Eigen::Vector2d centre, double semi_x, double semi_z,
+                                             double thickness, double angle_rad = 0.0);
+std::shared_ptr<const Shape2d> polygon(std::vector<Eigen::Vector2d> vertices);
+std::shared_ptr<const Shape2d> layer(double z_bottom, double z_top);
+
+struct Body2d {
+    std::shared_ptr<const Shape2d> shape;
+    std::shared_ptr<const optics::Material> material;
+};
+
+struct CrossSection2d {
+    std::vector<Body2d> bodies;  // painted in order over air: the last body containing a point wins
+
+    // Index of the body that owns p, or −1 for air.
+    int body_at(const Eigen::Vector2d& p) const;
+};
+
+}  // namespace plumage::sim::fullwave

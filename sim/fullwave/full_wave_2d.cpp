@@ -1,0 +1,689 @@
+#include "sim/fullwave/full_wave_2d.h"
+
+#include <algorithm>
+#include <array>
+#include <chrono>
+#include <cmath>
+#include <complex>
+#include <limits>
+#include <memory>
+#include <numbers>
+
+#include <fmt/format.h>
+#include <meep.hpp>
+
+#include "common/error.h"
+#include "common/interrupt.h"
+#include "common/memory_limit.h"
+#include "common/require.h"
+
+namespace plumage::sim::fullwave {
+
+namespace {
+
+using Complex = std::complex<double>;
+constexpr double kPi = std::numbers::pi;
+
+// Meep's memory per grid cell for one 2D polarisation: three field and three flux-density
+// components, their PML auxiliaries, the inverse-ε rows and the conductivity arrays. A run of
+// 100 000 cells peaks at 70 MB resident, the process and libraries included: 400 bytes per
+// cell is an upper estimate.
+constexpr double kBytesPerCell = 400.0;
+
+double to_um(double lambda_nm) { return lambda_nm * 1e-3; }
+
+// ε' and Meep's D conductivity of each body at one wavelength (σ_D = ω ε''/ε').
+struct BodyMedia {
+    std::vector<double> eps, sigma_d;
+    bool absorbing = false;
+};
+
+BodyMedia media_at(const CrossSection2d& section, double lambda_nm) {
+    BodyMedia m;
+    const double omega = 2.0 * kPi / to_um(lambda_nm);
+    for (const Body2d& b : section.bodies) {
+        const Complex n = b.material->index(lambda_nm);
+        const Complex eps = n * n;
+        if (!(eps.real() >= 1.0))
+            throw InputError(
+                fmt::format("full wave: material '{}' at {} nm has Re ε = {:.4g} < 1 (n = {:.4g} + "
+                            "{:.4g}i): metals and "
+                            "ε' < 1 are outside this level's scope",
+                            b.material->name(), lambda_nm, eps.real(), n.real(), n.imag()));
+        m.eps.push_back(eps.real());
+        m.sigma_d.push_back(omega * eps.imag() / eps.real());
+        m.absorbing = m.absorbing || eps.imag() > 0.0;
+    }
+    return m;
+}
+
+// The section in Meep's frame (ours turned by −θ_i) at one wavelength; air where no body is.
+class SectionMaterial final : public meep::material_function {
+public:
+    // Meep's point (x, y) is our point turned by −θ_i and lowered by z_offset.
+    SectionMaterial(const CrossSection2d& section, double theta_i, BodyMedia media,
+                    double z_offset = 0.0)
+        : section_(section),
+          c_(std::cos(theta_i)),
+          s_(std::sin(theta_i)),
+          z_offset_(z_offset),
+          media_(std::move(media)) {}
+    double chi1p1(meep::field_type ft, const meep::vec& r) override {
+        if (ft != meep::E_stuff && ft != meep::D_stuff) return 1.0;
+        const int b = body(r);
+        return b < 0 ? 1.0 : media_.eps[static_cast<std::size_t>(b)];
+    }
+    bool has_conductivity(meep::component c) override {
+        return media_.absorbing && meep::type(c) == meep::D_stuff;
+    }
+    double conductivity(meep::component, const meep::vec& r) override {
+        const int b = body(r);
+        return b < 0 ? 0.0 : media_.sigma_d[static_cast<std::size_t>(b)];
+    }
+
+private:
+    int body(const meep::vec& r) const {
+        return section_.body_at({c_ * r.x() + s_ * r.y(), c_ * r.y() - s_ * r.x() + z_offset_});
+    }
+    const CrossSection2d& section_;
+    double c_, s_, z_offset_;
+    BodyMedia media_;
+};
+
+class AirMaterial final : public meep::material_function {};
+
+// One side of the monitor box in Meep's frame: the DFT of u on a strip a few cells thick.
+struct Side {
+    bool horizontal = true;  // normal along Meep's y
+    double at = 0.0;         // nominal position across
+    double sign = 1.0;       // outward normal: +1 or −1 along its axis
+};
+
+// u on the two grid lines that straddle a side, per frequency.
+struct SideField {
+    std::vector<double> along;               // grid coordinates along the side
+    double line_a = 0.0, line_b = 0.0;       // coordinates across of the two lines (a < b)
+    std::vector<std::vector<Complex>> a, b;  // [frequency][along]
+};
+
+struct Layout {
+    double half_x = 0.0, half_y = 0.0;  // the cell
+    double box_x = 0.0, box_y = 0.0;    // monitor box half-widths
+    double source_y = 0.0;
+    double h = 0.0;  // grid step
+};
+
+struct RunResult {
+    std::array<SideField, 4> sides;
+    std::vector<Complex> u0;  // incident amplitude at the origin (empty run only)
+    double time_steps = 0.0;
+};
+
+meep::component field_component(Polarisation2d pol) {
+    return pol == Polarisation2d::te ? meep::Ez : meep::Hz;
+}
+
+// Meep's 2D grid of at least 2·half_x × 2·half_y µm, centred on the origin. Meep checks
+// exactly that size × resolution is an integer; for some counts no double size hits it, so
+// the count grows by two cells (one each side, in PML) until one does (a few at most).
+meep::grid_volume centred_grid(double half_x, double half_y, double res) {
+    const auto exact = [res](double half) {
+        const double n0 = 2.0 * std::round(half * res);
+        for (double n = n0; n < n0 + 64.0; n += 2.0) {
+            double up = n / res, down = up;
+            for (int i = 0; i < 4;
+                 ++i, up = std::nextafter(up, 2.0 * up), down = std::nextafter(down, 0.0)) {
+                if (up * res == n) return up;
+                if (down * res == n) return down;
+            }
+        }
+        return n0 / res;  // Meep rounds to whole cells, with a warning
+    };
+    meep::grid_volume gv = meep::vol2d(exact(half_x), exact(half_y), res);
+    gv.center_origin();
+    return gv;
+}
+
+// A half-width rounded up to whole grid cells: the cell is then an even number of cells wide
+// and its centre, our origin, a grid point.
+double whole_cells(double half_width, double h) { return std::ceil(half_width / h - 1e-9) * h; }
+
+meep::volume strip_volume(const Side& s, const Layout& l) {
+    const double w = 2.0 * l.h;
+    if (s.horizontal)
+        return {meep::vec(-l.box_x - 3.0 * l.h, s.at - w),
+                meep::vec(l.box_x + 3.0 * l.h, s.at + w)};
+    return {meep::vec(s.at - w, -l.box_y - 3.0 * l.h), meep::vec(s.at + w, l.box_y + 3.0 * l.h)};
+}
+
+std::array<Side, 4> box_sides(const Layout& l) {
+    return {{{true, l.box_y, 1.0},
+             {true, -l.box_y, -1.0},
+             {false, l.box_x, 1.0},
+             {false, -l.box_x, -1.0}}};
+}
+
+// x and y grid coordinates of a DFT volume (Meep's get_array_metadata: [NX, x…, NY, y…, NZ, z…,
+// w…]).
+void grid_ticks(meep::fields& f, const meep::volume& where, std::vector<double>& xs,
+                std::vector<double>& ys) {
+    const std::vector<double> meta = f.get_array_metadata(where);
+    const auto nx = static_cast<std::size_t>(meta[0]);
+    xs.assign(meta.begin() + 1, meta.begin() + 1 + static_cast<std::ptrdiff_t>(nx));
+    const auto ny = static_cast<std::size_t>(meta[1 + nx]);
+    ys.assign(meta.begin() + 2 + static_cast<std::ptrdiff_t>(nx),
+              meta.begin() + 2 + static_cast<std::ptrdiff_t>(nx + ny));
+}
+
+SideField read_side(meep::fields& f, meep::dft_fields& dft, const Side& side,
+                    const meep::volume& where, meep::component c, std::size_t n_freq) {
+    std::vector<double> xs, ys;
+    grid_ticks(f, where, xs, ys);
+    const std::vector<double>& across = side.horizontal ? ys : xs;
+    std::size_t below = 0;
+    for (std::size_t i = 0; i < across.size(); ++i)
+        if (across[i] <= side.at + 1e-9) below = i;
+    if (below + 1 >= across.size())
+        throw InvariantError("full wave: a monitor strip holds no grid line above its side");
+    SideField out;
+    out.along = side.horizontal ? xs : ys;
+    out.line_a = across[below];
+    out.line_b = across[below + 1];
+    for (std::size_t k = 0; k < n_freq; ++k) {
+        int rank = 0;
+        std::size_t dims[3] = {1, 1, 1};
+        std::unique_ptr<std::complex<meep::realnum>[]> arr(
+            f.get_dft_array(dft, c, static_cast<int>(k), &rank, dims));
+        if (rank != 2 || dims[0] != xs.size() || dims[1] != ys.size())
+            throw InvariantError(
+                fmt::format("full wave: DFT array of rank {} ({} × {}) on a {} × {} strip", rank,
+                            dims[0], dims[1], xs.size(), ys.size()));
+        std::vector<Complex> a(out.along.size()), b(out.along.size());
+        for (std::size_t i = 0; i < out.along.size(); ++i) {
+            const std::size_t ia = side.horizontal ? i * ys.size() + below : below * ys.size() + i;
+            const std::size_t ib =
+                side.horizontal ? i * ys.size() + below + 1 : (below + 1) * ys.size() + i;
+            a[i] = Complex(arr[ia]);
+            b[i] = Complex(arr[ib]);
+        }
+        out.a.push_back(std::move(a));
+        out.b.push_back(std::move(b));
+    }
+    return out;
+}
+
+// Steps until the largest |u|² at the probe over the last 20 time units is below decay × its
+// peak (Meep's stop_when_fields_decayed), polling the stop flag; returns the steps taken.
+double step_until_decayed(meep::fields& f, meep::component c, const meep::vec& probe,
+                          double source_end, const FullWave2dOptions& o) {
+    const double interval = 20.0;
+    double peak = 0.0, window = 0.0, next_check = source_end + interval, steps = 0.0;
+    while (true) {
+        if (o.stop && o.stop->load(std::memory_order_relaxed))
+            throw Interrupted("full wave: interrupted during a time-stepping run");
+        f.step();
+        steps += 1.0;
+        const double u2 = std::norm(f.get_field(c, probe));
+        peak = std::max(peak, u2);
+        window = std::max(window, u2);
+        if (f.time() >= next_check) {
+            if (window <= o.decay * peak) return steps;
+            window = 0.0;
+            next_check += interval;
+        }
+    }
+}
+
+// One FDTD run: the source, the DFT strips, time steps until the probe's field has decayed.
+RunResult run(meep::material_function& material, bool absorbing, Polarisation2d pol,
+              const Layout& l, std::span<const double> freqs, double f_centre, double f_width,
+              bool empty, const FullWave2dOptions& o) {
+    const meep::grid_volume gv = centred_grid(l.half_x, l.half_y, o.resolution_px_per_um);
+    meep::structure s(gv, material, meep::pml(o.pml_um), meep::identity(), 0, 0.5,
+                      o.subpixel_smoothing && !empty);
+    const meep::component c = field_component(pol);
+    if (absorbing) {
+        if (pol == Polarisation2d::te) {
+            s.set_conductivity(meep::Dz, material);
+        } else {
+            s.set_conductivity(meep::Dx, material);
+            s.set_conductivity(meep::Dy, material);
+        }
+    }
+    meep::fields f(&s);
+    f.use_real_fields();
+    meep::gaussian_src_time src(f_centre, f_width);
+    f.add_volume_source(
+        c, src, meep::volume(meep::vec(-l.half_x, l.source_y), meep::vec(l.half_x, l.source_y)),
+        1.0);
+
+    const std::array<Side, 4> sides = box_sides(l);
+    std::vector<meep::dft_fields> strips;
+    std::vector<meep::volume> where;
+    meep::component comps[1] = {c};
+    for (const Side& side : sides) {
+        where.push_back(strip_volume(side, l));
+        strips.push_back(f.add_dft_fields(comps, 1, where.back(), freqs.data(), freqs.size()));
+    }
+    // the incident wave near the bottom side (empty run): u_0 referred to the origin
+    const meep::volume foot(meep::vec(-0.5, -l.box_y - 2.0 * l.h),
+                            meep::vec(0.5, -l.box_y + 2.0 * l.h));
+    std::vector<meep::dft_fields> foot_dft;
+    if (empty) foot_dft.push_back(f.add_dft_fields(comps, 1, foot, freqs.data(), freqs.size()));
+
+    RunResult r;
+    r.time_steps = step_until_decayed(f, c, meep::vec(0.0, -l.box_y), src.last_time(), o);
+    for (std::size_t i = 0; i < 4; ++i)
+        r.sides[i] = read_side(f, strips[i], sides[i], where[i], c, freqs.size());
+    if (empty) {
+        std::vector<double> xs, ys;
+        grid_ticks(f, foot, xs, ys);
+        for (std::size_t k = 0; k < freqs.size(); ++k) {
+            int rank = 0;
+            std::size_t dims[3] = {1, 1, 1};
+            std::unique_ptr<std::complex<meep::realnum>[]> arr(
+                f.get_dft_array(foot_dft.front(), c, static_cast<int>(k), &rank, dims));
+            const double kk = 2.0 * kPi * freqs[k];
+            Complex sum = 0.0;
+            std::size_t n = 0;
+            for (std::size_t i = 0; i < xs.size(); ++i)
+                for (std::size_t j = 0; j < ys.size(); ++j) {
+                    // the incident wave is u_0 e^{−iky} (travelling down): u_0 = u e^{iky}
+                    sum += Complex(arr[i * ys.size() + j]) * std::exp(Complex(0.0, kk * ys[j]));
+                    ++n;
+                }
+            r.u0.push_back(sum / static_cast<double>(n));
+        }
+    }
+    return r;
+}
+
+// The box's sides as midpoint lines: u and ∂u/∂ν on each, with the sample weights.
+struct BoxSample {
+    double x = 0.0, y = 0.0, nx = 0.0, ny = 0.0, weight = 0.0;
+    Complex u, dudn;
+};
+
+std::vector<BoxSample> box_samples(const std::array<SideField, 4>& scattered, std::size_t k,
+                                   const Layout& l) {
+    const std::array<Side, 4> sides = box_sides(l);
+    // positions of the four midpoint lines: top, bottom (y), right, left (x)
+    std::array<double, 4> mid{};
+    for (std::size_t i = 0; i < 4; ++i) mid[i] = 0.5 * (scattered[i].line_a + scattered[i].line_b);
+    std::vector<BoxSample> out;
+    for (std::size_t i = 0; i < 4; ++i) {
+        const Side& s = sides[i];
+        const SideField& sf = scattered[i];
+        const double lo = s.horizontal ? mid[3] : mid[1], hi = s.horizontal ? mid[2] : mid[0];
+        const double d = sf.line_b - sf.line_a;
+        for (std::size_t j = 0; j < sf.along.size(); ++j) {
+            const double t = sf.along[j];
+            if (t <= lo || t >= hi) continue;
+            BoxSample b;
+            b.u = 0.5 * (sf.a[k][j] + sf.b[k][j]);
+            b.dudn = s.sign * (sf.b[k][j] - sf.a[k][j]) / d;
+            b.weight = l.h;
+            if (s.horizontal) {
+                b.x = t, b.y = mid[i], b.ny = s.sign;
+            } else {
+                b.x = mid[i], b.y = t, b.nx = s.sign;
+            }
+            out.push_back(b);
+        }
+    }
+    return out;
+}
+
+// f(θ) (Meep-frame angle, from +y towards +x) of the exterior Green's representation.
+Complex far_amplitude(const std::vector<BoxSample>& box, double k, double theta) {
+    const double sx = std::sin(theta), sy = std::cos(theta);
+    Complex total = 0.0;
+    for (const BoxSample& b : box) {
+        const Complex phase = std::exp(Complex(0.0, -k * (sx * b.x + sy * b.y)));
+        total += b.weight * phase * (Complex(0.0, -k * (sx * b.nx + sy * b.ny)) * b.u - b.dudn);
+    }
+    return std::exp(Complex(0.0, kPi / 4.0)) / std::sqrt(8.0 * kPi * k) * total;
+}
+
+// ∮ Im(u* ∂u/∂ν) ds: 2ω × the outward power per unit length.
+double outward_flux(const std::vector<BoxSample>& box) {
+    double sum = 0.0;
+    for (const BoxSample& b : box) sum += b.weight * std::imag(std::conj(b.u) * b.dudn);
+    return sum;
+}
+
+std::array<SideField, 4> difference(const std::array<SideField, 4>& total,
+                                    const std::array<SideField, 4>& incident) {
+    std::array<SideField, 4> out = total;
+    for (std::size_t i = 0; i < 4; ++i)
+        for (std::size_t k = 0; k < out[i].a.size(); ++k)
+            for (std::size_t j = 0; j < out[i].along.size(); ++j) {
+                out[i].a[k][j] -= incident[i].a[k][j];
+                out[i].b[k][j] -= incident[i].b[k][j];
+            }
+    return out;
+}
+
+void check_wavelengths(std::span<const double> lambdas_nm) {
+    require(!lambdas_nm.empty(), "full wave", "no wavelengths asked");
+    for (const double l : lambdas_nm)
+        require(std::isfinite(l) && l > 200.0 && l <= 2000.0, "full wave", "lambda_nm", l,
+                "a wavelength in (200, 2000] nm");
+}
+
+void check_options(const CrossSection2d& section, std::span<const double> lambdas_nm,
+                   const FullWave2dOptions& o) {
+    check_wavelengths(lambdas_nm);
+    require(std::isfinite(o.resolution_px_per_um) && o.resolution_px_per_um > 0.0 &&
+                o.resolution_px_per_um <= 400.0,
+            "full wave", "resolution_px_per_um", o.resolution_px_per_um,
+            "a finite resolution in (0, 400] px/µm");
+    const double h = 1.0 / o.resolution_px_per_um;
+    require(std::isfinite(o.pml_um) && o.pml_um >= h, "full wave", "pml_um", o.pml_um,
+            fmt::format("a PML at least one grid cell ({} µm) thick", h));
+    require(std::isfinite(o.gap_um) && o.gap_um >= 4.0 * h, "full wave", "gap_um", o.gap_um,
+            fmt::format("a gap of at least four grid cells ({} µm)", 4.0 * h));
+    require(std::isfinite(o.decay) && o.decay > 0.0 && o.decay <= 1e-2, "full wave", "decay",
+            o.decay, "a decay in (0, 1e-2]");
+    double lambda_min = lambdas_nm.front(), n_max = 1.0;
+    for (const double l : lambdas_nm) {
+        lambda_min = std::min(lambda_min, l);
+        for (const Body2d& b : section.bodies) n_max = std::max(n_max, b.material->index(l).real());
+    }
+    const double h_wave = to_um(lambda_min) / (10.0 * n_max);
+    if (h > h_wave * (1.0 + 1e-12))
+        throw InputError(
+            fmt::format("full wave: resolution_px_per_um = {} gives a grid step of {:.4g} µm, "
+                        "coarser than λ/(10 n) = {:.4g} µm "
+                        "({} nm, n = {:.4g}): at least {:.4g} px/µm needed",
+                        o.resolution_px_per_um, h, h_wave, lambda_min, n_max, 1.0 / h_wave));
+    for (const Body2d& b : section.bodies) {
+        const double thin = b.shape->thinnest_um();
+        if (thin < 2.0 * h * (1.0 - 1e-12))
+            throw InputError(
+                fmt::format("full wave: {} ({}) is {:.4g} µm thin at its narrowest, under two grid "
+                            "cells ({:.4g} µm at {} px/µm): "
+                            "at least {:.4g} px/µm needed",
+                            b.shape->describe(), b.material->name(), thin, 2.0 * h,
+                            o.resolution_px_per_um, 2.0 / thin));
+    }
+}
+
+void require_grid_memory(double cells, const std::string& what) {
+    require_memory(cells * kBytesPerCell, what);
+}
+
+// The Gaussian pulse covering all the frequencies: Meep's (centre, width).
+std::pair<double, double> pulse(std::span<const double> freqs) {
+    const auto [lo, hi] = std::minmax_element(freqs.begin(), freqs.end());
+    const double centre = 0.5 * (*lo + *hi);
+    return {centre, std::max(1.5 * (*hi - *lo), 0.5 * centre)};
+}
+
+struct Quiet {
+    Quiet() : old(meep::verbosity) { meep::verbosity = 0; }
+    ~Quiet() { meep::verbosity = old; }
+    int old;
+};
+
+}  // namespace
+
+double minimum_resolution_px_per_um(const CrossSection2d& section,
+                                    std::span<const double> lambdas_nm) {
+    check_wavelengths(lambdas_nm);
+    double res = 0.0;
+    for (const double l : lambdas_nm) {
+        double n_max = 1.0;
+        for (const Body2d& b : section.bodies) n_max = std::max(n_max, b.material->index(l).real());
+        res = std::max(res, 10.0 * n_max / to_um(l));
+    }
+    for (const Body2d& b : section.bodies) res = std::max(res, 2.0 / b.shape->thinnest_um());
+    return res;
+}
+
+FullWave2dResult full_wave_far_field(const CrossSection2d& section, Polarisation2d pol,
+                                     double theta_i_rad, std::span<const double> lambdas_nm,
+                                     std::span<const double> theta_s_rad,
+                                     const FullWave2dOptions& o) {
+    require(!section.bodies.empty(), "full wave", "the cross-section has no bodies");
+    require(std::isfinite(theta_i_rad), "full wave", "theta_i", theta_i_rad,
+            "a finite angle (rad)");
+    for (const Body2d& b : section.bodies)
+        require(!b.shape->is_layer(), "full wave",
+                fmt::format("{} is a layer: an isolated cross-section needs bounded bodies "
+                            "(layers: full_wave_stack)",
+                            b.shape->describe()));
+    for (const double t : theta_s_rad)
+        require(std::isfinite(t), "full wave", "theta_s", t, "a finite angle (rad)");
+    check_options(section, lambdas_nm, o);
+    std::vector<BodyMedia> media;
+    for (const double l : lambdas_nm) media.push_back(media_at(section, l));
+
+    // the bodies' extent in Meep's frame (ours turned by −θ_i)
+    const double c = std::cos(theta_i_rad), s = std::sin(theta_i_rad);
+    double ex = 0.0, ey = 0.0;
+    for (const Body2d& b : section.bodies) {
+        const Box2d box = b.shape->bounds();
+        for (const double x : {box.min.x(), box.max.x()})
+            for (const double z : {box.min.y(), box.max.y()}) {
+                ex = std::max(ex, std::abs(x * c - z * s));
+                ey = std::max(ey, std::abs(z * c + x * s));
+            }
+    }
+    Layout l;
+    l.h = 1.0 / o.resolution_px_per_um;
+    l.box_x = ex + o.gap_um;
+    l.box_y = ey + o.gap_um;
+    l.source_y = l.box_y + o.gap_um;
+    l.half_x = whole_cells(l.box_x + o.gap_um + o.pml_um, l.h);
+    l.half_y = whole_cells(l.source_y + o.gap_um + o.pml_um, l.h);
+    const double cells =
+        (2.0 * l.half_x * o.resolution_px_per_um) * (2.0 * l.half_y * o.resolution_px_per_um);
+    require_grid_memory(
+        cells, fmt::format("full wave: a {:.3g} × {:.3g} µm cell at resolution_px_per_um = {}",
+                           2.0 * l.half_x, 2.0 * l.half_y, o.resolution_px_per_um));
+
+    const auto started = std::chrono::steady_clock::now();
+    const Quiet quiet;
+    std::vector<double> freqs;
+    for (const double lam : lambdas_nm) freqs.push_back(1.0 / to_um(lam));
+    const auto [f_centre, f_width] = pulse(freqs);
+    AirMaterial air;
+    const RunResult incident = run(air, false, pol, l, freqs, f_centre, f_width, true, o);
+
+    FullWave2dResult result;
+    result.polarisation = pol;
+    result.theta_i_rad = theta_i_rad;
+    result.resolution_px_per_um = o.resolution_px_per_um;
+    result.theta_s_rad.assign(theta_s_rad.begin(), theta_s_rad.end());
+    result.grid_cells = static_cast<std::size_t>(cells);
+    for (std::size_t k = 0; k < freqs.size(); ++k) {
+        SectionMaterial material(section, theta_i_rad, media[k]);
+        const std::array<double, 1> one{freqs[k]};
+        const RunResult total =
+            run(material, media[k].absorbing, pol, l, one, f_centre, f_width, false, o);
+        // the incident field at this frequency only (the empty run holds all of them)
+        std::array<SideField, 4> inc = incident.sides;
+        for (SideField& sf : inc) {
+            sf.a = {sf.a[k]};
+            sf.b = {sf.b[k]};
+        }
+        const std::vector<BoxSample> scattered = box_samples(difference(total.sides, inc), 0, l);
+        const std::vector<BoxSample> whole = box_samples(total.sides, 0, l);
+        const double kk = 2.0 * kPi * freqs[k];
+        const Complex u0 = incident.u0[k];
+        const double intensity_times_2w = kk * std::norm(u0);  // 2ω I = ω |u_0|²
+        FarField2d ff;
+        ff.lambda_nm = lambdas_nm[k];
+        ff.time_steps = total.time_steps;
+        for (const double t : theta_s_rad)
+            ff.sigma_um_per_rad.push_back(std::norm(far_amplitude(scattered, kk, t - theta_i_rad)) /
+                                          std::norm(u0));
+        ff.scattering_width_um = outward_flux(scattered) / intensity_times_2w;
+        ff.absorption_width_um = -outward_flux(whole) / intensity_times_2w;
+        // ∫σ over the back hemisphere (ω_s·ω_i > 0: Meep angles |θ| < π/2), midpoint rule on
+        // 720 directions (σ is smooth on the scale of kΔθ·(box size) ≪ 1 for these boxes)
+        const int n_back = 720;
+        for (int j = 0; j < n_back; ++j) {
+            const double t = -kPi / 2.0 + kPi * (j + 0.5) / n_back;
+            ff.back_scattering_width_um +=
+                std::norm(far_amplitude(scattered, kk, t)) / std::norm(u0) * kPi / n_back;
+        }
+        const Complex forward =
+            far_amplitude(scattered, kk, kPi) / u0;  // Meep's forward: straight down
+        ff.extinction_width_um = -2.0 * std::sqrt(2.0 * kPi / kk) *
+                                 std::real(forward * std::exp(Complex(0.0, kPi / 4.0)));
+        result.wavelengths.push_back(std::move(ff));
+    }
+    result.seconds =
+        std::chrono::duration<double>(std::chrono::steady_clock::now() - started).count();
+    return result;
+}
+
+namespace {
+
+// u on two grid lines straddling y = at across the whole (periodic) cell, per frequency: the
+// mean over x of u and ∂u/∂y at their midpoint.
+struct LineField {
+    std::vector<Complex> u, dudy;
+};
+
+LineField read_line(meep::fields& f, meep::dft_fields& dft, const meep::volume& where, double at,
+                    meep::component c, std::size_t n_freq) {
+    std::vector<double> xs, ys;
+    grid_ticks(f, where, xs, ys);
+    std::size_t below = 0;
+    for (std::size_t i = 0; i < ys.size(); ++i)
+        if (ys[i] <= at + 1e-9) below = i;
+    if (below + 1 >= ys.size())
+        throw InvariantError("full wave: a flux strip holds no grid line above its line");
+    const double d = ys[below + 1] - ys[below];
+    LineField out;
+    for (std::size_t k = 0; k < n_freq; ++k) {
+        int rank = 0;
+        std::size_t dims[3] = {1, 1, 1};
+        std::unique_ptr<std::complex<meep::realnum>[]> arr(
+            f.get_dft_array(dft, c, static_cast<int>(k), &rank, dims));
+        Complex u = 0.0, du = 0.0;
+        for (std::size_t i = 0; i < xs.size(); ++i) {
+            const Complex a(arr[i * ys.size() + below]), b(arr[i * ys.size() + below + 1]);
+            u += 0.5 * (a + b);
+            du += (b - a) / d;
+        }
+        out.u.push_back(u / static_cast<double>(xs.size()));
+        out.dudy.push_back(du / static_cast<double>(xs.size()));
+    }
+    return out;
+}
+
+struct StackRun {
+    LineField above, below;
+};
+
+StackRun run_stack(meep::material_function& material, bool absorbing, Polarisation2d pol,
+                   double half_x, double half_y, double y_reflect, double y_source,
+                   double y_transmit, std::span<const double> freqs, double f_centre,
+                   double f_width, const FullWave2dOptions& o, bool smoothing) {
+    const meep::grid_volume gv = centred_grid(half_x, half_y, o.resolution_px_per_um);
+    meep::structure s(gv, material, meep::pml(o.pml_um, meep::Y), meep::identity(), 0, 0.5,
+                      smoothing);
+    const meep::component c = field_component(pol);
+    if (absorbing) {
+        if (pol == Polarisation2d::te) {
+            s.set_conductivity(meep::Dz, material);
+        } else {
+            s.set_conductivity(meep::Dx, material);
+            s.set_conductivity(meep::Dy, material);
+        }
+    }
+    meep::fields f(&s);
+    f.use_bloch(meep::vec(0.0, 0.0));  // periodic in x (normal incidence)
+    meep::gaussian_src_time src(f_centre, f_width);
+    f.add_volume_source(
+        c, src, meep::volume(meep::vec(-half_x, y_source), meep::vec(half_x, y_source)), 1.0);
+    const double h = 1.0 / o.resolution_px_per_um;
+    meep::component comps[1] = {c};
+    const meep::volume above(meep::vec(-half_x, y_reflect - 2.0 * h),
+                             meep::vec(half_x, y_reflect + 2.0 * h));
+    const meep::volume below(meep::vec(-half_x, y_transmit - 2.0 * h),
+                             meep::vec(half_x, y_transmit + 2.0 * h));
+    meep::dft_fields dft_above = f.add_dft_fields(comps, 1, above, freqs.data(), freqs.size());
+    meep::dft_fields dft_below = f.add_dft_fields(comps, 1, below, freqs.data(), freqs.size());
+    step_until_decayed(f, c, meep::vec(0.0, y_transmit), src.last_time(), o);
+    return {read_line(f, dft_above, above, y_reflect, c, freqs.size()),
+            read_line(f, dft_below, below, y_transmit, c, freqs.size())};
+}
+
+}  // namespace
+
+std::vector<StackReflectance> full_wave_stack(const CrossSection2d& layers, Polarisation2d pol,
+                                              std::span<const double> lambdas_nm,
+                                              const FullWave2dOptions& o) {
+    require(!layers.bodies.empty(), "full wave stack", "the stack has no layers");
+    double z_hi = -std::numeric_limits<double>::infinity(),
+           z_lo = std::numeric_limits<double>::infinity();
+    for (const Body2d& b : layers.bodies) {
+        require(b.shape->is_layer(), "full wave stack",
+                fmt::format("{} is not a layer: a planar stack takes layers only",
+                            b.shape->describe()));
+        const Box2d box = b.shape->bounds();
+        z_hi = std::max(z_hi, box.max.y());
+        z_lo = std::min(z_lo, std::isfinite(box.min.y()) ? box.min.y() : box.max.y());
+    }
+    check_options(layers, lambdas_nm, o);
+    std::vector<BodyMedia> media;
+    for (const double l : lambdas_nm) media.push_back(media_at(layers, l));
+
+    // Meep's y = our z − z_centre; from the top: PML, gap, source, gap, reflection line, gap,
+    // the stack, gap, transmission line, gap, PML
+    const double h = 1.0 / o.resolution_px_per_um;
+    const double top = z_hi + 3.0 * o.gap_um + o.pml_um, bottom = z_lo - 2.0 * o.gap_um - o.pml_um;
+    const double z_centre = 0.5 * (top + bottom), half_y = whole_cells(0.5 * (top - bottom), h),
+                 half_x = 2.0 * h;
+    const double y_reflect = z_hi + o.gap_um - z_centre,
+                 y_source = z_hi + 2.0 * o.gap_um - z_centre;
+    const double y_transmit = z_lo - o.gap_um - z_centre;
+    require_grid_memory(
+        4.0 * 2.0 * half_y * o.resolution_px_per_um,
+        fmt::format("full wave stack: a {:.3g} µm column at resolution_px_per_um = {}",
+                    2.0 * half_y, o.resolution_px_per_um));
+    // the medium under the stack, where T is measured
+    const int under = layers.body_at({0.0, z_lo - o.gap_um});
+
+    const Quiet quiet;
+    std::vector<double> freqs;
+    for (const double lam : lambdas_nm) freqs.push_back(1.0 / to_um(lam));
+    const auto [f_centre, f_width] = pulse(freqs);
+    AirMaterial air;
+    const StackRun incident = run_stack(air, false, pol, half_x, half_y, y_reflect, y_source,
+                                        y_transmit, freqs, f_centre, f_width, o, false);
+    std::vector<StackReflectance> out;
+    for (std::size_t k = 0; k < freqs.size(); ++k) {
+        SectionMaterial material(layers, 0.0, media[k], z_centre);
+        const std::array<double, 1> one{freqs[k]};
+        const StackRun total =
+            run_stack(material, media[k].absorbing, pol, half_x, half_y, y_reflect, y_source,
+                      y_transmit, one, f_centre, f_width, o, o.subpixel_smoothing);
+        // fluxes along +y, in units of 1/(2ω): Im(u* ∂u/∂y)
+        const Complex ui = incident.above.u[k], dui = incident.above.dudy[k];
+        const double incident_flux = -std::imag(std::conj(ui) * dui);  // downward
+        const Complex us = total.above.u[0] - ui, dus = total.above.dudy[0] - dui;
+        StackReflectance r;
+        r.lambda_nm = lambdas_nm[k];
+        r.reflectance = std::imag(std::conj(us) * dus) / incident_flux;
+        // the power flux under the stack: Im(u* ∂u/∂y)/(2ω) for TE; for TM (u = H) divided by
+        // ε there, which must then be real
+        const bool lossless_under =
+            under < 0 || media[k].sigma_d[static_cast<std::size_t>(under)] == 0.0;
+        const double eps_under = under < 0 ? 1.0 : media[k].eps[static_cast<std::size_t>(under)];
+        const double flux_under =
+            -std::imag(std::conj(total.below.u[0]) * total.below.dudy[0]) / incident_flux;
+        r.transmittance = !lossless_under             ? std::numeric_limits<double>::quiet_NaN()
+                          : pol == Polarisation2d::te ? flux_under
+                                                      : flux_under / eps_under;
+        out.push_back(r);
+    }
+    return out;
+}
+
+}  // namespace plumage::sim::fullwave

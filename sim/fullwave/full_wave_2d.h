@@ -1,0 +1,130 @@
+// Full wave (level 4 of physics, DESIGN.md): Maxwell's equations on a grid by the
+// finite-difference time-domain method of Meep's C++ library, for 2D cross-sections. The
+// level every cheaper level (ray optics + film, physical optics, Born) is judged against: it
+// leaves out nothing but the grid's discretisation, whose error each result states.
+//
+// Frame, polarisations and normalisation are physical_optics_2d.h's, so the two compare point
+// by point: x horizontal, z up, invariant along y; TE: E along y (u = E_y), TM: H along y
+// (u = H_y); light comes from ω_i = (sin θ_i, cos θ_i) and travels along −ω_i; the far field
+// is σ(θ_s) = lim r |u_s|² / |u_0|² in µm/rad towards ω_s = (sin θ_s, cos θ_s),
+// θ_s ∈ (−π, π], u_s the SCATTERED field (total minus incident) and u_0 the incident
+// amplitude; ∫σ dθ_s = scattered power per unit length over the incident intensity.
+//
+// The isolated cross-section (full_wave_far_field). Meep's grid is ours turned by −θ_i, so that
+// the light always comes straight down (Meep's x = our x, Meep's y = our z at θ_i = 0; the
+// invariant axis is Meep's z: TE is Meep's Ez, TM Meep's Hz): a line source across the whole
+// cell, through the side PMLs (an integrated current, Meep's rule for a source that enters a
+// PML), a Gaussian pulse covering the wavelengths asked. Each wavelength is one run with the
+// materials exact at that wavelength: ε = Re(n + ik)² and a D conductivity σ_D = ω Im ε / Re ε
+// (Meep's ε(ω) = ε(1 + iσ_D/ω)); one empty run (air only, same source and grid) gives the
+// incident field at every wavelength. On a closed box around the bodies (gap_um away) the
+// scattered field is the run's discrete Fourier transform minus the empty run's, on the same
+// grid points, so the incident wave cancels to rounding.
+//  - Far field: the exterior Green's representation on the box,
+//        f(θ) = e^{iπ/4}/√(8πk) ∮ [−ik (ω̂·ν) u_s − ∂u_s/∂ν] e^{−ik ω̂·r'} ds',
+//    σ = |f|²/|u_0|², from ONE component u on the two grid lines straddling each side (their
+//    mean and difference: consistent to O((kΔx)²)). Meep's own near2far is not used: it put a
+//    mirror image of the forward lobe, (kΔx/2)² as strong, into the specular direction
+//    (docs/full_wave.md).
+//  - u_0: the empty run's field near the box's bottom side referred to the origin with the
+//    exact k (the wave the body's forward field interferes with in the optical theorem).
+//  - Widths (µm; power per unit length over the incident intensity I = |u_0|²/2, in Meep's
+//    units c = ε_0 = μ_0 = 1, where the normal flux through a line in air is
+//    Im(u* ∂u/∂ν)/(2ω) for either polarisation): scattering = the scattered field's outward
+//    flux through the box; absorption = minus the total field's; extinction = the 2D optical
+//    theorem, −2 √(2π/k) Re[e^{iπ/4} f(forward)/u_0]. Three independent numbers:
+//    extinction = scattering + absorption holds to the grid's error (tested).
+//  - Stop: when |u|² at a probe under the bodies has fallen to `decay` of its peak.
+//
+// The planar stack (full_wave_stack): layers only, a cell one grid column wide, periodic in x
+// (normal incidence), PML above and below. Reflectance: the scattered field's upward flux above
+// the stack over the incident flux; transmittance: the total field's downward flux below it
+// (a lossless medium: Im(u* ∂u/∂y)/(2ω), divided by ε for TM). Tested against the transfer
+// matrix (multilayer.h).
+//
+// Resolution error: a caller runs resolution r and 1.5 r (subpixel smoothing on); the fine
+// run's error is at most 2 |fine − coarse| for an error falling at least as fast as the grid
+// step, 0.8 |fine − coarse| at second order (docs/full_wave.md; the tests hold the first).
+//
+// Refused before any work (InputError naming the limit): a grid coarser than λ/(10 n) for the
+// shortest wavelength and the largest n of the bodies; a body thinner than two grid cells; a
+// material with Re ε < 1 (metals: outside this level's scope); the memory the grid needs
+// (estimated per cell) beyond memory_limit(). A set stop flag ends a run between time steps
+// (InputError is not thrown: Interrupted, common/interrupt.h).
+//
+// Parameter table:
+//  | name                  | unit  | range                                               |
+//  |-----------------------|-------|-----------------------------------------------------|
+//  | lambda_nm             | nm    | finite, in (200, 2000], in the materials' range     |
+//  | theta_i               | rad   | finite                                              |
+//  | resolution_px_per_um  | 1/µm  | finite, >= 10 n_max / λ_min(µm), <= 400             |
+//  | pml_um, gap_um        | µm    | finite, >= one grid cell                            |
+//  | decay                 | 1     | in (0, 1e-2]                                        |
+//  | tolerance             | 1     | in (0, 1)                                           |
+#pragma once
+
+#include <atomic>
+#include <cstddef>
+#include <span>
+#include <vector>
+
+#include "sim/fullwave/cross_section_2d.h"
+#include "sim/wave/born_2d.h"  // Polarisation2d
+
+namespace plumage::sim::fullwave {
+
+using wave::Polarisation2d;
+
+struct FullWave2dOptions {
+    double resolution_px_per_um = 40.0;
+    double pml_um = 1.0;
+    double gap_um = 0.5;             // bodies → monitor box → source → PML
+    double decay = 1e-7;             // stop when |u|² at the probe is below decay × its peak
+    bool subpixel_smoothing = true;  // Meep's anisotropic averaging at boundaries
+    const std::atomic<bool>* stop = nullptr;  // polled between time steps
+};
+
+struct FarField2d {
+    double lambda_nm = 0.0;
+    std::vector<double> sigma_um_per_rad;   // at the θ_s asked
+    double scattering_width_um = 0.0;       // scattered flux through the box / I
+    double absorption_width_um = 0.0;       // −(total field's net outward flux) / I
+    double extinction_width_um = 0.0;       // optical theorem
+    double back_scattering_width_um = 0.0;  // ∫σ over the back hemisphere, ω_s·ω_i > 0
+    double time_steps = 0.0;                // of this wavelength's run
+};
+
+struct FullWave2dResult {
+    Polarisation2d polarisation = Polarisation2d::te;
+    double theta_i_rad = 0.0, resolution_px_per_um = 0.0;
+    std::vector<double> theta_s_rad;
+    std::vector<FarField2d> wavelengths;  // in the order asked
+    std::size_t grid_cells = 0;
+    double seconds = 0.0;  // wall time of all runs, the empty run included
+};
+
+// σ(θ_s) and the widths of an isolated cross-section (no layers) at each wavelength.
+FullWave2dResult full_wave_far_field(const CrossSection2d& section, Polarisation2d pol,
+                                     double theta_i_rad, std::span<const double> lambdas_nm,
+                                     std::span<const double> theta_s_rad,
+                                     const FullWave2dOptions& options);
+
+struct StackReflectance {
+    double lambda_nm = 0.0;
+    double reflectance = 0.0, transmittance = 0.0;
+};
+
+// R and T of a stack of layers (bodies whose shapes are layer(); the lowest may reach −∞) at
+// normal incidence from air above. T is measured in the medium under the stack when it is
+// lossless; under an absorbing substrate it is NaN (the power decays there).
+std::vector<StackReflectance> full_wave_stack(const CrossSection2d& layers, Polarisation2d pol,
+                                              std::span<const double> lambdas_nm,
+                                              const FullWave2dOptions& options);
+
+// The largest grid step the physics allows for this section at these wavelengths (λ/(10 n)),
+// and the smallest allowed by its thinnest body (half of it): the checks above, for callers
+// that choose a resolution.
+double minimum_resolution_px_per_um(const CrossSection2d& section,
+                                    std::span<const double> lambdas_nm);
+
+}  // namespace plumage::sim::fullwave

@@ -1,0 +1,255 @@
+// The 2D full-wave level (sim/fullwave/full_wave_2d.h) against closed forms: the exact series of
+// circular cylinders (dielectric and absorbing, TE and TM), the transfer matrix for planar
+// stacks, energy conservation (extinction = scattering + absorption), and its convergence in
+// the grid. Coarse grids keep each case to seconds. Tolerances are the runs' own resolution
+// error: a run at resolution r and at 1.5 r; the fine run's error is bounded by
+// 2 |fine − coarse| when the error falls at least as fast as the grid step (first order;
+// subpixel smoothing gives second order at dielectric boundaries, where the bound is 0.8×).
+#include "sim/fullwave/full_wave_2d.h"
+
+#include <atomic>
+#include <cmath>
+#include <numbers>
+
+#include <fmt/format.h>
+#include <gtest/gtest.h>
+
+#include "common/error.h"
+#include "common/interrupt.h"
+#include "sim/optics/multilayer.h"
+#include "sim/wave/cylinder_series.h"
+
+namespace plumage::sim::fullwave {
+namespace {
+
+constexpr double kPi = std::numbers::pi;
+
+std::vector<double> angles(int n) {
+    std::vector<double> t;
+    for (int i = 0; i < n; ++i) t.push_back(-kPi + 2.0 * kPi * (i + 0.5) / n);
+    return t;
+}
+
+CrossSection2d cylinder(double radius, std::complex<double> n) {
+    CrossSection2d s;
+    s.bodies.push_back({ellipse({0.0, 0.0}, radius, radius),
+                        std::make_shared<optics::ConstantMaterial>("cyl", n)});
+    return s;
+}
+
+FarField2d far_field(const CrossSection2d& s, Polarisation2d pol, double lambda_nm, double res,
+                     const std::vector<double>& theta) {
+    FullWave2dOptions o;
+    o.resolution_px_per_um = res;
+    const std::array<double, 1> lambdas{lambda_nm};
+    return full_wave_far_field(s, pol, 0.0, lambdas, theta, o).wavelengths.front();
+}
+
+double l2(const std::vector<double>& a, const std::vector<double>& b) {
+    double num = 0.0, den = 0.0;
+    for (std::size_t i = 0; i < a.size(); ++i) {
+        num += (a[i] - b[i]) * (a[i] - b[i]);
+        den += b[i] * b[i];
+    }
+    return std::sqrt(num / den);
+}
+
+// σ of the series at our θ_s for light from θ_i = 0 (forward is θ_s = π: ψ = π − |θ_s|).
+std::vector<double> series_sigma(const wave::CylinderSeries& s, double k,
+                                 const std::vector<double>& theta) {
+    std::vector<double> out;
+    for (const double t : theta) out.push_back(wave::cylinder_sigma(s, k, kPi - std::abs(t)));
+    return out;
+}
+
+// A cylinder of radius 0.4 µm at 600 nm (x = 4.2) at 30 and 45 px/µm against its series:
+// σ(θ_s) on 72 directions, the three widths, and extinction = scattering + absorption.
+void check_cylinder(std::complex<double> m) {
+    const double radius = 0.4, lambda = 600.0, k = 2.0 * kPi / 0.6;
+    const CrossSection2d section = cylinder(radius, m);
+    const std::vector<double> theta = angles(72);
+    for (const Polarisation2d pol : {Polarisation2d::te, Polarisation2d::tm}) {
+        SCOPED_TRACE(std::string(wave::polarisation_name(pol)));
+        const wave::CylinderSeries series = wave::cylinder_series(m, k * radius, pol);
+        const wave::CylinderWidths exact = wave::cylinder_widths(series, k);
+        const std::vector<double> exact_sigma = series_sigma(series, k, theta);
+        const FarField2d coarse = far_field(section, pol, lambda, 30.0, theta);
+        const FarField2d fine = far_field(section, pol, lambda, 45.0, theta);
+        const double sigma_error = 2.0 * l2(fine.sigma_um_per_rad, coarse.sigma_um_per_rad);
+        fmt::print(
+            "m = {} + {}i: σ L2 error {:.2e} (stated {:.2e}); C_ext {:.4f} / {:.4f}, C_sca {:.4f} "
+            "/ {:.4f}, "
+            "C_abs {:.4f} / {:.4f} µm (45 px/µm / series)\n",
+            m.real(), m.imag(), l2(fine.sigma_um_per_rad, exact_sigma), sigma_error,
+            fine.extinction_width_um, exact.extinction_um, fine.scattering_width_um,
+            exact.scattering_um, fine.absorption_width_um, exact.absorption_um);
+        EXPECT_LT(l2(fine.sigma_um_per_rad, exact_sigma), sigma_error);
+        EXPECT_LT(sigma_error, 0.1);  // the grids are fine enough to say something
+        const double ext_error =
+            2.0 * std::abs(fine.extinction_width_um - coarse.extinction_width_um);
+        const double sca_error =
+            2.0 * std::abs(fine.scattering_width_um - coarse.scattering_width_um);
+        const double abs_error =
+            2.0 * std::abs(fine.absorption_width_um - coarse.absorption_width_um);
+        EXPECT_NEAR(fine.extinction_width_um, exact.extinction_um, ext_error);
+        EXPECT_NEAR(fine.scattering_width_um, exact.scattering_um, sca_error);
+        EXPECT_NEAR(fine.absorption_width_um, exact.absorption_um,
+                    abs_error + 1e-3 * exact.extinction_um);
+        // three independent measures: the optical theorem, and the two box fluxes
+        EXPECT_NEAR(fine.extinction_width_um, fine.scattering_width_um + fine.absorption_width_um,
+                    ext_error + sca_error + abs_error);
+    }
+}
+
+TEST(FullWave2d, DielectricCylinderMatchesSeries) { check_cylinder({1.5, 0.0}); }
+
+TEST(FullWave2d, AbsorbingCylinderMatchesSeries) { check_cylinder({1.75, 0.3}); }
+
+// Subpixel smoothing makes the error fall as the square of the grid step: the dielectric
+// cylinder's σ error against its series at 30 and 60 px/µm.
+TEST(FullWave2d, SecondOrderConvergenceInTheGrid) {
+    const double radius = 0.4, k = 2.0 * kPi / 0.6;
+    const std::complex<double> m{1.5, 0.0};
+    const std::vector<double> theta = angles(72);
+    const std::vector<double> exact =
+        series_sigma(wave::cylinder_series(m, k * radius, Polarisation2d::te), k, theta);
+    const double e30 =
+        l2(far_field(cylinder(radius, m), Polarisation2d::te, 600.0, 30.0, theta).sigma_um_per_rad,
+           exact);
+    const double e60 =
+        l2(far_field(cylinder(radius, m), Polarisation2d::te, 600.0, 60.0, theta).sigma_um_per_rad,
+           exact);
+    const double order = std::log2(e30 / e60);
+    EXPECT_GT(order, 1.7) << e30 << " " << e60;
+    EXPECT_LT(order, 2.5) << e30 << " " << e60;
+}
+
+CrossSection2d stack(std::vector<std::pair<double, std::shared_ptr<const optics::Material>>> films,
+                     std::shared_ptr<const optics::Material> substrate) {
+    CrossSection2d s;
+    double z = 0.0;
+    for (const auto& [thickness, material] : films) {
+        s.bodies.push_back({layer(z - thickness, z), material});
+        z -= thickness;
+    }
+    if (substrate)
+        s.bodies.push_back({layer(-std::numeric_limits<double>::infinity(), z), substrate});
+    return s;
+}
+
+// R (and T where it is power) of a stack at 450, 550, 650 nm, at 60 and 90 px/µm, against the
+// transfer matrix of the same layers.
+void check_stack(const CrossSection2d& section,
+                 const std::vector<optics::StackLayer>& (*layers)(double),
+                 std::shared_ptr<const optics::Material> substrate) {
+    const std::array<double, 3> lambdas{450.0, 550.0, 650.0};
+    for (const Polarisation2d pol : {Polarisation2d::te, Polarisation2d::tm}) {
+        SCOPED_TRACE(std::string(wave::polarisation_name(pol)));
+        FullWave2dOptions o;
+        o.resolution_px_per_um = 60.0;
+        const std::vector<StackReflectance> coarse = full_wave_stack(section, pol, lambdas, o);
+        o.resolution_px_per_um = 90.0;
+        const std::vector<StackReflectance> fine = full_wave_stack(section, pol, lambdas, o);
+        for (std::size_t k = 0; k < lambdas.size(); ++k) {
+            SCOPED_TRACE(lambdas[k]);
+            const std::vector<optics::StackLayer>& l = layers(lambdas[k]);
+            const optics::StackIndices indices{1.0, l,
+                                               substrate ? substrate->index(lambdas[k]) : 1.0};
+            const optics::StackIntensities tmm = optics::transfer_matrix_intensities(
+                indices, lambdas[k], 1.0,
+                pol == Polarisation2d::te ? optics::Polarisation::s : optics::Polarisation::p);
+            const double r_error = 2.0 * std::abs(fine[k].reflectance - coarse[k].reflectance);
+            fmt::print(
+                "{} nm: R {:.5f} (transfer matrix {:.5f}, stated error {:.1e}), T {:.5f} "
+                "({:.5f})\n",
+                lambdas[k], fine[k].reflectance, tmm.reflectance, r_error, fine[k].transmittance,
+                tmm.transmittance);
+            EXPECT_NEAR(fine[k].reflectance, tmm.reflectance, r_error + 2e-4);
+            if (!std::isnan(fine[k].transmittance)) {
+                const double t_error =
+                    2.0 * std::abs(fine[k].transmittance - coarse[k].transmittance);
+                EXPECT_NEAR(fine[k].transmittance, tmm.transmittance, t_error + 2e-4);
+            }
+        }
+    }
+}
+
+const std::vector<optics::StackLayer>& film_layers(double lambda_nm) {
+    static thread_local std::vector<optics::StackLayer> l;
+    l = {{optics::keratin()->index(lambda_nm), 0.59}};
+    return l;
+}
+
+const std::vector<optics::StackLayer>& rock_dove_layers(double lambda_nm) {
+    static thread_local std::vector<optics::StackLayer> l;
+    l = {{optics::keratin()->index(lambda_nm), 0.59}, {{1.0, 0.0}, 0.3}};
+    return l;
+}
+
+TEST(FullWave2d, KeratinFilmMatchesTransferMatrix) {
+    check_stack(stack({{0.59, optics::keratin()}}, nullptr), film_layers, nullptr);
+}
+
+// The rock dove's barbule stack: 0.59 µm keratin, 0.3 µm air, melanin below.
+TEST(FullWave2d, FilmGapMelaninStackMatchesTransferMatrix) {
+    check_stack(stack({{0.59, optics::keratin()}, {0.3, optics::air()}}, optics::melanin()),
+                rock_dove_layers, optics::melanin());
+}
+
+TEST(FullWave2d, RefusesGridsTooCoarseForTheLightOrTheBodies) {
+    const std::array<double, 1> lambdas{450.0};
+    const std::vector<double> theta = angles(8);
+    FullWave2dOptions o;
+    o.resolution_px_per_um = 20.0;  // λ/(10 n) at 450 nm in keratin (n 1.56) needs 34.7
+    try {
+        full_wave_far_field(cylinder(0.4, {1.56, 0.0}), Polarisation2d::te, 0.0, lambdas, theta, o);
+        FAIL() << "no error";
+    } catch (const InputError& e) {
+        EXPECT_NE(std::string(e.what()).find("coarser than λ/(10 n)"), std::string::npos)
+            << e.what();
+    }
+    o.resolution_px_per_um = 40.0;  // a 0.04 µm film is 1.6 cells
+    CrossSection2d thin;
+    thin.bodies.push_back({ellipse_shell({0.0, 0.0}, 1.0, 0.5, 0.04), optics::keratin()});
+    try {
+        full_wave_far_field(thin, Polarisation2d::te, 0.0, lambdas, theta, o);
+        FAIL() << "no error";
+    } catch (const InputError& e) {
+        EXPECT_NE(std::string(e.what()).find("under two grid cells"), std::string::npos)
+            << e.what();
+    }
+}
+
+TEST(FullWave2d, RefusesWhatItCannotDo) {
+    const std::array<double, 1> lambdas{550.0};
+    const std::vector<double> theta = angles(8);
+    FullWave2dOptions o;
+    // a grid beyond the memory limit, refused before anything is allocated
+    EXPECT_THROW(full_wave_far_field(cylinder(300.0, {1.5, 0.0}), Polarisation2d::te, 0.0, lambdas,
+                                     theta, o),
+                 InputError);
+    // a metal (Re ε < 1)
+    EXPECT_THROW(
+        full_wave_far_field(cylinder(0.4, {0.2, 3.0}), Polarisation2d::te, 0.0, lambdas, theta, o),
+        InputError);
+    // layers are for the stack, bounded bodies for the far field
+    EXPECT_THROW(full_wave_far_field(stack({{0.5, optics::keratin()}}, nullptr), Polarisation2d::te,
+                                     0.0, lambdas, theta, o),
+                 InputError);
+    EXPECT_THROW(full_wave_stack(cylinder(0.4, {1.5, 0.0}), Polarisation2d::te, lambdas, o),
+                 InputError);
+}
+
+TEST(FullWave2d, StopFlagEndsARunBetweenSteps) {
+    std::atomic<bool> stop{true};
+    FullWave2dOptions o;
+    o.stop = &stop;
+    const std::array<double, 1> lambdas{550.0};
+    const std::vector<double> theta = angles(8);
+    EXPECT_THROW(
+        full_wave_far_field(cylinder(0.4, {1.5, 0.0}), Polarisation2d::te, 0.0, lambdas, theta, o),
+        Interrupted);
+}
+
+}  // namespace
+}  // namespace plumage::sim::fullwave
