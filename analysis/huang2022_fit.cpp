@@ -369,8 +369,11 @@ void edge_pixel_points(const SupportProbe& support, int n, int row, int column, 
 
 // Predictions for every observation of the layout (indexed by observation). Each pixel is
 // computed by one thread in a fixed order: the result does not depend on the thread count.
+// `working`, when given, is called with the number of illumination directions done, between
+// directions and, from the first thread, between pixels: a hemisphere record of many pixels
+// and wavelengths takes seconds per direction, and its caller reports progress by time.
 void predict(const Huang2022Params& params, const Layout& layout, int threads,
-             std::vector<double>& out) {
+             std::vector<double>& out, const std::function<void(std::size_t)>& working = {}) {
     const Huang2022Bsdf model(params);
     const int n = layout.n;
     const double pixel = 2.0 / n;
@@ -382,8 +385,10 @@ void predict(const Huang2022Params& params, const Layout& layout, int threads,
     std::vector<bool> edge(layout.used.size(), false);
     std::exception_ptr error;
     // Work is skipped once Ctrl-C is pressed (common/interrupt.h); the node loop then throws.
-    auto guarded = [&error](auto&& body) {
+    std::size_t directions = 0;
+    auto guarded = [&error, &working, &directions](auto&& body) {
         if (interrupt_requested()) return;
+        if (working && omp_get_thread_num() == 0) working(directions);
         try {
             body();
         } catch (...) {
@@ -396,6 +401,7 @@ void predict(const Huang2022Params& params, const Layout& layout, int threads,
         return std::pair{(column + 0.5) * pixel - 1.0, 1.0 - (row + 0.5) * pixel};
     };
     for (const auto& node : layout.illumination) {
+        if (working) working(directions);
         throw_if_interrupted("the next illumination direction of the Huang 2022 model image");
         // Plain variables, not a structured binding: OpenMP regions below use them, and
         // clang before 16 cannot capture bindings there.
@@ -478,6 +484,7 @@ void predict(const Huang2022Params& params, const Layout& layout, int threads,
             }
             if (error) std::rethrow_exception(error);
         }
+        ++directions;
     }
     throw_if_interrupted("the end of the Huang 2022 model image");
 }
@@ -664,21 +671,37 @@ struct Residuals {
     int values() const { return static_cast<int>(problem.data.size()); }
 
     int operator()(const Eigen::VectorXd& u, Eigen::VectorXd& r) const {
-        predict(huang2022_params(map.parameters(u)), problem.layout, threads, prediction);
+        std::function<void(std::size_t)> working;
+        if (options.progress) {
+            working = [this](std::size_t done) {
+                HuangFitProgress p = report(0.0);
+                p.within_evaluation = true;
+                p.directions_done = done;
+                options.progress(p);
+            };
+        }
+        predict(huang2022_params(map.parameters(u)), problem.layout, threads, prediction, working);
         ++evaluations;
         for (std::size_t k = 0; k < problem.data.size(); ++k) {
             r[static_cast<Eigen::Index>(k)] =
                 (prediction[k] - problem.data[k]) * problem.inverse_sigma[k];
         }
-        if (options.progress) {
-            const double elapsed =
-                std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
-            options.progress({evaluations, options.max_function_evaluations,
-                              static_cast<int>(map.free.size()), problem.layout.observations,
-                              problem.layout.used.size(), problem.layout.illumination.size(),
-                              elapsed, r.squaredNorm()});
-        }
+        if (options.progress) options.progress(report(r.squaredNorm()));
         return 0;
+    }
+
+    HuangFitProgress report(double chi_square) const {
+        HuangFitProgress p;
+        p.evaluations = evaluations;
+        p.max_evaluations = options.max_function_evaluations;
+        p.free_parameters = static_cast<int>(map.free.size());
+        p.observations = problem.layout.observations;
+        p.pixels = problem.layout.used.size();
+        p.illumination_directions = problem.layout.illumination.size();
+        p.elapsed_s =
+            std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+        p.chi_square = chi_square;
+        return p;
     }
 
     int df(const Eigen::VectorXd& u, Eigen::MatrixXd& jacobian) const {

@@ -107,11 +107,15 @@ inline constexpr std::array<std::string_view, kHuang2022ParameterCount> kHuang20
 std::array<double, kHuang2022ParameterCount> huang2022_values(const Huang2022Params& p);
 Huang2022Params huang2022_params(const std::array<double, kHuang2022ParameterCount>& values);
 
-// What a fit has done so far, after each residual evaluation (HuangFitOptions::progress).
+// What a fit has done so far (HuangFitOptions::progress): after each residual evaluation, and
+// from inside one (within_evaluation: between illumination directions and between pixels;
+// evaluations then counts the finished ones and chi_square is 0).
 struct HuangFitProgress {
-    int evaluations = 0;      // residual evaluations so far, finite differences included
-    int max_evaluations = 0;  // the fit stops at this many
-    int free_parameters = 0;  // an iteration costs about 2 × this + 1 evaluations
+    bool within_evaluation = false;
+    std::size_t directions_done = 0;  // of the evaluation under way
+    int evaluations = 0;              // residual evaluations so far, finite differences included
+    int max_evaluations = 0;          // the fit stops at this many
+    int free_parameters = 0;          // an iteration costs about 2 × this + 1 evaluations
     std::size_t observations = 0, pixels = 0, illumination_directions = 0;
     double elapsed_s = 0.0;   // wall time since the fit started
     double chi_square = 0.0;  // of the evaluation just made
@@ -137,9 +141,10 @@ struct HuangFitOptions {
     int max_function_evaluations = 400;    // residual evaluations, finite differences included
     double relative_tolerance = 1e-5;      // on the sum of squares and on the parameters
     int threads = 0;                       // OpenMP threads; 0: OpenMP's default
-    // Called after every residual evaluation (the command line prints progress and the expected
-    // cost from it); empty: silent. The fit polls Ctrl-C (common/interrupt.h) between the
-    // illumination directions of every evaluation and throws Interrupted.
+    // Called after every residual evaluation and, from the calling thread, often inside one
+    // (the command line prints progress by time and the expected cost); empty: silent. The fit
+    // polls Ctrl-C (common/interrupt.h) between the illumination directions of every evaluation and
+    // throws Interrupted.
     std::function<void(const HuangFitProgress&)> progress;
 };
 

@@ -265,7 +265,16 @@ Fitted fit_filip(const FitCommand& c) {
 std::function<void(const analysis::HuangFitProgress&)> huang_progress_printer() {
     constexpr double kProgressEvery = 5.0;  // s
     return [last = 0.0](const analysis::HuangFitProgress& p) mutable {
-        if (p.evaluations == 1) {
+        if (p.within_evaluation) {  // inside an evaluation: a slow one says where it is
+            if (p.elapsed_s - last >= kProgressEvery) {
+                std::cerr << fmt::format(
+                    "  huang2022 fit: evaluation {}: {} of {} illumination directions after "
+                    "{:.1f} s ({} observations); Ctrl-C stops it\n",
+                    p.evaluations + 1, p.directions_done, p.illumination_directions, p.elapsed_s,
+                    p.observations);
+                last = p.elapsed_s;
+            }
+        } else if (p.evaluations == 1) {
             std::cerr << fmt::format(
                 "  huang2022 fit: {} observations ({} pixels, {} illumination direction{}), {} "
                 "free parameters; one model evaluation {:.3g} s, an iteration about {} "
