@@ -198,6 +198,50 @@ def test_valid_cone_record_is_fitted_with_progress_and_stops_on_ctrl_c(tmp_path)
     assert not out.exists()
 
 
+def test_slow_model_evaluation_reports_progress_within_it(tmp_path):
+    """A hemisphere record of 64 × 64 pixels and 200 wavelengths: one model evaluation takes
+    minutes on one thread. The fit must speak every 5 s from inside it (the structure-aware
+    fuzzer's mutant 688 of seed 2027 spent 120 s in silence) and stop on Ctrl-C."""
+    record = write_scatterogram(tmp_path / "hemisphere.h5", "hemisphere", rows=15,
+                                wavelengths=(500.0,))
+    with h5py.File(record, "r+") as f:
+        n, wavelengths = 64, np.linspace(450.0, 649.0, 200)
+        pixel = 2.0 / n
+        u = (np.arange(n) + 0.5) * pixel - 1.0
+        uu, vv = np.meshgrid(u, -u)
+        r = np.hypot(uu, vv)
+        omega = np.where(r <= 1.0, 0.5 * np.pi * np.sin(0.5 * np.pi * r) / np.maximum(r, 1e-12),
+                         0.0) * pixel * pixel
+        image = np.repeat(np.where(r <= 1.0, 0.1, 0.0)[:, :, None], len(wavelengths), axis=2)
+        for name in ("wavelength_nm", "image/intensity", "image/standard_error",
+                     "image/solid_angle_sr"):
+            del f[name]
+        f["wavelength_nm"] = wavelengths
+        f["image/intensity"] = image
+        f["image/standard_error"] = 0.03 * image + 1e-6 * (image > 0)
+        f["image/solid_angle_sr"] = omega
+    out = tmp_path / "out"
+    process = subprocess.Popen([PLUMAGE, "fit", "--model", "huang2022", str(record), "--out",
+                                str(out), "--no-plots", "--threads", "1"],
+                               stderr=subprocess.PIPE, stdout=subprocess.PIPE, text=True)
+    started = time.monotonic()
+    first = process.stderr.readline()
+    waited = time.monotonic() - started
+    assert "huang2022 fit:" in first and "Ctrl-C stops it" in first, first
+    assert waited < 15.0, f"first progress line after {waited:.1f} s"
+    process.send_signal(signal.SIGINT)
+    sent = time.monotonic()
+    try:
+        code = process.wait(timeout=10)
+    finally:
+        process.kill()
+    elapsed = time.monotonic() - sent
+    rest = process.stderr.read()
+    assert code == 130, (code, rest)
+    assert elapsed < 2.0, f"stopped {elapsed:.2f} s after Ctrl-C"
+    assert not out.exists()
+
+
 def test_valid_beam_record_is_fitted(tmp_path):
     record = write_scatterogram(tmp_path / "beam.h5")
     result = run_fit(record, tmp_path / "out")
