@@ -5,11 +5,13 @@
 #include <chrono>
 #include <cmath>
 #include <complex>
+#include <exception>
 #include <limits>
 #include <memory>
 #include <numbers>
 
 #include <fmt/format.h>
+#include <omp.h>
 #include <meep.hpp>
 
 #include "common/error.h"
@@ -420,6 +422,28 @@ std::pair<double, double> pulse(std::span<const double> freqs) {
     return {centre, std::max(1.5 * (*hi - *lo), 0.5 * centre)};
 }
 
+// Runs job(0 … n − 1) on FullWave2dOptions::threads threads (dynamic: runs differ in length)
+// and returns their results in order; the first exception (an Interrupted among them) is
+// rethrown after all have stopped.
+template <class Job>
+auto run_all(std::size_t n, const FullWave2dOptions& o, const Job& job) {
+    using Result = decltype(job(std::size_t{0}));
+    std::vector<Result> results(n);
+    std::vector<std::exception_ptr> errors(n);
+    const int threads = o.threads > 0 ? o.threads : omp_get_max_threads();
+#pragma omp parallel for schedule(dynamic, 1) num_threads(threads)
+    for (std::ptrdiff_t i = 0; i < static_cast<std::ptrdiff_t>(n); ++i) {
+        try {
+            results[static_cast<std::size_t>(i)] = job(static_cast<std::size_t>(i));
+        } catch (...) {
+            errors[static_cast<std::size_t>(i)] = std::current_exception();
+        }
+    }
+    for (const std::exception_ptr& e : errors)
+        if (e) std::rethrow_exception(e);
+    return results;
+}
+
 struct Quiet {
     Quiet() : old(meep::verbosity) { meep::verbosity = 0; }
     ~Quiet() { meep::verbosity = old; }
@@ -488,8 +512,18 @@ FullWave2dResult full_wave_far_field(const CrossSection2d& section, Polarisation
     std::vector<double> freqs;
     for (const double lam : lambdas_nm) freqs.push_back(1.0 / to_um(lam));
     const auto [f_centre, f_width] = pulse(freqs);
-    AirMaterial air;
-    const RunResult incident = run(air, false, pol, l, freqs, f_centre, f_width, true, o);
+    // The empty run and one run per wavelength, independent: spread over threads (each Meep
+    // run is serial; runs share nothing but the read-only section).
+    const std::vector<RunResult> runs = run_all(freqs.size() + 1, o, [&](std::size_t i) {
+        if (i == 0) {
+            AirMaterial air;
+            return run(air, false, pol, l, freqs, f_centre, f_width, true, o);
+        }
+        SectionMaterial material(section, theta_i_rad, media[i - 1]);
+        const std::array<double, 1> one{freqs[i - 1]};
+        return run(material, media[i - 1].absorbing, pol, l, one, f_centre, f_width, false, o);
+    });
+    const RunResult& incident = runs.front();
 
     FullWave2dResult result;
     result.polarisation = pol;
@@ -498,10 +532,7 @@ FullWave2dResult full_wave_far_field(const CrossSection2d& section, Polarisation
     result.theta_s_rad.assign(theta_s_rad.begin(), theta_s_rad.end());
     result.grid_cells = static_cast<std::size_t>(cells);
     for (std::size_t k = 0; k < freqs.size(); ++k) {
-        SectionMaterial material(section, theta_i_rad, media[k]);
-        const std::array<double, 1> one{freqs[k]};
-        const RunResult total =
-            run(material, media[k].absorbing, pol, l, one, f_centre, f_width, false, o);
+        const RunResult& total = runs[k + 1];
         // the incident field at this frequency only (the empty run holds all of them)
         std::array<SideField, 4> inc = incident.sides;
         for (SideField& sf : inc) {
@@ -654,16 +685,21 @@ std::vector<StackReflectance> full_wave_stack(const CrossSection2d& layers, Pola
     std::vector<double> freqs;
     for (const double lam : lambdas_nm) freqs.push_back(1.0 / to_um(lam));
     const auto [f_centre, f_width] = pulse(freqs);
-    AirMaterial air;
-    const StackRun incident = run_stack(air, false, pol, half_x, half_y, y_reflect, y_source,
-                                        y_transmit, freqs, f_centre, f_width, o, false);
+    const std::vector<StackRun> runs = run_all(freqs.size() + 1, o, [&](std::size_t i) {
+        if (i == 0) {
+            AirMaterial air;
+            return run_stack(air, false, pol, half_x, half_y, y_reflect, y_source, y_transmit,
+                             freqs, f_centre, f_width, o, false);
+        }
+        SectionMaterial material(layers, 0.0, media[i - 1], z_centre);
+        const std::array<double, 1> one{freqs[i - 1]};
+        return run_stack(material, media[i - 1].absorbing, pol, half_x, half_y, y_reflect, y_source,
+                         y_transmit, one, f_centre, f_width, o, o.subpixel_smoothing);
+    });
+    const StackRun& incident = runs.front();
     std::vector<StackReflectance> out;
     for (std::size_t k = 0; k < freqs.size(); ++k) {
-        SectionMaterial material(layers, 0.0, media[k], z_centre);
-        const std::array<double, 1> one{freqs[k]};
-        const StackRun total =
-            run_stack(material, media[k].absorbing, pol, half_x, half_y, y_reflect, y_source,
-                      y_transmit, one, f_centre, f_width, o, o.subpixel_smoothing);
+        const StackRun& total = runs[k + 1];
         // fluxes along +y, in units of 1/(2ω): Im(u* ∂u/∂y)
         const Complex ui = incident.above.u[k], dui = incident.above.dudy[k];
         const double incident_flux = -std::imag(std::conj(ui) * dui);  // downward

@@ -82,6 +82,9 @@ struct FullWave2dOptions {
     double decay = 1e-7;             // stop when |u|² at the probe is below decay × its peak
     bool subpixel_smoothing = true;  // Meep's anisotropic averaging at boundaries
     const std::atomic<bool>* stop = nullptr;  // polled between time steps
+    // Runs at once (the empty run and one per wavelength are independent; each is serial):
+    // 0 = OpenMP's default. Results do not depend on it (tested bit for bit).
+    int threads = 0;
 };
 
 struct FarField2d {

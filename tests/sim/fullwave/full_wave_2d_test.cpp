@@ -196,6 +196,27 @@ TEST(FullWave2d, FilmGapMelaninStackMatchesTransferMatrix) {
                 rock_dove_layers, optics::melanin());
 }
 
+// The runs (empty, one per wavelength) spread over threads: the same numbers, bit for bit.
+TEST(FullWave2d, ResultsDoNotDependOnThreads) {
+    const std::array<double, 3> lambdas{600.0, 650.0, 700.0};
+    const std::vector<double> theta = angles(36);
+    FullWave2dOptions o;
+    o.resolution_px_per_um = 30.0;
+    o.threads = 1;
+    const FullWave2dResult one =
+        full_wave_far_field(cylinder(0.3, {1.75, 0.3}), Polarisation2d::tm, 0.3, lambdas, theta, o);
+    o.threads = 2;
+    const FullWave2dResult two =
+        full_wave_far_field(cylinder(0.3, {1.75, 0.3}), Polarisation2d::tm, 0.3, lambdas, theta, o);
+    for (std::size_t k = 0; k < lambdas.size(); ++k) {
+        EXPECT_EQ(one.wavelengths[k].sigma_um_per_rad, two.wavelengths[k].sigma_um_per_rad);
+        EXPECT_EQ(one.wavelengths[k].extinction_width_um, two.wavelengths[k].extinction_width_um);
+        EXPECT_EQ(one.wavelengths[k].absorption_width_um, two.wavelengths[k].absorption_width_um);
+    }
+    fmt::print("3 wavelengths + empty run: {:.2f} s on 1 thread, {:.2f} s on 2\n", one.seconds,
+               two.seconds);
+}
+
 TEST(FullWave2d, RefusesGridsTooCoarseForTheLightOrTheBodies) {
     const std::array<double, 1> lambdas{450.0};
     const std::vector<double> theta = angles(8);
