@@ -218,6 +218,34 @@ std::shared_ptr<const Shape2d> layer(double z_bottom, double z_top) {
     return std::make_shared<Layer>(z_bottom, z_top);
 }
 
+CrossSection2d barbule_row(double semi_major_um, double b, double film_um, double gap_um,
+                           double spacing_um, double tilt_rad, int count) {
+    require_positive(semi_major_um, "barbule row", "semi_major_um");
+    require(std::isfinite(b) && b > 0.0 && b <= 1.0, "barbule row", "b", b, "an aspect in (0, 1]");
+    require_positive(film_um, "barbule row", "film_um");
+    require(std::isfinite(gap_um) && gap_um >= 0.0, "barbule row", "gap_um", gap_um,
+            "a finite gap >= 0 (µm)");
+    require(b * semi_major_um > film_um + gap_um, "barbule row", "b", b,
+            fmt::format("a semi-minor axis b·A above film + gap = {} µm", film_um + gap_um));
+    require(std::isfinite(spacing_um) && spacing_um >= 0.0, "barbule row", "spacing_um", spacing_um,
+            "a finite spacing >= 0 (µm)");
+    require(std::isfinite(tilt_rad), "barbule row", "tilt", tilt_rad, "a finite angle (rad)");
+    require(count >= 1 && count <= 1000, "barbule row", "count", count, "1 … 1000 barbules");
+    const double core_a = semi_major_um - film_um - gap_um,
+                 core_b = b * semi_major_um - film_um - gap_um;
+    CrossSection2d row;
+    for (int m = 0; m < count; ++m) {
+        const Eigen::Vector2d centre((m - 0.5 * (count - 1)) * spacing_um, 0.0);
+        row.bodies.push_back({ellipse_shell(centre, core_a, core_b, film_um + gap_um, -tilt_rad),
+                              optics::keratin()});
+        if (gap_um > 0.0)
+            row.bodies.push_back(
+                {ellipse_shell(centre, core_a, core_b, gap_um, -tilt_rad), optics::air()});
+        row.bodies.push_back({ellipse(centre, core_a, core_b, -tilt_rad), optics::melanin()});
+    }
+    return row;
+}
+
 int CrossSection2d::body_at(const Eigen::Vector2d& p) const {
     for (int i = static_cast<int>(bodies.size()) - 1; i >= 0; --i)
         if (bodies[static_cast<std::size_t>(i)].shape->contains(p)) return i;

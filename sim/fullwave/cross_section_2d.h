@@ -76,4 +76,18 @@ struct CrossSection2d {
     int body_at(const Eigen::Vector2d& p) const;
 };
 
+// A row of barbule cross-sections with the project's stack (physical_optics_2d.h's
+// barbule_arc: keratin film d over an air gap g over melanin) as closed bodies: each barbule is
+// a melanin core, the ellipse of semi-axes (A − d − g, b·A − d − g), under an air shell g and a
+// keratin shell d of uniform thickness (outward offsets), so that the outer surface meets
+// Huang's ellipse (A, b·A) at the ends of both axes and lies within O((d + g)²/ρ) of it
+// elsewhere (ρ its radius of curvature: the inward offset of Huang's ellipse by d + g is not
+// defined where ρ < d + g, at the tips of flat barbules). The whole ellipse is drawn, not only
+// the arc [φ0, φ1] the other levels sample: under the arc the melanin core is opaque. Centres
+// at x = (m − (count − 1)/2)·spacing, z = 0, each turned by the tilt μ as physical_optics_2d.h's
+// rows (the major axis along (cos μ, −sin μ)). g = 0 leaves the air shell out. InputError when
+// the core would vanish (b·A <= d + g) or a value is outside its range.
+CrossSection2d barbule_row(double semi_major_um, double b, double film_um, double gap_um,
+                           double spacing_um, double tilt_rad, int count);
+
 }  // namespace plumage::sim::fullwave
