@@ -137,8 +137,13 @@ CrossSection2d stack(std::vector<std::pair<double, std::shared_ptr<const optics:
     return s;
 }
 
-// R (and T where it is power) of a stack at 450, 550, 650 nm, at 60 and 90 px/µm, against the
-// transfer matrix of the same layers.
+// R (and T where it is power) of a stack at 450, 550, 650 nm, at 180 and 270 px/µm, against the
+// transfer matrix of the same layers. A stack's error converges at second order but wobbles by
+// a few 1e-4 with where its interfaces fall between grid points (keratin film at 550 nm: 4.7e-4
+// at 90 px/µm, 7.1e-4 at 135, 1.7e-4 at 180, 5.8e-5 at 270), which a two-grid estimate cannot
+// see: the tolerance is the stated error plus that wobble's size at these grids, 2e-4.
+constexpr double kInterfaceWobble = 2e-4;
+
 void check_stack(const CrossSection2d& section,
                  const std::vector<optics::StackLayer>& (*layers)(double),
                  std::shared_ptr<const optics::Material> substrate) {
@@ -146,9 +151,9 @@ void check_stack(const CrossSection2d& section,
     for (const Polarisation2d pol : {Polarisation2d::te, Polarisation2d::tm}) {
         SCOPED_TRACE(std::string(wave::polarisation_name(pol)));
         FullWave2dOptions o;
-        o.resolution_px_per_um = 60.0;
+        o.resolution_px_per_um = 180.0;
         const std::vector<StackReflectance> coarse = full_wave_stack(section, pol, lambdas, o);
-        o.resolution_px_per_um = 90.0;
+        o.resolution_px_per_um = 270.0;
         const std::vector<StackReflectance> fine = full_wave_stack(section, pol, lambdas, o);
         for (std::size_t k = 0; k < lambdas.size(); ++k) {
             SCOPED_TRACE(lambdas[k]);
@@ -164,11 +169,11 @@ void check_stack(const CrossSection2d& section,
                 "({:.5f})\n",
                 lambdas[k], fine[k].reflectance, tmm.reflectance, r_error, fine[k].transmittance,
                 tmm.transmittance);
-            EXPECT_NEAR(fine[k].reflectance, tmm.reflectance, r_error + 2e-4);
+            EXPECT_NEAR(fine[k].reflectance, tmm.reflectance, r_error + kInterfaceWobble);
             if (!std::isnan(fine[k].transmittance)) {
                 const double t_error =
                     2.0 * std::abs(fine[k].transmittance - coarse[k].transmittance);
-                EXPECT_NEAR(fine[k].transmittance, tmm.transmittance, t_error + 2e-4);
+                EXPECT_NEAR(fine[k].transmittance, tmm.transmittance, t_error + kInterfaceWobble);
             }
         }
     }
