@@ -1,0 +1,69 @@
+// The cheaper 2D levels judged by full wave: physical optics (physical_optics_2d.h, its total
+// field: reflection, shadow and edge diffraction) and ray optics + thin film
+// (geometric_optics_2d.h) against a full-wave σ(θ_s) of the same cross-section (the suite's
+// Meep level, sim/fullwave, or a committed reference of it), read through the same detector
+// window. The full-wave curves enter as numbers: this floor does not run Meep.
+//
+// Per wavelength, unpolarised ((TE + TM)/2 of each level), at detector centres θ = −89°, …, 89°
+// (1° apart, the back half-space for θ_i = 0; ray_optics_validity.h's centres):
+//  - W_FW, W_PO, W_GO through the window (geometric_optics_2d.h `windowed`); FW and PO sampled
+//    on the full-wave grid (uniform, 0.5° in the references), GO's rays as deltas;
+//  - relative L1 of a level = Σ_θ |W_level − W_FW| / Σ_θ W_FW, and its power error
+//    Σ_θ W_level / Σ_θ W_FW − 1;
+//  - the full-wave level's own resolution error, the same L1 and power error between its coarse
+//    and fine grids: a level's error below that is not resolved by the reference.
+// The verdict: the cheapest level whose L1 over every wavelength is within the threshold (5 %),
+// otherwise "full wave"; the reference's own resolution L1 is stated beside it (a level's error
+// below that is not resolved by the reference).
+//
+// What the levels compared here leave out (state it with any verdict): PO and GO sample only
+// the arc they are given, with a planar stack under each point; the full-wave body is closed
+// (fullwave::barbule_row) and carries the gap and the melanin in 2D; neither cheaper level lets
+// light through the film into the gap but via the stack's r.
+#pragma once
+
+#include <array>
+#include <span>
+#include <string>
+#include <vector>
+
+#include "sim/wave/geometric_optics_2d.h"
+#include "sim/wave/physical_optics_2d.h"
+
+namespace plumage::sim::wave {
+
+// One wavelength's full-wave σ(θ_s), µm/rad, on a uniform increasing θ grid (rad): TE and TM at
+// the fine and the coarse resolution.
+struct FullWaveCurves2d {
+    double lambda_nm = 0.0, theta_i_rad = 0.0;
+    double coarse_px_per_um = 0.0, fine_px_per_um = 0.0;
+    std::vector<double> theta_s_rad;
+    std::array<std::vector<double>, 2> fine, coarse;  // [TE, TM]
+};
+
+struct LevelError2d {
+    double relative_l1 = 0.0, power_error = 0.0;
+};
+
+struct LevelsAgainstFullWave2d {
+    double lambda_nm = 0.0;
+    LevelError2d physical_optics, ray_optics, full_wave_resolution;
+};
+
+struct FullWaveVerdict2d {
+    std::vector<LevelsAgainstFullWave2d> wavelengths;
+    double threshold = 0.05;
+    // largest over wavelengths, and where
+    double worst_po_l1 = 0.0, worst_go_l1 = 0.0, worst_resolution_l1 = 0.0;
+    double worst_po_lambda_nm = 0.0, worst_go_lambda_nm = 0.0;
+    std::string level;  // "ray optics + thin film", "physical optics" or "full wave"
+};
+
+// InputError when a curve is empty, not uniform, or its sizes disagree. `step_um`: the PO/GO
+// sampling step (0: λ/10; a barbule's smallest radius of curvature when below it).
+FullWaveVerdict2d judge_against_full_wave(const Row2d& row,
+                                          std::span<const FullWaveCurves2d> curves,
+                                          const DetectorWindow& window = {},
+                                          double threshold = 0.05, double step_um = 0.0);
+
+}  // namespace plumage::sim::wave
