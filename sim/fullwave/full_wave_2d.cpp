@@ -283,6 +283,17 @@ double step_until_decayed(meep::fields& f, meep::component c, const meep::vec& p
     }
 }
 
+// The D conductivity of absorbing bodies on the polarisation's electric components (Ez for TE;
+// Ex, Ey for TM).
+void set_conductivity(meep::structure& s, meep::material_function& material, Polarisation2d pol) {
+    if (pol == Polarisation2d::te) {
+        s.set_conductivity(meep::Dz, material);
+    } else {
+        s.set_conductivity(meep::Dx, material);
+        s.set_conductivity(meep::Dy, material);
+    }
+}
+
 // One FDTD run: the source, the DFT strips, time steps until the probe's field has decayed.
 RunResult run(meep::material_function& material, bool absorbing, Polarisation2d pol,
               const Layout& l, std::span<const double> freqs, double f_centre, double f_width,
@@ -291,14 +302,7 @@ RunResult run(meep::material_function& material, bool absorbing, Polarisation2d 
     meep::structure s(gv, material, meep::pml(o.pml_um), meep::identity(), 0, 0.5,
                       o.subpixel_smoothing && !empty);
     const meep::component c = field_component(pol);
-    if (absorbing) {
-        if (pol == Polarisation2d::te) {
-            s.set_conductivity(meep::Dz, material);
-        } else {
-            s.set_conductivity(meep::Dx, material);
-            s.set_conductivity(meep::Dy, material);
-        }
-    }
+    if (absorbing) set_conductivity(s, material, pol);
     meep::fields f(&s);
     f.use_real_fields();
     meep::gaussian_src_time src(f_centre, f_width);
@@ -666,14 +670,7 @@ StackRun run_stack(meep::material_function& material, bool absorbing, Polarisati
     meep::structure s(gv, material, meep::pml(o.pml_um, meep::Y), meep::identity(), 0, 0.5,
                       smoothing);
     const meep::component c = field_component(pol);
-    if (absorbing) {
-        if (pol == Polarisation2d::te) {
-            s.set_conductivity(meep::Dz, material);
-        } else {
-            s.set_conductivity(meep::Dx, material);
-            s.set_conductivity(meep::Dy, material);
-        }
-    }
+    if (absorbing) set_conductivity(s, material, pol);
     meep::fields f(&s);
     f.use_bloch(meep::vec(0.0, 0.0));  // periodic in x (normal incidence)
     meep::gaussian_src_time src(f_centre, f_width);
