@@ -53,12 +53,14 @@ FullWaveVerdict2d judge_against_full_wave(const Row2d& row,
         for (int p = 0; p < 2; ++p) {
             const Incidence2d incidence{c.lambda_nm, c.theta_i_rad,
                                         p == 0 ? Polarisation2d::te : Polarisation2d::tm};
+            // λ/10, or the caller's step when finer (a barbule's tip radius)
+            const double step = step_um > 0.0 ? std::min(step_um, 1e-4 * c.lambda_nm) : 0.0;
             PhysicalOpticsOptions po_options;
-            po_options.step_um = step_um;
+            po_options.step_um = step;
             const std::vector<double> sigma_po =
                 scattering_width(row, incidence, c.theta_s_rad, po_options);
             GeometricOpticsOptions go_options;
-            go_options.step_um = step_um;
+            go_options.step_um = step;
             const std::vector<GeometricRay2d> rays = geometric_rays(row, incidence, go_options);
             const std::vector<double> w_fw = windowed(c.theta_s_rad, c.fine[p], window, centres);
             const std::vector<double> w_fc = windowed(c.theta_s_rad, c.coarse[p], window, centres);

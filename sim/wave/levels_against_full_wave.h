@@ -60,7 +60,7 @@ struct FullWaveVerdict2d {
 };
 
 // InputError when a curve is empty, not uniform, or its sizes disagree. `step_um`: the PO/GO
-// sampling step (0: λ/10; a barbule's smallest radius of curvature when below it).
+// sampling step's upper bound below λ/10 (a barbule's smallest radius of curvature); 0: λ/10.
 FullWaveVerdict2d judge_against_full_wave(const Row2d& row,
                                           std::span<const FullWaveCurves2d> curves,
                                           const DetectorWindow& window = {},
