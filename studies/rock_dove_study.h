@@ -55,6 +55,10 @@ struct RockDoveResult {
     double level_relative_l1 = 0.0, level_noise_floor = 0.0, level_power_error = 0.0;
     bool level_ray_optics_suffices = false;
     double level_relative_l1_gap_closed = 0.0;  // the same row, keratin directly on melanin
+    // Judged by full wave (one barbule with its gap; empty level: the reference does not apply)
+    std::string level_full_wave;
+    double level_full_wave_po_l1 = 0.0, level_full_wave_go_l1 = 0.0;
+    double level_full_wave_resolution_l1 = 0.0, level_full_wave_back_power_diff = 0.0;
     double level_seconds = 0.0;
 };
 

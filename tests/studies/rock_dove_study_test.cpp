@@ -128,6 +128,15 @@ void check_level_of_physics(const RockDoveResult& r, const std::string& report) 
     EXPECT_LT(r.level_relative_l1_gap_closed, 0.5 * r.level_relative_l1);
     EXPECT_NE(report.find("air gap under the film closed"), std::string::npos);
     EXPECT_NE(report.find("physical optics is needed"), std::string::npos);
+    // Judged by full wave: the embedded reference of this barbule with its gap
+    // (tests/reference/fullwave_rock_dove) converged (band-integrated back-scattered power within
+    // 2 % between its grids) and the cheapest level within 5 % of it named in the report.
+    EXPECT_NE(report.find("Judged by full wave"), std::string::npos);
+    EXPECT_FALSE(r.level_full_wave.empty());
+    EXPECT_LT(std::abs(r.level_full_wave_back_power_diff), 0.02);
+    EXPECT_NE(report.find("Cheapest level within 5 % of full wave: " + r.level_full_wave),
+              std::string::npos);
+    EXPECT_EQ(r.level_full_wave == "ray optics + thin film", r.level_full_wave_go_l1 <= 0.05);
 }
 
 void check_avian_vision(const RockDoveResult& r, const std::filesystem::path& dir,
