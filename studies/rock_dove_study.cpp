@@ -1041,6 +1041,22 @@ std::pair<double, double> back_power_by_resolution(double& coarse_res, double& f
     return {band(by_res.begin()->second), band(by_res.rbegin()->second)};
 }
 
+// The per-wavelength table of the full-wave judgement: each level's L1 and power error, and the
+// reference's own coarse-vs-fine difference.
+std::string verdict_table(const sim::wave::FullWaveVerdict2d& v) {
+    std::string table =
+        "| λ (nm) | physical optics: L1, power | ray optics + film: L1, power | full wave, "
+        "coarse vs fine: L1, power |\n|---|---|---|---|\n";
+    for (const auto& w : v.wavelengths)
+        table += fmt::format(
+            "| {:.0f} | {:.1f} %, {:+.1f} % | {:.1f} %, {:+.1f} % | {:.1f} %, {:+.1f} % |\n",
+            w.lambda_nm, 100.0 * w.physical_optics.relative_l1,
+            100.0 * w.physical_optics.power_error, 100.0 * w.ray_optics.relative_l1,
+            100.0 * w.ray_optics.power_error, 100.0 * w.full_wave_resolution.relative_l1,
+            100.0 * w.full_wave_resolution.power_error);
+    return table;
+}
+
 std::string full_wave_judgement(const Run& run, RockDoveResult& result) {
     const geometry::BarbuleRowParams& p = run.s.row;
     if (!matches_reference(run.s))
@@ -1073,16 +1089,7 @@ std::string full_wave_judgement(const Run& run, RockDoveResult& result) {
     result.level_full_wave_go_l1 = v.worst_go_l1;
     result.level_full_wave_resolution_l1 = v.worst_resolution_l1;
     result.level_full_wave_back_power_diff = back_diff;
-    std::string table =
-        "| λ (nm) | physical optics: L1, power | ray optics + film: L1, power | full wave, "
-        "coarse vs fine: L1, power |\n|---|---|---|---|\n";
-    for (const auto& w : v.wavelengths)
-        table += fmt::format(
-            "| {:.0f} | {:.1f} %, {:+.1f} % | {:.1f} %, {:+.1f} % | {:.1f} %, {:+.1f} % |\n",
-            w.lambda_nm, 100.0 * w.physical_optics.relative_l1,
-            100.0 * w.physical_optics.power_error, 100.0 * w.ray_optics.relative_l1,
-            100.0 * w.ray_optics.power_error, 100.0 * w.full_wave_resolution.relative_l1,
-            100.0 * w.full_wave_resolution.power_error);
+    const std::string table = verdict_table(v);
     // where a level's miss exceeds the reference's own grid difference, it is resolved
     int po_resolved = 0, go_resolved = 0;
     for (const auto& w : v.wavelengths) {

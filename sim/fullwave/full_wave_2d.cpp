@@ -501,6 +501,70 @@ struct Quiet {
     int old;
 };
 
+// The cell around isolated bodies in Meep's frame (ours turned by −θ_i): monitor box gap_um
+// outside the bodies, the source gap_um above it, then gap_um and the PML, in whole cells.
+Layout isolated_layout(const CrossSection2d& section, double theta_i_rad,
+                       const FullWave2dOptions& o) {
+    // the bodies' extent in Meep's frame (ours turned by −θ_i)
+    const double c = std::cos(theta_i_rad), s = std::sin(theta_i_rad);
+    double ex = 0.0, ey = 0.0;
+    for (const Body2d& b : section.bodies) {
+        const Box2d box = b.shape->bounds();
+        for (const double x : {box.min.x(), box.max.x()})
+            for (const double z : {box.min.y(), box.max.y()}) {
+                ex = std::max(ex, std::abs(x * c - z * s));
+                ey = std::max(ey, std::abs(z * c + x * s));
+            }
+    }
+    Layout l;
+    l.h = 1.0 / o.resolution_px_per_um;
+    l.box_x = ex + o.gap_um;
+    l.box_y = ey + o.gap_um;
+    l.source_y = l.box_y + o.gap_um;
+    l.half_x = whole_cells(l.box_x + o.gap_um + o.pml_um, l.h);
+    l.half_y = whole_cells(l.source_y + o.gap_um + o.pml_um, l.h);
+    return l;
+}
+
+// One wavelength's far field and widths from its run (`total`) and the empty run (`incident`,
+// all wavelengths; k is this one's index there).
+FarField2d far_field_of_run(const RunResult& total, const RunResult& incident, std::size_t k,
+                            double freq, double lambda_nm, double theta_i_rad,
+                            std::span<const double> theta_s_rad, const Layout& l) {
+    // the incident field at this frequency only (the empty run holds all of them)
+    std::array<SideField, 4> inc = incident.sides;
+    for (SideField& sf : inc) {
+        sf.a = {sf.a[k]};
+        sf.b = {sf.b[k]};
+    }
+    const std::vector<BoxSample> scattered = box_samples(difference(total.sides, inc), 0, l);
+    const std::vector<BoxSample> whole = box_samples(total.sides, 0, l);
+    const double kk = 2.0 * kPi * freq;
+    const Complex u0 = incident.u0[k];
+    const double intensity_times_2w = kk * std::norm(u0);  // 2ω I = ω |u_0|²
+    FarField2d ff;
+    ff.lambda_nm = lambda_nm;
+    ff.time_steps = total.time_steps;
+    for (const double t : theta_s_rad)
+        ff.sigma_um_per_rad.push_back(std::norm(far_amplitude(scattered, kk, t - theta_i_rad)) /
+                                      std::norm(u0));
+    ff.scattering_width_um = outward_flux(scattered) / intensity_times_2w;
+    ff.absorption_width_um = -outward_flux(whole) / intensity_times_2w;
+    // ∫σ over the back hemisphere (ω_s·ω_i > 0: Meep angles |θ| < π/2), midpoint rule on
+    // 720 directions (σ is smooth on the scale of kΔθ·(box size) ≪ 1 for these boxes)
+    const int n_back = 720;
+    for (int j = 0; j < n_back; ++j) {
+        const double t = -kPi / 2.0 + kPi * (j + 0.5) / n_back;
+        ff.back_scattering_width_um +=
+            std::norm(far_amplitude(scattered, kk, t)) / std::norm(u0) * kPi / n_back;
+    }
+    const Complex forward =
+        far_amplitude(scattered, kk, kPi) / u0;  // Meep's forward: straight down
+    ff.extinction_width_um =
+        -2.0 * std::sqrt(2.0 * kPi / kk) * std::real(forward * std::exp(Complex(0.0, kPi / 4.0)));
+    return ff;
+}
+
 }  // namespace
 
 double minimum_resolution_px_per_um(const CrossSection2d& section,
@@ -534,24 +598,7 @@ FullWave2dResult full_wave_far_field(const CrossSection2d& section, Polarisation
     std::vector<BodyMedia> media;
     for (const double l : lambdas_nm) media.push_back(media_at(section, l));
 
-    // the bodies' extent in Meep's frame (ours turned by −θ_i)
-    const double c = std::cos(theta_i_rad), s = std::sin(theta_i_rad);
-    double ex = 0.0, ey = 0.0;
-    for (const Body2d& b : section.bodies) {
-        const Box2d box = b.shape->bounds();
-        for (const double x : {box.min.x(), box.max.x()})
-            for (const double z : {box.min.y(), box.max.y()}) {
-                ex = std::max(ex, std::abs(x * c - z * s));
-                ey = std::max(ey, std::abs(z * c + x * s));
-            }
-    }
-    Layout l;
-    l.h = 1.0 / o.resolution_px_per_um;
-    l.box_x = ex + o.gap_um;
-    l.box_y = ey + o.gap_um;
-    l.source_y = l.box_y + o.gap_um;
-    l.half_x = whole_cells(l.box_x + o.gap_um + o.pml_um, l.h);
-    l.half_y = whole_cells(l.source_y + o.gap_um + o.pml_um, l.h);
+    const Layout l = isolated_layout(section, theta_i_rad, o);
     const double cells =
         (2.0 * l.half_x * o.resolution_px_per_um) * (2.0 * l.half_y * o.resolution_px_per_um);
     require_grid_memory(
@@ -583,39 +630,8 @@ FullWave2dResult full_wave_far_field(const CrossSection2d& section, Polarisation
     result.theta_s_rad.assign(theta_s_rad.begin(), theta_s_rad.end());
     result.grid_cells = static_cast<std::size_t>(cells);
     for (std::size_t k = 0; k < freqs.size(); ++k) {
-        const RunResult& total = runs[k + 1];
-        // the incident field at this frequency only (the empty run holds all of them)
-        std::array<SideField, 4> inc = incident.sides;
-        for (SideField& sf : inc) {
-            sf.a = {sf.a[k]};
-            sf.b = {sf.b[k]};
-        }
-        const std::vector<BoxSample> scattered = box_samples(difference(total.sides, inc), 0, l);
-        const std::vector<BoxSample> whole = box_samples(total.sides, 0, l);
-        const double kk = 2.0 * kPi * freqs[k];
-        const Complex u0 = incident.u0[k];
-        const double intensity_times_2w = kk * std::norm(u0);  // 2ω I = ω |u_0|²
-        FarField2d ff;
-        ff.lambda_nm = lambdas_nm[k];
-        ff.time_steps = total.time_steps;
-        for (const double t : theta_s_rad)
-            ff.sigma_um_per_rad.push_back(std::norm(far_amplitude(scattered, kk, t - theta_i_rad)) /
-                                          std::norm(u0));
-        ff.scattering_width_um = outward_flux(scattered) / intensity_times_2w;
-        ff.absorption_width_um = -outward_flux(whole) / intensity_times_2w;
-        // ∫σ over the back hemisphere (ω_s·ω_i > 0: Meep angles |θ| < π/2), midpoint rule on
-        // 720 directions (σ is smooth on the scale of kΔθ·(box size) ≪ 1 for these boxes)
-        const int n_back = 720;
-        for (int j = 0; j < n_back; ++j) {
-            const double t = -kPi / 2.0 + kPi * (j + 0.5) / n_back;
-            ff.back_scattering_width_um +=
-                std::norm(far_amplitude(scattered, kk, t)) / std::norm(u0) * kPi / n_back;
-        }
-        const Complex forward =
-            far_amplitude(scattered, kk, kPi) / u0;  // Meep's forward: straight down
-        ff.extinction_width_um = -2.0 * std::sqrt(2.0 * kPi / kk) *
-                                 std::real(forward * std::exp(Complex(0.0, kPi / 4.0)));
-        result.wavelengths.push_back(std::move(ff));
+        result.wavelengths.push_back(far_field_of_run(runs[k + 1], runs.front(), k, freqs[k],
+                                                      lambdas_nm[k], theta_i_rad, theta_s_rad, l));
     }
     result.seconds =
         std::chrono::duration<double>(std::chrono::steady_clock::now() - started).count();
