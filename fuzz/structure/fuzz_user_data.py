@@ -76,6 +76,7 @@ import mutate_csv  # noqa: E402
 import mutate_h5  # noqa: E402
 from read_worker import RESULT_MARK  # noqa: E402
 from seeds import SEEDS  # noqa: E402
+from weighted import weighted  # noqa: E402
 
 PYTHON = "/usr/bin/python3"
 TARGET_ROWS = [("fit_huang2022", "record via fit huang2022"),
@@ -541,14 +542,14 @@ class Fuzzer:
         # Drawn over every family whatever --targets says, so that a mutant of an enabled family
         # is the same in a run of fewer targets (`--targets record` rebuilds the record mutants
         # of a full run); a disabled family's id gets an enabled one from another stream.
-        family = mutate_h5._weighted(rnd, list(FAMILY_WEIGHTS.items()))
+        family = weighted(rnd, list(FAMILY_WEIGHTS.items()))
         if family not in self.families:
-            family = mutate_h5._weighted(random.Random(f"{self.args.seed}:{mid}:family"),
+            family = weighted(random.Random(f"{self.args.seed}:{mid}:family"),
                                          [(f, FAMILY_WEIGHTS[f]) for f in self.families])
         fmt = {"record": "h5", "csv": "csv", "bsdf": "bsdf"}[family]
         names = [(n, SEED_WEIGHTS[n]) for n, (f, _) in SEEDS.items() if f == fmt]
-        seed_name = mutate_h5._weighted(rnd, names)
-        count = mutate_h5._weighted(rnd, [(1, 0.6), (2, 0.25), (3, 0.15)])
+        seed_name = weighted(rnd, names)
+        count = weighted(rnd, [(1, 0.6), (2, 0.25), (3, 0.15)])
         mdir = os.path.join(self.work, "mutants", str(mid))
         shutil.rmtree(mdir, ignore_errors=True)
         os.makedirs(mdir)

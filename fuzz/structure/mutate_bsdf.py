@@ -14,6 +14,7 @@ import random
 import struct
 
 import numpy as np
+from weighted import weighted
 
 MAGIC = b"tensor_file\0"
 DTYPES = {1: "<u1", 2: "<i1", 3: "<u2", 4: "<i2", 5: "<u4", 6: "<i4", 7: "<u8", 8: "<i8",
@@ -260,23 +261,13 @@ OPS = [(f_delete, 1), (f_duplicate, 0.7), (f_rename, 0.7), (f_dtype, 2), (f_shap
        (f_values, 3), (f_scalar_field, 1), (c_header, 1.5), (f_extra, 0.5)]
 
 
-def _weighted(rnd, items):
-    total = sum(w for _, w in items)
-    x = rnd.random() * total
-    for item, w in items:
-        x -= w
-        if x <= 0:
-            return item
-    return items[-1][0]
-
-
 def mutate(path, rnd: random.Random, count):
     with open(path, "rb") as fh:
         c = Container(fh.read())
     done, tries = [], 0
     while len(done) < count and tries < 30:
         tries += 1
-        op = _weighted(rnd, OPS)
+        op = weighted(rnd, OPS)
         try:
             desc, variant = op(c, rnd)
         except (ValueError, IndexError, StopIteration):

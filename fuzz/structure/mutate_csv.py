@@ -12,6 +12,7 @@ final bytes (BOM, NUL, CR, UTF-16, huge lines) and are applied when the table is
 from __future__ import annotations
 
 import random
+from weighted import weighted
 
 
 class Table:
@@ -308,16 +309,6 @@ OPS = [(col_delete, 2), (col_duplicate, 1), (col_rename, 1.5), (col_reorder, 1),
        (blank_and_comments, 0.8), (huge_rows, 0.5), (huge_line, 0.5), (truncated, 0.5)]
 
 
-def _weighted(rnd, items):
-    total = sum(w for _, w in items)
-    x = rnd.random() * total
-    for item, w in items:
-        x -= w
-        if x <= 0:
-            return item
-    return items[-1][0]
-
-
 def mutate(path, rnd: random.Random, count):
     with open(path, encoding="utf-8") as fh:
         t = Table(fh.read())
@@ -325,7 +316,7 @@ def mutate(path, rnd: random.Random, count):
     tries = 0
     while len(done) < count and tries < 30:
         tries += 1
-        op = _weighted(rnd, OPS)
+        op = weighted(rnd, OPS)
         if not t.rows or not t.header:
             break
         try:

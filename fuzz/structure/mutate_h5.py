@@ -24,6 +24,7 @@ import h5py
 import numpy as np
 
 from seeds import FIT_READS
+from weighted import weighted
 
 SPECIAL_VALUES = [
     ("NaN", np.nan), ("+inf", np.inf), ("-inf", -np.inf), ("0", 0.0), ("negative", None),
@@ -1097,16 +1098,6 @@ FILE_OPS = [(file_truncate, 1), (file_userblock, 0.6), (file_libver, 0.6),
 
 # ------------------------------------------------------------------------------- driver ---
 
-def _weighted(rnd, items):
-    total = sum(w for _, w in items)
-    x = rnd.random() * total
-    for item, w in items:
-        x -= w
-        if x <= 0:
-            return item
-    return items[-1][0]
-
-
 def mutate(path, rnd: random.Random, count, kind):
     """Applies `count` mutations to the HDF5 file at `path`; returns (new path, [(desc, variant)])."""
     done = []
@@ -1116,7 +1107,7 @@ def mutate(path, rnd: random.Random, count, kind):
         if not os.path.isfile(path) or not h5py.is_hdf5(path):
             break  # a previous file-level mutation left no HDF5 file to mutate further
         if rnd.random() < 0.07:
-            op = _weighted(rnd, FILE_OPS)
+            op = weighted(rnd, FILE_OPS)
             try:
                 path, desc, variant = op(path, rnd)
             except Skip:
@@ -1153,7 +1144,7 @@ def mutate(path, rnd: random.Random, count, kind):
                 site = rnd.choice(read)  # what analysis/user_data.cpp reads
             else:
                 site = rnd.choice(all_sites)
-            op = _weighted(rnd, OPS[site.kind])
+            op = weighted(rnd, OPS[site.kind])
             try:
                 desc, variant = op(f, site, rnd)
             except Skip:
