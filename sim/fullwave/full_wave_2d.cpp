@@ -609,7 +609,10 @@ FullWave2dResult full_wave_far_field(const CrossSection2d& section, Polarisation
     const Quiet quiet;
     std::vector<double> freqs;
     for (const double lam : lambdas_nm) freqs.push_back(1.0 / to_um(lam));
-    const auto [f_centre, f_width] = pulse(freqs);
+    // Plain names, not a structured binding: clang 14 (the instrumented build) cannot capture
+    // structured bindings in a lambda.
+    const std::pair<double, double> band = pulse(freqs);
+    const double f_centre = band.first, f_width = band.second;
     // The empty run and one run per wavelength, independent: spread over threads (each Meep
     // run is serial; runs share nothing but the read-only section).
     const std::vector<RunResult> runs = run_all(freqs.size() + 1, o, [&](std::size_t i) {
@@ -744,7 +747,10 @@ std::vector<StackReflectance> full_wave_stack(const CrossSection2d& layers, Pola
     const Quiet quiet;
     std::vector<double> freqs;
     for (const double lam : lambdas_nm) freqs.push_back(1.0 / to_um(lam));
-    const auto [f_centre, f_width] = pulse(freqs);
+    // Plain names, not a structured binding: clang 14 (the instrumented build) cannot capture
+    // structured bindings in a lambda.
+    const std::pair<double, double> band = pulse(freqs);
+    const double f_centre = band.first, f_width = band.second;
     const std::vector<StackRun> runs = run_all(freqs.size() + 1, o, [&](std::size_t i) {
         if (i == 0) {
             AirMaterial air;
