@@ -111,6 +111,7 @@ struct PlyProperty {
     PlyType type = PlyType::float32;  // the item type, for lists
     bool is_list = false;
     PlyType count_type = PlyType::uint8;
+    std::size_t header_line = 0;  // where the header declares it, for messages
 };
 
 struct PlyElement {
@@ -203,6 +204,7 @@ PlyHeader parse_ply_header(std::string_view bytes, const Names& names) {
             property.type = *type;
             property.is_list = list;
             property.count_type = *count_type;
+            property.header_line = n;
             header.elements.back().properties.push_back(std::move(property));
         } else {
             throw InputError(fmt::format(
@@ -412,8 +414,10 @@ Soup read_ply_body(Reader& reader, const PlyHeader& header, double scale, const 
             "{}: no 'face' element: expected a surface mesh, not a point cloud", names.file()));
     }
     if (vertex->count > kMaxVertices) {
-        throw InputError(fmt::format("{}: {} vertices: expected at most {}", names.file(),
-                                     vertex->count, kMaxVertices));
+        throw InputError(
+            fmt::format("{}: element 'vertex' (line {}) declares {} vertices: expected "
+                        "at most {}",
+                        names.file(), vertex->header_line, vertex->count, kMaxVertices));
     }
     // Which vertex property is x, y, z, nx, ny, nz.
     std::array<int, 6> slot;
@@ -425,8 +429,9 @@ Soup read_ply_body(Reader& reader, const PlyHeader& header, double scale, const 
             if (p.name != kVertexNames[s]) continue;
             if (p.is_list || !ply_is_float(p.type)) {
                 throw InputError(fmt::format(
-                    "{}: vertex property '{}' is {}{}: expected float or double", names.file(),
-                    p.name, p.is_list ? "a list of " : "", ply_type_name(p.type)));
+                    "{}: line {}: vertex property '{}' is {}{}: expected float or double",
+                    names.file(), p.header_line, p.name, p.is_list ? "a list of " : "",
+                    ply_type_name(p.type)));
             }
             slot[s] = static_cast<int>(i);
         }
@@ -449,8 +454,10 @@ Soup read_ply_body(Reader& reader, const PlyHeader& header, double scale, const 
         const PlyProperty& p = face->properties[i];
         if (p.name != "vertex_indices" && p.name != "vertex_index") continue;
         if (!p.is_list || ply_is_float(p.type)) {
-            throw InputError(fmt::format("{}: face property '{}': expected a list of integers",
-                                         names.file(), p.name));
+            throw InputError(
+                fmt::format("{}: line {}: face property '{}' is {}{}: expected a list of integers",
+                            names.file(), p.header_line, p.name, p.is_list ? "a list of " : "",
+                            ply_type_name(p.type)));
         }
         index_list = static_cast<int>(i);
     }
@@ -490,10 +497,14 @@ Soup read_ply_body(Reader& reader, const PlyHeader& header, double scale, const 
                 }
                 const double count = reader.scalar(p.count_type, p);
                 if (count < 0) {
+                    // Binary bodies have no lines: there the element index alone says where.
+                    const std::string line = reader.line() != 0
+                                                 ? fmt::format(" (line {})", reader.line())
+                                                 : std::string();
                     throw InputError(
-                        fmt::format("{}: {} {}: list '{}' has {} items: expected a "
+                        fmt::format("{}: {} {}{}: list '{}' has {} items: expected a "
                                     "count >= 0",
-                                    names.file(), what, i, p.name, count));
+                                    names.file(), what, i, line, p.name, count));
                 }
                 const auto items = static_cast<std::size_t>(count);
                 const bool keep = is_face && static_cast<int>(pi) == index_list;
@@ -526,8 +537,9 @@ Soup read_ply_body(Reader& reader, const PlyHeader& header, double scale, const 
     reader.finish();
     if (face->count == 0) {
         throw InputError(
-            fmt::format("{}: element 'face' is empty: expected a surface mesh, not a point cloud",
-                        names.file()));
+            fmt::format("{}: element 'face' (line {}) is empty: expected a surface mesh, not a "
+                        "point cloud",
+                        names.file(), face->header_line));
     }
 
     const auto vertex_count = static_cast<std::int64_t>(soup.positions.size());

@@ -23,6 +23,7 @@
 
 #include "common/error.h"
 #include "geometry/mesh_import.h"
+#include "tests/test_util.h"
 
 namespace plumage::geometry {
 namespace {
@@ -155,6 +156,44 @@ TEST(MeshReaderErrors, OursRejectAndNameAtLeastWhatCgalDoes) {
         if (g_line) {
             EXPECT_TRUE(o_line) << c.name << ": CGAL says " << g.message;
         }
+    }
+    std::error_code ignored;
+    std::filesystem::remove_all(scratch_dir(), ignored);
+}
+
+// PLY header and body errors that used to name neither the line nor (for the count) the
+// element: each must name the file and the line of the header line or instance at fault.
+TEST(MeshReaderErrors, PlyErrorsNameTheLine) {
+    const auto header_with = [](const std::string& from, const std::string& to) {
+        std::string header = kPlyHeader;
+        header.replace(header.find(from), from.size(), to);
+        return header;
+    };
+    struct Expected {
+        Case file;
+        std::string says;
+    };
+    const std::vector<Expected> cases = {
+        {{"too_many.ply", header_with("vertex 4", "vertex 4294967296") + kPlyVertices + kPlyFaces},
+         "element 'vertex' (line 3) declares 4294967296 vertices: expected at most 4294967295"},
+        {{"int_x.ply", header_with("float x", "int x") + kPlyVertices + kPlyFaces},
+         "line 4: vertex property 'x' is int: expected float or double"},
+        {{"float_indices.ply", header_with("uchar int", "uchar float") + kPlyVertices + kPlyFaces},
+         "line 8: face property 'vertex_indices' is a list of float: expected a list of integers"},
+        {{"scalar_indices.ply",
+          header_with("list uchar int", "int") + kPlyVertices + "0\n1\n2\n3\n"},
+         "line 8: face property 'vertex_indices' is int: expected a list of integers"},
+        {{"negative_count.ply", header_with("uchar int", "char int") + kPlyVertices +
+                                    "3 0 2 1\n-1 0 1 3\n3 0 3 2\n3 1 2 3\n"},
+         "face 1 (line 15): list 'vertex_indices' has -1 items: expected a count >= 0"},
+        {{"no_faces.ply", header_with("face 4", "face 0") + kPlyVertices},
+         "element 'face' (line 7) is empty: expected a surface mesh"},
+    };
+    for (const Expected& c : cases) {
+        const auto path = materialise(c.file);
+        const std::string message = plumage::testing::input_error_message([&] { read_mesh(path); });
+        EXPECT_NE(message.find(c.file.name), std::string::npos) << message;
+        EXPECT_NE(message.find(c.says), std::string::npos) << c.file.name << ": " << message;
     }
     std::error_code ignored;
     std::filesystem::remove_all(scratch_dir(), ignored);
