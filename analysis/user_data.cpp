@@ -11,6 +11,7 @@
 
 #include <fmt/format.h>
 
+#include "analysis/filip2024.h"
 #include "common/error.h"
 #include "sim/optics/spectrum.h"
 #include "virtual_gonio/hdf5_reader.h"
@@ -87,6 +88,11 @@ double number_at(const std::vector<std::string>& cells, int column, const std::s
     return v;
 }
 
+// The wavelengths of BRDF data: Filip 2024's R, G and B bands, the only model fitted to them.
+bool filip_wavelength(double v) {
+    return v >= kFilip2024MinWavelengthNm && v <= kFilip2024MaxWavelengthNm;
+}
+
 BrdfObservation observation_of(const std::vector<std::string>& cells, const Columns& c,
                                const std::string& where) {
     BrdfObservation o;
@@ -105,9 +111,13 @@ BrdfObservation observation_of(const std::vector<std::string>& cells, const Colu
     o.wo = direction_from_degrees(to, number_at(cells, c.phi_o, where, "phi_o_deg"));
     if (c.wavelength >= 0) {
         const double l = number_at(cells, c.wavelength, where, "wavelength_nm");
-        if (!(l > 0.0)) {
-            throw InputError(fmt::format("{}:{}: wavelength_nm = {}: expected > 0 nm", where,
-                                         c.wavelength + 1, l));
+        // The only model fitted to these rows (Filip 2024) maps a wavelength to its R, G or B
+        // band; one outside them would otherwise reach the fit, which knows no line.
+        if (!filip_wavelength(l)) {
+            throw InputError(fmt::format(
+                "{}:{}: wavelength_nm = {}: expected a wavelength in [{}, {}] nm (Filip 2024's "
+                "R, G and B bands; or give a channel column)",
+                where, c.wavelength + 1, l, kFilip2024MinWavelengthNm, kFilip2024MaxWavelengthNm));
         }
         o.lambda_nm = l;
     } else {
@@ -147,7 +157,6 @@ void require_values(const record::Hdf5Reader& file, const std::string& name,
 
 bool finite(double v) { return std::isfinite(v); }
 bool finite_non_negative(double v) { return std::isfinite(v) && v >= 0.0; }
-bool positive_finite(double v) { return std::isfinite(v) && v > 0.0; }
 // The wavelengths a Huang fit evaluates: the range of the keratin and melanin dispersion the
 // model uses (sim/optics/material.h), as a study file's [spectrum] accepts.
 bool huang_wavelength(double v) { return v >= 300.0 && v <= 800.0; }
@@ -226,6 +235,11 @@ void require_file(const fs::path& path) {
 
 }  // namespace
 
+InputError naming_data_file(const InputError& e, const std::string& file) {
+    if (file.empty() || std::string_view(e.what()).find(file) != std::string_view::npos) return e;
+    return InputError(fmt::format("{}: {}", file, e.what()));
+}
+
 Vec3d direction_from_degrees(double theta_deg, double phi_deg) {
     const double t = theta_deg * std::numbers::pi / 180.0, p = phi_deg * std::numbers::pi / 180.0;
     return {std::sin(t) * std::cos(p), std::sin(t) * std::sin(p), std::cos(t)};
@@ -287,7 +301,9 @@ BrdfData read_brdf_record(const fs::path& path) {
             fmt::join(wavelength_dims, ", ")));
     }
     const record::Dataset wavelengths = file.dataset("wavelength_nm");
-    require_values(file, "wavelength_nm", wavelengths, positive_finite, "a wavelength > 0 nm");
+    require_values(file, "wavelength_nm", wavelengths, filip_wavelength,
+                   fmt::format("a wavelength in [{}, {}] nm (Filip 2024's R, G and B bands)",
+                               kFilip2024MinWavelengthNm, kFilip2024MaxWavelengthNm));
     const record::Dataset lights = file.dataset("instrument/light_directions");
     const record::Dataset views = file.dataset("instrument/view_directions");
     require_directions(file, "instrument/light_directions", lights);

@@ -28,6 +28,7 @@
 #include <vector>
 
 #include "analysis/filip2024_fit.h"
+#include "common/error.h"
 #include "virtual_gonio/scatterometer.h"
 
 namespace plumage::analysis {
@@ -49,6 +50,11 @@ gonio::Scatterogram read_scatterogram_record(const std::filesystem::path& path);
 // "goniometer", "imaging_scatterometer", ... : /instrument@kind of an HDF5 record ("csv" for a
 // .csv file); InputError if the file is neither.
 std::string data_kind(const std::filesystem::path& path);
+
+// `e` with "<file>: " in front, unless its message names the file already: a fit's own checks
+// ("0 observations with signal") do not know which file the observations came from. `file`
+// empty (observations not from a file): `e` as it is.
+InputError naming_data_file(const InputError& e, const std::string& file);
 
 // Unit vector from polar θ and azimuth φ in degrees (the CSV's convention).
 Vec3d direction_from_degrees(double theta_deg, double phi_deg);

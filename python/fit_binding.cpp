@@ -112,9 +112,11 @@ py::dict fit(const std::string& illumination, const Array& beam_direction, doubl
                         standard_error, solid_angle_sr);
     const analysis::Huang2022Params first = params_of(start);
     analysis::HuangFitResult r;
-    {
+    try {
         py::gil_scoped_release release;
         r = analysis::fit_huang2022(data, first, options);
+    } catch (const InputError& e) {
+        throw analysis::naming_data_file(e, data_file);
     }
     py::dict d, errors, at_bound;
     for (int i = 0; i < analysis::kHuang2022ParameterCount; ++i) {
@@ -187,7 +189,7 @@ py::dict fit_filip_observations(const analysis::BrdfData& data, const py::dict& 
     for (const auto& name : free) options.fixed[filip_index(name)] = false;
     analysis::Filip2024FitResult r;
     std::vector<double> model;
-    {
+    try {
         py::gil_scoped_release release;
         r = analysis::fit_filip2024(data.observations, analysis::from_vector(values), options);
         std::array<double, analysis::kFilip2024ParameterCount> gradient{};
@@ -196,6 +198,8 @@ py::dict fit_filip_observations(const analysis::BrdfData& data, const py::dict& 
                 r.parameters, analysis::filip2024_geometry(o.wi, o.wo),
                 o.channel ? *o.channel : analysis::filip2024_channel(*o.lambda_nm), gradient));
         }
+    } catch (const InputError& e) {
+        throw analysis::naming_data_file(e, data_file);
     }
     py::dict d, params, errors, at_bound;
     for (int i = 0; i < analysis::kFilip2024ParameterCount; ++i) {

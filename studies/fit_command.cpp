@@ -21,6 +21,7 @@
 #include "studies/plots.h"
 #include "studies/sections.h"
 #include "studies/staged_directory.h"
+#include "studies/study_common.h"
 #include "virtual_gonio/hdf5_file.h"
 
 namespace plumage::studies {
@@ -359,8 +360,7 @@ Fitted fitted_naming_the_data(const FitCommand& c) {
     try {
         return c.model == "filip2024" ? fit_filip(c) : fit_huang(c);
     } catch (const InputError& e) {
-        if (std::string(e.what()).find(c.data.string()) != std::string::npos) throw;
-        throw InputError(fmt::format("{}: {}", c.data.string(), e.what()));
+        throw analysis::naming_data_file(e, c.data.string());
     }
 }
 
@@ -390,7 +390,7 @@ void write_report(const fs::path& path, const FitCommand& c, const Fitted& f) {
        << "\n\n![residuals](residuals.png)\n\nFiles: parameters.json (docs/user_data.md), "
        << f.extra_files << "residuals.h5 (the map's data), residuals.png. plumage " << kVersion
        << ".\n";
-    if (!md) throw IoError(fmt::format("cannot write {}", path.string()));
+    close_written(md, path);
 }
 
 }  // namespace
@@ -416,16 +416,8 @@ FitCommandResult run_fit_command(const FitCommand& c, const fs::path& results_ro
     // results folder is created.
     const Fitted f = fitted_naming_the_data(c);
     StagedDirectory out(results_root / name);
-    if (!f.residuals_csv.empty()) {
-        std::ofstream csv(out.path() / "residuals.csv");
-        csv << f.residuals_csv;
-        if (!csv) throw IoError("cannot write residuals.csv");
-    }
-    {
-        std::ofstream json(out.path() / "parameters.json");
-        json << f.summary.to_json();
-        if (!json) throw IoError("cannot write parameters.json");
-    }
+    if (!f.residuals_csv.empty()) write_text_file(out.path() / "residuals.csv", f.residuals_csv);
+    write_text_file(out.path() / "parameters.json", f.summary.to_json());
     write_residual_map(f.map, out.path() / "residuals.h5");
     run_plot("fit_residuals", out.path() / "residuals.h5", out.path() / "residuals.png");
     write_report(out.path() / "report.md", c, f);

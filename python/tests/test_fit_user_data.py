@@ -105,6 +105,15 @@ def test_filip_bad_input():
         plumage.fit_filip2024(data)
 
 
+def test_filip_refusal_of_a_file_names_the_file(tmp_path):
+    """The fit's own check (too few observations) knows no file: the binding adds it."""
+    table = tmp_path / "two_rows.csv"
+    table.write_text("theta_i_deg,phi_i_deg,theta_o_deg,phi_o_deg,wavelength_nm,value_per_sr\n"
+                     "30,90,30,270,550,2.41\n30,90,45,270,550,0.83\n")
+    with pytest.raises(ValueError, match=r"two_rows\.csv: Filip 2024 fit: 2 observations"):
+        plumage.fit_filip2024(table)
+
+
 def test_huang_from_arrays_recovers_the_truth(rock_dove_results):
     """The rock-dove record's image geometry (41 x 41 pixels, its beam) with the model's own
     image at the published parameters plus 3 % Gaussian noise, given as numpy arrays."""
