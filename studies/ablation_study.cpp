@@ -618,6 +618,8 @@ void sweep_parameter(const Run& run, const Sweep& sweep, std::ofstream& all_csv,
         plots.push_back({"contact_sheet", pdir / "sheet.csv", pdir / "contact_sheet.png"});
         plots.push_back({"sweep_error", pdir / "error.csv", pdir / "error.png"});
     }
+    close_written(sheet, pdir / "sheet.csv");
+    close_written(error_csv, pdir / "error.csv");
     report_sweep(p, sweep, points, t, parts);
 }
 
@@ -700,7 +702,7 @@ void write_report(const fs::path& path, const Settings& s, const AblationPoint& 
                   "and ablation.h5; the base scatterograms as records (virtual_gonio/RECORD.md) in "
                   "base/.\n",
                   wall_seconds, measure_seconds, kVersion);
-    if (!report) throw IoError("cannot write report.md");
+    close_written(report, path);
 }
 
 }  // namespace
@@ -748,7 +750,7 @@ AblationResult run_ablation_study(const std::string& study_text, const fs::path&
     std::vector<PlotJob> plots;  // drawn at the end, with one interpreter start
     for (const Sweep& sweep : s.sweeps)
         sweep_parameter(run, sweep, all_csv, h5, result, parts, plots);
-    all_csv.close();
+    close_written(all_csv, run.dir / "errors.csv");
     h5.commit();
     clock.say(fmt::format("plots: {} figures", plots.size()));  // report
     run_plots(plots, run.dir / "plots.csv");

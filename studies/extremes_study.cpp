@@ -739,6 +739,8 @@ void write_records(const fs::path& dir, const ExtremesResult& result) {
                         : r.by_construction       ? 3.0
                                                   : 0.0);
     }
+    close_written(csv, dir / "extremes.csv");
+    close_written(bars, dir / "energy.csv");
     write_h5(dir / "extremes.h5", energy, error, eval, eval_error, flags);
 }
 
@@ -816,7 +818,7 @@ void write_report(const fs::path& path, const Settings& s, const std::vector<Cas
            << fmt::format(
                   "---\nRun time {:.0f} s (plumage {}). Every number: extremes.csv, extremes.h5.\n",
                   result.wall_seconds, kVersion);
-    if (!report) throw IoError("cannot write report.md");
+    close_written(report, path);
 }
 
 }  // namespace

@@ -18,6 +18,7 @@
 #include "studies/plots.h"
 #include "studies/sections.h"
 #include "studies/staged_directory.h"
+#include "studies/study_common.h"
 #include "studies/study_file.h"
 #include "virtual_gonio/hdf5_file.h"
 
@@ -124,7 +125,7 @@ void write_instances_csv(const std::filesystem::path& path,
                 out << fmt::format("{}{:.17g}", r + c == 0 ? "" : ",", t.matrix()(r, c));
         out << '\n';
     }
-    if (!out) throw IoError(fmt::format("cannot write {}", path.string()));
+    close_written(out, path);
 }
 
 struct Built {
@@ -284,6 +285,7 @@ Built build_spongy(ParameterTable geometry, bool channel, const std::filesystem:
             csv << fmt::format("{},{},{}\n", volume.spectrum.wavenumber_per_um[i],
                                volume.spectrum.power_um3[i], volume.spectrum.modes[i]);
         }
+        close_written(csv, dir / "power_spectrum.csv");
     }
     out.files = {"keratin.vdb", "interface.ply", "power_spectrum.csv"};
     out.triangles = interface.triangles.size();
@@ -308,11 +310,20 @@ Built import_geometry(ParameterTable geometry, bool vdb, const std::filesystem::
     const std::filesystem::path file =
         study_dir /
         m.required_string("file", {}, "mesh or volume file, relative to the study file");
+    // The readers name the mesh or volume file, not the study key that pointed at it.
+    const auto naming_the_key = [&](const InputError& e) {
+        return InputError(fmt::format("{}: geometry.mesh.file: {}", m.location("file"), e.what()));
+    };
     Built out;
     TriangleMesh mesh;
     if (vdb) {
         const std::string grid = m.string("grid", "keratin", {}, "level-set grid name");
-        const auto level_set = geometry::load_level_set(file, grid);
+        openvdb::FloatGrid::Ptr level_set;
+        try {
+            level_set = geometry::load_level_set(file, grid);
+        } catch (const InputError& e) {
+            throw naming_the_key(e);
+        }
         geometry::save_level_set(*level_set, dir / "volume.vdb");
         mesh = geometry::level_set_to_mesh(*level_set);
         out.files = {"volume.vdb", "mesh.ply"};
@@ -321,7 +332,12 @@ Built import_geometry(ParameterTable geometry, bool vdb, const std::filesystem::
         out.memory = level_set->memUsage();
     } else {
         const geometry::MeshImportOptions options = read_mesh_import_options(m);
-        const geometry::ImportedMesh imported = geometry::import_mesh(file, options);
+        geometry::ImportedMesh imported;
+        try {
+            imported = geometry::import_mesh(file, options);
+        } catch (const InputError& e) {
+            throw naming_the_key(e);
+        }
         mesh = imported.mesh;
         out.files = {"mesh.ply"};
         out.facts.push_back(imported.report.clean() ? "mesh validation: clean"
@@ -390,7 +406,7 @@ GeometryStudyResult run_geometry_file(const std::shared_ptr<StudyFile>& file,
             md << (i ? ", " : "") << built.files[i];
         md << ", preview.h5 (the preview's data), preview.png.\n\n## Study file\n\n```toml\n"
            << file->text() << "\n```\n";
-        if (!md) throw IoError("cannot write report.md");
+        close_written(md, out.path() / "report.md");
     }
     out.commit();
     return {out.final_path(), kind, built.triangles, built.instances, built.memory, seconds};

@@ -369,8 +369,7 @@ Measured measure_brdf_record(const Built& b, const gonio::GoniometerConfig& c, c
                 csv << fmt::format(",{:.9g},{:.9g}", r.at(p, l), r.error_at(p, l));
             csv << '\n';
         }
-        if (!csv) throw IoError("cannot write brdf_curves.csv");
-        csv.close();
+        close_written(csv, dir / "brdf_curves.csv");
         run_plot("curves", dir / "brdf_curves.csv", dir / "brdf.png");
         files += ", brdf_curves.csv, brdf.png";
     }

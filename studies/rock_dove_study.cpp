@@ -538,8 +538,8 @@ std::string avian_vision(const Run& run, const Brdfs& m, RockDoveResult& result)
             for (std::size_t k = 0; k < wl.size(); ++k) c.push_back(100.0 * kPi * record->at(p, k));
         }
     }
-    std::ofstream(run.dir / "brdf" / "spectra_pavo.csv")
-        << analysis::pavo_csv_text(wl, names, columns);
+    write_text_file(run.dir / "brdf" / "spectra_pavo.csv",
+                    analysis::pavo_csv_text(wl, names, columns));
     return "## Avian vision\n\nColour differences as a bird sees them: receptor-noise-limited "
            "distance ΔS (Vorobyev & Osorio 1998; 1 = one just-noticeable difference) between the "
            "spectra of π·f under D65 at each direction pair, for an ultraviolet-sensitive (blue "
@@ -582,7 +582,7 @@ std::string in_plane_sweep(const Run& run, const Built& b) {
         csv << fmt::format("{:.1f},{:.6g},{:.6g},{:.6g},{:.6g}\n", angles[p] / kDeg, a.at(p, 0),
                            a.error_at(p, 0), m.at(p, 0), m.error_at(p, 0));
     }
-    csv.close();
+    close_written(csv, run.dir / "brdf" / "in_plane.csv");
     run_plot("curves", run.dir / "brdf" / "in_plane.csv", run.dir / "brdf" / "in_plane.png");
     return fmt::format(
         "In-plane sweep (Filip 2024 Sect. 4: view 45° in the plane across the barbs, light "
@@ -666,6 +666,7 @@ void compare_r_lobes(const gonio::BrdfRecord& a, const gonio::BrdfRecord& b,
             }
         }
     }
+    close_written(csv, csv_path);
 }
 
 std::string validation(const Run& run, const Built& b, RockDoveResult& result) {
@@ -941,7 +942,7 @@ std::string convergence(const Run& run, const Built& b,
         sim_times.push_back(r.wall_time_s);
         sim_errors.push_back(r.estimated_relative_rms_error);
     }
-    csv.close();
+    close_written(csv, run.dir / "convergence" / "error_vs_time.csv");
     run_plot("convergence", run.dir / "convergence" / "error_vs_time.csv",
              run.dir / "convergence" / "error_vs_time.png");
     return "## Error against run time\n\n" +
@@ -1260,7 +1261,7 @@ void write_report(const fs::path& path, const Settings& s, const std::string& md
                   "scatterograms/, brdf/, validation/; the study file is in each record's "
                   "provenance.\n",
                   result.wall_seconds, kVersion);
-    if (!report) throw IoError("cannot write report.md");
+    close_written(report, path);
 }
 
 }  // namespace

@@ -887,6 +887,7 @@ std::string fits_section(const fs::path& dir, const SpeciesResult& result) {
         csv << "\n";
         md += "\n";
     }
+    close_written(csv, dir / "fits.csv");
     return md + fits_summary_rows(result);
 }
 
@@ -905,6 +906,7 @@ std::string in_plane_section(const fs::path& dir, const SpeciesResult& result,
         }
         csv << "\n";
     }
+    close_written(csv, dir / "in_plane_luminance.csv");
     plots.push_back({"luminance", dir / "in_plane_luminance.csv", dir / "in_plane_luminance.png"});
     std::string md =
         "## In-plane luminance (Filip Fig. 6a)\n\nView at 45° in the plane across the barbs, light "
@@ -935,8 +937,9 @@ std::string in_plane_section(const fs::path& dir, const SpeciesResult& result,
 
 // Light entering the central period cell or the BTF square and crossing the stack at 75° must
 // stay on the patch.
+// `where`: file:line:col of the species' [patch] table (of the species' table when it has none).
 void check_patch_size(const SpeciesSpec& sp, const BuiltSpecies& b, const Settings& s,
-                      const fs::path& source) {
+                      const std::string& where) {
     const Eigen::AlignedBox3d box = b.scene.bounds();
     const double depth = box.max().z() - box.min().z();
     const double cell = 0.5 * std::max(b.period_um, sp.patch.barbule_pitch_um());
@@ -949,23 +952,24 @@ void check_patch_size(const SpeciesSpec& sp, const BuiltSpecies& b, const Settin
         "{}: [species.{}.patch] gives a patch of {:.0f} x {:.0f} um; light entering the central "
         "period cell or the BTF square and crossing the {:.0f} um deep stack at 75 deg needs "
         "{:.0f} um on every side of the centre: expected a larger length_um or more barbs",
-        source.string(), sp.name, 2.0 * half_x, 2.0 * half_y, depth, half));
+        where, sp.name, 2.0 * half_x, 2.0 * half_y, depth, half));
 }
 
 // Every scene first: a geometry the study file gets wrong stops the run before anything is
 // written.
-std::vector<BuiltSpecies> build_all(const Settings& s, StudyFile& file, const fs::path& source,
+std::vector<BuiltSpecies> build_all(const Settings& s, StudyFile& file,
                                     const StudyProgress& clock) {
     std::vector<BuiltSpecies> built;
     for (const SpeciesSpec& sp : s.species) {
         clock.say(fmt::format("building the {} patch", sp.name));
-        const std::string where = fmt::format(
-            "{}: [species.{}]", file.root().table("species").table(sp.name).location(), sp.name);
+        ParameterTable table = file.root().table("species").table(sp.name);
+        const std::string where = fmt::format("{}: [species.{}]", table.location(), sp.name);
         built.push_back(build_species(
             sp, s.tolerance, where,
             derive_seed(s.seed, "species/spongy_volume", static_cast<std::uint64_t>(built.size())),
             s.traced_wavelengths));
-        check_patch_size(sp, built.back(), s, source);
+        check_patch_size(sp, built.back(), s,
+                         table.has("patch") ? table.table("patch").location() : table.location());
     }
     return built;
 }
@@ -1358,8 +1362,8 @@ std::string avian_section(const fs::path& dir, const Run& run, const SpeciesResu
         percent.emplace_back();
         for (double r : o.mirror_reflectance) percent.back().push_back(100.0 * r);
     }
-    std::ofstream(dir / "spectra_pavo.csv")
-        << analysis::pavo_csv_text(run.s.wavelengths, names, percent);
+    write_text_file(dir / "spectra_pavo.csv",
+                    analysis::pavo_csv_text(run.s.wavelengths, names, percent));
     std::string md = fmt::format(
         "## Avian vision\n\nThe simulated spectra π·f at the mirror pair (light 30° at azimuth "
         "180°, view 30° at 0°) under D65, told apart by an ultraviolet- and a violet-sensitive "
@@ -1404,10 +1408,7 @@ void finish(const Run& run, SpeciesResult& result, record::Hdf5Writer& h5, std::
         "(fitted model), `in_plane.h5`, `btf.h5` (virtual_gonio/RECORD.md).\n",
         result.wall_seconds, omp_get_max_threads());
     md += "\n" + run_time_by_stage(run.clock, dir);
-    {
-        std::ofstream report(dir / "report.md");
-        report << md;
-    }
+    write_text_file(dir / "report.md", md);
     out.commit();
     result.output_dir = out.final_path();
     remove_checkpoints(run.results_root, run.name);
@@ -1425,7 +1426,7 @@ SpeciesResult run_species_study(const std::string& study_text, const fs::path& s
     StagedDirectory::prepare(results_root / name);
     if (limits.time_budget_s > 0.0) s.time_budget_s = limits.time_budget_s;
     if (limits.target_relative_error > 0.0) s.target_relative_error = limits.target_relative_error;
-    const std::vector<BuiltSpecies> built = build_all(s, *file, source_name, clock);  // build
+    const std::vector<BuiltSpecies> built = build_all(s, *file, clock);  // build
 
     StagedDirectory out(results_root / name);
     SpeciesResult result;

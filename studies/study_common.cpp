@@ -299,8 +299,18 @@ void write_stages_csv(const std::filesystem::path& path, std::span<const StageTi
         csv << fmt::format("{},{:.6f},{:.6f},{}\n", csv_field(s.name), s.wall_s, s.cpu_s,
                            s.wall_s > 1e-9 ? fmt::format("{:.4f}", s.cpu_s / s.wall_s) : "");
     }
-    csv.close();
-    if (!csv) throw IoError(fmt::format("cannot write {}", path.string()));
+    close_written(csv, path);
+}
+
+void close_written(std::ofstream& out, const std::filesystem::path& path) {
+    out.close();
+    if (!out) throw IoError(fmt::format("cannot write {}", path.string()));
+}
+
+void write_text_file(const std::filesystem::path& path, std::string_view text) {
+    std::ofstream out(path);
+    out << text;
+    close_written(out, path);
 }
 
 MeasurementCost scatterogram_cost(const std::string& measurement, const gonio::Scatterogram& s,

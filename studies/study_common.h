@@ -3,9 +3,11 @@
 
 #include <chrono>
 #include <filesystem>
+#include <fstream>
 #include <mutex>
 #include <span>
 #include <string>
+#include <string_view>
 #include <vector>
 
 #include "analysis/huang2022.h"
@@ -78,6 +80,14 @@ private:
 // The stages as a markdown table, "| stage | wall (s) | CPU (s) | CPU/wall |" with a total row,
 // after one sentence giving the OpenMP thread count and how to read CPU/wall.
 std::string stage_table(std::span<const StageTiming> stages);
+
+// Closes `out`, a file written to `path`, and throws IoError naming the path if opening it, a
+// write or the close failed: an ofstream reports none of these itself, so a full disk would
+// otherwise leave a short file and a run that says it succeeded.
+void close_written(std::ofstream& out, const std::filesystem::path& path);
+
+// Writes `text` to `path` (replacing it); IoError naming the path as close_written.
+void write_text_file(const std::filesystem::path& path, std::string_view text);
 
 // The same figures as CSV: stage,wall time (s),cpu time (s),cpu/wall (names quoted as needed).
 // IoError if the file cannot be written.

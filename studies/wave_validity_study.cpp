@@ -46,6 +46,8 @@ struct Barbule {  // Huang 2022's rock-dove cell and row (geometry/barbule.h def
 struct Axis {
     std::string key, label;
     std::vector<double> values;
+    // file:line:col of the sweep key: a value's failure is found only when its point is built.
+    std::string location;
 };
 
 struct Settings {
@@ -111,16 +113,18 @@ void read_sweep(ParameterTable sweep, Settings& s) {
                 fmt::format("{}: sweep.widths_um: expected increasing widths ({} "
                             "then {})",
                             sweep.location("widths_um"), s.widths_um[i - 1], s.widths_um[i]));
-    s.axes.push_back(
-        {"film_thickness_um", "film thickness d (µm)",
-         sweep.numbers("film_thickness_um", {0.2, 0.3, 0.4, 0.5, 0.59}, between(0.0, 5.0), 1, 64,
-                       "film thicknesses d of the map, µm")});
+    s.axes.push_back({"film_thickness_um", "film thickness d (µm)",
+                      sweep.numbers("film_thickness_um", {0.2, 0.3, 0.4, 0.5, 0.59},
+                                    between(0.0, 5.0), 1, 64, "film thicknesses d of the map, µm"),
+                      sweep.location("film_thickness_um")});
     s.axes.push_back({"b", "cross-section aspect b (1 = circle)",
                       sweep.numbers("b", {0.15, 0.25, 0.4, 0.6, 1.0}, between(1e-3, 1.0), 1, 64,
-                                    "aspects b of the map (curvature)")});
+                                    "aspects b of the map (curvature)"),
+                      sweep.location("b")});
     s.axes.push_back({"H", "spacing H (units of A)",
                       sweep.numbers("H", {1.1, 1.25, 1.5, 2.0, 3.0}, {0.0, 100.0, true, false}, 1,
-                                    64, "spacings H of the map, units of A")});
+                                    64, "spacings H of the map, units of A"),
+                      sweep.location("H")});
 }
 
 void read_detector(ParameterTable detector, Settings& s) {
@@ -154,7 +158,6 @@ void read_full_wave(ParameterTable full_wave, const fs::path& source, Settings& 
             if (!fs::is_directory(folder))
                 throw InputError(fmt::format("{}: expected a folder", folder.string()));
             s.full_wave = wave::read_full_wave_reference(folder);
-            for (const auto& [key, curve] : s.full_wave.far_field) wave::full_wave_shape(key.shape);
         } catch (const InputError& e) {
             throw InputError(
                 fmt::format("{}: full_wave.reference = \"{}\" (relative to the study "
@@ -953,8 +956,8 @@ WaveValidityMap measure_map(const Settings& s, const Axis& axis,
                 m.points.push_back(found->second);
                 m.points.back().value = v;
             } catch (const InputError& e) {
-                throw InputError(
-                    fmt::format("sweep.{} = {:g}, width {:g} µm: {}", axis.key, v, w, e.what()));
+                throw InputError(fmt::format("{}: sweep.{} = {:g}, width {:g} µm: {}",
+                                             axis.location, axis.key, v, w, e.what()));
             }
         }
     }

@@ -109,6 +109,16 @@ FullWaveReference read_full_wave_reference(const fs::path& folder) {
                                    "resolution_px_per_um", "theta_s_deg", "sigma_um_per_rad"});
     for (std::size_t r = 0; r < ff.rows.size(); ++r) {
         const FullWaveKey key = ff.key(r);
+        try {
+            full_wave_shape(key.shape);
+        } catch (const InputError&) {
+            // Named here, with its line: the shape is otherwise first looked up by the study,
+            // which knows only the folder.
+            throw InputError(
+                fmt::format("{}:{}: case = '{}': expected single, small or row3 (the "
+                            "contract's shapes)",
+                            ff.path.string(), ff.lines[r], key.shape));
+        }
         if (key.polarisation != "TE" && key.polarisation != "TM")
             throw InputError(fmt::format("{}:{}: polarisation = '{}': expected TE or TM",
                                          ff.path.string(), ff.lines[r], key.polarisation));

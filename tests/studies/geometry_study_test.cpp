@@ -121,6 +121,23 @@ TEST_F(GeometryStudy, MissingMeshFileIsNamed) {
     EXPECT_FALSE(results_left());
 }
 
+// A mesh or volume file that exists but cannot be read: the reader's message (the file and
+// its line) behind the study key that named the file.
+TEST_F(GeometryStudy, BadMeshOrVolumeFileNamesTheStudyKey) {
+    std::ofstream(dir_ / "bad.ply") << "hello world\n";
+    std::ofstream(dir_ / "bad.vdb") << "not a volume\n";
+    for (const std::string kind : {"mesh", "vdb"}) {
+        const std::string message =
+            error_of("[geometry]\nkind = \"" + kind + "\"\n[geometry.mesh]\nfile = \"bad." +
+                     (kind == "mesh" ? "ply" : "vdb") + "\"\n");
+        EXPECT_NE(message.find("study.toml:4:8: geometry.mesh.file: "), std::string::npos)
+            << message;
+        EXPECT_NE(message.find(kind == "mesh" ? "bad.ply" : "bad.vdb"), std::string::npos)
+            << message;
+    }
+    EXPECT_FALSE(results_left());
+}
+
 TEST_F(GeometryStudy, SyntaxErrorsAndMissingKindAreLocated) {
     EXPECT_NE(error_of("[geometry\nkind = 1\n").find("study.toml:1:"), std::string::npos);
     EXPECT_NE(error_of("[geometry]\n").find("geometry.kind is missing"), std::string::npos);

@@ -306,6 +306,9 @@ TEST(SpeciesStudy, BadFilesNameTheKeyAndWriteNothing) {
     small.replace(small.find("length_um = 3200"), 16, "length_um = 500");
     EXPECT_NE(message(small).find("expected a larger length_um or more barbs"), std::string::npos)
         << message(small);
+    EXPECT_NE(message(small).find("bad.toml:51:1: [species.parrot.patch] gives a patch"),
+              std::string::npos)
+        << message(small);
     // Out of range.
     std::string range = base;
     range.replace(range.find("pigment_k = 0.002"), 17, "pigment_k = -0.01");

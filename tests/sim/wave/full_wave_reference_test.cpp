@@ -113,5 +113,17 @@ TEST_F(BadReference, ShortRowAndOffGridAngleAreNamedWithTheirLines) {
         << e;
 }
 
+TEST_F(BadReference, UnknownCaseIsNamedWithItsLine) {
+    write_far_field(
+        "case,polarisation,theta_i_deg,lambda_nm,resolution_px_per_um,theta_s_deg,"
+        "sigma_um_per_rad\r\n"
+        "single,TE,0,450,60,-179.5,220.7\r\n"
+        "large,TE,0,450,60,-179.5,220.7\r\n");
+    const std::string e = error();
+    EXPECT_NE(e.find("far_field.csv:3: case = 'large': expected single, small or row3"),
+              std::string::npos)
+        << e;
+}
+
 }  // namespace
 }  // namespace plumage::sim::wave
