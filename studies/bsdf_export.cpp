@@ -46,6 +46,12 @@ fs::path output_or(const BsdfExportOptions& o, const fs::path& fallback) {
     return fs::is_directory(o.output) ? o.output / fallback.filename() : o.output;
 }
 
+// The model's own refusal of fitted values ("huang2022: b = nan") knows neither the file nor
+// the dataset they came from.
+InputError in_dataset(const fs::path& file, const std::string& dataset, const InputError& e) {
+    return InputError(fmt::format("HDF5 file '{}': /{}: {}", file.string(), dataset, e.what()));
+}
+
 std::vector<Export> huang_fit_exports(const BsdfExportOptions& o, const fs::path& file) {
     const record::Dataset d = record::read_dataset(
         file, "fit/values", {-1, static_cast<std::uint64_t>(analysis::kHuang2022ParameterCount)});
@@ -55,10 +61,15 @@ std::vector<Export> huang_fit_exports(const BsdfExportOptions& o, const fs::path
                         fmt::join(analysis::kHuang2022ParameterNames, ", ")));
     std::array<double, analysis::kHuang2022ParameterCount> v{};
     std::copy(d.values.begin(), d.values.end(), v.begin());
+    std::unique_ptr<analysis::Huang2022Bsdf> model;
+    try {
+        model = std::make_unique<analysis::Huang2022Bsdf>(analysis::huang2022_params(v));
+    } catch (const InputError& e) {
+        throw in_dataset(file, "fit/values", e);
+    }
     std::vector<Export> out;
     out.push_back(
-        {std::make_unique<analysis::Huang2022Bsdf>(analysis::huang2022_params(v)),
-         output_or(o, fs::path(file).replace_extension(".bsdf")),
+        {std::move(model), output_or(o, fs::path(file).replace_extension(".bsdf")),
          fmt::format("Huang 2022 barbule BSDF, parameters fitted in {} ({} = {})", file.string(),
                      fmt::join(analysis::kHuang2022ParameterNames, ", "), fmt::join(v, ", "))});
     return out;
@@ -95,8 +106,13 @@ std::vector<Export> species_exports(const BsdfExportOptions& o, const fs::path& 
                             "azimuth in [-360, 360] deg",
                             file.string(), species, mount_deg));
         }
-        out.push_back({std::make_unique<analysis::Filip2024Brdf>(analysis::from_vector(v)),
-                       folder / (species + "_filip2024.bsdf"),
+        std::unique_ptr<analysis::Filip2024Brdf> model;
+        try {
+            model = std::make_unique<analysis::Filip2024Brdf>(analysis::from_vector(v));
+        } catch (const InputError& e) {
+            throw in_dataset(file, path, e);
+        }
+        out.push_back({std::move(model), folder / (species + "_filip2024.bsdf"),
                        fmt::format("Filip 2024 feather BRDF of the {}, parameters fitted in {} "
                                    "(instrument frame, barb axis at {} deg), turned into the "
                                    "patch frame (barb axis +x)",

@@ -632,9 +632,18 @@ RglBsdf::RglBsdf(RglBsdfTables tables) : tables_(std::move(tables)) {
                               lambda = doubles(t.wavelengths);
     ndf_ = BilinearWarp2D(t.ndf, t.ndf_width, t.ndf_height, {}, false);
     sigma_ = BilinearWarp2D(t.sigma, t.ndf_width, t.ndf_height, {}, false);
-    vndf_ = BilinearWarp2D(t.vndf, t.vndf_width, t.vndf_height, {phi, theta}, true);
-    luminance_ =
-        BilinearWarp2D(t.luminance, t.sample_resolution, t.sample_resolution, {phi, theta}, true);
+    // The warp knows a slice of a table, not which of the file's fields the table is.
+    try {
+        vndf_ = BilinearWarp2D(t.vndf, t.vndf_width, t.vndf_height, {phi, theta}, true);
+    } catch (const InputError& e) {
+        throw InputError(fmt::format("field 'vndf': {}", e.what()));
+    }
+    try {
+        luminance_ = BilinearWarp2D(t.luminance, t.sample_resolution, t.sample_resolution,
+                                    {phi, theta}, true);
+    } catch (const InputError& e) {
+        throw InputError(fmt::format("field 'luminance': {}", e.what()));
+    }
     spectra_ = BilinearWarp2D(t.spectra, t.sample_resolution, t.sample_resolution,
                               {phi, theta, lambda}, false);
 }

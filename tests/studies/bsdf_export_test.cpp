@@ -184,6 +184,46 @@ TEST(BsdfExport, BadSourcesAreInputErrorsBeforeAnythingIsWritten) {
     EXPECT_FALSE(fs::exists(dir / "huang2022.bsdf"));
 }
 
+// Fitted values the model refuses: the message names the file and the dataset they came from.
+TEST(BsdfExport, RefusedFittedValuesNameTheFileAndDataset) {
+    const fs::path dir = scratch_dir() / "refused";
+    fs::create_directories(dir);
+    auto error = [](const BsdfExportOptions& o) {
+        return plumage::testing::input_error_message([&] { export_bsdf(o); });
+    };
+    analysis::Huang2022Params thick;
+    thick.d_um = 80.0;  // beyond the model's 50 µm
+    const auto huang = analysis::huang2022_values(thick);
+    {
+        record::Hdf5Writer h5(dir / "huang2022_fit.h5");
+        h5.write("fit/values", std::span<const double>(huang.data(), huang.size()), {huang.size()});
+        h5.commit();
+    }
+    const std::string huang_error = error(small((dir / "huang2022_fit.h5").string()));
+    EXPECT_NE(huang_error.find("HDF5 file '" + (dir / "huang2022_fit.h5").string() +
+                               "': /fit/values: huang2022: d = 80"),
+              std::string::npos)
+        << huang_error;
+    analysis::Filip2024Parameters parrot = analysis::filip2024_preset("parrot");
+    const auto filip = analysis::to_vector(parrot);
+    std::vector<double> bad(filip.begin(), filip.end());
+    bad[0] = std::nan("");
+    {
+        record::Hdf5Writer h5(dir / "species.h5");
+        h5.write("/parrot/fit/values", std::span<const double>(bad.data(), bad.size()),
+                 {bad.size()});
+        h5.set_attribute("/parrot", "mount_deg", 30.0);
+        h5.commit();
+    }
+    const std::string filip_error = error(small((dir / "species.h5").string()));
+    EXPECT_NE(filip_error.find("HDF5 file '" + (dir / "species.h5").string() +
+                               "': /parrot/fit/values: Filip 2024 BRDF: "),
+              std::string::npos)
+        << filip_error;
+    EXPECT_FALSE(fs::exists(dir / "huang2022_fit.bsdf"));
+    EXPECT_FALSE(fs::exists(dir / "parrot_filip2024.bsdf"));
+}
+
 TEST(BsdfExport, InterruptStopsItAndLeavesNoFile) {
     const fs::path dir = scratch_dir() / "interrupted";
     fs::create_directories(dir);

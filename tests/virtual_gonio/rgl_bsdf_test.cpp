@@ -381,6 +381,21 @@ TEST_F(RglBsdfBadFile, MissingFieldWrongShapeWrongDtype) {
         << error_of(path);
 }
 
+// A sampling table with nothing to sample: the error names the field as well as the slice.
+TEST_F(RglBsdfBadFile, ATableWithoutDensityNamesItsField) {
+    const auto path = scratch("no_density.bsdf");
+    for (const std::string field : {"vndf", "luminance"}) {
+        TensorFields fields = tables_.to_fields();
+        std::fill(fields[field].bytes.begin(), fields[field].bytes.end(), std::uint8_t{0});
+        write_tensor_file(path, fields);
+        const std::string message = error_of(path);
+        EXPECT_NE(message.find(path.string() + ": field '" + field + "': warp: slice 0"),
+                  std::string::npos)
+            << message;
+        EXPECT_NE(message.find("has no positive density"), std::string::npos) << message;
+    }
+}
+
 TEST(RglBsdfSettingsTest, RejectsBadSettingsAndModelsWithoutEval) {
     RglBsdfSettings settings;
     settings.wavelengths_nm = {550.0};
