@@ -4,9 +4,11 @@
 #include <unistd.h>
 
 #include <algorithm>
+#include <cerrno>
 #include <chrono>
 #include <cstdio>
 #include <cstdlib>
+#include <cstring>
 #include <exception>
 #include <fstream>
 #include <mutex>
@@ -143,7 +145,17 @@ private:
         const char* path = std::getenv("PLUMAGE_CHUNK_LOG");
         if (path == nullptr || g_rank != 0) return;
         file_ = std::fopen(path, "a");
-        if (file_ != nullptr && std::ftell(file_) == 0)
+        if (file_ == nullptr) {
+            // The log is optional and the run goes on without it, but the user asked for it:
+            // say once (this is the process's one ChunkLog) why it will not appear.
+            std::fputs(fmt::format("plumage: warning: PLUMAGE_CHUNK_LOG: cannot open '{}' ({}); "
+                                   "no chunk log is written\n",
+                                   path, std::strerror(errno))
+                           .c_str(),
+                       stderr);
+            return;
+        }
+        if (std::ftell(file_) == 0)
             std::fputs("call,chunks,chunk,rank,wall_s,cpu_s,result_bytes\n", file_);
     }
     std::FILE* file_ = nullptr;

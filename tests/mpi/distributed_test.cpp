@@ -8,6 +8,7 @@
 #include "common/error.h"
 
 #include <atomic>
+#include <cstdlib>
 #include <filesystem>
 #include <fstream>
 #include <functional>
@@ -54,6 +55,23 @@ protected:
     void TearDown() override { fs::remove_all(dir); }
     fs::path dir;
 };
+
+// PLUMAGE_CHUNK_LOG naming a file that cannot be opened: one warning naming it, however many
+// calls, and the work goes on. In a fresh process: the log is opened once per process.
+TEST(DistributedChunkLog, AnUnopenableLogIsNamedOnceAndTheWorkGoesOn) {
+    GTEST_FLAG_SET(death_test_style, "threadsafe");
+    EXPECT_EXIT(
+        {
+            ::setenv("PLUMAGE_CHUNK_LOG", "/nonexistent-plumage-folder/chunks.csv", 1);
+            const std::size_t first = deal_chunks(3, square).results.size();
+            const std::size_t second = deal_chunks(3, square).results.size();
+            std::exit(first == 3 && second == 3 ? 0 : 1);
+        },
+        ::testing::ExitedWithCode(0),
+        "^plumage: warning: PLUMAGE_CHUNK_LOG: cannot open "
+        "'/nonexistent-plumage-folder/chunks\\.csv' \\(No such file or directory\\); no chunk "
+        "log is written\n$");
+}
 
 TEST_F(DistributedAlone, RunsEveryChunkOnceInOrder) {
     ASSERT_FALSE(active());
