@@ -68,7 +68,7 @@ def _scatterogram_arguments(record):
     """The fit's view of an imaging-scatterometer record (plumage.read_record or a path)."""
     import numpy as np
 
-    from .records import read_record
+    from .records import RecordError, read_record
 
     if isinstance(record, dict):  # numpy arrays (docs/user_data.md, "From Python")
         r = record
@@ -84,9 +84,20 @@ def _scatterogram_arguments(record):
         raise ValueError(f"{record.path}: a {record.kind} record; the Huang fit needs an "
                          "imaging_scatterometer record (a scatterogram)")
     inst = record.instrument
-    beam = inst.get("beam_direction", "0 0 1")
-    beam = np.array([float(x) for x in str(beam).split()]) if isinstance(beam, str) else beam
-    return (str(inst["illumination"]), np.asarray(beam, dtype=float),
+    # A record written by hand may lack these or hold text that is no direction: say which file.
+    if "illumination" not in inst:
+        raise RecordError(f"{record.path}: /instrument@illumination: missing; expected beam, cone "
+                          "or hemisphere")
+    text = inst.get("beam_direction", "0 0 1")
+    try:
+        beam = np.array([float(x) for x in str(text).split()]) if isinstance(text, str) else \
+            np.asarray(text, dtype=float)
+    except (TypeError, ValueError):
+        beam = None
+    if beam is None or beam.shape != (3,):
+        raise RecordError(f"{record.path}: /instrument@beam_direction = {str(text)[:80]!r}: "
+                          "expected \"x y z\", three numbers towards the light")
+    return (str(inst["illumination"]), beam,
             float(np.radians(float(inst.get("cone_aperture_deg", 16.0)))),
             np.asarray(record.wavelength_nm), np.asarray(record.image.value),
             np.asarray(record.image.standard_error),

@@ -100,8 +100,17 @@ def _text_and_source(study, base_dir) -> tuple[str, str]:
         folder = os.fspath(base_dir) if base_dir is not None else os.getcwd()
         return to_toml(study), os.path.join(folder, _DICT_SOURCE)
     path = os.fspath(study)
-    with open(path, encoding="utf-8") as handle:
-        return handle.read(), path
+    with open(path, "rb") as handle:
+        data = handle.read()
+    try:
+        text = data.decode("utf-8")
+    except UnicodeDecodeError as error:
+        # Python's message names neither the file nor the line.
+        line = data.count(b"\n", 0, error.start) + 1
+        raise ValueError(f"{path}:{line}: byte 0x{data[error.start]:02x} is not UTF-8: expected a "
+                         "UTF-8 study file (TOML)") from None
+    # As a text-mode read gives it (universal newlines).
+    return text.replace("\r\n", "\n").replace("\r", "\n"), path
 
 
 def _call(study, function, *arguments):

@@ -82,6 +82,26 @@ def test_missing_dataset_names_file_and_dataset(rock_dove_results, tmp_path):
         plumage.read_record(broken)
 
 
+def test_bad_illumination_of_a_record_names_the_file(rock_dove_results, tmp_path):
+    """The Huang fit's view of a scatterogram record a user changed by hand."""
+    from plumage import models
+
+    broken = tmp_path / "hand_made.h5"
+    for change, message in ((lambda a: a.__delitem__("illumination"),
+                             r"hand_made\.h5: /instrument@illumination: missing"),
+                            (lambda a: a.__setitem__("beam_direction", "up"),
+                             r"hand_made\.h5: /instrument@beam_direction = 'up': expected")):
+        with h5py.File(rock_dove_results / "fit/simulation.h5") as src, \
+                h5py.File(broken, "w") as dst:
+            for key in src:
+                src.copy(key, dst)
+            for k, v in src.attrs.items():
+                dst.attrs[k] = v
+            change(dst["instrument"].attrs)
+        with pytest.raises(plumage.RecordError, match=message):
+            models.fit_huang2022(broken)
+
+
 def test_not_a_record(tmp_path):
     with pytest.raises(FileNotFoundError, match="nothing.h5"):
         plumage.read_record(tmp_path / "nothing.h5")

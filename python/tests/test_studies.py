@@ -76,6 +76,14 @@ def test_bad_values_name_the_key_before_any_work(tmp_path):
     assert "calibration" in plumage.study_kinds()
 
 
+def test_a_study_file_that_is_not_utf8_is_named_with_its_line(tmp_path):
+    study = tmp_path / "latin1.toml"
+    study.write_bytes(b'study = "calibration"\nname = "caf\xe9"\n')
+    with pytest.raises(ValueError, match=r"latin1\.toml:2: byte 0xe9 is not UTF-8"):
+        plumage.run_study(study, out=tmp_path / "results", plots=False)
+    assert not (tmp_path / "results").exists()
+
+
 def test_ctrl_c_raises_keyboard_interrupt_and_leaves_nothing_half_written(tmp_path):
     """SIGINT while a study runs in C++: KeyboardInterrupt within seconds, no results folder and
     no staging folder left."""
