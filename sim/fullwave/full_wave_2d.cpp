@@ -6,6 +6,7 @@
 #include <cmath>
 #include <complex>
 #include <exception>
+#include <functional>
 #include <limits>
 #include <memory>
 #include <numbers>
@@ -31,6 +32,7 @@ constexpr double kPi = std::numbers::pi;
 // 100 000 cells peaks at 70 MB resident, the process and libraries included: 400 bytes per
 // cell is an upper estimate.
 constexpr double kBytesPerCell = 400.0;
+constexpr double kCourant = 0.5;  // Meep's default, passed to every structure
 // Samples in a pixel cut by a boundary, for subpixel smoothing (SectionMaterial): the
 // Fibonacci lattice of 233 points (i, 144 i mod 233), whose projections on either axis are 233
 // distinct levels, so a boundary along a grid axis (every layer of a stack) is placed to
@@ -130,6 +132,27 @@ public:
         return b < 0 ? 0.0 : media_.sigma_d[static_cast<std::size_t>(b)];
     }
 
+    // The fraction of the h × h pixel centred on r that body b fills (the pole strengths'
+    // average, Dispersion::fitted): 0 or 1 unless a 3 × 3 test finds the pixel cut, then the
+    // Fibonacci lattice's fraction.
+    double fraction_of_body(int b, const meep::vec& r, double h) const {
+        const double x0 = r.x() - 0.5 * h, y0 = r.y() - 0.5 * h;
+        const bool first = body(meep::vec(x0, y0)) == b;
+        bool uniform = true;
+        for (int j = 0; j < 3 && uniform; ++j)
+            for (int i = 0; i < 3 && uniform; ++i)
+                uniform = (body(meep::vec(x0 + 0.5 * i * h, y0 + 0.5 * j * h)) == b) == first;
+        if (uniform) return first ? 1.0 : 0.0;
+        int inside = 0;
+        for (int i = 0; i < kSubpixelSamples; ++i) {
+            const long j = (static_cast<long>(i) * kSubpixelStride) % kSubpixelSamples;
+            const double u = (i + 0.5) / kSubpixelSamples;
+            const double w = (static_cast<double>(j) + 0.5) / kSubpixelSamples;
+            inside += body(meep::vec(x0 + u * h, y0 + w * h)) == b ? 1 : 0;
+        }
+        return static_cast<double>(inside) / kSubpixelSamples;
+    }
+
 private:
     int body(const meep::vec& r) const {
         return section_.body_at({c_ * r.x() + s_ * r.y(), c_ * r.y() - s_ * r.x() + z_offset_});
@@ -140,6 +163,41 @@ private:
 };
 
 class AirMaterial final : public meep::material_function {};
+
+// One Lorentz pole's strength σ_k over the grid (Dispersion::fitted): σ_k times the fraction of
+// the pixel that its body fills, isotropic.
+class PoleStrength final : public meep::material_function {
+public:
+    PoleStrength(const SectionMaterial& section, int body, double strength, double h)
+        : section_(section), body_(body), strength_(strength), h_(h) {}
+    void sigma_row(meep::component c, double row[3], const meep::vec& r) override {
+        row[0] = row[1] = row[2] = 0.0;
+        row[meep::component_direction(c) % 3] = strength_ * section_.fraction_of_body(body_, r, h_);
+    }
+
+private:
+    const SectionMaterial& section_;
+    int body_;
+    double strength_, h_;
+};
+
+// What a run adds to its structure after Meep has built ε: conductivities or poles.
+using Dress = std::function<void(meep::structure&)>;
+
+// Each body's poles (Dispersion::fitted; body_fits[b] is body b's material's fit) for the
+// structure of `material` (Meep samples the strengths when a susceptibility is added).
+Dress add_poles(const SectionMaterial& material, const std::vector<const LorentzFit*>& body_fits,
+                double h) {
+    return [&material, &body_fits, h](meep::structure& s) {
+        for (std::size_t b = 0; b < body_fits.size(); ++b)
+            for (const LorentzPole& p : body_fits[b]->model.poles) {
+                PoleStrength strength(material, static_cast<int>(b), p.strength, h);
+                s.add_susceptibility(
+                    strength, meep::E_stuff,
+                    meep::lorentzian_susceptibility(p.frequency_per_um, p.damping_per_um));
+            }
+    };
+}
 
 // One side of the monitor box in Meep's frame: the DFT of u on a strip a few cells thick.
 struct Side {
@@ -283,26 +341,29 @@ double step_until_decayed(meep::fields& f, meep::component c, const meep::vec& p
     }
 }
 
-// The D conductivity of absorbing bodies on the polarisation's electric components (Ez for TE;
-// Ex, Ey for TM).
-void set_conductivity(meep::structure& s, meep::material_function& material, Polarisation2d pol) {
-    if (pol == Polarisation2d::te) {
-        s.set_conductivity(meep::Dz, material);
-    } else {
-        s.set_conductivity(meep::Dx, material);
-        s.set_conductivity(meep::Dy, material);
-    }
+// The D conductivity of absorbing bodies (Dispersion::per_wavelength) on the polarisation's
+// electric components (Ez for TE; Ex, Ey for TM).
+Dress conductivities(meep::material_function& material, Polarisation2d pol, bool absorbing) {
+    if (!absorbing) return {};
+    return [&material, pol](meep::structure& s) {
+        if (pol == Polarisation2d::te) {
+            s.set_conductivity(meep::Dz, material);
+        } else {
+            s.set_conductivity(meep::Dx, material);
+            s.set_conductivity(meep::Dy, material);
+        }
+    };
 }
 
 // One FDTD run: the source, the DFT strips, time steps until the probe's field has decayed.
-RunResult run(meep::material_function& material, bool absorbing, Polarisation2d pol,
+RunResult run(meep::material_function& material, const Dress& dress, Polarisation2d pol,
               const Layout& l, std::span<const double> freqs, double f_centre, double f_width,
               bool empty, const FullWave2dOptions& o) {
     const meep::grid_volume gv = centred_grid(l.half_x, l.half_y, o.resolution_px_per_um);
-    meep::structure s(gv, material, meep::pml(o.pml_um), meep::identity(), 0, 0.5,
+    meep::structure s(gv, material, meep::pml(o.pml_um), meep::identity(), 0, kCourant,
                       o.subpixel_smoothing && !empty);
     const meep::component c = field_component(pol);
-    if (absorbing) set_conductivity(s, material, pol);
+    if (dress) dress(s);
     meep::fields f(&s);
     f.use_real_fields();
     meep::gaussian_src_time src(f_centre, f_width);
@@ -462,8 +523,76 @@ void check_options(const CrossSection2d& section, std::span<const double> lambda
     }
 }
 
-void require_grid_memory(double cells, const std::string& what) {
-    require_memory(cells * kBytesPerCell, what);
+// Meep's memory per cell for one Lorentz pole: its strength and two polarisation arrays (now and
+// one step back) on up to two electric components (TM: Ex, Ey), doubles.
+constexpr double kBytesPerPoleCell = 48.0;
+
+void require_grid_memory(double cells, std::size_t poles, const std::string& what) {
+    require_memory(cells * (kBytesPerCell + static_cast<double>(poles) * kBytesPerPoleCell), what);
+}
+
+// Lorentz poles are capped at this frequency (1/µm; λ = 100 nm) so that one fit serves every
+// grid the λ/(10 n) rule allows in the visible (lorentz_fit.h).
+constexpr double kMaxPoleFrequencyPerUm = 10.0;
+
+// The materials of the runs: exact at each wavelength (always: the checks, and the materials of
+// Dispersion::per_wavelength) and, for Dispersion::fitted, each material's Lorentz fit and the
+// bodies' ε_∞.
+struct RunMaterials {
+    std::vector<BodyMedia> exact;              // per wavelength asked
+    std::vector<LorentzFit> fits;              // fitted: one per distinct material
+    std::vector<const LorentzFit*> body_fits;  // fitted: body b's material's fit
+    BodyMedia instantaneous;                   // fitted: each body's ε_∞, no conductivity
+    std::size_t poles() const {
+        std::size_t n = 0;
+        for (const LorentzFit* f : body_fits) n += f->model.poles.size();
+        return n;
+    }
+    std::size_t runs(std::size_t wavelengths) const {
+        return fits.empty() ? wavelengths + 1 : 2;  // the empty run, then the bodies'
+    }
+};
+
+RunMaterials run_materials(const CrossSection2d& section, std::span<const double> lambdas_nm,
+                           const FullWave2dOptions& o) {
+    RunMaterials m;
+    for (const double l : lambdas_nm) m.exact.push_back(media_at(section, l));
+    if (o.dispersion == Dispersion::per_wavelength) return m;
+    require(std::isfinite(o.max_fit_index_error) && o.max_fit_index_error > 0.0, "full wave",
+            "max_fit_index_error", o.max_fit_index_error, "a finite value > 0");
+    const auto [lo, hi] = std::minmax_element(lambdas_nm.begin(), lambdas_nm.end());
+    const double band_lo = std::min(380.0, *lo), band_hi = std::max(780.0, *hi);
+    std::vector<const optics::Material*> fitted;
+    std::vector<std::size_t> index_of_body;
+    for (const Body2d& b : section.bodies) {
+        const auto at = std::find(fitted.begin(), fitted.end(), b.material.get());
+        index_of_body.push_back(static_cast<std::size_t>(at - fitted.begin()));
+        if (at != fitted.end()) continue;
+        fitted.push_back(b.material.get());
+        LorentzFit fit = fit_lorentz(*b.material, band_lo, band_hi, kMaxPoleFrequencyPerUm);
+        if (fit.max_index_error > o.max_fit_index_error)
+            throw InputError(fmt::format(
+                "full wave: the Lorentz fit of '{}' over {}–{} nm misses its index by {:.3g} "
+                "(max_fit_index_error = {:.3g}): use Dispersion::per_wavelength",
+                b.material->name(), band_lo, band_hi, fit.max_index_error, o.max_fit_index_error));
+        for (const LorentzPole& p : fit.model.poles) {
+            // Meep's Lorentz update is stable while 2π f Δt < 2, Δt = courant / resolution
+            const double needed = kPi * p.frequency_per_um * kCourant;
+            if (!(o.resolution_px_per_um > needed))
+                throw InputError(fmt::format(
+                    "full wave: resolution_px_per_um = {} is too coarse for the Lorentz pole of "
+                    "'{}' at {:.4g} 1/µm (Meep's update is unstable): more than {:.4g} px/µm "
+                    "needed",
+                    o.resolution_px_per_um, b.material->name(), p.frequency_per_um, needed));
+        }
+        m.fits.push_back(std::move(fit));
+    }
+    for (std::size_t b = 0; b < section.bodies.size(); ++b) {
+        m.body_fits.push_back(&m.fits[index_of_body[b]]);
+        m.instantaneous.eps.push_back(m.body_fits.back()->model.eps_infinity);
+        m.instantaneous.sigma_d.push_back(0.0);
+    }
+    return m;
 }
 
 // The Gaussian pulse covering all the frequencies: Meep's (centre, width).
@@ -526,25 +655,31 @@ Layout isolated_layout(const CrossSection2d& section, double theta_i_rad,
     return l;
 }
 
-// One wavelength's far field and widths from its run (`total`) and the empty run (`incident`,
-// all wavelengths; k is this one's index there).
-FarField2d far_field_of_run(const RunResult& total, const RunResult& incident, std::size_t k,
-                            double freq, double lambda_nm, double theta_i_rad,
-                            std::span<const double> theta_s_rad, const Layout& l) {
-    // the incident field at this frequency only (the empty run holds all of them)
-    std::array<SideField, 4> inc = incident.sides;
-    for (SideField& sf : inc) {
+// The sides' fields at one of their frequencies only.
+std::array<SideField, 4> at_frequency(const std::array<SideField, 4>& sides, std::size_t k) {
+    std::array<SideField, 4> out = sides;
+    for (SideField& sf : out) {
         sf.a = {sf.a[k]};
         sf.b = {sf.b[k]};
     }
-    const std::vector<BoxSample> scattered = box_samples(difference(total.sides, inc), 0, l);
-    const std::vector<BoxSample> whole = box_samples(total.sides, 0, l);
+    return out;
+}
+
+// One wavelength's far field and widths from the run holding it (`run`, at its frequency
+// k_run) and the empty run (`incident`, all wavelengths; k is this one's index there).
+FarField2d far_field_of_run(const RunResult& run, std::size_t k_run, const RunResult& incident,
+                            std::size_t k, double freq, double lambda_nm, double theta_i_rad,
+                            std::span<const double> theta_s_rad, const Layout& l) {
+    const std::array<SideField, 4> total = at_frequency(run.sides, k_run);
+    const std::vector<BoxSample> scattered =
+        box_samples(difference(total, at_frequency(incident.sides, k)), 0, l);
+    const std::vector<BoxSample> whole = box_samples(total, 0, l);
     const double kk = 2.0 * kPi * freq;
     const Complex u0 = incident.u0[k];
     const double intensity_times_2w = kk * std::norm(u0);  // 2ω I = ω |u_0|²
     FarField2d ff;
     ff.lambda_nm = lambda_nm;
-    ff.time_steps = total.time_steps;
+    ff.time_steps = run.time_steps;
     for (const double t : theta_s_rad)
         ff.sigma_um_per_rad.push_back(std::norm(far_amplitude(scattered, kk, t - theta_i_rad)) /
                                       std::norm(u0));
@@ -595,15 +730,15 @@ FullWave2dResult full_wave_far_field(const CrossSection2d& section, Polarisation
     for (const double t : theta_s_rad)
         require(std::isfinite(t), "full wave", "theta_s", t, "a finite angle (rad)");
     check_options(section, lambdas_nm, o);
-    std::vector<BodyMedia> media;
-    for (const double l : lambdas_nm) media.push_back(media_at(section, l));
+    const RunMaterials materials = run_materials(section, lambdas_nm, o);
 
     const Layout l = isolated_layout(section, theta_i_rad, o);
     const double cells =
         (2.0 * l.half_x * o.resolution_px_per_um) * (2.0 * l.half_y * o.resolution_px_per_um);
     require_grid_memory(
-        cells, fmt::format("full wave: a {:.3g} × {:.3g} µm cell at resolution_px_per_um = {}",
-                           2.0 * l.half_x, 2.0 * l.half_y, o.resolution_px_per_um));
+        cells, materials.poles(),
+        fmt::format("full wave: a {:.3g} × {:.3g} µm cell at resolution_px_per_um = {}",
+                    2.0 * l.half_x, 2.0 * l.half_y, o.resolution_px_per_um));
 
     const auto started = std::chrono::steady_clock::now();
     const Quiet quiet;
@@ -613,18 +748,24 @@ FullWave2dResult full_wave_far_field(const CrossSection2d& section, Polarisation
     // structured bindings in a lambda.
     const std::pair<double, double> band = pulse(freqs);
     const double f_centre = band.first, f_width = band.second;
-    // The empty run and one run per wavelength, independent: spread over threads (each Meep
-    // run is serial; runs share nothing but the read-only section).
-    const std::vector<RunResult> runs = run_all(freqs.size() + 1, o, [&](std::size_t i) {
-        if (i == 0) {
-            AirMaterial air;
-            return run(air, false, pol, l, freqs, f_centre, f_width, true, o);
-        }
-        SectionMaterial material(section, theta_i_rad, media[i - 1]);
-        const std::array<double, 1> one{freqs[i - 1]};
-        return run(material, media[i - 1].absorbing, pol, l, one, f_centre, f_width, false, o);
-    });
-    const RunResult& incident = runs.front();
+    // The empty run and one run per wavelength (or one for all, fitted), independent: spread
+    // over threads (each Meep run is serial; runs share nothing but the read-only section).
+    const std::vector<RunResult> runs =
+        run_all(materials.runs(freqs.size()), o, [&](std::size_t i) {
+            if (i == 0) {
+                AirMaterial air;
+                return run(air, {}, pol, l, freqs, f_centre, f_width, true, o);
+            }
+            if (o.dispersion == Dispersion::fitted) {
+                SectionMaterial material(section, theta_i_rad, materials.instantaneous);
+                return run(material, add_poles(material, materials.body_fits, l.h), pol, l, freqs,
+                           f_centre, f_width, false, o);
+            }
+            SectionMaterial material(section, theta_i_rad, materials.exact[i - 1]);
+            const std::array<double, 1> one{freqs[i - 1]};
+            return run(material, conductivities(material, pol, materials.exact[i - 1].absorbing),
+                       pol, l, one, f_centre, f_width, false, o);
+        });
 
     FullWave2dResult result;
     result.polarisation = pol;
@@ -633,9 +774,12 @@ FullWave2dResult full_wave_far_field(const CrossSection2d& section, Polarisation
     result.theta_s_rad.assign(theta_s_rad.begin(), theta_s_rad.end());
     result.grid_cells = static_cast<std::size_t>(cells);
     for (std::size_t k = 0; k < freqs.size(); ++k) {
-        result.wavelengths.push_back(far_field_of_run(runs[k + 1], runs.front(), k, freqs[k],
+        const bool fitted = o.dispersion == Dispersion::fitted;
+        result.wavelengths.push_back(far_field_of_run(fitted ? runs[1] : runs[k + 1],
+                                                      fitted ? k : 0, runs.front(), k, freqs[k],
                                                       lambdas_nm[k], theta_i_rad, theta_s_rad, l));
     }
+    result.dispersion_fits = materials.fits;
     result.seconds =
         std::chrono::duration<double>(std::chrono::steady_clock::now() - started).count();
     return result;
@@ -681,15 +825,15 @@ struct StackRun {
     LineField above, below;
 };
 
-StackRun run_stack(meep::material_function& material, bool absorbing, Polarisation2d pol,
+StackRun run_stack(meep::material_function& material, const Dress& dress, Polarisation2d pol,
                    double half_x, double half_y, double y_reflect, double y_source,
                    double y_transmit, std::span<const double> freqs, double f_centre,
                    double f_width, const FullWave2dOptions& o, bool smoothing) {
     const meep::grid_volume gv = centred_grid(half_x, half_y, o.resolution_px_per_um);
-    meep::structure s(gv, material, meep::pml(o.pml_um, meep::Y), meep::identity(), 0, 0.5,
+    meep::structure s(gv, material, meep::pml(o.pml_um, meep::Y), meep::identity(), 0, kCourant,
                       smoothing);
     const meep::component c = field_component(pol);
-    if (absorbing) set_conductivity(s, material, pol);
+    if (dress) dress(s);
     meep::fields f(&s);
     f.use_bloch(meep::vec(0.0, 0.0));  // periodic in x (normal incidence)
     meep::gaussian_src_time src(f_centre, f_width);
@@ -725,8 +869,7 @@ std::vector<StackReflectance> full_wave_stack(const CrossSection2d& layers, Pola
         z_lo = std::min(z_lo, std::isfinite(box.min.y()) ? box.min.y() : box.max.y());
     }
     check_options(layers, lambdas_nm, o);
-    std::vector<BodyMedia> media;
-    for (const double l : lambdas_nm) media.push_back(media_at(layers, l));
+    const RunMaterials materials = run_materials(layers, lambdas_nm, o);
 
     // Meep's y = our z − z_centre; from the top: PML, gap, source, gap, reflection line, gap,
     // the stack, gap, transmission line, gap, PML
@@ -738,7 +881,7 @@ std::vector<StackReflectance> full_wave_stack(const CrossSection2d& layers, Pola
                  y_source = z_hi + 2.0 * o.gap_um - z_centre;
     const double y_transmit = z_lo - o.gap_um - z_centre;
     require_grid_memory(
-        4.0 * 2.0 * half_y * o.resolution_px_per_um,
+        4.0 * 2.0 * half_y * o.resolution_px_per_um, materials.poles(),
         fmt::format("full wave stack: a {:.3g} µm column at resolution_px_per_um = {}",
                     2.0 * half_y, o.resolution_px_per_um));
     // the medium under the stack, where T is measured
@@ -751,35 +894,46 @@ std::vector<StackReflectance> full_wave_stack(const CrossSection2d& layers, Pola
     // structured bindings in a lambda.
     const std::pair<double, double> band = pulse(freqs);
     const double f_centre = band.first, f_width = band.second;
-    const std::vector<StackRun> runs = run_all(freqs.size() + 1, o, [&](std::size_t i) {
+    const std::vector<StackRun> runs = run_all(materials.runs(freqs.size()), o, [&](std::size_t i) {
         if (i == 0) {
             AirMaterial air;
-            return run_stack(air, false, pol, half_x, half_y, y_reflect, y_source, y_transmit,
-                             freqs, f_centre, f_width, o, false);
+            return run_stack(air, {}, pol, half_x, half_y, y_reflect, y_source, y_transmit, freqs,
+                             f_centre, f_width, o, false);
         }
-        SectionMaterial material(layers, 0.0, media[i - 1], z_centre);
+        if (o.dispersion == Dispersion::fitted) {
+            SectionMaterial material(layers, 0.0, materials.instantaneous, z_centre);
+            return run_stack(material, add_poles(material, materials.body_fits, h), pol, half_x,
+                             half_y, y_reflect, y_source, y_transmit, freqs, f_centre, f_width, o,
+                             o.subpixel_smoothing);
+        }
+        const BodyMedia& media = materials.exact[i - 1];
+        SectionMaterial material(layers, 0.0, media, z_centre);
         const std::array<double, 1> one{freqs[i - 1]};
-        return run_stack(material, media[i - 1].absorbing, pol, half_x, half_y, y_reflect, y_source,
-                         y_transmit, one, f_centre, f_width, o, o.subpixel_smoothing);
+        return run_stack(material, conductivities(material, pol, media.absorbing), pol, half_x,
+                         half_y, y_reflect, y_source, y_transmit, one, f_centre, f_width, o,
+                         o.subpixel_smoothing);
     });
     const StackRun& incident = runs.front();
     std::vector<StackReflectance> out;
     for (std::size_t k = 0; k < freqs.size(); ++k) {
-        const StackRun& total = runs[k + 1];
+        const bool fitted = o.dispersion == Dispersion::fitted;
+        const StackRun& total = runs[fitted ? 1 : k + 1];
+        const std::size_t kt = fitted ? k : 0;  // this wavelength in its run
         // fluxes along +y, in units of 1/(2ω): Im(u* ∂u/∂y)
         const Complex ui = incident.above.u[k], dui = incident.above.dudy[k];
         const double incident_flux = -std::imag(std::conj(ui) * dui);  // downward
-        const Complex us = total.above.u[0] - ui, dus = total.above.dudy[0] - dui;
+        const Complex us = total.above.u[kt] - ui, dus = total.above.dudy[kt] - dui;
         StackReflectance r;
         r.lambda_nm = lambdas_nm[k];
         r.reflectance = std::imag(std::conj(us) * dus) / incident_flux;
         // the power flux under the stack: Im(u* ∂u/∂y)/(2ω) for TE; for TM (u = H) divided by
         // ε there, which must then be real
+        const BodyMedia& media = materials.exact[k];
         const bool lossless_under =
-            under < 0 || media[k].sigma_d[static_cast<std::size_t>(under)] == 0.0;
-        const double eps_under = under < 0 ? 1.0 : media[k].eps[static_cast<std::size_t>(under)];
+            under < 0 || media.sigma_d[static_cast<std::size_t>(under)] == 0.0;
+        const double eps_under = under < 0 ? 1.0 : media.eps[static_cast<std::size_t>(under)];
         const double flux_under =
-            -std::imag(std::conj(total.below.u[0]) * total.below.dudy[0]) / incident_flux;
+            -std::imag(std::conj(total.below.u[kt]) * total.below.dudy[kt]) / incident_flux;
         r.transmittance = !lossless_under             ? std::numeric_limits<double>::quiet_NaN()
                           : pol == Polarisation2d::te ? flux_under
                                                       : flux_under / eps_under;

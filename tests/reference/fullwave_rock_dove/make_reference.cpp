@@ -48,7 +48,8 @@ int main(int argc, char** argv) {
             for (const fw::FarField2d& f : r.wavelengths) {
                 for (std::size_t m = 0; m < theta.size(); ++m)
                     far << fmt::format("single,{},0,{:g},{:g},{:g},{:.6g}\n", p, f.lambda_nm, res,
-                                       -179.5 + 0.5 * m, f.sigma_um_per_rad[m]);
+                                       -179.5 + 0.5 * static_cast<double>(m),
+                                       f.sigma_um_per_rad[m]);
                 totals << fmt::format(
                     "single,{},0,{:g},{:g},{:.6g},{:.6g},{:.6g},{:.6g},{:g},{:.1f}\n", p,
                     f.lambda_nm, res, f.back_scattering_width_um, f.scattering_width_um,
