@@ -222,7 +222,6 @@ struct Layout {
 
 struct RunResult {
     std::array<SideField, 4> sides;
-    std::vector<Complex> u0;  // incident amplitude at the origin (empty run only)
     double time_steps = 0.0;
 };
 
@@ -358,10 +357,10 @@ Dress conductivities(meep::material_function& material, Polarisation2d pol, bool
 // One FDTD run: the source, the DFT strips, time steps until the probe's field has decayed.
 RunResult run(meep::material_function& material, const Dress& dress, Polarisation2d pol,
               const Layout& l, std::span<const double> freqs, double f_centre, double f_width,
-              bool empty, const FullWave2dOptions& o) {
+              const FullWave2dOptions& o) {
     const meep::grid_volume gv = centred_grid(l.half_x, l.half_y, o.resolution_px_per_um);
     meep::structure s(gv, material, meep::pml(o.pml_um), meep::identity(), 0, kCourant,
-                      o.subpixel_smoothing && !empty);
+                      o.subpixel_smoothing);
     const meep::component c = field_component(pol);
     if (dress) dress(s);
     meep::fields f(&s);
@@ -379,37 +378,96 @@ RunResult run(meep::material_function& material, const Dress& dress, Polarisatio
         where.push_back(strip_volume(side, l));
         strips.push_back(f.add_dft_fields(comps, 1, where.back(), freqs.data(), freqs.size()));
     }
-    // the incident wave near the bottom side (empty run): u_0 referred to the origin
-    const meep::volume foot(meep::vec(-0.5, -l.box_y - 2.0 * l.h),
-                            meep::vec(0.5, -l.box_y + 2.0 * l.h));
-    std::vector<meep::dft_fields> foot_dft;
-    if (empty) foot_dft.push_back(f.add_dft_fields(comps, 1, foot, freqs.data(), freqs.size()));
-
     RunResult r;
     r.time_steps = step_until_decayed(f, c, meep::vec(0.0, -l.box_y), src.last_time(), o);
     for (std::size_t i = 0; i < 4; ++i)
         r.sides[i] = read_side(f, strips[i], sides[i], where[i], c, freqs.size());
-    if (empty) {
-        std::vector<double> xs, ys;
-        grid_ticks(f, foot, xs, ys);
-        for (std::size_t k = 0; k < freqs.size(); ++k) {
-            int rank = 0;
-            std::size_t dims[3] = {1, 1, 1};
-            std::unique_ptr<std::complex<meep::realnum>[]> arr(
-                f.get_dft_array(foot_dft.front(), c, static_cast<int>(k), &rank, dims));
-            const double kk = 2.0 * kPi * freqs[k];
-            Complex sum = 0.0;
-            std::size_t n = 0;
-            for (std::size_t i = 0; i < xs.size(); ++i)
-                for (std::size_t j = 0; j < ys.size(); ++j) {
-                    // the incident wave is u_0 e^{−iky} (travelling down): u_0 = u e^{iky}
-                    sum += Complex(arr[i * ys.size() + j]) * std::exp(Complex(0.0, kk * ys[j]));
-                    ++n;
-                }
-            r.u0.push_back(sum / static_cast<double>(n));
-        }
-    }
     return r;
+}
+
+// The incident wave alone, u(y) on the grid's rows, per frequency: it does not depend on x
+// (a line source across the whole cell), so it is computed on a cell four columns wide,
+// periodic in x, with the same rows, PML, source and stop rule as the bodies' cell, at a few
+// per cent of an empty run of the whole cell (full_wave_2d.h: how far the two differ).
+struct IncidentProfile {
+    std::vector<double> y;                // grid rows from under the box to over it
+    std::vector<std::vector<Complex>> u;  // [frequency][row]
+    std::vector<Complex> u0;              // amplitude referred to the origin
+    double time_steps = 0.0;
+    Complex at(std::size_t k, double row) const {
+        for (std::size_t j = 0; j < y.size(); ++j)
+            if (std::abs(y[j] - row) <= 1e-9) return u[k][j];
+        throw InvariantError(
+            fmt::format("full wave: the incident profile has no grid row at y = {}", row));
+    }
+};
+
+IncidentProfile run_incident(Polarisation2d pol, const Layout& l, std::span<const double> freqs,
+                             double f_centre, double f_width, const FullWave2dOptions& o) {
+    const double half_x = 2.0 * l.h;
+    const meep::grid_volume gv = centred_grid(half_x, l.half_y, o.resolution_px_per_um);
+    AirMaterial air;
+    meep::structure s(gv, air, meep::pml(o.pml_um, meep::Y), meep::identity(), 0, kCourant, false);
+    const meep::component c = field_component(pol);
+    meep::fields f(&s);
+    f.use_real_fields();
+    f.use_bloch(meep::vec(0.0, 0.0));
+    meep::gaussian_src_time src(f_centre, f_width);
+    f.add_volume_source(
+        c, src, meep::volume(meep::vec(-half_x, l.source_y), meep::vec(half_x, l.source_y)), 1.0);
+    meep::component comps[1] = {c};
+    const meep::volume column(meep::vec(-half_x, -l.box_y - 3.0 * l.h),
+                              meep::vec(half_x, l.box_y + 3.0 * l.h));
+    meep::dft_fields dft = f.add_dft_fields(comps, 1, column, freqs.data(), freqs.size());
+    IncidentProfile p;
+    p.time_steps = step_until_decayed(f, c, meep::vec(0.0, -l.box_y), src.last_time(), o);
+    std::vector<double> xs;
+    grid_ticks(f, column, xs, p.y);
+    for (std::size_t k = 0; k < freqs.size(); ++k) {
+        int rank = 0;
+        std::size_t dims[3] = {1, 1, 1};
+        std::unique_ptr<std::complex<meep::realnum>[]> arr(
+            f.get_dft_array(dft, c, static_cast<int>(k), &rank, dims));
+        // every column holds the same wave: the middle one
+        const std::size_t i = xs.size() / 2;
+        std::vector<Complex> row(p.y.size());
+        for (std::size_t j = 0; j < p.y.size(); ++j) row[j] = Complex(arr[i * p.y.size() + j]);
+        // u_0 as before: the wave u_0 e^{−iky} (travelling down) near the box's bottom side
+        const double kk = 2.0 * kPi * freqs[k];
+        Complex sum = 0.0;
+        std::size_t n = 0;
+        for (std::size_t j = 0; j < p.y.size(); ++j)
+            if (std::abs(p.y[j] + l.box_y) <= 2.0 * l.h + 1e-9) {
+                sum += row[j] * std::exp(Complex(0.0, kk * p.y[j]));
+                ++n;
+            }
+        p.u0.push_back(sum / static_cast<double>(n));
+        p.u.push_back(std::move(row));
+    }
+    return p;
+}
+
+// The incident field on the box's strips, on the same grid points as a bodies' run's strips
+// (`geometry`), at frequency k.
+std::array<SideField, 4> incident_on(const IncidentProfile& p,
+                                     const std::array<SideField, 4>& geometry, std::size_t k) {
+    std::array<SideField, 4> out;
+    for (std::size_t i = 0; i < 4; ++i) {
+        const SideField& g = geometry[i];
+        SideField& sf = out[i];
+        sf.along = g.along;
+        sf.line_a = g.line_a;
+        sf.line_b = g.line_b;
+        std::vector<Complex> a(g.along.size()), b(g.along.size());
+        const bool horizontal = i < 2;  // box_sides: top, bottom, then right, left
+        for (std::size_t j = 0; j < g.along.size(); ++j) {
+            a[j] = p.at(k, horizontal ? g.line_a : g.along[j]);
+            b[j] = p.at(k, horizontal ? g.line_b : g.along[j]);
+        }
+        sf.a = {std::move(a)};
+        sf.b = {std::move(b)};
+    }
+    return out;
 }
 
 // The box's sides as midpoint lines: u and ∂u/∂ν on each, with the sample weights.
@@ -666,13 +724,14 @@ std::array<SideField, 4> at_frequency(const std::array<SideField, 4>& sides, std
 }
 
 // One wavelength's far field and widths from the run holding it (`run`, at its frequency
-// k_run) and the empty run (`incident`, all wavelengths; k is this one's index there).
-FarField2d far_field_of_run(const RunResult& run, std::size_t k_run, const RunResult& incident,
-                            std::size_t k, double freq, double lambda_nm, double theta_i_rad,
+// k_run) and the incident wave (all wavelengths; k is this one's index there).
+FarField2d far_field_of_run(const RunResult& run, std::size_t k_run,
+                            const IncidentProfile& incident, std::size_t k, double freq,
+                            double lambda_nm, double theta_i_rad,
                             std::span<const double> theta_s_rad, const Layout& l) {
     const std::array<SideField, 4> total = at_frequency(run.sides, k_run);
     const std::vector<BoxSample> scattered =
-        box_samples(difference(total, at_frequency(incident.sides, k)), 0, l);
+        box_samples(difference(total, incident_on(incident, run.sides, k)), 0, l);
     const std::vector<BoxSample> whole = box_samples(total, 0, l);
     const double kk = 2.0 * kPi * freq;
     const Complex u0 = incident.u0[k];
@@ -748,24 +807,22 @@ FullWave2dResult full_wave_far_field(const CrossSection2d& section, Polarisation
     // structured bindings in a lambda.
     const std::pair<double, double> band = pulse(freqs);
     const double f_centre = band.first, f_width = band.second;
-    // The empty run and one run per wavelength (or one for all, fitted), independent: spread
-    // over threads (each Meep run is serial; runs share nothing but the read-only section).
-    const std::vector<RunResult> runs =
-        run_all(materials.runs(freqs.size()), o, [&](std::size_t i) {
-            if (i == 0) {
-                AirMaterial air;
-                return run(air, {}, pol, l, freqs, f_centre, f_width, true, o);
-            }
-            if (o.dispersion == Dispersion::fitted) {
-                SectionMaterial material(section, theta_i_rad, materials.instantaneous);
-                return run(material, add_poles(material, materials.body_fits, l.h), pol, l, freqs,
-                           f_centre, f_width, false, o);
-            }
-            SectionMaterial material(section, theta_i_rad, materials.exact[i - 1]);
-            const std::array<double, 1> one{freqs[i - 1]};
-            return run(material, conductivities(material, pol, materials.exact[i - 1].absorbing),
-                       pol, l, one, f_centre, f_width, false, o);
-        });
+    // The incident wave (a cheap run), then one run per wavelength (or one for all, fitted),
+    // independent: spread over threads (each Meep run is serial; runs share nothing but the
+    // read-only section).
+    const IncidentProfile incident = run_incident(pol, l, freqs, f_centre, f_width, o);
+    const bool fitted = o.dispersion == Dispersion::fitted;
+    const std::vector<RunResult> runs = run_all(fitted ? 1 : freqs.size(), o, [&](std::size_t i) {
+        if (fitted) {
+            SectionMaterial material(section, theta_i_rad, materials.instantaneous);
+            return run(material, add_poles(material, materials.body_fits, l.h), pol, l, freqs,
+                       f_centre, f_width, o);
+        }
+        SectionMaterial material(section, theta_i_rad, materials.exact[i]);
+        const std::array<double, 1> one{freqs[i]};
+        return run(material, conductivities(material, pol, materials.exact[i].absorbing), pol, l,
+                   one, f_centre, f_width, o);
+    });
 
     FullWave2dResult result;
     result.polarisation = pol;
@@ -773,12 +830,10 @@ FullWave2dResult full_wave_far_field(const CrossSection2d& section, Polarisation
     result.resolution_px_per_um = o.resolution_px_per_um;
     result.theta_s_rad.assign(theta_s_rad.begin(), theta_s_rad.end());
     result.grid_cells = static_cast<std::size_t>(cells);
-    for (std::size_t k = 0; k < freqs.size(); ++k) {
-        const bool fitted = o.dispersion == Dispersion::fitted;
-        result.wavelengths.push_back(far_field_of_run(fitted ? runs[1] : runs[k + 1],
-                                                      fitted ? k : 0, runs.front(), k, freqs[k],
-                                                      lambdas_nm[k], theta_i_rad, theta_s_rad, l));
-    }
+    for (std::size_t k = 0; k < freqs.size(); ++k)
+        result.wavelengths.push_back(far_field_of_run(fitted ? runs[0] : runs[k], fitted ? k : 0,
+                                                      incident, k, freqs[k], lambdas_nm[k],
+                                                      theta_i_rad, theta_s_rad, l));
     result.dispersion_fits = materials.fits;
     result.seconds =
         std::chrono::duration<double>(std::chrono::steady_clock::now() - started).count();

@@ -16,17 +16,20 @@
 // cell, through the side PMLs (an integrated current, Meep's rule for a source that enters a
 // PML), a Gaussian pulse covering the wavelengths asked. Each wavelength is one run with the
 // materials exact at that wavelength: ε = Re(n + ik)² and a D conductivity σ_D = ω Im ε / Re ε
-// (Meep's ε(ω) = ε(1 + iσ_D/ω)); one empty run (air only, same source and grid) gives the
-// incident field at every wavelength. On a closed box around the bodies (gap_um away) the
-// scattered field is the run's discrete Fourier transform minus the empty run's, on the same
-// grid points, so the incident wave cancels to rounding.
+// (Meep's ε(ω) = ε(1 + iσ_D/ω)). The incident field at every wavelength comes from one run of
+// air on a cell four columns wide, periodic in x, with the same rows, PML, source and stop rule:
+// the wave does not depend on x, so this costs a few per cent of an empty run of the whole
+// cell, and gives the widths of a melanin ellipse within 1.3e-4 (TE) and 1e-5 (TM) of what that
+// empty run gives (40 px/µm), far under any grid error. On a closed box around the bodies
+// (gap_um away) the scattered field is the run's discrete Fourier transform minus the incident
+// wave's, on the same grid rows.
 //  - Far field: the exterior Green's representation on the box,
 //        f(θ) = e^{iπ/4}/√(8πk) ∮ [−ik (ω̂·ν) u_s − ∂u_s/∂ν] e^{−ik ω̂·r'} ds',
 //    σ = |f|²/|u_0|², from ONE component u on the two grid lines straddling each side (their
 //    mean and difference: consistent to O((kΔx)²)). Meep's own near2far is not used: it put a
 //    mirror image of the forward lobe, (kΔx/2)² as strong, into the specular direction
 //    (docs/full_wave.md).
-//  - u_0: the empty run's field near the box's bottom side referred to the origin with the
+//  - u_0: the incident wave near the box's bottom side referred to the origin with the
 //    exact k (the wave the body's forward field interferes with in the optical theorem).
 //  - Widths (µm; power per unit length over the incident intensity I = |u_0|²/2, in Meep's
 //    units c = ε_0 = μ_0 = 1, where the normal flux through a line in air is
@@ -99,7 +102,7 @@ struct FullWave2dOptions {
     double decay = 1e-7;             // stop when |u|² at the probe is below decay × its peak
     bool subpixel_smoothing = true;  // Meep's anisotropic averaging at boundaries
     const std::atomic<bool>* stop = nullptr;  // polled between time steps
-    // Runs at once (the empty run and one per wavelength are independent; each is serial):
+    // Runs at once (the runs of the wavelengths are independent; each is serial):
     // 0 = OpenMP's default. Results do not depend on it (tested bit for bit).
     int threads = 0;
     Dispersion dispersion = Dispersion::per_wavelength;
@@ -124,7 +127,7 @@ struct FullWave2dResult {
     std::vector<double> theta_s_rad;
     std::vector<FarField2d> wavelengths;  // in the order asked
     std::size_t grid_cells = 0;
-    double seconds = 0.0;                     // wall time of all runs, the empty run included
+    double seconds = 0.0;                     // wall time of all runs, the incident wave's included
     std::vector<LorentzFit> dispersion_fits;  // Dispersion::fitted: one per material
 };
 
