@@ -7,9 +7,10 @@
 
 namespace plumage {
 
-// `git describe --always` of the source tree when this binary was built, with "-dirty" when
-// tracked files differed from that commit; refreshed at every build. "unknown" when the
-// sources are not a git checkout of their own (a tarball) or git is missing.
+// `git describe --always` of the source tree when this binary was built, with
+// "-dirty-<12 hex digits of the SHA-1 of the tracked files' diff>" when they differed from that
+// commit (so different edits give different names); refreshed at every build. "unknown" when
+// the sources are not a git checkout of their own (a tarball) or git is missing.
 std::string_view git_commit();
 
 // The C++ compiler, e.g. "GNU 12.2.0".

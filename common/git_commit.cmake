@@ -26,7 +26,15 @@ if(GIT_EXECUTABLE)
                         WORKING_DIRECTORY "${SOURCE_DIR}" RESULT_VARIABLE status
                         OUTPUT_VARIABLE changes OUTPUT_STRIP_TRAILING_WHITESPACE ERROR_QUIET)
         if(NOT status EQUAL 0 OR changes)
-          string(APPEND commit "-dirty")
+          # Which edits: two builds of different uncommitted changes to one commit must not
+          # share a name (checkpoints are keyed by it: virtual_gonio/goniometer.h), so the
+          # name carries a hash of the tracked files' diff against the commit.
+          execute_process(COMMAND "${GIT_EXECUTABLE}" --no-optional-locks diff HEAD --no-ext-diff
+                                  --binary
+                          WORKING_DIRECTORY "${SOURCE_DIR}" OUTPUT_VARIABLE diff ERROR_QUIET)
+          string(SHA1 diff_hash "${diff}")
+          string(SUBSTRING "${diff_hash}" 0 12 diff_hash)
+          string(APPEND commit "-dirty-${diff_hash}")
         endif()
       endif()
     endif()
