@@ -13,6 +13,7 @@
 #include <fstream>
 #include <iostream>
 #include <optional>
+#include <random>
 #include <sstream>
 #include <thread>
 
@@ -369,7 +370,8 @@ std::string full_disk_note(const std::string& output) {
     while (!probe.empty() && !fs::exists(probe, ignored)) probe = probe.parent_path();
     if (probe.empty()) probe = ".";
     if (::statvfs(probe.c_str(), &fs_info) != 0) return {};
-    const double free_bytes = static_cast<double>(fs_info.f_bavail) * fs_info.f_frsize;
+    const double free_bytes =
+        static_cast<double>(fs_info.f_bavail) * static_cast<double>(fs_info.f_frsize);
     if (free_bytes >= 1024.0 * 1024.0) return {};
     return fmt::format(
         "; the file system of '{}' is full ({:.0f} kB free): no space left on device",
@@ -414,24 +416,30 @@ int report_failure(const std::exception& e, const std::string& output) {
 
 // Under MPI every rank runs the study (common/distributed.h); only rank 0 writes into --out.
 // The others write into a scratch root of their own in the node's temporary folder,
-// "plumage-scratch-<host>-<pid>", removed at the end; one left by a killed rank of this host
-// (its process gone) is removed by the next rank that starts here.
-std::string rank_scratch_root() {
+// "plumage-scratch-<host>-<pid>-<tag>", owned like a staging folder (a locked owner record,
+// studies/staged_directory.h) and removed at the end. One whose owner is provably gone (a rank
+// of this host and boot that was killed) is removed by the next rank that starts here; one of
+// a process this rank cannot see (another PID namespace, container or node sharing the folder)
+// is left alone: a pid alone proved nothing there.
+std::string rank_scratch_root(std::optional<st::OwnerLock>& owner) {
     char host[256] = {};
     ::gethostname(host, sizeof host - 1);
     const std::string prefix = fmt::format("plumage-scratch-{}-", host);
     std::error_code ignored;
     for (const auto& entry : fs::directory_iterator(fs::temp_directory_path(), ignored)) {
-        const std::string name = entry.path().filename().string();
-        if (name.rfind(prefix, 0) != 0) continue;
-        const std::string pid = name.substr(prefix.size());
-        if (pid.empty() || pid.find_first_not_of("0123456789") != std::string::npos) continue;
-        if (!st::process_running(static_cast<int>(std::stol(pid))))
-            fs::remove_all(entry.path(), ignored);
+        if (entry.path().filename().string().rfind(prefix, 0) != 0) continue;
+        if (st::owner_provably_gone(entry.path())) fs::remove_all(entry.path(), ignored);
     }
-    const fs::path root = fs::temp_directory_path() / (prefix + std::to_string(::getpid()));
-    fs::create_directories(root);
-    return root.string();
+    std::random_device random;
+    for (int attempt = 0; attempt < 8; ++attempt) {
+        const fs::path root =
+            fs::temp_directory_path() / fmt::format("{}{}-{:08x}", prefix, ::getpid(), random());
+        if (!fs::create_directory(root)) continue;  // new, so ours alone
+        owner.emplace(root / st::kOwnerRecord);
+        return root.string();
+    }
+    throw plumage::IoError(fmt::format("cannot create a scratch folder {}* in {}", prefix,
+                                       fs::temp_directory_path().string()));
 }
 
 }  // namespace
@@ -454,10 +462,11 @@ int main(int argc, char** argv) {
     const bool rank0 = plumage::distributed::rank() == 0;
     std::string scratch;
     std::optional<plumage::CleanupRegistration> scratch_cleanup;  // removed by a forced stop too
+    std::optional<st::OwnerLock> scratch_owner;                   // held while this rank lives
     if (!rank0) {
         plumage::distributed::silence_other_ranks();
         try {
-            scratch = rank_scratch_root();
+            scratch = rank_scratch_root(scratch_owner);
         } catch (const std::exception& e) {
             plumage::distributed::abort_job(1, fmt::format("no scratch folder: {}", e.what()));
         }

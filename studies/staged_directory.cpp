@@ -374,6 +374,8 @@ void StagedDirectory::commit() {
     owner_->remove(final_ / kOwnerRecord);  // a finished result has no owner
 }
 
+bool owner_provably_gone(const fs::path& dir) { return judge_owner(dir).kind == Verdict::gone; }
+
 bool process_running(int pid) {
     if (::kill(pid, 0) != 0 && errno != EPERM) return false;
     // A zombie (killed, not yet reaped: an MPI rank whose launcher is gone, under an init that

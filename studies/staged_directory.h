@@ -93,4 +93,10 @@ private:
 // Whether process `pid` runs in this PID namespace (a zombie does not).
 bool process_running(int pid);
 
+// Whether the owner of `dir` (its kOwnerRecord, written by an OwnerLock) is provably gone, by
+// the rule above (its lock free, recorded on this host and boot, and no live process with its
+// pid and start time here). False when it lives or nothing can be proven (no record, another
+// host, boot or PID namespace whose process cannot be seen): such folders are left alone.
+bool owner_provably_gone(const std::filesystem::path& dir);
+
 }  // namespace plumage::studies

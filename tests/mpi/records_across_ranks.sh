@@ -21,6 +21,11 @@ for study in "$@"; do
   fi
 done
 status=0
+# A scratch folder of a rank this host cannot see (another container or PID namespace sharing
+# the temporary folder: its pid means nothing here, and it has no owner record we could judge)
+# must survive every run; before owner records, a rank removed any whose pid was not running.
+foreign="$TMPDIR/plumage-scratch-$(hostname)-4194303"  # no such pid here
+mkdir -p "$foreign" && echo "another namespace's rank" > "$foreign/keep.txt"
 for setup in "1 1" "2 1" "3 1" "1 2" "2 2"; do
   read -r ranks threads <<<"$setup"
   out="$work/np${ranks}_t${threads}"
@@ -38,7 +43,9 @@ for setup in "1 1" "2 1" "3 1" "1 2" "2 2"; do
     status=1
   fi
 done
-# No rank left its scratch results root behind.
+# The foreign folder kept; no rank left its own scratch results root behind.
+[[ -f $foreign/keep.txt ]] || { echo "FAIL: another namespace's scratch folder was removed"; status=1; }
+rm -rf "$foreign"
 for d in "$TMPDIR"/plumage-scratch-*; do
   [[ -e $d ]] && { echo "FAIL: scratch folder left: $d"; status=1; }
 done
