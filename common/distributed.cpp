@@ -11,6 +11,7 @@
 #include <cstring>
 #include <exception>
 #include <fstream>
+#include <map>
 #include <mutex>
 #include <optional>
 #include <thread>
@@ -97,21 +98,28 @@ void write_chunk(const ChunkOptions& o, std::size_t n, std::size_t index, const 
     std::filesystem::rename(temporary, path);
 }
 
-// The chunk's result if its checkpoint exists and belongs to this key and chunk count.
-std::optional<Bytes> read_chunk(const ChunkOptions& o, std::size_t n, std::size_t index) {
+// The chunk's result if its checkpoint exists and belongs to this key and chunk count; else,
+// for a file that exists, why it is not used (ChunkResults::not_resumed).
+std::optional<Bytes> read_chunk(const ChunkOptions& o, std::size_t n, std::size_t index,
+                                std::string& why_not) {
     const auto path = chunk_file(o.checkpoint_dir, index);
     std::ifstream in(path, std::ios::binary);
     if (!in) return std::nullopt;
     std::vector<char> data((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
     constexpr std::size_t header_size = sizeof(kMagic) + 4 * sizeof(std::uint64_t);
+    why_not = "damaged (not a whole chunk checkpoint)";
     if (data.size() < header_size) return std::nullopt;
     Bytes file(std::move(data));
     for (char c : kMagic)
         if (file.get<char>() != c) return std::nullopt;
+    why_not = "made by another run (a different build, study or limits)";
     if (file.get<std::uint64_t>() != fnv1a(o.checkpoint_key)) return std::nullopt;
+    why_not = "made for another number of chunks";
     if (file.get<std::uint64_t>() != n || file.get<std::uint64_t>() != index) return std::nullopt;
     const auto size = file.get<std::uint64_t>();
-    if (file.data().size() != header_size + size) return std::nullopt;  // cut short
+    why_not = "damaged (cut short)";
+    if (file.data().size() != header_size + size) return std::nullopt;
+    why_not.clear();
     return Bytes(std::vector<char>(file.data().begin() + header_size, file.data().end()));
 }
 
@@ -194,10 +202,13 @@ struct Ledger {
     std::atomic<bool> abandoned{false};  // rank 0's own chunk failed: stop serving at once
     std::mutex mutex;
     std::size_t done = 0;
+    std::map<std::string, std::size_t> not_resumed;  // checkpoint files not used, by reason
 
     Ledger(const ChunkOptions& o, std::size_t count) : options(o), n(count), results(count) {
         for (std::size_t i = 0; i < n; ++i) {
-            if (!o.checkpoint_dir.empty()) results[i] = read_chunk(o, n, i);
+            std::string why_not;
+            if (!o.checkpoint_dir.empty()) results[i] = read_chunk(o, n, i, why_not);
+            if (!why_not.empty()) ++not_resumed[why_not];
             if (results[i]) {
                 ++done;
             } else {
@@ -408,6 +419,7 @@ ChunkResults deal_chunks(std::size_t n, const std::function<Bytes(std::size_t)>&
     if (!active()) {
         Ledger ledger(options, n);
         out.resumed = ledger.done;
+        out.not_resumed = ledger.not_resumed;
         while (const auto i = ledger.take()) ledger.finish(*i, timed(work, *i), 0);
         out.interrupted = ledger.stopped.load();
         if (!out.interrupted)
@@ -420,6 +432,7 @@ ChunkResults deal_chunks(std::size_t n, const std::function<Bytes(std::size_t)>&
     if (g_rank == 0) {
         Ledger ledger(options, n);
         out.resumed = ledger.done;
+        out.not_resumed = ledger.not_resumed;
         std::exception_ptr failure;
         std::thread dealer([&ledger] { serve_workers(ledger); });
         try {

@@ -41,6 +41,7 @@
 #include <cstring>
 #include <filesystem>
 #include <functional>
+#include <map>
 #include <string>
 #include <type_traits>
 #include <vector>
@@ -131,6 +132,9 @@ struct ChunkResults {
     std::vector<Bytes> results;  // [chunk], on every rank; empty when interrupted
     bool interrupted = false;
     std::size_t resumed = 0;  // chunks loaded from checkpoints (rank 0's count; 0 elsewhere)
+    // Checkpoint files found but not used, counted by why (rank 0): the caller says so, since
+    // their chunks run again.
+    std::map<std::string, std::size_t> not_resumed;
 };
 
 // Runs work(i) for every i in [0, n) once, somewhere in the job, and returns every result on

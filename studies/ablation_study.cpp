@@ -349,6 +349,9 @@ std::vector<Measured> measure_all(const Run& run, const fs::path& checkpoints,
     if (results.resumed > 0)
         run.clock.done(
             fmt::format("  {} values resumed from {}", results.resumed, checkpoints.string()));
+    for (const auto& [why, count] : results.not_resumed)
+        run.clock.done(fmt::format("  {} value checkpoint(s) in {} not resumed, measured again: {}",
+                                   count, checkpoints.string(), why));
     std::vector<Measured> measured(jobs.size());
     for (std::size_t j = 0; j < jobs.size(); ++j) {
         Bytes& b = results.results[j];

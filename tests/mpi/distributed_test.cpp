@@ -126,11 +126,20 @@ TEST_F(DistributedAlone, IgnoresCheckpointsOfAnotherKeyOrCutShort) {
     auto again = deal_chunks(4, logging_square(rerun), options);
     EXPECT_EQ(rerun, (std::vector<std::size_t>{2}));
     expect_squares(again, 4);
-    // Another key (a changed study), or another chunk count: nothing is resumed.
+    // ... and said why, so the caller can tell the user (not skipped in silence)
+    EXPECT_EQ(again.not_resumed, (std::map<std::string, std::size_t>{{"damaged (cut short)", 1}}));
+    // Another key (a changed study), or another chunk count: nothing is resumed, and why.
     options.checkpoint_key = "another study";
-    EXPECT_EQ(deal_chunks(4, square, options).resumed, 0u);
-    options.checkpoint_key = "one study";
-    EXPECT_EQ(deal_chunks(5, square, options).resumed, 0u);
+    const ChunkResults other_key = deal_chunks(4, square, options);
+    EXPECT_EQ(other_key.resumed, 0u);
+    EXPECT_EQ(other_key.not_resumed,
+              (std::map<std::string, std::size_t>{
+                  {"made by another run (a different build, study or limits)", 4}}));
+    options.checkpoint_key = "another study";
+    const ChunkResults other_count = deal_chunks(5, square, options);
+    EXPECT_EQ(other_count.resumed, 0u);
+    EXPECT_EQ(other_count.not_resumed,
+              (std::map<std::string, std::size_t>{{"made for another number of chunks", 4}}));
     // No temporary file is left beside the checkpoints.
     for (const auto& entry : fs::directory_iterator(dir))
         EXPECT_EQ(entry.path().extension(), ".bin") << entry.path();
