@@ -153,13 +153,20 @@ public:
         return static_cast<double>(inside) / kSubpixelSamples;
     }
 
+    // Meep's set-up of a large grid asks every pixel (seconds at fine grids): a set stop flag
+    // ends it at the next question.
+    void interrupt_on(const std::atomic<bool>* stop) { stop_ = stop; }
+
 private:
     int body(const meep::vec& r) const {
+        if (stop_ != nullptr && stop_->load(std::memory_order_relaxed)) [[unlikely]]
+            throw Interrupted("full wave: interrupted while Meep set up its grid");
         return section_.body_at({c_ * r.x() + s_ * r.y(), c_ * r.y() - s_ * r.x() + z_offset_});
     }
     const CrossSection2d& section_;
     double c_, s_, z_offset_;
     BodyMedia media_;
+    const std::atomic<bool>* stop_ = nullptr;
 };
 
 class AirMaterial final : public meep::material_function {};
@@ -815,10 +822,12 @@ FullWave2dResult full_wave_far_field(const CrossSection2d& section, Polarisation
     const std::vector<RunResult> runs = run_all(fitted ? 1 : freqs.size(), o, [&](std::size_t i) {
         if (fitted) {
             SectionMaterial material(section, theta_i_rad, materials.instantaneous);
+            material.interrupt_on(o.stop);
             return run(material, add_poles(material, materials.body_fits, l.h), pol, l, freqs,
                        f_centre, f_width, o);
         }
         SectionMaterial material(section, theta_i_rad, materials.exact[i]);
+        material.interrupt_on(o.stop);
         const std::array<double, 1> one{freqs[i]};
         return run(material, conductivities(material, pol, materials.exact[i].absorbing), pol, l,
                    one, f_centre, f_width, o);
@@ -957,12 +966,14 @@ std::vector<StackReflectance> full_wave_stack(const CrossSection2d& layers, Pola
         }
         if (o.dispersion == Dispersion::fitted) {
             SectionMaterial material(layers, 0.0, materials.instantaneous, z_centre);
+            material.interrupt_on(o.stop);
             return run_stack(material, add_poles(material, materials.body_fits, h), pol, half_x,
                              half_y, y_reflect, y_source, y_transmit, freqs, f_centre, f_width, o,
                              o.subpixel_smoothing);
         }
         const BodyMedia& media = materials.exact[i - 1];
         SectionMaterial material(layers, 0.0, media, z_centre);
+        material.interrupt_on(o.stop);
         const std::array<double, 1> one{freqs[i - 1]};
         return run_stack(material, conductivities(material, pol, media.absorbing), pol, half_x,
                          half_y, y_reflect, y_source, y_transmit, one, f_centre, f_width, o,
