@@ -15,6 +15,14 @@ namespace {
 
 using Complex = std::complex<double>;
 
+// The largest quality factor f_k / γ_k of an absorbing material's poles. The source's pulse
+// spans the band and beyond, so it excites poles just above it; an undamped one rings long
+// after the pulse (melanin's unconstrained fit put a lossless pole at 266 nm, and a 20 µm
+// barbule's run at 45 px/µm did not decay in 15 minutes). At Q ≤ 10 a pole's energy falls by
+// e within 1/(2π γ) ≤ 10/(2π f) time units, under two of its periods, and the fit loses little
+// (melanin over 380–780 nm: 4.2e-3 in n + ik against 3.8e-3 undamped).
+constexpr double kMaxQuality = 10.0;
+
 double frequency_per_um(double lambda_nm) { return 1e3 / lambda_nm; }
 
 Complex pole_term(const LorentzPole& p, double f) {
@@ -43,7 +51,7 @@ Samples sample(const optics::Material& m, double lo_nm, double hi_nm, int n) {
 }
 
 // Pole positions and widths from unconstrained parameters: f in (f_min, f_max) and γ in
-// (0, γ_max) by logistic maps, so Nelder–Mead needs no bounds.
+// (f / kMaxQuality, f / kMaxQuality + γ_max) by logistic maps, so Nelder–Mead needs no bounds.
 struct Shape {
     double f_min, f_max, gamma_max;
     bool lossy;
@@ -54,7 +62,9 @@ struct Shape {
         for (int k = 0; k < p.size() / per_pole(); ++k) {
             LorentzPole pole;
             pole.frequency_per_um = f_min + (f_max - f_min) * logistic(p[per_pole() * k]);
-            pole.damping_per_um = lossy ? gamma_max * logistic(p[per_pole() * k + 1]) : 0.0;
+            pole.damping_per_um = lossy ? pole.frequency_per_um / kMaxQuality +
+                                              gamma_max * logistic(p[per_pole() * k + 1])
+                                        : 0.0;
             out.push_back(pole);
         }
         return out;

@@ -253,7 +253,8 @@ TEST(FullWave2d, FittedDispersionCoversAllWavelengthsInOneRun) {
 // The far field with fitted dispersion: a melanin cylinder at three wavelengths in one run,
 // against the series with the fitted index, within the runs' resolution error. The poles'
 // strengths are averaged linearly over cut pixels (Meep smooths only ε_∞), so an absorbing
-// body's widths converge at about first order, not second: TM at 450 nm, C_abs 0.8710, 0.8660,
+// body's widths converge at about first order, not second: TM at 450 nm (a fit without the
+// damping bound), C_abs 0.8710, 0.8660,
 // 0.8624 µm at 40, 60, 90 px/µm (series 0.8542), an observed order of 0.8. The bound is then
 // |fine − coarse| / (1.5^0.8 − 1) ≈ 2.6 |fine − coarse|: 3× here.
 constexpr double kFittedErrorFactor = 3.0;

@@ -20,6 +20,8 @@ void expect_physical(const LorentzFit& fit, double cap) {
         EXPECT_GT(p.strength, 0.0);
         EXPECT_GE(p.damping_per_um, 0.0);
         EXPECT_LE(p.frequency_per_um, cap);
+        // damped unless the material is lossless: no pole rings on after the pulse
+        if (p.damping_per_um > 0.0) EXPECT_GE(p.damping_per_um, p.frequency_per_um / 10.0);
     }
     // passive everywhere, not only in the band: Im ε ≥ 0 from the IR to the cap's wavelength
     for (double lambda = 1e3 / cap; lambda < 5000.0; lambda *= 1.01)
@@ -39,7 +41,7 @@ TEST(LorentzFit, KeratinWithinItsStatedErrorOverTheVisible) {
 TEST(LorentzFit, MelaninWithinItsStatedErrorOverTheVisible) {
     const double cap = 15.0;
     const LorentzFit fit = fit_lorentz(*optics::melanin(), 380.0, 780.0, cap);
-    EXPECT_LT(fit.max_index_error, 4.5e-3);  // 3.8e-3
+    EXPECT_LT(fit.max_index_error, 4.5e-3);  // 4.2e-3
     EXPECT_EQ(fit.model.poles.size(), 3u);
     expect_physical(fit, cap);
     // the absorption is there, not only the index: k within the same error at both ends
