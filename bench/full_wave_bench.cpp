@@ -1,0 +1,134 @@
+// Full wave (issue 35, acceptance 4): the rock dove's barbule cross-section, converged.
+//
+//  - BM_FullWaveDispersion/fitted: below.
+//  - BM_FullWaveBarbule/threads: one barbule of studies/rock_dove.toml (outer ellipse A = 10 µm,
+//    b = 0.25, so 20 µm across; 0.59 µm keratin film over a 0.3 µm air gap over the melanin core;
+//    turned by μ = −20.05°), lit at θ_i = 0, seven wavelengths 400–700 nm, TE and TM, at 45 and
+//    67.5 px/µm (45 is λ/(10 n) for melanin at 400 nm), Dispersion::fitted (one run per
+//    polarisation and grid). `threads`: polarisations run at once. Counters: the band-integrated
+//    back-scattered power (∫ over 400–700 nm of the back-hemisphere width, TE + TM) on both
+//    grids and their difference, the converged result being within 2 % (acceptance: ≤ 10 min on
+//    2 cores); and the fine grid's difference from the per-wavelength reference committed in
+//    tests/reference/fullwave_rock_dove (the exact indices, one run per wavelength: 81 minutes).
+#include <array>
+#include <cmath>
+#include <fstream>
+#include <map>
+#include <numbers>
+#include <sstream>
+#include <string>
+#include <vector>
+
+#include <benchmark/benchmark.h>
+#include <fmt/format.h>
+
+#include "sim/fullwave/full_wave_2d.h"
+
+namespace plumage::sim::fullwave {
+namespace {
+
+constexpr std::array<double, 7> kLambdas{400.0, 450.0, 500.0, 550.0, 600.0, 650.0, 700.0};
+
+// ∫ over the band of the back-hemisphere width (trapezoid on the 50 nm grid), µm · nm.
+double band_power(const std::vector<double>& widths) {
+    double sum = 0.0;
+    for (std::size_t k = 0; k + 1 < widths.size(); ++k) sum += 25.0 * (widths[k] + widths[k + 1]);
+    return sum;
+}
+
+// The committed per-wavelength reference's back widths at one grid, TE + TM per wavelength.
+std::vector<double> reference_back_widths(double resolution) {
+    std::ifstream in(std::string(PLUMAGE_SOURCE_DIR) +
+                     "/tests/reference/fullwave_rock_dove/totals.csv");
+    std::map<double, double> by_lambda;
+    std::string line;
+    std::getline(in, line);
+    while (std::getline(in, line)) {
+        std::stringstream row(line);
+        std::vector<std::string> f;
+        for (std::string cell; std::getline(row, cell, ',');) f.push_back(cell);
+        if (f.size() > 5 && std::stod(f[4]) == resolution)
+            by_lambda[std::stod(f[3])] += std::stod(f[5]);
+    }
+    std::vector<double> out;
+    for (const double l : kLambdas) out.push_back(by_lambda[l]);
+    return out;
+}
+
+void BM_FullWaveBarbule(benchmark::State& state) {
+    const int threads = static_cast<int>(state.range(0));
+    constexpr double kDeg = std::numbers::pi / 180.0;
+    const CrossSection2d section = barbule_row(10.0, 0.25, 0.59, 0.3, 12.5, -20.05 * kDeg, 1);
+    const std::vector<double> theta{0.0};
+    std::array<double, 2> power{};
+    double index_error = 0.0;
+    for (auto _ : state) {
+        for (std::size_t g = 0; g < 2; ++g) {
+            const double res = g == 0 ? 45.0 : 67.5;
+            std::array<std::vector<double>, 2> back;
+#pragma omp parallel for num_threads(threads) schedule(dynamic, 1)
+            for (int p = 0; p < 2; ++p) {
+                FullWave2dOptions o;
+                o.resolution_px_per_um = res;
+                o.dispersion = Dispersion::fitted;
+                o.threads = 1;
+                const FullWave2dResult r =
+                    full_wave_far_field(section, p == 0 ? Polarisation2d::te : Polarisation2d::tm,
+                                        0.0, kLambdas, theta, o);
+                for (const FarField2d& f : r.wavelengths)
+                    back[static_cast<std::size_t>(p)].push_back(f.back_scattering_width_um);
+#pragma omp critical
+                for (const LorentzFit& fit : r.dispersion_fits)
+                    index_error = std::max(index_error, fit.max_index_error);
+            }
+            std::vector<double> both(kLambdas.size());
+            for (std::size_t k = 0; k < both.size(); ++k) both[k] = back[0][k] + back[1][k];
+            power[g] = band_power(both);
+            const std::vector<double> reference = reference_back_widths(res);
+            for (std::size_t k = 0; k < both.size(); ++k)
+                fmt::print(
+                    "{} px/µm, {} nm: back width TE + TM {:.4f} µm (per-wavelength "
+                    "reference {:.4f})\n",
+                    res, kLambdas[k], both[k], reference[k]);
+            state.counters[g == 0 ? "band_power_45" : "band_power_67_5"] = power[g];
+            state.counters[g == 0 ? "vs_reference_45_pct" : "vs_reference_67_5_pct"] =
+                100.0 * (power[g] / band_power(reference) - 1.0);
+        }
+    }
+    state.counters["convergence_pct"] = 100.0 * (power[1] / power[0] - 1.0);
+    state.counters["fit_index_error"] = index_error;
+}
+
+// What Dispersion::fitted buys, on a smaller barbule (A = 5 µm, the rest as above, 250 884
+// cells), TE, 45 px/µm, seven wavelengths, one thread: per_wavelength (arg 0: seven runs, each
+// material exact) against fitted (arg 1: one run with Lorentz poles). Counters: the back widths
+// at 400 and 550 nm, which the two must give within the fit's and the grid's error.
+void BM_FullWaveDispersion(benchmark::State& state) {
+    constexpr double kDeg = std::numbers::pi / 180.0;
+    const CrossSection2d section = barbule_row(5.0, 0.25, 0.59, 0.3, 6.25, -20.05 * kDeg, 1);
+    FullWave2dOptions o;
+    o.resolution_px_per_um = 45.0;
+    o.threads = 1;
+    o.dispersion = state.range(0) == 0 ? Dispersion::per_wavelength : Dispersion::fitted;
+    const std::vector<double> theta{0.0};
+    for (auto _ : state) {
+        const FullWave2dResult r =
+            full_wave_far_field(section, Polarisation2d::te, 0.0, kLambdas, theta, o);
+        state.counters["back_400"] = r.wavelengths[0].back_scattering_width_um;
+        state.counters["back_550"] = r.wavelengths[3].back_scattering_width_um;
+        state.counters["time_steps"] = r.wavelengths[0].time_steps;
+    }
+}
+
+BENCHMARK(BM_FullWaveDispersion)
+    ->Arg(0)
+    ->Arg(1)
+    ->Iterations(1)
+    ->Unit(benchmark::kSecond)
+    ->UseRealTime();
+BENCHMARK(BM_FullWaveBarbule)->Arg(2)->Iterations(1)->Unit(benchmark::kSecond)->UseRealTime();
+
+}  // namespace
+}  // namespace plumage::sim::fullwave
+
+BENCHMARK_MAIN();
