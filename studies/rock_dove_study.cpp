@@ -265,8 +265,13 @@ Built build(const Settings& s, StudyFile& file, const StudyProgress& clock,
     result.eq7_edge_coupling = cell.longitudinal_radius_um() *
                                (1.0 - std::cos(s.row.cell.theta_d)) /
                                (s.row.cell.b * s.row.cell.b * s.row.cell.semi_major_um);
+    // Ctrl-C between the build's parts (each well under a second in a Release build, several
+    // together under a sanitizer): no part is started after it.
+    throw_if_interrupted("building the barbule patch");
     b.simulation = std::make_unique<const sim::ExplicitScatterer>(sim::barbule_row_scene(b.row));
+    throw_if_interrupted("building the barbule patch");
     b.model = std::make_unique<const analysis::Huang2022Bsdf>(huang_params_of(s.row));
+    throw_if_interrupted("building the barbule patch");
     return b;
 }
 
