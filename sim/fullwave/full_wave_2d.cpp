@@ -918,6 +918,33 @@ StackRun run_stack(meep::material_function& material, const Dress& dress, Polari
 
 }  // namespace
 
+namespace {
+
+// R and T at one wavelength from the incident run (all wavelengths; k is this one) and the
+// stack's run holding it (at its index kt). Fluxes along +y in units of 1/(2ω): Im(u* ∂u/∂y).
+// Under the stack, in body `under` (−1: air), T is power only where that medium is lossless;
+// for TM (u = H) the flux is divided by its ε.
+StackReflectance stack_reflectance(const StackRun& incident, std::size_t k, const StackRun& total,
+                                   std::size_t kt, const BodyMedia& media, int under,
+                                   Polarisation2d pol, double lambda_nm) {
+    const Complex ui = incident.above.u[k], dui = incident.above.dudy[k];
+    const double incident_flux = -std::imag(std::conj(ui) * dui);  // downward
+    const Complex us = total.above.u[kt] - ui, dus = total.above.dudy[kt] - dui;
+    StackReflectance r;
+    r.lambda_nm = lambda_nm;
+    r.reflectance = std::imag(std::conj(us) * dus) / incident_flux;
+    const bool lossless_under = under < 0 || media.sigma_d[static_cast<std::size_t>(under)] == 0.0;
+    const double eps_under = under < 0 ? 1.0 : media.eps[static_cast<std::size_t>(under)];
+    const double flux_under =
+        -std::imag(std::conj(total.below.u[kt]) * total.below.dudy[kt]) / incident_flux;
+    r.transmittance = !lossless_under             ? std::numeric_limits<double>::quiet_NaN()
+                      : pol == Polarisation2d::te ? flux_under
+                                                  : flux_under / eps_under;
+    return r;
+}
+
+}  // namespace
+
 std::vector<StackReflectance> full_wave_stack(const CrossSection2d& layers, Polarisation2d pol,
                                               std::span<const double> lambdas_nm,
                                               const FullWave2dOptions& o) {
@@ -979,31 +1006,12 @@ std::vector<StackReflectance> full_wave_stack(const CrossSection2d& layers, Pola
                          half_y, y_reflect, y_source, y_transmit, one, f_centre, f_width, o,
                          o.subpixel_smoothing);
     });
-    const StackRun& incident = runs.front();
     std::vector<StackReflectance> out;
     for (std::size_t k = 0; k < freqs.size(); ++k) {
         const bool fitted = o.dispersion == Dispersion::fitted;
-        const StackRun& total = runs[fitted ? 1 : k + 1];
-        const std::size_t kt = fitted ? k : 0;  // this wavelength in its run
-        // fluxes along +y, in units of 1/(2ω): Im(u* ∂u/∂y)
-        const Complex ui = incident.above.u[k], dui = incident.above.dudy[k];
-        const double incident_flux = -std::imag(std::conj(ui) * dui);  // downward
-        const Complex us = total.above.u[kt] - ui, dus = total.above.dudy[kt] - dui;
-        StackReflectance r;
-        r.lambda_nm = lambdas_nm[k];
-        r.reflectance = std::imag(std::conj(us) * dus) / incident_flux;
-        // the power flux under the stack: Im(u* ∂u/∂y)/(2ω) for TE; for TM (u = H) divided by
-        // ε there, which must then be real
-        const BodyMedia& media = materials.exact[k];
-        const bool lossless_under =
-            under < 0 || media.sigma_d[static_cast<std::size_t>(under)] == 0.0;
-        const double eps_under = under < 0 ? 1.0 : media.eps[static_cast<std::size_t>(under)];
-        const double flux_under =
-            -std::imag(std::conj(total.below.u[kt]) * total.below.dudy[kt]) / incident_flux;
-        r.transmittance = !lossless_under             ? std::numeric_limits<double>::quiet_NaN()
-                          : pol == Polarisation2d::te ? flux_under
-                                                      : flux_under / eps_under;
-        out.push_back(r);
+        // the run holding this wavelength, and its index there
+        out.push_back(stack_reflectance(runs.front(), k, runs[fitted ? 1 : k + 1], fitted ? k : 0,
+                                        materials.exact[k], under, pol, lambdas_nm[k]));
     }
     return out;
 }
