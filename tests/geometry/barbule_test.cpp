@@ -367,6 +367,25 @@ TEST(BarbuleGeometry, OverlappingRowsBuildUntilTheBarbulesInterpenetrate) {
               std::string::npos);
 }
 
+// Closed form: half an ellipse (semi-axes 1 and b, in units of the semi-major axis) and its
+// copy shifted across the cut cross wherever the shift is shorter than the diameter along
+// it, 2b for the right half shifted along z and 2 for the upper half shifted along x. The
+// polyline keeps the arc's ends, where the copies first touch, so the only error is the
+// bisection's, 0.02 / 2^30.
+TEST(BarbuleGeometry, MinimumSpacingOfHalfEllipsesIsTheirDiameter) {
+    for (const double b : {0.1, 0.25, 0.5, 1.0}) {
+        BarbuleCellParams right_half;
+        right_half.b = b;
+        right_half.phi0 = 0.0;  // normal azimuths from +z through +x to −z
+        right_half.phi1 = kPi;
+        EXPECT_NEAR(minimum_spacing(right_half, 0.5 * kPi), 2.0 * b, 1e-10) << "b = " << b;
+        BarbuleCellParams upper_half = right_half;
+        upper_half.phi0 = -0.5 * kPi;
+        upper_half.phi1 = 0.5 * kPi;
+        EXPECT_NEAR(minimum_spacing(upper_half, 0.0), 2.0, 1e-10) << "b = " << b;
+    }
+}
+
 TEST(BarbuleGeometry, JitterIsSeededPerCell) {
     BarbuleRowParams params;
     params.barbules = 4;
