@@ -257,8 +257,8 @@ bool arcs_intersect(const ArcRuns& arc, const Eigen::Vector2d& shift) {
             for (std::size_t i = r * ArcRuns::kRun; i < arc.run_end(r); ++i) {
                 for (std::size_t j = t * ArcRuns::kRun; j < arc.run_end(t); ++j) {
                     if (arc.segment_boxes[i].apart(arc.segment_boxes[j], shift)) continue;
-                    if (segments_intersect(arc.points[i], arc.points[i + 1],
-                                           arc.points[j] + shift, arc.points[j + 1] + shift))
+                    if (segments_intersect(arc.points[i], arc.points[i + 1], arc.points[j] + shift,
+                                           arc.points[j + 1] + shift))
                         return true;
                 }
             }
