@@ -39,11 +39,11 @@
 //    extinction = scattering + absorption holds to the grid's error (tested).
 //  - Stop: when |u|² at a probe under the bodies has fallen to `decay` of its peak.
 //
-// The planar stack (full_wave_stack): layers only, a cell one grid column wide, periodic in x
-// (normal incidence), PML above and below. Reflectance: the scattered field's upward flux above
-// the stack over the incident flux; transmittance: the total field's downward flux below it
-// (a lossless medium: Im(u* ∂u/∂y)/(2ω), divided by ε for TM). Tested against the transfer
-// matrix (multilayer.h).
+// The planar stack (full_wave_stack): layers only, as a periodic row (full_wave_row, below) four
+// grid columns wide at normal incidence, PML above and below. Reflectance: the scattered field's
+// upward flux above the stack over the incident flux; transmittance: the total field's downward
+// flux below it (a lossless medium: Im(u* ∂u/∂y)/(2ω), divided by ε for TM). Tested against the
+// transfer matrix (multilayer.h).
 //
 // Dispersion (FullWave2dOptions::dispersion): per_wavelength as above, or fitted: one run for
 // all wavelengths, each material as ε_∞ (subpixel-smoothed like a constant ε) plus Lorentz
@@ -148,6 +148,55 @@ struct StackReflectance {
 std::vector<StackReflectance> full_wave_stack(const CrossSection2d& layers, Polarisation2d pol,
                                               std::span<const double> lambdas_nm,
                                               const FullWave2dOptions& options);
+
+// One diffraction order of a periodic row: its number m (x wavenumber k_x + m/Λ in cycles/µm,
+// k_x = −f sin θ_i), its direction ω_s = (sin θ_s, cos θ_s) (reflected: cos θ_s > 0;
+// transmitted: < 0, in the medium under the row) and its power over the incident power.
+struct DiffractionOrder {
+    int m = 0;
+    double theta_s_rad = 0.0;
+    double efficiency = 0.0;
+};
+
+struct RowSpectrum {
+    double lambda_nm = 0.0;
+    double reflectance = 0.0;    // all propagating reflected orders
+    double transmittance = 0.0;  // all transmitted orders; NaN under an absorbing substrate
+    std::vector<DiffractionOrder> reflected, transmitted;  // the propagating orders, by m
+    double time_steps = 0.0;                               // of the run holding this wavelength
+};
+
+struct FullWaveRowResult {
+    Polarisation2d polarisation = Polarisation2d::te;
+    double theta_i_rad = 0.0, period_um = 0.0;
+    double resolution_px_per_um = 0.0;     // the grid's: the period in whole cells (>= the asked)
+    std::vector<RowSpectrum> wavelengths;  // in the order asked
+    std::size_t grid_cells = 0;
+    double seconds = 0.0;                     // wall time of all runs
+    std::vector<LorentzFit> dispersion_fits;  // Dispersion::fitted: one per material
+};
+
+// A periodic row (Bloch boundaries): `period` holds the bodies of one period around x = 0
+// (they may reach into the neighbouring periods: every body is repeated at x + m·period_um),
+// over air or a substrate layer, lit from air above by a plane wave at θ_i. Meep's frame is
+// ours, not turned: x along the row, y = z. The source is a line across the cell with the
+// phase e^{2πi k_x x}, k_x = −f sin θ_i (cycles/µm), and Meep's Bloch phase on the cell's
+// sides; on a line above the bodies the scattered field (total minus the incident wave, which
+// comes from a cell four columns wide with the same rows and phase) and on a line under them
+// the total field are split into the Bloch orders q_m = k_x + m/Λ by a discrete Fourier sum
+// over the period's grid columns, each propagating order's power being Im(a_m* ∂a_m/∂y)/(2ω)
+// (divided by ε under the row for TM), over the incident power. R + T = 1 for lossless bodies
+// (tested), and a planar film against the transfer matrix at oblique incidence.
+//  - Normal incidence: one incident run and one run per wavelength (or one for all, fitted).
+//  - Oblique: k_x depends on the wavelength, so every wavelength is a run of its own (and an
+//    incident run), with a pulse narrow enough that order 0's grazing frequency f |sin θ_i| is
+//    four pulse widths away. Dispersion::fitted is refused there.
+// The period is a whole, even number of grid cells: the resolution is raised to the nearest
+// such grid (result.resolution_px_per_um). Refused as full_wave_far_field's, and: |θ_i| > 80°,
+// a period under four grid cells.
+FullWaveRowResult full_wave_row(const CrossSection2d& period, double period_um, Polarisation2d pol,
+                                double theta_i_rad, std::span<const double> lambdas_nm,
+                                const FullWave2dOptions& options);
 
 // The largest grid step the physics allows for this section at these wavelengths (λ/(10 n)),
 // and the smallest allowed by its thinnest body (half of it): the checks above, for callers
