@@ -6,6 +6,7 @@
 #include <fmt/format.h>
 
 #include "common/require.h"
+#include "sim/wave/ray_optics_validity.h"
 
 namespace plumage::sim::wave {
 
@@ -92,6 +93,64 @@ FullWaveVerdict2d judge_against_full_wave(const Row2d& row,
     v.level = v.worst_go_l1 <= threshold   ? "ray optics + thin film"
               : v.worst_po_l1 <= threshold ? "physical optics"
                                            : "full wave";
+    return v;
+}
+
+namespace {
+
+// The trapezoid mean of y(x) over [x.front(), x.back()] (a single point: itself).
+double band_mean(const std::vector<double>& x, const std::vector<double>& y) {
+    if (x.size() == 1) return y.front();
+    double sum = 0.0;
+    for (std::size_t i = 0; i + 1 < x.size(); ++i)
+        sum += 0.5 * (y[i] + y[i + 1]) * (x[i + 1] - x[i]);
+    return sum / (x.back() - x.front());
+}
+
+}  // namespace
+
+RowVerdict2d judge_row_against_full_wave(const Row2d& row, double theta_i_rad,
+                                         std::span<const RowReflectanceFullWave> reference,
+                                         double threshold, double step_um) {
+    require(!reference.empty(), "full-wave row judge", "no full-wave reflectances");
+    for (std::size_t i = 1; i < reference.size(); ++i)
+        require(reference[i].lambda_nm > reference[i - 1].lambda_nm, "full-wave row judge",
+                "lambda_nm", reference[i].lambda_nm, "wavelengths in increasing order");
+    RowVerdict2d v;
+    v.threshold = threshold;
+    for (const RowReflectanceFullWave& r : reference) {
+        v.lambda_nm.push_back(r.lambda_nm);
+        v.full_wave.push_back(0.5 * (r.fine[0] + r.fine[1]));
+        v.full_wave_coarse.push_back(0.5 * (r.coarse[0] + r.coarse[1]));
+    }
+    constexpr int kShort = 4, kLong = 12;
+    RayOpticsValidityOptions options;
+    options.max_step_um = step_um;
+    const std::array<double, 1> incidence{theta_i_rad};
+    std::array<RayOpticsValidity2d, 2> rows;
+    for (int i = 0; i < 2; ++i) {
+        Row2d finite = row;
+        finite.count = i == 0 ? kShort : kLong;
+        rows[static_cast<std::size_t>(i)] =
+            compare_ray_and_physical_optics(finite, v.lambda_nm, incidence, options);
+    }
+    const double per_period = (kLong - kShort) * row.spacing_um * std::cos(theta_i_rad);
+    for (std::size_t k = 0; k < v.lambda_nm.size(); ++k) {
+        v.physical_optics.push_back((rows[1].cases[k].po_power_um - rows[0].cases[k].po_power_um) /
+                                    per_period);
+        v.ray_optics.push_back((rows[1].cases[k].go_power_um - rows[0].cases[k].go_power_um) /
+                               per_period);
+    }
+    v.band_full_wave = band_mean(v.lambda_nm, v.full_wave);
+    v.band_full_wave_coarse = band_mean(v.lambda_nm, v.full_wave_coarse);
+    v.band_physical_optics = band_mean(v.lambda_nm, v.physical_optics);
+    v.band_ray_optics = band_mean(v.lambda_nm, v.ray_optics);
+    v.po_error = v.band_physical_optics / v.band_full_wave - 1.0;
+    v.go_error = v.band_ray_optics / v.band_full_wave - 1.0;
+    v.resolution_error = v.band_full_wave_coarse / v.band_full_wave - 1.0;
+    v.level = std::abs(v.go_error) <= threshold   ? "ray optics + thin film"
+              : std::abs(v.po_error) <= threshold ? "physical optics"
+                                                  : "full wave";
     return v;
 }
 

@@ -66,4 +66,40 @@ FullWaveVerdict2d judge_against_full_wave(const Row2d& row,
                                           const DetectorWindow& window = {},
                                           double threshold = 0.05, double step_um = 0.0);
 
+// A periodic row judged by full wave through its reflectance R(λ): the fraction of the incident
+// power that the row sends back into the upper half-space, all diffraction orders together
+// (fullwave::full_wave_row), unpolarised. A periodic row's light leaves in discrete orders, so
+// the reflectance, not a windowed pattern, is what the levels share.
+//  - The cheaper levels' R of an endless row from two finite rows of the same cell: the reflected
+//    power (widths, µm; ray_optics_validity.h's P_PO and P_GO) of N2 = 12 and N1 = 4 barbules,
+//    R = (P(N2) − P(N1)) / ((N2 − N1) Λ cos θ_i): what the end barbules add (they are lit
+//    without a neighbour's shadow) cancels in the difference, exactly for ray optics and up to
+//    the ends' coherent diffraction for physical optics.
+//  - Band means: the trapezoid rule over the reference's wavelengths, divided by the band.
+//  - Error of a level: its band mean over full wave's, minus 1; the reference's own resolution
+//    error is its coarse band mean over the fine one, minus 1 (a level's error below that is
+//    not resolved).
+// The verdict: the cheapest level within the threshold, otherwise "full wave".
+struct RowReflectanceFullWave {
+    double lambda_nm = 0.0;
+    std::array<double, 2> fine{}, coarse{};  // R, [TE, TM]
+};
+
+struct RowVerdict2d {
+    std::vector<double> lambda_nm;
+    // unpolarised R per wavelength
+    std::vector<double> full_wave, full_wave_coarse, physical_optics, ray_optics;
+    double band_full_wave = 0.0, band_full_wave_coarse = 0.0;
+    double band_physical_optics = 0.0, band_ray_optics = 0.0;
+    double po_error = 0.0, go_error = 0.0, resolution_error = 0.0;
+    double threshold = 0.05;
+    std::string level;
+};
+
+// `row`: the cell, spacing and tilt (its count is ignored); θ_i the reference's. InputError on an
+// empty or unsorted reference.
+RowVerdict2d judge_row_against_full_wave(const Row2d& row, double theta_i_rad,
+                                         std::span<const RowReflectanceFullWave> reference,
+                                         double threshold = 0.05, double step_um = 0.0);
+
 }  // namespace plumage::sim::wave

@@ -8,6 +8,8 @@
 #include <gtest/gtest.h>
 
 #include "common/error.h"
+#include "sim/optics/material.h"
+#include "sim/optics/multilayer.h"
 #include "sim/wave/ray_optics_validity.h"
 
 namespace plumage::sim::wave {
@@ -61,6 +63,46 @@ TEST(LevelsAgainstFullWave, RefusesMismatchedCurves) {
     curves[0].coarse[1].pop_back();
     EXPECT_THROW(judge_against_full_wave(row, curves), InputError);
     EXPECT_THROW(judge_against_full_wave(row, {}), InputError);
+}
+
+// A row of flat strips 3 µm wide, 5 µm apart, lit at normal incidence: no strip shades another,
+// so ray optics reflects the fill factor times the stack's reflectance (the transfer matrix, a
+// closed form) from an endless row, which the judge's two finite rows must recover. Judged
+// against that closed form as the "full-wave" reference, ray optics has no error and is the
+// level chosen.
+TEST(LevelsAgainstFullWave, RowOfFlatStripsReflectsItsFillFactorTimesItsStack) {
+    const SurfaceStack2d stack{{{optics::keratin(), 0.59}}, optics::melanin()};
+    Row2d row;
+    row.cell = flat_strip(3.0, stack);
+    row.spacing_um = 5.0;
+    std::vector<RowReflectanceFullWave> reference;
+    for (const double lambda : {450.0, 550.0, 650.0}) {
+        const std::array<optics::StackLayer, 1> layers{
+            optics::StackLayer{optics::keratin()->index(lambda), 0.59}};
+        const double r = optics::transfer_matrix_intensities_unpolarised(
+                             {1.0, layers, optics::melanin()->index(lambda)}, lambda, 1.0)
+                             .reflectance;
+        reference.push_back({lambda, {0.6 * r, 0.6 * r}, {0.6 * r, 0.6 * r}});
+    }
+    const RowVerdict2d v = judge_row_against_full_wave(row, 0.0, reference);
+    for (std::size_t k = 0; k < reference.size(); ++k)
+        EXPECT_NEAR(v.ray_optics[k], reference[k].fine[0], 1e-9 * reference[k].fine[0]);
+    EXPECT_NEAR(v.go_error, 0.0, 1e-9);
+    EXPECT_EQ(v.resolution_error, 0.0);
+    EXPECT_EQ(v.level, "ray optics + thin film");
+    // physical optics diffracts at the strips' edges, but a 3 µm strip at 450–650 nm keeps its
+    // reflected power in the back half-space to a few per cent
+    EXPECT_NEAR(v.po_error, 0.0, 0.05);
+}
+
+TEST(LevelsAgainstFullWave, RowJudgeRefusesAnEmptyOrUnsortedReference) {
+    Row2d row;
+    row.cell = flat_strip(3.0, {{{optics::keratin(), 0.59}}, optics::melanin()});
+    row.spacing_um = 5.0;
+    EXPECT_THROW(judge_row_against_full_wave(row, 0.0, {}), InputError);
+    const std::vector<RowReflectanceFullWave> unsorted{{550.0, {0.1, 0.1}, {0.1, 0.1}},
+                                                       {450.0, {0.1, 0.1}, {0.1, 0.1}}};
+    EXPECT_THROW(judge_row_against_full_wave(row, 0.0, unsorted), InputError);
 }
 
 }  // namespace
