@@ -47,20 +47,28 @@ meep::component field_component(Polarisation2d pol) {
     return pol == Polarisation2d::te ? meep::Ez : meep::Hz;
 }
 
-meep::grid_volume centred_grid(double half_x, double half_y, double res) {
-    const auto exact = [res](double half) {
-        const double n0 = 2.0 * std::round(half * res);
-        for (double n = n0; n < n0 + 64.0; n += 2.0) {
-            double up = n / res, down = up;
-            for (int i = 0; i < 4;
-                 ++i, up = std::nextafter(up, 2.0 * up), down = std::nextafter(down, 0.0)) {
-                if (up * res == n) return up;
-                if (down * res == n) return down;
-            }
+double exact_extent(double half, double res) {
+    const double n0 = 2.0 * std::round(half * res);
+    for (double n = n0; n < n0 + 64.0; n += 2.0) {
+        double up = n / res, down = up;
+        for (int i = 0; i < 4;
+             ++i, up = std::nextafter(up, 2.0 * up), down = std::nextafter(down, 0.0)) {
+            if (up * res == n) return up;
+            if (down * res == n) return down;
         }
-        return n0 / res;  // Meep rounds to whole cells, with a warning
-    };
-    meep::grid_volume gv = meep::vol2d(exact(half_x), exact(half_y), res);
+    }
+    return n0 / res;  // Meep rounds to whole cells, with a warning
+}
+
+meep::grid_volume centred_grid(double half_x, double half_y, double res) {
+    meep::grid_volume gv = meep::vol2d(exact_extent(half_x, res), exact_extent(half_y, res), res);
+    gv.center_origin();
+    return gv;
+}
+
+meep::grid_volume centred_grid_3d(double half_x, double half_y, double half_z, double res) {
+    meep::grid_volume gv = meep::vol3d(exact_extent(half_x, res), exact_extent(half_y, res),
+                                       exact_extent(half_z, res), res);
     gv.center_origin();
     return gv;
 }

@@ -202,7 +202,9 @@ meep::component field_component(Polarisation2d pol);
 // Meep's 2D grid of at least 2·half_x × 2·half_y µm, centred on the origin. Meep checks
 // exactly that size × resolution is an integer; for some counts no double size hits it, so
 // the count grows by two cells (one each side, in PML) until one does (a few at most).
+double exact_extent(double half, double res);  // one side's size
 meep::grid_volume centred_grid(double half_x, double half_y, double res);
+meep::grid_volume centred_grid_3d(double half_x, double half_y, double half_z, double res);
 
 // A half-width rounded up to whole grid cells: the cell is then an even number of cells wide
 // and its centre, our origin, a grid point.
