@@ -7,6 +7,7 @@
 #include <cmath>
 #include <complex>
 #include <limits>
+#include <memory>
 #include <new>
 #include <random>
 #include <system_error>
@@ -692,6 +693,43 @@ double measure_keratin_fraction(const openvdb::FloatGrid& level_set) {
         }
     }
     return static_cast<double>(count) / static_cast<double>(lat.size());
+}
+
+std::function<bool(const Eigen::Vector3d&)> periodic_keratin_test(
+    const openvdb::FloatGrid& level_set) {
+    const BoxInfo info = box_of(level_set);
+    const int n = info.voxels_per_side;
+    const double h = info.voxel_um;
+    auto accessor = level_set.getConstAccessor();
+    auto phi = std::make_shared<std::vector<float>>(static_cast<std::size_t>(n) * n * n);
+    for (int i = 0; i < n; ++i)
+        for (int j = 0; j < n; ++j)
+            for (int k = 0; k < n; ++k)
+                (*phi)[(static_cast<std::size_t>(i) * n + j) * n + k] =
+                    accessor.getValue(openvdb::Coord(i, j, k));
+    return [phi, n, h](const Eigen::Vector3d& p) {
+        // voxel centres at (i + ½) h: the point in voxel-centre units, wrapped into the period
+        std::array<int, 3> lo{};
+        std::array<double, 3> t{};
+        for (int a = 0; a < 3; ++a) {
+            const double u = p[a] / h - 0.5;
+            const double f = std::floor(u);
+            t[a] = u - f;
+            lo[a] = static_cast<int>(((static_cast<long long>(f) % n) + n) % n);
+        }
+        double value = 0.0;
+        for (int c = 0; c < 8; ++c) {
+            double w = 1.0;
+            std::array<int, 3> at{};
+            for (int a = 0; a < 3; ++a) {
+                const int up = (c >> a) & 1;
+                w *= up ? t[a] : 1.0 - t[a];
+                at[a] = (lo[a] + up) % n;
+            }
+            value += w * (*phi)[(static_cast<std::size_t>(at[0]) * n + at[1]) * n + at[2]];
+        }
+        return value < 0.0;
+    };
 }
 
 RadialPowerSpectrum measure_power_spectrum(const openvdb::FloatGrid& level_set) {

@@ -99,10 +99,12 @@
 #include <cstddef>
 #include <cstdint>
 #include <filesystem>
+#include <functional>
 #include <string>
 #include <vector>
 
 #include <openvdb/openvdb.h>
+#include <Eigen/Core>
 
 #include "geometry/triangle_mesh.h"
 
@@ -167,6 +169,14 @@ SpongyVolume make_sphere_volume(const SphereVolumeParams& params);
 // plumage_seed, plumage_item, plumage_units and the morphology's parameters.
 double measure_keratin_fraction(const openvdb::FloatGrid& level_set);
 RadialPowerSpectrum measure_power_spectrum(const openvdb::FloatGrid& level_set);
+
+// The keratin of a volume written by the functions above (or loaded from a .vdb they wrote) as
+// the periodic body it samples: inside(p) for any point p (µm) wrapped into the box [0, L)³,
+// by trilinear interpolation of φ between the voxel centres (φ < 0: keratin), the box's N³
+// values copied once (4 N³ bytes). The full-wave slab (sim/fullwave/full_wave_slab.h) asks it
+// at every grid point and subpixel sample. InputError as measure_keratin_fraction.
+std::function<bool(const Eigen::Vector3d&)> periodic_keratin_test(
+    const openvdb::FloatGrid& level_set);
 
 // .vdb files. save_level_set writes one grid (named "keratin" if it has no name) to a
 // temporary name in the target's folder and renames it into place; IoError on failure.
