@@ -258,10 +258,9 @@ PlanePower plane_power(const PlaneFields& p, std::size_t k, const std::array<Com
     return out;
 }
 
-}  // namespace
-
-FullWaveSlabResult full_wave_slab(const Slab3d& slab, std::span<const double> lambdas_nm,
-                                  const FullWave2dOptions& o) {
+// The slab's checks, and the grid: the period in whole, even cells (the resolution is refined,
+// never coarsened, to fit).
+FullWave2dOptions slab_grid(const Slab3d& slab, const FullWave2dOptions& o) {
     require(static_cast<bool>(slab.inside) && slab.material != nullptr, "full wave slab",
             "the slab needs an inside test and a material");
     require(std::isfinite(slab.period_um) && slab.period_um > 0.0 && slab.period_um <= 100.0,
@@ -277,36 +276,81 @@ FullWaveSlabResult full_wave_slab(const Slab3d& slab, std::span<const double> la
             slab.period_um,
             fmt::format("a period of at least four grid cells ({:.4g} µm)",
                         4.0 / o.resolution_px_per_um));
-    // the period in whole, even cells: the grid is refined, never coarsened, to fit
-    const double cells = 2.0 * std::ceil(0.5 * slab.period_um * o.resolution_px_per_um - 1e-9);
     FullWave2dOptions grid = o;
-    grid.resolution_px_per_um = cells / slab.period_um;
-    // the materials as bodies of a section, for the checks and the runs' media: the body (its
-    // smallest feature as its thickness) and the substrate
+    grid.resolution_px_per_um =
+        2.0 * std::ceil(0.5 * slab.period_um * o.resolution_px_per_um - 1e-9) / slab.period_um;
+    return grid;
+}
+
+// The materials as bodies of a section, for the checks and the runs' media: the body (its
+// smallest feature as its thickness) and the substrate.
+CrossSection2d slab_bodies(const Slab3d& slab) {
     CrossSection2d bodies;
     bodies.bodies.push_back({layer(0.0, slab.thinnest_um), slab.material});
     if (slab.substrate)
         bodies.bodies.push_back(
             {layer(-std::numeric_limits<double>::infinity(), 0.0), slab.substrate});
-    check_options(bodies, lambdas_nm, grid);
-    const RunMaterials materials = run_materials(bodies, lambdas_nm, grid);
+    return bodies;
+}
 
+SlabCell slab_cell(const Slab3d& slab, const FullWave2dOptions& grid) {
     const double h = 1.0 / grid.resolution_px_per_um;
-    const double top = slab.thickness_um + 3.0 * o.gap_um + o.pml_um,
-                 bottom = -2.0 * o.gap_um - o.pml_um;
+    const double top = slab.thickness_um + 3.0 * grid.gap_um + grid.pml_um,
+                 bottom = -2.0 * grid.gap_um - grid.pml_um;
     SlabCell cell;
-    cell.columns = static_cast<std::size_t>(cells);
-    cell.half_xy = 0.5 * cells * h;
+    cell.columns = static_cast<std::size_t>(std::llround(slab.period_um / h));
+    cell.half_xy = 0.5 * static_cast<double>(cell.columns) * h;
     cell.z_offset = 0.5 * (top + bottom);
     cell.half_z = whole_cells(0.5 * (top - bottom), h);
     // The monitor planes on grid rows: between rows Meep's DFT arrays interpolate E and H,
     // which scales a plane's power by where it falls (0.13 % between two planes of one air
     // run at 135 px/µm); on rows the planes agree to 2e-5 and Meep's own flux() to 1e-5.
     const auto on_grid = [h](double z) { return std::round(z / h) * h; };
-    cell.z_reflect = on_grid(slab.thickness_um + o.gap_um - cell.z_offset);
-    cell.z_source = slab.thickness_um + 2.0 * o.gap_um - cell.z_offset;
-    cell.z_transmit = on_grid(-o.gap_um - cell.z_offset);
-    const double grid_cells = cells * cells * 2.0 * cell.half_z * grid.resolution_px_per_um;
+    cell.z_reflect = on_grid(slab.thickness_um + grid.gap_um - cell.z_offset);
+    cell.z_source = slab.thickness_um + 2.0 * grid.gap_um - cell.z_offset;
+    cell.z_transmit = on_grid(-grid.gap_um - cell.z_offset);
+    return cell;
+}
+
+// One wavelength's spectrum, unpolarised, from the runs (per polarisation: the incident run at
+// runs[pol · per_pol], then the bodies' runs).
+SlabSpectrum slab_spectrum(const std::vector<SlabRun>& runs, std::size_t k, std::size_t per_pol,
+                           bool fitted, bool lossless_under, double lambda_nm) {
+    SlabSpectrum w;
+    w.lambda_nm = lambda_nm;
+    for (std::size_t pol = 0; pol < 2; ++pol) {
+        const SlabRun& incident = runs[pol * per_pol];
+        const SlabRun& total = runs[pol * per_pol + 1 + (fitted ? 0 : k)];
+        const std::size_t kt = fitted ? k : 0;
+        std::array<Complex, 4> wave{};
+        for (std::size_t c = 0; c < 4; ++c) wave[c] = mean_of(incident.above.c[c][k]);
+        const double incident_power = -poynting_z(wave[0], wave[1], wave[2], wave[3]);
+        const PlanePower reflected = plane_power(total.above, kt, wave);
+        const PlanePower transmitted = plane_power(total.below, kt, {});
+        w.specular_reflectance += 0.5 * reflected.specular / incident_power;
+        w.diffuse_reflectance += 0.5 * (reflected.total - reflected.specular) / incident_power;
+        w.specular_transmittance += -0.5 * transmitted.specular / incident_power;
+        w.diffuse_transmittance +=
+            -0.5 * (transmitted.total - transmitted.specular) / incident_power;
+    }
+    if (!lossless_under)
+        w.specular_transmittance = w.diffuse_transmittance =
+            std::numeric_limits<double>::quiet_NaN();
+    return w;
+}
+
+}  // namespace
+
+FullWaveSlabResult full_wave_slab(const Slab3d& slab, std::span<const double> lambdas_nm,
+                                  const FullWave2dOptions& o) {
+    const FullWave2dOptions grid = slab_grid(slab, o);
+    const CrossSection2d bodies = slab_bodies(slab);
+    check_options(bodies, lambdas_nm, grid);
+    const RunMaterials materials = run_materials(bodies, lambdas_nm, grid);
+    const SlabCell cell = slab_cell(slab, grid);
+    const double h = 1.0 / grid.resolution_px_per_um;
+    const double grid_cells = static_cast<double>(cell.columns * cell.columns) * 2.0 * cell.half_z *
+                              grid.resolution_px_per_um;
     require_grid_memory(
         1.5 * grid_cells, materials.poles(),  // 3D: six components where 2D has three
         fmt::format("full wave slab: a {:.3g} × {:.3g} × {:.3g} µm cell at resolution_px_per_um "
@@ -366,29 +410,9 @@ FullWaveSlabResult full_wave_slab(const Slab3d& slab, std::span<const double> la
     const bool lossless_under = !slab.substrate || materials.exact.front().sigma_d.size() < 2 ||
                                 std::all_of(materials.exact.begin(), materials.exact.end(),
                                             [](const BodyMedia& m) { return m.sigma_d[1] == 0.0; });
-    for (std::size_t k = 0; k < n; ++k) {
-        SlabSpectrum w;
-        w.lambda_nm = lambdas_nm[k];
-        for (std::size_t pol = 0; pol < 2; ++pol) {
-            const SlabRun& incident = runs[pol * per_pol];
-            const SlabRun& total = runs[pol * per_pol + 1 + (fitted ? 0 : k)];
-            const std::size_t kt = fitted ? k : 0;
-            std::array<Complex, 4> wave{};
-            for (std::size_t c = 0; c < 4; ++c) wave[c] = mean_of(incident.above.c[c][k]);
-            const double incident_power = -poynting_z(wave[0], wave[1], wave[2], wave[3]);
-            const PlanePower reflected = plane_power(total.above, kt, wave);
-            const PlanePower transmitted = plane_power(total.below, kt, {});
-            w.specular_reflectance += 0.5 * reflected.specular / incident_power;
-            w.diffuse_reflectance += 0.5 * (reflected.total - reflected.specular) / incident_power;
-            w.specular_transmittance += -0.5 * transmitted.specular / incident_power;
-            w.diffuse_transmittance +=
-                -0.5 * (transmitted.total - transmitted.specular) / incident_power;
-        }
-        if (!lossless_under)
-            w.specular_transmittance = w.diffuse_transmittance =
-                std::numeric_limits<double>::quiet_NaN();
-        result.wavelengths.push_back(w);
-    }
+    for (std::size_t k = 0; k < n; ++k)
+        result.wavelengths.push_back(
+            slab_spectrum(runs, k, per_pol, fitted, lossless_under, lambdas_nm[k]));
     result.dispersion_fits = materials.fits;
     result.seconds =
         std::chrono::duration<double>(std::chrono::steady_clock::now() - started).count();
