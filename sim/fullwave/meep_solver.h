@@ -1,7 +1,7 @@
 // Internals shared by the full-wave solvers (full_wave_2d.cpp: isolated cross-sections;
-// full_wave_periodic.cpp: stacks and periodic rows): the section as Meep's material, the grid,
-// the stop rule, the input checks and the runs' materials. Not an interface: only those two
-// files include it (it pulls in meep.hpp).
+// full_wave_periodic.cpp: stacks and periodic rows; full_wave_slab.cpp: 3D slabs): the section as
+// Meep's material, the grid, the stop rule, the input checks and the runs' materials. Not an
+// interface: only those files include it (it pulls in meep.hpp).
 #pragma once
 
 #include <algorithm>
