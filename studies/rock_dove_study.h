@@ -59,6 +59,11 @@ struct RockDoveResult {
     std::string level_full_wave;
     double level_full_wave_po_l1 = 0.0, level_full_wave_go_l1 = 0.0;
     double level_full_wave_resolution_l1 = 0.0, level_full_wave_back_power_diff = 0.0;
+    // The same barbules as an endless row judged by full wave (band-mean reflectance; empty
+    // level: the row reference does not apply): R, its grid difference, each level's error.
+    std::string row_full_wave_level;
+    double row_full_wave_reflectance = 0.0, row_full_wave_resolution_error = 0.0;
+    double row_physical_optics_error = 0.0, row_ray_optics_error = 0.0;
     double level_seconds = 0.0;
 };
 

@@ -137,6 +137,18 @@ void check_level_of_physics(const RockDoveResult& r, const std::string& report) 
     EXPECT_NE(report.find("Cheapest level within 5 % of full wave: " + r.level_full_wave),
               std::string::npos);
     EXPECT_EQ(r.level_full_wave == "ray optics + thin film", r.level_full_wave_go_l1 <= 0.05);
+    // The same barbules as an endless row (tests/reference/fullwave_rock_dove_row): converged
+    // (band-mean reflectance within 2 % between its grids), each level's reflectance error
+    // against it, and the cheapest level within 5 % named.
+    EXPECT_FALSE(r.row_full_wave_level.empty());
+    EXPECT_GT(r.row_full_wave_reflectance, 0.0);
+    EXPECT_LT(r.row_full_wave_reflectance, 1.0);
+    EXPECT_LT(std::abs(r.row_full_wave_resolution_error), 0.02);
+    EXPECT_NE(
+        report.find("Cheapest level within 5 % of full wave on the row: " + r.row_full_wave_level),
+        std::string::npos);
+    EXPECT_EQ(r.row_full_wave_level == "ray optics + thin film",
+              std::abs(r.row_ray_optics_error) <= 0.05);
 }
 
 void check_avian_vision(const RockDoveResult& r, const std::filesystem::path& dir,
