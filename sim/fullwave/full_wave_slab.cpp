@@ -132,23 +132,6 @@ private:
     const std::atomic<bool>* stop_ = nullptr;
 };
 
-class Air3d final : public meep::material_function {};
-
-class PoleStrength3d final : public meep::material_function {
-public:
-    PoleStrength3d(const SlabMaterial& slab, int body, double strength, double h)
-        : slab_(slab), body_(body), strength_(strength), h_(h) {}
-    void sigma_row(meep::component c, double row[3], const meep::vec& r) override {
-        row[0] = row[1] = row[2] = 0.0;
-        row[meep::component_direction(c) % 3] = strength_ * slab_.fraction_of_body(body_, r, h_);
-    }
-
-private:
-    const SlabMaterial& slab_;
-    int body_;
-    double strength_, h_;
-};
-
 // The cell in Meep's frame: `columns` grid cells each way laterally; from the top, PML, gap,
 // source, gap, reflection plane, gap, the slab, gap, transmission plane, gap, PML.
 struct SlabCell {
@@ -373,7 +356,7 @@ FullWaveSlabResult full_wave_slab(const Slab3d& slab, std::span<const double> la
         const meep::component source = i < per_pol ? meep::Ex : meep::Ey;
         const std::size_t r = i % per_pol;
         if (r == 0) {
-            Air3d air;
+            AirMaterial air;
             return run_slab(air, {}, source, narrow, freqs, band.first, band.second, grid, false);
         }
         if (fitted) {
@@ -382,7 +365,8 @@ FullWaveSlabResult full_wave_slab(const Slab3d& slab, std::span<const double> la
             const auto poles = [&](meep::structure& s) {
                 for (std::size_t b = 0; b < materials.body_fits.size(); ++b)
                     for (const LorentzPole& p : materials.body_fits[b]->model.poles) {
-                        PoleStrength3d strength(material, static_cast<int>(b), p.strength, h);
+                        PoleStrength<SlabMaterial> strength(material, static_cast<int>(b),
+                                                            p.strength, h);
                         s.add_susceptibility(
                             strength, meep::E_stuff,
                             meep::lorentzian_susceptibility(p.frequency_per_um, p.damping_per_um));

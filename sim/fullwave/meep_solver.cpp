@@ -35,7 +35,8 @@ Dress add_poles(const SectionMaterial& material, const std::vector<const Lorentz
     return [&material, &body_fits, h](meep::structure& s) {
         for (std::size_t b = 0; b < body_fits.size(); ++b)
             for (const LorentzPole& p : body_fits[b]->model.poles) {
-                PoleStrength strength(material, static_cast<int>(b), p.strength, h);
+                PoleStrength<SectionMaterial> strength(material, static_cast<int>(b), p.strength,
+                                                       h);
                 s.add_susceptibility(
                     strength, meep::E_stuff,
                     meep::lorentzian_susceptibility(p.frequency_per_um, p.damping_per_um));

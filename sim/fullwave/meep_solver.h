@@ -173,18 +173,20 @@ private:
 class AirMaterial final : public meep::material_function {};
 
 // One Lorentz pole's strength σ_k over the grid (Dispersion::fitted): σ_k times the fraction of
-// the pixel that its body fills, isotropic.
+// the pixel that its body fills, isotropic. `Bodies`: SectionMaterial (2D) or the 3D slab's
+// material, anything with fraction_of_body(body, r, h).
+template <class Bodies>
 class PoleStrength final : public meep::material_function {
 public:
-    PoleStrength(const SectionMaterial& section, int body, double strength, double h)
-        : section_(section), body_(body), strength_(strength), h_(h) {}
+    PoleStrength(const Bodies& bodies, int body, double strength, double h)
+        : bodies_(bodies), body_(body), strength_(strength), h_(h) {}
     void sigma_row(meep::component c, double row[3], const meep::vec& r) override {
         row[0] = row[1] = row[2] = 0.0;
-        row[meep::component_direction(c) % 3] = strength_ * section_.fraction_of_body(body_, r, h_);
+        row[meep::component_direction(c) % 3] = strength_ * bodies_.fraction_of_body(body_, r, h_);
     }
 
 private:
-    const SectionMaterial& section_;
+    const Bodies& bodies_;
     int body_;
     double strength_, h_;
 };
