@@ -385,7 +385,10 @@ SpongyVolume finish(SpongyMorphology morphology, const PeriodicField& field, dou
 
 // ---------------------------------------------------------------------------------------
 
-SpongyVolume make_channel_volume(const ChannelVolumeParams& params) {
+namespace {
+
+// The channel volume's checks (ChannelVolumeParams); returns the voxels per side.
+int check_channel_params(const ChannelVolumeParams& params) {
     constexpr const char* kWhat = "channel";
     const int n = require_box(kWhat, params.box_um, params.voxel_um, params.half_width_voxels);
     require_fraction(kWhat, params.keratin_fraction);
@@ -412,18 +415,15 @@ SpongyVolume make_channel_volume(const ChannelVolumeParams& params) {
         reject(kWhat, "shell_relative_width", params.shell_relative_width,
                "a relative shell width σ_k/k0 in (0, 1]");
     }
+    return n;
+}
 
-    openvdb::initialize();
-    const Lattice lat{n};
+// The shell spectrum's Fourier coefficients (header comment), Hermitian.
+std::vector<Complex> shell_spectrum(const ChannelVolumeParams& params, const Lattice& lat,
+                                    double box) {
+    const int n = lat.n;
     const std::size_t size = lat.size();
-    const auto keratin_voxels =
-        static_cast<std::size_t>(std::llround(params.keratin_fraction * static_cast<double>(size)));
-    if (keratin_voxels == 0 || keratin_voxels == size) {
-        reject(
-            kWhat, "keratin_fraction", params.keratin_fraction,
-            fmt::format("a fraction that leaves both keratin and air among the {} voxels", size));
-    }
-
+    const double a = params.length_scale_um;
     // Fourier coefficients: amplitude √S(|k|), random phase, c(−k) = conj c(k). The 8
     // self-conjugate modes (every index 0 or N/2: the mean and Nyquist corners) are
     // left 0, which also makes the field's mean 0.
@@ -447,19 +447,12 @@ SpongyVolume make_channel_volume(const ChannelVolumeParams& params) {
             }
         }
     }
-    const std::vector<Complex> coefficients = field;  // kept for the gradient
-    fft_3d(field, lat, /*inverse=*/true);
+    return field;
+}
 
-    std::vector<double> g(size);
-    double largest = 0.0, largest_imaginary = 0.0;
-    for (std::size_t p = 0; p < size; ++p) {
-        g[p] = field[p].real();
-        largest = std::max(largest, std::abs(field[p].real()));
-        largest_imaginary = std::max(largest_imaginary, std::abs(field[p].imag()));
-    }
-    PLUMAGE_CHECK(largest > 0.0 && largest_imaginary <= 1e-9 * largest,
-                  "the Hermitian spectrum must give a real, non-zero field");
-
+// The threshold that makes exactly `keratin_voxels` of g keratin (g > threshold).
+double keratin_threshold(const std::vector<double>& g, std::size_t keratin_voxels) {
+    const std::size_t size = g.size();
     // Threshold between the (size − M)-th and the next value: exactly M keratin voxels.
     std::vector<double> sorted = g;
     const auto cut = sorted.begin() + static_cast<std::ptrdiff_t>(size - keratin_voxels);
@@ -468,10 +461,17 @@ SpongyVolume make_channel_volume(const ChannelVolumeParams& params) {
     const double highest_air = *std::max_element(sorted.begin(), cut);
     const double threshold = 0.5 * (lowest_keratin + highest_air);
 
-    // |∇g|² by spectral differentiation, ∂g/∂x_a = IFFT(i k_a ĝ): exact for this
-    // band-limited field, where central differences would underestimate it by
-    // sin(k h)/(k h) (5 % at a = 10 voxels). The Nyquist index of the differentiated axis
-    // gets 0: its ±k are one mode, and i k ĝ there would break the Hermitian symmetry.
+    return threshold;
+}
+
+// |∇g|² by spectral differentiation, ∂g/∂x_a = IFFT(i k_a ĝ): exact for this
+// band-limited field, where central differences would underestimate it by
+// sin(k h)/(k h) (5 % at a = 10 voxels). The Nyquist index of the differentiated axis
+// gets 0: its ±k are one mode, and i k ĝ there would break the Hermitian symmetry.
+std::vector<double> spectral_gradient_squared(const std::vector<Complex>& coefficients,
+                                              const Lattice& lat, double dk) {
+    const int n = lat.n;
+    const std::size_t size = lat.size();
     std::vector<double> gradient_squared(size, 0.0);
     std::vector<Complex> derivative(size);
     for (int axis = 0; axis < 3; ++axis) {
@@ -489,6 +489,44 @@ SpongyVolume make_channel_volume(const ChannelVolumeParams& params) {
         for (std::size_t p = 0; p < size; ++p)
             gradient_squared[p] += std::norm(derivative[p].real());
     }
+
+    return gradient_squared;
+}
+
+}  // namespace
+
+SpongyVolume make_channel_volume(const ChannelVolumeParams& params) {
+    const int n = check_channel_params(params);
+    const double a = params.length_scale_um;
+    const double h = params.voxel_um;
+    const double box = n * h;
+
+    openvdb::initialize();
+    const Lattice lat{n};
+    const std::size_t size = lat.size();
+    const auto keratin_voxels =
+        static_cast<std::size_t>(std::llround(params.keratin_fraction * static_cast<double>(size)));
+    if (keratin_voxels == 0 || keratin_voxels == size) {
+        reject(
+            "channel", "keratin_fraction", params.keratin_fraction,
+            fmt::format("a fraction that leaves both keratin and air among the {} voxels", size));
+    }
+
+    const std::vector<Complex> coefficients = shell_spectrum(params, lat, box);
+    std::vector<Complex> field = coefficients;  // the coefficients are kept for the gradient
+    fft_3d(field, lat, /*inverse=*/true);
+    std::vector<double> g(size);
+    double largest = 0.0, largest_imaginary = 0.0;
+    for (std::size_t p = 0; p < size; ++p) {
+        g[p] = field[p].real();
+        largest = std::max(largest, std::abs(field[p].real()));
+        largest_imaginary = std::max(largest_imaginary, std::abs(field[p].imag()));
+    }
+    PLUMAGE_CHECK(largest > 0.0 && largest_imaginary <= 1e-9 * largest,
+                  "the Hermitian spectrum must give a real, non-zero field");
+    const double threshold = keratin_threshold(g, keratin_voxels);
+    const std::vector<double> gradient_squared =
+        spectral_gradient_squared(coefficients, lat, kTwoPi / box);
 
     PeriodicField periodic{lat, std::vector<double>(size), std::vector<std::uint8_t>(size)};
     const double band = params.half_width_voxels * h;
@@ -508,7 +546,10 @@ SpongyVolume make_channel_volume(const ChannelVolumeParams& params) {
     return volume;
 }
 
-SpongyVolume make_sphere_volume(const SphereVolumeParams& params) {
+namespace {
+
+// The sphere volume's checks (SphereVolumeParams); returns the voxels per side.
+int check_sphere_params(const SphereVolumeParams& params) {
     constexpr const char* kWhat = "sphere";
     const int n = require_box(kWhat, params.box_um, params.voxel_um, params.half_width_voxels);
     require_fraction(kWhat, params.keratin_fraction);
@@ -543,56 +584,100 @@ SpongyVolume make_sphere_volume(const SphereVolumeParams& params) {
     if (params.max_attempts < 1) {
         reject(kWhat, "max_attempts", static_cast<double>(params.max_attempts), "at least 1");
     }
+    return n;
+}
 
-    openvdb::initialize();
-    const Lattice lat{n};
-    const std::size_t size = lat.size();
-    const auto air_target = static_cast<std::size_t>(
-        std::llround((1.0 - params.keratin_fraction) * static_cast<double>(size)));
-    if (air_target == 0 || air_target == size) {
-        reject(
-            kWhat, "keratin_fraction", params.keratin_fraction,
-            fmt::format("a fraction that leaves both keratin and air among the {} voxels", size));
+// Visits the voxels whose centres lie within `reach` of c, with their distance to c,
+// wrapping indices periodically. If reach > L/2 a voxel is visited once per image of
+// c within reach, each time with that image's distance.
+template <class Visit>
+void for_voxels_near(const Lattice& lat, double h, const Vec3& c, double reach, Visit&& visit) {
+    std::array<int, 3> lo, hi;
+    for (int axis = 0; axis < 3; ++axis) {
+        lo[axis] = static_cast<int>(std::ceil((c[axis] - reach) / h - 0.5));
+        hi[axis] = static_cast<int>(std::floor((c[axis] + reach) / h - 0.5));
     }
-
-    // Cell list for the separation test: cells at least s wide, so only the 27 around a
-    // candidate can hold a centre closer than s. Fewer than 3 cells per side would visit
-    // the same cell twice: then one cell holds everything.
-    int cells = static_cast<int>(std::floor(box / separation));
-    if (cells < 3) cells = 1;
-    const Lattice cell_lattice{cells};
-    std::vector<std::vector<std::uint32_t>> cell_members(cell_lattice.size());
-    auto cell_of = [&](double x) { return std::min(cells - 1, static_cast<int>(x / box * cells)); };
-    auto nearest_image = [&](double d) { return d - box * std::round(d / box); };
-
-    std::vector<Vec3> centres;
-    std::vector<std::uint8_t> air(size, 0);
-    std::size_t air_count = 0;
-    std::vector<std::size_t> new_voxels;
-
-    // Visits the voxels whose centres lie within `reach` of c, with their distance to c,
-    // wrapping indices periodically. If reach > L/2 a voxel is visited once per image of
-    // c within reach, each time with that image's distance.
-    auto for_voxels_near = [&](const Vec3& c, double reach, auto&& visit) {
-        std::array<int, 3> lo, hi;
-        for (int axis = 0; axis < 3; ++axis) {
-            lo[axis] = static_cast<int>(std::ceil((c[axis] - reach) / h - 0.5));
-            hi[axis] = static_cast<int>(std::floor((c[axis] + reach) / h - 0.5));
-        }
-        for (int i = lo[0]; i <= hi[0]; ++i) {
-            const double dx = (i + 0.5) * h - c[0];
-            for (int j = lo[1]; j <= hi[1]; ++j) {
-                const double dy = (j + 0.5) * h - c[1];
-                for (int k = lo[2]; k <= hi[2]; ++k) {
-                    const double dz = (k + 0.5) * h - c[2];
-                    const double distance = std::sqrt(dx * dx + dy * dy + dz * dz);
-                    if (distance <= reach) {
-                        visit(lat.index(lat.wrap(i), lat.wrap(j), lat.wrap(k)), distance);
-                    }
+    for (int i = lo[0]; i <= hi[0]; ++i) {
+        const double dx = (i + 0.5) * h - c[0];
+        for (int j = lo[1]; j <= hi[1]; ++j) {
+            const double dy = (j + 0.5) * h - c[1];
+            for (int k = lo[2]; k <= hi[2]; ++k) {
+                const double dz = (k + 0.5) * h - c[2];
+                const double distance = std::sqrt(dx * dx + dy * dy + dz * dz);
+                if (distance <= reach) {
+                    visit(lat.index(lat.wrap(i), lat.wrap(j), lat.wrap(k)), distance);
                 }
             }
         }
-    };
+    }
+}
+
+// The placed centres in a cell list, for the separation test: cells at least s wide, so only
+// the 27 around a candidate can hold a centre closer than s. Fewer than 3 cells per side would
+// visit the same cell twice: then one cell holds everything.
+class CentreCells {
+public:
+    CentreCells(double box, double separation)
+        : box_(box),
+          separation_(separation),
+          cells_(cell_count(box, separation)),
+          lattice_{cells_},
+          members_(lattice_.size()) {}
+
+    // Whether a placed centre (nearest periodic image) lies closer than the separation to c.
+    bool too_close(const std::vector<Vec3>& centres, const Vec3& c) const {
+        const int ci = cell_of(c[0]), cj = cell_of(c[1]), ck = cell_of(c[2]);
+        const int reach = cells_ == 1 ? 0 : 1;
+        for (int di = -reach; di <= reach; ++di)
+            for (int dj = -reach; dj <= reach; ++dj)
+                for (int dk = -reach; dk <= reach; ++dk) {
+                    const std::size_t cell = lattice_.index(
+                        lattice_.wrap(ci + di), lattice_.wrap(cj + dj), lattice_.wrap(ck + dk));
+                    for (std::uint32_t other : members_[cell]) {
+                        const Vec3 d(nearest_image(centres[other][0] - c[0]),
+                                     nearest_image(centres[other][1] - c[1]),
+                                     nearest_image(centres[other][2] - c[2]));
+                        if (d.squaredNorm() < separation_ * separation_) return true;
+                    }
+                }
+        return false;
+    }
+    void add(const Vec3& c, std::size_t index) {
+        members_[lattice_.index(cell_of(c[0]), cell_of(c[1]), cell_of(c[2]))].push_back(
+            static_cast<std::uint32_t>(index));
+    }
+
+private:
+    static int cell_count(double box, double separation) {
+        const int cells = static_cast<int>(std::floor(box / separation));
+        return cells < 3 ? 1 : cells;
+    }
+    int cell_of(double x) const {
+        return std::min(cells_ - 1, static_cast<int>(x / box_ * cells_));
+    }
+    double nearest_image(double d) const { return d - box_ * std::round(d / box_); }
+
+    double box_, separation_;
+    int cells_;
+    Lattice lattice_;
+    std::vector<std::vector<std::uint32_t>> members_;
+};
+
+// Air spheres by random sequential addition (header comment) until `air_target` voxels are air:
+// their centres, the voxels' air flags and count. InputError when max_attempts run out first.
+std::vector<Vec3> place_air_spheres(const SphereVolumeParams& params, const Lattice& lat,
+                                    std::size_t air_target, std::vector<std::uint8_t>& air) {
+    const double r = params.sphere_radius_um;
+    const double h = params.voxel_um;
+    const double box = lat.n * h;
+    const std::size_t size = lat.size();
+    const double separation = params.min_separation_diameters * 2.0 * r;
+    CentreCells cell_list(box, separation);
+
+    std::vector<Vec3> centres;
+    air.assign(size, 0);
+    std::size_t air_count = 0;
+    std::vector<std::size_t> new_voxels;
 
     std::mt19937_64 rng = random_stream(params.seed, params.item, Stream::sphere_centres);
     std::int64_t attempts = 0;
@@ -601,31 +686,10 @@ SpongyVolume make_sphere_volume(const SphereVolumeParams& params) {
         ++attempts;
         const double x = box * uniform01(rng), y = box * uniform01(rng), z = box * uniform01(rng);
         const Vec3 c(x, y, z);
-        const int ci = cell_of(x), cj = cell_of(y), ck = cell_of(z);
-        bool too_close = false;
-        const int reach = cells == 1 ? 0 : 1;
-        for (int di = -reach; di <= reach && !too_close; ++di) {
-            for (int dj = -reach; dj <= reach && !too_close; ++dj) {
-                for (int dk = -reach; dk <= reach && !too_close; ++dk) {
-                    const std::size_t cell =
-                        cell_lattice.index(cell_lattice.wrap(ci + di), cell_lattice.wrap(cj + dj),
-                                           cell_lattice.wrap(ck + dk));
-                    for (std::uint32_t other : cell_members[cell]) {
-                        const Vec3 d(nearest_image(centres[other][0] - x),
-                                     nearest_image(centres[other][1] - y),
-                                     nearest_image(centres[other][2] - z));
-                        if (d.squaredNorm() < separation * separation) {
-                            too_close = true;
-                            break;
-                        }
-                    }
-                }
-            }
-        }
-        if (too_close) continue;
+        if (cell_list.too_close(centres, c)) continue;
 
         new_voxels.clear();
-        for_voxels_near(c, r, [&](std::size_t p, double distance) {
+        for_voxels_near(lat, h, c, r, [&](std::size_t p, double distance) {
             if (distance < r && !air[p]) new_voxels.push_back(p);
         });
         // A voxel can be listed twice only through two images, impossible for r <= L/4.
@@ -637,8 +701,7 @@ SpongyVolume make_sphere_volume(const SphereVolumeParams& params) {
         }
         for (std::size_t p : new_voxels) air[p] = 1;
         air_count = after;
-        cell_members[cell_lattice.index(ci, cj, ck)].push_back(
-            static_cast<std::uint32_t>(centres.size()));
+        cell_list.add(c, centres.size());
         centres.push_back(c);
     }
     if (!reached) {
@@ -654,11 +717,34 @@ SpongyVolume make_sphere_volume(const SphereVolumeParams& params) {
             1.0 - static_cast<double>(air_count) / static_cast<double>(size), params.max_attempts));
     }
 
+    return centres;
+}
+
+}  // namespace
+
+SpongyVolume make_sphere_volume(const SphereVolumeParams& params) {
+    const int n = check_sphere_params(params);
+    const double r = params.sphere_radius_um;
+    const double h = params.voxel_um;
+
+    openvdb::initialize();
+    const Lattice lat{n};
+    const std::size_t size = lat.size();
+    const auto air_target = static_cast<std::size_t>(
+        std::llround((1.0 - params.keratin_fraction) * static_cast<double>(size)));
+    if (air_target == 0 || air_target == size) {
+        reject(
+            "sphere", "keratin_fraction", params.keratin_fraction,
+            fmt::format("a fraction that leaves both keratin and air among the {} voxels", size));
+    }
+    std::vector<std::uint8_t> air;
+    std::vector<Vec3> centres = place_air_spheres(params, lat, air_target, air);
+
     // φ = max over spheres (and images) of r − |x − c|, starting from −band (deep keratin).
     const double band = params.half_width_voxels * h;
     PeriodicField periodic{lat, std::vector<double>(size, -band), std::vector<std::uint8_t>(size)};
     for (const Vec3& c : centres) {
-        for_voxels_near(c, r + band, [&](std::size_t p, double distance) {
+        for_voxels_near(lat, h, c, r + band, [&](std::size_t p, double distance) {
             periodic.phi[p] = std::max(periodic.phi[p], r - distance);
         });
     }
