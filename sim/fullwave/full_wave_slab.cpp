@@ -25,16 +25,11 @@ constexpr int kSamplesPerAxis = 5;
 
 // The slab in Meep's frame: x, y lateral (Meep's −period/2 … period/2, ours 0 … period), our
 // z = Meep's z + z_offset. Body 0 is the slab's material, body 1 the substrate (if any).
-class SlabMaterial final : public meep::material_function {
+class SlabMaterial final : public BodiesMaterial {
 public:
     SlabMaterial(const Slab3d& slab, BodyMedia media, double z_offset)
-        : slab_(slab), z_offset_(z_offset), media_(std::move(media)) {}
+        : BodiesMaterial(std::move(media)), slab_(slab), z_offset_(z_offset) {}
 
-    double chi1p1(meep::field_type ft, const meep::vec& r) override {
-        if (ft != meep::E_stuff && ft != meep::D_stuff) return 1.0;
-        const int b = body(r);
-        return b < 0 ? 1.0 : media_.eps[static_cast<std::size_t>(b)];
-    }
     // Kottke's average over the pixel v (full_wave_2d.h's rule in 3D): a 3 × 3 × 3 test, then,
     // when the pixel is cut, ⟨ε⟩, ⟨1/ε⟩ and ε's first moment (the boundary's normal) over a
     // 5 × 5 × 5 lattice.
@@ -82,18 +77,11 @@ public:
         for (int a = 0; a < 3; ++a) row[a] = n[along] * n[a] * (mean_inverse - 1.0 / mean);
         row[along] += 1.0 / mean;
     }
-    bool has_conductivity(meep::component c) override {
-        return media_.absorbing && meep::type(c) == meep::D_stuff;
-    }
-    double conductivity(meep::component, const meep::vec& r) override {
-        const int b = body(r);
-        return b < 0 ? 0.0 : media_.sigma_d[static_cast<std::size_t>(b)];
-    }
     // The fraction of the h³ pixel centred on r that body b fills (Dispersion::fitted).
     double fraction_of_body(int b, const meep::vec& r, double h) const {
         const meep::vec lo(r.x() - 0.5 * h, r.y() - 0.5 * h, r.z() - 0.5 * h);
         const auto is_b = [&](double u, double w, double t) {
-            return body(meep::vec(lo.x() + u * h, lo.y() + w * h, lo.z() + t * h)) == b;
+            return owner(meep::vec(lo.x() + u * h, lo.y() + w * h, lo.z() + t * h)) == b;
         };
         const bool first = is_b(0.0, 0.0, 0.0);
         bool uniform = true;
@@ -112,12 +100,10 @@ public:
                                   : 0;
         return inside / static_cast<double>(kSamplesPerAxis * kSamplesPerAxis * kSamplesPerAxis);
     }
-    void interrupt_on(const std::atomic<bool>* stop) { stop_ = stop; }
 
 private:
-    int body(const meep::vec& r) const {
-        if (stop_ != nullptr && stop_->load(std::memory_order_relaxed)) [[unlikely]]
-            throw Interrupted("full wave: interrupted while Meep set up its grid");
+    int owner(const meep::vec& r) const override {
+        throw_if_stopped();
         const double z = r.z() + z_offset_;
         if (z < 0.0) return slab_.substrate ? 1 : -1;
         if (z > slab_.thickness_um) return -1;
@@ -128,8 +114,6 @@ private:
     }
     const Slab3d& slab_;
     double z_offset_;
-    BodyMedia media_;
-    const std::atomic<bool>* stop_ = nullptr;
 };
 
 // The cell in Meep's frame: `columns` grid cells each way laterally; from the top, PML, gap,

@@ -53,22 +53,49 @@ struct BodyMedia {
 
 BodyMedia media_at(const CrossSection2d& section, double lambda_nm);
 
+// Bodies with per-body media as Meep's material: ε and the D conductivity of the body that owns a
+// point (−1: air), and the stop flag, which a derived class checks in owner() (Meep's set-up of a
+// large grid asks every pixel, seconds at fine grids: a set flag ends it at the next question).
+class BodiesMaterial : public meep::material_function {
+public:
+    explicit BodiesMaterial(BodyMedia media) : media_(std::move(media)) {}
+    double chi1p1(meep::field_type ft, const meep::vec& r) override {
+        if (ft != meep::E_stuff && ft != meep::D_stuff) return 1.0;
+        const int b = owner(r);
+        return b < 0 ? 1.0 : media_.eps[static_cast<std::size_t>(b)];
+    }
+    bool has_conductivity(meep::component c) override {
+        return media_.absorbing && meep::type(c) == meep::D_stuff;
+    }
+    double conductivity(meep::component, const meep::vec& r) override {
+        const int b = owner(r);
+        return b < 0 ? 0.0 : media_.sigma_d[static_cast<std::size_t>(b)];
+    }
+    void interrupt_on(const std::atomic<bool>* stop) { stop_ = stop; }
+
+protected:
+    virtual int owner(const meep::vec& r) const = 0;
+    void throw_if_stopped() const {
+        if (stop_ != nullptr && stop_->load(std::memory_order_relaxed)) [[unlikely]]
+            throw Interrupted("full wave: interrupted while Meep set up its grid");
+    }
+
+private:
+    BodyMedia media_;
+    const std::atomic<bool>* stop_ = nullptr;
+};
+
 // The section in Meep's frame (ours turned by −θ_i) at one wavelength; air where no body is.
-class SectionMaterial final : public meep::material_function {
+class SectionMaterial final : public BodiesMaterial {
 public:
     // Meep's point (x, y) is our point turned by −θ_i and lowered by z_offset.
     SectionMaterial(const CrossSection2d& section, double theta_i, BodyMedia media,
                     double z_offset = 0.0)
-        : section_(section),
+        : BodiesMaterial(std::move(media)),
+          section_(section),
           c_(std::cos(theta_i)),
           s_(std::sin(theta_i)),
-          z_offset_(z_offset),
-          media_(std::move(media)) {}
-    double chi1p1(meep::field_type ft, const meep::vec& r) override {
-        if (ft != meep::E_stuff && ft != meep::D_stuff) return 1.0;
-        const int b = body(r);
-        return b < 0 ? 1.0 : media_.eps[static_cast<std::size_t>(b)];
-    }
+          z_offset_(z_offset) {}
     // Meep's anisotropic (Kottke) averaging over the pixel v: the effective inverse ε is
     // P ⟨1/ε⟩ + (1 − P) / ⟨ε⟩, P the projection on the boundary's normal. Meep's generic
     // version doubles its sampling until the averages converge to 1e-4, which a pixel cut by a
@@ -111,38 +138,27 @@ public:
         for (int i = 0; i < 3; ++i) row[i] = n[along] * n[i] * (mean_inverse - 1.0 / mean);
         row[along] += 1.0 / mean;
     }
-    bool has_conductivity(meep::component c) override {
-        return media_.absorbing && meep::type(c) == meep::D_stuff;
-    }
-    double conductivity(meep::component, const meep::vec& r) override {
-        const int b = body(r);
-        return b < 0 ? 0.0 : media_.sigma_d[static_cast<std::size_t>(b)];
-    }
-
     // The fraction of the h × h pixel centred on r that body b fills (the pole strengths'
     // average, Dispersion::fitted): 0 or 1 unless a 3 × 3 test finds the pixel cut, then the
     // Fibonacci lattice's fraction.
     double fraction_of_body(int b, const meep::vec& r, double h) const {
         const double x0 = r.x() - 0.5 * h, y0 = r.y() - 0.5 * h;
-        const bool first = body(meep::vec(x0, y0)) == b;
+        const bool first = owner(meep::vec(x0, y0)) == b;
         bool uniform = true;
         for (int j = 0; j < 3 && uniform; ++j)
             for (int i = 0; i < 3 && uniform; ++i)
-                uniform = (body(meep::vec(x0 + 0.5 * i * h, y0 + 0.5 * j * h)) == b) == first;
+                uniform = (owner(meep::vec(x0 + 0.5 * i * h, y0 + 0.5 * j * h)) == b) == first;
         if (uniform) return first ? 1.0 : 0.0;
         int inside = 0;
         for (int i = 0; i < kSubpixelSamples; ++i) {
             const long j = (static_cast<long>(i) * kSubpixelStride) % kSubpixelSamples;
             const double u = (i + 0.5) / kSubpixelSamples;
             const double w = (static_cast<double>(j) + 0.5) / kSubpixelSamples;
-            inside += body(meep::vec(x0 + u * h, y0 + w * h)) == b ? 1 : 0;
+            inside += owner(meep::vec(x0 + u * h, y0 + w * h)) == b ? 1 : 0;
         }
         return static_cast<double>(inside) / kSubpixelSamples;
     }
 
-    // Meep's set-up of a large grid asks every pixel (seconds at fine grids): a set stop flag
-    // ends it at the next question.
-    void interrupt_on(const std::atomic<bool>* stop) { stop_ = stop; }
     // A periodic row (full_wave_row): the section repeats every period_um along x, its bodies
     // reaching up to `reach_um` from x = 0 (they may cross into the neighbouring periods); a
     // point belongs to the last body that holds it or one of its images x + m·period.
@@ -152,9 +168,8 @@ public:
     }
 
 private:
-    int body(const meep::vec& r) const {
-        if (stop_ != nullptr && stop_->load(std::memory_order_relaxed)) [[unlikely]]
-            throw Interrupted("full wave: interrupted while Meep set up its grid");
+    int owner(const meep::vec& r) const override {
+        throw_if_stopped();
         const Eigen::Vector2d p(c_ * r.x() + s_ * r.y(), c_ * r.y() - s_ * r.x() + z_offset_);
         if (period_ == 0.0) return section_.body_at(p);
         int owner = -1;
@@ -166,8 +181,6 @@ private:
     double c_, s_, z_offset_;
     double period_ = 0.0;
     int images_ = 0;
-    BodyMedia media_;
-    const std::atomic<bool>* stop_ = nullptr;
 };
 
 class AirMaterial final : public meep::material_function {};
