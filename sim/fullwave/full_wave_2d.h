@@ -198,6 +198,12 @@ FullWaveRowResult full_wave_row(const CrossSection2d& period, double period_um, 
                                 double theta_i_rad, std::span<const double> lambdas_nm,
                                 const FullWave2dOptions& options);
 
+// The grid cells of one run of full_wave_row on this period (the grid refined to a whole, even
+// number of cells per period, the rows as the run lays them out): for estimates of cost and
+// memory before a run. No checks beyond full_wave_row's arithmetic.
+std::size_t full_wave_row_cells(const CrossSection2d& period, double period_um,
+                                const FullWave2dOptions& options);
+
 // The largest grid step the physics allows for this section at these wavelengths (λ/(10 n)),
 // and the smallest allowed by its thinnest body (half of it): the checks above, for callers
 // that choose a resolution.

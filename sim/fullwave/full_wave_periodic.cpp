@@ -232,6 +232,12 @@ PeriodicCell periodic_cell(const CrossSection2d& section, std::size_t columns, d
     return cell;
 }
 
+// The period in whole grid cells, an even number of them (the cell's centre is a grid point):
+// the grid is refined, never coarsened, to fit.
+double period_columns(double period_um, double resolution_px_per_um) {
+    return 2.0 * std::ceil(0.5 * period_um * resolution_px_per_um - 1e-9);
+}
+
 // The farthest any body reaches from x = 0 (layers: 0, they are the same in every period).
 double reach_along_x(const CrossSection2d& section) {
     double reach = 0.0;
@@ -346,15 +352,24 @@ FullWaveRowResult full_wave_row(const CrossSection2d& period, double period_um, 
     require(o.dispersion == Dispersion::per_wavelength || theta_i_rad == 0.0, "full wave row",
             "Dispersion::fitted needs normal incidence: at θ_i ≠ 0 the Bloch wavenumber "
             "f sin θ_i differs per wavelength, so each wavelength is its own run");
-    // the period in whole grid cells, an even number of them (the cell's centre is a grid
-    // point): the grid is refined, never coarsened, to fit
-    const double cells = 2.0 * std::ceil(0.5 * period_um * o.resolution_px_per_um - 1e-9);
+    const double cells = period_columns(period_um, o.resolution_px_per_um);
     FullWave2dOptions fitted_grid = o;
     fitted_grid.resolution_px_per_um = cells / period_um;
     check_options(period, lambdas_nm, fitted_grid);
     return periodic_spectra(
         period, periodic_cell(period, static_cast<std::size_t>(cells), period_um, fitted_grid), pol,
         theta_i_rad, lambdas_nm, fitted_grid);
+}
+
+std::size_t full_wave_row_cells(const CrossSection2d& period, double period_um,
+                                const FullWave2dOptions& o) {
+    const double columns = period_columns(period_um, o.resolution_px_per_um);
+    FullWave2dOptions fitted_grid = o;
+    fitted_grid.resolution_px_per_um = columns / period_um;
+    const PeriodicCell cell =
+        periodic_cell(period, static_cast<std::size_t>(columns), period_um, fitted_grid);
+    return cell.columns * static_cast<std::size_t>(
+                              std::llround(2.0 * cell.half_y * fitted_grid.resolution_px_per_um));
 }
 
 std::vector<StackReflectance> full_wave_stack(const CrossSection2d& layers, Polarisation2d pol,
