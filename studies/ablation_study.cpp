@@ -64,7 +64,7 @@ const std::vector<Parameter>& parameters() {
         {"H", "H", "barbule spacing, in semi-major axes", positive(), 0.95, 2.15,
          [](const BarbuleRowParams& p) { return p.H; },
          [](BarbuleRowParams& p, double v) { p.H = v; }},
-        {"film_thickness_um", "d (µm)", "keratin film thickness, um", between(0.0, 50.0), 0.39,
+        {"film_thickness_um", "d (µm)", "keratin film thickness, um", film_thickness_range(), 0.39,
          0.79, [](const BarbuleRowParams& p) { return p.cell.film_thickness_um; },
          [](BarbuleRowParams& p, double v) { p.cell.film_thickness_um = v; }},
         {"theta_d_deg",

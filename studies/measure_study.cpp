@@ -22,7 +22,7 @@
 //                                                       surface of `albedo`, [0, 1])
 //                  max_events                           tracer events per path, [1, 10⁶]
 //   [sample.film]  material, thickness_um               optional: a thin film on the surface
-//                                                       (keratin | melanin; thickness (0, 50] µm)
+//                                                       (keratin | melanin; thickness (0, 5] µm)
 //   [brdf]         direction_set                        filip2024_in_plane (55 pairs),
 //                                                       filip2024_btf (3660), mirror (one specular
 //                                                       pair per angle of mirror_angles_deg, in
@@ -70,7 +70,6 @@ namespace {
 
 namespace fs = std::filesystem;
 constexpr double kDeg = std::numbers::pi / 180.0;
-constexpr double kMaxFilmUm = 50.0;  // the Huang model's and the film tables' range
 
 struct Sample {
     fs::path file;
@@ -131,8 +130,7 @@ Sample read_sample(ParameterTable t, const fs::path& source) {
         ParameterTable f = t.table("film");
         const std::string material =
             f.required_string("material", {"keratin", "melanin"}, "film material");
-        const double d =
-            f.required_number("thickness_um", {0.0, kMaxFilmUm, true, false}, "film thickness, um");
+        const double d = read_required_film_thickness_um(f, "thickness_um", "film thickness");
         if (s.material == "lambertian") {
             throw InputError(fmt::format(
                 "{}: sample.film: a film needs a dielectric beneath it, not a lambertian surface",

@@ -50,35 +50,80 @@ std::uint64_t read_seed(ParameterTable& root) {
         root.integer("seed", static_cast<long>(kDefaultSeed), 0, 1L << 62, "random seed"));
 }
 
+namespace {
+
+// The grid as the file writes it, for every message about it: "first_nm = 300, last_nm = 300,
+// step_nm = 50" (a key left out shows its default).
+std::string given_grid(const ParameterTable& table, const WavelengthRule& rule) {
+    const auto one = [&](std::string_view key, double default_nm) {
+        const std::string written = table.written(key);
+        return written.empty() ? fmt::format("{} = {} (default)", key, default_nm)
+                               : fmt::format("{} = {}", key, written);
+    };
+    return fmt::format("the grid given: {}, {}, {}", one("first_nm", rule.first_nm),
+                       one("last_nm", rule.last_nm), one("step_nm", rule.step_nm));
+}
+
+}  // namespace
+
 std::vector<double> read_wavelengths(ParameterTable& table, const WavelengthRule& rule) {
-    const std::string range = fmt::format("{} nm, {}", rule.min_nm, rule.range_reason);
-    const double first =
-        table.number("first_nm", rule.first_nm, between(rule.min_nm, rule.max_nm),
-                     fmt::format("first wavelength, nm; {}-{}", rule.min_nm, range));
-    const double last = table.number("last_nm", rule.last_nm, between(rule.min_nm, rule.max_nm),
-                                     fmt::format("last wavelength, nm; {}-{}", rule.min_nm, range));
-    const double step = table.number("step_nm", rule.step_nm, positive(), "wavelength step, nm");
+    const std::string given = given_grid(table, rule);
+    const std::string range =
+        fmt::format("{}-{} nm: {}", rule.min_nm, rule.max_nm, rule.range_reason);
+    double first = 0.0, last = 0.0, step = 0.0;
+    try {
+        first = table.number("first_nm", rule.first_nm, between(rule.min_nm, rule.max_nm),
+                             fmt::format("first wavelength, nm; {}", range));
+        last = table.number("last_nm", rule.last_nm, between(rule.min_nm, rule.max_nm),
+                            fmt::format("last wavelength, nm; {}", range));
+        step = table.number("step_nm", rule.step_nm, positive(), "wavelength step, nm");
+    } catch (const InputError& e) {
+        throw InputError(fmt::format("{}; {}", e.what(), given));
+    }
     if (!(last > first)) {
-        throw InputError(fmt::format("{}: {}.last_nm = {} is not above first_nm = {}",
-                                     table.location("last_nm"), table.path(), last, first));
+        throw InputError(fmt::format("{}: {}.last_nm = {} is not above first_nm = {} ({})",
+                                     table.location("last_nm"), table.path(), last, first, given));
     }
     const double count = optics::WavelengthGrid::uniform_count(first, last, step);
     const auto max_count = optics::WavelengthGrid::kMaxWavelengths;
     if (count > static_cast<double>(max_count)) {
         throw InputError(fmt::format(
             "{}: {}.step_nm = {} gives {:.3g} wavelengths over {}-{} nm: expected at most {} "
-            "(step_nm >= {:.4g})",
+            "(step_nm >= {:.4g}; {})",
             table.location("step_nm"), table.path(), step, count, first, last, max_count,
-            (last - first) / static_cast<double>(max_count - 1)));
+            (last - first) / static_cast<double>(max_count - 1), given));
     }
     if (count < 2.0) {
         throw InputError(fmt::format(
             "{}: [{}] gives 1 wavelength ({} nm; step_nm = {} exceeds last_nm - first_nm): "
-            "expected at least 2 for colour",
-            table.location(), table.path(), first, step));
+            "expected at least 2 for colour ({})",
+            table.location(), table.path(), first, step, given));
     }
     const optics::WavelengthGrid grid = optics::WavelengthGrid::uniform(first, last, step);
     return {grid.nm().begin(), grid.nm().end()};
+}
+
+Range film_thickness_range(bool zero_allowed) {
+    return {0.0, kMaxFilmThicknessUm, !zero_allowed, false};
+}
+
+namespace {
+
+std::string film_what(std::string_view what) {
+    return fmt::format("{}, um; the films that colour feathers are well under {} um", what,
+                       kMaxFilmThicknessUm);
+}
+
+}  // namespace
+
+double read_film_thickness_um(ParameterTable& table, std::string_view key, double default_um,
+                              std::string_view what) {
+    return table.number(key, default_um, film_thickness_range(), film_what(what));
+}
+
+double read_required_film_thickness_um(ParameterTable& table, std::string_view key,
+                                       std::string_view what) {
+    return table.required_number(key, film_thickness_range(false), film_what(what));
 }
 
 geometry::TessellationTolerance read_tolerance(ParameterTable t) {
@@ -119,8 +164,8 @@ geometry::BarbuleRowParams read_barbule_row_params(ParameterTable& geometry) {
         cell.string("profile", "saddle", {"saddle", "convex"}, "longitudinal arc") == "convex"
             ? geometry::LongitudinalProfile::convex
             : geometry::LongitudinalProfile::saddle;
-    p.cell.film_thickness_um = cell.number("film_thickness_um", p.cell.film_thickness_um,
-                                           non_negative(), "keratin cortex film, um");
+    p.cell.film_thickness_um = read_film_thickness_um(
+        cell, "film_thickness_um", p.cell.film_thickness_um, "keratin cortex film");
     p.cell.melanin_depth_um = cell.number("melanin_depth_um", p.cell.melanin_depth_um, positive(),
                                           "depth of the melanin layer, um");
     ParameterTable row = geometry.table("row");

@@ -54,6 +54,20 @@ inline constexpr WavelengthRule kFilipWavelengths{
     .max_nm = 780.0,
     .range_reason = "Filip 2024's colour bands cover 380-780 nm"};
 
+// A keratin film's thickness, in µm (geometry.cell.film_thickness_um, the species' cortex_film_um,
+// a measured sample's film, the ablation's sweep of it): one range for every study file. The
+// films that colour feathers are well under a few micrometres (the rock dove's 0.59 µm, the
+// rooster's 0.174 µm), so [0, kMaxFilmThicknessUm]; a value that fits in nanometres instead
+// (590 for 0.59 µm) is refused with that hint when the file is read (study_file.h).
+inline constexpr double kMaxFilmThicknessUm = 5.0;
+// [0, kMaxFilmThicknessUm], or (0, kMaxFilmThicknessUm] where a film must be present.
+Range film_thickness_range(bool zero_allowed = true);
+// `key` of `table` within film_thickness_range; `what` names the film ("keratin cortex film").
+double read_film_thickness_um(ParameterTable& table, std::string_view key, double default_um,
+                              std::string_view what);
+double read_required_film_thickness_um(ParameterTable& table, std::string_view key,
+                                       std::string_view what);
+
 // [geometry.cell] and [geometry.row] of a barbule row (Huang 2022's parameters), in the units
 // the geometry library takes (angles in radians).
 geometry::BarbuleRowParams read_barbule_row_params(ParameterTable& geometry);

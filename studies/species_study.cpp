@@ -194,8 +194,8 @@ SpeciesSpec read_species(ParameterTable table, const std::string& name,
     ParameterTable m = table.table("materials");
     s.melanin_core = m.string("barbule_core", "keratin", {"keratin", "melanin"},
                               "what the barbule cortex encloses") == "melanin";
-    s.cortex_um = m.number("cortex_film_um", 0.0, between(0.0, 10.0),
-                           "keratin cortex over the melanin core, um");
+    s.cortex_um =
+        read_film_thickness_um(m, "cortex_film_um", 0.0, "keratin cortex over the melanin core");
     s.cortex_coherent =
         m.boolean("cortex_coherent", true, "interference in the cortex film (false: by intensity)");
     s.pigment_k = m.number("pigment_k", 0.0, between(0.0, 1.0),

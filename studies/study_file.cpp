@@ -11,6 +11,7 @@
 
 #include "common/constants.h"
 #include "common/error.h"
+#include "common/spelling.h"
 
 namespace plumage::studies {
 
@@ -37,6 +38,34 @@ bool within(const Range& r, double v) {
     if (r.min_exclusive ? !(v > r.min) : !(v >= r.min)) return false;
     if (r.max_exclusive ? !(v < r.max) : !(v <= r.max)) return false;
     return true;
+}
+
+// The unit of a key: its own suffix (_um, _nm), or its table's for the keys of a table named
+// after a quantity (sweep.film_thickness_um.from).
+std::string_view unit_of(std::string_view full_key) {
+    for (int level = 0; level < 2 && !full_key.empty(); ++level) {
+        const auto dot = full_key.rfind('.');
+        const std::string_view leaf =
+            dot == std::string_view::npos ? full_key : full_key.substr(dot + 1);
+        if (leaf.ends_with("_um") || leaf.ends_with("_nm")) return leaf.substr(leaf.size() - 2);
+        full_key = dot == std::string_view::npos ? std::string_view{} : full_key.substr(0, dot);
+    }
+    return {};
+}
+
+// For a value outside its range that would be inside it in the other length unit of study files
+// (590 for a film of 0.59 um), what was most likely meant; "" otherwise.
+std::string unit_hint(std::string_view full_key, const Range& r, double v) {
+    const std::string_view unit = unit_of(full_key);
+    if (unit == "um" && within(r, v / 1000.0)) {
+        return fmt::format("; {} looks like nanometres; the key is in µm ({} nm = {} µm)", v, v,
+                           v / 1000.0);
+    }
+    if (unit == "nm" && within(r, v * 1000.0)) {
+        return fmt::format("; {} looks like micrometres; the key is in nm ({} µm = {} nm)", v, v,
+                           v * 1000.0);
+    }
+    return {};
 }
 
 std::string type_name(const toml::node& node) {
@@ -77,6 +106,30 @@ std::string ParameterTable::location(std::string_view key) const {
     return fmt::format("{}:{}:{}", file, node->source().begin.line, node->source().begin.column);
 }
 
+std::string ParameterTable::written(std::string_view key) const {
+    const toml::node* node = table_ != nullptr ? table_->get(key) : nullptr;
+    if (node == nullptr) return {};
+    const toml::source_region& at = node->source();
+    if (at.begin && at.end && at.begin.line == at.end.line) {
+        // Columns count characters: the line's text is used only when it is plain ASCII.
+        std::istringstream lines(file_->text());
+        std::string line;
+        for (std::uint32_t l = 0; l < at.begin.line; ++l) std::getline(lines, line);
+        const bool ascii = std::all_of(line.begin(), line.end(),
+                                       [](char c) { return static_cast<unsigned char>(c) < 128; });
+        if (ascii && at.end.column > at.begin.column && at.end.column - 1 <= line.size())
+            return line.substr(at.begin.column - 1, at.end.column - at.begin.column);
+    }
+    std::ostringstream text;
+    if (const auto* value = node->as_floating_point())
+        text << *value;
+    else if (const auto* integer = node->as_integer())
+        text << *integer;
+    else
+        text << type_name(*node);
+    return text.str();
+}
+
 void ParameterTable::fail(std::string_view key, const std::string& message) const {
     throw InputError(fmt::format("{}: {} {}", location(key), full_key(key), message));
 }
@@ -112,8 +165,10 @@ double ParameterTable::number(std::string_view key, double default_value, Range 
     if (const auto* i = node->as_integer()) value = static_cast<double>(i->get());
     if (!value)
         fail(key, fmt::format("is {}: expected {} ({})", type_name(*node), describe(range), what));
-    if (!within(range, *value))
-        fail(key, fmt::format("= {}: expected {} ({})", *value, describe(range), what));
+    if (!within(range, *value)) {
+        fail(key, fmt::format("= {}: expected {} ({}){}", *value, describe(range), what,
+                              unit_hint(full_key(key), range, *value)));
+    }
     return *value;
 }
 
@@ -137,8 +192,10 @@ std::vector<double> ParameterTable::numbers(std::string_view key,
         if (const auto* n = item.as_integer()) value = static_cast<double>(n->get());
         if (!value)
             fail(key, fmt::format("at [{}] is {}: expected {}", i, type_name(item), expected));
-        if (!within(range, *value))
-            fail(key, fmt::format("at [{}] = {}: expected {}", i, *value, expected));
+        if (!within(range, *value)) {
+            fail(key, fmt::format("at [{}] = {}: expected {}{}", i, *value, expected,
+                                  unit_hint(full_key(key), range, *value)));
+        }
         values.push_back(*value);
     }
     return values;
@@ -223,16 +280,42 @@ ParameterTable ParameterTable::table(std::string_view key) {
 
 namespace {
 
-void collect_unused(const toml::table& table, const std::string& prefix,
-                    const std::set<std::string, std::less<>>& used, const std::string& file,
-                    std::string& out) {
+using KeySet = std::set<std::string, std::less<>>;
+
+std::string_view leaf_of(std::string_view full) {
+    const auto dot = full.rfind('.');
+    return dot == std::string_view::npos ? full : full.substr(dot + 1);
+}
+
+// "; did you mean 'scatterometer.image_size'?" for an unknown key: the nearest key that a getter
+// asked for in the same table (within two edits), else the same key asked for in another table
+// (a key in the wrong section); "" when there is neither.
+std::string suggestion(const KeySet& used, const std::string& prefix, std::string_view typed) {
+    std::vector<std::string> siblings;
+    const std::string head = prefix.empty() ? "" : prefix + ".";
+    for (const std::string& key : used) {
+        if (key.starts_with(head) && key.find('.', head.size()) == std::string::npos)
+            siblings.push_back(key.substr(head.size()));
+    }
+    const std::string near = nearest_name(typed, siblings);
+    if (!near.empty()) return fmt::format("; did you mean '{}{}'?", head, near);
+    for (const std::string& key : used) {
+        if (key.find('.') != std::string::npos && leaf_of(key) == typed)
+            return fmt::format("; did you mean '{}'? (it belongs in [{}])", key,
+                               key.substr(0, key.rfind('.')));
+    }
+    return {};
+}
+
+void collect_unused(const toml::table& table, const std::string& prefix, const KeySet& used,
+                    const std::string& file, std::string& out) {
     for (const auto& [key, node] : table) {
         const std::string full =
             prefix.empty() ? std::string(key.str()) : prefix + "." + std::string(key.str());
         if (!used.contains(full)) {
             const auto& begin = key.source().begin ? key.source().begin : node.source().begin;
-            out +=
-                fmt::format("\n  {}:{}:{}: unknown key '{}'", file, begin.line, begin.column, full);
+            out += fmt::format("\n  {}:{}:{}: unknown key '{}'{}", file, begin.line, begin.column,
+                               full, suggestion(used, prefix, key.str()));
         } else if (const auto* sub = node.as_table()) {
             collect_unused(*sub, full, used, file, out);
         }

@@ -70,6 +70,8 @@ public:
     void reject_unused() const;
     // "file:line:col" of this table (or of one of its keys), for errors raised later.
     std::string location(std::string_view key = {}) const;
+    // The value of `key` as the file writes it ("3e2", "[400, 500]"); "" when it is absent.
+    std::string written(std::string_view key) const;
     const std::string& path() const { return path_; }
 
 private:
