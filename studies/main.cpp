@@ -29,6 +29,7 @@
 #include "common/error.h"
 #include "common/interrupt.h"
 #include "common/memory_limit.h"
+#include "common/spelling.h"
 #include "common/version.h"
 #include "studies/bsdf_export.h"
 #include "studies/default_study.h"
@@ -108,22 +109,6 @@ std::string read_file(const std::string& path, std::string_view what) {
     return buffer.str();
 }
 
-std::size_t edit_distance(std::string_view a, std::string_view b) {
-    std::vector<std::size_t> row(b.size() + 1);
-    for (std::size_t j = 0; j <= b.size(); ++j) row[j] = j;
-    for (std::size_t i = 1; i <= a.size(); ++i) {
-        std::size_t diagonal = row[0];
-        row[0] = i;
-        for (std::size_t j = 1; j <= b.size(); ++j) {
-            const std::size_t next =
-                std::min({row[j] + 1, row[j - 1] + 1, diagonal + (a[i - 1] != b[j - 1])});
-            diagonal = row[j];
-            row[j] = next;
-        }
-    }
-    return row[b.size()];
-}
-
 // After CLI11's own message: for each argument that is neither an option, a subcommand nor a
 // file, the nearest option or subcommand name within two edits.
 void suggest(const CLI::App& app, int argc, char** argv) {
@@ -150,12 +135,7 @@ void suggest(const CLI::App& app, int argc, char** argv) {
         const bool known = std::find(names.begin(), names.end(), arg) != names.end();
         if (known || (arg.rfind("-", 0) != 0 && fs::exists(arg))) continue;
         const auto& pool = arg.rfind("-", 0) == 0 ? names : subcommands;
-        std::string best;
-        std::size_t best_distance = 3;
-        for (const std::string& name : pool) {
-            const std::size_t d = edit_distance(arg, name);
-            if (d < best_distance) best = name, best_distance = d;
-        }
+        const std::string best = plumage::nearest_name(arg, pool);
         if (!best.empty())
             std::cerr << fmt::format("plumage: '{}': did you mean '{}'?\n", arg, best);
     }
@@ -205,6 +185,39 @@ std::string run_fit(st::FitCommand command, const std::vector<std::string>& star
             summary += fmt::format("  {} = {:.6g} ± {:.3g} {}\n", p.name, p.value, p.sigma, p.unit);
     }
     return summary;
+}
+
+// `plumage export-bsdf`: beside its source, or where -o says; under --out when that is given, as
+// every subcommand writes (the files inside it, a relative -o inside it too). A folder made for
+// --out is removed again when the export fails (nothing is written on bad input).
+std::string run_bsdf_export(st::BsdfExportOptions o, const CommonOptions& common, bool out_given) {
+    st::refuse_limits("export-bsdf", common.limits, "an export tabulates a model exactly");
+    std::vector<fs::path> made;  // deepest first
+    if (out_given) {
+        if (o.output.is_absolute()) {
+            throw plumage::InputError(fmt::format(
+                "--out {} with -o {}: an absolute -o cannot be under --out; give -o relative to "
+                "--out (or leave out one of them)",
+                common.output, o.output.string()));
+        }
+        const fs::path root = common.output;
+        for (fs::path p = root; !p.empty() && !fs::exists(p); p = p.parent_path())
+            made.push_back(p);
+        fs::create_directories(root);
+        o.output = o.output.empty() ? root : root / o.output;
+    }
+    st::BsdfExportResult r;
+    try {
+        r = st::export_bsdf(o);
+    } catch (...) {
+        std::error_code ignored;  // removes only empty folders
+        for (const fs::path& p : made) fs::remove(p, ignored);
+        throw;
+    }
+    std::string summary;
+    for (const fs::path& f : r.files) summary += fmt::format("plumage: wrote {}\n", f.string());
+    return summary +
+           fmt::format("plumage: {} file(s) in {:.1f} s\n", r.files.size(), r.wall_seconds);
 }
 
 // The command line: options, subcommands and what they were given.
@@ -263,6 +276,14 @@ struct CommandLine {
             add_common_options(*sub, common);
     }
 
+    // Whether --out was given, before or after the subcommand, rather than left at its default.
+    bool out_given() {
+        std::size_t count = app.get_option("--out")->count();
+        for (CLI::App* sub : {thin_film_cmd, run_cmd, geometry_cmd, fit_cmd, bsdf_cmd})
+            count += sub->get_option("--out")->count();
+        return count > 0;
+    }
+
     // `export-bsdf` (studies/bsdf_export.h): a model of a study as an RGL tensor .bsdf.
     void add_bsdf_export() {
         bsdf_cmd = app.add_subcommand(
@@ -275,7 +296,8 @@ struct CommandLine {
                          "'huang2022' or 'filip2024:<preset>'")
             ->required();
         bsdf_cmd->add_option("-o,--output", bsdf.output,
-                             "file, or folder (default: beside SOURCE)");
+                             "file, or folder (default: beside SOURCE; with --out DIR: inside "
+                             "DIR, and a relative -o too)");
         bsdf_cmd->add_option("--theta-nodes", bsdf.theta_nodes, "θ_i nodes over 0–85°")
             ->capture_default_str();
         bsdf_cmd->add_option("--phi-nodes", bsdf.phi_nodes, "φ_i nodes over ±180° (1: isotropic)")
@@ -336,13 +358,7 @@ std::string run_command(CommandLine& cli) {
         cli.fit.data = cli.fit_data;
         return run_fit(cli.fit, cli.fit_starts, common);
     }
-    if (cli.bsdf_cmd->parsed()) {
-        const auto r = st::export_bsdf(cli.bsdf);
-        std::string summary;
-        for (const fs::path& f : r.files) summary += fmt::format("plumage: wrote {}\n", f.string());
-        return summary +
-               fmt::format("plumage: {} file(s) in {:.1f} s\n", r.files.size(), r.wall_seconds);
-    }
+    if (cli.bsdf_cmd->parsed()) return run_bsdf_export(cli.bsdf, common, cli.out_given());
     if (cli.thin_film_cmd->parsed()) {
         st::refuse_limits("thin-film", common.limits, "the chart is an exact evaluation");
         cli.thin_film.output_dir = fs::path(common.output) / "thin_film";
