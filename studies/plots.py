@@ -19,6 +19,7 @@
   plots.py btf_tiles H5 PNG      BTF images of a few geometries (Filip 2024 Fig. 9), one exposure
   plots.py geometry_preview H5 PNG  a cut through built geometry in um: phases, legend, scale bar
   plots.py wave_validity_map H5 PNG  PO vs GO relative L1 (%) over width x one parameter, 5 % contour
+  plots.py level_spectra H5 PNG  R(lambda) of one scene by full wave (two grids), physical and ray optics
   plots.py fit_residuals H5 PNG  a fit's (model - data)/sigma per wavelength on the data's grid
   plots.py batch CSV PNG         every plot a CSV lists (columns kind, input, png; PNG unused)
 """
@@ -908,6 +909,32 @@ def build_wave_validity_map(h5_path):
     return fig
 
 
+def build_level_spectra(h5_path):
+    """One scene of the wave-validity study judged by full wave (studies/wave_validity_live.cpp):
+    the reflectance of the endless row against wavelength by full wave (fine grid, the coarse one
+    dashed: their gap is the reference's resolution error), physical optics and ray optics."""
+    import h5py
+
+    with h5py.File(h5_path, "r") as f:
+        wl = f["lambda_nm"][()]
+        curves = [("full_wave", "full wave (fine grid)", "black", "-", "o"),
+                  ("full_wave_coarse", "full wave (coarse grid)", "0.5", "--", None),
+                  ("physical_optics", "physical optics", "tab:orange", "-", "s"),
+                  ("ray_optics", "ray optics + thin film", "tab:blue", "-", "^")]
+        data = {name: f[name][()] for name, *_ in curves}
+        title = _text(f.attrs["title"])
+    fig, ax = plt.subplots(figsize=(7.5, 4.5))
+    for name, label, colour, style, marker in curves:
+        ax.plot(wl, data[name], color=colour, ls=style, marker=marker, ms=4, label=label)
+    ax.set_xlabel("wavelength (nm)")
+    ax.set_ylabel("reflectance R (all orders, unpolarised)")
+    ax.set_ylim(bottom=0.0)
+    ax.grid(alpha=0.3)
+    ax.legend(fontsize=8)
+    ax.set_title(title, fontsize=9)
+    return fig
+
+
 KINDS = {  # kind -> (builder, dpi)
     "spectra": (build_spectra, 120),
     "chart": (build_chart, 120),
@@ -927,6 +954,7 @@ KINDS = {  # kind -> (builder, dpi)
     "btf_tiles": (build_btf_tiles, 110),
     "geometry_preview": (build_geometry_preview, 110),
     "wave_validity_map": (build_wave_validity_map, 110),
+    "level_spectra": (build_level_spectra, 120),
     "fit_residuals": (build_fit_residuals, 110),
 }
 

@@ -20,6 +20,8 @@
 #include "common/error.h"
 #include "common/version.h"
 #include "geometry/barbule.h"
+#include "sim/fullwave/full_wave_2d.h"
+#include "sim/optics/material.h"
 #include "sim/wave/full_wave_reference.h"
 #include "sim/wave/ray_optics_validity.h"
 #include "studies/plots.h"
@@ -28,6 +30,7 @@
 #include "studies/study.h"
 #include "studies/study_common.h"
 #include "studies/study_file.h"
+#include "studies/wave_validity_live.h"
 #include "virtual_gonio/hdf5_file.h"
 #include "virtual_gonio/record_provenance.h"
 
@@ -66,6 +69,7 @@ struct Settings {
     wave::RayOpticsValidityOptions options;
     std::string full_wave_key;          // as written; empty: no full-wave check
     wave::FullWaveReference full_wave;  // read before any work starts
+    LiveFullWaveSettings live;          // [full_wave] live: full wave computed in the run
 };
 
 Barbule read_barbule(ParameterTable t) {
@@ -147,7 +151,39 @@ void read_detector(ParameterTable detector, Settings& s) {
         "both levels drop reflected light that a neighbour blocks (slower: ~100× PO's cost)");
 }
 
+void read_live(ParameterTable& t, Settings& s) {
+    LiveFullWaveSettings& l = s.live;
+    l.on = t.boolean("live", false,
+                     "full wave computed in the run for each scene of the maps, within the budget");
+    l.resolution_px_per_um =
+        t.number("resolution_px_per_um", l.resolution_px_per_um, between(10.0, 200.0),
+                 "the live full wave's coarse grid in px/µm (the fine one is 1.5 times finer; "
+                 "at least λ/(10 n) of the shortest wavelength)");
+    l.decay = t.number("decay", l.decay, {1e-12, 1e-2, true, false},
+                       "the live full wave's stop rule: the field's decay from its peak");
+    l.budget_minutes = t.number("budget_minutes", l.budget_minutes, non_negative(),
+                                "the wall time the live full wave may take, in minutes");
+    l.tolerance = t.number("tolerance", l.tolerance, {0.0, 1.0, true, true},
+                           "the largest resolution error of a live full-wave reference that "
+                           "judges a scene (a fraction)");
+    if (!l.on) return;
+    // The grid against the λ/(10 n) rule of keratin and melanin (full wave's own check, on two
+    // bodies large enough that their thickness does not bind), before any work.
+    namespace fw = sim::fullwave;
+    fw::CrossSection2d materials;
+    materials.bodies.push_back({fw::ellipse({-2.0, 0.0}, 1.0, 1.0), optics::keratin()});
+    materials.bodies.push_back({fw::ellipse({2.0, 0.0}, 1.0, 1.0), optics::melanin()});
+    const double needed = fw::minimum_resolution_px_per_um(materials, s.wavelengths_nm);
+    if (l.resolution_px_per_um < needed)
+        throw InputError(fmt::format(
+            "{}: full_wave.resolution_px_per_um = {:g}: expected at least {:.4g} px/µm, the "
+            "λ/(10 n) rule of keratin and melanin at {:g} nm (full wave's limit)",
+            t.location("resolution_px_per_um"), l.resolution_px_per_um, needed,
+            s.wavelengths_nm.front()));
+}
+
 void read_full_wave(ParameterTable full_wave, const fs::path& source, Settings& s) {
+    read_live(full_wave, s);
     s.full_wave_key = full_wave.string(
         "reference", "", {},
         "folder of the full-wave (Meep) reference, far_field.csv and convergence.csv, relative "
@@ -725,6 +761,7 @@ void write_record(const fs::path& path, const WaveValidityResult& r, const Setti
     write_common(h5, r, s);
     for (const WaveValidityMap& m : r.maps) write_map(h5, "maps/" + m.axis, m, r);
     if (!r.full_wave.empty()) write_full_wave(h5, r, s);
+    if (s.live.on) write_live(h5, r, s.live);
     h5.set_attribute("/", "description",
                      "Physical optics (reflected part) against geometric optics (mirror rays) "
                      "for 2D barbule rows: sim/wave/ray_optics_validity.h");
@@ -907,6 +944,7 @@ void write_report(const fs::path& path, const WaveValidityResult& r, const Setti
           "the threshold; an indication of the scale, not a measurement (the L1 there includes "
           "its noise floor).\n\n";
     if (!r.full_wave.empty()) md << full_wave_section(r, s);
+    if (s.live.on) md << live_section(r, s.live);
     md << "## Cost of each level\n\nMean per map point (all wavelengths, incidences, both "
           "polarisations, every realisation), by width:\n\n"
        << cost_table(r)
@@ -984,6 +1022,33 @@ void compare_map(WaveValidityMap& m, std::size_t n_inc, std::size_t n_w, WaveVal
     }
 }
 
+// The maps' scenes for the live full wave: each (barbule, width, incidence) once, named by the
+// map that varies it ("base" where it is the base barbule), with the map's verdict there.
+std::vector<LiveScene> live_scenes(const Settings& s, const WaveValidityResult& r) {
+    std::map<std::array<double, 5>, bool> seen;
+    std::vector<LiveScene> out;
+    const std::size_t n_w = s.widths_um.size();
+    for (std::size_t k = 0; k < s.axes.size(); ++k) {
+        const Axis& axis = s.axes[k];
+        for (std::size_t v = 0; v < axis.values.size(); ++v) {
+            const Barbule b = with_axis(s.base, axis.key, axis.values[v]);
+            const bool base = b.b == s.base.b && b.d == s.base.d && b.H == s.base.H;
+            for (std::size_t w = 0; w < n_w; ++w)
+                for (std::size_t i = 0; i < s.incidence_deg.size(); ++i) {
+                    if (!seen.emplace(std::array{b.b, b.d, b.H, s.widths_um[w], s.incidence_deg[i]},
+                                      true)
+                             .second)
+                        continue;
+                    out.push_back(
+                        {base ? "base" : fmt::format("{} = {:g}", axis.key, axis.values[v]),
+                         0.5 * s.widths_um[w], b.b, b.phi0, b.phi1, b.d, b.g, b.H, b.mu,
+                         s.incidence_deg[i], r.maps[k].points[v * n_w + w].verdict[i]});
+                }
+        }
+    }
+    return out;
+}
+
 // Report: record, CSVs, figures and report.md, staged and committed together.
 fs::path write_outputs(const Settings& s, WaveValidityResult& r, const std::string& study_text,
                        const fs::path& results_root, const StudyProgress& clock, double cpu0) {
@@ -994,6 +1059,7 @@ fs::path write_outputs(const Settings& s, WaveValidityResult& r, const std::stri
     write_record(dir / "wave_validity.h5", r, s, study_text, process_cpu_seconds() - cpu0);
     write_csv(dir / "wave_validity.csv", r);
     if (!r.full_wave.empty()) write_full_wave_csv(dir / "full_wave_check.csv", r);
+    if (s.live.on) write_live_csv(dir / "full_wave_live.csv", r);
     std::vector<PlotJob> jobs;
     std::vector<std::string> pngs;
     for (const WaveValidityMap& m : r.maps) {
@@ -1001,6 +1067,10 @@ fs::path write_outputs(const Settings& s, WaveValidityResult& r, const std::stri
         write_figure(dir / (stem + ".h5"), m, r, s);
         jobs.push_back({"wave_validity_map", dir / (stem + ".h5"), dir / (stem + ".png")});
         pngs.push_back(stem + ".png");
+    }
+    if (const int worst = worst_physical_optics_scene(r); worst >= 0) {
+        write_live_figure(dir / "live_spectra.h5", r.live[worst], r.threshold);
+        jobs.push_back({"level_spectra", dir / "live_spectra.h5", dir / "live_spectra.png"});
     }
     clock.say("plots");
     run_plots(jobs, dir / "plots.csv");
@@ -1044,6 +1114,12 @@ WaveValidityResult run_wave_validity_study(const std::string& study_text,
             fmt::format("full-wave check: {} reference curves", s.full_wave.far_field.size()));
         r.full_wave = full_wave_check(s);
         r.full_wave_verdict = full_wave_verdict(r);
+    }
+
+    if (s.live.on) {  // compare with full wave, computed here
+        r.live = judge_live(live_scenes(s, r), s.wavelengths_nm, s.live, r.threshold, clock,
+                            r.live_seconds_per_cell_run);
+        r.live_verdict = live_verdict(r);
     }
 
     r.output_dir = write_outputs(s, r, study_text, results_root, clock, cpu0);

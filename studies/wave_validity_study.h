@@ -78,6 +78,28 @@ struct WaveValidityFullWaveRow {
     double shadow_share = 0.0;     // Σ W_PO,shadow / Σ W_PO,total over the centres
 };
 
+// One scene of the map judged live by full wave (`[full_wave] live = true`; header above and
+// studies/wave_validity_live.h): the endless periodic row of the scene's barbule (no jitter),
+// its reflectance R(λ), all orders, unpolarised, by full wave on two grids, by physical optics
+// and by ray optics + film.
+struct WaveValidityLivePoint {
+    std::string scene;        // the map points it stands for: "base" or "<axis> = <value>"
+    std::string map_verdict;  // the map's PO − GO verdict there (its jittered rows)
+    double width_um = 0.0, theta_i_deg = 0.0, period_um = 0.0;
+    // "judged", "unconverged" (resolution error beyond the tolerance: no verdict),
+    // "not afforded" (predicted beyond the budget left), "not a barbule" (the full-wave body
+    // cannot be built: film and gap fill the cross-section), "refused" (a full-wave limit)
+    std::string status, reason;
+    double cell_runs = 0.0, fine_cells = 0.0;  // Σ cells over the runs; one fine run's grid
+    double predicted_s = 0.0, seconds = 0.0, max_fit_index_error = 0.0;
+    std::vector<double> lambda_nm, full_wave, full_wave_coarse, physical_optics, ray_optics;
+    double band_full_wave = 0.0, resolution_error = 0.0;  // coarse band mean / fine's − 1
+    double po_error = 0.0, go_error = 0.0;                // band mean / full wave's − 1
+    double po_worst = 0.0, go_worst = 0.0;  // largest |R_level(λ)/R_FW(λ) − 1| over λ
+    double po_worst_lambda_nm = 0.0, go_worst_lambda_nm = 0.0;
+    std::string level;  // judged: the cheapest level within the threshold, or "full wave"
+};
+
 struct WaveValidityResult {
     std::filesystem::path output_dir;
     std::vector<double> widths_um, wavelengths_nm, incidence_deg;
@@ -89,6 +111,9 @@ struct WaveValidityResult {
     double wall_seconds = 0.0;
     std::vector<WaveValidityFullWaveRow> full_wave;  // empty without [full_wave]
     std::string full_wave_verdict;                   // the report's generated sentence(s)
+    std::vector<WaveValidityLivePoint> live;         // empty unless [full_wave] live = true
+    double live_seconds_per_cell_run = 0.0;          // the cost rate the budget used at the end
+    std::string live_verdict;                        // the report's generated sentence(s)
 };
 
 // InputError on any bad key or value (file:line:col), before anything is written.

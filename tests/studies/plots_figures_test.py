@@ -258,6 +258,20 @@ def wave_validity_map(d):
     return path
 
 
+def level_spectra(d):
+    """Seven wavelengths of one scene: full wave on two grids, physical and ray optics."""
+    path = os.path.join(d, "live_spectra.h5")
+    wl = np.linspace(400.0, 700.0, 7)
+    with h5py.File(path, "w") as f:
+        f["lambda_nm"] = wl
+        f["full_wave"] = 0.1 + 0.05 * np.sin(wl / 50.0)
+        f["full_wave_coarse"] = 0.1 + 0.051 * np.sin(wl / 50.0)
+        f["physical_optics"] = 0.12 + 0.05 * np.sin(wl / 50.0)
+        f["ray_optics"] = 0.13 + 0.05 * np.sin(wl / 50.0)
+        f.attrs["title"] = "base, width 8 µm, θ_i = 0°: physical optics +20 % (band)"
+    return path
+
+
 def fit_residuals(d):
     """Four panels (one grid cell left empty) of residuals with gaps, as studies/fit_command.cpp
     writes them."""
@@ -299,6 +313,7 @@ CASES = {
     "btf_tiles": ([btf_tiles], "titled", False),
     "geometry_preview": ([geometry_lines, geometry_polygons], "all", False),
     "wave_validity_map": ([wave_validity_map], "all", True),
+    "level_spectra": ([level_spectra], "all", False),
     "fit_residuals": ([fit_residuals], "all", True),
 }
 

@@ -12,6 +12,7 @@
 #include <string>
 #include <vector>
 
+#include <fmt/format.h>
 #include <gtest/gtest.h>
 
 #include "common/error.h"
@@ -183,6 +184,94 @@ TEST(WaveValidityStudy, QuickStudyRecordsWhatItReturns) {
     fs::remove_all(root);
 }
 
+// A study of two small scenes (b = 1, widths 2 and 2.4 µm, film 0.3 µm over a 0.3 µm gap: melanin
+// cores 0.4 and 0.6 µm across; periods 1.25 and 1.5 µm) at a coarse live grid: with no budget
+// nothing runs and the prediction is stated; with a budget full wave judges it and every number of
+// the verdict is in the record, the CSV and the report.
+std::string live_study(double budget_minutes) {
+    return fmt::format(R"(study = "wave_validity"
+name = "live"
+[barbule]
+b = 1.0
+film_thickness_um = 0.3
+[row]
+realisations = 2
+[sweep]
+widths_um = [2, 2.4]
+b = [1.0]
+film_thickness_um = [0.3]
+H = [1.25]
+[spectrum]
+first_nm = 550
+last_nm = 650
+step_nm = 100
+[illumination]
+incidence_deg = [0]
+[full_wave]
+live = true
+resolution_px_per_um = 32
+decay = 1e-3
+budget_minutes = {}
+)",
+                       budget_minutes);
+}
+
+TEST(WaveValidityStudy, LiveFullWaveJudgesWhatTheBudgetAffords) {
+    const fs::path root = temporary_root("live");
+    const WaveValidityResult none =
+        run_wave_validity_study(live_study(0), "live.toml", root, false);
+    ASSERT_EQ(none.live.size(), 2u);  // the three maps share their base points
+    for (const WaveValidityLivePoint& p : none.live) {
+        EXPECT_EQ(p.status, "not afforded");
+        EXPECT_GT(p.predicted_s, 0.0);
+        EXPECT_EQ(p.seconds, 0.0);
+    }
+    fs::remove_all(root);
+
+    const WaveValidityResult r = run_wave_validity_study(live_study(5), "live.toml", root, false);
+    ASSERT_EQ(r.live.size(), 2u);
+    ASSERT_EQ(r.live[0].status, "judged") << r.live[0].reason;
+    for (const WaveValidityLivePoint& p : r.live) {
+        if (p.status != "judged") continue;
+        EXPECT_LE(std::abs(p.resolution_error), 0.02);
+        ASSERT_EQ(p.lambda_nm, (std::vector<double>{550.0, 650.0}));
+        for (std::size_t k = 0; k < 2; ++k) {
+            EXPECT_GT(p.full_wave[k], 0.0);
+            EXPECT_LT(p.full_wave[k], 1.0);
+        }
+        // the verdict follows the rule: the cheapest level whose band error is within 5 %
+        const std::string expected = std::abs(p.go_error) <= 0.05   ? "ray optics + thin film"
+                                     : std::abs(p.po_error) <= 0.05 ? "physical optics"
+                                                                    : "full wave";
+        EXPECT_EQ(p.level, expected);
+        EXPECT_GT(p.seconds, 0.0);
+    }
+    const WaveValidityLivePoint& p = r.live[0];
+    EXPECT_GT(r.live_seconds_per_cell_run, 0.0);
+    const fs::path dir = root / "live";
+    const fs::path h5 = dir / "wave_validity.h5";
+    EXPECT_EQ(record::read_dataset(h5, "full_wave_live/physical_optics_error").values[0],
+              p.po_error);
+    EXPECT_FALSE(
+        record::read_string_attribute(h5, "full_wave_live/resolution_error", "units").empty());
+    EXPECT_EQ(
+        record::read_string_attribute(h5, "full_wave_live", "levels").substr(0, p.level.size()),
+        p.level);
+    EXPECT_EQ(record::read_string_attribute(h5, "full_wave_live", "verdict"), r.live_verdict);
+    std::ifstream csv(dir / "full_wave_live.csv");
+    int lines = 0;
+    for (std::string line; std::getline(csv, line);) ++lines;
+    EXPECT_EQ(lines, 5);  // header, two scenes of two wavelengths
+    const std::string report = testing::read_text_file(dir / "report.md");
+    EXPECT_NE(report.find("## Judged by full wave, live"), std::string::npos);
+    EXPECT_NE(report.find(r.live_verdict), std::string::npos);
+    if (std::abs(p.po_error) > 0.05 || std::abs(r.live[1].po_error) > 0.05) {
+        EXPECT_NE(report.find("Where physical optics fails"), std::string::npos);
+        EXPECT_TRUE(fs::exists(dir / "live_spectra.h5"));
+    }
+    fs::remove_all(root);
+}
+
 TEST(WaveValidityStudy, BadFilesNameTheKeyAndLine) {
     EXPECT_EQ(error_of("study = \"wave_validity\"\nname = \"x\"\n"), "(accepted)");
     const std::string unknown = error_of("study = \"wave_validity\"\n[sweep]\nwidth_um = [1, 2]\n");
@@ -204,6 +293,12 @@ TEST(WaveValidityStudy, BadFilesNameTheKeyAndLine) {
     EXPECT_NE(folder.find("bad.toml:3"), std::string::npos) << folder;
     EXPECT_NE(folder.find("full_wave.reference = \"no/such/folder\""), std::string::npos) << folder;
     EXPECT_NE(folder.find("expected a folder"), std::string::npos) << folder;
+    // A live full-wave grid coarser than λ/(10 n) is refused when the file is read.
+    const std::string grid = error_of(
+        "study = \"wave_validity\"\n[full_wave]\nlive = true\nresolution_px_per_um = 20\n");
+    EXPECT_NE(grid.find("bad.toml:4"), std::string::npos) << grid;
+    EXPECT_NE(grid.find("full_wave.resolution_px_per_um = 20"), std::string::npos) << grid;
+    EXPECT_NE(grid.find("λ/(10 n)"), std::string::npos) << grid;
 }
 
 }  // namespace
