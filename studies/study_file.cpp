@@ -299,12 +299,19 @@ std::string suggestion(const KeySet& used, const std::string& prefix, std::strin
     }
     const std::string near = nearest_name(typed, siblings);
     if (!near.empty()) return fmt::format("; did you mean '{}{}'?", head, near);
+    // Of the tables that have the key, the one nearest this table (species.parrot.materials
+    // for a key under species.parrot, not species.flamingo.materials).
+    const std::string* best = nullptr;
+    std::size_t best_shared = 0;
     for (const std::string& key : used) {
-        if (key.find('.') != std::string::npos && leaf_of(key) == typed)
-            return fmt::format("; did you mean '{}'? (it belongs in [{}])", key,
-                               key.substr(0, key.rfind('.')));
+        if (key.find('.') == std::string::npos || leaf_of(key) != typed) continue;
+        const auto shared = static_cast<std::size_t>(
+            std::mismatch(key.begin(), key.end(), head.begin(), head.end()).first - key.begin());
+        if (best == nullptr || shared > best_shared) best = &key, best_shared = shared;
     }
-    return {};
+    if (best == nullptr) return {};
+    return fmt::format("; did you mean '{}'? (it belongs in [{}])", *best,
+                       best->substr(0, best->rfind('.')));
 }
 
 void collect_unused(const toml::table& table, const std::string& prefix, const KeySet& used,

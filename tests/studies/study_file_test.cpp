@@ -158,6 +158,22 @@ TEST(StudyFile, UnknownKeySuggestsTheNearestKeyOfItsTable) {
     EXPECT_TRUE(contains(m, "unknown key 'scaterometer'; did you mean 'scatterometer'?")) << m;
 }
 
+TEST(StudyFile, KeyInTheWrongTableSuggestsTheNearestTableThatHasIt) {
+    const auto read = [](ParameterTable& root) {
+        for (const char* name : {"a", "b"}) {
+            ParameterTable entry = root.table("species").table(name);
+            entry.table("materials").number("cortex_film_um", 0.0, {}, "cortex");
+            entry.table("patch").number("length_um", 1.0, {}, "length");
+        }
+    };
+    const std::string m = message_of("[species.b.patch]\ncortex_film_um = 1\n", read);
+    EXPECT_TRUE(contains(m,
+                         "unknown key 'species.b.patch.cortex_film_um'; did you mean "
+                         "'species.b.materials.cortex_film_um'? (it belongs in "
+                         "[species.b.materials])"))
+        << m;
+}
+
 TEST(StudyFile, SpellingDistanceCountsSwapsAsOneEdit) {
     EXPECT_EQ(edit_distance("lenght", "length"), 1u);
     EXPECT_EQ(edit_distance("image_sise", "image_size"), 1u);
