@@ -28,6 +28,7 @@
 #include "sim/wave/ray_optics_validity.h"
 #include "studies/figure_data.h"
 #include "studies/fullwave_rock_dove.h"  // generated: the embedded full-wave reference
+#include "studies/level_choice.h"
 #include "studies/plots.h"
 #include "studies/sections.h"
 #include "studies/staged_directory.h"
@@ -97,6 +98,7 @@ struct Settings {
     std::uint64_t fit_quanta = 1000000;
     int fit_pixel_stride = 3;
     std::uint64_t seed = kDefaultSeed;
+    LevelSettings level;  // [level]: which level of physics measures, certified by full wave
 };
 
 // [scatterometer] and [scatterometer.hemisphere]
@@ -228,6 +230,7 @@ Settings read_settings(StudyFile& file, std::string& name, const fs::path& sourc
     read_validation(root.table("validation"), s);
     read_convergence(root.table("convergence"), s);
     read_fit(root.table("fit"), s);
+    s.level = read_level(root.table("level"));
     s.seed = read_seed(root);
     root.reject_unused();
     return s;
@@ -1172,49 +1175,74 @@ std::string row_table(const sim::wave::RowVerdict2d& v) {
     return table;
 }
 
-// The row of this study's barbules, endless and periodic, judged by full wave through its
-// reflectance (tests/reference/fullwave_rock_dove_row; sim/wave/levels_against_full_wave.h).
-std::string full_wave_row_judgement(const Run& run, RockDoveResult& result) {
-    if (!matches_reference(run.s) || std::abs(run.s.row.H - 1.25) > 1e-9) return {};
-    run.clock.say("level of physics: the barbule row against its full-wave reference");
-    const auto start = std::chrono::steady_clock::now();
-    const geometry::BarbuleRowParams& p = run.s.row;
+// Full wave's certificate of this study's row (studies/level_choice.h): the committed reference
+// where it covers the row (tests/reference/fullwave_rock_dove_row), else full wave computed here
+// when [level] full_wave_budget_minutes affords it, else none, with the reason.
+LevelCertificate row_certificate(const Settings& s, const StudyProgress& clock) {
+    const geometry::BarbuleRowParams& p = s.row;
     const double a = p.cell.semi_major_um;
-    double coarse_res = 0.0, fine_res = 0.0;
-    const std::vector<sim::wave::RowReflectanceFullWave> reference =
-        embedded_row_reflectances(coarse_res, fine_res);
     const sim::wave::Row2d row =
         sim::wave::barbule_row_2d(a, p.cell.b, p.cell.phi0, p.cell.phi1, p.cell.film_thickness_um,
                                   p.cell.melanin_depth_um, p.H, p.mu, 1);
     const double step =
         0.95 * sim::wave::barbule_row_min_radius_um(a, p.cell.b, p.cell.phi0, p.cell.phi1);
-    const sim::wave::RowVerdict2d v =
-        sim::wave::judge_row_against_full_wave(row, 0.0, reference, 0.05, step);
+    LevelCertificate c;
+    std::vector<sim::wave::RowReflectanceFullWave> reference;
+    if (matches_reference(s) && std::abs(p.H - 1.25) <= 1e-9) {
+        clock.say("level of physics: the barbule row against its committed full-wave reference");
+        double coarse_res = 0.0, fine_res = 0.0;
+        reference = embedded_row_reflectances(coarse_res, fine_res);
+        c.source = fmt::format(
+            "the committed reference tests/reference/fullwave_rock_dove_row: {} wavelengths "
+            "{:.0f}–{:.0f} nm, TE and TM, at {:.4g} and {:.4g} px/µm",
+            reference.size(), reference.front().lambda_nm, reference.back().lambda_nm, coarse_res,
+            fine_res);
+    } else {
+        const RowScene scene{a,   p.cell.b, p.cell.film_thickness_um, p.cell.melanin_depth_um,
+                             p.H, p.mu,     s.beam_incidence};
+        const LiveRowReference live = live_row_reference(scene, s.wavelengths, s.level, clock);
+        if (live.reflectance.empty()) {
+            c.source = live.why_none;
+            return c;
+        }
+        reference = live.reflectance;
+        c.source = live.source;
+    }
+    c.verdict = sim::wave::judge_row_against_full_wave(row, s.beam_incidence, reference,
+                                                       s.level.tolerance, step);
+    c.present = true;
+    return c;
+}
+
+// The row of this study's barbules, endless and periodic, judged by full wave through its
+// reflectance (the certificate above; sim/wave/levels_against_full_wave.h).
+std::string full_wave_row_judgement(const Run& run, const LevelCertificate& c,
+                                    RockDoveResult& result) {
+    if (!c.present) return {};
+    const geometry::BarbuleRowParams& p = run.s.row;
+    const sim::wave::RowVerdict2d& v = c.verdict;
     result.row_full_wave_level = v.level;
     result.row_full_wave_reflectance = v.band_full_wave;
     result.row_full_wave_resolution_error = v.resolution_error;
     result.row_physical_optics_error = v.po_error;
     result.row_ray_optics_error = v.go_error;
-    const double seconds =
-        std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
     return fmt::format(
         "**On a row, judged by full wave.** The same barbules as an endless row, one every {:g} "
-        "µm, lit at 0°, in full wave with Bloch boundaries (`full_wave_row`; the reference "
-        "embedded from tests/reference/fullwave_rock_dove_row: {} wavelengths {:.0f}–{:.0f} nm, "
-        "TE and TM, at {:.4g} and {:.4g} px/µm): band-mean reflectance, all diffraction orders, "
-        "unpolarised, **R = {:.4f}**; the coarse grid gives {:.4f} ({:+.2f} %: {}). From rows of "
-        "12 and 4 barbules, their ends cancelled: physical optics R = {:.4f} ({:+.1f} %), ray "
-        "optics + film R = {:.4f} ({:+.1f} %).\n\n{}\n**Cheapest level within 5 % of full wave "
-        "on the row: {}** ({:.1f} s). This verdict is on the power the row sends back, band-mean "
-        "and over all directions; how that power is spread over directions is judged above, on "
-        "one barbule through the 5° window. On the row the cheaper levels also leave out what "
-        "passes between and through the barbules and comes back after a second barbule (they "
-        "trace one bounce off the lit arcs); full wave keeps all of it.\n\n",
-        p.H * a, v.lambda_nm.size(), v.lambda_nm.front(), v.lambda_nm.back(), coarse_res, fine_res,
-        v.band_full_wave, v.band_full_wave_coarse, 100.0 * v.resolution_error,
+        "µm, lit at {:g}°, in full wave with Bloch boundaries (`full_wave_row`; {}): band-mean "
+        "reflectance, all diffraction orders, unpolarised, **R = {:.4f}**; the coarse grid gives "
+        "{:.4f} ({:+.2f} %: {}). From rows of 12 and 4 barbules, their ends cancelled: physical "
+        "optics R = {:.4f} ({:+.1f} %), ray optics + film R = {:.4f} ({:+.1f} %).\n\n{}\n"
+        "**Cheapest level within {:g} % of full wave on the row: {}**. This verdict is on the "
+        "power the row sends back, band-mean and over all directions; how that power is spread "
+        "over directions is judged above, on one barbule through the 5° window. On the row the "
+        "cheaper levels also leave out what passes between and through the barbules and comes "
+        "back after a second barbule (they trace one bounce off the lit arcs); full wave keeps "
+        "all of it.\n\n",
+        p.H * p.cell.semi_major_um, run.s.beam_incidence / kDeg, c.source, v.band_full_wave,
+        v.band_full_wave_coarse, 100.0 * v.resolution_error,
         std::abs(v.resolution_error) <= 0.02 ? "converged: within 2 %" : "NOT converged: over 2 %",
         v.band_physical_optics, 100.0 * v.po_error, v.band_ray_optics, 100.0 * v.go_error,
-        row_table(v), v.level, seconds);
+        row_table(v), 100.0 * v.threshold, v.level);
 }
 
 // ---- Level of physics: does this row need physical optics? ----------------------------------
@@ -1371,8 +1399,17 @@ RockDoveResult run_rock_dove_study(const std::string& study_text, const fs::path
     }
     std::vector<MeasurementCost> costs;
     const Run run{s, study_text, clock, progress, out.path(), costs};
+    // Which level measures: full wave's certificate of this row, before any measurement.
+    const LevelCertificate certificate = row_certificate(s, clock);
+    const LevelDecision level = decide_level(s.level, certificate);
+    result.level_measured_with = level.measured_with;
+    result.level_needed = level.needed;
+    result.level_warning = level.warning;
+    if (!level.warning.empty() && progress)
+        fmt::print(stderr, "plumage: warning: {}\n", level.warning);
     const fs::path checkpoints = checkpoint_folder(results_root, name);
-    std::string md = scatterograms(run, built, result);  // measure and compare, section by section
+    std::string md = level.summary + "\n\n";
+    md += scatterograms(run, built, result);  // measure and compare, section by section
     const Brdfs brdfs = measure_brdfs(run, built, checkpoints / "brdf_simulation.checkpoint");
     costs.push_back(brdf_cost(fmt::format("BRDF on {} ({} pairs): simulation", s.direction_set,
                                           brdfs.simulation.config.pairs.size()),
@@ -1389,7 +1426,7 @@ RockDoveResult run_rock_dove_study(const std::string& study_text, const fs::path
     md += convergence(run, built, brdfs.simulation.convergence);
     md += level_of_physics(run, result);
     md += full_wave_judgement(run, result);
-    md += full_wave_row_judgement(run, result);
+    md += full_wave_row_judgement(run, certificate, result);
     md += departures(s, result);  // report
     result.wall_seconds = clock.elapsed_s();
     md += measurement_cost_section(costs);

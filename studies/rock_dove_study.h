@@ -61,6 +61,9 @@ struct RockDoveResult {
     double level_full_wave_resolution_l1 = 0.0, level_full_wave_back_power_diff = 0.0;
     // The same barbules as an endless row judged by full wave (band-mean reflectance; empty
     // level: the row reference does not apply): R, its grid difference, each level's error.
+    // Which level measured ([level], studies/level_choice.h): always ray optics + thin film (the
+    // instruments' level); the level full wave says the row needs ("" uncertified); the warning.
+    std::string level_measured_with, level_needed, level_warning;
     std::string row_full_wave_level;
     double row_full_wave_reflectance = 0.0, row_full_wave_resolution_error = 0.0;
     double row_physical_optics_error = 0.0, row_ray_optics_error = 0.0;

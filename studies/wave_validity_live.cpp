@@ -119,7 +119,7 @@ std::vector<WaveValidityLivePoint> judge_live(const std::vector<LiveScene>& scen
     });
     const double budget_s = 60.0 * settings.budget_minutes, threads = runs_at_once();
     double spent = 0.0;
-    rate = kPriorSecondsPerCellRun;
+    rate = fw::kReferenceSecondsPerCellRun;
     bool measured = false;
     for (const std::size_t i : order) {
         WaveValidityLivePoint& p = out[i];
@@ -237,7 +237,7 @@ std::string live_section(const WaveValidityResult& r, const LiveFullWaveSettings
               "(jittered finite rows; GO suffices / PO needed / undecided).\n\n",
               s.resolution_px_per_um, 1.5 * s.resolution_px_per_um, s.decay, 100.0 * s.tolerance,
               100.0 * r.threshold, s.budget_minutes, 1e3 * r.live_seconds_per_cell_run,
-              1e3 * kPriorSecondsPerCellRun);
+              1e3 * fw::kReferenceSecondsPerCellRun);
     md << "**Verdict.** " << r.live_verdict << "\n\n";
     md << "| scene | width (µm) | θ_i (°) | status | R full wave (band) | resolution error | ray "
           "optics error (worst) | physical optics error (worst) | cheapest level | map | time "

@@ -16,9 +16,10 @@
 //
 // Cost: before any run, each scene's cells (row_reference_cost) and a predicted time, cells ×
 // a rate in seconds per cell-run over the threads used (4 runs at most at once): before the
-// first run, the rate of the committed rock-dove row reference (kPriorSecondsPerCellRun), then
-// the largest rate measured in this run. Scenes run cheapest first while the time spent plus
-// the next prediction stays within the budget; the others are listed with their prediction.
+// first run, the rate of the committed rock-dove row reference
+// (fullwave::kReferenceSecondsPerCellRun), then the largest rate measured in this run. Scenes run
+// cheapest first while the time spent plus the next prediction stays within the budget; the others
+// are listed with their prediction.
 #pragma once
 
 #include <string>
@@ -33,11 +34,6 @@ class Hdf5Writer;
 namespace plumage::studies {
 
 class StudyProgress;
-
-// One thread's seconds per cell-run (one grid cell taken through one run to the decay rule):
-// tests/reference/fullwave_rock_dove_row, 5 995 s of runs over 2.12 M cell-runs (TE and TM at
-// 45 and 67.5 px/µm, decay 1e-5, fitted dispersion), on 2 loaded cores.
-inline constexpr double kPriorSecondsPerCellRun = 2.83e-3;
 
 struct LiveFullWaveSettings {
     bool on = false;

@@ -37,6 +37,13 @@
 
 namespace plumage::sim::fullwave {
 
+// One thread's seconds per cell-run (one grid cell taken through one run to the decay rule), the
+// prior of callers that predict a run's time from row_reference_cost before running anything:
+// the committed rock-dove row reference (tests/reference/fullwave_rock_dove_row), 5 995 s of
+// runs over 2.12 M cell-runs (TE and TM at 45 and 67.5 px/µm, decay 1e-5, fitted dispersion),
+// on 2 loaded cores. A row that rings longer costs more per cell.
+inline constexpr double kReferenceSecondsPerCellRun = 2.83e-3;
+
 struct RowReferenceRequest {
     double resolution_px_per_um = 45.0;  // the coarse grid; the fine one is 1.5 times finer
     double decay = 1e-5;                 // FullWave2dOptions::decay

@@ -149,6 +149,15 @@ void check_level_of_physics(const RockDoveResult& r, const std::string& report) 
         std::string::npos);
     EXPECT_EQ(r.row_full_wave_level == "ray optics + thin film",
               std::abs(r.row_ray_optics_error) <= 0.05);
+    // [level] measure = "auto" (the default): the level full wave certifies for this row is the
+    // level named at the top of the report; the instruments measure with ray optics, with a
+    // warning exactly when the row needs more (studies/level_choice.h).
+    EXPECT_EQ(r.level_measured_with, "ray optics + thin film");
+    EXPECT_EQ(r.level_needed, r.row_full_wave_level);
+    EXPECT_EQ(r.level_warning.empty(), r.level_needed == "ray optics + thin film");
+    const std::size_t level_line = report.find("**Level of physics: ray optics + thin film**");
+    ASSERT_NE(level_line, std::string::npos);
+    EXPECT_LT(level_line, report.find("## "));  // the report opens with it
 }
 
 void check_avian_vision(const RockDoveResult& r, const std::filesystem::path& dir,
