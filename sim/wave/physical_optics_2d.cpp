@@ -465,6 +465,18 @@ std::vector<std::complex<double>> far_field_integral(const CrossSection2d& secti
             const Vec q = wi + ws;
             const double qn = q.norm();
             Complex sum = 0.0;
+            // The bisector r: the stack's r at the local angle of a facet whose normal is
+            // h = (ω_i + ω_s)/|ω_i + ω_s|, cos θ_local = ω_i·h = |ω_i + ω_s|/2 (in 3D with the
+            // conical elevation ε, where ω_s,y = −ω_i,y: cos ε |ω_i + ω_s|/2). The same for every
+            // sample of a curve, so once per curve and angle.
+            std::vector<Complex> r_bisector;
+            if (bisector && qn > 0.0)
+                for (std::size_t c = 0; c < kernel.layers.size(); ++c)
+                    r_bisector.push_back(optics::transfer_matrix_amplitudes(
+                                             {1.0, kernel.layers[c], kernel.substrate[c]},
+                                             incidence.lambda_nm,
+                                             std::min(1.0, 0.5 * qn) * kernel.cos_elevation, pol)
+                                             .r);
             if (qn > 0.0) {
                 for (std::size_t j = 0; j < n; ++j) {
                     // Both variants drop samples facing away from ω_s (hidden by their own body).
@@ -476,16 +488,8 @@ std::vector<std::complex<double>> far_field_integral(const CrossSection2d& secti
                     const double ci = kernel.nx[j] * wi.x() + kernel.nz[j] * wi.y();
                     Complex amplitude;
                     if (bisector) {
-                        const double ch =
-                            std::min(1.0, (kernel.nx[j] * q.x() + kernel.nz[j] * q.y()) / qn);
-                        const int c = kernel.curve[j];
-                        const optics::StackIndices stack{1.0, kernel.layers[c],
-                                                         kernel.substrate[c]};
-                        const Complex r =
-                            optics::transfer_matrix_amplitudes(stack, incidence.lambda_nm,
-                                                               ch * kernel.cos_elevation, pol)
-                                .r;
-                        amplitude = r * ((ci + cs) * kernel.ds[j]);
+                        amplitude = r_bisector[static_cast<std::size_t>(kernel.curve[j])] *
+                                    ((ci + cs) * kernel.ds[j]);
                     } else {
                         amplitude = kernel.a[j] * cs + kernel.b[j];
                     }

@@ -216,11 +216,14 @@ struct Incidence2d {
 };
 
 // Where the stack's r is evaluated. incidence: at ω_i·n (Kirchhoff's choice, the default).
-// bisector: at h·n, h = (ω_i + ω_s)/|ω_i + ω_s|, on samples lit from ω_i AND facing ω_s
+// bisector: at the local angle of the facet that mirrors ω_i into ω_s, whose normal is
+// h = (ω_i + ω_s)/|ω_i + ω_s|: cos θ_local = ω_i·h = |ω_i + ω_s|/2 (times cos_elevation in
+// 2.5D), as microfacet models evaluate Fresnel; on samples lit from ω_i AND facing ω_s
 // (ω_s·n > 0); with the reflected part only (InputError otherwise). Its integrand
-// r(h·n) (ω_i + ω_s)·n e^{−ik(ω_i + ω_s)·r} is symmetric in ω_i ↔ ω_s, so for one convex curve
+// r(ω_i·h) (ω_i + ω_s)·n e^{−ik(ω_i + ω_s)·r} is symmetric in ω_i ↔ ω_s, so for one convex curve
 // (where both masks are just n·ω > 0) σ is exactly reciprocal; at a specular (stationary) point
-// h = n and it equals the default. It costs one transfer matrix per sample and angle.
+// h = n, ω_i·h = ω_i·n and it equals the default (a flat strip reflects R(θ_i) W cos θ_i with
+// either: tested). One transfer matrix per curve and angle.
 enum class FresnelAngle { incidence, bisector };
 
 struct PhysicalOpticsOptions {
