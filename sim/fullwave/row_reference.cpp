@@ -62,6 +62,9 @@ RowReference row_reference(const CrossSection2d& period, double period_um, doubl
     FullWave2dOptions outer;
     outer.threads = request.threads;
     const auto started = std::chrono::steady_clock::now();
+    // Meep's verbosity is one global: held at 0 around all four runs, so that a run ending first
+    // cannot restore it under another's (each run's own Quiet then saves and restores 0).
+    const detail::Quiet quiet;
     const std::vector<FullWaveRowResult> runs =
         detail::run_all(jobs.size(), outer, [&](std::size_t j) {
             return full_wave_row(period, period_um, jobs[j].pol, theta_i_rad, lambdas_nm,
