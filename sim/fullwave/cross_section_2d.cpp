@@ -3,6 +3,8 @@
 #include <algorithm>
 #include <cmath>
 #include <limits>
+#include <utility>
+#include <vector>
 
 #include <fmt/format.h>
 
@@ -90,12 +92,31 @@ public:
           d_(d),
           angle_(angle),
           c_(std::cos(angle)),
-          s_(std::sin(angle)) {}
+          s_(std::sin(angle)) {
+        // Ellipses holding the shell E ⊕ disc(d): an ellipse (A, B) holds it when its support
+        // function √(A²u_x² + B²u_z²) ≥ h_E(u) + d for every unit u, h_E = √(a²u_x² + b²u_z²)
+        // = g(u_x²), g(t) = √(b² + (a² − b²) t) concave, so below its tangent α + β t at any t0:
+        // A² = a² + 2d(α + β) + d², B² = b² + 2dα + d² suffice. Tangents at five t0 leave a thin
+        // band around the offset curve to the bisection.
+        for (const double t0 : {0.0, 0.25, 0.5, 0.75, 1.0}) {
+            const double g0 = std::sqrt(b * b + (a * a - b * b) * t0);
+            const double beta = (a * a - b * b) / (2.0 * g0), alpha = g0 - beta * t0;
+            outer_.push_back({1.0 / (a * a + 2.0 * d * (alpha + beta) + d * d),
+                              1.0 / (b * b + 2.0 * d * alpha + d * d)});
+        }
+    }
     bool contains(const Eigen::Vector2d& p) const override {
         const Eigen::Vector2d q = to_local(p, centre_, c_, s_);
         const double x = std::abs(q.x()), z = std::abs(q.y());
         if (x > a_ + d_ || z > b_ + d_) return false;  // the offset curve lies within a + d, b + d
         if ((x / a_) * (x / a_) + (z / b_) * (z / b_) <= 1.0) return true;
+        // Exact bounds spare most points the bisection (a grid's set-up asks millions): the
+        // ellipse (a + d, b + d) lies inside the shell (its point at parameter φ is d from the
+        // ellipse's point at φ), and the shell inside every ellipse of outer_ (below).
+        const double xo = x / (a_ + d_), zo = z / (b_ + d_);
+        if (xo * xo + zo * zo <= 1.0) return true;
+        for (const auto& [ia2, ib2] : outer_)
+            if (x * x * ia2 + z * z * ib2 > 1.0) return false;
         const double dist = a_ >= b_ ? distance_first_quadrant(a_, b_, x, z)
                                      : distance_first_quadrant(b_, a_, z, x);
         return dist <= d_;
@@ -110,6 +131,7 @@ public:
 private:
     Eigen::Vector2d centre_;
     double a_, b_, d_, angle_, c_, s_;
+    std::vector<std::pair<double, double>> outer_;  // (1/A², 1/B²) of the holding ellipses
 };
 
 double point_segment_distance(const Eigen::Vector2d& p, const Eigen::Vector2d& a,
@@ -226,7 +248,7 @@ CrossSection2d barbule_row(double semi_major_um, double b, double film_um, doubl
     require(std::isfinite(gap_um) && gap_um >= 0.0, "barbule row", "gap_um", gap_um,
             "a finite gap >= 0 (µm)");
     require(b * semi_major_um > film_um + gap_um, "barbule row", "b", b,
-            fmt::format("a semi-minor axis b·A above film + gap = {} µm", film_um + gap_um));
+            fmt::format("a semi-minor axis b·A above film + gap = {:.4g} µm", film_um + gap_um));
     require(std::isfinite(spacing_um) && spacing_um >= 0.0, "barbule row", "spacing_um", spacing_um,
             "a finite spacing >= 0 (µm)");
     require(std::isfinite(tilt_rad), "barbule row", "tilt", tilt_rad, "a finite angle (rad)");
