@@ -312,6 +312,27 @@ struct ThetaDensity {
     }
 };
 
+ThetaDensity theta_density(double a, double b, double theta_d);
+
+// theta_density() where a facet's θ_m support [−θ_d, θ_d] is not clipped (a cos θ_d > |b| sin θ_d,
+// most of a frame's φ_m nodes), without its polar form: norm = 2 a sin θ_d, equal to
+// theta_density's amplitude (sin(θ_d − δ) + sin(θ_d + δ)) to a few ulps, and amplitude and δ
+// left NaN (only density(θ, sin θ, cos θ), lo, hi and norm may be used). A new ω_i builds
+// several hundred of these: the hypot, atan2 and two sines were a tenth of its cost.
+ThetaDensity theta_support(double a, double b, double theta_d, double sin_d, double cos_d) {
+    // The margin keeps the clipped case (δ ± π/2 inside the range) well away from this branch.
+    if (!(a * cos_d - std::abs(b) * sin_d > 1e-9 * (std::abs(a) + std::abs(b))))
+        return theta_density(a, b, theta_d);
+    ThetaDensity t{};
+    t.a = a;
+    t.b = b;
+    t.amplitude = t.delta = std::numeric_limits<double>::quiet_NaN();
+    t.lo = -theta_d;
+    t.hi = theta_d;
+    t.norm = 2.0 * a * sin_d;
+    return t;
+}
+
 ThetaDensity theta_density(double a, double b, double theta_d) {
     ThetaDensity t{};
     t.a = a;
@@ -388,8 +409,10 @@ struct Huang2022Bsdf::Frame {
     std::vector<double> h_cumulative;              // projected visible length up to interval k
     double visible_length = 0.0;                   // front-facing visible part of Δh'
     double t_mass = 1.0;                           // 1 − min(W, Δh)/Δh (Eq. 15)
-    // Quadrature of the hit-normal density q (weights sum to 1), built once per ω_i.
-    std::vector<std::pair<Vec3d, double>> nodes;
+    // Quadrature of the hit-normal density q (weights sum to 1), built once per ω_i on pdf()'s
+    // first call (build_nodes): eval() does not use it, and a new ω_i every eval spent 5 % here.
+    mutable bool nodes_built = false;
+    mutable std::vector<std::pair<Vec3d, double>> nodes;
     // Per node, for the wavelength last asked: T(ω_i·ω_m) R_m and I_R(ω_i·ω_m).
     mutable double nodes_lambda = -1.0;
     mutable std::vector<double> node_trt_in, node_r;
@@ -443,7 +466,11 @@ struct Huang2022Bsdf::Frame {
 };
 
 Huang2022Bsdf::Huang2022Bsdf(const Huang2022Params& p)
-    : params_(p), keratin_(optics::keratin()), melanin_(optics::melanin()) {
+    : params_(p),
+      cos_mu_(std::cos(p.mu)),
+      sin_mu_(std::sin(p.mu)),
+      keratin_(optics::keratin()),
+      melanin_(optics::melanin()) {
     require(std::isfinite(p.b) && p.b >= 1e-3 && p.b <= 1.0, kWhat, "b", p.b,
             "a value in [1e-3, 1]");
     require(std::isfinite(p.phi0) && std::isfinite(p.phi1) && p.phi1 > p.phi0 &&
@@ -469,9 +496,12 @@ namespace {
 
 struct Ellipse {
     double b;
-    double rho(double phi) const {
-        const double s = std::sin(phi), c = std::cos(phi);
-        return b * b / std::pow(s * s + b * b * c * c, 1.5);
+    double rho(double phi) const { return rho_at(std::sin(phi), std::cos(phi)); }
+    // ρ from sin φ and cos φ, for callers that have them already.
+    // x·√x for x^1.5: within an ulp or two of pow (≤ 1e-15 relative), at a fraction of its cost.
+    double rho_at(double s, double c) const {
+        const double x = s * s + b * b * c * c;
+        return b * b / (x * std::sqrt(x));
     }
     std::array<double, 2> point(double phi) const {
         const double s = std::sin(phi), c = std::cos(phi);
@@ -498,44 +528,91 @@ double wrap_into(double phi, double phi0) {
 
 }  // namespace
 
+namespace {
+
+// The neighbouring arcs (copies k H u, u = (cos μ, sin μ), k ≠ 0) as seen from copy 0's arc along
+// one unit direction d = (dx, dz): whether the ray from a point of the arc towards d meets one of
+// them (Huang2022Bsdf::visible). The per-direction constants are taken once: a frame's
+// visibility scan asks ~10³ points along one direction.
+class Occluders {
+public:
+    Occluders(const Huang2022Params& p, double ux, double uz, double dx, double dz)
+        : p_(p), ux_(ux), uz_(uz), dx_(dx), dz_(dz), b2_(p.b * p.b) {
+        // Copies further than 1 (the semi-major axis) from the ray cannot be hit; their
+        // distance to the ray line grows by H |sin α| per copy.
+        const double sin_alpha = std::abs(ux * dz - uz * dx);
+        // At most 1000 copies each way; the bound is taken in double before the cast, since for
+        // nearly parallel rays the quotient exceeds the range of int (found by UBSan in the
+        // extremes study: the cast was undefined and, on x86, left no copy checked at all).
+        reach_ = sin_alpha * p.H > 1e-9
+                     ? static_cast<int>(
+                           std::min(1000.0, std::ceil((2.0 + 2.0 * p.H) / (p.H * sin_alpha)) + 1.0))
+                     : 1000;
+        across_ = p.H * (ux * dz - uz * dx);
+        along_ = p.H * (ux * dx + uz * dz);
+    }
+
+    // Whether the ray from the arc's point q = (x, z) towards d is blocked by another copy.
+    bool blocked(const std::array<double, 2>& q) const {
+        // Of the copies within reach_, only those the ray can reach are tested (reach_ kept ~18
+        // copies, this ~2): each arc lies in the unit disk about its centre (semi-axes 1 and
+        // b <= 1), so a copy whose centre is further than 1 from the ray's line, or more than 1
+        // behind its start, is missed. Both are linear in k. The slack of 1e-3 is far above
+        // rounding (an excluded copy's discriminant is below -8e-3, its roots below -1e-3), so
+        // the answer is that of the loop over every copy within reach_, to the bit.
+        constexpr double kSlack = 1.0 + 1e-3;
+        int k_lo = -reach_, k_hi = reach_;
+        const double across = q[0] * dz_ - q[1] * dx_, along = q[0] * dx_ + q[1] * dz_;
+        narrow(across_, across - kSlack, across + kSlack, k_lo, k_hi);
+        narrow(along_, along - kSlack, std::numeric_limits<double>::infinity(), k_lo, k_hi);
+        const double qa = dx_ * dx_ + dz_ * dz_ / b2_;
+        for (int k = k_lo; k <= k_hi; ++k) {
+            if (k == 0) continue;
+            const double cx = k * p_.H * ux_, cz = k * p_.H * uz_;
+            // Ray q + t d against the ellipse (x − cx)² + (z − cz)²/b² = 1.
+            const double ox = q[0] - cx, oz = q[1] - cz;
+            const double qb = 2.0 * (ox * dx_ + oz * dz_ / b2_);
+            const double qc = ox * ox + oz * oz / b2_ - 1.0;
+            const double disc = qb * qb - 4.0 * qa * qc;
+            if (disc < 0.0) continue;
+            const double sq = std::sqrt(disc);
+            for (double t : {(-qb - sq) / (2.0 * qa), (-qb + sq) / (2.0 * qa)}) {
+                if (t <= 1e-12) continue;
+                const double hx = ox + t * dx_, hz = oz + t * dz_;
+                const double phi_hit = wrap_into(std::atan2(hx, hz / b2_), p_.phi0);
+                if (phi_hit <= p_.phi1) return true;
+            }
+        }
+        return false;
+    }
+
+private:
+    // Narrows [k_lo, k_hi] towards the integers k with lo <= a k <= hi. Only ever narrows, and
+    // drops a bound it cannot divide by (|a| tiny), so the range kept holds every such k.
+    static void narrow(double a, double lo, double hi, int& k_lo, int& k_hi) {
+        if (!(std::abs(a) > 1e-9)) return;
+        double x = lo / a, y = hi / a;
+        if (a < 0.0) std::swap(x, y);
+        if (x > k_lo) k_lo = static_cast<int>(std::ceil(std::min(x, 1e4)));
+        if (y < k_hi) k_hi = static_cast<int>(std::floor(std::max(y, -1e4)));
+    }
+
+    const Huang2022Params& p_;
+    double ux_, uz_, dx_, dz_, b2_;
+    int reach_;
+    double across_, along_;  // H (u × d) and H (u · d): a copy's offset across and along the ray
+};
+
+}  // namespace
+
 bool Huang2022Bsdf::visible(double phi_m, double dir_x, double dir_z) const {
     const double len = std::hypot(dir_x, dir_z);
     if (len < 1e-12) return true;  // looking along the barbules: nothing in the way
-    const double dx = dir_x / len, dz = dir_z / len;
-    const Ellipse e{params_.b};
-    const auto p = e.point(phi_m);
-    const double ux = std::cos(params_.mu), uz = std::sin(params_.mu);
-    // Copies further than 1 (the semi-major axis) from the ray cannot be hit; their
-    // distance to the ray line grows by H |sin α| per copy.
-    const double sin_alpha = std::abs(ux * dz - uz * dx);
-    // At most 1000 copies each way; the bound is taken in double before the cast, since for
-    // nearly parallel rays the quotient exceeds the range of int (found by UBSan in the
-    // extremes study: the cast was undefined and, on x86, left no copy checked at all).
-    const int reach =
-        sin_alpha * params_.H > 1e-9
-            ? static_cast<int>(std::min(
-                  1000.0, std::ceil((2.0 + 2.0 * params_.H) / (params_.H * sin_alpha)) + 1.0))
-            : 1000;
-    const double b2 = params_.b * params_.b;
-    for (int k = -reach; k <= reach; ++k) {
-        if (k == 0) continue;
-        const double cx = k * params_.H * ux, cz = k * params_.H * uz;
-        // Ray p + t d against the ellipse (x − cx)² + (z − cz)²/b² = 1.
-        const double ox = p[0] - cx, oz = p[1] - cz;
-        const double qa = dx * dx + dz * dz / b2;
-        const double qb = 2.0 * (ox * dx + oz * dz / b2);
-        const double qc = ox * ox + oz * oz / b2 - 1.0;
-        const double disc = qb * qb - 4.0 * qa * qc;
-        if (disc < 0.0) continue;
-        const double sq = std::sqrt(disc);
-        for (double t : {(-qb - sq) / (2.0 * qa), (-qb + sq) / (2.0 * qa)}) {
-            if (t <= 1e-12) continue;
-            const double hx = ox + t * dx, hz = oz + t * dz;
-            const double phi_hit = wrap_into(std::atan2(hx, hz / b2), params_.phi0);
-            if (phi_hit <= params_.phi1) return false;
-        }
-    }
-    return true;
+    return visible_along(phi_m, dir_x / len, dir_z / len);
+}
+
+bool Huang2022Bsdf::visible_along(double phi_m, double dx, double dz) const {
+    return !Occluders(params_, cos_mu_, sin_mu_, dx, dz).blocked(Ellipse{params_.b}.point(phi_m));
 }
 
 Huang2022Bsdf::Frame Huang2022Bsdf::compute_frame(const Vec3d& wi_patch, int trt_refine) const {
@@ -567,20 +644,23 @@ Huang2022Bsdf::Frame Huang2022Bsdf::compute_frame(const Vec3d& wi_patch, int trt
         const double hi = std::min(params_.phi1, f.phi_i + 0.5 * kPi + 2.0 * kPi * k);
         if (hi > lo) front.push_back({lo, hi});
     }
-    const double dx = f.wi.x(), dz = f.wi.z();
+    // The scan's direction, normalised once as visible() would (f.cos_theta_i is its length).
+    const Occluders occluders(params_, cos_mu_, sin_mu_, f.wi.x() / f.cos_theta_i,
+                              f.wi.z() / f.cos_theta_i);
+    auto visible_at = [&](double phi) { return !occluders.blocked(e.point(phi)); };
     for (const auto& [lo, hi] : front) {
         constexpr int kScan = 192;
         double start = lo;
-        bool inside = visible(lo + 1e-12 * (hi - lo), dx, dz);
+        bool inside = visible_at(lo + 1e-12 * (hi - lo));
         double previous = lo;
         for (int s = 1; s <= kScan; ++s) {
             const double phi = lo + (hi - lo) * s / kScan;
-            const bool v = visible(std::min(phi, hi - 1e-12 * (hi - lo)), dx, dz);
+            const bool v = visible_at(std::min(phi, hi - 1e-12 * (hi - lo)));
             if (v != inside) {
                 double a = previous, c = phi;  // refine the transition by bisection
                 for (int it = 0; it < 50; ++it) {
                     const double mid = 0.5 * (a + c);
-                    (visible(mid, dx, dz) == inside ? a : c) = mid;
+                    (visible_at(mid) == inside ? a : c) = mid;
                 }
                 const double edge = 0.5 * (a + c);
                 if (inside) f.intervals.push_back({start, edge});
@@ -619,8 +699,7 @@ Huang2022Bsdf::Frame Huang2022Bsdf::compute_frame(const Vec3d& wi_patch, int trt
         }
     }
     f.t_mass = 1.0 - std::min(hi - lo, f.period) / f.period;
-    build_nodes(f);
-    build_trt_nodes(f);
+    build_trt_nodes(f);  // build_nodes waits for pdf(): eval does not need it
     return f;
 }
 
@@ -827,19 +906,26 @@ std::optional<ScatterEvent> Huang2022Bsdf::sample(const Vec3d& wi, double lambda
 namespace {
 
 // q's φ_m nodes on one piece [a, c] of a frame's visible arc, Gauss–Legendre (kGl8Nodes):
-// emit(φ, w, p_θ) with w = the node's weight times ρ cos(φ − φ_i) / Δh' and p_θ(θ | φ) the
-// conditional density (possibly empty). A template, so that it can take the model's private
-// Frame.
+// emit(φ, sin φ, cos φ, w, p_θ) with w = the node's weight times ρ cos(φ − φ_i) / Δh' and
+// p_θ(θ | φ) the conditional density (possibly empty); sin φ and cos φ are passed on since a new
+// ω_i asks for several hundred nodes and the caller needs them too. A template, so that it can
+// take the model's private Frame.
+// polar: whether emit uses p_θ's polar form (density(θ), sample()); without it the unclipped
+// supports skip it (theta_support).
 template <typename FrameT, typename Emit>
-void q_phi_nodes_on(const FrameT& f, double b, double theta_d, double a, double c,
+void q_phi_nodes_on(const FrameT& f, double b, double theta_d, double a, double c, bool polar,
                     const Emit& emit) {
     const Ellipse e{b};
     for (std::size_t i = 0; i < kGl8Nodes.size(); ++i) {
         const double phi = 0.5 * (a + c) + 0.5 * (c - a) * kGl8Nodes[i];
-        const double w = 0.5 * (c - a) * kGl8Weights[i] * e.rho(phi) * std::cos(phi - f.phi_i) /
-                         f.visible_length;
-        emit(phi, w,
-             theta_density(f.cos_theta_i * std::cos(phi - f.phi_i), f.sin_theta_i, theta_d));
+        const double sp = std::sin(phi), cp = std::cos(phi);
+        const double cos_rel = std::cos(phi - f.phi_i);
+        const double w =
+            0.5 * (c - a) * kGl8Weights[i] * e.rho_at(sp, cp) * cos_rel / f.visible_length;
+        const double a_theta = f.cos_theta_i * cos_rel;
+        emit(phi, sp, cp, w,
+             polar ? theta_density(a_theta, f.sin_theta_i, theta_d)
+                   : theta_support(a_theta, f.sin_theta_i, theta_d, f.sin_theta_d, f.cos_theta_d));
     }
 }
 
@@ -856,18 +942,20 @@ void for_each_q_piece(const FrameT& f, double piece_rad, const Piece& piece) {
 
 }  // namespace
 
-void Huang2022Bsdf::build_nodes(Frame& f) const {
+void Huang2022Bsdf::build_nodes(const Frame& f) const {
     // q(ω_m) dω_m = [ρ cos(φ_m − φ_i) / Δh'] dφ_m · p_θ(θ_m | φ_m) dθ_m: Gauss–Legendre,
     // 8 nodes per 0.25 rad of φ_m and 2 over the θ support (±θ_d is a few degrees: the
     // film's response is nearly linear across it). Used by pdf() only, whose integrand is
     // smooth; eval()'s TRT term has a kink in θ_m and uses its own rule instead (eval_in_frame)
     // (two nodes here were up to 30 % off for views along the barbule axis).
     static constexpr std::array<double, 2> n2 = {-0.5773502691896258, 0.5773502691896258};
+    if (f.nodes_built) return;
+    f.nodes_built = true;
     if (!(f.visible_length > 0.0)) return;
     for_each_q_piece(f, 0.25, [&](double a, double c) {
         q_phi_nodes_on(
-            f, params_.b, params_.theta_d, a, c,
-            [&](double phi, double w_phi, const ThetaDensity& td) {
+            f, params_.b, params_.theta_d, a, c, true,
+            [&](double phi, double, double, double w_phi, const ThetaDensity& td) {
                 if (td.empty()) return;
                 for (double x : n2) {
                     const double theta = 0.5 * (td.lo + td.hi) + 0.5 * (td.hi - td.lo) * x;
@@ -1239,8 +1327,7 @@ void Huang2022Bsdf::build_trt_nodes(Frame& f) const {
     const int refine = f.trt_refine;
     // θ_m's sines and cosines by small_angle_sincos (|θ_m| ≤ θ_d ≤ π/4): a new ω_i builds a
     // thousand or more of them.
-    auto add_phi_node = [&](double phi, double w, const ThetaDensity& td) {
-        const double sp = std::sin(phi), cp = std::cos(phi);
+    auto add_phi_node = [&](double, double sp, double cp, double w, const ThetaDensity& td) {
         Frame::TrtPhiNode node{
             sp, cp, w, f.wi.x() * sp + f.wi.z() * cp, 1.0, 0.0, 1.0, 0.0, f.trt_m.size(), 0};
         small_angle_sincos(td.lo, node.sin_lo, node.cos_lo);
@@ -1286,7 +1373,7 @@ void Huang2022Bsdf::build_trt_nodes(Frame& f) const {
             const double a = lo + (hi - lo) * k / pieces, c = lo + (hi - lo) * (k + 1) / pieces;
             if (k % 2 == 1) pair_candidates.push_back(f.trt_pieces.size() - 1);
             const std::size_t theta_first = f.trt_m.size();
-            q_phi_nodes_on(f, params_.b, params_.theta_d, a, c, add_phi_node);
+            q_phi_nodes_on(f, params_.b, params_.theta_d, a, c, false, add_phi_node);
             f.trt_pieces.push_back({a, c, std::sin(a), std::cos(a), std::sin(c), std::cos(c),
                                     theta_first, f.trt_m.size()});
         }
@@ -1303,13 +1390,14 @@ void Huang2022Bsdf::build_trt_nodes(Frame& f) const {
             facing(second.sin_c, second.cos_c, f.wi) < kTrtSmoothCos)
             continue;
         Frame::TrtPair pair{piece, f.trt_m.size(), 0};
-        q_phi_nodes_on(f, params_.b, params_.theta_d, first.a, second.c, add_phi_node);
+        q_phi_nodes_on(f, params_.b, params_.theta_d, first.a, second.c, false, add_phi_node);
         pair.theta_last = f.trt_m.size();
         f.trt_pairs.push_back(pair);
     }
 }
 
 void Huang2022Bsdf::prepare_nodes(const Frame& f, double lambda_nm) const {
+    build_nodes(f);
     if (f.nodes_lambda == lambda_nm) return;
     const double r_m = melanin_reflectance(lambda_nm);
     f.node_trt_in.resize(f.nodes.size());

@@ -149,8 +149,8 @@ private:
     const Spectral& spectral(double lambda_nm) const;
     Frame compute_frame(const Vec3d& wi_patch, int trt_refine = 1) const;
     const Frame& frame_for(const Vec3d& wi_patch) const;  // per-thread cache of the last ω_i
-    void build_nodes(Frame& f) const;
-    void build_trt_nodes(Frame& f) const;  // TRT's rule, per ω_i (see eval_in_frame)
+    void build_nodes(const Frame& f) const;  // pdf()'s rule, on its first call per ω_i
+    void build_trt_nodes(Frame& f) const;    // TRT's rule, per ω_i (see eval_in_frame)
     // eval() in a frame, with the melanin reflectance r_m and the film's T(c) given (tables in
     // eval(), direct evaluation in eval_reference()); its TRT term E_q[T(ω_i·ω_m) T(ω_o·ω_m)
     // 1(ω_o·ω_m > 0)] and that term's error are described at its definition.
@@ -161,10 +161,13 @@ private:
     double film_transmittance(double cos_theta, double lambda_nm) const;
     double melanin_reflectance(double lambda_nm) const;
     bool visible(double phi_m, double dir_x, double dir_z) const;
+    // visible() for a direction (dx, dz) already of unit length (the frame's scan normalises once).
+    bool visible_along(double phi_m, double dx, double dz) const;
     // Per-wavelength film factors at the frame's quadrature nodes of q(ω_m).
     void prepare_nodes(const Frame& f, double lambda_nm) const;
 
     Huang2022Params params_;
+    double cos_mu_, sin_mu_;  // of the barb-plane tilt: visible() asks for them ~10⁴ times per ω_i
     // Held, not fetched per call: optics::keratin() returns a shared_ptr by value, and the
     // atomic reference count that every copy increments is one cache line that all threads
     // write; at ~150 film evaluations per eval() it stopped the model tables scaling.
