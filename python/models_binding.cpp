@@ -93,9 +93,11 @@ public:
     const std::vector<std::string>& lobe_names() const { return scatterer_->lobe_names(); }
     py::dict params() const { return py::dict(params_); }
 
-    // f(wi, wo, λ) for N elements: wi, wo of shape (N, 3) or (3,), λ of shape (N,) or scalar.
+    // f(wi, wo, λ) for N elements: wi, wo of shape (N, 3) or (3,), λ of shape (N,) or scalar;
+    // 0 where wi.z <= 0, and where wo.z <= 0 unless `transmission` (python/plumage/models.py
+    // broadcasts (..., 3) arrays to these shapes and documents the call).
     py::object eval(const Array& wi, const Array& wo, const Array& lambda_nm, bool lobes,
-                    std::optional<int> threads) const;
+                    std::optional<int> threads, bool transmission) const;
 
 private:
     std::shared_ptr<const Scatterer> scatterer_;
@@ -118,7 +120,7 @@ py::ssize_t scalar_count(const Array& a, const char* what) {
 }
 
 py::object Model::eval(const Array& wi, const Array& wo, const Array& lambda_nm, bool lobes,
-                       std::optional<int> threads) const {
+                       std::optional<int> threads, bool transmission) const {
     const py::ssize_t ni = direction_count(wi, "wi"), no = direction_count(wo, "wo"),
                       nl = scalar_count(lambda_nm, "wavelength_nm");
     const py::ssize_t n = broadcast_count({{ni, "wi"}, {no, "wo"}, {nl, "wavelength_nm"}});
@@ -143,7 +145,10 @@ py::object Model::eval(const Array& wi, const Array& wo, const Array& lambda_nm,
         const Vec3d b(po[u * so], po[u * so + 1], po[u * so + 2]);
         std::array<double, 16> buffer{};
         PLUMAGE_CHECK(nlobes <= buffer.size(), "more lobes than the binding's buffer");
-        out[i] = s.eval(a, b, pl[u * sl], std::span<double>(buffer.data(), nlobes));
+        // Below the horizon is 0, not an error: a grid over the sphere, or light from below,
+        // is a user's ordinary input (the models are lit from above; Huang's raises there).
+        const bool below = a.z() <= 0.0 || (!transmission && b.z() <= 0.0);
+        out[i] = below ? 0.0 : s.eval(a, b, pl[u * sl], std::span<double>(buffer.data(), nlobes));
         for (std::size_t k = 0; k < nlobes; ++k) lobe_out[k][i] = buffer[k];
     });
     if (!lobes) return total;
@@ -266,7 +271,8 @@ void bind_models(py::module_& m) {
         .def_property_readonly("lobe_names", &Model::lobe_names)
         .def_property_readonly("params", &Model::params)
         .def("eval", &Model::eval, py::arg("wi"), py::arg("wo"), py::arg("wavelength_nm"),
-             py::arg("lobes") = false, py::arg("threads") = py::none());
+             py::arg("lobes") = false, py::arg("threads") = py::none(),
+             py::arg("transmission") = false);
     m.def("make_huang2022", &make_huang);
     m.def("make_filip2024", &make_filip, py::arg("preset"), py::arg("kwargs"));
     m.def("make_padrongriffe2024", &make_padron);

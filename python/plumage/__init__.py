@@ -3,7 +3,7 @@
     import plumage
     rec = plumage.read_record("results/rock_dove/brdf/simulation.h5")   # records.py
     model = plumage.models.Huang2022(d_um=0.55)                           # models.py
-    f = model.eval(wi, wo, 550.0)                                         # N×3, N×3, N or scalar
+    f = model.eval(wi, wo, 550.0)                 # wi, wo (..., 3), 1/sr: help(model.eval)
     R = plumage.optics.thin_film_reflectance(0.59, wavelengths, theta_rad=0.3)  # optics.py
     plumage.run_study({"study": "calibration", ...}, out="results")       # studies.py
 

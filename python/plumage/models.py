@@ -1,13 +1,15 @@
 """The analytic feather models of analysis/, vectorised over directions and wavelengths.
 
     m = plumage.models.Huang2022(d_um=0.55, mu=-0.3)    # keywords: the C++ parameter fields
-    f = m.eval(wi, wo, wavelength_nm)                   # wi, wo: (N, 3) or (3,); λ: (N,) or scalar
+    f = m.eval(wi, wo, wavelength_nm)                   # wi, wo: (..., 3); λ: (...) or scalar
     parts = m.eval(wi, wo, 550.0, lobes=True)           # {"total": f, "R": ..., "TRT": ..., "T": ...}
+    help(plumage.models.Huang2022.eval)                 # units, frames, shapes
 
-eval() returns f(ωi, ωo, λ) in 1/sr as a float64 array of length N (the arguments broadcast: a
-single direction or wavelength is used for every element). It releases the GIL and loops in C++
-with OpenMP (`threads=` sets the count, default OpenMP's); every element is computed on its own by
-the same eval() the instruments call, so the result is the same for any thread count.
+eval() returns f(ωi, ωo, λ) in 1/sr as float64, broadcast over the arguments by numpy's rules
+(the last axis of wi and wo holds the three components), 0 where ωi or ωo is below the patch
+(z <= 0). It releases the GIL and loops in C++ with OpenMP (`threads=` sets the count, default
+OpenMP's); every element is computed on its own by the same eval() the instruments call, so the
+result is the same for any thread count.
 
 Parameters are the C++ struct fields, with the C++ defaults (the published values):
   Huang2022          analysis/huang2022.h  Huang2022Params: b, phi0, phi1, H, d_um, theta_d, mu
@@ -19,8 +21,8 @@ Parameters are the C++ struct fields, with the C++ defaults (the published value
                      geometry's (geometry/barb.h BarbulePatchParams and BarbParams) by their names
   Lambertian         analysis/lambertian.h  albedo (f = albedo/π)
 An unknown keyword raises TypeError naming it and the valid ones; a value outside its range
-raises ValueError with the C++ message (InputError), as does an invalid direction in eval().
-`model.params` is every parameter's value; `model.lobe_names` the lobes' names.
+raises ValueError with the C++ message (InputError), as does a direction that is not a unit
+vector in eval(). `model.params` is every parameter's value; `model.lobe_names` the lobes' names.
 
 fit_huang2022(record, start, **options) fits Huang2022 to a scatterogram record with the C++
 fit (analysis/huang2022_fit.h); huang2022_scatterogram(params, record) is its forward model.
@@ -31,32 +33,172 @@ fitted-parameters JSON of `plumage fit` (docs/user_data.md).
 
 from __future__ import annotations
 
+import numpy as np
+
 from . import _core
 
 __all__ = ["Huang2022", "Filip2024", "PadronGriffe2024", "Lambertian", "Model", "filip2024_presets",
            "fit_huang2022", "huang2022_scatterogram", "fit_filip2024"]
 
-Model = _core.Model
+# The part of every model's eval() docstring that does not depend on the model: {lobes} and
+# {below} are the model's own.
+_EVAL_DOC = """f(ωi, ωo, λ): the model's BRDF in 1/sr, evaluated in C++ over numpy arrays.
+
+Frame and units (sim/scatterer.h): directions are unit vectors in the patch's LOCAL frame, +z the
+patch (barb-plane) normal, +x the barb axis, +y along the barbules (azimuth from +x towards +y),
+and both point AWAY from the surface: wi towards the light, wo towards the viewer (pbrt's and
+Mitsuba's convention). wavelength_nm is the vacuum wavelength in nm. f is radiance out per
+irradiance on the patch plane, in 1/sr: the cosine <wo, z> is not included.
+
+Shapes: wi and wo are arrays of shape (..., 3) (the last axis holds x, y, z), wavelength_nm a
+scalar or an array of shape (...); the leading axes broadcast together by numpy's rules, so one
+direction (3,) against a (1000, 1000, 3) grid gives a (1000, 1000) result, and wi of shape
+(n, 1, 3) against wo of shape (1, m, 3) an (n, m) table. The result has the broadcast shape, a
+numpy float64 scalar when every argument is a single value. Lists and ints are converted.
+
+Below the horizon: where wi.z <= 0 (light from below the patch) or wo.z <= 0 (a view below it)
+the result is 0, not an error; transmission=True returns the model's value below the patch
+instead where it has one ({below}). Directions are not normalised here: give unit vectors
+(Huang2022 raises ValueError for a wi off by more than 1e-6). A value the model refuses raises
+ValueError naming the element (its index in the flattened broadcast arrays).
+
+lobes=True returns a dict {{"total": f, {lobes}}} of arrays of that shape, the lobes summing
+to the total. threads: OpenMP threads (default: OpenMP's count); the GIL is released and every
+element is computed on its own, so the values are the same bits for any thread count.
+"""
 
 
-def Huang2022(**params) -> Model:
-    """Huang et al. 2022, rock-dove barbules: lobes R, TRT, T (T is a Dirac: 0 in eval)."""
-    return _core.make_huang2022(params)
+def _batch(a: np.ndarray, what: str) -> tuple:
+    if a.ndim == 0 or a.shape[-1] != 3:
+        raise ValueError(f"{what}: expected shape (..., 3) (unit vectors), got {a.shape}")
+    return a.shape[:-1]
 
 
-def Filip2024(preset: str | None = None, **params) -> Model:
-    """Filip et al. 2024's five-term BRDF; lobes background, anisotropic_highlight, ..."""
-    return _core.make_filip2024(preset, params)
+def _flat(a: np.ndarray, batch: tuple, shape: tuple, tail: tuple) -> np.ndarray:
+    """a as the C++ loop takes it: one element (broadcast there without a copy) or one per
+    element of the broadcast shape, flattened (a view unless a itself broadcasts partly)."""
+    if int(np.prod(batch)) == 1:
+        return a.reshape(tail)
+    return np.ascontiguousarray(np.broadcast_to(a, shape + tail)).reshape((-1,) + tail)
 
 
-def PadronGriffe2024(**params) -> Model:
-    """Padrón-Griffe et al. 2024, barb and barbule fibres weighted by their masking."""
-    return _core.make_padrongriffe2024(params)
+class Model:
+    """An analytic model of analysis/ (a C++ Scatterer): eval() over numpy arrays, its
+    parameters (`params`) and its lobes' names (`lobe_names`)."""
+
+    # Filled in by each model: its lobes, and what it returns below the patch.
+    _lobes_doc = "lobe name: f of that lobe, ..."
+    _below_doc = "0 for a model without transmission"
+
+    def __init__(self, core: "_core.Model"):
+        self._core = core
+
+    @property
+    def name(self) -> str:
+        return self._core.name
+
+    @property
+    def lobe_names(self) -> list[str]:
+        return list(self._core.lobe_names)
+
+    @property
+    def params(self) -> dict:
+        return self._core.params
+
+    def __repr__(self) -> str:
+        return f"plumage.models.{type(self).__name__}(**{self.params!r})"
+
+    def eval(self, wi, wo, wavelength_nm, lobes=False, threads=None, transmission=False):
+        wi = np.asarray(wi, dtype=np.float64)
+        wo = np.asarray(wo, dtype=np.float64)
+        lam = np.asarray(wavelength_nm, dtype=np.float64)
+        batches = (_batch(wi, "wi"), _batch(wo, "wo"), lam.shape)
+        try:
+            shape = np.broadcast_shapes(*batches)
+        except ValueError:
+            raise ValueError(f"wi {wi.shape}, wo {wo.shape}, wavelength_nm {lam.shape}: cannot "
+                             "broadcast the arguments together (numpy's rules over all axes "
+                             "but the last of wi and wo)") from None
+        result = self._core.eval(_flat(wi, batches[0], shape, (3,)),
+                                 _flat(wo, batches[1], shape, (3,)),
+                                 _flat(lam, batches[2], shape, ()), lobes, threads, transmission)
+        shaped = lambda f: f.reshape(shape) if shape else f[0]  # noqa: E731
+        if lobes:
+            return {k: shaped(v) for k, v in result.items()}
+        return shaped(result)
 
 
-def Lambertian(**params) -> Model:
+def _eval_docstring(lobes: str, below: str) -> str:
+    """_EVAL_DOC for one model, each paragraph wrapped again after the model's text is in."""
+    import textwrap
+
+    text = _EVAL_DOC.format(lobes=lobes, below=below)
+    paragraphs = [textwrap.fill(" ".join(p.split()), 96) for p in text.split("\n\n")]
+    return "\n\n".join(paragraphs) + "\n"
+
+
+def _eval_doc(cls):
+    """Gives the class its own eval(), whose docstring names its lobes (help(Model.eval))."""
+    def eval(self, wi, wo, wavelength_nm, lobes=False, threads=None, transmission=False):
+        return Model.eval(self, wi, wo, wavelength_nm, lobes, threads, transmission)
+    eval.__doc__ = _eval_docstring(cls._lobes_doc, cls._below_doc)
+    eval.__qualname__ = f"{cls.__name__}.eval"
+    cls.eval = eval
+    return cls
+
+
+Model.eval.__doc__ = _eval_docstring(Model._lobes_doc, Model._below_doc)
+
+
+@_eval_doc
+class Huang2022(Model):
+    """Huang et al. 2022, rock-dove barbules (analysis/huang2022.h): lobes R (thin-film
+    reflection), TRT (through the film, off the melanin and back) and T (light passing between
+    the barbules, a Dirac at wo = -wi: 0 in eval). Keywords: b, phi0, phi1, H, d_um, theta_d, mu
+    (the C++ Huang2022Params fields, published values by default)."""
+
+    _lobes_doc = ('"R": thin-film reflection, "TRT": through the film, off the melanin and '
+                  'back, "T": 0 (a Dirac at wo = -wi, not a density)')
+    _below_doc = ("Huang 2022's R lobe, reflected by a facet tilted by mu, can leave below the "
+                  "barb plane; its T lobe is a Dirac, not in eval")
+
+    def __init__(self, **params):
+        super().__init__(_core.make_huang2022(params))
+
+
+@_eval_doc
+class Filip2024(Model):
+    """Filip et al. 2024's five-term BRDF (analysis/filip2024.h); preset="parrot" | "rooster" |
+    "flamingo" | "stork" (Table 1) sets every parameter first, keywords then override them."""
+
+    _lobes_doc = '"background", "anisotropic_highlight", ... (model.lobe_names)'
+    _below_doc = "a BRDF: 0 below the patch either way"
+
+    def __init__(self, preset: str | None = None, **params):
+        super().__init__(_core.make_filip2024(preset, params))
+
+
+@_eval_doc
+class PadronGriffe2024(Model):
+    """Padrón-Griffe et al. 2024, barb and barbule fibres weighted by their masking
+    (analysis/padrongriffe2024.h)."""
+
+    _lobes_doc = "one entry per fibre lobe (model.lobe_names)"
+    _below_doc = "Padrón-Griffe 2024's fibres transmit: light through the patch"
+
+    def __init__(self, **params):
+        super().__init__(_core.make_padrongriffe2024(params))
+
+
+@_eval_doc
+class Lambertian(Model):
     """f = albedo/π above the patch (the instruments' white standard)."""
-    return _core.make_lambertian(params)
+
+    _lobes_doc = '"diffuse": albedo/π'
+    _below_doc = "a BRDF: 0 below the patch either way"
+
+    def __init__(self, **params):
+        super().__init__(_core.make_lambertian(params))
 
 
 def filip2024_presets() -> list[str]:

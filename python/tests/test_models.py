@@ -63,7 +63,7 @@ def test_vectorised_equals_one_call_per_direction_and_lobes_sum(make):
     wi, wo = hemisphere(n, 6), hemisphere(n, 7)
     lam = np.linspace(400, 700, n)
     f = m.eval(wi, wo, lam)
-    one_by_one = np.array([m.eval(wi[k], wo[k], lam[k], threads=1)[0] for k in range(n)])
+    one_by_one = np.array([m.eval(wi[k], wo[k], lam[k], threads=1) for k in range(n)])
     np.testing.assert_array_equal(f, one_by_one)
     parts = m.eval(wi, wo, lam, lobes=True)
     assert list(parts) == ["total"] + m.lobe_names
@@ -81,8 +81,86 @@ def test_broadcasting():
     np.testing.assert_array_equal(m.eval(wi.tolist(), wo.tolist(), 550), full)  # lists, ints
     with pytest.raises(ValueError, match="broadcast"):
         m.eval(hemisphere(3, 1), wo, 550.0)
-    with pytest.raises(ValueError, match=r"wo: expected shape \(N, 3\)"):
+    with pytest.raises(ValueError, match=r"wo: expected shape \(\.\.\., 3\)"):
         m.eval(wi, np.zeros((4, 2)), 550.0)
+
+
+def test_scalar_call_gives_a_scalar():
+    m = models.Huang2022()
+    wi, wo = hemisphere(2, 20)
+    f = m.eval(wi, wo, 550.0)
+    assert isinstance(f, np.float64) and np.shape(f) == ()
+    assert f == m.eval(wi[None], wo[None], [550.0])[0]
+    parts = m.eval(wi, wo, 550.0, lobes=True)
+    assert all(np.shape(v) == () for v in parts.values()) and parts["total"] == f
+
+
+def test_direction_arrays_of_any_shape_broadcast_as_numpy_does():
+    """(..., 3) arrays: one ω_i against a (1000, 1000, 3) grid, and an outer product of tables."""
+    t, p = np.meshgrid(np.linspace(0, 1.5, 1000), np.linspace(0, 2 * np.pi, 1000), indexing="ij")
+    grid = np.stack([np.sin(t) * np.cos(p), np.sin(t) * np.sin(p), np.cos(t)], axis=-1)
+    wi = np.array([0.3, 0.1, np.sqrt(0.9)])
+    m = models.Filip2024()
+    f = m.eval(wi, grid, 550.0)
+    assert f.shape == (1000, 1000)
+    np.testing.assert_array_equal(f.ravel(), m.eval(wi, grid.reshape(-1, 3), 550.0))
+    h = models.Huang2022()
+    small = grid[::25, ::20]  # (40, 50, 3)
+    g = h.eval(wi, small, np.full(50, 550.0), lobes=True)  # λ broadcasts over the last axis
+    assert g["TRT"].shape == (40, 50)
+    np.testing.assert_array_equal(g["total"].ravel(), h.eval(wi, small.reshape(-1, 3), 550.0))
+    a, b = hemisphere(7, 21), hemisphere(5, 22)
+    table = h.eval(a[:, None, :], b[None, :, :], 600.0)
+    assert table.shape == (7, 5)
+    np.testing.assert_array_equal(table[3], h.eval(a[3], b, 600.0))
+
+
+@pytest.mark.parametrize("make", [models.Huang2022, models.Filip2024, models.PadronGriffe2024,
+                                  models.Lambertian])
+def test_below_the_horizon_is_zero_not_an_error(make):
+    m = make()
+    up, down = np.array([0.3, 0.1, np.sqrt(0.9)]), np.array([0.3, 0.1, -np.sqrt(0.9)])
+    flat = np.array([1.0, 0.0, 0.0])
+    wi = np.array([up, down, flat, up, down])
+    wo = np.array([down, up, up, flat, down])
+    np.testing.assert_array_equal(m.eval(wi, wo, 550.0), 0.0)
+    parts = m.eval(wi, wo, 550.0, lobes=True)
+    assert all(np.all(v == 0.0) for v in parts.values())
+    assert m.eval(down, up, 550.0) == 0.0  # light from below: 0 even with transmission
+    assert m.eval(down, up, 550.0, transmission=True) == 0.0
+
+
+def test_transmission_keeps_the_bsdf_below_the_patch():
+    """Padrón-Griffe's fibres transmit: transmission=True gives the C++ BSDF below the patch."""
+    m = models.PadronGriffe2024(fibre_offsets=64)
+    wi = np.array([0.3, 0.1, np.sqrt(0.9)])
+    below = hemisphere(200, 23) * np.array([1, 1, -1])
+    assert np.all(m.eval(wi, below, 550.0) == 0.0)
+    assert np.any(m.eval(wi, below, 550.0, transmission=True) > 0.0)
+
+
+@pytest.mark.parametrize("cls", [models.Huang2022, models.Filip2024, models.PadronGriffe2024,
+                                 models.Lambertian])
+def test_eval_documents_units_frames_and_shapes(cls):
+    import pydoc
+
+    text = pydoc.render_doc(cls.eval, renderer=pydoc.plaintext)
+    for phrase in ("1/sr", "nm", "LOCAL frame", "barb-plane) normal", "AWAY from the surface",
+                   "(..., 3)", "broadcast", "z <= 0", "threads", "lobes"):
+        assert phrase in text, (cls.__name__, phrase)
+    assert cls.eval.__doc__ != models.Model.eval.__doc__ or cls is models.Model
+
+
+def test_huang_values_are_those_before_the_speed_up():
+    """Issue 41's speed-up (visibility copies, shared sines, unclipped θ supports) moves no value
+    beyond rounding: 3000 random pairs at five wavelengths (the grazing resonances 471 and
+    694 nm among them) against the values of commit 7812627, stored in data/."""
+    import pathlib
+
+    ref = np.load(pathlib.Path(__file__).parent / "data" / "huang2022_eval_before.npz")
+    parts = models.Huang2022().eval(ref["wi"], ref["wo"], ref["wavelength_nm"], lobes=True)
+    for lobe in ("R", "TRT"):
+        np.testing.assert_allclose(parts[lobe], ref[lobe], rtol=1e-12, atol=0, err_msg=lobe)
 
 
 def test_thread_count_does_not_change_a_bit():
@@ -126,7 +204,7 @@ def test_invalid_values_raise_the_cpp_message():
     with pytest.raises(ValueError, match="parrot"):
         models.Filip2024(preset="pigeon")
     with pytest.raises(ValueError, match=r"element 1: huang2022: incident direction"):
-        models.Huang2022().eval([[0, 0, 1], [0, 0, -1]], [0, 0, 1], 500.0)
+        models.Huang2022().eval([[0, 0, 1], [0, 0, 2]], [0, 0, 1], 500.0)  # not a unit vector
     with pytest.raises(ValueError, match="threads"):
         models.Lambertian().eval([0, 0, 1], [0, 0, 1], 500.0, threads=0)
 
