@@ -37,7 +37,14 @@
 //    flux through the box; absorption = minus the total field's; extinction = the 2D optical
 //    theorem, −2 √(2π/k) Re[e^{iπ/4} f(forward)/u_0]. Three independent numbers:
 //    extinction = scattering + absorption holds to the grid's error (tested).
-//  - Stop: when |u|² at a probe under the bodies has fallen to `decay` of its peak.
+//  - Stop: when |u|² at a probe under the bodies has fallen to `decay` of its peak, or (with
+//    far_field_tolerance > 0) when the widths the DFTs give so far have settled: every 10 time
+//    units once the source has ended and light has crossed the cell, the sums over the run's
+//    wavelengths of the back-hemisphere, scattering and absorption widths are computed; the run
+//    stops when each has stayed within the tolerance (max − min, over the back sum itself or
+//    over scattering + absorption) for one round trip of light around the bodies' bounding box
+//    at their largest index (at least 30 time units): light guided around a barbule's cortex
+//    leaks a burst each trip. The incident wave's run keeps the probe rule.
 //
 // The planar stack (full_wave_stack): layers only, as a periodic row (full_wave_row, below) four
 // grid columns wide at normal incidence, PML above and below. Reflectance: the scattered field's
@@ -71,6 +78,7 @@
 //  | resolution_px_per_um  | 1/µm  | finite, >= 10 n_max / λ_min(µm), <= 400             |
 //  | pml_um, gap_um        | µm    | finite, >= one grid cell                            |
 //  | decay                 | 1     | in (0, 1e-2]                                        |
+//  | far_field_tolerance   | 1     | 0 (off) or in [1e-6, 1e-2]                          |
 //  | tolerance             | 1     | in (0, 1)                                           |
 #pragma once
 
@@ -98,9 +106,13 @@ enum class Dispersion {
 struct FullWave2dOptions {
     double resolution_px_per_um = 40.0;
     double pml_um = 1.0;
-    double gap_um = 0.5;             // bodies → monitor box → source → PML
-    double decay = 1e-7;             // stop when |u|² at the probe is below decay × its peak
-    bool subpixel_smoothing = true;  // Meep's anisotropic averaging at boundaries
+    double gap_um = 0.5;  // bodies → monitor box → source → PML
+    double decay = 1e-7;  // stop when |u|² at the probe is below decay × its peak
+    // full_wave_far_field only: > 0 replaces the probe's decay by the far field's own
+    // convergence (above, "Stop"; docs/full_wave.md, "Cost"): the band sums of the widths stay
+    // within this fraction over one round trip of light around the bodies.
+    double far_field_tolerance = 0.0;
+    bool subpixel_smoothing = true;           // Meep's anisotropic averaging at boundaries
     const std::atomic<bool>* stop = nullptr;  // polled between time steps
     // Runs at once (the runs of the wavelengths are independent; each is serial):
     // 0 = OpenMP's default. Results do not depend on it (tested bit for bit).

@@ -1,5 +1,6 @@
 #include "sim/fullwave/meep_solver.h"
 
+#include <deque>
 #include <limits>
 #include <memory>
 
@@ -104,6 +105,37 @@ double step_until_decayed(meep::fields& f, meep::component c, const meep::vec& p
     }
 }
 
+double step_until_converged(meep::fields& f, double start, double interval, double window,
+                            double tolerance, const Watch& watch, const FullWave2dOptions& o) {
+    const auto checks = static_cast<std::size_t>(std::ceil(window / interval - 1e-9)) + 1;
+    double steps = 0.0, next_check = start;
+    std::deque<std::vector<Watched>> recent;
+    while (true) {
+        if (o.stop && o.stop->load(std::memory_order_relaxed))
+            throw Interrupted("full wave: interrupted during a time-stepping run");
+        f.step();
+        steps += 1.0;
+        if (f.time() < next_check) continue;
+        next_check += interval;
+        recent.push_back(watch());
+        if (recent.size() > checks) recent.pop_front();
+        if (recent.size() < checks) continue;
+        double spread = 0.0;  // the largest (max − min) / scale over the window
+        for (std::size_t i = 0; i < recent.back().size(); ++i) {
+            double lo = recent.back()[i].value, hi = lo;
+            for (const std::vector<Watched>& w : recent) {
+                lo = std::min(lo, w[i].value);
+                hi = std::max(hi, w[i].value);
+            }
+            const double scale = recent.back()[i].scale;
+            if (hi > lo)  // a value that has not moved is settled even at scale 0
+                spread = std::max(spread, scale > 0.0 ? (hi - lo) / scale
+                                                      : std::numeric_limits<double>::infinity());
+        }
+        if (spread <= tolerance) return steps;
+    }
+}
+
 Dress conductivities(meep::material_function& material, Polarisation2d pol, bool absorbing) {
     if (!absorbing) return {};
     return [&material, pol](meep::structure& s) {
@@ -137,6 +169,10 @@ void check_options(const CrossSection2d& section, std::span<const double> lambda
             fmt::format("a gap of at least four grid cells ({} µm)", 4.0 * h));
     require(std::isfinite(o.decay) && o.decay > 0.0 && o.decay <= 1e-2, "full wave", "decay",
             o.decay, "a decay in (0, 1e-2]");
+    require(o.far_field_tolerance == 0.0 ||
+                (o.far_field_tolerance >= 1e-6 && o.far_field_tolerance <= 1e-2),
+            "full wave", "far_field_tolerance", o.far_field_tolerance,
+            "0 (the probe's decay) or a tolerance in [1e-6, 1e-2]");
     double lambda_min = lambdas_nm.front(), n_max = 1.0;
     for (const double l : lambdas_nm) {
         lambda_min = std::min(lambda_min, l);

@@ -237,6 +237,19 @@ void grid_ticks(meep::fields& f, const meep::volume& where, std::vector<double>&
 double step_until_decayed(meep::fields& f, meep::component c, const meep::vec& probe,
                           double source_end, const FullWave2dOptions& o);
 
+// What a run watches to decide it has converged: values, each with the scale its change is
+// measured against.
+struct Watched {
+    double value = 0.0, scale = 1.0;
+};
+using Watch = std::function<std::vector<Watched>()>;
+
+// Steps until every value of watch() has stayed within `tolerance` (max − min over its scale)
+// over the last `window` time units, watch() being called every `interval` time units from
+// `start` on; polls the stop flag; returns the steps taken.
+double step_until_converged(meep::fields& f, double start, double interval, double window,
+                            double tolerance, const Watch& watch, const FullWave2dOptions& o);
+
 // The D conductivity of absorbing bodies (Dispersion::per_wavelength) on the polarisation's
 // electric components (Ez for TE; Ex, Ey for TM).
 Dress conductivities(meep::material_function& material, Polarisation2d pol, bool absorbing);

@@ -348,6 +348,39 @@ TEST(FullWave2d, ResultsDoNotDependOnThreads) {
                two.seconds);
 }
 
+// The far field's stop rule (far_field_tolerance) against the probe's 1e-7 decay on a body
+// that does not ring (an absorbing rod): the widths agree far inside the rod's grid error at
+// this resolution (a few per cent), and a tolerance outside its range is refused.
+TEST(FullWave2d, FarFieldStopRuleAgreesWithTheProbeRule) {
+    const std::array<double, 3> lambdas{600.0, 650.0, 700.0};
+    const std::vector<double> theta = angles(8);
+    FullWave2dOptions o;
+    o.resolution_px_per_um = 30.0;
+    const FullWave2dResult probe =
+        full_wave_far_field(cylinder(0.3, {1.75, 0.3}), Polarisation2d::tm, 0.0, lambdas, theta, o);
+    o.far_field_tolerance = 1e-4;
+    const FullWave2dResult watched =
+        full_wave_far_field(cylinder(0.3, {1.75, 0.3}), Polarisation2d::tm, 0.0, lambdas, theta, o);
+    for (std::size_t k = 0; k < lambdas.size(); ++k) {
+        const FarField2d& a = probe.wavelengths[k];
+        const FarField2d& b = watched.wavelengths[k];
+        const double both = a.scattering_width_um + a.absorption_width_um;
+        EXPECT_NEAR(b.scattering_width_um, a.scattering_width_um, 1e-3 * both);
+        EXPECT_NEAR(b.absorption_width_um, a.absorption_width_um, 1e-3 * both);
+        EXPECT_NEAR(b.back_scattering_width_um, a.back_scattering_width_um,
+                    1e-3 * a.back_scattering_width_um);
+        fmt::print("{} nm: back {:.6f} / {:.6f} µm, scattering {:.6f} / {:.6f} µm\n", lambdas[k],
+                   a.back_scattering_width_um, b.back_scattering_width_um, a.scattering_width_um,
+                   b.scattering_width_um);
+    }
+    fmt::print("steps: probe {}, far field {}\n", probe.wavelengths[0].time_steps,
+               watched.wavelengths[0].time_steps);
+    o.far_field_tolerance = 0.5;
+    EXPECT_THROW(
+        full_wave_far_field(cylinder(0.3, {1.75, 0.3}), Polarisation2d::tm, 0.0, lambdas, theta, o),
+        InputError);
+}
+
 TEST(FullWave2d, RefusesGridsTooCoarseForTheLightOrTheBodies) {
     const std::array<double, 1> lambdas{450.0};
     const std::vector<double> theta = angles(8);
