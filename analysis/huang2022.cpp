@@ -550,6 +550,8 @@ public:
                      : 1000;
         across_ = p.H * (ux * dz - uz * dx);
         along_ = p.H * (ux * dx + uz * dz);
+        inv_across_ = 1.0 / across_;
+        inv_along_ = 1.0 / along_;
     }
 
     // Whether the ray from the arc's point q = (x, z) towards d is blocked by another copy.
@@ -563,8 +565,9 @@ public:
         constexpr double kSlack = 1.0 + 1e-3;
         int k_lo = -reach_, k_hi = reach_;
         const double across = q[0] * dz_ - q[1] * dx_, along = q[0] * dx_ + q[1] * dz_;
-        narrow(across_, across - kSlack, across + kSlack, k_lo, k_hi);
-        narrow(along_, along - kSlack, std::numeric_limits<double>::infinity(), k_lo, k_hi);
+        narrow(across_, inv_across_, across - kSlack, across + kSlack, k_lo, k_hi);
+        narrow(along_, inv_along_, along - kSlack, std::numeric_limits<double>::infinity(), k_lo,
+               k_hi);
         const double qa = dx_ * dx_ + dz_ * dz_ / b2_;
         for (int k = k_lo; k <= k_hi; ++k) {
             if (k == 0) continue;
@@ -587,11 +590,12 @@ public:
     }
 
 private:
-    // Narrows [k_lo, k_hi] towards the integers k with lo <= a k <= hi. Only ever narrows, and
-    // drops a bound it cannot divide by (|a| tiny), so the range kept holds every such k.
-    static void narrow(double a, double lo, double hi, int& k_lo, int& k_hi) {
+    // Narrows [k_lo, k_hi] towards the integers k with lo <= a k <= hi (inv_a = 1/a: a bound
+    // off by rounding is covered by the slack). Only ever narrows, and drops a bound it cannot
+    // divide by (|a| tiny), so the range kept holds every such k.
+    static void narrow(double a, double inv_a, double lo, double hi, int& k_lo, int& k_hi) {
         if (!(std::abs(a) > 1e-9)) return;
-        double x = lo / a, y = hi / a;
+        double x = lo * inv_a, y = hi * inv_a;
         if (a < 0.0) std::swap(x, y);
         if (x > k_lo) k_lo = static_cast<int>(std::ceil(std::min(x, 1e4)));
         if (y < k_hi) k_hi = static_cast<int>(std::floor(std::max(y, -1e4)));
@@ -601,6 +605,7 @@ private:
     double ux_, uz_, dx_, dz_, b2_;
     int reach_;
     double across_, along_;  // H (u × d) and H (u · d): a copy's offset across and along the ray
+    double inv_across_, inv_along_;
 };
 
 }  // namespace
@@ -1326,27 +1331,58 @@ void Huang2022Bsdf::build_trt_nodes(Frame& f) const {
     if (!(f.visible_length > 0.0)) return;
     const int refine = f.trt_refine;
     // θ_m's sines and cosines by small_angle_sincos (|θ_m| ≤ θ_d ≤ π/4): a new ω_i builds a
-    // thousand or more of them.
-    auto add_phi_node = [&](double, double sp, double cp, double w, const ThetaDensity& td) {
-        Frame::TrtPhiNode node{
-            sp, cp, w, f.wi.x() * sp + f.wi.z() * cp, 1.0, 0.0, 1.0, 0.0, f.trt_m.size(), 0};
-        small_angle_sincos(td.lo, node.sin_lo, node.cos_lo);
-        small_angle_sincos(td.hi, node.sin_hi, node.cos_hi);
-        f.trt_theta.push_back(td);
-        for (int panel = 0; panel < refine && !td.empty(); ++panel) {
-            const double pa = td.lo + (td.hi - td.lo) * panel / refine,
-                         pb = td.lo + (td.hi - td.lo) * (panel + 1) / refine;
+    // thousand or more of them. The θ nodes of a support [lo, hi]: θ, sin θ, cos θ and the
+    // panel's half-width times the node's weight.
+    struct ThetaNode {
+        double theta, sin, cos, weight;
+    };
+    auto support_nodes = [&](double lo, double hi, std::vector<ThetaNode>& out) {
+        out.clear();
+        for (int panel = 0; panel < refine; ++panel) {
+            const double pa = lo + (hi - lo) * panel / refine,
+                         pb = lo + (hi - lo) * (panel + 1) / refine;
             for (std::size_t j = 0; j < kTrtThetaNodes.size(); ++j) {
-                const double theta = 0.5 * (pa + pb) + 0.5 * (pb - pa) * kTrtThetaNodes[j];
-                double st = 0.0, ct = 1.0;
-                small_angle_sincos(theta, st, ct);
-                f.trt_m.emplace_back(sp * ct, st, cp * ct);  // normal_at(φ, θ)
-                f.trt_mx.push_back(sp * ct);
-                f.trt_mz.push_back(cp * ct);
-                f.trt_cos.push_back(ct);
-                f.trt_sin.push_back(st);
-                f.trt_w.push_back(0.5 * (pb - pa) * kTrtThetaWeights[j] *
-                                  td.density(theta, st, ct));
+                ThetaNode n{0.5 * (pa + pb) + 0.5 * (pb - pa) * kTrtThetaNodes[j], 0.0, 1.0,
+                            0.5 * (pb - pa) * kTrtThetaWeights[j]};
+                small_angle_sincos(n.theta, n.sin, n.cos);
+                out.push_back(n);
+            }
+        }
+    };
+    // Most φ nodes have the whole support [−θ_d, θ_d] (unclipped): the same θ nodes at every one
+    // of them, so their sines and cosines are taken once per frame (the same values, to the bit).
+    const double theta_d = params_.theta_d;
+    std::vector<ThetaNode> unclipped, clipped;
+    support_nodes(-theta_d, theta_d, unclipped);
+    double sin_lo = 0.0, cos_lo = 1.0, sin_hi = 0.0, cos_hi = 1.0;
+    small_angle_sincos(-theta_d, sin_lo, cos_lo);
+    small_angle_sincos(theta_d, sin_hi, cos_hi);
+    auto add_phi_node = [&](double, double sp, double cp, double w, const ThetaDensity& td) {
+        Frame::TrtPhiNode node{sp,
+                               cp,
+                               w,
+                               f.wi.x() * sp + f.wi.z() * cp,
+                               cos_lo,
+                               sin_lo,
+                               cos_hi,
+                               sin_hi,
+                               f.trt_m.size(),
+                               0};
+        const bool whole = td.lo == -theta_d && td.hi == theta_d;
+        if (!whole) {
+            small_angle_sincos(td.lo, node.sin_lo, node.cos_lo);
+            small_angle_sincos(td.hi, node.sin_hi, node.cos_hi);
+        }
+        f.trt_theta.push_back(td);
+        if (!td.empty()) {
+            if (!whole) support_nodes(td.lo, td.hi, clipped);
+            for (const ThetaNode& n : whole ? unclipped : clipped) {
+                f.trt_m.emplace_back(sp * n.cos, n.sin, cp * n.cos);  // normal_at(φ, θ)
+                f.trt_mx.push_back(sp * n.cos);
+                f.trt_mz.push_back(cp * n.cos);
+                f.trt_cos.push_back(n.cos);
+                f.trt_sin.push_back(n.sin);
+                f.trt_w.push_back(n.weight * td.density(n.theta, n.sin, n.cos));
                 ++node.count;
             }
         }
