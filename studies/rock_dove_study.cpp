@@ -309,6 +309,23 @@ gonio::ScatterometerConfig scatterometer_config(const Run& run, gonio::Illuminat
 // Cells of a scatterogram with signal, for its median per-pixel σ: above 1 % of the peak.
 constexpr double kSignalFraction = 0.01;
 
+// Simulation against model over the (pixel, wavelength) cells where the model is above
+// kSignalFraction of its brightest pixel at that wavelength: both images are Monte Carlo (the
+// model's too: the scatterometer samples it), so the noise is sqrt(σ_sim² + σ_model²).
+analysis::AgreementVerdict scatterogram_verdict(const gonio::Scatterogram& sim,
+                                                const gonio::Scatterogram& model) {
+    const std::size_t n_l = model.config.wavelengths_nm.size(), n = model.intensity.size();
+    std::vector<double> peak(n_l, 0.0), sigma(n);
+    for (std::size_t c = 0; c < n; ++c) peak[c % n_l] = std::max(peak[c % n_l], model.intensity[c]);
+    std::vector<std::uint8_t> use(n);
+    for (std::size_t c = 0; c < n; ++c) {
+        use[c] = model.solid_angle_sr[c / n_l] > 0.0 &&
+                 model.intensity[c] > kSignalFraction * peak[c % n_l];
+        sigma[c] = std::hypot(sim.standard_error[c], model.standard_error[c]);
+    }
+    return analysis::agreement(sim.intensity, sigma, model.intensity, {}, use);
+}
+
 // One illumination: both scatterograms, their records and images, and the table row.
 std::string scatterogram_pair(const Run& run, const Built& b, gonio::Illumination mode,
                               const std::string& label, RockDoveResult& result) {
@@ -327,6 +344,7 @@ std::string scatterogram_pair(const Run& run, const Built& b, gonio::Illuminatio
     const double l1_trt = image_relative_l1(sim_s, mod_s, lobe_index(sim_s.lobes, "TRT"),
                                             lobe_index(mod_s.lobes, "TRT"));
     result.scatterogram_relative_l1.push_back(l1);
+    result.verdicts.push_back({"scatterogram (" + label + ")", scatterogram_verdict(sim_s, mod_s)});
     const double t_sim = analysis::mean_transmitted(sim_s, lobe_index(sim_s.lobes, "T"));
     const double t_mod = analysis::mean_transmitted(mod_s, lobe_index(mod_s.lobes, "T"));
     const double multi_share = analysis::reflected_share(sim_s, lobe_index(sim_s.lobes, "multi"));
@@ -460,6 +478,11 @@ Brdfs measure_brdfs(const Run& run, const Built& b, const fs::path& checkpoint) 
 std::string brdf_section(const Run& run, const Brdfs& m, RockDoveResult& result) {
     const analysis::RecordComparison cmp = analysis::compare_records(m.simulation, m.model);
     result.brdf_relative_l1 = cmp.total.relative_l1;
+    // The model's values come from its cone cubature: their error estimate is not noise.
+    result.verdicts.push_back(
+        {"BRDF (" + run.s.direction_set + ")",
+         analysis::agreement(m.simulation.value, m.simulation.standard_error, m.model.value,
+                             m.model.standard_error, m.simulation.signal_cells)});
     std::string md = "## BRDF (in-plane sweep)\n\n";
     if (run.s.direction_set == "filip2024_btf") {
         write_fingerprint_figure(
@@ -1354,6 +1377,39 @@ std::string departures(const Settings& s, const RockDoveResult& result) {
         s.row.cell.cell_length_um, result.eq7_edge_coupling, s.validation_cell_coupling);
 }
 
+// The model's own error: the BRDF's cubature (not noise), the scatterograms' Monte Carlo (in σ).
+std::string reference_error_text(const MeasurementVerdict& m) {
+    const analysis::AgreementVerdict& v = m.verdict;
+    if (m.measurement.rfind("BRDF", 0) != 0) return "— (Monte Carlo, in σ)";
+    if (!(v.reference_error > 0.0)) return "not estimated by the record";
+    return fmt::format("{:.2f} %{}", 100.0 * v.reference_error,
+                       v.reference_converged ? "" : " (not converged)");
+}
+
+// The report's opening: each measurement's verdict against the model, from noise alone.
+std::string verdict_block(const RockDoveResult& r) {
+    std::string md =
+        "## Verdicts\n\nSimulation against the Huang model, per measurement, from the Monte Carlo "
+        "noise alone (analysis/verdict.h): z = (simulation − model)/σ per cell, χ² over the cells "
+        "used, and the power difference against its σ; p is the smaller of the two tests' p, "
+        "doubled; **differs** when p < 0.001, **agrees** when p >= 0.01, **undecided** between. "
+        "Cells: scatterograms, where the model is above 1 % of its brightest pixel (σ: both "
+        "images' Monte Carlo errors); BRDF, the simulation's signal cells (σ: its Monte Carlo "
+        "error). The model's own cubature error is not noise and is not in σ: it stands in the "
+        "last column, and over 1 % a *differs* may be the model's numerics.\n\n"
+        "| measurement | verdict | cells | RMS z | beyond 3σ | p | power, simulation / model − 1 "
+        "| model's own error (median) |\n|---|---|---|---|---|---|---|---|\n";
+    for (const MeasurementVerdict& m : r.verdicts) {
+        const analysis::AgreementVerdict& v = m.verdict;
+        md += fmt::format(
+            "| {} | **{}** | {} | {:.2f} | {:.1f} % | {} | {:+.2f} % ± {:.2f} % | {} |\n",
+            m.measurement, v.verdict, v.cells, v.rms_z, 100.0 * v.beyond_3_sigma,
+            p_value_text(v.p_value), 100.0 * v.power_difference, 100.0 * v.power_difference_sigma,
+            reference_error_text(m));
+    }
+    return md + "\n";
+}
+
 void write_report(const fs::path& path, const Settings& s, const std::string& md,
                   const RockDoveResult& result) {
     std::ofstream report(path);
@@ -1408,8 +1464,7 @@ RockDoveResult run_rock_dove_study(const std::string& study_text, const fs::path
     if (!level.warning.empty() && progress)
         fmt::print(stderr, "plumage: warning: {}\n", level.warning);
     const fs::path checkpoints = checkpoint_folder(results_root, name);
-    std::string md = level.summary + "\n\n";
-    md += scatterograms(run, built, result);  // measure and compare, section by section
+    std::string md = scatterograms(run, built, result);  // measure and compare, section by section
     const Brdfs brdfs = measure_brdfs(run, built, checkpoints / "brdf_simulation.checkpoint");
     costs.push_back(brdf_cost(fmt::format("BRDF on {} ({} pairs): simulation", s.direction_set,
                                           brdfs.simulation.config.pairs.size()),
@@ -1431,7 +1486,8 @@ RockDoveResult run_rock_dove_study(const std::string& study_text, const fs::path
     result.wall_seconds = clock.elapsed_s();
     md += measurement_cost_section(costs);
     md += run_time_by_stage(clock, out.path());
-    write_report(out.path() / "report.md", s, md, result);
+    write_report(out.path() / "report.md", s, level.summary + "\n\n" + verdict_block(result) + md,
+                 result);
     out.commit();
     remove_checkpoints(results_root, name);  // the finished records supersede them
     result.output_dir = out.final_path();

@@ -22,9 +22,16 @@
 #include <string>
 #include <vector>
 
+#include "analysis/verdict.h"
 #include "studies/study.h"
 
 namespace plumage::studies {
+
+// One measurement's verdict against the model (the report's opening table).
+struct MeasurementVerdict {
+    std::string measurement;
+    analysis::AgreementVerdict verdict;
+};
 
 struct RockDoveResult {
     std::filesystem::path output_dir;
@@ -64,6 +71,8 @@ struct RockDoveResult {
     // Which level measured ([level], studies/level_choice.h): always ray optics + thin film (the
     // instruments' level); the level full wave says the row needs ("" uncertified); the warning.
     std::string level_measured_with, level_needed, level_warning;
+    // Simulation against model, per measurement, from Monte Carlo noise alone (analysis/verdict.h).
+    std::vector<MeasurementVerdict> verdicts;
     std::string row_full_wave_level;
     double row_full_wave_reflectance = 0.0, row_full_wave_resolution_error = 0.0;
     double row_physical_optics_error = 0.0, row_ray_optics_error = 0.0;

@@ -13,6 +13,7 @@
 #include <string>
 #include <vector>
 
+#include <fmt/format.h>
 #include <gtest/gtest.h>
 
 #include "tests/test_util.h"
@@ -158,6 +159,22 @@ void check_level_of_physics(const RockDoveResult& r, const std::string& report) 
     const std::size_t level_line = report.find("**Level of physics: ray optics + thin film**");
     ASSERT_NE(level_line, std::string::npos);
     EXPECT_LT(level_line, report.find("## "));  // the report opens with it
+    // ... then with the verdicts: each measurement against the model from its noise alone
+    // (analysis/verdict.h), the verdict following its p.
+    ASSERT_EQ(r.verdicts.size(), 4u);  // three scatterograms and the BRDF
+    for (const MeasurementVerdict& m : r.verdicts) {
+        const analysis::AgreementVerdict& v = m.verdict;
+        EXPECT_GT(v.cells, 100u) << m.measurement;
+        EXPECT_EQ(v.verdict, v.p_value < 1e-3    ? "differs"
+                             : v.p_value >= 0.01 ? "agrees"
+                                                 : "undecided")
+            << m.measurement;
+        EXPECT_NE(
+            report.find(fmt::format("| {} | **{}** | {} |", m.measurement, v.verdict, v.cells)),
+            std::string::npos)
+            << m.measurement;
+    }
+    EXPECT_LT(report.find("## Verdicts"), report.find("## Scatterograms"));
 }
 
 void check_avian_vision(const RockDoveResult& r, const std::filesystem::path& dir,
