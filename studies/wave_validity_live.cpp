@@ -86,6 +86,8 @@ void judge(const LiveScene& c, const std::vector<double>& lambdas_nm, const Live
     p.po_error = v.po_error;
     p.go_error = v.go_error;
     for (std::size_t k = 0; k < v.lambda_nm.size(); ++k) {
+        p.resolution_worst =
+            std::max(p.resolution_worst, std::abs(v.full_wave_coarse[k] / v.full_wave[k] - 1.0));
         const double po = std::abs(v.physical_optics[k] / v.full_wave[k] - 1.0);
         const double go = std::abs(v.ray_optics[k] / v.full_wave[k] - 1.0);
         if (po >= p.po_worst) p.po_worst = po, p.po_worst_lambda_nm = v.lambda_nm[k];
@@ -228,7 +230,9 @@ std::string live_section(const WaveValidityResult& r, const LiveFullWaveSettings
               "decay {:g}), by physical optics and by ray optics + thin film (rows of 12 and 4 "
               "barbules, their ends cancelled). A level's **error** is its band-mean R over full "
               "wave's, minus 1 (worst: the largest |R_level(λ)/R_FW(λ) − 1|); full wave's "
-              "**resolution error** is its coarse band mean over the fine one's, minus 1, and a "
+              "**resolution error** is its coarse band mean over the fine one's, minus 1 (worst: "
+              "the "
+              "largest per wavelength, the floor of a level's worst error), and a "
               "scene whose |resolution error| exceeds {:g} % is *unconverged* and judges "
               "nothing. The cheapest level within {:g} % is the verdict. Scenes ran cheapest "
               "first within a budget of {:g} min; the cost rate at the end was {:.3g} ms per "
@@ -239,7 +243,8 @@ std::string live_section(const WaveValidityResult& r, const LiveFullWaveSettings
               100.0 * r.threshold, s.budget_minutes, 1e3 * r.live_seconds_per_cell_run,
               1e3 * fw::kReferenceSecondsPerCellRun);
     md << "**Verdict.** " << r.live_verdict << "\n\n";
-    md << "| scene | width (µm) | θ_i (°) | status | R full wave (band) | resolution error | ray "
+    md << "| scene | width (µm) | θ_i (°) | status | R full wave (band) | resolution error (worst) "
+          "| ray "
           "optics error (worst) | physical optics error (worst) | cheapest level | map | time "
           "(s; predicted) |\n|---|---|---|---|---|---|---|---|---|---|---|\n";
     for (const WaveValidityLivePoint& p : r.live) {
@@ -248,12 +253,12 @@ std::string live_section(const WaveValidityResult& r, const LiveFullWaveSettings
                           p.status);
         if (ran)
             md << fmt::format(
-                " {:.4f} | {} | {} ({:.1f} % at {:g} nm) | {} ({:.1f} % at {:g} nm) | {} | {} | "
-                "{:.0f} ({:.0f}) |\n",
-                p.band_full_wave, percent(p.resolution_error), percent(p.go_error),
-                100.0 * p.go_worst, p.go_worst_lambda_nm, percent(p.po_error), 100.0 * p.po_worst,
-                p.po_worst_lambda_nm, p.status == "judged" ? p.level : "—", p.map_verdict,
-                p.seconds, p.predicted_s);
+                " {:.4f} | {} ({:.1f} %) | {} ({:.1f} % at {:g} nm) | {} ({:.1f} % at {:g} nm) | "
+                "{} | {} | {:.0f} ({:.0f}) |\n",
+                p.band_full_wave, percent(p.resolution_error), 100.0 * p.resolution_worst,
+                percent(p.go_error), 100.0 * p.go_worst, p.go_worst_lambda_nm, percent(p.po_error),
+                100.0 * p.po_worst, p.po_worst_lambda_nm, p.status == "judged" ? p.level : "—",
+                p.map_verdict, p.seconds, p.predicted_s);
         else
             md << fmt::format(" — | — | — | — | — | {} | {} |\n", p.map_verdict,
                               p.status == "not afforded" ? fmt::format("({:.0f})", p.predicted_s)
@@ -291,6 +296,8 @@ void write_live(record::Hdf5Writer& h5, const WaveValidityResult& r,
            "full wave's band-mean reflectance (fine grid), unpolarised, all orders");
     column("resolution_error", &P::resolution_error, "1",
            "full wave's coarse band mean over the fine one's, minus 1");
+    column("resolution_worst", &P::resolution_worst, "1",
+           "full wave's largest |R_coarse(λ)/R_fine(λ) − 1|");
     column("ray_optics_error", &P::go_error, "1",
            "ray optics' band mean over full wave's, minus 1");
     column("physical_optics_error", &P::po_error, "1",

@@ -94,7 +94,8 @@ struct WaveValidityLivePoint {
     double predicted_s = 0.0, seconds = 0.0, max_fit_index_error = 0.0;
     std::vector<double> lambda_nm, full_wave, full_wave_coarse, physical_optics, ray_optics;
     double band_full_wave = 0.0, resolution_error = 0.0;  // coarse band mean / fine's − 1
-    double po_error = 0.0, go_error = 0.0;                // band mean / full wave's − 1
+    double resolution_worst = 0.0;  // largest |R_coarse(λ)/R_fine(λ) − 1|: the per-λ floor
+    double po_error = 0.0, go_error = 0.0;  // band mean / full wave's − 1
     double po_worst = 0.0, go_worst = 0.0;  // largest |R_level(λ)/R_FW(λ) − 1| over λ
     double po_worst_lambda_nm = 0.0, go_worst_lambda_nm = 0.0;
     std::string level;  // judged: the cheapest level within the threshold, or "full wave"
