@@ -85,12 +85,28 @@ void grid_ticks(meep::fields& f, const meep::volume& where, std::vector<double>&
               meta.begin() + 2 + static_cast<std::ptrdiff_t>(nx + ny));
 }
 
+namespace {
+
+// Whether to stop before the next step. Serial: the flag, at every step. MPI: the ranks' flags
+// or-ed every kStopAgreementSteps steps (a collective call at the same steps on every rank), so
+// no rank stops while another steps on.
+bool stop_before_step(const FullWave2dOptions& o, double steps) {
+    const bool flag = o.stop && o.stop->load(std::memory_order_relaxed);
+    if constexpr (kMeepMpi) {
+        if (std::fmod(steps, kStopAgreementSteps) != 0.0) return false;
+        return meep::or_to_all(flag);
+    }
+    return flag;
+}
+
+}  // namespace
+
 double step_until_decayed(meep::fields& f, meep::component c, const meep::vec& probe,
                           double source_end, const FullWave2dOptions& o) {
     const double interval = 20.0;
     double peak = 0.0, window = 0.0, next_check = source_end + interval, steps = 0.0;
     while (true) {
-        if (o.stop && o.stop->load(std::memory_order_relaxed))
+        if (stop_before_step(o, steps))
             throw Interrupted("full wave: interrupted during a time-stepping run");
         f.step();
         steps += 1.0;

@@ -29,6 +29,19 @@ using Complex = std::complex<double>;
 
 constexpr double kPi = std::numbers::pi;
 
+// Meep's MPI build (library plumage_fullwave_mpi, which defines PLUMAGE_FULLWAVE_MPI): every
+// rank holds a part of each run's grid and takes part in the run's collective calls (the
+// exchange at each step, get_field's sum over ranks, the DFT arrays' sums), so every rank makes
+// the same runs in the same order, one at a time, and stops at the same step.
+#ifdef PLUMAGE_FULLWAVE_MPI
+inline constexpr bool kMeepMpi = true;
+#else
+inline constexpr bool kMeepMpi = false;
+#endif
+// Under MPI the ranks agree on the stop flag every this many steps (one collective "or"; a
+// rank that stopped alone would leave the others waiting in the next step's exchange).
+inline constexpr double kStopAgreementSteps = 50.0;
+
 // Meep's memory per grid cell for one 2D polarisation: three field and three flux-density
 // components, their PML auxiliaries, the inverse-ε rows and the conductivity arrays. A run of
 // 100 000 cells peaks at 70 MB resident, the process and libraries included: 400 bytes per
@@ -76,6 +89,10 @@ public:
 protected:
     virtual int owner(const meep::vec& r) const = 0;
     void throw_if_stopped() const {
+        // Under MPI a rank sets up only its own part of the grid: one that stopped here would
+        // leave the others waiting in the fields' first exchange. The step loop's agreed check
+        // stops them all instead (step_until_decayed).
+        if constexpr (kMeepMpi) return;
         if (stop_ != nullptr && stop_->load(std::memory_order_relaxed)) [[unlikely]]
             throw Interrupted("full wave: interrupted while Meep set up its grid");
     }
@@ -233,7 +250,9 @@ void grid_ticks(meep::fields& f, const meep::volume& where, std::vector<double>&
                 std::vector<double>& ys);
 
 // Steps until the largest |u|² at the probe over the last 20 time units is below decay × its
-// peak (Meep's stop_when_fields_decayed), polling the stop flag; returns the steps taken.
+// peak (Meep's stop_when_fields_decayed), polling the stop flag (under MPI, agreed by the ranks
+// every kStopAgreementSteps steps); returns the steps taken. The probe's field is summed over
+// the ranks (Meep's get_field), so every rank ends the run at the same step.
 double step_until_decayed(meep::fields& f, meep::component c, const meep::vec& probe,
                           double source_end, const FullWave2dOptions& o);
 
@@ -295,13 +314,14 @@ std::pair<double, double> pulse(std::span<const double> freqs);
 
 // Runs job(0 … n − 1) on FullWave2dOptions::threads threads (dynamic: runs differ in length)
 // and returns their results in order; the first exception (an Interrupted among them) is
-// rethrown after all have stopped.
+// rethrown after all have stopped. Under MPI on one thread, in order (kMeepMpi): concurrent runs
+// would interleave their collective calls on the ranks.
 template <class Job>
 auto run_all(std::size_t n, const FullWave2dOptions& o, const Job& job) {
     using Result = decltype(job(std::size_t{0}));
     std::vector<Result> results(n);
     std::vector<std::exception_ptr> errors(n);
-    const int threads = o.threads > 0 ? o.threads : omp_get_max_threads();
+    const int threads = kMeepMpi ? 1 : o.threads > 0 ? o.threads : omp_get_max_threads();
 #pragma omp parallel for schedule(dynamic, 1) num_threads(threads)
     for (std::ptrdiff_t i = 0; i < static_cast<std::ptrdiff_t>(n); ++i) {
         try {
