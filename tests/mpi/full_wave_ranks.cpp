@@ -4,8 +4,9 @@
 // compares the numbers. The case covers the code paths a rank could take differently: a tilted
 // melanin core in a keratin cortex lit obliquely (the grid turned), TE with one run per
 // wavelength (conductivities), TM with fitted dispersion (Lorentz poles), the incident run.
-//   full_wave_ranks RANKS OUT        runs the case and writes (rank 0) one "name value" a line;
-//                                    refused unless Meep sees RANKS processes
+//   full_wave_ranks RANKS OUT [RES]  runs the case (at RES px/µm, default 32: a finer grid for
+//                                    timing, bench/README.md) and writes (rank 0) one
+//                                    "name value" a line; refused unless Meep sees RANKS processes
 //   full_wave_ranks --compare A B    prints the largest relative difference of the values of
 //                                    two such files; exit code 1 above 1e-9
 //   full_wave_ranks RANKS --stop     the last rank alone sets its stop flag (Ctrl-C reaching one
@@ -99,11 +100,12 @@ FullWave2dOptions case_options() {
 constexpr std::array<double, 2> kLambdas{550.0, 700.0};
 constexpr double kThetaI = 0.2;
 
-int run_case(int ranks, const char* out_path) {
+int run_case(int ranks, const char* out_path, double resolution) {
     if (!meep_sees(ranks)) return 1;
     const CrossSection2d section = coated_core();
     const std::vector<double> theta_s = directions();
     FullWave2dOptions o = case_options();
+    if (resolution > 0.0) o.resolution_px_per_um = resolution;
     const FullWave2dResult te =
         full_wave_far_field(section, Polarisation2d::te, kThetaI, kLambdas, theta_s, o);
     o.dispersion = Dispersion::fitted;
@@ -194,14 +196,14 @@ int compare(const char* path_a, const char* path_b) {
 
 int main(int argc, char** argv) {
     if (argc == 4 && std::string_view(argv[1]) == "--compare") return compare(argv[2], argv[3]);
-    if (argc != 3) {
-        fmt::print(stderr, "usage: {} RANKS OUT | RANKS --stop | --compare A B\n", argv[0]);
+    if (argc != 3 && argc != 4) {
+        fmt::print(stderr, "usage: {} RANKS OUT [RES] | RANKS --stop | --compare A B\n", argv[0]);
         return 2;
     }
     meep::initialize mpi(argc, argv);  // MPI_Init in the MPI build; nothing in the serial one
     try {
         if (std::string_view(argv[2]) == "--stop") return run_stop_case(std::stoi(argv[1]));
-        return run_case(std::stoi(argv[1]), argv[2]);
+        return run_case(std::stoi(argv[1]), argv[2], argc == 4 ? std::stod(argv[3]) : 0.0);
     } catch (const std::exception& e) {
         // every rank runs the same deterministic code, so every rank throws alike
         fmt::print(stderr, "full_wave_ranks: {}\n", e.what());
