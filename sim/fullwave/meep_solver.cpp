@@ -127,7 +127,7 @@ double step_until_converged(meep::fields& f, double start, double interval, doub
     double steps = 0.0, next_check = start;
     std::deque<std::vector<Watched>> recent;
     while (true) {
-        if (o.stop && o.stop->load(std::memory_order_relaxed))
+        if (stop_before_step(o, steps))
             throw Interrupted("full wave: interrupted during a time-stepping run");
         f.step();
         steps += 1.0;

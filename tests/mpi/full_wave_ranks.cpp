@@ -135,6 +135,10 @@ int run_stop_case(int ranks) {
             stop = true;
         });
     FullWave2dOptions o = case_options();
+    // A grid three times finer and a longer decay, so that the run lasts well beyond the flag's
+    // 1 s on any machine (the case itself ends near 1 s on two idle cores).
+    o.resolution_px_per_um *= 3.0;
+    o.decay = 1e-9;
     o.stop = &stop;
     const auto started = std::chrono::steady_clock::now();
     bool interrupted = false;
