@@ -109,7 +109,8 @@ LevelDecision decide_level(const LevelSettings& s, const LevelCertificate& c) {
             d.measured_with, s.measure, why);
         if (s.measure == "auto")
             d.warning = fmt::format(
-                "level = \"auto\" found no full-wave certificate for this row ({}); measuring "
+                "[level] measure = \"auto\" found no full-wave certificate for this row ({}); "
+                "measuring "
                 "with {}, whose error is unknown",
                 why, d.measured_with);
         return d;
