@@ -1171,6 +1171,10 @@ void compare_models(const Specimen& x, Measured& m, SpeciesOutcome& o) {
     o.table1_relative_rms = relative_rms(m.table1_brdf, m.brdf);
     o.fit_relative_l1 = relative_l1(m.fit_brdf, m.brdf);
     o.table1_relative_l1 = relative_l1(m.table1_brdf, m.brdf);
+    o.fit_verdict = analysis::agreement(m.brdf.value, m.brdf.standard_error, m.fit_brdf.value,
+                                        m.fit_brdf.standard_error, m.brdf.signal_cells);
+    o.table1_verdict = analysis::agreement(m.brdf.value, m.brdf.standard_error, m.table1_brdf.value,
+                                           m.table1_brdf.standard_error, m.brdf.signal_cells);
     write_fingerprint_figure(x.dir / "fingerprints.h5",
                              fmt::format("{}: BRDF fingerprints", x.spec.name),
                              {{"simulation", &m.brdf},
@@ -1383,6 +1387,31 @@ std::string avian_section(const fs::path& dir, const Run& run, const SpeciesResu
     return md;
 }
 
+// The report's opening: per species, the simulated BRDF against the fitted model and against
+// Table 1's, from the simulation's Monte Carlo noise alone (analysis/verdict.h).
+std::string verdict_block(const SpeciesResult& result) {
+    std::string md =
+        "## Verdicts\n\nPer species, the simulated BRDF (61 × 60 set, its signal cells) against "
+        "Filip's model with the fitted parameters and with Table 1's, from the simulation's Monte "
+        "Carlo noise alone (analysis/verdict.h): z = (simulation − model)/σ per cell, χ² over the "
+        "cells and the power difference against its σ; p is the smaller of the two tests' p, "
+        "doubled; **differs** when p < 0.001, **agrees** when p >= 0.01, **undecided** between. "
+        "The fit was made to these cells (its parameters lower χ² by about their number, far "
+        "under the cells'); the model's own cubature error is not noise and is not in σ.\n\n"
+        "| species | against | verdict | cells | RMS z | beyond 3σ | p | power, simulation / "
+        "model − 1 |\n|---|---|---|---|---|---|---|---|\n";
+    for (const SpeciesOutcome& o : result.species)
+        for (const auto& [against, v] :
+             {std::pair{"fit", &o.fit_verdict}, std::pair{"Table 1", &o.table1_verdict}})
+            md += fmt::format(
+                "| {} | {} | **{}** | {} | {:.2f} | {:.1f} % | {} | {:+.1f} % ± "
+                "{:.1f} % |\n",
+                o.species, against, v->verdict, v->cells, v->rms_z, 100.0 * v->beyond_3_sigma,
+                p_value_text(v->p_value), 100.0 * v->power_difference,
+                100.0 * v->power_difference_sigma);
+    return md + "\n";
+}
+
 // After the species: Table 1 beside the fits, Fig. 6a, the records' index; then commit.
 void finish(const Run& run, SpeciesResult& result, record::Hdf5Writer& h5, std::string& md,
             StagedDirectory& out) {
@@ -1408,6 +1437,9 @@ void finish(const Run& run, SpeciesResult& result, record::Hdf5Writer& h5, std::
         "(fitted model), `in_plane.h5`, `btf.h5` (virtual_gonio/RECORD.md).\n",
         result.wall_seconds, omp_get_max_threads());
     md += "\n" + run_time_by_stage(run.clock, dir);
+    // The verdicts open the report, under its title.
+    const std::size_t title_end = md.find("\n\n") + 2;
+    md.insert(title_end, verdict_block(result));
     write_text_file(dir / "report.md", md);
     out.commit();
     result.output_dir = out.final_path();

@@ -44,6 +44,7 @@
 #include <vector>
 
 #include "analysis/filip2024.h"
+#include "analysis/verdict.h"
 #include "sim/scene.h"
 #include "studies/study.h"
 
@@ -59,6 +60,9 @@ struct SpeciesOutcome {
     double table1_relative_rms = 0.0;  // the same for the Table 1 parameters
     double fit_relative_l1 = 0.0;  // Σ|f_fit − f_sim| / Σ f_sim: robust to a few sharp peaks
     double table1_relative_l1 = 0.0;
+    // The simulated BRDF against the fitted model and against Table 1's, from the simulation's
+    // Monte Carlo noise alone over its signal cells (analysis/verdict.h; the report's opening).
+    analysis::AgreementVerdict fit_verdict, table1_verdict;
     std::array<bool, analysis::kFilip2024ParameterCount>
         at_bound{};  // fitted value on its range's edge
     bool fit_converged = false;

@@ -159,6 +159,28 @@ void check_patch_exr(const std::filesystem::path& dir, const SpeciesOutcome& o) 
 }
 
 // The report's sections and the study's tables beside it.
+// The report opens with the verdicts (analysis/verdict.h): per species, against the fit and
+// against Table 1, each following its p.
+void check_verdicts(const SpeciesResult& r, const std::filesystem::path& dir) {
+    const std::string report = read(dir / "report.md");
+    const std::size_t block = report.find("## Verdicts");
+    ASSERT_NE(block, std::string::npos);
+    EXPECT_EQ(report.find("## "), block);  // the first section
+    for (const auto& o : r.species)
+        for (const analysis::AgreementVerdict* v : {&o.fit_verdict, &o.table1_verdict}) {
+            EXPECT_GT(v->cells, 0u) << o.species;
+            EXPECT_EQ(v->verdict, v->p_value < 1e-3    ? "differs"
+                                  : v->p_value >= 0.01 ? "agrees"
+                                                       : "undecided")
+                << o.species;
+            EXPECT_NE(report.find(fmt::format("| {} | {} | **{}** | {} |", o.species,
+                                              v == &o.fit_verdict ? "fit" : "Table 1", v->verdict,
+                                              v->cells)),
+                      std::string::npos)
+                << o.species;
+        }
+}
+
 void check_report_and_tables(const std::filesystem::path& dir) {
     const std::string report = read(dir / "report.md");
     EXPECT_NE(report.find("## Fitted parameters beside Table 1"), std::string::npos);
@@ -209,6 +231,7 @@ TEST(SpeciesStudy, QuickVariantReproducesEachPatchsColourAndOrientation) {
         ASSERT_NO_FATAL_FAILURE(check_patch_exr(dir, o));
     }
     check_report_and_tables(dir);
+    check_verdicts(r, dir);
     EXPECT_FALSE(std::filesystem::exists(root / ".checkpoints"));
     std::filesystem::remove_all(root);
 }
