@@ -17,6 +17,13 @@ double standard_error_at(const std::vector<double>& se, std::size_t i) {
     return se.size() > i ? se[i] : 0.0;
 }
 
+// A record's noise: its Monte Carlo standard errors, or none for a cubature (the eval
+// estimator), whose error estimate is the rule's own, not noise (header).
+const std::vector<double>& noise(const gonio::BrdfRecord& r, const std::vector<double>& se) {
+    static const std::vector<double> none;
+    return r.estimator_used == gonio::Estimator::eval ? none : se;
+}
+
 ErrorMeasures measures(const std::vector<double>& a, const std::vector<double>& b,
                        const std::vector<double>& a_error, const std::vector<double>& b_error,
                        const gonio::BrdfRecord& r) {
@@ -78,7 +85,7 @@ RecordComparison compare_records(const gonio::BrdfRecord& a, const gonio::BrdfRe
     }
     const std::size_t np = ca.pairs.size(), nl = ca.wavelengths_nm.size();
     RecordComparison c;
-    c.total = measures(a.value, b.value, a.standard_error, b.standard_error, a);
+    c.total = measures(a.value, b.value, noise(a, a.standard_error), noise(b, b.standard_error), a);
     for (std::size_t la = 0; la < a.lobes.size(); ++la) {
         const auto it = std::find(b.lobes.begin(), b.lobes.end(), a.lobes[la]);
         if (it == b.lobes.end()) continue;
@@ -86,8 +93,8 @@ RecordComparison compare_records(const gonio::BrdfRecord& a, const gonio::BrdfRe
         c.lobes.emplace_back(
             a.lobes[la],
             measures(lobe_block(a.lobe_values, la, np * nl), lobe_block(b.lobe_values, lb, np * nl),
-                     lobe_block(a.lobe_standard_error, la, np * nl),
-                     lobe_block(b.lobe_standard_error, lb, np * nl), a));
+                     noise(a, lobe_block(a.lobe_standard_error, la, np * nl)),
+                     noise(b, lobe_block(b.lobe_standard_error, lb, np * nl)), a));
     }
     c.colour_available = optics::carries_colour(ca.wavelengths_nm);
     if (c.colour_available) {
@@ -110,8 +117,9 @@ RecordComparison compare_records(const gonio::BrdfRecord& a, const gonio::BrdfRe
             for (int draw = 0; draw < kNoiseDraws; ++draw) {
                 Rng rng(kNoiseSeed, p * kNoiseDraws + static_cast<std::uint64_t>(draw));
                 for (std::size_t k = 0; k < nl; ++k) {
-                    const double s = std::hypot(standard_error_at(a.standard_error, p * nl + k),
-                                                standard_error_at(b.standard_error, p * nl + k));
+                    const double s =
+                        std::hypot(standard_error_at(noise(a, a.standard_error), p * nl + k),
+                                   standard_error_at(noise(b, b.standard_error), p * nl + k));
                     // Box–Muller: one normal deviate per wavelength.
                     const double u1 = 1.0 - rng.uniform(), u2 = rng.uniform();
                     noisy[k] = fb[k] + std::numbers::pi * s * std::sqrt(-2.0 * std::log(u1)) *

@@ -11,10 +11,13 @@
 //  worst                 the cells with the largest |a − b|, with their directions
 //
 // Noise floors: what each number would be if a and b were the same function measured with
-// the records' standard errors (σ² = σ_a² + σ_b² per cell; Monte Carlo σ, or a cubature's
-// error estimate): rmse sqrt(mean σ²); relative L1 sqrt(2/π) Σσ / Σ|b| (the mean |N(0, σ)|);
-// ΔE00 the mean over pairs of ΔE00(b, b + noise), noise drawn 16 times per pair from a fixed
-// stream. A difference well above its floor is the models'; one at the floor is noise.
+// the records' Monte Carlo standard errors (σ² = σ_a² + σ_b² per cell). A record made by the eval
+// estimator (a cubature) adds nothing: its error estimate is the rule's, not noise, and a floor
+// that carried it would hide the model's departures behind its own numerics (converge the rule
+// instead: GoniometerConfig::eval_tolerance): rmse sqrt(mean σ²); relative L1 sqrt(2/π) Σσ / Σ|b|
+// (the mean |N(0, σ)|); ΔE00 the mean over pairs of ΔE00(b, b + noise), noise drawn 16 times per
+// pair from a fixed stream. A difference well above its floor is the models'; one at the floor is
+// noise.
 #pragma once
 
 #include <string>

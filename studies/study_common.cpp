@@ -351,7 +351,11 @@ MeasurementCost brdf_cost(const std::string& measurement, const gonio::BrdfRecor
                              r.wavelength_paths_shared ? ", wavelengths sharing paths" : "",
                              r.paths_split ? ", split at the first film" : "",
                              r.diffuse_guided ? guided_description(r.config) : "")
-               : fmt::format("eval cubature, {} rings per cone", r.config.eval_rings);
+        : r.config.eval_tolerance > 0.0
+            ? fmt::format("eval cubature, {}–{} rings per cone until within {:g} %",
+                          r.config.eval_rings, r.config.eval_max_rings,
+                          100.0 * r.config.eval_tolerance)
+            : fmt::format("eval cubature, {} rings per cone", r.config.eval_rings);
     const double error = r.convergence.empty() ? std::numeric_limits<double>::quiet_NaN()
                                                : r.convergence.back().estimated_relative_rms_error;
     return {measurement,

@@ -610,6 +610,11 @@ void GoniometerConfig::validate() const {
                         guided_fraction, guided_branches));
     require(eval_rings >= 1 && eval_rings <= 64, kWhat,
             fmt::format("eval_rings = {}: expected 1..64", eval_rings));
+    require(std::isfinite(eval_tolerance) && eval_tolerance >= 0.0 && eval_tolerance < 1.0, kWhat,
+            fmt::format("eval_tolerance = {}: expected a fraction in [0, 1)", eval_tolerance));
+    require(eval_tolerance == 0.0 || (eval_max_rings >= eval_rings && eval_max_rings <= 256), kWhat,
+            fmt::format("eval_max_rings = {}: expected eval_rings ({}) .. 256", eval_max_rings,
+                        eval_rings));
 }
 
 namespace {
@@ -652,7 +657,12 @@ BrdfRecord measure_by_eval(const Scatterer& scatterer, const GoniometerConfig& c
         }
         return rule;
     };
-    const std::vector<Node> fine = product_rule(std::max(1, c.eval_rings));
+    // rules[0]: eval_rings; each next one doubles the rings (eval_tolerance > 0), up to
+    // eval_max_rings.
+    std::vector<std::vector<Node>> rules{product_rule(std::max(1, c.eval_rings))};
+    if (c.eval_tolerance > 0.0)
+        for (int rings = 2 * c.eval_rings; rings <= c.eval_max_rings; rings *= 2)
+            rules.push_back(product_rule(rings));
     const std::vector<Node> coarse = product_rule(std::max(1, c.eval_rings / 2));
     // Per-thread scratch: no allocation per pair or cubature in the loop (the model tables must
     // scale with threads, and the allocator is shared).
@@ -732,10 +742,23 @@ BrdfRecord measure_by_eval(const Scatterer& scatterer, const GoniometerConfig& c
                 continue;
             }
             for (std::size_t k = 0; k < nl; ++k) {
-                const double fine_value =
-                    cone_average(c.pairs[p], c.wavelengths_nm[k], fine, scratch, true);
-                const double coarse_value =
-                    cone_average(c.pairs[p], c.wavelengths_nm[k], coarse, scratch, false);
+                const double lambda = c.wavelengths_nm[k];
+                double fine_value = cone_average(c.pairs[p], lambda, rules[0], scratch, true);
+                double coarse_value = cone_average(c.pairs[p], lambda, coarse, scratch, false);
+                // Adaptive: done when the last two doublings both moved the value by at most
+                // half the tolerance (one agreement can be chance: a 4- and an 8-ring rule can
+                // miss the same narrow feature of Huang's R lobe alike).
+                const auto settled = [&](double a, double b) {
+                    return std::abs(a - b) <= 0.5 * c.eval_tolerance * std::abs(a);
+                };
+                bool previous_settled = false;
+                for (std::size_t level = 1; level < rules.size(); ++level) {
+                    const bool now_settled = settled(fine_value, coarse_value);
+                    if (now_settled && previous_settled) break;
+                    previous_settled = now_settled;
+                    coarse_value = fine_value;
+                    fine_value = cone_average(c.pairs[p], lambda, rules[level], scratch, true);
+                }
                 r.value[p * nl + k] = fine_value;
                 r.standard_error[p * nl + k] = std::abs(fine_value - coarse_value);
                 for (std::size_t l = 0; l < nlobes; ++l)

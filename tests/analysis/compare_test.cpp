@@ -62,6 +62,7 @@ TEST(CompareRecords, APerfectModelScoresItsNoiseFloor) {
         noisy.standard_error[i] = sigma;
     }
     std::fill(noisy.lobe_values.begin(), noisy.lobe_values.end(), 0.0);  // lobes: not under test
+    noisy.estimator_used = gonio::Estimator::photon;  // a Monte Carlo record: its σ is noise
     const RecordComparison c = compare_records(noisy, exact);
     // Mean |N(0, σ)| over n = 385 cells: relative spread sqrt(π/2 − 1)/sqrt(n) = 3.9 %.
     EXPECT_NEAR(c.total.relative_l1_noise_floor, 0.02 * std::sqrt(2.0 / std::numbers::pi), 1e-6);
@@ -71,6 +72,21 @@ TEST(CompareRecords, APerfectModelScoresItsNoiseFloor) {
     // 30 % of the floor (the per-pair ΔE00 spreads about half its mean).
     EXPECT_GT(c.delta_e00_noise_floor, 0.0);
     EXPECT_NEAR(c.mean_delta_e00 / c.delta_e00_noise_floor, 1.0, 0.3);
+}
+
+// A cubature's error estimate is not noise: the same record with its σ as a cubature's (the
+// eval estimator) has no floor at all, so a model's numerics cannot pass for noise.
+TEST(CompareRecords, ACubaturesErrorIsNotNoise) {
+    const std::vector<double> grid = {450.0, 550.0, 650.0};
+    const auto exact = measure(0.5, grid);
+    auto stated = exact;
+    std::fill(stated.standard_error.begin(), stated.standard_error.end(), 0.01);
+    stated.estimator_used = gonio::Estimator::eval;
+    const RecordComparison cubature = compare_records(stated, exact);
+    EXPECT_EQ(cubature.total.rmse_noise_floor, 0.0);
+    EXPECT_EQ(cubature.total.relative_l1_noise_floor, 0.0);
+    stated.estimator_used = gonio::Estimator::photon;
+    EXPECT_GT(compare_records(stated, exact).total.rmse_noise_floor, 0.0);
 }
 
 TEST(CompareRecords, RefusesRecordsFromDifferentInstruments) {
