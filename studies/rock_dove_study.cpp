@@ -1385,7 +1385,7 @@ std::string reference_error_text(const MeasurementVerdict& m) {
     const analysis::AgreementVerdict& v = m.verdict;
     if (m.measurement.rfind("BRDF", 0) != 0) return "— (Monte Carlo, in σ)";
     if (!(v.reference_error > 0.0)) return "not estimated by the record";
-    return fmt::format("{:.2f} %{}", 100.0 * v.reference_error,
+    return fmt::format("{:.2g} %{}", 100.0 * v.reference_error,
                        v.reference_converged ? "" : " (not converged)");
 }
 
