@@ -619,109 +619,153 @@ void GoniometerConfig::validate() const {
 
 namespace {
 
+// The eval estimator's cone averages. Cosine-weighted cone cubatures: points at area fraction u
+// of the projected disc (sin²β = u sin²α), weight ∝ cos θ / cos β (dω = sin²α du dγ /
+// (2 cos β)).
+struct CubatureNode {
+    double u, gamma, w;
+};
+
+// Product rule: Gauss–Legendre in u (area fraction of the projected disc), uniform in azimuth
+// (rotated by half a step on alternate rings).
+std::vector<CubatureNode> product_rule(int rings) {
+    std::vector<CubatureNode> rule;
+    const int azimuths = 2 * rings;
+    // Gauss–Legendre nodes on [0, 1] by Newton iteration on P_n.
+    for (int i = 0; i < rings; ++i) {
+        double x = std::cos(kPi * (i + 0.75) / (rings + 0.5));
+        double dp = 0.0;
+        for (int it = 0; it < 100; ++it) {
+            double p0 = 1.0, p1 = x;
+            for (int k = 2; k <= rings; ++k) {
+                const double p2 = ((2.0 * k - 1.0) * x * p1 - (k - 1.0) * p0) / k;
+                p0 = p1;
+                p1 = p2;
+            }
+            dp = rings * (x * p1 - p0) / (x * x - 1.0);
+            const double dx = p1 / dp;
+            x -= dx;
+            if (std::abs(dx) < 1e-15) break;
+        }
+        const double weight = 2.0 / ((1.0 - x * x) * dp * dp);
+        for (int k = 0; k < azimuths; ++k)
+            rule.push_back(
+                {0.5 * (x + 1.0), 2.0 * kPi * (k + 0.5 * (i % 2)) / azimuths, 0.5 * weight});
+    }
+    return rule;
+}
+
+// Per-thread scratch: no allocation per pair or cubature in the loop (the model tables must
+// scale with threads, and the allocator is shared).
+struct CubatureScratch {
+    explicit CubatureScratch(std::size_t nlobes) : per_lobe(nlobes), acc(nlobes), lobes(nlobes) {}
+    std::vector<double> per_lobe, acc, lobes;
+    std::vector<Vec3d> lights, views;  // both_cones: the rule's directions on each cone
+};
+
+class ConeCubature {
+public:
+    ConeCubature(const Scatterer& scatterer, const GoniometerConfig& c, std::size_t nlobes)
+        : scatterer_(scatterer),
+          c_(c),
+          nlobes_(nlobes),
+          alpha_(c.detector_half_angle_rad),
+          s2_(std::pow(std::sin(alpha_), 2)),
+          coarse_(product_rule(std::max(1, c.eval_rings / 2))) {
+        // rules_[0]: eval_rings; each next one doubles the rings (eval_tolerance > 0), up to
+        // eval_max_rings.
+        rules_.push_back(product_rule(std::max(1, c.eval_rings)));
+        if (c.eval_tolerance > 0.0)
+            for (int rings = 2 * c.eval_rings; rings <= c.eval_max_rings; rings *= 2)
+                rules_.push_back(product_rule(rings));
+    }
+
+    // A cell's value and stated error (GoniometerConfig::eval_tolerance); scratch.lobes holds
+    // its lobes.
+    std::pair<double, double> cell(const DirectionPair& p, double lambda,
+                                   CubatureScratch& scratch) const {
+        double fine_value = average(p, lambda, rules_[0], scratch, true);
+        double coarse_value = average(p, lambda, coarse_, scratch, false);
+        // Adaptive: done when the last two doublings both moved the value by at most half the
+        // tolerance (one agreement can be chance: a 4- and an 8-ring rule can miss the same
+        // narrow feature of Huang's R lobe alike).
+        const auto settled = [&](double a, double b) {
+            return std::abs(a - b) <= 0.5 * c_.eval_tolerance * std::abs(a);
+        };
+        bool previous_settled = false;
+        for (std::size_t level = 1; level < rules_.size(); ++level) {
+            const bool now_settled = settled(fine_value, coarse_value);
+            if (now_settled && previous_settled) break;
+            previous_settled = now_settled;
+            coarse_value = fine_value;
+            fine_value = average(p, lambda, rules_[level], scratch, true);
+        }
+        return {fine_value, std::abs(fine_value - coarse_value)};
+    }
+
+private:
+    double average(const DirectionPair& p, double lambda, const std::vector<CubatureNode>& rule,
+                   CubatureScratch& scratch, bool keep_lobes) const {
+        std::fill(scratch.acc.begin(), scratch.acc.end(), 0.0);
+        double num = 0.0, den = 0.0;
+        const auto add = [&](const Vec3d& wi, const Vec3d& wo, double weight) {
+            num += weight * scatterer_.eval(wi, wo, lambda, scratch.per_lobe);
+            for (std::size_t l = 0; l < nlobes_; ++l)
+                scratch.acc[l] += weight * scratch.per_lobe[l];
+            den += weight;
+        };
+        if (c_.aperture == Aperture::both_cones)
+            both_cones(p, rule, scratch, add);
+        else
+            view_cone(p, rule, add);
+        if (keep_lobes)
+            for (std::size_t l = 0; l < nlobes_; ++l) scratch.lobes[l] = scratch.acc[l] / den;
+        return num / den;
+    }
+
+    // both_cones: the rule on the unit disc (u = r², γ), mapped onto each cone's projected
+    // ellipse; the map is affine, so the disc weights are projected-solid-angle weights.
+    template <class Add>
+    void both_cones(const DirectionPair& p, const std::vector<CubatureNode>& rule,
+                    CubatureScratch& scratch, const Add& add) const {
+        scratch.lights.clear();
+        scratch.views.clear();
+        for (const CubatureNode& n : rule) {
+            const double radius = std::sqrt(n.u), d1 = radius * std::cos(n.gamma),
+                         d2 = radius * std::sin(n.gamma);
+            scratch.lights.push_back(cone_direction_by_projected_area(p.wi, alpha_, d1, d2));
+            scratch.views.push_back(cone_direction_by_projected_area(p.wo, alpha_, d1, d2));
+        }
+        for (std::size_t i = 0; i < rule.size(); ++i)
+            for (std::size_t j = 0; j < rule.size(); ++j)
+                add(scratch.lights[i], scratch.views[j], rule[i].w * rule[j].w);
+    }
+
+    template <class Add>
+    void view_cone(const DirectionPair& p, const std::vector<CubatureNode>& rule,
+                   const Add& add) const {
+        Vec3d e1, e2;
+        orthonormal_frame(p.wo, e1, e2);
+        for (const CubatureNode& n : rule) {
+            const double sin_b = std::sqrt(n.u * s2_), cos_b = std::sqrt(1.0 - n.u * s2_);
+            const Vec3d w =
+                cos_b * p.wo + sin_b * (std::cos(n.gamma) * e1 + std::sin(n.gamma) * e2);
+            add(p.wi, w, n.w * w.z() / cos_b);
+        }
+    }
+
+    const Scatterer& scatterer_;
+    const GoniometerConfig& c_;
+    std::size_t nlobes_;
+    double alpha_, s2_;
+    std::vector<std::vector<CubatureNode>> rules_;
+    std::vector<CubatureNode> coarse_;
+};
+
 BrdfRecord measure_by_eval(const Scatterer& scatterer, const GoniometerConfig& c, BrdfRecord r,
                            std::chrono::steady_clock::time_point start) {
     const std::size_t nl = c.wavelengths_nm.size(), nlobes = r.lobes.size();
-    const double alpha = c.detector_half_angle_rad, s2 = std::pow(std::sin(alpha), 2);
-    // Cosine-weighted cone cubatures: points at area fraction u of the projected disc
-    // (sin²β = u sin²α), weight ∝ cos θ / cos β (dω = sin²α du dγ / (2 cos β)).
-    struct Node {
-        double u, gamma, w;
-    };
-    // Product rule: Gauss–Legendre in u (area fraction of the projected disc), uniform in
-    // azimuth (rotated by half a step on alternate rings).
-    auto product_rule = [](int rings) {
-        std::vector<Node> rule;
-        const int azimuths = 2 * rings;
-        // Gauss–Legendre nodes on [0, 1] by Newton iteration on P_n.
-        for (int i = 0; i < rings; ++i) {
-            double x = std::cos(kPi * (i + 0.75) / (rings + 0.5));
-            double dp = 0.0;
-            for (int it = 0; it < 100; ++it) {
-                double p0 = 1.0, p1 = x;
-                for (int k = 2; k <= rings; ++k) {
-                    const double p2 = ((2.0 * k - 1.0) * x * p1 - (k - 1.0) * p0) / k;
-                    p0 = p1;
-                    p1 = p2;
-                }
-                dp = rings * (x * p1 - p0) / (x * x - 1.0);
-                const double dx = p1 / dp;
-                x -= dx;
-                if (std::abs(dx) < 1e-15) break;
-            }
-            const double weight = 2.0 / ((1.0 - x * x) * dp * dp);
-            for (int k = 0; k < azimuths; ++k) {
-                rule.push_back(
-                    {0.5 * (x + 1.0), 2.0 * kPi * (k + 0.5 * (i % 2)) / azimuths, 0.5 * weight});
-            }
-        }
-        return rule;
-    };
-    // rules[0]: eval_rings; each next one doubles the rings (eval_tolerance > 0), up to
-    // eval_max_rings.
-    std::vector<std::vector<Node>> rules{product_rule(std::max(1, c.eval_rings))};
-    if (c.eval_tolerance > 0.0)
-        for (int rings = 2 * c.eval_rings; rings <= c.eval_max_rings; rings *= 2)
-            rules.push_back(product_rule(rings));
-    const std::vector<Node> coarse = product_rule(std::max(1, c.eval_rings / 2));
-    // Per-thread scratch: no allocation per pair or cubature in the loop (the model tables must
-    // scale with threads, and the allocator is shared).
-    struct Scratch {
-        std::vector<double> per_lobe, acc, lobes;
-        std::vector<Vec3d> lights, views;  // both_cones: the rule's directions on each cone
-    };
-    // both_cones: the rule on the unit disc (u = r², γ), mapped onto each cone's projected
-    // ellipse; the map is affine, so the disc weights are projected-solid-angle weights.
-    auto double_cone_average = [&](const DirectionPair& p, double lambda,
-                                   const std::vector<Node>& rule, Scratch& scratch,
-                                   bool keep_lobes) {
-        scratch.lights.clear();
-        scratch.views.clear();
-        for (const Node& n : rule) {
-            const double radius = std::sqrt(n.u), d1 = radius * std::cos(n.gamma),
-                         d2 = radius * std::sin(n.gamma);
-            scratch.lights.push_back(cone_direction_by_projected_area(p.wi, alpha, d1, d2));
-            scratch.views.push_back(cone_direction_by_projected_area(p.wo, alpha, d1, d2));
-        }
-        double num = 0.0, den = 0.0;
-        std::fill(scratch.acc.begin(), scratch.acc.end(), 0.0);
-        for (std::size_t i = 0; i < rule.size(); ++i) {
-            for (std::size_t j = 0; j < rule.size(); ++j) {
-                const double weight = rule[i].w * rule[j].w;
-                num += weight * scatterer.eval(scratch.lights[i], scratch.views[j], lambda,
-                                               scratch.per_lobe);
-                for (std::size_t l = 0; l < nlobes; ++l)
-                    scratch.acc[l] += weight * scratch.per_lobe[l];
-                den += weight;
-            }
-        }
-        if (keep_lobes) {
-            for (std::size_t l = 0; l < nlobes; ++l) scratch.lobes[l] = scratch.acc[l] / den;
-        }
-        return num / den;
-    };
-    auto cone_average = [&](const DirectionPair& p, double lambda, const std::vector<Node>& rule,
-                            Scratch& scratch, bool keep_lobes) {
-        if (c.aperture == Aperture::both_cones)
-            return double_cone_average(p, lambda, rule, scratch, keep_lobes);
-        Vec3d e1, e2;
-        orthonormal_frame(p.wo, e1, e2);
-        double num = 0.0, den = 0.0;
-        std::fill(scratch.acc.begin(), scratch.acc.end(), 0.0);
-        for (const Node& n : rule) {
-            const double sin_b = std::sqrt(n.u * s2), cos_b = std::sqrt(1.0 - n.u * s2);
-            const Vec3d w =
-                cos_b * p.wo + sin_b * (std::cos(n.gamma) * e1 + std::sin(n.gamma) * e2);
-            const double weight = n.w * w.z() / cos_b;
-            num += weight * scatterer.eval(p.wi, w, lambda, scratch.per_lobe);
-            for (std::size_t l = 0; l < nlobes; ++l) scratch.acc[l] += weight * scratch.per_lobe[l];
-            den += weight;
-        }
-        if (keep_lobes) {
-            for (std::size_t l = 0; l < nlobes; ++l) scratch.lobes[l] = scratch.acc[l] / den;
-        }
-        return num / den;
-    };
+    const ConeCubature cubature(scatterer, c, nlobes);
     r.value.assign(c.pairs.size() * nl, 0.0);
     r.standard_error.assign(c.pairs.size() * nl, 0.0);
     r.lobe_values.assign(nlobes * c.pairs.size() * nl, 0.0);
@@ -729,11 +773,7 @@ BrdfRecord measure_by_eval(const Scatterer& scatterer, const GoniometerConfig& c
     std::atomic<bool> abandoned{false};
 #pragma omp parallel
     {
-        Scratch scratch{std::vector<double>(nlobes),
-                        std::vector<double>(nlobes),
-                        std::vector<double>(nlobes),
-                        {},
-                        {}};
+        CubatureScratch scratch(nlobes);
 #pragma omp for schedule(dynamic, 4)
         for (std::size_t p = 0; p < c.pairs.size(); ++p) {
             if (abandoned.load(std::memory_order_relaxed)) continue;
@@ -742,25 +782,10 @@ BrdfRecord measure_by_eval(const Scatterer& scatterer, const GoniometerConfig& c
                 continue;
             }
             for (std::size_t k = 0; k < nl; ++k) {
-                const double lambda = c.wavelengths_nm[k];
-                double fine_value = cone_average(c.pairs[p], lambda, rules[0], scratch, true);
-                double coarse_value = cone_average(c.pairs[p], lambda, coarse, scratch, false);
-                // Adaptive: done when the last two doublings both moved the value by at most
-                // half the tolerance (one agreement can be chance: a 4- and an 8-ring rule can
-                // miss the same narrow feature of Huang's R lobe alike).
-                const auto settled = [&](double a, double b) {
-                    return std::abs(a - b) <= 0.5 * c.eval_tolerance * std::abs(a);
-                };
-                bool previous_settled = false;
-                for (std::size_t level = 1; level < rules.size(); ++level) {
-                    const bool now_settled = settled(fine_value, coarse_value);
-                    if (now_settled && previous_settled) break;
-                    previous_settled = now_settled;
-                    coarse_value = fine_value;
-                    fine_value = cone_average(c.pairs[p], lambda, rules[level], scratch, true);
-                }
+                const auto [fine_value, error] =
+                    cubature.cell(c.pairs[p], c.wavelengths_nm[k], scratch);
                 r.value[p * nl + k] = fine_value;
-                r.standard_error[p * nl + k] = std::abs(fine_value - coarse_value);
+                r.standard_error[p * nl + k] = error;
                 for (std::size_t l = 0; l < nlobes; ++l)
                     r.lobe_values[(l * c.pairs.size() + p) * nl + k] = scratch.lobes[l];
             }
