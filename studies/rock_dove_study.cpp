@@ -986,6 +986,21 @@ std::string convergence(const Run& run, const Built& b,
 
 // ---- Level of physics judged by full wave ------------------------------------------------------
 
+// The study's barbule row in 2D (one cell, its spacing and tilt) and the sampling step its
+// sharpest curvature allows (sim/wave/ray_optics_validity.h), for the full-wave judgements.
+struct StudyRow2d {
+    sim::wave::Row2d row;
+    double step_um = 0.0;
+};
+
+StudyRow2d study_row_2d(const geometry::BarbuleRowParams& p) {
+    const double a = p.cell.semi_major_um;
+    return {
+        sim::wave::barbule_row_2d(a, p.cell.b, p.cell.phi0, p.cell.phi1, p.cell.film_thickness_um,
+                                  p.cell.melanin_depth_um, p.H, p.mu, 1),
+        0.95 * sim::wave::barbule_row_min_radius_um(a, p.cell.b, p.cell.phi0, p.cell.phi1)};
+}
+
 // The cross-section the embedded full-wave reference was computed for
 // (tests/reference/fullwave_rock_dove/README.md): studies/rock_dove.toml's barbule, beam at 0°
 // (μ within 0.01°: the quick study's −0.35 rad is −20.0535°).
@@ -1108,14 +1123,9 @@ std::string full_wave_judgement(const Run& run, RockDoveResult& result) {
     run.clock.say("level of physics: physical and ray optics against the full-wave reference");
     const auto start = std::chrono::steady_clock::now();
     const std::vector<sim::wave::FullWaveCurves2d> curves = embedded_full_wave_curves();
-    const double a = p.cell.semi_major_um;
-    const sim::wave::Row2d barbule =
-        sim::wave::barbule_row_2d(a, p.cell.b, p.cell.phi0, p.cell.phi1, p.cell.film_thickness_um,
-                                  p.cell.melanin_depth_um, p.H, p.mu, 1);
-    const double step =
-        0.95 * sim::wave::barbule_row_min_radius_um(a, p.cell.b, p.cell.phi0, p.cell.phi1);
+    const StudyRow2d barbule = study_row_2d(p);
     const sim::wave::FullWaveVerdict2d v =
-        sim::wave::judge_against_full_wave(barbule, curves, {}, 0.05, step);
+        sim::wave::judge_against_full_wave(barbule.row, curves, {}, 0.05, barbule.step_um);
     double coarse_res = 0.0, fine_res = 0.0;
     const auto [back_coarse, back_fine] = back_power_by_resolution(coarse_res, fine_res);
     const double back_diff = back_coarse / back_fine - 1.0;
@@ -1207,11 +1217,7 @@ std::string row_table(const sim::wave::RowVerdict2d& v) {
 LevelCertificate row_certificate(const Settings& s, const StudyProgress& clock) {
     const geometry::BarbuleRowParams& p = s.row;
     const double a = p.cell.semi_major_um;
-    const sim::wave::Row2d row =
-        sim::wave::barbule_row_2d(a, p.cell.b, p.cell.phi0, p.cell.phi1, p.cell.film_thickness_um,
-                                  p.cell.melanin_depth_um, p.H, p.mu, 1);
-    const double step =
-        0.95 * sim::wave::barbule_row_min_radius_um(a, p.cell.b, p.cell.phi0, p.cell.phi1);
+    const StudyRow2d row = study_row_2d(p);
     LevelCertificate c;
     std::vector<sim::wave::RowReflectanceFullWave> reference;
     if (matches_reference(s) && std::abs(p.H - 1.25) <= 1e-9) {
@@ -1234,8 +1240,8 @@ LevelCertificate row_certificate(const Settings& s, const StudyProgress& clock) 
         reference = live.reflectance;
         c.source = live.source;
     }
-    c.verdict = sim::wave::judge_row_against_full_wave(row, s.beam_incidence, reference,
-                                                       s.level.tolerance, step);
+    c.verdict = sim::wave::judge_row_against_full_wave(row.row, s.beam_incidence, reference,
+                                                       s.level.tolerance, row.step_um);
     c.present = true;
     return c;
 }
