@@ -1,6 +1,7 @@
 #!/usr/bin/env bash
 # Installs missing Debian packages, then configures and builds Plumage (Release, with
-# ccache when present) in ${PLUMAGE_BUILD_DIR:-build}.
+# ccache when present) in ${PLUMAGE_BUILD_DIR:-build}: every target, or only the CMake targets
+# named as arguments (scripts/run.sh builds `plumage_main_job`: the binary and the Python module).
 set -euo pipefail
 root=$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)
 "$root/scripts/install-deps.sh"
@@ -15,7 +16,9 @@ if [[ ! -f "$build_dir/CMakeCache.txt" ]]; then
   cmake -S "$root" -B "$build_dir" "${generator[@]}" -DCMAKE_BUILD_TYPE=Release >&2
 fi
 # Two jobs: the machines we target have 2 cores; more only thrashes.
-cmake --build "$build_dir" --parallel "${PLUMAGE_JOBS:-2}" >&2
+targets=()
+for target in "$@"; do targets+=(--target "$target"); done
+cmake --build "$build_dir" --parallel "${PLUMAGE_JOBS:-2}" "${targets[@]}" >&2
 # `import plumage` in /usr/bin/python3 from this build (python/): a path file, no copy.
 if [[ -d "$build_dir/python/plumage" ]]; then
   "$root/scripts/install_python_path.sh" "$build_dir"
