@@ -1,5 +1,5 @@
 // Deterministic random streams. Every stream is derived from (seed, item index) so that
-// results do not depend on thread count, scheduling or process count (DESIGN.md).
+// results do not depend on thread count, scheduling or process count (docs/architecture.md).
 // Generator: PCG32 (O'Neill 2014, XSH-RR output), 2^64 period per stream, 2^63 streams;
 // the stream's increment and initial state are hashed from (seed, item) with SplitMix64.
 #pragma once

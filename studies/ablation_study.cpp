@@ -17,6 +17,7 @@
 #include "common/distributed.h"
 #include "common/error.h"
 #include "common/interrupt.h"
+#include "common/seed.h"
 #include "common/version.h"
 #include "geometry/barbule.h"
 #include "sim/optics/colour.h"
@@ -233,7 +234,7 @@ gonio::ScatterometerConfig scatterometer_config(const Settings& s, const std::st
     config.image_size = s.image_size;
     config.wavelengths_nm = s.wavelengths;
     config.beam_radius_um = s.beam_radius_um;
-    config.seed = s.seed;
+    config.seed = s.seed;  // replaced per measurement (value_config)
     config.quanta_per_pass = s.quanta;
     config.max_passes = s.passes;
     config.config_text = study_text;
@@ -243,7 +244,16 @@ gonio::ScatterometerConfig scatterometer_config(const Settings& s, const std::st
     return config;
 }
 
-Measured measure(const Run& run, const BarbuleRowParams& params) {
+// The scatterometer of one job's simulation ("simulation") or model ("model"): each measurement
+// draws its own streams (common/seed.h), so no two values, and not a value's two images, share
+// their noise.
+gonio::ScatterometerConfig value_config(const Run& run, std::string_view who, std::size_t job) {
+    gonio::ScatterometerConfig c = run.config;
+    c.seed = derive_seed(run.s.seed, fmt::format("ablation/{}", who), job);
+    return c;
+}
+
+Measured measure(const Run& run, const BarbuleRowParams& params, std::size_t job) {
     const Settings& s = run.s;
     Measured m;
     geometry::BarbuleRow row;
@@ -272,8 +282,8 @@ Measured measure(const Run& run, const BarbuleRowParams& params) {
         return m;
     }
     const sim::ExplicitScatterer simulation(sim::barbule_row_scene(row));
-    m.sim = gonio::measure_scatterogram(simulation, run.config);
-    m.mod = gonio::measure_scatterogram(*model, run.config);
+    m.sim = gonio::measure_scatterogram(simulation, value_config(run, "simulation", job));
+    m.mod = gonio::measure_scatterogram(*model, value_config(run, "model", job));
     return m;
 }
 
@@ -325,7 +335,7 @@ std::vector<Measured> measure_all(const Run& run, const fs::path& checkpoints,
         BarbuleRowParams params = run.s.row;
         if (jobs[j].sweep != nullptr)
             jobs[j].sweep->parameter->set(params, jobs[j].sweep->values[jobs[j].index]);
-        const Measured m = measure(run, params);
+        const Measured m = measure(run, params, j);
         Bytes b;
         b.put_string(m.reason);
         b.put(static_cast<char>(m.sim.has_value()));
@@ -357,8 +367,8 @@ std::vector<Measured> measure_all(const Run& run, const fs::path& checkpoints,
         Bytes& b = results.results[j];
         measured[j].reason = b.get_string();
         if (b.get<char>() != 0) {
-            measured[j].sim = get_scatterogram(b, run.config);
-            measured[j].mod = get_scatterogram(b, run.config);
+            measured[j].sim = get_scatterogram(b, value_config(run, "simulation", j));
+            measured[j].mod = get_scatterogram(b, value_config(run, "model", j));
         }
     }
     return measured;

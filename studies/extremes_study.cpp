@@ -18,6 +18,7 @@
 #include "analysis/lambertian.h"
 #include "common/constants.h"
 #include "common/error.h"
+#include "common/seed.h"
 #include "common/version.h"
 #include "geometry/barbule.h"
 #include "sim/optics/material.h"
@@ -565,7 +566,9 @@ void sample_energy(const Built& built, const Case& c, const Settings& s, std::ui
     for (std::size_t it = 0; it < items; ++it) {
         const Vec3d& wi = c.incidence[it / s.wavelengths.size()];
         const double lambda = s.wavelengths[it % s.wavelengths.size()];
-        const SampleTally t = play(built, wi, lambda, s.seed, (++stream) << 32, s.quanta);
+        // Each item its own root (common/seed.h), numbered across the study's entries.
+        const SampleTally t =
+            play(built, wi, lambda, derive_seed(s.seed, "extremes/energy", ++stream), 0, s.quanta);
         row.samples += s.quanta;
         row.nan += t.nan, row.inf += t.inf, row.negative += t.negative,
             row.malformed += t.malformed;

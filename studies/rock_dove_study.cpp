@@ -20,6 +20,7 @@
 #include "analysis/statistics.h"
 #include "common/constants.h"
 #include "common/error.h"
+#include "common/seed.h"
 #include "common/version.h"
 #include "geometry/barbule.h"
 #include "sim/optics/colour.h"
@@ -289,7 +290,9 @@ gonio::ScatterometerConfig scatterometer_config(const Run& run, gonio::Illuminat
     c.image_size = s.image_size;
     c.wavelengths_nm = s.wavelengths;
     c.beam_radius_um = s.beam_radius_um;
-    c.seed = s.seed;
+    // One stream root per measurement (common/seed.h); scatterogram_pair gives the model's its own.
+    c.seed =
+        derive_seed(s.seed, "rock_dove/scatterogram/simulation", static_cast<std::uint64_t>(mode));
     c.quanta_per_pass = s.scatter_quanta;
     c.max_passes = s.scatter_passes;
     c.time_budget_s = s.time_budget_s;
@@ -330,10 +333,13 @@ analysis::AgreementVerdict scatterogram_verdict(const gonio::Scatterogram& sim,
 std::string scatterogram_pair(const Run& run, const Built& b, gonio::Illumination mode,
                               const std::string& label, RockDoveResult& result) {
     const gonio::ScatterometerConfig c = scatterometer_config(run, mode);
+    gonio::ScatterometerConfig model_c = c;  // the same instrument; independent noise
+    model_c.seed =
+        derive_seed(run.s.seed, "rock_dove/scatterogram/model", static_cast<std::uint64_t>(mode));
     run.clock.say("scatterogram (" + label + "): simulation");
     const gonio::Scatterogram sim_s = gonio::measure_scatterogram(*b.simulation, c);
     run.clock.say("scatterogram (" + label + "): Huang model");
-    const gonio::Scatterogram mod_s = gonio::measure_scatterogram(*b.model, c);
+    const gonio::Scatterogram mod_s = gonio::measure_scatterogram(*b.model, model_c);
     const fs::path dir = run.dir / "scatterograms";
     gonio::write_scatterogram_record(sim_s, dir / (label + "_simulation.h5"));
     gonio::write_scatterogram_record(mod_s, dir / (label + "_model.h5"));
@@ -433,7 +439,7 @@ gonio::GoniometerConfig goniometer_config(const Run& run) {
     g.wavelengths_nm = s.wavelengths;
     g.detector_half_angle_rad = s.detector_half_angle;
     g.beam_radius_um = s.beam_radius_um;
-    g.seed = s.seed;
+    g.seed = derive_seed(s.seed, "rock_dove/brdf");
     g.quanta_per_pass = s.gonio_quanta;
     g.max_passes = s.gonio_passes;
     g.time_budget_s = s.time_budget_s;
@@ -600,6 +606,7 @@ std::string in_plane_sweep(const Run& run, const Built& b) {
     ip.wavelengths_nm = {s.wavelengths[s.wavelengths.size() / 2]};
     ip.estimator = gonio::Estimator::photon;
     ip.quanta_per_pass = s.gonio_quanta * 4;
+    ip.seed = derive_seed(s.seed, "rock_dove/in_plane_sweep");
     run.clock.say("in-plane sweep: simulation and model");
     const gonio::BrdfRecord a = gonio::measure_brdf(*b.simulation, ip);
     ip.estimator = gonio::Estimator::eval;
@@ -658,7 +665,7 @@ gonio::GoniometerConfig validation_config(const Settings& s,
     v.detector_half_angle_rad = s.validation_detector_half_angle;
     // The beam must span many barbule periods: the model averages over one.
     v.beam_radius_um = std::max(s.beam_radius_um, 5.0 * short_row.H * short_row.cell.semi_major_um);
-    v.seed = s.seed;
+    v.seed = derive_seed(s.seed, "rock_dove/validation");
     v.quanta_per_pass = s.validation_quanta;
     v.max_passes = 1;
     v.estimator = gonio::Estimator::photon;
@@ -817,7 +824,7 @@ std::string huang_fit(const Run& run, const Built& b, RockDoveResult& result) {
     c.image_size = s.fit_image_size;
     c.wavelengths_nm = fit_wavelengths(s.wavelengths);
     c.beam_radius_um = s.beam_radius_um;
-    c.seed = s.seed;
+    c.seed = derive_seed(s.seed, "rock_dove/fit_scatterogram");
     c.quanta_per_pass = s.fit_quanta;
     c.max_passes = 1;
     c.config_text = run.study_text;
@@ -933,6 +940,7 @@ std::string convergence(const Run& run, const Built& b,
     c.eval_rings = s.convergence_reference_rings;
     const gonio::BrdfRecord truth = gonio::measure_brdf(*b.model, c);
     c.estimator = gonio::Estimator::photon;
+    c.seed = derive_seed(s.seed, "rock_dove/convergence");
     c.quanta_per_pass = s.convergence_quanta;
     c.max_passes = s.convergence_passes;
     const std::size_t np = c.pairs.size();
@@ -1295,7 +1303,8 @@ std::string level_of_physics(const Run& run, RockDoveResult& result) {
                                   p.cell.melanin_depth_um, p.H, p.mu, count);
     row.jitter_rotation_rad = p.jitter_phi_rad;
     row.realisations = p.jitter_phi_rad > 0.0 ? 8 : 1;
-    row.seed = run.s.seed;
+    row.seed =
+        derive_seed(run.s.seed, "rock_dove/wave_row");  // its jitter (the closed row: the same)
     sim::wave::RayOpticsValidityOptions options;
     options.max_step_um =
         0.95 * sim::wave::barbule_row_min_radius_um(a, p.cell.b, p.cell.phi0, p.cell.phi1);

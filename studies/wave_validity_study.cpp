@@ -18,6 +18,7 @@
 #include "common/constants.h"
 #include "common/cpu_time.h"
 #include "common/error.h"
+#include "common/seed.h"
 #include "common/version.h"
 #include "geometry/barbule.h"
 #include "sim/fullwave/full_wave_2d.h"
@@ -292,7 +293,9 @@ wave::Row2d build_row(const Settings& s, const Barbule& b, double a) {
     row.jitter_position_um = s.jitter_position * b.H * a;
     row.jitter_rotation_rad = s.jitter_rotation;
     row.realisations = s.realisations;
-    row.seed = s.seed;
+    // One root for every cell (common/seed.h): the cells share their jitter realisations (common
+    // random numbers), so a difference between cells is their size's, not the draw's.
+    row.seed = derive_seed(s.seed, "wave_validity/row_jitter");
     return row;
 }
 

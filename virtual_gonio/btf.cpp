@@ -18,6 +18,7 @@
 #include "common/error.h"
 #include "common/interrupt.h"
 #include "common/require.h"
+#include "common/seed.h"
 #include "virtual_gonio/display_colour.h"
 #include "virtual_gonio/hdf5_file.h"
 #include "virtual_gonio/record_provenance.h"
@@ -55,6 +56,7 @@ BtfRecord measure_btf(const Scatterer& scatterer, const BtfConfig& config) {
     BtfRecord r;
     r.config = config;
     r.scatterer = scatterer.name();
+    record_measurement_seed("btf", config.seed);  // common/seed.h: one root per measurement
     const std::size_t np = config.pairs.size(), nl = config.wavelengths_nm.size();
     const int n = config.pixels;
     const std::size_t cells = np * static_cast<std::size_t>(n) * n * nl;

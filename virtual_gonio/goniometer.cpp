@@ -22,6 +22,7 @@
 #include "common/distributed.h"
 #include "common/error.h"
 #include "common/require.h"
+#include "common/seed.h"
 #include "common/version.h"
 #include "virtual_gonio/display_colour.h"
 #include "virtual_gonio/hdf5_file.h"
@@ -837,6 +838,7 @@ BrdfRecord measure_brdf(const Scatterer& scatterer, const GoniometerConfig& conf
         return evaluated;
     }
 
+    record_measurement_seed("goniometer", config.seed);  // common/seed.h: one root per measurement
     const std::size_t nl = config.wavelengths_nm.size(), np = config.pairs.size(),
                       nlobes = r.lobes.size();
     const std::vector<Group> groups = group_by_light(config.pairs);

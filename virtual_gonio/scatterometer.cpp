@@ -16,6 +16,7 @@
 #include "common/error.h"
 #include "common/interrupt.h"
 #include "common/require.h"
+#include "common/seed.h"
 #include "virtual_gonio/display_colour.h"
 #include "virtual_gonio/hdf5_file.h"
 #include "virtual_gonio/record_provenance.h"
@@ -452,6 +453,7 @@ Scatterogram measure_scatterogram(const Scatterer& scatterer, const Scatteromete
     s.scatterer = scatterer.name();
     s.lobes = scatterer.lobe_names();
     s.solid_angle_sr = pixel_solid_angles(config.image_size);
+    record_measurement_seed("scatterometer", config.seed);  // common/seed.h: one root each
     const std::size_t np = s.pixels(), nl = config.wavelengths_nm.size(), nlobes = s.lobes.size();
     Sums sums{std::vector<double>(np * nl, 0.0), std::vector<double>(np * nl, 0.0),
               std::vector<double>(nlobes * np * nl, 0.0), std::vector<double>(nl, 0.0),
