@@ -477,6 +477,14 @@ def _hemisphere_frame(ax, dark):
         side.set_visible(False)
 
 
+def _clip_to_disc(ax, image):
+    """Clips a hemisphere image to the disc ϑ <= 90°: a rim pixel's centre lies inside the disc
+    but its square reaches past it, and nothing is measured there."""
+    from matplotlib.patches import Circle
+
+    image.set_clip_path(Circle((0.0, 0.0), 90.0, transform=ax.transData))
+
+
 def build_scatterogram(h5_path):
     """One scatterogram (the `figure/` group of build_scatterogram_comparison's input, its
     simulation image) on the hemisphere's axes, with its exposure stated."""
@@ -492,7 +500,9 @@ def build_scatterogram(h5_path):
     inside = np.isfinite(theta)
     fig, ax = plt.subplots(figsize=(6.2, 6.4))
     rgba = np.concatenate([np.clip(rgb, 0, 1), inside[..., None].astype(float)], axis=2)
-    ax.imshow(rgba, extent=(-90.0, 90.0, -90.0, 90.0), origin="upper", interpolation="nearest")
+    image = ax.imshow(rgba, extent=(-90.0, 90.0, -90.0, 90.0), origin="upper",
+                      interpolation="nearest")
+    _clip_to_disc(ax, image)
     _hemisphere_frame(ax, True)
     ax.set_title(f"Scatterogram, {title}\nradiant intensity per unit incident power under D65;\n"
                  f"white = luminance {white:.3g} 1/sr", fontsize=9)
@@ -522,7 +532,7 @@ def build_scatterogram_comparison(h5_path):
     cax = axes[3]
     for ax, rgb, name in ((axes[0], sim, "simulation"), (axes[1], mod, "Huang 2022 model")):
         rgba = np.concatenate([np.clip(rgb, 0, 1), inside[..., None].astype(float)], axis=2)
-        ax.imshow(rgba, extent=extent, origin="upper", interpolation="nearest")
+        _clip_to_disc(ax, ax.imshow(rgba, extent=extent, origin="upper", interpolation="nearest"))
         _hemisphere_frame(ax, True)
         ax.set_title(name, fontsize=10)
     ax = axes[2]
@@ -530,6 +540,7 @@ def build_scatterogram_comparison(h5_path):
     lim = lim if lim > 0 else 1.0
     im = ax.imshow(np.ma.masked_invalid(diff), extent=extent, origin="upper",
                    interpolation="nearest", cmap="RdBu_r", vmin=-lim, vmax=lim)
+    _clip_to_disc(ax, im)
     _hemisphere_frame(ax, False)
     err = f" (relative L1 {errors[0]:.3f})" if errors is not None and len(errors) else ""
     ax.set_title("simulation − model" + err, fontsize=10)

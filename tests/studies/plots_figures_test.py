@@ -398,6 +398,37 @@ class EveryKind(unittest.TestCase):
         self.assertIn("one exposure", fig._suptitle.get_text())
         self.assertEqual(len(colour_bars(fig)), 1)
 
+    def test_hemisphere_paints_no_pixel_outside_the_disc(self):
+        """Every pixel drawn in one pure colour: rendered, no pixel of that colour lies outside
+        the ϑ = 90° circle (a rim pixel's centre is inside, its square is not)."""
+        path = scatterogram_comparison(self.dir)
+        with h5py.File(path, "r+") as f:
+            g = f["figure"]
+            rgb = np.zeros(g["simulation_srgb"].shape, dtype=np.float32)
+            rgb[..., 1] = 1.0  # pure green everywhere; the disc's mask is theta
+            g["simulation_srgb"][...] = rgb
+            g["model_srgb"][...] = rgb
+        for build in (PLOTS.build_scatterogram_comparison, PLOTS.build_scatterogram):
+            with self.subTest(kind=build.__name__):
+                fig = build(path)
+                fig.canvas.draw()
+                image = np.asarray(fig.canvas.buffer_rgba())[..., :3].astype(int)
+                height = image.shape[0]
+                rows, cols = np.mgrid[0:height, 0:image.shape[1]]
+                green = (image[..., 1] > 200) & (image[..., 0] < 60) & (image[..., 2] < 60)
+                self.assertTrue(green.any(), "the test colour was not drawn")
+                for ax in panels(fig)[:2 if "comparison" in build.__name__ else 1]:
+                    cx, cy = ax.transData.transform((0.0, 0.0))
+                    rim = ax.transData.transform((90.0, 0.0))[0] - cx
+                    # display y runs upwards, the buffer's rows downwards
+                    r = np.hypot(cols + 0.5 - cx, (height - rows - 0.5) - cy)
+                    box = ax.get_window_extent()
+                    near = (np.abs(cols - cx) < box.width / 2) & (np.abs(height - rows - cy) <
+                                                                   box.height / 2)
+                    outside = green & near & (r > rim + 1.5)
+                    self.assertEqual(int(outside.sum()), 0, f"{title_of(ax)}: pixels outside")
+                PLOTS.plt.close("all")
+
     def test_geometry_preview_has_a_legend_and_a_scale_bar(self):
         from mpl_toolkits.axes_grid1.anchored_artists import AnchoredSizeBar
 
