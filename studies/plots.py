@@ -83,12 +83,36 @@ def build_chart(h5_path):
     return fig
 
 
+def _label_log_ticks(axis, low, high):
+    """At least three labelled ticks on a logarithmic axis spanning [low, high]: decades when the
+    span holds three, else 1-2-5, 1-2-3-5-7 or every integer mantissa, written as plain numbers
+    (a span inside one decade otherwise shows a single 10^k label or none)."""
+    import math
+
+    from matplotlib.ticker import FixedLocator, NullFormatter, StrMethodFormatter
+
+    ticks = []
+    for mantissas in ((1,), (1, 2, 5), (1, 2, 3, 5, 7), tuple(range(1, 10)),
+                      tuple(m / 2 for m in range(2, 20))):
+        ticks = [m * 10.0 ** k for k in range(math.floor(math.log10(low)) - 1,
+                                              math.ceil(math.log10(high)) + 1)
+                 for m in mantissas if low <= m * 10.0 ** k <= high]
+        if len(ticks) >= 3:
+            break
+    axis.set_major_locator(FixedLocator(ticks))
+    axis.set_major_formatter(StrMethodFormatter("{x:g}"))
+    axis.set_minor_formatter(NullFormatter())
+
+
 def build_convergence(csv_path):
+    """Error against wall time on log-log axes, at least three labelled ticks per axis, the
+    legend beneath the axes so it covers no point."""
     with open(csv_path, newline="") as f:
         rows = list(csv.DictReader(f))
-    fig, ax = plt.subplots(figsize=(6.5, 4.5))
+    fig, ax = plt.subplots(figsize=(6.5, 5.6))
     series = [k for k in ("estimated_error", "true_error", "reference_floor") if k in rows[0]]
     labels = sorted(set(r["label"] for r in rows))
+    xs, ys = [], []
     for label in labels:
         sel = [r for r in rows if r["label"] == label]
         t = [float(r["wall_time_s"]) for r in sel]
@@ -96,16 +120,23 @@ def build_convergence(csv_path):
             y = [float(r[key]) for r in sel]
             if all(v > 0 for v in y):
                 ax.loglog(t, y, style, label=f"{label}: {key.replace('_', ' ')}")
+                xs += t
+                ys += y
     # 1/sqrt(t) reference through the first point of the first series
     first = [r for r in rows if r["label"] == labels[0]]
     t0, e0 = float(first[0]["wall_time_s"]), float(first[0][series[0]])
     tt = [float(r["wall_time_s"]) for r in first]
     ax.loglog(tt, [e0 * (t0 / x) ** 0.5 for x in tt], "k:", label="slope -1/2")
+    # Limits a little beyond the points (a factor, as the axes are logarithmic), then ticks.
+    ax.set_xlim(min(xs) / 1.15, max(xs) * 1.15)
+    ax.set_ylim(min(ys) / 1.3, max(ys) * 1.3)
+    _label_log_ticks(ax.xaxis, *ax.get_xlim())
+    _label_log_ticks(ax.yaxis, *ax.get_ylim())
     ax.set_xlabel("wall time (s)")
     ax.set_ylabel("relative RMS error")
     ax.set_title("Error against wall time (log-log)")
     ax.grid(alpha=0.3, which="both")
-    ax.legend(fontsize=8)
+    ax.legend(fontsize=8, loc="upper center", bbox_to_anchor=(0.5, -0.13), ncol=2)
     fig.tight_layout()
     return fig
 

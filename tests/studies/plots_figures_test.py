@@ -398,6 +398,40 @@ class EveryKind(unittest.TestCase):
         self.assertIn("one exposure", fig._suptitle.get_text())
         self.assertEqual(len(colour_bars(fig)), 1)
 
+    def test_convergence_has_three_x_ticks_and_a_legend_off_the_data(self):
+        """A quick study's passes span less than a decade of wall time, where a plain log axis
+        labels one tick or none; the default study's passes (and the simulation's two, later)
+        fill the axes, where the legend came to lie over lines and points. Neither may happen:
+        three labelled ticks on each axis, and no point nor any part of a line under the
+        legend."""
+        header = ["label", "wall_time_s", "estimated_error", "true_error", "reference_floor"]
+        lobe = "Huang R lobe (photon estimator)"
+        quick = [[lobe, t, 0.27 / t ** 0.5, 0.25 / t ** 0.4, 0.013] for t in (1.15, 2.2, 3.3)]
+        quick.append(["simulation BRDF", 1.8, 0.21, -1, -1])
+        full = [[lobe, t, 0.25 * (4.5 / t) ** 0.5, 0.28 * (4.5 / t) ** 0.9, 0.0105]
+                for t in np.geomspace(4.5, 33, 10)]
+        full += [["simulation BRDF", 34, 0.15, -1, -1], ["simulation BRDF", 79, 0.105, -1, -1]]
+        for name, rows in (("quick", quick), ("full", full)):
+            with self.subTest(passes=name):
+                fig = PLOTS.build_convergence(write_csv(os.path.join(self.dir, name + ".csv"),
+                                                        header, rows))
+                fig.canvas.draw()
+                ax = panels(fig)[0]
+                for axis, (low, high) in ((ax.xaxis, ax.get_xlim()), (ax.yaxis, ax.get_ylim())):
+                    labelled = [t.label1.get_text() for t in axis.get_major_ticks()
+                                if low <= t.get_loc() <= high and t.label1.get_visible()
+                                and t.label1.get_text()]
+                    self.assertGreaterEqual(len(labelled), 3, labelled)
+                legend = ax.get_legend().get_window_extent(fig.canvas.get_renderer())
+                for line in ax.get_lines():
+                    xy = ax.transData.transform(line.get_xydata())
+                    # each point, and 40 samples along every segment between points
+                    samples = np.concatenate([xy[:1]] + [np.linspace(a, b, 40)
+                                                         for a, b in zip(xy[:-1], xy[1:])])
+                    under = sum(legend.contains(x, y) for x, y in samples)
+                    self.assertEqual(under, 0, f"the legend covers '{line.get_label()}'")
+                PLOTS.plt.close("all")
+
     def test_hemisphere_paints_no_pixel_outside_the_disc(self):
         """Every pixel drawn in one pure colour: rendered, no pixel of that colour lies outside
         the ϑ = 90° circle (a rim pixel's centre is inside, its square is not)."""
