@@ -597,9 +597,52 @@ def _ring_ticks(angles):
     return starts, [0.5 * (a + b - 1) for a, b in zip(starts, ends)], labels
 
 
+def _fingerprint_axes(ax, views, lights):
+    """Ring separators, ring ticks and axis labels of one fingerprint panel."""
+    xs, xt, xl = _ring_ticks(views)
+    ys, yt, yl = _ring_ticks(lights)
+    for t in xs[1:]:
+        ax.axvline(t - 0.5, color="0.5", lw=0.4, alpha=0.6)
+    for t in ys[1:]:
+        ax.axhline(t - 0.5, color="0.5", lw=0.4, alpha=0.6)
+    ax.set_xticks(xt, xl, fontsize=7)
+    ax.set_yticks(yt, yl, fontsize=7)
+    ax.set_xlabel("view θ_o ring (φ_o 0°…330° within each)", fontsize=8)
+    ax.set_ylabel("light θ_i ring (φ_i 0°…330° within each)", fontsize=8)
+
+
+def _fingerprint_differences(fig, axes, panels, white):
+    """Bottom row: each panel's luminance minus the first's (the simulation's), under it, on
+    one diverging scale symmetric about 0 shared by every difference panel. Symmetric log,
+    linear within a thousandth of white: the BRDF spans decades, and a linear scale would show
+    only the specular peak's difference."""
+    import numpy as np
+    from matplotlib.colors import SymLogNorm
+
+    reference, reference_name = panels[0][1], panels[0][2]
+    diffs = [reference - y for _, y, _, _ in panels[1:]]
+    lim = max(float(np.nanmax(np.abs(d))) if np.any(np.isfinite(d)) else 0.0 for d in diffs)
+    linear = max(white, 1e-300) * 1e-3
+    lim = max(lim, 10.0 * linear)
+    norm = SymLogNorm(linthresh=linear, vmin=-lim, vmax=lim, base=10)
+    axes[2, 0].set_visible(False)
+    image = None
+    for k, d in enumerate(diffs, start=1):
+        ax = axes[2, k]
+        image = ax.imshow(d, norm=norm, cmap="RdBu_r", interpolation="nearest", aspect="auto")
+        ax.set_title(f"{reference_name} − {panels[k][2]}\n(red: {reference_name} brighter)",
+                     fontsize=9)
+    box = axes[2, -1].get_position()
+    cax = fig.add_axes([0.9, box.y0, 0.015, box.height])
+    bar = fig.colorbar(image, cax=cax)
+    bar.set_label(f"luminance difference (1/sr), symmetric log,\nlinear within ±{linear:.2g}",
+                  fontsize=8)
+
+
 def build_fingerprints(h5_path):
-    """Filip 2024 Fig. 7 fingerprints: colour at one exposure for every panel (top row) and
-    the luminance on one logarithmic scale with a colour bar (bottom row)."""
+    """Filip 2024 Fig. 7 fingerprints: colour at one exposure for every panel (top row), the
+    luminance on one logarithmic scale with a colour bar (middle row) and, when there is more
+    than one panel, each one's signed luminance difference from the first (bottom row)."""
     import h5py
     import numpy as np
     from matplotlib.colors import LogNorm
@@ -614,37 +657,34 @@ def build_fingerprints(h5_path):
         views = np.asarray(f["view_angles_deg"])
         white = float(f.attrs["white_luminance_per_sr"])
         title = _text(f.attrs["title"])
-    fig, axes = plt.subplots(2, count, figsize=(4.3 * count + 0.8, 8.6), squeeze=False)
+    rows = 3 if count > 1 else 2
+    fig, axes = plt.subplots(rows, count, figsize=(4.3 * count + 0.8, 4.3 * rows),
+                             squeeze=False)
     top = max(white, 1e-300)
     norm = LogNorm(vmin=top * 1e-4, vmax=top)
-    xs, xt, xl = _ring_ticks(views)
-    ys, yt, yl = _ring_ticks(lights)
     image = None
     for k, (rgb, y, name, peak) in enumerate(panels):
-        for row, ax in enumerate(axes[:, k]):
-            if row == 0:
-                ax.imshow(np.clip(rgb, 0, 1), interpolation="nearest", aspect="auto")
-                ax.set_title(f"{name}\npeak {peak:.3g} 1/sr ({peak / top:.2f} of white)",
-                             fontsize=9)
-            else:
-                image = ax.imshow(np.clip(y, top * 1e-4, None), norm=norm, cmap="viridis",
-                                  interpolation="nearest", aspect="auto")
-                ax.set_title(f"{name}: luminance (log scale)", fontsize=9)
-            for t in xs[1:]:
-                ax.axvline(t - 0.5, color="w", lw=0.4, alpha=0.6)
-            for t in ys[1:]:
-                ax.axhline(t - 0.5, color="w", lw=0.4, alpha=0.6)
-            ax.set_xticks(xt, xl, fontsize=7)
-            ax.set_yticks(yt, yl, fontsize=7)
-            ax.set_xlabel("view θ_o ring (φ_o 0°…330° within each)", fontsize=8)
-            ax.set_ylabel("light θ_i ring (φ_i 0°…330° within each)", fontsize=8)
+        ax = axes[0, k]
+        ax.imshow(np.clip(rgb, 0, 1), interpolation="nearest", aspect="auto")
+        ax.set_title(f"{name}\npeak {peak:.3g} 1/sr ({peak / top:.2f} of white)", fontsize=9)
+        ax = axes[1, k]
+        image = ax.imshow(np.clip(y, top * 1e-4, None), norm=norm, cmap="viridis",
+                          interpolation="nearest", aspect="auto")
+        ax.set_title(f"{name}: luminance (log scale)", fontsize=9)
     fig.suptitle(f"{title}\nrows: light directions, columns: view directions; colour: one "
                  f"exposure for all panels, white = luminance {white:.3g} 1/sr", fontsize=10)
-    fig.subplots_adjust(left=0.07, right=0.88, top=0.86, bottom=0.07, hspace=0.38, wspace=0.3)
+    height = 4.3 * rows  # inches: 1.2 for the suptitle, 0.6 for the bottom labels
+    fig.subplots_adjust(left=0.07, right=0.88, top=1.0 - 1.2 / height, bottom=0.6 / height,
+                        hspace=0.42, wspace=0.3)
     box = axes[1, -1].get_position()
     cax = fig.add_axes([0.9, box.y0, 0.015, box.height])
     bar = fig.colorbar(image, cax=cax)
     bar.set_label("luminance Y of the BRDF (1/sr)", fontsize=8)
+    if count > 1:
+        _fingerprint_differences(fig, axes, panels, white)
+    for ax in axes.flat:
+        if ax.get_visible():
+            _fingerprint_axes(ax, views, lights)
     return fig
 
 

@@ -166,22 +166,22 @@ def scatterogram_comparison(d):
     return path
 
 
-def fingerprints(d):
+def fingerprints(d, count=3):
     """As studies/figure_data.cpp writes fingerprints.h5 (Filip 2024 set: 61 x 60)."""
-    path = os.path.join(d, "fingerprints.h5")
+    path = os.path.join(d, f"fingerprints{count}.h5")
     lights = np.array([[0.0, 0.0]] + [[t, p] for t in (15, 30, 45, 60, 75) for p in range(0, 360, 30)])
     views = lights[1:]
     rng = np.random.default_rng(4)
     with h5py.File(path, "w") as f:
         f["light_angles_deg"] = lights
         f["view_angles_deg"] = views
-        for k, title in enumerate(("simulation", "fitted model", "Table 1 model")):
+        for k, title in enumerate(("simulation", "fitted model", "Table 1 model")[:count]):
             y = rng.random((61, 60))
             f[f"panel{k}/srgb"] = np.repeat(y[..., None], 3, axis=2).astype(np.float32)
             f[f"panel{k}/luminance"] = y
             f[f"panel{k}"].attrs["title"] = title
             f[f"panel{k}"].attrs["peak_luminance_per_sr"] = float(y.max())
-        f.attrs["panels"] = np.int64(3)
+        f.attrs["panels"] = np.int64(count)
         f.attrs["title"] = "parrot: BRDF fingerprints"
         f.attrs["white_luminance_per_sr"] = 1.0
     return path
@@ -396,7 +396,32 @@ class EveryKind(unittest.TestCase):
     def test_fingerprints_state_one_exposure(self):
         fig = PLOTS.build_fingerprints(fingerprints(self.dir))
         self.assertIn("one exposure", fig._suptitle.get_text())
-        self.assertEqual(len(colour_bars(fig)), 1)
+        # one luminance scale for every panel (the other bar is the differences')
+        luminance = [b for b in colour_bars(fig) if b.get_ylabel().startswith("luminance Y")]
+        self.assertEqual(len(luminance), 1)
+
+    def test_fingerprints_have_a_difference_panel_per_compared_panel(self):
+        """Under each compared panel its signed luminance difference from the simulation, on one
+        diverging scale symmetric about 0 shared by all, with a colour bar in 1/sr; a single
+        panel (the measure study's sample) has nothing to compare and no difference row."""
+        for count in (2, 3):
+            with self.subTest(panels=count):
+                fig = PLOTS.build_fingerprints(fingerprints(self.dir, count))
+                diff = [a for a in panels(fig) if "−" in title_of(a)]
+                self.assertEqual(len(diff), count - 1)
+                limits = {a.get_images()[0].get_clim() for a in diff}
+                self.assertEqual(len(limits), 1, "difference panels on different scales")
+                low, high = limits.pop()
+                self.assertAlmostEqual(low, -high)
+                self.assertGreater(high, 0.0)
+                for a in diff:
+                    self.assertEqual(a.get_images()[0].get_cmap().name, "RdBu_r")
+                    self.assertIn("simulation", title_of(a))
+                labels = [b.get_ylabel() for b in colour_bars(fig)]
+                self.assertTrue(any("difference" in t and "1/sr" in t for t in labels), labels)
+                PLOTS.plt.close("all")
+        fig = PLOTS.build_fingerprints(fingerprints(self.dir, 1))
+        self.assertFalse([a for a in panels(fig) if "−" in title_of(a)])
 
     def test_convergence_has_three_x_ticks_and_a_legend_off_the_data(self):
         """A quick study's passes span less than a decade of wall time, where a plain log axis
