@@ -320,13 +320,25 @@ void check_footprint(const Built& b, double beam_radius_um, const std::vector<Ve
     }
 }
 
-// One row of the report's measurement table.
+// A drawn figure the report embeds: its caption and its PNG, relative to the report.
+struct Figure {
+    std::string caption, png;
+};
+
+// One row of the report's measurement table, and the figures it drew (none when plotting was
+// off or failed: the report then names only the records).
 struct Measured {
     std::string instrument, cells, files;
     double error = 0.0;  // see error_meaning
     std::string error_meaning;
     double wall_s = 0.0;
+    std::vector<Figure> figures;
 };
+
+// The figure of `png` in `figures` if run_plot drew it.
+void add_if_drawn(std::vector<Figure>& figures, bool drawn, std::string caption, std::string png) {
+    if (drawn) figures.push_back({std::move(caption), std::move(png)});
+}
 
 // The BRDF, checkpointed in `checkpoint` under the identity of the study text, the
 // configuration and `inputs` (the sample file's content).
@@ -345,15 +357,19 @@ Measured measure_brdf_record(const Built& b, const gonio::GoniometerConfig& c, c
     }
     gonio::write_brdf_record(r, dir / "brdf.h5");
     std::string files = "brdf.h5";
+    std::vector<Figure> figures;
     if (c.direction_set == "filip2024_btf") {
         write_fingerprint_figure(dir / "brdf_fingerprint.h5", "Measured sample: BRDF fingerprint",
                                  {{"sample", &r}}, 61, 60);
-        run_plot("fingerprints", dir / "brdf_fingerprint.h5", dir / "brdf.png");
+        add_if_drawn(figures,
+                     run_plot("fingerprints", dir / "brdf_fingerprint.h5", dir / "brdf.png"),
+                     "BRDF fingerprint (Filip 2024 Fig. 7 layout)", "brdf.png");
         gonio::write_spectral_exr(dir / "brdf.exr",
                                   {gonio::fingerprint_exr_image(r, 61, 60, "sample")}, "measure");
         files += ", brdf_fingerprint.h5, brdf.png, brdf.exr";
     } else {
-        // BRDF against the pair's light angle, one curve per wavelength (plots.py `curves`).
+        // BRDF against the pair's light angle, a column pair per wavelength: drawn as curves at a
+        // few wavelengths beside a map of all (plots.py `brdf_wavelengths`).
         const bool mirror = c.direction_set == "mirror";
         std::ofstream csv(dir / "brdf_curves.csv");
         csv << (mirror ? "mirror angle (deg)" : "signed light angle (deg; view at 45 deg)");
@@ -368,7 +384,10 @@ Measured measure_brdf_record(const Built& b, const gonio::GoniometerConfig& c, c
             csv << '\n';
         }
         close_written(csv, dir / "brdf_curves.csv");
-        run_plot("curves", dir / "brdf_curves.csv", dir / "brdf.png");
+        add_if_drawn(
+            figures, run_plot("brdf_wavelengths", dir / "brdf_curves.csv", dir / "brdf.png"),
+            mirror ? "BRDF against the mirror angle" : "BRDF against the light angle, view at 45°",
+            "brdf.png");
         files += ", brdf_curves.csv, brdf.png";
     }
     const double error =
@@ -379,7 +398,8 @@ Measured measure_brdf_record(const Built& b, const gonio::GoniometerConfig& c, c
             files,
             error,
             "estimated relative RMS error",
-            r.wall_time_s};
+            r.wall_time_s,
+            figures};
 }
 
 Measured measure_scatterogram_record(const Built& b, const gonio::ScatterometerConfig& c,
@@ -392,7 +412,10 @@ Measured measure_scatterogram_record(const Built& b, const gonio::ScatterometerC
         write_scatterogram_figure(h5, s, s, "measured sample");
         h5.commit();
     }
-    run_plot("scatterogram", dir / "scatterogram_figure.h5", dir / "scatterogram.png");
+    std::vector<Figure> figures;
+    add_if_drawn(figures,
+                 run_plot("scatterogram", dir / "scatterogram_figure.h5", dir / "scatterogram.png"),
+                 "scatterogram", "scatterogram.png");
     gonio::write_spectral_exr(dir / "scatterogram.exr",
                               {gonio::scatterogram_exr_image(s, "sample")}, "measure");
     return {
@@ -402,7 +425,8 @@ Measured measure_scatterogram_record(const Built& b, const gonio::ScatterometerC
         "scatterogram.h5, scatterogram.png (its data: scatterogram_figure.h5), scatterogram.exr",
         median_relative_standard_error(s),
         "median per-pixel relative standard error",
-        s.wall_time_s};
+        s.wall_time_s,
+        figures};
 }
 
 Measured measure_btf_record(const Built& b, const gonio::BtfConfig& c, const fs::path& dir,
@@ -413,7 +437,9 @@ Measured measure_btf_record(const Built& b, const gonio::BtfConfig& c, const fs:
     std::vector<std::size_t> pairs(c.pairs.size());
     for (std::size_t p = 0; p < pairs.size(); ++p) pairs[p] = p;
     write_btf_figure(dir / "btf_figure.h5", "Measured sample: BTF", r, pairs);
-    run_plot("btf_tiles", dir / "btf_figure.h5", dir / "btf.png");
+    std::vector<Figure> figures;
+    add_if_drawn(figures, run_plot("btf_tiles", dir / "btf_figure.h5", dir / "btf.png"),
+                 "BTF images", "btf.png");
     std::vector<gonio::SpectralImage> parts;
     for (std::size_t p : pairs)
         parts.push_back(gonio::btf_exr_image(r, p, fmt::format("pair{}", p)));
@@ -440,7 +466,8 @@ Measured measure_btf_record(const Built& b, const gonio::BtfConfig& c, const fs:
         "btf.h5, btf_figure.h5, btf.png, btf.exr",
         cells ? std::sqrt(sum_rel2 / static_cast<double>(cells)) : 0.0,
         "relative RMS error of the patch-mean BRDF",
-        r.wall_time_s};
+        r.wall_time_s,
+        figures};
 }
 
 void write_report(const fs::path& path, const Settings& s, const Built& b,
@@ -462,7 +489,15 @@ void write_report(const fs::path& path, const Settings& s, const Built& b,
         md << fmt::format("| {} | {} | {:.3g} | {} | {:.2f} | {} |\n", r.instrument, r.cells,
                           r.error, r.error_meaning, r.wall_s, r.files);
     }
-    md << "\nRecords: virtual_gonio/RECORD.md.\n\n" << run_time;
+    md << "\nRecords: virtual_gonio/RECORD.md.\n\n";
+    bool drawn = false;
+    for (const auto& r : rows) drawn = drawn || !r.figures.empty();
+    if (drawn) md << "## Figures\n\n";
+    for (const auto& r : rows) {
+        for (const Figure& f : r.figures)
+            md << fmt::format("{}: {}\n\n![{}]({})\n\n", r.instrument, f.caption, f.caption, f.png);
+    }
+    md << run_time;
     md << "## Study file\n\n```toml\n" << text << "\n```\n";
     if (!md) throw IoError(fmt::format("cannot write {}", path.string()));
 }

@@ -4,6 +4,8 @@
   plots.py chart H5 PNG          thin-film colour chart with axes (Huang 2022 Fig. 3 style)
   plots.py convergence CSV PNG   estimated and true error against wall time, log-log
   plots.py curves CSV PNG        BRDF against an angle: columns x, then name, name_err pairs
+  plots.py brdf_wavelengths CSV PNG  a BRDF at many wavelengths (the curves CSV): curves at a
+                                 few wavelengths beside a map of all, both on log scales
   plots.py contact_sheet CSV PNG rows of images: columns label, simulation, model (PNG paths
                                  relative to the CSV's folder), note
   plots.py sweep_error CSV PNG   model error against a swept parameter: x, error, noise floor, is_base
@@ -154,6 +156,66 @@ def build_curves(csv_path):
     ax.set_title(f"BRDF against {header[0]}")
     ax.grid(alpha=0.3)
     ax.legend(fontsize=8)
+    fig.tight_layout()
+    return fig
+
+
+def _wavelength_colour(nm):
+    """An approximate display colour of a monochromatic wavelength (380-780 nm), darkened a
+    little so that a yellow line stays visible on white."""
+    stops = ((380, (0.4, 0.0, 0.6)), (440, (0.2, 0.0, 1.0)), (490, (0.0, 0.6, 0.9)),
+             (510, (0.0, 0.7, 0.2)), (580, (0.8, 0.7, 0.0)), (645, (0.9, 0.1, 0.0)),
+             (780, (0.5, 0.0, 0.0)))
+    nm = min(max(nm, stops[0][0]), stops[-1][0])
+    for (a, ca), (b, cb) in zip(stops, stops[1:]):
+        if a <= nm <= b:
+            w = (nm - a) / (b - a)
+            return tuple((1 - w) * x + w * y for x, y in zip(ca, cb))
+    return stops[-1][1]
+
+
+def build_brdf_wavelengths(csv_path):
+    """A measured BRDF at many wavelengths (columns x, then `λ nm` and `λ nm error` pairs):
+    curves against x at no more than four wavelengths (log scale, error bars, each in its
+    wavelength's colour) beside a map of every wavelength on one logarithmic colour scale; all
+    wavelengths as curves in one panel would overlap beyond reading."""
+    import numpy as np
+    from matplotlib.colors import LogNorm
+
+    header, rows = numeric_csv(csv_path)
+    data = np.asarray(rows, dtype=float).reshape(len(rows), len(header))
+    x = data[:, 0]
+    names = header[1::2]
+    values, errors = data[:, 1::2], data[:, 2::2]
+    nm = [float(n.split()[0]) for n in names]
+    shown = sorted(set(int(round(i)) for i in np.linspace(0, len(names) - 1, min(4, len(names)))))
+    positive = values[values > 0]
+    floor = float(positive.min()) if positive.size else 1.0
+    fig, (left, right) = plt.subplots(1, 2, figsize=(12, 4.6),
+                                      gridspec_kw={"width_ratios": (1.1, 1)})
+    for i in shown:
+        left.errorbar(x, values[:, i], yerr=errors[:, i], fmt="o-", ms=3, capsize=2,
+                      color=_wavelength_colour(nm[i]), label=names[i])
+    if positive.size == values.size:
+        left.set_yscale("log")
+        low, high = left.get_ylim()
+        _label_log_ticks(left.yaxis, low, high)
+    left.set_xlabel(header[0])
+    left.set_ylabel("BRDF (1/sr)")
+    left.set_title(f"BRDF against {header[0]}\nat {len(shown)} of {len(names)} wavelengths "
+                   "(error bars: 1σ)", fontsize=10)
+    left.grid(alpha=0.3, which="both")
+    left.legend(fontsize=8, title="wavelength")
+    image = right.imshow(np.clip(values.T, floor, None), origin="lower", aspect="auto",
+                         interpolation="nearest", cmap="viridis",
+                         norm=LogNorm(vmin=floor, vmax=max(float(values.max()), floor * 1.01)))
+    right.set_xticks(range(len(x)), [f"{v:g}" for v in x], fontsize=8)
+    right.set_yticks(range(len(nm)), [f"{v:g}" for v in nm], fontsize=8)
+    right.set_xlabel(header[0])
+    right.set_ylabel("wavelength (nm)")
+    right.set_title(f"BRDF at every wavelength ({len(names)}), log scale", fontsize=10)
+    bar = fig.colorbar(image, ax=right)
+    bar.set_label("BRDF (1/sr)")
     fig.tight_layout()
     return fig
 
@@ -1022,6 +1084,7 @@ KINDS = {  # kind -> (builder, dpi)
     "chart": (build_chart, 120),
     "convergence": (build_convergence, 120),
     "curves": (build_curves, 120),
+    "brdf_wavelengths": (build_brdf_wavelengths, 110),
     "contact_sheet": (build_contact_sheet, 110),
     "sweep_error": (build_sweep_error, 120),
     "energy_bars": (build_energy_bars, 110),

@@ -176,6 +176,10 @@ TEST(MeasureStudy, ExampleRunsAndMeasuresEveryInstrumentItNames) {
     for (const char* f :
          {"brdf.h5", "brdf.png", "scatterogram.h5", "scatterogram.exr", "report.md"})
         EXPECT_TRUE(fs::exists(root / "measure_example" / f)) << f;
+    // Issue 41: the report embeds the figures it drew, not only names them in the table.
+    const std::string report = testing::read_text_file(root / "measure_example" / "report.md");
+    for (const char* png : {"](brdf.png)", "](scatterogram.png)"})
+        EXPECT_NE(report.find(png), std::string::npos) << png << " not embedded:\n" << report;
     EXPECT_FALSE(fs::exists(root / ".checkpoints"));
     fs::remove_all(root);
 }

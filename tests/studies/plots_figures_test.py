@@ -63,6 +63,23 @@ def curves(d):
                      [[x, 1 + 0.01 * x, 0.1, 1.0, 0.0] for x in range(-60, 61, 20)])
 
 
+def brdf_wavelengths(d, wavelengths=13, angles=13):
+    """As studies/measure_study.cpp writes brdf_curves.csv: 13 light angles x 13 wavelengths
+    (the in-plane set at a 25 nm step), a column pair per wavelength."""
+    nm = np.linspace(400, 700, wavelengths)
+    header = ["signed light angle (deg; view at 45 deg)"]
+    for n in nm:
+        header += [f"{n:g} nm", f"{n:g} nm error"]
+    rows = []
+    for x in np.linspace(-81, 81, angles):
+        row = [x]
+        for n in nm:
+            v = 1.0 + np.exp(-((x + 45) / 10) ** 2) * (1 + np.sin(n / 40))
+            row += [v, 0.05 * v]
+        rows.append(row)
+    return write_csv(os.path.join(d, "brdf_curves.csv"), header, rows)
+
+
 def contact_sheet(d):
     import matplotlib.pyplot as plt
 
@@ -299,6 +316,7 @@ CASES = {
     "chart": ([chart], "all", False),
     "convergence": ([convergence], "all", False),
     "curves": ([curves], "all", False),
+    "brdf_wavelengths": ([brdf_wavelengths], "all", True),
     "contact_sheet": ([contact_sheet], "sheet", False),
     "sweep_error": ([sweep_error], "all", False),
     "energy_bars": ([energy_bars], "all", False),
@@ -487,6 +505,18 @@ class EveryKind(unittest.TestCase):
                     outside = green & near & (r > rim + 1.5)
                     self.assertEqual(int(outside.sum()), 0, f"{title_of(ax)}: pixels outside")
                 PLOTS.plt.close("all")
+
+    def test_brdf_wavelengths_draws_few_curves_per_panel(self):
+        """13 wavelengths: no panel carries more than four curves; the map holds them all on a
+        logarithmic colour scale with a colour bar in 1/sr."""
+        fig = PLOTS.build_brdf_wavelengths(brdf_wavelengths(self.dir))
+        for ax in panels(fig):
+            self.assertLessEqual(len(ax.containers), 4, title_of(ax))
+            self.assertLessEqual(len(ax.get_legend_handles_labels()[0]), 4, title_of(ax))
+        maps = [a for a in panels(fig) if a.get_images()]
+        self.assertEqual(len(maps), 1)
+        self.assertEqual(maps[0].get_images()[0].get_array().shape, (13, 13))
+        self.assertIn("1/sr", colour_bars(fig)[0].get_ylabel())
 
     def test_geometry_preview_has_a_legend_and_a_scale_bar(self):
         from mpl_toolkits.axes_grid1.anchored_artists import AnchoredSizeBar
