@@ -71,7 +71,8 @@ def build_chart(h5_path):
         rgb = np.asarray(f["chart/srgb8"])
         thickness = np.asarray(f["chart/thickness_nm"])
         angle = np.asarray(f["chart/incidence_deg"])
-    fig, ax = plt.subplots(figsize=(9, 4.2))
+        exposure = float(f["chart"].attrs["exposure"]) if "exposure" in f["chart"].attrs else None
+    fig, ax = plt.subplots(figsize=(9, 4.4))
     ax.imshow(rgb, origin="lower", aspect="auto", interpolation="nearest",
               extent=(thickness[0], thickness[-1], angle[0], angle[-1]))
     for d in (530, 595):
@@ -80,7 +81,9 @@ def build_chart(h5_path):
                 fontsize=8, bbox=dict(facecolor="black", alpha=0.4, lw=0))
     ax.set_xlabel("keratin film thickness (nm)")
     ax.set_ylabel("incidence angle (deg)")
-    ax.set_title("Thin keratin film in air, reflected colour under D65")
+    stated = "" if exposure is None else \
+        f"\none exposure (×{exposure:.3g}): the chart's largest sRGB component → 1, none clipped"
+    ax.set_title("Thin keratin film in air, reflected colour under D65" + stated, fontsize=11)
     fig.tight_layout()
     return fig
 

@@ -30,9 +30,6 @@ using optics::Complex;
 constexpr double kChartFirstNm = 380.0;
 constexpr double kChartLastNm = 780.0;
 constexpr double kFilmsNm[] = {530.0, 595.0};
-// Exposure: the brightest film colour at incidence up to this angle maps to Y = 1.
-// Beyond it the reflectance rises towards 1 at grazing and would wash the chart out.
-constexpr double kExposureMaxAngleDeg = 60.0;
 
 std::vector<double> axis(double first, double last, double step) {
     std::vector<double> values;
@@ -160,14 +157,21 @@ Chart compute_chart(const ThinFilmChartOptions& options, const optics::Wavelengt
     return c;
 }
 
-// The display exposure: the brightest Y at incidence ≤ kExposureMaxAngleDeg maps to 1.
+// The display exposure: the largest linear sRGB component of the whole chart maps to 1, so no
+// colour is over range and display_rgb never rescales one. Why the whole chart: an exposure
+// anchored below grazing (it was the brightest Y at ≤ 60°) sends the colours above the anchor
+// over range, and display_rgb's rescaling by the largest component is a kink in the colour
+// against angle. At one angle the luminance varies little with thickness, so much of every row
+// went over range within a degree or two of the anchor (14 % of a row at 58°, 37 % at 60°) and
+// the kinks lined up into a seam at 60°, which the reflectance itself (smooth in angle) lacks.
 double chart_exposure(const Chart& c) {
-    double max_y = 0.0;
-    for (std::size_t a = 0; a < c.na && c.angle[a] <= kExposureMaxAngleDeg; ++a) {
-        for (std::size_t t = 0; t < c.nt; ++t)
-            max_y = std::max(max_y, c.xyz[(a * c.nt + t) * 3 + 1]);
+    double max_component = 0.0;
+    for (std::size_t i = 0; i < c.na * c.nt; ++i) {
+        const optics::Rgb rgb =
+            optics::linear_srgb_from_xyz({c.xyz[3 * i], c.xyz[3 * i + 1], c.xyz[3 * i + 2]});
+        max_component = std::max({max_component, rgb[0], rgb[1], rgb[2]});
     }
-    return 1.0 / max_y;
+    return 1.0 / max_component;
 }
 
 // Image rows: incidence 90° at the top, 0° at the bottom, as in a plot.
@@ -277,9 +281,9 @@ void write_chart_datasets(record::Hdf5Writer& h5, const Chart& c, const ChartIma
                "display sRGB (8 bit): exposure applied, negatives clipped, "
                "over-range scaled by the largest component"}});
     h5.set_attribute("/chart", "exposure", exposure);
-    h5.set_attribute(
-        "/chart", "exposure_rule",
-        fmt::format("brightest Y at incidence <= {} deg maps to 1", kExposureMaxAngleDeg));
+    h5.set_attribute("/chart", "exposure_rule",
+                     "the largest linear sRGB component of the chart maps to 1: no colour is "
+                     "over range");
     h5.set_attribute("/chart", "illuminant", "D65");
     h5.set_attribute("/chart", "observer", "CIE 1931 2 degree");
 }
@@ -336,11 +340,12 @@ void write_report(const fs::path& path, const ThinFilmChartOptions& options, con
     }
     md << fmt::format(
         "Chart: {} thicknesses (0–{} nm, step {} nm) × {} angles (step {}°), "
-        "{} wavelengths ({}–{} nm, step {} nm). Display exposure ×{:.3f} "
-        "(brightest colour at ≤ {}° incidence → Y = 1).\n\n",
+        "{} wavelengths ({}–{} nm, step {} nm). Display exposure ×{:.3f}, one for the whole "
+        "chart: its largest linear sRGB component → 1, so no colour is clipped and brightness "
+        "compares across the chart (at normal incidence films of 100 nm or more reflect "
+        "1–16 % of D65's luminance, at grazing all of it).\n\n",
         c.nt, options.max_thickness_nm, options.thickness_step_nm, c.na, options.angle_step_deg,
-        c.nl, kChartFirstNm, kChartLastNm, options.chart_wavelength_step_nm, result.exposure,
-        kExposureMaxAngleDeg);
+        c.nl, kChartFirstNm, kChartLastNm, options.chart_wavelength_step_nm, result.exposure);
     md << "## Colours at normal incidence\n\n"
        << "| film | spectrum | L* | a* | b* | hue h_ab (°) | chroma | display sRGB | ΔE00 chart "
           "grid vs 1 nm |\n"

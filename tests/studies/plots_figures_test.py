@@ -518,6 +518,13 @@ class EveryKind(unittest.TestCase):
         self.assertEqual(maps[0].get_images()[0].get_array().shape, (13, 13))
         self.assertIn("1/sr", colour_bars(fig)[0].get_ylabel())
 
+    def test_chart_states_its_exposure(self):
+        path = chart(self.dir)
+        with h5py.File(path, "r+") as f:
+            f["chart"].attrs["exposure"] = 0.85
+        fig = PLOTS.build_chart(path)
+        self.assertIn("one exposure", title_of(panels(fig)[0]))
+
     def test_geometry_preview_has_a_legend_and_a_scale_bar(self):
         from mpl_toolkits.axes_grid1.anchored_artists import AnchoredSizeBar
 
