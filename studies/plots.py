@@ -18,6 +18,7 @@
   plots.py scatterogram_comparison H5 PNG  simulation | model | signed difference (figure/ group)
   plots.py scatterogram H5 PNG   one scatterogram (the comparison's figure/ group) on hemisphere axes
   plots.py fingerprints H5 PNG   Filip 2024 Fig. 7 fingerprints at one exposure, with log luminance
+                                 and each panel's signed difference from the first
   plots.py btf_tiles H5 PNG      BTF images of a few geometries (Filip 2024 Fig. 9), one exposure
   plots.py geometry_preview H5 PNG  a cut through built geometry in um: phases, legend, scale bar
   plots.py wave_validity_map H5 PNG  PO vs GO relative L1 (%) over width x one parameter, 5 % contour
