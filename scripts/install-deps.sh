@@ -24,6 +24,7 @@ packages=(
   python3-numpy python3-h5py python3-matplotlib  # plots; these belong to /usr/bin/python3
   pybind11-dev python3-pybind11 python3-dev  # the `plumage` Python module (python/), for /usr/bin/python3
   python3-pytest         # its tests (python/tests, run by ctest)
+  python3-venv           # `python3 -m venv`: `pip install .` into a fresh venv (python.venv_install)
   openmpi-bin libopenmpi-dev  # `mpirun -np N plumage run STUDY` (common/distributed.h; tests/mpi)
   libmeep-dev            # full wave (sim/fullwave): Meep's FDTD library, linked
   libhdf5-openmpi-103-1  # needed by Meep's MPI build, unpacked beside the serial one (below)
