@@ -121,7 +121,8 @@ def make_wheel(name: str, dist, wheelhouse: pathlib.Path) -> pathlib.Path:
     tag = f"{python}-{python}-{platform}" if compiled else "py3-none-any"
     version = dist.version
     dist_info = f"{normalized(name)}-{version}.dist-info"
-    wheel_text = f"Wheel-Version: 1.0\nGenerator: debian_wheelhouse\nRoot-Is-Purelib: {str(not compiled).lower()}\nTag: {tag}\n"
+    wheel_text = (f"Wheel-Version: 1.0\nGenerator: debian_wheelhouse\n"
+                  f"Root-Is-Purelib: {str(not compiled).lower()}\nTag: {tag}\n")
     target = wheelhouse / f"{normalized(name)}-{version}-{tag}.whl"
     record = io.StringIO()
     writer = csv.writer(record, lineterminator="\n")

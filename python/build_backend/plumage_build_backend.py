@@ -110,7 +110,8 @@ def _cmake_build(build: pathlib.Path, staging: pathlib.Path) -> None:
     if shutil.which("cmake") is None:
         raise BuildError("cmake not found on PATH (Debian: scripts/install-deps.sh installs it)")
     env = dict(os.environ)
-    # As scripts/build.sh: paths relative to the checkout, so ccache reuses the main build's objects.
+    # As scripts/build.sh: paths relative to the checkout, so ccache reuses the main build's
+    # objects.
     env.setdefault("CCACHE_BASEDIR", str(SOURCE_DIR))
     env.setdefault("CCACHE_NOHASHDIR", "true")
     interpreter = str(_base_interpreter())
@@ -162,7 +163,8 @@ def _metadata(project: dict) -> str:
 
 def _dist_info_files(project: dict, tag: str) -> dict:
     """The .dist-info files but RECORD, by name."""
-    wheel = f"Wheel-Version: 1.0\nGenerator: plumage_build_backend\nRoot-Is-Purelib: false\nTag: {tag}\n"
+    wheel = ("Wheel-Version: 1.0\nGenerator: plumage_build_backend\nRoot-Is-Purelib: false\n"
+             f"Tag: {tag}\n")
     files = {"METADATA": _metadata(project).encode(), "WHEEL": wheel.encode()}
     license_file = SOURCE_DIR / "LICENSE"
     if license_file.exists():
@@ -257,7 +259,8 @@ def build_sdist(sdist_directory, config_settings=None):
                             capture_output=True).stdout.decode().split("\0")
     base = f"{_normalized(project['name'])}-{project['version']}"
     name = f"{base}.tar.gz"
-    with tarfile.open(pathlib.Path(sdist_directory) / name, "w:gz", format=tarfile.PAX_FORMAT) as tar:
+    target = pathlib.Path(sdist_directory) / name
+    with tarfile.open(target, "w:gz", format=tarfile.PAX_FORMAT) as tar:
         for path in sorted(filter(None, listed)):
             if (SOURCE_DIR / path).is_file():
                 tar.add(SOURCE_DIR / path, arcname=f"{base}/{path}", recursive=False)

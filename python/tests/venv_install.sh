@@ -23,7 +23,7 @@ unset PYTHONPATH
 export PIP_NO_CACHE_DIR=1 PIP_DISABLE_PIP_VERSION_CHECK=1 PLUMAGE_JOBS=1 PYTHONDONTWRITEBYTECODE=1
 start=$(date +%s)
 "$venv/bin/python" -m pip install --quiet --no-index --find-links "$work/wheels" \
-  "$source_dir[test]" matplotlib
+  "${source_dir}[test]" matplotlib
 echo "venv_install: pip install took $(($(date +%s) - start)) s"
 
 cd "$work"  # not the source tree: `import plumage` must find the installed package
