@@ -9,7 +9,8 @@
 
 Conventions are the C++ ones: lengths in µm, wavelengths in nm, angles in radians, BRDF in 1/sr,
 directions unit vectors in the patch frame (+z the patch normal, +x the barb axis) pointing away
-from the patch. Built for Debian's /usr/bin/python3 (numpy, h5py); README.md "Python".
+from the patch. Built by scripts/run.sh for Debian's /usr/bin/python3, or by `pip install .` for any
+CPython 3.11+ (numpy, h5py); README.md "Python", docs/python.md.
 """
 
 from . import models, optics, studies
