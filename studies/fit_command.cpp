@@ -6,7 +6,6 @@
 #include <functional>
 #include <iostream>
 #include <limits>
-#include <numbers>
 #include <set>
 
 #include <fmt/format.h>
@@ -15,6 +14,7 @@
 #include "analysis/filip2024_fit.h"
 #include "analysis/huang2022_fit.h"
 #include "analysis/user_data.h"
+#include "common/constants.h"
 #include "common/error.h"
 #include "common/interrupt.h"
 #include "common/version.h"
@@ -29,7 +29,6 @@ namespace {
 
 namespace fs = std::filesystem;
 constexpr double kNaN = std::numeric_limits<double>::quiet_NaN();
-constexpr double kDeg = 180.0 / std::numbers::pi;
 constexpr std::size_t kMaxPanels = 9;  // wavelengths drawn in the residual map
 
 // The residual map: panels of (model − data)/σ on one grid, with its axes.
@@ -84,8 +83,8 @@ std::vector<std::size_t> panels_shown(std::size_t n) {
 
 // A direction's (θ, φ) in degrees, rounded to 1e-6°, φ in [0, 360) and 0 at the pole.
 std::pair<double, double> angles_of(const Vec3d& w) {
-    const double theta = std::acos(std::clamp(w.z(), -1.0, 1.0)) * kDeg;
-    double phi = theta < 1e-9 ? 0.0 : std::atan2(w.y(), w.x()) * kDeg;
+    const double theta = std::acos(std::clamp(w.z(), -1.0, 1.0)) / kDeg;
+    double phi = theta < 1e-9 ? 0.0 : std::atan2(w.y(), w.x()) / kDeg;
     if (phi < 0.0) phi += 360.0;
     const auto round = [](double v) { return std::round(v * 1e6) / 1e6; };
     return {round(theta), round(phi) >= 360.0 ? 0.0 : round(phi)};
