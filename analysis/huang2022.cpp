@@ -390,6 +390,27 @@ void small_angle_sincos(double theta, double& sin_theta, double& cos_theta) {
     cos_theta = 1.0 + t2 * horner(t2, kCosLong);
 }
 
+// A θ node of TRT's rule: θ, sin θ, cos θ and its panel's half-width times its weight.
+struct ThetaNode {
+    double theta, sin, cos, weight;
+};
+
+// The θ nodes of a support [lo, hi]: `refine` panels of kTrtThetaNodes, their sines and cosines by
+// small_angle_sincos (|θ_m| ≤ θ_d ≤ π/4: a new ω_i asks for a thousand or more).
+void support_nodes(double lo, double hi, int refine, std::vector<ThetaNode>& out) {
+    out.clear();
+    for (int panel = 0; panel < refine; ++panel) {
+        const double pa = lo + (hi - lo) * panel / refine,
+                     pb = lo + (hi - lo) * (panel + 1) / refine;
+        for (std::size_t j = 0; j < kTrtThetaNodes.size(); ++j) {
+            ThetaNode n{0.5 * (pa + pb) + 0.5 * (pb - pa) * kTrtThetaNodes[j], 0.0, 1.0,
+                        0.5 * (pb - pa) * kTrtThetaWeights[j]};
+            small_angle_sincos(n.theta, n.sin, n.cos);
+            out.push_back(n);
+        }
+    }
+}
+
 Vec3d normal_at(double phi, double theta) {
     return {std::sin(phi) * std::cos(theta), std::sin(theta), std::cos(phi) * std::cos(theta)};
 }
@@ -416,10 +437,13 @@ struct Huang2022Bsdf::Frame {
     // Per node, for the wavelength last asked: T(ω_i·ω_m) R_m and I_R(ω_i·ω_m).
     mutable double nodes_lambda = -1.0;
     mutable std::vector<double> node_trt_in, node_r;
-    // TRT's rule (eval), built once per ω_i: Gauss–Legendre, 8 φ_m nodes per piece of at
-    // most kTrtPiece / trt_refine rad of the visible arc, and trt_refine panels of
-    // kTrtThetaNodes over each φ node's θ support (eval_in_frame; trt_refine = 1 but in the
-    // reference path). Weights include q's densities.
+    // TRT's rule (eval): Gauss–Legendre, 8 φ_m nodes per piece of at most kTrtPiece /
+    // trt_refine rad of the visible arc, and trt_refine panels of kTrtThetaNodes over each φ
+    // node's θ support (eval_in_frame; trt_refine = 1 but in the reference path). Weights include
+    // q's densities. The pieces and pairs are laid out with the frame; their nodes are stored
+    // (build_trt_nodes) only once a second eval asks for this ω_i: a new ω_i every call (random
+    // pairs) builds each piece's nodes where it needs them and never stores them (TrtFreshNodes),
+    // which gives the same values to the bit.
     // A facet normal is ω_m = (sin φ cos θ, sin θ, cos φ cos θ), so for any direction ω,
     // ω·ω_m = A cos θ + ω_y sin θ with A = ω_x sin φ + ω_z cos φ: one A per φ node and ω, then
     // two products per θ node (eval's hot loop) instead of a dot product with a stored normal.
@@ -429,39 +453,76 @@ struct Huang2022Bsdf::Frame {
         double a_i;     // ω_i's A at this φ
         // cos θ and sin θ at the ends of its θ support
         double cos_lo, sin_lo, cos_hi, sin_hi;
-        std::size_t first, count;  // its θ nodes in trt_cos etc. (count 0: empty support)
+        std::size_t first, count;  // its θ nodes in the arrays' cos etc. (count 0: empty support)
+    };
+    // Nodes of pieces and pairs: per φ node (phi, theta: p_θ(θ | φ) for the cut panels), per θ
+    // node cos θ, sin θ, ω_m's x and z (its y is sin), ω_m and the weight.
+    struct TrtNodeArrays {
+        std::vector<TrtPhiNode> phi;
+        std::vector<ThetaDensity> theta;
+        std::vector<double> cos, sin, mx, mz, w;
+        std::vector<Vec3d> m;
+        void clear() {
+            phi.clear();
+            theta.clear();
+            for (auto* v : {&cos, &sin, &mx, &mz, &w}) v->clear();
+            m.clear();
+        }
     };
     int trt_refine = 1;
-    std::vector<TrtPhiNode> trt_phi;      // kGl8Nodes.size() per piece, in order
-    std::vector<ThetaDensity> trt_theta;  // p_θ(θ | φ) per φ node, for the cut panels
-    // The φ_m pieces, kGl8Nodes.size() nodes each (in trt_phi, in order), and sin, cos of their
+    // Most φ nodes have the whole support [−θ_d, θ_d] (unclipped): the same θ nodes at every one
+    // of them, taken once per frame; and cos, sin at ∓θ_d.
+    std::vector<ThetaNode> trt_unclipped;
+    double trt_cos_lo = 1.0, trt_sin_lo = 0.0, trt_cos_hi = 1.0, trt_sin_hi = 0.0;
+    // The φ_m pieces, kGl8Nodes.size() φ nodes each (stored in order), and sin, cos of their
     // ends (eval_in_frame classifies each piece by ω_o from them).
     struct TrtPiece {
         double a, c;
         double sin_a, cos_a, sin_c, cos_c;
-        std::size_t theta_first, theta_last;  // its θ nodes
+        std::size_t theta_first, theta_last;  // its θ nodes, once stored
     };
-    std::vector<TrtPiece> trt_pieces;
+    mutable std::vector<TrtPiece> trt_pieces;
     // Adjacent pairs of pieces within a visible interval on which every facet faces ω_i by
-    // ω_i·ω_m ≥ kTrtSmoothCos, with one 8-node φ_m rule over the pair (nodes in trt_phi after
-    // the pieces'): eval takes it for an ω_o that all the pair's facets face by as much
+    // ω_i·ω_m ≥ kTrtSmoothCos, with one 8-node φ_m rule over the pair (stored after the pieces'
+    // nodes): eval takes it for an ω_o that all the pair's facets face by as much
     // (eval_in_frame). Built for trt_refine = 1 only.
     struct TrtPair {
         std::size_t piece;                    // its first piece; the second is piece + 1
-        std::size_t theta_first, theta_last;  // the θ nodes of its own φ nodes
+        std::size_t theta_first, theta_last;  // the θ nodes of its own φ nodes, once stored
     };
-    std::vector<TrtPair> trt_pairs;        // in the order of their pieces
-    std::vector<double> trt_cos, trt_sin;  // cos θ and sin θ per θ node
-    std::vector<double> trt_mx, trt_mz;    // ω_m's x and z per θ node (its y is trt_sin)
-    std::vector<Vec3d> trt_m;
-    std::vector<double> trt_w;
-    // Per wavelength asked (the last few): trt_w · T(ω_i·ω_m) at the θ nodes, and after them the
+    mutable std::vector<TrtPair> trt_pairs;  // in the order of their pieces
+    mutable int evals = 0;  // eval() calls with this frame (it stores nodes at the second)
+    mutable bool trt_stored = false;
+    mutable TrtNodeArrays trt;
+    // Per wavelength asked (the last few): trt.w · T(ω_i·ω_m) at the θ nodes, and after them the
     // same times their φ node's weight (for lit pieces, one flat sum), filled on first use of
     // that wavelength with this ω_i.
     mutable std::vector<std::pair<double, std::vector<double>>> trt_wt;
     // Fraction of the incident light that hits the front (film side) of a barbule.
     double hit_fraction() const {
         return period > 0.0 ? std::min(1.0, visible_length / period) : 0.0;
+    }
+    // Back to a default frame, keeping the vectors' capacity (a thread's cached frame is
+    // recomputed in place for every new ω_i).
+    void reset() {
+        intervals.clear();
+        h_cumulative.clear();
+        nodes.clear();
+        node_trt_in.clear();
+        node_r.clear();
+        trt_pieces.clear();
+        trt_pairs.clear();
+        trt_unclipped.clear();
+        trt.clear();
+        trt_wt.clear();
+        wi = Vec3d::Zero();
+        phi_i = cos_theta_i = sin_theta_i = period = visible_length = 0.0;
+        cos_mu = cos_theta_d = t_mass = 1.0;
+        sin_mu = sin_theta_d = 0.0;
+        nodes_built = trt_stored = false;
+        nodes_lambda = -1.0;
+        trt_refine = 1;
+        evals = 0;
     }
 };
 
@@ -620,14 +681,14 @@ bool Huang2022Bsdf::visible_along(double phi_m, double dx, double dz) const {
     return !Occluders(params_, cos_mu_, sin_mu_, dx, dz).blocked(Ellipse{params_.b}.point(phi_m));
 }
 
-Huang2022Bsdf::Frame Huang2022Bsdf::compute_frame(const Vec3d& wi_patch, int trt_refine) const {
+void Huang2022Bsdf::compute_frame(const Vec3d& wi_patch, int trt_refine, Frame& f) const {
     if (!(wi_patch.z() > 0.0) || std::abs(wi_patch.norm() - 1.0) > 1e-6) {
         throw InputError(fmt::format(
             "huang2022: incident direction ({}, {}, {}) must be a unit vector above the barb "
             "plane (z > 0): the barbule BSDF is lit from above",
             wi_patch.x(), wi_patch.y(), wi_patch.z()));
     }
-    Frame f;
+    f.reset();
     f.trt_refine = trt_refine;
     f.cos_mu = std::cos(params_.mu);
     f.sin_mu = std::sin(params_.mu);
@@ -638,22 +699,29 @@ Huang2022Bsdf::Frame Huang2022Bsdf::compute_frame(const Vec3d& wi_patch, int trt
     f.sin_theta_i = f.wi.y();
     f.phi_i = std::atan2(f.wi.x(), f.wi.z());
     f.period = params_.H * std::cos(f.phi_i + params_.mu);
-    if (f.cos_theta_i < 1e-12) return f;  // along the barbules: everything passes
+    if (f.cos_theta_i < 1e-12) return;  // along the barbules: everything passes
+    scan_visible_intervals(f);
+    measure_shadow(f);
+    build_trt_pieces(f);  // their nodes wait for a second eval, build_nodes for pdf()
+}
 
+void Huang2022Bsdf::scan_visible_intervals(Frame& f) const {
     const Ellipse e{params_.b};
     // Front-facing part of the arc: cos(φ_m − φ_i) > 0, i.e. φ_m ∈ (φ_i − π/2, φ_i + π/2)
     // (mod 2π), intersected with [φ0, φ1]; then split where the neighbours occlude.
-    std::vector<std::array<double, 2>> front;
+    std::array<std::array<double, 2>, 5> front{};
+    std::size_t fronts = 0;
     for (int k = -2; k <= 2; ++k) {
         const double lo = std::max(params_.phi0, f.phi_i - 0.5 * kPi + 2.0 * kPi * k);
         const double hi = std::min(params_.phi1, f.phi_i + 0.5 * kPi + 2.0 * kPi * k);
-        if (hi > lo) front.push_back({lo, hi});
+        if (hi > lo) front[fronts++] = {lo, hi};
     }
     // The scan's direction, normalised once as visible() would (f.cos_theta_i is its length).
     const Occluders occluders(params_, cos_mu_, sin_mu_, f.wi.x() / f.cos_theta_i,
                               f.wi.z() / f.cos_theta_i);
     auto visible_at = [&](double phi) { return !occluders.blocked(e.point(phi)); };
-    for (const auto& [lo, hi] : front) {
+    for (std::size_t r = 0; r < fronts; ++r) {
+        const auto [lo, hi] = front[r];
         constexpr int kScan = 192;
         double start = lo;
         bool inside = visible_at(lo + 1e-12 * (hi - lo));
@@ -676,6 +744,10 @@ Huang2022Bsdf::Frame Huang2022Bsdf::compute_frame(const Vec3d& wi_patch, int trt
         }
         if (inside) f.intervals.push_back({start, hi});
     }
+}
+
+void Huang2022Bsdf::measure_shadow(Frame& f) const {
+    const Ellipse e{params_.b};
     // Projected (h) length of each visible interval: h(φ) = E(φ)·p, p = (cos φ_i, −sin φ_i),
     // monotone on the front-facing arc with dh/dφ = ρ(φ) cos(φ − φ_i).
     const double px = std::cos(f.phi_i), pz = -std::sin(f.phi_i);
@@ -704,13 +776,12 @@ Huang2022Bsdf::Frame Huang2022Bsdf::compute_frame(const Vec3d& wi_patch, int trt
         }
     }
     f.t_mass = 1.0 - std::min(hi - lo, f.period) / f.period;
-    build_trt_nodes(f);  // build_nodes waits for pdf(): eval does not need it
-    return f;
 }
 
 const Huang2022Bsdf::Frame& Huang2022Bsdf::frame_for(const Vec3d& wi_patch) const {
     // Instruments ask many questions for one incident direction: keep the last frame
-    // per thread (the visibility intervals cost a few thousand ray–ellipse tests).
+    // per thread (the visibility intervals cost a few thousand ray–ellipse tests), recomputed in
+    // place for a new one (its vectors keep their capacity).
     struct Cache {
         const Huang2022Bsdf* owner = nullptr;
         std::uint64_t generation = 0;
@@ -719,7 +790,8 @@ const Huang2022Bsdf::Frame& Huang2022Bsdf::frame_for(const Vec3d& wi_patch) cons
     };
     thread_local Cache cache;
     if (cache.owner != this || cache.generation != generation_ || cache.wi != wi_patch) {
-        cache.frame = compute_frame(wi_patch);
+        cache.owner = nullptr;  // until the frame is complete (compute_frame may throw)
+        compute_frame(wi_patch, 1, cache.frame);
         cache.owner = this;
         cache.generation = generation_;
         cache.wi = wi_patch;
@@ -1020,184 +1092,329 @@ double positive_part_integral(const FrameT& f, const ThetaDensity& td, double a_
     return inner;
 }
 
-// TRT's efficiency E_q (eval_in_frame) by a frame's rule, given wt[k] = trt_w[k] · T(ω_i·ω_m)
-// at its θ nodes and T(c) (c ∈ [0, 1]): a template, so that the reference path (direct film,
-// finer rule) runs the same code as eval(). steep: the film's T rises from 0 over a small c
-// (a resonance near grazing, steep_at_grazing), so the piece that holds ω_o's terminator on
-// the arc is integrated afresh, graded towards it.
+// TRT's φ nodes on [a, c] (q_phi_nodes_on) and their θ nodes, appended to `out` (a
+// Frame::TrtNodeArrays): the unclipped supports take the frame's shared θ nodes, a clipped one its
+// own. The stored rule (build_trt_nodes) and the fresh one (TrtFreshNodes) both come from here, so
+// that they hold the same values to the bit.
+template <typename FrameT, typename Arrays>
+void append_trt_nodes(const FrameT& f, double b, double theta_d, double a, double c, Arrays& out) {
+    thread_local std::vector<ThetaNode> clipped;
+    q_phi_nodes_on(f, b, theta_d, a, c, false,
+                   [&](double, double sp, double cp, double w, const ThetaDensity& td) {
+                       typename FrameT::TrtPhiNode node{sp,
+                                                        cp,
+                                                        w,
+                                                        f.wi.x() * sp + f.wi.z() * cp,
+                                                        f.trt_cos_lo,
+                                                        f.trt_sin_lo,
+                                                        f.trt_cos_hi,
+                                                        f.trt_sin_hi,
+                                                        out.m.size(),
+                                                        0};
+                       const bool whole = td.lo == -theta_d && td.hi == theta_d;
+                       if (!whole) {
+                           small_angle_sincos(td.lo, node.sin_lo, node.cos_lo);
+                           small_angle_sincos(td.hi, node.sin_hi, node.cos_hi);
+                       }
+                       out.theta.push_back(td);
+                       if (!td.empty()) {
+                           if (!whole) support_nodes(td.lo, td.hi, f.trt_refine, clipped);
+                           for (const ThetaNode& n : whole ? f.trt_unclipped : clipped) {
+                               out.m.emplace_back(sp * n.cos, n.sin, cp * n.cos);  // normal_at
+                               out.mx.push_back(sp * n.cos);
+                               out.mz.push_back(cp * n.cos);
+                               out.cos.push_back(n.cos);
+                               out.sin.push_back(n.sin);
+                               out.w.push_back(n.weight * td.density(n.theta, n.sin, n.cos));
+                               ++node.count;
+                           }
+                       }
+                       out.phi.push_back(node);
+                   });
+}
+
+// A piece's or pair's nodes as the TRT sum reads them: its φ nodes (phi_count of them, with their
+// θ densities) and, per θ node k (its own k0 … k1 − 1), cos θ, sin θ, ω_m's x and z, wt = w ·
+// T(ω_i·ω_m) and flat = wt times its φ node's weight. A φ node's `first` indexes these arrays.
+template <typename PhiNode>
+struct TrtView {
+    const PhiNode* phi = nullptr;
+    const ThetaDensity* theta = nullptr;
+    std::size_t phi_count = 0;
+    const double *cos = nullptr, *sin = nullptr, *mx = nullptr, *mz = nullptr;
+    const double *wt = nullptr, *flat = nullptr;
+    std::size_t k0 = 0, k1 = 0;
+};
+
+// The frame's stored nodes (build_trt_nodes) with one wavelength's wt (and flat after it).
+template <typename FrameT>
+struct TrtStoredNodes {
+    using View = TrtView<typename FrameT::TrtPhiNode>;
+    const FrameT& f;
+    const std::vector<double>& wt;
+    View at(std::size_t phi_first, std::size_t k0, std::size_t k1) const {
+        const auto& t = f.trt;
+        return {t.phi.data() + phi_first,
+                t.theta.data() + phi_first,
+                kGl8Nodes.size(),
+                t.cos.data(),
+                t.sin.data(),
+                t.mx.data(),
+                t.mz.data(),
+                wt.data(),
+                wt.data() + t.m.size(),
+                k0,
+                k1};
+    }
+    View piece(std::size_t p) const {
+        return at(p * kGl8Nodes.size(), f.trt_pieces[p].theta_first, f.trt_pieces[p].theta_last);
+    }
+    View pair(const typename FrameT::TrtPair& pr) const {
+        return at(0, pr.theta_first, pr.theta_last);  // lit sums read θ nodes only
+    }
+};
+
+// Nodes built where the sum asks for them, into per-thread scratch arrays, and never stored: for a
+// frame evaluated once (a new ω_i every call), whose dark pieces then cost nothing. wt and flat as
+// weighted_incident_transmittance computes them (the same values to the bit).
 template <typename FrameT, typename Transmittance>
-double trt_efficiency_sum(const FrameT& f, const Vec3d& wo_b, const std::vector<double>& wt,
-                          const Transmittance& transmittance, bool steep, double b,
-                          double theta_d) {
-    double sum = 0.0;
-    // ω_o's terminators on the arc: A(φ) = ω_o,x sin φ + ω_o,z cos φ = 0.
-    steep = steep && std::hypot(wo_b.x(), wo_b.z()) > 1e-12;
-    const double phi_o = steep ? std::atan2(wo_b.x(), wo_b.z()) : 0.0;
-    const double b_o = wo_b.y();
-    // q's Gauss–Legendre φ_m nodes on [a, c] (as q_phi_nodes_on), each θ support's positive
-    // part integrated afresh. A node is skipped first where ω_o·ω_m ≤ 0 at both θ_m = ±θ_d:
-    // ω_o·ω_m = A cos θ + B sin θ is > 0 on an arc of length π, which a range ≤ π/2 wide
-    // cannot hold strictly inside, so it is ≤ 0 on the whole support then (the dark side of the
-    // terminator, half the nodes, for the price of a sincos).
-    const Ellipse e{b};
-    const double sin_d = f.sin_theta_d, cos_d = f.cos_theta_d;
-    auto graded_piece = [&](double a, double c) {
-        for (std::size_t i = 0; i < kGl8Nodes.size(); ++i) {
-            const double phi = 0.5 * (a + c) + 0.5 * (c - a) * kGl8Nodes[i];
-            const double sp = std::sin(phi), cp = std::cos(phi);
-            const double a_o = wo_b.x() * sp + wo_b.z() * cp;
-            if (a_o * cos_d + b_o * sin_d <= 0.0 && a_o * cos_d - b_o * sin_d <= 0.0) continue;
-            const double cos_rel = std::cos(phi - f.phi_i);
-            const ThetaDensity td = theta_density(f.cos_theta_i * cos_rel, f.sin_theta_i, theta_d);
-            if (td.empty()) continue;
-            const double w =
-                0.5 * (c - a) * kGl8Weights[i] * e.rho(phi) * cos_rel / f.visible_length;
-            double s_lo = 0.0, c_lo = 0.0, s_hi = 0.0, c_hi = 0.0;
-            small_angle_sincos(td.lo, s_lo, c_lo);
-            small_angle_sincos(td.hi, s_hi, c_hi);
-            sum += w * positive_part_integral(f, td, f.wi.x() * sp + f.wi.z() * cp, a_o, wo_b,
-                                              a_o * c_lo + b_o * s_lo, a_o * c_hi + b_o * s_hi,
-                                              transmittance);
+struct TrtFreshNodes {
+    using View = TrtView<typename FrameT::TrtPhiNode>;
+    const FrameT& f;
+    const Transmittance& transmittance;
+    double b, theta_d;
+    typename FrameT::TrtNodeArrays& scratch;
+    std::vector<double>& wt;
+    View build(double a, double c) const {
+        scratch.clear();
+        append_trt_nodes(f, b, theta_d, a, c, scratch);
+        const std::size_t n = scratch.m.size();
+        wt.resize(2 * n);
+        for (std::size_t k = 0; k < n; ++k)
+            wt[k] = scratch.w[k] * transmittance(f.wi.dot(scratch.m[k]));
+        for (const auto& node : scratch.phi) {
+            for (std::size_t k = node.first; k < node.first + node.count; ++k)
+                wt[n + k] = node.weight * wt[k];
         }
-    };
-    constexpr std::size_t kPerPiece = kGl8Nodes.size();
-    const double* cos_theta = f.trt_cos.data();
-    const double* sin_theta = f.trt_sin.data();
-    const double* weight = wt.data();
-    // The frame's φ nodes first … last − 1, each θ support's positive part.
-    auto node_sum = [&](std::size_t first, std::size_t last) {
-        for (std::size_t i = first; i < last; ++i) {
-            const auto& node = f.trt_phi[i];
+        return {scratch.phi.data(),
+                scratch.theta.data(),
+                scratch.phi.size(),
+                scratch.cos.data(),
+                scratch.sin.data(),
+                scratch.mx.data(),
+                scratch.mz.data(),
+                wt.data(),
+                wt.data() + n,
+                0,
+                n};
+    }
+    View piece(std::size_t p) const { return build(f.trt_pieces[p].a, f.trt_pieces[p].c); }
+    View pair(const typename FrameT::TrtPair& pr) const {
+        return build(f.trt_pieces[pr.piece].a, f.trt_pieces[pr.piece + 1].c);
+    }
+};
+
+// TRT's efficiency E_q (eval_in_frame) by a frame's rule, its nodes from `nodes` (stored or
+// fresh) and T(c) (c ∈ [0, 1]): a template, so that the reference path (direct film, finer rule)
+// runs the same code as eval(). steep: the film's T rises from 0 over a small c (a resonance near
+// grazing, steep_at_grazing), so the piece that holds ω_o's terminator on the arc is integrated
+// afresh, graded towards it.
+//
+// Each piece is classified by ω_o first: ω_o·ω_m ≤ A_o cos θ_d + |ω_o,y| sin θ_d on a facet's
+// whole θ range, and ≥ A_o cos θ_d − |ω_o,y| sin θ_d; A_o = r_o cos(φ − φ_o) at a piece's ends
+// bounds it inside (it exceeds, or stays below, a value on one arc shorter than π). A piece
+// below 0 (dark) contributes nothing: each of its nodes would be skipped. A piece above 0
+// (lit) has no cut node and no terminator. A smooth pair (Frame::TrtPair) lit by at least
+// kTrtSmoothCos takes its one rule.
+template <typename FrameT, typename Transmittance, typename Nodes>
+class TrtSum {
+public:
+    using View = typename Nodes::View;
+    TrtSum(const FrameT& f, const Vec3d& wo_b, const Transmittance& transmittance, bool steep,
+           double b, double theta_d, const Nodes& nodes)
+        : f_(f),
+          wo_b_(wo_b),
+          transmittance_(transmittance),
+          b_(b),
+          theta_d_(theta_d),
+          nodes_(nodes),
+          b_o_(wo_b.y()),
+          reach_(std::abs(wo_b.y()) * f.sin_theta_d) {
+        // ω_o's terminators on the arc: A(φ) = ω_o,x sin φ + ω_o,z cos φ = 0.
+        steep_ = steep && std::hypot(wo_b.x(), wo_b.z()) > 1e-12;
+        phi_o_ = steep_ ? std::atan2(wo_b.x(), wo_b.z()) : 0.0;
+    }
+
+    double operator()() {
+        const double cos_d = f_.cos_theta_d;
+        auto pair = f_.trt_pairs.begin();
+        for (std::size_t piece = 0; piece < f_.trt_pieces.size(); ++piece) {
+            const auto& pp = f_.trt_pieces[piece];
+            const double a_a = facing(pp.sin_a, pp.cos_a);
+            if (pair != f_.trt_pairs.end() && pair->piece == piece) {
+                const auto& pr = *pair++;
+                const auto& second = f_.trt_pieces[piece + 1];
+                const double a_c = facing(second.sin_c, second.cos_c);
+                if (std::max(a_a, a_c) * cos_d + reach_ <= 0.0) {
+                    ++piece;  // both pieces dark
+                    continue;
+                }
+                if (!steep_ && std::min(a_a, a_c) * cos_d - reach_ >= kTrtSmoothCos) {
+                    lit_sum(nodes_.pair(pr));
+                    ++piece;
+                    continue;
+                }
+            }
+            const double a_c = facing(pp.sin_c, pp.cos_c);
+            if (std::max(a_a, a_c) * cos_d + reach_ <= 0.0) continue;  // dark
+            if (std::min(a_a, a_c) * cos_d - reach_ > 1e-12) {         // lit
+                lit_sum(nodes_.piece(piece));
+                continue;
+            }
+            if (steep_ && graded_at_terminator(pp.a, pp.c)) continue;
+            node_sum(nodes_.piece(piece));
+        }
+        return sum_;
+    }
+
+private:
+    double facing(double sin_phi, double cos_phi) const {
+        return wo_b_.x() * sin_phi + wo_b_.z() * cos_phi;
+    }
+
+    // The piece's φ nodes, each θ support's positive part. A node is skipped where ω_o·ω_m ≤ 0
+    // at both θ_m = ±θ_d (one sign change at most on the support: none > 0 then).
+    void node_sum(const View& v) {
+        for (std::size_t i = 0; i < v.phi_count; ++i) {
+            const auto& node = v.phi[i];
             if (node.count == 0) continue;
-            const double a_o = wo_b.x() * node.sin_phi + wo_b.z() * node.cos_phi;
-            const double c_lo = a_o * node.cos_lo + b_o * node.sin_lo,
-                         c_hi = a_o * node.cos_hi + b_o * node.sin_hi;
-            if (c_lo <= 0.0 && c_hi <= 0.0) continue;  // one sign change at most: none > 0
+            const double a_o = wo_b_.x() * node.sin_phi + wo_b_.z() * node.cos_phi;
+            const double c_lo = a_o * node.cos_lo + b_o_ * node.sin_lo,
+                         c_hi = a_o * node.cos_hi + b_o_ * node.sin_hi;
+            if (c_lo <= 0.0 && c_hi <= 0.0) continue;
             double inner = 0.0;
             if (c_lo > 0.0 && c_hi > 0.0) {
                 for (std::size_t k = node.first; k < node.first + node.count; ++k)
-                    inner += weight[k] * transmittance(a_o * cos_theta[k] + b_o * sin_theta[k]);
+                    inner += v.wt[k] * transmittance_(a_o * v.cos[k] + b_o_ * v.sin[k]);
             } else {
-                inner = positive_part_integral(f, f.trt_theta[i], node.a_i, a_o, wo_b, c_lo, c_hi,
-                                               transmittance);
+                inner = positive_part_integral(f_, v.theta[i], node.a_i, a_o, wo_b_, c_lo, c_hi,
+                                               transmittance_);
             }
-            sum += node.weight * inner;
+            sum_ += node.weight * inner;
         }
-    };
-    // Each piece classified by ω_o first: ω_o·ω_m ≤ A_o cos θ_d + |ω_o,y| sin θ_d on a facet's
-    // whole θ range, and ≥ A_o cos θ_d − |ω_o,y| sin θ_d; A_o = r_o cos(φ − φ_o) at a piece's ends
-    // bounds it inside (it exceeds, or stays below, a value on one arc shorter than π). A piece
-    // below 0 (dark) contributes nothing: each of its nodes would be skipped. A piece above 0
-    // (lit) has no cut node and no terminator. A smooth pair (Frame::TrtPair) lit by at least
-    // kTrtSmoothCos takes its one rule.
-    const double reach = std::abs(b_o) * sin_d;
-    auto facing = [&](double sin_phi, double cos_phi) {
-        return wo_b.x() * sin_phi + wo_b.z() * cos_phi;
-    };
-    // A lit piece's or pair's θ nodes k0 … k1 − 1 in one flat sum, the φ nodes' weights in
-    // wt's second half.
-    const double* flat = wt.data() + f.trt_m.size();
-    const double *m_x = f.trt_mx.data(), *m_z = f.trt_mz.data();
-    auto lit_sum = [&](std::size_t k0, std::size_t k1) {
-        double lit = 0.0;
-        std::size_t k = k0;
-#if defined(__SSE2__)
-        if constexpr (std::is_same_v<Transmittance, FilmTransmittanceTable>) {
-            // Two θ nodes at a time (SSE2 is in every x86-64): the same T values, summed in two
-            // lanes.
-            const __m128d wx = _mm_set1_pd(wo_b.x()), wy = _mm_set1_pd(b_o),
-                          wz = _mm_set1_pd(wo_b.z());
-            const __m128d grazing = _mm_set1_pd(FilmTransmittanceTable::kGrazingCos);
-            const auto smooth = transmittance.smooth_pair();
-            const double *mx = m_x, *my = sin_theta, *mz = m_z, *w = flat;
-            __m128d lanes = _mm_setzero_pd();
-            for (; k + 2 <= k1; k += 2) {
-                const __m128d c = _mm_add_pd(_mm_add_pd(_mm_mul_pd(wx, _mm_loadu_pd(mx + k)),
-                                                        _mm_mul_pd(wy, _mm_loadu_pd(my + k))),
-                                             _mm_mul_pd(wz, _mm_loadu_pd(mz + k)));
-                __m128d t;
-                if (_mm_movemask_pd(_mm_cmplt_pd(c, grazing)) == 0) {
-                    t = smooth(c);
-                } else {
-                    alignas(16) double cs[2];
-                    _mm_store_pd(cs, c);
-                    t = _mm_set_pd(transmittance(cs[1]), transmittance(cs[0]));
-                }
-                lanes = _mm_add_pd(lanes, _mm_mul_pd(_mm_loadu_pd(w + k), t));
-            }
-            alignas(16) double sums[2];
-            _mm_store_pd(sums, lanes);
-            lit = sums[0] + sums[1];
-        }
-#endif
-        for (; k < k1; ++k)
-            lit +=
-                flat[k] * transmittance(wo_b.x() * m_x[k] + b_o * sin_theta[k] + wo_b.z() * m_z[k]);
-        sum += lit;
-    };
-    auto pair = f.trt_pairs.begin();
-    for (std::size_t piece = 0; piece < f.trt_pieces.size(); ++piece) {
-        const auto& pp = f.trt_pieces[piece];
-        const double pa = pp.a, pc = pp.c;
-        const double a_a = facing(pp.sin_a, pp.cos_a);
-        if (pair != f.trt_pairs.end() && pair->piece == piece) {
-            const std::size_t k0 = pair->theta_first, k1 = pair->theta_last;
-            ++pair;
-            const auto& second = f.trt_pieces[piece + 1];
-            const double a_c = facing(second.sin_c, second.cos_c);
-            if (std::max(a_a, a_c) * cos_d + reach <= 0.0) {
-                ++piece;  // both pieces dark
-                continue;
-            }
-            if (!steep && std::min(a_a, a_c) * cos_d - reach >= kTrtSmoothCos) {
-                lit_sum(k0, k1);
-                ++piece;
-                continue;
-            }
-        }
-        const double a_c = facing(pp.sin_c, pp.cos_c);
-        if (std::max(a_a, a_c) * cos_d + reach <= 0.0) continue;  // dark
-        if (std::min(a_a, a_c) * cos_d - reach > 1e-12) {         // lit
-            lit_sum(pp.theta_first, pp.theta_last);
-            continue;
-        }
-        if (steep) {
-            double terminator = std::numeric_limits<double>::quiet_NaN();
-            for (double t : {phi_o + 0.5 * kPi, phi_o - 0.5 * kPi}) {
-                const double shifted = t - 2.0 * kPi * std::floor((t - pa) / (2.0 * kPi));
-                if (shifted > pa && shifted < pc) terminator = shifted;
-            }
-            if (!std::isnan(terminator)) {
-                // Geometric sub-pieces towards it, ratio kGrade, kGradeLevels on each side.
-                const double left = terminator - pa, right = pc - terminator;
-                if (left > 0.0) {
-                    double edge = pa;
-                    for (int g = 1; g <= kGradeLevels; ++g) {
-                        const double next = terminator - left * std::pow(kGrade, -g);
-                        graded_piece(edge, next);
-                        edge = next;
-                    }
-                    graded_piece(edge, terminator);
-                }
-                if (right > 0.0) {
-                    double edge = terminator;
-                    for (int g = kGradeLevels; g >= 1; --g) {
-                        const double next = terminator + right * std::pow(kGrade, -g);
-                        graded_piece(edge, next);
-                        edge = next;
-                    }
-                    graded_piece(edge, pc);
-                }
-                continue;
-            }
-        }
-        node_sum(piece * kPerPiece, (piece + 1) * kPerPiece);
     }
-    return sum;
-}
 
-// The frame's trt_w · T(ω_i·ω_m) for one wavelength, and after them the same times their φ
-// node's weight, kept for the last 16 wavelengths asked.
+    // A lit piece's or pair's θ nodes in one flat sum (the φ nodes' weights in flat).
+    void lit_sum(const View& v) {
+        double lit = 0.0;
+        std::size_t k = v.k0;
+#if defined(__SSE2__)
+        if constexpr (std::is_same_v<Transmittance, FilmTransmittanceTable>) lit = lit_pairs(v, k);
+#endif
+        for (; k < v.k1; ++k)
+            lit += v.flat[k] *
+                   transmittance_(wo_b_.x() * v.mx[k] + b_o_ * v.sin[k] + wo_b_.z() * v.mz[k]);
+        sum_ += lit;
+    }
+
+#if defined(__SSE2__)
+    // Two θ nodes at a time from k (SSE2 is in every x86-64): the same T values, summed in two
+    // lanes; k is left at the first node not summed.
+    double lit_pairs(const View& v, std::size_t& k) const {
+        const __m128d wx = _mm_set1_pd(wo_b_.x()), wy = _mm_set1_pd(b_o_),
+                      wz = _mm_set1_pd(wo_b_.z());
+        const __m128d grazing = _mm_set1_pd(FilmTransmittanceTable::kGrazingCos);
+        const auto smooth = transmittance_.smooth_pair();
+        __m128d lanes = _mm_setzero_pd();
+        for (; k + 2 <= v.k1; k += 2) {
+            const __m128d c = _mm_add_pd(_mm_add_pd(_mm_mul_pd(wx, _mm_loadu_pd(v.mx + k)),
+                                                    _mm_mul_pd(wy, _mm_loadu_pd(v.sin + k))),
+                                         _mm_mul_pd(wz, _mm_loadu_pd(v.mz + k)));
+            __m128d t;
+            if (_mm_movemask_pd(_mm_cmplt_pd(c, grazing)) == 0) {
+                t = smooth(c);
+            } else {
+                alignas(16) double cs[2];
+                _mm_store_pd(cs, c);
+                t = _mm_set_pd(transmittance_(cs[1]), transmittance_(cs[0]));
+            }
+            lanes = _mm_add_pd(lanes, _mm_mul_pd(_mm_loadu_pd(v.flat + k), t));
+        }
+        alignas(16) double sums[2];
+        _mm_store_pd(sums, lanes);
+        return sums[0] + sums[1];
+    }
+#endif
+
+    // Near a grazing resonance: the piece [pa, pc] integrated afresh in geometric sub-pieces
+    // towards ω_o's terminator (ratio kGrade, kGradeLevels on each side), if it holds one.
+    bool graded_at_terminator(double pa, double pc) {
+        double terminator = std::numeric_limits<double>::quiet_NaN();
+        for (double t : {phi_o_ + 0.5 * kPi, phi_o_ - 0.5 * kPi}) {
+            const double shifted = t - 2.0 * kPi * std::floor((t - pa) / (2.0 * kPi));
+            if (shifted > pa && shifted < pc) terminator = shifted;
+        }
+        if (std::isnan(terminator)) return false;
+        const double left = terminator - pa, right = pc - terminator;
+        if (left > 0.0) {
+            double edge = pa;
+            for (int g = 1; g <= kGradeLevels; ++g) {
+                const double next = terminator - left * std::pow(kGrade, -g);
+                graded_piece(edge, next);
+                edge = next;
+            }
+            graded_piece(edge, terminator);
+        }
+        if (right > 0.0) {
+            double edge = terminator;
+            for (int g = kGradeLevels; g >= 1; --g) {
+                const double next = terminator + right * std::pow(kGrade, -g);
+                graded_piece(edge, next);
+                edge = next;
+            }
+            graded_piece(edge, pc);
+        }
+        return true;
+    }
+
+    // q's Gauss–Legendre φ_m nodes on [a, c] (as q_phi_nodes_on), each θ support's positive
+    // part integrated afresh; nodes on the dark side of ω_o's terminator skipped as in node_sum.
+    void graded_piece(double a, double c) {
+        const Ellipse e{b_};
+        const double sin_d = f_.sin_theta_d, cos_d = f_.cos_theta_d;
+        for (std::size_t i = 0; i < kGl8Nodes.size(); ++i) {
+            const double phi = 0.5 * (a + c) + 0.5 * (c - a) * kGl8Nodes[i];
+            const double sp = std::sin(phi), cp = std::cos(phi);
+            const double a_o = wo_b_.x() * sp + wo_b_.z() * cp;
+            if (a_o * cos_d + b_o_ * sin_d <= 0.0 && a_o * cos_d - b_o_ * sin_d <= 0.0) continue;
+            const double cos_rel = std::cos(phi - f_.phi_i);
+            const ThetaDensity td =
+                theta_density(f_.cos_theta_i * cos_rel, f_.sin_theta_i, theta_d_);
+            if (td.empty()) continue;
+            const double w =
+                0.5 * (c - a) * kGl8Weights[i] * e.rho(phi) * cos_rel / f_.visible_length;
+            double s_lo = 0.0, c_lo = 0.0, s_hi = 0.0, c_hi = 0.0;
+            small_angle_sincos(td.lo, s_lo, c_lo);
+            small_angle_sincos(td.hi, s_hi, c_hi);
+            sum_ += w * positive_part_integral(f_, td, f_.wi.x() * sp + f_.wi.z() * cp, a_o, wo_b_,
+                                               a_o * c_lo + b_o_ * s_lo, a_o * c_hi + b_o_ * s_hi,
+                                               transmittance_);
+        }
+    }
+
+    const FrameT& f_;
+    const Vec3d& wo_b_;
+    const Transmittance& transmittance_;
+    double b_, theta_d_;
+    const Nodes& nodes_;
+    double b_o_, reach_;
+    bool steep_ = false;
+    double phi_o_ = 0.0;
+    double sum_ = 0.0;
+};
+
+// The frame's trt.w · T(ω_i·ω_m) for one wavelength, and after them the same times their φ
+// node's weight, kept for the last 16 wavelengths asked (stored nodes only).
 template <typename FrameT, typename Transmittance>
 const std::vector<double>& weighted_incident_transmittance(const FrameT& f, double lambda_nm,
                                                            const Transmittance& transmittance) {
@@ -1205,15 +1422,30 @@ const std::vector<double>& weighted_incident_transmittance(const FrameT& f, doub
         if (lambda == lambda_nm) return wt;
     }
     if (f.trt_wt.size() >= 16) f.trt_wt.clear();
-    const std::size_t n = f.trt_m.size();
+    const std::size_t n = f.trt.m.size();
     std::vector<double> wt(2 * n);
-    for (std::size_t k = 0; k < n; ++k) wt[k] = f.trt_w[k] * transmittance(f.wi.dot(f.trt_m[k]));
-    for (const auto& node : f.trt_phi) {
+    for (std::size_t k = 0; k < n; ++k) wt[k] = f.trt.w[k] * transmittance(f.wi.dot(f.trt.m[k]));
+    for (const auto& node : f.trt.phi) {
         for (std::size_t k = node.first; k < node.first + node.count; ++k)
             wt[n + k] = node.weight * wt[k];
     }
     f.trt_wt.emplace_back(lambda_nm, std::move(wt));
     return f.trt_wt.back().second;
+}
+
+// E_q by the frame's stored nodes if it has them, else by fresh ones (the same value).
+template <typename FrameT, typename Transmittance>
+double trt_efficiency(const FrameT& f, const Vec3d& wo_b, double lambda_nm,
+                      const Transmittance& transmittance, bool steep, double b, double theta_d) {
+    if (f.trt_stored) {
+        const TrtStoredNodes<FrameT> nodes{
+            f, weighted_incident_transmittance(f, lambda_nm, transmittance)};
+        return TrtSum(f, wo_b, transmittance, steep, b, theta_d, nodes)();
+    }
+    thread_local typename FrameT::TrtNodeArrays scratch;
+    thread_local std::vector<double> wt;
+    const TrtFreshNodes<FrameT, Transmittance> nodes{f, transmittance, b, theta_d, scratch, wt};
+    return TrtSum(f, wo_b, transmittance, steep, b, theta_d, nodes)();
 }
 
 }  // namespace
@@ -1244,7 +1476,7 @@ const std::vector<double>& weighted_incident_transmittance(const FrameT& f, doub
 // per-wavelength table (relative error ≤ 5e-7, FilmTransmittanceTable), so E_q is within
 // 1e-6 relative of the same rule with direct Airy evaluations (eval_reference with refine 1).
 //
-// Smooth pairs (Frame::TrtPair; with the per-piece classification of trt_efficiency_sum they
+// Smooth pairs (Frame::TrtPair; with the per-piece classification of TrtSum they
 // took a sweep's eval from 11.2k to 8.2k instructions): where every facet of two adjacent pieces
 // faces both ω_i and ω_o by ω·ω_m ≥ kTrtSmoothCos, the integrand has no kink (no cut, no clipped
 // θ support) and T's complex poles (c ≈ ±i g(0), FilmTransmittanceTable) stay at |g(0)| ≥ 0.08
@@ -1290,12 +1522,10 @@ double Huang2022Bsdf::eval_in_frame(const Frame& f, const Vec3d& wo, double lamb
         }
         // TRT: P_hit/π · R_m · E_q[T_i T_o 1(ω_o·ω_m > 0)], only above the barb plane.
         if (wo.z() > 0.0) {
-            const std::vector<double>& wt =
-                weighted_incident_transmittance(f, lambda_nm, transmittance);
-            f_trt =
-                f.hit_fraction() * r_m *
-                trt_efficiency_sum(f, wo_b, wt, transmittance, steep, params_.b, params_.theta_d) /
-                kPi;
+            f_trt = f.hit_fraction() * r_m *
+                    trt_efficiency(f, wo_b, lambda_nm, transmittance, steep, params_.b,
+                                   params_.theta_d) /
+                    kPi;
         }
     }
     if (!per_lobe.empty()) {
@@ -1310,6 +1540,9 @@ double Huang2022Bsdf::eval_in_frame(const Frame& f, const Vec3d& wo, double lamb
 double Huang2022Bsdf::eval(const Vec3d& wi, const Vec3d& wo, double lambda_nm,
                            std::span<double> per_lobe) const {
     const Frame& f = frame_for(wi);
+    // A frame asked a second time (a sweep, an instrument's cone) stores its TRT nodes; one asked
+    // once (a new ω_i every call) builds only the pieces it needs, for the same values.
+    if (++f.evals >= 2 && !f.trt_stored) build_trt_nodes(f);
     const Spectral& terms = spectral(lambda_nm);
     return eval_in_frame(f, wo, lambda_nm, terms.melanin_reflectance, terms.steep,
                          terms.transmittance, per_lobe);
@@ -1319,7 +1552,9 @@ double Huang2022Bsdf::eval_reference(const Vec3d& wi, const Vec3d& wo, double la
                                      int trt_refine, std::span<double> per_lobe) const {
     require(trt_refine >= 1 && trt_refine <= 64, kWhat, "trt_refine", trt_refine,
             "a refinement factor in [1, 64]");
-    const Frame f = compute_frame(wi, trt_refine);
+    Frame f;
+    compute_frame(wi, trt_refine, f);
+    build_trt_nodes(f);
     const double n = keratin_->index(lambda_nm).real();
     const double k0_d = 2.0 * kPi * params_.d_um * 1000.0 / lambda_nm;
     return eval_in_frame(
@@ -1327,108 +1562,59 @@ double Huang2022Bsdf::eval_reference(const Vec3d& wi, const Vec3d& wo, double la
         [&](double c) { return film_transmittance(c, lambda_nm); }, per_lobe);
 }
 
-void Huang2022Bsdf::build_trt_nodes(Frame& f) const {
+void Huang2022Bsdf::build_trt_pieces(Frame& f) const {
     if (!(f.visible_length > 0.0)) return;
     const int refine = f.trt_refine;
-    // θ_m's sines and cosines by small_angle_sincos (|θ_m| ≤ θ_d ≤ π/4): a new ω_i builds a
-    // thousand or more of them. The θ nodes of a support [lo, hi]: θ, sin θ, cos θ and the
-    // panel's half-width times the node's weight.
-    struct ThetaNode {
-        double theta, sin, cos, weight;
-    };
-    auto support_nodes = [&](double lo, double hi, std::vector<ThetaNode>& out) {
-        out.clear();
-        for (int panel = 0; panel < refine; ++panel) {
-            const double pa = lo + (hi - lo) * panel / refine,
-                         pb = lo + (hi - lo) * (panel + 1) / refine;
-            for (std::size_t j = 0; j < kTrtThetaNodes.size(); ++j) {
-                ThetaNode n{0.5 * (pa + pb) + 0.5 * (pb - pa) * kTrtThetaNodes[j], 0.0, 1.0,
-                            0.5 * (pb - pa) * kTrtThetaWeights[j]};
-                small_angle_sincos(n.theta, n.sin, n.cos);
-                out.push_back(n);
-            }
-        }
-    };
-    // Most φ nodes have the whole support [−θ_d, θ_d] (unclipped): the same θ nodes at every one
-    // of them, so their sines and cosines are taken once per frame (the same values, to the bit).
     const double theta_d = params_.theta_d;
-    std::vector<ThetaNode> unclipped, clipped;
-    support_nodes(-theta_d, theta_d, unclipped);
-    double sin_lo = 0.0, cos_lo = 1.0, sin_hi = 0.0, cos_hi = 1.0;
-    small_angle_sincos(-theta_d, sin_lo, cos_lo);
-    small_angle_sincos(theta_d, sin_hi, cos_hi);
-    auto add_phi_node = [&](double, double sp, double cp, double w, const ThetaDensity& td) {
-        Frame::TrtPhiNode node{sp,
-                               cp,
-                               w,
-                               f.wi.x() * sp + f.wi.z() * cp,
-                               cos_lo,
-                               sin_lo,
-                               cos_hi,
-                               sin_hi,
-                               f.trt_m.size(),
-                               0};
-        const bool whole = td.lo == -theta_d && td.hi == theta_d;
-        if (!whole) {
-            small_angle_sincos(td.lo, node.sin_lo, node.cos_lo);
-            small_angle_sincos(td.hi, node.sin_hi, node.cos_hi);
-        }
-        f.trt_theta.push_back(td);
-        if (!td.empty()) {
-            if (!whole) support_nodes(td.lo, td.hi, clipped);
-            for (const ThetaNode& n : whole ? unclipped : clipped) {
-                f.trt_m.emplace_back(sp * n.cos, n.sin, cp * n.cos);  // normal_at(φ, θ)
-                f.trt_mx.push_back(sp * n.cos);
-                f.trt_mz.push_back(cp * n.cos);
-                f.trt_cos.push_back(n.cos);
-                f.trt_sin.push_back(n.sin);
-                f.trt_w.push_back(n.weight * td.density(n.theta, n.sin, n.cos));
-                ++node.count;
-            }
-        }
-        f.trt_phi.push_back(node);
-    };
-    // The pieces, interval by interval (as for_each_q_piece), and the pairs they could form; room
-    // for them all reserved first (a new ω_i every call spent a fifth of its time growing these).
-    std::size_t most_pieces = 0;
-    for (const auto& [lo, hi] : f.intervals)
-        most_pieces += static_cast<std::size_t>(std::ceil((hi - lo) / (kTrtPiece / refine))) + 1;
-    const std::size_t most_phi = kGl8Nodes.size() * (most_pieces + most_pieces / 2);
-    const std::size_t most_theta =
-        most_phi * kTrtThetaNodes.size() * static_cast<std::size_t>(refine);
-    f.trt_pieces.reserve(most_pieces);
-    f.trt_phi.reserve(most_phi);
-    f.trt_theta.reserve(most_phi);
-    for (auto* v : {&f.trt_cos, &f.trt_sin, &f.trt_mx, &f.trt_mz, &f.trt_w}) v->reserve(most_theta);
-    f.trt_m.reserve(most_theta);
-    std::vector<std::size_t> pair_candidates;
+    support_nodes(-theta_d, theta_d, refine, f.trt_unclipped);
+    small_angle_sincos(-theta_d, f.trt_sin_lo, f.trt_cos_lo);
+    small_angle_sincos(theta_d, f.trt_sin_hi, f.trt_cos_hi);
+    // The pieces, interval by interval (as for_each_q_piece), and the pairs they could form.
     for (const auto& [lo, hi] : f.intervals) {
         const int pieces =
             std::max(1, static_cast<int>(std::ceil((hi - lo) / (kTrtPiece / refine))));
         for (int k = 0; k < pieces; ++k) {
             const double a = lo + (hi - lo) * k / pieces, c = lo + (hi - lo) * (k + 1) / pieces;
-            if (k % 2 == 1) pair_candidates.push_back(f.trt_pieces.size() - 1);
-            const std::size_t theta_first = f.trt_m.size();
-            q_phi_nodes_on(f, params_.b, params_.theta_d, a, c, false, add_phi_node);
-            f.trt_pieces.push_back({a, c, std::sin(a), std::cos(a), std::sin(c), std::cos(c),
-                                    theta_first, f.trt_m.size()});
+            if (k % 2 == 1 && refine == 1) f.trt_pairs.push_back({f.trt_pieces.size() - 1, 0, 0});
+            f.trt_pieces.push_back(
+                {a, c, std::sin(a), std::cos(a), std::sin(c), std::cos(c), 0, 0});
         }
     }
-    if (refine != 1) return;
-    // ω_i·ω_m ≥ A_i(φ) cos θ_d − |ω_i,y| sin θ_d on the whole θ range, and A_i at the pair's ends
-    // bounds it inside (A_i = r_i cos(φ − φ_i) exceeds a value ≥ 0 on one arc shorter than π).
+    // Pairs whose every facet faces ω_i by kTrtSmoothCos: ω_i·ω_m ≥ A_i(φ) cos θ_d − |ω_i,y|
+    // sin θ_d on the whole θ range, and A_i at the pair's ends bounds it inside (A_i = r_i cos(φ −
+    // φ_i) exceeds a value ≥ 0 on one arc shorter than π).
     auto facing = [&](double sp, double cp, const Vec3d& w) {
         return (w.x() * sp + w.z() * cp) * f.cos_theta_d - std::abs(w.y()) * f.sin_theta_d;
     };
-    for (std::size_t piece : pair_candidates) {
-        const auto &first = f.trt_pieces[piece], &second = f.trt_pieces[piece + 1];
-        if (facing(first.sin_a, first.cos_a, f.wi) < kTrtSmoothCos ||
-            facing(second.sin_c, second.cos_c, f.wi) < kTrtSmoothCos)
-            continue;
-        Frame::TrtPair pair{piece, f.trt_m.size(), 0};
-        q_phi_nodes_on(f, params_.b, params_.theta_d, first.a, second.c, false, add_phi_node);
-        pair.theta_last = f.trt_m.size();
-        f.trt_pairs.push_back(pair);
+    std::erase_if(f.trt_pairs, [&](const Frame::TrtPair& pair) {
+        const auto &first = f.trt_pieces[pair.piece], &second = f.trt_pieces[pair.piece + 1];
+        return facing(first.sin_a, first.cos_a, f.wi) < kTrtSmoothCos ||
+               facing(second.sin_c, second.cos_c, f.wi) < kTrtSmoothCos;
+    });
+}
+
+void Huang2022Bsdf::build_trt_nodes(const Frame& f) const {
+    if (f.trt_stored) return;
+    f.trt_stored = true;
+    // Room for them all reserved first (a new ω_i every call spent a fifth of its time growing
+    // these when every frame stored its nodes).
+    const std::size_t most_phi = kGl8Nodes.size() * (f.trt_pieces.size() + 2 * f.trt_pairs.size());
+    const std::size_t most_theta =
+        most_phi * kTrtThetaNodes.size() * static_cast<std::size_t>(f.trt_refine);
+    f.trt.phi.reserve(most_phi);
+    f.trt.theta.reserve(most_phi);
+    for (auto* v : {&f.trt.cos, &f.trt.sin, &f.trt.mx, &f.trt.mz, &f.trt.w}) v->reserve(most_theta);
+    f.trt.m.reserve(most_theta);
+    for (auto& piece : f.trt_pieces) {
+        piece.theta_first = f.trt.m.size();
+        append_trt_nodes(f, params_.b, params_.theta_d, piece.a, piece.c, f.trt);
+        piece.theta_last = f.trt.m.size();
+    }
+    for (auto& pair : f.trt_pairs) {
+        pair.theta_first = f.trt.m.size();
+        append_trt_nodes(f, params_.b, params_.theta_d, f.trt_pieces[pair.piece].a,
+                         f.trt_pieces[pair.piece + 1].c, f.trt);
+        pair.theta_last = f.trt.m.size();
     }
 }
 

@@ -147,10 +147,14 @@ private:
     struct Frame;     // ω_i-dependent quantities (barbule frame, visible intervals)
     struct Spectral;  // λ-dependent ones (film table, melanin reflectance), per thread
     const Spectral& spectral(double lambda_nm) const;
-    Frame compute_frame(const Vec3d& wi_patch, int trt_refine = 1) const;
+    // The frame of ω_i, computed into f (its vectors' capacity kept): compute_frame's parts.
+    void compute_frame(const Vec3d& wi_patch, int trt_refine, Frame& f) const;
+    void scan_visible_intervals(Frame& f) const;          // the visible front-facing φ_m ranges
+    void measure_shadow(Frame& f) const;                  // Δh' and the T lobe's mass
     const Frame& frame_for(const Vec3d& wi_patch) const;  // per-thread cache of the last ω_i
-    void build_nodes(const Frame& f) const;  // pdf()'s rule, on its first call per ω_i
-    void build_trt_nodes(Frame& f) const;    // TRT's rule, per ω_i (see eval_in_frame)
+    void build_nodes(const Frame& f) const;      // pdf()'s rule, on its first call per ω_i
+    void build_trt_pieces(Frame& f) const;       // TRT's pieces and pairs, per ω_i (eval_in_frame)
+    void build_trt_nodes(const Frame& f) const;  // their nodes, stored once a second eval asks
     // eval() in a frame, with the melanin reflectance r_m and the film's T(c) given (tables in
     // eval(), direct evaluation in eval_reference()); its TRT term E_q[T(ω_i·ω_m) T(ω_o·ω_m)
     // 1(ω_o·ω_m > 0)] and that term's error are described at its definition.

@@ -652,6 +652,36 @@ TEST(Huang2022, EvalMatchesTheDirectFilmReference) {
     EXPECT_GT(compared, 500);
 }
 
+TEST(Huang2022, OnceAskedAndStoredTrtNodesGiveTheSameBits) {
+    // A frame evaluated once builds TRT's nodes only on the pieces that ω_o lights, and never
+    // stores them; a frame asked again stores them all (eval()). Both must give the same values
+    // to the bit, or results would depend on the order of the calls (and on the thread count
+    // that splits a sweep). Random pairs over the hemisphere at 400–700 nm and the grazing
+    // resonances (where the terminator's piece is graded).
+    const Huang2022Bsdf model({});
+    std::vector<double> wavelengths = {400.0, 550.0, 700.0};
+    for (double r : grazing_resonance_wavelengths(model.params())) wavelengths.push_back(r);
+    Rng rng(derive_seed(kDefaultSeed, "huang fresh and stored nodes"), 0);
+    auto hemisphere = [&] {
+        const double z = rng.uniform(), phi = 2.0 * kPi * rng.uniform();
+        const double s = std::sqrt(std::max(0.0, 1.0 - z * z));
+        return Vec3d(s * std::cos(phi), s * std::sin(phi), z);
+    };
+    int nonzero = 0;
+    for (int i = 0; i < 3000; ++i) {
+        const Vec3d wi = hemisphere(), wo = hemisphere();
+        if (!(wi.z() > 1e-9)) continue;
+        const double lambda = wavelengths[static_cast<std::size_t>(i) % wavelengths.size()];
+        std::array<double, 3> once{}, stored{};
+        model.eval(wi, wo, lambda, once);    // a new ω_i: fresh nodes
+        model.eval(wi, wo, lambda, stored);  // asked again: stored nodes
+        EXPECT_EQ(once[0], stored[0]) << "R, wi " << wi.transpose() << " wo " << wo.transpose();
+        EXPECT_EQ(once[1], stored[1]) << "TRT, wi " << wi.transpose() << " wo " << wo.transpose();
+        nonzero += once[1] > 0.0;
+    }
+    EXPECT_GT(nonzero, 1000);
+}
+
 TEST(Huang2022, PointTableOnTheFilipSetIsConvergedTo1e4) {
     // Issue 15's "Huang model tabulated on the 3660-pair set, exact to 1e-4": the table's cells
     // are the model's values f(ω_i, ω_o, λ) at the pairs (eval(), as plumage.models and the fits
