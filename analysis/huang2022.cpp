@@ -456,17 +456,15 @@ struct Huang2022Bsdf::Frame {
         std::size_t first, count;  // its θ nodes in the arrays' cos etc. (count 0: empty support)
     };
     // Nodes of pieces and pairs: per φ node (phi, theta: p_θ(θ | φ) for the cut panels), per θ
-    // node cos θ, sin θ, ω_m's x and z (its y is sin), ω_m and the weight.
+    // node cos θ, sin θ, ω_m's x and z (its y is sin) and the weight.
     struct TrtNodeArrays {
         std::vector<TrtPhiNode> phi;
         std::vector<ThetaDensity> theta;
         std::vector<double> cos, sin, mx, mz, w;
-        std::vector<Vec3d> m;
         void clear() {
             phi.clear();
             theta.clear();
             for (auto* v : {&cos, &sin, &mx, &mz, &w}) v->clear();
-            m.clear();
         }
     };
     int trt_refine = 1;
@@ -564,8 +562,8 @@ struct Ellipse {
         const double x = s * s + b * b * c * c;
         return b * b / (x * std::sqrt(x));
     }
-    std::array<double, 2> point(double phi) const {
-        const double s = std::sin(phi), c = std::cos(phi);
+    std::array<double, 2> point(double phi) const { return point_at(std::sin(phi), std::cos(phi)); }
+    std::array<double, 2> point_at(double s, double c) const {
         const double q = std::sqrt(s * s + b * b * c * c);
         return {s / q, b * b * c / q};
     }
@@ -613,6 +611,11 @@ public:
         along_ = p.H * (ux * dx + uz * dz);
         inv_across_ = 1.0 / across_;
         inv_along_ = 1.0 / along_;
+        qa_ = dx_ * dx_ + dz_ * dz_ / b2_;
+        // The arc's ends as directions (sin φ, cos φ) of the normal, for on_arc().
+        s0_ = std::sin(p.phi0), c0_ = std::cos(p.phi0);
+        s1_ = std::sin(p.phi1), c1_ = std::cos(p.phi1);
+        short_arc_ = p.phi1 - p.phi0 <= kPi;
     }
 
     // Whether the ray from the arc's point q = (x, z) towards d is blocked by another copy.
@@ -629,7 +632,7 @@ public:
         narrow(across_, inv_across_, across - kSlack, across + kSlack, k_lo, k_hi);
         narrow(along_, inv_along_, along - kSlack, std::numeric_limits<double>::infinity(), k_lo,
                k_hi);
-        const double qa = dx_ * dx_ + dz_ * dz_ / b2_;
+        const double qa = qa_;
         for (int k = k_lo; k <= k_hi; ++k) {
             if (k == 0) continue;
             const double cx = k * p_.H * ux_, cz = k * p_.H * uz_;
@@ -643,14 +646,24 @@ public:
             for (double t : {(-qb - sq) / (2.0 * qa), (-qb + sq) / (2.0 * qa)}) {
                 if (t <= 1e-12) continue;
                 const double hx = ox + t * dx_, hz = oz + t * dz_;
-                const double phi_hit = wrap_into(std::atan2(hx, hz / b2_), p_.phi0);
-                if (phi_hit <= p_.phi1) return true;
+                if (on_arc(hx, hz / b2_)) return true;
             }
         }
         return false;
     }
 
 private:
+    // Whether the normal direction (nx, nz) (its φ = atan2(nx, nz)) lies on the arc [φ0, φ1]:
+    // by the signs of sin(φ − φ0) and sin(φ1 − φ) on an arc no longer than π, else by those of
+    // the complement's (shorter than π). The atan2 it replaces was a tenth of a new ω_i's cost;
+    // the two agree but within rounding of the arc's ends.
+    bool on_arc(double nx, double nz) const {
+        const double from_start = nx * c0_ - nz * s0_;  // ∝ sin(φ − φ0)
+        const double to_end = s1_ * nz - c1_ * nx;      // ∝ sin(φ1 − φ)
+        if (short_arc_) return from_start >= 0.0 && to_end >= 0.0;
+        return !(from_start < 0.0 && to_end < 0.0);
+    }
+
     // Narrows [k_lo, k_hi] towards the integers k with lo <= a k <= hi (inv_a = 1/a: a bound
     // off by rounding is covered by the slack). Only ever narrows, and drops a bound it cannot
     // divide by (|a| tiny), so the range kept holds every such k.
@@ -658,8 +671,17 @@ private:
         if (!(std::abs(a) > 1e-9)) return;
         double x = lo * inv_a, y = hi * inv_a;
         if (a < 0.0) std::swap(x, y);
-        if (x > k_lo) k_lo = static_cast<int>(std::ceil(std::min(x, 1e4)));
-        if (y < k_hi) k_hi = static_cast<int>(std::floor(std::max(y, -1e4)));
+        if (x > k_lo) k_lo = ceil_to_int(std::min(x, 1e4));
+        if (y < k_hi) k_hi = floor_to_int(std::max(y, -1e4));
+    }
+    // ⌈v⌉ and ⌊v⌋ for |v| ≤ 1e4, exactly, without libm's rounding calls.
+    static int ceil_to_int(double v) {
+        const int i = static_cast<int>(v);  // towards zero
+        return i < v ? i + 1 : i;
+    }
+    static int floor_to_int(double v) {
+        const int i = static_cast<int>(v);
+        return i > v ? i - 1 : i;
     }
 
     const Huang2022Params& p_;
@@ -667,6 +689,9 @@ private:
     int reach_;
     double across_, along_;  // H (u × d) and H (u · d): a copy's offset across and along the ray
     double inv_across_, inv_along_;
+    double qa_;  // |d|² in the ellipse's metric: the ray's quadratic coefficient
+    double s0_, c0_, s1_, c1_;
+    bool short_arc_;
 };
 
 }  // namespace
@@ -726,9 +751,19 @@ void Huang2022Bsdf::scan_visible_intervals(Frame& f) const {
         double start = lo;
         bool inside = visible_at(lo + 1e-12 * (hi - lo));
         double previous = lo;
+        // The scan points' sines and cosines by rotation through the step (one libm sincos per
+        // range instead of one per point; off by a few 1e-15 at the range's end, which moves no
+        // answer but within that of a transition: the transitions are bisected with libm's).
+        const double step = (hi - lo) / kScan;
+        const double sin_step = std::sin(step), cos_step = std::cos(step);
+        double sin_phi = std::sin(lo), cos_phi = std::cos(lo);
         for (int s = 1; s <= kScan; ++s) {
             const double phi = lo + (hi - lo) * s / kScan;
-            const bool v = visible_at(std::min(phi, hi - 1e-12 * (hi - lo)));
+            const double rotated = sin_phi * cos_step + cos_phi * sin_step;
+            cos_phi = cos_phi * cos_step - sin_phi * sin_step;
+            sin_phi = rotated;
+            const bool v = s < kScan ? !occluders.blocked(e.point_at(sin_phi, cos_phi))
+                                     : visible_at(std::min(phi, hi - 1e-12 * (hi - lo)));
             if (v != inside) {
                 double a = previous, c = phi;  // refine the transition by bisection
                 for (int it = 0; it < 50; ++it) {
@@ -993,10 +1028,19 @@ template <typename FrameT, typename Emit>
 void q_phi_nodes_on(const FrameT& f, double b, double theta_d, double a, double c, bool polar,
                     const Emit& emit) {
     const Ellipse e{b};
+    // sin φ and cos φ from the piece's middle by the angle sum (one libm sincos per piece instead
+    // of one per node); cos(φ − φ_i) = A_i / cos θ_i, A_i = ω_i,x sin φ + ω_i,z cos φ. Both agree
+    // with libm's to a few ulps.
+    const double mid = 0.5 * (a + c), half = 0.5 * (c - a);
+    const double sin_mid = std::sin(mid), cos_mid = std::cos(mid);
+    const double inv_cos_theta_i = 1.0 / f.cos_theta_i;
     for (std::size_t i = 0; i < kGl8Nodes.size(); ++i) {
-        const double phi = 0.5 * (a + c) + 0.5 * (c - a) * kGl8Nodes[i];
-        const double sp = std::sin(phi), cp = std::cos(phi);
-        const double cos_rel = std::cos(phi - f.phi_i);
+        const double phi = mid + half * kGl8Nodes[i];
+        double sin_off = 0.0, cos_off = 1.0;
+        small_angle_sincos(half * kGl8Nodes[i], sin_off, cos_off);
+        const double sp = sin_mid * cos_off + cos_mid * sin_off;
+        const double cp = cos_mid * cos_off - sin_mid * sin_off;
+        const double cos_rel = (f.wi.x() * sp + f.wi.z() * cp) * inv_cos_theta_i;
         const double w =
             0.5 * (c - a) * kGl8Weights[i] * e.rho_at(sp, cp) * cos_rel / f.visible_length;
         const double a_theta = f.cos_theta_i * cos_rel;
@@ -1092,6 +1136,13 @@ double positive_part_integral(const FrameT& f, const ThetaDensity& td, double a_
     return inner;
 }
 
+// ω_i·ω_m at θ node k of `nodes`, ω_m = (mx, sin θ, mz): the sum in the order of Eigen's dot
+// product, so the same bits as the stored normals gave.
+template <typename FrameT, typename Arrays>
+double incident_cos(const FrameT& f, const Arrays& nodes, std::size_t k) {
+    return f.wi.x() * nodes.mx[k] + f.wi.y() * nodes.sin[k] + f.wi.z() * nodes.mz[k];
+}
+
 // TRT's φ nodes on [a, c] (q_phi_nodes_on) and their θ nodes, appended to `out` (a
 // Frame::TrtNodeArrays): the unclipped supports take the frame's shared θ nodes, a clipped one its
 // own. The stored rule (build_trt_nodes) and the fresh one (TrtFreshNodes) both come from here, so
@@ -1109,7 +1160,7 @@ void append_trt_nodes(const FrameT& f, double b, double theta_d, double a, doubl
                                                         f.trt_sin_lo,
                                                         f.trt_cos_hi,
                                                         f.trt_sin_hi,
-                                                        out.m.size(),
+                                                        out.w.size(),
                                                         0};
                        const bool whole = td.lo == -theta_d && td.hi == theta_d;
                        if (!whole) {
@@ -1120,7 +1171,6 @@ void append_trt_nodes(const FrameT& f, double b, double theta_d, double a, doubl
                        if (!td.empty()) {
                            if (!whole) support_nodes(td.lo, td.hi, f.trt_refine, clipped);
                            for (const ThetaNode& n : whole ? f.trt_unclipped : clipped) {
-                               out.m.emplace_back(sp * n.cos, n.sin, cp * n.cos);  // normal_at
                                out.mx.push_back(sp * n.cos);
                                out.mz.push_back(cp * n.cos);
                                out.cos.push_back(n.cos);
@@ -1162,7 +1212,7 @@ struct TrtStoredNodes {
                 t.mx.data(),
                 t.mz.data(),
                 wt.data(),
-                wt.data() + t.m.size(),
+                wt.data() + t.w.size(),
                 k0,
                 k1};
     }
@@ -1174,24 +1224,47 @@ struct TrtStoredNodes {
     }
 };
 
+// One piece's or pair's nodes at trt_refine = 1 (8 φ nodes, kTrtThetaNodes each), as
+// Frame::TrtNodeArrays holds them, in fixed arrays: the fresh nodes' scratch, filled without
+// allocation or capacity checks.
+template <typename PhiNode>
+struct FixedTrtArrays {
+    static constexpr std::size_t kPhi = kGl8Nodes.size(), kTheta = kPhi * kTrtThetaNodes.size();
+    template <typename T, std::size_t N>
+    struct Fixed {
+        std::array<T, N> v;
+        std::size_t n = 0;
+        void push_back(const T& x) { v[n++] = x; }
+        std::size_t size() const { return n; }
+        const T* data() const { return v.data(); }
+        const T& operator[](std::size_t k) const { return v[k]; }
+        const T* begin() const { return v.data(); }
+        const T* end() const { return v.data() + n; }
+    };
+    Fixed<PhiNode, kPhi> phi;
+    Fixed<ThetaDensity, kPhi> theta;
+    Fixed<double, kTheta> cos, sin, mx, mz, w;
+    void clear() { phi.n = theta.n = cos.n = sin.n = mx.n = mz.n = w.n = 0; }
+};
+
 // Nodes built where the sum asks for them, into per-thread scratch arrays, and never stored: for a
 // frame evaluated once (a new ω_i every call), whose dark pieces then cost nothing. wt and flat as
 // weighted_incident_transmittance computes them (the same values to the bit).
 template <typename FrameT, typename Transmittance>
 struct TrtFreshNodes {
     using View = TrtView<typename FrameT::TrtPhiNode>;
+    using Arrays = FixedTrtArrays<typename FrameT::TrtPhiNode>;
     const FrameT& f;
     const Transmittance& transmittance;
     double b, theta_d;
-    typename FrameT::TrtNodeArrays& scratch;
-    std::vector<double>& wt;
+    Arrays& scratch;
+    std::array<double, 2 * Arrays::kTheta>& wt;
     View build(double a, double c) const {
         scratch.clear();
         append_trt_nodes(f, b, theta_d, a, c, scratch);
-        const std::size_t n = scratch.m.size();
-        wt.resize(2 * n);
+        const std::size_t n = scratch.w.size();
         for (std::size_t k = 0; k < n; ++k)
-            wt[k] = scratch.w[k] * transmittance(f.wi.dot(scratch.m[k]));
+            wt[k] = scratch.w[k] * transmittance(incident_cos(f, scratch, k));
         for (const auto& node : scratch.phi) {
             for (std::size_t k = node.first; k < node.first + node.count; ++k)
                 wt[n + k] = node.weight * wt[k];
@@ -1422,9 +1495,10 @@ const std::vector<double>& weighted_incident_transmittance(const FrameT& f, doub
         if (lambda == lambda_nm) return wt;
     }
     if (f.trt_wt.size() >= 16) f.trt_wt.clear();
-    const std::size_t n = f.trt.m.size();
+    const std::size_t n = f.trt.w.size();
     std::vector<double> wt(2 * n);
-    for (std::size_t k = 0; k < n; ++k) wt[k] = f.trt.w[k] * transmittance(f.wi.dot(f.trt.m[k]));
+    for (std::size_t k = 0; k < n; ++k)
+        wt[k] = f.trt.w[k] * transmittance(incident_cos(f, f.trt, k));
     for (const auto& node : f.trt.phi) {
         for (std::size_t k = node.first; k < node.first + node.count; ++k)
             wt[n + k] = node.weight * wt[k];
@@ -1442,9 +1516,11 @@ double trt_efficiency(const FrameT& f, const Vec3d& wo_b, double lambda_nm,
             f, weighted_incident_transmittance(f, lambda_nm, transmittance)};
         return TrtSum(f, wo_b, transmittance, steep, b, theta_d, nodes)();
     }
-    thread_local typename FrameT::TrtNodeArrays scratch;
-    thread_local std::vector<double> wt;
-    const TrtFreshNodes<FrameT, Transmittance> nodes{f, transmittance, b, theta_d, scratch, wt};
+    PLUMAGE_CHECK(f.trt_refine == 1, "huang2022: a refined TRT rule stores its nodes");
+    using Fresh = TrtFreshNodes<FrameT, Transmittance>;
+    thread_local typename Fresh::Arrays scratch;
+    thread_local std::array<double, 2 * Fresh::Arrays::kTheta> wt;
+    const Fresh nodes{f, transmittance, b, theta_d, scratch, wt};
     return TrtSum(f, wo_b, transmittance, steep, b, theta_d, nodes)();
 }
 
@@ -1604,17 +1680,16 @@ void Huang2022Bsdf::build_trt_nodes(const Frame& f) const {
     f.trt.phi.reserve(most_phi);
     f.trt.theta.reserve(most_phi);
     for (auto* v : {&f.trt.cos, &f.trt.sin, &f.trt.mx, &f.trt.mz, &f.trt.w}) v->reserve(most_theta);
-    f.trt.m.reserve(most_theta);
     for (auto& piece : f.trt_pieces) {
-        piece.theta_first = f.trt.m.size();
+        piece.theta_first = f.trt.w.size();
         append_trt_nodes(f, params_.b, params_.theta_d, piece.a, piece.c, f.trt);
-        piece.theta_last = f.trt.m.size();
+        piece.theta_last = f.trt.w.size();
     }
     for (auto& pair : f.trt_pairs) {
-        pair.theta_first = f.trt.m.size();
+        pair.theta_first = f.trt.w.size();
         append_trt_nodes(f, params_.b, params_.theta_d, f.trt_pieces[pair.piece].a,
                          f.trt_pieces[pair.piece + 1].c, f.trt);
-        pair.theta_last = f.trt.m.size();
+        pair.theta_last = f.trt.w.size();
     }
 }
 
