@@ -187,6 +187,19 @@ void BM_Huang2022EvalStatedIncident(benchmark::State& state) {
     state.SetItemsProcessed(state.iterations());
 }
 BENCHMARK(BM_Huang2022EvalStatedIncident);
+// A new ω_i and ω_o every call at 550 nm: bench/python_huang_pairs_bench.py's case from C++ (issue
+// 41: 10⁶ such pairs in ≤ 10 s on 2 cores), where the per-ω_i frame is the whole cost.
+void BM_Huang2022EvalRandomPairs550(benchmark::State& state) {
+    const Huang2022Bsdf model({});
+    const Pairs& p = pairs();
+    std::size_t i = 0;
+    for (auto _ : state) {
+        const std::size_t k = i++ & 1023U;
+        benchmark::DoNotOptimize(model.eval(p.wi[k], p.wo[k], 550.0));
+    }
+    state.SetItemsProcessed(state.iterations());
+}
+BENCHMARK(BM_Huang2022EvalRandomPairs550);
 void BM_Huang2022SampleFixedIncident(benchmark::State& state) {
     sample_fixed_incident(state, analysis::Huang2022Bsdf({}));
 }
