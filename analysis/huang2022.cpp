@@ -612,6 +612,11 @@ public:
         inv_across_ = 1.0 / across_;
         inv_along_ = 1.0 / along_;
         qa_ = dx_ * dx_ + dz_ * dz_ / b2_;
+        inv_2qa_ = 1.0 / (2.0 * qa_);
+        inv_b2_ = 1.0 / b2_;
+        dz_over_b2_ = dz_ / b2_;
+        step_x_ = p.H * ux_;
+        step_z_ = p.H * uz_;
         // The arc's ends as directions (sin φ, cos φ) of the normal, for on_arc().
         s0_ = std::sin(p.phi0), c0_ = std::cos(p.phi0);
         s1_ = std::sin(p.phi1), c1_ = std::cos(p.phi1);
@@ -632,21 +637,21 @@ public:
         narrow(across_, inv_across_, across - kSlack, across + kSlack, k_lo, k_hi);
         narrow(along_, inv_along_, along - kSlack, std::numeric_limits<double>::infinity(), k_lo,
                k_hi);
-        const double qa = qa_;
+        // Divisions by b² and 2 q_a as products with their inverses, taken once per direction
+        // (the same answers but within rounding of a tangent ray or an arc's end).
         for (int k = k_lo; k <= k_hi; ++k) {
             if (k == 0) continue;
-            const double cx = k * p_.H * ux_, cz = k * p_.H * uz_;
             // Ray q + t d against the ellipse (x − cx)² + (z − cz)²/b² = 1.
-            const double ox = q[0] - cx, oz = q[1] - cz;
-            const double qb = 2.0 * (ox * dx_ + oz * dz_ / b2_);
-            const double qc = ox * ox + oz * oz / b2_ - 1.0;
-            const double disc = qb * qb - 4.0 * qa * qc;
+            const double ox = q[0] - k * step_x_, oz = q[1] - k * step_z_;
+            const double qb = 2.0 * (ox * dx_ + oz * dz_over_b2_);
+            const double qc = ox * ox + oz * oz * inv_b2_ - 1.0;
+            const double disc = qb * qb - 4.0 * qa_ * qc;
             if (disc < 0.0) continue;
             const double sq = std::sqrt(disc);
-            for (double t : {(-qb - sq) / (2.0 * qa), (-qb + sq) / (2.0 * qa)}) {
+            for (double t : {(-qb - sq) * inv_2qa_, (-qb + sq) * inv_2qa_}) {
                 if (t <= 1e-12) continue;
-                const double hx = ox + t * dx_, hz = oz + t * dz_;
-                if (on_arc(hx, hz / b2_)) return true;
+                // The normal (hx, hz / b²), scaled by b² > 0 for on_arc's signs.
+                if (on_arc((ox + t * dx_) * b2_, oz + t * dz_)) return true;
             }
         }
         return false;
@@ -690,6 +695,8 @@ private:
     double across_, along_;  // H (u × d) and H (u · d): a copy's offset across and along the ray
     double inv_across_, inv_along_;
     double qa_;  // |d|² in the ellipse's metric: the ray's quadratic coefficient
+    double inv_2qa_, inv_b2_, dz_over_b2_;
+    double step_x_, step_z_;  // H u: from one copy's centre to the next
     double s0_, c0_, s1_, c1_;
     bool short_arc_;
 };
