@@ -12,6 +12,7 @@
 #include <fstream>
 #include <limits>
 #include <numeric>
+#include <random>
 
 #include <fmt/format.h>
 
@@ -460,6 +461,8 @@ void RglBsdfSettings::validate() const {
             "an integer in [2, 1024]");
     require(ndf_floor > 0.0 && ndf_floor <= 1.0, kWhat, "ndf_floor", ndf_floor,
             "a value in (0, 1]");
+    require(model_ndf_share >= 0.0 && model_ndf_share <= 1.0, kWhat, "model_ndf_share",
+            model_ndf_share, "a value in [0, 1]");
     require(ndf_iterations >= 0 && ndf_iterations <= 1000, kWhat, "ndf_iterations", ndf_iterations,
             "an integer in [0, 1000]");
 }
@@ -794,10 +797,65 @@ double checked(double value, const char* what, const Vec3d& wi, const Vec3d& wo,
     return value;
 }
 
-// The NDF grid (float32, [H][W]) by Dupuy & Jakob's retro-reflection power iteration, with
-// the cosine NDF mixed in (see the header).
-std::vector<float> estimate_ndf(const BrdfFunction& f, const RglBsdfSettings& s, int width,
-                                int height, const HemisphereQuadrature& q) {
+// d (normalised, ∫ d cos θ_m dm = 1) as the stored NDF: φ = ±π rows made one value, a fraction
+// ndf_floor of the cosine NDF mixed in (see the header).
+std::vector<float> floored_ndf(std::vector<double> d, const RglBsdfSettings& s, std::size_t W,
+                               std::size_t H) {
+    if (s.phi_i_count != 1) {  // φ = −π and φ = π are one direction: one value
+        for (std::size_t a = 0; a < W; ++a) d[(H - 1) * W + a] = d[a];
+    }
+    std::vector<float> grid(W * H);
+    for (std::size_t k = 0; k < W * H; ++k) {
+        grid[k] = static_cast<float>((1.0 - s.ndf_floor) * d[k] + s.ndf_floor / kPi);
+    }
+    return grid;
+}
+
+// The model's own NDF (settings.model_ndf), each node its cell's solid-angle mean, normalised.
+std::vector<double> model_ndf_grid(const RglBsdfSettings& s, int width, int height,
+                                   const HemisphereQuadrature& q) {
+    const std::size_t W = static_cast<std::size_t>(width), H = static_cast<std::size_t>(height);
+    const bool isotropic = s.phi_i_count == 1;
+    constexpr int kPoints = 8;
+    const double du_x = 1.0 / static_cast<double>(W - 1), du_y = 1.0 / static_cast<double>(H - 1);
+    std::vector<double> d(W * H, 0.0);
+    FirstError error;
+#pragma omp parallel for schedule(dynamic, 4)
+    for (std::size_t k = 0; k < W * H; ++k) {
+        error.run([&] {
+            const double cx = static_cast<double>(k % W) * du_x;
+            const double cy = static_cast<double>(k / W) * du_y;
+            double sum = 0.0, weight = 0.0;
+            for (int i = 0; i < kPoints; ++i) {
+                const double ux = std::clamp(cx + ((i + 0.5) / kPoints - 0.5) * du_x, 0.0, 1.0);
+                const double theta = std::min(u_to_theta(ux), 89.9 * kDeg);
+                const double w_theta = std::max(square_jacobian(ux), 1e-12);
+                for (int j = 0; j < kPoints; ++j) {
+                    const double uy =
+                        isotropic ? (j + 0.5) / kPoints : cy + ((j + 0.5) / kPoints - 0.5) * du_y;
+                    const double value = s.model_ndf(spherical(theta, u_to_phi(uy)));
+                    PLUMAGE_CHECK(
+                        std::isfinite(value) && value >= 0.0,
+                        fmt::format("rgl_bsdf: model NDF = {} at θ_m = {} rad", value, theta));
+                    sum += w_theta * value;
+                    weight += w_theta;
+                }
+            }
+            d[k] = sum / weight;
+        });
+    }
+    error.rethrow();
+    std::vector<float> grid(d.begin(), d.end());
+    const double norm = cosine_normalisation(q, at_nodes(q, grid, width, height));
+    require(norm > 0.0, kWhat, "model_ndf: the model's NDF is zero over the upper hemisphere");
+    for (double& v : d) v /= norm;
+    return d;
+}
+
+// The NDF ([H][W], normalised) by Dupuy & Jakob's retro-reflection power iteration (see the
+// header).
+std::vector<double> estimate_ndf(const BrdfFunction& f, const RglBsdfSettings& s, int width,
+                                 int height, const HemisphereQuadrature& q) {
     const std::size_t W = static_cast<std::size_t>(width), H = static_cast<std::size_t>(height);
     const bool isotropic = s.phi_i_count == 1;
     // Directions of the grid nodes; isotropic grids use φ = 0 for every row.
@@ -856,13 +914,22 @@ std::vector<float> estimate_ndf(const BrdfFunction& f, const RglBsdfSettings& s,
         }
         if (change <= 1e-6 * largest) break;  // converged to well below float32's rounding
     }
-    if (!isotropic) {  // φ = −π and φ = π are one direction: one value
-        for (std::size_t a = 0; a < W; ++a) d[(H - 1) * W + a] = d[a];
+    return d;
+}
+
+// The stored NDF: the retro-reflection estimate, the model's own NDF or a mixture, with the
+// cosine NDF mixed in.
+std::vector<float> ndf_grid(const BrdfFunction& f, const RglBsdfSettings& s, int width, int height,
+                            const HemisphereQuadrature& q) {
+    const std::size_t W = static_cast<std::size_t>(width), H = static_cast<std::size_t>(height);
+    const double share = s.model_ndf ? s.model_ndf_share : 0.0;
+    std::vector<double> d(W * H, 0.0);
+    if (share < 1.0) d = estimate_ndf(f, s, width, height, q);
+    if (share > 0.0) {
+        const std::vector<double> model = model_ndf_grid(s, width, height, q);
+        for (std::size_t k = 0; k < W * H; ++k) d[k] = (1.0 - share) * d[k] + share * model[k];
     }
-    for (std::size_t k = 0; k < W * H; ++k) {
-        grid[k] = static_cast<float>((1.0 - s.ndf_floor) * d[k] + s.ndf_floor / kPi);
-    }
-    return grid;
+    return floored_ndf(std::move(d), s, W, H);
 }
 
 std::vector<double> luminance_weights(const std::vector<double>& wavelengths) {
@@ -912,7 +979,7 @@ void ndf_and_sigma(const BrdfFunction& f, const RglBsdfSettings& settings, RglBs
     t.ndf_height = isotropic ? 2 : settings.ndf_resolution;
     const HemisphereQuadrature q =
         hemisphere_quadrature(std::max(64, 2 * t.ndf_width), std::max(64, 2 * t.ndf_height));
-    t.ndf = estimate_ndf(f, settings, t.ndf_width, t.ndf_height, q);
+    t.ndf = ndf_grid(f, settings, t.ndf_width, t.ndf_height, q);
     const std::vector<double> d_nodes = at_nodes(q, t.ndf, t.ndf_width, t.ndf_height);
     const std::size_t W = static_cast<std::size_t>(t.ndf_width);
     const std::size_t H = static_cast<std::size_t>(t.ndf_height);
@@ -1032,14 +1099,23 @@ void spectra_tables(const BrdfFunction& f, const RglBsdfSettings& settings, cons
     t.luminance.assign(slices * n, 0.0f);
     const std::vector<double> y_weight = luminance_weights(settings.wavelengths_nm);
     std::atomic<bool> stopped{false};
+    std::atomic<std::size_t> done{0};
+    const std::size_t total = c.computed();
     FirstError error;
 #pragma omp parallel for schedule(dynamic, 1)
-    for (std::size_t slice = 0; slice < c.computed(); ++slice) {
+    for (std::size_t slice = 0; slice < total; ++slice) {
         if (stopped.load(std::memory_order_relaxed) || interrupt_requested()) {
             stopped = true;
             continue;
         }
         error.run([&] { spectra_slice(f, settings, c, vndf, y_weight, slice, t); });
+        const std::size_t finished = ++done;
+        // A line at each quarter (the spectra are nearly all of an export's time).
+        if (settings.progress && finished < total &&
+            4 * finished / total > 4 * (finished - 1) / total) {
+#pragma omp critical(rgl_bsdf_progress)
+            settings.progress(fmt::format("spectra: {} of {} view directions", finished, total));
+        }
     }
     error.rethrow();
     if (stopped) throw_if_interrupted("finishing a .bsdf export");
@@ -1055,9 +1131,19 @@ RglBsdfTables tabulate_rgl_bsdf(const BrdfFunction& f, const RglBsdfSettings& se
     t.description = settings.description;
     t.jacobian = true;
     parameter_nodes(settings, t);
+    const auto say = [&](const std::string& step) {
+        if (settings.progress) settings.progress(step);
+    };
+    say(fmt::format("NDF and sigma ({} × {}, {})", settings.ndf_resolution,
+                    settings.phi_i_count == 1 ? 2 : settings.ndf_resolution,
+                    settings.model_ndf ? "the model's own NDF" : "retro-reflection estimate"));
     ndf_and_sigma(f, settings, t);
     const SliceContext context(t);
+    say(fmt::format("vndf ({} view directions, {}²)", context.computed(),
+                    settings.vndf_resolution));
     vndf_tables(settings, context, t);
+    say(fmt::format("spectra ({} view directions × {}² × {} wavelengths)", context.computed(),
+                    settings.sample_resolution, settings.wavelengths_nm.size()));
     spectra_tables(f, settings, context, t);
     return t;
 }
@@ -1074,6 +1160,71 @@ RglBsdfTables tabulate_rgl_bsdf(const Scatterer& scatterer, const RglBsdfSetting
 
 void write_rgl_bsdf(const std::filesystem::path& path, const RglBsdfTables& tables) {
     write_tensor_file(path, tables.to_fields());
+}
+
+// ---- between-node accuracy -----------------------------------------------------------------
+
+namespace {
+
+// Uniform in solid angle over θ ≤ θ_max.
+Vec3d uniform_direction(std::mt19937_64& rng, double cos_max) {
+    std::uniform_real_distribution<double> unit(0.0, 1.0);
+    const double cos_theta = 1.0 - unit(rng) * (1.0 - cos_max);
+    return spherical(std::acos(cos_theta), kTwoPi * unit(rng));
+}
+
+double quantile(std::vector<double> values, double q) {
+    if (values.empty()) return 0.0;
+    const std::size_t k = std::min(
+        values.size() - 1, static_cast<std::size_t>(q * static_cast<double>(values.size())));
+    std::nth_element(values.begin(), values.begin() + static_cast<std::ptrdiff_t>(k), values.end());
+    return values[k];
+}
+
+}  // namespace
+
+InterpolationError interpolation_error(const BrdfFunction& f, const RglBsdf& file, int pairs,
+                                       double theta_max_deg, std::uint64_t seed) {
+    PLUMAGE_CHECK(pairs > 0 && theta_max_deg > 0.0 && theta_max_deg < 90.0,
+                  "interpolation_error: pairs > 0 and θ_max in (0, 90) degrees");
+    const std::vector<float>& lambdas = file.tables().wavelengths;
+    std::mt19937_64 rng(seed);
+    std::uniform_real_distribution<double> unit(0.0, 1.0);
+    const double cos_max = std::cos(theta_max_deg * kDeg);
+    const std::size_t n = static_cast<std::size_t>(pairs);
+    std::vector<Vec3d> wi(n), wo(n);
+    std::vector<double> lambda(n), truth(n), read(n);
+    for (std::size_t k = 0; k < n; ++k) {
+        wi[k] = uniform_direction(rng, cos_max);
+        wo[k] = uniform_direction(rng, cos_max);
+        lambda[k] = lambdas.front() + unit(rng) * (lambdas.back() - lambdas.front());
+    }
+    FirstError error;
+#pragma omp parallel for schedule(dynamic, 16)
+    for (std::size_t k = 0; k < n; ++k) {
+        error.run([&] {
+            truth[k] = checked(f(wi[k], wo[k], lambda[k]), "", wi[k], wo[k], lambda[k]);
+            read[k] = file.eval(wi[k], wo[k], lambda[k]);
+        });
+    }
+    error.rethrow();
+    InterpolationError e;
+    e.pairs = pairs;
+    std::vector<double> relative;
+    double difference = 0.0, total = 0.0;
+    for (std::size_t k = 0; k < n; ++k) {
+        difference += std::abs(read[k] - truth[k]) * wi[k].z();
+        total += truth[k] * wi[k].z();
+        if (!(truth[k] > 0.0)) continue;
+        relative.push_back(std::abs(read[k] / truth[k] - 1.0));
+        e.worst = std::max(e.worst, read[k] > 0.0 ? std::max(read[k] / truth[k], truth[k] / read[k])
+                                                  : std::numeric_limits<double>::infinity());
+    }
+    e.positive = static_cast<int>(relative.size());
+    e.median = quantile(relative, 0.5);
+    e.p95 = quantile(relative, 0.95);
+    e.weighted = total > 0.0 ? difference / total : 0.0;
+    return e;
 }
 
 }  // namespace plumage::gonio

@@ -297,6 +297,41 @@ TEST(RglBsdfRoundTrip, Huang2022AnisotropicNodesAndInterpolation) {
     EXPECT_LT(error / total, 0.35);
 }
 
+// A model's own NDF (settings.model_ndf) only moves the nodes: any positive NDF gives a correct
+// file (spectra = q · 4σ / D compensates). A Lambertian tabulated with a narrow band of normals
+// (|m_y| ≤ sin 5°, anisotropic) at share 1 and 0.5 still reads back ρ/π at every node to
+// float32 rounding (bound 5e-6 as above), and the stored NDF is higher in the band than off
+// it (the cell means of the band, plus the cosine floor).
+TEST(RglBsdfRoundTrip, ModelNdfMovesTheNodesNotTheValues) {
+    const double albedo = 0.6;
+    const analysis::LambertianScatterer lambert(albedo);
+    RglBsdfSettings settings;
+    settings.wavelengths_nm = {550.0};
+    settings.theta_i_count = 4;
+    settings.phi_i_count = 5;
+    settings.sample_resolution = 12;
+    settings.vndf_resolution = 16;
+    settings.ndf_resolution = 16;
+    settings.model_ndf = [](const Vec3d& m) {
+        return std::abs(m.y()) <= std::sin(5.0 * kDeg) ? 1.0 : 0.0;
+    };
+    for (const double share : {1.0, 0.5}) {
+        settings.model_ndf_share = share;
+        const RglBsdf bsdf =
+            written_and_read_back(tabulate_rgl_bsdf(lambert, settings), "model_ndf.bsdf");
+        double worst = 0.0;
+        for (const NodePair& pair : node_pairs(bsdf)) {
+            if (pair.wi.z() < 0.05 || pair.s.x() == 0.0) continue;  // the pole column, as above
+            worst =
+                std::max(worst, std::abs(bsdf.eval(pair.wi, pair.wo, 550.0) * kPi / albedo - 1.0));
+        }
+        EXPECT_LT(worst, 5e-6) << share;
+        // Row 8 of 16 is φ = 0 (the band, m_y = 0); row 4 is φ = −π/2 (off it); column 10 θ ≈ 35°.
+        const auto& t = bsdf.tables();
+        EXPECT_GT(t.ndf[8 * 16 + 10], 3.0f * t.ndf[4 * 16 + 10]) << share;
+    }
+}
+
 // ---- bad files -------------------------------------------------------------------------------
 
 std::vector<char> bytes_of(const std::filesystem::path& path) {
