@@ -6,8 +6,10 @@
 
 #include <unistd.h>
 
+#include <chrono>
 #include <cmath>
 #include <csignal>
+#include <cstdio>
 #include <filesystem>
 #include <fstream>
 #include <limits>
@@ -56,6 +58,9 @@ BsdfExportOptions small(const std::string& source) {
     o.first_nm = 450.0;
     o.last_nm = 650.0;
     o.step_nm = 100.0;
+    o.progress = false;
+    o.albedo_polar_cells = 8;  // the energy check, coarse: these tests are not about it
+    o.check_pairs = 200;
     return o;
 }
 
@@ -326,6 +331,134 @@ TEST(BsdfExport, SpeciesNamesAndMountsFromTheFileAreChecked) {
     EXPECT_NE(error().find("mount_deg = nan"), std::string::npos);
     EXPECT_FALSE(fs::exists(dir / "inner" / "parrot_filip2024.bsdf"));
     EXPECT_FALSE(fs::exists(dir / "inner" / ".._filip2024.bsdf"));
+}
+
+// Issue 41, acceptance 7: how a Huang file follows its model between the nodes, read back through
+// our reader (Mitsuba 3's `measured`) at the export's own check: 3000 seeded random pairs,
+// θ ≤ 75°. The export's default angular grid (10 θ × 25 φ × 32²) at one wavelength, 550 nm, so
+// that the test takes seconds: no spectral interpolation here, the angular one alone
+// (bench/bsdf_export_bench.cpp measures the 16-wavelength default, bench/README.md).
+// The issue's target, median ≤ 2 %, is NOT met: measured median 3.20 %, 95th percentile 57 %,
+// Σ f cos θ-weighted 15.2 %; bounds 3.5 %, 65 %, 17 % hold today's accuracy (a 48² square
+// gives 2.5 %; the model's own NDF was worse, 4.0 % at a share of 0.25).
+TEST(BsdfExport, HuangFileIsCheckedAgainstTheModelBetweenNodes) {
+    const fs::path dir = scratch_dir() / "between_nodes";
+    fs::create_directories(dir);
+    BsdfExportOptions o = small("huang2022");
+    o.theta_nodes = 10;
+    o.phi_nodes = 25;
+    o.resolution = 32;
+    o.first_nm = 550.0;
+    o.last_nm = 550.0;
+    o.step_nm = 20.0;
+    o.check_pairs = 3000;
+    o.output = dir / "huang2022.bsdf";
+    const BsdfExportResult r = export_bsdf(o);
+    ASSERT_EQ(r.reports.size(), 1u);
+    const gonio::InterpolationError& e = r.reports[0].error;
+    std::printf("Huang 550 nm: median %.4f, 95th percentile %.3f, weighted %.4f, worst %.3g\n",
+                e.median, e.p95, e.weighted, e.worst);
+    EXPECT_EQ(e.pairs, 3000);
+    EXPECT_GT(e.positive, 2900);  // TRT is positive nearly everywhere above the horizon
+    EXPECT_LT(e.median, 0.035);
+    EXPECT_LT(e.p95, 0.65);
+    EXPECT_LT(e.weighted, 0.17);
+    // Above the target, the export says so.
+    ASSERT_FALSE(r.reports[0].warnings.empty());
+    EXPECT_NE(r.reports[0].warnings.back().find("above the target 2 %"), std::string::npos);
+    // The check is the reader's own: the same numbers from the file on disk.
+    const analysis::Huang2022Bsdf model{analysis::Huang2022Params{}};
+    const gonio::InterpolationError again = gonio::interpolation_error(
+        eval_of(model), gonio::RglBsdf::read(r.files[0]), 3000, kCheckMaxThetaDeg, kCheckSeed);
+    EXPECT_EQ(again.median, e.median);
+    EXPECT_EQ(again.weighted, e.weighted);
+}
+
+// The Filip 2024 flamingo preset reflects more than it receives (published parameters): the
+// export warns, says so in the file's description, and still writes the file; the parrot does
+// not. Albedo by analysis/energy.h's quadrature (16 cells here; 1.45 at 75° per filip2024.h).
+TEST(BsdfExport, FlamingoExportWarnsAboutItsAlbedo) {
+    const fs::path dir = scratch_dir() / "albedo";
+    fs::create_directories(dir);
+    BsdfExportOptions o = small("filip2024:flamingo");
+    o.albedo_polar_cells = 16;
+    o.output = dir / "flamingo.bsdf";
+    const BsdfExportResult r = export_bsdf(o);
+    ASSERT_EQ(r.reports.size(), 1u);
+    const BsdfFileReport& flamingo = r.reports[0];
+    EXPECT_GT(flamingo.max_albedo, 1.3);
+    EXPECT_EQ(flamingo.albedo_directions, 21);
+    EXPECT_GT(flamingo.directions_above_one, 10);
+    ASSERT_FALSE(flamingo.warnings.empty());
+    EXPECT_NE(flamingo.warnings[0].find("filip2024:flamingo: directional albedo up to"),
+              std::string::npos)
+        << flamingo.warnings[0];
+    EXPECT_NE(flamingo.warnings[0].find("do not conserve energy"), std::string::npos);
+    EXPECT_NE(gonio::RglBsdf::read(r.files[0]).tables().description.find("do not conserve energy"),
+              std::string::npos);
+    o.source = "filip2024:parrot";
+    o.output = dir / "parrot.bsdf";
+    const BsdfFileReport parrot = export_bsdf(o).reports.at(0);
+    EXPECT_LT(parrot.max_albedo, 0.5);
+    EXPECT_EQ(parrot.directions_above_one, 0);
+    for (const std::string& w : parrot.warnings) {
+        EXPECT_EQ(w.find("directional albedo"), std::string::npos) << w;
+    }
+}
+
+// An output in a folder where no file can be created is refused before any tabulation (it was
+// found after 202 s of it), as bad input, and nothing is left there. As root, permissions do
+// not stop a write: a read-only file system (/proc) does.
+TEST(BsdfExport, UnwritableOutputIsRefusedBeforeTabulation) {
+    fs::path folder = scratch_dir() / "read_only";
+    fs::create_directories(folder);
+    fs::permissions(folder, fs::perms::owner_read | fs::perms::owner_exec);
+    if (::geteuid() == 0) folder = "/proc";
+    BsdfExportOptions o = small("huang2022");
+    o.theta_nodes = 10;  // the default grid: minutes of work if it were started
+    o.phi_nodes = 25;
+    o.resolution = 32;
+    o.first_nm = 400.0;
+    o.last_nm = 700.0;
+    o.step_nm = 20.0;
+    o.output = folder / "huang2022.bsdf";
+    const auto start = std::chrono::steady_clock::now();
+    const std::string message = plumage::testing::input_error_message([&] { export_bsdf(o); });
+    const double seconds =
+        std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+    EXPECT_NE(message.find("cannot be written: no file can be created in '" + folder.string()),
+              std::string::npos)
+        << message;
+    EXPECT_LT(seconds, 10.0);  // the check, not a speed target: tabulation takes minutes
+    EXPECT_FALSE(fs::exists(o.output));
+    fs::permissions(scratch_dir() / "read_only", fs::perms::owner_all);
+}
+
+// A damaged .h5 source (HDF5's signature intact, the rest cut off) is bad input, exit 2, with the
+// file named: it exited 1. And a file that is not HDF5 at all, as before.
+TEST(BsdfExport, DamagedSourceFileIsBadInput) {
+    const fs::path dir = scratch_dir() / "damaged";
+    fs::create_directories(dir);
+    const auto values = analysis::huang2022_values(analysis::Huang2022Params{});
+    {
+        record::Hdf5Writer h5(dir / "whole.h5");
+        h5.write("fit/values", std::span<const double>(values.data(), values.size()),
+                 {values.size()});
+        h5.commit();
+    }
+    std::ifstream in(dir / "whole.h5", std::ios::binary);
+    const std::vector<char> bytes((std::istreambuf_iterator<char>(in)),
+                                  std::istreambuf_iterator<char>());
+    for (const std::size_t keep : {std::size_t{8}, std::size_t{700}, bytes.size() - 200}) {
+        const fs::path cut = dir / ("cut_" + std::to_string(keep) + ".h5");
+        std::ofstream(cut, std::ios::binary)
+            .write(bytes.data(), static_cast<std::streamsize>(keep));
+        BsdfExportOptions o = small(cut.string());
+        o.output = dir / "out.bsdf";
+        const std::string message = plumage::testing::input_error_message([&] { export_bsdf(o); });
+        EXPECT_NE(message.find(cut.string()), std::string::npos) << keep << ": " << message;
+        EXPECT_FALSE(fs::exists(o.output));
+    }
 }
 
 }  // namespace
