@@ -1,6 +1,9 @@
 #include "analysis/avian_vision.h"
 
+#include <algorithm>
 #include <cmath>
+#include <map>
+#include <sstream>
 #include <utility>
 
 #include <fmt/format.h>
@@ -8,49 +11,38 @@
 #include "common/error.h"
 #include "common/require.h"
 
-// Parameter table (sources; values in nm unless stated):
+namespace plumage::analysis::embedded {
+extern const char* const kPavoVisualSystemsCsv;  // analysis/data/pavo_visual_systems.csv
+}  // namespace plumage::analysis::embedded
+
+// Parameters and sources.
 //
-//  | quantity                      | value                                | source |
-//  |-------------------------------|--------------------------------------|---------------------------------|
-//  | A1 template α band            | A 69.7, a 0.8795 + 0.0459 exp(−(λmax | Govardovskii,
-//  Fyhrquist, Reuter,| |                               | − 300)²/11940), B 28, b 0.922,       |
-//  Kuzmin & Donner 2000, Vis.      | |                               | C −14.9, c 1.104, D 0.674 |
-//  Neurosci. 17:509 (A1 template)  | | A1 template β band            | A_β 0.26, λ_β 189 + 0.315
-//  λmax,      | same                            | |                               | b_β −40.5 +
-//  0.195 λmax               |                                 | | oil droplet transmittance     |
-//  exp(−exp(−2.89 B_mid (λ−λcut)+1.08)) | Hart & Vorobyev 2005, J. Comp.  | | λmid = a λcut + b | C
-//  0.99, 24.38; Y 0.90, 70.03;        | Physiol. A 191:381 (regressions | | | R 0.99, 28.65; P
-//  0.96, 33.57         | per droplet type)               | | UVS system: blue tit          | λmax
-//  371 (UVS), 448 (SWS), 502 (MWS),| Hart, Partridge, Cuthill &      | | (Cyanistes caeruleus) |
-//  563 (LWS); droplets T, C 413, Y 507, | Bennett 2000, J. Comp. Physiol. | | | R 572 (λcut) | A
-//  186:375                       | | UVS relative cone densities   | 1 : 2 : 2 : 4 | Vorobyev et
-//  al. 1998, J. Comp.  | |                               |                                      |
-//  Physiol. A 183:621 (Leiothrix   | |                               | | lutea; the usual default)
-//  | | VS system: peafowl            | peak sensitivities 432 (VS), 477     | Hart 2002, J. Exp.
-//  Biol.        | | (Pavo cristatus)              | (SWS), 537 (MWS), 605 (LWS)          | 205:3925
-//  (abstract: predicted   | |                               | | peaks with droplets and media)  |
-//  | VS relative cone densities    | 1 : 1.9 : 2.2 : 2.1                  | Hart 2002, Fig. 8 (from
-//  Hart    | |                               |                                      | 2001, Prog.
-//  Retin. Eye Res.)    | | Weber fraction                | 0.1 for the LWS cone                 |
-//  Vorobyev et al. 1998 (Leiothrix | |                               | | lutea, behavioural) |
+// Templates (systems without a table):
+//  - A1 template α band: A 69.7, a 0.8795 + 0.0459 exp(−(λmax − 300)²/11940), B 28, b 0.922,
+//    C −14.9, c 1.104, D 0.674; β band: A_β 0.26, λ_β 189 + 0.315 λmax, b_β −40.5 + 0.195 λmax
+//    (Govardovskii, Fyhrquist, Reuter, Kuzmin & Donner 2000, Vis. Neurosci. 17:509).
+//  - Oil-droplet transmittance exp(−exp(−2.89 B_mid (λ − λcut) + 1.08)) with λmid = a λcut + b:
+//    C 0.99, 24.38; Y 0.90, 70.03; R 0.99, 28.65; P 0.96, 33.57 (Hart & Vorobyev 2005, J. Comp.
+//    Physiol. A 191:381, regressions per droplet type). Templates hold for λmax in 300–700 nm
+//    (Govardovskii's fits span 357–620 nm).
 //
-// Ranges and limits: templates for λmax in 300–700 nm (Govardovskii's fits span 357–620 nm).
-// The VS system is an approximation: its four cones are A1 templates placed at Hart 2002's
-// predicted peak sensitivities (which include oil-droplet and ocular-media filtering), without
-// the droplets' narrowing of the bands (their λcut were not available to us), so its bands are
-// broader than the real cones' on the short-wavelength side. Ocular media are modelled for
-// neither system: birds' ocular media cut off in the near UV (50 % transmission at roughly
-// 310–340 nm in UVS species, longer in VS species; Hart 2001), so the short-wavelength cone's
-// catch below that is overstated here (at 300–330 nm it is mostly the β band and the α band's
-// flank); the VS bands sit at peaks that include the media's effect but keep the bare
-// template's UV flank, which the media would remove.
+// pavo's birds (tables: analysis/data/pavo_visual_systems.csv, sources per column in
+// analysis/data/README.md):
+//  - relative cone densities: 1 : 2 : 2 : 4 for bluetit, avg.uv and avg.v (pavo's coldist
+//    default, Leiothrix lutea, Vorobyev et al. 1998, J. Comp. Physiol. A 183:621); 1 : 1.9 :
+//    2.2 : 2.1 for pfowl (Hart 2002, J. Exp. Biol. 205:3925, Fig. 8, from Hart 2001).
+//  - Weber fraction 0.1 for the LWS cone and 0.1 for the double cone (coldist's defaults;
+//    Vorobyev et al. 1998, Leiothrix lutea, behavioural).
+//  - double cones: blue tit's (bt.dc) for the UV-sensitive birds, chicken's (ch.dc) for the
+//    violet-sensitive ones (pavo has no peafowl double cone; both are Galliformes).
 
 namespace plumage::analysis {
 
 namespace {
 
-constexpr double kShareFirstNm = 300.0;  // the suite's spectral range, for captured_share()
-constexpr double kShareLastNm = 800.0;
+constexpr double kTemplateFirstNm = 300.0;  // the suite's spectral range, for templates
+constexpr double kTemplateLastNm = 800.0;
+constexpr const char* kPavoDataFile = "analysis/data/pavo_visual_systems.csv";
 
 void require_lambda_max(double lambda_max_nm) {
     require(std::isfinite(lambda_max_nm) && lambda_max_nm >= 300.0 && lambda_max_nm <= 700.0,
@@ -111,43 +103,189 @@ double oil_droplet_transmittance(OilDroplet type, double lambda_cut_nm, double l
     return std::exp(-std::exp(-2.89 * b_mid * (lambda_nm - lambda_cut_nm) + 1.08));
 }
 
-const AvianVisualSystem& ultraviolet_sensitive_system() {
-    static const AvianVisualSystem system{
-        .name = "UVS (blue tit)",
-        .source =
-            "blue tit Cyanistes caeruleus, Hart et al. 2000; densities 1:2:2:4, Vorobyev "
-            "et al. 1998",
-        .cones = {{{"UVS", 371.0, OilDroplet::transparent, 0.0, 1.0},
-                   {"SWS", 448.0, OilDroplet::clear_c, 413.0, 2.0},
-                   {"MWS", 502.0, OilDroplet::yellow_y, 507.0, 2.0},
-                   {"LWS", 563.0, OilDroplet::red_r, 572.0, 4.0}}},
-        .weber_fraction = 0.1,
-        .weber_reference = 3,
-        .beta_band = true};
+namespace {
+
+// The embedded CSV: '#' comment lines, a header of quoted column names, then one row per nm.
+std::map<std::string, std::vector<double>> read_pavo_columns() {
+    std::istringstream in(embedded::kPavoVisualSystemsCsv);
+    std::string line;
+    std::vector<std::string> names;
+    std::map<std::string, std::vector<double>> columns;
+    while (std::getline(in, line)) {
+        if (line.empty() || line.front() == '#') continue;
+        std::vector<std::string> cells;
+        std::istringstream row(line);
+        for (std::string cell; std::getline(row, cell, ',');) {
+            cell.erase(std::remove(cell.begin(), cell.end(), '"'), cell.end());
+            cells.push_back(cell);
+        }
+        if (names.empty()) {
+            names = cells;
+            continue;
+        }
+        if (cells.size() != names.size()) {
+            throw InputError(fmt::format("{}: a row has {} cells, the header {}: \"{}\"",
+                                         kPavoDataFile, cells.size(), names.size(), line));
+        }
+        for (std::size_t j = 0; j < cells.size(); ++j) {
+            std::size_t used = 0;
+            double v = std::nan("");
+            try {
+                v = std::stod(cells[j], &used);
+            } catch (const std::exception&) {
+                used = 0;
+            }
+            if (used != cells[j].size() || !std::isfinite(v) || v < 0.0) {
+                throw InputError(
+                    fmt::format("{}: column {} holds \"{}\": expected a finite "
+                                "number ≥ 0",
+                                kPavoDataFile, names[j], cells[j]));
+            }
+            columns[names[j]].push_back(v);
+        }
+    }
+    const auto& wl = columns["wl"];
+    for (std::size_t k = 0; k < wl.size(); ++k) {
+        if (wl[k] != 300.0 + static_cast<double>(k)) {
+            throw InputError(fmt::format("{}: wl = {} in row {}: expected 300–700 nm at 1 nm",
+                                         kPavoDataFile, wl[k], k + 1));
+        }
+    }
+    if (wl.size() != 401) {
+        throw InputError(fmt::format("{}: {} rows: expected 401 (300–700 nm at 1 nm)",
+                                     kPavoDataFile, wl.size()));
+    }
+    return columns;
+}
+
+const std::vector<double>& pavo_column(const std::map<std::string, std::vector<double>>& columns,
+                                       const std::string& name) {
+    const auto it = columns.find(name);
+    if (it == columns.end()) {
+        throw InputError(fmt::format("{}: no column \"{}\"", kPavoDataFile, name));
+    }
+    return it->second;
+}
+
+struct PavoBird {
+    const char* pavo_name;
+    const char* name;
+    const char* source;
+    std::array<const char*, kAvianCones> cone_names;
+    ConeVector densities;
+    const char* double_cone_column;
+    const char* double_cone;
+};
+
+// Sources: analysis/data/README.md and the parameter list above.
+constexpr std::array<PavoBird, 4> kPavoBirds{{
+    {"bluetit",
+     "UVS (blue tit)",
+     "blue tit Cyanistes caeruleus, Hart et al. 2000 (pavo 2.9.0 \"bluetit\"); densities "
+     "1:2:2:4, Vorobyev et al. 1998",
+     {"UVS", "SWS", "MWS", "LWS"},
+     {1.0, 2.0, 2.0, 4.0},
+     "bt.dc",
+     "blue tit double cone"},
+    {"pfowl",
+     "VS (peafowl)",
+     "peafowl Pavo cristatus, Hart 2002 (pavo 2.9.0 \"pfowl\"); densities 1:1.9:2.2:2.1, "
+     "Hart 2002",
+     {"VS", "SWS", "MWS", "LWS"},
+     {1.0, 1.9, 2.2, 2.1},
+     "ch.dc",
+     "chicken double cone"},
+    {"avg.uv",
+     "UVS (avian average)",
+     "average UV-sensitive bird, Endler & Mielke 2005 (pavo 2.9.0 \"avg.uv\"); densities "
+     "1:2:2:4, Vorobyev et al. 1998",
+     {"UVS", "SWS", "MWS", "LWS"},
+     {1.0, 2.0, 2.0, 4.0},
+     "bt.dc",
+     "blue tit double cone"},
+    {"avg.v",
+     "VS (avian average)",
+     "average violet-sensitive bird, Endler & Mielke 2005 (pavo 2.9.0 \"avg.v\"); densities "
+     "1:2:2:4, Vorobyev et al. 1998",
+     {"VS", "SWS", "MWS", "LWS"},
+     {1.0, 2.0, 2.0, 4.0},
+     "ch.dc",
+     "chicken double cone"},
+}};
+
+AvianVisualSystem make_pavo_system(const PavoBird& bird,
+                                   const std::map<std::string, std::vector<double>>& columns) {
+    auto table = std::make_shared<ConeTable>();
+    table->first_nm = 300.0;
+    AvianVisualSystem system;
+    system.name = bird.name;
+    system.source = bird.source;
+    constexpr std::array<const char*, kAvianCones> kSuffix{".u", ".s", ".m", ".l"};
+    for (std::size_t i = 0; i < kAvianCones; ++i) {
+        table->cones[i] = pavo_column(columns, std::string(bird.pavo_name) + kSuffix[i]);
+        const auto peak = std::max_element(table->cones[i].begin(), table->cones[i].end());
+        system.cones[i] =
+            ConeClass{bird.cone_names[i],
+                      table->first_nm + static_cast<double>(peak - table->cones[i].begin()),
+                      OilDroplet::transparent, 0.0, bird.densities[i]};
+    }
+    table->double_cone = pavo_column(columns, bird.double_cone_column);
+    system.table = std::move(table);
+    system.double_cone = bird.double_cone;
+    system.weber_fraction = 0.1;
+    system.weber_reference = 3;
+    system.weber_achromatic = 0.1;
     return system;
 }
 
-const AvianVisualSystem& violet_sensitive_system() {
-    static const AvianVisualSystem system{
-        .name = "VS (peafowl)",
-        .source =
-            "peafowl Pavo cristatus, Hart 2002 (predicted peak sensitivities, densities "
-            "1:1.9:2.2:2.1)",
-        .cones = {{{"VS", 432.0, OilDroplet::transparent, 0.0, 1.0},
-                   {"SWS", 477.0, OilDroplet::transparent, 0.0, 1.9},
-                   {"MWS", 537.0, OilDroplet::transparent, 0.0, 2.2},
-                   {"LWS", 605.0, OilDroplet::transparent, 0.0, 2.1}}},
-        .weber_fraction = 0.1,
-        .weber_reference = 3,
-        .beta_band = true};
-    return system;
+// Linear between whole nanometres, zero outside.
+double table_value(const std::vector<double>& column, double first_nm, double lambda_nm) {
+    return optics::interpolate_uniform_table(column, first_nm, 1.0, lambda_nm);
 }
+
+}  // namespace
+
+double ConeTable::last_nm() const { return first_nm + static_cast<double>(cones[0].size()) - 1.0; }
+
+const AvianVisualSystem& pavo_visual_system(std::string_view pavo_name) {
+    static const std::vector<AvianVisualSystem> systems = [] {
+        const auto columns = read_pavo_columns();
+        std::vector<AvianVisualSystem> all;
+        for (const PavoBird& bird : kPavoBirds) all.push_back(make_pavo_system(bird, columns));
+        return all;
+    }();
+    for (std::size_t b = 0; b < kPavoBirds.size(); ++b) {
+        if (pavo_name == kPavoBirds[b].pavo_name) return systems[b];
+    }
+    throw InputError(fmt::format(
+        "avian vision: no visual system \"{}\": expected one of pavo's bluetit, pfowl, avg.uv, "
+        "avg.v",
+        pavo_name));
+}
+
+const AvianVisualSystem& ultraviolet_sensitive_system() { return pavo_visual_system("bluetit"); }
+
+const AvianVisualSystem& violet_sensitive_system() { return pavo_visual_system("pfowl"); }
 
 double cone_sensitivity(const AvianVisualSystem& system, std::size_t cone, double lambda_nm) {
     PLUMAGE_CHECK(cone < kAvianCones, "cone index out of range");
+    if (system.table)
+        return table_value(system.table->cones[cone], system.table->first_nm, lambda_nm);
     const ConeClass& c = system.cones[cone];
     return govardovskii_a1(c.lambda_max_nm, lambda_nm, system.beta_band) *
            oil_droplet_transmittance(c.droplet, c.lambda_cut_nm, lambda_nm);
+}
+
+double double_cone_sensitivity(const AvianVisualSystem& system, double lambda_nm) {
+    if (!system.table || system.table->double_cone.empty()) {
+        throw InputError(fmt::format("avian vision: {} has no double cone", system.name));
+    }
+    return table_value(system.table->double_cone, system.table->first_nm, lambda_nm);
+}
+
+std::array<double, 2> sensitivity_range_nm(const AvianVisualSystem& system) {
+    if (system.table) return {system.table->first_nm, system.table->last_nm()};
+    return {kTemplateFirstNm, kTemplateLastNm};
 }
 
 ConeVector receptor_noise(const AvianVisualSystem& system) {
@@ -170,6 +308,39 @@ ConeVector receptor_noise(const AvianVisualSystem& system) {
     return omega;
 }
 
+namespace {
+
+// Weights w_k with Σ_k w_k R_k = Σ_λ R(λ) I(λ) S(λ) / Σ_λ I(λ) S(λ) over the whole nanometres λ
+// of [from, to], R(λ) linear between the grid's points: the von Kries-adapted 1 nm catch.
+// Returns the weights and the white-light catch Σ_λ I(λ) S(λ) (0: the span catches nothing).
+template <typename Sensitivity>
+std::pair<std::vector<double>, double> one_nm_weights(const optics::WavelengthGrid& grid,
+                                                      double from, double to,
+                                                      optics::Illuminant illuminant,
+                                                      Sensitivity sensitivity) {
+    std::vector<double> w(grid.size(), 0.0);
+    double white = 0.0;
+    std::size_t k = 0;  // grid[k] ≤ λ ≤ grid[k + 1]
+    for (double l = std::ceil(from - 1e-9); l <= to + 1e-9; l += 1.0) {
+        const double weight = photon_flux(illuminant, l) * sensitivity(l);
+        white += weight;
+        if (grid.size() == 1) {
+            w[0] += weight;
+            continue;
+        }
+        while (k + 2 < grid.size() && grid[k + 1] < l) ++k;
+        const double t = std::clamp((l - grid[k]) / (grid[k + 1] - grid[k]), 0.0, 1.0);
+        w[k] += (1.0 - t) * weight;
+        w[k + 1] += t * weight;
+    }
+    if (white > 0.0) {
+        for (double& v : w) v /= white;
+    }
+    return {std::move(w), white};
+}
+
+}  // namespace
+
 ConeCatches::ConeCatches(const AvianVisualSystem& system, const optics::WavelengthGrid& grid,
                          optics::Illuminant illuminant)
     : system_(system) {
@@ -178,34 +349,62 @@ ConeCatches::ConeCatches(const AvianVisualSystem& system, const optics::Waveleng
             "avian quantum catches: the grid spans {}–{} nm; D65 is tabulated on 300–830 nm",
             grid.first(), grid.last()));
     }
-    const std::size_t n = grid.size();
+    const auto [data_first, data_last] = sensitivity_range_nm(system);
+    const double from = std::max(grid.first(), data_first), to = std::min(grid.last(), data_last);
     for (std::size_t i = 0; i < kAvianCones; ++i) {
-        std::vector<double>& w = weights_[i];
-        w.assign(n, 0.0);
-        double sum = 0.0;
-        for (std::size_t k = 0; k < n; ++k) {
-            const double left = k > 0 ? grid[k] - grid[k - 1] : 0.0;
-            const double right = k + 1 < n ? grid[k + 1] - grid[k] : 0.0;
-            const double width = n > 1 ? 0.5 * (left + right) : 1.0;
-            w[k] = width * photon_flux(illuminant, grid[k]) * cone_sensitivity(system, i, grid[k]);
-            sum += w[k];
-        }
-        if (!(sum > 0.0)) {
+        auto cone = [&](double l) { return cone_sensitivity(system, i, l); };
+        auto [w, white] = one_nm_weights(grid, from, to, illuminant, cone);
+        if (!(white > 0.0)) {
             throw InputError(
                 fmt::format("avian quantum catches: the {} cone of {} catches no light "
                             "on the grid {}–{} nm",
                             system.cones[i].name, system.name, grid.first(), grid.last()));
         }
-        for (double& v : w) v /= sum;
-        // The same white-light catch at 1 nm over the suite's range, against the grid's span.
-        double inside = 0.0, all = 0.0;
-        for (double l = kShareFirstNm; l <= kShareLastNm + 1e-9; l += 1.0) {
-            const double q = photon_flux(illuminant, l) * cone_sensitivity(system, i, l);
-            all += q;
-            if (l >= grid.first() - 1e-9 && l <= grid.last() + 1e-9) inside += q;
-        }
-        captured_share_[i] = all > 0.0 ? inside / all : 0.0;
+        weights_[i] = std::move(w);
+        // The cone's white-light catch over all its data, against the grid's span.
+        const double all = one_nm_weights(grid, data_first, data_last, illuminant, cone).second;
+        captured_share_[i] = all > 0.0 ? white / all : 0.0;
     }
+    if (system.table && !system.table->double_cone.empty()) {
+        auto [w, white] = one_nm_weights(grid, from, to, illuminant, [&](double l) {
+            return double_cone_sensitivity(system, l);
+        });
+        if (white > 0.0) double_cone_weights_ = std::move(w);
+    }
+}
+
+double ConeCatches::double_cone(std::span<const double> reflectance) const {
+    if (double_cone_weights_.empty()) {
+        throw InputError(fmt::format("avian quantum catches: {} has no double cone{}", system_.name,
+                                     system_.table ? " catching light on this grid" : ""));
+    }
+    PLUMAGE_CHECK(reflectance.size() == double_cone_weights_.size(),
+                  fmt::format("spectrum has {} samples, grid {}", reflectance.size(),
+                              double_cone_weights_.size()));
+    double q = 0.0;
+    for (std::size_t k = 0; k < reflectance.size(); ++k) {
+        q += double_cone_weights_[k] * reflectance[k];
+    }
+    return q;
+}
+
+double ConeCatches::log_double_cone_variance(std::span<const double> reflectance,
+                                             std::span<const double> standard_error) const {
+    PLUMAGE_CHECK(standard_error.size() == reflectance.size(), "σ and spectrum sizes differ");
+    const double q = double_cone(reflectance);
+    double s = 0.0;
+    for (std::size_t k = 0; k < reflectance.size(); ++k) {
+        const double w = double_cone_weights_[k] * standard_error[k];
+        s += w * w;
+    }
+    return s / (q * q);
+}
+
+double achromatic_contrast(double q_a, double q_b, const AvianVisualSystem& system) {
+    PLUMAGE_CHECK(q_a > 0.0 && q_b > 0.0, "double-cone catches must be positive");
+    require(std::isfinite(system.weber_achromatic) && system.weber_achromatic > 0.0, system.name,
+            "weber_achromatic", system.weber_achromatic, "a finite value > 0");
+    return std::abs(std::log(q_a / q_b)) / system.weber_achromatic;
 }
 
 ConeVector ConeCatches::operator()(std::span<const double> reflectance) const {

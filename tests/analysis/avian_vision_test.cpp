@@ -133,6 +133,19 @@ TEST(AvianVision, ClosedFormEqualsTheGeneralFormAndTheHandDerivedSingleConeCase)
     }
 }
 
+// The blue tit built from templates (Hart et al. 2000's λmax and droplet cut-offs): a system
+// without a table, as a user would build for a bird pavo does not carry.
+AvianVisualSystem template_blue_tit() {
+    AvianVisualSystem s;
+    s.name = "UVS (blue tit, templates)";
+    s.source = "Hart et al. 2000 λmax and λcut; Govardovskii 2000; Hart & Vorobyev 2005";
+    s.cones = {{{"UVS", 371.0, OilDroplet::transparent, 0.0, 1.0},
+                {"SWS", 448.0, OilDroplet::clear_c, 413.0, 2.0},
+                {"MWS", 502.0, OilDroplet::yellow_y, 507.0, 2.0},
+                {"LWS", 563.0, OilDroplet::red_r, 572.0, 4.0}}};
+    return s;
+}
+
 TEST(AvianVision, IdenticalSpectraAreZeroAndScalingChangesNothing) {
     const auto grid = optics::WavelengthGrid::uniform(300.0, 800.0, 5.0);
     std::vector<double> a(grid.size()), b(grid.size()), a2(grid.size()), b3(grid.size());
@@ -143,8 +156,9 @@ TEST(AvianVision, IdenticalSpectraAreZeroAndScalingChangesNothing) {
         a2[k] = 2.0 * a[k];
         b3[k] = 0.3 * b[k];
     }
+    const AvianVisualSystem templates = template_blue_tit();
     for (const AvianVisualSystem* system :
-         {&ultraviolet_sensitive_system(), &violet_sensitive_system()}) {
+         {&ultraviolet_sensitive_system(), &violet_sensitive_system(), &templates}) {
         const ConeCatches catches(*system, grid);
         EXPECT_EQ(rnl_delta_s(catches(a), catches(a), *system), 0.0);
         const double d = rnl_delta_s(catches(a), catches(b), *system);
@@ -164,6 +178,47 @@ TEST(AvianVision, IdenticalSpectraAreZeroAndScalingChangesNothing) {
         vs(violet_sensitive_system(), grid);
     EXPECT_GT(rnl_delta_s(uvs(b), uvs(violet), ultraviolet_sensitive_system()),
               rnl_delta_s(vs(b), vs(violet), violet_sensitive_system()));
+}
+
+TEST(AvianVision, DoubleConeContrastIsTheLogRatioOverItsWeberFraction) {
+    const auto grid = optics::WavelengthGrid::uniform(300.0, 700.0, 25.0);
+    std::vector<double> a(grid.size()), half(grid.size());
+    for (std::size_t k = 0; k < grid.size(); ++k) {
+        a[k] = 0.1 + 0.4 * (grid[k] - 300.0) / 400.0;
+        half[k] = 0.5 * a[k];
+    }
+    for (const char* name : {"bluetit", "pfowl", "avg.uv", "avg.v"}) {
+        const AvianVisualSystem& system = pavo_visual_system(name);
+        const ConeCatches catches(system, grid);
+        // von Kries: white catches 1; halving the light is ln 2 / 0.1 = 6.93 JND, whatever the
+        // spectrum, and no colour.
+        EXPECT_NEAR(catches.double_cone(std::vector<double>(grid.size(), 1.0)), 1.0, 1e-12);
+        EXPECT_NEAR(achromatic_contrast(catches.double_cone(a), catches.double_cone(half), system),
+                    std::log(2.0) / 0.1, 1e-9)
+            << name;
+        EXPECT_NEAR(rnl_delta_s(catches(a), catches(half), system), 0.0, 1e-9) << name;
+    }
+    EXPECT_THROW(ConeCatches(template_blue_tit(), grid).double_cone(a), InputError);
+}
+
+// pavo sums on whole nanometres after interpolating linearly: a spectrum that is linear between
+// the grid's points gives the same catches on its 25 nm samples as on all 401 nanometres.
+TEST(AvianVision, CatchesAreTheOneNanometreSumOfTheInterpolatedSpectrum) {
+    const auto coarse = optics::WavelengthGrid::uniform(300.0, 700.0, 25.0);
+    const auto fine = optics::WavelengthGrid::uniform(300.0, 700.0, 1.0);
+    auto zigzag = [](double l) {  // piecewise linear with kinks on the 25 nm grid
+        const double phase = std::fmod(l - 300.0, 50.0);
+        return 0.2 + 0.01 * (phase <= 25.0 ? phase : 50.0 - phase) + 0.0005 * (l - 300.0);
+    };
+    std::vector<double> r_coarse, r_fine;
+    for (double l : coarse.nm()) r_coarse.push_back(zigzag(l));
+    for (double l : fine.nm()) r_fine.push_back(zigzag(l));
+    for (const char* name : {"bluetit", "pfowl"}) {
+        const AvianVisualSystem& system = pavo_visual_system(name);
+        const ConeVector a = ConeCatches(system, coarse)(r_coarse);
+        const ConeVector b = ConeCatches(system, fine)(r_fine);
+        for (std::size_t i = 0; i < kAvianCones; ++i) EXPECT_NEAR(a[i], b[i], 1e-12) << name;
+    }
 }
 
 TEST(AvianVision, CapturedShareSaysWhatAGridStartingAt400MissesOfTheUvCone) {
