@@ -25,6 +25,41 @@ double error_at(const std::vector<double>& se, std::size_t i) {
     return se.size() > i ? se[i] : 0.0;
 }
 
+double rms_of(const std::vector<double>& v) {
+    double s = 0.0;
+    for (double x : v) s += x * x;
+    return v.empty() ? 0.0 : std::sqrt(s / static_cast<double>(v.size()));
+}
+
+// Chromatic and achromatic contrasts of the pairs carrying signal, each beside its noise floor.
+struct PairContrasts {
+    std::vector<double> delta_s, delta_s_floor, delta_l, delta_l_floor;
+};
+
+// Adds one pair (test a, reference b, combined standard errors σ); false if a catch of either
+// is not positive (then nothing is added).
+bool add_pair(const ConeCatches& catches, const AvianVisualSystem& system,
+              const std::vector<double>& a, const std::vector<double>& b,
+              const std::vector<double>& sigma, PairContrasts& out) {
+    const ConeVector qa = catches(a), qb = catches(b);
+    auto positive = [](const ConeVector& q) {
+        return std::all_of(q.begin(), q.end(), [](double v) { return v > 0.0; });
+    };
+    if (!positive(qa) || !positive(qb)) return false;
+    const bool achromatic = catches.has_double_cone();
+    const double la = achromatic ? catches.double_cone(a) : 0.0;
+    const double lb = achromatic ? catches.double_cone(b) : 0.0;
+    if (achromatic && !(la > 0.0 && lb > 0.0)) return false;
+    out.delta_s.push_back(rnl_delta_s(qa, qb, system));
+    out.delta_s_floor.push_back(rnl_noise_floor(catches.log_catch_covariance(b, sigma), system));
+    if (achromatic) {
+        out.delta_l.push_back(achromatic_contrast(la, lb, system));
+        out.delta_l_floor.push_back(std::sqrt(catches.log_double_cone_variance(b, sigma)) /
+                                    system.weber_achromatic);
+    }
+    return true;
+}
+
 }  // namespace
 
 AvianRecordComparison compare_records_avian(const gonio::BrdfRecord& test,
@@ -50,7 +85,8 @@ AvianRecordComparison compare_records_avian(const gonio::BrdfRecord& test,
             mean[p] += reference.at(p, k) / static_cast<double>(nl);
         brightest = std::max(brightest, mean[p]);
     }
-    std::vector<double> a(nl), b(nl), sigma(nl), distances, floors;
+    std::vector<double> a(nl), b(nl), sigma(nl);
+    PairContrasts pc;
     for (std::size_t p = 0; p < np; ++p) {
         if (!(mean[p] > 0.0) || mean[p] < signal_fraction * brightest) continue;
         for (std::size_t k = 0; k < nl; ++k) {
@@ -60,27 +96,21 @@ AvianRecordComparison compare_records_avian(const gonio::BrdfRecord& test,
             sigma[k] = std::numbers::pi * std::hypot(error_at(test.standard_error, i),
                                                      error_at(reference.standard_error, i));
         }
-        const ConeVector qa = catches(a), qb = catches(b);
-        if (!std::all_of(qa.begin(), qa.end(), [](double q) { return q > 0.0; }) ||
-            !std::all_of(qb.begin(), qb.end(), [](double q) { return q > 0.0; })) {
-            continue;
-        }
-        const double d = rnl_delta_s(qa, qb, system);
-        if (d > c.max) c.max = d, c.max_pair = p;
-        distances.push_back(d);
-        floors.push_back(rnl_noise_floor(catches.log_catch_covariance(b, sigma), system));
+        if (!add_pair(catches, system, a, b, sigma, pc)) continue;
+        if (pc.delta_s.back() > c.max) c.max = pc.delta_s.back(), c.max_pair = p;
     }
+    const std::vector<double>& distances = pc.delta_s;
     c.pairs_with_signal = distances.size();
     c.median = quantile_of(distances, 0.5);
     c.p95 = quantile_of(distances, 0.95);
-    c.median_noise_floor = quantile_of(floors, 0.5);
-    auto rms_of = [](const std::vector<double>& v) {
-        double s = 0.0;
-        for (double x : v) s += x * x;
-        return v.empty() ? 0.0 : std::sqrt(s / static_cast<double>(v.size()));
-    };
+    c.median_noise_floor = quantile_of(pc.delta_s_floor, 0.5);
     c.rms = rms_of(distances);
-    c.rms_noise_floor = rms_of(floors);
+    c.rms_noise_floor = rms_of(pc.delta_s_floor);
+    c.has_double_cone = catches.has_double_cone();
+    c.rms_delta_l = rms_of(pc.delta_l);
+    c.rms_delta_l_noise_floor = rms_of(pc.delta_l_floor);
+    c.max_delta_l =
+        pc.delta_l.empty() ? 0.0 : *std::max_element(pc.delta_l.begin(), pc.delta_l.end());
     if (!distances.empty()) {
         c.share_above_one_jnd =
             static_cast<double>(std::count_if(distances.begin(), distances.end(),
@@ -97,20 +127,28 @@ std::string avian_comparison_markdown(const std::vector<AvianRecordComparison>& 
     const auto& wl = reference.config.wavelengths_nm;
     std::string md = fmt::format(
         "| bird ({} against {}) | pairs with signal | ΔS RMS (JND) | its noise floor (RMS) | "
-        "median | median floor | 95th pct | max | pairs > 1 JND |\n"
-        "|---|---|---|---|---|---|---|---|---|\n",
+        "median | median floor | 95th pct | max | pairs > 1 JND | ΔL RMS (JND) | its noise "
+        "floor (RMS) | ΔL max |\n"
+        "|---|---|---|---|---|---|---|---|---|---|---|---|\n",
         test_name, reference_name);
     for (const auto& r : rows) {
         md += fmt::format(
-            "| {} | {} of {} | {:.2f} | {:.2f} | {:.2f} | {:.2f} | {:.2f} | {:.2f} | {:.0f} % |\n",
+            "| {} | {} of {} | {:.2f} | {:.2f} | {:.2f} | {:.2f} | {:.2f} | {:.2f} | {:.0f} % | "
+            "{} |\n",
             r.system, r.pairs_with_signal, r.pairs, r.rms, r.rms_noise_floor, r.median,
-            r.median_noise_floor, r.p95, r.max, 100.0 * r.share_above_one_jnd);
+            r.median_noise_floor, r.p95, r.max, 100.0 * r.share_above_one_jnd,
+            r.has_double_cone ? fmt::format("{:.2f} | {:.2f} | {:.2f}", r.rms_delta_l,
+                                            r.rms_delta_l_noise_floor, r.max_delta_l)
+                              : std::string("– | – | –"));
     }
     md += fmt::format(
         "\nNoise floor: per pair, the RMS ΔS that the two records' standard errors alone put "
         "between equal spectra (first order in σ/R); a ΔS at its floor is noise, one well above "
-        "it the model's. Pairs with signal: the reference's mean π·f at least {:g} % of its "
-        "brightest pair's.\n",
+        "it the model's. ΔL: the achromatic (double-cone) contrast |ln(q_a / q_b)| / 0.1, the "
+        "brightness difference a bird sees, beside its floor alike. Catches are summed on 1 nm "
+        "over the grid's span, the spectra interpolated linearly between its points (pavo's "
+        "way: docs/avian_vision.md). Pairs with signal: the reference's mean π·f at least "
+        "{:g} % of its brightest pair's.\n",
         rows.empty() ? 0.0 : 100.0 * rows.front().signal_fraction);
     // The verdict, like against like (RMS against RMS); 20 % margin for the floor being first
     // order and the RMS over a few hundred pairs (≈ 3 % relative spread) being noisy itself.
@@ -127,7 +165,7 @@ std::string avian_comparison_markdown(const std::vector<AvianRecordComparison>& 
     }
     md += fmt::format(
         "\nWhat the grid ({}–{} nm) holds of each cone's catch of a white under D65 over "
-        "300–800 nm:",
+        "the range of the cones' data (300–700 nm for pavo 2.9.0's birds):",
         wl.front(), wl.back());
     for (const auto& r : rows) {
         md += fmt::format(" {}:", r.system);
@@ -164,6 +202,53 @@ std::vector<std::size_t> pavo_export_pairs(const gonio::BrdfRecord& reference,
     add(brightness[np / 2].second);
     return pairs;
 }
+
+namespace {
+
+// The achromatic contrast ΔL between every two spectra beside √(floor_i² + floor_j²), then each
+// spectrum's adapted catches; "–" where a double-cone catch is not positive.
+std::string achromatic_and_catches_markdown(const std::vector<std::string>& names,
+                                            const std::vector<std::vector<double>>& spectra,
+                                            const std::vector<std::vector<double>>& errors,
+                                            const ConeCatches& catches) {
+    const AvianVisualSystem& system = catches.system();
+    std::vector<double> q_l, floor;
+    for (std::size_t i = 0; i < spectra.size(); ++i) {
+        q_l.push_back(catches.double_cone(spectra[i]));
+        floor.push_back(q_l.back() > 0.0
+                            ? std::sqrt(catches.log_double_cone_variance(spectra[i], errors[i])) /
+                                  system.weber_achromatic
+                            : 0.0);
+    }
+    std::string md = fmt::format("\n| ΔL, {} ({}) |", system.name, system.double_cone);
+    for (const auto& n : names) md += fmt::format(" {} |", n);
+    md += "\n|---|";
+    for (std::size_t j = 0; j < names.size(); ++j) md += "---|";
+    md += "\n";
+    for (std::size_t i = 0; i < names.size(); ++i) {
+        md += fmt::format("| {} |", names[i]);
+        for (std::size_t j = 0; j < names.size(); ++j) {
+            md +=
+                i == j ? std::string(" 0 |")
+                : q_l[i] > 0.0 && q_l[j] > 0.0
+                    ? fmt::format(" {:.1f} ({:.1f}) |", achromatic_contrast(q_l[i], q_l[j], system),
+                                  std::hypot(floor[i], floor[j]))
+                    : std::string(" – |");
+        }
+        md += "\n";
+    }
+    md += fmt::format("\n| quantum catch, {} (von Kries) |", system.name);
+    for (const ConeClass& c : system.cones) md += fmt::format(" {} |", c.name);
+    md += " double cone |\n|---|---|---|---|---|---|\n";
+    for (std::size_t i = 0; i < names.size(); ++i) {
+        md += fmt::format("| {} |", names[i]);
+        for (double q : catches(spectra[i])) md += fmt::format(" {:.4g} |", q);
+        md += fmt::format(" {:.4g} |\n", q_l[i]);
+    }
+    return md;
+}
+
+}  // namespace
 
 std::string rnl_matrix_markdown(const std::vector<std::string>& names,
                                 const std::vector<std::vector<double>>& spectra,
@@ -204,6 +289,8 @@ std::string rnl_matrix_markdown(const std::vector<std::string>& names,
         }
         md += "\n";
     }
+    if (catches.has_double_cone())
+        md += achromatic_and_catches_markdown(names, spectra, errors, catches);
     return md;
 }
 

@@ -31,8 +31,12 @@ struct AvianRecordComparison {
     // the pairs, and its RMS (to set beside `rms`: like against like).
     double median_noise_floor = 0.0, rms_noise_floor = 0.0;
     double share_above_one_jnd = 0.0;  // of the pairs carrying signal
-    std::size_t max_pair = 0;          // where ΔS is largest
-    ConeVector captured_share{};       // ConeCatches::captured_share on the grid
+    // Achromatic (double-cone) contrast ΔL (JND) over the same pairs, its RMS noise floor and
+    // largest value; has_double_cone false (and these 0) for a system without one.
+    bool has_double_cone = false;
+    double rms_delta_l = 0.0, rms_delta_l_noise_floor = 0.0, max_delta_l = 0.0;
+    std::size_t max_pair = 0;     // where ΔS is largest
+    ConeVector captured_share{};  // ConeCatches::captured_share on the grid
 };
 
 // InputError if the records' pairs or wavelengths differ or the grid cannot feed the cones.
@@ -42,7 +46,8 @@ AvianRecordComparison compare_records_avian(const gonio::BrdfRecord& test,
                                             double signal_fraction = 0.01);
 
 // Markdown: one row per visual system (pairs carrying signal, ΔS median / 95th percentile / max
-// beside the noise floor) and what the grid leaves out of each cone's light.
+// beside the noise floor, ΔL RMS beside its floor and max) and what the grid leaves out of each
+// cone's light.
 std::string avian_comparison_markdown(const std::vector<AvianRecordComparison>& rows,
                                       const gonio::BrdfRecord& reference,
                                       const std::string& test_name,
@@ -55,7 +60,9 @@ std::vector<std::size_t> pavo_export_pairs(const gonio::BrdfRecord& reference,
 
 // Markdown: the RNL ΔS (JND) between every two of `spectra` (reflectance on `wavelengths_nm`,
 // with standard errors `errors`), a symmetric matrix, each entry beside its noise floor
-// √(floor_i² + floor_j²); "–" where a spectrum gives a cone no catch.
+// √(floor_i² + floor_j²); "–" where a spectrum gives a cone no catch. Then the achromatic
+// contrast ΔL as a matrix alike, and each spectrum's von Kries-adapted quantum catches (cones
+// and double cone), if the system has a double cone.
 std::string rnl_matrix_markdown(const std::vector<std::string>& names,
                                 const std::vector<std::vector<double>>& spectra,
                                 const std::vector<std::vector<double>>& errors,

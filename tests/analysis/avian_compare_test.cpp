@@ -39,7 +39,12 @@ TEST(AvianCompare, ZeroForTheSameRecordAndAtTheNoiseFloorForANoisyCopy) {
         const AvianRecordComparison same = compare_records_avian(reference, reference, *system);
         EXPECT_EQ(same.pairs_with_signal, 200u);
         EXPECT_EQ(same.max, 0.0);
-        EXPECT_LT(compare_records_avian(scaled, reference, *system).max, 1e-9);
+        const AvianRecordComparison brighter = compare_records_avian(scaled, reference, *system);
+        EXPECT_LT(brighter.max, 1e-9);
+        // Three times the light is ln 3 / 0.1 = 11.0 JND brighter to the double cone, every pair.
+        ASSERT_TRUE(brighter.has_double_cone);
+        EXPECT_NEAR(brighter.rms_delta_l, std::log(3.0) / 0.1, 1e-9);
+        EXPECT_NEAR(brighter.max_delta_l, std::log(3.0) / 0.1, 1e-9);
         // Noise of 2 % per cell on the test record: ΔS² per pair is (to first order) a
         // quadratic form of normals whose mean is the floor²; over 200 pairs the RMS has a
         // relative standard error of about √(2/3)/(2√200) = 2.9 % (three chromatic dimensions),
@@ -53,6 +58,9 @@ TEST(AvianCompare, ZeroForTheSameRecordAndAtTheNoiseFloorForANoisyCopy) {
         }
         const AvianRecordComparison c = compare_records_avian(noisy, reference, *system);
         EXPECT_NEAR(c.rms / c.rms_noise_floor, 1.0, 0.12) << system->name;
+        // ΔL is one normal per pair: the RMS of 200 has a relative standard error of
+        // √2/(2√200) = 5 %, so 20 % is 4 σ.
+        EXPECT_NEAR(c.rms_delta_l / c.rms_delta_l_noise_floor, 1.0, 0.2) << system->name;
         EXPECT_GT(c.rms_noise_floor, 0.05);  // the test is not trivially about zero
     }
 }
