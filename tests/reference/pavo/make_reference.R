@@ -5,10 +5,13 @@
 #
 #   Rscript make_reference.R PAVO_SOURCE_DIR SPECTRA_CSV OUT_DIR DATA_CSV
 #
+# DATA_CSV "-" writes no data table.
 # PAVO_SOURCE_DIR: an unpacked pavo 2.9.0 source tree (its R/ folder and R/sysdata.rda are
 # loaded; pavo itself is not installed). SPECTRA_CSV: spectra in pavo's layout (wl in nm, one
-# column per sample, reflectance in per cent), as plumage writes them (spectra_pavo.csv); it
-# must cover 300-700 nm, where pavo's sensitivities are defined, so no reflectance is invented.
+# column per sample, reflectance in per cent), as plumage writes them (spectra_pavo.csv), on a
+# grid within 300-700 nm, where pavo's sensitivities are defined. Spanning all of it, they go
+# through pavo's built-in birds; spanning less (400-700 nm, say), through the same birds' data
+# cut to the grid's span as user-defined systems, so no reflectance is invented either way.
 
 args <- commandArgs(trailingOnly = TRUE)
 if (length(args) != 4) {
@@ -43,10 +46,12 @@ weber <- 0.1
 weber_achro <- 0.1
 
 spectra <- with(pavo, as.rspec(read.csv(spectra_csv, check.names = FALSE)))
-if (min(spectra$wl) != 300 || max(spectra$wl) != 700) {
+if (min(spectra$wl) < 300 || max(spectra$wl) > 700) {
   stop(spectra_csv, " covers ", min(spectra$wl), "-", max(spectra$wl),
-       " nm after as.rspec; pavo's birds need exactly 300-700 nm")
+       " nm after as.rspec; pavo's birds are defined on 300-700 nm only")
 }
+span <- pavo$vissyst$wl >= min(spectra$wl) & pavo$vissyst$wl <= max(spectra$wl)
+full_range <- all(span)
 if (max(spectra[, -1]) <= 1) {
   stop(spectra_csv, ": no value above 1; vismodel would take the per-cent values as fractions")
 }
@@ -56,13 +61,20 @@ distances <- list()
 for (b in seq_len(nrow(birds))) {
   bird <- birds[b, ]
   n <- as.numeric(strsplit(bird$n, ":")[[1]])
-  vm <- pavo$vismodel(spectra, visual = bird$visual, achromatic = bird$achromatic,
-                      illum = "D65", vonkries = TRUE, relative = FALSE)
-  # The double cone's catch is not von Kries-adapted in vismodel; its white-light catch,
-  # for the adapted value lum / lum_white.
-  lum_white <- sum(pavo$vissyst[, bird$achromatic] * pavo$bgandilum$D65)
+  if (full_range) {
+    vm <- pavo$vismodel(spectra, visual = bird$visual, achromatic = bird$achromatic,
+                        illum = "D65", vonkries = TRUE, relative = FALSE)
+  } else {
+    cones <- pavo$vissyst[span, c("wl", paste0(bird$visual, ".", c("u", "s", "m", "l")))]
+    vm <- pavo$vismodel(spectra, visual = cones, achromatic = pavo$vissyst[span, bird$achromatic],
+                        illum = pavo$bgandilum$D65[span], vonkries = TRUE, relative = FALSE)
+  }
+  # The double cone's catch is not von Kries-adapted in vismodel; its white-light catch over
+  # the same span, for the adapted value lum / lum_white.
+  lum_white <- sum(pavo$vissyst[span, bird$achromatic] * pavo$bgandilum$D65[span])
   catches[[b]] <- data.frame(
-    visual = bird$visual, achromatic = bird$achromatic, spectrum = rownames(vm),
+    visual = bird$visual, achromatic = bird$achromatic,
+    first_nm = min(spectra$wl), last_nm = max(spectra$wl), spectrum = rownames(vm),
     q1 = vm[, 1], q2 = vm[, 2], q3 = vm[, 3], q4 = vm[, 4],
     lum = vm$lum, lum_white = lum_white, stringsAsFactors = FALSE
   )
@@ -79,12 +91,16 @@ for (b in seq_len(nrow(birds))) {
 dir.create(out_dir, showWarnings = FALSE, recursive = TRUE)
 write.csv(do.call(rbind, catches), file.path(out_dir, "catches.csv"), row.names = FALSE)
 write.csv(do.call(rbind, distances), file.path(out_dir, "distances.csv"), row.names = FALSE)
-file.copy(spectra_csv, file.path(out_dir, "spectra_pavo.csv"), overwrite = TRUE)
+copy_to <- file.path(out_dir, "spectra_pavo.csv")
+if (!file.exists(copy_to) || normalizePath(spectra_csv) != normalizePath(copy_to)) {
+  file.copy(spectra_csv, copy_to, overwrite = TRUE)
+}
 
 # pavo's data as the project keeps it: one row per nm, 300-700.
 columns <- c(paste0(rep(birds$visual, each = 4), ".", c("u", "s", "m", "l")),
              "bt.dc", "ch.dc")
 data <- cbind(pavo$vissyst[, c("wl", columns)], D65 = pavo$bgandilum$D65)
+if (data_csv == "-") quit(save = "no")
 con <- file(data_csv, "w")
 writeLines(c(
   "# pavo 2.9.0's internal data (R/sysdata.rda: vissyst, bgandilum$D65), 1 nm, 300-700 nm,",
