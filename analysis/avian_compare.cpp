@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <cmath>
 #include <numbers>
+#include <optional>
 
 #include <fmt/format.h>
 
@@ -74,6 +75,7 @@ AvianRecordComparison compare_records_avian(const gonio::BrdfRecord& test,
     const ConeCatches catches(system, optics::WavelengthGrid(wl));
     AvianRecordComparison c;
     c.system = system.name;
+    c.source = system.source;
     for (std::size_t i = 0; i < kAvianCones; ++i) c.cone_names[i] = system.cones[i].name;
     c.pairs = np;
     c.signal_fraction = signal_fraction;
@@ -175,6 +177,8 @@ std::string avian_comparison_markdown(const std::vector<AvianRecordComparison>& 
         }
     }
     if (md.back() == ';') md.back() = '.';
+    md += "\n\nThe birds:";
+    for (const auto& r : rows) md += fmt::format(" {}: {}.", r.system, r.source);
     md += "\n";
     return md;
 }
@@ -308,6 +312,34 @@ std::string pavo_csv_text(const std::vector<double>& wavelengths_nm,
             text += fmt::format(",{:.6g}", column[k]);
         }
         text += "\n";
+    }
+    return text;
+}
+
+std::string avian_catches_csv(const std::vector<double>& wavelengths_nm,
+                              const std::vector<std::string>& names,
+                              const std::vector<std::vector<double>>& columns) {
+    PLUMAGE_CHECK(names.size() == columns.size(), "one name per column");
+    std::string text = "bird,sample,q_short,q_sws,q_mws,q_lws,q_double_cone\n";
+    const optics::WavelengthGrid grid(wavelengths_nm);
+    for (const char* bird : {"bluetit", "pfowl", "avg.uv", "avg.v"}) {
+        std::optional<ConeCatches> catches;
+        try {
+            catches.emplace(pavo_visual_system(bird), grid);
+        } catch (const InputError&) {
+            // A cone without light on this grid: its catches are not defined (NA below).
+        }
+        for (std::size_t j = 0; j < names.size(); ++j) {
+            text += fmt::format("{},{}", bird, names[j]);
+            if (!catches || !catches->has_double_cone()) {
+                text += ",NA,NA,NA,NA,NA\n";
+                continue;
+            }
+            std::vector<double> r(columns[j].size());
+            for (std::size_t k = 0; k < r.size(); ++k) r[k] = columns[j][k] / 100.0;
+            for (double q : (*catches)(r)) text += fmt::format(",{:.6g}", q);
+            text += fmt::format(",{:.6g}\n", catches->double_cone(r));
+        }
     }
     return text;
 }

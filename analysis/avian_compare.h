@@ -22,6 +22,7 @@ namespace plumage::analysis {
 
 struct AvianRecordComparison {
     std::string system;
+    std::string source;  // the system's citation and densities
     std::array<std::string, kAvianCones> cone_names;
     std::size_t pairs = 0, pairs_with_signal = 0;
     double signal_fraction = 0.0;               // the threshold used (see above)
@@ -73,6 +74,14 @@ std::string rnl_matrix_markdown(const std::vector<std::string>& names,
 std::string pavo_csv_text(const std::vector<double>& wavelengths_nm,
                           const std::vector<std::string>& names,
                           const std::vector<std::vector<double>>& columns);
+
+// The von Kries-adapted quantum catches of the same columns (per cent, as for pavo_csv_text) for
+// each of pavo's four birds (bluetit, pfowl, avg.uv, avg.v): a CSV with a header row and one row
+// per bird and sample, `bird,sample,q_short,q_sws,q_mws,q_lws,q_double_cone` (q_short: the UVS
+// or VS cone); NA where the grid gives a cone no light.
+std::string avian_catches_csv(const std::vector<double>& wavelengths_nm,
+                              const std::vector<std::string>& names,
+                              const std::vector<std::vector<double>>& columns);
 
 // A column name for a direction pair that R keeps as is: letters, digits and '_' only, e.g.
 // "simulation_i30a0_o30a180" (θ_i 30°, azimuth 0°; θ_o 30°, azimuth 180°; azimuths in 0–359).

@@ -580,6 +580,8 @@ std::string avian_vision(const Run& run, const Brdfs& m, RockDoveResult& result)
     }
     write_text_file(run.dir / "brdf" / "spectra_pavo.csv",
                     analysis::pavo_csv_text(wl, names, columns));
+    write_text_file(run.dir / "brdf" / "avian_catches.csv",
+                    analysis::avian_catches_csv(wl, names, columns));
     return "## Avian vision\n\nColour differences as a bird sees them: receptor-noise-limited "
            "distance ΔS (Vorobyev & Osorio 1998; 1 = one just-noticeable difference) between the "
            "spectra of π·f under D65 at each direction pair, for an ultraviolet-sensitive (blue "
@@ -594,7 +596,8 @@ std::string avian_vision(const Run& run, const Brdfs& m, RockDoveResult& result)
                 : std::string()) +
            "\nSpectra of the pairs above (brightest, largest ΔS, median) in pavo's layout: "
            "`brdf/spectra_pavo.csv` (`wl` in nm, then one column per sample, 100·π·f in per "
-           "cent).\n\n";
+           "cent); their von Kries-adapted quantum catches (cones and double cone) for pavo's "
+           "four birds: `brdf/avian_catches.csv`.\n\n";
 }
 
 // In-plane curves at the middle wavelength (the set's own order of light angles).

@@ -1368,13 +1368,16 @@ std::string avian_section(const fs::path& dir, const Run& run, const SpeciesResu
     }
     write_text_file(dir / "spectra_pavo.csv",
                     analysis::pavo_csv_text(run.s.wavelengths, names, percent));
+    write_text_file(dir / "avian_catches.csv",
+                    analysis::avian_catches_csv(run.s.wavelengths, names, percent));
     std::string md = fmt::format(
         "## Avian vision\n\nThe simulated spectra π·f at the mirror pair (light 30° at azimuth "
         "180°, view 30° at 0°) under D65, told apart by an ultraviolet- and a violet-sensitive "
         "bird: receptor-noise-limited ΔS in just-noticeable differences (Vorobyev & Osorio 1998; "
         "analysis/avian_vision.h), on the study's {}–{} nm grid (no light below it reaches the "
         "UV/violet cone). Spectra in pavo's layout: `spectra_pavo.csv` (`wl` in nm, one column "
-        "per species, per cent). In brackets each ΔS's noise floor (the RMS ΔS the Monte Carlo "
+        "per species, per cent); their quantum catches for pavo's four birds: `avian_catches.csv`. "
+        "In brackets each ΔS's noise floor (the RMS ΔS the Monte Carlo "
         "errors alone give, to first order: it misses the noise of cells that caught no light, "
         "whose σ is 0, so a floor near 0 beside a spectrum with zeros is not to be trusted); "
         "\"–\": a cone catches nothing (zero reflectance on the grid).\n\n",

@@ -11,6 +11,8 @@
 #include <numbers>
 #include <random>
 
+#include <fmt/format.h>
+
 namespace plumage::analysis {
 namespace {
 
@@ -62,6 +64,18 @@ TEST(AvianCompare, ZeroForTheSameRecordAndAtTheNoiseFloorForANoisyCopy) {
         // √2/(2√200) = 5 %, so 20 % is 4 σ.
         EXPECT_NEAR(c.rms_delta_l / c.rms_delta_l_noise_floor, 1.0, 0.2) << system->name;
         EXPECT_GT(c.rms_noise_floor, 0.05);  // the test is not trivially about zero
+    }
+}
+
+TEST(AvianCompare, CatchesCsvGivesAWhiteOneForEveryConeOfEveryBird) {
+    const std::vector<double> wl{300.0, 500.0, 700.0};
+    const std::string csv =
+        avian_catches_csv(wl, {"white", "grey"}, {{100.0, 100.0, 100.0}, {50.0, 50.0, 50.0}});
+    EXPECT_EQ(csv.rfind("bird,sample,q_short,q_sws,q_mws,q_lws,q_double_cone\n", 0), 0u);
+    for (const char* bird : {"bluetit", "pfowl", "avg.uv", "avg.v"}) {
+        EXPECT_NE(csv.find(fmt::format("\n{},white,1,1,1,1,1\n", bird)), std::string::npos) << csv;
+        EXPECT_NE(csv.find(fmt::format("\n{},grey,0.5,0.5,0.5,0.5,0.5\n", bird)), std::string::npos)
+            << csv;
     }
 }
 

@@ -190,6 +190,7 @@ void check_avian_vision(const RockDoveResult& r, const std::filesystem::path& di
         EXPECT_GT(r.avian_median_noise_floor[system], 0.0);
     }
     EXPECT_EQ(read(dir / "brdf" / "spectra_pavo.csv").rfind("wl,simulation_", 0), 0u);
+    EXPECT_EQ(read(dir / "brdf" / "avian_catches.csv").rfind("bird,sample,", 0), 0u);
 }
 
 void check_error_and_time(const std::filesystem::path& dir, const std::string& report) {

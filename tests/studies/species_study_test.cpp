@@ -204,6 +204,7 @@ void check_report_and_tables(const std::filesystem::path& dir) {
     // Issue 18: the species' mirror-pair spectra in pavo's layout, and their avian ΔS matrices.
     const std::string pavo = read(dir / "spectra_pavo.csv");
     EXPECT_EQ(pavo.rfind("wl,", 0), 0u) << pavo;
+    EXPECT_NE(read(dir / "avian_catches.csv").find("\nbluetit,"), std::string::npos);
     EXPECT_NE(report.find("## Avian vision"), std::string::npos);
     EXPECT_NE(report.find("| UVS (blue tit) |"), std::string::npos);
 }
