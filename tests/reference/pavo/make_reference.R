@@ -5,13 +5,14 @@
 #
 #   Rscript make_reference.R PAVO_SOURCE_DIR SPECTRA_CSV OUT_DIR DATA_CSV
 #
-# DATA_CSV "-" writes no data table.
 # PAVO_SOURCE_DIR: an unpacked pavo 2.9.0 source tree (its R/ folder and R/sysdata.rda are
 # loaded; pavo itself is not installed). SPECTRA_CSV: spectra in pavo's layout (wl in nm, one
 # column per sample, reflectance in per cent), as plumage writes them (spectra_pavo.csv), on a
 # grid within 300-700 nm, where pavo's sensitivities are defined. Spanning all of it, they go
 # through pavo's built-in birds; spanning less (400-700 nm, say), through the same birds' data
 # cut to the grid's span as user-defined systems, so no reflectance is invented either way.
+# OUT_DIR receives catches.csv, distances.csv and a copy of the spectra; DATA_CSV pavo's tables
+# (analysis/data/pavo_visual_systems.csv), or "-" for none.
 
 args <- commandArgs(trailingOnly = TRUE)
 if (length(args) != 4) {
@@ -34,8 +35,8 @@ for (f in list.files(file.path(pavo_dir, "R"), pattern = "[.]R$", full.names = T
 }
 load(file.path(pavo_dir, "R", "sysdata.rda"), envir = pavo)
 
-# The four birds: pavo's name, the double cone for the achromatic channel, relative cone
-# densities (UV/V : S : M : L) and where they come from.
+# The four birds: pavo's name, the double cone for the achromatic channel and the relative cone
+# densities (UV/V : S : M : L; sources in analysis/data/README.md).
 birds <- data.frame(
   visual = c("bluetit", "avg.uv", "avg.v", "pfowl"),
   achromatic = c("bt.dc", "bt.dc", "ch.dc", "ch.dc"),
