@@ -183,6 +183,53 @@ std::string avian_comparison_markdown(const std::vector<AvianRecordComparison>& 
     return md;
 }
 
+AvianQuadratureError avian_quadrature_error(
+    std::size_t spectra, const optics::WavelengthGrid& grid, const AvianVisualSystem& system,
+    const std::function<double(std::size_t, double)>& reflectance) {
+    const auto range = sensitivity_range_nm(system);
+    const double first = std::ceil(std::max(grid.first(), range[0]) - 1e-9);
+    const double last = std::floor(std::min(grid.last(), range[1]) + 1e-9);
+    if (!(last > first)) {
+        throw InputError(
+            "avian quadrature error: the grid spans no whole nanometres of the "
+            "cones' data");
+    }
+    const optics::WavelengthGrid fine = optics::WavelengthGrid::uniform(first, last, 1.0);
+    const ConeCatches coarse_catches(system, grid), fine_catches(system, fine);
+    const bool achromatic = coarse_catches.has_double_cone() && fine_catches.has_double_cone();
+    std::vector<double> delta_s(spectra, -1.0), delta_l(spectra, 0.0);
+#pragma omp parallel
+    {
+        std::vector<double> coarse(grid.size()), dense(fine.size());
+#pragma omp for schedule(dynamic, 8)
+        for (std::size_t i = 0; i < spectra; ++i) {
+            for (std::size_t k = 0; k < grid.size(); ++k) coarse[k] = reflectance(i, grid[k]);
+            for (std::size_t k = 0; k < fine.size(); ++k) dense[k] = reflectance(i, fine[k]);
+            const ConeVector qc = coarse_catches(coarse), qf = fine_catches(dense);
+            bool positive = true;
+            for (std::size_t c = 0; c < kAvianCones; ++c) positive &= qc[c] > 0.0 && qf[c] > 0.0;
+            const double lc = achromatic ? coarse_catches.double_cone(coarse) : 1.0;
+            const double lf = achromatic ? fine_catches.double_cone(dense) : 1.0;
+            if (!positive || !(lc > 0.0 && lf > 0.0)) continue;
+            delta_s[i] = rnl_delta_s(qc, qf, system);
+            delta_l[i] = achromatic ? achromatic_contrast(lc, lf, system) : 0.0;
+        }
+    }
+    AvianQuadratureError e;
+    std::vector<double> s, l;
+    for (std::size_t i = 0; i < spectra; ++i) {
+        if (delta_s[i] < 0.0) continue;
+        s.push_back(delta_s[i]);
+        l.push_back(delta_l[i]);
+        e.max_delta_s = std::max(e.max_delta_s, delta_s[i]);
+        e.max_delta_l = std::max(e.max_delta_l, delta_l[i]);
+    }
+    e.spectra = s.size();
+    e.rms_delta_s = rms_of(s);
+    e.rms_delta_l = rms_of(l);
+    return e;
+}
+
 std::vector<std::size_t> pavo_export_pairs(const gonio::BrdfRecord& reference,
                                            const std::vector<AvianRecordComparison>& rows) {
     const std::size_t np = reference.config.pairs.size(),

@@ -12,6 +12,7 @@
 #pragma once
 
 #include <array>
+#include <functional>
 #include <string>
 #include <vector>
 
@@ -53,6 +54,19 @@ std::string avian_comparison_markdown(const std::vector<AvianRecordComparison>& 
                                       const gonio::BrdfRecord& reference,
                                       const std::string& test_name,
                                       const std::string& reference_name);
+
+// What a wavelength grid costs a bird: ΔS and ΔL between each spectrum sampled on the grid (the
+// catches interpolate it linearly to 1 nm) and the same spectrum evaluated at every whole
+// nanometre of the grid's span. An analytic model is the natural source (exact at any λ, so the
+// difference is the grid's alone). Spectra whose catches are not all positive are skipped.
+struct AvianQuadratureError {
+    std::size_t spectra = 0;  // compared (positive catches on both grids)
+    double rms_delta_s = 0.0, max_delta_s = 0.0, rms_delta_l = 0.0, max_delta_l = 0.0;
+};
+// `reflectance(i, λ)` must be safe to call from several threads at once.
+AvianQuadratureError avian_quadrature_error(
+    std::size_t spectra, const optics::WavelengthGrid& grid, const AvianVisualSystem& system,
+    const std::function<double(std::size_t, double)>& reflectance);
 
 // The direction pairs worth exporting as spectra: the reference's brightest pair (by mean π·f),
 // each comparison's largest-ΔS pair and the reference's median-brightness pair, without repeats.

@@ -555,9 +555,37 @@ std::string colour_quadrature(const Run& run, const Built& b, const Brdfs& m,
         e.p95, e.max);
 }
 
+// What the study's grid costs each bird: the model's spectra (exact at any λ) on the grid against
+// 1 nm, over about 200 direction pairs (as colour_quadrature).
+std::string avian_quadrature(const Built& b, const Brdfs& m) {
+    const auto& pairs = m.model.config.pairs;
+    const std::size_t stride = std::max<std::size_t>(1, pairs.size() / 200);
+    const std::size_t count = (pairs.size() + stride - 1) / stride;
+    const analysis::Huang2022Bsdf& model = *b.model;
+    std::string md = fmt::format(
+        "\nThe grid's own error: the model's spectra at {} of the {} pairs on this grid against "
+        "1 nm (analysis/avian_compare.h), RMS and largest:",
+        count, pairs.size());
+    for (const auto* system :
+         {&analysis::ultraviolet_sensitive_system(), &analysis::violet_sensitive_system()}) {
+        const analysis::AvianQuadratureError e = analysis::avian_quadrature_error(
+            count, optics::WavelengthGrid(m.model.config.wavelengths_nm), *system,
+            [&](std::size_t i, double lambda) {
+                if (interrupt_requested()) return 0.0;  // abandoned: thrown below
+                const gonio::DirectionPair& p = pairs[i * stride];
+                return kPi * model.eval(p.wi, p.wo, lambda);
+            });
+        md += fmt::format(" {}: ΔS {:.2f} and {:.2f}, ΔL {:.2f} and {:.2f} JND;", system->name,
+                          e.rms_delta_s, e.max_delta_s, e.rms_delta_l, e.max_delta_l);
+    }
+    throw_if_interrupted("the avian quadrature error");
+    md.back() = '.';
+    return md + "\n";
+}
+
 // The BRDFs as birds see them (analysis/avian_compare.h), and the spectra of a few pairs in
 // pavo's layout (brdf/spectra_pavo.csv).
-std::string avian_vision(const Run& run, const Brdfs& m, RockDoveResult& result) {
+std::string avian_vision(const Run& run, const Built& b, const Brdfs& m, RockDoveResult& result) {
     const auto& wl = m.model.config.wavelengths_nm;
     if (wl.size() < 2 || wl.front() < 300.0) return {};
     run.clock.say("avian vision: UVS and VS distances, simulation against model");
@@ -588,6 +616,7 @@ std::string avian_vision(const Run& run, const Brdfs& m, RockDoveResult& result)
            "tit) and a violet-sensitive (peafowl) tetrachromat (analysis/avian_vision.h), beside "
            "the ΔS the Monte Carlo error alone gives:\n\n" +
            analysis::avian_comparison_markdown(rows, m.model, "simulation", "Huang model") +
+           avian_quadrature(b, m) +
            (wl.front() > 300.0
                 ? fmt::format("\nThe grid starts at {:.0f} nm: the UV/violet cone gets no light "
                               "below it, so its catch, and ΔS, rest on the part of its "
@@ -1493,7 +1522,7 @@ RockDoveResult run_rock_dove_study(const std::string& study_text, const fs::path
     costs.push_back(brdf_cost("BRDF: Huang model", brdfs.model));
     md += brdf_section(run, brdfs, result);
     md += colour_quadrature(run, built, brdfs, result);
-    md += avian_vision(run, brdfs, result);
+    md += avian_vision(run, built, brdfs, result);
     md += in_plane_sweep(run, built);
     md += validation(run, built, result);
     md += huang_fit(run, built, result);

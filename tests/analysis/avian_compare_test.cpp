@@ -8,6 +8,7 @@
 #include "virtual_gonio/direction_sets.h"
 
 #include <cmath>
+#include <iostream>
 #include <numbers>
 #include <random>
 
@@ -64,6 +65,34 @@ TEST(AvianCompare, ZeroForTheSameRecordAndAtTheNoiseFloorForANoisyCopy) {
         // √2/(2√200) = 5 %, so 20 % is 4 σ.
         EXPECT_NEAR(c.rms_delta_l / c.rms_delta_l_noise_floor, 1.0, 0.2) << system->name;
         EXPECT_GT(c.rms_noise_floor, 0.05);  // the test is not trivially about zero
+    }
+}
+
+// A thin film's fringes (period ~180 nm): sampling them every 25 nm costs a bird a measurable
+// ΔS, every 5 nm about 25 times less (the linear interpolation's error goes as the step²), and a
+// spectrum that is linear between the grid's points costs nothing.
+TEST(AvianCompare, QuadratureErrorIsZeroForPiecewiseLinearSpectraAndFallsAsTheStepSquared) {
+    auto fringes = [](std::size_t i, double l) {
+        return 0.3 +
+               0.2 * std::cos(2.0 * std::numbers::pi * l / (170.0 + 10.0 * static_cast<double>(i)));
+    };
+    const auto coarse = optics::WavelengthGrid::uniform(300.0, 700.0, 25.0);
+    const auto fine = optics::WavelengthGrid::uniform(300.0, 700.0, 5.0);
+    for (const AvianVisualSystem* system :
+         {&ultraviolet_sensitive_system(), &violet_sensitive_system()}) {
+        const AvianQuadratureError e25 = avian_quadrature_error(4, coarse, *system, fringes);
+        const AvianQuadratureError e5 = avian_quadrature_error(4, fine, *system, fringes);
+        EXPECT_EQ(e25.spectra, 4u);
+        EXPECT_GT(e25.max_delta_s, 0.05) << system->name;
+        EXPECT_GT(e25.rms_delta_s / e5.rms_delta_s, 10.0) << system->name;
+        EXPECT_GT(e25.rms_delta_l / e5.rms_delta_l, 10.0) << system->name;
+        std::cout << system->name << ": 25 nm ΔS RMS " << e25.rms_delta_s << ", 5 nm "
+                  << e5.rms_delta_s << "; ΔL " << e25.rms_delta_l << ", " << e5.rms_delta_l << "\n";
+        const AvianQuadratureError linear = avian_quadrature_error(
+            2, coarse, *system,
+            [](std::size_t i, double l) { return 0.1 + 0.001 * static_cast<double>(i) * l; });
+        EXPECT_LT(linear.max_delta_s, 1e-12);
+        EXPECT_LT(linear.max_delta_l, 1e-12);
     }
 }
 

@@ -191,6 +191,7 @@ void check_avian_vision(const RockDoveResult& r, const std::filesystem::path& di
     }
     EXPECT_EQ(read(dir / "brdf" / "spectra_pavo.csv").rfind("wl,simulation_", 0), 0u);
     EXPECT_EQ(read(dir / "brdf" / "avian_catches.csv").rfind("bird,sample,", 0), 0u);
+    EXPECT_NE(report.find("The grid's own error"), std::string::npos);  // issue 40
 }
 
 void check_error_and_time(const std::filesystem::path& dir, const std::string& report) {
