@@ -412,6 +412,13 @@ BsdfFileReport export_one(const Export& e, gonio::RglBsdfSettings settings,
     return report;
 }
 
+// The options with the model's own angular grid where they leave it to the model (0 nodes).
+BsdfExportOptions with_model_grid(BsdfExportOptions o, const AngularGrid& grid) {
+    if (o.theta_nodes == 0) o.theta_nodes = grid.theta_nodes;
+    if (o.phi_nodes == 0) o.phi_nodes = grid.phi_nodes;
+    return o;
+}
+
 // The tables' settings from the options, checked (grid, memory) before any work.
 gonio::RglBsdfSettings settings_of(const BsdfExportOptions& o) {
     gonio::RglBsdfSettings settings;
@@ -448,16 +455,21 @@ gonio::RglBsdfSettings settings_of(const BsdfExportOptions& o) {
 
 BsdfExportResult export_bsdf(const BsdfExportOptions& o) {
     const StudyProgress progress(o.progress);
-    const gonio::RglBsdfSettings settings = settings_of(o);
+    settings_of(with_model_grid(o, kFilipGrid));  // the options' own checks, before the sources
     std::vector<Export> exports = checked_exports(o);  // every input checked before any work
+    std::vector<BsdfExportOptions> options;
+    std::vector<gonio::RglBsdfSettings> settings;
     for (const Export& e : exports) {
         check_replaceable(e.path, o.force);
         check_writable(e.path);
+        const bool huang = dynamic_cast<const analysis::Huang2022Bsdf*>(e.model.get()) != nullptr;
+        options.push_back(with_model_grid(o, huang ? kHuangGrid : kFilipGrid));
+        settings.push_back(settings_of(options.back()));  // grid and memory, before any work
     }
     BsdfExportResult result;
-    for (const Export& e : exports) {
-        result.reports.push_back(export_one(e, settings, o, progress));
-        result.files.push_back(e.path);
+    for (std::size_t i = 0; i < exports.size(); ++i) {
+        result.reports.push_back(export_one(exports[i], settings[i], options[i], progress));
+        result.files.push_back(exports[i].path);
     }
     result.wall_seconds = progress.elapsed_s();
     return result;

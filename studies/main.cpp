@@ -298,10 +298,12 @@ struct CommandLine {
         bsdf_cmd->add_option("-o,--output", bsdf.output,
                              "file, or folder (default: beside SOURCE; with --out DIR: inside "
                              "DIR, and a relative -o too)");
-        bsdf_cmd->add_option("--theta-nodes", bsdf.theta_nodes, "θ_i nodes over 0–85°")
-            ->capture_default_str();
-        bsdf_cmd->add_option("--phi-nodes", bsdf.phi_nodes, "φ_i nodes over ±180° (1: isotropic)")
-            ->capture_default_str();
+        bsdf_cmd->add_option("--theta-nodes", bsdf.theta_nodes,
+                             "θ_i nodes over 0–85° (default: the model's, Huang 2022 19, Filip "
+                             "2024 10)");
+        bsdf_cmd->add_option("--phi-nodes", bsdf.phi_nodes,
+                             "φ_i nodes over ±180°, 1: isotropic (default: the model's, Huang "
+                             "2022 49, Filip 2024 25)");
         bsdf_cmd->add_option("--resolution", bsdf.resolution, "N of the N × N sample square")
             ->capture_default_str();
         bsdf_cmd->add_option("--first-nm", bsdf.first_nm)->capture_default_str();

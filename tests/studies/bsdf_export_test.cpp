@@ -131,6 +131,11 @@ TEST(BsdfExport, RockDoveFitRecordGivesTheFittedHuangModel) {
     EXPECT_LT(node_error(bsdf, eval_of(model), 550.0), 3e-5);
     // Not the published parameters: the film thickness changes the colour at the nodes.
     EXPECT_GT(node_error(bsdf, eval_of(published), 550.0), 0.05);
+    // The test's coarse grid (3 × 5 × 8²) misses between its nodes, and the export says so.
+    ASSERT_EQ(r.reports.size(), 1u);
+    EXPECT_GT(r.reports[0].error.median, kTargetMedianError);
+    ASSERT_FALSE(r.reports[0].warnings.empty());
+    EXPECT_NE(r.reports[0].warnings.back().find("above the target 2 %"), std::string::npos);
 }
 
 TEST(BsdfExport, SpeciesRecordGivesOneFilePerSpecies) {
@@ -335,18 +340,18 @@ TEST(BsdfExport, SpeciesNamesAndMountsFromTheFileAreChecked) {
 
 // Issue 41, acceptance 7: how a Huang file follows its model between the nodes, read back through
 // our reader (Mitsuba 3's `measured`) at the export's own check: 3000 seeded random pairs,
-// θ ≤ 75°. The export's default angular grid (10 θ × 25 φ × 32²) at one wavelength, 550 nm, so
-// that the test takes seconds: no spectral interpolation here, the angular one alone
-// (bench/bsdf_export_bench.cpp measures the 16-wavelength default, bench/README.md).
-// The issue's target, median ≤ 2 %, is NOT met: measured median 3.20 %, 95th percentile 57 %,
-// Σ f cos θ-weighted 15.2 %; bounds 3.5 %, 65 %, 17 % hold today's accuracy (a 48² square
-// gives 2.5 %; the model's own NDF was worse, 4.0 % at a share of 0.25).
+// θ ≤ 75°. Huang's own default grid (kHuangGrid: 19 θ × 49 φ × 32²) at one wavelength, 550 nm,
+// so that the test takes seconds: no spectral interpolation here, the angular one alone
+// (bench/bsdf_export_bench.cpp measures the 16-wavelength default, bench/README.md: median
+// 1.36 %). The target is a median ≤ 2 %; the 95th percentile and the Σ f cos θ-weighted error
+// come from the R band's sharp edges and barely move with the grid (at 10 × 25: 3.2 %, 57 %,
+// 15.2 %; the model's own NDF was worse, 4.0 % at a share of 0.25).
 TEST(BsdfExport, HuangFileIsCheckedAgainstTheModelBetweenNodes) {
     const fs::path dir = scratch_dir() / "between_nodes";
     fs::create_directories(dir);
     BsdfExportOptions o = small("huang2022");
-    o.theta_nodes = 10;
-    o.phi_nodes = 25;
+    o.theta_nodes = 0;  // the model's own grid
+    o.phi_nodes = 0;
     o.resolution = 32;
     o.first_nm = 550.0;
     o.last_nm = 550.0;
@@ -360,12 +365,12 @@ TEST(BsdfExport, HuangFileIsCheckedAgainstTheModelBetweenNodes) {
                 e.median, e.p95, e.weighted, e.worst);
     EXPECT_EQ(e.pairs, 3000);
     EXPECT_GT(e.positive, 2900);  // TRT is positive nearly everywhere above the horizon
-    EXPECT_LT(e.median, 0.035);
+    EXPECT_LE(e.median, kTargetMedianError);
     EXPECT_LT(e.p95, 0.65);
     EXPECT_LT(e.weighted, 0.17);
-    // Above the target, the export says so.
-    ASSERT_FALSE(r.reports[0].warnings.empty());
-    EXPECT_NE(r.reports[0].warnings.back().find("above the target 2 %"), std::string::npos);
+    // Within the target, the export warns of nothing between the nodes.
+    for (const std::string& w : r.reports[0].warnings)
+        EXPECT_EQ(w.find("above the target"), std::string::npos) << w;
     // The check is the reader's own: the same numbers from the file on disk.
     const analysis::Huang2022Bsdf model{analysis::Huang2022Params{}};
     const gonio::InterpolationError again = gonio::interpolation_error(
