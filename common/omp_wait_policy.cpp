@@ -1,9 +1,13 @@
 #include "common/omp_wait_policy.h"
 
+#include "common/interrupt.h"
+
 #include <climits>
 #include <cstdlib>
 #include <string>
 
+#include <pthread.h>
+#include <signal.h>
 #include <sys/stat.h>
 #include <unistd.h>
 
@@ -29,13 +33,22 @@ std::string own_program_path() {
 }  // namespace
 
 void wait_passively_unless_told(char** argv) {
-    if (std::getenv("OMP_WAIT_POLICY") != nullptr || std::getenv("GOMP_SPINCOUNT") != nullptr) {
-        return;
+    // Ctrl-C and SIGTERM are held back from here: a mask outlives exec, so one that arrives
+    // during the second start waits, pending, for the new process's handler instead of killing
+    // it; and none can slip in between the check of the flag and the exec.
+    sigset_t stops;
+    sigemptyset(&stops);
+    sigaddset(&stops, SIGINT);
+    sigaddset(&stops, SIGTERM);
+    ::pthread_sigmask(SIG_BLOCK, &stops, nullptr);
+    const bool told =
+        std::getenv("OMP_WAIT_POLICY") != nullptr || std::getenv("GOMP_SPINCOUNT") != nullptr;
+    const std::string program = told || interrupt_requested() ? "" : own_program_path();
+    if (!program.empty() && ::setenv("OMP_WAIT_POLICY", "passive", 1) == 0) {
+        ::execv(program.c_str(), argv);  // returns only on failure
+        ::unsetenv("OMP_WAIT_POLICY");   // as the user had it: this process keeps the default
     }
-    const std::string program = own_program_path();
-    if (program.empty() || ::setenv("OMP_WAIT_POLICY", "passive", 1) != 0) return;
-    ::execv(program.c_str(), argv);  // returns only on failure
-    ::unsetenv("OMP_WAIT_POLICY");   // as the user had it: this process keeps the default
+    ::pthread_sigmask(SIG_UNBLOCK, &stops, nullptr);  // in the new process: delivered now
 }
 
 }  // namespace plumage

@@ -19,15 +19,18 @@
 
 namespace plumage {
 
-// Call early in main, before anything is written, locked or spoken to (an MPI launcher
-// included): exec ends every thread and forgets every signal handler. When neither
-// OMP_WAIT_POLICY nor GOMP_SPINCOUNT is set (either is the user's choice of how to wait, which
-// wins), sets OMP_WAIT_POLICY=passive and replaces the process by the same program with the same
-// arguments (the file /proc/self/exe names, if it is still the running one; the process id and
-// name stay). Returns only when nothing was to be done or the re-execution was impossible (no
-// /proc, the program file replaced since the start): the run then goes on with libgomp's default
-// and the environment as it was. The variable stays in the new process's environment, so child
-// processes wait alike.
+// Call early in main, after the interrupt handler is installed (common/interrupt.h) and before
+// anything is written, locked or spoken to (an MPI launcher included): exec ends every thread.
+// When neither OMP_WAIT_POLICY nor GOMP_SPINCOUNT is set (either is the user's choice of how to
+// wait, which wins) and no Ctrl-C has come, sets OMP_WAIT_POLICY=passive and replaces the
+// process by the same program with the same arguments (the file /proc/self/exe names, if it is
+// still the running one; the process id and name stay). SIGINT and SIGTERM are blocked across
+// the exec and unblocked when the new process calls this in turn, so a Ctrl-C during the second
+// start reaches its handler (the run stops at its first stage) rather than killing it; they are
+// unblocked on return in any case. Returns only when nothing was to be done or the re-execution
+// was impossible (no /proc, the program file replaced since the start): the run then goes on
+// with libgomp's default and the environment as it was. The variable stays in the new process's
+// environment, so child processes wait alike.
 void wait_passively_unless_told(char** argv);
 
 }  // namespace plumage

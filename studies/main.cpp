@@ -479,9 +479,9 @@ int main(int argc, char** argv) {
     // Idle OpenMP threads sleep rather than spin unless the user said otherwise: spinning ones
     // made 2 threads slower than 1 when another process held a core. This may execute the
     // program again (common/omp_wait_policy.h), so it comes before anything is written; not
-    // for one thread (nothing waits) nor after a Ctrl-C (the new process would not know of it).
+    // for one thread (nothing waits).
     const int threads = cli.common.threads > 0 ? cli.common.threads : omp_get_max_threads();
-    if (threads > 1 && !interrupt.flag().load()) plumage::wait_passively_unless_told(argv);
+    if (threads > 1) plumage::wait_passively_unless_told(argv);
     if (cli.common.threads > 0) omp_set_num_threads(cli.common.threads);
     plumage::distributed::init(&argc, &argv);
     const bool rank0 = plumage::distributed::rank() == 0;

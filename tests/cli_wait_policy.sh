@@ -40,19 +40,22 @@ counts=$(spin_counts OMP_WAIT_POLICY=active -- --threads 2)
 [[ $counts == "30000000000 " ]] || fail "OMP_WAIT_POLICY=active: spin counts '$counts'"
 counts=$(spin_counts GOMP_SPINCOUNT=1000 -- --threads 2)
 [[ $counts == "1000 " ]] || fail "GOMP_SPINCOUNT=1000: spin counts '$counts'"
-# The second start keeps the process's name (ps, top and pgrep show plumage): a study that runs,
-# watched until its environment has the variable (the second start has happened), then stopped.
+# The second start keeps the process's name (ps, top and pgrep show plumage), and a SIGTERM
+# that comes while it loads waits for its handler (exit 143, not killed by the signal): a study,
+# watched until its environment has the variable (the second start has begun), then stopped.
 env -u OMP_WAIT_POLICY -u GOMP_SPINCOUNT "$plumage" --threads 2 --no-plots --out "$work/study" \
   run "$(dirname "$0")/../studies/species_quick.toml" >/dev/null 2>&1 &
 pid=$!
-for ((i = 0; i < 300; i++)); do
+for ((i = 0; i < 3000; i++)); do
   tr '\0' '\n' <"/proc/$pid/environ" 2>/dev/null | grep -q -x OMP_WAIT_POLICY=passive && break
-  sleep 0.1
+  sleep 0.01
 done
 name=$(cat "/proc/$pid/comm" 2>/dev/null)
 passive=$(tr '\0' '\n' <"/proc/$pid/environ" 2>/dev/null | grep -c -x OMP_WAIT_POLICY=passive)
 kill -TERM "$pid" 2>/dev/null
 wait "$pid"
+code=$?
 [[ $passive -eq 1 ]] || fail "the running study has no OMP_WAIT_POLICY=passive after 30 s"
 [[ $name == "$(basename "$plumage")" ]] || fail "the process is named '$name' after its second start"
+[[ $code -eq 143 ]] || fail "SIGTERM during the second start: exit $code, expected 143"
 echo "ok"
