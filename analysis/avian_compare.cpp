@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <functional>
 #include <numbers>
 #include <optional>
 
@@ -256,6 +257,25 @@ std::vector<std::size_t> pavo_export_pairs(const gonio::BrdfRecord& reference,
 
 namespace {
 
+// A symmetric matrix between the spectra as a markdown table: the title in the corner, a header
+// of names, 0 on the diagonal, cell(i, j) (" value |") elsewhere.
+std::string pairwise_matrix_markdown(
+    const std::string& title, const std::vector<std::string>& names,
+    const std::function<std::string(std::size_t, std::size_t)>& cell) {
+    std::string md = fmt::format("| {} |", title);
+    for (const auto& n : names) md += fmt::format(" {} |", n);
+    md += "\n|---|";
+    for (std::size_t j = 0; j < names.size(); ++j) md += "---|";
+    md += "\n";
+    for (std::size_t i = 0; i < names.size(); ++i) {
+        md += fmt::format("| {} |", names[i]);
+        for (std::size_t j = 0; j < names.size(); ++j)
+            md += i == j ? std::string(" 0 |") : cell(i, j);
+        md += "\n";
+    }
+    return md;
+}
+
 // The achromatic contrast ΔL between every two spectra beside √(floor_i² + floor_j²), then each
 // spectrum's adapted catches; "–" where a double-cone catch is not positive.
 std::string achromatic_and_catches_markdown(const std::vector<std::string>& names,
@@ -271,23 +291,16 @@ std::string achromatic_and_catches_markdown(const std::vector<std::string>& name
                                   system.weber_achromatic
                             : 0.0);
     }
-    std::string md = fmt::format("\n| ΔL, {} ({}) |", system.name, system.double_cone);
-    for (const auto& n : names) md += fmt::format(" {} |", n);
-    md += "\n|---|";
-    for (std::size_t j = 0; j < names.size(); ++j) md += "---|";
-    md += "\n";
-    for (std::size_t i = 0; i < names.size(); ++i) {
-        md += fmt::format("| {} |", names[i]);
-        for (std::size_t j = 0; j < names.size(); ++j) {
-            md +=
-                i == j ? std::string(" 0 |")
-                : q_l[i] > 0.0 && q_l[j] > 0.0
-                    ? fmt::format(" {:.1f} ({:.1f}) |", achromatic_contrast(q_l[i], q_l[j], system),
-                                  std::hypot(floor[i], floor[j]))
-                    : std::string(" – |");
-        }
-        md += "\n";
-    }
+    std::string md =
+        "\n" + pairwise_matrix_markdown(
+                   fmt::format("ΔL, {} ({})", system.name, system.double_cone), names,
+                   [&](std::size_t i, std::size_t j) {
+                       return q_l[i] > 0.0 && q_l[j] > 0.0
+                                  ? fmt::format(" {:.1f} ({:.1f}) |",
+                                                achromatic_contrast(q_l[i], q_l[j], system),
+                                                std::hypot(floor[i], floor[j]))
+                                  : std::string(" – |");
+                   });
     md += fmt::format("\n| quantum catch, {} (von Kries) |", system.name);
     for (const ConeClass& c : system.cones) md += fmt::format(" {} |", c.name);
     md += " double cone |\n|---|---|---|---|---|---|\n";
@@ -321,25 +334,13 @@ std::string rnl_matrix_markdown(const std::vector<std::string>& names,
                             ? rnl_noise_floor(catches.log_catch_covariance(s, errors[i]), system)
                             : 0.0);
     }
-    std::string md = fmt::format("| {} |", system.name);
-    for (const auto& n : names) md += fmt::format(" {} |", n);
-    md += "\n|---|";
-    for (std::size_t j = 0; j < names.size(); ++j) md += "---|";
-    md += "\n";
-    for (std::size_t i = 0; i < names.size(); ++i) {
-        md += fmt::format("| {} |", names[i]);
-        for (std::size_t j = 0; j < names.size(); ++j) {
-            if (i == j) {
-                md += " 0 |";
-                continue;
-            }
-            md += usable[i] && usable[j]
-                      ? fmt::format(" {:.1f} ({:.1f}) |", rnl_delta_s(q[i], q[j], system),
-                                    std::hypot(floor[i], floor[j]))
-                      : std::string(" – |");
-        }
-        md += "\n";
-    }
+    std::string md =
+        pairwise_matrix_markdown(system.name, names, [&](std::size_t i, std::size_t j) {
+            return usable[i] && usable[j]
+                       ? fmt::format(" {:.1f} ({:.1f}) |", rnl_delta_s(q[i], q[j], system),
+                                     std::hypot(floor[i], floor[j]))
+                       : std::string(" – |");
+        });
     if (catches.has_double_cone())
         md += achromatic_and_catches_markdown(names, spectra, errors, catches);
     return md;
