@@ -92,19 +92,26 @@ EnergyCheck check_energy(const Scatterer& scatterer, std::span<const Vec3d> inci
                          std::span<const double> lambdas_nm, int polar_cells) {
     require_evaluable(scatterer, polar_cells);
     const AlbedoQuadrature quadrature(polar_cells);
+    const std::size_t nl = lambdas_nm.size(), n = incident.size() * nl;
+    std::vector<AlbedoEstimate> albedo(n, {0.0, 0.0});
+#pragma omp parallel for schedule(dynamic, 1)
+    for (std::size_t k = 0; k < n; ++k)
+        albedo[k] = quadrature(scatterer, incident[k / nl], lambdas_nm[k % nl]);
     EnergyCheck check;
-    bool first = true;
-    for (const Vec3d& wi : incident) {
-        for (double lambda : lambdas_nm) {
-            const AlbedoEstimate a = quadrature(scatterer, wi, lambda);
-            if (first || a.value > check.max_albedo) {
+    check.directions = static_cast<int>(incident.size());
+    for (std::size_t d = 0; d < incident.size(); ++d) {
+        bool above = false;
+        for (std::size_t l = 0; l < nl; ++l) {
+            const AlbedoEstimate& a = albedo[d * nl + l];
+            above = above || a.value - a.error_estimate > 1.0;
+            if ((d == 0 && l == 0) || a.value > check.max_albedo) {
                 check.max_albedo = a.value;
                 check.error_estimate = a.error_estimate;
-                check.worst_wi = wi;
-                check.worst_lambda_nm = lambda;
-                first = false;
+                check.worst_wi = incident[d];
+                check.worst_lambda_nm = lambdas_nm[l];
             }
         }
+        check.directions_above_one += above ? 1 : 0;
     }
     return check;
 }

@@ -31,11 +31,15 @@ struct EnergyCheck {
     double error_estimate = 0.0;  // its quadrature error estimate
     Vec3d worst_wi = Vec3d::UnitZ();
     double worst_lambda_nm = 0.0;
+    // The incident directions tested, and those where a > 1 beyond the quadrature error at any
+    // of the wavelengths.
+    int directions = 0, directions_above_one = 0;
     // a > 1 beyond the quadrature error: the scatterer creates energy at worst_wi.
     bool violates() const { return max_albedo - error_estimate > 1.0; }
 };
 
-// The largest directional albedo over every (ωi, λ) pair of the two lists.
+// The largest directional albedo over every (ωi, λ) pair of the two lists; the pairs in parallel
+// (OpenMP), the same result for any thread count.
 EnergyCheck check_energy(const Scatterer& scatterer, std::span<const Vec3d> incident,
                          std::span<const double> lambdas_nm, int polar_cells = 64);
 

@@ -317,28 +317,13 @@ void check_albedo(const Export& e, const std::vector<double>& grid, int polar_ce
     const std::vector<Vec3d> directions =
         analysis::hemisphere_grid(15.0 * kDeg, kCheckMaxThetaDeg * kDeg, 90.0 * kDeg);
     const std::vector<double> lambdas = albedo_wavelengths(grid);
-    const std::size_t n = directions.size() * lambdas.size();
-    std::vector<analysis::AlbedoEstimate> albedo(n, {0.0, 0.0});
-#pragma omp parallel for schedule(dynamic, 1)
-    for (std::size_t k = 0; k < n; ++k) {
-        albedo[k] = analysis::directional_albedo(*e.model, directions[k / lambdas.size()],
-                                                 lambdas[k % lambdas.size()], polar_cells);
-    }
-    report.albedo_directions = static_cast<int>(directions.size());
-    double worst_theta = 0.0, worst_lambda = 0.0;
-    for (std::size_t d = 0; d < directions.size(); ++d) {
-        bool above = false;
-        for (std::size_t l = 0; l < lambdas.size(); ++l) {
-            const analysis::AlbedoEstimate& a = albedo[d * lambdas.size() + l];
-            above = above || a.value - a.error_estimate > 1.0;
-            if (a.value > report.max_albedo) {
-                report.max_albedo = a.value;
-                worst_theta = std::acos(std::clamp(directions[d].z(), -1.0, 1.0)) / kDeg;
-                worst_lambda = lambdas[l];
-            }
-        }
-        report.directions_above_one += above ? 1 : 0;
-    }
+    const analysis::EnergyCheck check =
+        analysis::check_energy(*e.model, directions, lambdas, polar_cells);
+    report.albedo_directions = check.directions;
+    report.directions_above_one = check.directions_above_one;
+    report.max_albedo = std::max(report.max_albedo, check.max_albedo);
+    const double worst_theta = std::acos(std::clamp(check.worst_wi.z(), -1.0, 1.0)) / kDeg;
+    const double worst_lambda = check.worst_lambda_nm;
     if (report.directions_above_one == 0) return;
     report.warnings.push_back(fmt::format(
         "warning: {}: directional albedo up to {:.2f} (θ_i = {:.0f}°, {:.0f} nm), above 1 at {} "

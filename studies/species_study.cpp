@@ -673,16 +673,35 @@ std::string section_setup(const Run& run, const Specimen& x, const SpeciesOutcom
     return md;
 }
 
+// Whether each model conserves energy: its largest directional albedo, and a warning where it
+// exceeds 1 beyond the quadrature's error.
+std::string energy_line(const std::string& which, const analysis::EnergyCheck& e) {
+    const double theta = std::acos(std::clamp(e.worst_wi.z(), -1.0, 1.0)) / kDeg;
+    if (e.directions_above_one == 0) {
+        return fmt::format("{}: directional albedo at most {:.2f} ({:.0f}°, {:.0f} nm)", which,
+                           e.max_albedo, theta, e.worst_lambda_nm);
+    }
+    return fmt::format(
+        "**warning: {} do not conserve energy**: directional albedo up to {:.2f} ({:.0f}°, {:.0f} "
+        "nm), above 1 at {} of {} directions",
+        which, e.max_albedo, theta, e.worst_lambda_nm, e.directions_above_one, e.directions);
+}
+
 std::string section_fit(const Measured& m, const SpeciesOutcome& o) {
     return fmt::format(
-        "BRDF: {} quanta per light direction and wavelength, estimated relative RMS error "
-        "{:.1f} %, {:.0f} s. Fit (best of 4 starts in φa, from {:.0f}°): reduced χ² {:.2f} over "
-        "{} observations ({} free parameters; {}), relative residual Σ|Δf|/Σf {:.1f} %, "
-        "RMS/mean {:.1f} % (Table 1's parameters: {:.1f} %, {:.1f} %).\n\n",
-        m.brdf.quanta, 100.0 * m.brdf.convergence.back().estimated_relative_rms_error,
-        m.brdf.wall_time_s, o.fit_start_phi_a_deg, m.fit.reduced_chi_square, m.fit.observations,
-        m.fit.free_parameters.size(), m.fit.termination, 100.0 * o.fit_relative_l1,
-        100.0 * o.fit_relative_rms, 100.0 * o.table1_relative_l1, 100.0 * o.table1_relative_rms);
+               "BRDF: {} quanta per light direction and wavelength, estimated relative RMS error "
+               "{:.1f} %, {:.0f} s. Fit (best of 4 starts in φa, from {:.0f}°): reduced χ² {:.2f} "
+               "over "
+               "{} observations ({} free parameters; {}), relative residual Σ|Δf|/Σf {:.1f} %, "
+               "RMS/mean {:.1f} % (Table 1's parameters: {:.1f} %, {:.1f} %).\n\n",
+               m.brdf.quanta, 100.0 * m.brdf.convergence.back().estimated_relative_rms_error,
+               m.brdf.wall_time_s, o.fit_start_phi_a_deg, m.fit.reduced_chi_square,
+               m.fit.observations, m.fit.free_parameters.size(), m.fit.termination,
+               100.0 * o.fit_relative_l1, 100.0 * o.fit_relative_rms, 100.0 * o.table1_relative_l1,
+               100.0 * o.table1_relative_rms) +
+           fmt::format("Energy (θ_i ≤ 75°, {} directions): {}; {}.\n\n", o.fit_energy.directions,
+                       energy_line("the fitted parameters", o.fit_energy),
+                       energy_line("Table 1's parameters", o.table1_energy));
 }
 
 // The three cells where the fit misses the simulation most, in units of the simulation's error.
@@ -1166,6 +1185,14 @@ void compare_models(const Specimen& x, Measured& m, SpeciesOutcome& o) {
     const analysis::Filip2024Brdf table1_model(m.table1, "filip2024 table 1");
     m.fit_brdf = gonio::measure_brdf(fitted_model, ge);
     m.table1_brdf = gonio::measure_brdf(table1_model, ge);
+    // Energy, as an export checks it (studies/bsdf_export.h): 21 directions θ_i ≤ 75°, the
+    // first, middle and last wavelengths, 16 polar cells per hemisphere.
+    const std::vector<Vec3d> directions =
+        analysis::hemisphere_grid(15.0 * kDeg, 75.0 * kDeg, 90.0 * kDeg);
+    const std::vector<double>& grid = ge.wavelengths_nm;
+    const std::vector<double> lambdas = {grid.front(), grid[grid.size() / 2], grid.back()};
+    o.fit_energy = analysis::check_energy(fitted_model, directions, lambdas, 16);
+    o.table1_energy = analysis::check_energy(table1_model, directions, lambdas, 16);
     gonio::write_brdf_record(m.fit_brdf, x.dir / "fit.h5");
     o.fit_relative_rms = relative_rms(m.fit_brdf, m.brdf);
     o.table1_relative_rms = relative_rms(m.table1_brdf, m.brdf);

@@ -43,6 +43,7 @@
 #include <string>
 #include <vector>
 
+#include "analysis/energy.h"
 #include "analysis/filip2024.h"
 #include "analysis/verdict.h"
 #include "sim/scene.h"
@@ -63,6 +64,9 @@ struct SpeciesOutcome {
     // The simulated BRDF against the fitted model and against Table 1's, from the simulation's
     // Monte Carlo noise alone over its signal cells (analysis/verdict.h; the report's opening).
     analysis::AgreementVerdict fit_verdict, table1_verdict;
+    // Each model's directional albedo at 21 directions θ_i ≤ 75° (analysis/energy.h): Filip's
+    // published parameters need not conserve energy (the flamingo's and stork's do not).
+    analysis::EnergyCheck fit_energy, table1_energy;
     std::array<bool, analysis::kFilip2024ParameterCount>
         at_bound{};  // fitted value on its range's edge
     bool fit_converged = false;
