@@ -145,33 +145,25 @@ TEST(RglBsdfWarp, SampleIsTheInverseOfInvertAndItsPdfIsTheDensity) {
     }
 }
 
-TEST(RglBsdfRoundTrip, LambertianReadsBackAsAlbedoOverPi) {
-    const double albedo = 0.8;
-    const analysis::LambertianScatterer lambert(albedo);
-    RglBsdfSettings settings;
-    settings.wavelengths_nm = {450.0, 550.0, 650.0};
-    settings.theta_i_count = 8;
-    settings.sample_resolution = 24;
-    settings.vndf_resolution = 32;
-    settings.ndf_resolution = 32;
-    settings.description = "Lambertian 0.8";
-    const RglBsdf bsdf =
-        written_and_read_back(tabulate_rgl_bsdf(lambert, settings), "lambert.bsdf");
-    EXPECT_TRUE(bsdf.isotropic());
-
+// A Lambertian file at its nodes: ρ/π to float32 rounding.
+void check_lambertian_nodes(const RglBsdf& bsdf, const std::vector<double>& wavelengths_nm,
+                            double expected) {
     // At the nodes: ρ/π to float32 rounding (a few ulps through spectra, ndf, σ; measured
     // 1.9e-6, bound 5e-6).
-    const double expected = albedo / kPi;
     double worst_node = 0.0;
     for (const NodePair& pair : node_pairs(bsdf)) {
         if (pair.wi.z() < 0.05) continue;  // the writer stored 0 below the horizon
-        for (double lambda : settings.wavelengths_nm) {
+        for (double lambda : wavelengths_nm) {
             worst_node = std::max(worst_node,
                                   std::abs(bsdf.eval(pair.wi, pair.wo, lambda) / expected - 1.0));
         }
     }
     EXPECT_LT(worst_node, 5e-6);
+    std::printf("Lambertian: max relative error at nodes %.3g\n", worst_node);
+}
 
+// A Lambertian file between its nodes, at random pairs and wavelengths.
+void check_lambertian_between_nodes(const RglBsdf& bsdf, double expected) {
     // Between nodes: random pairs, wavelengths between the nodes. The error is bilinear
     // interpolation of spectra = (ρ/π) cos θ_i · 4σ/D over the sample square, largest in the
     // cells at the half vector's pole: they are equal-VNDF-probability cells, so the first
@@ -198,8 +190,10 @@ TEST(RglBsdfRoundTrip, LambertianReadsBackAsAlbedoOverPi) {
         EXPECT_LT(worst, low ? 0.2 : 0.4);
         EXPECT_LT(sum / count, low ? 0.012 : 0.02);
     }
-    std::printf("Lambertian: max relative error at nodes %.3g\n", worst_node);
+}
 
+// Mitsuba's sampling density of a Lambertian file: normalised and following f cos θ.
+void check_lambertian_sampling(const RglBsdf& bsdf) {
     // Mitsuba's sampling density from the vndf and luminance tables integrates to 1 over the
     // upper hemisphere, less the share of the sample square that maps below the horizon (the
     // luminance floor there is 1e-3 of the maximum): 0.97 ≤ ∫ pdf ≤ 1 + quadrature error.
@@ -228,6 +222,26 @@ TEST(RglBsdfRoundTrip, LambertianReadsBackAsAlbedoOverPi) {
         EXPECT_LT(integral, 1.005);
         EXPECT_LT(ratio_max / ratio_min, 3.0);
     }
+}
+
+TEST(RglBsdfRoundTrip, LambertianReadsBackAsAlbedoOverPi) {
+    const double albedo = 0.8;
+    const analysis::LambertianScatterer lambert(albedo);
+    RglBsdfSettings settings;
+    settings.wavelengths_nm = {450.0, 550.0, 650.0};
+    settings.theta_i_count = 8;
+    settings.sample_resolution = 24;
+    settings.vndf_resolution = 32;
+    settings.ndf_resolution = 32;
+    settings.description = "Lambertian 0.8";
+    const RglBsdf bsdf =
+        written_and_read_back(tabulate_rgl_bsdf(lambert, settings), "lambert.bsdf");
+    EXPECT_TRUE(bsdf.isotropic());
+
+    const double expected = albedo / kPi;
+    check_lambertian_nodes(bsdf, settings.wavelengths_nm, expected);
+    check_lambertian_between_nodes(bsdf, expected);
+    check_lambertian_sampling(bsdf);
     EXPECT_EQ(bsdf.eval(Vec3d(0, 0, 1), Vec3d(0, 0.1, -1).normalized(), 550.0), 0.0);
 }
 
