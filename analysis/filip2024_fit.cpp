@@ -3,6 +3,9 @@
 #include <algorithm>
 #include <cmath>
 #include <limits>
+#include <optional>
+#include <utility>
+#include <vector>
 
 #include <fmt/format.h>
 #include <Eigen/Eigenvalues>
@@ -340,33 +343,44 @@ double filip2024_value_and_gradient(const Filip2024Parameters& p, const Filip202
     return channel_value<true>(p, t, pair, static_cast<int>(channel), gradient);
 }
 
-Filip2024FitResult fit_filip2024(std::span<const BrdfObservation> data,
-                                 const Filip2024Parameters& start,
-                                 const Filip2024FitOptions& options) {
-    validate(start);
-    const PreparedData prepared = prepare(data);
+namespace {
 
+using Values = std::array<double, kFilip2024ParameterCount>;
+using Mask = std::array<bool, kFilip2024ParameterCount>;
+
+// covariance = s² (JᵀJ)⁻¹ over the free parameters, inverted after scaling JᵀJ to a unit
+// diagonal so that the singularity test does not depend on the parameters' units.
+void set_covariance(Filip2024FitResult& result, const Eigen::MatrixXd& normal) {
+    const int n_free = static_cast<int>(result.free_parameters.size());
+    const Eigen::VectorXd diagonal = normal.diagonal();
+    result.covariance =
+        Eigen::MatrixXd::Constant(n_free, n_free, std::numeric_limits<double>::quiet_NaN());
+    if (!(diagonal.array() > 0.0).all()) return;
+    const Eigen::VectorXd scale = diagonal.array().rsqrt();
+    const Eigen::MatrixXd scaled = scale.asDiagonal() * normal * scale.asDiagonal();
+    const Eigen::SelfAdjointEigenSolver<Eigen::MatrixXd> eigen(scaled);
+    const Eigen::VectorXd lambda = eigen.eigenvalues();
+    if (eigen.info() != Eigen::Success || !(lambda.minCoeff() > kSingularRatio * lambda.maxCoeff()))
+        return;
+    const Eigen::MatrixXd inverse = eigen.eigenvectors() * lambda.cwiseInverse().asDiagonal() *
+                                    eigen.eigenvectors().transpose();
+    result.covariance =
+        result.reduced_chi_square * scale.asDiagonal() * inverse * scale.asDiagonal();
+    result.covariance_available = true;
+    for (int j = 0; j < n_free; ++j)
+        result.standard_errors[result.free_parameters[j]] = std::sqrt(result.covariance(j, j));
+}
+
+// One Levenberg–Marquardt run from `start`, the parameters of `fixed` held at their start.
+Filip2024FitResult local_fit(const PreparedData& prepared, const Values& start, const Mask& fixed,
+                             const Filip2024FitOptions& options) {
     ParameterMap map;
-    map.base = to_vector(start);
+    map.base = start;
     for (int i = 0; i < kFilip2024ParameterCount; ++i) {
-        if (!options.fixed[i]) map.free.push_back(i);
+        if (!fixed[i]) map.free.push_back(i);
     }
     const int n_free = static_cast<int>(map.free.size());
     const int n_obs = static_cast<int>(prepared.observations.size());
-    if (n_free == 0) throw InputError("Filip 2024 fit: every parameter is fixed: nothing to fit");
-    if (n_obs <= n_free) {
-        throw InputError(fmt::format(
-            "Filip 2024 fit: {} observations for {} free parameters: expected more observations "
-            "than free parameters",
-            n_obs, n_free));
-    }
-    if (options.max_function_evaluations < 1 || !(options.relative_tolerance > 0.0)) {
-        throw InputError(fmt::format(
-            "Filip 2024 fit: max_function_evaluations = {}, relative_tolerance = {}: expected "
-            ">= 1 and > 0",
-            options.max_function_evaluations, options.relative_tolerance));
-    }
-
     Eigen::VectorXd u(n_free);
     for (int j = 0; j < n_free; ++j) u[j] = map.to_variable(map.free[j], map.base[map.free[j]]);
 
@@ -397,37 +411,201 @@ Filip2024FitResult fit_filip2024(std::span<const BrdfObservation> data,
         problem.chunks(), 0.0,
         [&](std::size_t c, double& slot) { slot = problem.chunk_plain_sum_of_squares(c); });
     result.residual_rms = std::sqrt(plain_sum / n_obs);
+    result.chi_square = at_optimum.sum_of_squares;
     result.reduced_chi_square = at_optimum.sum_of_squares / result.degrees_of_freedom;
+    result.standard_errors.fill(std::numeric_limits<double>::quiet_NaN());
+    set_covariance(result, at_optimum.jtj);
+    result.local_fits = 1;
+    return result;
+}
 
+// The parameters f is linear in: the four colours and α.
+bool linear(int index) {
+    return (index >= kFilipCbR && index <= kFilipCrB) || index == kFilipAlpha;
+}
+
+// The free linear parameters that minimise χ² with the others at `v`, clamped to their ranges:
+// f is linear in them, so one Gauss–Newton step from any point is their least-squares solution.
+// A column the data never see (e.g. C_a where M = 0 everywhere) keeps its value (ridge 1e-12).
+// Returns χ² at the result.
+double solve_linear_parameters(const PreparedData& prepared, Values& v, const Mask& fixed) {
+    ParameterMap map;
+    map.base = v;
     for (int i = 0; i < kFilip2024ParameterCount; ++i) {
-        result.standard_errors[i] = std::numeric_limits<double>::quiet_NaN();
-        result.at_bound[i] = !periodic(i) && !options.fixed[i] && range(i).near_bound(values[i]);
+        if (linear(i) && !fixed[i]) map.free.push_back(i);
     }
+    FilipLeastSquares problem(prepared, map);
+    problem.set_parameters(from_vector(v));
+    if (!map.free.empty()) {
+        const NormalEquations at_v = total_normal_equations(problem);
+        Eigen::MatrixXd a = at_v.jtj;
+        const double ridge = 1e-12 * std::max(a.diagonal().maxCoeff(), 1e-300);
+        a.diagonal().array() += ridge;
+        const Eigen::VectorXd step = a.ldlt().solve(-at_v.jtr);
+        for (std::size_t j = 0; j < map.free.size(); ++j) {
+            const int i = map.free[j];
+            const auto& info = kFilip2024ParameterTable[i];
+            v[i] = std::clamp(v[i] + step[static_cast<Eigen::Index>(j)], info.min, info.max);
+        }
+        problem.set_parameters(from_vector(v));
+    }
+    return total_normal_equations(problem).sum_of_squares;
+}
 
-    // covariance = s² (JᵀJ)⁻¹, inverted after scaling JᵀJ to a unit diagonal so that the
-    // singularity test does not depend on the parameters' units.
-    const Eigen::MatrixXd& normal = at_optimum.jtj;
-    const Eigen::VectorXd diagonal = normal.diagonal();
-    result.covariance =
-        Eigen::MatrixXd::Constant(n_free, n_free, std::numeric_limits<double>::quiet_NaN());
-    if ((diagonal.array() > 0.0).all()) {
-        const Eigen::VectorXd scale = diagonal.array().rsqrt();
-        const Eigen::MatrixXd scaled = scale.asDiagonal() * normal * scale.asDiagonal();
-        const Eigen::SelfAdjointEigenSolver<Eigen::MatrixXd> eigen(scaled);
-        const Eigen::VectorXd lambda = eigen.eigenvalues();
-        if (eigen.info() == Eigen::Success &&
-            lambda.minCoeff() > kSingularRatio * lambda.maxCoeff()) {
-            const Eigen::MatrixXd inverse = eigen.eigenvectors() *
-                                            lambda.cwiseInverse().asDiagonal() *
-                                            eigen.eigenvectors().transpose();
-            result.covariance =
-                result.reduced_chi_square * scale.asDiagonal() * inverse * scale.asDiagonal();
-            result.covariance_available = true;
-            for (int j = 0; j < n_free; ++j) {
-                result.standard_errors[map.free[j]] = std::sqrt(result.covariance(j, j));
+// The global stage's grid of the nonlinear shape parameters (header): each free one takes its
+// grid values, a fixed one its starting value.
+std::vector<Values> shape_grid(const Values& start, const Mask& fixed) {
+    struct Mask2 {
+        double w, d_w;
+    };
+    constexpr std::array<double, 6> kPhiDeg = {-75.0, -45.0, -15.0, 15.0, 45.0, 75.0};
+    constexpr std::array<Mask2, 4> kMasks = {
+        {{0.95, 0.40}, {0.85, 0.20}, {0.80, 0.40}, {0.80, 0.60}}};
+    constexpr std::array<double, 2> kBeta = {5.0, 12.0};
+    constexpr std::array<double, 4> kGamma = {0.25, 0.75, 1.5, 4.0};
+    std::vector<Values> grid;
+    for (double phi : kPhiDeg) {
+        for (const Mask2& m : kMasks) {
+            for (double beta : kBeta) {
+                for (double gamma : kGamma) {
+                    Values v = start;
+                    if (!fixed[kFilipPhiA]) v[kFilipPhiA] = phi * kDeg;
+                    if (!fixed[kFilipW]) v[kFilipW] = m.w;
+                    if (!fixed[kFilipDw]) v[kFilipDw] = m.d_w;
+                    if (!fixed[kFilipBeta]) v[kFilipBeta] = beta;
+                    if (!fixed[kFilipGamma]) v[kFilipGamma] = gamma;
+                    if (std::find(grid.begin(), grid.end(), v) == grid.end()) grid.push_back(v);
+                }
             }
         }
     }
+    return grid;
+}
+
+// The starts of the local stage: the user's start, then the grid points with the lowest χ²
+// after their linear parameters are solved (ties: grid order).
+std::vector<Values> global_starts(const PreparedData& prepared, const Values& start,
+                                  const Mask& fixed, int count) {
+    std::vector<std::pair<double, Values>> ranked;
+    for (Values v : shape_grid(start, fixed)) {
+        throw_if_interrupted("the Filip 2024 fit's global stage");
+        const double chi_square = solve_linear_parameters(prepared, v, fixed);
+        ranked.emplace_back(chi_square, v);
+    }
+    std::stable_sort(ranked.begin(), ranked.end(),
+                     [](const auto& a, const auto& b) { return a.first < b.first; });
+    std::vector<Values> starts = {start};
+    for (std::size_t k = 0; k < ranked.size() && static_cast<int>(starts.size()) <= count; ++k)
+        starts.push_back(ranked[k].second);
+    return starts;
+}
+
+// Active set: a parameter the logistic map has driven close to a bound (it reaches the bound
+// only at infinity) is held exactly on it and the rest refitted; kept when χ² does not rise,
+// i.e. when the optimum lies on the bound. Repeated while it helps.
+Filip2024FitResult pin_to_bounds(const PreparedData& prepared, Filip2024FitResult best, Mask& fixed,
+                                 const Filip2024FitOptions& options) {
+    constexpr double kNearBound = 1e-2;  // fraction of the range
+    for (int i = 0; i < kFilip2024ParameterCount; ++i) {
+        if (fixed[i] || periodic(i)) continue;
+        const auto& info = kFilip2024ParameterTable[i];
+        const double margin = kNearBound * (info.max - info.min);
+        const double value = best.values[i];
+        if (value - info.min >= margin && info.max - value >= margin) continue;
+        Values start = best.values;
+        start[i] = value - info.min < margin ? info.min : info.max;
+        Mask pinned = fixed;
+        pinned[i] = true;
+        Filip2024FitResult trial = local_fit(prepared, start, pinned, options);
+        const int runs = best.local_fits + 1;
+        if (trial.chi_square <= best.chi_square * (1.0 + 1e-12)) {
+            best = std::move(trial);
+            fixed = pinned;
+        }
+        best.local_fits = runs;
+    }
+    return best;
+}
+
+// The parameters that another run's optimum, as good within Δχ² ≤ 1 (statistically the same
+// fit), puts more than 3σ (the best run's σ) from the best: the data do not decide them.
+std::vector<int> undetermined_parameters(const std::vector<Filip2024FitResult>& runs,
+                                         std::size_t best) {
+    const Filip2024FitResult& b = runs[best];
+    std::vector<int> undetermined;
+    for (const Filip2024FitResult& other : runs) {
+        if (!(other.chi_square <= b.chi_square + 1.0)) continue;
+        for (int i = 0; i < kFilip2024ParameterCount; ++i) {
+            double difference = other.values[i] - b.values[i];
+            if (periodic(i)) difference = std::remainder(difference, kPi);
+            const double sigma = b.standard_errors[i];
+            const bool apart = std::isnan(sigma)
+                                   ? std::abs(difference) > 1e-6 * (1.0 + std::abs(b.values[i]))
+                                   : std::abs(difference) > 3.0 * sigma;
+            if (apart &&
+                std::find(undetermined.begin(), undetermined.end(), i) == undetermined.end())
+                undetermined.push_back(i);
+        }
+    }
+    std::sort(undetermined.begin(), undetermined.end());
+    return undetermined;
+}
+
+}  // namespace
+
+Filip2024FitResult fit_filip2024(std::span<const BrdfObservation> data,
+                                 const Filip2024Parameters& start,
+                                 const Filip2024FitOptions& options) {
+    validate(start);
+    const PreparedData prepared = prepare(data);
+    const int n_free =
+        static_cast<int>(std::count(options.fixed.begin(), options.fixed.end(), false));
+    const int n_obs = static_cast<int>(prepared.observations.size());
+    if (n_free == 0) throw InputError("Filip 2024 fit: every parameter is fixed: nothing to fit");
+    if (n_obs <= n_free) {
+        throw InputError(fmt::format(
+            "Filip 2024 fit: {} observations for {} free parameters: expected more observations "
+            "than free parameters",
+            n_obs, n_free));
+    }
+    if (options.max_function_evaluations < 1 || !(options.relative_tolerance > 0.0) ||
+        options.global_starts < 0 || options.global_starts > 192) {
+        throw InputError(fmt::format(
+            "Filip 2024 fit: max_function_evaluations = {}, relative_tolerance = {}, "
+            "global_starts = {}: expected >= 1, > 0 and 0..192",
+            options.max_function_evaluations, options.relative_tolerance, options.global_starts));
+    }
+
+    const Values start_values = to_vector(start);
+    const std::vector<Values> starts =
+        options.global_starts > 0
+            ? global_starts(prepared, start_values, options.fixed, options.global_starts)
+            : std::vector<Values>{start_values};
+    // Each run's optimum, with parameters on bounds held there (active set), then the best.
+    std::vector<Filip2024FitResult> runs;
+    std::vector<Mask> run_fixed;
+    for (const Values& s : starts) {
+        Mask fixed = options.fixed;
+        runs.push_back(
+            pin_to_bounds(prepared, local_fit(prepared, s, fixed, options), fixed, options));
+        run_fixed.push_back(fixed);
+    }
+    std::size_t best = 0;
+    for (std::size_t k = 1; k < runs.size(); ++k) {
+        if (runs[k].chi_square < runs[best].chi_square) best = k;
+    }
+    Filip2024FitResult result = runs[best];
+    result.local_fits = 0;
+    for (std::size_t k = 0; k < runs.size(); ++k) {
+        result.local_fits += runs[k].local_fits;
+        result.start_chi_squares.push_back(runs[k].chi_square);
+    }
+    for (int i = 0; i < kFilip2024ParameterCount; ++i) {
+        const bool pinned = run_fixed[best][i] && !options.fixed[i];
+        result.at_bound[i] =
+            pinned || (!periodic(i) && !options.fixed[i] && range(i).near_bound(result.values[i]));
+    }
+    result.undetermined = undetermined_parameters(runs, best);
     return result;
 }
 

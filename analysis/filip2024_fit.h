@@ -23,6 +23,33 @@
 //
 // By default θmax (a property of the data: the largest captured elevation) and brdf_scale
 // (the units) are held fixed; all 18 shape and colour parameters are fitted.
+//
+// Global stage. Least squares is local, and this model's χ² has several minima: φa picks one
+// of the patch's directions as the highlight axis, and the mask (w, d_w), β and γ trade lobes
+// against each other. f is linear in the 13 colours and α, so for any shape (φa, w, d_w, β, γ)
+// their best values are one linear solve. The fit tries a fixed grid of 192 shapes
+//     φa ∈ {−75°, −45°, −15°, 15°, 45°, 75°} (φa is periodic in π),
+//     (w, d_w) ∈ Table 1's four masks {(0.95, 0.40), (0.85, 0.20), (0.80, 0.40), (0.80, 0.60)},
+//     β ∈ {5, 12},  γ ∈ {0.25, 0.75, 1.5, 4}
+// (a fixed parameter keeps its start), solves each shape's colours and α (clamped to their
+// ranges), and runs Levenberg–Marquardt from the caller's start and from the global_starts grid
+// points of lowest χ²; the lowest χ² wins (start_chi_squares lists every run's). Deterministic:
+// the grid and its order are fixed. Tested: 20 random parameter sets over the range of Table 1's
+// four presets, blind starts, 2 % noise (tests/analysis/fit_recovery_test.cpp).
+//
+// Bounds (active set). The logistic map reaches a bound only at infinity, so a parameter whose
+// optimum is on its bound (γ = 0 in three presets) creeps towards it and stops short, and the
+// fit leaves a start at the truth. After the best run, each parameter within 1 % of its range
+// from a bound is held on the bound and the rest refitted; that is kept when χ² does not rise
+// (the optimum is on the bound), and the parameter is reported at_bound (its σ: NaN).
+//
+// Equivalent minima. D(0) + D(π) = 1/2 for every pair, so at γ = 1 the retro term
+// C_r E D(π) F = C_r E F / 2 − C_r E D(0) F is the γ = 0 retro term plus a near-specular one:
+// (γ = 0, C_r, C_s) and (γ = 1, 2 C_r, C_s + 2 C_r) are the same BRDF on any data (the rooster's
+// Table 1 values have an exact twin). Such minima are reported in `undetermined`.
+//
+// A fit's quality in words (χ²/dof far above 1, parameters on bounds, no convergence) is
+// analysis/fit_summary.h's fit_warnings.
 #pragma once
 
 #include <array>
@@ -57,8 +84,11 @@ struct Filip2024FitOptions {
         f[kFilipBrdfScale] = true;
         return f;
     }();
-    int max_function_evaluations = 4000;
-    double relative_tolerance = 1e-10;  // on the sum of squares and on the parameters
+    // Levenberg–Marquardt runs from the best grid points of the global stage (header), besides
+    // the one from the start; 0: a local fit from the start alone. 0..192.
+    int global_starts = 4;
+    int max_function_evaluations = 4000;  // per Levenberg–Marquardt run
+    double relative_tolerance = 1e-10;    // on the sum of squares and on the parameters
     // After every evaluation: the evaluations so far, χ² and the seconds since the fit started
     // (the command line prints progress from it); empty: silent.
     std::function<void(int evaluations, double chi_square, double elapsed_s)> progress;
@@ -75,9 +105,16 @@ struct Filip2024FitResult {
     Eigen::MatrixXd covariance;        // s² (JᵀJ)⁻¹ over free_parameters
     bool covariance_available = false;
     double residual_rms = 0.0;        // sqrt(mean (f − value)²), 1/sr, unweighted
+    double chi_square = 0.0;          // Σ r_k² at the optimum
     double reduced_chi_square = 0.0;  // s²
     int observations = 0;
     int degrees_of_freedom = 0;  // observations − free parameters
+    int local_fits = 0;          // Levenberg–Marquardt runs (global stage and active set)
+    std::vector<double> start_chi_squares;  // χ² at the end of each run from a start, in order
+    // Parameters that another run's optimum, within Δχ² ≤ 1 of this one, puts over 3σ away:
+    // the data do not decide them (e.g. γ = 0 against γ = 1 below). Indices, ascending.
+    std::vector<int> undetermined;
+    // Of the best run (and of its refit with parameters held on bounds, if kept).
     int function_evaluations = 0;
     int jacobian_evaluations = 0;
     bool converged = false;

@@ -7,6 +7,7 @@
 
 #include <fmt/format.h>
 
+#include "analysis/statistics.h"
 #include "common/version.h"
 
 namespace plumage::analysis {
@@ -67,6 +68,44 @@ void fill_quality(const Fit& fit, Name name, FitSummary& s) {
 
 }  // namespace
 
+std::vector<std::string> fit_warnings(const FitSummary& s) {
+    std::vector<std::string> warnings;
+    if (!s.converged)
+        warnings.push_back(fmt::format("the fit did not converge ({})", s.termination));
+    if (!s.provenance.standard_errors) {
+        warnings.push_back(
+            "the data give no standard errors: χ²/dof cannot say whether the model describes "
+            "them, and σ comes from the scatter of the residuals");
+    } else if (const double p = chi_square_p_value(s.chi_square, s.degrees_of_freedom);
+               !(s.reduced_chi_square <= kFitWarningReducedChiSquare) ||
+               !(p >= kFitWarningPValue)) {
+        warnings.push_back(fmt::format(
+            "χ²/dof = {:.3g} over {} degrees of freedom (p = {:.2g}): more than the data's σ "
+            "allow; the model does not describe the data within their σ, or the fit stopped in "
+            "a local minimum (the σ of the parameters are scaled by χ²/dof)",
+            s.reduced_chi_square, s.degrees_of_freedom, p));
+    }
+    if (!s.undetermined.empty()) {
+        warnings.push_back(fmt::format(
+            "another minimum as good as this one (Δχ² ≤ 1) puts {} over 3σ away: the data do not "
+            "decide between them",
+            fmt::join(s.undetermined, ", ")));
+    }
+    if (s.covariance.size() == 0) {
+        warnings.push_back(
+            "no covariance: JᵀJ is singular at the optimum, so some combination of the free "
+            "parameters is not determined by the data; fix one of them");
+    }
+    for (const FittedParameter& p : s.parameters) {
+        if (p.fixed || !p.at_bound) continue;
+        warnings.push_back(fmt::format(
+            "{} = {:.6g} {} is on a bound of its valid range [{:g}, {:g}]: its σ is undefined, "
+            "and the data may want a value the model does not allow",
+            p.name, p.value, p.unit, p.min, p.max));
+    }
+    return warnings;
+}
+
 FitSummary summarise_fit(const HuangFitResult& fit, const HuangFitOptions& options,
                          FitProvenance provenance) {
     FitSummary s;
@@ -85,6 +124,8 @@ FitSummary summarise_fit(const HuangFitResult& fit, const HuangFitOptions& optio
         fit, [](int i) { return kHuang2022ParameterNames[i]; }, s);
     provenance.wavelengths_nm = fit.wavelengths_nm;
     s.provenance = std::move(provenance);
+    s.local_fits = fit.local_fits;
+    s.warnings = fit_warnings(s);
     return s;
 }
 
@@ -104,6 +145,9 @@ FitSummary summarise_fit(const Filip2024FitResult& fit, const Filip2024FitOption
     fill_quality(
         fit, [](int i) { return kFilip2024ParameterTable[i].name; }, s);
     s.provenance = std::move(provenance);
+    s.local_fits = fit.local_fits;
+    for (int i : fit.undetermined) s.undetermined.emplace_back(kFilip2024ParameterTable[i].name);
+    s.warnings = fit_warnings(s);
     return s;
 }
 
@@ -129,9 +173,14 @@ std::string FitSummary::to_json() const {
         "  \"fit\": {{\"chi_square\": {}, \"degrees_of_freedom\": {}, \"reduced_chi_square\": {}, "
         "\"observations\": {}, \"residual_rms_per_sr\": {}, \"converged\": {}, \"termination\": "
         "{}, "
-        "\"sigma_scaled_by_reduced_chi_square\": true}},\n",
+        "\"local_fits\": {}, \"sigma_scaled_by_reduced_chi_square\": true}},\n",
         json_number(chi_square), degrees_of_freedom, json_number(reduced_chi_square), observations,
-        json_number(residual_rms_per_sr), json_bool(converged), json_string(termination));
+        json_number(residual_rms_per_sr), json_bool(converged), json_string(termination),
+        local_fits);
+    j += "  \"warnings\": [";
+    for (std::size_t i = 0; i < warnings.size(); ++i)
+        j += (i ? ", " : "") + json_string(warnings[i]);
+    j += "],\n";
     j += "  \"covariance\": ";
     if (covariance.size() == 0) {
         j += "null,\n";

@@ -52,11 +52,32 @@ struct FitSummary {
     double residual_rms_per_sr = 0.0;
     bool converged = false;
     std::string termination;
+    int local_fits = 0;  // Levenberg–Marquardt runs from different starts (global stage)
+    // Parameters another run's optimum, as good (Δχ² ≤ 1), puts over 3σ away.
+    std::vector<std::string> undetermined;
     FitProvenance provenance;
+    // What a reader must know before trusting the fit (fit_warnings); empty: none.
+    std::vector<std::string> warnings;
 
     // The documented JSON (format "plumage fit", format_version 1), UTF-8, 2-space indented.
     std::string to_json() const;
 };
+
+// χ²/dof above this, with σ given by the data, is "far above 1": at 100 degrees of freedom its
+// p-value is below 1e-20, so the model does not describe the data within their σ, or the fit
+// stopped in a local minimum (analysis/huang2022_fit.h, filip2024_fit.h: their global stages).
+inline constexpr double kFitWarningReducedChiSquare = 3.0;
+// Nearer 1, χ² is still tested: a p-value below this (a 3.7σ excess) with σ given by the data is
+// a warning too; a fit at the true parameters reaches it once in 10⁴.
+inline constexpr double kFitWarningPValue = 1e-4;
+
+// The fit's warnings, each a sentence naming what to check: not converged; χ²/dof above
+// kFitWarningReducedChiSquare or its p-value below kFitWarningPValue (data with σ), or no σ given
+// (then χ² cannot judge the fit); free parameters on a bound of their valid range (their σ is
+// undefined and the data may want a value the model does not allow); parameters that an equally
+// good minimum puts elsewhere; no covariance (JᵀJ singular: some combination of parameters is not
+// determined). summarise_fit fills FitSummary::warnings with it.
+std::vector<std::string> fit_warnings(const FitSummary& summary);
 
 // Huang's parameter table (analysis/huang2022.h): the ranges the fit's maps keep it in.
 FitSummary summarise_fit(const HuangFitResult& fit, const HuangFitOptions& options,

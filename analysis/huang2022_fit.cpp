@@ -90,7 +90,10 @@ struct ParameterMap {
             } else if (i == kHuangH) {
                 v[i] = std::exp(std::clamp(x, -700.0, 700.0));
             } else if (carries_width(i)) {
-                const double w = kRangeWidth.max * logistic(x);
+                // Below 2π by a margin that the sum φ0 + w cannot round away: the logistic
+                // reaches 1 in floating point, and an arc of exactly 2π is not a valid one.
+                const double w =
+                    std::min(kRangeWidth.max * logistic(x), kRangeWidth.max * (1.0 - 1e-12));
                 if (i == kHuangPhi1) {
                     v[i] = v[kHuangPhi0] + w;
                 } else {
@@ -501,6 +504,8 @@ void validate_options(const HuangFitOptions& o) {
     require(
         std::isfinite(o.max_relative_error) && o.max_relative_error > 0.0, kWhat,
         fmt::format("max_relative_error = {}: expected a finite value > 0", o.max_relative_error));
+    require(o.global_starts >= 0 && o.global_starts <= 75, kWhat,
+            fmt::format("global_starts = {}: expected 0 to 75", o.global_starts));
     require(std::isfinite(o.relative_error_floor) && o.relative_error_floor >= 0.0, kWhat,
             fmt::format("relative_error_floor = {}: expected a finite value >= 0",
                         o.relative_error_floor));
@@ -587,11 +592,13 @@ Problem prepare(const gonio::Scatterogram& s, const HuangFitOptions& options) {
                         np * nl, n, n, nl, np));
     }
     for (std::size_t i = 0; i < np * nl; ++i) {
-        if (!(std::isfinite(s.intensity[i]) && s.intensity[i] >= 0.0 &&
-              std::isfinite(s.standard_error[i]) && s.standard_error[i] >= 0.0)) {
+        if (!(std::isfinite(s.intensity[i]) && std::isfinite(s.standard_error[i]) &&
+              s.standard_error[i] >= 0.0)) {
             fail(
                 fmt::format("pixel {} (row {}, column {}), wavelength {} nm: intensity = {}, "
-                            "standard_error = {}: expected finite values >= 0",
+                            "standard_error = {}: expected a finite intensity (negative ones "
+                            "are allowed: background-subtracted data) and a finite standard "
+                            "error >= 0",
                             i / nl, i / nl / n, i / nl % n, s.config.wavelengths_nm[i % nl],
                             s.intensity[i], s.standard_error[i]));
         }
@@ -638,8 +645,10 @@ Problem prepare(const gonio::Scatterogram& s, const HuangFitOptions& options) {
         for (std::size_t w = 0; w < nw; ++w) {
             const std::size_t cell = p * nl + chosen[w];
             const double value = s.intensity[cell], se = s.standard_error[cell];
-            if (!(value > 0.0) || se > options.max_relative_error * value) continue;
-            const double sigma = std::hypot(se, options.relative_error_floor * value);
+            const bool signal = value > 0.0 && se <= options.max_relative_error * value;
+            if (!signal && !(options.every_pixel_with_sigma && se > 0.0)) continue;
+            const double sigma =
+                std::hypot(se, options.relative_error_floor * std::max(value, 0.0));
             if (!(sigma > 0.0)) continue;
             observations[w] = static_cast<std::ptrdiff_t>(layout.observations++);
             problem.data.push_back(value);
@@ -819,39 +828,16 @@ double huang2022_fit_chi_square(const gonio::Scatterogram& data, const Huang2022
     return sum;
 }
 
-HuangFitResult fit_huang2022(const gonio::Scatterogram& data, const Huang2022Params& start,
-                             const HuangFitOptions& options) {
-    const auto clock_start = std::chrono::steady_clock::now();
-    validate_options(options);
-    ParameterMap map;
-    map.is_free.fill(true);
-    for (const std::string& name : options.fixed) {
-        const auto it =
-            std::find(kHuang2022ParameterNames.begin(), kHuang2022ParameterNames.end(), name);
-        if (it == kHuang2022ParameterNames.end()) {
-            fail(fmt::format("fixed parameter '{}': expected one of {}", name,
-                             fmt::join(kHuang2022ParameterNames, ", ")));
-        }
-        map.is_free[static_cast<std::size_t>(it - kHuang2022ParameterNames.begin())] = false;
-    }
-    const Huang2022Bsdf validated(start);  // InputError names a parameter out of range
-    map.base = huang2022_values(start);
-    for (int i = 0; i < kHuang2022ParameterCount; ++i) {
-        if (map.is_free[i]) map.free.push_back(i);
-    }
+namespace {
+
+using HuangValues = std::array<double, kHuang2022ParameterCount>;
+
+// One Levenberg–Marquardt run from `start` (the fixed parameters' values included).
+HuangFitResult local_fit(const Problem& problem, ParameterMap map, const HuangValues& start,
+                         const HuangFitOptions& options) {
+    map.base = start;
     const int n_free = static_cast<int>(map.free.size());
-    if (n_free == 0) fail("every parameter is fixed: nothing to fit");
-
-    const Problem problem = prepare(data, options);
     const int n_obs = static_cast<int>(problem.data.size());
-    if (n_obs <= n_free) {
-        fail(
-            fmt::format("{} observations with signal for {} free parameters: expected more "
-                        "observations than free parameters (max_relative_error = {}, "
-                        "pixel_stride = {})",
-                        n_obs, n_free, options.max_relative_error, options.pixel_stride));
-    }
-
     const int threads = thread_count(options);
     Eigen::VectorXd u = map.variables(map.base);
     Residuals residuals{problem, map,     options.finite_difference_step,
@@ -884,17 +870,121 @@ HuangFitResult fit_huang2022(const gonio::Scatterogram& data, const Huang2022Par
         plain_sum += d * d;
     }
     result.residual_rms = std::sqrt(plain_sum / n_obs);
-    result.reduced_chi_square = r.squaredNorm() / result.degrees_of_freedom;
+    result.chi_square = r.squaredNorm();
+    result.reduced_chi_square = result.chi_square / result.degrees_of_freedom;
     Eigen::MatrixXd jacobian(n_obs, n_free);
     residuals.df(u, jacobian);
     result.function_evaluations = residuals.evaluations;
-
     for (int i = 0; i < kHuang2022ParameterCount; ++i) {
         result.standard_errors[i] = std::numeric_limits<double>::quiet_NaN();
         result.at_bound[i] = map.at_bound(i, result.values);
     }
-
     set_covariance(result, jacobian, map, u);
+    return result;
+}
+
+// Σ r² of the problem at `values` (one residual evaluation).
+double chi_square_at(const Problem& problem, const HuangValues& values, int threads) {
+    std::vector<double> prediction;
+    predict(huang2022_params(values), problem.layout, threads, prediction, {});
+    double sum = 0.0;
+    for (std::size_t k = 0; k < problem.data.size(); ++k) {
+        const double r = (prediction[k] - problem.data[k]) * problem.inverse_sigma[k];
+        sum += r * r;
+    }
+    return sum;
+}
+
+// The global stage's grid (header): film thickness × tilt × spacing, each free one over its
+// grid, a fixed one at its start.
+std::vector<HuangValues> huang_grid(const HuangValues& start, const ParameterMap& map) {
+    constexpr std::array<double, 5> kD = {0.3, 0.45, 0.6, 0.75, 0.9};
+    constexpr std::array<double, 5> kMu = {-0.6, -0.3, 0.0, 0.3, 0.6};
+    constexpr std::array<double, 3> kH = {1.0, 1.25, 1.5};
+    std::vector<HuangValues> grid;
+    for (double d : kD) {
+        for (double mu : kMu) {
+            for (double h : kH) {
+                HuangValues v = start;
+                if (map.is_free[kHuangD]) v[kHuangD] = d;
+                if (map.is_free[kHuangMu]) v[kHuangMu] = mu;
+                if (map.is_free[kHuangH]) v[kHuangH] = h;
+                if (std::find(grid.begin(), grid.end(), v) == grid.end()) grid.push_back(v);
+            }
+        }
+    }
+    return grid;
+}
+
+// The starts of the local stage: the caller's start, then the global_starts grid points of
+// lowest χ² (ties: grid order). Ctrl-C is polled between grid points.
+std::vector<HuangValues> huang_starts(const Problem& problem, const ParameterMap& map,
+                                      const HuangValues& start, const HuangFitOptions& options) {
+    std::vector<HuangValues> starts = {start};
+    if (options.global_starts == 0) return starts;
+    std::vector<std::pair<double, HuangValues>> ranked;
+    for (const HuangValues& v : huang_grid(start, map)) {
+        throw_if_interrupted("the Huang 2022 fit's global stage");
+        ranked.emplace_back(chi_square_at(problem, v, thread_count(options)), v);
+    }
+    std::stable_sort(ranked.begin(), ranked.end(),
+                     [](const auto& a, const auto& b) { return a.first < b.first; });
+    for (std::size_t k = 0; k < ranked.size() && static_cast<int>(k) < options.global_starts; ++k)
+        starts.push_back(ranked[k].second);
+    return starts;
+}
+
+ParameterMap free_parameters(const HuangFitOptions& options) {
+    ParameterMap map;
+    map.is_free.fill(true);
+    for (const std::string& name : options.fixed) {
+        const auto it =
+            std::find(kHuang2022ParameterNames.begin(), kHuang2022ParameterNames.end(), name);
+        if (it == kHuang2022ParameterNames.end()) {
+            fail(fmt::format("fixed parameter '{}': expected one of {}", name,
+                             fmt::join(kHuang2022ParameterNames, ", ")));
+        }
+        map.is_free[static_cast<std::size_t>(it - kHuang2022ParameterNames.begin())] = false;
+    }
+    for (int i = 0; i < kHuang2022ParameterCount; ++i) {
+        if (map.is_free[i]) map.free.push_back(i);
+    }
+    if (map.free.empty()) fail("every parameter is fixed: nothing to fit");
+    return map;
+}
+
+}  // namespace
+
+HuangFitResult fit_huang2022(const gonio::Scatterogram& data, const Huang2022Params& start,
+                             const HuangFitOptions& options) {
+    const auto clock_start = std::chrono::steady_clock::now();
+    validate_options(options);
+    const ParameterMap map = free_parameters(options);
+    const Huang2022Bsdf validated(start);  // InputError names a parameter out of range
+    const int n_free = static_cast<int>(map.free.size());
+    const Problem problem = prepare(data, options);
+    const int n_obs = static_cast<int>(problem.data.size());
+    if (n_obs <= n_free) {
+        fail(
+            fmt::format("{} observations with signal for {} free parameters: expected more "
+                        "observations than free parameters (max_relative_error = {}, "
+                        "pixel_stride = {})",
+                        n_obs, n_free, options.max_relative_error, options.pixel_stride));
+    }
+
+    std::optional<HuangFitResult> best;
+    std::vector<double> chi_squares;
+    int evaluations = 0;
+    for (const HuangValues& s : huang_starts(problem, map, huang2022_values(start), options)) {
+        HuangFitResult run = local_fit(problem, map, s, options);
+        chi_squares.push_back(run.chi_square);
+        evaluations += run.function_evaluations;
+        if (!best || run.chi_square < best->chi_square) best = std::move(run);
+    }
+    HuangFitResult result = std::move(*best);
+    result.local_fits = static_cast<int>(chi_squares.size());
+    result.start_chi_squares = std::move(chi_squares);
+    result.function_evaluations = evaluations;
     result.wall_time_s =
         std::chrono::duration<double>(std::chrono::steady_clock::now() - clock_start).count();
     return result;

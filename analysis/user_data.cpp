@@ -402,8 +402,8 @@ gonio::Scatterogram read_scatterogram_record(const fs::path& path) {
     require_values(file, "wavelength_nm", wavelengths, huang_wavelength,
                    "a wavelength in 300..800 nm (the model's dispersion data)");
     const record::Dataset intensity = file.dataset("image/intensity");
-    require_values(file, "image/intensity", intensity, finite_non_negative,
-                   "a finite intensity >= 0, 1/sr");
+    require_values(file, "image/intensity", intensity, finite,
+                   "a finite intensity, 1/sr (negative ones: background-subtracted data)");
     const record::Dataset error = file.dataset("image/standard_error");
     require_values(file, "image/standard_error", error, finite_non_negative,
                    "a finite standard error >= 0, 1/sr");

@@ -303,6 +303,10 @@ Fitted fit_huang(const FitCommand& c) {
     for (const auto& name : c.free) std::erase(options.fixed, name);
     options.pixel_stride = c.pixel_stride;
     options.progress = huang_progress_printer();
+    // Negative pixels: background-subtracted data, whose σ are the user's own, not photon
+    // counts; every pixel with a σ is then fitted, the dark and negative ones included.
+    options.every_pixel_with_sigma =
+        std::any_of(data.intensity.begin(), data.intensity.end(), [](double v) { return v < 0.0; });
     auto values = analysis::huang2022_values({});
     for (const auto& [name, value] : c.start) {
         const auto& names = analysis::kHuang2022ParameterNames;
@@ -334,9 +338,10 @@ Fitted fit_huang(const FitCommand& c) {
         for (std::size_t p = 0; p < data.pixels(); ++p) {
             const double d = data.intensity[p * nl + l], se = data.standard_error[p * nl + l];
             // The fit's observations (analysis/huang2022_fit.h): signal, and σ with the floor.
-            const bool used =
-                data.solid_angle_sr[p] > 0.0 && d > 0.0 && se <= options.max_relative_error * d;
-            const double sigma = std::hypot(se, options.relative_error_floor * d);
+            const bool signal = d > 0.0 && se <= options.max_relative_error * d;
+            const bool used = data.solid_angle_sr[p] > 0.0 &&
+                              (signal || (options.every_pixel_with_sigma && se > 0.0));
+            const double sigma = std::hypot(se, options.relative_error_floor * std::max(d, 0.0));
             m.values.push_back(used ? (model.intensity[p * nl + l] - d) / sigma : kNaN);
         }
     }
@@ -373,6 +378,14 @@ void write_report(const fs::path& path, const FitCommand& c, const Fitted& f) {
         "{:.4g} 1/sr; {} ({}).\n\n",
         s.chi_square, s.observations, s.degrees_of_freedom, s.reduced_chi_square,
         s.residual_rms_per_sr, s.converged ? "converged" : "NOT converged", s.termination);
+    if (s.warnings.empty()) {
+        md << fmt::format("No warnings ({} Levenberg–Marquardt runs from different starts).\n\n",
+                          s.local_fits);
+    } else {
+        md << "**Warnings** (analysis/fit_summary.h):\n\n";
+        for (const std::string& w : s.warnings) md << "- **" << w << "**\n";
+        md << "\n";
+    }
     md << "| parameter | value | σ | unit | valid range | |\n|---|---|---|---|---|---|\n";
     for (const auto& p : s.parameters) {
         md << fmt::format("| {} | {:.6g} | {} | {} | [{:g}, {:g}] | {} |\n", p.name, p.value,

@@ -165,8 +165,12 @@ std::string run_geometry(const std::string& file, const CommonOptions& o) {
 }
 
 // `plumage fit`: --start NAME=VALUE pairs into the command.
+// `plumage fit --strict`: the exit code when the fit warns (its results are written all the
+// same); 1 and 2 are failures and bad input, 128 + n a signal.
+constexpr int kFitWarnedExitCode = 3;
+
 std::string run_fit(st::FitCommand command, const std::vector<std::string>& starts,
-                    const CommonOptions& o) {
+                    const CommonOptions& o, bool strict, int& exit_code) {
     st::refuse_limits("fit", o.limits, "a fit is not a progressive measurement");
     for (const std::string& s : starts) {
         const auto eq = s.find('=');
@@ -181,6 +185,10 @@ std::string run_fit(st::FitCommand command, const std::vector<std::string>& star
     std::string summary =
         fmt::format("plumage: wrote {}: chi2/dof {:.4g} over {} observations\n",
                     r.output_dir.string(), r.summary.reduced_chi_square, r.summary.observations);
+    for (const std::string& w : r.summary.warnings) {
+        std::cerr << "plumage fit: WARNING: " << w << "\n";
+        if (strict) exit_code = kFitWarnedExitCode;
+    }
     for (const auto& p : r.summary.parameters) {
         if (!p.fixed)
             summary += fmt::format("  {} = {:.6g} ± {:.3g} {}\n", p.name, p.value, p.sigma, p.unit);
@@ -233,6 +241,8 @@ struct CommandLine {
     std::string run_file, geometry_file;
     st::FitCommand fit;
     std::vector<std::string> fit_starts;
+    bool fit_strict = false;
+    int exit_code = 0;  // of a command that succeeded but asks for attention (fit --strict)
     std::string fit_data;
     CLI::App *thin_film_cmd = nullptr, *run_cmd = nullptr, *geometry_cmd = nullptr,
              *fit_cmd = nullptr;
@@ -329,6 +339,9 @@ struct CommandLine {
         fit_cmd->add_option("--preset", fit.preset, "filip2024: start from this preset (parrot)");
         fit_cmd->add_option("--start", fit_starts, "a starting value, NAME=VALUE (repeatable)");
         fit_cmd->add_option("--fix", fit.fixed, "hold a parameter at its start (repeatable)");
+        fit_cmd->add_flag("--strict", fit_strict,
+                          "exit with status 3 when the fit warns (chi2/dof far above 1, a "
+                          "parameter on a bound, not converged, ...); the results are written");
         fit_cmd->add_option("--free", fit.free,
                             "fit a parameter held by default (huang2022: phi0, phi1; filip2024: "
                             "theta_max, brdf_scale)");
@@ -359,7 +372,7 @@ std::string run_command(CommandLine& cli) {
     if (cli.geometry_cmd->parsed()) return run_geometry(cli.geometry_file, common);
     if (cli.fit_cmd->parsed()) {
         cli.fit.data = cli.fit_data;
-        return run_fit(cli.fit, cli.fit_starts, common);
+        return run_fit(cli.fit, cli.fit_starts, common, cli.fit_strict, cli.exit_code);
     }
     if (cli.bsdf_cmd->parsed()) return run_bsdf_export(cli.bsdf, common, cli.out_given());
     if (cli.thin_film_cmd->parsed()) {
@@ -505,6 +518,7 @@ int main(int argc, char** argv) {
     try {
         const std::string summary = run_command(cli);
         if (rank0) std::cout << summary;
+        code = cli.exit_code;
     } catch (const std::exception& e) {
         code = report_failure(e, cli.common.output);
         failure = e.what();

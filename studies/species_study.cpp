@@ -1154,6 +1154,9 @@ void fit_filip(const Run& run, const SpeciesSpec& sp, Measured& m, SpeciesOutcom
         fmt::format("{}: fitting Filip 2024 to {} observations", sp.name, m.observations.size()));
     analysis::Filip2024FitOptions options;
     options.max_function_evaluations = run.s.fit_evaluations;
+    // The four φa starts below are this study's global stage, the one its records were made
+    // with; the fit's own grid (analysis/filip2024_fit.h) is not run on top of them.
+    options.global_starts = 0;
     const analysis::Filip2024FitResult first =
         best_of_four_starts(m.observations, m.table1, options, o);
     photon_variance_weights(m.brdf, first.parameters, run, m.observations);

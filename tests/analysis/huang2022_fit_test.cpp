@@ -6,6 +6,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <limits>
 #include <string>
 #include <vector>
 
@@ -251,6 +252,7 @@ TEST(HuangFit, RecoversAllSevenParametersFromNoiselessPrediction) {
     options.edge_bisections = 20;
     options.pixel_stride = 2;
     options.relative_tolerance = 1e-8;
+    options.global_starts = 0;  // the local stage's precision (the global stage: fit_recovery)
     const gonio::Scatterogram data = huang2022_scatterogram(truth, c, options);
     EXPECT_EQ(huang2022_fit_chi_square(data, truth, options), 0.0);
 
@@ -342,10 +344,21 @@ TEST(HuangFit, RejectsBadInput) {
     EXPECT_PRED2(contains, input_error_message([&] { fit_huang2022(more_wavelengths, start); }),
                  "2 wavelengths");
 
-    gonio::Scatterogram negative = good;
-    negative.intensity[7 * 15 + 7] = -1.0;
-    EXPECT_PRED2(contains, input_error_message([&] { fit_huang2022(negative, start); }),
+    gonio::Scatterogram not_finite = good;
+    not_finite.intensity[7 * 15 + 7] = std::numeric_limits<double>::quiet_NaN();
+    EXPECT_PRED2(contains, input_error_message([&] { fit_huang2022(not_finite, start); }),
                  "row 7, column 7");
+    // A negative intensity is a background-subtracted measurement: fitted with its σ when asked
+    // (every_pixel_with_sigma), otherwise not signal.
+    gonio::Scatterogram negative = good;
+    negative.intensity[7 * 15 + 7] = -1e-3;
+    negative.standard_error[7 * 15 + 7] = 1e-3;
+    HuangFitOptions every_pixel;
+    every_pixel.every_pixel_with_sigma = true;
+    every_pixel.global_starts = 0;
+    every_pixel.max_function_evaluations = 1;
+    EXPECT_EQ(input_error_message([&] { fit_huang2022(negative, start, every_pixel); }),
+              "no InputError");
 
     HuangFitOptions unknown;
     unknown.fixed = {"b", "gamma"};
