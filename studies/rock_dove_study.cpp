@@ -15,6 +15,7 @@
 #include "analysis/colour_quadrature.h"
 #include "analysis/compare.h"
 #include "analysis/convergence.h"
+#include "analysis/fit_summary.h"
 #include "analysis/huang2022.h"
 #include "analysis/huang2022_fit.h"
 #include "analysis/statistics.h"
@@ -868,7 +869,16 @@ std::string huang_fit(const Run& run, const Built& b, RockDoveResult& result) {
     analysis::HuangFitOptions options;
     options.fixed = {"phi0", "phi1"};  // the arc's ends are hidden at these parameters
     options.pixel_stride = s.fit_pixel_stride;
-    const analysis::HuangFitResult fit = analysis::fit_huang2022(data, truth, options);
+    // Blind: from the model's defaults and its global stage (analysis/huang2022_fit.h), not from
+    // the values the patch was built with; φ0 and φ1 are held at those (hidden, so unfitted).
+    analysis::Huang2022Params start;
+    start.phi0 = truth.phi0;
+    start.phi1 = truth.phi1;
+    const analysis::HuangFitResult fit = analysis::fit_huang2022(data, start, options);
+    analysis::FitProvenance provenance;
+    provenance.standard_errors = true;
+    const std::vector<std::string> warnings =
+        analysis::summarise_fit(fit, options, provenance).warnings;
     throw_if_interrupted("the Huang fit");
     result.fit_reduced_chi_square = fit.reduced_chi_square;
     const auto expected = analysis::huang2022_values(truth);
@@ -879,16 +889,22 @@ std::string huang_fit(const Run& run, const Built& b, RockDoveResult& result) {
     return fmt::format(
         "## Huang's parameters fitted to the simulation\n\n"
         "The explicit patch under a beam at θ = {:.0f}°, φ = {:.0f}° ({}×{} pixels, {} quanta at "
-        "{} nm), fitted by Levenberg–Marquardt (analysis/huang2022_fit.h) from the parameters the "
-        "patch was built with, φ0 and φ1 held (the arc's ends are hidden). {} observations, "
-        "reduced χ² {:.2f} ({}; σ² includes a 1 % model floor), {} iterations, {:.1f} s, "
-        "{}. A parameter many σ from the value the patch was built with is one the model, "
-        "given the simulation, reads differently: the model leaves out interreflection and the "
-        "curved film of long cells (next sections).\n\n{}\n",
+        "{} nm), fitted blind: from the model's defaults, through its global stage (a grid of "
+        "film thickness, tilt and spacing, then Levenberg–Marquardt from the best points; "
+        "analysis/huang2022_fit.h), not from the parameters the patch was built with; φ0 and φ1 "
+        "held (the arc's ends are hidden). {} observations, reduced χ² {:.2f} ({}; σ² includes "
+        "a 1 % model floor), {} runs, {} iterations in the best, {:.1f} s, {}. {}A parameter "
+        "many σ from the value the patch was built with is one the model, given the simulation, "
+        "reads differently: the model leaves out interreflection and the curved film of long "
+        "cells (next sections).\n\n{}\n",
         s.fit_incidence / kDeg, s.fit_azimuth / kDeg, c.image_size, c.image_size, c.quanta_per_pass,
         fmt::join(c.wavelengths_nm, ", "), fit.observations, fit.reduced_chi_square,
-        p_value_text(p), fit.iterations, fit.wall_time_s,
-        fit.converged ? "converged" : "not converged: " + fit.termination, table);
+        p_value_text(p), fit.local_fits, fit.iterations, fit.wall_time_s,
+        fit.converged ? "converged" : "not converged: " + fit.termination,
+        warnings.empty()
+            ? std::string()
+            : fmt::format("**Warnings** (analysis/fit_summary.h): {}. ", fmt::join(warnings, "; ")),
+        table);
 }
 
 // ---- 4. Error against run time. ----------------------------------------------------------------
