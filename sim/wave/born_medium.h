@@ -20,16 +20,30 @@
 // isotropic structure (power_spectrum.h says how to check). Validity: first Born holds
 // for k0 |Δε| ℓ / n_eff ≪ 1 over the correlation length ℓ — for keratin/air (Δε ≈ 1.4)
 // at ℓ ≈ 0.1–0.2 µm this is marginal: the route gives the spectral shape (peak position)
-// better than absolute μ_s, and the full-wave references (DESIGN.md level 4) measure how
-// much better.
+// better than absolute μ_s; full-wave references in 3D are what will tell how much better.
 //
 // Sphere route. N spheres of radius a per volume V (number density ρ = N/V), index n_s, in
 // the effective medium n_eff (lossless part): with Mie amplitudes S1, S2 at m = n_s/n_eff,
 // x = k0 n_eff a, and the structure factor S(q) of the centres,
 //     dσ/dΩ / V = ρ · (|S1|² + |S2|²) / (2 k²) · S(q),  k = k0 n_eff,
-// the same normalisation as the Born route (for a low-contrast packing of non-overlapping
-// spheres the two should agree: Mie → RGD, and the indicator spectrum is then
-// ρ V_s² F(q)² S(q); this cross-check is not yet a test).
+// the same normalisation as the Born route. This is the convention of structcol (Mie of a
+// sphere in the Bruggeman medium): the sphere's contrast is to ε_eff, not to the host.
+//
+// The two routes do NOT agree at weak contrast. For disjoint spheres (a hard-sphere
+// packing) the indicator spectrum is S̄(q) = ρ V_s² F(qa)² S(q) at q ≠ 0 (F the sphere form
+// factor), and as m → 1 Mie tends to RGD, (|S1|² + |S2|²)/(2k²) → k⁴ |m² − 1|² V_s² F² /
+// (16π²) · (1 + cos²θ)/2 with k⁴ |m² − 1|² = k0⁴ |ε_s − ε_eff|². So, angle by angle,
+//     Born / sphere route = |ε_s − ε_h|² / |ε_s − ε_eff|² · (1 + O(Δn)),
+// and Bruggeman to first order in δ = ε_s − ε_h (effective_index.h) is ε_eff = ε_h + φ δ
+// − φ(1 − φ) δ²/(3 ε_h), so ε_s − ε_eff = (1 − φ) δ (1 + φ δ/(3 ε_h) + O(δ²)) and
+//     μ_s(Born) / μ_s(sphere) → 1 / (1 − φ)²   as Δn → 0,
+// φ the sphere volume fraction: 2.04 at φ = 0.3, 4 at φ = 0.5. The O(Δn) remainder is
+// Bruggeman's second-order term and Mie's departure from RGD; the ratio → 1 only as φ → 0
+// (dilute spheres, ε_eff → ε_h). The routes differ in convention, not in accuracy: Born
+// scatters from the full two-phase contrast around the mean medium, the sphere route from
+// each sphere's contrast to a medium that already contains the spheres. Which one predicts
+// the colour of a dense packing is a question for full wave, not decided here. Test:
+// RoutesDifferByTheSquaredDepletedContrastAtWeakContrast (born_medium_test.cpp).
 //
 // Integrals and table. μ_s = 2π ∫_{−1}^{1} dσ/dΩ/V dμ, by 512-point Gauss–Legendre in μ =
 // cos θ. p(μ) = (dσ/dΩ/V) / μ_s, normalised to ∫ p dΩ = 1; g = 2π ∫ μ p dμ. The table
