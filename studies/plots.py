@@ -400,6 +400,23 @@ def _spongy_records(h5_path):
     return d, ang, thick
 
 
+def _spongy_kind(h5_path):
+    """What the record's second axis and medium are: (symbol, axis label, route's name, the other
+    route's R [f][a][wavelength] or None). Records from before the sphere route: channel, Born."""
+    import h5py
+    import numpy as np
+
+    with h5py.File(h5_path, "r") as f:
+        spheres = _text(f.attrs.get("morphology", "channel")) == "spheres"
+        sphere_route = _text(f.attrs.get("medium_route", "born")) == "sphere"
+        other = np.asarray(f["other_route/reflectance"]) if "other_route" in f else None
+    names = ("sphere-route (Mie × S(q))", "first-Born")
+    return ("a" if spheres else "Λ",
+            "air-sphere radius a (nm)" if spheres else "channel length scale Λ (nm)",
+            names[0] if sphere_route else names[1],
+            (other, names[1] if sphere_route else names[0]) if other is not None else None)
+
+
 def _spongy_baseline(h5_path):
     """The geometric-optics baseline (R, its standard error, slab thickness) or None."""
     import h5py
@@ -418,30 +435,36 @@ def build_spongy_spectra(h5_path):
     single-scattering closed form dotted, each curve's peak marked; the geometric-optics
     baseline of the base volume dashed grey."""
     d, _, thick = _spongy_records(h5_path)
+    symbol, _, route, other = _spongy_kind(h5_path)
     wl, fs, ls = d["wavelength_nm"], d["keratin_fraction"], d["length_scale_um"]
     fig, ax = plt.subplots(figsize=(8, 6.2))
     for i, fr in enumerate(fs):
         for j, lam in enumerate(ls):
             r, e, s1 = d["reflectance"][i, j], d["reflectance_standard_error"][i, j], \
                 d["single_scattering_reflectance"][i, j]
-            line = ax.plot(wl, r, "-", lw=1.6, label=f"f = {fr:.2f}, Λ = {lam * 1e3:.0f} nm")[0]
+            line = ax.plot(wl, r, "-", lw=1.6,
+                           label=f"f = {fr:.2f}, {symbol} = {lam * 1e3:.0f} nm")[0]
+            if other is not None:
+                ax.plot(wl, other[0][i, j], "-.", color=line.get_color(), lw=1.2)
             ax.fill_between(wl, r - 2 * e, r + 2 * e, color=line.get_color(), alpha=0.25, lw=0)
             ax.plot(wl, s1, ":", color=line.get_color(), lw=1.2)
             ax.plot([d["peak_wavelength_nm"][i, j]], [d["reflectance_at_peak"][i, j]], "v",
                     color=line.get_color(), ms=6)
     ax.plot([], [], "k-", label="Monte Carlo (band: ±2σ)")
     ax.plot([], [], "k:", label="single scattering (closed form)")
+    if other is not None:
+        ax.plot([], [], "k-.", label=f"Monte Carlo, {other[1]} medium (the other route)")
     base = _spongy_baseline(h5_path)
     if base is not None:
         r, e, t = base
         ax.plot(wl, r, "--", color="0.45", lw=1.6,
-                label=f"geometric optics: f = {fs[0]:.2f}, Λ = {ls[0] * 1e3:.0f} nm volume "
+                label=f"geometric optics: f = {fs[0]:.2f}, {symbol} = {ls[0] * 1e3:.0f} nm volume "
                       f"as interfaces ({t:.1f} µm)")
         ax.fill_between(wl, r - 2 * e, r + 2 * e, color="0.45", alpha=0.2, lw=0)
     ax.set_ylim(0.0, 1.0)
     ax.set_xlabel("wavelength (nm)")
     ax.set_ylabel("reflectance at normal incidence")
-    ax.set_title(f"Spongy keratin slabs ({thick:g} µm), first-Born medium from the volume")
+    ax.set_title(f"Spongy keratin slabs ({thick:g} µm), {route} medium from the volume")
     ax.grid(alpha=0.3)
     # Beneath the axes: inside, every corner holds a curve.
     ax.legend(fontsize=8, ncol=2, loc="upper center", bbox_to_anchor=(0.5, -0.13))
@@ -455,6 +478,7 @@ def build_spongy_map(h5_path):
     import numpy as np
 
     d, _, _ = _spongy_records(h5_path)
+    _, axis_label, _, _ = _spongy_kind(h5_path)
     fs, ls = d["keratin_fraction"], d["length_scale_um"]
     # The map's axes in ascending order (the lists start with the base case).
     fi, li = np.argsort(fs), np.argsort(ls)
@@ -482,7 +506,7 @@ def build_spongy_map(h5_path):
                     bbox=dict(facecolor="black", alpha=0.45, lw=0))
     ax.set_xticks(range(len(ls)), [f"{v * 1e3:.0f}" for v in ls])
     ax.set_yticks(range(len(fs)), [f"{v:.2f}" for v in fs])
-    ax.set_xlabel("channel length scale Λ (nm)")
+    ax.set_xlabel(axis_label)
     ax.set_ylabel("keratin fraction f")
     ax.set_title("peak λ of R (nm): Monte Carlo, single scattering, 2 n_eff Λ", fontsize=10)
     fig.colorbar(im, ax=ax, label="single-scattering peak wavelength (nm)")
@@ -495,7 +519,7 @@ def build_spongy_map(h5_path):
                     bbox=dict(facecolor="black", alpha=0.45, lw=0))
     ax.set_xticks(range(len(ls)), [f"{v * 1e3:.0f}" for v in ls])
     ax.set_yticks(range(len(fs)), [f"{v:.2f}" for v in fs])
-    ax.set_xlabel("channel length scale Λ (nm)")
+    ax.set_xlabel(axis_label)
     ax.set_ylabel("keratin fraction f")
     ax.set_title("colour of each slab (sRGB, D65)")
     fig.tight_layout()
@@ -507,6 +531,7 @@ def build_spongy_angles(h5_path):
     d, ang, _ = _spongy_records(h5_path)
     wl = d["wavelength_nm"]
     base_f, base_l = d["keratin_fraction"][0], d["length_scale_um"][0]
+    symbol = _spongy_kind(h5_path)[0]
     if ang is None:
         return None
     fig, ax = plt.subplots(figsize=(7, 4.5))
@@ -522,7 +547,8 @@ def build_spongy_angles(h5_path):
     ax.plot([], [], "k:", label="single scattering (closed form)")
     ax.set_xlabel("wavelength (nm)")
     ax.set_ylabel("reflectance (all upward directions)")
-    ax.set_title(f"Angle dependence, f = {base_f:.2f}, Λ = {base_l * 1e3:.0f} nm (band: ±2σ)")
+    ax.set_title(f"Angle dependence, f = {base_f:.2f}, {symbol} = {base_l * 1e3:.0f} nm "
+                 "(band: ±2σ)")
     ax.grid(alpha=0.3)
     ax.legend(title="incidence", fontsize=8)
     fig.tight_layout()

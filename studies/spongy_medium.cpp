@@ -11,6 +11,7 @@
 #include "geometry/spongy_volume.h"
 #include "sim/wave/index_field.h"
 #include "sim/wave/power_spectrum.h"
+#include "sim/wave/structure_factor.h"
 #include "studies/study_file.h"
 
 namespace plumage::studies {
@@ -36,7 +37,115 @@ std::vector<double> sorted_wavelengths(const std::vector<double>& wavelengths_nm
     return out;
 }
 
+void validate_spheres(const SpongyMediumParams& p) {
+    if (!std::isfinite(p.sphere_radius_um) || !(p.sphere_radius_um > p.voxel_um) ||
+        p.sphere_radius_um > p.box_um / 4.0) {
+        throw InputError(fmt::format(
+            "spongy medium: sphere_radius_um = {}: expected above one voxel ({} um) and at most a "
+            "quarter of the box ({} um)",
+            p.sphere_radius_um, p.voxel_um, p.box_um / 4.0));
+    }
+    if (!std::isfinite(p.min_separation_diameters) || !(p.min_separation_diameters > 0.0) ||
+        p.min_separation_diameters > 2.0) {
+        throw InputError(
+            fmt::format("spongy medium: min_separation_diameters = {}: expected a value in (0, 2]",
+                        p.min_separation_diameters));
+    }
+}
+
 }  // namespace
+
+geometry::SpongyVolume make_spongy_volume(const SpongyMediumParams& params) {
+    params.validate();
+    if (params.morphology == geometry::SpongyMorphology::sphere) {
+        geometry::SphereVolumeParams p;
+        p.sphere_radius_um = params.sphere_radius_um;
+        p.min_separation_diameters = params.min_separation_diameters;
+        p.keratin_fraction = params.keratin_fraction;
+        p.box_um = params.box_um;
+        p.voxel_um = params.voxel_um;
+        p.seed = params.seed;
+        return geometry::make_sphere_volume(p);
+    }
+    geometry::ChannelVolumeParams p;
+    p.length_scale_um = params.length_scale_um;
+    p.shell_relative_width = params.shell_relative_width;
+    p.keratin_fraction = params.keratin_fraction;
+    p.box_um = params.box_um;
+    p.voxel_um = params.voxel_um;
+    p.seed = params.seed;
+    return geometry::make_channel_volume(p);
+}
+
+namespace {
+
+// The sphere route on a packing's centres: S(q) measured in the box up to beyond the largest
+// 2 k0 n (keratin's n bounds n_eff), then Mie × S(q) at every wavelength.
+void add_sphere_route(const SpongyMediumParams& params, const geometry::SpongyVolume& volume,
+                      SpongyMedium& out) {
+    const double a = params.sphere_radius_um, box = volume.box_um;
+    const auto& centres = volume.air_sphere_centres_um;
+    out.sphere_fraction = static_cast<double>(centres.size()) * 4.0 * std::numbers::pi / 3.0 * a *
+                          a * a / (box * box * box);
+    double q_max = 0.0;
+    for (const double lambda : out.wavelengths_nm) {
+        q_max = std::max(
+            q_max, 4.0 * std::numbers::pi * params.keratin->index(lambda).real() / (lambda * 1e-3));
+    }
+    const sim::wave::MeasuredStructureFactor sq =
+        sim::wave::measure_structure_factor(centres, box, q_max + 2.0 * std::numbers::pi / box);
+    auto structure = [&sq](double q) {
+        const auto& x = sq.q_per_um;
+        if (q <= x.front()) return sq.s.front();
+        if (q >= x.back()) return sq.s.back();
+        const std::size_t i =
+            static_cast<std::size_t>(std::upper_bound(x.begin(), x.end(), q) - x.begin());
+        const double t = (q - x[i - 1]) / (x[i] - x[i - 1]);
+        return (1.0 - t) * sq.s[i - 1] + t * sq.s[i];
+    };
+    const double density = static_cast<double>(centres.size()) / (box * box * box);
+    std::vector<sim::MediumTable> tables;
+    for (const double lambda : out.wavelengths_nm) {
+        out.sphere_tables.push_back(sim::wave::sphere_medium(a, density, *optics::air(),
+                                                             *params.keratin, structure, lambda));
+        tables.push_back(sim::medium_table(out.sphere_tables.back()));
+    }
+    out.sphere_medium = std::make_shared<const sim::ScatteringMedium>(
+        std::move(tables), sim::AbsorptionSampling::weighted,
+        fmt::format("sphere route a={}um phi={:.3f}", a, out.sphere_fraction));
+}
+
+}  // namespace
+
+RouteRefusal sphere_route_refusal(const SpongyMediumParams& params, double polydispersity) {
+    if (params.morphology != geometry::SpongyMorphology::sphere) {
+        return {"morphology",
+                "\"channel\": a channel network is not a sphere packing; the sphere route "
+                "(Mie x S(q)) needs \"spheres\""};
+    }
+    if (params.min_separation_diameters < 1.0) {
+        return {"min_separation_diameters",
+                fmt::format("{}: the spheres overlap, so the volume is not a packing of separate "
+                            "spheres; the sphere route needs at least 1 (disjoint spheres)",
+                            params.min_separation_diameters)};
+    }
+    const double phi = 1.0 - params.keratin_fraction;
+    if (!(phi > 0.0 && phi <= kSphereRouteMaxFraction)) {
+        return {"keratin_fraction",
+                fmt::format("{} (air-sphere fraction phi = {:.3g}): the sphere route "
+                            "needs phi in (0, {}], keratin fractions >= {} (random sequential "
+                            "addition of disjoint spheres jams near phi = 0.38)",
+                            params.keratin_fraction, phi, kSphereRouteMaxFraction,
+                            1.0 - kSphereRouteMaxFraction)};
+    }
+    if (polydispersity != 0.0) {
+        return {"polydispersity",
+                fmt::format("{}: the sphere route accepts 0 only (the generated packings and "
+                            "the route's single Mie term are monodisperse)",
+                            polydispersity)};
+    }
+    return {};
+}
 
 void SpongyMediumParams::validate() const {
     if (!keratin) throw InputError("spongy medium: keratin material is null: expected one");
@@ -55,6 +164,10 @@ void SpongyMediumParams::validate() const {
         throw InputError(
             fmt::format("spongy medium: keratin_fraction = {}: expected a value in [0.1, 0.9]",
                         keratin_fraction));
+    }
+    if (morphology == geometry::SpongyMorphology::sphere) {
+        validate_spheres(*this);
+        return;
     }
     if (!std::isfinite(length_scale_um) || !(length_scale_um > 2.0 * voxel_um) ||
         length_scale_um > box_um / 4.0) {
@@ -101,14 +214,7 @@ SpongyMedium build_spongy_medium(const SpongyMediumParams& params,
     params.validate();
     SpongyMedium out;
     out.wavelengths_nm = sorted_wavelengths(wavelengths_nm);
-    geometry::ChannelVolumeParams p;
-    p.length_scale_um = params.length_scale_um;
-    p.shell_relative_width = params.shell_relative_width;
-    p.keratin_fraction = params.keratin_fraction;
-    p.box_um = params.box_um;
-    p.voxel_um = params.voxel_um;
-    p.seed = params.seed;
-    const geometry::SpongyVolume volume = geometry::make_channel_volume(p);
+    const geometry::SpongyVolume volume = make_spongy_volume(params);
     const sim::wave::IndicatorField field = sim::wave::sample_indicator(*volume.level_set);
     const auto spectrum = sim::wave::PowerSpectrum::measure_3d(
         field.as_doubles(), field.voxels_per_side, field.voxel_um);
@@ -123,8 +229,13 @@ SpongyMedium build_spongy_medium(const SpongyMediumParams& params,
         tables.push_back(sim::medium_table(out.tables.back()));
     }
     if (name.empty()) {
-        name = fmt::format("spongy f={} L={}um", params.keratin_fraction, params.length_scale_um);
+        name = params.morphology == geometry::SpongyMorphology::sphere
+                   ? fmt::format("spongy spheres f={} a={}um", params.keratin_fraction,
+                                 params.sphere_radius_um)
+                   : fmt::format("spongy f={} L={}um", params.keratin_fraction,
+                                 params.length_scale_um);
     }
+    if (sphere_route_refusal(params, 0.0).reason.empty()) add_sphere_route(params, volume, out);
     out.medium = std::make_shared<const sim::ScatteringMedium>(
         std::move(tables), sim::AbsorptionSampling::weighted, std::move(name));
     return out;

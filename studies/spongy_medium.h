@@ -30,6 +30,24 @@
 // Wavelengths: at least one, finite, within 300–1000 nm (keratin's dispersion range), each
 // traced wavelength of a study must be among them (the medium is exact only at its tables).
 //
+// Sphere packings and the sphere route. With morphology = spheres the volume is air spheres of
+// radius sphere_radius_um in keratin (geometry::make_sphere_volume, random sequential addition
+// with minimum centre separation s = min_separation_diameters × 2a); length_scale_um and
+// shell_relative_width are then unused. The Born route runs on it as on any volume. When the
+// spheres are disjoint (min_separation_diameters >= 1: a hard-sphere packing) the sphere route
+// runs as well: the structure factor S(q) of the centres measured in the periodic box
+// (sim/wave/structure_factor.h; linear in q between shells, held at the first shell below it,
+// as the Born route holds its spectrum), times Mie of one air sphere in the Bruggeman medium of
+// air at the spheres' volume fraction φ = N (4π/3) a³ / L³ and keratin (sim::wave::sphere_medium;
+// the effective-medium convention of structcol: each sphere's contrast is to ε_eff). The two
+// routes differ by 1/(1 − φ)² in μ_s even at weak contrast (sim/wave/born_medium.h).
+//  | sphere_radius_um         | µm | 0.1 | (voxel_um, box_um / 4]: radius a of the air spheres |
+//  | min_separation_diameters | 1  | 1.0 | (0, 2]: s / 2a; >= 1 disjoint (the sphere route)   |
+// The sphere route's validity, refused by require_sphere_route: a sphere packing (morphology
+// spheres, min_separation_diameters >= 1), φ = 1 − keratin_fraction in (0, 0.35] (random
+// sequential addition of disjoint spheres jams at φ ≈ 0.38, geometry/spongy_volume.h), and
+// polydispersity 0 (the generated packings are monodisperse; so is the route's Mie term).
+//
 // Literature values for macaw-blue (Ara ararauna) channel-type keratin: Λ ≈ 0.18–0.20 µm (the
 // SAXS ring's peak spacing), f ≈ 0.5 (Prum et al. 1998, 1999; Saranathan et al. 2012).
 #pragma once
@@ -40,6 +58,7 @@
 #include <string_view>
 #include <vector>
 
+#include "geometry/spongy_volume.h"
 #include "sim/optics/material.h"
 #include "sim/scattering_medium.h"
 #include "sim/wave/born_medium.h"
@@ -56,6 +75,9 @@ struct SpongyMediumParams {
     double voxel_um = 0.025;
     std::uint64_t seed = 1;
     std::shared_ptr<const optics::Material> keratin = optics::keratin();
+    geometry::SpongyMorphology morphology = geometry::SpongyMorphology::channel;
+    double sphere_radius_um = 0.1;
+    double min_separation_diameters = 1.0;
 
     void validate() const;  // InputError naming the parameter (not the voxel limit: below)
 };
@@ -66,9 +88,28 @@ struct SpongyMedium {
     double measured_scale_um = 0.0;      // 2π / peak wavenumber of the radial spectrum
     double isotropy = 1.0;               // eigenvalue ratio of the peak shell (power_spectrum.h)
     std::vector<double> wavelengths_nm;  // sorted, distinct
-    std::vector<sim::wave::ScatteringTable> tables;  // one per wavelength, same order
-    std::shared_ptr<const sim::ScatteringMedium> medium;
+    std::vector<sim::wave::ScatteringTable> tables;       // one per wavelength, same order
+    std::shared_ptr<const sim::ScatteringMedium> medium;  // the Born route
+    // The sphere route (sphere packings only; empty otherwise), same wavelengths and order.
+    double sphere_fraction = 0.0;  // φ = N (4π/3) a³ / L³ of the air spheres
+    std::vector<sim::wave::ScatteringTable> sphere_tables;
+    std::shared_ptr<const sim::ScatteringMedium> sphere_medium;
 };
+
+// The medium's route: first Born on the volume's power spectrum (any volume), or Mie × S(q)
+// of a sphere packing.
+enum class MediumRoute { born, sphere };
+
+// The sphere route's validity (header comment): an empty reason if `params` with this
+// polydispersity is a packing it accepts, else the parameter to blame ("morphology",
+// "min_separation_diameters", "keratin_fraction" or "polydispersity") and what is wrong,
+// with the limit.
+struct RouteRefusal {
+    std::string key, reason;
+};
+RouteRefusal sphere_route_refusal(const SpongyMediumParams& params, double polydispersity);
+// The largest air-sphere fraction the sphere route accepts (below RSA jamming).
+inline constexpr double kSphereRouteMaxFraction = 0.35;
 
 // The largest voxel side sim/wave accepts for these wavelengths: min over λ of
 // λ / (4 n_keratin(λ)) in µm (the shortest λ decides for normally dispersive keratin).
@@ -80,6 +121,10 @@ double finest_voxel_limit_um(const std::vector<double>& wavelengths_nm,
 void require_fine_voxels(ParameterTable& table, std::string_view key, double voxel_um,
                          const std::vector<double>& wavelengths_nm,
                          const optics::Material& keratin = *optics::keratin());
+
+// The volume the medium is computed from (channel or spheres, by params.morphology), after
+// params.validate(); the spongy study's geometric-optics baseline meshes the same volume.
+geometry::SpongyVolume make_spongy_volume(const SpongyMediumParams& params);
 
 // The medium at every wavelength given (duplicates merged, sorted), with weighted absorption
 // sampling (sim/scattering_medium.h). `name` names the medium in the tracer's messages.

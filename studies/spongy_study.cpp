@@ -1,9 +1,10 @@
-// The spongy-keratin study (`study = "spongy"`): the structural colour of channel-type spongy
-// keratin computed from the volume itself (DESIGN.md's level 2 of physics). For every keratin
-// fraction f and length scale Λ: a generated channel volume (geometry/spongy_volume.h), its
-// indicator power spectrum and first-Born scattering tables at every wavelength of the
-// spectrum (sim/wave/born_medium.h), a slab of that medium (sim/scattering_slab.h) traced by
-// the tracer at normal incidence; for the base (f, Λ) also at other incidence angles, and the
+// The spongy-keratin study (`study = "spongy"`): the structural colour of spongy keratin
+// (channel-type, or packings of air spheres) computed from the volume itself. For every keratin
+// fraction f and length scale (channel Λ or sphere radius a): a generated volume
+// (geometry/spongy_volume.h), its scattering tables at every wavelength of the spectrum by the
+// study's route (first Born on the indicator power spectrum, or Mie × S(q) for sphere packings;
+// sim/wave/born_medium.h), a slab of that medium (sim/scattering_slab.h) traced by the tracer
+// at normal incidence; for the base case also at other incidence angles, and the
 // geometric-optics baseline: the base volume's own keratin/air mesh, tiled into a slab of about
 // the same thickness on the same backing and traced as interfaces (sim/scattering_slab.h's
 // tiled_volume_slab_scene), which has no length scale and so no structural colour.
@@ -19,11 +20,31 @@
 //   [volume]   box_um                                periodic cube side, a whole number of
 //                                                    voxels, 4–512 per side; default 2.0
 //              voxel_um                              <= λ_min / (4 n_keratin(λ_min)); 0.025
-//              shell_relative_width                  (0, 1]; 0.15
 //              keratin_fractions                     comma-separated list in [0.1, 0.9]
+//              morphology                            "channel" (default) or "spheres"
+//              channel:
+//              shell_relative_width                  (0, 1]; 0.15
 //              length_scales_um                      comma-separated list, each in
 //                                                    (2 voxel_um, box_um / 4]
-//              The first value of each list is the base (f, Λ) of the angle dependence.
+//              spheres (air spheres in keratin, random sequential addition):
+//              sphere_radii_um                       comma-separated list, each in
+//                                                    (voxel_um, box_um / 4]; "0.1"
+//              min_separation_diameters              (0, 2]: centre separation / diameter;
+//                                                    1 (disjoint)
+//              The first value of each list is the base (f, Λ or a) of the angle dependence.
+//   [medium]   route                                 "born" (default): first Born on the
+//                                                    volume's power spectrum, any volume;
+//                                                    "sphere": Mie × S(q) of the centres, in
+//                                                    the Bruggeman medium (structcol's
+//                                                    convention), sphere packings only
+//              polydispersity                        0 (monodisperse); the sphere route is
+//                                                    refused at read time, naming the key and
+//                                                    limit, for channel volumes, overlapping
+//                                                    spheres (min_separation_diameters < 1),
+//                                                    φ = 1 − f beyond 0.35 or polydispersity
+//                                                    other than 0 (studies/spongy_medium.h).
+//              On a sphere packing both routes are computed and traced; the report sets them
+//              side by side. Born stays the default: no 3D full-wave evidence decides yet.
 //   [slab]     thickness_um                          (0, 100]; default 5; and at least one
 //                                                    transport length 1/(μ_s (1 − g) + μ_a)
 //                                                    of every case's medium at its most
@@ -39,9 +60,10 @@
 //
 // Random streams (common/seed.h): the volume of case c from derive_seed(seed, "spongy/volume",
 // c), the paths of case c from derive_seed(seed, "spongy/normal", c) (path index = wavelength
-// index × paths + i), those of angle a from derive_seed(seed, "spongy/angle", a), the bootstrap
-// of the peak from derive_seed(seed, "spongy/bootstrap", c), the baseline's paths from
-// derive_seed(seed, "spongy/baseline", 0). Results do not depend on the
+// index × paths + i), the other route's from derive_seed(seed, "spongy/other-route", c) (its
+// peak's bootstrap "spongy/other-bootstrap"), those of angle a from derive_seed(seed,
+// "spongy/angle", a), the bootstrap of the peak from derive_seed(seed, "spongy/bootstrap", c), the
+// baseline's paths from derive_seed(seed, "spongy/baseline", 0). Results do not depend on the
 // thread count.
 #include <omp.h>
 
@@ -96,7 +118,11 @@ struct Settings {
     double voxel_um = 0.025;
     double shell_relative_width = 0.15;
     std::vector<double> fractions;  // f
-    std::vector<double> scales_um;  // Λ
+    std::vector<double> scales_um;  // Λ (channel) or the air spheres' radius a (spheres)
+    geometry::SpongyMorphology morphology = geometry::SpongyMorphology::channel;
+    double min_separation_diameters = 1.0;  // spheres only: disjoint
+    MediumRoute route = MediumRoute::born;
+    double polydispersity = 0.0;
     sim::ScatteringSlabParams slab;
     std::size_t paths = 4000;
     std::vector<double> angles_deg;
@@ -110,9 +136,14 @@ struct Settings {
 struct Case {
     double fraction = 0.0, scale_um = 0.0;  // requested
     double measured_fraction = 0.0, measured_scale_um = 0.0, isotropy = 1.0;
-    std::vector<sim::wave::ScatteringTable> tables;
+    std::vector<sim::wave::ScatteringTable> tables;  // the study's route (medium.route)
     std::shared_ptr<const sim::ScatteringMedium> medium;
     std::vector<double> r, r_se, r_single;  // per wavelength
+    // The other route, side by side (sphere packings only: empty for channel volumes).
+    double sphere_fraction = 0.0;  // φ of the air spheres, N (4π/3) a³ / L³
+    std::vector<sim::wave::ScatteringTable> other_tables;
+    std::shared_ptr<const sim::ScatteringMedium> other_medium;
+    std::vector<double> other_r, other_r_se;
 };
 
 struct AngleRun {
@@ -152,6 +183,7 @@ struct CaseResult {
     double bragg_nm = 0.0;        // 2 n_eff Λ (Bruggeman n_eff at that wavelength, measured Λ)
     double multiple_share = 0.0;  // 1 − R_single / R at the peak
     Colour colour;
+    Peak other_peak;  // of the other route's slab, when there is one
 };
 
 // ---------------------------------------------------------------------------------- read
@@ -206,13 +238,71 @@ void read_volume(ParameterTable v, Settings& s) {
     require_memory(66e6 + 306.0 * voxels,
                    fmt::format("{}: volume.box_um / voxel_um = {} / {} = {:.0f} voxels per side",
                                v.location("box_um"), s.box_um, s.voxel_um, std::round(n)));
+    s.fractions = read_list(v, "keratin_fractions", "0.5", 0.1, 0.9, "keratin filling fractions");
+    const std::string morphology = v.string("morphology", "channel", {"channel", "spheres"},
+                                            "channel network or packing of air spheres");
+    if (morphology == "spheres") {
+        s.morphology = geometry::SpongyMorphology::sphere;
+        s.min_separation_diameters =
+            v.number("min_separation_diameters", s.min_separation_diameters,
+                     {0.0, 2.0, true, false}, "minimum centre separation / sphere diameter");
+        s.scales_um =
+            read_list(v, "sphere_radii_um", "0.1", s.voxel_um * (1 + 1e-9), s.box_um / 4.0,
+                      "air-sphere radii in um, above one voxel and at most a quarter "
+                      "of the box");
+        return;
+    }
     s.shell_relative_width = v.number("shell_relative_width", s.shell_relative_width,
                                       {0.0, 1.0, true, false}, "spectral shell width / k0");
-    s.fractions = read_list(v, "keratin_fractions", "0.5", 0.1, 0.9, "keratin filling fractions");
     s.scales_um =
         read_list(v, "length_scales_um", "0.19", 2.0 * s.voxel_um * (1 + 1e-9), s.box_um / 4.0,
                   "channel length scales in um, above 2 voxels and at most a quarter "
                   "of the box");
+}
+
+SpongyMediumParams medium_params(const Settings& s, double f, double scale, std::size_t index) {
+    SpongyMediumParams p;
+    p.morphology = s.morphology;
+    if (s.morphology == geometry::SpongyMorphology::sphere) {
+        p.sphere_radius_um = scale;
+        p.min_separation_diameters = s.min_separation_diameters;
+    } else {
+        p.length_scale_um = scale;
+    }
+    p.keratin_fraction = f;
+    p.shell_relative_width = s.shell_relative_width;
+    p.box_um = s.box_um;
+    p.voxel_um = s.voxel_um;
+    p.seed = derive_seed(s.seed, "spongy/volume", index);
+    return p;
+}
+
+// [medium] route and polydispersity. The sphere route is refused at read time, naming the key
+// and the limit, for a volume it cannot describe (studies/spongy_medium.h).
+void read_medium(ParameterTable m, ParameterTable& volume, Settings& s) {
+    const std::string route =
+        m.string("route", "born", {"born", "sphere"},
+                 "the medium's route: first Born on the volume's power spectrum (any volume) or "
+                 "Mie x S(q) (sphere packings)");
+    s.route = route == "sphere" ? MediumRoute::sphere : MediumRoute::born;
+    s.polydispersity = m.number("polydispersity", 0.0, {0.0, 1.0, false, true},
+                                "relative standard deviation of the sphere radius");
+    if (s.route != MediumRoute::sphere) return;
+    for (const double f : s.fractions) {
+        const SpongyMediumParams p = medium_params(s, f, s.scales_um.front(), 0);
+        const RouteRefusal refusal = sphere_route_refusal(p, s.polydispersity);
+        if (refusal.reason.empty()) continue;
+        // The key to blame, in the file's own names (keratin_fractions is a list).
+        const bool medium_key = refusal.key == "polydispersity";
+        ParameterTable& table = medium_key ? m : volume;
+        const std::string key =
+            refusal.key == "keratin_fraction" ? "keratin_fractions" : refusal.key;
+        const std::string where = table.has(key) ? table.location(key) : m.location("route");
+        throw InputError(fmt::format("{}: medium.route = \"sphere\" refused: {}.{}{}{}", where,
+                                     medium_key ? "medium" : "volume", key,
+                                     key == "keratin_fractions" ? " lists " : " = ",
+                                     refusal.reason));
+    }
 }
 
 void read_slab(ParameterTable t, Settings& s) {
@@ -252,7 +342,9 @@ Settings read(const std::string& text, const fs::path& source) {
             "wavelength; the Born tables are computed at every wavelength of the spectrum)",
             spectrum.location("step_nm"), step));
     }
-    read_volume(root.table("volume"), s);
+    ParameterTable volume = root.table("volume");
+    read_volume(volume, s);
+    read_medium(root.table("medium"), volume, s);
     read_slab(root.table("slab"), s);
     ParameterTable a = root.table("angles");
     s.angles_deg = read_list(a, "incidence_deg", "0, 30, 60", 0.0, 80.0, "incidence angles, deg");
@@ -269,37 +361,28 @@ Settings read(const std::string& text, const fs::path& source) {
 
 // --------------------------------------------------------------------------------- build
 
-geometry::ChannelVolumeParams channel_params(const Settings& s, double f, double scale,
-                                             std::size_t index) {
-    geometry::ChannelVolumeParams p;
-    p.length_scale_um = scale;
-    p.shell_relative_width = s.shell_relative_width;
-    p.keratin_fraction = f;
-    p.box_um = s.box_um;
-    p.voxel_um = s.voxel_um;
-    p.seed = derive_seed(s.seed, "spongy/volume", index);
-    return p;
-}
-
 // The case's medium through the studies' shared route (studies/spongy_medium.h): volume →
-// indicator → power spectrum → first-Born tables at every wavelength → ScatteringMedium.
+// indicator → power spectrum → first-Born tables at every wavelength, and for a sphere packing
+// the sphere route's tables as well → ScatteringMedium. The study's route (medium.route) is
+// the case's medium; the other one, where there is one, goes beside it.
 Case build_case(const Settings& s, double f, double scale, std::size_t index) {
     Case c;
     c.fraction = f;
     c.scale_um = scale;
-    SpongyMediumParams p;
-    p.length_scale_um = scale;
-    p.keratin_fraction = f;
-    p.shell_relative_width = s.shell_relative_width;
-    p.box_um = s.box_um;
-    p.voxel_um = s.voxel_um;
-    p.seed = derive_seed(s.seed, "spongy/volume", index);
-    SpongyMedium m = build_spongy_medium(p, s.wavelengths_nm);
+    SpongyMedium m = build_spongy_medium(medium_params(s, f, scale, index), s.wavelengths_nm);
     c.measured_fraction = m.measured_fraction;
     c.measured_scale_um = m.measured_scale_um;
     c.isotropy = m.isotropy;
+    c.sphere_fraction = m.sphere_fraction;
     c.tables = std::move(m.tables);
     c.medium = std::move(m.medium);
+    c.other_tables = std::move(m.sphere_tables);
+    c.other_medium = std::move(m.sphere_medium);
+    if (s.route == MediumRoute::sphere) {
+        PLUMAGE_CHECK(c.other_medium != nullptr, "the sphere route was checked at read time");
+        std::swap(c.tables, c.other_tables);
+        std::swap(c.medium, c.other_medium);
+    }
     return c;
 }
 
@@ -321,10 +404,12 @@ void require_transport_thickness(const Case& c, const Settings& s) {
     if (s.slab.thickness_um < shortest_um) {
         throw InputError(fmt::format(
             "{}: slab.thickness_um = {}: thinner than one transport length of the medium of "
-            "f = {}, Lambda = {} um: l* = 1/(mu_s (1 - g) + mu_a) = {:.3g} um at {} nm, its "
+            "f = {}, {} = {} um: l* = 1/(mu_s (1 - g) + mu_a) = {:.3g} um at {} nm, its "
             "shortest over the spectrum; expected a slab at least that thick (a thinner one "
             "shows the backing, not the medium)",
-            s.thickness_where, s.slab.thickness_um, c.fraction, c.scale_um, shortest_um, at_nm));
+            s.thickness_where, s.slab.thickness_um, c.fraction,
+            s.morphology == geometry::SpongyMorphology::sphere ? "a" : "Lambda", c.scale_um,
+            shortest_um, at_nm));
     }
 }
 
@@ -334,8 +419,7 @@ void require_transport_thickness(const Case& c, const Settings& s) {
 // Fills the baseline's geometry numbers.
 sim::TiledVolumeSlab build_baseline(const Settings& s, Baseline& b) {
     geometry::TriangleMesh mesh = geometry::level_set_to_mesh(
-        *geometry::make_channel_volume(
-             channel_params(s, s.fractions.front(), s.scales_um.front(), 0))
+        *make_spongy_volume(medium_params(s, s.fractions.front(), s.scales_um.front(), 0))
              .level_set);
     b.triangles = mesh.triangles.size();
     sim::TiledVolumeSlabParams p;
@@ -403,6 +487,12 @@ void measure_case(Case& c, const Settings& s, std::size_t index) {
     c.r = std::move(r.r);
     c.r_se = std::move(r.r_se);
     c.r_single = single_scattering(*c.medium, s, 0.0);
+    if (!c.other_medium) return;
+    const sim::ExplicitScatterer other(sim::scattering_slab_scene(c.other_medium, s.slab));
+    Reflectance o =
+        trace_reflectance(other, s, 0.0, derive_seed(s.seed, "spongy/other-route", index), s.paths);
+    c.other_r = std::move(o.r);
+    c.other_r_se = std::move(o.r_se);
 }
 
 std::vector<AngleRun> measure_angles(const Case& base, const Settings& s,
@@ -536,6 +626,10 @@ CaseResult compare_case(const Case& c, const Settings& s, std::size_t index) {
     const double r_peak = c.r[out.peak.index];
     out.multiple_share = r_peak > 0.0 ? 1.0 - c.r_single[out.peak.index] / r_peak : 0.0;
     out.colour = colour_of(c.r, s);
+    if (c.other_medium) {
+        out.other_peak = peak_with_sigma(s.wavelengths_nm, {c.other_r, c.other_r_se},
+                                         derive_seed(s.seed, "spongy/other-bootstrap", index));
+    }
     return out;
 }
 
@@ -567,7 +661,9 @@ void write_case_spectra(record::Hdf5Writer& h5, const std::vector<Case>& cases, 
     h5.write("keratin_fraction", std::span<const double>(s.fractions), {nf},
              attrs("1", "requested keratin filling fraction f (first axis of the grids)"));
     h5.write("length_scale_um", std::span<const double>(s.scales_um), {ns},
-             attrs("um", "requested channel length scale Lambda (second axis of the grids)"));
+             attrs("um",
+                   "requested channel length scale Lambda, or air-sphere radius a when the root "
+                   "attribute morphology is spheres (second axis of the grids)"));
     h5.write("reflectance", std::span<const double>(flatten(cases, &Case::r)), dims,
              attrs("1",
                    "slab reflectance at normal incidence, Monte Carlo through the tracer "
@@ -588,9 +684,11 @@ void write_case_spectra(record::Hdf5Writer& h5, const std::vector<Case>& cases, 
         }
     }
     h5.write("mu_s_per_um", std::span<const double>(mu_s), dims,
-             attrs("1/um", "first-Born scattering coefficient (sim/wave/born_medium.h)"));
+             attrs("1/um",
+                   "scattering coefficient of the study's route (root attribute medium_route: "
+                   "first Born or the sphere route, sim/wave/born_medium.h)"));
     h5.write("asymmetry_g", std::span<const double>(g), dims,
-             attrs("1", "mean cosine of the Born phase function"));
+             attrs("1", "mean cosine of the phase function of the study's route"));
     h5.write("n_eff", std::span<const double>(n_eff), dims,
              attrs("1", "real part of the Bruggeman effective index"));
 }
@@ -652,6 +750,46 @@ void write_case_results(record::Hdf5Writer& h5, const std::vector<Case>& cases,
              attrs("0-255", "gamma-encoded sRGB (D65) of R, clipped to the gamut"));
 }
 
+// The other route beside the study's (sphere packings): its μ_s, R and peak per case.
+void write_other_route(record::Hdf5Writer& h5, const std::vector<Case>& cases,
+                       const std::vector<CaseResult>& res, const Settings& s) {
+    const std::uint64_t nf = s.fractions.size(), ns = s.scales_um.size(),
+                        nw = s.wavelengths_nm.size();
+    const char* other = s.route == MediumRoute::born ? "sphere route (Mie x S(q))" : "first Born";
+    // Cases the sphere route does not apply to (overlapping spheres, φ beyond its limit) are NaN.
+    const double nan = std::numeric_limits<double>::quiet_NaN();
+    std::vector<double> mu_s, g, peak, sigma, phi, r, r_se;
+    for (std::size_t i = 0; i < cases.size(); ++i) {
+        const Case& c = cases[i];
+        for (std::size_t w = 0; w < nw; ++w) {
+            const bool has = c.other_medium != nullptr;
+            mu_s.push_back(has ? c.other_tables[w].mu_s_per_um : nan);
+            g.push_back(has ? c.other_tables[w].g : nan);
+            r.push_back(has ? c.other_r[w] : nan);
+            r_se.push_back(has ? c.other_r_se[w] : nan);
+        }
+        peak.push_back(c.other_medium ? res[i].other_peak.lambda_nm : nan);
+        sigma.push_back(c.other_medium ? res[i].other_peak.sigma_nm : nan);
+        phi.push_back(cases[i].sphere_fraction);
+    }
+    const std::string route = fmt::format("the other route, {}: ", other);
+    h5.write("other_route/mu_s_per_um", std::span<const double>(mu_s), {nf, ns, nw},
+             attrs("1/um", route + "scattering coefficient [f][a][wavelength]"));
+    h5.write("other_route/asymmetry_g", std::span<const double>(g), {nf, ns, nw},
+             attrs("1", route + "mean cosine of the phase function"));
+    h5.write("other_route/reflectance", std::span<const double>(r), {nf, ns, nw},
+             attrs("1", route + "slab reflectance, defined as reflectance"));
+    h5.write("other_route/reflectance_standard_error", std::span<const double>(r_se), {nf, ns, nw},
+             attrs("1", "its standard error over paths"));
+    h5.write("other_route/peak_wavelength_nm", std::span<const double>(peak), {nf, ns},
+             attrs("nm", route + "parabolic peak of its R"));
+    h5.write("other_route/peak_wavelength_sigma_nm", std::span<const double>(sigma), {nf, ns},
+             attrs("nm", "bootstrap standard deviation of that peak"));
+    h5.write("sphere_fraction", std::span<const double>(phi), {nf, ns},
+             attrs("1", "air-sphere volume fraction phi = N (4 pi / 3) a^3 / L^3 [f][a]"));
+    h5.set_attribute("/other_route", "route", s.route == MediumRoute::born ? "sphere" : "born");
+}
+
 void write_angles(record::Hdf5Writer& h5, const std::vector<AngleRun>& runs,
                   const std::vector<Peak>& peaks, const Settings& s) {
     const std::uint64_t na = runs.size(), nw = s.wavelengths_nm.size();
@@ -710,9 +848,13 @@ std::string hue_name(double hue_deg) {
     return "violet/purple";
 }
 
-std::string results_table(const std::vector<Case>& cases, const std::vector<CaseResult>& res) {
+std::string results_table(const std::vector<Case>& cases, const std::vector<CaseResult>& res,
+                          const Settings& s) {
     std::string t =
-        "| f (measured) | Λ µm (measured) | peak λ nm | single-scattering peak λ nm | "
+        std::string(s.morphology == geometry::SpongyMorphology::sphere
+                        ? "| f (measured) | a µm (measured Λ) | peak λ nm |"
+                        : "| f (measured) | Λ µm (measured) | peak λ nm |") +
+        " single-scattering peak λ nm | "
         "2 n_eff Λ nm | R at peak | single-scattering R at peak | multiple-scattering share | "
         "hue h_ab | sRGB |\n"
         "|---|---|---|---|---|---|---|---|---|---|\n";
@@ -749,7 +891,8 @@ std::string angles_table(const std::vector<AngleRun>& runs, const std::vector<Pe
 // far multiple scattering moves R's maximum from the single-scattering one.
 std::string medium_text(const Settings& s, const Case& base) {
     std::string t =
-        fmt::format("The base medium (f = {}, Λ = {} µm):", base.fraction, base.scale_um);
+        fmt::format("The base medium (f = {}, {} = {} µm):", base.fraction,
+                    s.morphology == geometry::SpongyMorphology::sphere ? "a" : "Λ", base.scale_um);
     const std::size_t last = base.tables.size() - 1;
     for (const std::size_t i : {std::size_t{0}, last / 2, last}) {
         const auto& m = base.tables[i];
@@ -764,10 +907,22 @@ std::string medium_text(const Settings& s, const Case& base) {
 
 std::string method_text(const Settings& s, const Case& base) {
     const std::size_t n = static_cast<std::size_t>(std::lround(s.box_um / s.voxel_um));
+    const bool spheres = s.morphology == geometry::SpongyMorphology::sphere;
+    const std::string volumes =
+        spheres ? fmt::format(
+                      "Packings of air spheres in keratin (random sequential addition, "
+                      "minimum centre separation {} × the diameter)",
+                      s.min_separation_diameters)
+                : fmt::format("Channel-type volumes (shell width {})", s.shell_relative_width);
+    const std::string tables =
+        s.route == MediumRoute::sphere
+            ? "the sphere route's scattering tables (Mie of one air sphere in the Bruggeman "
+              "medium × the measured structure factor of the centres, sim/wave/born_medium.h)"
+            : "first-Born scattering tables from their indicator power spectrum "
+              "(sim/wave/born_medium.h)";
     return fmt::format(
-        "Channel-type volumes ({0}³ voxels of {1} µm, box {2} µm, shell width {3}), one per "
-        "(f, Λ); their indicator power spectrum gives first-Born scattering tables "
-        "(sim/wave/born_medium.h) at every one of the {4} wavelengths ({5:.0f}–{6:.0f} nm), "
+        "{12} ({0}³ voxels of {1} µm, box {2} µm), one per (f, {3}), give {13} "
+        "at every one of the {4} wavelengths ({5:.0f}–{6:.0f} nm), "
         "transported by the tracer in a slab {7} µm thick on {8}, {9} paths per wavelength. "
         "{10}The single-scattering column is the closed form of an "
         "index-matched slab of the same medium (sim/scattering_slab.h); the Monte Carlo slab "
@@ -777,11 +932,120 @@ std::string method_text(const Settings& s, const Case& base) {
         "2 n_eff Λ uses the Bruggeman index and the volume's measured length scale (2π / peak "
         "of its power spectrum): a comparison, not an input. Colours: CIE 1931 2° XYZ of R "
         "under D65 over the study's spectrum, sRGB, CIELAB hue.\n\n",
-        n, s.voxel_um, s.box_um, s.shell_relative_width, s.wavelengths_nm.size(),
+        n, s.voxel_um, s.box_um, spheres ? "sphere radius a" : "Λ", s.wavelengths_nm.size(),
         s.wavelengths_nm.front(), s.wavelengths_nm.back(), s.slab.thickness_um,
         s.slab.backing ? fmt::format("{} µm of melanin", s.slab.backing->thickness_um)
                        : std::string("nothing (air)"),
-        s.paths, medium_text(s, base), kBootstrapReplicates);
+        s.paths, medium_text(s, base), kBootstrapReplicates, volumes, tables);
+}
+
+const char* route_name(MediumRoute r) {
+    return r == MediumRoute::sphere ? "sphere route (Mie x S(q))" : "first Born";
+}
+
+// One row of the routes table: μ_s at the spectrum's ends and middle, the peak, R there and at
+// the three wavelengths.
+std::string route_row(const char* name, const std::vector<sim::wave::ScatteringTable>& t,
+                      const std::vector<double>& r, const std::vector<double>& se, const Peak& p) {
+    const std::size_t last = t.size() - 1;
+    return fmt::format(
+        "| {} | {:.3f} / {:.3f} / {:.4f} | {:.1f} ± {:.1f}{} | {:.4f} ± {:.4f} | {:.4f} / {:.4f} / "
+        "{:.4f} |",
+        name, t[0].mu_s_per_um, t[last / 2].mu_s_per_um, t[last].mu_s_per_um, p.lambda_nm,
+        p.sigma_nm, p.at_edge ? " (edge)" : "", r[p.index], se[p.index], r[0], r[last / 2],
+        r[last]);
+}
+
+// Both routes on every case of a sphere packing; where the sphere route does not apply, why.
+std::string routes_text(const std::vector<Case>& cases, const std::vector<CaseResult>& res,
+                        const Settings& s) {
+    std::string t = fmt::format(
+        "## The two routes side by side\n\nThe study's route (`medium.route`) is **{}**; it "
+        "gives the results above, the angle dependence and the colours. The choice between the "
+        "routes is not yet decided by full wave: no 3D full-wave reference exists in the suite, "
+        "so read both. Both use the Bruggeman index for propagation, the slab's Fresnel faces "
+        "and absorption; they differ in the contrast that scatters: first Born the full "
+        "two-phase contrast ε_keratin − ε_air on the volume's power spectrum, the sphere route "
+        "each air sphere's contrast to the Bruggeman medium, ε_air − ε_eff (structcol's "
+        "convention), on Mie × the measured S(q) of the centres. At weak contrast their μ_s "
+        "ratio is 1/(1 − φ)², φ the air-sphere fraction (sim/wave/born_medium.h).\n\n",
+        route_name(s.route));
+    if (s.morphology != geometry::SpongyMorphology::sphere) {
+        return t +
+               "Here only first Born applies: channel-type volumes are not sphere packings. "
+               "`volume.morphology = \"spheres\"` (disjoint spheres, min_separation_diameters >= "
+               "1, φ <= 0.35) computes both.\n\n";
+    }
+    if (std::none_of(cases.begin(), cases.end(), [](const Case& c) { return c.other_medium; })) {
+        const Case& b = cases.front();
+        const RouteRefusal why =
+            sphere_route_refusal(medium_params(s, b.fraction, b.scale_um, 0), s.polydispersity);
+        return t + fmt::format("Here only first Born applies: volume.{} = {}.\n\n", why.key,
+                               why.reason);
+    }
+    const std::size_t last = s.wavelengths_nm.size() - 1;
+    t += fmt::format(
+        "| f | a µm | φ | route | μ_s µm⁻¹ at {0:.0f} / {1:.0f} / {2:.0f} nm | peak λ nm | R at "
+        "peak | R at {0:.0f} / {1:.0f} / {2:.0f} nm |\n|---|---|---|---|---|---|---|---|\n",
+        s.wavelengths_nm[0], s.wavelengths_nm[last / 2], s.wavelengths_nm[last]);
+    const bool born_first = s.route == MediumRoute::born;
+    for (std::size_t i = 0; i < cases.size(); ++i) {
+        const Case& c = cases[i];
+        const std::string head =
+            fmt::format("| {:.2f} | {:.3f} | {} ", c.fraction, c.scale_um,
+                        c.other_medium ? fmt::format("{:.3f}", c.sphere_fraction) : "—");
+        t += head +
+             route_row(born_first ? "first Born" : "sphere (Mie x S(q))", c.tables, c.r, c.r_se,
+                       res[i].peak) +
+             "\n";
+        if (!c.other_medium) {
+            const RouteRefusal why =
+                sphere_route_refusal(medium_params(s, c.fraction, c.scale_um, 0), s.polydispersity);
+            t += head + fmt::format("| sphere (Mie x S(q)) | not applicable: {} = {} | | | |\n",
+                                    why.key, why.reason);
+            continue;
+        }
+        t += head +
+             route_row(born_first ? "sphere (Mie x S(q))" : "first Born", c.other_tables, c.other_r,
+                       c.other_r_se, res[i].other_peak) +
+             "\n";
+    }
+    const Case& b = cases.front();
+    if (!b.other_medium) return t + "\nR here is defined as in the results table.\n\n";
+    const auto& born = born_first ? b.tables : b.other_tables;
+    const auto& sphere = born_first ? b.other_tables : b.tables;
+    return t + fmt::format(
+                   "\nFor the base case μ_s(Born) / μ_s(sphere) = {:.2f} at {:.0f} nm against "
+                   "the weak-contrast limit 1/(1 − φ)² = {:.2f}. R here is defined as in the "
+                   "results table.\n\n",
+                   born[last / 2].mu_s_per_um / sphere[last / 2].mu_s_per_um,
+                   s.wavelengths_nm[last / 2],
+                   1.0 / ((1.0 - b.sphere_fraction) * (1.0 - b.sphere_fraction)));
+}
+
+// The definition of every reflectance the report prints.
+std::string reflectance_definitions(const Case& base, const Settings& s) {
+    const double n = base.tables[base.tables.size() / 2].n_eff.real();
+    const double specular = std::pow((n - 1.0) / (n + 1.0), 2.0);
+    return fmt::format(
+        "## What each reflectance is\n\n"
+        "- **R** (results, angle dependence, the two routes, the spectra figure): the "
+        "hemispherical reflectance of a slab of the medium {:.3g} µm thick with Fresnel faces in "
+        "the real Bruggeman index n_eff (air above, {} beneath, the slab's sides far away), "
+        "every path that leaves upwards counted, so the specular reflection of the top face is "
+        "included (((n_eff − 1)/(n_eff + 1))² = {:.2f} % at normal incidence, n_eff = {:.3f} at "
+        "{:.0f} nm). Light inside the slab beyond the total-internal-reflection cone, sin θ > "
+        "1/n_eff (θ > {:.1f}°), is returned into the slab by the top face.\n"
+        "- **Single-scattering R**: the closed form for an index-matched slab of the same medium "
+        "and thickness (no faces: no specular reflection, no refraction, no total-internal-"
+        "reflection cone), light scattered once, all upward directions.\n"
+        "- **Geometric-optics baseline R**: the explicit keratin/air mesh with Fresnel at every "
+        "face, all upward paths over the centre cube counted, specular reflections included.\n\n",
+        s.slab.thickness_um,
+        s.slab.backing ? fmt::format("{} µm of melanin", s.slab.backing->thickness_um)
+                       : std::string("nothing (air)"),
+        100.0 * specular, n, base.tables[base.tables.size() / 2].lambda_nm,
+        std::asin(1.0 / n) / kDeg);
 }
 
 // The baseline beside the base medium: geometric optics of the same volume has no length
@@ -833,13 +1097,14 @@ void write_report(const fs::path& path, const std::vector<Case>& cases,
                   double wall_s, const std::string& run_time) {
     std::ofstream md(path);
     md << "# Spongy keratin: structural colour computed from the volume\n\n"
-       << method_text(s, cases.front()) << results_table(cases, res)
+       << method_text(s, cases.front()) << results_table(cases, res, s)
        << "\n![Reflectance spectra](spectra.png)\n\n"
        << "![Peak wavelength over Λ × f, and the colour of each slab](peak_map.png)\n\n"
        << fmt::format("## Angle dependence (base f = {}, Λ = {} µm)\n\n", s.fractions.front(),
                       s.scales_um.front())
        << angles_table(runs, angle_peaks, s.wavelengths_nm)
        << "\n![Angle dependence](angles.png)\n\n"
+       << routes_text(cases, res, s) << reflectance_definitions(cases.front(), s)
        << baseline_text(baseline, cases.front(), res.front(), s)
        << "Records: `spongy.h5` (every dataset with `units` and `description` attributes; the "
           "figures are drawn from it by plumage's plotting script, kinds `spongy_spectra`, "
@@ -883,6 +1148,12 @@ void write_records(const fs::path& dir, const std::vector<Case>& cases,
     write_case_spectra(h5, cases, s);
     write_case_results(h5, cases, res, s);
     if (!runs.empty()) write_angles(h5, runs, angle_peaks, s);
+    if (std::any_of(cases.begin(), cases.end(), [](const Case& c) { return c.other_medium; })) {
+        write_other_route(h5, cases, res, s);
+    }
+    h5.set_attribute("/", "medium_route", s.route == MediumRoute::sphere ? "sphere" : "born");
+    h5.set_attribute("/", "morphology",
+                     s.morphology == geometry::SpongyMorphology::sphere ? "spheres" : "channel");
     write_baseline(h5, baseline, s);
     h5.set_attribute("/", "slab_thickness_um", s.slab.thickness_um);
     h5.set_attribute("/", "backing", s.slab.backing ? "melanin" : "none");
@@ -904,8 +1175,9 @@ std::string run(const std::string& text, const fs::path& source, const fs::path&
     for (const double f : s.fractions) {
         for (const double scale : s.scales_um) {
             const std::size_t i = cases.size();
-            clock.say(
-                fmt::format("volume, Born tables and slab: f = {}, Lambda = {} um", f, scale));
+            clock.say(fmt::format(
+                "volume, scattering tables and slab: f = {}, {} = {} um", f,
+                s.morphology == geometry::SpongyMorphology::sphere ? "a" : "Lambda", scale));
             cases.push_back(build_case(s, f, scale, i));  // build
             require_transport_thickness(cases.back(), s);
             measure_case(cases.back(), s, i);                     // measure
@@ -930,9 +1202,10 @@ std::string run(const std::string& text, const fs::path& source, const fs::path&
     clock.done(fmt::format("done: {}", (out.final_path() / "report.md").string()));
     std::string summary = fmt::format("plumage: wrote {}:", out.final_path().string());
     for (std::size_t i = 0; i < cases.size(); ++i) {
-        summary += fmt::format(" f={} L={}um peak {:.0f}+-{:.0f} nm (2 n_eff L {:.0f});",
-                               cases[i].fraction, cases[i].scale_um, results[i].peak.lambda_nm,
-                               results[i].peak.sigma_nm, results[i].bragg_nm);
+        summary += fmt::format(
+            " f={} {}={}um peak {:.0f}+-{:.0f} nm (2 n_eff L {:.0f});", cases[i].fraction,
+            s.morphology == geometry::SpongyMorphology::sphere ? "a" : "L", cases[i].scale_um,
+            results[i].peak.lambda_nm, results[i].peak.sigma_nm, results[i].bragg_nm);
     }
     return summary + fmt::format(" geometric-optics baseline: chroma {:.1f}, R spread {:.1f} %\n",
                                  baseline.colour.chroma, 100.0 * baseline.relative_spread);

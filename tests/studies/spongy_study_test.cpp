@@ -159,6 +159,111 @@ TEST(SpongyStudy, UnknownKeysAndBadListsAreNamed) {
               std::string::npos);
 }
 
+// The quick study turned into one small sphere packing (f = 0.7: air spheres of a = 0.08 µm at
+// φ = 0.3, disjoint), fewer paths, one angle; `route` is medium.route ("" for the default).
+std::string sphere_study(const std::string& route) {
+    std::string text = read(kQuick);
+    text.replace(text.find("keratin_fractions = \"0.5, 0.4\""), 30,
+                 "morphology = \"spheres\"\nkeratin_fractions = \"0.7\"");
+    text.replace(text.find("length_scales_um = \"0.19, 0.23\""), 31, "sphere_radii_um = \"0.08\"");
+    text.replace(text.find("shell_relative_width = 0.15"), 27, "");
+    text.replace(text.find("incidence_deg = \"0, 30, 60\""), 27, "incidence_deg = \"30\"");
+    for (std::size_t at = text.find("= 3000"); at != std::string::npos; at = text.find("= 3000")) {
+        text.replace(at, 6, "= 1000");
+    }
+    text.replace(text.find("paths_per_wavelength = 1000\n", text.find("[baseline]")), 27,
+                 "paths_per_wavelength = 200");
+    if (!route.empty()) text += "\n[medium]\nroute = \"" + route + "\"\n";
+    return text;
+}
+
+TEST(SpongyStudy, SpherePackingReportCarriesBothRoutes) {
+    // Default route (born) on a hard-sphere packing: the report and the record carry the sphere
+    // route beside it (μ_s, R, peak), and every reflectance is defined. μ_s(Born) / μ_s(sphere)
+    // is the weak-contrast 1/(1 − φ)² = 2.04 (sim/wave/born_medium.h) up to the O(Δn) terms at
+    // keratin/air contrast: Bruggeman's second-order term, |2φδ/(3ε_h)| = 0.12 at δ = −1.4,
+    // ε_h = 2.4, and Mie's departure from RGD; 25 % allows both.
+    const std::string text = sphere_study("");
+    const fs::path root = temp_root("spheres");
+    study_of(text, kQuick).run(text, kQuick, root, {});
+    const fs::path dir = root / "spongy_quick";
+    const std::string report = read(dir / "report.md");
+    for (const char* needle :
+         {"## The two routes side by side", "is **first Born**", "not yet decided by full wave",
+          "| first Born |", "| sphere (Mie x S(q)) |", "ε_air − ε_eff",
+          "## What each reflectance is", "specular reflection of the top face is included",
+          "total-internal-reflection cone", "index-matched slab"}) {
+        EXPECT_NE(report.find(needle), std::string::npos) << needle;
+    }
+    const fs::path h5 = dir / "spongy.h5";
+    EXPECT_EQ(record::read_string_attribute(h5, "/", "medium_route"), "born");
+    const auto born = dataset(h5, "mu_s_per_um").values;
+    const auto sphere = dataset(h5, "other_route/mu_s_per_um").values;
+    const double phi = dataset(h5, "sphere_fraction").values.at(0);
+    ASSERT_EQ(born.size(), sphere.size());
+    const std::size_t mid = born.size() / 2;
+    const double limit = 1.0 / ((1.0 - phi) * (1.0 - phi));
+    std::printf("phi %.3f: mu_s Born / sphere at the middle wavelength %.3f, limit %.3f\n", phi,
+                born[mid] / sphere[mid], limit);
+    EXPECT_NEAR(phi, 0.3, 0.01);  // the packing's N (4π/3) a³ / L³: within one sphere of 0.3
+    EXPECT_NEAR(born[mid] / sphere[mid], limit, 0.25 * limit);
+    EXPECT_EQ(dataset(h5, "other_route/reflectance").values.size(), born.size());
+    EXPECT_GT(dataset(h5, "other_route/peak_wavelength_nm").values.at(0), 0.0);
+
+    // medium.route = "sphere" makes the sphere route the study's: its μ_s is the Born run's
+    // other_route, bit for bit (same volume, same centres), and Born goes beside it.
+    const std::string swapped = sphere_study("sphere");
+    const fs::path root2 = temp_root("sphere_route");
+    study_of(swapped, kQuick).run(swapped, kQuick, root2, {});
+    const fs::path h5b = root2 / "spongy_quick" / "spongy.h5";
+    EXPECT_EQ(record::read_string_attribute(h5b, "/", "medium_route"), "sphere");
+    EXPECT_EQ(dataset(h5b, "mu_s_per_um").values, sphere);
+    EXPECT_EQ(dataset(h5b, "other_route/mu_s_per_um").values, born);
+    EXPECT_NE(read(root2 / "spongy_quick" / "report.md").find("is **sphere route (Mie x S(q))**"),
+              std::string::npos);
+    fs::remove_all(root);
+    fs::remove_all(root2);
+}
+
+TEST(SpongyStudy, SphereRouteRefusesWhatItCannotDescribe) {
+    // Each refusal at read time, naming file:line:col, the key and the limit.
+    const auto refusal = [](const std::string& text) {
+        return testing::input_error_message([&] { check_study(text, kQuick); });
+    };
+    std::string channel = read(kQuick) + "\n[medium]\nroute = \"sphere\"\n";
+    const std::string not_packing = refusal(channel);
+    EXPECT_NE(not_packing.find("spongy_quick.toml:33:9: medium.route = \"sphere\" refused: "
+                               "volume.morphology = \"channel\": a channel network is not a "
+                               "sphere packing"),
+              std::string::npos)
+        << not_packing;
+    std::string overlap = sphere_study("sphere");
+    overlap.replace(overlap.find("morphology = \"spheres\""), 22,
+                    "morphology = \"spheres\"\nmin_separation_diameters = 0.8");
+    const std::string overlapping = refusal(overlap);
+    EXPECT_NE(overlapping.find("volume.min_separation_diameters = 0.8: the spheres overlap"),
+              std::string::npos)
+        << overlapping;
+    EXPECT_NE(overlapping.find("needs at least 1"), std::string::npos) << overlapping;
+    std::string dense = sphere_study("sphere");
+    dense.replace(dense.find("\"0.7\""), 5, "\"0.7, 0.6\"");
+    const std::string too_dense = refusal(dense);
+    EXPECT_NE(too_dense.find("volume.keratin_fractions lists 0.6 (air-sphere fraction phi = 0.4): "
+                             "the sphere route needs phi in (0, 0.35]"),
+              std::string::npos)
+        << too_dense;
+    std::string poly = sphere_study("sphere") + "polydispersity = 0.1\n";
+    const std::string polydisperse = refusal(poly);
+    EXPECT_NE(polydisperse.find("medium.polydispersity = 0.1: the sphere route accepts 0 only"),
+              std::string::npos)
+        << polydisperse;
+    // The same volumes are fine for the Born route, which takes any volume.
+    overlap.replace(overlap.find("route = \"sphere\""), 16, "route = \"born\"  ");
+    EXPECT_NO_THROW(check_study(overlap, kQuick));
+    std::string unknown = sphere_study("spheres");
+    EXPECT_NE(refusal(unknown).find("medium.route"), std::string::npos) << refusal(unknown);
+}
+
 TEST(SpongyStudy, RecordsDoNotDependOnThreads) {
     // One small case (the base), fewer paths: 1 and 2 threads give bit-identical spectra
     // (slab, angle and geometric-optics baseline).
