@@ -7,6 +7,12 @@
     plumage.run_study(study, out="results", threads=2, plots=False)
     rec = plumage.read_record("results/my_ablation/...h5")
     plumage.build_geometry({"name": "row", "geometry": {"kind": "barbule_row"}}, out="results")
+    spongy = tomllib.load(open("studies/spongy_quick.toml", "rb"))
+    spongy["volume"] |= {"morphology": "spheres", "keratin_fractions": "0.7",
+                         "sphere_radii_um": "0.08"}     # air spheres in keratin, phi = 0.3
+    del spongy["volume"]["length_scales_um"], spongy["volume"]["shell_relative_width"]
+    spongy["medium"] = {"route": "sphere"}  # Mie x S(q); "born" (the default) on any volume
+    plumage.run_study(spongy, out="results")  # both routes side by side in its report
 
 A dict is written as TOML and read by the same parser as a file, so every key, range and
 cross-key rule is checked the same way and a bad value raises ValueError naming its full key and

@@ -131,3 +131,47 @@ def test_geometry_from_a_dict_equals_the_file(tmp_path):
     del geometry["name"]
     with pytest.raises(ValueError, match="needs a name"):
         plumage.build_geometry(geometry, out=tmp_path, plots=False)
+
+
+def spongy_spheres_dict(name: str, route: str) -> dict:
+    """The quick spongy study on one small packing of air spheres (f = 0.7, a = 0.08 µm, φ = 0.3),
+    fewer paths, one angle, with medium.route = `route`."""
+    with open(SOURCE_DIR / "studies/spongy_quick.toml", "rb") as handle:
+        study = tomllib.load(handle)
+    study["name"] = name
+    volume = study["volume"]
+    del volume["length_scales_um"], volume["shell_relative_width"]
+    volume.update(morphology="spheres", keratin_fractions="0.7", sphere_radii_um="0.08")
+    study["slab"]["paths_per_wavelength"] = 1000
+    study["angles"].update(incidence_deg="30", paths_per_wavelength=500)
+    study["baseline"]["paths_per_wavelength"] = 200
+    study["medium"] = {"route": route}
+    return study
+
+
+def test_spongy_medium_route_from_a_dict(tmp_path):
+    """The spongy study's medium.route through a dict: a route the volume cannot take is refused
+    before any work, naming the key and the limit; the sphere route runs on a packing, with first
+    Born beside it in the record."""
+    channel = spongy_spheres_dict("refused", "sphere")
+    channel["volume"] = {"box_um": 1.6, "voxel_um": 0.025}
+    with pytest.raises(ValueError, match=r'medium\.route = "sphere" refused: volume\.morphology = '
+                                         r'"channel": a channel network is not a sphere packing'):
+        plumage.run_study(channel, out=tmp_path, plots=False)
+    poly = spongy_spheres_dict("refused", "sphere")
+    poly["medium"]["polydispersity"] = 0.1
+    with pytest.raises(ValueError, match=r"medium\.polydispersity = 0\.1: the sphere route "
+                                         r"accepts 0 only"):
+        plumage.run_study(poly, out=tmp_path, plots=False)
+    assert not (tmp_path / "refused").exists()
+    plumage.run_study(spongy_spheres_dict("spheres", "sphere"), out=tmp_path, threads=2,
+                      plots=False)
+    with h5py.File(tmp_path / "spheres" / "spongy.h5", "r") as f:
+        assert f.attrs["medium_route"] == "sphere"
+        assert f["other_route"].attrs["route"] == "born"
+        sphere, born = f["mu_s_per_um"][()], f["other_route/mu_s_per_um"][()]
+        phi = f["sphere_fraction"][()].item()
+    # μ_s(Born) / μ_s(sphere) near 1/(1 − φ)² (sim/wave/born_medium.h; tolerance as the C++
+    # test SpherePackingReportCarriesBothRoutes: the O(Δn) terms at keratin contrast).
+    ratio = born[0, 0, born.shape[2] // 2] / sphere[0, 0, sphere.shape[2] // 2]
+    assert ratio == pytest.approx(1.0 / (1.0 - phi) ** 2, rel=0.25)
