@@ -1,8 +1,9 @@
-// Channel-type spongy keratin as a scattering medium for the tracer, from its structure alone:
-// the glue the studies share between a generated volume and sim::ScatteringMedium (DESIGN.md's
-// level 2 of physics). The species study fills the parrot's barb medulla with it; the spongy
-// study's build_case computes the same medium for its slabs (same steps, same seeds and medium
-// name: build_spongy_medium is a drop-in for it).
+// Spongy keratin (channel-type, or a packing of air spheres) as a scattering medium for the
+// tracer, from its structure alone: the glue the studies share between a generated volume and
+// sim::ScatteringMedium (the wave-optics level of physics, between the tracer's thin films and
+// full wave). The species study fills the parrot's barb medulla with it (channel-type, first
+// Born); the spongy study's build_case computes the same medium for its slabs (same steps, same
+// seeds and medium name: build_spongy_medium is a drop-in for it).
 //
 // The route (each step the file named): geometry::make_channel_volume (a periodic cube of
 // channel-type keratin/air network, geometry/spongy_volume.h) → sim::wave::sample_indicator

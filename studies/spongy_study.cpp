@@ -287,7 +287,15 @@ void read_medium(ParameterTable m, ParameterTable& volume, Settings& s) {
     s.route = route == "sphere" ? MediumRoute::sphere : MediumRoute::born;
     s.polydispersity = m.number("polydispersity", 0.0, {0.0, 1.0, false, true},
                                 "relative standard deviation of the sphere radius");
-    if (s.route != MediumRoute::sphere) return;
+    if (s.route != MediumRoute::sphere) {
+        if (s.polydispersity != 0.0) {
+            throw InputError(fmt::format(
+                "{}: medium.polydispersity = {}: expected 0: the generated volumes are "
+                "monodisperse, and the key belongs to the sphere route, which accepts 0 only",
+                m.location("polydispersity"), s.polydispersity));
+        }
+        return;
+    }
     for (const double f : s.fractions) {
         const SpongyMediumParams p = medium_params(s, f, s.scales_um.front(), 0);
         const RouteRefusal refusal = sphere_route_refusal(p, s.polydispersity);

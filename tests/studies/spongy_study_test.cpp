@@ -257,6 +257,10 @@ TEST(SpongyStudy, SphereRouteRefusesWhatItCannotDescribe) {
     EXPECT_NE(polydisperse.find("medium.polydispersity = 0.1: the sphere route accepts 0 only"),
               std::string::npos)
         << polydisperse;
+    // The Born route has no polydispersity either: the generated volumes are monodisperse.
+    std::string born_poly = sphere_study("born") + "polydispersity = 0.1\n";
+    EXPECT_NE(refusal(born_poly).find("medium.polydispersity = 0.1: expected 0"), std::string::npos)
+        << refusal(born_poly);
     // The same volumes are fine for the Born route, which takes any volume.
     overlap.replace(overlap.find("route = \"sphere\""), 16, "route = \"born\"  ");
     EXPECT_NO_THROW(check_study(overlap, kQuick));
