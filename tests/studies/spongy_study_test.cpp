@@ -225,6 +225,14 @@ TEST(SpongyStudy, SpherePackingReportCarriesBothRoutes) {
     fs::remove_all(root2);
 }
 
+TEST(SpongyStudy, ShippedSpherePackingStudyReadsWithEitherRoute) {
+    const fs::path file = fs::path(PLUMAGE_SOURCE_DIR) / "studies" / "spongy_spheres_quick.toml";
+    std::string text = read(file);
+    EXPECT_NO_THROW(check_study(text, file));
+    text.replace(text.find("route = \"born\""), 14, "route = \"sphere\"");
+    EXPECT_NO_THROW(check_study(text, file));
+}
+
 TEST(SpongyStudy, SphereRouteRefusesWhatItCannotDescribe) {
     // Each refusal at read time, naming file:line:col, the key and the limit.
     const auto refusal = [](const std::string& text) {
