@@ -934,6 +934,46 @@ std::vector<HuangValues> huang_starts(const Problem& problem, const ParameterMap
     return starts;
 }
 
+// Scans from a local optimum, the others held: d over film orders (0.2–1.2 µm), b and θ_d over
+// their plausible ranges, and (H, μ) together (their valley: the R band's position). Returns the
+// scanned point of lowest χ² when it is below `chi_square` by more than 1, else nothing.
+std::optional<HuangValues> scan_for_better(const Problem& problem, const ParameterMap& map,
+                                           const HuangValues& at, double chi_square, int threads) {
+    std::vector<HuangValues> points;
+    auto scan = [&](int index, double first, double last, int count) {
+        if (!map.is_free[index]) return;
+        for (int k = 0; k < count; ++k) {
+            HuangValues v = at;
+            v[index] = first + (last - first) * k / (count - 1);
+            points.push_back(v);
+        }
+    };
+    scan(kHuangD, 0.2, 1.2, 21);
+    scan(kHuangB, 0.1, 0.6, 11);
+    scan(kHuangThetaD, 0.02, 0.2, 10);
+    if (map.is_free[kHuangH] && map.is_free[kHuangMu]) {
+        for (int i = 0; i < 10; ++i) {
+            for (int j = 0; j < 9; ++j) {
+                HuangValues v = at;
+                v[kHuangH] = 0.8 + 0.2 * i;
+                v[kHuangMu] = -0.8 + 0.2 * j;
+                points.push_back(v);
+            }
+        }
+    }
+    std::optional<HuangValues> better;
+    double lowest = chi_square - 1.0;
+    for (const HuangValues& v : points) {
+        throw_if_interrupted("the Huang 2022 fit's scans");
+        const double c = chi_square_at(problem, v, threads);
+        if (c < lowest) {
+            lowest = c;
+            better = v;
+        }
+    }
+    return better;
+}
+
 ParameterMap free_parameters(const HuangFitOptions& options) {
     ParameterMap map;
     map.is_free.fill(true);
@@ -980,6 +1020,18 @@ HuangFitResult fit_huang2022(const gonio::Scatterogram& data, const Huang2022Par
         chi_squares.push_back(run.chi_square);
         evaluations += run.function_evaluations;
         if (!best || run.chi_square < best->chi_square) best = std::move(run);
+    }
+    // Basin hopping: scans from the best optimum, and a local run from a better scanned point,
+    // while that lowers χ² (at most three rounds).
+    for (int round = 0; round < 3 && options.global_starts > 0; ++round) {
+        const std::optional<HuangValues> better =
+            scan_for_better(problem, map, best->values, best->chi_square, thread_count(options));
+        if (!better) break;
+        HuangFitResult run = local_fit(problem, map, *better, options);
+        chi_squares.push_back(run.chi_square);
+        evaluations += run.function_evaluations;
+        if (!(run.chi_square < best->chi_square)) break;
+        best = std::move(run);
     }
     HuangFitResult result = std::move(*best);
     result.local_fits = static_cast<int>(chi_squares.size());

@@ -64,6 +64,7 @@
 // Identifiability. At the rock-dove parameters (H = 1.25 < the arc's width) each barbule's arc
 // ends lie under its neighbours: φ0 and φ1 do not change the prediction at all (tested), so they
 // must be fixed; free them only where the arcs' ends are seen (e.g. H = 2.5, φ1 = 1 rad, tested).
+//
 // Global stage. Levenberg–Marquardt is local: from 10 % off the rock-dove values it converged
 // from each of three sign patterns tried, but 15 % off with H too high and μ too negative it
 // ended in another minimum (H ≈ 2.5, reduced χ² ≈ 86), and in the seven-parameter geometry of
@@ -73,18 +74,24 @@
 //     d ∈ {0.3, 0.45, 0.6, 0.75, 0.9} µm × μ ∈ {−0.6, −0.3, 0, 0.3, 0.6} × H ∈ {1, 1.25, 1.5}
 // (a fixed parameter keeps its start; b and θ_d keep theirs) and runs Levenberg–Marquardt from
 // the caller's start and from the global_starts grid points of lowest χ²; the lowest χ² wins
-// (start_chi_squares lists each run's). Not enough: on 20 random parameter sets over the ranges
-// of tests/analysis/fit_recovery_test.cpp, from the model's defaults, 16 are recovered within
-// 3σ; the other 4 end in minima with χ²/dof 1.2–21 (H or μ far off, or d one film order away).
-// A larger grid (294 points, b included) did not do better: the R band's hard edges make χ² at
-// a grid point a poor guide to the basin it lies in. Every such fit is flagged by
-// analysis/fit_summary.h's fit_warnings (χ² above what the data's σ allow).
+// (start_chi_squares lists each run's). That alone recovered 16 of 20 random parameter sets
+// (tests/analysis/fit_recovery_test.cpp); the other 4 ended in minima with χ²/dof 1.2–21 (H and
+// μ far along their valley, or d one film order away), and a larger grid (294 points, b
+// included) did no better: the R band's hard edges make χ² at a grid point a poor guide to its
+// basin. So from the best optimum the fit then scans, the others held: d over 0.2–1.2 µm (21
+// points), b over 0.1–0.6 (11), θ_d over 0.02–0.2 (10) and (H, μ) over [0.8, 2.6] × [−0.8, 0.8]
+// together (90); a scanned point more than 1 below the optimum's χ² starts another local run,
+// kept when it ends lower (at most three rounds). With it: 20 of 20. A fit that still ends in a
+// local minimum has χ² above what the data's σ allow, which analysis/fit_summary.h's
+// fit_warnings reports.
 //
 // Defaults: all seven parameters free (b, phi0, phi1, H, d_um, theta_d, mu).
 // Cost: one residual evaluation is ~ (disc pixels + used pixels × (wavelengths − 1) + edge
-// pixels × ~40) × illumination nodes calls of eval (~30 µs each); a fit is ~10 Jacobians of
-// 2 × (free parameters) evaluations. Evaluations are parallel over pixels (OpenMP; the model's
-// frame cache is per thread), and the result does not depend on the thread count.
+// pixels × ~40) × illumination nodes calls of eval (~30 µs each); a local run is ~10 Jacobians
+// of 2 × (free parameters) evaluations; a whole fit is the grid's 75 evaluations, 1 +
+// global_starts local runs, and per round of scans ~130 evaluations and one more local run
+// (global_starts = 0: one local run, nothing else). Evaluations are parallel over pixels (OpenMP;
+// the model's frame cache is per thread), and the result does not depend on the thread count.
 #pragma once
 
 #include <array>
