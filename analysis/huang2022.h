@@ -32,7 +32,12 @@
 //       is 6 % above the simulated one in total (9 % above for views within 60° of the
 //       normal, 8 % below beyond 60°), and the simulation's statistical error alone,
 //       Σσ/Σf, is 0.08. The tracer files a blocked TRT exit under "multi" with every other
-//       multiple path (sim/tracer.h), so the share due to blocking is not separated here.
+//       multiple path (sim/tracer.h). What separates them (analysis/huang2022_trt_exit.h): the
+//       simulated melanin is a Lambertian sheet, whose facets a view sees foreshortened by
+//       ⟨ω_o, ω_m⟩/cos θ_o and masked by the neighbours; with that exit law in place of this
+//       lobe's the default study's TRT deficit goes from −6.4 % (−8.6 % for views within 60°,
+//       +7.9 % beyond) to −2.2 % at every view angle, and the masking alone holds back 6.5 % of
+//       the light (the rock-dove report's "Where and why the model departs").
 //       Quadrature (eval): E_q ∈ [0, 1] to a relative error ≤ 1e-3 wherever E_q ≥ 1e-2 and
 //       an absolute one ≤ 1e-4 below (as a fraction of the scale P_hit R_m / π), measured
 //       against a dense reference including grazing views along the barbule axis, where

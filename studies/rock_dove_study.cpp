@@ -1416,32 +1416,46 @@ std::string level_of_physics(const Run& run, RockDoveResult& result) {
 
 // ---- 5. Report. --------------------------------------------------------------------------------
 
+// Each departure's measurement (studies/rock_dove_departures.h): the grazing specular pairs run
+// again with one thing changed at a time, and the TRT lobe against the model's exit law.
+void measure_departures(const Run& run, const Built& b, const Brdfs& m, RockDoveResult& result) {
+    const Settings& s = run.s;
+    const auto say = [&](const std::string& what) { run.clock.say(what); };
+    gonio::GoniometerConfig g = goniometer_config(run);
+    g.seed = derive_seed(s.seed, "rock_dove/departures");
+    g.time_budget_s = std::numeric_limits<double>::infinity();
+    g.target_relative_error = 0.0;
+    result.departures.grazing = measure_grazing_departures(
+        {*b.model, b.row, s.tolerance, g, s.validation_cell_coupling}, say);
+    run.clock.say("departures: TRT exit law");
+    result.departures.trt = trt_exit_departures(m.simulation, m.model, *b.model);
+    measure_trt_variants({*b.model, b.row, s.tolerance, g, s.validation_cell_coupling},
+                         m.simulation, m.model, result.departures.trt, say);
+    result.departures.measured = true;
+}
+
 std::string departures(const Settings& s, const RockDoveResult& result) {
-    return fmt::format(
-        "## Where and why the model departs\n\n"
-        "- **Interreflection.** The model keeps one film reflection (R) and one melanin bounce "
-        "(TRT); light that meets "
-        "a second barbule is lost in the model and kept in the simulation. Under hemispheric light "
-        "{:.1f} % of the "
-        "simulated reflected power took more than these paths (the *multi* lobe).\n"
-        "- **T lobe.** Under the beam ({:.0f}° incidence) {}.\n"
-        "- **Curved film, real cell length.** The simulated cells are {:.1f} µm long: their normal "
-        "distribution is Eq. 7 "
-        "× (1 + r_θ(1 − cos θ_m)/ρ(φ_m)), up to {:.2f} at the barbule's sharp edges "
-        "(geometry/barbule.h). Eq. 7 holds "
-        "only for short cells (section above, coupling {:.3f}).\n"
-        "- **Undersides.** Where barbules leave gaps, oblique light reaches the concave underside "
-        "of an arc, which "
-        "no model lobe handles (analysis/huang2022.h, back_hit_fraction).\n\n",
-        100.0 * result.simulated_multi_share, s.beam_incidence / kDeg,
-        result.simulated_t == 0.0 && result.model_t == 0.0
-            ? fmt::format("no light passes between the barbules unchanged, in the simulation or "
-                          "the model (Eq. 15): at H = {} neighbours overlap as the beam sees them",
-                          s.row.H)
-            : fmt::format("the simulation lets {:.3g} of the light pass between barbules "
-                          "unchanged, the model {:.3g} (Eq. 15)",
-                          result.simulated_t, result.model_t),
-        s.row.cell.cell_length_um, result.eq7_edge_coupling, s.validation_cell_coupling);
+    return "## Where and why the model departs\n\n" +
+           departures_markdown(result.departures, result.simulated_multi_share) +
+           fmt::format(
+               "- **T lobe.** Under the beam ({:.0f}° incidence) {}.\n"
+               "- **Curved film, real cell length.** The simulated cells are {:.1f} µm long: "
+               "their normal distribution is Eq. 7 × (1 + r_θ(1 − cos θ_m)/ρ(φ_m)), up to {:.2f} "
+               "at the barbule's sharp edges (geometry/barbule.h). Eq. 7 holds only for short "
+               "cells (section above, coupling {:.3f}).\n"
+               "- **Undersides.** Where barbules leave gaps, oblique light reaches the concave "
+               "underside of an arc, which no model lobe handles (analysis/huang2022.h, "
+               "back_hit_fraction).\n\n",
+               s.beam_incidence / kDeg,
+               result.simulated_t == 0.0 && result.model_t == 0.0
+                   ? fmt::format("no light passes between the barbules unchanged, in the "
+                                 "simulation or the model (Eq. 15): at H = {} neighbours overlap "
+                                 "as the beam sees them",
+                                 s.row.H)
+                   : fmt::format("the simulation lets {:.3g} of the light pass between barbules "
+                                 "unchanged, the model {:.3g} (Eq. 15)",
+                                 result.simulated_t, result.model_t),
+               s.row.cell.cell_length_um, result.eq7_edge_coupling, s.validation_cell_coupling);
 }
 
 // The model's own error: the BRDF's cubature (not noise), the scatterograms' Monte Carlo (in σ).
@@ -1549,6 +1563,7 @@ RockDoveResult run_rock_dove_study(const std::string& study_text, const fs::path
     md += level_of_physics(run, result);
     md += full_wave_judgement(run, result);
     md += full_wave_row_judgement(run, certificate, result);
+    measure_departures(run, built, brdfs, result);
     md += departures(s, result);  // report
     result.wall_seconds = clock.elapsed_s();
     md += measurement_cost_section(costs);

@@ -8,7 +8,9 @@
 //  3. Where the assumptions of the model hold exactly (R lobe only, cells short enough
 //     that Eq. 7 is exact), simulation against model in standard errors.
 //  4. Where and why the model departs: interreflection (the "multi" lobe), light passing
-//     between barbules (T), the curved film of real-length cells (Eq. 7's coupling).
+//     between barbules (T), the curved film of real-length cells (Eq. 7's coupling), each
+//     measured (studies/rock_dove_departures.h): the grazing specular pairs run again with one
+//     thing changed at a time, and TRT against the exit law of a Lambertian layer.
 //  5. Error against run time: estimated and true error of the R lobe against wall time.
 //  6. Error and time per measurement: each record's own error estimate, wall and CPU time.
 //
@@ -23,6 +25,7 @@
 #include <vector>
 
 #include "analysis/verdict.h"
+#include "studies/rock_dove_departures.h"
 #include "studies/study.h"
 
 namespace plumage::studies {
@@ -77,6 +80,8 @@ struct RockDoveResult {
     double row_full_wave_reflectance = 0.0, row_full_wave_resolution_error = 0.0;
     double row_physical_optics_error = 0.0, row_ray_optics_error = 0.0;
     double level_seconds = 0.0;
+    // Where and why the model departs, measured (studies/rock_dove_departures.h).
+    Departures departures;
 };
 
 // `study_text` is the TOML; `source_name` names it in errors (a path or "<default>").

@@ -221,6 +221,50 @@ void check_error_and_time(const std::filesystem::path& dir, const std::string& r
     EXPECT_EQ(values.dims[0], 55u);
 }
 
+// "Where and why the model departs" carries its measurements (issue 40): the grazing specular
+// pairs split by lobe, two-event interreflection, R on short cells, TRT against the exit law.
+void check_departures(const RockDoveResult& r, const std::string& report) {
+    const Departures& d = r.departures;
+    ASSERT_TRUE(d.measured);
+    const GrazingDepartures& g = d.grazing;
+    EXPECT_EQ(g.pairs, 12);
+    // Bookkeeping: the total's excess (from the record's values) is the sum of the lobes' (from
+    // its lobe values), each a share of the same model total.
+    for (const LobeExcess* e : {&g.along, &g.across}) {
+        EXPECT_GT(e->model_total, 0.0);
+        EXPECT_NEAR(e->total, e->r + e->trt + e->multi, 1e-9);
+    }
+    // Interreflection with light along the barbules is there (quick: +9 % ± 1 % of the model),
+    // and the paths of at most two events are part of it: not above it beyond the noise.
+    EXPECT_GT(g.along.multi, 3.0 * g.along.multi_sigma);
+    EXPECT_LT(g.multi_two_events,
+              g.along.multi + 3.0 * std::hypot(g.along.multi_sigma, g.multi_two_events_sigma));
+    // Independent reference: on short cells Eq. 7 is exact, so R alone agrees with the model's R
+    // within the Monte Carlo error (4σ) plus the model's converged cubature (1 %).
+    EXPECT_GT(g.r_short_sigma, 0.0);
+    EXPECT_LT(std::abs(g.r_short), 4.0 * g.r_short_sigma + 0.01);
+    EXPECT_LT(g.short_cell_length_um, 1.0);
+    // TRT: the exit law's numbers exist for the quick BRDF's views (all at 45°) and its
+    // variants were measured on every tenth light direction.
+    EXPECT_TRUE(d.trt.all.measured);
+    EXPECT_TRUE(d.trt.near.measured);
+    EXPECT_GT(d.trt.all.sigma, 0.0);
+    ASSERT_EQ(d.trt.variants.size(), 3u);
+    EXPECT_GT(d.trt.variant_pairs, 0);
+    for (const auto& v : d.trt.variants) EXPECT_GT(v.sigma, 0.0) << v.what;
+    // The report says it, with the numbers.
+    const auto section = report.find("## Where and why the model departs");
+    ASSERT_NE(section, std::string::npos);
+    const std::string text = report.substr(section, report.find("\n## ", section + 1) - section);
+    for (const char* s :
+         {"Grazing specular pairs (75°/75°)", "with interreflection left out (R + TRT)",
+          "stopped after two events", "on cells 0.318 µm long", "TRT: the model's exit law",
+          "| all | ", "foreshortened and masked", "melanin 0.03 µm under the film"})
+        EXPECT_NE(text.find(s), std::string::npos) << s;
+    EXPECT_NE(text.find(fmt::format("{:+.1f} %", 100.0 * g.along.multi)), std::string::npos);
+    EXPECT_NE(text.find(fmt::format("{:+.1f} %", 100.0 * d.trt.all.exit)), std::string::npos);
+}
+
 // Runs the quick study once and checks each part of what it returned and wrote.
 TEST(RockDoveStudy, QuickVariantRunsAndItsNumbersHold) {
     const auto root = std::filesystem::temp_directory_path() /
@@ -242,6 +286,7 @@ TEST(RockDoveStudy, QuickVariantRunsAndItsNumbersHold) {
     ASSERT_NO_FATAL_FAILURE(check_level_of_physics(r, report));
     ASSERT_NO_FATAL_FAILURE(check_avian_vision(r, dir, report));
     ASSERT_NO_FATAL_FAILURE(check_error_and_time(dir, report));
+    ASSERT_NO_FATAL_FAILURE(check_departures(r, report));
     std::filesystem::remove_all(root);
 }
 
