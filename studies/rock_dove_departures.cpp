@@ -123,6 +123,14 @@ GrazingDepartures measure_grazing_departures(const GrazingSetup& setup,
     g.pairs = grazing_specular_pairs();
     g.estimator = gonio::Estimator::photon;
     d.pairs = static_cast<int>(g.pairs.size());
+    // The cone about the barbule axis through ω_i's mirror (half-angle 90° − θ_i for light along
+    // the axis) and the arc of it within the detector: two points of the cone ψ apart in
+    // azimuth are δ apart with sin(δ/2) = sin(cone) sin(ψ/2), δ = the detector's half-angle.
+    d.cone_half_angle = (90.0 - kGrazingDeg) * kDeg;
+    d.detector_half_angle = g.detector_half_angle_rad;
+    d.cone_transversal_half_range =
+        2.0 * std::asin(std::min(
+                  1.0, std::sin(0.5 * g.detector_half_angle_rad) / std::sin(d.cone_half_angle)));
     std::vector<bool> along(g.pairs.size()), across(g.pairs.size()), all(g.pairs.size(), true);
     for (std::size_t p = 0; p < g.pairs.size(); ++p)
         along[p] = along_barbules(g.pairs[p]), across[p] = !along[p];
@@ -306,8 +314,9 @@ std::string grazing_markdown(const GrazingDepartures& g) {
         "({:.0f} % of it): two film reflections, off one barbule and then its neighbour. Why "
         "along the barbules: their film is straight along its axis to within θ_d, so every "
         "reflection keeps the light's component along it, and whatever the transversal angle "
-        "after a second reflection, the light leaves on the 15° cone about the axis on which the "
-        "specular view lies; the 5° detector takes ±19° of that cone, so it collects the "
+        "after a second reflection, the light leaves on the {:.0f}° cone about the axis on which "
+        "the specular view lies; the {:.0f}° detector takes ±{:.0f}° of that cone, so it collects "
+        "the "
         "interreflection that elsewhere spreads over the hemisphere. R alone (the tracer "
         "stopped after one event) over the {} pairs: {} on the study's cells, {} on cells {:.3f} "
         "µm long (Eq. 7's coupling {:.2f}, where the model's normal distribution is exact).\n",
@@ -316,7 +325,8 @@ std::string grazing_markdown(const GrazingDepartures& g) {
         g.pairs - 2, pm(g.across.total, g.across.total_sigma), pm(g.across.r, g.across.r_sigma),
         pm(g.across.trt, g.across.trt_sigma), pm(g.across.multi, g.across.multi_sigma),
         pm(g.multi_two_events, g.multi_two_events_sigma),
-        a.multi > 0.0 ? 100.0 * g.multi_two_events / a.multi : 0.0, g.pairs,
+        a.multi > 0.0 ? 100.0 * g.multi_two_events / a.multi : 0.0, g.cone_half_angle / kDeg,
+        g.detector_half_angle / kDeg, g.cone_transversal_half_range / kDeg, g.pairs,
         pm(g.r_default, g.r_default_sigma), pm(g.r_short, g.r_short_sigma), g.short_cell_length_um,
         g.short_cell_coupling);
 }

@@ -44,6 +44,9 @@ struct GrazingDepartures {
     double r_default = 0.0, r_default_sigma = 0.0;
     double r_short = 0.0, r_short_sigma = 0.0;
     double short_cell_length_um = 0.0, short_cell_coupling = 0.0;
+    // Light along the barbules leaves on a cone about their axis (half-angle, rad); the detector
+    // (half-angle) spans ± this much of its azimuth around the specular view.
+    double cone_half_angle = 0.0, detector_half_angle = 0.0, cone_transversal_half_range = 0.0;
     double seconds = 0.0;
 };
 
