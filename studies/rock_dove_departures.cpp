@@ -105,6 +105,10 @@ geometry::BarbuleRowParams short_cells(const geometry::BarbuleRowParams& row, do
 
 }  // namespace
 
+LobeExcess brdf_lobe_excess(const gonio::BrdfRecord& simulation, const gonio::BrdfRecord& model) {
+    return lobe_excess(simulation, model, std::vector<bool>(simulation.config.pairs.size(), true));
+}
+
 std::vector<gonio::DirectionPair> grazing_specular_pairs() {
     std::vector<gonio::DirectionPair> pairs;
     for (int k = 0; k < 12; ++k) {
@@ -384,9 +388,15 @@ std::string departures_markdown(const Departures& d, double multi_share) {
         "- **Interreflection (the multi lobe).** The model keeps one film reflection (R) and one "
         "melanin bounce (TRT); light that meets a second barbule is lost in the model and kept "
         "in the simulation. Under hemispheric light {:.1f} % of the simulated reflected power "
-        "took more than these paths.\n",
+        "took more than these paths.",
         100.0 * multi_share);
-    if (!d.measured) return md;
+    if (!d.measured) return md + "\n";
+    const LobeExcess& b = d.brdf;
+    md += fmt::format(
+        " In the BRDF the simulation's power is {} of the model's: the multi lobe {}, R {}, TRT "
+        "{} (the two bullets below say where the multi lobe is largest and why TRT is short).\n",
+        pm(b.total, b.total_sigma), pm(b.multi, b.multi_sigma), pm(b.r, b.r_sigma),
+        pm(b.trt, b.trt_sigma));
     return md + grazing_markdown(d.grazing) + trt_markdown(d.trt);
 }
 

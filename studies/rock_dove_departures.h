@@ -78,6 +78,7 @@ struct TrtDepartures {
 };
 
 struct Departures {
+    LobeExcess brdf;  // the study's BRDF, every cell: the power difference by lobe
     GrazingDepartures grazing;
     TrtDepartures trt;
     bool measured = false;
@@ -112,6 +113,9 @@ TrtDepartures trt_exit_departures(const gonio::BrdfRecord& simulation,
 void measure_trt_variants(const GrazingSetup& setup, const gonio::BrdfRecord& simulation,
                           const gonio::BrdfRecord& model, TrtDepartures& trt,
                           const std::function<void(const std::string&)>& say);
+
+// lobe_excess over every cell of the study's BRDF records (same pairs and wavelengths).
+LobeExcess brdf_lobe_excess(const gonio::BrdfRecord& simulation, const gonio::BrdfRecord& model);
 
 // The departures' bullets of the report (markdown), with the multi lobe's share under
 // hemispheric light (`multi_share`) for the interreflection bullet.

@@ -1427,6 +1427,7 @@ void measure_departures(const Run& run, const Built& b, const Brdfs& m, RockDove
     g.target_relative_error = 0.0;
     result.departures.grazing = measure_grazing_departures(
         {*b.model, b.row, s.tolerance, g, s.validation_cell_coupling}, say);
+    result.departures.brdf = brdf_lobe_excess(m.simulation, m.model);
     run.clock.say("departures: TRT exit law");
     result.departures.trt = trt_exit_departures(m.simulation, m.model, *b.model);
     measure_trt_variants({*b.model, b.row, s.tolerance, g, s.validation_cell_coupling},

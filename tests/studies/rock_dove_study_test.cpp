@@ -230,7 +230,7 @@ void check_departures(const RockDoveResult& r, const std::string& report) {
     EXPECT_EQ(g.pairs, 12);
     // Bookkeeping: the total's excess (from the record's values) is the sum of the lobes' (from
     // its lobe values), each a share of the same model total.
-    for (const LobeExcess* e : {&g.along, &g.across}) {
+    for (const LobeExcess* e : {&g.along, &g.across, &d.brdf}) {
         EXPECT_GT(e->model_total, 0.0);
         EXPECT_NEAR(e->total, e->r + e->trt + e->multi, 1e-9);
     }
@@ -259,7 +259,8 @@ void check_departures(const RockDoveResult& r, const std::string& report) {
     for (const char* s :
          {"Grazing specular pairs (75°/75°)", "with interreflection left out (R + TRT)",
           "stopped after two events", "on cells 0.318 µm long", "TRT: the model's exit law",
-          "| all | ", "foreshortened and masked", "melanin 0.03 µm under the film"})
+          "| all | ", "foreshortened and masked", "melanin 0.03 µm under the film",
+          "In the BRDF the simulation's power is"})
         EXPECT_NE(text.find(s), std::string::npos) << s;
     EXPECT_NE(text.find(fmt::format("{:+.1f} %", 100.0 * g.along.multi)), std::string::npos);
     EXPECT_NE(text.find(fmt::format("{:+.1f} %", 100.0 * d.trt.all.exit)), std::string::npos);
