@@ -301,7 +301,10 @@ void measure_trt_variants(const GrazingSetup& setup, const gonio::BrdfRecord& si
 
 namespace {
 
+// x ± σ in per cent, with a second decimal where σ would read 0.0 %.
 std::string pm(double x, double sigma) {
+    if (std::abs(sigma) < 5e-4)
+        return fmt::format("{:+.2f} % ± {:.2f} %", 100.0 * x, 100.0 * sigma);
     return fmt::format("{:+.1f} % ± {:.1f} %", 100.0 * x, 100.0 * sigma);
 }
 
