@@ -1,6 +1,7 @@
-// Filip, Maile and Vávra 2024 (CVCS 2024, "Angle-dependent analysis and modeling of absorption
-// and structural colors in feathers", ../shared/papers/filip2024_feathers_brdf.md): the
-// five-term analytic feather BRDF of their Eqs. 1–6 with the Table 1 presets, as a Scatterer.
+// Jiří Filip, Frank J. Maile and Radomír Vávra, "Angle-dependent analysis and modeling of
+// absorption and structural colors in feathers", CVCS 2024, the 12th Colour and Visual Computing
+// Symposium, Gjøvik, Norway, 2024: the five-term analytic feather BRDF of their Eqs. 1–6 with
+// the Table 1 presets, as a Scatterer.
 //
 //   f = (1 − M) C_b                                   background              (lobe 0)
 //     +      M  C_a                                   anisotropic highlight   (lobe 1)

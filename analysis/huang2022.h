@@ -1,6 +1,7 @@
-// Huang et al. 2022, "Rendering Iridescent Rock Dove Neck Feathers": the elliptical
-// barbule BSDF with thin-film interference, R + TRT + T lobes (Eqs. 1–3, 5–7, 13–17,
-// Algorithm 1), as a Scatterer.
+// Weizhen Huang, Sebastian Merzbach, Clara Callenberg, Doekele Stavenga and Matthias Hullin,
+// "Rendering Iridescent Rock Dove Neck Feathers", SIGGRAPH '22 Conference Proceedings, ACM, 2022,
+// Article 43: the elliptical barbule BSDF with thin-film interference, R + TRT + T lobes
+// (Eqs. 1–3, 5–7, 13–17, Algorithm 1), as a Scatterer.
 //
 // Frames: the model lives in Huang's barbule frame (y along the barbule, direction
 // ω = (sin φ cos θ, sin θ, cos φ cos θ)); the Scatterer interface uses the patch frame
@@ -62,7 +63,7 @@
 //  - Polarisation: unpolarised light; I_R and the film transmittance T are the means of
 //    the s and p intensities (Airy film of sim/optics, air | keratin d | air).
 //  - The melanin reflectance R_m: the unpolarised Fresnel reflectance of air → melanin
-//    at normal incidence (the granules' orientation is random; ≈ 0.07 with DESIGN.md's
+//    at normal incidence (the granules' orientation is random; ≈ 0.07 with sim/optics/material.h's
 //    melanin dispersion, the paper quotes about 5 %).
 //  - Longitudinal hits: within a cell, the hit density in θ_m is the projected-area
 //    weight ⟨ω_i, ω_m⟩ (clipped at 0) under D_θ uniform in θ_m.

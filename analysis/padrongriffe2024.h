@@ -1,6 +1,7 @@
-// Padrón-Griffe et al. 2024, "A Surface-based Appearance Model for Pennaceous Feathers"
-// (../shared/papers/padrongriffe2024_pennaceous_feathers.txt): the surface feather BSDF that mixes
-// barb and barbule fibre scattering, weighted by the analytic barb/barbule masking term
+// Juan Raúl Padrón-Griffe, Dario Lanza, Adrián Jarabo and Adolfo Muñoz, "A Surface-based
+// Appearance Model for Pennaceous Feathers", SIGGRAPH Posters '24, ACM, 2024,
+// doi:10.1145/3641234.3671065: the surface feather BSDF that mixes barb and barbule fibre
+// scattering, weighted by the analytic barb/barbule masking term
 // (analysis/padrongriffe2024_masking.h), as a Scatterer.
 //
 // The poster gives the ingredients, not the equations: "barbs and barbules represented as

@@ -1,6 +1,7 @@
-// Preconditions on user input (STYLE.md §10: user input → a message naming the offending
-// item and what was expected). One helper for every model, builder and instrument; both
-// forms throw InputError (common/error.h), the type for "something a user gave us is wrong".
+// Preconditions on user input: a message naming the offending item and what was expected
+// (invariants are PLUMAGE_CHECK's, common/error.h). One helper for every model, builder and
+// instrument; both forms throw InputError (common/error.h), the type for "something a user gave
+// us is wrong".
 //
 //     require(!pairs.empty(), "btf", "no direction pairs");
 //         → InputError "btf: no direction pairs"

@@ -6,7 +6,7 @@
 // reading is listed in analysis/padrongriffe2024_masking.h; the mapping from this suite's
 // earlier meanings is in studies/README.md ("Padrón-Griffe parameters").
 //
-// Patch frame (DESIGN.md): patch normal +z, barb axis +x, barbs repeat along y. A barb's
+// Patch frame (sim/scatterer.h): patch normal +z, barb axis +x, barbs repeat along y. A barb's
 // cross-section lies in the y–z plane: an ellipse with horizontal semi-axis w/2 (w = barb width,
 // across the vane) and vertical semi-axis w/2 × barb_axis_ratio (the authors' barb
 // "excentricity": Barbs::excentricity_, "excentricity of barb (vertical axis)", used as

@@ -1,6 +1,10 @@
-// Spongy keratin volumes: the quasi-ordered keratin/air networks inside blue barbs
-// (DESIGN.md: dominant length scale a ≈ 0.15–0.25 µm, keratin filling fraction
-// f ≈ 0.4–0.6), in the two morphologies of the literature:
+// Spongy keratin volumes: the quasi-ordered keratin/air networks inside blue barbs (dominant
+// length scale a ≈ 0.15–0.25 µm, keratin filling fraction f ≈ 0.4–0.6: R. O. Prum, R. Torres,
+// S. Williamson and J. Dyck, "Two-dimensional Fourier analysis of the spongy medullary keratin of
+// structurally coloured feather barbs", Proc. R. Soc. B 266, 1999; V. Saranathan et al.,
+// "Structure and optical function of amorphous photonic nanostructures from avian feather
+// barbs: a comparative small angle X-ray scattering (SAXS) analysis of 230 bird species",
+// J. R. Soc. Interface 9, 2012), in the two morphologies of the literature:
 //
 //  - channel-type: a Gaussian random field whose power spectrum is a thin spherical
 //    shell around k0 = 2π/a, thresholded. A shell spectrum is the simplest field with

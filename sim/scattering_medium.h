@@ -1,6 +1,6 @@
-// A scattering participating medium (the wave-optical spongy keratin of DESIGN.md's level 2):
-// free flights with μ_t = μ_s + μ_a and scattering directions from a tabulated phase
-// function, per wavelength, for the tracer's Medium seam (sim/medium.h).
+// A scattering participating medium (the wave-optical spongy keratin of level 2 of physics,
+// docs/architecture.md): free flights with μ_t = μ_s + μ_a and scattering directions from a
+// tabulated phase function, per wavelength, for the tracer's Medium seam (sim/medium.h).
 //
 // Where the numbers come from: sim/wave/born_medium.h computes, per wavelength, the
 // effective index, μ_s, μ_a and p(cos θ) of a spongy volume (first Born, or Mie × S(q)).

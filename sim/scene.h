@@ -192,7 +192,7 @@ SceneDescription barbule_row_scene(const geometry::BarbuleRow& row,
 
 // Barb + barbule patch (geometry/barb.h). The medulla is one of two kinds:
 //  - white (the default, `medulla`): a diffuse surface, keratin on both sides, with an albedo
-//    spectrum. Its value has no published source in DESIGN.md: a study sets it; the default
+//    spectrum. No published value is known to the suite: a study sets it; the default
 //    0.8 stands for a whitish scattering medulla.
 //  - spongy (`spongy_medulla` set): the medulla volume is spongy keratin, a scattering medium
 //    (sim/scattering_medium.h; its tables computed from a spongy volume, e.g. by

@@ -1,8 +1,9 @@
 #!/usr/bin/env bash
 # Every quick study's records, fits included, are bit-identical at 1, 2 and 3 threads (run-time
 # values aside: scripts/compare_records.py). Three, not two: an odd count splits every parallel
-# loop and reduction differently from the even ones. DESIGN.md's rule: randomness from (seed, purpose, index)
-# streams and sums in a fixed order, so the thread count cannot change a number.
+# loop and reduction differently from the even ones. The seed rule of docs/architecture.md:
+# randomness from (seed, purpose, index) streams and sums in a fixed order, so the thread count
+# cannot change a number.
 #   records_across_threads.sh PLUMAGE SOURCE_DIR STUDY...   (STUDY: a studies/*.toml stem)
 set -u
 plumage=$1; source=$2; shift 2

@@ -1,4 +1,4 @@
-// Full wave (level 4 of physics, DESIGN.md): Maxwell's equations on a grid by the
+// Full wave (level 4 of physics, docs/architecture.md): Maxwell's equations on a grid by the
 // finite-difference time-domain method of Meep's C++ library, for 2D cross-sections. The
 // level every cheaper level (ray optics + film, physical optics, Born) is judged against: it
 // leaves out nothing but the grid's discretisation, whose error each result states.

@@ -1,6 +1,6 @@
 // Optical materials: complex refractive index n(λ) + i k(λ), λ in nanometres, k >= 0.
 //
-// Parameter table (defaults are the published values collected in DESIGN.md):
+// Parameter table (defaults: the published values whose sources the range table below names):
 //
 //  | material | model                                  | parameters                     |
 //  |----------|----------------------------------------|--------------------------------|

@@ -1,6 +1,6 @@
-// Geometric optics (ray optics + the local thin-film stack, DESIGN.md level 1) for the same 2D
-// cross-sections and rows as physical optics (physical_optics_2d.h), and the detector window
-// both are read through.
+// Geometric optics (ray optics + the local thin-film stack, level 1 of physics,
+// docs/architecture.md) for the same 2D cross-sections and rows as physical optics
+// (physical_optics_2d.h), and the detector window both are read through.
 //
 // Model. The surface is sampled exactly as physical optics samples it (sample_cross_section,
 // the same step), lit by the same test (illuminated(): ω_i·n > 0 and no chord towards ω_i), and

@@ -1,7 +1,7 @@
 // Physical optics (Kirchhoff surface fields) for 2D cross-sections: the far field of barbule
-// cross-sections and rows of them, with each surface element's planar film stack (DESIGN.md,
-// level 3 of physics). Ray optics + thin film (level 1) misses diffraction, which matters when
-// a barbule is only a few wavelengths wide; this is the wave level for such barbules.
+// cross-sections and rows of them, with each surface element's planar film stack (level 3 of
+// physics, docs/architecture.md). Ray optics + thin film (level 1) misses diffraction, which
+// matters when a barbule is only a few wavelengths wide; this is the wave level for such barbules.
 //
 // Frame: x horizontal, z up; the structure is invariant along y. Directions are unit
 // 2-vectors (x, z) pointing AWAY from the object (scatterer.h's convention): light comes from

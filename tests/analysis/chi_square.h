@@ -1,4 +1,5 @@
-// Statistical checks every Scatterer with eval() and pdf() should pass (STYLE.md item 5):
+// Statistical checks every Scatterer with eval() and pdf() should pass (the tests pbrt-v4 and
+// Mitsuba 3 run on every BSDF):
 //
 //  1. chi_square_test(): does sample() draw ωo from the density pdf() reports? (pbrt-v4's
 //     bsdfs_test.cpp recipe.) N quanta from one ωi are binned on the sphere, cos θ × φ
