@@ -126,6 +126,158 @@ struct PhotonItem {
     std::uint64_t first, count;
 };
 
+// One quantum's escape: its branches (one without splitting) and their weights, branch-major
+// with the item's wavelengths within a branch. Reused from quantum to quantum.
+struct QuantumEscape {
+    std::array<double, Scatterer::kMaxBranches * Scatterer::kMaxSharedWavelengths> weights{};
+    std::array<SpectralScatterEvent, Scatterer::kMaxBranches> branches{};
+    std::size_t count = 0;
+};
+
+// The detectors of one light direction's group and the sums a quantum adds to, in play_item's
+// layout: per wavelength of the item, Σx, Σx², then Σx and Σx² per lobe, in the group's pair
+// order.
+struct GroupDetectors {
+    GroupDetectors(const GoniometerConfig& c, const Group& g, std::size_t lobes,
+                   std::size_t wavelengths)
+        : config(c),
+          group(g),
+          m(g.pairs.size()),
+          nlobes(lobes),
+          item_wavelengths(wavelengths),
+          stride(m * (2 + 2 * lobes)),
+          cos_alpha(std::cos(c.detector_half_angle_rad)),
+          projected(kPi * std::pow(std::sin(c.detector_half_angle_rad), 2)),
+          axes(axes_of(c, g)),
+          cones(axes, c.detector_half_angle_rad) {}
+
+    static std::vector<Vec3d> axes_of(const GoniometerConfig& c, const Group& g) {
+        std::vector<Vec3d> result;
+        for (std::size_t p : g.pairs) result.push_back(c.pairs[p].wo);
+        return result;
+    }
+
+    // Adds the quantum's branches to the sums of every detector one of them enters. Only the
+    // detectors near a branch's elevation can hold it (the same sums, fewer tests).
+    void add(const QuantumEscape& escape, std::vector<double>& acc) const {
+        std::size_t near_first = m, near_last = 0;
+        for (std::size_t b = 0; b < escape.count; ++b) {
+            const auto [f, l] = cones.candidates(escape.branches[b].wo);
+            near_first = std::min(near_first, f);
+            near_last = std::max(near_last, l);
+        }
+        for (std::size_t s = near_first; s < near_last; ++s)
+            add_to_detector(escape, cones.order[s], acc);
+    }
+
+    // Detector j (in the group's pair order): the sum of the branches that enter it (one,
+    // without splitting), and per lobe the sum of those of that lobe, each then squared.
+    void add_to_detector(const QuantumEscape& escape, std::size_t j,
+                         std::vector<double>& acc) const {
+        const Vec3d& wo = config.pairs[group.pairs[j]].wo;
+        std::array<std::size_t, Scatterer::kMaxBranches> in{};
+        std::size_t hits = 0;
+        for (std::size_t b = 0; b < escape.count; ++b)
+            if (!(escape.branches[b].wo.dot(wo) < cos_alpha)) in[hits++] = b;
+        if (hits == 0) return;
+        // Divided, not multiplied by a reciprocal: the same bits as before
+        // spectral paths for the per-wavelength estimator.
+        const double projected_wo = projected * wo.z();
+        for (std::size_t k = 0; k < item_wavelengths; ++k) {
+            double* a = acc.data() + k * stride;
+            double x = 0.0;
+            for (std::size_t h = 0; h < hits; ++h) {
+                const double wk = escape.weights[in[h] * item_wavelengths + k];
+                if (wk > 0.0) x += wk / projected_wo;
+            }
+            if (!(x > 0.0)) continue;
+            a[j] += x;
+            a[m + j] += x * x;
+            add_lobes(escape, std::span(in.data(), hits), k, j, projected_wo, a);
+        }
+    }
+
+    // Per lobe: the sum of the quantum's branches of each lobe among the hits.
+    void add_lobes(const QuantumEscape& escape, std::span<const std::size_t> in, std::size_t k,
+                   std::size_t j, double projected_wo, double* a) const {
+        const std::size_t hits = in.size();
+        for (std::size_t h = 0; h < hits; ++h) {
+            const int lobe = escape.branches[in[h]].lobe;
+            if (lobe < 0 || static_cast<std::size_t>(lobe) >= nlobes) continue;
+            bool first = true;  // of its lobe among the hits
+            for (std::size_t g = 0; g < h; ++g)
+                first = first && escape.branches[in[g]].lobe != lobe;
+            if (!first) continue;
+            double xl = 0.0;
+            for (std::size_t g = h; g < hits; ++g) {
+                const double wk = escape.weights[in[g] * item_wavelengths + k];
+                if (escape.branches[in[g]].lobe == lobe && wk > 0.0) xl += wk / projected_wo;
+            }
+            const auto l = static_cast<std::size_t>(lobe);
+            a[(2 + l) * m + j] += xl;
+            a[(2 + nlobes + l) * m + j] += xl * xl;
+        }
+    }
+
+    const GoniometerConfig& config;
+    const Group& group;
+    std::size_t m, nlobes, item_wavelengths, stride;
+    double cos_alpha, projected;  // projected: π sin²α, × cos θ_v per pair
+    std::vector<Vec3d> axes;      // the detectors' axes, in the group's pair order
+    ConesByElevation cones;
+};
+
+// A quantum's entry point: uniform over the beam's cross-section (e1, e2 span it), projected
+// along ω_i onto the patch plane. Draws two numbers.
+Vec2 beam_position(const GoniometerConfig& config, const Vec3d& wi, const Vec3d& e1,
+                   const Vec3d& e2, Rng& rng) {
+    const double radius = config.beam_radius_um * std::sqrt(rng.uniform());
+    const double angle = 2.0 * kPi * rng.uniform();
+    const Vec3d offset = radius * (std::cos(angle) * e1 + std::sin(angle) * e2);
+    return Vec2(offset.x() - offset.z() * wi.x() / wi.z(),
+                offset.y() - offset.z() * wi.y() / wi.z());
+}
+
+// A quantum's light direction: the group's, or under both_cones one by projected solid angle
+// over the source cone (goniometer.h, "Aperture"; draws two numbers).
+Vec3d quantum_light(const GoniometerConfig& config, const Vec3d& wi, Rng& rng) {
+    if (config.aperture != Aperture::both_cones) return wi;
+    const double disc_r = std::sqrt(rng.uniform()), disc_g = 2.0 * kPi * rng.uniform();
+    return cone_direction_by_projected_area(wi, config.detector_half_angle_rad,
+                                            disc_r * std::cos(disc_g), disc_r * std::sin(disc_g));
+}
+
+// Plays one quantum into escape (count 0: absorbed, or no weight): with branches, with one path
+// for every wavelength (shared), or for the item's one wavelength.
+void sample_quantum(const Scatterer& scatterer, const GoniometerConfig& config,
+                    const PhotonItem& item, const Vec3d& wi, const Vec2& position, Rng& rng,
+                    bool shared, bool branched, const BranchOptions& options,
+                    QuantumEscape& escape) {
+    const std::size_t nl = config.wavelengths_nm.size();
+    escape.count = 0;
+    if (branched) {
+        escape.count = scatterer.sample_spectral_branches(wi, config.wavelengths_nm, position, rng,
+                                                          options, escape.branches, escape.weights);
+    } else if (shared) {
+        const auto event = scatterer.sample_spectral(wi, config.wavelengths_nm, position, rng,
+                                                     std::span<double>(escape.weights.data(), nl));
+        if (!event) return;
+        escape.branches[0] = *event;
+        escape.count = 1;
+    } else {
+        const auto event =
+            scatterer.sample(wi, config.wavelengths_nm[item.wavelength], position, rng);
+        if (!event || !(event->weight > 0.0)) return;
+        escape.branches[0] = {event->wo, event->lobe, event->exit_position_um};
+        escape.weights[0] = event->weight;
+        escape.count = 1;
+    }
+    const std::size_t item_wavelengths = shared ? nl : 1;
+    for (std::size_t k = 0; k < escape.count * item_wavelengths; ++k)
+        PLUMAGE_CHECK(std::isfinite(escape.weights[k]),
+                      "non-finite quantum weight from " + scatterer.name());
+}
+
 // Plays one work item's quanta (one light direction; one wavelength, or all of them when the
 // wavelengths share paths) into acc: per wavelength of the item, Σx, Σx², then Σx and Σx² per
 // lobe, in the group's pair order. Its streams: (seed, group × wavelength item, quantum).
@@ -136,116 +288,28 @@ void play_item(const Scatterer& scatterer, const GoniometerConfig& config,
                const std::vector<Group>& groups, const PhotonItem& item, std::size_t nlobes,
                bool shared, bool branched, std::vector<double>& acc) {
     const std::size_t nl = config.wavelengths_nm.size(), item_wavelengths = shared ? nl : 1;
-    const double alpha = config.detector_half_angle_rad, cos_alpha = std::cos(alpha);
-    const double projected = kPi * std::pow(std::sin(alpha), 2);  // × cos θ_v per pair
     const Group& group = groups[item.group];
-    const std::size_t m = group.pairs.size();
-    // Per wavelength of the item: Σx, Σx², then Σx and Σx² per lobe.
-    const std::size_t stride = m * (2 + 2 * nlobes);
-    acc.assign(item_wavelengths * stride, 0.0);
+    const GroupDetectors detectors(config, group, nlobes, item_wavelengths);
+    acc.assign(item_wavelengths * detectors.stride, 0.0);
     Vec3d e1, e2;
     orthonormal_frame(group.wi, e1, e2);
     // Shared paths draw from streams no per-wavelength item uses.
     const std::uint64_t stream =
         (shared ? groups.size() * nl + item.group : item.group * nl + item.wavelength) << 40;
-    constexpr std::size_t kBranches = Scatterer::kMaxBranches;
-    std::array<double, kBranches * Scatterer::kMaxSharedWavelengths> weights{};
-    std::array<SpectralScatterEvent, kBranches> branches{};
-    std::vector<Vec3d> detector_axes;
-    for (std::size_t p : group.pairs) detector_axes.push_back(config.pairs[p].wo);
-    const ConesByElevation cones(detector_axes, alpha);
     BranchOptions options;
     options.split_first_film = config.split_paths;
-    options.detector_axes = detector_axes;
-    options.detector_half_angle_rad = alpha;
+    options.detector_axes = detectors.axes;
+    options.detector_half_angle_rad = config.detector_half_angle_rad;
     options.guided_fraction = config.guided_fraction;
     options.guided_branches = config.guided_branches;
+    QuantumEscape escape;
     for (std::uint64_t q = item.first; q < item.first + item.count; ++q) {
         Rng rng(config.seed, stream + q);
-        // Beam position: uniform over the beam's cross-section, projected along ω_i
-        // onto the patch plane.
-        const double radius = config.beam_radius_um * std::sqrt(rng.uniform());
-        const double angle = 2.0 * kPi * rng.uniform();
-        const Vec3d offset = radius * (std::cos(angle) * e1 + std::sin(angle) * e2);
-        const Vec2 position(offset.x() - offset.z() * group.wi.x() / group.wi.z(),
-                            offset.y() - offset.z() * group.wi.y() / group.wi.z());
-        // both_cones: this quantum's light direction, by projected solid angle
-        // over the source cone (goniometer.h, "Aperture").
-        Vec3d wi = group.wi;
-        if (config.aperture == Aperture::both_cones) {
-            const double disc_r = std::sqrt(rng.uniform()), disc_g = 2.0 * kPi * rng.uniform();
-            wi = cone_direction_by_projected_area(group.wi, alpha, disc_r * std::cos(disc_g),
-                                                  disc_r * std::sin(disc_g));
-        }
-        std::size_t count = 0;
-        if (branched) {
-            count = scatterer.sample_spectral_branches(wi, config.wavelengths_nm, position, rng,
-                                                       options, branches, weights);
-        } else if (shared) {
-            const auto event = scatterer.sample_spectral(wi, config.wavelengths_nm, position, rng,
-                                                         std::span<double>(weights.data(), nl));
-            if (!event) continue;
-            branches[0] = *event;
-            count = 1;
-        } else {
-            const auto event =
-                scatterer.sample(wi, config.wavelengths_nm[item.wavelength], position, rng);
-            if (!event || !(event->weight > 0.0)) continue;
-            branches[0] = {event->wo, event->lobe, event->exit_position_um};
-            weights[0] = event->weight;
-            count = 1;
-        }
-        for (std::size_t k = 0; k < count * item_wavelengths; ++k)
-            PLUMAGE_CHECK(std::isfinite(weights[k]),
-                          "non-finite quantum weight from " + scatterer.name());
-        // Only the detectors near a branch's elevation can hold it (the same sums, fewer tests).
-        std::size_t near_first = m, near_last = 0;
-        for (std::size_t b = 0; b < count; ++b) {
-            const auto [f, l] = cones.candidates(branches[b].wo);
-            near_first = std::min(near_first, f);
-            near_last = std::max(near_last, l);
-        }
-        for (std::size_t s = near_first; s < near_last; ++s) {
-            const std::size_t j = cones.order[s];
-            const Vec3d& wo = config.pairs[group.pairs[j]].wo;
-            // The branches that enter this detector (one, without splitting).
-            std::array<std::size_t, kBranches> in{};
-            std::size_t hits = 0;
-            for (std::size_t b = 0; b < count; ++b)
-                if (!(branches[b].wo.dot(wo) < cos_alpha)) in[hits++] = b;
-            if (hits == 0) continue;
-            // Divided, not multiplied by a reciprocal: the same bits as before
-            // spectral paths for the per-wavelength estimator.
-            const double projected_wo = projected * wo.z();
-            for (std::size_t k = 0; k < item_wavelengths; ++k) {
-                double* a = acc.data() + k * stride;
-                double x = 0.0;
-                for (std::size_t h = 0; h < hits; ++h) {
-                    const double wk = weights[in[h] * item_wavelengths + k];
-                    if (wk > 0.0) x += wk / projected_wo;
-                }
-                if (!(x > 0.0)) continue;
-                a[j] += x;
-                a[m + j] += x * x;
-                // Per lobe: the sum of this quantum's branches of each lobe.
-                for (std::size_t h = 0; h < hits; ++h) {
-                    const int lobe = branches[in[h]].lobe;
-                    if (lobe < 0 || static_cast<std::size_t>(lobe) >= nlobes) continue;
-                    bool first = true;  // of its lobe among the hits
-                    for (std::size_t g = 0; g < h; ++g)
-                        first = first && branches[in[g]].lobe != lobe;
-                    if (!first) continue;
-                    double xl = 0.0;
-                    for (std::size_t g = h; g < hits; ++g) {
-                        const double wk = weights[in[g] * item_wavelengths + k];
-                        if (branches[in[g]].lobe == lobe && wk > 0.0) xl += wk / projected_wo;
-                    }
-                    const auto l = static_cast<std::size_t>(lobe);
-                    a[(2 + l) * m + j] += xl;
-                    a[(2 + nlobes + l) * m + j] += xl * xl;
-                }
-            }
-        }
+        const Vec2 position = beam_position(config, group.wi, e1, e2, rng);
+        const Vec3d wi = quantum_light(config, group.wi, rng);
+        sample_quantum(scatterer, config, item, wi, position, rng, shared, branched, options,
+                       escape);
+        detectors.add(escape, acc);
     }
 }
 
