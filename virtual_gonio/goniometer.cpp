@@ -866,13 +866,9 @@ BrdfRecord measure_by_eval(const Scatterer& scatterer, const GoniometerConfig& c
     return r;
 }
 
-}  // namespace
-
-BrdfRecord measure_brdf(const Scatterer& scatterer, const GoniometerConfig& config,
-                        const RunControl& control) {
-    config.validate();
-    const auto start = std::chrono::steady_clock::now();
-    const double cpu_start = process_cpu_seconds();
+// The record before any measurement: what is measured, and which of the configuration's options
+// this scatterer can take (goniometer.h).
+BrdfRecord new_record(const Scatterer& scatterer, const GoniometerConfig& config) {
     BrdfRecord r;
     r.config = config;
     r.scatterer = scatterer.name();
@@ -890,109 +886,138 @@ BrdfRecord measure_brdf(const Scatterer& scatterer, const GoniometerConfig& conf
     r.estimator_used = config.estimator == Estimator::automatic
                            ? (scatterer.can_evaluate() ? Estimator::eval : Estimator::photon)
                            : config.estimator;
-    if (r.estimator_used == Estimator::eval) {
-        if (!scatterer.can_evaluate()) {
-            throw InputError(fmt::format(
-                "goniometer: estimator 'eval' needs a scatterer that evaluates f; {} does "
-                "not (use 'photon')",
-                scatterer.name()));
-        }
-        BrdfRecord evaluated = measure_by_eval(scatterer, config, std::move(r), start);
-        evaluated.cpu_time_s = process_cpu_seconds() - cpu_start;
-        return evaluated;
-    }
+    return r;
+}
 
+// The photon estimator's state across passes: its sums, what its checkpoint is made from, and
+// the clocks (a resumed run adds the time of the passes before the resume).
+struct PhotonRun {
+    Sums sums;
+    std::vector<CheckpointPart> identity;
+    std::chrono::steady_clock::time_point start;
+    double cpu_start = 0.0, previous_wall = 0.0, previous_cpu = 0.0;
+};
+
+// The sums of a checkpoint made by the same run, if there is one (rank 0 reads it, and under MPI
+// every rank gets it); r then holds its passes, convergence rows and times. True if resumed.
+bool resume_from_checkpoint(const RunControl& control, PhotonRun& run, BrdfRecord& r) {
+    bool resumed =
+        distributed::rank() == 0 && read_checkpoint(control.checkpoint, run.sums, r, run.identity);
+    if (distributed::active()) resumed = share_resumed_state(resumed, run.sums, r);
+    if (resumed && control.progress) {
+        std::cerr << fmt::format("  {}: resuming after {} completed passes from {}\n", r.scatterer,
+                                 r.passes, control.checkpoint.string());
+    }
+    run.previous_wall = resumed ? r.wall_time_s : 0.0;
+    run.previous_cpu = resumed ? r.cpu_time_s : 0.0;
+    return resumed;
+}
+
+// The record's values from the sums of `pass` passes, its clocks, and the convergence row.
+ConvergenceRow finish_row(int pass, const PhotonRun& run, BrdfRecord& r) {
+    const std::uint64_t n = static_cast<std::uint64_t>(pass) * r.config.quanta_per_pass;
+    estimate_from_sums(run.sums, n, r);
+    r.quanta = n;
+    r.wall_time_s =
+        run.previous_wall +
+        std::chrono::duration<double>(std::chrono::steady_clock::now() - run.start).count();
+    r.cpu_time_s = run.previous_cpu + (process_cpu_seconds() - run.cpu_start);
+    return ConvergenceRow{pass, r.wall_time_s, n, relative_rms(r)};
+}
+
+// Whether the stop rule is met: the last pass reached the target error or the time budget.
+bool stop_rule_met(const BrdfRecord& r) {
+    if (r.convergence.empty()) return false;
+    const ConvergenceRow& last = r.convergence.back();
+    return last.estimated_relative_rms_error <= r.config.target_relative_error ||
+           last.wall_time_s >= r.config.time_budget_s;
+}
+
+// One pass's work items, (group, wavelength, chunk) in the order they are reduced.
+std::vector<PhotonItem> pass_items(const GoniometerConfig& config, std::size_t groups,
+                                   std::size_t wavelength_items, int pass) {
+    const std::uint64_t chunks = (config.quanta_per_pass + kChunk - 1) / kChunk;
+    std::vector<PhotonItem> items;
+    for (std::size_t g = 0; g < groups; ++g)
+        for (std::size_t k = 0; k < wavelength_items; ++k)
+            for (std::uint64_t c = 0; c < chunks; ++c) {
+                const std::uint64_t first =
+                    static_cast<std::uint64_t>(pass) * config.quanta_per_pass + c * kChunk;
+                items.push_back(
+                    {g, k, first, std::min(kChunk, config.quanta_per_pass - c * kChunk)});
+            }
+    return items;
+}
+
+// Plays one pass's items and adds their sums into run.sums in item order; false when
+// interrupted (the unfinished pass then adds nothing). Alone every item runs here on every
+// thread; under MPI they are dealt over the ranks and every rank gets all of them back
+// (common/distributed.h, run_items).
+bool play_pass(const Scatterer& scatterer, const BrdfRecord& r, const std::vector<Group>& groups,
+               const std::vector<PhotonItem>& items, const RunControl& control, PhotonRun& run) {
+    const GoniometerConfig& config = r.config;
+    const std::size_t nl = config.wavelengths_nm.size(), nlobes = r.lobes.size();
+    const bool shared = r.wavelength_paths_shared;
+    const std::size_t item_wavelengths = shared ? nl : 1;
+    std::vector<std::vector<double>> partial(items.size());  // per item, in group pair order
+    auto play = [&](std::size_t it) {
+        play_item(scatterer, config, groups, items[it], nlobes, shared,
+                  r.paths_split || r.diffuse_guided, partial[it]);
+    };
+    distributed::ItemTransport transport;
+    transport.pack = [&](std::size_t it, Bytes& out) { out.put_vector(partial[it]); };
+    transport.unpack = [&](std::size_t it, Bytes& in) { partial[it] = in.get_vector<double>(); };
+    if (!distributed::run_items(items.size(), play, transport, control.interrupt, kBlocksPerRank))
+        return false;
+    for (std::size_t it = 0; it < items.size(); ++it)
+        add_item_sums(partial[it], groups[items[it].group], items[it].wavelength, item_wavelengths,
+                      nl, nlobes, run.sums);
+    return true;
+}
+
+// The progress line of the pass just finished (stderr; the next pass overwrites it).
+void print_pass(const BrdfRecord& r) {
+    const auto& row = r.convergence.back();
+    std::cerr << fmt::format(
+                     "\r  {}: pass {} of at most {}, {} quanta per direction, est. error "
+                     "{:.3g} %, "
+                     "{:.1f} s   ",
+                     r.scatterer, row.pass, r.config.max_passes, row.quanta,
+                     100.0 * row.estimated_relative_rms_error, row.wall_time_s)
+              << std::flush;
+}
+
+// The photon estimator (goniometer.h): passes of quanta_per_pass quanta per light direction and
+// wavelength until the stop rule, each pass checkpointed and reported.
+BrdfRecord measure_by_photons(const Scatterer& scatterer, const RunControl& control, BrdfRecord r,
+                              PhotonRun run) {
+    const GoniometerConfig& config = r.config;
     record_measurement_seed("goniometer", config.seed);  // common/seed.h: one root per measurement
     const std::size_t nl = config.wavelengths_nm.size(), np = config.pairs.size(),
                       nlobes = r.lobes.size();
     const std::vector<Group> groups = group_by_light(config.pairs);
     // Spectral path sharing (goniometer.h): one item, one path per quantum for every λ.
-    const bool shared = r.wavelength_paths_shared;
-    const std::size_t item_wavelengths = shared ? nl : 1;
-    const std::vector<CheckpointPart> identity =
-        control.checkpoint.empty()
-            ? std::vector<CheckpointPart>{}
-            : checkpoint_identity(config, r.scatterer, r.estimator_used, control);
-
-    Sums sums{std::vector<double>(np * nl, 0.0), std::vector<double>(np * nl, 0.0),
-              std::vector<double>(nlobes * np * nl, 0.0),
-              std::vector<double>(nlobes * np * nl, 0.0)};
-    bool resumed =
-        distributed::rank() == 0 && read_checkpoint(control.checkpoint, sums, r, identity);
-    if (distributed::active()) resumed = share_resumed_state(resumed, sums, r);
-    if (resumed && control.progress) {
-        std::cerr << fmt::format("  {}: resuming after {} completed passes from {}\n", r.scatterer,
-                                 r.passes, control.checkpoint.string());
-    }
-    const double previous_wall = resumed ? r.wall_time_s : 0.0;
-    const double previous_cpu = resumed ? r.cpu_time_s : 0.0;
-
-    const std::uint64_t chunks = (config.quanta_per_pass + kChunk - 1) / kChunk;
-    auto finish_row = [&](int pass) {
-        const std::uint64_t n = static_cast<std::uint64_t>(pass) * config.quanta_per_pass;
-        estimate_from_sums(sums, n, r);
-        r.quanta = n;
-        r.wall_time_s =
-            previous_wall +
-            std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
-        r.cpu_time_s = previous_cpu + (process_cpu_seconds() - cpu_start);
-        return ConvergenceRow{pass, r.wall_time_s, n, relative_rms(r)};
-    };
-    if (resumed && r.passes > 0) finish_row(r.passes);
-
+    const std::size_t item_wavelengths = r.wavelength_paths_shared ? nl : 1;
+    if (!control.checkpoint.empty())
+        run.identity = checkpoint_identity(config, r.scatterer, r.estimator_used, control);
+    run.sums = Sums{std::vector<double>(np * nl, 0.0), std::vector<double>(np * nl, 0.0),
+                    std::vector<double>(nlobes * np * nl, 0.0),
+                    std::vector<double>(nlobes * np * nl, 0.0)};
+    if (resume_from_checkpoint(control, run, r) && r.passes > 0) finish_row(r.passes, run, r);
     while (r.passes < config.max_passes) {
-        bool stop = false;
-        if (!r.convergence.empty()) {
-            const ConvergenceRow& last = r.convergence.back();
-            stop = last.estimated_relative_rms_error <= config.target_relative_error ||
-                   last.wall_time_s >= config.time_budget_s;
-        }
-        if (distributed::broadcast_flag(stop)) break;  // rank 0's clock decides for every rank
-        const int pass = r.passes;                     // 0-based index of the pass being run
-        std::vector<PhotonItem> items;  // (group, wavelength, chunk): reduced in this order
-        for (std::size_t g = 0; g < groups.size(); ++g)
-            for (std::size_t k = 0; k < nl / item_wavelengths; ++k)
-                for (std::uint64_t c = 0; c < chunks; ++c) {
-                    const std::uint64_t first =
-                        static_cast<std::uint64_t>(pass) * config.quanta_per_pass + c * kChunk;
-                    items.push_back(
-                        {g, k, first, std::min(kChunk, config.quanta_per_pass - c * kChunk)});
-                }
-        // Per item: its cells' partial sums, in the group's pair order. Alone every item runs
-        // here on every thread; under MPI they are dealt over the ranks and every rank gets all
-        // of them back (common/distributed.h, run_items).
-        std::vector<std::vector<double>> partial(items.size());
-        auto play = [&](std::size_t it) {
-            play_item(scatterer, config, groups, items[it], nlobes, shared,
-                      r.paths_split || r.diffuse_guided, partial[it]);
-        };
-        distributed::ItemTransport transport;
-        transport.pack = [&](std::size_t it, Bytes& out) { out.put_vector(partial[it]); };
-        transport.unpack = [&](std::size_t it, Bytes& in) {
-            partial[it] = in.get_vector<double>();
-        };
-        if (!distributed::run_items(items.size(), play, transport, control.interrupt,
-                                    kBlocksPerRank)) {
+        if (distributed::broadcast_flag(stop_rule_met(r))) break;  // rank 0's clock decides
+        const int pass = r.passes;  // 0-based index of the pass being run
+        if (!play_pass(scatterer, r, groups,
+                       pass_items(config, groups.size(), nl / item_wavelengths, pass), control,
+                       run)) {
             r.interrupted = true;
             break;  // the unfinished pass is discarded; the checkpoint holds the last one
         }
-        for (std::size_t it = 0; it < items.size(); ++it)
-            add_item_sums(partial[it], groups[items[it].group], items[it].wavelength,
-                          item_wavelengths, nl, nlobes, sums);
         r.passes = pass + 1;
-        r.convergence.push_back(finish_row(r.passes));
+        r.convergence.push_back(finish_row(r.passes, run, r));
         if (!control.checkpoint.empty() && distributed::rank() == 0)
-            write_checkpoint(control.checkpoint, sums, r, identity);
-        if (control.progress) {
-            const auto& row = r.convergence.back();
-            std::cerr << fmt::format(
-                             "\r  {}: pass {} of at most {}, {} quanta per direction, est. error "
-                             "{:.3g} %, "
-                             "{:.1f} s   ",
-                             scatterer.name(), row.pass, config.max_passes, row.quanta,
-                             100.0 * row.estimated_relative_rms_error, row.wall_time_s)
-                      << std::flush;
-        }
+            write_checkpoint(control.checkpoint, run.sums, r, run.identity);
+        if (control.progress) print_pass(r);
         if (control.on_pass) control.on_pass(r.convergence.back());
         if (control.on_pass_record) control.on_pass_record(r);
     }
@@ -1005,6 +1030,29 @@ BrdfRecord measure_brdf(const Scatterer& scatterer, const GoniometerConfig& conf
                         r.scatterer, r.passes + 1, config.max_passes));
     }
     return r;
+}
+
+}  // namespace
+
+BrdfRecord measure_brdf(const Scatterer& scatterer, const GoniometerConfig& config,
+                        const RunControl& control) {
+    config.validate();
+    PhotonRun run;
+    run.start = std::chrono::steady_clock::now();
+    run.cpu_start = process_cpu_seconds();
+    BrdfRecord r = new_record(scatterer, config);
+    if (r.estimator_used == Estimator::eval) {
+        if (!scatterer.can_evaluate()) {
+            throw InputError(fmt::format(
+                "goniometer: estimator 'eval' needs a scatterer that evaluates f; {} does "
+                "not (use 'photon')",
+                scatterer.name()));
+        }
+        BrdfRecord evaluated = measure_by_eval(scatterer, config, std::move(r), run.start);
+        evaluated.cpu_time_s = process_cpu_seconds() - run.cpu_start;
+        return evaluated;
+    }
+    return measure_by_photons(scatterer, control, std::move(r), std::move(run));
 }
 
 record::RgbImage brdf_fingerprint(const BrdfRecord& r, int lights, int views, int block,
