@@ -1083,11 +1083,13 @@ record::RgbImage brdf_fingerprint(const BrdfRecord& r, int lights, int views, in
     return image;
 }
 
-void write_brdf_record(const BrdfRecord& r, const std::filesystem::path& path) {
-    const auto& c = r.config;
-    const std::size_t np = c.pairs.size(), nl = c.wavelengths_nm.size();
-    record::Hdf5Writer h5(path);
-    using Dims = std::vector<std::uint64_t>;
+namespace {
+
+using Dims = std::vector<std::uint64_t>;
+
+// The pairs' light and view directions (unit vectors, patch frame) and their angles in degrees.
+void write_directions(record::Hdf5Writer& h5, const GoniometerConfig& c) {
+    const std::size_t np = c.pairs.size();
     std::vector<double> light, view, angles;
     for (const auto& p : c.pairs) {
         light.insert(light.end(), {p.wi.x(), p.wi.y(), p.wi.z()});
@@ -1097,7 +1099,6 @@ void write_brdf_record(const BrdfRecord& r, const std::filesystem::path& path) {
                       {deg(std::acos(p.wi.z())), deg(std::atan2(p.wi.y(), p.wi.x())),
                        deg(std::acos(p.wo.z())), deg(std::atan2(p.wo.y(), p.wo.x()))});
     }
-    h5.set_attribute("/", "format", "plumage record 1 (virtual_gonio/RECORD.md)");
     h5.write(
         "instrument/light_directions", std::span<const double>(light), Dims{np, 3},
         {{"units", "1"},
@@ -1108,6 +1109,11 @@ void write_brdf_record(const BrdfRecord& r, const std::filesystem::path& path) {
     h5.write("instrument/angles_deg", std::span<const double>(angles), Dims{np, 4},
              {{"units", "deg"},
               {"description", "theta_light, phi_light, theta_view, phi_view (phi from +x)"}});
+}
+
+// What the instrument was: kind, direction set, detector, beam, aperture and estimator options.
+void write_instrument(record::Hdf5Writer& h5, const BrdfRecord& r) {
+    const auto& c = r.config;
     h5.set_attribute("/instrument", "kind", "goniometer");
     h5.set_attribute("/instrument", "direction_set", c.direction_set);
     h5.set_attribute("/instrument", "detector_half_angle_deg",
@@ -1143,9 +1149,12 @@ void write_brdf_record(const BrdfRecord& r, const std::filesystem::path& path) {
     }
     h5.set_attribute("/instrument", "estimator",
                      r.estimator_used == Estimator::eval ? "eval" : "photon");
-    write_polarisation(h5);
-    h5.write("wavelength_nm", std::span<const double>(c.wavelengths_nm), Dims{nl},
-             {{"units", "nm"}, {"description", "vacuum wavelengths of the measurement"}});
+}
+
+// The BRDF per pair and wavelength, its errors, the signal cells, and each lobe's part.
+void write_brdf_values(record::Hdf5Writer& h5, const BrdfRecord& r) {
+    const auto& c = r.config;
+    const std::size_t np = c.pairs.size(), nl = c.wavelengths_nm.size();
     h5.write(
         "brdf/value", std::span<const double>(r.value), Dims{np, nl},
         {{"units", "1/sr"},
@@ -1186,6 +1195,21 @@ void write_brdf_record(const BrdfRecord& r, const std::filesystem::path& path) {
                                                   r.lobes[l])}});
         }
     }
+}
+
+}  // namespace
+
+void write_brdf_record(const BrdfRecord& r, const std::filesystem::path& path) {
+    const auto& c = r.config;
+    const std::size_t nl = c.wavelengths_nm.size();
+    record::Hdf5Writer h5(path);
+    h5.set_attribute("/", "format", "plumage record 1 (virtual_gonio/RECORD.md)");
+    write_directions(h5, c);
+    write_instrument(h5, r);
+    write_polarisation(h5);
+    h5.write("wavelength_nm", std::span<const double>(c.wavelengths_nm), Dims{nl},
+             {{"units", "nm"}, {"description", "vacuum wavelengths of the measurement"}});
+    write_brdf_values(h5, r);
     write_convergence(h5, r.convergence,
                       convergence_attributes("pass, wall_time_s, "
                                              "quanta_per_direction_and_wavelength, "
