@@ -49,27 +49,16 @@ void BtfConfig::validate() const {
     require(quanta_per_light >= 1, kWhat, "quanta_per_light must be >= 1");
 }
 
-BtfRecord measure_btf(const Scatterer& scatterer, const BtfConfig& config) {
-    config.validate();
-    const auto start = std::chrono::steady_clock::now();
-    const double cpu_start = process_cpu_seconds();
-    BtfRecord r;
-    r.config = config;
-    r.scatterer = scatterer.name();
-    record_measurement_seed("btf", config.seed);  // common/seed.h: one root per measurement
-    const std::size_t np = config.pairs.size(), nl = config.wavelengths_nm.size();
-    const int n = config.pixels;
-    const std::size_t cells = np * static_cast<std::size_t>(n) * n * nl;
-    std::vector<double> sum(cells, 0.0), sum_sq(cells, 0.0);
-    const double half = 0.5 * config.patch_size_um, pixel = config.patch_size_um / n;
-    const double cos_alpha = std::cos(config.detector_half_angle_rad);
-    const double projected = kPi * std::pow(std::sin(config.detector_half_angle_rad), 2);
-    // Pairs that share a light direction share its quanta: each quantum counts for every
-    // detector cone it enters (the 61 × 60 set costs 61 light directions, not 3660 pairs).
-    std::vector<std::vector<std::size_t>> lights;  // pair indices per distinct light direction
-    for (std::size_t p = 0; p < np; ++p) {
+namespace {
+
+// Pair indices per distinct light direction, in order of first appearance. Pairs that share a
+// light direction share its quanta: each quantum counts for every detector cone it enters (the
+// 61 × 60 set costs 61 light directions, not 3660 pairs).
+std::vector<std::vector<std::size_t>> pairs_by_light(const std::vector<DirectionPair>& pairs) {
+    std::vector<std::vector<std::size_t>> lights;
+    for (std::size_t p = 0; p < pairs.size(); ++p) {
         auto same = [&](const std::vector<std::size_t>& g) {
-            return config.pairs[g.front()].wi == config.pairs[p].wi;
+            return pairs[g.front()].wi == pairs[p].wi;
         };
         auto it = std::find_if(lights.begin(), lights.end(), same);
         if (it == lights.end()) {
@@ -78,52 +67,90 @@ BtfRecord measure_btf(const Scatterer& scatterer, const BtfConfig& config) {
             it->push_back(p);
         }
     }
-    const std::uint64_t chunks = (config.quanta_per_light + kChunk - 1) / kChunk;
-    const std::size_t items = lights.size() * nl * chunks;
-    struct Hit {
-        std::size_t cell;
-        double x;
-    };
-    std::vector<std::vector<Hit>> hits(items);
-    // One item: a chunk of one light direction's quanta at one wavelength.
-    auto image_item = [&](std::size_t it) {
-        const std::size_t l = it / (nl * chunks), k = (it / chunks) % nl;
-        const std::uint64_t c = it % chunks;
-        const Vec3d& wi = config.pairs[lights[l].front()].wi;
-        for (std::uint64_t q = c * kChunk; q < std::min(config.quanta_per_light, (c + 1) * kChunk);
+    return lights;
+}
+
+// One quantum's contribution to one cell of the record.
+struct Hit {
+    std::size_t cell;
+    double x;
+};
+
+// The camera's work items: chunks of kChunk quanta of one light direction at one wavelength,
+// item = (light × wavelengths + wavelength) × chunks + chunk.
+class BtfImaging {
+public:
+    BtfImaging(const Scatterer& scatterer, const BtfRecord& r,
+               const std::vector<std::vector<std::size_t>>& lights)
+        : scatterer_(scatterer),
+          r_(r),
+          c_(r.config),
+          lights_(lights),
+          nl_(c_.wavelengths_nm.size()),
+          chunks_((c_.quanta_per_light + kChunk - 1) / kChunk),
+          half_(0.5 * c_.patch_size_um),
+          pixel_(c_.patch_size_um / c_.pixels),
+          cos_alpha_(std::cos(c_.detector_half_angle_rad)),
+          projected_(kPi * std::pow(std::sin(c_.detector_half_angle_rad), 2)) {}
+
+    std::size_t items() const { return lights_.size() * nl_ * chunks_; }
+
+    // The hits of item `it`'s quanta, in quantum order.
+    void image_item(std::size_t it, std::vector<Hit>& hits) const {
+        const std::size_t l = it / (nl_ * chunks_), k = (it / chunks_) % nl_;
+        const std::uint64_t c = it % chunks_;
+        const Vec3d& wi = c_.pairs[lights_[l].front()].wi;
+        for (std::uint64_t q = c * kChunk; q < std::min(c_.quanta_per_light, (c + 1) * kChunk);
              ++q) {
-            Rng rng(config.seed, (static_cast<std::uint64_t>(l * nl + k) << 40) + q);
-            // Uniform over the patch plane: what a wide, collimated beam deposits.
-            const Vec2 position((rng.uniform() - 0.5) * config.patch_size_um,
-                                (rng.uniform() - 0.5) * config.patch_size_um);
-            const auto event = scatterer.sample(wi, config.wavelengths_nm[k], position, rng);
-            if (!event || !(event->weight > 0.0)) continue;
-            const Vec2& exit = event->exit_position_um;
-            if (std::abs(exit.x()) >= half || std::abs(exit.y()) >= half) continue;
-            const int column = std::min(n - 1, static_cast<int>((exit.x() + half) / pixel));
-            const int row = std::min(n - 1, static_cast<int>((half - exit.y()) / pixel));
-            for (const std::size_t p : lights[l]) {
-                const Vec3d& wo = config.pairs[p].wo;
-                if (event->wo.dot(wo) < cos_alpha) continue;
-                hits[it].push_back(
-                    {r.index(p, row, column, k), event->weight / (projected * wo.z())});
-            }
+            Rng rng(c_.seed, (static_cast<std::uint64_t>(l * nl_ + k) << 40) + q);
+            image_quantum(wi, l, k, rng, hits);
         }
-    };
-    // Alone on every thread; under MPI dealt over the ranks, every item's hits back on every
-    // rank (common/distributed.h). Either way they are summed below in item order.
-    distributed::ItemTransport transport;
-    transport.pack = [&](std::size_t it, Bytes& out) { out.put_vector(hits[it]); };
-    transport.unpack = [&](std::size_t it, Bytes& in) { hits[it] = in.get_vector<Hit>(); };
-    if (!distributed::run_items(items, image_item, transport, &interrupt_flag()))
-        throw Interrupted(fmt::format("interrupted while imaging the BTF of {}", r.scatterer));
+    }
+
+private:
+    // One quantum: uniform over the patch plane (what a wide, collimated beam deposits), its
+    // exit point's pixel, and a hit for every detector cone of the light direction it enters.
+    void image_quantum(const Vec3d& wi, std::size_t l, std::size_t k, Rng& rng,
+                       std::vector<Hit>& hits) const {
+        const Vec2 position((rng.uniform() - 0.5) * c_.patch_size_um,
+                            (rng.uniform() - 0.5) * c_.patch_size_um);
+        const auto event = scatterer_.sample(wi, c_.wavelengths_nm[k], position, rng);
+        if (!event || !(event->weight > 0.0)) return;
+        const Vec2& exit = event->exit_position_um;
+        if (std::abs(exit.x()) >= half_ || std::abs(exit.y()) >= half_) return;
+        const int n = c_.pixels;
+        const int column = std::min(n - 1, static_cast<int>((exit.x() + half_) / pixel_));
+        const int row = std::min(n - 1, static_cast<int>((half_ - exit.y()) / pixel_));
+        for (const std::size_t p : lights_[l]) {
+            const Vec3d& wo = c_.pairs[p].wo;
+            if (event->wo.dot(wo) < cos_alpha_) continue;
+            hits.push_back({r_.index(p, row, column, k), event->weight / (projected_ * wo.z())});
+        }
+    }
+
+    const Scatterer& scatterer_;
+    const BtfRecord& r_;
+    const BtfConfig& c_;
+    const std::vector<std::vector<std::size_t>>& lights_;
+    std::size_t nl_;
+    std::uint64_t chunks_;
+    double half_, pixel_, cos_alpha_, projected_;
+};
+
+// The record's values and standard errors from the hits, summed in item order. Each pixel
+// receives a fraction 1/n² of the quanta's entry area: the pixel's share.
+void estimate_pixels(const std::vector<std::vector<Hit>>& hits, BtfRecord& r) {
+    const BtfConfig& config = r.config;
+    const int n = config.pixels;
+    const std::size_t cells =
+        config.pairs.size() * static_cast<std::size_t>(n) * n * config.wavelengths_nm.size();
+    std::vector<double> sum(cells, 0.0), sum_sq(cells, 0.0);
     for (const auto& list : hits) {
         for (const Hit& h : list) {
             sum[h.cell] += h.x;
             sum_sq[h.cell] += h.x * h.x;
         }
     }
-    // Each pixel receives a fraction 1/n² of the quanta's entry area: the pixel's share.
     const double per_pixel =
         static_cast<double>(config.quanta_per_light) / (static_cast<double>(n) * n);
     r.value.assign(cells, 0.0);
@@ -134,10 +161,35 @@ BtfRecord measure_btf(const Scatterer& scatterer, const BtfConfig& config) {
         // Poisson-like: Var(Σx)/per_pixel² with Var(Σx) ≈ Σx² (sparse hits).
         r.standard_error[i] = std::sqrt(sum_sq[i]) / per_pixel;
     }
+}
+
+}  // namespace
+
+BtfRecord measure_btf(const Scatterer& scatterer, const BtfConfig& config) {
+    config.validate();
+    const auto start = std::chrono::steady_clock::now();
+    const double cpu_start = process_cpu_seconds();
+    BtfRecord r;
+    r.config = config;
+    r.scatterer = scatterer.name();
+    record_measurement_seed("btf", config.seed);  // common/seed.h: one root per measurement
+    const std::vector<std::vector<std::size_t>> lights = pairs_by_light(r.config.pairs);
+    const BtfImaging imaging(scatterer, r, lights);
+    std::vector<std::vector<Hit>> hits(imaging.items());
+    auto image_item = [&](std::size_t it) { imaging.image_item(it, hits[it]); };
+    // Alone on every thread; under MPI dealt over the ranks, every item's hits back on every
+    // rank (common/distributed.h). Either way they are summed in item order.
+    distributed::ItemTransport transport;
+    transport.pack = [&](std::size_t it, Bytes& out) { out.put_vector(hits[it]); };
+    transport.unpack = [&](std::size_t it, Bytes& in) { hits[it] = in.get_vector<Hit>(); };
+    if (!distributed::run_items(hits.size(), image_item, transport, &interrupt_flag()))
+        throw Interrupted(fmt::format("interrupted while imaging the BTF of {}", r.scatterer));
+    estimate_pixels(hits, r);
     r.wall_time_s = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
     r.cpu_time_s = process_cpu_seconds() - cpu_start;
     double signal = 0.0, error = 0.0;
-    for (std::size_t i = 0; i < cells; ++i) signal += r.value[i], error += r.standard_error[i];
+    for (std::size_t i = 0; i < r.value.size(); ++i)
+        signal += r.value[i], error += r.standard_error[i];
     r.convergence = {{1, r.wall_time_s, config.quanta_per_light,
                       signal > 0.0 ? error / signal : std::numeric_limits<double>::infinity()}};
     return r;
