@@ -586,12 +586,12 @@ double median_relative_standard_error(const Scatterogram& s, double signal_fract
     return *middle;
 }
 
-void write_scatterogram_record(const Scatterogram& s, const std::filesystem::path& path) {
-    const auto& c = s.config;
-    const std::uint64_t n = static_cast<std::uint64_t>(c.image_size), nl = c.wavelengths_nm.size();
-    record::Hdf5Writer h5(path);
-    using Dims = std::vector<std::uint64_t>;
-    h5.set_attribute("/", "format", "plumage record 1 (virtual_gonio/RECORD.md)");
+namespace {
+
+using Dims = std::vector<std::uint64_t>;
+
+// What the instrument was: kind, illumination, beam and the image's mapping.
+void write_scatterometer(record::Hdf5Writer& h5, const ScatterometerConfig& c) {
     h5.create_group("instrument");
     h5.set_attribute("/instrument", "kind", "imaging_scatterometer");
     h5.set_attribute("/instrument", "illumination",
@@ -606,10 +606,12 @@ void write_scatterogram_record(const Scatterogram& s, const std::filesystem::pat
     h5.set_attribute("/instrument", "mapping",
                      "azimuthal equidistant: theta = 90 deg * hypot(u, v), phi = atan2(v, u) from "
                      "+x; row 0 at the top");
-    write_polarisation(h5);
-    h5.write("wavelength_nm", std::span<const double>(c.wavelengths_nm), Dims{nl},
-             {{"units", "nm"}, {"description", "vacuum wavelengths of the measurement"}});
-    // Each pixel's direction written out, so that a reader needs no code for the mapping.
+}
+
+// Each pixel's direction written out, so that a reader needs no code for the mapping.
+void write_pixel_directions(record::Hdf5Writer& h5, const Scatterogram& s) {
+    const auto& c = s.config;
+    const std::uint64_t n = static_cast<std::uint64_t>(c.image_size);
     std::vector<double> directions(static_cast<std::size_t>(n * n * 3),
                                    std::numeric_limits<double>::quiet_NaN());
     for (int row = 0; row < c.image_size; ++row) {
@@ -627,6 +629,12 @@ void write_scatterogram_record(const Scatterogram& s, const std::filesystem::pat
               {"description",
                "unit vector of each pixel centre away from the patch, patch frame (+z normal, "
                "+x barb axis), [row, column, xyz]; NaN outside the disc (/instrument@mapping)"}});
+}
+
+// The image: each pixel's solid angle, intensity, standard error and each lobe's part.
+void write_image(record::Hdf5Writer& h5, const Scatterogram& s) {
+    const std::uint64_t n = static_cast<std::uint64_t>(s.config.image_size),
+                        nl = s.config.wavelengths_nm.size();
     h5.write("image/solid_angle_sr", std::span<const double>(s.solid_angle_sr), Dims{n, n},
              {{"units", "sr"},
               {"description", "solid angle each pixel spans, [row, column]; 0 outside the disc"}});
@@ -647,6 +655,11 @@ void write_scatterogram_record(const Scatterogram& s, const std::filesystem::pat
                                               "column, wavelength]",
                                               s.lobes[l])}});
     }
+}
+
+// The power that leaves below the patch, in total and per lobe.
+void write_transmitted(record::Hdf5Writer& h5, const Scatterogram& s) {
+    const std::uint64_t nl = s.config.wavelengths_nm.size();
     h5.write("transmitted_fraction", std::span<const double>(s.transmitted), Dims{nl},
              {{"units", "1"},
               {"description", "fraction of the incident power leaving below the patch"}});
@@ -657,6 +670,22 @@ void write_scatterogram_record(const Scatterogram& s, const std::filesystem::pat
                   {"description",
                    fmt::format("the {} lobe's part of transmitted_fraction", s.lobes[l])}});
     }
+}
+
+}  // namespace
+
+void write_scatterogram_record(const Scatterogram& s, const std::filesystem::path& path) {
+    const auto& c = s.config;
+    const std::uint64_t nl = c.wavelengths_nm.size();
+    record::Hdf5Writer h5(path);
+    h5.set_attribute("/", "format", "plumage record 1 (virtual_gonio/RECORD.md)");
+    write_scatterometer(h5, c);
+    write_polarisation(h5);
+    h5.write("wavelength_nm", std::span<const double>(c.wavelengths_nm), Dims{nl},
+             {{"units", "nm"}, {"description", "vacuum wavelengths of the measurement"}});
+    write_pixel_directions(h5, s);
+    write_image(h5, s);
+    write_transmitted(h5, s);
     write_convergence(
         h5, s.convergence,
         convergence_attributes(
