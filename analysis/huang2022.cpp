@@ -16,6 +16,7 @@
 
 #include <fmt/format.h>
 
+#include "analysis/gauss_legendre_rules.h"
 #include "common/constants.h"
 #include "common/error.h"
 #include "common/require.h"
@@ -27,14 +28,6 @@ namespace {
 
 // The name that prefixes this file's input errors.
 constexpr std::string_view kWhat = "huang2022";
-
-// Gauss–Legendre nodes and weights on [−1, 1].
-constexpr std::array<double, 8> kGl8Nodes = {
-    -0.9602898564975363, -0.7966664774136267, -0.5255324099163290, -0.1834346424956498,
-    0.1834346424956498,  0.5255324099163290,  0.7966664774136267,  0.9602898564975363};
-constexpr std::array<double, 8> kGl8Weights = {
-    0.1012285362903763, 0.2223810344533745, 0.3137066458778873, 0.3626837833783620,
-    0.3626837833783620, 0.3137066458778873, 0.2223810344533745, 0.1012285362903763};
 
 // TRT's rule (eval_in_frame), Gauss–Legendre: 8 φ_m nodes per 0.125 rad of the visible
 // arc; over each node's θ_m support 5 nodes (kept per ω_i), or 8 over the part facing ω_o

@@ -94,15 +94,7 @@ void add_sphere_route(const SpongyMediumParams& params, const geometry::SpongyVo
     }
     const sim::wave::MeasuredStructureFactor sq =
         sim::wave::measure_structure_factor(centres, box, q_max + 2.0 * std::numbers::pi / box);
-    auto structure = [&sq](double q) {
-        const auto& x = sq.q_per_um;
-        if (q <= x.front()) return sq.s.front();
-        if (q >= x.back()) return sq.s.back();
-        const std::size_t i =
-            static_cast<std::size_t>(std::upper_bound(x.begin(), x.end(), q) - x.begin());
-        const double t = (q - x[i - 1]) / (x[i] - x[i - 1]);
-        return (1.0 - t) * sq.s[i - 1] + t * sq.s[i];
-    };
+    auto structure = [&sq](double q) { return sq.at(q); };
     const double density = static_cast<double>(centres.size()) / (box * box * box);
     std::vector<sim::MediumTable> tables;
     for (const double lambda : out.wavelengths_nm) {

@@ -21,6 +21,8 @@
 // |q| ∈ [(j − ½) Δq, (j + ½) Δq), Δq = 2π/L, j = 1 … j_max, as in measure_power_spectrum.
 #pragma once
 
+#include <algorithm>
+
 #include <cstddef>
 #include <vector>
 
@@ -42,6 +44,17 @@ struct MeasuredStructureFactor {
     std::vector<double> s;           // mean S over each shell
     std::vector<std::size_t> modes;  // number of reciprocal-lattice vectors in the shell
     double shell_width_per_um = 0.0;
+
+    // S at |q| (1/µm), linear between the shells' mean |q|; the first and last shell's S beyond
+    // them. q_per_um ascending, at least one shell.
+    double at(double q) const {
+        if (q <= q_per_um.front()) return s.front();
+        if (q >= q_per_um.back()) return s.back();
+        const auto i = static_cast<std::size_t>(
+            std::upper_bound(q_per_um.begin(), q_per_um.end(), q) - q_per_um.begin());
+        const double t = (q - q_per_um[i - 1]) / (q_per_um[i] - q_per_um[i - 1]);
+        return (1.0 - t) * s[i - 1] + t * s[i];
+    }
 };
 
 // S(q) of N points in the periodic box [0, L)³ for the shells up to q_max_per_um (direct

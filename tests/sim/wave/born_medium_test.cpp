@@ -179,15 +179,7 @@ double generated_packing_offset(double box_um) {
     // The voxel spheres hold the true volume to 1e-3 here (φ_vox = φ), so no volume correction.
     EXPECT_NEAR(1.0 - field.filling_fraction(), phi, 2e-3);
     const MeasuredStructureFactor sq = measure_structure_factor(v.air_sphere_centres_um, box, 40.0);
-    auto structure = [&sq](double q) {
-        const auto& x = sq.q_per_um;
-        if (q <= x.front()) return sq.s.front();
-        if (q >= x.back()) return sq.s.back();
-        const std::size_t i =
-            static_cast<std::size_t>(std::upper_bound(x.begin(), x.end(), q) - x.begin());
-        const double t = (q - x[i - 1]) / (x[i] - x[i - 1]);
-        return (1.0 - t) * sq.s[i - 1] + t * sq.s[i];
-    };
+    auto structure = [&sq](double q) { return sq.at(q); };
     const optics::ConstantMaterial air("air", Complex(1.0, 0.0));
     double offset = 0.0;
     for (const double dn : {0.04, 0.02, 0.01}) {
