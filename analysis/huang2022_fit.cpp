@@ -884,16 +884,53 @@ HuangFitResult local_fit(const Problem& problem, ParameterMap map, const HuangVa
 }
 
 // Σ r² of the problem at `values` (one residual evaluation).
-double chi_square_at(const Problem& problem, const HuangValues& values, int threads) {
-    std::vector<double> prediction;
-    predict(huang2022_params(values), problem.layout, threads, prediction, {});
-    double sum = 0.0;
-    for (std::size_t k = 0; k < problem.data.size(); ++k) {
-        const double r = (prediction[k] - problem.data[k]) * problem.inverse_sigma[k];
-        sum += r * r;
+// The global stage's evaluations, reported to options.progress as the local runs' are (the
+// first one with its cost, then from inside slow ones), so that a fit is never silent.
+struct StageEvaluator {
+    const Problem& problem;
+    const HuangFitOptions& options;
+    int free_parameters;
+    std::chrono::steady_clock::time_point start = std::chrono::steady_clock::now();
+    int evaluations = 0;
+
+    HuangFitProgress report(double chi_square) const {
+        HuangFitProgress p;
+        p.evaluations = evaluations;
+        p.max_evaluations = options.max_function_evaluations;
+        p.free_parameters = free_parameters;
+        p.observations = problem.layout.observations;
+        p.pixels = problem.layout.used.size();
+        p.illumination_directions = problem.layout.illumination.size();
+        p.elapsed_s =
+            std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+        p.chi_square = chi_square;
+        return p;
     }
-    return sum;
-}
+
+    // Σ r² at `values`: one residual evaluation (Ctrl-C polled inside, as in every one).
+    double operator()(const HuangValues& values) {
+        std::function<void(std::size_t)> working;
+        if (options.progress) {
+            working = [this](std::size_t done) {
+                HuangFitProgress p = report(0.0);
+                p.within_evaluation = true;
+                p.directions_done = done;
+                options.progress(p);
+            };
+        }
+        std::vector<double> prediction;
+        predict(huang2022_params(values), problem.layout, thread_count(options), prediction,
+                working);
+        double sum = 0.0;
+        for (std::size_t k = 0; k < problem.data.size(); ++k) {
+            const double r = (prediction[k] - problem.data[k]) * problem.inverse_sigma[k];
+            sum += r * r;
+        }
+        ++evaluations;
+        if (options.progress) options.progress(report(sum));
+        return sum;
+    }
+};
 
 // The global stage's grid (header): film thickness × tilt × spacing, each free one over its
 // grid, a fixed one at its start.
@@ -923,9 +960,10 @@ std::vector<HuangValues> huang_starts(const Problem& problem, const ParameterMap
     std::vector<HuangValues> starts = {start};
     if (options.global_starts == 0) return starts;
     std::vector<std::pair<double, HuangValues>> ranked;
+    StageEvaluator chi_square_at{problem, options, static_cast<int>(map.free.size())};
     for (const HuangValues& v : huang_grid(start, map)) {
         throw_if_interrupted("the Huang 2022 fit's global stage");
-        ranked.emplace_back(chi_square_at(problem, v, thread_count(options)), v);
+        ranked.emplace_back(chi_square_at(v), v);
     }
     std::stable_sort(ranked.begin(), ranked.end(),
                      [](const auto& a, const auto& b) { return a.first < b.first; });
@@ -938,7 +976,8 @@ std::vector<HuangValues> huang_starts(const Problem& problem, const ParameterMap
 // their plausible ranges, and (H, μ) together (their valley: the R band's position). Returns the
 // scanned point of lowest χ² when it is below `chi_square` by more than 1, else nothing.
 std::optional<HuangValues> scan_for_better(const Problem& problem, const ParameterMap& map,
-                                           const HuangValues& at, double chi_square, int threads) {
+                                           const HuangValues& at, double chi_square,
+                                           const HuangFitOptions& options) {
     std::vector<HuangValues> points;
     auto scan = [&](int index, double first, double last, int count) {
         if (!map.is_free[index]) return;
@@ -963,9 +1002,10 @@ std::optional<HuangValues> scan_for_better(const Problem& problem, const Paramet
     }
     std::optional<HuangValues> better;
     double lowest = chi_square - 1.0;
+    StageEvaluator chi_square_at{problem, options, static_cast<int>(map.free.size())};
     for (const HuangValues& v : points) {
         throw_if_interrupted("the Huang 2022 fit's scans");
-        const double c = chi_square_at(problem, v, threads);
+        const double c = chi_square_at(v);
         if (c < lowest) {
             lowest = c;
             better = v;
@@ -1025,7 +1065,7 @@ HuangFitResult fit_huang2022(const gonio::Scatterogram& data, const Huang2022Par
     // while that lowers χ² (at most three rounds).
     for (int round = 0; round < 3 && options.global_starts > 0; ++round) {
         const std::optional<HuangValues> better =
-            scan_for_better(problem, map, best->values, best->chi_square, thread_count(options));
+            scan_for_better(problem, map, best->values, best->chi_square, options);
         if (!better) break;
         HuangFitResult run = local_fit(problem, map, *better, options);
         chi_squares.push_back(run.chi_square);
