@@ -162,6 +162,7 @@ double poynting_z(Complex ex, Complex ey, Complex hx, Complex hy) {
 
 struct SlabRun {
     PlaneFields above, below;
+    double time_steps = 0.0;
 };
 
 SlabRun run_slab(meep::material_function& material,
@@ -190,9 +191,10 @@ SlabRun run_slab(meep::material_function& material,
         f.add_dft_flux_plane(meep::volume(meep::vec(-half, -half, cell.z_transmit),
                                           meep::vec(half, half, cell.z_transmit)),
                              freq);
-    step_until_decayed(f, source, meep::vec(0.0, 0.0, cell.z_transmit), src.last_time(), o);
+    const double steps =
+        step_until_decayed(f, source, meep::vec(0.0, 0.0, cell.z_transmit), src.last_time(), o);
     return {read_plane(f, above, freq.size(), cell.columns),
-            read_plane(f, below, freq.size(), cell.columns)};
+            read_plane(f, below, freq.size(), cell.columns), steps};
 }
 
 Complex mean_of(const std::vector<Complex>& v) {
@@ -285,7 +287,9 @@ SlabSpectrum slab_spectrum(const std::vector<SlabRun>& runs, std::size_t k, std:
                            bool fitted, bool lossless_under, double lambda_nm) {
     SlabSpectrum w;
     w.lambda_nm = lambda_nm;
-    for (std::size_t pol = 0; pol < 2; ++pol) {
+    const std::size_t pols = runs.size() / per_pol;
+    const double share = 1.0 / static_cast<double>(pols);
+    for (std::size_t pol = 0; pol < pols; ++pol) {
         const SlabRun& incident = runs[pol * per_pol];
         const SlabRun& total = runs[pol * per_pol + 1 + (fitted ? 0 : k)];
         const std::size_t kt = fitted ? k : 0;
@@ -294,11 +298,11 @@ SlabSpectrum slab_spectrum(const std::vector<SlabRun>& runs, std::size_t k, std:
         const double incident_power = -poynting_z(wave[0], wave[1], wave[2], wave[3]);
         const PlanePower reflected = plane_power(total.above, kt, wave);
         const PlanePower transmitted = plane_power(total.below, kt, {});
-        w.specular_reflectance += 0.5 * reflected.specular / incident_power;
-        w.diffuse_reflectance += 0.5 * (reflected.total - reflected.specular) / incident_power;
-        w.specular_transmittance += -0.5 * transmitted.specular / incident_power;
+        w.specular_reflectance += share * reflected.specular / incident_power;
+        w.diffuse_reflectance += share * (reflected.total - reflected.specular) / incident_power;
+        w.specular_transmittance += -share * transmitted.specular / incident_power;
         w.diffuse_transmittance +=
-            -0.5 * (transmitted.total - transmitted.specular) / incident_power;
+            -share * (transmitted.total - transmitted.specular) / incident_power;
     }
     if (!lossless_under)
         w.specular_transmittance = w.diffuse_transmittance =
@@ -335,8 +339,8 @@ FullWaveSlabResult full_wave_slab(const Slab3d& slab, std::span<const double> la
     narrow.columns = 4;
     narrow.half_xy = 2.0 * h;
     // per polarisation (E_x, E_y): the incident run, then the bodies' runs
-    const std::size_t per_pol = 1 + body_runs;
-    const std::vector<SlabRun> runs = run_all(2 * per_pol, grid, [&](std::size_t i) {
+    const std::size_t per_pol = 1 + body_runs, pols = slab.e_x_only ? 1 : 2;
+    const std::vector<SlabRun> runs = run_all(pols * per_pol, grid, [&](std::size_t i) {
         const meep::component source = i < per_pol ? meep::Ex : meep::Ey;
         const std::size_t r = i % per_pol;
         if (r == 0) {
@@ -381,6 +385,7 @@ FullWaveSlabResult full_wave_slab(const Slab3d& slab, std::span<const double> la
     for (std::size_t k = 0; k < n; ++k)
         result.wavelengths.push_back(
             slab_spectrum(runs, k, per_pol, fitted, lossless_under, lambdas_nm[k]));
+    for (const SlabRun& r : runs) result.time_steps = std::max(result.time_steps, r.time_steps);
     result.dispersion_fits = materials.fits;
     result.seconds =
         std::chrono::duration<double>(std::chrono::steady_clock::now() - started).count();

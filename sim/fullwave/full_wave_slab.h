@@ -1,7 +1,7 @@
 // Full wave in 3D: a slab of material, periodic laterally (a voxel volume from the spongy
 // generators, a lattice of spheres, any body given by an inside test), on air or a substrate,
 // lit at normal incidence from air above; its specular and diffuse reflectance and
-// transmittance (all diffraction orders), unpolarised.
+// transmittance (all diffraction orders), unpolarised (or under E_x alone: Slab3d::e_x_only).
 //
 // Frame: x, y lateral, z up; the slab fills 0 <= z <= thickness where `inside` holds, repeated
 // with the period along x and y (inside is asked at x, y in [0, period)); the substrate, if
@@ -57,6 +57,10 @@ struct Slab3d {
     std::function<bool(const Eigen::Vector3d&)> inside;  // x, y in [0, period), z in the slab
     std::shared_ptr<const optics::Material> material;    // where inside holds
     std::shared_ptr<const optics::Material> substrate;   // z < 0; nullptr: air
+    // true: the E_x run alone (half the cost). One realisation's result is then that
+    // polarisation's, not the unpolarised one; over realisations of a statistically isotropic
+    // medium its mean is the unpolarised mean (E_x and E_y are alike in distribution).
+    bool e_x_only = false;
 };
 
 struct SlabSpectrum {
@@ -70,6 +74,7 @@ struct FullWaveSlabResult {
     double resolution_px_per_um = 0.0;      // the grid's: the period in whole cells
     std::vector<SlabSpectrum> wavelengths;  // in the order asked, unpolarised
     std::size_t grid_cells = 0;
+    double time_steps = 0.0;  // of the longest run
     double seconds = 0.0;
     std::vector<LorentzFit> dispersion_fits;  // Dispersion::fitted: one per material
 };
