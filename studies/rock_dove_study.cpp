@@ -1076,35 +1076,10 @@ bool matches_reference(const Settings& s) {
            std::abs(p.mu - r.mu_rad) <= 0.01 * kDeg && std::abs(s.beam_incidence) <= 1e-9;
 }
 
-// The embedded CSVs' rows as cells (header first).
-std::vector<std::vector<std::string>> csv_rows(std::string_view text) {
-    std::vector<std::vector<std::string>> rows;
-    std::size_t at = 0;
-    while (at < text.size()) {
-        std::size_t end = text.find('\n', at);
-        if (end == std::string_view::npos) end = text.size();
-        std::string_view line = text.substr(at, end - at);
-        at = end + 1;
-        if (!line.empty() && line.back() == '\r') line.remove_suffix(1);
-        if (line.empty()) continue;
-        std::vector<std::string> cells;
-        std::size_t from = 0;
-        while (true) {
-            const std::size_t comma = line.find(',', from);
-            cells.emplace_back(
-                line.substr(from, comma == std::string_view::npos ? comma : comma - from));
-            if (comma == std::string_view::npos) break;
-            from = comma + 1;
-        }
-        rows.push_back(std::move(cells));
-    }
-    return rows;
-}
-
 // σ curves per wavelength (TE/TM, coarse and fine) from the embedded far_field_back.csv:
 // case, polarisation, theta_i_deg, lambda_nm, resolution_px_per_um, theta_s_deg, sigma_um_per_rad.
 std::vector<sim::wave::FullWaveCurves2d> embedded_full_wave_curves() {
-    const auto rows = csv_rows(kFullWaveRockDoveFarField);
+    const auto rows = embedded_csv_rows(kFullWaveRockDoveFarField);
     std::map<double, sim::wave::FullWaveCurves2d> by_lambda;
     double coarse = std::numeric_limits<double>::infinity(), fine = 0.0;
     for (std::size_t i = 1; i < rows.size(); ++i) {
@@ -1133,7 +1108,7 @@ std::vector<sim::wave::FullWaveCurves2d> embedded_full_wave_curves() {
 // each resolution, from the embedded totals.csv: the convergence the issue asks of the air-gap
 // case.
 std::pair<double, double> back_power_by_resolution(double& coarse_res, double& fine_res) {
-    const auto rows = csv_rows(kFullWaveRockDoveTotals);
+    const auto rows = embedded_csv_rows(kFullWaveRockDoveTotals);
     std::map<double, std::map<double, double>> by_res;  // resolution → λ → Σ_pol back width
     for (std::size_t i = 1; i < rows.size(); ++i)
         by_res[std::stod(rows[i].at(4))][std::stod(rows[i].at(3))] += std::stod(rows[i].at(5));
@@ -1236,7 +1211,7 @@ std::string full_wave_judgement(const Run& run, RockDoveResult& result) {
 // resolution_px_per_um, reflectance, …) per wavelength, TE and TM at its two grids.
 std::vector<sim::wave::RowReflectanceFullWave> embedded_row_reflectances(double& coarse_res,
                                                                          double& fine_res) {
-    const auto rows = csv_rows(kFullWaveRockDoveRowTotals);
+    const auto rows = embedded_csv_rows(kFullWaveRockDoveRowTotals);
     coarse_res = std::numeric_limits<double>::infinity();
     fine_res = 0.0;
     for (std::size_t i = 1; i < rows.size(); ++i) {

@@ -577,6 +577,26 @@ std::string patch_medulla(const SpeciesSpec& sp, const BuiltSpecies& built) {
             : std::string("no core"));
 }
 
+// How first Born, the spongy medulla's route, does against 3D full wave on channel-type slabs
+// (studies/spongy_medium.h: routes_against_full_wave; tests/reference/spongy_3d).
+std::string spongy_route_check_sentence() {
+    std::string t;
+    for (const RouteFullWaveCheck& c : routes_against_full_wave()) {
+        if (c.structure != "channel" || c.route != "born") continue;
+        t += fmt::format(
+            "{}at keratin n = {} ({} realisations) its diffuse-R peak is {:.0f} nm against full "
+            "wave's {:.0f} nm and its worst 50-nm band {} nm is {:+.0f} % off (noise floor {:.0f} "
+            "%): it {}",
+            t.empty() ? "" : "; ", c.keratin_index, c.realisations, c.route_peak_nm,
+            c.full_wave_peak_nm, c.worst_band, 100.0 * c.worst_difference, 100.0 * c.worst_floor,
+            c.passes ? "passes" : "misses the 15 % (10 % at n < 1.5) asked");
+    }
+    if (t.empty()) return "";
+    return " Against 3D full wave on channel-type slabs (f = 0.5, Λ = 0.19 µm, 2 µm thick; "
+           "tests/reference/spongy_3d, and the spongy study's report), first Born " +
+           t + ".";
+}
+
 std::string report_introduction(const Settings& s, const std::vector<BuiltSpecies>& built,
                                 const fs::path& source) {
     std::string md = fmt::format(
@@ -626,7 +646,9 @@ std::string report_introduction(const Settings& s, const std::vector<BuiltSpecie
         "\nA spongy medulla's colour is computed, not set: a generated channel-type volume of the "
         "given Λ and f, its indicator power spectrum, first-Born scattering tables at every "
         "traced wavelength (studies/spongy_medium.h), traced as a scattering medium filling the "
-        "medulla with Fresnel boundaries in its Bruggeman index (sim/scene.h).\n\n"
+        "medulla with Fresnel boundaries in its Bruggeman index (sim/scene.h).";
+    md += spongy_route_check_sentence() + "\n\n";
+    md +=
         "Not modelled: the rachis, barbule hooks, curvature of the vane, the sample's backing "
         "(light leaving below the stack is lost, as on a black stage), the spongy keratin as "
         "explicit keratin/air interfaces (the medium is its first-Born average: coherent single "

@@ -132,4 +132,22 @@ geometry::SpongyVolume make_spongy_volume(const SpongyMediumParams& params);
 SpongyMedium build_spongy_medium(const SpongyMediumParams& params,
                                  const std::vector<double>& wavelengths_nm, std::string name = {});
 
+// Each route against 3D full wave: the committed tests/reference/spongy_3d/route_check.csv (as its
+// comparison test computed it, embedded at build time), one entry per structure, keratin index
+// and route: full wave's and the route's diffuse-R peak, whether the route passes (peak within
+// 10 nm, every 50-nm band within 15 %, 10 % at n < 1.5, beyond the noise floor), and its worst
+// band.
+struct RouteFullWaveCheck {
+    std::string structure, keratin_index, route, realisations;  // route: "born" or "sphere"
+    double full_wave_peak_nm = 0.0, route_peak_nm = 0.0;
+    bool passes = false;
+    std::string worst_band;                            // "lo–hi" nm
+    double worst_difference = 0.0, worst_floor = 0.0;  // relative
+};
+std::vector<RouteFullWaveCheck> routes_against_full_wave();
+
+// The report section on them ("## The routes against 3D full wave"), `route` marked as the
+// study's; `structure` non-empty: that structure's rows alone.
+std::string routes_against_full_wave_text(MediumRoute route, std::string_view structure = {});
+
 }  // namespace plumage::studies

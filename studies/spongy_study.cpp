@@ -969,9 +969,9 @@ std::string routes_text(const std::vector<Case>& cases, const std::vector<CaseRe
                         const Settings& s) {
     std::string t = fmt::format(
         "## The two routes side by side\n\nThe study's route (`medium.route`) is **{}**; it "
-        "gives the results above, the angle dependence and the colours. The choice between the "
-        "routes is not yet decided by full wave: no 3D full-wave reference exists in the suite, "
-        "so read both. Both use the Bruggeman index for propagation, the slab's Fresnel faces "
+        "gives the results above, the angle dependence and the colours; how each route does "
+        "against 3D full wave is the next section. Both use the Bruggeman index for propagation, "
+        "the slab's Fresnel faces "
         "and absorption; they differ in the contrast that scatters: first Born the full "
         "two-phase contrast ε_keratin − ε_air on the volume's power spectrum, the sphere route "
         "each air sphere's contrast to the Bruggeman medium, ε_air − ε_eff (structcol's "
@@ -1112,7 +1112,8 @@ void write_report(const fs::path& path, const std::vector<Case>& cases,
                       s.scales_um.front())
        << angles_table(runs, angle_peaks, s.wavelengths_nm)
        << "\n![Angle dependence](angles.png)\n\n"
-       << routes_text(cases, res, s) << reflectance_definitions(cases.front(), s)
+       << routes_text(cases, res, s) << routes_against_full_wave_text(s.route)
+       << reflectance_definitions(cases.front(), s)
        << baseline_text(baseline, cases.front(), res.front(), s)
        << "Records: `spongy.h5` (every dataset with `units` and `description` attributes; the "
           "figures are drawn from it by plumage's plotting script, kinds `spongy_spectra`, "

@@ -143,4 +143,8 @@ std::string interrupted_with_checkpoint(const std::string& what, int passes,
 // Unit vector at polar θ from +z and azimuth φ from +x (patch frame).
 Vec3d polar(double theta, double phi);
 
+// The rows of a CSV embedded in the binary (a committed reference, configured into a generated
+// header) as cells, header first; blank lines skipped, no quoting (the references have none).
+std::vector<std::vector<std::string>> embedded_csv_rows(std::string_view text);
+
 }  // namespace plumage::studies

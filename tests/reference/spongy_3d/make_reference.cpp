@@ -1,0 +1,106 @@
+// Writes one structure's rows of the 3D spongy full-wave reference (README.md beside this file):
+// the normal-incidence specular and diffuse reflectance and transmittance of a 2 µm slab of the
+// structure (structures.h), periodic laterally, in air, at two resolutions, from the suite's own
+// full-wave level (sim/fullwave/full_wave_slab.h, Meep's C++ library). Not run in CI (minutes to
+// tens of minutes per structure on one core); the committed CSV is what the test reads.
+//   plumage_spongy3d_reference OUT_CSV KIND N_KERATIN SEED COARSE_PX_PER_UM DECAY [GRIDS]
+// KIND: channel | air_spheres | keratin_spheres; keratin a constant index N_KERATIN (no
+// dispersion, no loss), so that the media routes compare on the structure alone; E_x only
+// (Slab3d::e_x_only: the mean over seeds is the unpolarised mean); 400–700 nm every 10 nm in one
+// run per grid; grids COARSE and 1.5 × COARSE px/µm, or (GRIDS = coarse) COARSE alone, or
+// (GRIDS = only=R) R px/µm alone; DECAY:
+// stop when the field under the slab has fallen to DECAY of its peak.
+#include <atomic>
+#include <csignal>
+#include <cstdio>
+#include <filesystem>
+#include <fstream>
+#include <memory>
+#include <string>
+#include <vector>
+
+#include <fmt/format.h>
+
+#include "sim/fullwave/full_wave_slab.h"
+#include "structures.h"
+
+namespace fw = plumage::sim::fullwave;
+namespace s3 = plumage::reference::spongy3d;
+
+namespace {
+std::atomic<bool> g_stop{false};
+extern "C" void on_signal(int) { g_stop = true; }
+}  // namespace
+
+int main(int argc, char** argv) {
+    if (argc != 7 && argc != 8) {
+        std::fprintf(stderr,
+                     "usage: %s OUT_CSV channel|air_spheres|keratin_spheres N_KERATIN SEED "
+                     "COARSE_PX_PER_UM decay=D [coarse|only=R]\n",
+                     argv[0]);
+        return 2;
+    }
+    std::signal(SIGINT, on_signal);
+    std::signal(SIGTERM, on_signal);
+    const std::filesystem::path out = argv[1];
+    const s3::Kind kind = s3::kind_from(argv[2]);
+    const double n_keratin = std::stod(argv[3]);
+    const auto seed = static_cast<std::uint64_t>(std::stoull(argv[4]));
+    const double coarse = std::stod(argv[5]);
+    const std::string stop = argv[6];
+    if (stop.rfind("decay=", 0) != 0) {
+        std::fprintf(stderr, "DECAY: expected decay=D, got %s\n", stop.c_str());
+        return 2;
+    }
+    const double decay = std::stod(stop.substr(6));
+    const std::string grids_arg = argc == 8 ? argv[7] : "";
+    const s3::Structure structure = s3::make_structure(kind, seed);
+
+    fw::Slab3d slab;
+    slab.period_um = s3::kPeriodUm;
+    slab.thickness_um = s3::kThicknessUm;
+    slab.thinnest_um = structure.thinnest_um;
+    slab.inside = structure.keratin;
+    slab.material = std::make_shared<plumage::optics::ConstantMaterial>(
+        fmt::format("keratin n={:g}", n_keratin), n_keratin);
+    slab.e_x_only = true;
+    std::vector<double> lambdas;
+    for (int l = 400; l <= 700; l += 10) lambdas.push_back(l);
+
+    // each grid's rows are in the file (under a temporary name until the last) once it is done
+    const std::filesystem::path tmp = out.string() + ".part";
+    {
+        std::ofstream f(tmp);
+        f << "structure,n_keratin,seed,resolution_px_per_um,keratin_fraction,lambda_nm,"
+             "specular_reflectance,diffuse_reflectance,specular_transmittance,"
+             "diffuse_transmittance,grid_cells,time_steps,run_wall_s,stop_rule\n";
+    }
+    std::vector<double> grids{coarse, 1.5 * coarse};
+    if (grids_arg == "coarse") grids = {coarse};
+    if (grids_arg.rfind("only=", 0) == 0) grids = {std::stod(grids_arg.substr(5))};
+    for (const double res : grids) {
+        fw::FullWave2dOptions o;
+        o.resolution_px_per_um = res;
+        o.pml_um = 0.6;
+        o.gap_um = 0.25;
+        o.decay = decay;
+        o.threads = 1;
+        o.dispersion = fw::Dispersion::fitted;
+        o.stop = &g_stop;
+        const fw::FullWaveSlabResult r = fw::full_wave_slab(slab, lambdas, o);
+        std::ofstream f(tmp, std::ios::app);
+        for (const fw::SlabSpectrum& w : r.wavelengths)
+            f << fmt::format(
+                "{},{:g},{},{:g},{:.4f},{:g},{:.6g},{:.6g},{:.6g},{:.6g},{},{:.0f},"
+                "{:.0f},{}\n",
+                s3::kind_name(kind), n_keratin, seed, res, structure.keratin_fraction, w.lambda_nm,
+                w.specular_reflectance, w.diffuse_reflectance, w.specular_transmittance,
+                w.diffuse_transmittance, r.grid_cells, r.time_steps, r.seconds, stop);
+        std::fprintf(stderr, "%s n=%g seed %llu at %g px/um: %zu cells, %.0f steps, %.0f s\n",
+                     std::string(s3::kind_name(kind)).c_str(), n_keratin,
+                     static_cast<unsigned long long>(seed), res, r.grid_cells, r.time_steps,
+                     r.seconds);
+    }
+    std::filesystem::rename(tmp, out);
+    return 0;
+}

@@ -1,0 +1,411 @@
+// The 3D spongy slabs of tests/reference/spongy_3d (the suite's full-wave level, Meep's C++
+// library) through the media routes the studies offer: each structure's keratin indicator
+// (structures.h, regenerated from its seed) → its power spectrum → first Born (born_medium.h),
+// and for sphere packings the centres' S(q) → Mie × S(q) in the Bruggeman medium
+// (sphere_medium) → a 2 µm slab of that medium with Fresnel faces at n_eff, traced by the
+// tracer (sim/scattering_slab.h), in air, at normal incidence. Compared per (structure, keratin
+// index) on the seed means: the peak of the total reflectance and its 50-nm band means, and the
+// diffuse (non-specular) part alone. What is asserted, and why: README.md there, "Against the
+// routes". Every (structure, index, seed) in reflectance.csv is read, so runs added later are
+// picked up.
+#include <algorithm>
+#include <cmath>
+#include <cstdio>
+#include <cstdlib>
+#include <filesystem>
+#include <fstream>
+#include <iterator>
+#include <map>
+#include <memory>
+#include <numbers>
+#include <sstream>
+#include <string>
+#include <tuple>
+#include <vector>
+
+#include <fmt/format.h>
+#include <gtest/gtest.h>
+
+#include "common/seed.h"
+#include "sim/optics/material.h"
+#include "sim/scattering_medium.h"
+#include "sim/scattering_slab.h"
+#include "sim/tracer.h"
+#include "sim/wave/born_medium.h"
+#include "sim/wave/power_spectrum.h"
+#include "sim/wave/structure_factor.h"
+#include "tests/reference/spongy_3d/structures.h"
+
+namespace plumage::reference::spongy3d {
+namespace {
+
+namespace fs = std::filesystem;
+using sim::Vec3d;
+
+constexpr std::size_t kPaths = 4000;  // per wavelength, structure and route
+constexpr double kBandNm = 50.0;
+constexpr int kBands = 6;  // 400–450 … 650–700 (700 nm in the last)
+
+fs::path reference_csv() {
+    return fs::path(PLUMAGE_SOURCE_DIR) / "tests/reference/spongy_3d/reflectance.csv";
+}
+
+// One spectrum: per wavelength the total and diffuse reflectance and the total transmittance,
+// with the Monte Carlo variance of the total and diffuse R (zero for full wave).
+struct Spectrum {
+    std::vector<double> lambda_nm, r, r_diffuse, t, r_var, r_diffuse_var;
+};
+
+struct Key {
+    std::string kind;
+    double n = 0.0;
+    bool operator<(const Key& o) const { return std::tie(kind, n) < std::tie(o.kind, o.n); }
+};
+
+struct FullWaveRuns {
+    // per seed: the coarse and the fine grid's spectra
+    std::map<std::uint64_t, std::map<double, Spectrum>> seeds;
+};
+
+std::map<Key, FullWaveRuns> read_reference(const fs::path& path) {
+    std::ifstream in(path);
+    EXPECT_TRUE(in.good()) << path;
+    std::string line;
+    std::getline(in, line);
+    EXPECT_EQ(line,
+              "structure,n_keratin,seed,resolution_px_per_um,keratin_fraction,lambda_nm,"
+              "specular_reflectance,diffuse_reflectance,specular_transmittance,"
+              "diffuse_transmittance,grid_cells,time_steps,run_wall_s,stop_rule");
+    std::map<Key, FullWaveRuns> out;
+    while (std::getline(in, line)) {
+        if (line.empty()) continue;
+        std::stringstream ss(line);
+        std::vector<std::string> c;
+        for (std::string cell; std::getline(ss, cell, ',');) c.push_back(cell);
+        EXPECT_EQ(c.size(), 14u) << line;
+        if (c.size() != 14) continue;
+        Spectrum& s = out[{c[0], std::stod(c[1])}].seeds[std::stoull(c[2])][std::stod(c[3])];
+        const double rs = std::stod(c[6]), rd = std::stod(c[7]);
+        s.lambda_nm.push_back(std::stod(c[5]));
+        s.r.push_back(rs + rd);
+        s.r_diffuse.push_back(rd);
+        s.t.push_back(std::stod(c[8]) + std::stod(c[9]));
+        s.r_var.push_back(0.0);
+        s.r_diffuse_var.push_back(0.0);
+    }
+    return out;
+}
+
+// R, diffuse R and T of a 2 µm slab of `medium` in air at normal incidence, by the tracer. A
+// path leaving exactly along ±z was never scattered (the faces' specular paths): specular.
+Spectrum trace_slab(std::shared_ptr<const sim::ScatteringMedium> medium,
+                    const std::vector<double>& lambdas, std::uint64_t seed) {
+    sim::ScatteringSlabParams p;
+    p.thickness_um = kThicknessUm;
+    p.half_width_um = 1000.0;
+    const sim::ExplicitScatterer tracer(sim::scattering_slab_scene(std::move(medium), p));
+    Spectrum s;
+    for (std::size_t w = 0; w < lambdas.size(); ++w) {
+        const auto events =
+            sim::trace_many(tracer, Vec3d(0.0, 0.0, 1.0), lambdas[w], {{-1.0, -1.0}, {1.0, 1.0}},
+                            seed, w * kPaths, kPaths, 2);
+        double r = 0.0, r2 = 0.0, d = 0.0, d2 = 0.0, t = 0.0;
+        for (const auto& e : events) {
+            if (!e) continue;
+            const bool specular = std::hypot(e->wo.x(), e->wo.y()) < 1e-9;
+            if (e->wo.z() < 0.0) {
+                t += e->weight;
+                continue;
+            }
+            r += e->weight;
+            r2 += e->weight * e->weight;
+            if (!specular) {
+                d += e->weight;
+                d2 += e->weight * e->weight;
+            }
+        }
+        const double n = static_cast<double>(kPaths);
+        const auto var = [n](double sum, double sum2) {
+            return std::max(0.0, sum2 / n - (sum / n) * (sum / n)) / (n - 1.0);
+        };
+        s.lambda_nm.push_back(lambdas[w]);
+        s.r.push_back(r / n);
+        s.r_diffuse.push_back(d / n);
+        s.t.push_back(t / n);
+        s.r_var.push_back(var(r, r2));
+        s.r_diffuse_var.push_back(var(d, d2));
+    }
+    return s;
+}
+
+struct RouteSpectra {
+    Spectrum born, sphere;  // sphere: empty for the channel
+};
+
+RouteSpectra route_spectra(const std::string& kind_text, double n_keratin, std::uint64_t seed,
+                           const std::vector<double>& lambdas) {
+    const Kind kind = kind_from(kind_text);
+    const Structure s = make_structure(kind, seed);
+    const optics::ConstantMaterial keratin("keratin", n_keratin);
+    const auto air = optics::air();
+    const sim::wave::PowerSpectrum spectrum =
+        sim::wave::PowerSpectrum::measure_3d(s.indicator, s.voxels_per_side, kVoxelUm);
+    std::vector<sim::MediumTable> born;
+    for (const double l : lambdas)
+        born.push_back(sim::medium_table(sim::wave::born_medium(spectrum, keratin, *air, l)));
+    RouteSpectra out;
+    out.born = trace_slab(std::make_shared<const sim::ScatteringMedium>(std::move(born)), lambdas,
+                          derive_seed(seed, "spongy3d/born", static_cast<std::uint64_t>(kind)));
+    if (kind == Kind::channel) return out;
+    const double q_max = 4.0 * std::numbers::pi * n_keratin / (lambdas.front() * 1e-3) +
+                         2.0 * std::numbers::pi / kPeriodUm;
+    const sim::wave::MeasuredStructureFactor sq =
+        sim::wave::measure_structure_factor(s.centres, kPeriodUm, q_max);
+    const double density =
+        static_cast<double>(s.centres.size()) / (kPeriodUm * kPeriodUm * kPeriodUm);
+    const bool air_spheres = kind == Kind::air_spheres;
+    std::vector<sim::MediumTable> sphere;
+    for (const double l : lambdas)
+        sphere.push_back(sim::medium_table(sim::wave::sphere_medium(
+            s.sphere_radius_um, density, air_spheres ? *air : keratin, air_spheres ? keratin : *air,
+            [&sq](double q) { return sq.at(q); }, l)));
+    out.sphere =
+        trace_slab(std::make_shared<const sim::ScatteringMedium>(std::move(sphere)), lambdas,
+                   derive_seed(seed, "spongy3d/sphere", static_cast<std::uint64_t>(kind)));
+    return out;
+}
+
+// The mean over seeds (variances of the mean).
+Spectrum seed_mean(const std::vector<Spectrum>& list) {
+    Spectrum m = list.front();
+    const double k = static_cast<double>(list.size());
+    for (std::size_t i = 0; i < m.lambda_nm.size(); ++i) {
+        m.r[i] = m.r_diffuse[i] = m.t[i] = m.r_var[i] = m.r_diffuse_var[i] = 0.0;
+        for (const Spectrum& s : list) {
+            m.r[i] += s.r[i] / k;
+            m.r_diffuse[i] += s.r_diffuse[i] / k;
+            m.t[i] += s.t[i] / k;
+            m.r_var[i] += s.r_var[i] / (k * k);
+            m.r_diffuse_var[i] += s.r_diffuse_var[i] / (k * k);
+        }
+    }
+    return m;
+}
+
+int band_of(double lambda_nm) {
+    return std::clamp(static_cast<int>((lambda_nm - 400.0) / kBandNm), 0, kBands - 1);
+}
+
+// Band means of `values` and (optionally) the standard errors from per-sample variances.
+std::vector<double> band_means(const Spectrum& s, const std::vector<double>& values) {
+    std::vector<double> sum(kBands, 0.0), count(kBands, 0.0);
+    for (std::size_t i = 0; i < s.lambda_nm.size(); ++i) {
+        sum[band_of(s.lambda_nm[i])] += values[i];
+        count[band_of(s.lambda_nm[i])] += 1.0;
+    }
+    for (int b = 0; b < kBands; ++b) sum[b] /= count[b];
+    return sum;
+}
+
+std::vector<double> band_errors(const Spectrum& s, const std::vector<double>& variances) {
+    std::vector<double> sum(kBands, 0.0), count(kBands, 0.0);
+    for (std::size_t i = 0; i < s.lambda_nm.size(); ++i) {
+        sum[band_of(s.lambda_nm[i])] += variances[i];
+        count[band_of(s.lambda_nm[i])] += 1.0;
+    }
+    for (int b = 0; b < kBands; ++b) sum[b] = std::sqrt(sum[b]) / count[b];
+    return sum;
+}
+
+// The peak: the vertex of the parabola through the largest sample and its neighbours (the
+// sample itself at the ends of the range).
+double peak_nm(const Spectrum& s, const std::vector<double>& values) {
+    const auto i =
+        static_cast<std::size_t>(std::max_element(values.begin(), values.end()) - values.begin());
+    if (i == 0 || i + 1 == values.size()) return s.lambda_nm[i];
+    const double a = values[i - 1], b = values[i], c = values[i + 1];
+    const double h = s.lambda_nm[i + 1] - s.lambda_nm[i];
+    const double denom = a - 2.0 * b + c;
+    return denom == 0.0 ? s.lambda_nm[i] : s.lambda_nm[i] + 0.5 * h * (a - c) / denom;
+}
+
+// Standard error of the full-wave seed mean per band (realisation noise).
+std::vector<double> seed_errors(const std::vector<Spectrum>& list,
+                                std::vector<double> Spectrum::*field) {
+    std::vector<std::vector<double>> bands;
+    for (const Spectrum& s : list) bands.push_back(band_means(s, s.*field));
+    std::vector<double> out(kBands, 0.0);
+    const double k = static_cast<double>(list.size());
+    if (list.size() < 2) return out;
+    for (int b = 0; b < kBands; ++b) {
+        double mean = 0.0, ss = 0.0;
+        for (const auto& v : bands) mean += v[b] / k;
+        for (const auto& v : bands) ss += (v[b] - mean) * (v[b] - mean);
+        out[b] = std::sqrt(ss / (k - 1.0) / k);
+    }
+    return out;
+}
+
+// The criteria (issue 37): the peak within 10 nm and every 50-nm band mean within 15 % at
+// keratin's n = 1.55, within 10 % at low contrast (n < 1.5), beyond the floor of three standard
+// errors of the difference (full wave's realisation noise over seeds, the route's Monte Carlo)
+// and full wave's own grid difference where it was measured.
+constexpr double kPeakToleranceNm = 10.0;
+double band_tolerance(double n) { return n >= 1.5 ? 0.15 : 0.10; }
+
+// One route on one (structure, index): what the README's tables print.
+struct RouteCheck {
+    std::string route;
+    double fw_peak_nm = 0.0, peak_nm = 0.0;
+    std::vector<double> fw_diffuse, diffuse, rel, floor_rel, fw_specular, specular;
+    bool passes = false;
+};
+
+// Full wave's grid difference of the diffuse R per band: (fine − coarse) / coarse, averaged over
+// the seeds run on two grids; NaN where none was.
+std::vector<double> grid_differences(const FullWaveRuns& runs) {
+    std::vector<double> sum(kBands, 0.0);
+    double count = 0.0;
+    for (const auto& [seed, grids] : runs.seeds) {
+        if (grids.size() < 2) continue;
+        const Spectrum &c = grids.begin()->second, &f = grids.rbegin()->second;
+        const auto bc = band_means(c, c.r_diffuse), bf = band_means(f, f.r_diffuse);
+        for (int b = 0; b < kBands; ++b) sum[b] += bf[b] / bc[b] - 1.0;
+        count += 1.0;
+    }
+    for (double& v : sum) v = count > 0.0 ? v / count : NAN;
+    return sum;
+}
+
+RouteCheck check_route(const std::string& route, double n, const std::vector<Spectrum>& fw_seeds,
+                       const std::vector<Spectrum>& route_seeds, const std::vector<double>& grid) {
+    const Spectrum fw = seed_mean(fw_seeds), rm = seed_mean(route_seeds);
+    RouteCheck c;
+    c.route = route;
+    c.fw_peak_nm = peak_nm(fw, fw.r_diffuse);
+    c.peak_nm = peak_nm(rm, rm.r_diffuse);
+    c.fw_diffuse = band_means(fw, fw.r_diffuse);
+    c.diffuse = band_means(rm, rm.r_diffuse);
+    std::vector<double> fw_spec(fw.r.size()), spec(rm.r.size());
+    for (std::size_t i = 0; i < fw.r.size(); ++i) fw_spec[i] = fw.r[i] - fw.r_diffuse[i];
+    for (std::size_t i = 0; i < rm.r.size(); ++i) spec[i] = rm.r[i] - rm.r_diffuse[i];
+    c.fw_specular = band_means(fw, fw_spec);
+    c.specular = band_means(rm, spec);
+    const auto seed_se = seed_errors(fw_seeds, &Spectrum::r_diffuse);
+    const auto mc_se = band_errors(rm, rm.r_diffuse_var);
+    // both at the short end of the range: both peak at or below it, which agrees
+    const bool both_at_edge =
+        c.fw_peak_nm <= fw.lambda_nm.front() + 1e-9 && c.peak_nm <= rm.lambda_nm.front() + 1e-9;
+    c.passes = both_at_edge || std::abs(c.peak_nm - c.fw_peak_nm) <= kPeakToleranceNm;
+    for (int b = 0; b < kBands; ++b) {
+        const double g = std::isnan(grid[b]) ? 0.0 : grid[b] * c.fw_diffuse[b];
+        c.rel.push_back(c.diffuse[b] / c.fw_diffuse[b] - 1.0);
+        c.floor_rel.push_back(3.0 * std::hypot(seed_se[b], mc_se[b]) / c.fw_diffuse[b] +
+                              std::abs(g) / c.fw_diffuse[b]);
+        if (std::abs(c.rel[b]) > band_tolerance(n) + c.floor_rel[b]) c.passes = false;
+    }
+    return c;
+}
+
+void print_check(const Key& key, std::size_t seeds, const RouteCheck& c,
+                 const std::vector<double>& grid) {
+    std::printf("%s", fmt::format("\n{}, n = {:.2f}, {} seed(s), route {}: diffuse-R peak full "
+                                  "wave {:.1f} nm, route {:.1f} nm: {}\n"
+                                  "| band (nm) | full wave diffuse R | its grid diff. | route "
+                                  "diffuse R | difference | floor | full wave specular R | "
+                                  "route specular R |\n|---|---|---|---|---|---|---|---|\n",
+                                  key.kind, key.n, seeds, c.route, c.fw_peak_nm, c.peak_nm,
+                                  c.passes ? "PASSES" : "misses")
+                          .c_str());
+    for (int b = 0; b < kBands; ++b)
+        std::printf("%s",
+                    fmt::format("| {}–{} | {:.4f} | {} | {:.4f} | {:+.1f} % | {:.1f} % | "
+                                "{:.4f} | {:.4f} |\n",
+                                400 + 50 * b, 450 + 50 * b, c.fw_diffuse[b],
+                                std::isnan(grid[b]) ? std::string("not run")
+                                                    : fmt::format("{:+.1f} %", 100.0 * grid[b]),
+                                c.diffuse[b], 100.0 * c.rel[b], 100.0 * c.floor_rel[b],
+                                c.fw_specular[b], c.specular[b])
+                        .c_str());
+}
+
+// Every route on one (structure, index), against the seeds' coarse grid (the grid every seed
+// was run on).
+std::vector<RouteCheck> compare(const Key& key, const FullWaveRuns& runs) {
+    std::vector<Spectrum> fw, born, sphere;
+    for (const auto& [seed, grids] : runs.seeds) {
+        fw.push_back(grids.begin()->second);
+        const RouteSpectra r = route_spectra(key.kind, key.n, seed, fw.back().lambda_nm);
+        born.push_back(r.born);
+        if (!r.sphere.r.empty()) sphere.push_back(r.sphere);
+    }
+    const std::vector<double> grid = grid_differences(runs);
+    std::vector<RouteCheck> out{check_route("born", key.n, fw, born, grid)};
+    if (!sphere.empty()) out.push_back(check_route("sphere", key.n, fw, sphere, grid));
+    for (const RouteCheck& c : out) print_check(key, fw.size(), c, grid);
+    return out;
+}
+
+// Lossless keratin: R + T = 1 within the runs' flux accuracy. Meep stops at a field decay of
+// 1e-6 under the slab; a periodic cell's quasi-guided resonances ring longer, and single
+// wavelengths near them are off by up to 0.03 (README); 50-nm band means within 0.01.
+TEST(Spongy3dReference, FullWaveConservesPower) {
+    const auto reference = read_reference(reference_csv());
+    ASSERT_FALSE(reference.empty());
+    for (const auto& [key, runs] : reference)
+        for (const auto& [seed, grids] : runs.seeds)
+            for (const auto& [res, s] : grids) {
+                std::vector<double> sum(s.r.size());
+                for (std::size_t i = 0; i < s.r.size(); ++i) {
+                    sum[i] = s.r[i] + s.t[i];
+                    EXPECT_NEAR(sum[i], 1.0, 0.04)
+                        << key.kind << " n " << key.n << " seed " << seed << " at " << res
+                        << " px/um, " << s.lambda_nm[i] << " nm";
+                }
+                for (const double band : band_means(s, sum))
+                    EXPECT_NEAR(band, 1.0, 0.01)
+                        << key.kind << " n " << key.n << " seed " << seed << " at " << res;
+            }
+}
+
+// route_check.csv: one row per (structure, index, route, band), the numbers print_check prints.
+// The spongy study embeds it (studies/spongy_reference.h.in) and states its route's verdict.
+constexpr const char* kRouteCheckHeader =
+    "structure,n_keratin,route,seeds,fw_peak_nm,route_peak_nm,passes,band_lo_nm,band_hi_nm,"
+    "fw_diffuse_r,route_diffuse_r,difference,floor";
+
+std::string route_check_rows(const Key& key, std::size_t seeds, const RouteCheck& c) {
+    std::string out;
+    for (int b = 0; b < kBands; ++b)
+        out += fmt::format("{},{:g},{},{},{:.1f},{:.1f},{},{},{},{:.4f},{:.4f},{:.3f},{:.3f}\n",
+                           key.kind, key.n, c.route, seeds, c.fw_peak_nm, c.peak_nm,
+                           c.passes ? 1 : 0, 400 + 50 * b, 450 + 50 * b, c.fw_diffuse[b],
+                           c.diffuse[b], c.rel[b], c.floor_rel[b]);
+    return out;
+}
+
+fs::path route_check_csv() {
+    return fs::path(PLUMAGE_SOURCE_DIR) / "tests/reference/spongy_3d/route_check.csv";
+}
+
+// Every route against every (structure, index) of the reference; the committed route_check.csv
+// must be what this computes (deterministic: the routes' Monte Carlo is seeded per structure and
+// route), so what the spongy study quotes is what the test measured. To rewrite it after new
+// runs: PLUMAGE_WRITE_ROUTE_CHECK=1 build/tests/plumage_tests --gtest_filter='Spongy3d*'.
+TEST(Spongy3dReference, RoutesAgainstFullWave) {
+    const auto reference = read_reference(reference_csv());
+    ASSERT_FALSE(reference.empty());
+    std::string rows = std::string(kRouteCheckHeader) + "\n";
+    for (const auto& [key, runs] : reference)
+        for (const RouteCheck& c : compare(key, runs))
+            rows += route_check_rows(key, runs.seeds.size(), c);
+    if (std::getenv("PLUMAGE_WRITE_ROUTE_CHECK")) std::ofstream(route_check_csv()) << rows;
+    std::ifstream in(route_check_csv());
+    const std::string committed((std::istreambuf_iterator<char>(in)),
+                                std::istreambuf_iterator<char>());
+    EXPECT_EQ(committed, rows) << route_check_csv()
+                               << " is not what the reference gives now: rewrite it (above)";
+}
+
+}  // namespace
+}  // namespace plumage::reference::spongy3d
