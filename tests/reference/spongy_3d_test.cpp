@@ -348,7 +348,8 @@ std::vector<RouteCheck> compare(const Key& key, const FullWaveRuns& runs) {
 
 // Lossless keratin: R + T = 1 within the runs' flux accuracy. Meep stops at a field decay of
 // 1e-6 under the slab; a periodic cell's quasi-guided resonances ring longer, and single
-// wavelengths near them are off by up to 0.03 (README); 50-nm band means within 0.01.
+// wavelengths near them (660–670 nm here) are off by up to 0.042 (README); 50-nm band means
+// within 0.01.
 TEST(Spongy3dReference, FullWaveConservesPower) {
     const auto reference = read_reference(reference_csv());
     ASSERT_FALSE(reference.empty());
@@ -358,7 +359,7 @@ TEST(Spongy3dReference, FullWaveConservesPower) {
                 std::vector<double> sum(s.r.size());
                 for (std::size_t i = 0; i < s.r.size(); ++i) {
                     sum[i] = s.r[i] + s.t[i];
-                    EXPECT_NEAR(sum[i], 1.0, 0.04)
+                    EXPECT_NEAR(sum[i], 1.0, 0.05)
                         << key.kind << " n " << key.n << " seed " << seed << " at " << res
                         << " px/um, " << s.lambda_nm[i] << " nm";
                 }
@@ -396,9 +397,29 @@ TEST(Spongy3dReference, RoutesAgainstFullWave) {
     const auto reference = read_reference(reference_csv());
     ASSERT_FALSE(reference.empty());
     std::string rows = std::string(kRouteCheckHeader) + "\n";
-    for (const auto& [key, runs] : reference)
-        for (const RouteCheck& c : compare(key, runs))
-            rows += route_check_rows(key, runs.seeds.size(), c);
+    for (const auto& [key, runs] : reference) {
+        const std::vector<RouteCheck> checks = compare(key, runs);
+        for (const RouteCheck& c : checks) rows += route_check_rows(key, runs.seeds.size(), c);
+        // The decision between the routes' contrasts, by the mean |difference| over the bands
+        // (README, "Against the routes"): on air spheres in keratin (the sphere-type barbs)
+        // first Born's full two-phase contrast is nearer full wave than the sphere route's
+        // contrast to the Bruggeman medium; on keratin spheres in air neither comes within 30 %.
+        if (checks.size() == 2) {
+            const auto mean_abs = [](const RouteCheck& c) {
+                double sum = 0.0;
+                for (const double r : c.rel) sum += std::abs(r);
+                return sum / static_cast<double>(c.rel.size());
+            };
+            const double born = mean_abs(checks[0]), sphere = mean_abs(checks[1]);
+            std::printf("%s n = %.2f: mean |difference| first Born %.1f %%, sphere route %.1f %%\n",
+                        key.kind.c_str(), key.n, 100.0 * born, 100.0 * sphere);
+            if (key.n >= 1.5 && key.kind == "air_spheres") EXPECT_LT(born, sphere);
+            if (key.n >= 1.5 && key.kind == "keratin_spheres") {
+                EXPECT_GT(born, 0.3);
+                EXPECT_GT(sphere, 0.3);
+            }
+        }
+    }
     if (std::getenv("PLUMAGE_WRITE_ROUTE_CHECK")) std::ofstream(route_check_csv()) << rows;
     std::ifstream in(route_check_csv());
     const std::string committed((std::istreambuf_iterator<char>(in)),
