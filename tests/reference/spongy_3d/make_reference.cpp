@@ -67,14 +67,10 @@ int main(int argc, char** argv) {
     std::vector<double> lambdas;
     for (int l = 400; l <= 700; l += 10) lambdas.push_back(l);
 
-    // each grid's rows are in the file (under a temporary name until the last) once it is done
+    // each grid's rows are in the file (under a temporary name until the last) once it is done;
+    // a run refused or stopped before its first grid leaves no file
     const std::filesystem::path tmp = out.string() + ".part";
-    {
-        std::ofstream f(tmp);
-        f << "structure,n_keratin,seed,resolution_px_per_um,keratin_fraction,lambda_nm,"
-             "specular_reflectance,diffuse_reflectance,specular_transmittance,"
-             "diffuse_transmittance,grid_cells,time_steps,run_wall_s,stop_rule\n";
-    }
+    bool started = false;
     std::vector<double> grids{coarse, 1.5 * coarse};
     if (grids_arg == "coarse") grids = {coarse};
     if (grids_arg.rfind("only=", 0) == 0) grids = {std::stod(grids_arg.substr(5))};
@@ -88,7 +84,12 @@ int main(int argc, char** argv) {
         o.dispersion = fw::Dispersion::fitted;
         o.stop = &g_stop;
         const fw::FullWaveSlabResult r = fw::full_wave_slab(slab, lambdas, o);
-        std::ofstream f(tmp, std::ios::app);
+        std::ofstream f(tmp, started ? std::ios::app : std::ios::trunc);
+        if (!started)
+            f << "structure,n_keratin,seed,resolution_px_per_um,keratin_fraction,lambda_nm,"
+                 "specular_reflectance,diffuse_reflectance,specular_transmittance,"
+                 "diffuse_transmittance,grid_cells,time_steps,run_wall_s,stop_rule\n";
+        started = true;
         for (const fw::SlabSpectrum& w : r.wavelengths)
             f << fmt::format(
                 "{},{:g},{},{:g},{:.4f},{:g},{:.6g},{:.6g},{:.6g},{:.6g},{},{:.0f},"
