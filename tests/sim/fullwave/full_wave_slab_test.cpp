@@ -71,11 +71,8 @@ TEST(FullWaveSlab, UniformSlabMatchesTransferMatrix) {
 }
 
 // A simple cubic lattice of dielectric spheres (n = 1.5, radius 0.25 µm, period 0.8 µm) in a
-// slab 0.6 µm thick, at 600 nm: diffraction orders carry light sideways (the period exceeds λ),
-// nothing absorbs, so the four parts add to one within the runs' error; the sphere is symmetric
-// under x ↔ y, so E_x and E_y see the same lattice (their mean is what is returned; the test of
-// the sum covers both).
-TEST(FullWaveSlab, LosslessSphereLatticeConservesPower) {
+// slab 0.6 µm thick.
+Slab3d sphere_lattice() {
     Slab3d slab;
     slab.period_um = 0.8;
     slab.thickness_um = 0.6;
@@ -85,6 +82,15 @@ TEST(FullWaveSlab, LosslessSphereLatticeConservesPower) {
     };
     slab.material =
         std::make_shared<optics::ConstantMaterial>("n1.5", std::complex<double>(1.5, 0.0));
+    return slab;
+}
+
+// The lattice at 600 nm: diffraction orders carry light sideways (the period exceeds λ), nothing
+// absorbs, so the four parts add to one within the runs' error; the sphere is symmetric under
+// x ↔ y, so E_x and E_y see the same lattice (their mean is what is returned; the test of the
+// sum covers both).
+TEST(FullWaveSlab, LosslessSphereLatticeConservesPower) {
+    Slab3d slab = sphere_lattice();
     const std::array<double, 1> lambdas{600.0};
     const SlabSpectrum coarse = full_wave_slab(slab, lambdas, small_cell(25.0)).wavelengths[0];
     const FullWaveSlabResult fine_run = full_wave_slab(slab, lambdas, small_cell(37.5));
@@ -105,15 +111,7 @@ TEST(FullWaveSlab, LosslessSphereLatticeConservesPower) {
 // unpolarised answer (measured: equal to 5 digits; 1e-4 asserted, for the Yee cell's staggering
 // of E_x and E_y), and the steps of the longest run reported.
 TEST(FullWaveSlab, ExAloneGivesTheUnpolarisedAnswerOfASymmetricBody) {
-    Slab3d slab;
-    slab.period_um = 0.8;
-    slab.thickness_um = 0.6;
-    slab.thinnest_um = 0.5;
-    slab.inside = [](const Eigen::Vector3d& p) {
-        return (p - Eigen::Vector3d(0.4, 0.4, 0.3)).norm() < 0.25;
-    };
-    slab.material =
-        std::make_shared<optics::ConstantMaterial>("n1.5", std::complex<double>(1.5, 0.0));
+    Slab3d slab = sphere_lattice();
     const std::array<double, 1> lambdas{600.0};
     const FullWaveSlabResult both = full_wave_slab(slab, lambdas, small_cell(25.0));
     slab.e_x_only = true;
