@@ -5,6 +5,7 @@
 #include <cmath>
 #include <complex>
 #include <limits>
+#include <optional>
 #include <string>
 
 #include <fmt/format.h>
@@ -53,8 +54,9 @@ void validate_stack(const SurfaceStack2d& stack, std::size_t curve) {
     }
 }
 
-// The largest step physical optics accepts at this wavelength, and the step to use.
-double checked_step(double lambda_nm, double step_um) {
+}  // namespace
+
+double physical_optics_step(double lambda_nm, double step_um) {
     if (!std::isfinite(lambda_nm) || lambda_nm <= 0.0)
         refuse(fmt::format("lambda_nm = {} must be finite and > 0", lambda_nm));
     const double limit = 1e-3 * lambda_nm / 10.0;
@@ -67,6 +69,8 @@ double checked_step(double lambda_nm, double step_um) {
                         step_um, limit, lambda_nm));
     return step_um;
 }
+
+namespace {
 
 struct CurveTable {
     std::vector<double> t, s;  // fine parameter grid and cumulative chord length
@@ -213,47 +217,43 @@ SampledCrossSection2d sample_cross_section(const CrossSection2d& section, double
 }
 
 namespace {
-
 // Chords grouped kBlock at a time under bounding boxes (header: why not a grid).
 constexpr std::size_t kBlock = 32;
+}  // namespace
 
-struct ChordBlocks {
-    std::vector<Vec> lo, hi;
-};
-
-ChordBlocks build_blocks(const SampledCrossSection2d& sampled) {
+ChordIndex2d::ChordIndex2d(const SampledCrossSection2d& sampled) : sampled_(&sampled) {
     const std::size_t n = sampled.samples.size();
     const std::size_t blocks = (n + kBlock - 1) / kBlock;
-    ChordBlocks out;
-    out.lo.resize(blocks);
-    out.hi.resize(blocks);
+    lo_.resize(blocks);
+    hi_.resize(blocks);
     for (std::size_t b = 0; b < blocks; ++b) {
-        out.lo[b] = Vec::Constant(std::numeric_limits<double>::infinity());
-        out.hi[b] = -out.lo[b];
+        lo_[b] = Vec::Constant(std::numeric_limits<double>::infinity());
+        hi_[b] = -lo_[b];
         for (std::size_t j = b * kBlock; j < std::min(n, (b + 1) * kBlock); ++j) {
-            out.lo[b] = out.lo[b].cwiseMin(sampled.chord_a[j]).cwiseMin(sampled.chord_b[j]);
-            out.hi[b] = out.hi[b].cwiseMax(sampled.chord_a[j]).cwiseMax(sampled.chord_b[j]);
+            lo_[b] = lo_[b].cwiseMin(sampled.chord_a[j]).cwiseMin(sampled.chord_b[j]);
+            hi_[b] = hi_[b].cwiseMax(sampled.chord_a[j]).cwiseMax(sampled.chord_b[j]);
         }
     }
-    return out;
 }
 
-// Whether the ray o + t d, t > 0, crosses any chord but `skip` (the sample's own piece).
-bool ray_blocked(const SampledCrossSection2d& sampled, const ChordBlocks& blocks, const Vec& o,
-                 const Vec& d, std::size_t skip) {
+template <bool kFirst>
+std::optional<ChordIndex2d::Hit> ChordIndex2d::cast(const Eigen::Vector2d& o,
+                                                    const Eigen::Vector2d& d,
+                                                    std::size_t skip) const {
+    const SampledCrossSection2d& sampled = *sampled_;
     const std::size_t n = sampled.samples.size();
     const Vec inv(1.0 / d.x(), 1.0 / d.y());  // ±inf for an axis-parallel ray: handled below
     const double eps = 1e-9 * (1.0 + o.cwiseAbs().maxCoeff());
-    for (std::size_t b = 0; b < blocks.lo.size(); ++b) {
-        double t0 = 0.0, t1 = std::numeric_limits<double>::infinity();
+    std::optional<Hit> best;
+    for (std::size_t b = 0; b < lo_.size(); ++b) {
+        double t0 = 0.0, t1 = best ? best->t : std::numeric_limits<double>::infinity();
         for (int axis = 0; axis < 2; ++axis) {
             if (d[axis] == 0.0) {
-                if (o[axis] < blocks.lo[b][axis] || o[axis] > blocks.hi[b][axis])
-                    t0 = 1.0, t1 = 0.0;
+                if (o[axis] < lo_[b][axis] || o[axis] > hi_[b][axis]) t0 = 1.0, t1 = 0.0;
                 continue;
             }
-            double ta = (blocks.lo[b][axis] - o[axis]) * inv[axis];
-            double tb = (blocks.hi[b][axis] - o[axis]) * inv[axis];
+            double ta = (lo_[b][axis] - o[axis]) * inv[axis];
+            double tb = (hi_[b][axis] - o[axis]) * inv[axis];
             if (ta > tb) std::swap(ta, tb);
             t0 = std::max(t0, ta);
             t1 = std::min(t1, tb);
@@ -267,25 +267,37 @@ bool ray_blocked(const SampledCrossSection2d& sampled, const ChordBlocks& blocks
             const Vec w = sampled.chord_a[k] - o;
             const double t = cross(w, e) / denom;
             const double u = cross(w, d) / denom;
-            if (t > eps && u >= 0.0 && u <= 1.0) return true;
+            if (t > eps && u >= 0.0 && u <= 1.0) {
+                if (!kFirst) return Hit{k, t};
+                if (!best || t < best->t) best = Hit{k, t};
+            }
         }
     }
-    return false;
+    return best;
 }
 
-}  // namespace
+bool ChordIndex2d::blocked(const Eigen::Vector2d& o, const Eigen::Vector2d& d,
+                           std::size_t skip) const {
+    return cast<false>(o, d, skip).has_value();
+}
+
+std::optional<ChordIndex2d::Hit> ChordIndex2d::first_hit(const Eigen::Vector2d& o,
+                                                         const Eigen::Vector2d& d,
+                                                         std::size_t skip) const {
+    return cast<true>(o, d, skip);
+}
 
 std::vector<unsigned char> illuminated(const SampledCrossSection2d& sampled,
                                        const Eigen::Vector2d& omega_i) {
     const std::size_t n = sampled.samples.size();
-    const ChordBlocks blocks = build_blocks(sampled);
+    const ChordIndex2d chords(sampled);
     std::vector<unsigned char> lit(n, 0);
 #pragma omp parallel for schedule(static)
     for (std::ptrdiff_t js = 0; js < static_cast<std::ptrdiff_t>(n); ++js) {
         const std::size_t j = static_cast<std::size_t>(js);
         const SurfaceSample2d& s = sampled.samples[j];
         if (!(s.normal.dot(omega_i) > 0.0)) continue;
-        lit[j] = ray_blocked(sampled, blocks, s.point, omega_i, j) ? 0 : 1;
+        lit[j] = chords.blocked(s.point, omega_i, j) ? 0 : 1;
     }
     return lit;
 }
@@ -295,13 +307,13 @@ std::vector<unsigned char> rays_unblocked(const SampledCrossSection2d& sampled,
                                           std::span<const Eigen::Vector2d> directions) {
     if (from.size() != directions.size())
         refuse(fmt::format("{} ray origins but {} directions", from.size(), directions.size()));
-    const ChordBlocks blocks = build_blocks(sampled);
+    const ChordIndex2d chords(sampled);
     std::vector<unsigned char> open(from.size(), 0);
 #pragma omp parallel for schedule(static)
     for (std::ptrdiff_t ms = 0; ms < static_cast<std::ptrdiff_t>(from.size()); ++ms) {
         const std::size_t m = static_cast<std::size_t>(ms);
         const std::size_t j = from[m];
-        open[m] = ray_blocked(sampled, blocks, sampled.samples[j].point, directions[m], j) ? 0 : 1;
+        open[m] = chords.blocked(sampled.samples[j].point, directions[m], j) ? 0 : 1;
     }
     return open;
 }
@@ -314,9 +326,9 @@ FarFieldKernel2d prepare_far_field(const CrossSection2d& section,
     if (!std::isfinite(incidence.cos_elevation) || !(incidence.cos_elevation > 0.0) ||
         incidence.cos_elevation > 1.0)
         refuse(fmt::format("cos_elevation = {:.4g} must be in (0, 1]", incidence.cos_elevation));
-    const double limit = checked_step(incidence.lambda_nm, 0.0);
+    const double limit = physical_optics_step(incidence.lambda_nm, 0.0);
     for (const SurfaceSample2d& s : sampled.samples)
-        if (s.ds_um > limit * (1.0 + 1e-12)) checked_step(incidence.lambda_nm, s.ds_um);
+        if (s.ds_um > limit * (1.0 + 1e-12)) physical_optics_step(incidence.lambda_nm, s.ds_um);
     FarFieldKernel2d kernel;
     kernel.k = 2.0 * kPi / (1e-3 * incidence.lambda_nm) * incidence.cos_elevation;
     kernel.wi = direction(incidence.theta_i_rad);
@@ -455,7 +467,8 @@ std::vector<std::complex<double>> far_field_integral(const CrossSection2d& secti
         const optics::Polarisation pol = incidence.polarisation == Polarisation2d::te
                                              ? optics::Polarisation::s
                                              : optics::Polarisation::p;
-        const ChordBlocks blocks = visibility ? build_blocks(sampled) : ChordBlocks{};
+        const std::optional<ChordIndex2d> chords =
+            visibility ? std::optional<ChordIndex2d>(sampled) : std::nullopt;
         const Vec wi = kernel.wi;
         const double k = kernel.k;
         const std::size_t n = kernel.px.size();
@@ -482,8 +495,8 @@ std::vector<std::complex<double>> far_field_integral(const CrossSection2d& secti
                     // Both variants drop samples facing away from ω_s (hidden by their own body).
                     const double cs = kernel.nx[j] * ws.x() + kernel.nz[j] * ws.y();
                     if (!(cs > 0.0)) continue;
-                    if (visibility && ray_blocked(sampled, blocks, Vec(kernel.px[j], kernel.pz[j]),
-                                                  ws, kernel.index[j]))
+                    if (visibility &&
+                        chords->blocked(Vec(kernel.px[j], kernel.pz[j]), ws, kernel.index[j]))
                         continue;
                     const double ci = kernel.nx[j] * wi.x() + kernel.nz[j] * wi.y();
                     Complex amplitude;
@@ -575,7 +588,7 @@ SampledCrossSection2d place_row(const Row2d& row, const SampledCrossSection2d& c
 std::vector<double> scattering_width(const Row2d& row, const Incidence2d& incidence,
                                      std::span<const double> theta_s_rad,
                                      const PhysicalOpticsOptions& options) {
-    const double step = checked_step(incidence.lambda_nm, options.step_um);
+    const double step = physical_optics_step(incidence.lambda_nm, options.step_um);
     validate_row(row);
     const SampledCrossSection2d cell = sample_cross_section(row.cell, step);
     const double k = 2.0 * kPi / (1e-3 * incidence.lambda_nm) * incidence.cos_elevation;

@@ -115,6 +115,7 @@
 #include <cstdint>
 #include <functional>
 #include <memory>
+#include <optional>
 #include <span>
 #include <vector>
 
@@ -178,6 +179,33 @@ struct SampledCrossSection2d {
 // Cuts every curve into pieces of equal arc length <= step_um. InputError when a curve is
 // shorter than the step or its radius of curvature drops below it (naming value and limit).
 SampledCrossSection2d sample_cross_section(const CrossSection2d& section, double step_um);
+
+// The step a sampling of this wavelength uses: step_um, or λ/10 when it is 0. InputError when
+// the wavelength is not finite and positive or the step exceeds λ/10 (naming both).
+double physical_optics_step(double lambda_nm, double step_um);
+
+// Ray casts against the chords of a sampled cross-section (the lit test's, above): chords grouped
+// 32 at a time under bounding boxes. Keeps a pointer to `sampled`, which must outlive it.
+class ChordIndex2d final {
+public:
+    explicit ChordIndex2d(const SampledCrossSection2d& sampled);
+    struct Hit {
+        std::size_t chord;  // index of the chord (= its sample)
+        double t;           // distance along the unit direction
+    };
+    // Whether the ray o + t d, t > 0, crosses any chord but `skip` (the sample's own piece).
+    bool blocked(const Eigen::Vector2d& o, const Eigen::Vector2d& d, std::size_t skip) const;
+    // The nearest chord the ray crosses (`skip` excluded), if any.
+    std::optional<Hit> first_hit(const Eigen::Vector2d& o, const Eigen::Vector2d& d,
+                                 std::size_t skip) const;
+
+private:
+    template <bool kFirst>
+    std::optional<Hit> cast(const Eigen::Vector2d& o, const Eigen::Vector2d& d,
+                            std::size_t skip) const;
+    const SampledCrossSection2d* sampled_;
+    std::vector<Eigen::Vector2d> lo_, hi_;
+};
 
 // Per sample: 1 when lit from omega_i (see the header), else 0.
 std::vector<unsigned char> illuminated(const SampledCrossSection2d& sampled,
