@@ -67,7 +67,9 @@
 //  - multiple reflections between surfaces (barbule to barbule, or inside a concave part);
 //  - transmission through the body: no light crosses the cross-section; the far side's
 //    half-space holds only the shadow-forming wave and its diffraction, and the reflected part
-//    there is ~0 for an opaque (absorbing melanin) body;
+//    there is ~0 for an opaque (absorbing melanin) body. physical_optics_hybrid_2d.h carries the
+//    light through films in air and melanin bodies that transmit, and radiates from every
+//    interface it lights;
 //  - edge and creeping-wave diffraction beyond Kirchhoff's abrupt lit/dark boundary (the
 //    Kirchhoff boundary is exact for a flat strip only in the paraxial sense);
 //  - the stack is planar at each point (curvature radius ≫ film thickness and λ).
