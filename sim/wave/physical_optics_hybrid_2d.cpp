@@ -438,6 +438,31 @@ Beam trace_beam(const SampledCrossSection2d& sampled, const std::vector<CurveOpt
 
 }  // namespace
 
+CrossSection2d row_cross_section(const Row2d& row) {
+    if (row.jitter_position_um != 0.0 || row.jitter_rotation_rad != 0.0)
+        refuse("row_cross_section takes a row without jitter");
+    if (row.count < 1) refuse(fmt::format("row count {} must be >= 1", row.count));
+    const Vec u = row.direction.normalized();
+    const double c = std::cos(row.tilt_rad), s = std::sin(row.tilt_rad);
+    // R(α) of physical_optics_2d.h: (x, z) ↦ (x cos α + z sin α, −x sin α + z cos α).
+    const auto turn = [c, s](const Vec& v) {
+        return Vec(v.x() * c + v.y() * s, -v.x() * s + v.y() * c);
+    };
+    CrossSection2d out;
+    for (int m = 0; m < row.count; ++m) {
+        const Vec centre = (m - 0.5 * (row.count - 1)) * row.spacing_um * u;
+        for (const Curve2d& cell : row.cell.curves) {
+            Curve2d curve = cell;
+            curve.point = [p = cell.point, turn, centre](double t) {
+                return Vec(turn(p(t)) + centre);
+            };
+            curve.normal = [n = cell.normal, turn](double t) { return Vec(turn(n(t))); };
+            out.curves.push_back(std::move(curve));
+        }
+    }
+    return out;
+}
+
 StackResponse2d stack_response(std::complex<double> n_in,
                                std::span<const optics::StackLayer> layers,
                                std::complex<double> n_out, double beta, double lambda_nm,

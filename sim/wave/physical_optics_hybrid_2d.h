@@ -127,6 +127,11 @@ HybridFarField2d hybrid_far_field(const CrossSection2d& section, const Incidence
                                   std::span<const double> theta_s_rad,
                                   const HybridOptions& options = {});
 
+// The cells of a row without jitter (count, spacing, direction, tilt as physical_optics_2d.h's
+// rows) as one cross-section, for hybrid_far_field. InputError for a jittered row (its
+// realisations are physical_optics_2d.h's business).
+CrossSection2d row_cross_section(const Row2d& row);
+
 // r and t (electric-field amplitudes, fresnel.h's signs) of a planar stack lit from a medium
 // that may absorb: n_in, films top to bottom (as met by the wave), n_out, at the Snell invariant
 // β (real; q = √(n² − β²) on the decaying branch in every medium). r is referred to the first
