@@ -137,8 +137,8 @@ TEST(PhysicalOpticsHybrid, FilmOverAGapIsTheStacksTransferMatrix) {
         for (const auto pol : {Polarisation2d::te, Polarisation2d::tm}) {
             const Incidence2d incidence{lambda, theta_i, pol};
             const double lobe = lobe_power(section, incidence, -theta_i, 8.0 * kPi / 180.0);
-            const std::vector<optics::StackLayer> films{
-                {optics::keratin()->index(lambda), kFilm}, {1.0, gap}};
+            const std::vector<optics::StackLayer> films{{optics::keratin()->index(lambda), kFilm},
+                                                        {1.0, gap}};
             const Complex melanin = optics::melanin()->index(lambda);
             const auto reflectance = [&](std::span<const optics::StackLayer> layers) {
                 return optics::transfer_matrix_intensities({1.0, layers, melanin}, lambda,
@@ -182,16 +182,16 @@ TEST(PhysicalOpticsHybrid, AMelaninSlabTransmitsAsTheTransferMatrixSays) {
             // The rays' power book adds powers: its absorption is the incoherent slab's.
             std::vector<optics::StackLayer> incoherent = slab;
             incoherent[0].coherence = optics::Coherence::incoherent;
-            const double absorbed =
-                optics::transfer_matrix_intensities({1.0, incoherent, 1.0}, lambda, c,
-                                                    as_optics(pol))
-                    .absorptance *
-                width * c;
+            const double absorbed = optics::transfer_matrix_intensities({1.0, incoherent, 1.0},
+                                                                        lambda, c, as_optics(pol))
+                                        .absorptance *
+                                    width * c;
             std::printf(
                 "%g nm %s: R %.5f (stack %.5f), extinction %.4f (%.4f), absorption %.4f "
                 "(%.4f), T %.4f\n",
                 lambda, polarisation_name(pol).data(), lobe / (width * c), p.reflectance,
-                r.extinction_width_um, extinction, r.absorption_width_um, absorbed, p.transmittance);
+                r.extinction_width_um, extinction, r.absorption_width_um, absorbed,
+                p.transmittance);
             // What differs from the planar slab: the ±10° window misses 0.7 % of the lobe of a
             // 60 µm aperture; the lit side face takes T sin θ_i = 0.34 µm of the beam, which can
             // add up to twice that to the extinction and once to the absorption; at the slab's
