@@ -7,11 +7,15 @@
 #include <cstdint>
 #include <limits>
 #include <string>
+#include <unordered_map>
+#include <utility>
 
 #include <fmt/format.h>
 
 #include "common/constants.h"
 #include "common/error.h"
+#include "geometry/elliptical_arc.h"
+#include "sim/optics/material.h"
 
 namespace plumage::sim::wave {
 namespace {
@@ -259,20 +263,38 @@ void validate(const HybridOptions& o, double step) {
 // Two curves closer than a step where one faces the other cannot be told apart by the surface
 // sampling (an inner interface, a film drawn as two curves): refused (header).
 void refuse_close_curves(const SampledCrossSection2d& sampled, double step) {
-    const std::size_t n = sampled.samples.size();
-    for (std::size_t a = 0; a < n; ++a) {
-        const SurfaceSample2d& sa = sampled.samples[a];
-        for (std::size_t b = 0; b < n; ++b) {
-            const SurfaceSample2d& sb = sampled.samples[b];
-            if (sb.curve == sa.curve) continue;
-            const Vec gap = sb.point - sa.point;
-            const double distance = gap.norm();
-            if (distance < step && gap.dot(sa.normal) > 0.7 * distance)
-                refuse(fmt::format(
-                    "curve {} faces curve {} {:.4g} µm away at ({:.4g}, {:.4g}) µm, closer than "
-                    "the sampling step {:.4g} µm: inner interfaces must be at least a step apart",
-                    sa.curve, sb.curve, distance, sa.point.x(), sa.point.y(), step));
-        }
+    // Samples binned in cells of one step: a pair closer than a step lies in neighbouring cells.
+    std::unordered_map<std::uint64_t, std::vector<std::size_t>> cells;
+    const auto cell_of = [step](const Vec& p) {
+        return std::pair{static_cast<std::int64_t>(std::floor(p.x() / step)),
+                         static_cast<std::int64_t>(std::floor(p.y() / step))};
+    };
+    const auto key = [](std::int64_t ix, std::int64_t iz) {
+        return (static_cast<std::uint64_t>(ix) << 32) ^ static_cast<std::uint64_t>(iz & 0xffffffff);
+    };
+    for (std::size_t m = 0; m < sampled.samples.size(); ++m) {
+        const auto [ix, iz] = cell_of(sampled.samples[m].point);
+        cells[key(ix, iz)].push_back(m);
+    }
+    for (const SurfaceSample2d& sa : sampled.samples) {
+        const auto [ix, iz] = cell_of(sa.point);
+        for (std::int64_t dx = -1; dx <= 1; ++dx)
+            for (std::int64_t dz = -1; dz <= 1; ++dz) {
+                const auto it = cells.find(key(ix + dx, iz + dz));
+                if (it == cells.end()) continue;
+                for (const std::size_t b : it->second) {
+                    const SurfaceSample2d& sb = sampled.samples[b];
+                    if (sb.curve == sa.curve) continue;
+                    const Vec gap = sb.point - sa.point;
+                    const double distance = gap.norm();
+                    if (distance < step && gap.dot(sa.normal) > 0.7 * distance)
+                        refuse(fmt::format(
+                            "curve {} faces curve {} {:.4g} µm away at ({:.4g}, {:.4g}) µm, "
+                            "closer than the sampling step {:.4g} µm: inner interfaces must be "
+                            "at least a step apart",
+                            sa.curve, sb.curve, distance, sa.point.x(), sa.point.y(), step));
+                }
+            }
     }
 }
 
@@ -437,6 +459,33 @@ Beam trace_beam(const SampledCrossSection2d& sampled, const std::vector<CurveOpt
 }
 
 }  // namespace
+
+CrossSection2d barbule_with_gap(double semi_major_um, double b, double film_um, double gap_um) {
+    for (const auto& [name, value] : {std::pair{"semi-major axis", semi_major_um},
+                                      std::pair{"b", b}, std::pair{"film", film_um}})
+        if (!std::isfinite(value) || value <= 0.0)
+            refuse(fmt::format("barbule {} = {:.4g} must be finite and > 0", name, value));
+    if (!std::isfinite(gap_um) || gap_um < 0.0)
+        refuse(fmt::format("barbule gap = {:.4g} µm must be finite and >= 0", gap_um));
+    const double shell = film_um + gap_um;
+    if (b * semi_major_um <= shell)
+        refuse(
+            fmt::format("barbule b·A = {:.4g} µm leaves no melanin core under film + gap = "
+                        "{:.4g} µm",
+                        b * semi_major_um, shell));
+    const geometry::EllipticalArc core(semi_major_um - shell, b * semi_major_um - shell, -kPi, kPi);
+    Curve2d sheet, body;
+    sheet.point = [core, shell](double phi) {
+        return Vec(core.point(phi) + shell * core.normal(phi));
+    };
+    body.point = [core](double phi) { return core.point(phi); };
+    sheet.normal = body.normal = [core](double phi) { return core.normal(phi); };
+    sheet.t0 = body.t0 = -kPi;
+    sheet.t1 = body.t1 = kPi;
+    sheet.stack = {{{optics::keratin(), film_um}}, optics::air()};
+    body.stack = {{}, optics::melanin()};
+    return {{sheet, body}};
+}
 
 CrossSection2d row_cross_section(const Row2d& row) {
     if (row.jitter_position_um != 0.0 || row.jitter_rotation_rad != 0.0)

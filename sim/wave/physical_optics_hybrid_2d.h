@@ -127,6 +127,14 @@ HybridFarField2d hybrid_far_field(const CrossSection2d& section, const Incidence
                                   std::span<const double> theta_s_rad,
                                   const HybridOptions& options = {});
 
+// A barbule with its air gap as the hybrid sees it (fullwave::barbule_row's cell): a melanin core,
+// the ellipse of semi-axes (A − d − g, b·A − d − g), a body that may transmit; around it, the
+// core's outward offset by g + d as a closed keratin sheet of thickness d (its films over air),
+// so that the gap g between the film and the core is uniform. InputError when the core would
+// vanish (b·A <= d + g) or a value is not finite and positive (g may be 0: then the film lies on
+// the core and the arc of physical_optics_2d.h's barbule_arc is the better model).
+CrossSection2d barbule_with_gap(double semi_major_um, double b, double film_um, double gap_um);
+
 // The cells of a row without jitter (count, spacing, direction, tilt as physical_optics_2d.h's
 // rows) as one cross-section, for hybrid_far_field. InputError for a jittered row (its
 // realisations are physical_optics_2d.h's business).

@@ -239,5 +239,24 @@ TEST(PhysicalOpticsHybrid, RefusesInterfacesCloserThanTheStep) {
     }
 }
 
+// The barbule with its gap: the sheet lies g + d from the core everywhere (a uniform gap), and a
+// barbule too thin for a core is refused with the limit named.
+TEST(PhysicalOpticsHybrid, BarbuleWithGapHasAUniformGapAndRefusesNoCore) {
+    const CrossSection2d barbule = barbule_with_gap(10.0, 0.25, kFilm, 0.3);
+    ASSERT_EQ(barbule.curves.size(), 2u);
+    for (const double phi : {-3.0, -1.2, 0.0, 0.4, 1.5, 2.9}) {
+        const Vec sheet = barbule.curves[0].point(phi), core = barbule.curves[1].point(phi);
+        EXPECT_NEAR((sheet - core).norm(), kFilm + 0.3, 1e-12);
+        EXPECT_NEAR((sheet - core).normalized().dot(barbule.curves[1].normal(phi)), 1.0, 1e-12);
+    }
+    try {
+        barbule_with_gap(10.0, 0.08, kFilm, 0.3);
+        FAIL() << "a barbule 0.8 µm thick under 0.89 µm of film and gap was accepted";
+    } catch (const InputError& e) {
+        EXPECT_NE(std::string(e.what()).find("leaves no melanin core"), std::string::npos)
+            << e.what();
+    }
+}
+
 }  // namespace
 }  // namespace plumage::sim::wave
