@@ -5,6 +5,8 @@
 #include <atomic>
 #include <cmath>
 #include <cstdint>
+#include <mutex>
+#include <vector>
 
 #include <fmt/format.h>
 
@@ -26,7 +28,67 @@ struct PhysicalOptics25d::Prepared {
     double lambda_nm;
     double cos_ei;
     std::vector<FarFieldKernel2d> kernels;  // TE and TM per realisation; σ_t is their mean
+    // The sampler's density of θ_o (header, "Sampling"): per bin of kSamplerBins over (−π, π],
+    // its probability and the cumulative sum; filled on the first sample() or pdf() call.
+    mutable std::once_flag table_once;
+    mutable std::vector<double> bin_probability, cumulative;
 };
+
+namespace {
+
+constexpr int kSamplerBins = 1440;            // 0.25° over the circle
+constexpr double kSamplerUniformShare = 0.1;  // of θ_o drawn uniformly: every θ_o has density
+
+double wrap_angle(double theta) {
+    while (theta > kPi) theta -= 2.0 * kPi;
+    while (theta <= -kPi) theta += 2.0 * kPi;
+    return theta;
+}
+
+// The elevations ε_o at which the half vector of ω_i and ω_o(θ_o, ε_o) has h_y = target: h_y(ε)
+// need not be monotone (towards ω_o ≈ −ω_i it turns), so the roots are bracketed on a grid of
+// kRootBrackets and each refined by bisection.
+constexpr int kRootBrackets = 64;
+
+Vec3d direction_of(double theta_o, double eps) {
+    return {std::cos(eps) * std::sin(theta_o), std::sin(eps), std::cos(eps) * std::cos(theta_o)};
+}
+
+double half_vector_y(const Vec3d& wi, double theta_o, double eps) {
+    const Vec3d s = wi + direction_of(theta_o, eps);
+    const double sn = s.norm();
+    return sn > 1e-12 ? s.y() / sn : 0.0;
+}
+
+std::vector<double> elevations_with(const Vec3d& wi, double theta_o, double target) {
+    std::vector<double> roots;
+    const double lo = -0.5 * kPi + 1e-9, hi = 0.5 * kPi - 1e-9;
+    double a = lo, fa = half_vector_y(wi, theta_o, a) - target;
+    for (int m = 1; m <= kRootBrackets; ++m) {
+        const double b = lo + (hi - lo) * m / kRootBrackets;
+        const double fb = half_vector_y(wi, theta_o, b) - target;
+        if ((fa <= 0.0) != (fb <= 0.0)) {
+            double x0 = a, x1 = b;
+            const bool rising = fa <= 0.0;
+            for (int k = 0; k < 50; ++k) {
+                const double mid = 0.5 * (x0 + x1);
+                ((half_vector_y(wi, theta_o, mid) - target <= 0.0) == rising ? x0 : x1) = mid;
+            }
+            roots.push_back(0.5 * (x0 + x1));
+        }
+        a = b;
+        fa = fb;
+    }
+    return roots;
+}
+
+int bin_of(double theta) {
+    const int b =
+        static_cast<int>(std::floor((wrap_angle(theta) + kPi) / (2.0 * kPi) * kSamplerBins));
+    return std::clamp(b, 0, kSamplerBins - 1);
+}
+
+}  // namespace
 
 namespace {
 
@@ -151,15 +213,70 @@ double PhysicalOptics25d::eval(const Vec3d& wi, const Vec3d& wo, double lambda_n
     return f;
 }
 
-double PhysicalOptics25d::pdf(const Vec3d&, const Vec3d&, double) const { return 0.25 / kPi; }
+const PhysicalOptics25d::Prepared& PhysicalOptics25d::sampler_table(
+    const std::shared_ptr<const Prepared>& prepared) const {
+    std::call_once(prepared->table_once, [&] {
+        std::vector<double> sigma(kSamplerBins);
+        double total = 0.0;
+        for (int b = 0; b < kSamplerBins; ++b) {
+            sigma[static_cast<std::size_t>(b)] =
+                sigma_t(*prepared, -kPi + (b + 0.5) * 2.0 * kPi / kSamplerBins);
+            total += sigma[static_cast<std::size_t>(b)];
+        }
+        prepared->bin_probability.resize(kSamplerBins);
+        prepared->cumulative.resize(kSamplerBins);
+        double running = 0.0;
+        for (int b = 0; b < kSamplerBins; ++b) {
+            const double lobe = total > 0.0 ? sigma[static_cast<std::size_t>(b)] / total : 0.0;
+            const double p =
+                (1.0 - kSamplerUniformShare) * lobe + kSamplerUniformShare / kSamplerBins;
+            prepared->bin_probability[static_cast<std::size_t>(b)] = p;
+            running += p;
+            prepared->cumulative[static_cast<std::size_t>(b)] = running;
+        }
+    });
+    return *prepared;
+}
+
+// The density over solid angle of the sampler's ω_o (header, "Sampling"): p(θ_o) p(θ_h)
+// |∂θ_h/∂ε_o| / cos ε_o, zero outside the tilt band.
+double PhysicalOptics25d::pdf(const Vec3d& wi, const Vec3d& wo, double lambda_nm) const {
+    const double cos_eo = std::hypot(wo.x(), wo.z());
+    if (cos_eo < 1e-9) return 0.0;
+    const Vec3d s = wi + wo;
+    const double sn = s.norm();
+    if (sn < 1e-12) return 0.0;
+    const double hy = std::clamp(s.y() / sn, -1.0, 1.0);
+    if (std::abs(std::asin(hy)) > params_.theta_d) return 0.0;
+    const Vec3d e(-wo.y() * wo.x() / cos_eo, cos_eo, -wo.y() * wo.z() / cos_eo);
+    const double dhy = (e.y() * sn - s.y() * wi.dot(e) / sn) / (sn * sn);
+    const double dtheta_h = std::abs(dhy) / std::sqrt(std::max(1e-300, 1.0 - hy * hy));
+    const Prepared& table = sampler_table(prepare(wi, lambda_nm));
+    const double p_theta =
+        table.bin_probability[static_cast<std::size_t>(bin_of(std::atan2(wo.x(), wo.z())))] *
+        kSamplerBins / (2.0 * kPi);
+    return p_theta * dtheta_h / (2.0 * params_.theta_d) / cos_eo;
+}
 
 std::optional<ScatterEvent> PhysicalOptics25d::sample(const Vec3d& wi, double lambda_nm,
                                                       const Vec2& position_um, Rng& rng) const {
-    const double z = 1.0 - 2.0 * rng.uniform();
-    const double phi = 2.0 * kPi * rng.uniform();
-    const double r = std::sqrt(std::max(0.0, 1.0 - z * z));
-    const Vec3d wo(r * std::cos(phi), r * std::sin(phi), z);
-    const double weight = eval(wi, wo, lambda_nm) * std::abs(z) * 4.0 * kPi;
+    // θ_o from the tabulated σ_t (with a uniform share), θ_h uniform over the tilt band, and
+    // ε_o where the half vector's longitudinal angle is θ_h (h_y rises with ε_o: bisection).
+    const Prepared& table = sampler_table(prepare(wi, lambda_nm));
+    const double u = rng.uniform() * table.cumulative.back();
+    const auto it = std::upper_bound(table.cumulative.begin(), table.cumulative.end(), u);
+    const int b = std::min(kSamplerBins - 1, static_cast<int>(it - table.cumulative.begin()));
+    const double theta_o = -kPi + (b + rng.uniform()) * 2.0 * kPi / kSamplerBins;
+    const double target = std::sin(params_.theta_d * (2.0 * rng.uniform() - 1.0));
+    const std::vector<double> roots = elevations_with(wi, theta_o, target);
+    if (roots.empty()) return std::nullopt;
+    const auto pick =
+        std::min(roots.size() - 1,
+                 static_cast<std::size_t>(rng.uniform() * static_cast<double>(roots.size())));
+    const Vec3d wo = direction_of(theta_o, roots[pick]);
+    const double p = pdf(wi, wo, lambda_nm);
+    if (!(p > 0.0)) return std::nullopt;
+    const double weight = eval(wi, wo, lambda_nm) * std::abs(wo.z()) / p;
     if (!(weight > 0.0)) return std::nullopt;
     return ScatterEvent{wo, weight, 0, position_um};
 }
