@@ -6,6 +6,7 @@
 #include <cmath>
 #include <cstdint>
 #include <mutex>
+#include <optional>
 #include <vector>
 
 #include <fmt/format.h>
@@ -80,6 +81,26 @@ std::vector<double> elevations_with(const Vec3d& wi, double theta_o, double targ
         fa = fb;
     }
     return roots;
+}
+
+// Where ω_o lies in the tilt band: the half vector's longitudinal sine h_y and |∂θ_h/∂ε_o| at
+// fixed θ_o (header, 2. and 3.); nothing outside the band or at a degenerate ω_o.
+struct TiltBand {
+    double hy, dtheta_h;
+};
+
+std::optional<TiltBand> in_tilt_band(const Vec3d& wi, const Vec3d& wo, double theta_d) {
+    const double cos_eo = std::hypot(wo.x(), wo.z());
+    if (cos_eo < 1e-9) return std::nullopt;
+    const Vec3d s = wi + wo;
+    const double sn = s.norm();
+    if (sn < 1e-12) return std::nullopt;
+    const double hy = std::clamp(s.y() / sn, -1.0, 1.0);
+    if (std::abs(std::asin(hy)) > theta_d) return std::nullopt;
+    // ∂θ_h/∂ε_o: e = ∂ω_o/∂ε_o at fixed θ_o; s·e = ω_i·e since ω_o·e = 0.
+    const Vec3d e(-wo.y() * wo.x() / cos_eo, cos_eo, -wo.y() * wo.z() / cos_eo);
+    const double dhy = (e.y() * sn - s.y() * wi.dot(e) / sn) / (sn * sn);
+    return TiltBand{hy, std::abs(dhy) / std::sqrt(std::max(1e-300, 1.0 - hy * hy))};
 }
 
 int bin_of(double theta) {
@@ -196,15 +217,9 @@ double PhysicalOptics25d::eval(const Vec3d& wi, const Vec3d& wo, double lambda_n
     const double cos_ei = std::hypot(wi.x(), wi.z()), cos_eo = std::hypot(wo.x(), wo.z());
     if (cos_ei < 1e-9 || cos_eo < 1e-9 || std::abs(wi.z()) < 1e-12 || std::abs(wo.z()) < 1e-12)
         return 0.0;
-    const Vec3d s = wi + wo;
-    const double sn = s.norm();
-    if (sn < 1e-12) return 0.0;
-    const double hy = std::clamp(s.y() / sn, -1.0, 1.0);
-    if (std::abs(std::asin(hy)) > params_.theta_d) return 0.0;
-    // ∂θ_h/∂ε_o: e = ∂ω_o/∂ε_o at fixed θ_o; s·e = ω_i·e since ω_o·e = 0.
-    const Vec3d e(-wo.y() * wo.x() / cos_eo, cos_eo, -wo.y() * wo.z() / cos_eo);
-    const double dhy = (e.y() * sn - s.y() * wi.dot(e) / sn) / (sn * sn);
-    const double dtheta_h = std::abs(dhy) / std::sqrt(std::max(1e-300, 1.0 - hy * hy));
+    const std::optional<TiltBand> band = in_tilt_band(wi, wo, params_.theta_d);
+    if (!band) return 0.0;
+    const double dtheta_h = band->dtheta_h;
     const std::shared_ptr<const Prepared> prepared = prepare(wi, lambda_nm);
     const double sigma = sigma_t(*prepared, std::atan2(wo.x(), wo.z()));
     const double f = cos_ei * sigma * dtheta_h / (2.0 * params_.theta_d) /
@@ -239,29 +254,24 @@ const PhysicalOptics25d::Prepared& PhysicalOptics25d::sampler_table(
 }
 
 // The density over solid angle of the sampler's ω_o (header, "Sampling"): p(θ_o) p(θ_h)
-// |∂θ_h/∂ε_o| / cos ε_o, zero outside the tilt band.
+// |∂θ_h/∂ε_o| / (n cos ε_o), zero outside the tilt band.
 double PhysicalOptics25d::pdf(const Vec3d& wi, const Vec3d& wo, double lambda_nm) const {
-    const double cos_eo = std::hypot(wo.x(), wo.z());
-    if (cos_eo < 1e-9) return 0.0;
-    const Vec3d s = wi + wo;
-    const double sn = s.norm();
-    if (sn < 1e-12) return 0.0;
-    const double hy = std::clamp(s.y() / sn, -1.0, 1.0);
-    if (std::abs(std::asin(hy)) > params_.theta_d) return 0.0;
-    const Vec3d e(-wo.y() * wo.x() / cos_eo, cos_eo, -wo.y() * wo.z() / cos_eo);
-    const double dhy = (e.y() * sn - s.y() * wi.dot(e) / sn) / (sn * sn);
-    const double dtheta_h = std::abs(dhy) / std::sqrt(std::max(1e-300, 1.0 - hy * hy));
+    const std::optional<TiltBand> band = in_tilt_band(wi, wo, params_.theta_d);
+    if (!band) return 0.0;
+    const double cos_eo = std::hypot(wo.x(), wo.z()), hy = band->hy, dtheta_h = band->dtheta_h;
     const Prepared& table = sampler_table(prepare(wi, lambda_nm));
-    const double p_theta =
-        table.bin_probability[static_cast<std::size_t>(bin_of(std::atan2(wo.x(), wo.z())))] *
-        kSamplerBins / (2.0 * kPi);
-    return p_theta * dtheta_h / (2.0 * params_.theta_d) / cos_eo;
+    const double theta_o = std::atan2(wo.x(), wo.z());
+    const double p_theta = table.bin_probability[static_cast<std::size_t>(bin_of(theta_o))] *
+                           kSamplerBins / (2.0 * kPi);
+    // sample() picks one of the n elevations that share (θ_o, θ_h), each with probability 1/n.
+    const std::size_t n = std::max<std::size_t>(1, elevations_with(wi, theta_o, hy).size());
+    return p_theta * dtheta_h / (2.0 * params_.theta_d) / cos_eo / static_cast<double>(n);
 }
 
 std::optional<ScatterEvent> PhysicalOptics25d::sample(const Vec3d& wi, double lambda_nm,
                                                       const Vec2& position_um, Rng& rng) const {
     // θ_o from the tabulated σ_t (with a uniform share), θ_h uniform over the tilt band, and
-    // ε_o where the half vector's longitudinal angle is θ_h (h_y rises with ε_o: bisection).
+    // ε_o one of the elevations where the half vector's longitudinal angle is θ_h.
     const Prepared& table = sampler_table(prepare(wi, lambda_nm));
     const double u = rng.uniform() * table.cumulative.back();
     const auto it = std::upper_bound(table.cumulative.begin(), table.cumulative.end(), u);
