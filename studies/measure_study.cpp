@@ -43,6 +43,7 @@
 
 #include <fmt/format.h>
 
+#include "common/constants.h"
 #include "common/error.h"
 #include "common/interrupt.h"
 #include "common/seed.h"
@@ -69,7 +70,6 @@ namespace plumage::studies {
 namespace {
 
 namespace fs = std::filesystem;
-constexpr double kDeg = std::numbers::pi / 180.0;
 
 struct Sample {
     fs::path file;

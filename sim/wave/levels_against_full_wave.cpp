@@ -5,14 +5,13 @@
 
 #include <fmt/format.h>
 
+#include "common/constants.h"
 #include "common/require.h"
 #include "sim/wave/ray_optics_validity.h"
 
 namespace plumage::sim::wave {
 
 namespace {
-
-constexpr double kDeg = std::numbers::pi / 180.0;
 
 LevelError2d compare(const std::vector<double>& level, const std::vector<double>& reference) {
     double diff = 0.0, sum_level = 0.0, sum_reference = 0.0;

@@ -22,6 +22,7 @@
 #include "analysis/filip2024.h"
 #include "analysis/huang2022_fit.h"
 #include "analysis/user_data.h"
+#include "common/constants.h"
 #include "common/seed.h"
 #include "sim/random.h"
 #include "studies/fit_command.h"
@@ -35,7 +36,6 @@ namespace plumage::studies {
 namespace {
 
 namespace fs = std::filesystem;
-constexpr double kDeg = 180.0 / std::numbers::pi;
 
 double gaussian(Rng& rng) {
     const double u = 1.0 - rng.uniform(), v = rng.uniform();
@@ -52,7 +52,7 @@ fs::path scratch(const std::string& what) {
 
 // theta, phi in degrees of a unit vector (phi from +x).
 std::pair<double, double> angles(const Vec3d& w) {
-    return {std::acos(w.z()) * kDeg, std::atan2(w.y(), w.x()) * kDeg};
+    return {std::acos(w.z()) / kDeg, std::atan2(w.y(), w.x()) / kDeg};
 }
 
 // The Filip model at `truth` on the BTF set × 450/550/650 nm with noise, as the documented CSV.
@@ -132,7 +132,7 @@ TEST(FitCommand, FilipFromCsvRecoversKnownParametersWithHonestSigma) {
 void write_huang_record(const fs::path& path, const analysis::Huang2022Params& truth,
                         std::uint64_t seed) {
     gonio::ScatterometerConfig config;
-    config.beam_direction = Vec3d(-std::sin(20.0 / kDeg), 0.0, std::cos(20.0 / kDeg));
+    config.beam_direction = Vec3d(-std::sin(20.0 * kDeg), 0.0, std::cos(20.0 * kDeg));
     config.image_size = 25;
     config.wavelengths_nm = {500.0, 600.0};
     gonio::Scatterogram s = analysis::huang2022_scatterogram(truth, config);

@@ -7,6 +7,7 @@
 
 #include <gtest/gtest.h>
 
+#include "common/constants.h"
 #include "common/error.h"
 #include "sim/optics/material.h"
 #include "sim/optics/multilayer.h"
@@ -14,8 +15,6 @@
 
 namespace plumage::sim::wave {
 namespace {
-
-constexpr double kDeg = std::numbers::pi / 180.0;
 
 Row2d small_barbule() { return barbule_row_2d(3.0, 0.4, -0.37, 2.64, 0.59, 0.3, 1.25, 0.0, 1); }
 
