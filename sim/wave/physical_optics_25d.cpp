@@ -254,18 +254,26 @@ const PhysicalOptics25d::Prepared& PhysicalOptics25d::sampler_table(
 }
 
 // The density over solid angle of the sampler's ω_o (header, "Sampling"): p(θ_o) p(θ_h)
-// |∂θ_h/∂ε_o| / (n cos ε_o), zero outside the tilt band.
-double PhysicalOptics25d::pdf(const Vec3d& wi, const Vec3d& wo, double lambda_nm) const {
+// |∂θ_h/∂ε_o| / (n cos ε_o), zero outside the tilt band; n the elevations that share (θ_o, θ_h),
+// of which sample() picks one at random. sample() knows n; pdf() counts it.
+double PhysicalOptics25d::density(const Vec3d& wi, const Vec3d& wo, double lambda_nm,
+                                  std::size_t roots) const {
     const std::optional<TiltBand> band = in_tilt_band(wi, wo, params_.theta_d);
     if (!band) return 0.0;
-    const double cos_eo = std::hypot(wo.x(), wo.z()), hy = band->hy, dtheta_h = band->dtheta_h;
+    const double cos_eo = std::hypot(wo.x(), wo.z());
     const Prepared& table = sampler_table(prepare(wi, lambda_nm));
     const double theta_o = std::atan2(wo.x(), wo.z());
     const double p_theta = table.bin_probability[static_cast<std::size_t>(bin_of(theta_o))] *
                            kSamplerBins / (2.0 * kPi);
-    // sample() picks one of the n elevations that share (θ_o, θ_h), each with probability 1/n.
-    const std::size_t n = std::max<std::size_t>(1, elevations_with(wi, theta_o, hy).size());
-    return p_theta * dtheta_h / (2.0 * params_.theta_d) / cos_eo / static_cast<double>(n);
+    const double n = static_cast<double>(std::max<std::size_t>(1, roots));
+    return p_theta * band->dtheta_h / (2.0 * params_.theta_d) / cos_eo / n;
+}
+
+double PhysicalOptics25d::pdf(const Vec3d& wi, const Vec3d& wo, double lambda_nm) const {
+    const std::optional<TiltBand> band = in_tilt_band(wi, wo, params_.theta_d);
+    if (!band) return 0.0;
+    return density(wi, wo, lambda_nm,
+                   elevations_with(wi, std::atan2(wo.x(), wo.z()), band->hy).size());
 }
 
 std::optional<ScatterEvent> PhysicalOptics25d::sample(const Vec3d& wi, double lambda_nm,
@@ -284,7 +292,7 @@ std::optional<ScatterEvent> PhysicalOptics25d::sample(const Vec3d& wi, double la
         std::min(roots.size() - 1,
                  static_cast<std::size_t>(rng.uniform() * static_cast<double>(roots.size())));
     const Vec3d wo = direction_of(theta_o, roots[pick]);
-    const double p = pdf(wi, wo, lambda_nm);
+    const double p = density(wi, wo, lambda_nm, roots.size());
     if (!(p > 0.0)) return std::nullopt;
     const double weight = eval(wi, wo, lambda_nm) * std::abs(wo.z()) / p;
     if (!(weight > 0.0)) return std::nullopt;

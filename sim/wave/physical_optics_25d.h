@@ -114,6 +114,8 @@ private:
     struct Prepared;
     std::shared_ptr<const Prepared> prepare(const Vec3d& wi, double lambda_nm) const;
     const Prepared& sampler_table(const std::shared_ptr<const Prepared>& prepared) const;
+    // pdf() with the number of elevations sharing ω_o's (θ_o, θ_h) already known.
+    double density(const Vec3d& wi, const Vec3d& wo, double lambda_nm, std::size_t roots) const;
     double sigma_t(const Prepared& prepared, double theta_o) const;
     struct ThreadCache;
     ThreadCache& cache() const;  // this thread's, for this object
