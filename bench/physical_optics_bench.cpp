@@ -14,6 +14,8 @@
 //    the arc; 16 µm apart, as whole ellipses 12.5 µm apart would overlap at this tilt), with
 //    every path through the films, the gaps and the cores up to 16 interfaces;
 //    the scattering width's circle integral off (circle_angles = 0).
+//  - BM_PhysicalOpticsHybridRowPair/threads: the same, TE and TM together
+//    (hybrid_far_field_pair: 7 calls, one set of rays and one sum per wavelength).
 #include <cmath>
 #include <numbers>
 #include <vector>
@@ -111,6 +113,39 @@ void BM_PhysicalOpticsHybridRow(benchmark::State& state) {
     omp_set_num_threads(saved);
 }
 BENCHMARK(BM_PhysicalOpticsHybridRow)->Arg(1)->Arg(2)->UseRealTime()->Unit(benchmark::kMillisecond);
+
+void BM_PhysicalOpticsHybridRowPair(benchmark::State& state) {
+    const int threads = static_cast<int>(state.range(0));
+    const int saved = omp_get_max_threads();
+    omp_set_num_threads(threads);
+    Row2d row = rock_dove_row();
+    row.cell = barbule_with_gap(10.0, 0.25, 0.59, 0.3);
+    row.spacing_um = 16.0;
+    const CrossSection2d section = row_cross_section(row);
+    std::vector<double> theta(181);
+    for (int m = 0; m < 181; ++m) theta[m] = (m - 90) * std::numbers::pi / 180.0;
+    HybridOptions options;
+    options.circle_angles = 0;
+    const double theta_i = 20.0 * std::numbers::pi / 180.0;
+    std::size_t elements = 0;
+    for (auto _ : state) {
+        for (int l = 0; l < 7; ++l) {
+            const HybridFarFieldPair far =
+                hybrid_far_field_pair(section, 400.0 + 50.0 * l, theta_i, theta, options);
+            elements += far.te.elements;
+            benchmark::DoNotOptimize(far.te.u.data());
+            benchmark::DoNotOptimize(far.tm.u.data());
+        }
+    }
+    state.counters["elements_per_field"] =
+        static_cast<double>(elements) / (7.0 * static_cast<double>(state.iterations()));
+    omp_set_num_threads(saved);
+}
+BENCHMARK(BM_PhysicalOpticsHybridRowPair)
+    ->Arg(1)
+    ->Arg(2)
+    ->UseRealTime()
+    ->Unit(benchmark::kMillisecond);
 
 }  // namespace
 }  // namespace plumage::sim::wave

@@ -2,11 +2,13 @@
 #include "sim/wave/physical_optics_2d.h"
 
 #include <algorithm>
+#include <array>
 #include <cmath>
 #include <complex>
 #include <limits>
 #include <optional>
 #include <string>
+#include <utility>
 
 #include <fmt/format.h>
 
@@ -218,58 +220,136 @@ SampledCrossSection2d sample_cross_section(const CrossSection2d& section, double
 
 namespace {
 // Chords grouped kBlock at a time under bounding boxes (header: why not a grid).
-constexpr std::size_t kBlock = 32;
+constexpr std::size_t kBlock = 16;  // chords per box
+constexpr double kInfinity = std::numeric_limits<double>::infinity();
 }  // namespace
 
 ChordIndex2d::ChordIndex2d(const SampledCrossSection2d& sampled) : sampled_(&sampled) {
     const std::size_t n = sampled.samples.size();
     const std::size_t blocks = (n + kBlock - 1) / kBlock;
-    lo_.resize(blocks);
-    hi_.resize(blocks);
-    for (std::size_t b = 0; b < blocks; ++b) {
-        lo_[b] = Vec::Constant(std::numeric_limits<double>::infinity());
-        hi_[b] = -lo_[b];
+    const Vec empty = Vec::Constant(std::numeric_limits<double>::infinity());
+    lo_.assign(blocks, empty);
+    hi_.assign(blocks, -empty);
+    for (std::size_t b = 0; b < blocks; ++b)
         for (std::size_t j = b * kBlock; j < std::min(n, (b + 1) * kBlock); ++j) {
             lo_[b] = lo_[b].cwiseMin(sampled.chord_a[j]).cwiseMin(sampled.chord_b[j]);
             hi_[b] = hi_[b].cwiseMax(sampled.chord_a[j]).cwiseMax(sampled.chord_b[j]);
         }
-    }
+    std::vector<std::size_t> order(blocks);
+    for (std::size_t b = 0; b < blocks; ++b) order[b] = b;
+    if (blocks > 0) build(order, 0, blocks);
 }
 
+// A node over order[from, to): a leaf for one block, else the two halves split at the median of
+// the boxes' centres along the longer side of their bounds.
+std::size_t ChordIndex2d::build(std::vector<std::size_t>& order, std::size_t from, std::size_t to) {
+    const std::size_t index = nodes_.size();
+    nodes_.emplace_back();
+    Node node;
+    node.lo = Vec::Constant(std::numeric_limits<double>::infinity());
+    node.hi = -node.lo;
+    for (std::size_t m = from; m < to; ++m) {
+        node.lo = node.lo.cwiseMin(lo_[order[m]]);
+        node.hi = node.hi.cwiseMax(hi_[order[m]]);
+    }
+    if (to - from == 1) {
+        node.block = order[from];
+    } else {
+        const int axis = node.hi.x() - node.lo.x() >= node.hi.y() - node.lo.y() ? 0 : 1;
+        const std::size_t mid = from + (to - from) / 2;
+        std::nth_element(order.begin() + static_cast<std::ptrdiff_t>(from),
+                         order.begin() + static_cast<std::ptrdiff_t>(mid),
+                         order.begin() + static_cast<std::ptrdiff_t>(to),
+                         [&](std::size_t x, std::size_t y) {
+                             const double cx = lo_[x][axis] + hi_[x][axis];
+                             const double cy = lo_[y][axis] + hi_[y][axis];
+                             return cx != cy ? cx < cy : x < y;
+                         });
+        node.left = build(order, from, mid);
+        node.right = build(order, mid, to);
+    }
+    nodes_[index] = node;
+    return index;
+}
+
+namespace {
+
+// The entry distance of the ray o + t d into the box [lo, hi] over t in [0, t_max], or +inf
+// when it misses (slab test; inv is 1/d per axis, infinite for an axis-parallel ray).
+[[gnu::always_inline]] inline double enter_box(const Vec& o, const Vec& d, const Vec& inv,
+                                               const Vec& lo, const Vec& hi, double t_max) {
+    double t0 = 0.0, t1 = t_max;
+    for (int axis = 0; axis < 2; ++axis) {
+        if (d[axis] == 0.0) {
+            if (o[axis] < lo[axis] || o[axis] > hi[axis]) return kInfinity;
+            continue;
+        }
+        double ta = (lo[axis] - o[axis]) * inv[axis];
+        double tb = (hi[axis] - o[axis]) * inv[axis];
+        if (ta > tb) std::swap(ta, tb);
+        t0 = std::max(t0, ta);
+        t1 = std::min(t1, tb);
+    }
+    return t0 <= t1 ? t0 : kInfinity;
+}
+
+}  // namespace
+
+// Depth first through the tree, the nearer child first, skipping every box that starts beyond
+// the nearest hit so far (any hit will do for `blocked`).
 template <bool kFirst>
 std::optional<ChordIndex2d::Hit> ChordIndex2d::cast(const Eigen::Vector2d& o,
                                                     const Eigen::Vector2d& d,
                                                     std::size_t skip) const {
     const SampledCrossSection2d& sampled = *sampled_;
     const std::size_t n = sampled.samples.size();
-    const Vec inv(1.0 / d.x(), 1.0 / d.y());  // ±inf for an axis-parallel ray: handled below
+    const Vec inv(1.0 / d.x(), 1.0 / d.y());  // ±inf for an axis-parallel ray: handled there
     const double eps = 1e-9 * (1.0 + o.cwiseAbs().maxCoeff());
     std::optional<Hit> best;
-    for (std::size_t b = 0; b < lo_.size(); ++b) {
-        double t0 = 0.0, t1 = best ? best->t : std::numeric_limits<double>::infinity();
-        for (int axis = 0; axis < 2; ++axis) {
-            if (d[axis] == 0.0) {
-                if (o[axis] < lo_[b][axis] || o[axis] > hi_[b][axis]) t0 = 1.0, t1 = 0.0;
-                continue;
+    double reach = kInfinity;
+    if (nodes_.empty()) return best;
+    std::array<std::pair<std::size_t, double>, 64> stack;  // depth <= log2(blocks) + 1
+    std::size_t top = 0;
+    stack[top++] = {0, enter_box(o, d, inv, nodes_[0].lo, nodes_[0].hi, reach)};
+    while (top > 0) {
+        const auto [index, entry] = stack[--top];
+        if (entry == kInfinity || entry > reach) continue;  // missed, or beyond the nearest hit
+        const Node& node = nodes_[index];
+        if (node.block == kNoBlock) {
+            const double tl =
+                enter_box(o, d, inv, nodes_[node.left].lo, nodes_[node.left].hi, reach);
+            const double tr =
+                enter_box(o, d, inv, nodes_[node.right].lo, nodes_[node.right].hi, reach);
+            // The farther one goes on the stack first, so the nearer is searched first.
+            if (tl <= tr) {
+                stack[top++] = {node.right, tr};
+                stack[top++] = {node.left, tl};
+            } else {
+                stack[top++] = {node.left, tl};
+                stack[top++] = {node.right, tr};
             }
-            double ta = (lo_[b][axis] - o[axis]) * inv[axis];
-            double tb = (hi_[b][axis] - o[axis]) * inv[axis];
-            if (ta > tb) std::swap(ta, tb);
-            t0 = std::max(t0, ta);
-            t1 = std::min(t1, tb);
+            continue;
         }
-        if (t0 > t1) continue;
+        const std::size_t b = node.block;
         for (std::size_t k = b * kBlock; k < std::min(n, (b + 1) * kBlock); ++k) {
             if (k == skip) continue;
             const Vec e = sampled.chord_b[k] - sampled.chord_a[k];
             const double denom = cross(d, e);
             if (denom == 0.0) continue;
             const Vec w = sampled.chord_a[k] - o;
+            // Most chords miss: a loose test without division first (t > 0, u about in [0, 1]),
+            // then the exact one.
+            const double d2 = denom * denom;
+            const double un = cross(w, d) * denom;
+            if (cross(w, e) * denom <= 0.0 || un < -1e-9 * d2 || un > (1.0 + 1e-9) * d2) continue;
             const double t = cross(w, e) / denom;
             const double u = cross(w, d) / denom;
             if (t > eps && u >= 0.0 && u <= 1.0) {
                 if (!kFirst) return Hit{k, t};
-                if (!best || t < best->t) best = Hit{k, t};
+                if (t < reach) {
+                    best = Hit{k, t};
+                    reach = t;
+                }
             }
         }
     }

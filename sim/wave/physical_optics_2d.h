@@ -187,7 +187,10 @@ SampledCrossSection2d sample_cross_section(const CrossSection2d& section, double
 double physical_optics_step(double lambda_nm, double step_um);
 
 // Ray casts against the chords of a sampled cross-section (the lit test's, above): chords grouped
-// 32 at a time under bounding boxes. Keeps a pointer to `sampled`, which must outlive it.
+// 32 at a time under bounding boxes, the boxes in a binary tree (split at the median of their
+// centres; a cast descends nearer child first and skips boxes beyond its nearest hit, so it costs
+// about the logarithm of the boxes plus the chords near the hit). Keeps a pointer to `sampled`,
+// which must outlive it.
 class ChordIndex2d final {
 public:
     explicit ChordIndex2d(const SampledCrossSection2d& sampled);
@@ -205,8 +208,16 @@ private:
     template <bool kFirst>
     std::optional<Hit> cast(const Eigen::Vector2d& o, const Eigen::Vector2d& d,
                             std::size_t skip) const;
+    static constexpr std::size_t kNoBlock = static_cast<std::size_t>(-1);
+    struct Node {
+        Eigen::Vector2d lo, hi;
+        std::size_t left = 0, right = 0;
+        std::size_t block = kNoBlock;  // a leaf's block, else kNoBlock
+    };
+    std::size_t build(std::vector<std::size_t>& order, std::size_t from, std::size_t to);
     const SampledCrossSection2d* sampled_;
-    std::vector<Eigen::Vector2d> lo_, hi_;
+    std::vector<Eigen::Vector2d> lo_, hi_;  // a box per block of chords
+    std::vector<Node> nodes_;               // a tree of the boxes, root first
 };
 
 // Per sample: 1 when lit from omega_i (see the header), else 0.

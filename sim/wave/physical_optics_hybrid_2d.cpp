@@ -3,6 +3,7 @@
 #include "sim/wave/physical_optics_hybrid_2d.h"
 
 #include <algorithm>
+#include <array>
 #include <cmath>
 #include <cstdint>
 #include <limits>
@@ -14,6 +15,7 @@
 
 #include "common/constants.h"
 #include "common/error.h"
+#include "common/fast_trig.h"
 #include "geometry/elliptical_arc.h"
 #include "sim/optics/material.h"
 
@@ -33,8 +35,6 @@ Complex decaying_sqrt(Complex z) {
     return q;
 }
 
-double sinc(double x) { return std::abs(x) < 1e-4 ? 1.0 - x * x / 6.0 : std::sin(x) / x; }
-
 // One curve's stack at the wavelength, both ways round.
 struct CurveOptics {
     std::vector<optics::StackLayer> down, up;  // films as met from the + side, from the − side
@@ -43,14 +43,21 @@ struct CurveOptics {
     bool sheet = false;     // substrate is air: ambient on both sides
 };
 
+// Both polarisations ride on one ray (the paths' geometry does not depend on them): index 0
+// and 1 of these arrays are the polarisations asked, in order; unused entries stay zero.
+constexpr std::size_t kPols = 2;
+using Amplitudes = std::array<Complex, kPols>;
+using Powers = std::array<double, kPols>;
+
 // A ray: a leg of one path. `inside` is −1 in the ambient, else the curve whose substrate the
 // ray travels in (its body); nu and kappa are the body's ν and |Re k|/k (header).
 struct Ray {
     Vec o, d;
-    Complex u;
-    double power, width;
-    std::uint64_t code;
-    std::size_t skip;
+    Amplitudes u{};
+    Powers power{};
+    double width = 0.0;
+    std::uint64_t code = 0;
+    std::size_t skip = 0;
     int events = 0;
     int inside = -1;
     Complex nu = 1.0;
@@ -58,14 +65,15 @@ struct Ray {
     bool primary = true;
 };
 
-// Where a wave meets an ambient face: the term u (a ω_s·n_f + b) before the footprint is known.
+// Where a wave meets an ambient face: the term a ω_s·n_f + b (the wave's amplitude u included)
+// before the footprint is known.
 struct Hit {
     std::size_t launch;
     std::uint64_t code;
     Vec p, n_f, t_f;
     double cos_in;  // |d·n_f| of the arriving ray, for its width on the face
     double width;   // the ray's planar width
-    Complex u, a, b;
+    Amplitudes a, b;
     double g;  // the wave's tangential wavenumber along t_f, over k
 };
 
@@ -79,36 +87,38 @@ std::uint64_t extend_code(std::uint64_t code, std::size_t curve, int side, int b
 }
 
 struct Tally {
-    double absorbed = 0.0, truncated = 0.0;
+    Powers absorbed{}, truncated{};
 };
 
 class Tracer {
 public:
     Tracer(const SampledCrossSection2d& sampled, const std::vector<CurveOptics>& optics,
-           double lambda_nm, optics::Polarisation pol, const HybridOptions& options)
+           double lambda_nm, std::span<const optics::Polarisation> pols,
+           const HybridOptions& options)
         : sampled_(sampled),
           chords_(sampled),
           optics_(optics),
           lambda_nm_(lambda_nm),
           k_(2.0 * kPi / (1e-3 * lambda_nm)),
-          pol_(pol),
+          pols_(pols.begin(), pols.end()),
           options_(options) {}
 
-    // Follows every path of one launched ray; appends its hits on ambient faces.
+    // Follows every path of one launched ray; appends its hits on ambient faces. A path ends
+    // when the power of every polarisation traced is below the floor.
     void trace(const Ray& launch, std::size_t launch_index, std::vector<Hit>& hits,
                Tally& tally) const {
         std::vector<Ray> stack{launch};
-        const double floor = options_.min_power * launch.power;
+        const double floor = options_.min_power * launch.power[0];
         while (!stack.empty()) {
             Ray ray = stack.back();
             stack.pop_back();
-            if (ray.events >= options_.max_events || ray.power < floor) {
-                tally.truncated += ray.power;
+            if (ray.events >= options_.max_events || strongest(ray.power) < floor) {
+                add(tally.truncated, ray.power);
                 continue;
             }
             const std::optional<ChordIndex2d::Hit> hit = chords_.first_hit(ray.o, ray.d, ray.skip);
             if (!hit) {
-                if (ray.inside >= 0) tally.truncated += ray.power;  // an open body
+                if (ray.inside >= 0) add(tally.truncated, ray.power);  // an open body
                 continue;
             }
             advance(ray, hit->t, tally);
@@ -128,21 +138,40 @@ public:
                        optics_[static_cast<std::size_t>(ray.inside)].substrate == c.substrate) {
                 from_inside(ray, next, s, launch_index, c, stack, hits, tally);
             } else {
-                tally.truncated += ray.power;  // a nested body or an open one (header)
+                add(tally.truncated, ray.power);  // a nested body or an open one (header)
             }
         }
     }
 
 private:
+    static double strongest(const Powers& p) { return std::max(p[0], p[1]); }
+    static void add(Powers& to, const Powers& p) {
+        for (std::size_t i = 0; i < kPols; ++i) to[i] += p[i];
+    }
+
+    // The stack's response for each polarisation traced (q does not depend on it).
+    std::array<StackResponse2d, kPols> responses(Complex n_in,
+                                                 std::span<const optics::StackLayer> layers,
+                                                 Complex n_out, double beta) const {
+        std::array<StackResponse2d, kPols> m{};
+        for (std::size_t i = 0; i < pols_.size(); ++i)
+            m[i] = stack_response(n_in, layers, n_out, beta, lambda_nm_, pols_[i]);
+        return m;
+    }
+
     void advance(Ray& ray, double length, Tally& tally) const {
         if (ray.inside < 0) {
-            ray.u *= std::polar(1.0, k_ * length);
+            const Complex phase = std::polar(1.0, k_ * length);
+            for (Complex& u : ray.u) u *= phase;
             return;
         }
-        ray.u *= std::exp(Complex(0.0, k_) * ray.nu * length);
+        const Complex phase = std::exp(Complex(0.0, k_) * ray.nu * length);
         const double kept = std::exp(-2.0 * k_ * ray.nu.imag() * length);
-        tally.absorbed += ray.power * (1.0 - kept);
-        ray.power *= kept;
+        for (std::size_t i = 0; i < kPols; ++i) {
+            ray.u[i] *= phase;
+            tally.absorbed[i] += ray.power[i] * (1.0 - kept);
+            ray.power[i] *= kept;
+        }
     }
 
     // A ray in the ambient meets a face: a sheet from either side or a body from outside.
@@ -153,45 +182,53 @@ private:
         const double cos_i = std::min(1.0, -ray.d.dot(n_f));
         const double beta = ray.d.dot(s.tangent);
         const Complex n_beyond = c.sheet ? Complex(1.0) : c.substrate;
-        const StackResponse2d m =
-            stack_response(1.0, from_plus ? c.down : c.up, n_beyond, beta, lambda_nm_, pol_);
+        const std::array<StackResponse2d, kPols> m =
+            responses(1.0, from_plus ? c.down : c.up, n_beyond, beta);
         const Complex ik(0.0, k_);
         // The films are not drawn: move r and t to the curve (header, "Interfaces").
-        const Complex r = from_plus ? m.r : m.r * std::exp(-2.0 * ik * m.q_in * c.films_um);
-        const Complex shift = std::exp(-ik * (from_plus ? m.q_out : m.q_in) * c.films_um);
-        const Complex t = m.t * shift;
+        const Complex r_shift =
+            from_plus ? Complex(1.0) : std::exp(-2.0 * ik * m[0].q_in * c.films_um);
+        const Complex shift = std::exp(-ik * (from_plus ? m[0].q_out : m[0].q_in) * c.films_um);
+        const double gain = from_plus ? std::norm(shift) : 1.0;
         const int side = from_plus ? 0 : 1;
-        const double transmitted = m.transmittance * std::norm(from_plus ? shift : Complex(1.0));
-        tally.absorbed += ray.power * std::max(0.0, 1.0 - m.reflectance - m.transmittance);
-        if (!ray.primary || !from_plus) {
-            const Complex through = c.sheet ? t : Complex(0.0);
-            hits.push_back({launch,
-                            extend_code(ray.code, static_cast<std::size_t>(s.curve), side, 2),
-                            next.o, n_f, s.tangent, cos_i, ray.width, ray.u, 1.0 + r - through,
-                            -(1.0 - r - through) * cos_i, beta});
-        }
+        const auto curve = static_cast<std::size_t>(s.curve);
+        Hit hit{launch,    extend_code(ray.code, curve, side, 2),
+                next.o,    n_f,
+                s.tangent, cos_i,
+                ray.width, {},
+                {},        beta};
         Ray reflected = next;
         reflected.d = ray.d + 2.0 * cos_i * n_f;
-        reflected.u = ray.u * r;
-        reflected.power = ray.power * m.reflectance;
-        reflected.code = extend_code(ray.code, static_cast<std::size_t>(s.curve), side, 0);
-        stack.push_back(reflected);
+        reflected.code = extend_code(ray.code, curve, side, 0);
         Ray through = next;
-        through.u = ray.u * t;
-        through.power = ray.power * transmitted;
-        through.code = extend_code(ray.code, static_cast<std::size_t>(s.curve), side, 1);
+        through.code = extend_code(ray.code, curve, side, 1);
+        for (std::size_t i = 0; i < pols_.size(); ++i) {
+            const Complex r = m[i].r * r_shift, t = m[i].t * shift;
+            tally.absorbed[i] +=
+                ray.power[i] * std::max(0.0, 1.0 - m[i].reflectance - m[i].transmittance);
+            const Complex across = c.sheet ? t : Complex(0.0);
+            hit.a[i] = ray.u[i] * (1.0 + r - across);
+            hit.b[i] = -ray.u[i] * (1.0 - r - across) * cos_i;
+            reflected.u[i] = ray.u[i] * r;
+            reflected.power[i] = ray.power[i] * m[i].reflectance;
+            through.u[i] = ray.u[i] * t;
+            through.power[i] = ray.power[i] * m[i].transmittance * gain;
+            // Into a body, the shift's gain undoes the virtual leg's loss in the films.
+            if (!c.sheet)
+                tally.absorbed[i] -= ray.power[i] * m[i].transmittance * (std::norm(shift) - 1.0);
+        }
+        if (!ray.primary || !from_plus) hits.push_back(hit);
+        stack.push_back(reflected);
         if (!c.sheet) {
             // Into the body: direction from Re q, width × cos θ_t / cos θ_i, ν for its legs.
-            const double re_q = m.q_out.real();
+            const double re_q = m[0].q_out.real();
             through.kappa = std::hypot(beta, re_q);
             through.d = (beta * s.tangent - re_q * s.normal) / through.kappa;
-            through.nu = (m.q_out * re_q + beta * beta) / through.kappa;
+            through.nu = (m[0].q_out * re_q + beta * beta) / through.kappa;
             through.width = ray.width * (re_q / through.kappa) / cos_i;
             through.inside = s.curve;
-            // The shift's gain undoes the virtual leg's loss inside the films' thickness.
-            tally.absorbed -= ray.power * m.transmittance * (std::norm(shift) - 1.0);
         }
-        if (through.power > 0.0) stack.push_back(through);
+        if (strongest(through.power) > 0.0) stack.push_back(through);
     }
 
     // A ray inside a body meets the body's boundary: internal reflection and the exit wave.
@@ -200,50 +237,60 @@ private:
                      Tally& tally) const {
         const double cos_in = std::min(1.0, ray.d.dot(s.normal));
         const double beta = ray.kappa * ray.d.dot(s.tangent);
-        const StackResponse2d m = stack_response(c.substrate, c.up, 1.0, beta, lambda_nm_, pol_);
+        const std::array<StackResponse2d, kPols> m = responses(c.substrate, c.up, 1.0, beta);
         const Complex ik(0.0, k_);
-        const Complex r = m.r * std::exp(-2.0 * ik * m.q_in * c.films_um);
-        const Complex shift = std::exp(-ik * m.q_in * c.films_um);
-        const Complex t = m.t * shift;
+        const Complex r_shift = std::exp(-2.0 * ik * m[0].q_in * c.films_um);
+        const Complex shift = std::exp(-ik * m[0].q_in * c.films_um);
         // The ray reached the curve through a virtual leg of the films' thickness D inside the
         // body (header, "Interfaces"): its power at the real interface is `gain` times more,
         // and the reflected ray will lose that again on its way back; the book undoes both.
         const double gain = std::norm(shift);
-        const double real = ray.power * gain;
-        tally.absorbed += real * std::max(0.0, 1.0 - m.reflectance - m.transmittance) -
-                          ray.power * (gain - 1.0) - real * m.reflectance * (gain - 1.0);
-        const double re_q = m.q_in.real();
+        const double re_q = m[0].q_in.real();
         const double kappa = std::hypot(beta, re_q);
+        const bool escapes = std::abs(beta) < 1.0;  // else total internal reflection
+        const double cos_out = escapes ? std::sqrt(1.0 - beta * beta) : 0.0;
+        const auto curve = static_cast<std::size_t>(s.curve);
         Ray reflected = next;
         reflected.d = ray.d - 2.0 * cos_in * s.normal;
-        reflected.u = ray.u * r;
-        reflected.power = real * m.reflectance * gain;
-        reflected.code = extend_code(ray.code, static_cast<std::size_t>(s.curve), 1, 0);
+        reflected.code = extend_code(ray.code, curve, 1, 0);
         reflected.kappa = kappa;
-        reflected.nu = (m.q_in * re_q + beta * beta) / kappa;
-        stack.push_back(reflected);
-        if (!(std::abs(beta) < 1.0)) return;  // total internal reflection
-        const double cos_out = std::sqrt(1.0 - beta * beta);
-        hits.push_back({launch, extend_code(ray.code, static_cast<std::size_t>(s.curve), 1, 2),
-                        next.o, s.normal, s.tangent, cos_in, ray.width, ray.u, t, t * cos_out,
-                        beta});
+        reflected.nu = (m[0].q_in * re_q + beta * beta) / kappa;
         Ray out = next;
         out.d = beta * s.tangent + cos_out * s.normal;
-        out.u = ray.u * t;
-        out.power = real * m.transmittance;
         out.width = ray.width * cos_out / (re_q / kappa);
         out.inside = -1;
         out.nu = 1.0;
         out.kappa = 1.0;
-        out.code = extend_code(ray.code, static_cast<std::size_t>(s.curve), 1, 1);
-        if (out.power > 0.0) stack.push_back(out);
+        out.code = extend_code(ray.code, curve, 1, 1);
+        Hit hit{launch,    extend_code(ray.code, curve, 1, 2),
+                next.o,    s.normal,
+                s.tangent, cos_in,
+                ray.width, {},
+                {},        beta};
+        for (std::size_t i = 0; i < pols_.size(); ++i) {
+            const Complex r = m[i].r * r_shift, t = m[i].t * shift;
+            const double real = ray.power[i] * gain;
+            tally.absorbed[i] += real * std::max(0.0, 1.0 - m[i].reflectance - m[i].transmittance) -
+                                 ray.power[i] * (gain - 1.0) -
+                                 real * m[i].reflectance * (gain - 1.0);
+            reflected.u[i] = ray.u[i] * r;
+            reflected.power[i] = real * m[i].reflectance * gain;
+            hit.a[i] = ray.u[i] * t;
+            hit.b[i] = ray.u[i] * t * cos_out;
+            out.u[i] = ray.u[i] * t;
+            out.power[i] = escapes ? real * m[i].transmittance : 0.0;
+        }
+        stack.push_back(reflected);
+        if (!escapes) return;
+        hits.push_back(hit);
+        if (strongest(out.power) > 0.0) stack.push_back(out);
     }
 
     const SampledCrossSection2d& sampled_;
     ChordIndex2d chords_;
     const std::vector<CurveOptics>& optics_;
     double lambda_nm_, k_;
-    optics::Polarisation pol_;
+    std::vector<optics::Polarisation> pols_;
     HybridOptions options_;
 };
 
@@ -317,72 +364,225 @@ std::vector<CurveOptics> curve_optics(const CrossSection2d& section, double lamb
 // An element's footprint on its face: half the distance between the hits of its neighbours on
 // the same path, one-sided at a path's edge, the planar width where it has none (header).
 std::vector<double> footprints(const std::vector<Hit>& hits) {
-    std::vector<std::size_t> order(hits.size());
-    for (std::size_t m = 0; m < order.size(); ++m) order[m] = m;
-    std::sort(order.begin(), order.end(), [&](std::size_t x, std::size_t y) {
-        return hits[x].code != hits[y].code ? hits[x].code < hits[y].code
-                                            : hits[x].launch < hits[y].launch;
+    struct Key {
+        std::uint64_t code;
+        std::size_t launch, index;
+    };
+    std::vector<Key> keys(hits.size());
+    for (std::size_t m = 0; m < hits.size(); ++m) keys[m] = {hits[m].code, hits[m].launch, m};
+    std::sort(keys.begin(), keys.end(), [](const Key& x, const Key& y) {
+        return x.code != y.code ? x.code < y.code : x.launch < y.launch;
     });
     std::vector<double> out(hits.size());
-    for (std::size_t m = 0; m < order.size(); ++m) {
-        const Hit& h = hits[order[m]];
+#pragma omp parallel for schedule(static)
+    for (std::ptrdiff_t ms = 0; ms < static_cast<std::ptrdiff_t>(keys.size()); ++ms) {
+        const auto m = static_cast<std::size_t>(ms);
+        const Key& key = keys[m];
+        const Hit& h = hits[key.index];
         const Hit* prev = nullptr;
         const Hit* next = nullptr;
-        if (m > 0 && hits[order[m - 1]].code == h.code && hits[order[m - 1]].launch + 1 == h.launch)
-            prev = &hits[order[m - 1]];
-        if (m + 1 < order.size() && hits[order[m + 1]].code == h.code &&
-            hits[order[m + 1]].launch == h.launch + 1)
-            next = &hits[order[m + 1]];
+        if (m > 0 && keys[m - 1].code == key.code && keys[m - 1].launch + 1 == key.launch)
+            prev = &hits[keys[m - 1].index];
+        if (m + 1 < keys.size() && keys[m + 1].code == key.code &&
+            keys[m + 1].launch == key.launch + 1)
+            next = &hits[keys[m + 1].index];
         if (prev && next) {
-            out[order[m]] = 0.5 * (next->p - prev->p).norm();
+            out[key.index] = 0.5 * (next->p - prev->p).norm();
         } else if (prev || next) {
-            out[order[m]] = ((prev ? prev : next)->p - h.p).norm();
+            out[key.index] = ((prev ? prev : next)->p - h.p).norm();
         } else {
-            out[order[m]] = h.width / std::max(h.cos_in, 1e-6);
+            out[key.index] = h.width / std::max(h.cos_in, 1e-6);
         }
     }
     return out;
 }
 
-// The radiating elements of the traced hits, as structure of arrays.
+// The radiating elements, as structure of arrays: the direct term's lit samples and the traced
+// hits, each u (a ω_s·n + b) e^{−ik ω_s·p} times the sinc of its footprint, with a and b per
+// polarisation (footprint and amplitude included). Elements with k·footprint <= kShortSinc come
+// first (`short_count`): their sinc is a polynomial; a longer footprint (a ray that meets its face
+// obliquely) takes a sin/cos more.
+constexpr double kShortSinc = 3.0;
 struct Elements {
     std::vector<double> px, pz, nx, nz, tx, tz, fp, g;
-    std::vector<Complex> a, b;
+    std::array<std::vector<double>, kPols> ar, ai, br, bi;
+    std::size_t short_count = 0;
+
+    explicit Elements(std::size_t n) : px(n), pz(n), nx(n), nz(n), tx(n), tz(n), fp(n), g(n) {
+        for (std::size_t i = 0; i < kPols; ++i) {
+            ar[i].resize(n);
+            ai[i].resize(n);
+            br[i].resize(n);
+            bi[i].resize(n);
+        }
+    }
+    void set(std::size_t m, const Vec& p, const Vec& n, const Vec& t, double footprint,
+             double g_over_k, const Amplitudes& a, const Amplitudes& b) {
+        px[m] = p.x();
+        pz[m] = p.y();
+        nx[m] = n.x();
+        nz[m] = n.y();
+        tx[m] = t.x();
+        tz[m] = t.y();
+        fp[m] = footprint;
+        g[m] = g_over_k;
+        for (std::size_t i = 0; i < kPols; ++i) {
+            ar[i][m] = a[i].real();
+            ai[i][m] = a[i].imag();
+            br[i][m] = b[i].real();
+            bi[i][m] = b[i].imag();
+        }
+    }
+    std::size_t size() const { return px.size(); }
 };
 
-Elements elements_of(const std::vector<Hit>& hits) {
+// The elements of the direct term and of the hits, short ones first. The direct term
+// (physical_optics_2d.cpp's kernel, one per polarisation, on the same lit samples; ds <= λ/10 is
+// short) has the phase e^{−ik (ω_i + ω_s)·p}: the incident wave's e^{−ik ω_i·p} goes into a and
+// b, and its sinc of (ω_i + ω_s)·t is the element's with g = −ω_i·t. A hit's element is its
+// footprint on the face, the amplitude scaled by GO's intensity law √(planar width / actual
+// width). Filled in parallel, each element at a place fixed beforehand.
+Elements radiating_elements(const std::vector<FarFieldKernel2d>& kernels,
+                            const std::vector<Hit>& hits, double k) {
+    const FarFieldKernel2d& first = kernels.front();
+    const std::size_t direct = first.px.size();
     const std::vector<double> fp = footprints(hits);
-    Elements e;
-    for (std::size_t m = 0; m < hits.size(); ++m) {
+    // Each hit's place: short ones after the direct term, long ones after those; none for a
+    // footprint the rays left empty.
+    constexpr std::size_t kNone = static_cast<std::size_t>(-1);
+    std::vector<std::size_t> place(hits.size(), kNone);
+    std::size_t shorts = 0, longs = 0;
+    for (std::size_t m = 0; m < hits.size(); ++m)
+        if (fp[m] * hits[m].cos_in > 0.0) (k * fp[m] <= kShortSinc ? shorts : longs) += 1;
+    std::size_t next_short = direct, next_long = direct + shorts;
+    for (std::size_t m = 0; m < hits.size(); ++m)
+        if (fp[m] * hits[m].cos_in > 0.0)
+            place[m] = k * fp[m] <= kShortSinc ? next_short++ : next_long++;
+    Elements e(direct + shorts + longs);
+    e.short_count = direct + shorts;
+#pragma omp parallel for schedule(static)
+    for (std::ptrdiff_t ms = 0; ms < static_cast<std::ptrdiff_t>(direct); ++ms) {
+        const auto m = static_cast<std::size_t>(ms);
+        const Vec p(first.px[m], first.pz[m]), t(first.tx[m], first.tz[m]);
+        const Complex incident = std::polar(1.0, -first.k * first.wi.dot(p));
+        Amplitudes a{}, b{};
+        for (std::size_t i = 0; i < kernels.size(); ++i) {
+            a[i] = kernels[i].a[m] * incident;
+            b[i] = kernels[i].b[m] * incident;
+        }
+        e.set(m, p, Vec(first.nx[m], first.nz[m]), t, first.ds[m], -first.wi.dot(t), a, b);
+    }
+#pragma omp parallel for schedule(static)
+    for (std::ptrdiff_t ms = 0; ms < static_cast<std::ptrdiff_t>(hits.size()); ++ms) {
+        const auto m = static_cast<std::size_t>(ms);
+        if (place[m] == kNone) continue;
         const Hit& h = hits[m];
-        const double actual = fp[m] * h.cos_in;
-        if (!(actual > 0.0)) continue;
-        // GO's intensity law: the amplitude scales as √(planar width / actual width).
-        const Complex strength = h.u * std::sqrt(h.width / actual) * fp[m];
-        e.px.push_back(h.p.x());
-        e.pz.push_back(h.p.y());
-        e.nx.push_back(h.n_f.x());
-        e.nz.push_back(h.n_f.y());
-        e.tx.push_back(h.t_f.x());
-        e.tz.push_back(h.t_f.y());
-        e.fp.push_back(fp[m]);
-        e.g.push_back(h.g);
-        e.a.push_back(strength * h.a);
-        e.b.push_back(strength * h.b);
+        const double scale = std::sqrt(h.width / (fp[m] * h.cos_in)) * fp[m];
+        Amplitudes a{}, b{};
+        for (std::size_t i = 0; i < kPols; ++i) {
+            a[i] = h.a[i] * scale;
+            b[i] = h.b[i] * scale;
+        }
+        e.set(place[m], h.p, h.n_f, h.t_f, fp[m], h.g, a, b);
     }
     return e;
 }
 
-Complex radiate(const Elements& e, double k, double theta_s) {
-    const double wx = std::sin(theta_s), wz = std::cos(theta_s);
-    Complex sum = 0.0;
-    for (std::size_t m = 0; m < e.px.size(); ++m) {
-        const double sn = e.nx[m] * wx + e.nz[m] * wz;
-        const double st = e.tx[m] * wx + e.tz[m] * wz;
-        const double w = sinc(0.5 * k * (e.g[m] - st) * e.fp[m]);  // fp is in a and b
-        sum += (e.a[m] * sn + e.b[m]) * w * std::polar(1.0, -k * (wx * e.px[m] + wz * e.pz[m]));
+// sin(x)/x by its Taylor series to x²⁶ for |x| <= kShortSinc: the first term left out is below
+// 3e-18 there.
+inline double sinc_polynomial(double x) {
+    // 1/(2n+1)! with alternating signs, n = 13 … 1, for Horner's scheme in z = x².
+    constexpr double kTerms[] = {1.0 / 1.0888869450418352e28,
+                                 -1.0 / 1.5511210043330986e25,
+                                 1.0 / 2.585201673888498e22,
+                                 -1.0 / 5.109094217170944e19,
+                                 1.0 / 1.21645100408832e17,
+                                 -1.0 / 355687428096000.0,
+                                 1.0 / 1307674368000.0,
+                                 -1.0 / 6227020800.0,
+                                 1.0 / 39916800.0,
+                                 -1.0 / 362880.0,
+                                 1.0 / 5040.0,
+                                 -1.0 / 120.0,
+                                 1.0 / 6.0};
+    const double z = x * x;
+    double sum = 0.0;
+    for (const double term : kTerms) sum = sum * z + term;
+    // The loop gives S = 1/3! − z/5! + z²/7! − …; sin(x)/x = 1 − z S.
+    return 1.0 - z * sum;
+}
+
+// Always inlined: it must be compiled inside each of radiate()'s clones (below).
+template <bool kShort>
+[[gnu::always_inline]] inline void sum_range(const Elements& e, std::size_t from, std::size_t to,
+                                             double k, double wx, double wz,
+                                             double (&acc)[2 * kPols]) {
+    const double *px = e.px.data(), *pz = e.pz.data(), *nx = e.nx.data(), *nz = e.nz.data();
+    const double *tx = e.tx.data(), *tz = e.tz.data(), *fp = e.fp.data(), *g = e.g.data();
+    const double *ar0 = e.ar[0].data(), *ai0 = e.ai[0].data(), *br0 = e.br[0].data(),
+                 *bi0 = e.bi[0].data();
+    const double *ar1 = e.ar[1].data(), *ai1 = e.ai[1].data(), *br1 = e.br[1].data(),
+                 *bi1 = e.bi[1].data();
+    double re0 = 0.0, im0 = 0.0, re1 = 0.0, im1 = 0.0;
+#pragma omp simd reduction(+ : re0, im0, re1, im1)
+    for (std::size_t m = from; m < to; ++m) {
+        const double sn = nx[m] * wx + nz[m] * wz;
+        const double x = 0.5 * k * (g[m] - (tx[m] * wx + tz[m] * wz)) * fp[m];
+        double w;
+        if constexpr (kShort) {
+            w = sinc_polynomial(x);
+        } else {
+            double sin_x, cos_x;
+            sin_cos(x, sin_x, cos_x);
+            // Both computed, then chosen: a branch would keep the loop out of SIMD lanes.
+            const bool tiny = std::abs(x) < 1e-4;
+            const double quotient = sin_x / (tiny ? 1.0 : x);
+            w = tiny ? 1.0 - x * x / 6.0 : quotient;
+        }
+        double s, c;
+        sin_cos(-k * (wx * px[m] + wz * pz[m]), s, c);
+        const double u0r = (ar0[m] * sn + br0[m]) * w, u0i = (ai0[m] * sn + bi0[m]) * w;
+        const double u1r = (ar1[m] * sn + br1[m]) * w, u1i = (ai1[m] * sn + bi1[m]) * w;
+        re0 += u0r * c - u0i * s;
+        im0 += u0r * s + u0i * c;
+        re1 += u1r * c - u1i * s;
+        im1 += u1r * s + u1i * c;
     }
-    return sum;
+    acc[0] += re0;
+    acc[1] += im0;
+    acc[2] += re1;
+    acc[3] += im1;
+}
+
+// U(θ_s) of every element for both polarisation slots at `count` <= kAngleBlock directions. The
+// elements are swept in chunks that stay in the core's cache while every direction of the block
+// is summed over them (one sweep per direction would read all elements from memory each time).
+// Each direction's sum runs over the chunks in order in one thread: the same for any thread
+// count. On x86-64 with GCC the loop is compiled twice, for AVX2 + FMA and for the baseline,
+// and the CPU's is chosen at load time: the two round differently in the last bits, so results
+// are bit-identical across threads and ranks on one kind of machine, not across kinds.
+constexpr std::size_t kAngleBlock = 16;
+constexpr std::size_t kChunk = 1024;
+#if defined(__GNUC__) && !defined(__clang__) && defined(__x86_64__)
+__attribute__((target_clones("arch=x86-64-v3", "default")))
+#endif
+void radiate(const Elements& e, double k, const double* theta_s, std::size_t count,
+             std::array<Complex, kPols>* u) {
+    double wx[kAngleBlock], wz[kAngleBlock], acc[kAngleBlock][2 * kPols] = {};
+    for (std::size_t a = 0; a < count; ++a) {
+        wx[a] = std::sin(theta_s[a]);
+        wz[a] = std::cos(theta_s[a]);
+    }
+    for (std::size_t from = 0; from < e.size(); from += kChunk) {
+        const std::size_t to = std::min(e.size(), from + kChunk);
+        const std::size_t split = std::clamp(e.short_count, from, to);
+        for (std::size_t a = 0; a < count; ++a) {
+            sum_range<true>(e, from, split, k, wx[a], wz[a], acc[a]);
+            sum_range<false>(e, split, to, k, wx[a], wz[a], acc[a]);
+        }
+    }
+    for (std::size_t a = 0; a < count; ++a)
+        u[a] = {Complex(acc[a][0], acc[a][1]), Complex(acc[a][2], acc[a][3])};
 }
 
 // The direct term's kernel: physical_optics_2d.cpp's, with a sheet's transmitted wave leaving
@@ -419,8 +619,9 @@ struct Beam {
 };
 
 Beam trace_beam(const SampledCrossSection2d& sampled, const std::vector<CurveOptics>& optics,
-                const Vec& wi, double k, double lambda_nm, optics::Polarisation pol,
-                const HybridOptions& options, double step) {
+                const Vec& wi, double k, double lambda_nm,
+                std::span<const optics::Polarisation> pols, const HybridOptions& options,
+                double step) {
     const Vec across(wi.y(), -wi.x());
     double lo = std::numeric_limits<double>::infinity(), hi = -lo, top = -lo;
     for (std::size_t j = 0; j < sampled.samples.size(); ++j)
@@ -429,12 +630,12 @@ Beam trace_beam(const SampledCrossSection2d& sampled, const std::vector<CurveOpt
             hi = std::max(hi, p.dot(across));
             top = std::max(top, p.dot(wi));
         }
-    const double launch_step = options.launch_step_um > 0.0 ? options.launch_step_um : 0.5 * step;
+    const double launch_step = options.launch_step_um > 0.0 ? options.launch_step_um : step;
     Beam beam;
     beam.rays = static_cast<std::size_t>(std::ceil((hi - lo) / launch_step)) + 2;
     const double h = (hi - lo) / static_cast<double>(beam.rays - 2);
     beam.width_um = h * static_cast<double>(beam.rays);
-    const Tracer tracer(sampled, optics, lambda_nm, pol, options);
+    const Tracer tracer(sampled, optics, lambda_nm, pols, options);
     std::vector<std::vector<Hit>> hits(beam.rays);
     std::vector<Tally> tallies(beam.rays);
 #pragma omp parallel for schedule(dynamic, 16)
@@ -443,8 +644,10 @@ Beam trace_beam(const SampledCrossSection2d& sampled, const std::vector<CurveOpt
         Ray ray;
         ray.o = (lo + (static_cast<double>(m) - 0.5) * h) * across + (top + 1.0) * wi;
         ray.d = -wi;
-        ray.u = std::polar(1.0, -k * wi.dot(ray.o));
-        ray.power = h;
+        for (std::size_t i = 0; i < pols.size(); ++i) {
+            ray.u[i] = std::polar(1.0, -k * wi.dot(ray.o));
+            ray.power[i] = h;
+        }
         ray.width = h;
         ray.code = 0x2545F4914F6CDD1DULL;
         ray.skip = std::numeric_limits<std::size_t>::max();
@@ -452,10 +655,87 @@ Beam trace_beam(const SampledCrossSection2d& sampled, const std::vector<CurveOpt
     }
     for (std::size_t m = 0; m < beam.rays; ++m) {
         beam.hits.insert(beam.hits.end(), hits[m].begin(), hits[m].end());
-        beam.tally.absorbed += tallies[m].absorbed;
-        beam.tally.truncated += tallies[m].truncated;
+        for (std::size_t i = 0; i < kPols; ++i) {
+            beam.tally.absorbed[i] += tallies[m].absorbed[i];
+            beam.tally.truncated[i] += tallies[m].truncated[i];
+        }
     }
     return beam;
+}
+
+optics::Polarisation stack_polarisation(Polarisation2d pol) {
+    return pol == Polarisation2d::te ? optics::Polarisation::s : optics::Polarisation::p;
+}
+
+// hybrid_far_field for the polarisations asked (one or both), sharing the rays and the sums.
+std::vector<HybridFarField2d> far_fields(const CrossSection2d& section, double lambda_nm,
+                                         double theta_i_rad,
+                                         std::span<const Polarisation2d> polarisations,
+                                         std::span<const double> theta_s_rad,
+                                         const HybridOptions& options) {
+    const double step = physical_optics_step(lambda_nm, options.step_um);
+    validate(options, step);
+    for (double th : theta_s_rad)
+        if (!std::isfinite(th)) refuse(fmt::format("theta_s = {:.4g} rad must be finite", th));
+    const SampledCrossSection2d sampled = sample_cross_section(section, step);
+    refuse_close_curves(sampled, step);
+    double reach = 0.0;  // the largest |p| of any sample: bounds every phase k ω_s·p of the sum
+    for (const SurfaceSample2d& s : sampled.samples) reach = std::max(reach, s.point.norm());
+    const double k = 2.0 * kPi / (1e-3 * lambda_nm);
+    if (k * reach > kSinCosLimit)
+        refuse(
+            fmt::format("the scene reaches {:.4g} µm ({:.4g} wavelengths) from the origin: the "
+                        "far-field sum's sin/cos holds to {:.4g} wavelengths",
+                        reach, k * reach / (2.0 * kPi), kSinCosLimit / (2.0 * kPi)));
+    const std::vector<CurveOptics> optics = curve_optics(section, lambda_nm);
+    std::vector<FarFieldKernel2d> kernels;
+    std::vector<optics::Polarisation> pols;
+    for (const Polarisation2d pol : polarisations) {
+        kernels.push_back(direct_kernel(section, sampled, {lambda_nm, theta_i_rad, pol}, optics));
+        pols.push_back(stack_polarisation(pol));
+    }
+    const Vec wi = kernels.front().wi;
+    const Beam beam = trace_beam(sampled, optics, wi, k, lambda_nm, pols, options, step);
+    const Elements elements = radiating_elements(kernels, beam.hits, k);
+
+    const std::size_t n = theta_s_rad.size();
+    const int circle = options.circle_angles;
+    const std::size_t extra = circle > 0 ? static_cast<std::size_t>(circle) : 0;
+    // The angles asked, the circle's (for the scattering width) and the forward direction.
+    std::vector<double> theta(theta_s_rad.begin(), theta_s_rad.end());
+    for (std::size_t i = 0; i < extra; ++i)
+        theta.push_back(-kPi + (static_cast<double>(i) + 0.5) * 2.0 * kPi / circle);
+    theta.push_back(theta_i_rad + kPi);
+    std::vector<std::array<Complex, kPols>> u(theta.size());
+    const std::size_t blocks = (theta.size() + kAngleBlock - 1) / kAngleBlock;
+#pragma omp parallel for schedule(dynamic)
+    for (std::ptrdiff_t bs = 0; bs < static_cast<std::ptrdiff_t>(blocks); ++bs) {
+        const std::size_t from = static_cast<std::size_t>(bs) * kAngleBlock;
+        radiate(elements, k, theta.data() + from, std::min(kAngleBlock, theta.size() - from),
+                u.data() + from);
+    }
+    std::vector<HybridFarField2d> out(polarisations.size());
+    for (std::size_t p = 0; p < out.size(); ++p) {
+        HybridFarField2d& f = out[p];
+        f.k = k;
+        f.rays = beam.rays;
+        f.beam_width_um = beam.width_um;
+        f.absorption_width_um = beam.tally.absorbed[p];
+        f.truncated_width_um = beam.tally.truncated[p];
+        f.elements = elements.size() - kernels.front().px.size();
+        for (std::size_t i = 0; i < n; ++i) {
+            f.u.push_back(u[i][p]);
+            f.sigma_um_per_rad.push_back(k / (8.0 * kPi) * std::norm(u[i][p]));
+        }
+        f.scattering_width_um = std::numeric_limits<double>::quiet_NaN();
+        if (circle > 0) {
+            double scattering = 0.0;  // summed in order: the same for any thread count
+            for (std::size_t i = n; i < n + extra; ++i) scattering += std::norm(u[i][p]);
+            f.scattering_width_um = k / (8.0 * kPi) * scattering * 2.0 * kPi / circle;
+        }
+        f.extinction_width_um = -u.back()[p].real();
+    }
+    return out;
 }
 
 }  // namespace
@@ -544,8 +824,9 @@ StackResponse2d stack_response(std::complex<double> n_in,
             r = (n[j + 1] * n[j + 1] * q[j] - n[j] * n[j] * q[j + 1]) / den;
             t = 2.0 * n[j] * n[j + 1] * q[j] / den;
         }
-        const Complex a00 = (m00 + m01 * r) / t, a01 = (m00 * r + m01) / t;
-        const Complex a10 = (m10 + m11 * r) / t, a11 = (m10 * r + m11) / t;
+        const Complex inv_t = 1.0 / t;  // one complex division instead of four
+        const Complex a00 = (m00 + m01 * r) * inv_t, a01 = (m00 * r + m01) * inv_t;
+        const Complex a10 = (m10 + m11 * r) * inv_t, a11 = (m10 * r + m11) * inv_t;
         m00 = a00, m01 = a01, m10 = a10, m11 = a11;
     }
     StackResponse2d out;
@@ -568,53 +849,19 @@ HybridFarField2d hybrid_far_field(const CrossSection2d& section, const Incidence
     if (incidence.cos_elevation != 1.0)
         refuse(fmt::format("cos_elevation = {:.4g}: only in-plane incidence (1) is supported",
                            incidence.cos_elevation));
-    const double step = physical_optics_step(incidence.lambda_nm, options.step_um);
-    validate(options, step);
-    for (double th : theta_s_rad)
-        if (!std::isfinite(th)) refuse(fmt::format("theta_s = {:.4g} rad must be finite", th));
-    const SampledCrossSection2d sampled = sample_cross_section(section, step);
-    refuse_close_curves(sampled, step);
-    const std::vector<CurveOptics> optics = curve_optics(section, incidence.lambda_nm);
-    const FarFieldKernel2d kernel = direct_kernel(section, sampled, incidence, optics);
-    const double k = kernel.k;
-    const Vec wi = kernel.wi;
-    const optics::Polarisation pol = incidence.polarisation == Polarisation2d::te
-                                         ? optics::Polarisation::s
-                                         : optics::Polarisation::p;
+    const std::array pol{incidence.polarisation};
+    return far_fields(section, incidence.lambda_nm, incidence.theta_i_rad, pol, theta_s_rad,
+                      options)
+        .front();
+}
 
-    const Beam beam = trace_beam(sampled, optics, wi, k, incidence.lambda_nm, pol, options, step);
-    HybridFarField2d out;
-    out.k = k;
-    out.rays = beam.rays;
-    out.beam_width_um = beam.width_um;
-    out.absorption_width_um = beam.tally.absorbed;
-    out.truncated_width_um = beam.tally.truncated;
-    const Elements elements = elements_of(beam.hits);
-    out.elements = elements.px.size();
-    const auto field = [&](double theta) {
-        return far_field_at(kernel, theta) + radiate(elements, k, theta);
-    };
-    out.u.resize(theta_s_rad.size());
-    out.sigma_um_per_rad.resize(theta_s_rad.size());
-#pragma omp parallel for schedule(static)
-    for (std::ptrdiff_t is = 0; is < static_cast<std::ptrdiff_t>(theta_s_rad.size()); ++is) {
-        const auto i = static_cast<std::size_t>(is);
-        out.u[i] = field(theta_s_rad[i]);
-        out.sigma_um_per_rad[i] = k / (8.0 * kPi) * std::norm(out.u[i]);
-    }
-    out.scattering_width_um = std::numeric_limits<double>::quiet_NaN();
-    if (const int n = options.circle_angles; n > 0) {
-        const double dtheta = 2.0 * kPi / n;
-        std::vector<double> power(static_cast<std::size_t>(n));
-#pragma omp parallel for schedule(static)
-        for (int m = 0; m < n; ++m)
-            power[static_cast<std::size_t>(m)] = std::norm(field(-kPi + (m + 0.5) * dtheta));
-        double scattering = 0.0;  // summed in order: the same for any thread count
-        for (double x : power) scattering += x;
-        out.scattering_width_um = k / (8.0 * kPi) * scattering * dtheta;
-    }
-    out.extinction_width_um = -field(incidence.theta_i_rad + kPi).real();
-    return out;
+HybridFarFieldPair hybrid_far_field_pair(const CrossSection2d& section, double lambda_nm,
+                                         double theta_i_rad, std::span<const double> theta_s_rad,
+                                         const HybridOptions& options) {
+    const std::array pols{Polarisation2d::te, Polarisation2d::tm};
+    std::vector<HybridFarField2d> both =
+        far_fields(section, lambda_nm, theta_i_rad, pols, theta_s_rad, options);
+    return {std::move(both[0]), std::move(both[1])};
 }
 
 }  // namespace plumage::sim::wave

@@ -3,11 +3,13 @@
 // a melanin slab that transmits), the optical theorem, and the power book.
 #include "sim/wave/physical_optics_hybrid_2d.h"
 
+#include <algorithm>
 #include <cmath>
 #include <complex>
 #include <cstdio>
 #include <span>
 #include <string>
+#include <utility>
 #include <vector>
 
 #include <gtest/gtest.h>
@@ -216,6 +218,67 @@ TEST(PhysicalOpticsHybrid, ResultsDoNotDependOnTheThreads) {
     EXPECT_EQ(a.u, b.u);
     EXPECT_EQ(a.scattering_width_um, b.scattering_width_um);
     EXPECT_EQ(a.absorption_width_um, b.absorption_width_um);
+}
+
+// TE and TM together (hybrid_far_field_pair) trace each path once for both: where no path is cut
+// by power (min_power 0), the pair is the two single calls to rounding; with the default floor it
+// keeps every path either call keeps, and the widths move by less than a call's truncated power.
+TEST(PhysicalOpticsHybrid, ThePairIsTheTwoSingleCalls) {
+    CrossSection2d section{melanin_rectangle(8.0, 1.0)};
+    section.curves.push_back(keratin_sheet(6.0, 1.2));
+    const std::vector<double> theta{-2.0, -0.5, 0.0, 0.7, 3.0};
+    const double lambda = 550.0, theta_i = 0.3;
+    for (const double floor : {0.0, 1e-6}) {
+        HybridOptions options;
+        options.min_power = floor;
+        options.max_events = floor == 0.0 ? 6 : 16;  // without a floor, 2^events paths a ray
+        const HybridFarFieldPair pair =
+            hybrid_far_field_pair(section, lambda, theta_i, theta, options);
+        for (const auto& [pol, joint] :
+             {std::pair{Polarisation2d::te, &pair.te}, std::pair{Polarisation2d::tm, &pair.tm}}) {
+            const HybridFarField2d single =
+                hybrid_far_field(section, {lambda, theta_i, pol}, theta, options);
+            EXPECT_EQ(joint->rays, single.rays);
+            if (floor == 0.0) {
+                // The same paths, elements and sums; the TM lanes of a single TE call hold zeros,
+                // so only rounding differs.
+                double largest = 0.0;
+                for (const Complex& u : single.u) largest = std::max(largest, std::abs(u));
+                for (std::size_t i = 0; i < theta.size(); ++i)
+                    EXPECT_NEAR(std::abs(joint->u[i] - single.u[i]), 0.0, 1e-12 * largest);
+                const double rounding = 1e-12 * single.beam_width_um;
+                EXPECT_NEAR(joint->extinction_width_um, single.extinction_width_um, rounding);
+                EXPECT_NEAR(joint->absorption_width_um, single.absorption_width_um, rounding);
+                EXPECT_NEAR(joint->scattering_width_um, single.scattering_width_um, rounding);
+                EXPECT_EQ(joint->elements, single.elements);
+            } else {
+                // The pair's extra paths carry at most the power the single call truncated: the
+                // absorption moves by less than that, the fields by less than its amplitude
+                // √(P_t W) over the beam (extinction and scattering are linear and quadratic in
+                // them; twice the bound for both).
+                const double cut = single.truncated_width_um;
+                const double field = 2.0 * std::sqrt(cut * single.beam_width_um);
+                EXPECT_NEAR(joint->absorption_width_um, single.absorption_width_um, cut);
+                EXPECT_NEAR(joint->extinction_width_um, single.extinction_width_um, field);
+                EXPECT_NEAR(joint->scattering_width_um, single.scattering_width_um, field);
+            }
+            EXPECT_LE(joint->truncated_width_um, single.truncated_width_um + 1e-12);
+        }
+    }
+}
+
+// The far-field sum's sin/cos (common/fast_trig.h) holds to |k ω·p| <= kSinCosLimit: a scene
+// farther from the origin is refused with the limit named, before any ray is traced.
+TEST(PhysicalOpticsHybrid, RefusesASceneBeyondTheSumsRange) {
+    const CrossSection2d section{{straight({2e5, 0.0}, {2e5 + 2.0, 0.0}, {0.0, 1.0},
+                                           {{{optics::keratin(), kFilm}}, optics::air()})}};
+    const std::vector<double> theta{0.0};
+    try {
+        hybrid_far_field(section, {550.0, 0.0, Polarisation2d::te}, theta);
+        FAIL() << "a sheet 0.2 m from the origin was accepted";
+    } catch (const InputError& e) {
+        EXPECT_NE(std::string(e.what()).find("from the origin"), std::string::npos) << e.what();
+    }
 }
 
 TEST(PhysicalOpticsHybrid, RefusesInterfacesCloserThanTheStep) {
