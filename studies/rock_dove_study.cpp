@@ -816,7 +816,8 @@ std::string physical_optics_section(const Run& run, const Brdfs& m, const gonio:
                "study's barbule cross-sections ({:g} µm wide, b = {}, film {:g} µm over a {:g} µm "
                "air gap over melanin), {:g} µm apart, tilted by μ = {:.2f} rad, coherent, "
                "extruded along the barbules with the cells' tilt band θ_d = {:.4f} rad "
-               "(patch width {:g} µm; the row full wave's certificate judges). Against the Huang "
+               "(patch width {:g} µm; the cross-section, spacing and tilt full wave certifies "
+               "below). Against the Huang "
                "model: relative L1 **{:.3f}** (noise floor {:.3f}; ray-traced: {:.3f}); against "
                "the ray-traced BRDF: {:.3f}. Estimated relative RMS error {:.1f} % ({} quanta "
                "per light direction and wavelength, {:.0f} s).\n\n{}",
@@ -829,8 +830,10 @@ std::string physical_optics_section(const Run& run, const Brdfs& m, const gonio:
                po.wall_time_s, physical_optics_figure(run, m, po)) +
            analysis::comparison_markdown(cmp, po, "physical optics", "Huang model") + "\n" +
            physical_optics_scope() +
-           " The model's total has its TRT lobe, which this level "
-           "lacks: the R row of the table above is the like-for-like comparison.\n\n";
+           " The model's total has its TRT lobe, which this level lacks: the R row of the table "
+           "above is the like-for-like comparison. Section \"Level of physics\" below shows how "
+           "much of the difference between the two levels the coherent air gap under the film "
+           "makes.\n\n";
 }
 
 // ---- 3. Validation where the model's assumptions hold: R lobe only, short cells. ------------
