@@ -19,7 +19,8 @@
 //
 // Everything goes to <results>/<name>/ (replaced atomically) with report.md on top.
 // Study file keys: see studies/rock_dove.toml (the default study, embedded in the binary)
-// and studies/rock_dove_quick.toml (seconds; used by the tests).
+// and studies/rock_dove_quick.toml (seconds; used by the tests); studies/rock_dove_po_quick.toml
+// adds the physical-optics BRDF.
 #pragma once
 
 #include <array>
