@@ -19,11 +19,13 @@ namespace plumage::studies {
 
 LevelSettings read_level(ParameterTable t) {
     LevelSettings s;
-    s.measure = t.string("measure", s.measure, {"auto", "ray optics"},
-                         "the level of physics the instruments measure with: \"auto\" (the "
-                         "cheapest full wave certifies) or \"ray optics\" (ray optics + thin film "
-                         "whatever full wave says; physical optics and full wave have no "
-                         "instrument: the wave_validity study compares them)");
+    s.measure =
+        t.string("measure", s.measure, {"auto", "ray optics", kPhysicalOptics},
+                 "the level of physics the instruments measure with: \"auto\" (the cheapest full "
+                 "wave certifies), \"ray optics\" (ray optics + thin film whatever full wave "
+                 "says) or \"physical optics\" (the 2.5D physical-optics level as well, whatever "
+                 "full wave says); full wave has no instrument: the wave_validity study compares "
+                 "it with the others");
     s.tolerance = t.number("tolerance", s.tolerance, {0.0, 1.0, true, true},
                            "the largest error against full wave a level may have (a fraction "
                            "of the band-mean reflectance)");
@@ -93,32 +95,78 @@ std::string certificate_text(const LevelCertificate& c) {
         100.0 * v.resolution_error);
 }
 
+// Without a converged certificate: the level asked (ray optics under "auto"), its error unknown;
+// a warning under "auto" only (otherwise the user chose the level).
+LevelDecision uncertified(const LevelSettings& s, const LevelCertificate& c) {
+    LevelDecision d;
+    if (s.measure == kPhysicalOptics) {
+        d.measured_with = kPhysicalOptics;
+        d.physical_optics = true;
+    }
+    const std::string why =
+        c.present ? fmt::format("the full-wave reference is not converged ({}: over {:g} %)",
+                                certificate_text(c), 100.0 * s.convergence)
+                  : c.source;
+    d.summary = fmt::format(
+        "**Level of physics: {}** (asked: {}), **not certified**: {}. Its error against "
+        "full wave is unknown.",
+        d.measured_with, s.measure, why);
+    if (s.measure == "auto")
+        d.warning = fmt::format(
+            "[level] measure = \"auto\" found no full-wave certificate for this row ({}); "
+            "measuring "
+            "with {}, whose error is unknown",
+            why, d.measured_with);
+    return d;
+}
+
+// What the measurements left at ray optics carry when physical optics measures the BRDF too.
+std::string rest_at_ray_optics(const LevelDecision& d) {
+    return d.needed == kRayOptics
+               ? "The other measurements are ray optics + thin film's, certified too."
+               : "The study's other measurements are ray optics + thin film's and carry its "
+                 "error.";
+}
+
+// Physical optics measures as well (asked, or "auto" on a row that needs it).
+void physical_optics_decision(const LevelSettings& s, const LevelCertificate& c, LevelDecision& d) {
+    const sim::wave::RowVerdict2d& v = c.verdict;
+    d.measured_with = kPhysicalOptics;
+    d.physical_optics = true;
+    const bool within = std::abs(v.po_error) <= s.tolerance;
+    d.summary = fmt::format(
+        "**Level of physics: {}** (asked: {}) for the goniometer's BRDF, beside ray optics + "
+        "thin film; physical optics {} the tolerance {:g} % by {}. {}",
+        d.measured_with, s.measure, within ? "**certified** within" : "**not within**",
+        100.0 * s.tolerance, certificate_text(c), rest_at_ray_optics(d));
+    if (!within)
+        d.warning = fmt::format(
+            "physical optics is off by {:+.2f} % against full wave on this row, beyond the "
+            "tolerance {:g} % (ray optics + thin film {:+.1f} %; the row needs {}): the BRDF "
+            "measured at physical optics carries that error",
+            100.0 * v.po_error, 100.0 * s.tolerance, 100.0 * v.go_error, d.needed);
+    else if (d.needed != kRayOptics)
+        d.warning = fmt::format(
+            "this row needs {} (ray optics + thin film is off by {:+.1f} % against full wave, "
+            "beyond the tolerance {:g} %); the BRDF is measured at physical optics as well, "
+            "the study's other measurements are ray optics' and carry that error",
+            d.needed, 100.0 * v.go_error, 100.0 * s.tolerance);
+}
+
 }  // namespace
 
 LevelDecision decide_level(const LevelSettings& s, const LevelCertificate& c) {
-    LevelDecision d;
     const bool converged = c.present && std::abs(c.verdict.resolution_error) <= s.convergence;
-    if (!converged) {
-        const std::string why =
-            c.present ? fmt::format("the full-wave reference is not converged ({}: over {:g} %)",
-                                    certificate_text(c), 100.0 * s.convergence)
-                      : c.source;
-        d.summary = fmt::format(
-            "**Level of physics: {}** (asked: {}), **not certified**: {}. Its error against "
-            "full wave is unknown.",
-            d.measured_with, s.measure, why);
-        if (s.measure == "auto")
-            d.warning = fmt::format(
-                "[level] measure = \"auto\" found no full-wave certificate for this row ({}); "
-                "measuring "
-                "with {}, whose error is unknown",
-                why, d.measured_with);
-        return d;
-    }
+    if (!converged) return uncertified(s, c);
+    LevelDecision d;
     const sim::wave::RowVerdict2d& v = c.verdict;
     d.needed = std::abs(v.go_error) <= s.tolerance   ? kRayOptics
-               : std::abs(v.po_error) <= s.tolerance ? "physical optics"
+               : std::abs(v.po_error) <= s.tolerance ? kPhysicalOptics
                                                      : "full wave";
+    if (s.measure == kPhysicalOptics || (s.measure == "auto" && d.needed == kPhysicalOptics)) {
+        physical_optics_decision(s, c, d);
+        return d;
+    }
     if (d.needed == kRayOptics) {
         d.summary =
             fmt::format("**Level of physics: {}** (asked: {}), **certified** within {:g} % by {}.",
@@ -127,14 +175,20 @@ LevelDecision decide_level(const LevelSettings& s, const LevelCertificate& c) {
     }
     d.warning = fmt::format(
         "this row needs {} (ray optics + thin film is off by {:+.1f} % against full wave, "
-        "beyond the tolerance {:g} %); the instruments measure with ray optics + thin film only, "
-        "so every measurement carries that error",
-        d.needed, 100.0 * v.go_error, 100.0 * s.tolerance);
+        "beyond the tolerance {:g} %); {}, so every measurement carries that error",
+        d.needed, 100.0 * v.go_error, 100.0 * s.tolerance,
+        s.measure == "ray optics"
+            ? "[level] measure = \"ray optics\" measures with ray optics + thin film"
+            : fmt::format("no instrument measures at full wave and physical optics is off by "
+                          "{:+.1f} %: the measurements are ray optics + thin film's",
+                          100.0 * v.po_error));
     d.summary = fmt::format(
         "**Level of physics: {}** (asked: {}), **below what this row needs: {}**. By {}, ray "
-        "optics misses by more than the tolerance {:g} %; no instrument measures at a higher "
-        "level, so the measurements below carry that error.",
-        d.measured_with, s.measure, d.needed, certificate_text(c), 100.0 * s.tolerance);
+        "optics misses by more than the tolerance {:g} %; {}, so the measurements below carry "
+        "that error.",
+        d.measured_with, s.measure, d.needed, certificate_text(c), 100.0 * s.tolerance,
+        s.measure == "ray optics" ? "ray optics + thin film was asked"
+                                  : "no instrument measures at a higher level");
     return d;
 }
 

@@ -27,6 +27,7 @@
 #include "sim/optics/colour.h"
 #include "sim/tracer.h"
 #include "sim/wave/levels_against_full_wave.h"
+#include "sim/wave/physical_optics_25d.h"
 #include "sim/wave/ray_optics_validity.h"
 #include "studies/figure_data.h"
 #include "studies/fullwave_rock_dove.h"  // generated: the embedded full-wave reference
@@ -233,6 +234,12 @@ Settings read_settings(StudyFile& file, std::string& name, const fs::path& sourc
     read_convergence(root.table("convergence"), s);
     read_fit(root.table("fit"), s);
     s.level = read_level(root.table("level"));
+    if (s.level.measure == kPhysicalOptics && !(s.row.cell.theta_d > 0.0))
+        throw InputError(fmt::format(
+            "{}: geometry.cell.theta_d_deg = 0 with [level] measure = \"physical optics\": the "
+            "2.5D level spreads the light over the cells' tilt band, so it needs θ_d > 0 (a "
+            "straight extrusion reflects into a cone of zero width: no BRDF)",
+            geometry.table("cell").location("theta_d_deg")));
     s.seed = read_seed(root);
     root.reject_unused();
     return s;
@@ -663,6 +670,170 @@ std::string in_plane_sweep(const Run& run, const Built& b) {
         "−81°…81°) at {:.0f} "
         "nm:\n\n![in-plane](brdf/in_plane.png)\n\n",
         ip.wavelengths_nm[0]);
+}
+
+// ---- 2b. The BRDF at the physical-optics level ([level] measure, studies/level_choice.h). -----
+
+// The study's barbule row for the 2D wave levels: Huang's cell cross-section (semi-major A, b,
+// normal azimuths φ0…φ1; keratin film d over the air gap g over melanin), spacing H·A, tilt μ,
+// as full wave's row certificate and the level-of-physics comparison have it
+// (sim::wave::barbule_row_2d); `count` barbules, at least 4 and 40 µm and at most the patch's;
+// the patch's rotation jitter over 8 realisations when it has one.
+sim::wave::Row2d study_wave_row(const Settings& s) {
+    const geometry::BarbuleRowParams& p = s.row;
+    const double a = p.cell.semi_major_um;
+    const int count =
+        std::min(p.barbules, std::max(4, static_cast<int>(std::ceil(40.0 / (p.H * a)))));
+    sim::wave::Row2d row =
+        sim::wave::barbule_row_2d(a, p.cell.b, p.cell.phi0, p.cell.phi1, p.cell.film_thickness_um,
+                                  p.cell.melanin_depth_um, p.H, p.mu, count);
+    row.jitter_rotation_rad = p.jitter_phi_rad;
+    row.realisations = p.jitter_phi_rad > 0.0 ? 8 : 1;
+    row.seed = derive_seed(s.seed, "rock_dove/wave_row");  // its jitter (the closed row: the same)
+    return row;
+}
+
+// The step sampling the arc: λ/10 at each wavelength (0) where the arc's sharpest curvature
+// allows it at every wavelength, as the certificate's min(λ/10, 0.95 ρ_min); else one step for
+// every wavelength, the smaller of the two at the shortest.
+double physical_optics_step_um(const Settings& s) {
+    const geometry::BarbuleCellParams& c = s.row.cell;
+    const double rho =
+        0.95 * sim::wave::barbule_row_min_radius_um(c.semi_major_um, c.b, c.phi0, c.phi1);
+    const auto [shortest, longest] =
+        std::minmax_element(s.wavelengths.begin(), s.wavelengths.end());
+    return rho >= 1e-4 * *longest ? 0.0 : std::min(rho, 1e-4 * *shortest);
+}
+
+// The 2.5D physical-optics scatterer of the study's row (sim/wave/physical_optics_25d.h): the
+// row above extruded along the barbules with the cells' tilt band θ_d.
+std::unique_ptr<const sim::wave::PhysicalOptics25d> build_physical_optics(
+    const Settings& s, StudyFile& file, const StudyProgress& clock) {
+    clock.say("building the physical-optics level: the study's barbule row in 2.5D");
+    sim::wave::PhysicalOptics25dParams params;
+    params.row = study_wave_row(s);
+    params.theta_d = s.row.cell.theta_d;
+    params.step_um = physical_optics_step_um(s);
+    try {
+        return std::make_unique<const sim::wave::PhysicalOptics25d>(std::move(params));
+    } catch (const InputError& e) {
+        throw InputError(fmt::format("{}: [geometry] at physical optics: {}",
+                                     file.root().table("geometry").location(), e.what()));
+    }
+}
+
+// The physical-optics BRDF on the simulation's instrument (pairs, wavelengths, detector, photon
+// estimator, passes and stop rule), its own streams, checkpointed as the simulation's.
+gonio::BrdfRecord measure_physical_optics_brdf(const Run& run,
+                                               const sim::wave::PhysicalOptics25d& po,
+                                               const fs::path& checkpoint) {
+    gonio::GoniometerConfig g = goniometer_config(run);
+    g.seed = derive_seed(run.s.seed, "rock_dove/brdf/physical_optics");
+    run.clock.say(fmt::format("BRDF on {} ({} pairs): physical optics (2.5D)", g.direction_set,
+                              g.pairs.size()));
+    fs::create_directories(checkpoint.parent_path());
+    gonio::RunControl control;
+    control.progress = run.progress;
+    control.checkpoint = checkpoint;
+    gonio::BrdfRecord r = gonio::measure_brdf(po, g, control);
+    if (r.interrupted)
+        throw Interrupted(
+            interrupted_with_checkpoint("the physical-optics BRDF", r.passes, checkpoint));
+    gonio::write_brdf_record(r, run.dir / "brdf" / "physical_optics.h5");
+    run.costs.push_back(brdf_cost(fmt::format("BRDF on {} ({} pairs): physical optics (2.5D)",
+                                              g.direction_set, g.pairs.size()),
+                                  r));
+    return r;
+}
+
+// The figure beside the ray-traced one: fingerprints (Filip's 61 × 60 set) of physical optics,
+// ray optics and the model; or, on the in-plane set, the three as curves at the middle
+// wavelength.
+std::string physical_optics_figure(const Run& run, const Brdfs& m, const gonio::BrdfRecord& po) {
+    const fs::path dir = run.dir / "brdf";
+    if (run.s.direction_set == "filip2024_btf") {
+        write_fingerprint_figure(dir / "fingerprints_physical_optics.h5",
+                                 "Rock-dove barbules: BRDF fingerprints by level",
+                                 {{"physical optics (2.5D)", &po},
+                                  {"ray optics + thin film", &m.simulation},
+                                  {"Huang 2022 model", &m.model}},
+                                 61, 60);
+        run_plot("fingerprints", dir / "fingerprints_physical_optics.h5",
+                 dir / "fingerprints_physical_optics.png");
+        return "![fingerprints by level](brdf/fingerprints_physical_optics.png)\n\n";
+    }
+    const std::size_t k = po.config.wavelengths_nm.size() / 2;
+    const auto angles = gonio::filip2024_in_plane_light_angles();
+    std::ofstream csv(dir / "physical_optics_in_plane.csv");
+    csv << fmt::format(
+        "light angle (deg) at {:.0f} nm,physical optics,physical optics_err,ray optics,"
+        "ray optics_err,Huang model,model_err\n",
+        po.config.wavelengths_nm[k]);
+    for (std::size_t p = 0; p < po.config.pairs.size() && p < angles.size(); ++p)
+        csv << fmt::format("{:.1f},{:.6g},{:.6g},{:.6g},{:.6g},{:.6g},{:.6g}\n", angles[p] / kDeg,
+                           po.at(p, k), po.error_at(p, k), m.simulation.at(p, k),
+                           m.simulation.error_at(p, k), m.model.at(p, k), m.model.error_at(p, k));
+    close_written(csv, dir / "physical_optics_in_plane.csv");
+    run_plot("curves", dir / "physical_optics_in_plane.csv", dir / "physical_optics_in_plane.png");
+    return "![in-plane by level](brdf/physical_optics_in_plane.png)\n\n";
+}
+
+// What the 2.5D level leaves out (sim/wave/physical_optics_2d.h and _25d.h), for the report.
+std::string physical_optics_scope() {
+    return "What this level leaves out (sim/wave/physical_optics_2d.h, _25d.h): light reaches "
+           "the melanin only through the planar stack's r under each point of the film (keratin "
+           "film / air gap / melanin, coherent): no light crosses the film to a melanin layer "
+           "that does not follow it, nothing passes through the barbule, so it has no TRT, T or "
+           "multi lobe (its record has R only); one bounce (no reflection between barbules); "
+           "light reflected towards a neighbour is not blocked; Kirchhoff's abrupt lit/dark "
+           "boundary (no creeping waves); TE and TM averaged as scalars (their coupling out of "
+           "the cross-section's plane is left out); Huang's tilt band without the curved cell's "
+           "(1 ± r_θ(1 − cos θ)/ρ) correction; and a finite row, whose ends diffract.";
+}
+
+// The physical-optics BRDF against the model with the ray-traced one's metrics and verdict,
+// and beside the ray-traced BRDF.
+std::string physical_optics_section(const Run& run, const Brdfs& m, const gonio::BrdfRecord& po,
+                                    const sim::wave::PhysicalOptics25d& level,
+                                    RockDoveResult& result) {
+    const analysis::RecordComparison cmp = analysis::compare_records(po, m.model);
+    const analysis::RecordComparison by_level = analysis::compare_records(po, m.simulation);
+    const analysis::AgreementVerdict v = analysis::agreement(
+        po.value, po.standard_error, m.model.value, m.model.standard_error, po.signal_cells);
+    result.verdicts.push_back({"BRDF (" + run.s.direction_set + "), physical optics", v});
+    result.physical_optics_measured = true;
+    result.physical_optics_brdf_relative_l1 = cmp.total.relative_l1;
+    result.physical_optics_brdf_relative_l1_noise_floor = cmp.total.relative_l1_noise_floor;
+    result.physical_optics_against_ray_optics_l1 = by_level.total.relative_l1;
+    result.physical_optics_brdf_error = po.convergence.back().estimated_relative_rms_error;
+    result.physical_optics_brdf_seconds = po.wall_time_s;
+    const sim::wave::Row2d row = study_wave_row(run.s);
+    return fmt::format(
+               "## BRDF at the physical-optics level (2.5D)\n\n"
+               "The same instrument (the {} pairs, {} wavelengths, {:.1f}° detectors, photon "
+               "estimator, passes and stop rule of the BRDF above, its own random streams) "
+               "measures the physical-optics level (sim/wave/physical_optics_25d.h): {} of this "
+               "study's barbule cross-sections ({:g} µm wide, b = {}, film {:g} µm over a {:g} µm "
+               "air gap over melanin), {:g} µm apart, tilted by μ = {:.2f} rad, coherent, "
+               "extruded along the barbules with the cells' tilt band θ_d = {:.4f} rad "
+               "(patch width {:g} µm; the cross-section, spacing and tilt full wave certifies "
+               "below). Against the Huang "
+               "model: relative L1 **{:.3f}** (noise floor {:.3f}; ray-traced: {:.3f}); against "
+               "the ray-traced BRDF: {:.3f}. Estimated relative RMS error {:.1f} % ({} quanta "
+               "per light direction and wavelength, {:.0f} s).\n\n{}",
+               po.config.pairs.size(), po.config.wavelengths_nm.size(),
+               run.s.detector_half_angle / kDeg, row.count, 2.0 * run.s.row.cell.semi_major_um,
+               run.s.row.cell.b, run.s.row.cell.film_thickness_um, run.s.row.cell.melanin_depth_um,
+               row.spacing_um, row.tilt_rad, run.s.row.cell.theta_d, level.patch_width_um(),
+               cmp.total.relative_l1, cmp.total.relative_l1_noise_floor, result.brdf_relative_l1,
+               by_level.total.relative_l1, 100.0 * result.physical_optics_brdf_error, po.quanta,
+               po.wall_time_s, physical_optics_figure(run, m, po)) +
+           analysis::comparison_markdown(cmp, po, "physical optics", "Huang model") + "\n" +
+           physical_optics_scope() +
+           " The model's total has its TRT lobe, which this level lacks: the R row of the table "
+           "above is the like-for-like comparison. Section \"Level of physics\" below shows how "
+           "much of the difference between the two levels the coherent air gap under the film "
+           "makes.\n\n";
 }
 
 // ---- 3. Validation where the model's assumptions hold: R lobe only, short cells. ------------
@@ -1320,15 +1491,8 @@ std::string level_of_physics(const Run& run, RockDoveResult& result) {
     const auto start = std::chrono::steady_clock::now();
     const geometry::BarbuleRowParams& p = run.s.row;
     const double a = p.cell.semi_major_um;
-    const int count =
-        std::min(p.barbules, std::max(4, static_cast<int>(std::ceil(40.0 / (p.H * a)))));
-    sim::wave::Row2d row =
-        sim::wave::barbule_row_2d(a, p.cell.b, p.cell.phi0, p.cell.phi1, p.cell.film_thickness_um,
-                                  p.cell.melanin_depth_um, p.H, p.mu, count);
-    row.jitter_rotation_rad = p.jitter_phi_rad;
-    row.realisations = p.jitter_phi_rad > 0.0 ? 8 : 1;
-    row.seed =
-        derive_seed(run.s.seed, "rock_dove/wave_row");  // its jitter (the closed row: the same)
+    const sim::wave::Row2d row = study_wave_row(run.s);
+    const int count = row.count;
     sim::wave::RayOpticsValidityOptions options;
     options.max_step_um =
         0.95 * sim::wave::barbule_row_min_radius_um(a, p.cell.b, p.cell.phi0, p.cell.phi1);
@@ -1520,6 +1684,8 @@ RockDoveResult run_rock_dove_study(const std::string& study_text, const fs::path
     result.level_warning = level.warning;
     if (!level.warning.empty() && progress)
         fmt::print(stderr, "plumage: warning: {}\n", level.warning);
+    const auto physical_optics =
+        level.physical_optics ? build_physical_optics(s, *file, clock) : nullptr;
     const fs::path checkpoints = checkpoint_folder(results_root, name);
     std::string md = scatterograms(run, built, result);  // measure and compare, section by section
     const Brdfs brdfs = measure_brdfs(run, built, checkpoints / "brdf_simulation.checkpoint");
@@ -1531,6 +1697,11 @@ RockDoveResult run_rock_dove_study(const std::string& study_text, const fs::path
     md += colour_quadrature(run, built, brdfs, result);
     md += avian_vision(run, built, brdfs, result);
     md += in_plane_sweep(run, built);
+    if (physical_optics) {
+        const gonio::BrdfRecord po = measure_physical_optics_brdf(
+            run, *physical_optics, checkpoints / "brdf_physical_optics.checkpoint");
+        md += physical_optics_section(run, brdfs, po, *physical_optics, result);
+    }
     md += validation(run, built, result);
     md += huang_fit(run, built, result);
     // Every pass of the record, those of an interrupted earlier run resumed from the checkpoint

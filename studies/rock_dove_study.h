@@ -4,7 +4,10 @@
 //  1. Scatterograms under a narrow beam, a 16° cone and hemispheric light, simulation
 //     and model side by side with a difference image and per-lobe relative errors.
 //  2. The 61 × 60 Filip BRDF of both, BRDF fingerprints, the per-lobe error table with
-//     the worst cells, and the in-plane sweep as curves with error bars.
+//     the worst cells, and the in-plane sweep as curves with error bars. When [level] chooses
+//     physical optics (studies/level_choice.h), the same BRDF of the 2.5D physical-optics level
+//     (sim/wave/physical_optics_25d.h) on the study's barbule row, against the model and
+//     beside the ray-traced one.
 //  3. Where the assumptions of the model hold exactly (R lobe only, cells short enough
 //     that Eq. 7 is exact), simulation against model in standard errors.
 //  4. Where and why the model departs: interreflection (the "multi" lobe), light passing
@@ -16,7 +19,8 @@
 //
 // Everything goes to <results>/<name>/ (replaced atomically) with report.md on top.
 // Study file keys: see studies/rock_dove.toml (the default study, embedded in the binary)
-// and studies/rock_dove_quick.toml (seconds; used by the tests).
+// and studies/rock_dove_quick.toml (seconds; used by the tests); studies/rock_dove_po_quick.toml
+// adds the physical-optics BRDF.
 #pragma once
 
 #include <array>
@@ -71,11 +75,20 @@ struct RockDoveResult {
     double level_full_wave_resolution_l1 = 0.0, level_full_wave_back_power_diff = 0.0;
     // The same barbules as an endless row judged by full wave (band-mean reflectance; empty
     // level: the row reference does not apply): R, its grid difference, each level's error.
-    // Which level measured ([level], studies/level_choice.h): always ray optics + thin film (the
-    // instruments' level); the level full wave says the row needs ("" uncertified); the warning.
+    // Which level measured ([level], studies/level_choice.h): ray optics + thin film, or physical
+    // optics when it measured the BRDF as well; the level full wave says the row needs (""
+    // uncertified); the warning.
     std::string level_measured_with, level_needed, level_warning;
     // Simulation against model, per measurement, from Monte Carlo noise alone (analysis/verdict.h).
     std::vector<MeasurementVerdict> verdicts;
+    // The BRDF at the physical-optics level (2.5D), when [level] chose it: its relative L1
+    // against the model (and that L1's noise floor) and against the ray-traced BRDF, its
+    // estimated relative RMS Monte Carlo error and its wall time.
+    bool physical_optics_measured = false;
+    double physical_optics_brdf_relative_l1 = 0.0,
+           physical_optics_brdf_relative_l1_noise_floor = 0.0;
+    double physical_optics_against_ray_optics_l1 = 0.0;
+    double physical_optics_brdf_error = 0.0, physical_optics_brdf_seconds = 0.0;
     std::string row_full_wave_level;
     double row_full_wave_reflectance = 0.0, row_full_wave_resolution_error = 0.0;
     double row_physical_optics_error = 0.0, row_ray_optics_error = 0.0;

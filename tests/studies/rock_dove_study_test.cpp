@@ -291,6 +291,83 @@ TEST(RockDoveStudy, QuickVariantRunsAndItsNumbersHold) {
     std::filesystem::remove_all(root);
 }
 
+// The physical-optics level's BRDF in the report (issue 36, acceptance 3): [level] measure =
+// "physical optics" measures the quick study's Filip BRDF set on the 2.5D level too, with its own
+// streams, compares it with the model by the ray-traced BRDF's metrics and verdict, and states its
+// Monte Carlo error and wall time in "Error and time per measurement".
+void check_physical_optics_brdf(const RockDoveResult& r, const std::filesystem::path& dir,
+                                const std::string& report) {
+    EXPECT_EQ(r.level_measured_with, "physical optics");
+    ASSERT_TRUE(r.physical_optics_measured);
+    EXPECT_LT(report.find("**Level of physics: physical optics**"), report.find("## "));
+    // Its error against the model: finite, positive, and stated in the report.
+    EXPECT_TRUE(std::isfinite(r.physical_optics_brdf_relative_l1));
+    EXPECT_GT(r.physical_optics_brdf_relative_l1, 0.0);
+    EXPECT_GT(r.physical_optics_brdf_relative_l1, r.physical_optics_brdf_relative_l1_noise_floor);
+    EXPECT_TRUE(std::isfinite(r.physical_optics_against_ray_optics_l1));
+    const auto section = report.find("## BRDF at the physical-optics level (2.5D)");
+    ASSERT_NE(section, std::string::npos);
+    const std::string text = report.substr(section, report.find("\n## ", section + 1) - section);
+    EXPECT_NE(text.find(fmt::format("relative L1 **{:.3f}**", r.physical_optics_brdf_relative_l1)),
+              std::string::npos)
+        << text;
+    EXPECT_NE(text.find("| physical optics against Huang model |"), std::string::npos);
+    EXPECT_NE(text.find("What this level leaves out"), std::string::npos);
+    EXPECT_NE(text.find("brdf/physical_optics_in_plane.png"), std::string::npos);
+    EXPECT_TRUE(std::filesystem::exists(dir / "brdf" / "physical_optics_in_plane.png"));
+    // The verdict, by the same machinery as the ray-traced BRDF's, in the opening table.
+    ASSERT_EQ(r.verdicts.size(), 5u);
+    const MeasurementVerdict& m = r.verdicts.back();
+    EXPECT_EQ(m.measurement, "BRDF (filip2024_in_plane), physical optics");
+    EXPECT_GT(m.verdict.cells, 10u);
+    EXPECT_NE(report.find(fmt::format("| {} | **{}** | {} |", m.measurement, m.verdict.verdict,
+                                      m.verdict.cells)),
+              std::string::npos);
+    // Its Monte Carlo error and wall time: the record's, and a row of the cost table.
+    EXPECT_GT(r.physical_optics_brdf_error, 0.0);
+    EXPECT_LT(r.physical_optics_brdf_error, 1.0);
+    EXPECT_GT(r.physical_optics_brdf_seconds, 0.0);
+    const auto costs = report.find("## Error and time per measurement");
+    ASSERT_NE(costs, std::string::npos);
+    const auto row = report.find(
+        "| BRDF on filip2024_in_plane (55 pairs): physical optics (2.5D) | photon estimator",
+        costs);
+    ASSERT_NE(row, std::string::npos);
+    EXPECT_NE(report.substr(row, report.find('\n', row) - row)
+                  .find(fmt::format("| {:.2f} % |", 100.0 * r.physical_optics_brdf_error)),
+              std::string::npos);
+    const auto values = record::read_dataset(dir / "brdf" / "physical_optics.h5", "brdf/value");
+    ASSERT_EQ(values.dims[0], 55u);
+    for (double v : values.values) EXPECT_TRUE(std::isfinite(v) && v >= 0.0);
+}
+
+TEST(RockDoveStudy, PhysicalOpticsQuickVariantMeasuresTheBrdfAtBothLevels) {
+    const auto root = std::filesystem::temp_directory_path() /
+                      ("plumage_rock_dove_po_" + std::to_string(::getpid()));
+    const std::filesystem::path study =
+        std::filesystem::path(PLUMAGE_SOURCE_DIR) / "studies" / "rock_dove_po_quick.toml";
+    clear_recorded_measurement_seeds();
+    const RockDoveResult r = run_rock_dove_study(read(study), study, root, false);
+    test::expect_each_measurement_its_own_streams();
+    const auto dir = root / "rock_dove_po_quick";
+    const std::string report = read(dir / "report.md");
+    ASSERT_NO_FATAL_FAILURE(check_physical_optics_brdf(r, dir, report));
+    std::filesystem::remove_all(root);
+}
+
+// The 2.5D level spreads light over the cells' tilt band: θ_d = 0 with physical optics asked is
+// refused when the file is read, naming the key's place.
+TEST(RockDoveStudy, PhysicalOpticsWithoutATiltBandIsRefusedWhenRead) {
+    const std::string message = plumage::testing::input_error_message([&] {
+        check_rock_dove_study(
+            "study = \"rock_dove\"\n[geometry.cell]\ntheta_d_deg = 0\n[level]\nmeasure = "
+            "\"physical optics\"\n",
+            "flat.toml");
+    });
+    EXPECT_NE(message.find("flat.toml:3:"), std::string::npos) << message;
+    EXPECT_NE(message.find("theta_d_deg = 0"), std::string::npos) << message;
+}
+
 TEST(RockDoveStudy, BadStudyTextWritesNothing) {
     const auto root = std::filesystem::temp_directory_path() /
                       ("plumage_rock_dove_bad_" + std::to_string(::getpid()));
