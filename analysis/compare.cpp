@@ -7,6 +7,7 @@
 #include <fmt/format.h>
 
 #include "common/error.h"
+#include "common/relative_l1.h"
 #include "sim/optics/colour.h"
 #include "sim/random.h"
 
@@ -28,15 +29,15 @@ ErrorMeasures measures(const std::vector<double>& a, const std::vector<double>& 
                        const std::vector<double>& a_error, const std::vector<double>& b_error,
                        const gonio::BrdfRecord& r) {
     const std::size_t np = r.config.pairs.size(), nl = r.config.wavelengths_nm.size();
-    double sq = 0.0, diff = 0.0, ref = 0.0, wsq = 0.0, wsum = 0.0, var = 0.0, sigma = 0.0;
+    double sq = 0.0, wsq = 0.0, wsum = 0.0, var = 0.0, sigma = 0.0;
+    RelativeL1 l1;
     for (std::size_t p = 0; p < np; ++p) {
         const double w = r.config.pairs[p].wi.z() * r.config.pairs[p].wo.z();
         for (std::size_t k = 0; k < nl; ++k) {
             const std::size_t i = p * nl + k;
             const double d = a[i] - b[i];
             sq += d * d;
-            diff += std::abs(d);
-            ref += std::abs(b[i]);
+            l1.add(a[i], b[i]);
             wsq += w * d * d;
             wsum += w;
             const double v = std::pow(standard_error_at(a_error, i), 2) +
@@ -48,11 +49,11 @@ ErrorMeasures measures(const std::vector<double>& a, const std::vector<double>& 
     const double n = static_cast<double>(np * nl);
     ErrorMeasures m;
     m.rmse = std::sqrt(sq / n);
-    m.relative_l1 = ref > 0.0 ? diff / ref : (diff > 0.0 ? INFINITY : 0.0);
+    m.relative_l1 = l1.value();
     m.cosine_weighted_rmse = std::sqrt(wsq / wsum);
     m.rmse_noise_floor = std::sqrt(var / n);
-    m.relative_l1_noise_floor = ref > 0.0 ? std::sqrt(2.0 / std::numbers::pi) * sigma / ref
-                                          : (sigma > 0.0 ? INFINITY : 0.0);
+    m.relative_l1_noise_floor =
+        RelativeL1::of(std::sqrt(2.0 / std::numbers::pi) * sigma, l1.reference());
     return m;
 }
 

@@ -17,6 +17,7 @@
 #include "common/distributed.h"
 #include "common/error.h"
 #include "common/interrupt.h"
+#include "common/relative_l1.h"
 #include "common/seed.h"
 #include "common/version.h"
 #include "geometry/barbule.h"
@@ -167,9 +168,8 @@ AblationPoint compare(const gonio::Scatterogram& sim, const gonio::Scatterogram&
         noise += sim.standard_error[i] * omega;
     }
     // A perfect model differs from the simulation by its noise alone: E|N(0, σ)| = σ √(2/π).
-    r.relative_l1 = power_sim > 0.0 ? diff / power_sim : std::numeric_limits<double>::infinity();
-    r.relative_l1_model_reference =
-        power_mod > 0.0 ? diff / power_mod : std::numeric_limits<double>::infinity();
+    r.relative_l1 = RelativeL1::of(diff, power_sim);
+    r.relative_l1_model_reference = RelativeL1::of(diff, power_mod);
     r.noise_floor = power_sim > 0.0 ? std::sqrt(2.0 / kPi) * noise / power_sim : 0.0;
     r.simulated_reflected = power_sim / static_cast<double>(nl);
     r.model_reflected = power_mod / static_cast<double>(nl);

@@ -20,6 +20,7 @@
 #include "analysis/statistics.h"
 #include "common/constants.h"
 #include "common/error.h"
+#include "common/relative_l1.h"
 #include "common/version.h"
 #include "geometry/barb.h"
 #include "sim/albedo.h"
@@ -457,12 +458,9 @@ struct Luminance {
 };
 
 double relative_l1(const gonio::BrdfRecord& model, const gonio::BrdfRecord& data) {
-    double sum_abs = 0.0, sum = 0.0;
-    for (std::size_t i = 0; i < data.value.size(); ++i) {
-        sum_abs += std::abs(model.value[i] - data.value[i]);
-        sum += data.value[i];
-    }
-    return sum_abs / std::max(sum, 1e-300);
+    RelativeL1 l1;
+    for (std::size_t i = 0; i < data.value.size(); ++i) l1.add(model.value[i], data.value[i]);
+    return l1.value();
 }
 
 double relative_rms(const gonio::BrdfRecord& model, const gonio::BrdfRecord& data) {

@@ -19,6 +19,7 @@
 #include "common/cpu_time.h"
 #include "common/error.h"
 #include "common/interrupt.h"
+#include "common/relative_l1.h"
 
 namespace plumage::studies {
 
@@ -59,14 +60,10 @@ double image_relative_l1(const gonio::Scatterogram& a, const gonio::Scatterogram
     const auto& vb = lobe_b < 0 ? b.intensity : b.lobe_intensity;
     const std::size_t oa = lobe_a < 0 ? 0 : static_cast<std::size_t>(lobe_a) * n;
     const std::size_t ob = lobe_b < 0 ? 0 : static_cast<std::size_t>(lobe_b) * n;
-    double diff = 0.0, ref = 0.0;
+    RelativeL1 l1;
     const std::size_t nl = a.config.wavelengths_nm.size();
-    for (std::size_t i = 0; i < n; ++i) {
-        const double omega = a.solid_angle_sr[i / nl];
-        diff += std::abs(va[oa + i] - vb[ob + i]) * omega;
-        ref += vb[ob + i] * omega;
-    }
-    return ref > 0.0 ? diff / ref : 0.0;
+    for (std::size_t i = 0; i < n; ++i) l1.add(va[oa + i], vb[ob + i], a.solid_angle_sr[i / nl]);
+    return l1.value();
 }
 
 double image_relative_l1_noise_floor(const gonio::Scatterogram& a, const gonio::Scatterogram& b) {

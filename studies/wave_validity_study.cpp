@@ -18,6 +18,7 @@
 #include "common/constants.h"
 #include "common/cpu_time.h"
 #include "common/error.h"
+#include "common/relative_l1.h"
 #include "common/seed.h"
 #include "common/version.h"
 #include "geometry/barbule.h"
@@ -395,12 +396,9 @@ std::vector<double> detector_centres(const wave::RayOpticsValidityOptions& o) {
 
 // Σ|a − b| / Σ b over the centres.
 double relative_l1(const std::vector<double>& a, const std::vector<double>& b) {
-    double diff = 0.0, sum = 0.0;
-    for (std::size_t i = 0; i < a.size(); ++i) {
-        diff += std::abs(a[i] - b[i]);
-        sum += b[i];
-    }
-    return sum > 0.0 ? diff / sum : 0.0;
+    RelativeL1 l1;
+    for (std::size_t i = 0; i < a.size(); ++i) l1.add(a[i], b[i]);
+    return l1.value();
 }
 
 double sum_of(const std::vector<double>& v) {

@@ -19,6 +19,7 @@
 #include "common/constants.h"
 #include "common/error.h"
 #include "common/interrupt.h"
+#include "common/relative_l1.h"
 #include "common/require.h"
 #include "sim/optics/colour.h"
 
@@ -1211,10 +1212,9 @@ InterpolationError interpolation_error(const BrdfFunction& f, const RglBsdf& fil
     InterpolationError e;
     e.pairs = pairs;
     std::vector<double> relative;
-    double difference = 0.0, total = 0.0;
+    RelativeL1 weighted;
     for (std::size_t k = 0; k < n; ++k) {
-        difference += std::abs(read[k] - truth[k]) * wi[k].z();
-        total += truth[k] * wi[k].z();
+        weighted.add(read[k], truth[k], wi[k].z());
         if (!(truth[k] > 0.0)) continue;
         relative.push_back(std::abs(read[k] / truth[k] - 1.0));
         e.worst = std::max(e.worst, read[k] > 0.0 ? std::max(read[k] / truth[k], truth[k] / read[k])
@@ -1223,7 +1223,7 @@ InterpolationError interpolation_error(const BrdfFunction& f, const RglBsdf& fil
     e.positive = static_cast<int>(relative.size());
     e.median = quantile(relative, 0.5);
     e.p95 = quantile(relative, 0.95);
-    e.weighted = total > 0.0 ? difference / total : 0.0;
+    e.weighted = weighted.value();
     return e;
 }
 

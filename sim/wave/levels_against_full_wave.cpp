@@ -6,6 +6,7 @@
 #include <fmt/format.h>
 
 #include "common/constants.h"
+#include "common/relative_l1.h"
 #include "common/require.h"
 #include "sim/wave/ray_optics_validity.h"
 
@@ -14,13 +15,13 @@ namespace plumage::sim::wave {
 namespace {
 
 LevelError2d compare(const std::vector<double>& level, const std::vector<double>& reference) {
-    double diff = 0.0, sum_level = 0.0, sum_reference = 0.0;
+    RelativeL1 l1;
+    double sum_level = 0.0;
     for (std::size_t i = 0; i < reference.size(); ++i) {
-        diff += std::abs(level[i] - reference[i]);
+        l1.add(level[i], reference[i]);
         sum_level += level[i];
-        sum_reference += reference[i];
     }
-    return {diff / sum_reference, sum_level / sum_reference - 1.0};
+    return {l1.value(), sum_level / l1.reference() - 1.0};
 }
 
 void check_curves(const FullWaveCurves2d& c) {

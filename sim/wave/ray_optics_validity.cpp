@@ -12,6 +12,7 @@
 #include "common/cpu_time.h"
 #include "common/error.h"
 #include "common/interrupt.h"
+#include "common/relative_l1.h"
 
 namespace plumage::sim::wave {
 namespace {
@@ -221,7 +222,8 @@ RayOpticsValidity2d compare_ray_and_physical_optics(const Row2d& row,
             c.po.assign(n_out, 0.0);
             c.go.assign(n_out, 0.0);
             c.difference_error.assign(n_out, 0.0);
-            double sum_po = 0.0, sum_diff = 0.0, sum_err = 0.0;
+            RelativeL1 l1;  // physical optics the reference
+            double sum_err = 0.0;
             std::vector<double> d(m_count);
             for (std::size_t i = 0; i < n_out; ++i) {
                 for (int m = 0; m < m_count; ++m) {
@@ -230,13 +232,12 @@ RayOpticsValidity2d compare_ray_and_physical_optics(const Row2d& row,
                     d[m] = po_m[m][i] - go_m[m][i];
                 }
                 c.difference_error[i] = mean_error(d).error;
-                sum_po += c.po[i];
-                sum_diff += std::abs(c.po[i] - c.go[i]);
+                l1.add(c.go[i], c.po[i]);
                 sum_err += c.difference_error[i];
             }
-            c.relative_l1 = sum_po > 0.0 ? sum_diff / sum_po : 0.0;
+            c.relative_l1 = l1.value();
             c.relative_l1_noise_floor =
-                sum_po > 0.0 ? std::sqrt(2.0 / kPi) * sum_err / sum_po : 0.0;
+                RelativeL1::of(std::sqrt(2.0 / kPi) * sum_err, l1.reference());
             for (int m = 0; m < m_count; ++m) d[m] = po_power[m] - go_power[m];
             c.po_power_um = mean_error(po_power).mean;
             c.go_power_um = mean_error(go_power).mean;
