@@ -85,16 +85,26 @@ BENCHMARK(BM_PhysicalOpticsRowVisibility)
     ->UseRealTime()
     ->Unit(benchmark::kMillisecond);
 
+// The hybrid's row: each barbule closed, its sheet over the gap and a melanin core.
+CrossSection2d hybrid_row() {
+    Row2d row = rock_dove_row();
+    row.cell = barbule_with_gap(10.0, 0.25, 0.59, 0.3);
+    row.spacing_um = 16.0;  // whole ellipses 12.5 µm apart at this tilt would overlap
+    return row_cross_section(row);
+}
+
+std::vector<double> every_degree() {
+    std::vector<double> theta(181);
+    for (int m = 0; m < 181; ++m) theta[m] = (m - 90) * std::numbers::pi / 180.0;
+    return theta;
+}
+
 void BM_PhysicalOpticsHybridRow(benchmark::State& state) {
     const int threads = static_cast<int>(state.range(0));
     const int saved = omp_get_max_threads();
     omp_set_num_threads(threads);
-    Row2d row = rock_dove_row();
-    row.cell = barbule_with_gap(10.0, 0.25, 0.59, 0.3);
-    row.spacing_um = 16.0;  // whole ellipses 12.5 µm apart at this tilt would overlap
-    const CrossSection2d section = row_cross_section(row);
-    std::vector<double> theta(181);
-    for (int m = 0; m < 181; ++m) theta[m] = (m - 90) * std::numbers::pi / 180.0;
+    const CrossSection2d section = hybrid_row();
+    const std::vector<double> theta = every_degree();
     HybridOptions options;
     options.circle_angles = 0;
     const double theta_i = 20.0 * std::numbers::pi / 180.0;
@@ -118,12 +128,8 @@ void BM_PhysicalOpticsHybridRowPair(benchmark::State& state) {
     const int threads = static_cast<int>(state.range(0));
     const int saved = omp_get_max_threads();
     omp_set_num_threads(threads);
-    Row2d row = rock_dove_row();
-    row.cell = barbule_with_gap(10.0, 0.25, 0.59, 0.3);
-    row.spacing_um = 16.0;
-    const CrossSection2d section = row_cross_section(row);
-    std::vector<double> theta(181);
-    for (int m = 0; m < 181; ++m) theta[m] = (m - 90) * std::numbers::pi / 180.0;
+    const CrossSection2d section = hybrid_row();
+    const std::vector<double> theta = every_degree();
     HybridOptions options;
     options.circle_angles = 0;
     const double theta_i = 20.0 * std::numbers::pi / 180.0;

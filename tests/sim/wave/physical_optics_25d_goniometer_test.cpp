@@ -33,26 +33,14 @@
 #include "common/seed.h"
 #include "sim/wave/physical_optics_25d.h"
 #include "tests/analysis/chi_square.h"
+#include "tests/sim/wave/physical_optics_25d_test_util.h"
 #include "virtual_gonio/goniometer.h"
 
 namespace plumage::sim::wave {
 namespace {
 
-// The small row of physical_optics_25d_test.cpp: three 6 µm barbules of the rock dove's shape.
-PhysicalOptics25dParams small_row() {
-    PhysicalOptics25dParams p;
-    p.row.cell = barbule_arc(geometry::EllipticalArc(3.0, 0.75, -0.37, 2.64), 0.59, 0.3);
-    p.row.count = 3;
-    p.row.spacing_um = 3.75;
-    p.row.tilt_rad = -0.35;
-    p.theta_d = 0.0785;
-    return p;
-}
-
-Vec3d direction(double theta, double elevation) {
-    return {std::cos(elevation) * std::sin(theta), std::sin(elevation),
-            std::cos(elevation) * std::cos(theta)};
-}
+using po25d_test::direction;
+using po25d_test::small_row;
 
 std::vector<gonio::DirectionPair> cone_pairs() {
     const std::vector<Vec3d> lights = {direction(30.0 * kDeg, 0.0), direction(0.0, 40.0 * kDeg),

@@ -14,26 +14,15 @@
 #include "common/constants.h"
 #include "common/error.h"
 #include "tests/analysis/chi_square.h"
+#include "tests/sim/wave/physical_optics_25d_test_util.h"
 #include "virtual_gonio/direction_sets.h"
 #include "virtual_gonio/goniometer.h"
 
 namespace plumage::sim::wave {
 namespace {
 
-PhysicalOptics25dParams small_row() {
-    PhysicalOptics25dParams p;
-    p.row.cell = barbule_arc(geometry::EllipticalArc(3.0, 0.75, -0.37, 2.64), 0.59, 0.3);
-    p.row.count = 3;
-    p.row.spacing_um = 3.75;
-    p.row.tilt_rad = -0.35;
-    p.theta_d = 0.0785;
-    return p;
-}
-
-Vec3d direction(double theta, double elevation) {
-    return {std::cos(elevation) * std::sin(theta), std::sin(elevation),
-            std::cos(elevation) * std::cos(theta)};
-}
+using po25d_test::direction;
+using po25d_test::small_row;
 
 constexpr double kLambda = 550.0;
 
