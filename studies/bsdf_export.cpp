@@ -163,7 +163,7 @@ std::vector<Export> species_exports(const BsdfExportOptions& o, const fs::path& 
 // --first-nm, --last-nm, --step-nm as the grid, its size checked before it is built.
 std::vector<double> wavelength_grid(const BsdfExportOptions& o) {
     const double span = o.last_nm - o.first_nm;
-    const double count = std::floor(span / o.step_nm + 1e-9) + 1.0;
+    const double count = optics::WavelengthGrid::uniform_count(o.first_nm, o.last_nm, o.step_nm);
     const auto max_count = optics::WavelengthGrid::kMaxWavelengths;
     if (!(std::isfinite(o.first_nm) && std::isfinite(o.last_nm) && o.step_nm > 0.0 &&
           std::isfinite(count) && span >= 0.0 && count <= static_cast<double>(max_count))) {
@@ -173,10 +173,9 @@ std::vector<double> wavelength_grid(const BsdfExportOptions& o) {
             o.first_nm, o.last_nm, o.step_nm, max_count,
             std::isfinite(span) ? span / static_cast<double>(max_count - 1) : 0.0));
     }
-    std::vector<double> grid;
-    for (std::size_t k = 0; k < static_cast<std::size_t>(count); ++k)
-        grid.push_back(o.first_nm + static_cast<double>(k) * o.step_nm);
-    return grid;
+    const optics::WavelengthGrid grid =
+        optics::WavelengthGrid::uniform(o.first_nm, o.last_nm, o.step_nm);
+    return {grid.nm().begin(), grid.nm().end()};
 }
 
 // The tensor file's tables as float32 (spectra, luminance, vndf, ndf and sigma), twice: the
