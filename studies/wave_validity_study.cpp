@@ -86,7 +86,7 @@ Barbule read_barbule(ParameterTable t) {
             fmt::format("{}: barbule.phi1_deg = {:.4g}: expected phi0_deg < phi1_deg "
                         "<= phi0_deg + 360 (phi0_deg = {:.4g})",
                         t.location("phi1_deg"), b.phi1 / kDeg, b.phi0 / kDeg));
-    b.d = t.number("film_thickness_um", b.d, between(0.0, 5.0), "keratin film thickness d, µm");
+    b.d = read_film_thickness_um(t, "film_thickness_um", b.d, "keratin film thickness d");
     b.g = t.number("melanin_depth_um", b.g, between(0.0, 5.0),
                    "air gap between the film and the melanin, µm");
     b.H = t.number("H", b.H, {0.0, 100.0, true, false},
