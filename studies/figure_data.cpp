@@ -82,6 +82,35 @@ PixelDirections pixel_directions(const gonio::Scatterogram& s) {
     return d;
 }
 
+// The `figure/` group's map attributes: title, exposure, the mapping and the beam's direction.
+void write_map_frame(record::Hdf5Writer& h5, const gonio::Scatterogram& s, const std::string& title,
+                     double white, const std::string& exposure_rule) {
+    h5.create_group("figure");
+    h5.set_attribute("/figure", "title", title);
+    h5.set_attribute("/figure", "white_luminance_per_sr", white);
+    h5.set_attribute("/figure", "exposure_rule", exposure_rule);
+    h5.set_attribute("/figure", "mapping",
+                     "azimuthal equidistant: u right, v up in [-1, 1], theta = 90 deg * hypot(u, "
+                     "v), phi = atan2(v, u) from +x (the barb axis) towards +y; row 0 at the top");
+    h5.set_attribute("/figure", "beam_theta_deg",
+                     degrees(std::acos(std::clamp(s.config.beam_direction.z(), -1.0, 1.0))));
+    h5.set_attribute("/figure", "beam_phi_deg",
+                     degrees(std::atan2(s.config.beam_direction.y(), s.config.beam_direction.x())));
+}
+
+// Each pixel's ϑ and φ (degrees, NaN outside the disc) into `figure/`.
+void write_pixel_directions(record::Hdf5Writer& h5, const PixelDirections& grid, int n) {
+    const std::uint64_t un = static_cast<std::uint64_t>(n);
+    h5.write("figure/theta_deg", std::span<const double>(grid.theta_deg), Dims{un, un},
+             {{"units", "deg"},
+              {"description", "polar angle of each pixel centre, [row, column]; NaN outside"}});
+    h5.write("figure/phi_deg", std::span<const double>(grid.phi_deg), Dims{un, un},
+             {{"units", "deg"},
+              {"description",
+               "azimuth of each pixel centre from +x (barb axis) towards +y, [row, column]; NaN "
+               "outside"}});
+}
+
 }  // namespace
 
 std::array<float, 3> display_srgb(const optics::Xyz& xyz, double exposure) {
@@ -100,7 +129,6 @@ void write_scatterogram_figure(record::Hdf5Writer& h5, const gonio::Scatterogram
     const std::size_t pixels = simulation.pixels();
     const PixelDirections grid = pixel_directions(simulation);
     const std::vector<bool>& inside = grid.inside;
-    const std::vector<double>&theta = grid.theta_deg, &phi = grid.phi_deg;
     const auto& wl = simulation.config.wavelengths_nm;
     const Colours cs = colours_of(wl, simulation.intensity.data(), pixels, inside);
     const Colours cm = colours_of(wl, model.intensity.data(), pixels, inside);
@@ -113,22 +141,10 @@ void write_scatterogram_figure(record::Hdf5Writer& h5, const gonio::Scatterogram
     for (std::size_t p = 0; p < pixels; ++p)
         if (inside[p]) difference[p] = y_s[p] - y_m[p];
 
+    write_map_frame(h5, simulation, title, white,
+                    "one exposure for both images: the brighter of the two peak luminances maps "
+                    "to white");
     const std::uint64_t un = static_cast<std::uint64_t>(n);
-    h5.create_group("figure");
-    h5.set_attribute("/figure", "title", title);
-    h5.set_attribute("/figure", "white_luminance_per_sr", white);
-    h5.set_attribute("/figure", "exposure_rule",
-                     "one exposure for both images: the brighter of the two peak luminances maps "
-                     "to white");
-    h5.set_attribute("/figure", "mapping",
-                     "azimuthal equidistant: u right, v up in [-1, 1], theta = 90 deg * hypot(u, "
-                     "v), phi = atan2(v, u) from +x (the barb axis) towards +y; row 0 at the top");
-    h5.set_attribute(
-        "/figure", "beam_theta_deg",
-        degrees(std::acos(std::clamp(simulation.config.beam_direction.z(), -1.0, 1.0))));
-    h5.set_attribute("/figure", "beam_phi_deg",
-                     degrees(std::atan2(simulation.config.beam_direction.y(),
-                                        simulation.config.beam_direction.x())));
     const std::string source =
         fmt::format("simulation ({}) and model ({})", simulation.scatterer, model.scatterer);
     h5.write("figure/simulation_srgb", std::span<const float>(srgb_s), Dims{un, un, 3},
@@ -149,14 +165,49 @@ void write_scatterogram_figure(record::Hdf5Writer& h5, const gonio::Scatterogram
              {{"units", "1/sr"},
               {"description", "signed luminance difference Y_simulation - Y_model of " + source +
                                   ", [row, column]; NaN outside the disc"}});
-    h5.write("figure/theta_deg", std::span<const double>(theta), Dims{un, un},
-             {{"units", "deg"},
-              {"description", "polar angle of each pixel centre, [row, column]; NaN outside"}});
-    h5.write("figure/phi_deg", std::span<const double>(phi), Dims{un, un},
-             {{"units", "deg"},
-              {"description",
-               "azimuth of each pixel centre from +x (barb axis) towards +y, [row, column]; NaN "
-               "outside"}});
+    write_pixel_directions(h5, grid, n);
+}
+
+void write_scatterogram_panels(record::Hdf5Writer& h5, const std::string& title,
+                               const std::vector<ScatterogramPanel>& panels) {
+    PLUMAGE_CHECK(!panels.empty(), "a scatterogram figure needs a panel");
+    const gonio::Scatterogram& first = *panels.front().scatterogram;
+    const std::size_t pixels = first.pixels();
+    const PixelDirections grid = pixel_directions(first);
+    std::vector<Colours> colours;
+    double white = 0.0;
+    for (const ScatterogramPanel& p : panels) {
+        const gonio::Scatterogram& s = *p.scatterogram;
+        PLUMAGE_CHECK(
+            s.pixels() == pixels && s.config.wavelengths_nm == first.config.wavelengths_nm,
+            "scatterograms differ in size or wavelengths");
+        colours.push_back(
+            colours_of(s.config.wavelengths_nm, s.intensity.data(), pixels, grid.inside));
+        white = std::max(white, colours.back().peak);
+    }
+    write_map_frame(h5, first, title, white,
+                    "one exposure for every panel: the brightest panel's peak luminance maps to "
+                    "white");
+    h5.set_integer_attribute("/figure", "panels", static_cast<std::int64_t>(panels.size()));
+    const std::uint64_t un = static_cast<std::uint64_t>(first.config.image_size);
+    for (std::size_t k = 0; k < panels.size(); ++k) {
+        std::vector<float> srgb;
+        std::vector<double> y;
+        display_images(colours[k], exposure_for(white), grid.inside, srgb, y);
+        const std::string group = fmt::format("figure/panel{}", k);
+        h5.create_group(group);
+        h5.set_attribute("/" + group, "title", panels[k].title);
+        h5.set_attribute("/" + group, "scatterer", panels[k].scatterogram->scatterer);
+        h5.set_attribute("/" + group, "peak_luminance_per_sr", colours[k].peak);
+        h5.write(group + "/srgb", std::span<const float>(srgb), Dims{un, un, 3},
+                 {{"units", "1"}, {"description", panels[k].title + ": " + kSrgbDescription}});
+        h5.write(group + "/luminance", std::span<const double>(y), Dims{un, un},
+                 {{"units", "1/sr"},
+                  {"description", panels[k].title +
+                                      ": luminance Y (D65) of the radiant intensity per unit "
+                                      "incident power, [row, column]; NaN outside the disc"}});
+    }
+    write_pixel_directions(h5, grid, first.config.image_size);
 }
 
 void write_fingerprint_figure(const std::filesystem::path& path, const std::string& title,

@@ -33,6 +33,17 @@ std::array<float, 3> display_srgb(const optics::Xyz& xyz, double exposure);
 void write_scatterogram_figure(record::Hdf5Writer& h5, const gonio::Scatterogram& simulation,
                                const gonio::Scatterogram& model, const std::string& title);
 
+// The `scatterogram_levels` figure's data, in the group `figure/` of `h5`: scatterograms of
+// one instrument (size, wavelengths, beam) by different scatterers, each panel's display sRGB
+// and luminance (`figure/panel<k>/`, its title and peak luminance as attributes) at one
+// exposure (the brightest panel's peak → white), and each pixel's ϑ and φ as above.
+struct ScatterogramPanel {
+    std::string title;
+    const gonio::Scatterogram* scatterogram = nullptr;
+};
+void write_scatterogram_panels(record::Hdf5Writer& h5, const std::string& title,
+                               const std::vector<ScatterogramPanel>& panels);
+
 // Fingerprints (Filip 2024 Fig. 7 layout: rows the light directions, columns the view
 // directions) of records on the same light-major pair list, at one exposure for all panels
 // (the brightest cell of any panel → white). Written to its own file at `path`.

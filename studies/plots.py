@@ -17,6 +17,8 @@
   plots.py spongy_angles H5 PNG  spongy study: the base slab's spectrum at several incidence angles
   plots.py scatterogram_comparison H5 PNG  simulation | model | signed difference (figure/ group)
   plots.py scatterogram H5 PNG   one scatterogram (the comparison's figure/ group) on hemisphere axes
+  plots.py scatterogram_levels H5 PNG  scatterograms of one instrument by several scatterers:
+                                 colour at one exposure, luminance on one log scale (figure/ group)
   plots.py fingerprints H5 PNG   Filip 2024 Fig. 7 fingerprints at one exposure, with log luminance
                                  and each panel's signed difference from the first
   plots.py btf_tiles H5 PNG      BTF images of a few geometries (Filip 2024 Fig. 9), one exposure
@@ -676,6 +678,56 @@ def build_scatterogram_comparison(h5_path):
     return fig
 
 
+def build_scatterogram_levels(h5_path):
+    """Scatterograms of one instrument by several scatterers (figure/panel<k>/): colour at one
+    exposure for every panel (top row) and luminance on one logarithmic scale with a colour bar
+    (bottom row), each on the hemisphere's axes."""
+    import h5py
+    import numpy as np
+    from matplotlib.colors import LogNorm
+
+    with h5py.File(h5_path, "r") as f:
+        g = f["figure"]
+        count = int(g.attrs["panels"])
+        panels = [(np.asarray(g[f"panel{k}/srgb"], dtype=float),
+                   np.asarray(g[f"panel{k}/luminance"], dtype=float),
+                   _text(g[f"panel{k}"].attrs["title"]),
+                   float(g[f"panel{k}"].attrs["peak_luminance_per_sr"])) for k in range(count)]
+        theta = np.asarray(g["theta_deg"], dtype=float)
+        white = float(g.attrs["white_luminance_per_sr"])
+        title = _text(g.attrs.get("title", ""))
+        note = _text(g.attrs.get("note", ""))
+    inside = np.isfinite(theta)
+    extent = (-90.0, 90.0, -90.0, 90.0)
+    fig, axes = plt.subplots(2, count + 1, figsize=(5.0 * count + 0.6, 10.6), squeeze=False,
+                             gridspec_kw={"width_ratios": (1,) * count + (0.045,)})
+    axes[0, -1].set_visible(False)
+    top = max(white, 1e-300)
+    norm = LogNorm(vmin=top * 1e-4, vmax=top)
+    image = None
+    for k, (rgb, y, name, peak) in enumerate(panels):
+        ax = axes[0, k]
+        rgba = np.concatenate([np.clip(rgb, 0, 1), inside[..., None].astype(float)], axis=2)
+        _clip_to_disc(ax, ax.imshow(rgba, extent=extent, origin="upper", interpolation="nearest"))
+        _hemisphere_frame(ax, True)
+        ax.set_title(f"{name}\npeak {peak:.3g} 1/sr ({peak / top:.2f} of white)", fontsize=9)
+        ax = axes[1, k]
+        image = ax.imshow(np.ma.masked_invalid(np.clip(y, top * 1e-4, None)), norm=norm,
+                          cmap="viridis", extent=extent, origin="upper", interpolation="nearest")
+        _clip_to_disc(ax, image)
+        _hemisphere_frame(ax, True)
+        ax.set_title(f"{name}: luminance (log scale)", fontsize=9)
+    bar = fig.colorbar(image, cax=axes[1, -1])
+    bar.set_label("luminance Y of the radiant intensity per unit incident power (1/sr)",
+                  fontsize=8)
+    bar.ax.tick_params(labelsize=7)
+    fig.suptitle(f"Scatterograms, {title}: radiant intensity per unit incident power under D65; "
+                 f"one exposure for every panel, white = luminance {white:.3g} 1/sr"
+                 + (f"\n{note}" if note else ""), fontsize=10)
+    fig.tight_layout()
+    return fig
+
+
 def _ring_ticks(angles):
     """Each polar-angle ring of a direction list: the first indices (where a separator goes),
     the tick positions (the ring's middle) and the labels."""
@@ -1125,6 +1177,7 @@ KINDS = {  # kind -> (builder, dpi)
     "spongy_angles": (build_spongy_angles, 120),
     "scatterogram_comparison": (build_scatterogram_comparison, 110),
     "scatterogram": (build_scatterogram, 110),
+    "scatterogram_levels": (build_scatterogram_levels, 110),
     "fingerprints": (build_fingerprints, 100),
     "btf_tiles": (build_btf_tiles, 110),
     "geometry_preview": (build_geometry_preview, 110),

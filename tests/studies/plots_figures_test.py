@@ -183,6 +183,34 @@ def scatterogram_comparison(d):
     return path
 
 
+def scatterogram_levels(d):
+    """As studies/figure_data.cpp writes it into beam_levels.h5 (three scatterers)."""
+    path = os.path.join(d, "beam_levels.h5")
+    n = 21
+    u = (np.arange(n) + 0.5) * 2 / n - 1
+    uu, vv = np.meshgrid(u, -u)
+    r = np.hypot(uu, vv)
+    theta = np.where(r <= 1, 90 * r, np.nan)
+    with h5py.File(path, "w") as f:
+        g = f.create_group("figure")
+        for k, (title, width) in enumerate((("physical optics (2.5D)", 15),
+                                            ("ray optics + thin film", 20),
+                                            ("Huang 2022 model", 25))):
+            y = np.where(r <= 1, np.exp(-(theta / width) ** 2), np.nan)
+            p = g.create_group(f"panel{k}")
+            p["srgb"] = np.nan_to_num(np.repeat(y[..., None], 3, axis=2)).astype(np.float32)
+            p["luminance"] = y
+            p.attrs["title"] = title
+            p.attrs["peak_luminance_per_sr"] = float(np.nanmax(y))
+        g["theta_deg"] = theta
+        g["phi_deg"] = np.where(r <= 1, np.degrees(np.arctan2(vv, uu)), np.nan)
+        g.attrs["panels"] = np.int64(3)
+        g.attrs["title"] = "beam illumination by level"
+        g.attrs["white_luminance_per_sr"] = 1.0
+        g.attrs["note"] = "relative L1 against the model: physical optics 0.5"
+    return path
+
+
 def fingerprints(d, count=3):
     """As studies/figure_data.cpp writes fingerprints.h5 (Filip 2024 set: 61 x 60)."""
     path = os.path.join(d, f"fingerprints{count}.h5")
@@ -327,6 +355,7 @@ CASES = {
     "spongy_angles": ([spongy], "all", False),
     "scatterogram_comparison": ([scatterogram_comparison], "all", True),
     "scatterogram": ([scatterogram_comparison], "all", False),
+    "scatterogram_levels": ([scatterogram_levels], "all", True),
     "fingerprints": ([fingerprints], "all", True),
     "btf_tiles": ([btf_tiles], "titled", False),
     "geometry_preview": ([geometry_lines, geometry_polygons], "all", False),
@@ -410,6 +439,16 @@ class EveryKind(unittest.TestCase):
         for name in ("simulation", "Huang 2022 model", "simulation − model"):
             self.assertIn(name, titles)
         self.assertIn("white = luminance", fig._suptitle.get_text())
+
+    def test_scatterogram_levels_share_one_scale(self):
+        """Every level's luminance on one logarithmic scale (one colour bar), its colour at one
+        exposure stated in the title."""
+        fig = PLOTS.build_scatterogram_levels(scatterogram_levels(self.dir))
+        luminance = [a for a in panels(fig) if "luminance" in title_of(a)]
+        self.assertEqual(len(luminance), 3)
+        self.assertEqual(len({a.get_images()[0].get_clim() for a in luminance}), 1)
+        self.assertEqual(len(colour_bars(fig)), 1)
+        self.assertIn("one exposure for every panel", fig._suptitle.get_text())
 
     def test_fingerprints_state_one_exposure(self):
         fig = PLOTS.build_fingerprints(fingerprints(self.dir))
