@@ -337,17 +337,30 @@ analysis::AgreementVerdict scatterogram_verdict(const gonio::Scatterogram& sim,
     return analysis::agreement(sim.intensity, sigma, model.intensity, {}, use);
 }
 
-// One illumination: both scatterograms, their records and images, and the table row.
-std::string scatterogram_pair(const Run& run, const Built& b, gonio::Illumination mode,
-                              const std::string& label, RockDoveResult& result) {
+// One illumination's scatterograms: simulation and model on one instrument, independent noise.
+struct ScatterogramPair {
+    gonio::Scatterogram simulation, model;
+};
+
+ScatterogramPair measure_scatterogram_pair(const Run& run, const Built& b, gonio::Illumination mode,
+                                           const std::string& label) {
     const gonio::ScatterometerConfig c = scatterometer_config(run, mode);
     gonio::ScatterometerConfig model_c = c;  // the same instrument; independent noise
     model_c.seed =
         derive_seed(run.s.seed, "rock_dove/scatterogram/model", static_cast<std::uint64_t>(mode));
+    ScatterogramPair p;
     run.clock.say("scatterogram (" + label + "): simulation");
-    const gonio::Scatterogram sim_s = gonio::measure_scatterogram(*b.simulation, c);
+    p.simulation = gonio::measure_scatterogram(*b.simulation, c);
     run.clock.say("scatterogram (" + label + "): Huang model");
-    const gonio::Scatterogram mod_s = gonio::measure_scatterogram(*b.model, model_c);
+    p.model = gonio::measure_scatterogram(*b.model, model_c);
+    return p;
+}
+
+// One illumination: both scatterograms' records and images, and the table row.
+std::string scatterogram_pair(const Run& run, const ScatterogramPair& pair,
+                              gonio::Illumination mode, const std::string& label,
+                              RockDoveResult& result) {
+    const gonio::Scatterogram &sim_s = pair.simulation, &mod_s = pair.model;
     const fs::path dir = run.dir / "scatterograms";
     gonio::write_scatterogram_record(sim_s, dir / (label + "_simulation.h5"));
     gonio::write_scatterogram_record(mod_s, dir / (label + "_model.h5"));
@@ -402,10 +415,16 @@ std::string scatterogram_pair(const Run& run, const Built& b, gonio::Illuminatio
             ? fmt::format("{:.2g} quanta/λ", static_cast<double>(sim_s.quanta))
             : fmt::format("{:.2g}/{:.2g} quanta/λ", static_cast<double>(sim_s.quanta),
                           static_cast<double>(mod_s.quanta)),
-        c.image_size, sim_s.passes, mod_s.passes);
+        sim_s.config.image_size, sim_s.passes, mod_s.passes);
 }
 
-std::string scatterograms(const Run& run, const Built& b, RockDoveResult& result) {
+// The scatterograms' section, and the beam pair kept for the physical-optics level's figure.
+struct Scatterograms {
+    std::string markdown;
+    ScatterogramPair beam;
+};
+
+Scatterograms scatterograms(const Run& run, const Built& b, RockDoveResult& result) {
     const std::vector<std::pair<gonio::Illumination, std::string>> modes = {
         {gonio::Illumination::beam, "beam"},
         {gonio::Illumination::cone, "cone"},
@@ -414,7 +433,12 @@ std::string scatterograms(const Run& run, const Built& b, RockDoveResult& result
         "| illumination | relative L1 (all) | its noise floor | R | TRT | T below, simulation | "
         "T below, model | multi share (simulation) | median per-pixel σ (sim / model) "
         "|\n|---|---|---|---|---|---|---|---|---|\n";
-    for (const auto& [mode, label] : modes) table += scatterogram_pair(run, b, mode, label, result);
+    Scatterograms out;
+    for (const auto& [mode, label] : modes) {
+        ScatterogramPair pair = measure_scatterogram_pair(run, b, mode, label);
+        table += scatterogram_pair(run, pair, mode, label, result);
+        if (mode == gonio::Illumination::beam) out.beam = std::move(pair);
+    }
     std::string md =
         "## Scatterograms\n\nEach figure: simulation (left) and Huang model (middle) at one "
         "exposure (stated above them), and the signed luminance difference simulation − model "
@@ -426,14 +450,16 @@ std::string scatterograms(const Run& run, const Built& b, RockDoveResult& result
         md += fmt::format("**{}**\n\n![{}](scatterograms/{}_comparison.png)\n\n", label, label,
                           label);
     }
-    return md + table +
-           "\nRelative L1 = Σ|I_sim − I_model|Ω / Σ I_model Ω over pixels and wavelengths (the "
-           "model is the reference here; the ablation study divides by the simulation). Its noise "
-           "floor is the L1 two images of the same scatterer would show with these standard "
-           "errors: sqrt(2/π) Σ sqrt(σ_sim² + σ_model²) Ω / Σ I_model Ω. "
-           "Median per-pixel σ: the median of σ/I over (pixel, wavelength) cells whose intensity "
-           "is above 1 % of that wavelength's brightest pixel "
-           "(gonio::median_relative_standard_error).\n\n";
+    out.markdown =
+        md + table +
+        "\nRelative L1 = Σ|I_sim − I_model|Ω / Σ I_model Ω over pixels and wavelengths (the "
+        "model is the reference here; the ablation study divides by the simulation). Its noise "
+        "floor is the L1 two images of the same scatterer would show with these standard "
+        "errors: sqrt(2/π) Σ sqrt(σ_sim² + σ_model²) Ω / Σ I_model Ω. "
+        "Median per-pixel σ: the median of σ/I over (pixel, wavelength) cells whose intensity "
+        "is above 1 % of that wavelength's brightest pixel "
+        "(gonio::median_relative_standard_error).\n\n";
+    return out;
 }
 
 // ---- 2. Goniometric BRDF. --------------------------------------------------------------------
@@ -834,6 +860,112 @@ std::string physical_optics_section(const Run& run, const Brdfs& m, const gonio:
            "above is the like-for-like comparison. Section \"Level of physics\" below shows how "
            "much of the difference between the two levels the coherent air gap under the film "
            "makes.\n\n";
+}
+
+// The physical-optics beam scatterogram on the ray-traced beam scatterogram's instrument
+// (beam, spot, image, wavelengths, quanta, passes and stop rule), its own streams.
+gonio::Scatterogram measure_physical_optics_scatterogram(const Run& run,
+                                                         const sim::wave::PhysicalOptics25d& po) {
+    gonio::ScatterometerConfig c = scatterometer_config(run, gonio::Illumination::beam);
+    c.seed = derive_seed(run.s.seed, "rock_dove/scatterogram/beam/physical_optics");
+    const std::string what = "scatterogram (beam): physical optics (2.5D)";
+    run.clock.say(what);
+    gonio::Scatterogram r = gonio::measure_scatterogram(po, c);
+    gonio::write_scatterogram_record(r, run.dir / "scatterograms" / "beam_physical_optics.h5");
+    run.costs.push_back(scatterogram_cost(what, r, kSignalFraction));
+    return r;
+}
+
+// The beam scatterogram by level against the model, in numbers: all lobes with the noise
+// floor, the R lobe alone (this level has no other), and against the ray-traced one.
+struct LevelScatterogramErrors {
+    double l1 = 0.0, floor = 0.0, l1_r = 0.0, against_ray_optics = 0.0, ray_optics_l1 = 0.0;
+};
+
+LevelScatterogramErrors level_scatterogram_errors(const ScatterogramPair& beam,
+                                                  const gonio::Scatterogram& po) {
+    LevelScatterogramErrors e;
+    e.l1 = image_relative_l1(po, beam.model, -1, -1);
+    e.floor = image_relative_l1_noise_floor(po, beam.model);
+    e.l1_r = image_relative_l1(po, beam.model, lobe_index(po.lobes, "R"),
+                               lobe_index(beam.model.lobes, "R"));
+    e.against_ray_optics = image_relative_l1(po, beam.simulation, -1, -1);
+    e.ray_optics_l1 = image_relative_l1(beam.simulation, beam.model, -1, -1);
+    return e;
+}
+
+// beam_levels.h5 (the numbers and the figure's data, scatterograms/) and beam_levels.png: the
+// three levels at one exposure and on one luminance scale.
+void physical_optics_scatterogram_figure(const Run& run, const ScatterogramPair& beam,
+                                         const gonio::Scatterogram& po,
+                                         const LevelScatterogramErrors& e) {
+    const fs::path dir = run.dir / "scatterograms";
+    record::Hdf5Writer h5(dir / "beam_levels.h5");
+    const std::vector<double> values = {e.l1, e.floor, e.l1_r, e.against_ray_optics,
+                                        e.ray_optics_l1};
+    h5.write("relative_error", std::span<const double>(values), {values.size()},
+             {{"units", "1"},
+              {"description", "the beam scatterogram by level, power-weighted relative L1"},
+              {"columns",
+               "physical optics against the model: all lobes, its noise floor, R lobe; physical "
+               "optics against ray optics; ray optics against the model"}});
+    write_scatterogram_panels(h5, "beam illumination by level",
+                              {{"physical optics (2.5D)", &po},
+                               {"ray optics + thin film", &beam.simulation},
+                               {"Huang 2022 model", &beam.model}});
+    h5.set_attribute("/figure", "note",
+                     fmt::format("relative L1 against the model: physical optics {:.3f} (noise "
+                                 "floor {:.3f}; R lobe {:.3f}), ray optics {:.3f}",
+                                 e.l1, e.floor, e.l1_r, e.ray_optics_l1));
+    h5.commit();
+    run_plot("scatterogram_levels", dir / "beam_levels.h5", dir / "beam_levels.png");
+}
+
+// The beam scatterogram at the physical-optics level beside the ray-traced one and the model's,
+// with the ray-traced one's metrics and verdict.
+std::string physical_optics_scatterogram_section(const Run& run, const ScatterogramPair& beam,
+                                                 const gonio::Scatterogram& po,
+                                                 RockDoveResult& result) {
+    const LevelScatterogramErrors e = level_scatterogram_errors(beam, po);
+    result.verdicts.push_back(
+        {"scatterogram (beam), physical optics", scatterogram_verdict(po, beam.model)});
+    result.physical_optics_scatterogram_relative_l1 = e.l1;
+    result.physical_optics_scatterogram_relative_l1_noise_floor = e.floor;
+    result.physical_optics_scatterogram_error =
+        gonio::median_relative_standard_error(po, kSignalFraction);
+    result.physical_optics_scatterogram_seconds = po.wall_time_s;
+    physical_optics_scatterogram_figure(run, beam, po, e);
+    const gonio::ScatterometerConfig& c = po.config;
+    return fmt::format(
+        "### Beam scatterogram at the physical-optics level\n\n"
+        "The beam scatterogram's instrument above (beam at ϑ = {:.0f}°, φ = {:.0f}°, {:g} µm "
+        "spot radius, {} px, {} wavelengths, its own random streams) measures the same 2.5D "
+        "level. Against the Huang model: relative L1 **{:.3f}** (noise floor {:.3f}; "
+        "ray-traced: {:.3f}); R lobe alone, the like-for-like part: {:.3f}; against the "
+        "ray-traced scatterogram: {:.3f}. Median per-pixel σ {:.1f} % ({:.2g} quanta/λ, {} "
+        "pass{}, {:.1f} s).\n\n![beam scatterograms by level](scatterograms/beam_levels.png)"
+        "\n\nLeft to right: physical optics (2.5D), ray optics + thin film, Huang model; top: "
+        "colour at one exposure for all three, bottom: their luminance on one logarithmic "
+        "scale. As above, this level has the R lobe only (none of the TRT, T and multi light "
+        "around the model's and ray optics' peak) and does not block light reflected towards a "
+        "neighbour. Data: `scatterograms/beam_levels.h5` (`figure/`, `relative_error`) and the "
+        "records `beam_physical_optics.h5`, `beam_simulation.h5`, `beam_model.h5`.\n\n",
+        std::acos(std::clamp(c.beam_direction.z(), -1.0, 1.0)) / kDeg,
+        std::atan2(c.beam_direction.y(), c.beam_direction.x()) / kDeg, c.beam_radius_um,
+        c.image_size, c.wavelengths_nm.size(), e.l1, e.floor, e.ray_optics_l1, e.l1_r,
+        e.against_ray_optics, 100.0 * result.physical_optics_scatterogram_error,
+        static_cast<double>(po.quanta), po.passes, po.passes == 1 ? "" : "es", po.wall_time_s);
+}
+
+// The physical-optics level, when chosen: its BRDF, then its beam scatterogram.
+std::string physical_optics_level(const Run& run, const sim::wave::PhysicalOptics25d& level,
+                                  const Brdfs& brdfs, const ScatterogramPair& beam,
+                                  const fs::path& checkpoints, RockDoveResult& result) {
+    const gonio::BrdfRecord po =
+        measure_physical_optics_brdf(run, level, checkpoints / "brdf_physical_optics.checkpoint");
+    std::string md = physical_optics_section(run, brdfs, po, level, result);
+    const gonio::Scatterogram po_beam = measure_physical_optics_scatterogram(run, level);
+    return md + physical_optics_scatterogram_section(run, beam, po_beam, result);
 }
 
 // ---- 3. Validation where the model's assumptions hold: R lobe only, short cells. ------------
@@ -1687,7 +1819,8 @@ RockDoveResult run_rock_dove_study(const std::string& study_text, const fs::path
     const auto physical_optics =
         level.physical_optics ? build_physical_optics(s, *file, clock) : nullptr;
     const fs::path checkpoints = checkpoint_folder(results_root, name);
-    std::string md = scatterograms(run, built, result);  // measure and compare, section by section
+    const Scatterograms scattered = scatterograms(run, built, result);
+    std::string md = scattered.markdown;  // measure and compare, section by section
     const Brdfs brdfs = measure_brdfs(run, built, checkpoints / "brdf_simulation.checkpoint");
     costs.push_back(brdf_cost(fmt::format("BRDF on {} ({} pairs): simulation", s.direction_set,
                                           brdfs.simulation.config.pairs.size()),
@@ -1697,11 +1830,9 @@ RockDoveResult run_rock_dove_study(const std::string& study_text, const fs::path
     md += colour_quadrature(run, built, brdfs, result);
     md += avian_vision(run, built, brdfs, result);
     md += in_plane_sweep(run, built);
-    if (physical_optics) {
-        const gonio::BrdfRecord po = measure_physical_optics_brdf(
-            run, *physical_optics, checkpoints / "brdf_physical_optics.checkpoint");
-        md += physical_optics_section(run, brdfs, po, *physical_optics, result);
-    }
+    if (physical_optics)
+        md += physical_optics_level(run, *physical_optics, brdfs, scattered.beam, checkpoints,
+                                    result);
     md += validation(run, built, result);
     md += huang_fit(run, built, result);
     // Every pass of the record, those of an interrupted earlier run resumed from the checkpoint

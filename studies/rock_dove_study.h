@@ -7,7 +7,7 @@
 //     the worst cells, and the in-plane sweep as curves with error bars. When [level] chooses
 //     physical optics (studies/level_choice.h), the same BRDF of the 2.5D physical-optics level
 //     (sim/wave/physical_optics_25d.h) on the study's barbule row, against the model and
-//     beside the ray-traced one.
+//     beside the ray-traced one, and its beam scatterogram beside the ray-traced and model's.
 //  3. Where the assumptions of the model hold exactly (R lobe only, cells short enough
 //     that Eq. 7 is exact), simulation against model in standard errors.
 //  4. Where and why the model departs: interreflection (the "multi" lobe), light passing
@@ -89,6 +89,11 @@ struct RockDoveResult {
            physical_optics_brdf_relative_l1_noise_floor = 0.0;
     double physical_optics_against_ray_optics_l1 = 0.0;
     double physical_optics_brdf_error = 0.0, physical_optics_brdf_seconds = 0.0;
+    // Its beam scatterogram (the ray-traced beam scatterogram's instrument): relative L1 against
+    // the model's, that L1's noise floor, its median per-pixel σ and its wall time.
+    double physical_optics_scatterogram_relative_l1 = 0.0,
+           physical_optics_scatterogram_relative_l1_noise_floor = 0.0;
+    double physical_optics_scatterogram_error = 0.0, physical_optics_scatterogram_seconds = 0.0;
     std::string row_full_wave_level;
     double row_full_wave_reflectance = 0.0, row_full_wave_resolution_error = 0.0;
     double row_physical_optics_error = 0.0, row_ray_optics_error = 0.0;

@@ -20,6 +20,7 @@
 #include "tests/test_util.h"
 #include "tests/virtual_gonio/exr_test_util.h"
 #include "virtual_gonio/hdf5_file.h"
+#include "virtual_gonio/hdf5_reader.h"
 
 namespace plumage::studies {
 namespace {
@@ -316,8 +317,8 @@ void check_physical_optics_brdf(const RockDoveResult& r, const std::filesystem::
     EXPECT_NE(text.find("brdf/physical_optics_in_plane.png"), std::string::npos);
     EXPECT_TRUE(std::filesystem::exists(dir / "brdf" / "physical_optics_in_plane.png"));
     // The verdict, by the same machinery as the ray-traced BRDF's, in the opening table.
-    ASSERT_EQ(r.verdicts.size(), 5u);
-    const MeasurementVerdict& m = r.verdicts.back();
+    ASSERT_EQ(r.verdicts.size(), 6u);
+    const MeasurementVerdict& m = r.verdicts[4];
     EXPECT_EQ(m.measurement, "BRDF (filip2024_in_plane), physical optics");
     EXPECT_GT(m.verdict.cells, 10u);
     EXPECT_NE(report.find(fmt::format("| {} | **{}** | {} |", m.measurement, m.verdict.verdict,
@@ -341,6 +342,49 @@ void check_physical_optics_brdf(const RockDoveResult& r, const std::filesystem::
     for (double v : values.values) EXPECT_TRUE(std::isfinite(v) && v >= 0.0);
 }
 
+// The beam scatterogram at the physical-optics level: its L1 against the model and that L1's
+// noise floor finite and in the report, its figure and records beside it, its verdict and its
+// row of the cost table.
+void check_physical_optics_scatterogram(const RockDoveResult& r, const std::filesystem::path& dir,
+                                        const std::string& report) {
+    EXPECT_TRUE(std::isfinite(r.physical_optics_scatterogram_relative_l1));
+    EXPECT_GT(r.physical_optics_scatterogram_relative_l1, 0.0);
+    EXPECT_TRUE(std::isfinite(r.physical_optics_scatterogram_relative_l1_noise_floor));
+    EXPECT_GT(r.physical_optics_scatterogram_relative_l1_noise_floor, 0.0);
+    EXPECT_GT(r.physical_optics_scatterogram_seconds, 0.0);
+    const auto section = report.find("### Beam scatterogram at the physical-optics level");
+    ASSERT_NE(section, std::string::npos);
+    const std::string text = report.substr(section, report.find("\n## ", section + 1) - section);
+    EXPECT_NE(text.find(fmt::format("relative L1 **{:.3f}** (noise floor {:.3f};",
+                                    r.physical_optics_scatterogram_relative_l1,
+                                    r.physical_optics_scatterogram_relative_l1_noise_floor)),
+              std::string::npos)
+        << text;
+    EXPECT_NE(text.find("scatterograms/beam_levels.png"), std::string::npos);
+    for (const char* file : {"beam_levels.png", "beam_levels.h5", "beam_physical_optics.h5"})
+        EXPECT_TRUE(std::filesystem::exists(dir / "scatterograms" / file)) << file;
+    // The figure: physical optics, ray optics, model, at one exposure (the brightest → white).
+    const record::Hdf5Reader h5(dir / "scatterograms" / "beam_levels.h5");
+    ASSERT_EQ(h5.unsigned_attribute("/figure", "panels"), 3u);
+    double brightest = 0.0;
+    for (int k = 0; k < 3; ++k)
+        brightest = std::max(brightest, h5.number_attribute(fmt::format("/figure/panel{}", k),
+                                                            "peak_luminance_per_sr"));
+    EXPECT_GT(brightest, 0.0);
+    EXPECT_EQ(h5.number_attribute("/figure", "white_luminance_per_sr"), brightest);
+    EXPECT_EQ(h5.string_attribute("/figure/panel0", "scatterer"), "physical_optics_25d");
+    const MeasurementVerdict& m = r.verdicts.back();
+    EXPECT_EQ(m.measurement, "scatterogram (beam), physical optics");
+    EXPECT_GT(m.verdict.cells, 10u);
+    const auto costs = report.find("## Error and time per measurement");
+    ASSERT_NE(costs, std::string::npos);
+    const auto row = report.find("| scatterogram (beam): physical optics (2.5D) |", costs);
+    ASSERT_NE(row, std::string::npos);
+    EXPECT_NE(report.substr(row, report.find('\n', row) - row)
+                  .find(fmt::format("| {:.2f} % |", 100.0 * r.physical_optics_scatterogram_error)),
+              std::string::npos);
+}
+
 TEST(RockDoveStudy, PhysicalOpticsQuickVariantMeasuresTheBrdfAtBothLevels) {
     const auto root = std::filesystem::temp_directory_path() /
                       ("plumage_rock_dove_po_" + std::to_string(::getpid()));
@@ -352,6 +396,7 @@ TEST(RockDoveStudy, PhysicalOpticsQuickVariantMeasuresTheBrdfAtBothLevels) {
     const auto dir = root / "rock_dove_po_quick";
     const std::string report = read(dir / "report.md");
     ASSERT_NO_FATAL_FAILURE(check_physical_optics_brdf(r, dir, report));
+    ASSERT_NO_FATAL_FAILURE(check_physical_optics_scatterogram(r, dir, report));
     std::filesystem::remove_all(root);
 }
 
