@@ -157,15 +157,20 @@ def spongy(d):
     return path
 
 
-def scatterogram_comparison(d):
-    """As studies/figure_data.cpp writes it into <illumination>_comparison.h5."""
-    path = os.path.join(d, "beam_comparison.h5")
-    n = 21
+def hemisphere_disc(n=21):
+    """A scatterogram's pixel grid: r (disc radius), theta and phi (deg, NaN off the disc)."""
     u = (np.arange(n) + 0.5) * 2 / n - 1
     uu, vv = np.meshgrid(u, -u)
     r = np.hypot(uu, vv)
     theta = np.where(r <= 1, 90 * r, np.nan)
     phi = np.where(r <= 1, np.degrees(np.arctan2(vv, uu)), np.nan)
+    return r, theta, phi
+
+
+def scatterogram_comparison(d):
+    """As studies/figure_data.cpp writes it into <illumination>_comparison.h5."""
+    path = os.path.join(d, "beam_comparison.h5")
+    r, theta, phi = hemisphere_disc()
     y_sim = np.where(r <= 1, np.exp(-(theta / 20) ** 2), np.nan)
     y_mod = np.where(r <= 1, 0.8 * np.exp(-(theta / 25) ** 2), np.nan)
     with h5py.File(path, "w") as f:
@@ -186,11 +191,7 @@ def scatterogram_comparison(d):
 def scatterogram_levels(d):
     """As studies/figure_data.cpp writes it into beam_levels.h5 (three scatterers)."""
     path = os.path.join(d, "beam_levels.h5")
-    n = 21
-    u = (np.arange(n) + 0.5) * 2 / n - 1
-    uu, vv = np.meshgrid(u, -u)
-    r = np.hypot(uu, vv)
-    theta = np.where(r <= 1, 90 * r, np.nan)
+    r, theta, phi = hemisphere_disc()
     with h5py.File(path, "w") as f:
         g = f.create_group("figure")
         for k, (title, width) in enumerate((("physical optics (2.5D)", 15),
@@ -203,7 +204,7 @@ def scatterogram_levels(d):
             p.attrs["title"] = title
             p.attrs["peak_luminance_per_sr"] = float(np.nanmax(y))
         g["theta_deg"] = theta
-        g["phi_deg"] = np.where(r <= 1, np.degrees(np.arctan2(vv, uu)), np.nan)
+        g["phi_deg"] = phi
         g.attrs["panels"] = np.int64(3)
         g.attrs["title"] = "beam illumination by level"
         g.attrs["white_luminance_per_sr"] = 1.0
