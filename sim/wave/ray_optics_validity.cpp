@@ -87,10 +87,10 @@ double barbule_row_min_radius_um(double semi_major_um, double b, double phi0, do
     return r;
 }
 
-RayOpticsValidity2d compare_ray_and_physical_optics(const Row2d& row,
-                                                    std::span<const double> lambda_nm,
-                                                    std::span<const double> theta_i_rad,
-                                                    const RayOpticsValidityOptions& options) {
+namespace {
+
+void validate(std::span<const double> lambda_nm, std::span<const double> theta_i_rad,
+              const RayOpticsValidityOptions& options) {
     if (lambda_nm.empty() || theta_i_rad.empty())
         refuse(fmt::format("needs at least one wavelength and one incidence (got {} and {})",
                            lambda_nm.size(), theta_i_rad.size()));
@@ -108,143 +108,196 @@ RayOpticsValidity2d compare_ray_and_physical_optics(const Row2d& row,
     if (!(options.window.half_angle_rad > 0.0) || options.window.half_angle_rad > 0.25 * kPi)
         refuse(fmt::format("detector window half-angle {:.4g} rad must be in (0, π/4]",
                            options.window.half_angle_rad));
+}
 
+// The angles physical optics is sampled at: uniform, fine enough for the row's reach r_max
+// (0.8π/(k r_max), at most 0.25°), over the detector centres plus the window's support.
+struct SampleGrid {
+    std::vector<double> theta;
+    double cell_width = 0.0;
+};
+SampleGrid sample_grid(double k, double r_max, double support) {
+    const double delta = std::min(0.8 * kPi / (k * std::max(r_max, 1e-6)), 0.25 * kDeg);
+    const double lo = -89.0 * kDeg - support - delta, hi = 89.0 * kDeg + support + delta;
+    const int n_grid = static_cast<int>(std::ceil((hi - lo) / delta)) + 1;
+    SampleGrid g;
+    g.theta.resize(static_cast<std::size_t>(n_grid));
+    for (int j = 0; j < n_grid; ++j)
+        g.theta[static_cast<std::size_t>(j)] = lo + (hi - lo) * j / (n_grid - 1.0);
+    g.cell_width = (hi - lo) / (n_grid - 1.0);
+    return g;
+}
+
+// One realisation of the row at one wavelength and incidence, unpolarised: PO's σ on the sample
+// grid, GO's windowed signal at the centres and its reflected power.
+struct Realisation {
+    std::vector<double> sigma, go_w;
+    double go_power = 0.0;
+};
+
+// Each level with its own outgoing-visibility rule, per polarisation.
+Realisation levels_with_visibility(const Row2d& row, const SampledCrossSection2d& p, double lambda,
+                                   double theta_i, const SampleGrid& grid,
+                                   const PhysicalOpticsOptions& po_options,
+                                   const RayOpticsValidityOptions& options,
+                                   RayOpticsValidity2d& v) {
+    const double k = 2.0 * kPi / (1e-3 * lambda);
+    Realisation r{std::vector<double>(grid.theta.size(), 0.0),
+                  std::vector<double>(v.theta_out_rad.size(), 0.0), 0.0};
+    for (Polarisation2d pol : {Polarisation2d::te, Polarisation2d::tm}) {
+        const Incidence2d incidence{lambda, theta_i, pol};
+        Stopwatch po_clock(v.po_wall_s, v.po_cpu_s);
+        const std::vector<std::complex<double>> u =
+            far_field_integral(row.cell, p, incidence, grid.theta, po_options);
+        po_clock.stop();
+        for (std::size_t j = 0; j < grid.theta.size(); ++j)
+            r.sigma[j] += 0.5 * k / (8.0 * kPi) * std::norm(u[j]);
+        Stopwatch go_clock(v.go_wall_s, v.go_cpu_s);
+        const FarFieldKernel2d kernel =
+            prepare_far_field(row.cell, p, incidence, FarFieldPart::reflected);
+        const std::vector<GeometricRay2d> rays = geometric_rays(kernel, p, true);
+        go_clock.stop();
+        const std::vector<double> w = windowed(rays, options.window, v.theta_out_rad);
+        for (std::size_t i = 0; i < r.go_w.size(); ++i) r.go_w[i] += 0.5 * w[i];
+        r.go_power += 0.5 * total_power(rays, 0.5 * kPi);
+    }
+    return r;
+}
+
+// Without visibility: the lit test and the stack amplitudes serve both levels, their time
+// charged to each (either level alone would pay it); TE and TM in one far-field pass.
+Realisation levels_sharing_kernels(const Row2d& row, const SampledCrossSection2d& p, double lambda,
+                                   double theta_i, const SampleGrid& grid,
+                                   const RayOpticsValidityOptions& options,
+                                   RayOpticsValidity2d& v) {
+    const double k = 2.0 * kPi / (1e-3 * lambda);
+    Realisation r{std::vector<double>(grid.theta.size(), 0.0),
+                  std::vector<double>(v.theta_out_rad.size(), 0.0), 0.0};
+    double shared_wall = 0.0, shared_cpu = 0.0;
+    Stopwatch shared_clock(shared_wall, shared_cpu);
+    const FarFieldKernel2d te = prepare_far_field(
+        row.cell, p, {lambda, theta_i, Polarisation2d::te}, FarFieldPart::reflected);
+    const FarFieldKernel2d tm = prepare_far_field(
+        row.cell, p, {lambda, theta_i, Polarisation2d::tm}, FarFieldPart::reflected);
+    shared_clock.stop();
+    v.po_wall_s += shared_wall, v.po_cpu_s += shared_cpu;
+    v.go_wall_s += shared_wall, v.go_cpu_s += shared_cpu;
+    Stopwatch po_clock(v.po_wall_s, v.po_cpu_s);
+    std::vector<std::complex<double>> u_te, u_tm;
+    far_field_pair(te, tm, grid.theta, u_te, u_tm);
+    po_clock.stop();
+    for (std::size_t j = 0; j < grid.theta.size(); ++j)
+        r.sigma[j] = 0.5 * k / (8.0 * kPi) * (std::norm(u_te[j]) + std::norm(u_tm[j]));
+    for (const FarFieldKernel2d* kernel : {&te, &tm}) {
+        Stopwatch go_clock(v.go_wall_s, v.go_cpu_s);
+        const std::vector<GeometricRay2d> rays = geometric_rays(*kernel, p, false);
+        go_clock.stop();
+        const std::vector<double> w = windowed(rays, options.window, v.theta_out_rad);
+        for (std::size_t i = 0; i < r.go_w.size(); ++i) r.go_w[i] += 0.5 * w[i];
+        r.go_power += 0.5 * total_power(rays, 0.5 * kPi);
+    }
+    return r;
+}
+
+// The realisations' means, the per-centre standard error of PO − GO, the relative L1 with its
+// noise floor, and the reflected powers with their difference's error.
+void summarise(const std::vector<std::vector<double>>& po_m,
+               const std::vector<std::vector<double>>& go_m, const std::vector<double>& po_power,
+               const std::vector<double>& go_power, LevelComparison2d& c) {
+    const std::size_t n_out = po_m.front().size();
+    const int m_count = static_cast<int>(po_m.size());
+    c.po.assign(n_out, 0.0);
+    c.go.assign(n_out, 0.0);
+    c.difference_error.assign(n_out, 0.0);
+    RelativeL1 l1;  // physical optics the reference
+    double sum_err = 0.0;
+    std::vector<double> d(m_count);
+    for (std::size_t i = 0; i < n_out; ++i) {
+        for (int m = 0; m < m_count; ++m) {
+            c.po[i] += po_m[m][i] / m_count;
+            c.go[i] += go_m[m][i] / m_count;
+            d[m] = po_m[m][i] - go_m[m][i];
+        }
+        c.difference_error[i] = mean_error(d).error;
+        l1.add(c.go[i], c.po[i]);
+        sum_err += c.difference_error[i];
+    }
+    c.relative_l1 = l1.value();
+    c.relative_l1_noise_floor = RelativeL1::of(std::sqrt(2.0 / kPi) * sum_err, l1.reference());
+    for (int m = 0; m < m_count; ++m) d[m] = po_power[m] - go_power[m];
+    c.po_power_um = mean_error(po_power).mean;
+    c.go_power_um = mean_error(go_power).mean;
+    if (c.go_power_um > 0.0) {
+        c.power_error = c.po_power_um / c.go_power_um - 1.0;
+        c.power_error_standard_error = mean_error(d).error / c.go_power_um;
+    }
+}
+
+// One wavelength and incidence: the row's realisations sampled at the case's step, each level's
+// windowed signal and power, summarised.
+LevelComparison2d compare_case(const Row2d& row, double lambda, double theta_i,
+                               const RayOpticsValidityOptions& options, RayOpticsValidity2d& v) {
+    LevelComparison2d c;
+    c.theta_i_rad = theta_i;
+    c.lambda_nm = lambda;
+    if (!std::isfinite(lambda) || !(lambda > 0.0))
+        refuse(fmt::format("wavelength {} nm must be finite and > 0", lambda));
+    c.step_um = 1e-3 * lambda / 10.0;
+    if (options.max_step_um > 0.0) c.step_um = std::min(c.step_um, options.max_step_um);
+    PhysicalOpticsOptions po_options;
+    po_options.part = FarFieldPart::reflected;
+    po_options.outgoing_visibility = options.outgoing_visibility;
+    po_options.step_um = c.step_um;
+    const SampledCrossSection2d cell = sample_cross_section(row.cell, c.step_um);
+    const int m_count = v.realisations;
+    std::vector<SampledCrossSection2d> placed;
+    double r_max = 0.0;
+    for (int m = 0; m < m_count; ++m) {
+        placed.push_back(place_row(row, cell, m));
+        r_max = std::max(r_max, max_radius(placed.back()));
+    }
+    c.samples = placed.front().samples.size();
+    const SampleGrid grid =
+        sample_grid(2.0 * kPi / (1e-3 * lambda), r_max, window_support(options.window));
+    c.grid_angles = static_cast<int>(grid.theta.size());
+    std::vector<std::vector<double>> po_m(m_count), go_m(m_count);
+    std::vector<double> po_power(m_count, 0.0), go_power(m_count, 0.0);
+    for (int m = 0; m < m_count; ++m) {
+        // Ctrl-C stops the comparison within one realisation's sums (common/interrupt.h).
+        throw_if_interrupted(
+            fmt::format("PO vs GO at {:g} nm, θ_i = {:.4g} rad, row {}", lambda, theta_i, m));
+        const SampledCrossSection2d& p = placed[static_cast<std::size_t>(m)];
+        Realisation r =
+            options.outgoing_visibility
+                ? levels_with_visibility(row, p, lambda, theta_i, grid, po_options, options, v)
+                : levels_sharing_kernels(row, p, lambda, theta_i, grid, options, v);
+        po_m[static_cast<std::size_t>(m)] =
+            windowed(grid.theta, r.sigma, options.window, v.theta_out_rad);
+        go_m[static_cast<std::size_t>(m)] = std::move(r.go_w);
+        for (std::size_t j = 0; j < grid.theta.size(); ++j)
+            if (std::abs(grid.theta[j]) < 0.5 * kPi) po_power[m] += r.sigma[j] * grid.cell_width;
+        go_power[m] = r.go_power;
+    }
+    summarise(po_m, go_m, po_power, go_power, c);
+    return c;
+}
+
+}  // namespace
+
+RayOpticsValidity2d compare_ray_and_physical_optics(const Row2d& row,
+                                                    std::span<const double> lambda_nm,
+                                                    std::span<const double> theta_i_rad,
+                                                    const RayOpticsValidityOptions& options) {
+    validate(lambda_nm, theta_i_rad, options);
     RayOpticsValidity2d v;
     const double reach = 89.0 * kDeg + 1e-9;
     for (double t = -89.0 * kDeg; t <= reach; t += options.output_step_rad)
         v.theta_out_rad.push_back(t);
-    const std::size_t n_out = v.theta_out_rad.size();
     const bool jittered = row.jitter_position_um > 0.0 || row.jitter_rotation_rad > 0.0;
-    const int m_count = jittered ? row.realisations : 1;
-    v.realisations = m_count;
-    const double support = window_support(options.window);
-    PhysicalOpticsOptions po_options;
-    po_options.part = FarFieldPart::reflected;
-    po_options.outgoing_visibility = options.outgoing_visibility;
-
+    v.realisations = jittered ? row.realisations : 1;
     for (double theta_i : theta_i_rad) {
         for (double lambda : lambda_nm) {
-            LevelComparison2d c;
-            c.theta_i_rad = theta_i;
-            c.lambda_nm = lambda;
-            if (!std::isfinite(lambda) || !(lambda > 0.0))
-                refuse(fmt::format("wavelength {} nm must be finite and > 0", lambda));
-            c.step_um = 1e-3 * lambda / 10.0;
-            if (options.max_step_um > 0.0) c.step_um = std::min(c.step_um, options.max_step_um);
-            po_options.step_um = c.step_um;
-            const SampledCrossSection2d cell = sample_cross_section(row.cell, c.step_um);
-            std::vector<SampledCrossSection2d> placed;
-            double r_max = 0.0;
-            for (int m = 0; m < m_count; ++m) {
-                placed.push_back(place_row(row, cell, m));
-                r_max = std::max(r_max, max_radius(placed.back()));
-            }
-            c.samples = placed.front().samples.size();
-            const double k = 2.0 * kPi / (1e-3 * lambda);
-            const double delta = std::min(0.8 * kPi / (k * std::max(r_max, 1e-6)), 0.25 * kDeg);
-            const double lo = -89.0 * kDeg - support - delta, hi = 89.0 * kDeg + support + delta;
-            const int n_grid = static_cast<int>(std::ceil((hi - lo) / delta)) + 1;
-            std::vector<double> grid(static_cast<std::size_t>(n_grid));
-            for (int j = 0; j < n_grid; ++j)
-                grid[static_cast<std::size_t>(j)] = lo + (hi - lo) * j / (n_grid - 1.0);
-            const double cell_width = (hi - lo) / (n_grid - 1.0);
-            c.grid_angles = n_grid;
-
-            std::vector<std::vector<double>> po_m(m_count), go_m(m_count);
-            std::vector<double> po_power(m_count, 0.0), go_power(m_count, 0.0);
-            for (int m = 0; m < m_count; ++m) {
-                // Ctrl-C stops the comparison within one realisation's sums (common/interrupt.h).
-                throw_if_interrupted(fmt::format("PO vs GO at {:g} nm, θ_i = {:.4g} rad, row {}",
-                                                 lambda, theta_i, m));
-                const SampledCrossSection2d& p = placed[static_cast<std::size_t>(m)];
-                std::vector<double> sigma(grid.size(), 0.0);
-                std::vector<double> go_w(n_out, 0.0);
-                double go_p = 0.0;
-                if (options.outgoing_visibility) {
-                    // Each level with its own visibility rule, per polarisation.
-                    for (Polarisation2d pol : {Polarisation2d::te, Polarisation2d::tm}) {
-                        const Incidence2d incidence{lambda, theta_i, pol};
-                        Stopwatch po_clock(v.po_wall_s, v.po_cpu_s);
-                        const std::vector<std::complex<double>> u =
-                            far_field_integral(row.cell, p, incidence, grid, po_options);
-                        po_clock.stop();
-                        for (std::size_t j = 0; j < grid.size(); ++j)
-                            sigma[j] += 0.5 * k / (8.0 * kPi) * std::norm(u[j]);
-                        Stopwatch go_clock(v.go_wall_s, v.go_cpu_s);
-                        const FarFieldKernel2d kernel =
-                            prepare_far_field(row.cell, p, incidence, FarFieldPart::reflected);
-                        const std::vector<GeometricRay2d> rays = geometric_rays(kernel, p, true);
-                        go_clock.stop();
-                        const std::vector<double> w =
-                            windowed(rays, options.window, v.theta_out_rad);
-                        for (std::size_t i = 0; i < n_out; ++i) go_w[i] += 0.5 * w[i];
-                        go_p += 0.5 * total_power(rays, 0.5 * kPi);
-                    }
-                } else {
-                    // The lit test and the stack amplitudes serve both levels: their time is
-                    // charged to each (either level alone would pay it).
-                    double shared_wall = 0.0, shared_cpu = 0.0;
-                    Stopwatch shared_clock(shared_wall, shared_cpu);
-                    const FarFieldKernel2d te =
-                        prepare_far_field(row.cell, p, {lambda, theta_i, Polarisation2d::te},
-                                          FarFieldPart::reflected);
-                    const FarFieldKernel2d tm =
-                        prepare_far_field(row.cell, p, {lambda, theta_i, Polarisation2d::tm},
-                                          FarFieldPart::reflected);
-                    shared_clock.stop();
-                    v.po_wall_s += shared_wall, v.po_cpu_s += shared_cpu;
-                    v.go_wall_s += shared_wall, v.go_cpu_s += shared_cpu;
-                    Stopwatch po_clock(v.po_wall_s, v.po_cpu_s);
-                    std::vector<std::complex<double>> u_te, u_tm;
-                    far_field_pair(te, tm, grid, u_te, u_tm);
-                    po_clock.stop();
-                    for (std::size_t j = 0; j < grid.size(); ++j)
-                        sigma[j] =
-                            0.5 * k / (8.0 * kPi) * (std::norm(u_te[j]) + std::norm(u_tm[j]));
-                    for (const FarFieldKernel2d* kernel : {&te, &tm}) {
-                        Stopwatch go_clock(v.go_wall_s, v.go_cpu_s);
-                        const std::vector<GeometricRay2d> rays = geometric_rays(*kernel, p, false);
-                        go_clock.stop();
-                        const std::vector<double> w =
-                            windowed(rays, options.window, v.theta_out_rad);
-                        for (std::size_t i = 0; i < n_out; ++i) go_w[i] += 0.5 * w[i];
-                        go_p += 0.5 * total_power(rays, 0.5 * kPi);
-                    }
-                }
-                po_m[static_cast<std::size_t>(m)] =
-                    windowed(grid, sigma, options.window, v.theta_out_rad);
-                go_m[static_cast<std::size_t>(m)] = std::move(go_w);
-                for (std::size_t j = 0; j < grid.size(); ++j)
-                    if (std::abs(grid[j]) < 0.5 * kPi) po_power[m] += sigma[j] * cell_width;
-                go_power[m] = go_p;
-            }
-
-            c.po.assign(n_out, 0.0);
-            c.go.assign(n_out, 0.0);
-            c.difference_error.assign(n_out, 0.0);
-            RelativeL1 l1;  // physical optics the reference
-            double sum_err = 0.0;
-            std::vector<double> d(m_count);
-            for (std::size_t i = 0; i < n_out; ++i) {
-                for (int m = 0; m < m_count; ++m) {
-                    c.po[i] += po_m[m][i] / m_count;
-                    c.go[i] += go_m[m][i] / m_count;
-                    d[m] = po_m[m][i] - go_m[m][i];
-                }
-                c.difference_error[i] = mean_error(d).error;
-                l1.add(c.go[i], c.po[i]);
-                sum_err += c.difference_error[i];
-            }
-            c.relative_l1 = l1.value();
-            c.relative_l1_noise_floor =
-                RelativeL1::of(std::sqrt(2.0 / kPi) * sum_err, l1.reference());
-            for (int m = 0; m < m_count; ++m) d[m] = po_power[m] - go_power[m];
-            c.po_power_um = mean_error(po_power).mean;
-            c.go_power_um = mean_error(go_power).mean;
-            if (c.go_power_um > 0.0) {
-                c.power_error = c.po_power_um / c.go_power_um - 1.0;
-                c.power_error_standard_error = mean_error(d).error / c.go_power_um;
-            }
+            LevelComparison2d c = compare_case(row, lambda, theta_i, options, v);
             if (v.cases.empty() || c.relative_l1 > v.max_relative_l1) {
                 v.max_relative_l1 = c.relative_l1;
                 v.max_relative_l1_noise_floor = c.relative_l1_noise_floor;
