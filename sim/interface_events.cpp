@@ -291,4 +291,26 @@ InterfaceEvent absorber_event(const Vec3d& direction, const SurfaceNormals& norm
     return {EventKind::absorb, Vec3d::Zero(), 0.0, in.from_outside, true};
 }
 
+double adjoint_shading_factor(const Vec3d& arriving, const InterfaceEvent& event,
+                              const SurfaceNormals& normals) {
+    switch (event.kind) {
+        case EventKind::film_reflect:
+        case EventKind::film_transmit:
+        case EventKind::specular_reflect:
+        case EventKind::refract:
+        case EventKind::total_internal_reflection:
+            break;
+        default:
+            return 1.0;
+    }
+    if (event.used_geometric_normal) return 1.0;
+    const double in_g = std::abs(arriving.dot(normals.geometric));
+    const double out_s = std::abs(event.direction.dot(normals.shading));
+    // Neither is 0 for an event the shading normal passed (interface_events.h: it is rejected
+    // when a direction would graze or cross the facet).
+    if (!(in_g > 0.0) || !(out_s > 0.0)) return 1.0;
+    return std::abs(event.direction.dot(normals.geometric)) *
+           std::abs(arriving.dot(normals.shading)) / (in_g * out_s);
+}
+
 }  // namespace plumage::sim

@@ -165,6 +165,18 @@ std::size_t guided_diffuse_branches(const Vec3d& direction, const SurfaceNormals
                                     std::span<const Vec3d> cone_axes, double cos_half_angle,
                                     std::size_t guided, Rng& rng, std::span<InterfaceEvent> events);
 
+// The factor a detector-side (adjoint) walk multiplies its weight by at an event, so that it
+// estimates the light paths of the forward walk and not their transpose (sim/tracer.h,
+// "Detector-side walks"). A specular event about a shading normal n_s on a facet of geometric
+// normal n_g maps a beam's étendue dA |cos θ_g| dω by |d_out·n_g| |d_in·n_s| /
+// (|d_in·n_g| |d_out·n_s|) (reflection and refraction alike; Veach 1997, Sect. 5.3), so the
+// forward kernel is the reversed one times
+//     C = |d_out·n_g| |d_in·n_s| / (|d_in·n_g| |d_out·n_s|),
+// d_in the adjoint walk's arriving propagation direction and d_out its new one. Diffuse events
+// (about n_g), events evaluated with the geometric normal and absorption: C = 1.
+double adjoint_shading_factor(const Vec3d& arriving, const InterfaceEvent& event,
+                              const SurfaceNormals& normals);
+
 // Opaque black surface.
 InterfaceEvent absorber_event(const Vec3d& direction, const SurfaceNormals& normals);
 

@@ -48,6 +48,7 @@ public:
                                          const BranchOptions& options,
                                          std::span<SpectralScatterEvent> events,
                                          std::span<double> weights) const override;
+    bool can_trace_adjoint() const override { return inner_->can_trace_adjoint(); }
     bool can_evaluate() const override { return inner_->can_evaluate(); }
     double eval(const Vec3d& wi, const Vec3d& wo, double lambda_nm,
                 std::span<double> per_lobe = {}) const override;

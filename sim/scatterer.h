@@ -28,6 +28,15 @@
 //    instrument adds a quantum's branches before it squares (they are one quantum's parts).
 //    The same call takes the instrument's detector cones (BranchOptions): a scatterer may draw
 //    its directions towards them (importance sampling, unbiased for every direction).
+//  - Detector-side (adjoint) walks (optional, can_trace_adjoint()): with BranchOptions::adjoint
+//    the quantum of sample_spectral_branches() starts at a detector instead of at the light: wi
+//    is the direction towards the detector, position_um the point it sees, and each escape is a
+//    direction (and entry point) the light it sees came from. The weights then meet the contract
+//    above for the light paths run backwards: E[Σ_b w_b · 1{ω_b ∈ Ω}] is the fraction of the
+//    power entering at position_um from wi that the REVERSED scene would send into Ω. For a
+//    reciprocal scene this is the forward contract with light and detector exchanged; the
+//    tracer corrects its shading normals, which are not reciprocal (sim/tracer.h, "Detector-side
+//    walks"). The cones of BranchOptions are then the light's cones.
 #pragma once
 
 #include <cmath>
@@ -79,6 +88,9 @@ struct BranchOptions {
     // branches"); it then takes precedence over guided_fraction. 0: no such branches.
     std::size_t guided_branches = 0;
     static constexpr std::size_t kMaxGuidedBranches = 3;
+    // The path starts at a detector (see the conventions above); only for scatterers that
+    // can_trace_adjoint().
+    bool adjoint = false;
 };
 
 // Two unit vectors completing the unit vector a to a right-handed orthonormal frame.
@@ -130,6 +142,9 @@ public:
                                                  const BranchOptions& options,
                                                  std::span<SpectralScatterEvent> events,
                                                  std::span<double> weights) const;
+
+    // Detector-side walks: whether sample_spectral_branches() honours BranchOptions::adjoint.
+    virtual bool can_trace_adjoint() const { return false; }
 
     // Solid-angle density of sample()'s ωo (including any discrete T lobe's share as a
     // separate mass, which pdf() does not report).

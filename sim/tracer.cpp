@@ -541,6 +541,7 @@ PathResult ExplicitScatterer::walk_spectral(const Vec3d& wi, std::span<const dou
     const std::size_t n = lambdas_nm.size();
     const bool guided =
         guide != nullptr && guide->guided_fraction > 0.0 && !guide->detector_axes.empty();
+    const bool adjoint = guide != nullptr && guide->adjoint;
     // The detector cones' cos α, for either way of guiding (one value for the whole walk).
     const double cos_guide =
         guide != nullptr && (guide->guided_fraction > 0.0 || guide->guided_branches > 0)
@@ -794,6 +795,8 @@ PathResult ExplicitScatterer::walk_spectral(const Vec3d& wi, std::span<const dou
             }
             return absorber_event(direction, hit->normals);
         }();
+        // A detector-side walk estimates the forward light paths, not their transpose (tracer.h).
+        if (adjoint) scale(adjoint_shading_factor(direction, event, hit->normals));
         if (forked > 0) {
             // The guided branches wait, each from this event with its own direction and stream.
             // Two draws, in this order (the operands of one expression would be unsequenced).

@@ -104,6 +104,20 @@
 // sends k directions per event into the cones; the price is the rays of the k branches (about
 // 2.4 more per quantum on the rock dove, 1.45× the instructions at k = 1).
 //
+// Detector-side walks (BranchOptions::adjoint, sim/scatterer.h): the same walk started at a
+// detector, for instruments that image (virtual_gonio/btf.h). Every event of the tracer moves
+// power symmetrically — Fresnel and film R and T are the same both ways, a Lambertian event
+// about the facet normal and a medium's phase function are symmetric, absorption along a segment
+// is — except a specular event about an interpolated shading normal on a flat facet: it maps a
+// beam's étendue by the factor sim/interface_events.h states (adjoint_shading_factor), so the
+// reversed walk would estimate the transpose of the forward kernel, f(b, a) · (b·n_g)/(a·n_g)
+// per such event. The detector-side walk multiplies its weights by that factor at every such
+// event and so estimates the forward walk's light paths: with the entry and exit planes
+// exchanged, E[w · 1{exit ∈ U, ω ∈ Ω}] / cos θ_Ω of the walk from (x, ω_d) equals the forward
+// walk's E[w · 1{exit near x, ω near ω_d}] / cos θ_d from U and Ω (reciprocity of the
+// radiance kernel; btf.h turns it into pixel values). Tested against the forward walk on faceted
+// spheres, films and media (tests/virtual_gonio/btf_detector_test.cpp).
+//
 // Leaving out what the scene does not need: a scene without films never evaluates Airy;
 // surfaces whose media do not absorb at λ (k = 0) run no medium code; max_events = 1 (an
 // "R only" request) stops every path at its first event (a path that would meet a second
@@ -198,6 +212,7 @@ public:
                                        Rng& rng) const override;
     bool can_share_paths() const override { return true; }
     bool can_split_paths() const override { return true; }
+    bool can_trace_adjoint() const override { return true; }
     std::size_t sample_spectral_branches(const Vec3d& wi, std::span<const double> lambdas_nm,
                                          const Vec2& position_um, Rng& rng,
                                          const BranchOptions& options,

@@ -47,6 +47,28 @@ void BtfConfig::validate() const {
     require(detector_half_angle_rad > 0.0 && detector_half_angle_rad < 0.5, kWhat,
             "detector half-angle must be in (0, 0.5) rad");
     require(quanta_per_light >= 1, kWhat, "quanta_per_light must be >= 1");
+    require(quanta_per_pixel >= 2, kWhat,
+            "quanta_per_pixel must be >= 2 (a pixel's error is its quanta's sample variance)");
+    require(estimator != BtfEstimator::detector || aperture == Aperture::both_cones, kWhat,
+            "estimator = \"detector\" needs aperture = \"both_cones\": a walk from the detector "
+            "cannot reach a collimated light through mirror-like events");
+    for (std::size_t i = 0; i < pairs.size() && aperture == Aperture::both_cones; ++i) {
+        require(pairs[i].wi.z() > std::sin(detector_half_angle_rad), kWhat,
+                fmt::format("pair {}: under both_cones the light cone must be above the patch", i));
+    }
+}
+
+const char* to_string(BtfEstimator estimator) {
+    return estimator == BtfEstimator::detector ? "detector" : "forward";
+}
+
+BtfEstimator parse_btf_estimator(const std::string& text) {
+    for (BtfEstimator e : {BtfEstimator::forward, BtfEstimator::detector})
+        if (text == to_string(e)) return e;
+    throw InputError(fmt::format(
+        "btf: estimator = \"{}\": expected \"forward\" (from the light) or \"detector\" "
+        "(from each pixel, with aperture = \"both_cones\")",
+        text));
 }
 
 namespace {
@@ -114,7 +136,11 @@ private:
                        std::vector<Hit>& hits) const {
         const Vec2 position((rng.uniform() - 0.5) * c_.patch_size_um,
                             (rng.uniform() - 0.5) * c_.patch_size_um);
-        const auto event = scatterer_.sample(wi, c_.wavelengths_nm[k], position, rng);
+        // Under both_cones each quantum its own light direction, two more uniforms of its stream.
+        Vec3d light = wi;
+        if (c_.aperture == Aperture::both_cones)
+            light = draw_cone_direction_by_projected_area(wi, c_.detector_half_angle_rad, rng);
+        const auto event = scatterer_.sample(light, c_.wavelengths_nm[k], position, rng);
         if (!event || !(event->weight > 0.0)) return;
         const Vec2& exit = event->exit_position_um;
         if (std::abs(exit.x()) >= half_ || std::abs(exit.y()) >= half_) return;
@@ -163,6 +189,184 @@ void estimate_pixels(const std::vector<std::vector<Hit>>& hits, BtfRecord& r) {
     }
 }
 
+// Pair indices per distinct view direction, in order of first appearance: a view's quanta
+// serve every light of its pairs.
+std::vector<std::vector<std::size_t>> pairs_by_view(const std::vector<DirectionPair>& pairs) {
+    std::vector<DirectionPair> swapped(pairs.size());
+    for (std::size_t p = 0; p < pairs.size(); ++p) swapped[p] = {pairs[p].wo, pairs[p].wi};
+    return pairs_by_light(swapped);
+}
+
+// The detector estimator's work items: one image row of one view direction, item = view ×
+// pixels + row. An item's cells (its view's pairs × that row × every column and wavelength)
+// belong to no other item, so it sums straight into the record: value receives Σx and
+// standard_error Σx² until finish_detector_pixels().
+class BtfDetectorImaging {
+public:
+    BtfDetectorImaging(const Scatterer& scatterer, BtfRecord& r,
+                       const std::vector<std::vector<std::size_t>>& views)
+        : scatterer_(scatterer),
+          r_(r),
+          c_(r.config),
+          views_(views),
+          nl_(c_.wavelengths_nm.size()),
+          half_(0.5 * c_.patch_size_um),
+          pixel_(c_.patch_size_um / c_.pixels),
+          cos_alpha_(std::cos(c_.detector_half_angle_rad)),
+          projected_(kPi * std::pow(std::sin(c_.detector_half_angle_rad), 2)),
+          seeds_(views.size()) {
+        for (std::size_t v = 0; v < views.size(); ++v)
+            seeds_[v] = derive_seed(c_.seed, "btf/detector", v);
+    }
+
+    std::size_t items() const { return views_.size() * static_cast<std::size_t>(c_.pixels); }
+
+    void image_item(std::size_t it) {
+        const std::size_t v = it / static_cast<std::size_t>(c_.pixels);
+        const int row = static_cast<int>(it % static_cast<std::size_t>(c_.pixels));
+        const std::vector<std::size_t>& pairs = views_[v];
+        std::vector<Vec3d> lights;
+        for (const std::size_t p : pairs) lights.push_back(c_.pairs[p].wi);
+        BranchOptions options;
+        options.adjoint = true;
+        options.split_first_film = true;
+        options.detector_axes = lights;
+        options.detector_half_angle_rad = c_.detector_half_angle_rad;
+        options.guided_branches = 1;
+        std::vector<double> acc(pairs.size() * nl_);
+        for (int column = 0; column < c_.pixels; ++column) {
+            const std::uint64_t pixel =
+                static_cast<std::uint64_t>(row) * static_cast<std::uint64_t>(c_.pixels) +
+                static_cast<std::uint64_t>(column);
+            for (std::uint64_t q = 0; q < c_.quanta_per_pixel; ++q) {
+                Rng rng(seeds_[v], pixel * c_.quanta_per_pixel + q);
+                std::fill(acc.begin(), acc.end(), 0.0);
+                trace_quantum(c_.pairs[pairs.front()].wo, row, column, options, rng, acc);
+                for (std::size_t j = 0; j < pairs.size(); ++j) {
+                    for (std::size_t k = 0; k < nl_; ++k) {
+                        const double x = acc[j * nl_ + k];
+                        if (x == 0.0) continue;
+                        const std::size_t i = r_.index(pairs[j], row, column, k);
+                        r_.value[i] += x;
+                        r_.standard_error[i] += x * x;
+                    }
+                }
+            }
+            if (interrupt_requested()) return;
+        }
+    }
+
+    // The item's cells, for the transport between ranks.
+    template <class F>
+    void for_each_cell(std::size_t it, F&& f) const {
+        const std::size_t v = it / static_cast<std::size_t>(c_.pixels);
+        const int row = static_cast<int>(it % static_cast<std::size_t>(c_.pixels));
+        for (const std::size_t p : views_[v])
+            for (int column = 0; column < c_.pixels; ++column)
+                for (std::size_t k = 0; k < nl_; ++k) f(r_.index(p, row, column, k));
+    }
+
+private:
+    // One quantum from the pixel (row, column) towards the view cone's direction: its branches'
+    // weights over Π_i for every light cone they enter through the patch, into acc[light · nλ + k].
+    void trace_quantum(const Vec3d& view, int row, int column, const BranchOptions& options,
+                       Rng& rng, std::vector<double>& acc) const {
+        const Vec2 position(-half_ + (column + rng.uniform()) * pixel_,
+                            half_ - (row + rng.uniform()) * pixel_);
+        const Vec3d wo =
+            draw_cone_direction_by_projected_area(view, c_.detector_half_angle_rad, rng);
+        std::array<SpectralScatterEvent, Scatterer::kMaxBranches> events;
+        std::array<double, Scatterer::kMaxBranches * Scatterer::kMaxSharedWavelengths> weights{};
+        const std::size_t count = scatterer_.sample_spectral_branches(
+            wo, c_.wavelengths_nm, position, rng, options, events,
+            std::span<double>(weights.data(), Scatterer::kMaxBranches * nl_));
+        for (std::size_t b = 0; b < count; ++b) {
+            const Vec2& entry = events[b].exit_position_um;
+            if (std::abs(entry.x()) >= half_ || std::abs(entry.y()) >= half_) continue;
+            for (std::size_t j = 0; j < options.detector_axes.size(); ++j) {
+                const Vec3d& light = options.detector_axes[j];
+                if (events[b].wo.dot(light) < cos_alpha_) continue;
+                const double scale = 1.0 / (projected_ * light.z());
+                for (std::size_t k = 0; k < nl_; ++k)
+                    acc[j * nl_ + k] += weights[b * nl_ + k] * scale;
+            }
+        }
+    }
+
+    const Scatterer& scatterer_;
+    BtfRecord& r_;
+    const BtfConfig& c_;
+    const std::vector<std::vector<std::size_t>>& views_;
+    std::size_t nl_;
+    double half_, pixel_, cos_alpha_, projected_;
+    std::vector<std::uint64_t> seeds_;
+};
+
+// Σx, Σx² per cell → mean and its standard error over the pixel's N_p quanta.
+void finish_detector_pixels(BtfRecord& r) {
+    const double n = static_cast<double>(r.config.quanta_per_pixel);
+    for (std::size_t i = 0; i < r.value.size(); ++i) {
+        const double mean = r.value[i] / n;
+        const double variance =
+            std::max(0.0, r.standard_error[i] / n - mean * mean) * n / (n - 1.0);
+        r.value[i] = mean;
+        r.standard_error[i] = std::sqrt(variance / n);
+    }
+}
+
+// The forward estimator over every item (alone on every thread; under MPI dealt over the ranks,
+// every item's hits back on every rank, common/distributed.h), summed in item order.
+void measure_forward(const Scatterer& scatterer, BtfRecord& r) {
+    const std::vector<std::vector<std::size_t>> lights = pairs_by_light(r.config.pairs);
+    const BtfImaging imaging(scatterer, r, lights);
+    std::vector<std::vector<Hit>> hits(imaging.items());
+    auto image_item = [&](std::size_t it) { imaging.image_item(it, hits[it]); };
+    distributed::ItemTransport transport;
+    transport.pack = [&](std::size_t it, Bytes& out) { out.put_vector(hits[it]); };
+    transport.unpack = [&](std::size_t it, Bytes& in) { hits[it] = in.get_vector<Hit>(); };
+    if (!distributed::run_items(hits.size(), image_item, transport, &interrupt_flag()))
+        throw Interrupted(fmt::format("interrupted while imaging the BTF of {}", r.scatterer));
+    estimate_pixels(hits, r);
+}
+
+// The detector estimator: items write disjoint cells, so any order gives the same bits.
+void measure_from_detector(const Scatterer& scatterer, BtfRecord& r) {
+    if (!scatterer.can_trace_adjoint()) {
+        throw InputError(fmt::format(
+            "btf: estimator = \"detector\" needs a scatterer with a detector-side walk (the "
+            "ray tracer); {} has none: use estimator = \"forward\"",
+            r.scatterer));
+    }
+    const BtfConfig& c = r.config;
+    const std::size_t cells =
+        c.pairs.size() * static_cast<std::size_t>(c.pixels) * c.pixels * c.wavelengths_nm.size();
+    r.value.assign(cells, 0.0);
+    r.standard_error.assign(cells, 0.0);
+    const std::vector<std::vector<std::size_t>> views = pairs_by_view(c.pairs);
+    BtfDetectorImaging imaging(scatterer, r, views);
+    auto image_item = [&](std::size_t it) { imaging.image_item(it); };
+    distributed::ItemTransport transport;
+    transport.pack = [&](std::size_t it, Bytes& out) {
+        std::vector<double> slice;
+        imaging.for_each_cell(it, [&](std::size_t i) {
+            slice.push_back(r.value[i]);
+            slice.push_back(r.standard_error[i]);
+        });
+        out.put_vector(slice);
+    };
+    transport.unpack = [&](std::size_t it, Bytes& in) {
+        const std::vector<double> slice = in.get_vector<double>();
+        std::size_t at = 0;
+        imaging.for_each_cell(it, [&](std::size_t i) {
+            r.value[i] = slice[at++];
+            r.standard_error[i] = slice[at++];
+        });
+    };
+    if (!distributed::run_items(imaging.items(), image_item, transport, &interrupt_flag()))
+        throw Interrupted(fmt::format("interrupted while imaging the BTF of {}", r.scatterer));
+    finish_detector_pixels(r);
+}
+
 }  // namespace
 
 BtfRecord measure_btf(const Scatterer& scatterer, const BtfConfig& config) {
@@ -173,24 +377,20 @@ BtfRecord measure_btf(const Scatterer& scatterer, const BtfConfig& config) {
     r.config = config;
     r.scatterer = scatterer.name();
     record_measurement_seed("btf", config.seed);  // common/seed.h: one root per measurement
-    const std::vector<std::vector<std::size_t>> lights = pairs_by_light(r.config.pairs);
-    const BtfImaging imaging(scatterer, r, lights);
-    std::vector<std::vector<Hit>> hits(imaging.items());
-    auto image_item = [&](std::size_t it) { imaging.image_item(it, hits[it]); };
-    // Alone on every thread; under MPI dealt over the ranks, every item's hits back on every
-    // rank (common/distributed.h). Either way they are summed in item order.
-    distributed::ItemTransport transport;
-    transport.pack = [&](std::size_t it, Bytes& out) { out.put_vector(hits[it]); };
-    transport.unpack = [&](std::size_t it, Bytes& in) { hits[it] = in.get_vector<Hit>(); };
-    if (!distributed::run_items(hits.size(), image_item, transport, &interrupt_flag()))
-        throw Interrupted(fmt::format("interrupted while imaging the BTF of {}", r.scatterer));
-    estimate_pixels(hits, r);
+    if (config.estimator == BtfEstimator::detector) {
+        measure_from_detector(scatterer, r);
+    } else {
+        measure_forward(scatterer, r);
+    }
     r.wall_time_s = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
     r.cpu_time_s = process_cpu_seconds() - cpu_start;
     double signal = 0.0, error = 0.0;
     for (std::size_t i = 0; i < r.value.size(); ++i)
         signal += r.value[i], error += r.standard_error[i];
-    r.convergence = {{1, r.wall_time_s, config.quanta_per_light,
+    const std::uint64_t quanta = config.estimator == BtfEstimator::detector
+                                     ? config.quanta_per_pixel
+                                     : config.quanta_per_light;
+    r.convergence = {{1, r.wall_time_s, quanta,
                       signal > 0.0 ? error / signal : std::numeric_limits<double>::infinity()}};
     return r;
 }
@@ -242,6 +442,15 @@ void write_btf_record(const BtfRecord& r, const std::filesystem::path& path) {
     write_polarisation(h5);
     h5.set_attribute("/instrument", "kind", "btf_camera");
     h5.set_attribute("/instrument", "patch_size_um", c.patch_size_um);
+    h5.set_attribute("/instrument", "aperture", to_string(c.aperture));
+    h5.set_attribute("/instrument", "estimator", to_string(c.estimator));
+    if (c.estimator == BtfEstimator::detector) {
+        h5.set_attribute("/instrument", "quanta_per_view_and_pixel",
+                         static_cast<double>(c.quanta_per_pixel));
+    } else {
+        h5.set_attribute("/instrument", "quanta_per_light_and_wavelength",
+                         static_cast<double>(c.quanta_per_light));
+    }
     h5.set_attribute("/instrument", "detector_half_angle_deg",
                      c.detector_half_angle_rad * 180.0 / kPi);
     h5.set_attribute("/instrument", "image",
@@ -255,9 +464,13 @@ void write_btf_record(const BtfRecord& r, const std::filesystem::path& path) {
              {{"units", "1/sr"},
               {"description",
                "Monte Carlo standard error of btf/value, [pair, row, column, wavelength]"}});
-    write_convergence(h5, r.convergence,
-                      convergence_attributes("pass, wall_time_s, quanta_per_light_and_wavelength, "
-                                             "power_weighted_relative_error"));
+    write_convergence(
+        h5, r.convergence,
+        convergence_attributes(c.estimator == BtfEstimator::detector
+                                   ? "pass, wall_time_s, quanta_per_view_and_pixel, "
+                                     "power_weighted_relative_error"
+                                   : "pass, wall_time_s, quanta_per_light_and_wavelength, "
+                                     "power_weighted_relative_error"));
     write_provenance(h5, {.scatterer = r.scatterer,
                           .seed = c.seed,
                           .threads = omp_get_max_threads(),

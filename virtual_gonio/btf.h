@@ -3,16 +3,39 @@
 // each pixel the BRDF of that patch area: light exiting there towards the detector.
 // It shows what a patch average hides: barbs occluding barbules, shadowed rows.
 //
-// Estimator: quanta land uniformly over the whole (square) patch area seen from the
-// light; a quantum counts for pixel p and pair (ω_i, ω_o) when it leaves through the top
-// plane inside p's square and within the detector cone around ω_o:
-//   f̂_p = Σ weight / (N · (A_p / A) · π sin²α cos θ_o),
-// so a uniform patch images as its BRDF in every pixel (a Lambertian plate as ρ/π). N quanta
-// are played per light direction and wavelength and each counts for every pair of that light
-// whose detector cone it enters (as the goniometer's photon estimator): a set of L light and
-// V view directions costs L × N quanta, not L × V × N; cells of one light are correlated.
+// Aperture (as the goniometer's, virtual_gonio/goniometer.h): the detector is a cone C_o of
+// half-angle α around ω_o; the light is collimated along ω_i (view_cone) or comes from a cone
+// C_i of the same half-angle (both_cones). A pixel p of pair (ω_i, ω_o) is the average of the
+// pixel's BRDF f_p over the cone(s), weighted by projected solid angle (Π = π sin²α cos θ for a
+// cone around an axis at θ, exactly, while the cone stays above the patch).
+//
+// Two estimators of the same pixels:
+//  - forward (light side): quanta land uniformly over the whole (square) patch area A seen from
+//    the light (under both_cones from a direction drawn in C_i by projected solid angle); a
+//    quantum counts for pixel p and pair (ω_i, ω_o) when it leaves through the top plane inside
+//    p's square and within C_o:
+//        f̂_p = Σ weight / (N · (A_p / A) · Π_o),
+//    N quanta per light direction and wavelength, each counted for every pair of that light
+//    whose cone it enters (a set of L lights and V views costs L × N quanta, not L × V × N).
+//  - detector (adjoint, both_cones only): quanta start in pixel p (uniformly over its square on
+//    the top plane) in a direction drawn in C_o by projected solid angle and are traced back into
+//    the patch by the scatterer's detector-side walk (sim/scatterer.h, sim/tracer.h); a quantum
+//    counts for every light cone C_i of that view which its escape enters through the patch:
+//        f̂_p = Σ weight / (N_p · Π_i),
+//    N_p quanta per view direction and pixel, all wavelengths on one shared path. Why it holds:
+//    reciprocity of the radiance kernel S(x_i, ω_i; x_o, ω_o) = S(x_o, ω_o; x_i, ω_i) makes the
+//    detector walk's E[w · 1{ω ∈ C_i, exit ∈ A}] equal to (A / A_p) · (1/Π_o) ∫∫ (the forward
+//    walk's density) cos θ_i cos θ_o dω_i dω_o, which is Π_i f̂_p. Why it pays: every quantum
+//    starts in the pixel it measures and all wavelengths share it, a view's quanta serve all of
+//    its lights, and it splits at its first film and aims one branch of its first diffuse event
+//    at the light cones (sim/tracer.h: "Splitting", "Guided diffuse branches"), the source-side
+//    connection of a bidirectional estimator. A collimated light (view_cone) cannot be reached
+//    by a walk from the detector through mirror-like events, so that aperture keeps the forward
+//    estimator.
+// Standard errors: forward, Σx² / per-pixel share (sparse hits); detector, the sample variance
+// over each pixel's N_p quanta (a quantum's branches added before squaring).
 // Analytic models have no spatial structure (they return the entry point): their images
-// are flat, which is the comparison a BTF makes visible.
+// are flat, which is the comparison a BTF makes visible. They have no detector-side walk.
 #pragma once
 
 #include <cstdint>
@@ -27,6 +50,11 @@
 
 namespace plumage::gonio {
 
+// See "Two estimators" above. Study files: estimator = "forward" | "detector".
+enum class BtfEstimator { forward, detector };
+const char* to_string(BtfEstimator estimator);
+BtfEstimator parse_btf_estimator(const std::string& text);  // InputError naming the choices
+
 struct BtfConfig {
     std::vector<DirectionPair> pairs;
     std::vector<double> wavelengths_nm = {450.0, 550.0, 650.0};
@@ -35,6 +63,10 @@ struct BtfConfig {
     double detector_half_angle_rad = 0.1745;  // 10°: a BTF trades angular for spatial resolution
     // Per light direction and wavelength; pairs sharing a light direction share its quanta.
     std::uint64_t quanta_per_light = 2000000;
+    Aperture aperture = Aperture::view_cone;
+    BtfEstimator estimator = BtfEstimator::forward;
+    // Detector estimator: per view direction and pixel (all wavelengths on one shared path).
+    std::uint64_t quanta_per_pixel = 1000;
     std::uint64_t seed = kDefaultSeed;
     std::string config_text;  // the study text, for provenance
     void validate() const;
@@ -47,7 +79,8 @@ struct BtfRecord {
     std::vector<double> value, standard_error;
     double wall_time_s = 0.0;
     double cpu_time_s = 0.0;  // process CPU time (all threads) over the same span
-    // One row (the BTF is one pass): wall time, quanta per light direction and wavelength, and
+    // One row (the BTF is one pass): wall time, quanta (per light direction and wavelength, or
+    // per view direction and pixel for the detector estimator), and
     // the power-weighted relative error Σσ / Σf over every pixel of every pair and wavelength
     // (bright pixels dominate; a relative RMS would be ruled by the pixels one quantum reached).
     std::vector<ConvergenceRow> convergence;
@@ -59,7 +92,8 @@ struct BtfRecord {
     }
 };
 
-// Throws Interrupted (common/interrupt.h) on Ctrl-C/SIGTERM (interrupt_requested()).
+// Throws Interrupted (common/interrupt.h) on Ctrl-C/SIGTERM (interrupt_requested()), InputError
+// for a bad configuration or a detector estimator on a scatterer without a detector-side walk.
 BtfRecord measure_btf(const Scatterer& scatterer, const BtfConfig& config);
 // One pair's image in sRGB (D65; exposure <= 0: the brightest pixel of that pair → Y = 1).
 record::RgbImage btf_image(const BtfRecord& record, std::size_t pair, double exposure = 0.0);

@@ -242,9 +242,7 @@ Vec2 beam_position(const GoniometerConfig& config, const Vec3d& wi, const Vec3d&
 // over the source cone (goniometer.h, "Aperture"; draws two numbers).
 Vec3d quantum_light(const GoniometerConfig& config, const Vec3d& wi, Rng& rng) {
     if (config.aperture != Aperture::both_cones) return wi;
-    const double disc_r = std::sqrt(rng.uniform()), disc_g = 2.0 * kPi * rng.uniform();
-    return cone_direction_by_projected_area(wi, config.detector_half_angle_rad,
-                                            disc_r * std::cos(disc_g), disc_r * std::sin(disc_g));
+    return draw_cone_direction_by_projected_area(wi, config.detector_half_angle_rad, rng);
 }
 
 // Plays one quantum into escape (count 0: absorbed, or no weight): with branches, with one path
@@ -624,6 +622,12 @@ Vec3d cone_direction_by_projected_area(const Vec3d& axis, double half_angle_rad,
     const double sin_a = std::sin(half_angle_rad), cos_a = std::cos(half_angle_rad);
     const Vec2 p = cos_a * axis.head<2>() + sin_a * (d1 * axis.z() * radial + d2 * across);
     return Vec3d(p.x(), p.y(), std::sqrt(std::max(0.0, 1.0 - p.squaredNorm())));
+}
+
+Vec3d draw_cone_direction_by_projected_area(const Vec3d& axis, double half_angle_rad, Rng& rng) {
+    const double disc_r = std::sqrt(rng.uniform()), disc_g = 2.0 * kPi * rng.uniform();
+    return cone_direction_by_projected_area(axis, half_angle_rad, disc_r * std::cos(disc_g),
+                                            disc_r * std::sin(disc_g));
 }
 
 void GoniometerConfig::validate() const {

@@ -86,6 +86,8 @@ Aperture parse_aperture(std::string_view text, std::string_view key);
 // angle, density cos θ / (π sin²α cos θ_axis). See "Aperture" above.
 Vec3d cone_direction_by_projected_area(const Vec3d& axis, double half_angle_rad, double d1,
                                        double d2);
+// The same with a point uniform in the disc from two uniforms of rng (radius first).
+Vec3d draw_cone_direction_by_projected_area(const Vec3d& axis, double half_angle_rad, Rng& rng);
 
 struct GoniometerConfig {
     std::string direction_set = "custom";
