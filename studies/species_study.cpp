@@ -116,6 +116,10 @@ struct Settings {
     // a spongy medulla's tables are computed at each of them.
     std::vector<double> traced_wavelengths;
     double btf_detector_half_angle = 10.0 * kDeg;
+    gonio::Aperture btf_aperture = gonio::Aperture::view_cone;
+    gonio::BtfEstimator btf_estimator = gonio::BtfEstimator::forward;
+    std::uint64_t btf_quanta_per_pixel = 1000;
+    bool btf_figure9_only = false;  // [btf] pairs = "figure9": Fig. 9's 12 pairs, not the 3660
     int fit_evaluations = 3000;
     std::vector<SpeciesSpec> species;
 };
@@ -261,6 +265,27 @@ void read_instruments(ParameterTable& root, Settings& s) {
     s.btf_detector_half_angle =
         btf.angle_deg("detector_half_angle_deg", s.btf_detector_half_angle,
                       {0.0, 30.0, true, false}, "BTF detector cone half-angle");
+    s.btf_aperture = gonio::parse_aperture(
+        btf.string("aperture", gonio::to_string(s.btf_aperture), {"view_cone", "both_cones"},
+                   "what a BTF pixel averages: the detector cone alone (collimated light), or "
+                   "light and detector cones"),
+        btf.location("aperture"));
+    s.btf_estimator = gonio::parse_btf_estimator(btf.string(
+        "estimator", gonio::to_string(s.btf_estimator), {"forward", "detector"},
+        "BTF estimator: from the light, or from each pixel (needs aperture = \"both_cones\")"));
+    s.btf_quanta_per_pixel = static_cast<std::uint64_t>(
+        btf.integer("quanta_per_pixel", static_cast<long>(s.btf_quanta_per_pixel), 2, 1000000000,
+                    "BTF detector estimator: quanta per view direction and pixel"));
+    s.btf_figure9_only =
+        btf.string("pairs", "filip2024", {"filip2024", "figure9"},
+                   "BTF pairs: the 61 x 60 set, or Fig. 9's 12 geometries") == "figure9";
+    if (s.btf_estimator == gonio::BtfEstimator::detector &&
+        s.btf_aperture != gonio::Aperture::both_cones) {
+        throw InputError(fmt::format(
+            "{}: [btf] estimator = \"detector\" needs aperture = \"both_cones\" (a walk from "
+            "the detector cannot reach a collimated light through mirror-like events)",
+            btf.location("estimator")));
+    }
     ParameterTable fit = root.table("fit");
     s.fit_evaluations =
         static_cast<int>(fit.integer("max_function_evaluations", s.fit_evaluations, 50, 1000000,
@@ -667,6 +692,33 @@ void write_species_h5_header(record::Hdf5Writer& h5, const SpeciesResult& result
 }
 
 // The patch, the BTF images and the fingerprints.
+// The BTF paragraph: what was imaged, how, at what cost and per-pixel error.
+std::string section_btf_setup(const Settings& s, const SpeciesOutcome& o, const std::string& name) {
+    const bool detector = s.btf_estimator == gonio::BtfEstimator::detector;
+    const std::string pairs = s.btf_figure9_only ? "Fig. 9's 12 pairs (`btf.h5`: 12 images"
+                                                 : "the 61 × 60 set (`btf.h5`: 3660 images";
+    const std::string light = s.btf_aperture == gonio::Aperture::both_cones
+                                  ? "light and detector cones of half-angle"
+                                  : "collimated light, detector half-angle";
+    const std::string estimator =
+        detector ? fmt::format(
+                       "detector-side estimator, {} quanta per view direction and pixel "
+                       "(all wavelengths on one path)",
+                       s.btf_quanta_per_pixel)
+                 : fmt::format("forward estimator, {} quanta per light direction and wavelength",
+                               s.btf_quanta);
+    return fmt::format(
+        "Virtual BTF on {0} of {1} × {1} pixels over a {2:.0f} µm square, {3} wavelengths, {4} "
+        "{5:.0f}°; {6}; virtual_gonio/btf.h), {7:.0f} s. Median per-pixel relative error over "
+        "the lit pixels of Fig. 9's tiles (σ/f, every wavelength; lit: above 1 % of the tile's "
+        "brightest pixel): {8:.1f} %. Fig. 9's geometries: light and view at 30°, view at azimuth "
+        "0°; light azimuth 0°, 30°, …, 150° on the top row, 180° … 330° below; one exposure for "
+        "all (the tiles' data: `btf_figure9.h5`):\n\n![btf]({9}/btf.png)\n\n",
+        pairs, s.btf_pixels, s.btf_patch_um, s.btf_wavelengths.size(), light,
+        s.btf_detector_half_angle / kDeg, estimator, o.btf_seconds,
+        100.0 * o.btf_median_pixel_error, name);
+}
+
 std::string section_setup(const Run& run, const Specimen& x, const SpeciesOutcome& o) {
     const Settings& s = run.s;
     const SpeciesSpec& sp = x.spec;
@@ -677,14 +729,7 @@ std::string section_setup(const Run& run, const Specimen& x, const SpeciesOutcom
         "reach into it).\n\n",
         sp.barbs, sp.length_um, sp.layers, x.built.instances, x.built.triangles, o.mount_deg,
         x.built.root_clearance_um);
-    md += fmt::format(
-        "Virtual BTF on the 61 × 60 set (`btf.h5`: 3660 images of {0} × {0} pixels over a "
-        "{1:.0f} µm square, {2} wavelengths, detector half-angle {3:.0f}°, {4} quanta per light "
-        "direction and wavelength, {5:.0f} s). Fig. 9's geometries: light and view at 30°, view at "
-        "azimuth 0°; light azimuth 0°, 30°, …, 150° on the top row, 180° … 330° below; one "
-        "exposure for all (the tiles' data: `btf_figure9.h5`):\n\n![btf]({6}/btf.png)\n\n",
-        s.btf_pixels, s.btf_patch_um, s.btf_wavelengths.size(), s.btf_detector_half_angle / kDeg,
-        s.btf_quanta, o.btf_seconds, sp.name);
+    md += section_btf_setup(s, o, sp.name);
     md += fmt::format(
         "Fingerprints (Fig. 7 layout; simulation | fitted model | Table 1 model; colour at one "
         "exposure for the three, luminance below on one logarithmic scale; data in "
@@ -1306,26 +1351,36 @@ std::vector<std::size_t> figure9_pairs(const std::vector<gonio::DirectionPair>& 
 void measure_species_btf(const Run& run, const Specimen& x, SpeciesOutcome& o) {
     const Settings& s = run.s;
     gonio::BtfConfig bc;
-    bc.pairs = run.pairs;
+    if (s.btf_figure9_only) {
+        for (const std::size_t p : figure9_pairs(run.pairs)) bc.pairs.push_back(run.pairs[p]);
+    } else {
+        bc.pairs = run.pairs;
+    }
     bc.wavelengths_nm = s.btf_wavelengths;
     bc.patch_size_um = s.btf_patch_um;
     bc.pixels = s.btf_pixels;
     bc.detector_half_angle_rad = s.btf_detector_half_angle;
     bc.quanta_per_light = s.btf_quanta;
+    bc.aperture = s.btf_aperture;
+    bc.estimator = s.btf_estimator;
+    bc.quanta_per_pixel = s.btf_quanta_per_pixel;
     bc.seed = derive_seed(s.seed, "species/btf", x.index);
     bc.config_text = run.study_text;
-    run.clock.say(fmt::format("{}: BTF on the 61 x 60 set ({} x {} pixels, {} wavelengths)",
-                              x.spec.name, bc.pixels, bc.pixels, bc.wavelengths_nm.size()));
+    run.clock.say(fmt::format("{}: BTF on {} pairs ({} x {} pixels, {} wavelengths, {} estimator)",
+                              x.spec.name, bc.pairs.size(), bc.pixels, bc.pixels,
+                              bc.wavelengths_nm.size(), gonio::to_string(bc.estimator)));
     const gonio::BtfRecord btf = gonio::measure_btf(x.imaged, bc);
     o.btf_seconds = btf.wall_time_s;
+    const std::vector<std::size_t> figure9 = figure9_pairs(bc.pairs);
+    o.btf_median_pixel_error = gonio::median_lit_pixel_error(btf, figure9);
     gonio::write_btf_record(btf, x.dir / "btf.h5");
     write_btf_figure(x.dir / "btf_figure9.h5",
                      fmt::format("{}: virtual BTF, Filip 2024 Fig. 9 geometries", x.spec.name), btf,
-                     figure9_pairs(run.pairs));
+                     figure9);
     run_plot("btf_tiles", x.dir / "btf_figure9.h5", x.dir / "btf.png");
     // The tiles of btf.png, one part each, named by their light and view directions.
     std::vector<gonio::SpectralImage> tiles;
-    for (const std::size_t p : figure9_pairs(run.pairs)) {
+    for (const std::size_t p : figure9) {
         const auto& pair = btf.config.pairs[p];
         auto angles = [](const Vec3d& w) {
             return fmt::format("theta {:.0f} phi {:.0f}",

@@ -90,7 +90,9 @@ struct SpeciesOutcome {
     // Light angle (deg) of the in-plane peak of L*.
     double in_plane_peak_deg = 0.0;
     double brdf_seconds = 0.0;  // wall time of the 61 × 60 measurement
-    double btf_seconds = 0.0;   // wall time of the 61 × 60 BTF
+    double btf_seconds = 0.0;   // wall time of the BTF
+    // Median σ/f over the lit pixels of Fig. 9's tiles (gonio::median_lit_pixel_error).
+    double btf_median_pixel_error = 0.0;
     // π f at the mirror pair (light 30° at 180°, view 30° at 0°) per wavelength: the spectrum
     // the avian-vision section compares across species.
     std::vector<double> mirror_reflectance, mirror_reflectance_error;

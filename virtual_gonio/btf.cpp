@@ -395,6 +395,34 @@ BtfRecord measure_btf(const Scatterer& scatterer, const BtfConfig& config) {
     return r;
 }
 
+double median_lit_pixel_error(const BtfRecord& r, std::span<const std::size_t> pairs,
+                              double lit_fraction) {
+    const int n = r.config.pixels;
+    const std::size_t nl = r.config.wavelengths_nm.size();
+    std::vector<std::size_t> all(r.config.pairs.size());
+    for (std::size_t p = 0; p < all.size(); ++p) all[p] = p;
+    std::vector<double> relative;
+    for (const std::size_t p : pairs.empty() ? std::span<const std::size_t>(all) : pairs) {
+        for (std::size_t k = 0; k < nl; ++k) {
+            double peak = 0.0;
+            for (int row = 0; row < n; ++row)
+                for (int column = 0; column < n; ++column)
+                    peak = std::max(peak, r.value[r.index(p, row, column, k)]);
+            for (int row = 0; row < n; ++row) {
+                for (int column = 0; column < n; ++column) {
+                    const std::size_t i = r.index(p, row, column, k);
+                    if (peak > 0.0 && r.value[i] > lit_fraction * peak)
+                        relative.push_back(r.standard_error[i] / r.value[i]);
+                }
+            }
+        }
+    }
+    if (relative.empty()) return std::numeric_limits<double>::infinity();
+    const auto middle = relative.begin() + static_cast<std::ptrdiff_t>(relative.size() / 2);
+    std::nth_element(relative.begin(), middle, relative.end());
+    return *middle;
+}
+
 record::RgbImage btf_image(const BtfRecord& r, std::size_t pair, double exposure) {
     const int n = r.config.pixels;
     const std::size_t nl = r.config.wavelengths_nm.size();

@@ -40,6 +40,7 @@
 
 #include <cstdint>
 #include <filesystem>
+#include <span>
 #include <string>
 #include <vector>
 
@@ -95,6 +96,12 @@ struct BtfRecord {
 // Throws Interrupted (common/interrupt.h) on Ctrl-C/SIGTERM (interrupt_requested()), InputError
 // for a bad configuration or a detector estimator on a scatterer without a detector-side walk.
 BtfRecord measure_btf(const Scatterer& scatterer, const BtfConfig& config);
+// The per-pixel error rule: the median of σ/f over the lit pixels of the given pairs (all when
+// empty), every wavelength; a pixel is lit when its value exceeds lit_fraction of the brightest
+// pixel of its tile at that wavelength (shadowed and unseen pixels are not ground truth of
+// anything). Infinity when no pixel is lit.
+double median_lit_pixel_error(const BtfRecord& record, std::span<const std::size_t> pairs = {},
+                              double lit_fraction = 0.01);
 // One pair's image in sRGB (D65; exposure <= 0: the brightest pixel of that pair → Y = 1).
 record::RgbImage btf_image(const BtfRecord& record, std::size_t pair, double exposure = 0.0);
 void write_btf_record(const BtfRecord& record, const std::filesystem::path& path);

@@ -359,13 +359,20 @@ TEST(SpeciesStudy, BadFilesNameTheKeyAndWriteNothing) {
     small.replace(small.find("length_um = 3200"), 16, "length_um = 500");
     EXPECT_NE(message(small).find("expected a larger length_um or more barbs"), std::string::npos)
         << message(small);
-    EXPECT_NE(message(small).find("bad.toml:51:1: [species.parrot.patch] gives a patch"),
+    EXPECT_NE(message(small).find("bad.toml:54:1: [species.parrot.patch] gives a patch"),
               std::string::npos)
         << message(small);
     // Out of range.
     std::string range = base;
     range.replace(range.find("pigment_k = 0.002"), 17, "pigment_k = -0.01");
     EXPECT_NE(message(range).find("pigment_k"), std::string::npos) << message(range);
+    // A walk from the detector cannot reach a collimated light.
+    std::string collimated = base;
+    collimated.replace(collimated.find("aperture = \"both_cones\"\nestimator"), 23,
+                       "aperture = \"view_cone\"");
+    EXPECT_NE(message(collimated).find("[btf] estimator = \"detector\" needs aperture"),
+              std::string::npos)
+        << message(collimated);
     EXPECT_FALSE(std::filesystem::exists(root / "species_quick"));
     std::filesystem::remove_all(root);
 }
