@@ -299,6 +299,44 @@ const ExplicitScatterer::SpectralSet& ExplicitScatterer::spectral_set(
     return last.set;
 }
 
+namespace {
+
+// trace()'s event at a surface, at its one wavelength.
+InterfaceEvent one_wavelength_event(const ExplicitScatterer::Spectral::Surface& surface,
+                                    const Vec3d& direction, const SurfaceNormals& normals,
+                                    Rng& rng) {
+    using Kind = ExplicitScatterer::Spectral::Kind;
+    switch (surface.kind) {
+        case Kind::film:
+            return thin_film_event(direction, normals, surface.film, *surface.film_source, rng);
+        case Kind::dielectric:
+            return dielectric_event(direction, normals, surface.outside, surface.inside, rng);
+        case Kind::diffuse:
+            return diffuse_event(direction, normals, surface.albedo, rng);
+        case Kind::absorber:
+            break;
+    }
+    return absorber_event(direction, normals);
+}
+
+}  // namespace
+
+bool ExplicitScatterer::scatter_in(const Medium& medium, double lambda_nm, double distance_um,
+                                   Vec3d& origin, Vec3d& direction, double& weight,
+                                   PathResult& path, Rng& rng) const {
+    if (path.events >= options_.max_events) {
+        path.reached_max_events = true;
+        return false;
+    }
+    record(path, EventKind::medium_scatter);
+    ++path.medium_scatters;
+    const MediumScatter scatter = medium.scatter(direction, lambda_nm, rng);
+    weight *= scatter.weight;
+    origin += distance_um * direction;
+    direction = scatter.direction;
+    return weight > 0.0;
+}
+
 std::optional<ScatterEvent> ExplicitScatterer::sample(const Vec3d& wi, double lambda_nm,
                                                       const Vec2& position_um, Rng& rng) const {
     return trace(wi, lambda_nm, position_um, rng).event;
@@ -356,18 +394,11 @@ PathResult ExplicitScatterer::trace(const Vec3d& wi, double lambda_nm, const Vec
             const MediumFlight flight = medium->fly(hit->distance_um, lambda_nm, rng);
             weight *= flight.weight;
             if (flight.scattered) {
-                if (path.events >= options_.max_events) {
-                    path.reached_max_events = true;
+                if (!scatter_in(*medium, lambda_nm, flight.distance_um, origin, direction, weight,
+                                path, rng))
                     return path;
-                }
-                record(path, EventKind::medium_scatter);
-                ++path.medium_scatters;
-                const MediumScatter scatter = medium->scatter(direction, lambda_nm, rng);
-                weight *= scatter.weight;
-                origin += flight.distance_um * direction;
-                direction = scatter.direction;
                 skip = {};
-                if (!(weight > 0.0) || !survives_roulette()) return path;
+                if (!survives_roulette()) return path;
                 continue;
             }
             // Before the event: a film met from inside melanin is evaluated directly.
@@ -378,21 +409,7 @@ PathResult ExplicitScatterer::trace(const Vec3d& wi, double lambda_nm, const Vec
             path.reached_max_events = true;
             return path;
         }
-        const InterfaceEvent event = [&]() -> InterfaceEvent {
-            switch (surface.kind) {
-                case Spectral::Kind::film:
-                    return thin_film_event(direction, hit->normals, surface.film,
-                                           *surface.film_source, rng);
-                case Spectral::Kind::dielectric:
-                    return dielectric_event(direction, hit->normals, surface.outside,
-                                            surface.inside, rng);
-                case Spectral::Kind::diffuse:
-                    return diffuse_event(direction, hit->normals, surface.albedo, rng);
-                case Spectral::Kind::absorber:
-                    break;
-            }
-            return absorber_event(direction, hit->normals);
-        }();
+        const InterfaceEvent event = one_wavelength_event(surface, direction, hit->normals, rng);
         record(path, event.kind);
         weight *= event.throughput;
         if (event.kind == EventKind::absorb || !(weight > 0.0)) return path;
@@ -532,6 +549,328 @@ PathResult ExplicitScatterer::trace_spectral(const Vec3d& wi, std::span<const do
     return walk_spectral(wi, lambdas_nm, position_um, rng, weights, first_film, guide, nullptr);
 }
 
+// One shared walk of walk_spectral() (tracer.h: spectral path sharing, splitting, guided diffuse
+// branches, detector-side walks): the state it carries between events and one function per step,
+// called in the order the walk takes them.
+class ExplicitScatterer::SpectralWalk {
+public:
+    SpectralWalk(const ExplicitScatterer& tracer, const SpectralSet& set,
+                 std::span<const double> lambdas_nm, std::span<double> weights, Rng& rng,
+                 FirstFilm first_film, const BranchOptions* guide, PendingBranches* pending,
+                 WalkState& st)
+        : t_(tracer),
+          set_(set),
+          hs_(*set.at[st.hero]),
+          lambdas_(lambdas_nm),
+          weights_(weights),
+          n_(lambdas_nm.size()),
+          rng_(rng),
+          first_film_(first_film),
+          guide_(guide),
+          pending_(pending),
+          st_(st),
+          w_(st.w),
+          path_(st.path),
+          guided_(guide != nullptr && guide->guided_fraction > 0.0 &&
+                  !guide->detector_axes.empty()),
+          adjoint_(guide != nullptr && guide->adjoint),
+          // The detector cones' cos α, for either way of guiding (one value for the whole walk).
+          cos_guide_(guide != nullptr &&
+                             (guide->guided_fraction > 0.0 || guide->guided_branches > 0)
+                         ? std::cos(guide->detector_half_angle_rad)
+                         : 1.0),
+          branch_diffuse_(pending != nullptr && guide != nullptr && guide->guided_branches > 0 &&
+                          !guide->detector_axes.empty()) {}
+
+    // The walk from `first`'s entry hit when given, or from the state's origin, to its end.
+    PathResult run(const FirstHit* first) {
+        for (;;) {
+            ++path_.rays;
+            // A branch's entry ray was cast once for both (sample_spectral_branches()).
+            const bool entry_cast = first != nullptr && path_.rays == 1;
+            if (entry_cast) path_.self_hits_rejected += first->skipped;
+            const std::optional<SurfaceHit> hit =
+                entry_cast ? first->hit
+                           : t_.scene_->intersect(st_.origin, st_.direction, st_.skip,
+                                                  &path_.self_hits_rejected);
+            // Splitting (tracer.h): only a path whose first event is at a film has a reflected
+            // branch; any other first event belongs to the transmitted branch alone.
+            const bool first_event = path_.events == 0;
+            const bool reflected_branch = first_event && first_film_ == FirstFilm::reflect;
+            if (!hit) {
+                if (!reflected_branch) escape();
+                return path_;
+            }
+            const Spectral::Surface& surface = hs_.surfaces[hit->surface];
+            const double facing = st_.direction.dot(hit->normals.geometric);
+            if (facing == 0.0) {
+                st_.skip = hit->primitive;
+                continue;
+            }
+            const bool from_outside = facing < 0.0;
+            if ((from_outside ? surface.outside : surface.inside) != st_.expected)
+                ++path_.medium_mismatches;
+            const bool forced = first_event && first_film_ != FirstFilm::sampled &&
+                                surface.kind == Spectral::Kind::film;
+            if (reflected_branch && !forced) return path_;
+            const Flight flight = fly(*hit, from_outside, reflected_branch);
+            if (flight == Flight::ended) return path_;
+            if (flight == Flight::scattered) continue;
+            if (path_.events >= t_.options_.max_events) {
+                path_.reached_max_events = true;
+                return path_;
+            }
+            const InterfaceEvent event = surface_event(*hit, forced);
+            // A detector-side walk estimates the forward light paths, not their transpose.
+            if (adjoint_) scale(adjoint_shading_factor(st_.direction, event, hit->normals));
+            if (forked_ > 0) leave_guided_branches(*hit);
+            record(path_, event.kind);
+            if (event.kind == EventKind::absorb || !(largest() > 0.0)) return path_;
+            st_.expected = event.to_outside ? surface.outside : surface.inside;
+            st_.origin = t_.scene_->spawn_point(*hit, event.to_outside);
+            st_.direction = event.direction;
+            st_.skip = hit->primitive;
+            if (!survives_roulette()) return path_;
+        }
+    }
+
+private:
+    enum class Flight { arrived, scattered, ended };
+
+    // The hero alone goes on (tracer.h): every other λ's weight to 0, the hero's × N.
+    void collapse() {
+        if (st_.single) return;
+        const double carried = w_[st_.hero] * static_cast<double>(n_);
+        std::fill(w_.begin(), w_.begin() + static_cast<std::ptrdiff_t>(n_), 0.0);
+        w_[st_.hero] = carried;
+        st_.single = true;
+    }
+    double largest() const {
+        if (st_.single) return w_[st_.hero];
+        return *std::max_element(w_.begin(), w_.begin() + static_cast<std::ptrdiff_t>(n_));
+    }
+    void scale(double factor) {
+        if (st_.single) {
+            w_[st_.hero] *= factor;
+        } else {
+            for (std::size_t k = 0; k < n_; ++k) w_[k] *= factor;
+        }
+    }
+    void escape() {
+        if (st_.expected != hs_.ambient) ++path_.medium_mismatches;
+        const Vec2 exit = exit_point(st_.origin, st_.direction, t_.top_z_, t_.bottom_z_);
+        for (std::size_t k = 0; k < n_; ++k) {
+            PLUMAGE_CHECK(std::isfinite(w_[k]) && w_[k] >= 0.0,
+                          fmt::format("path weight {} at {} nm after {} events", w_[k], lambdas_[k],
+                                      path_.events));
+            weights_[k] = w_[k];
+        }
+        path_.event = ScatterEvent{st_.direction.normalized(), largest(), lobe_of(path_), exit};
+    }
+    // As in trace(), on the largest weight; every λ is scaled alike.
+    bool survives_roulette() {
+        const double weight = largest();
+        const double carried = roulette(path_, weight, t_.options_, rng_);
+        if (!(carried > 0.0)) return false;
+        if (carried != weight) scale(carried / weight);
+        return true;
+    }
+
+    // The medium between the last event and this surface: a scattering one takes the hero alone
+    // (a scattering there continues the walk from inside the medium); absorbing ones weigh each λ.
+    Flight fly(const SurfaceHit& hit, bool from_outside, bool reflected_branch) {
+        const std::size_t index = hit.surface;
+        if (set_.scatters[index][from_outside ? 0 : 1]) collapse();
+        if (!st_.single) {
+            bool met_medium = false;
+            for (std::size_t k = 0; k < n_; ++k) {
+                const Spectral::Surface& sk = set_.at[k]->surfaces[index];
+                if (const Medium* medium = from_outside ? sk.medium_outside : sk.medium_inside) {
+                    w_[k] *= medium->fly(hit.distance_um, lambdas_[k], rng_).weight;
+                    met_medium = true;
+                }
+            }
+            if (met_medium && (!(largest() > 0.0) || !survives_roulette())) return Flight::ended;
+            return Flight::arrived;
+        }
+        const Spectral::Surface& surface = hs_.surfaces[index];
+        const Medium* medium = from_outside ? surface.medium_outside : surface.medium_inside;
+        if (medium == nullptr) return Flight::arrived;
+        const double lambda = lambdas_[st_.hero];
+        const MediumFlight flight = medium->fly(hit.distance_um, lambda, rng_);
+        w_[st_.hero] *= flight.weight;
+        if (!flight.scattered)
+            return !(w_[st_.hero] > 0.0) || !survives_roulette() ? Flight::ended : Flight::arrived;
+        if (reflected_branch) return Flight::ended;
+        if (path_.events >= t_.options_.max_events) {
+            path_.reached_max_events = true;
+            return Flight::ended;
+        }
+        record(path_, EventKind::medium_scatter);
+        ++path_.medium_scatters;
+        const MediumScatter scatter = medium->scatter(st_.direction, lambda, rng_);
+        w_[st_.hero] *= scatter.weight;
+        st_.origin += flight.distance_um * st_.direction;
+        st_.direction = scatter.direction;
+        st_.skip = {};
+        if (!(w_[st_.hero] > 0.0) || !survives_roulette()) return Flight::ended;
+        return Flight::scattered;
+    }
+
+    // The event for the path's direction at the surface hit; each λ's weight takes its factor.
+    InterfaceEvent surface_event(const SurfaceHit& hit, bool forced) {
+        const Spectral::Surface& surface = hs_.surfaces[hit.surface];
+        switch (surface.kind) {
+            case Spectral::Kind::film:
+                return film_event(hit, forced);
+            case Spectral::Kind::dielectric: {
+                if (!set_.dielectric_shared[hit.surface]) collapse();
+                const InterfaceEvent e = dielectric_event(st_.direction, hit.normals,
+                                                          surface.outside, surface.inside, rng_);
+                scale(e.throughput);
+                return e;
+            }
+            case Spectral::Kind::diffuse:
+                return diffuse_surface_event(hit);
+            case Spectral::Kind::absorber:
+                break;
+        }
+        return absorber_event(st_.direction, hit.normals);
+    }
+
+    // A film: the hero's own walk, or the shared choice with mean p̄ (tracer.h); a forced first
+    // film (splitting) takes the branch's side with its R_k or T_k.
+    InterfaceEvent film_event(const SurfaceHit& hit, bool forced) {
+        const Spectral::Surface& surface = hs_.surfaces[hit.surface];
+        if (!set_.film_shared[hit.surface]) collapse();
+        const bool reflect = first_film_ == FirstFilm::reflect;
+        if (st_.single) {
+            const TabulatedFilmResponse& source = *surface.film_source;
+            if (forced) {
+                const ForcedFilmChoice choice(source, reflect);
+                const InterfaceEvent e =
+                    thin_film_event(st_.direction, hit.normals, surface.film, choice, rng_);
+                w_[st_.hero] *= choice.taken;
+                return e;
+            }
+            const InterfaceEvent e =
+                thin_film_event(st_.direction, hit.normals, surface.film, source, rng_);
+            w_[st_.hero] *= e.throughput;
+            return e;
+        }
+        const SharedFilmResponse source(set_.at, lambdas_, hit.surface);
+        if (forced) {
+            const ForcedFilmChoice choice(source, reflect);
+            const InterfaceEvent e =
+                thin_film_event(st_.direction, hit.normals, surface.film, choice, rng_);
+            for (std::size_t k = 0; k < n_; ++k)
+                w_[k] *= reflect ? source.reflectance[k] : source.transmittance[k];
+            return e;
+        }
+        const InterfaceEvent e =
+            thin_film_event(st_.direction, hit.normals, surface.film, source, rng_);
+        const double p = source.mean_reflect_probability;
+        if (e.kind == EventKind::film_reflect) {
+            for (std::size_t k = 0; k < n_; ++k) w_[k] *= e.throughput * source.reflectance[k] / p;
+        } else if (e.kind == EventKind::film_transmit) {
+            for (std::size_t k = 0; k < n_; ++k)
+                w_[k] *= e.throughput * source.transmittance[k] / (1.0 - p);
+        }
+        return e;
+    }
+
+    // A diffuse event's weights: each λ its albedo (diffuse_event's clamp) times throughput.
+    void diffuse_weights(std::array<double, kMaxSharedWavelengths>& weights_k,
+                         std::size_t surface_index, double throughput) const {
+        if (st_.single) {
+            weights_k[st_.hero] *=
+                std::clamp(hs_.surfaces[surface_index].albedo, 0.0, 1.0) * throughput;
+        } else {
+            for (std::size_t k = 0; k < n_; ++k)
+                weights_k[k] *=
+                    std::clamp(set_.at[k]->surfaces[surface_index].albedo, 0.0, 1.0) * throughput;
+        }
+    }
+
+    // A diffuse surface: guiding acts at the path's first diffuse event only (tracer.h), by
+    // branches (their directions left in fork_) or by the one-sample mixture.
+    InterfaceEvent diffuse_surface_event(const SurfaceHit& hit) {
+        const Spectral::Surface& surface = hs_.surfaces[hit.surface];
+        const bool first_diffuse = !st_.diffuse_met;
+        st_.diffuse_met = true;
+        if (branch_diffuse_ && first_diffuse) {
+            forked_ = guided_diffuse_branches(st_.direction, hit.normals, guide_->detector_axes,
+                                              cos_guide_, guide_->guided_branches, rng_, fork_);
+            before_fork_ = w_;
+            diffuse_weights(w_, hit.surface, fork_[0].throughput);
+            return fork_[0];
+        }
+        if (guided_ && first_diffuse) {
+            const InterfaceEvent e =
+                guided_diffuse_event(st_.direction, hit.normals, guide_->detector_axes, cos_guide_,
+                                     guide_->guided_fraction, rng_);
+            diffuse_weights(w_, hit.surface, e.throughput);
+            return e;
+        }
+        if (st_.single) {
+            const InterfaceEvent e =
+                diffuse_event(st_.direction, hit.normals, surface.albedo, rng_);
+            w_[st_.hero] *= e.throughput;
+            return e;
+        }
+        // The direction for all; each λ its albedo (diffuse_event's clamp).
+        const InterfaceEvent e = diffuse_event(st_.direction, hit.normals, 1.0, rng_);
+        for (std::size_t k = 0; k < n_; ++k)
+            w_[k] *= std::clamp(set_.at[k]->surfaces[hit.surface].albedo, 0.0, 1.0);
+        return e;
+    }
+
+    // The guided branches of the first diffuse event wait in pending_, each from this event with
+    // its own direction and stream.
+    void leave_guided_branches(const SurfaceHit& hit) {
+        const Spectral::Surface& surface = hs_.surfaces[hit.surface];
+        // Two draws, in this order (the operands of one expression would be unsequenced).
+        const std::uint64_t high = rng_.next_u32();
+        const std::uint64_t fork_seed = (high << 32) | rng_.next_u32();
+        for (std::size_t b = 1; b < forked_; ++b) {
+            if (fork_[b].kind != EventKind::diffuse_reflect) continue;
+            WalkState& branch = pending_->at[pending_->count++];
+            branch = st_;
+            branch.w = before_fork_;
+            diffuse_weights(branch.w, hit.surface, fork_[b].throughput);
+            record(branch.path, fork_[b].kind);
+            branch.expected = fork_[b].to_outside ? surface.outside : surface.inside;
+            branch.origin = t_.scene_->spawn_point(hit, fork_[b].to_outside);
+            branch.direction = fork_[b].direction;
+            branch.skip = hit.primitive;
+            branch.stream_seed = fork_seed;
+            branch.stream_item = b;
+        }
+        forked_ = 0;
+    }
+
+    const ExplicitScatterer& t_;
+    const SpectralSet& set_;
+    const Spectral& hs_;  // the hero's optics
+    std::span<const double> lambdas_;
+    std::span<double> weights_;
+    std::size_t n_;
+    Rng& rng_;
+    FirstFilm first_film_;
+    const BranchOptions* guide_;
+    PendingBranches* pending_;
+    WalkState& st_;
+    std::array<double, kMaxSharedWavelengths>& w_;
+    PathResult& path_;
+    bool guided_, adjoint_;
+    double cos_guide_;
+    bool branch_diffuse_;
+    // The first diffuse event's guided directions (branch_diffuse_): fork_[1 … forked_ − 1].
+    std::array<InterfaceEvent, 1 + BranchOptions::kMaxGuidedBranches> fork_;
+    std::size_t forked_ = 0;
+    std::array<double, kMaxSharedWavelengths> before_fork_;  // w at that event, before it
+};
+
 PathResult ExplicitScatterer::walk_spectral(const Vec3d& wi, std::span<const double> lambdas_nm,
                                             const Vec2& position_um, Rng& rng,
                                             std::span<double> weights, FirstFilm first_film,
@@ -539,14 +878,6 @@ PathResult ExplicitScatterer::walk_spectral(const Vec3d& wi, std::span<const dou
                                             const WalkState* resume,
                                             PendingBranches* pending) const {
     const std::size_t n = lambdas_nm.size();
-    const bool guided =
-        guide != nullptr && guide->guided_fraction > 0.0 && !guide->detector_axes.empty();
-    const bool adjoint = guide != nullptr && guide->adjoint;
-    // The detector cones' cos α, for either way of guiding (one value for the whole walk).
-    const double cos_guide =
-        guide != nullptr && (guide->guided_fraction > 0.0 || guide->guided_branches > 0)
-            ? std::cos(guide->detector_half_angle_rad)
-            : 1.0;
     if (n < 1 || n > kMaxSharedWavelengths || weights.size() != n) {
         throw InputError(fmt::format(
             "tracer: {} wavelengths and {} weights for one shared path: expected 1..{} of each", n,
@@ -557,276 +888,20 @@ PathResult ExplicitScatterer::walk_spectral(const Vec3d& wi, std::span<const dou
     const SpectralSet& set = spectral_set(lambdas_nm);
     std::fill(weights.begin(), weights.end(), 0.0);
 
-    // The hero: the one wavelength that goes on once the path's geometry depends on λ.
-    const std::size_t hero =
-        resume != nullptr
-            ? resume->hero
-            : std::min(n - 1, static_cast<std::size_t>(rng.uniform() * static_cast<double>(n)));
-    const Spectral& hs = *set.at[hero];
     WalkState st;
     if (resume != nullptr) {
         st = *resume;
     } else {
+        // The hero: the one wavelength that goes on once the path's geometry depends on λ.
+        st.hero = std::min(n - 1, static_cast<std::size_t>(rng.uniform() * static_cast<double>(n)));
         st.origin = entry_origin(position_um, wi);
         st.direction = -wi;
-        st.expected = hs.ambient;
+        st.expected = set.at[st.hero]->ambient;
         std::fill(st.w.begin(), st.w.begin() + static_cast<std::ptrdiff_t>(n), 1.0);
         st.single = n == 1;
-        st.hero = hero;
     }
-    auto& w = st.w;
-    bool& single = st.single;
-    PathResult& path = st.path;
-    Vec3d& origin = st.origin;
-    Vec3d& direction = st.direction;
-    PrimitiveRef& skip = st.skip;
-    optics::Complex& expected = st.expected;
-    // Guided diffuse branches (tracer.h): at the path's first diffuse event.
-    const bool branch_diffuse = pending != nullptr && guide != nullptr &&
-                                guide->guided_branches > 0 && !guide->detector_axes.empty();
-    auto collapse = [&]() {
-        if (single) return;
-        const double carried = w[hero] * static_cast<double>(n);
-        std::fill(w.begin(), w.begin() + static_cast<std::ptrdiff_t>(n), 0.0);
-        w[hero] = carried;
-        single = true;
-    };
-    auto largest = [&]() {
-        if (single) return w[hero];
-        return *std::max_element(w.begin(), w.begin() + static_cast<std::ptrdiff_t>(n));
-    };
-    auto scale = [&](double factor) {
-        if (single) {
-            w[hero] *= factor;
-        } else {
-            for (std::size_t k = 0; k < n; ++k) w[k] *= factor;
-        }
-    };
-
-    auto escape = [&]() {
-        if (expected != hs.ambient) ++path.medium_mismatches;
-        const Vec2 exit = exit_point(origin, direction, top_z_, bottom_z_);
-        for (std::size_t k = 0; k < n; ++k) {
-            PLUMAGE_CHECK(std::isfinite(w[k]) && w[k] >= 0.0,
-                          fmt::format("path weight {} at {} nm after {} events", w[k],
-                                      lambdas_nm[k], path.events));
-            weights[k] = w[k];
-        }
-        path.event = ScatterEvent{direction.normalized(), largest(), lobe_of(path), exit};
-    };
-
-    // As in trace(), on the largest weight; every λ is scaled alike.
-    auto survives_roulette = [&]() {
-        const double weight = largest();
-        const double carried = roulette(path, weight, options_, rng);
-        if (!(carried > 0.0)) return false;
-        if (carried != weight) scale(carried / weight);
-        return true;
-    };
-
-    // The first diffuse event's guided directions (branch_diffuse): fork[1 … forked − 1].
-    std::array<InterfaceEvent, 1 + BranchOptions::kMaxGuidedBranches> fork;
-    std::size_t forked = 0;
-    std::array<double, kMaxSharedWavelengths> before_fork;  // w at that event, before it
-    // A diffuse event's weights: each λ its albedo (diffuse_event's clamp) times throughput.
-    auto diffuse_weights = [&](std::array<double, kMaxSharedWavelengths>& weights_k,
-                               std::size_t surface_index, double throughput) {
-        if (single) {
-            weights_k[hero] *= std::clamp(hs.surfaces[surface_index].albedo, 0.0, 1.0) * throughput;
-        } else {
-            for (std::size_t k = 0; k < n; ++k)
-                weights_k[k] *=
-                    std::clamp(set.at[k]->surfaces[surface_index].albedo, 0.0, 1.0) * throughput;
-        }
-    };
-
-    for (;;) {
-        ++path.rays;
-        // A branch's entry ray was cast once for both (sample_spectral_branches()).
-        const bool entry_cast = first != nullptr && path.rays == 1;
-        if (entry_cast) path.self_hits_rejected += first->skipped;
-        const std::optional<SurfaceHit> hit =
-            entry_cast ? first->hit
-                       : scene_->intersect(origin, direction, skip, &path.self_hits_rejected);
-        // Splitting (tracer.h): only a path whose first event is at a film has a reflected
-        // branch; any other first event belongs to the transmitted branch alone.
-        const bool first_event = path.events == 0;
-        if (!hit) {
-            if (first_event && first_film == FirstFilm::reflect) return path;
-            escape();
-            return path;
-        }
-        const std::size_t surface_index = hit->surface;
-        const Spectral::Surface& surface = hs.surfaces[surface_index];
-        const double facing = direction.dot(hit->normals.geometric);
-        if (facing == 0.0) {
-            skip = hit->primitive;
-            continue;
-        }
-        const bool from_outside = facing < 0.0;
-        if ((from_outside ? surface.outside : surface.inside) != expected) ++path.medium_mismatches;
-        const bool forced =
-            first_event && first_film != FirstFilm::sampled && surface.kind == Spectral::Kind::film;
-        if (first_event && first_film == FirstFilm::reflect && !forced) return path;
-
-        // The medium between the last event and this surface: a scattering one takes the
-        // hero alone; absorbing ones weigh each λ.
-        if (set.scatters[surface_index][from_outside ? 0 : 1]) collapse();
-        if (single) {
-            if (const Medium* medium =
-                    from_outside ? surface.medium_outside : surface.medium_inside) {
-                const MediumFlight flight = medium->fly(hit->distance_um, lambdas_nm[hero], rng);
-                w[hero] *= flight.weight;
-                if (flight.scattered) {
-                    if (first_event && first_film == FirstFilm::reflect) return path;
-                    if (path.events >= options_.max_events) {
-                        path.reached_max_events = true;
-                        return path;
-                    }
-                    record(path, EventKind::medium_scatter);
-                    ++path.medium_scatters;
-                    const MediumScatter scatter = medium->scatter(direction, lambdas_nm[hero], rng);
-                    w[hero] *= scatter.weight;
-                    origin += flight.distance_um * direction;
-                    direction = scatter.direction;
-                    skip = {};
-                    if (!(w[hero] > 0.0) || !survives_roulette()) return path;
-                    continue;
-                }
-                if (!(w[hero] > 0.0) || !survives_roulette()) return path;
-            }
-        } else {
-            bool met_medium = false;
-            for (std::size_t k = 0; k < n; ++k) {
-                const Spectral::Surface& sk = set.at[k]->surfaces[surface_index];
-                if (const Medium* medium = from_outside ? sk.medium_outside : sk.medium_inside) {
-                    w[k] *= medium->fly(hit->distance_um, lambdas_nm[k], rng).weight;
-                    met_medium = true;
-                }
-            }
-            if (met_medium && (!(largest() > 0.0) || !survives_roulette())) return path;
-        }
-
-        if (path.events >= options_.max_events) {
-            path.reached_max_events = true;
-            return path;
-        }
-        // The event for the path's direction; each λ's weight takes its own factor.
-        const InterfaceEvent event = [&]() -> InterfaceEvent {
-            switch (surface.kind) {
-                case Spectral::Kind::film: {
-                    if (!set.film_shared[surface_index]) collapse();
-                    const bool reflect = first_film == FirstFilm::reflect;
-                    if (single) {
-                        const TabulatedFilmResponse& source = *surface.film_source;
-                        if (forced) {
-                            const ForcedFilmChoice choice(source, reflect);
-                            const InterfaceEvent e =
-                                thin_film_event(direction, hit->normals, surface.film, choice, rng);
-                            w[hero] *= choice.taken;
-                            return e;
-                        }
-                        const InterfaceEvent e =
-                            thin_film_event(direction, hit->normals, surface.film, source, rng);
-                        w[hero] *= e.throughput;
-                        return e;
-                    }
-                    const SharedFilmResponse source(set.at, lambdas_nm, surface_index);
-                    if (forced) {
-                        const ForcedFilmChoice choice(source, reflect);
-                        const InterfaceEvent e =
-                            thin_film_event(direction, hit->normals, surface.film, choice, rng);
-                        for (std::size_t k = 0; k < n; ++k)
-                            w[k] *= reflect ? source.reflectance[k] : source.transmittance[k];
-                        return e;
-                    }
-                    const InterfaceEvent e =
-                        thin_film_event(direction, hit->normals, surface.film, source, rng);
-                    const double p = source.mean_reflect_probability;
-                    if (e.kind == EventKind::film_reflect) {
-                        for (std::size_t k = 0; k < n; ++k)
-                            w[k] *= e.throughput * source.reflectance[k] / p;
-                    } else if (e.kind == EventKind::film_transmit) {
-                        for (std::size_t k = 0; k < n; ++k)
-                            w[k] *= e.throughput * source.transmittance[k] / (1.0 - p);
-                    }
-                    return e;
-                }
-                case Spectral::Kind::dielectric: {
-                    if (!set.dielectric_shared[surface_index]) collapse();
-                    const InterfaceEvent e = dielectric_event(direction, hit->normals,
-                                                              surface.outside, surface.inside, rng);
-                    scale(e.throughput);
-                    return e;
-                }
-                case Spectral::Kind::diffuse: {
-                    // Guiding acts at the path's first diffuse event only (tracer.h).
-                    const bool first_diffuse = !st.diffuse_met;
-                    st.diffuse_met = true;
-                    if (branch_diffuse && first_diffuse) {
-                        forked =
-                            guided_diffuse_branches(direction, hit->normals, guide->detector_axes,
-                                                    cos_guide, guide->guided_branches, rng, fork);
-                        before_fork = w;
-                        diffuse_weights(w, surface_index, fork[0].throughput);
-                        return fork[0];
-                    }
-                    if (guided && first_diffuse) {
-                        const InterfaceEvent e =
-                            guided_diffuse_event(direction, hit->normals, guide->detector_axes,
-                                                 cos_guide, guide->guided_fraction, rng);
-                        diffuse_weights(w, surface_index, e.throughput);
-                        return e;
-                    }
-                    if (single) {
-                        const InterfaceEvent e =
-                            diffuse_event(direction, hit->normals, surface.albedo, rng);
-                        w[hero] *= e.throughput;
-                        return e;
-                    }
-                    // The direction for all; each λ its albedo (diffuse_event's clamp).
-                    const InterfaceEvent e = diffuse_event(direction, hit->normals, 1.0, rng);
-                    for (std::size_t k = 0; k < n; ++k)
-                        w[k] *= std::clamp(set.at[k]->surfaces[surface_index].albedo, 0.0, 1.0);
-                    return e;
-                }
-                case Spectral::Kind::absorber:
-                    break;
-            }
-            return absorber_event(direction, hit->normals);
-        }();
-        // A detector-side walk estimates the forward light paths, not their transpose (tracer.h).
-        if (adjoint) scale(adjoint_shading_factor(direction, event, hit->normals));
-        if (forked > 0) {
-            // The guided branches wait, each from this event with its own direction and stream.
-            // Two draws, in this order (the operands of one expression would be unsequenced).
-            const std::uint64_t high = rng.next_u32();
-            const std::uint64_t fork_seed = (high << 32) | rng.next_u32();
-            for (std::size_t b = 1; b < forked; ++b) {
-                if (fork[b].kind != EventKind::diffuse_reflect) continue;
-                WalkState& branch = pending->at[pending->count++];
-                branch = st;
-                branch.w = before_fork;
-                diffuse_weights(branch.w, surface_index, fork[b].throughput);
-                record(branch.path, fork[b].kind);
-                branch.expected = fork[b].to_outside ? surface.outside : surface.inside;
-                branch.origin = scene_->spawn_point(*hit, fork[b].to_outside);
-                branch.direction = fork[b].direction;
-                branch.skip = hit->primitive;
-                branch.stream_seed = fork_seed;
-                branch.stream_item = b;
-            }
-            forked = 0;
-        }
-        record(path, event.kind);
-        if (event.kind == EventKind::absorb || !(largest() > 0.0)) return path;
-
-        expected = event.to_outside ? surface.outside : surface.inside;
-        origin = scene_->spawn_point(*hit, event.to_outside);
-        direction = event.direction;
-        skip = hit->primitive;
-        if (!survives_roulette()) return path;
-    }
+    SpectralWalk walk(*this, set, lambdas_nm, weights, rng, first_film, guide, pending, st);
+    return walk.run(first);
 }
 
 std::vector<std::optional<ScatterEvent>> trace_many(const Scatterer& scatterer, const Vec3d& wi,

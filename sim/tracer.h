@@ -282,6 +282,11 @@ private:
                              FirstFilm first_film, const BranchOptions* guide,
                              const FirstHit* first, const WalkState* resume = nullptr,
                              PendingBranches* pending = nullptr) const;
+    class SpectralWalk;  // walk_spectral()'s state and steps (tracer.cpp)
+    // trace()'s scattering inside a medium after a free flight of distance_um: the event, the
+    // new direction and weight; false when the path ends there (max_events, or no weight left).
+    bool scatter_in(const Medium& medium, double lambda_nm, double distance_um, Vec3d& origin,
+                    Vec3d& direction, double& weight, PathResult& path, Rng& rng) const;
     const Spectral& spectral(double lambda_nm) const;
     std::shared_ptr<const Spectral> lookup_spectral(double lambda_nm) const;
     const SpectralSet& spectral_set(std::span<const double> lambdas_nm) const;
