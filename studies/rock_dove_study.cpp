@@ -58,6 +58,12 @@ struct Settings {
     std::uint64_t scatter_quanta = 100000;
     int scatter_passes = 2;
     int strata = 64;
+    // One traced path per quantum for every wavelength, split at its first film (the simulated
+    // scatterograms; a model cannot share paths): ScatterometerConfig's options of these names.
+    bool scatter_shared_paths = false, scatter_split_paths = false;
+    // The Huang model's quanta per wavelength and pass (0: as the simulation's). A model cannot
+    // share paths, so the simulation's shared quanta would cost it 1 path per wavelength each.
+    std::uint64_t model_scatter_quanta = 0;
     double beam_incidence = 0.0, beam_azimuth = 0.0, cone_aperture = 16.0 * kDeg;
     double beam_radius_um = 40.0;
     // The hemisphere scatterogram ([scatterometer.hemisphere]; absent keys as above): broad
@@ -69,6 +75,7 @@ struct Settings {
         int passes = 2;
         int strata = 64;
         double target_median_error = 0.0;
+        std::uint64_t model_quanta = 0;
     } hemisphere;
     // goniometer
     std::string direction_set = "filip2024_btf";
@@ -121,6 +128,14 @@ void read_scatterometer(ParameterTable sc, Settings& s) {
     s.cone_aperture = sc.angle_deg("cone_aperture_deg", s.cone_aperture, {0.0, 90.0, true, false},
                                    "full aperture of the illumination cone");
     s.beam_radius_um = sc.number("beam_radius_um", s.beam_radius_um, positive(), "beam radius, um");
+    s.scatter_shared_paths =
+        sc.boolean("share_wavelength_paths", s.scatter_shared_paths,
+                   "one traced path per quantum for every wavelength (every scatterogram)");
+    s.scatter_split_paths = sc.boolean("split_paths", s.scatter_split_paths,
+                                       "split each shared path at its first film event");
+    s.model_scatter_quanta = static_cast<std::uint64_t>(
+        sc.integer("model_quanta_per_pass", static_cast<long>(s.scatter_quanta), 1000, 100000000,
+                   "the Huang model's quanta per wavelength and pass"));
     ParameterTable he = sc.table("hemisphere");
     s.hemisphere.image_size = static_cast<int>(he.integer(
         "image_size", s.image_size, 17, 1025, "pixels across the hemisphere scatterogram"));
@@ -131,6 +146,9 @@ void read_scatterometer(ParameterTable sc, Settings& s) {
         he.integer("passes", s.scatter_passes, 1, 1000, "hemisphere light: passes (at most)"));
     s.hemisphere.strata = static_cast<int>(he.integer("illumination_strata", s.strata, 1, 1000000,
                                                       "hemisphere light: directions per pass"));
+    s.hemisphere.model_quanta = static_cast<std::uint64_t>(
+        he.integer("model_quanta_per_pass", static_cast<long>(s.hemisphere.quanta), 1000, 100000000,
+                   "hemisphere light: the Huang model's quanta per wavelength and pass"));
     s.hemisphere.target_median_error = he.number(
         "target_median_relative_error", 0.0, between(0.0, 1.0),
         "hemisphere light: stop the passes once the median per-pixel relative error is this");
@@ -306,6 +324,8 @@ gonio::ScatterometerConfig scatterometer_config(const Run& run, gonio::Illuminat
     c.time_budget_s = s.time_budget_s;
     c.target_relative_error = s.target_relative_error;
     c.illumination_strata = s.strata;
+    c.share_wavelength_paths = s.scatter_shared_paths;
+    c.split_paths = s.scatter_split_paths;
     if (mode == gonio::Illumination::hemisphere) {
         c.image_size = s.hemisphere.image_size;
         c.quanta_per_pass = s.hemisphere.quanta;
@@ -346,6 +366,9 @@ ScatterogramPair measure_scatterogram_pair(const Run& run, const Built& b, gonio
                                            const std::string& label) {
     const gonio::ScatterometerConfig c = scatterometer_config(run, mode);
     gonio::ScatterometerConfig model_c = c;  // the same instrument; independent noise
+    model_c.quanta_per_pass = mode == gonio::Illumination::hemisphere
+                                  ? run.s.hemisphere.model_quanta
+                                  : run.s.model_scatter_quanta;
     model_c.seed =
         derive_seed(run.s.seed, "rock_dove/scatterogram/model", static_cast<std::uint64_t>(mode));
     ScatterogramPair p;

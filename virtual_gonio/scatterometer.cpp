@@ -3,6 +3,7 @@
 #include <omp.h>
 
 #include <algorithm>
+#include <array>
 #include <chrono>
 #include <cmath>
 #include <iostream>
@@ -218,9 +219,10 @@ void append_difference(const std::vector<GroupSum>& a, const std::vector<GroupSu
 // scatterer that prepares per incident direction prepares once for all wavelengths).
 class PassWork {
 public:
+    // shared: one path per quantum for every wavelength; split: its first film's two branches.
     PassWork(const Scatterer& scatterer, const ScatterometerConfig& config,
              const std::vector<double>& solid_angle, std::size_t nlobes, const QuantumGroups& g,
-             std::uint64_t pass)
+             std::uint64_t pass, bool shared, bool split)
         : scatterer_(scatterer),
           config_(config),
           solid_angle_(solid_angle),
@@ -228,17 +230,22 @@ public:
           pass_(pass),
           nl_(config.wavelengths_nm.size()),
           nlobes_(nlobes),
+          shared_(shared),
+          split_(split),
           chunks_((config.quanta_per_pass + kChunk - 1) / kChunk),
           // Even, so that the pairs of directions below fall within one item.
-          block_(2 * std::max<std::uint64_t>(1, kChunk / (2 * g.group * nl_))),
-          jitter_seed_(derive_seed(config.seed, "scatterometer/illumination", pass)) {
+          block_(2 * std::max<std::uint64_t>(1, kChunk / (2 * g.group * (shared ? 1 : nl_)))),
+          jitter_seed_(derive_seed(config.seed, "scatterometer/illumination", pass)),
+          shared_seed_(derive_seed(config.seed, g.directional ? "scatterometer/shared-directional"
+                                                              : "scatterometer/shared")) {
         orthonormal_frame(config.beam_direction, e1_, e2_);
         for (std::size_t k = 0; k < nl_; ++k)
             quantum_seeds_.push_back(derive_seed(config.seed, "scatterometer/quantum", k));
     }
 
     std::size_t items() const {
-        return g_.directional ? (g_.directions + block_ - 1) / block_ : nl_ * chunks_;
+        if (g_.directional) return (g_.directions + block_ - 1) / block_;
+        return shared_ ? chunks_ : nl_ * chunks_;
     }
     PassItems empty_items() const {
         const std::size_t n = items();
@@ -253,33 +260,61 @@ public:
     }
 
 private:
-    // Plays one quantum along wi (f1, f2 complete it to a frame); its stream is rng.
-    void play(const Vec3d& wi, const Vec3d& f1, const Vec3d& f2, std::size_t k, Rng& rng,
-              std::size_t it, PassItems& items) const {
+    // A quantum's entry point: uniform over the spot's disc in the beam's cross-section (f1, f2
+    // complete wi to a frame), projected on the patch; two numbers of rng.
+    Vec2 entry_point(const Vec3d& wi, const Vec3d& f1, const Vec3d& f2, Rng& rng) const {
         const double radius = config_.beam_radius_um * std::sqrt(rng.uniform()),
                      angle = 2.0 * kPi * rng.uniform();
         const Vec3d offset = radius * (std::cos(angle) * f1 + std::sin(angle) * f2);
-        const Vec2 position(offset.x() - offset.z() * wi.x() / wi.z(),
-                            offset.y() - offset.z() * wi.y() / wi.z());
-        const auto event = scatterer_.sample(wi, config_.wavelengths_nm[k], position, rng);
-        if (!event || !(event->weight > 0.0)) return;
-        PLUMAGE_CHECK(std::isfinite(event->weight),
-                      "non-finite quantum weight from " + scatterer_.name());
-        if (event->wo.z() <= 0.0) {
-            double* below_k = &items.below[(it * nl_ + k) * (nlobes_ + 1)];
-            below_k[0] += event->weight;
-            if (event->lobe >= 0 && static_cast<std::size_t>(event->lobe) < nlobes_)
-                below_k[1 + static_cast<std::size_t>(event->lobe)] += event->weight;
-            return;
-        }
-        const long p = pixel_of(event->wo, config_.image_size);
-        if (p >= 0 && solid_angle_[static_cast<std::size_t>(p)] > 0.0)
-            items.hits[it].push_back({p, event->lobe, event->weight, k});
+        return {offset.x() - offset.z() * wi.x() / wi.z(),
+                offset.y() - offset.z() * wi.y() / wi.z()};
     }
 
-    // A chunk of one wavelength's quanta along the beam, each quantum its own group.
+    // One escape of weight w at wavelength k: into the light below the patch or a pixel's hits.
+    void count_escape(const Vec3d& wo, int lobe, double w, std::size_t k, std::size_t it,
+                      PassItems& items) const {
+        if (!(w > 0.0)) return;
+        PLUMAGE_CHECK(std::isfinite(w), "non-finite quantum weight from " + scatterer_.name());
+        if (wo.z() <= 0.0) {
+            double* below_k = &items.below[(it * nl_ + k) * (nlobes_ + 1)];
+            below_k[0] += w;
+            if (lobe >= 0 && static_cast<std::size_t>(lobe) < nlobes_)
+                below_k[1 + static_cast<std::size_t>(lobe)] += w;
+            return;
+        }
+        const long p = pixel_of(wo, config_.image_size);
+        if (p >= 0 && solid_angle_[static_cast<std::size_t>(p)] > 0.0)
+            items.hits[it].push_back({p, lobe, w, k});
+    }
+
+    // Plays one quantum along wi at wavelength k; its stream is rng.
+    void play(const Vec3d& wi, const Vec3d& f1, const Vec3d& f2, std::size_t k, Rng& rng,
+              std::size_t it, PassItems& items) const {
+        const Vec2 position = entry_point(wi, f1, f2, rng);
+        const auto event = scatterer_.sample(wi, config_.wavelengths_nm[k], position, rng);
+        if (event) count_escape(event->wo, event->lobe, event->weight, k, it, items);
+    }
+
+    // Plays one shared quantum along wi for every wavelength (its branches, when split).
+    void play_shared(const Vec3d& wi, const Vec3d& f1, const Vec3d& f2, Rng& rng, std::size_t it,
+                     PassItems& items) const {
+        const Vec2 position = entry_point(wi, f1, f2, rng);
+        std::array<SpectralScatterEvent, Scatterer::kMaxBranches> events;
+        std::array<double, Scatterer::kMaxBranches * Scatterer::kMaxSharedWavelengths> weights{};
+        BranchOptions options;
+        options.split_first_film = split_;
+        const std::size_t count = scatterer_.sample_spectral_branches(
+            wi, config_.wavelengths_nm, position, rng, options, events,
+            std::span<double>(weights.data(), Scatterer::kMaxBranches * nl_));
+        for (std::size_t b = 0; b < count; ++b)
+            for (std::size_t k = 0; k < nl_; ++k)
+                count_escape(events[b].wo, events[b].lobe, weights[b * nl_ + k], k, it, items);
+    }
+
+    // A chunk of quanta along the beam (of one wavelength, or of all on shared paths), each
+    // quantum its own group.
     void beam_item(std::size_t it, PassItems& items) const {
-        const std::size_t k = it / chunks_;
+        const std::size_t k = shared_ ? 0 : it / chunks_;
         const std::uint64_t c = it % chunks_;
         const Vec3d& wi = config_.beam_direction;
         Vec3d f1, f2;
@@ -288,9 +323,14 @@ private:
         const std::uint64_t count = std::min(kChunk, config_.quanta_per_pass - c * kChunk);
         std::vector<GroupSum> cells;
         for (std::uint64_t q = first; q < first + count; ++q) {
-            Rng rng(config_.seed, (static_cast<std::uint64_t>(k) << 52) + q);
             const std::size_t from = items.hits[it].size();
-            play(wi, f1, f2, k, rng, it, items);
+            if (shared_) {
+                Rng rng(shared_seed_, q);
+                play_shared(wi, f1, f2, rng, it, items);
+            } else {
+                Rng rng(config_.seed, (static_cast<std::uint64_t>(k) << 52) + q);
+                play(wi, f1, f2, k, rng, it, items);
+            }
             group_cells(items.hits[it], from, nl_, cells);
             items.group_sums[it].insert(items.group_sums[it].end(), cells.begin(), cells.end());
         }
@@ -316,22 +356,39 @@ private:
             const Vec3d wi = illumination_direction(config_, e1_, e2_, u1, u2);
             Vec3d f1, f2;
             orthonormal_frame(wi, f1, f2);
+            if (shared_) {
+                // One group for every wavelength: its cells hold each λ apart.
+                const std::size_t from = items.hits[it].size();
+                for (std::uint64_t q = 0; q < g_.group; ++q) {
+                    Rng rng(shared_seed_, ((pass_ * g_.directions) + d) * g_.group + q);
+                    play_shared(wi, f1, f2, rng, it, items);
+                }
+                pair_up(d, items.hits[it], from, even[0], cells, sums);
+                continue;
+            }
             for (std::size_t k = 0; k < nl_; ++k) {
                 const std::size_t from = items.hits[it].size();
                 for (std::uint64_t q = 0; q < g_.group; ++q) {
                     Rng rng(quantum_seeds_[k], ((pass_ * g_.directions) + d) * g_.group + q);
                     play(wi, f1, f2, k, rng, it, items);
                 }
-                if (d % 2 == 0) {
-                    group_cells(items.hits[it], from, nl_, even[k]);
-                    if (d + 1 == g_.directions)
-                        sums.insert(sums.end(), even[k].begin(), even[k].end());
-                    continue;
-                }
-                group_cells(items.hits[it], from, nl_, cells);
-                append_difference(even[k], cells, sums);
+                pair_up(d, items.hits[it], from, even[k], cells, sums);
             }
         }
+    }
+
+    // Direction d's group (hits[from …)): kept in `even` for an even d (its own sum when it is
+    // the last), or its difference from direction d − 1's appended to the sums.
+    void pair_up(std::uint64_t d, const std::vector<Hit>& hits, std::size_t from,
+                 std::vector<GroupSum>& even, std::vector<GroupSum>& cells,
+                 std::vector<GroupSum>& sums) const {
+        if (d % 2 == 0) {
+            group_cells(hits, from, nl_, even);
+            if (d + 1 == g_.directions) sums.insert(sums.end(), even.begin(), even.end());
+            return;
+        }
+        group_cells(hits, from, nl_, cells);
+        append_difference(even, cells, sums);
     }
 
     const Scatterer& scatterer_;
@@ -340,7 +397,8 @@ private:
     const QuantumGroups& g_;
     std::uint64_t pass_;
     std::size_t nl_, nlobes_;
-    std::uint64_t chunks_, block_, jitter_seed_;
+    bool shared_, split_;
+    std::uint64_t chunks_, block_, jitter_seed_, shared_seed_;
     Vec3d e1_, e2_;
     std::vector<std::uint64_t> quantum_seeds_;
 };
@@ -459,10 +517,16 @@ Scatterogram measure_scatterogram(const Scatterer& scatterer, const Scatteromete
               std::vector<double>(nlobes * np * nl, 0.0), std::vector<double>(nl, 0.0),
               std::vector<double>(nlobes * nl, 0.0)};
     const QuantumGroups groups(config);
+    s.wavelength_paths_shared = config.share_wavelength_paths && scatterer.can_share_paths() &&
+                                nl <= Scatterer::kMaxSharedWavelengths;
+    s.paths_split =
+        config.split_paths && scatterer.can_split_paths() && (s.wavelength_paths_shared || nl == 1);
+    // Splitting rides on the shared walk (one wavelength is a shared walk of one).
+    const bool one_path = s.wavelength_paths_shared || s.paths_split;
     // Rank 0's clock decides for every rank when to stop (the passes are collective under MPI).
     while (!distributed::broadcast_flag(done(s, config))) {
         const PassWork work(scatterer, config, s.solid_angle_sr, nlobes, groups,
-                            static_cast<std::uint64_t>(s.passes));
+                            static_cast<std::uint64_t>(s.passes), one_path, s.paths_split);
         PassItems items = work.empty_items();
         if (!run_pass(work, control, items)) {
             // No checkpoint keeps a scatterogram's passes: a partial image must not flow on.
@@ -590,8 +654,9 @@ namespace {
 
 using Dims = std::vector<std::uint64_t>;
 
-// What the instrument was: kind, illumination, beam and the image's mapping.
-void write_scatterometer(record::Hdf5Writer& h5, const ScatterometerConfig& c) {
+// What the instrument was: kind, illumination, beam, paths and the image's mapping.
+void write_scatterometer(record::Hdf5Writer& h5, const Scatterogram& s) {
+    const ScatterometerConfig& c = s.config;
     h5.create_group("instrument");
     h5.set_attribute("/instrument", "kind", "imaging_scatterometer");
     h5.set_attribute("/instrument", "illumination",
@@ -603,6 +668,16 @@ void write_scatterometer(record::Hdf5Writer& h5, const ScatterometerConfig& c) {
                                  c.beam_direction.z()));
     h5.set_attribute("/instrument", "cone_aperture_deg", c.cone_aperture_rad * 180.0 / kPi);
     h5.set_attribute("/instrument", "beam_radius_um", c.beam_radius_um);
+    h5.set_attribute("/instrument", "wavelength_paths",
+                     s.wavelength_paths_shared
+                         ? "shared: one path per quantum for every wavelength, re-weighted per "
+                           "wavelength (sim/tracer.h, spectral path sharing)"
+                         : "separate: one path per quantum and wavelength");
+    h5.set_attribute("/instrument", "path_splitting",
+                     s.paths_split ? "first film: each quantum's path split at its first film "
+                                     "event into a reflected and a transmitted branch "
+                                     "(sim/tracer.h)"
+                                   : "none");
     h5.set_attribute("/instrument", "mapping",
                      "azimuthal equidistant: theta = 90 deg * hypot(u, v), phi = atan2(v, u) from "
                      "+x; row 0 at the top");
@@ -679,7 +754,7 @@ void write_scatterogram_record(const Scatterogram& s, const std::filesystem::pat
     const std::uint64_t nl = c.wavelengths_nm.size();
     record::Hdf5Writer h5(path);
     h5.set_attribute("/", "format", "plumage record 1 (virtual_gonio/RECORD.md)");
-    write_scatterometer(h5, c);
+    write_scatterometer(h5, s);
     write_polarisation(h5);
     h5.write("wavelength_nm", std::span<const double>(c.wavelengths_nm), Dims{nl},
              {{"units", "nm"}, {"description", "vacuum wavelengths of the measurement"}});

@@ -72,6 +72,16 @@ struct ScatterometerConfig {
     // prepares once per direction for all wavelengths. Many directions with few quanta
     // each give smooth images; few directions give spokes, one per direction.
     int illumination_strata = 256;
+    // One traced path per quantum for every wavelength (a scatterer that can_share_paths(),
+    // sim/tracer.h: spectral path sharing), and with split_paths both branches of its first
+    // film event (sim/scatterer.h): as the goniometer's options of the same names
+    // (docs/estimators.md). A shared quantum is one sample of every wavelength, so the groups of
+    // the standard error stay those above (a quantum, or a direction's quanta) for each λ.
+    // Streams: (seed, "scatterometer/shared", quantum) under the beam, (seed,
+    // "scatterometer/shared-directional", quantum) otherwise. Ignored (separate paths) for a
+    // scatterer that cannot share; split_paths needs share_wavelength_paths or one wavelength.
+    bool share_wavelength_paths = false;
+    bool split_paths = false;
     int max_passes = 10;
     double time_budget_s = std::numeric_limits<double>::infinity();
     double target_relative_error = 0.0;  // on the image's power-weighted relative error
@@ -95,6 +105,8 @@ struct Scatterogram {
     std::vector<double> transmitted_lobes;  // [lobe][wavelength]
     int passes = 0;
     std::uint64_t quanta = 0;
+    bool wavelength_paths_shared = false;  // the options above as they took effect
+    bool paths_split = false;
     double wall_time_s = 0.0;
     double cpu_time_s = 0.0;  // process CPU time (all threads) over the same span
 
