@@ -359,7 +359,7 @@ TEST(SpeciesStudy, BadFilesNameTheKeyAndWriteNothing) {
     small.replace(small.find("length_um = 3200"), 16, "length_um = 500");
     EXPECT_NE(message(small).find("expected a larger length_um or more barbs"), std::string::npos)
         << message(small);
-    EXPECT_NE(message(small).find("bad.toml:54:1: [species.parrot.patch] gives a patch"),
+    EXPECT_NE(message(small).find("bad.toml:55:1: [species.parrot.patch] gives a patch"),
               std::string::npos)
         << message(small);
     // Out of range.
