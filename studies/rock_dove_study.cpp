@@ -76,6 +76,7 @@ struct Settings {
         int strata = 64;
         double target_median_error = 0.0;
         std::uint64_t model_quanta = 0;
+        bool split_paths = false;
     } hemisphere;
     // goniometer
     std::string direction_set = "filip2024_btf";
@@ -149,6 +150,9 @@ void read_scatterometer(ParameterTable sc, Settings& s) {
     s.hemisphere.model_quanta = static_cast<std::uint64_t>(
         he.integer("model_quanta_per_pass", static_cast<long>(s.hemisphere.quanta), 1000, 100000000,
                    "hemisphere light: the Huang model's quanta per wavelength and pass"));
+    s.hemisphere.split_paths =
+        he.boolean("split_paths", s.scatter_split_paths,
+                   "hemisphere light: split each shared path at its first film event");
     s.hemisphere.target_median_error = he.number(
         "target_median_relative_error", 0.0, between(0.0, 1.0),
         "hemisphere light: stop the passes once the median per-pixel relative error is this");
@@ -332,6 +336,7 @@ gonio::ScatterometerConfig scatterometer_config(const Run& run, gonio::Illuminat
         c.max_passes = s.hemisphere.passes;
         c.illumination_strata = s.hemisphere.strata;
         c.target_median_relative_error = s.hemisphere.target_median_error;
+        c.split_paths = s.hemisphere.split_paths;
     }
     c.config_text = run.study_text;
     return c;
