@@ -1135,16 +1135,7 @@ void write_instrument(record::Hdf5Writer& h5, const BrdfRecord& r) {
             : "view_cone: the light exactly along the light direction, f averaged over the "
               "detector cone around the view, cosine-weighted (virtual_gonio/goniometer.h)");
     if (r.estimator_used == Estimator::photon) {
-        h5.set_attribute("/instrument", "wavelength_paths",
-                         r.wavelength_paths_shared
-                             ? "shared: one path per quantum for every wavelength, re-weighted "
-                               "per wavelength (sim/tracer.h, spectral path sharing)"
-                             : "separate: one path per quantum and wavelength");
-        h5.set_attribute("/instrument", "path_splitting",
-                         r.paths_split
-                             ? "first film: each quantum's path split at its first film event "
-                               "into a reflected and a transmitted branch (sim/tracer.h)"
-                             : "none");
+        write_path_options(h5, r.wavelength_paths_shared, r.paths_split);
         if (r.diffuse_guided) {
             h5.set_attribute("/instrument", "diffuse_guided_fraction", c.guided_fraction);
             h5.set_attribute("/instrument", "diffuse_guided_branches",

@@ -34,6 +34,10 @@ void write_provenance(record::Hdf5Writer& h5, const Provenance& provenance);
 // no polarisation state; every interface weighs s and p equally).
 void write_polarisation(record::Hdf5Writer& h5);
 
+// /instrument @wavelength_paths and @path_splitting: how the photon estimator traced its quanta
+// (shared paths and splitting, sim/tracer.h), for the goniometer and the scatterometer alike.
+void write_path_options(record::Hdf5Writer& h5, bool shared, bool split);
+
 // Attributes of /convergence's table (units per column and a description) with `columns`, the
 // column names, which differ per instrument.
 record::Attributes convergence_attributes(const std::string& columns);

@@ -668,16 +668,7 @@ void write_scatterometer(record::Hdf5Writer& h5, const Scatterogram& s) {
                                  c.beam_direction.z()));
     h5.set_attribute("/instrument", "cone_aperture_deg", c.cone_aperture_rad * 180.0 / kPi);
     h5.set_attribute("/instrument", "beam_radius_um", c.beam_radius_um);
-    h5.set_attribute("/instrument", "wavelength_paths",
-                     s.wavelength_paths_shared
-                         ? "shared: one path per quantum for every wavelength, re-weighted per "
-                           "wavelength (sim/tracer.h, spectral path sharing)"
-                         : "separate: one path per quantum and wavelength");
-    h5.set_attribute("/instrument", "path_splitting",
-                     s.paths_split ? "first film: each quantum's path split at its first film "
-                                     "event into a reflected and a transmitted branch "
-                                     "(sim/tracer.h)"
-                                   : "none");
+    write_path_options(h5, s.wavelength_paths_shared, s.paths_split);
     h5.set_attribute("/instrument", "mapping",
                      "azimuthal equidistant: theta = 90 deg * hypot(u, v), phi = atan2(v, u) from "
                      "+x; row 0 at the top");
