@@ -52,6 +52,11 @@ void BtfConfig::validate() const {
     require(estimator != BtfEstimator::detector || aperture == Aperture::both_cones, kWhat,
             "estimator = \"detector\" needs aperture = \"both_cones\": a walk from the detector "
             "cannot reach a collimated light through mirror-like events");
+    require(estimator != BtfEstimator::detector ||
+                wavelengths_nm.size() <= Scatterer::kMaxSharedWavelengths,
+            kWhat,
+            fmt::format("{} wavelengths: the detector estimator shares one path among at most {}",
+                        wavelengths_nm.size(), Scatterer::kMaxSharedWavelengths));
     for (std::size_t i = 0; i < pairs.size() && aperture == Aperture::both_cones; ++i) {
         require(pairs[i].wi.z() > std::sin(detector_half_angle_rad), kWhat,
                 fmt::format("pair {}: under both_cones the light cone must be above the patch", i));
