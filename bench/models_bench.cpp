@@ -229,7 +229,8 @@ void BM_Huang2022FitCone(benchmark::State& state) {
     const auto nl = static_cast<std::size_t>(state.range(1));
     config.wavelengths_nm.clear();
     for (std::size_t l = 0; l < nl; ++l)
-        config.wavelengths_nm.push_back(nl == 1 ? 550.0 : 450.0 + 200.0 * l / (nl - 1));
+        config.wavelengths_nm.push_back(
+            nl == 1 ? 550.0 : 450.0 + 200.0 * static_cast<double>(l) / static_cast<double>(nl - 1));
     HuangFitOptions options;
     options.fixed = {"phi0", "phi1"};
     options.threads = 0;

@@ -377,7 +377,9 @@ TEST(InterfaceEvents, GuidedDiffuseBranchesAreUnbiasedForEveryDirection) {
                 bool in_cone = false;
                 for (const Vec3d& a : c.axes)
                     in_cone = in_cone || e.direction.dot(a) >= c.cos_alpha;
-                if (!in_cone) ASSERT_NEAR(e.throughput, 1.0, 1e-12);
+                if (!in_cone) {
+                    ASSERT_NEAR(e.throughput, 1.0, 1e-12);
+                }
             }
             for (int t = 0; t < 3; ++t) {
                 sum[t] += x[t];

@@ -21,7 +21,9 @@ void expect_physical(const LorentzFit& fit, double cap) {
         EXPECT_GE(p.damping_per_um, 0.0);
         EXPECT_LE(p.frequency_per_um, cap);
         // damped unless the material is lossless: no pole rings on after the pulse
-        if (p.damping_per_um > 0.0) EXPECT_GE(p.damping_per_um, p.frequency_per_um / 10.0);
+        if (p.damping_per_um > 0.0) {
+            EXPECT_GE(p.damping_per_um, p.frequency_per_um / 10.0);
+        }
     }
     // passive everywhere, not only in the band: Im ε ≥ 0 from the IR to the cap's wavelength
     for (double lambda = 1e3 / cap; lambda < 5000.0; lambda *= 1.01)
