@@ -281,7 +281,9 @@ private:
         const Vec3d wo =
             draw_cone_direction_by_projected_area(view, c_.detector_half_angle_rad, rng);
         std::array<SpectralScatterEvent, Scatterer::kMaxBranches> events;
-        std::array<double, Scatterer::kMaxBranches * Scatterer::kMaxSharedWavelengths> weights{};
+        // Not zeroed: every returned branch's weights are written (sim/scatterer.h); 4 KB a
+        // quantum.
+        std::array<double, Scatterer::kMaxBranches * Scatterer::kMaxSharedWavelengths> weights;
         const std::size_t count = scatterer_.sample_spectral_branches(
             wo, c_.wavelengths_nm, position, rng, options, events,
             std::span<double>(weights.data(), Scatterer::kMaxBranches * nl_));

@@ -300,7 +300,9 @@ private:
                      PassItems& items) const {
         const Vec2 position = entry_point(wi, f1, f2, rng);
         std::array<SpectralScatterEvent, Scatterer::kMaxBranches> events;
-        std::array<double, Scatterer::kMaxBranches * Scatterer::kMaxSharedWavelengths> weights{};
+        // Not zeroed: every returned branch's weights are written (sim/scatterer.h); 4 KB a
+        // quantum.
+        std::array<double, Scatterer::kMaxBranches * Scatterer::kMaxSharedWavelengths> weights;
         BranchOptions options;
         options.split_first_film = split_;
         const std::size_t count = scatterer_.sample_spectral_branches(
