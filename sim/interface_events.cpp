@@ -286,6 +286,14 @@ std::size_t guided_diffuse_branches(const Vec3d& direction, const SurfaceNormals
     return 1 + guided;
 }
 
+Vec3d refracted_cone_axis(const Vec3d& a, const Vec3d& out, double n) {
+    const double cos_a = a.dot(out);
+    if (!(n > 1.0) || !(cos_a > 0.0)) return a;
+    const Vec3d tangential = (a - cos_a * out) / n;
+    return (tangential + std::sqrt(std::max(0.0, 1.0 - tangential.squaredNorm())) * out)
+        .normalized();
+}
+
 InterfaceEvent absorber_event(const Vec3d& direction, const SurfaceNormals& normals) {
     const Incidence in = incidence(direction, normals);
     return {EventKind::absorb, Vec3d::Zero(), 0.0, in.from_outside, true};

@@ -165,6 +165,16 @@ std::size_t guided_diffuse_branches(const Vec3d& direction, const SurfaceNormals
                                     std::span<const Vec3d> cone_axes, double cos_half_angle,
                                     std::size_t guided, Rng& rng, std::span<InterfaceEvent> events);
 
+// Where a diffuse event inside a dielectric of index n should aim to leave towards a cone axis
+// a in air: the inside direction that Snell's law refracts into a through a flat interface of
+// unit normal `out` (pointing out of the dielectric, towards a's side),
+//     d = a_t/n + sqrt(1 − |a_t|²/n²) out,  a_t = a − (a·out) out.
+// An aim for guided_diffuse_branches' cones, never a constraint: the branches' balance heuristic
+// is unbiased for any axes, and the aim's quality only sets how many guided directions leave
+// through the light's cone. An axis with a·out <= 0 (behind the interface), or n <= 1, is
+// returned as it is.
+Vec3d refracted_cone_axis(const Vec3d& a, const Vec3d& out, double n);
+
 // The factor a detector-side (adjoint) walk multiplies its weight by at an event, so that it
 // estimates the light paths of the forward walk and not their transpose (sim/tracer.h,
 // "Detector-side walks"). A specular event about a shading normal n_s on a facet of geometric

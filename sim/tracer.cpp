@@ -792,6 +792,22 @@ private:
         }
     }
 
+    // The cones a guided diffuse event aims at (tracer.h, "Guided diffuse reflection"): the
+    // detectors' in air; inside a dielectric (a medulla under its cortex) the directions that
+    // leave into them through an interface parallel to the event's facet.
+    std::span<const Vec3d> aim(const SurfaceHit& hit) const {
+        const std::span<const Vec3d> axes = guide_->detector_axes;
+        const double n = st_.expected.real();
+        if (!(n > 1.0)) return axes;
+        const Vec3d& g = hit.normals.geometric;
+        const Vec3d out = st_.direction.dot(g) < 0.0 ? g : Vec3d(-g);
+        thread_local std::vector<Vec3d> refracted;
+        refracted.resize(axes.size());
+        for (std::size_t j = 0; j < axes.size(); ++j)
+            refracted[j] = refracted_cone_axis(axes[j], out, n);
+        return refracted;
+    }
+
     // A diffuse surface: guiding acts at the path's first diffuse event only (tracer.h), by
     // branches (their directions left in fork_) or by the one-sample mixture.
     InterfaceEvent diffuse_surface_event(const SurfaceHit& hit) {
@@ -799,16 +815,15 @@ private:
         const bool first_diffuse = !st_.diffuse_met;
         st_.diffuse_met = true;
         if (branch_diffuse_ && first_diffuse) {
-            forked_ = guided_diffuse_branches(st_.direction, hit.normals, guide_->detector_axes,
-                                              cos_guide_, guide_->guided_branches, rng_, fork_);
+            forked_ = guided_diffuse_branches(st_.direction, hit.normals, aim(hit), cos_guide_,
+                                              guide_->guided_branches, rng_, fork_);
             before_fork_ = w_;
             diffuse_weights(w_, hit.surface, fork_[0].throughput);
             return fork_[0];
         }
         if (guided_ && first_diffuse) {
-            const InterfaceEvent e =
-                guided_diffuse_event(st_.direction, hit.normals, guide_->detector_axes, cos_guide_,
-                                     guide_->guided_fraction, rng_);
+            const InterfaceEvent e = guided_diffuse_event(
+                st_.direction, hit.normals, aim(hit), cos_guide_, guide_->guided_fraction, rng_);
             diffuse_weights(w_, hit.surface, e.throughput);
             return e;
         }

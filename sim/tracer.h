@@ -83,8 +83,12 @@
 // cosine direction enters a given 5° detector about 0.3 % of the time, a guided one about f/m
 // of the time for each of the m detectors of the light direction. In the film-in-air scenes the
 // film does not bend the light, so a direction aimed at a detector leaves towards it when
-// nothing blocks it; where the light refracts on its way out, the guide is still unbiased, only
-// less useful. Only the first diffuse event is guided, later ones follow the cosine law: a
+// nothing blocks it. Where the event lies inside a dielectric of index n > 1 (a white medulla
+// under a clear cortex), the light refracts on its way out, so the cones are aimed at through
+// an interface parallel to the event's facet (sim/interface_events.h, refracted_cone_axis): a
+// concentric cortex leaves close to that parallel. The aim only moves the cones; the mixture's
+// density uses the same cones, so it stays unbiased for any aim (on the stork's BTF, 1.10× less
+// variance at the same time). Only the first diffuse event is guided, later ones follow the cosine law: a
 // guided event can multiply the weight by up to albedo/(1 − f), and a path with many of them
 // (the stork's white medulla, three layers of diffuse bounces) had weights so heavy-tailed at
 // f = 0.8 that its values and their error bars were off (χ²/dof 1.47 against the plain walk,

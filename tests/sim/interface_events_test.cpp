@@ -53,6 +53,30 @@ TEST(InterfaceEvents, SnellAndMirrorGeometry) {
     EXPECT_EQ(t, up);  // index-matched: exactly straight on
 }
 
+TEST(InterfaceEvents, RefractedConeAxisLeavesAlongTheAxis) {
+    // Inside keratin under a tilted facet, the aim for a light axis: refracting it out through
+    // that facet (Snell's law forwards, refract()) gives the axis back.
+    const Vec3d out = Vec3d(0.3, -0.2, 1.0).normalized();
+    for (double theta : {0.0, 20.0, 50.0, 80.0}) {
+        for (double phi : {0.0, 90.0, 225.0}) {
+            const double t = theta * kDeg, p = phi * kDeg;
+            const Vec3d a(std::sin(t) * std::cos(p), std::sin(t) * std::sin(p), std::cos(t));
+            if (!(a.dot(out) > 0.0)) continue;
+            const Vec3d d = refracted_cone_axis(a, out, 1.55);
+            EXPECT_NEAR(d.norm(), 1.0, 1e-15);
+            EXPECT_GE(d.dot(out), a.dot(out) - 1e-15);  // bent towards the normal inside
+            Vec3d leaving;
+            // refract() takes the normal on the arriving side: -out, from inside.
+            ASSERT_TRUE(refract(d, -out, 1.55, &leaving)) << theta << " " << phi;
+            EXPECT_NEAR((leaving - a).norm(), 0.0, 1e-14) << theta << " " << phi;
+        }
+    }
+    // In air, or behind the interface: the axis itself.
+    const Vec3d a(0.5, 0.0, std::sqrt(0.75));
+    EXPECT_EQ(refracted_cone_axis(a, out, 1.0), a);
+    EXPECT_EQ(refracted_cone_axis(a, -out, 1.55), a);
+}
+
 TEST(InterfaceEvents, DielectricReflectsWithFresnelProbability) {
     const Complex keratin = optics::keratin()->index(550.0);
     constexpr int kDraws = 100'000;
