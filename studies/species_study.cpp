@@ -119,6 +119,8 @@ struct Settings {
     gonio::Aperture btf_aperture = gonio::Aperture::view_cone;
     gonio::BtfEstimator btf_estimator = gonio::BtfEstimator::forward;
     std::uint64_t btf_quanta_per_pixel = 1000;
+    int btf_max_passes = 1;  // the detector estimator's stop rule (gonio::BtfConfig)
+    double btf_target_pixel_error = 0.0, btf_max_time_s = 0.0;
     bool btf_figure9_only = false;  // [btf] pairs = "figure9": Fig. 9's 12 pairs, not the 3660
     int fit_evaluations = 3000;
     std::vector<SpeciesSpec> species;
@@ -275,7 +277,23 @@ void read_instruments(ParameterTable& root, Settings& s) {
         "BTF estimator: from the light, or from each pixel (needs aperture = \"both_cones\")"));
     s.btf_quanta_per_pixel = static_cast<std::uint64_t>(
         btf.integer("quanta_per_pixel", static_cast<long>(s.btf_quanta_per_pixel), 2, 1000000000,
-                    "BTF detector estimator: quanta per view direction and pixel"));
+                    "BTF detector estimator: quanta per view direction, pixel and pass"));
+    s.btf_max_passes = static_cast<int>(btf.integer(
+        "max_passes", s.btf_max_passes, 1, 100000,
+        "BTF detector estimator: passes at most (stop rule: target_pixel_error, max_time_s)"));
+    s.btf_target_pixel_error =
+        btf.number("target_pixel_error", s.btf_target_pixel_error, {0.0, 1.0, false, true},
+                   "BTF detector estimator: stop at this median per-pixel error over the lit "
+                   "pixels (0: none)");
+    s.btf_max_time_s = btf.number("max_time_s", s.btf_max_time_s, non_negative(),
+                                  "BTF detector estimator: no pass that would end after this "
+                                  "(s; 0: no limit)");
+    if (s.btf_max_passes > 1 && s.btf_estimator != gonio::BtfEstimator::detector) {
+        throw InputError(fmt::format(
+            "{}: [btf] max_passes = {} needs estimator = \"detector\" (the forward estimator "
+            "is one pass)",
+            btf.location("max_passes"), s.btf_max_passes));
+    }
     s.btf_figure9_only =
         btf.string("pairs", "filip2024", {"filip2024", "figure9"},
                    "BTF pairs: the 61 x 60 set, or Fig. 9's 12 geometries") == "figure9";
@@ -692,6 +710,17 @@ void write_species_h5_header(record::Hdf5Writer& h5, const SpeciesResult& result
 }
 
 // The patch, the BTF images and the fingerprints.
+// The detector estimator's stop rule, as the report states it.
+std::string btf_stop_rule(const Settings& s) {
+    std::string rule = fmt::format("at most {} passes", s.btf_max_passes);
+    if (s.btf_target_pixel_error > 0.0)
+        rule += fmt::format(", until the median per-pixel error is at most {:.1f} %",
+                            100.0 * s.btf_target_pixel_error);
+    if (s.btf_max_time_s > 0.0)
+        rule += fmt::format(", no pass ending after {:.0f} s", s.btf_max_time_s);
+    return rule;
+}
+
 // The BTF paragraph: what was imaged, how, at what cost and per-pixel error.
 std::string section_btf_setup(const Settings& s, const SpeciesOutcome& o, const std::string& name) {
     const bool detector = s.btf_estimator == gonio::BtfEstimator::detector;
@@ -702,9 +731,9 @@ std::string section_btf_setup(const Settings& s, const SpeciesOutcome& o, const 
                                   : "collimated light, detector half-angle";
     const std::string estimator =
         detector ? fmt::format(
-                       "detector-side estimator, {} quanta per view direction and pixel "
-                       "(all wavelengths on one path)",
-                       s.btf_quanta_per_pixel)
+                       "detector-side estimator, {} quanta per view direction and pixel in each "
+                       "of {} passes (all wavelengths on one path; {})",
+                       s.btf_quanta_per_pixel, o.btf_passes, btf_stop_rule(s))
                  : fmt::format("forward estimator, {} quanta per light direction and wavelength",
                                s.btf_quanta);
     return fmt::format(
@@ -1364,6 +1393,9 @@ void measure_species_btf(const Run& run, const Specimen& x, SpeciesOutcome& o) {
     bc.aperture = s.btf_aperture;
     bc.estimator = s.btf_estimator;
     bc.quanta_per_pixel = s.btf_quanta_per_pixel;
+    bc.max_passes = s.btf_max_passes;
+    bc.target_pixel_error = s.btf_target_pixel_error;
+    bc.max_time_s = s.btf_max_time_s;
     bc.seed = derive_seed(s.seed, "species/btf", x.index);
     bc.config_text = run.study_text;
     run.clock.say(fmt::format("{}: BTF on {} pairs ({} x {} pixels, {} wavelengths, {} estimator)",
@@ -1371,6 +1403,7 @@ void measure_species_btf(const Run& run, const Specimen& x, SpeciesOutcome& o) {
                               bc.wavelengths_nm.size(), gonio::to_string(bc.estimator)));
     const gonio::BtfRecord btf = gonio::measure_btf(x.imaged, bc);
     o.btf_seconds = btf.wall_time_s;
+    o.btf_passes = static_cast<int>(btf.convergence.size());
     const std::vector<std::size_t> figure9 = figure9_pairs(bc.pairs);
     o.btf_median_pixel_error = gonio::median_lit_pixel_error(btf, figure9);
     gonio::write_btf_record(btf, x.dir / "btf.h5");

@@ -91,6 +91,7 @@ struct SpeciesOutcome {
     double in_plane_peak_deg = 0.0;
     double brdf_seconds = 0.0;  // wall time of the 61 × 60 measurement
     double btf_seconds = 0.0;   // wall time of the BTF
+    int btf_passes = 0;         // the detector estimator's passes (BtfConfig's stop rule)
     // Median σ/f over the lit pixels of Fig. 9's tiles (gonio::median_lit_pixel_error).
     double btf_median_pixel_error = 0.0;
     // π f at the mirror pair (light 30° at 180°, view 30° at 0°) per wavelength: the spectrum

@@ -57,6 +57,22 @@ void BtfConfig::validate() const {
             kWhat,
             fmt::format("{} wavelengths: the detector estimator shares one path among at most {}",
                         wavelengths_nm.size(), Scatterer::kMaxSharedWavelengths));
+    require(max_passes >= 1 && max_passes <= 100000, kWhat,
+            fmt::format("max_passes = {}: expected 1..100000", max_passes));
+    require(max_passes == 1 || estimator == BtfEstimator::detector, kWhat,
+            "max_passes > 1 needs estimator = \"detector\" (the forward estimator is one pass)");
+    require(
+        std::isfinite(target_pixel_error) && target_pixel_error >= 0.0 && target_pixel_error < 1.0,
+        kWhat,
+        fmt::format("target_pixel_error = {}: expected 0 (none) or a fraction in (0, 1)",
+                    target_pixel_error));
+    require(std::isfinite(max_time_s) && max_time_s >= 0.0, kWhat,
+            fmt::format("max_time_s = {}: expected >= 0 s (0: no limit)", max_time_s));
+    // The detector estimator's stream items (pass × pixels² + pixel) × quanta + q fit 64 bits.
+    require(
+        static_cast<double>(max_passes) * pixels * pixels * static_cast<double>(quanta_per_pixel) <
+            0x1p63,
+        kWhat, "max_passes × pixels² × quanta_per_pixel must stay below 2^63");
     for (std::size_t i = 0; i < pairs.size() && aperture == Aperture::both_cones; ++i) {
         require(pairs[i].wi.z() > std::sin(detector_half_angle_rad), kWhat,
                 fmt::format("pair {}: under both_cones the light cone must be above the patch", i));
@@ -225,6 +241,8 @@ public:
     }
 
     std::size_t items() const { return views_.size() * static_cast<std::size_t>(c_.pixels); }
+    // The pass the next items belong to: its quanta are its own streams.
+    void start_pass(int pass) { pass_ = static_cast<std::uint64_t>(pass); }
 
     void image_item(std::size_t it) {
         const std::size_t v = it / static_cast<std::size_t>(c_.pixels);
@@ -240,9 +258,9 @@ public:
         options.guided_branches = 1;
         std::vector<double> acc(pairs.size() * nl_);
         for (int column = 0; column < c_.pixels; ++column) {
-            const std::uint64_t pixel =
-                static_cast<std::uint64_t>(row) * static_cast<std::uint64_t>(c_.pixels) +
-                static_cast<std::uint64_t>(column);
+            const auto side = static_cast<std::uint64_t>(c_.pixels);
+            const std::uint64_t pixel = (pass_ * side + static_cast<std::uint64_t>(row)) * side +
+                                        static_cast<std::uint64_t>(column);
             for (std::uint64_t q = 0; q < c_.quanta_per_pixel; ++q) {
                 Rng rng(seeds_[v], pixel * c_.quanta_per_pixel + q);
                 std::fill(acc.begin(), acc.end(), 0.0);
@@ -307,11 +325,19 @@ private:
     std::size_t nl_;
     double half_, pixel_, cos_alpha_, projected_;
     std::vector<std::uint64_t> seeds_;
+    std::uint64_t pass_ = 0;
 };
 
-// Σx, Σx² per cell → mean and its standard error over the pixel's N_p quanta.
-void finish_detector_pixels(BtfRecord& r) {
-    const double n = static_cast<double>(r.config.quanta_per_pixel);
+// Σσ / Σf over every cell: the convergence rows' error (BtfRecord).
+double power_weighted_error(const BtfRecord& r) {
+    double signal = 0.0, error = 0.0;
+    for (std::size_t i = 0; i < r.value.size(); ++i)
+        signal += r.value[i], error += r.standard_error[i];
+    return signal > 0.0 ? error / signal : std::numeric_limits<double>::infinity();
+}
+
+// Σx, Σx² per cell → mean and its standard error over the pixel's n quanta.
+void finish_detector_pixels(BtfRecord& r, double n) {
     for (std::size_t i = 0; i < r.value.size(); ++i) {
         const double mean = r.value[i] / n;
         const double variance =
@@ -369,9 +395,30 @@ void measure_from_detector(const Scatterer& scatterer, BtfRecord& r) {
             r.standard_error[i] = slice[at++];
         });
     };
-    if (!distributed::run_items(imaging.items(), image_item, transport, &interrupt_flag()))
-        throw Interrupted(fmt::format("interrupted while imaging the BTF of {}", r.scatterer));
-    finish_detector_pixels(r);
+    // Passes until the stop rule (BtfConfig): value and standard_error hold Σx and Σx² over all
+    // passes so far; each pass's estimate is finished on a copy, the last one kept.
+    const auto start = std::chrono::steady_clock::now();
+    for (int pass = 0;; ++pass) {
+        imaging.start_pass(pass);
+        if (!distributed::run_items(imaging.items(), image_item, transport, &interrupt_flag()))
+            throw Interrupted(fmt::format("interrupted while imaging the BTF of {}", r.scatterer));
+        const double elapsed =
+            std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+        const std::uint64_t quanta = static_cast<std::uint64_t>(pass + 1) * c.quanta_per_pixel;
+        BtfRecord estimate = r;
+        finish_detector_pixels(estimate, static_cast<double>(quanta));
+        r.convergence.push_back({pass + 1, elapsed, quanta, power_weighted_error(estimate)});
+        const bool last = pass + 1 == c.max_passes ||
+                          (c.target_pixel_error > 0.0 &&
+                           median_lit_pixel_error(estimate) <= c.target_pixel_error) ||
+                          (c.max_time_s > 0.0 && elapsed * (pass + 2) / (pass + 1) > c.max_time_s);
+        // Every rank stops with rank 0 (their clocks differ; their estimates do not).
+        if (distributed::broadcast_flag(last)) {
+            r.value = std::move(estimate.value);
+            r.standard_error = std::move(estimate.standard_error);
+            return;
+        }
+    }
 }
 
 }  // namespace
@@ -391,14 +438,8 @@ BtfRecord measure_btf(const Scatterer& scatterer, const BtfConfig& config) {
     }
     r.wall_time_s = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
     r.cpu_time_s = process_cpu_seconds() - cpu_start;
-    double signal = 0.0, error = 0.0;
-    for (std::size_t i = 0; i < r.value.size(); ++i)
-        signal += r.value[i], error += r.standard_error[i];
-    const std::uint64_t quanta = config.estimator == BtfEstimator::detector
-                                     ? config.quanta_per_pixel
-                                     : config.quanta_per_light;
-    r.convergence = {{1, r.wall_time_s, quanta,
-                      signal > 0.0 ? error / signal : std::numeric_limits<double>::infinity()}};
+    if (config.estimator == BtfEstimator::forward)
+        r.convergence = {{1, r.wall_time_s, config.quanta_per_light, power_weighted_error(r)}};
     return r;
 }
 

@@ -66,8 +66,17 @@ struct BtfConfig {
     std::uint64_t quanta_per_light = 2000000;
     Aperture aperture = Aperture::view_cone;
     BtfEstimator estimator = BtfEstimator::forward;
-    // Detector estimator: per view direction and pixel (all wavelengths on one shared path).
+    // Detector estimator: per view direction, pixel and pass (all wavelengths on one shared
+    // path).
     std::uint64_t quanta_per_pixel = 1000;
+    // The detector estimator's stop rule: passes of quanta_per_pixel each, every pass on its own
+    // streams, until the median per-pixel error over the lit pixels (median_lit_pixel_error) is
+    // at most target_pixel_error, or max_passes are done, or another pass would end after
+    // max_time_s (from the passes so far). 0 switches a target or the time limit off. The
+    // forward estimator is one pass.
+    int max_passes = 1;               // 1 … 100000
+    double target_pixel_error = 0.0;  // [0, 1); e.g. 0.05
+    double max_time_s = 0.0;          // s, >= 0
     std::uint64_t seed = kDefaultSeed;
     std::string config_text;  // the study text, for provenance
     void validate() const;
@@ -80,10 +89,12 @@ struct BtfRecord {
     std::vector<double> value, standard_error;
     double wall_time_s = 0.0;
     double cpu_time_s = 0.0;  // process CPU time (all threads) over the same span
-    // One row (the BTF is one pass): wall time, quanta (per light direction and wavelength, or
-    // per view direction and pixel for the detector estimator), and
-    // the power-weighted relative error Σσ / Σf over every pixel of every pair and wavelength
-    // (bright pixels dominate; a relative RMS would be ruled by the pixels one quantum reached).
+    // One row per pass (the forward estimator has one): pass, wall time, quanta so far (per
+    // light direction and wavelength, or per view direction and pixel for the detector
+    // estimator), and the power-weighted relative error Σσ / Σf over every pixel of every pair
+    // and wavelength (bright pixels dominate; a relative RMS would be ruled by the pixels one
+    // quantum reached). The detector estimator stops on the median rule (BtfConfig), and the
+    // species report prints that median.
     std::vector<ConvergenceRow> convergence;
     std::size_t index(std::size_t pair, int row, int column, std::size_t wavelength) const {
         const std::size_t n = static_cast<std::size_t>(config.pixels);

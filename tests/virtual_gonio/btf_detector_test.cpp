@@ -51,13 +51,8 @@ BtfConfig small_btf(double patch_um, int pixels) {
     return c;
 }
 
-TEST(BtfDetector, LambertianPlateImagesAsAlbedoOverPi) {
-    const sim::ExplicitScatterer plate(sim::single_mesh_scene(
-        testing::square_mesh(200.0), sim::diffuse_layer(sim::constant_albedo(0.6)), "plate"));
-    BtfConfig c = small_btf(40.0, 8);
-    c.estimator = BtfEstimator::detector;
-    c.quanta_per_pixel = 4000;
-    const BtfRecord r = measure_btf(plate, c);
+// Every pixel of a Lambertian plate of albedo 0.6 against 0.6/π: χ² and the Šidák bound on |z|.
+void expect_plate_values(const BtfRecord& r, const std::string& what) {
     const double truth = 0.6 / std::numbers::pi;
     double chi2 = 0.0, max_z = 0.0;
     for (std::size_t i = 0; i < r.value.size(); ++i) {
@@ -67,9 +62,51 @@ TEST(BtfDetector, LambertianPlateImagesAsAlbedoOverPi) {
         max_z = std::max(max_z, std::abs(z));
     }
     const auto dof = static_cast<int>(r.value.size());
-    EXPECT_GT(analysis::chi_square_p_value(chi2, dof), 1e-3) << "chi2/dof " << chi2 / dof;
-    EXPECT_LT(max_z, analysis::two_sided_normal_quantile(analysis::sidak_significance(0.01, dof)));
-    RecordProperty("plate_chi2_per_dof", std::to_string(chi2 / dof));
+    EXPECT_GT(analysis::chi_square_p_value(chi2, dof), 1e-3) << what << ": chi2/dof " << chi2 / dof;
+    EXPECT_LT(max_z, analysis::two_sided_normal_quantile(analysis::sidak_significance(0.01, dof)))
+        << what;
+    ::testing::Test::RecordProperty(what + "_chi2_per_dof", std::to_string(chi2 / dof));
+}
+
+sim::ExplicitScatterer white_plate() {
+    return sim::ExplicitScatterer(sim::single_mesh_scene(
+        testing::square_mesh(200.0), sim::diffuse_layer(sim::constant_albedo(0.6)), "plate"));
+}
+
+TEST(BtfDetector, LambertianPlateImagesAsAlbedoOverPi) {
+    const sim::ExplicitScatterer plate = white_plate();
+    BtfConfig c = small_btf(40.0, 8);
+    c.estimator = BtfEstimator::detector;
+    c.quanta_per_pixel = 4000;
+    expect_plate_values(measure_btf(plate, c), "plate");
+}
+
+TEST(BtfDetector, PassesStopOnTheMedianPixelRule) {
+    const sim::ExplicitScatterer plate = white_plate();
+    BtfConfig c = small_btf(40.0, 8);
+    c.estimator = BtfEstimator::detector;
+    c.quanta_per_pixel = 1000;
+    c.max_passes = 4;
+    const BtfRecord four = measure_btf(plate, c);
+    ASSERT_EQ(four.convergence.size(), 4u);
+    for (std::size_t p = 0; p < 4; ++p) EXPECT_EQ(four.convergence[p].quanta, 1000 * (p + 1));
+    // Independent passes: the error falls as 1/√passes (to the error of a 256-cell mean of σ).
+    EXPECT_NEAR(four.convergence[3].estimated_relative_rms_error /
+                    four.convergence[0].estimated_relative_rms_error,
+                0.5, 0.03);
+    expect_plate_values(four, "four_passes");  // unbiased over all 4000 quanta per pixel
+    // The rule: a target just above pass 1's median stops there, one between pass 1's and
+    // pass 2's (1/√2 of it) after pass 2; a time limit no pass can meet stops after pass 1.
+    c.max_passes = 1;
+    const double first = median_lit_pixel_error(measure_btf(plate, c));
+    c.max_passes = 10;
+    c.target_pixel_error = 1.01 * first;
+    EXPECT_EQ(measure_btf(plate, c).convergence.size(), 1u);
+    c.target_pixel_error = 0.85 * first;
+    EXPECT_EQ(measure_btf(plate, c).convergence.size(), 2u);
+    c.target_pixel_error = 0.0;
+    c.max_time_s = 1e-9;
+    EXPECT_EQ(measure_btf(plate, c).convergence.size(), 1u);
 }
 
 TEST(BtfDetector, AgreesWithTheForwardWalkOnAFacetedKeratinSphere) {
@@ -132,7 +169,8 @@ TEST(BtfDetector, IsBitIdenticalOnOneAndTwoThreads) {
     const sim::ExplicitScatterer tracer(sim::barbule_row_scene(row));
     BtfConfig c = small_btf(20.0, 4);
     c.estimator = BtfEstimator::detector;
-    c.quanta_per_pixel = 500;
+    c.quanta_per_pixel = 250;
+    c.max_passes = 2;  // the second pass on its own streams, summed into the first
     const int threads = omp_get_max_threads();
     omp_set_num_threads(1);
     const BtfRecord one = measure_btf(tracer, c);
@@ -153,6 +191,10 @@ TEST(BtfDetector, RefusesWhatItCannotMeasure) {
     c.aperture = Aperture::view_cone;
     EXPECT_THROW(measure_btf(plate, c), InputError);  // a collimated light
     EXPECT_THROW(parse_btf_estimator("backward"), InputError);
+    c.aperture = Aperture::both_cones;
+    c.estimator = BtfEstimator::forward;
+    c.max_passes = 2;
+    EXPECT_THROW(measure_btf(plate, c), InputError);  // the forward estimator is one pass
     EXPECT_EQ(parse_btf_estimator("detector"), BtfEstimator::detector);
 }
 
