@@ -88,8 +88,8 @@
 // an interface parallel to the event's facet (sim/interface_events.h, refracted_cone_axis): a
 // concentric cortex leaves close to that parallel. The aim only moves the cones; the mixture's
 // density uses the same cones, so it stays unbiased for any aim (on the stork's BTF, 1.10× less
-// variance at the same time). Only the first diffuse event is guided, later ones follow the cosine law: a
-// guided event can multiply the weight by up to albedo/(1 − f), and a path with many of them
+// variance at the same time). Only the first diffuse event is guided, later ones follow the cosine
+// law: a guided event can multiply the weight by up to albedo/(1 − f), and a path with many of them
 // (the stork's white medulla, three layers of diffuse bounces) had weights so heavy-tailed at
 // f = 0.8 that its values and their error bars were off (χ²/dof 1.47 against the plain walk,
 // not shrinking with 20× the quanta) while one guided event per path stays clean.
