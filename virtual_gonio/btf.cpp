@@ -6,6 +6,7 @@
 #include <atomic>
 #include <chrono>
 #include <cmath>
+#include <iostream>
 #include <limits>
 #include <optional>
 #include <string_view>
@@ -363,7 +364,7 @@ void measure_forward(const Scatterer& scatterer, BtfRecord& r) {
 }
 
 // The detector estimator: items write disjoint cells, so any order gives the same bits.
-void measure_from_detector(const Scatterer& scatterer, BtfRecord& r) {
+void measure_from_detector(const Scatterer& scatterer, BtfRecord& r, bool progress) {
     if (!scatterer.can_trace_adjoint()) {
         throw InputError(fmt::format(
             "btf: estimator = \"detector\" needs a scatterer with a detector-side walk (the "
@@ -408,12 +409,20 @@ void measure_from_detector(const Scatterer& scatterer, BtfRecord& r) {
         BtfRecord estimate = r;
         finish_detector_pixels(estimate, static_cast<double>(quanta));
         r.convergence.push_back({pass + 1, elapsed, quanta, power_weighted_error(estimate)});
+        const double median = median_lit_pixel_error(estimate);
+        if (progress) {
+            std::cerr << fmt::format(
+                             "\r  {}: BTF pass {} of at most {}, {} quanta per pixel, median "
+                             "pixel error {:.3g} %, {:.1f} s   ",
+                             r.scatterer, pass + 1, c.max_passes, quanta, 100.0 * median, elapsed)
+                      << std::flush;
+        }
         const bool last = pass + 1 == c.max_passes ||
-                          (c.target_pixel_error > 0.0 &&
-                           median_lit_pixel_error(estimate) <= c.target_pixel_error) ||
+                          (c.target_pixel_error > 0.0 && median <= c.target_pixel_error) ||
                           (c.max_time_s > 0.0 && elapsed * (pass + 2) / (pass + 1) > c.max_time_s);
         // Every rank stops with rank 0 (their clocks differ; their estimates do not).
         if (distributed::broadcast_flag(last)) {
+            if (progress) std::cerr << '\n';
             r.value = std::move(estimate.value);
             r.standard_error = std::move(estimate.standard_error);
             return;
@@ -423,7 +432,7 @@ void measure_from_detector(const Scatterer& scatterer, BtfRecord& r) {
 
 }  // namespace
 
-BtfRecord measure_btf(const Scatterer& scatterer, const BtfConfig& config) {
+BtfRecord measure_btf(const Scatterer& scatterer, const BtfConfig& config, bool progress) {
     config.validate();
     const auto start = std::chrono::steady_clock::now();
     const double cpu_start = process_cpu_seconds();
@@ -432,7 +441,7 @@ BtfRecord measure_btf(const Scatterer& scatterer, const BtfConfig& config) {
     r.scatterer = scatterer.name();
     record_measurement_seed("btf", config.seed);  // common/seed.h: one root per measurement
     if (config.estimator == BtfEstimator::detector) {
-        measure_from_detector(scatterer, r);
+        measure_from_detector(scatterer, r, progress);
     } else {
         measure_forward(scatterer, r);
     }
@@ -521,8 +530,12 @@ void write_btf_record(const BtfRecord& r, const std::filesystem::path& path) {
     h5.set_attribute("/instrument", "aperture", to_string(c.aperture));
     h5.set_attribute("/instrument", "estimator", to_string(c.estimator));
     if (c.estimator == BtfEstimator::detector) {
+        // Per pass; the passes taken are /convergence's rows.
         h5.set_attribute("/instrument", "quanta_per_view_and_pixel",
                          static_cast<double>(c.quanta_per_pixel));
+        h5.set_attribute("/instrument", "max_passes", static_cast<double>(c.max_passes));
+        h5.set_attribute("/instrument", "target_pixel_error", c.target_pixel_error);
+        h5.set_attribute("/instrument", "max_time_s", c.max_time_s);
     } else {
         h5.set_attribute("/instrument", "quanta_per_light_and_wavelength",
                          static_cast<double>(c.quanta_per_light));

@@ -106,7 +106,9 @@ struct BtfRecord {
 
 // Throws Interrupted (common/interrupt.h) on Ctrl-C/SIGTERM (interrupt_requested()), InputError
 // for a bad configuration or a detector estimator on a scatterer without a detector-side walk.
-BtfRecord measure_btf(const Scatterer& scatterer, const BtfConfig& config);
+// With progress, the detector estimator prints a line per pass on stderr (pass, quanta, median
+// per-pixel error, time; each overwriting the last).
+BtfRecord measure_btf(const Scatterer& scatterer, const BtfConfig& config, bool progress = false);
 // The per-pixel error rule: the median of σ/f over the lit pixels of the given pairs (all when
 // empty), every wavelength; a pixel is lit when its value exceeds lit_fraction of the brightest
 // pixel of its tile at that wavelength (shadowed and unseen pixels are not ground truth of
