@@ -280,55 +280,74 @@ double locate_change(const Status& status_at, double lo, double hi, int first, i
 // or, when the support also changes across (a corner of the R band, where a visibility end meets
 // the NDF's θ_d edge), the across range is cut where the grid rows change support (bisection)
 // and each piece gets 2-point Gauss–Legendre lines. Weights include J · cos θ_o / Ω_pixel.
-void edge_pixel_points(const SupportProbe& support, int n, int row, int column, int lines,
-                       int bisections, double omega, std::vector<std::pair<Vec3d, double>>& out) {
-    out.clear();
-    const double pixel = 2.0 / n;
-    const double u0 = column * pixel - 1.0, v0 = 1.0 - row * pixel;
-    const auto m = static_cast<std::size_t>(lines);
-    auto node_position = [lines](std::size_t k) { return static_cast<double>(k) / (lines - 1); };
-    // Local (a, c) ∈ [0, 1]²: u = u0 + a·pixel, v = v0 − c·pixel.
-    auto status_ac = [&](double a, double c) { return support(u0 + pixel * a, v0 - pixel * c); };
-    std::vector<int> grid(m * m);  // [a index][c index]
-    for (std::size_t i = 0; i < m; ++i) {
-        for (std::size_t j = 0; j < m; ++j)
-            grid[i * m + j] = status_ac(node_position(i), node_position(j));
-    }
-    int along_c = 0, along_a = 0;
-    for (std::size_t i = 0; i < m; ++i) {
-        for (std::size_t j = 0; j + 1 < m; ++j) {
-            along_c += grid[i * m + j] != grid[i * m + j + 1];
-            along_a += grid[j * m + i] != grid[(j + 1) * m + i];
+class EdgePixelCubature {
+public:
+    EdgePixelCubature(const SupportProbe& support, int n, int row, int column, int lines,
+                      int bisections)
+        : support_(support),
+          pixel_(2.0 / n),
+          u0_(column * pixel_ - 1.0),
+          v0_(1.0 - row * pixel_),
+          lines_(lines),
+          m_(static_cast<std::size_t>(lines)),
+          bisections_(bisections),
+          grid_(m_ * m_) {
+        for (std::size_t i = 0; i < m_; ++i) {
+            for (std::size_t j = 0; j < m_; ++j)
+                grid_[i * m_ + j] = status_ac(node_position(i), node_position(j));
         }
+        for (std::size_t i = 0; i < m_; ++i) {
+            for (std::size_t j = 0; j + 1 < m_; ++j) {
+                along_c_ += grid_[i * m_ + j] != grid_[i * m_ + j + 1];
+                along_a_ += grid_[j * m_ + i] != grid_[(j + 1) * m_ + i];
+            }
+        }
+        lines_along_c_ = along_c_ >= along_a_;
     }
-    // Lines at fixed x (the across coordinate), cut along t; (x, t) = (a, c) or (c, a).
-    const bool lines_along_c = along_c >= along_a;
-    auto status_xt = [&](double x, double t) {
-        return lines_along_c ? status_ac(x, t) : status_ac(t, x);
-    };
-    auto grid_xt = [&](std::size_t x, std::size_t t) {
-        return lines_along_c ? grid[x * m + t] : grid[t * m + x];
-    };
+
+    void points(double omega, std::vector<std::pair<Vec3d, double>>& out) const {
+        out.clear();
+        std::vector<int> nodes(m_);
+        std::vector<double> cuts;
+        for (const Line& line : across_lines()) line_points(line, omega, nodes, cuts, out);
+    }
+
+private:
     // The lines: across position, weight, and the grid column if it is one.
     struct Line {
         double x, weight;
         std::ptrdiff_t grid_index;
     };
-    std::vector<Line> line_set;
-    if ((lines_along_c ? along_a : along_c) == 0) {
-        const std::vector<double> w = simpson_weights(lines);
-        for (std::size_t i = 0; i < m; ++i)
-            line_set.push_back({node_position(i), w[i], static_cast<std::ptrdiff_t>(i)});
-    } else {
+
+    double node_position(std::size_t k) const { return static_cast<double>(k) / (lines_ - 1); }
+    // Local (a, c) ∈ [0, 1]²: u = u0 + a·pixel, v = v0 − c·pixel.
+    int status_ac(double a, double c) const { return support_(u0_ + pixel_ * a, v0_ - pixel_ * c); }
+    // Lines at fixed x (the across coordinate), cut along t; (x, t) = (a, c) or (c, a).
+    int status_xt(double x, double t) const {
+        return lines_along_c_ ? status_ac(x, t) : status_ac(t, x);
+    }
+    int grid_xt(std::size_t x, std::size_t t) const {
+        return lines_along_c_ ? grid_[x * m_ + t] : grid_[t * m_ + x];
+    }
+
+    // Simpson on the grid lines, or Gauss–Legendre pieces between the across changes.
+    std::vector<Line> across_lines() const {
+        std::vector<Line> line_set;
+        if ((lines_along_c_ ? along_a_ : along_c_) == 0) {
+            const std::vector<double> w = simpson_weights(lines_);
+            for (std::size_t i = 0; i < m_; ++i)
+                line_set.push_back({node_position(i), w[i], static_cast<std::ptrdiff_t>(i)});
+            return line_set;
+        }
         std::vector<double> across_cuts = {0.0, 1.0};
-        for (std::size_t t = 0; t < m; ++t) {
-            for (std::size_t x = 0; x + 1 < m; ++x) {
+        for (std::size_t t = 0; t < m_; ++t) {
+            for (std::size_t x = 0; x + 1 < m_; ++x) {
                 const int first = grid_xt(x, t);
                 if (first == grid_xt(x + 1, t)) continue;
                 const double fixed_t = node_position(t);
                 across_cuts.push_back(
                     locate_change([&](double xx) { return status_xt(xx, fixed_t); },
-                                  node_position(x), node_position(x + 1), first, bisections));
+                                  node_position(x), node_position(x + 1), first, bisections_));
             }
         }
         std::sort(across_cuts.begin(), across_cuts.end());
@@ -340,34 +359,50 @@ void edge_pixel_points(const SupportProbe& support, int n, int row, int column, 
             line_set.push_back({mid - kGauss * length, 0.5 * length, -1});
             line_set.push_back({mid + kGauss * length, 0.5 * length, -1});
         }
+        return line_set;
     }
-    std::vector<int> nodes(m);
-    std::vector<double> cuts;
-    for (const Line& line : line_set) {
-        for (std::size_t t = 0; t < m; ++t) {
+
+    // One line cut where the support changes, each segment by its midpoint.
+    void line_points(const Line& line, double omega, std::vector<int>& nodes,
+                     std::vector<double>& cuts, std::vector<std::pair<Vec3d, double>>& out) const {
+        for (std::size_t t = 0; t < m_; ++t) {
             nodes[t] = line.grid_index >= 0 ? grid_xt(static_cast<std::size_t>(line.grid_index), t)
                                             : status_xt(line.x, node_position(t));
         }
         cuts.assign(1, 0.0);
-        for (std::size_t t = 0; t + 1 < m; ++t) {
+        for (std::size_t t = 0; t + 1 < m_; ++t) {
             if (nodes[t] == nodes[t + 1]) continue;
             cuts.push_back(locate_change([&](double tt) { return status_xt(line.x, tt); },
                                          node_position(t), node_position(t + 1), nodes[t],
-                                         bisections));
+                                         bisections_));
         }
         cuts.push_back(1.0);
         for (std::size_t k = 0; k + 1 < cuts.size(); ++k) {
             const double length = cuts[k + 1] - cuts[k];
             if (!(length > 0.0)) continue;
             const double t = 0.5 * (cuts[k] + cuts[k + 1]);
-            const double a = lines_along_c ? line.x : t, c = lines_along_c ? t : line.x;
+            const double a = lines_along_c_ ? line.x : t, c = lines_along_c_ ? t : line.x;
             double jacobian = 0.0;
-            const auto wo = image_direction(u0 + pixel * a, v0 - pixel * c, jacobian);
+            const auto wo = image_direction(u0_ + pixel_ * a, v0_ - pixel_ * c, jacobian);
             if (!wo) continue;  // beyond the rim: no quanta land there
             out.emplace_back(*wo,
-                             line.weight * length * pixel * pixel * jacobian * wo->z() / omega);
+                             line.weight * length * pixel_ * pixel_ * jacobian * wo->z() / omega);
         }
     }
+
+    const SupportProbe& support_;
+    double pixel_, u0_, v0_;
+    int lines_;
+    std::size_t m_;
+    int bisections_;
+    std::vector<int> grid_;  // [a index][c index]
+    int along_c_ = 0, along_a_ = 0;
+    bool lines_along_c_ = true;
+};
+
+void edge_pixel_points(const SupportProbe& support, int n, int row, int column, int lines,
+                       int bisections, double omega, std::vector<std::pair<Vec3d, double>>& out) {
+    EdgePixelCubature(support, n, row, column, lines, bisections).points(omega, out);
 }
 
 // Predictions for every observation of the layout (indexed by observation). Each pixel is
@@ -375,121 +410,172 @@ void edge_pixel_points(const SupportProbe& support, int n, int row, int column, 
 // `working`, when given, is called with the number of illumination directions done, between
 // directions and, from the first thread, between pixels: a hemisphere record of many pixels
 // and wavelengths takes seconds per direction, and its caller reports progress by time.
-void predict(const Huang2022Params& params, const Layout& layout, int threads,
-             std::vector<double>& out, const std::function<void(std::size_t)>& working = {}) {
-    const Huang2022Bsdf model(params);
-    const int n = layout.n;
-    const double pixel = 2.0 / n;
-    const std::size_t nw = layout.wavelengths_nm.size();
-    const double reference = layout.wavelengths_nm.front();
-    out.assign(layout.observations, 0.0);
-    std::vector<int> status(static_cast<std::size_t>(n) * n, -1);
-    std::vector<double> centre_value(static_cast<std::size_t>(n) * n, 0.0);
-    std::vector<bool> edge(layout.used.size(), false);
-    std::exception_ptr error;
+class ModelImage {
+public:
+    ModelImage(const Huang2022Params& params, const Layout& layout, int threads,
+               std::vector<double>& out, const std::function<void(std::size_t)>& working)
+        : model_(params),
+          layout_(layout),
+          threads_(threads),
+          out_(out),
+          working_(working),
+          n_(layout.n),
+          pixel_(2.0 / layout.n),
+          nw_(layout.wavelengths_nm.size()),
+          reference_(layout.wavelengths_nm.front()),
+          status_(static_cast<std::size_t>(n_) * n_, -1),
+          centre_value_(static_cast<std::size_t>(n_) * n_, 0.0),
+          edge_(layout.used.size(), false) {
+        out_.assign(layout.observations, 0.0);
+    }
+
+    void run() {
+        for (const auto& node : layout_.illumination) {
+            if (working_) working_(directions_);
+            throw_if_interrupted("the next illumination direction of the Huang 2022 model image");
+            // Plain variables, not a structured binding: OpenMP regions use them, and clang
+            // before 16 cannot capture bindings there.
+            const Vec3d& wi = node.first;
+            const double node_weight = node.second;
+            centres(wi);
+            mark_edges();
+            edge_pixels(wi, node_weight, SupportProbe{model_, wi, reference_});
+            centre_pixels(wi, node_weight);
+            ++directions_;
+        }
+        throw_if_interrupted("the end of the Huang 2022 model image");
+    }
+
+private:
     // Work is skipped once Ctrl-C is pressed (common/interrupt.h); the node loop then throws.
-    std::size_t directions = 0;
-    auto guarded = [&error, &working, &directions](auto&& body) {
+    template <class Body>
+    void guarded(Body&& body) {
         if (interrupt_requested()) return;
-        if (working && omp_get_thread_num() == 0) working(directions);
+        if (working_ && omp_get_thread_num() == 0) working_(directions_);
         try {
             body();
         } catch (...) {
 #pragma omp critical(huang2022_fit_error)
-            if (!error) error = std::current_exception();
+            if (!error_) error_ = std::current_exception();
         }
-    };
-    auto centre_of = [&](std::size_t p) {
-        const int row = static_cast<int>(p / n), column = static_cast<int>(p % n);
-        return std::pair{(column + 0.5) * pixel - 1.0, 1.0 - (row + 0.5) * pixel};
-    };
-    for (const auto& node : layout.illumination) {
-        if (working) working(directions);
-        throw_if_interrupted("the next illumination direction of the Huang 2022 model image");
-        // Plain variables, not a structured binding: OpenMP regions below use them, and
-        // clang before 16 cannot capture bindings there.
-        const Vec3d& wi = node.first;
-        const double node_weight = node.second;
-        const SupportProbe support{model, wi, reference};
-        // A: every disc pixel's centre at the reference wavelength: R's support and f cos θ_o.
-        const auto disc_count = static_cast<std::ptrdiff_t>(layout.disc.size());
-#pragma omp parallel for schedule(dynamic, 16) num_threads(threads)
+    }
+    void rethrow() const {
+        if (error_) std::rethrow_exception(error_);
+    }
+    std::pair<double, double> centre_of(std::size_t p) const {
+        const int row = static_cast<int>(p / n_), column = static_cast<int>(p % n_);
+        return std::pair{(column + 0.5) * pixel_ - 1.0, 1.0 - (row + 0.5) * pixel_};
+    }
+
+    // A: every disc pixel's centre at the reference wavelength: R's support and f cos θ_o.
+    void centres(const Vec3d& wi) {
+        const auto disc_count = static_cast<std::ptrdiff_t>(layout_.disc.size());
+#pragma omp parallel for schedule(dynamic, 16) num_threads(threads_)
         for (std::ptrdiff_t k = 0; k < disc_count; ++k) {
             guarded([&] {
-                const std::size_t p = layout.disc[static_cast<std::size_t>(k)];
+                const std::size_t p = layout_.disc[static_cast<std::size_t>(k)];
                 const auto [u, v] = centre_of(p);
                 double jacobian = 0.0;
                 const Vec3d wo = *image_direction(u, v, jacobian);
                 std::array<double, 3> lobes{};
-                centre_value[p] = model.eval(wi, wo, reference, lobes) * wo.z();
-                status[p] = lobes[Huang2022Bsdf::kR] > 0.0 ? 1 : 0;
+                centre_value_[p] = model_.eval(wi, wo, reference_, lobes) * wo.z();
+                status_[p] = lobes[Huang2022Bsdf::kR] > 0.0 ? 1 : 0;
             });
         }
-        if (error) std::rethrow_exception(error);
-        // B: a used pixel is an edge pixel when R's support differs between its centre and a
-        // neighbour's (any edge lies between two such centres), or when forced (the rim).
-        for (std::size_t i = 0; i < layout.used.size(); ++i) {
-            const std::size_t p = layout.used[i];
-            const int row = static_cast<int>(p / n), column = static_cast<int>(p % n);
-            bool differs = layout.force_edge[i];
+        rethrow();
+    }
+
+    // B: a used pixel is an edge pixel when R's support differs between its centre and a
+    // neighbour's (any edge lies between two such centres), or when forced (the rim).
+    void mark_edges() {
+        for (std::size_t i = 0; i < layout_.used.size(); ++i) {
+            const std::size_t p = layout_.used[i];
+            const int row = static_cast<int>(p / n_), column = static_cast<int>(p % n_);
+            bool differs = layout_.force_edge[i];
             for (int dr = -1; dr <= 1 && !differs; ++dr) {
                 for (int dc = -1; dc <= 1 && !differs; ++dc) {
                     const int r2 = row + dr, c2 = column + dc;
-                    if (r2 < 0 || c2 < 0 || r2 >= n || c2 >= n) continue;
-                    const int s = status[static_cast<std::size_t>(r2) * n + c2];
-                    differs = s >= 0 && s != status[p];
+                    if (r2 < 0 || c2 < 0 || r2 >= n_ || c2 >= n_) continue;
+                    const int s = status_[static_cast<std::size_t>(r2) * n_ + c2];
+                    differs = s >= 0 && s != status_[p];
                 }
             }
-            edge[i] = differs;
+            edge_[i] = differs;
         }
-        // C: edge pixels by lines; D: the others by their centre.
-        const auto used_count = static_cast<std::ptrdiff_t>(layout.used.size());
-#pragma omp parallel for schedule(dynamic, 1) num_threads(threads)
+    }
+
+    // C: edge pixels by lines.
+    void edge_pixels(const Vec3d& wi, double node_weight, const SupportProbe& support) {
+        const auto used_count = static_cast<std::ptrdiff_t>(layout_.used.size());
+#pragma omp parallel for schedule(dynamic, 1) num_threads(threads_)
         for (std::ptrdiff_t k = 0; k < used_count; ++k) {
             const auto i = static_cast<std::size_t>(k);
-            if (!edge[i]) continue;
+            if (!edge_[i]) continue;
             guarded([&] {
-                const std::size_t p = layout.used[i];
+                const std::size_t p = layout_.used[i];
                 thread_local std::vector<std::pair<Vec3d, double>> points;
-                edge_pixel_points(support, n, static_cast<int>(p / n), static_cast<int>(p % n),
-                                  layout.edge_lines, layout.edge_bisections, layout.omega[i],
+                edge_pixel_points(support, n_, static_cast<int>(p / n_), static_cast<int>(p % n_),
+                                  layout_.edge_lines, layout_.edge_bisections, layout_.omega[i],
                                   points);
-                for (std::size_t w = 0; w < nw; ++w) {
-                    const std::ptrdiff_t o = layout.observation[i * nw + w];
+                for (std::size_t w = 0; w < nw_; ++w) {
+                    const std::ptrdiff_t o = layout_.observation[i * nw_ + w];
                     if (o < 0) continue;
                     double sum = 0.0;
                     for (const auto& [wo, weight] : points) {
-                        sum += weight * model.eval(wi, wo, layout.wavelengths_nm[w]);
+                        sum += weight * model_.eval(wi, wo, layout_.wavelengths_nm[w]);
                     }
-                    out[static_cast<std::size_t>(o)] += node_weight * sum;
+                    out_[static_cast<std::size_t>(o)] += node_weight * sum;
                 }
             });
         }
-        if (error) std::rethrow_exception(error);
-        for (std::size_t w = 0; w < nw; ++w) {
-#pragma omp parallel for schedule(dynamic, 16) num_threads(threads)
+        rethrow();
+    }
+
+    // D: the other pixels by their centre (A's value at the reference wavelength).
+    void centre_pixels(const Vec3d& wi, double node_weight) {
+        const auto used_count = static_cast<std::ptrdiff_t>(layout_.used.size());
+        for (std::size_t w = 0; w < nw_; ++w) {
+#pragma omp parallel for schedule(dynamic, 16) num_threads(threads_)
             for (std::ptrdiff_t k = 0; k < used_count; ++k) {
                 const auto i = static_cast<std::size_t>(k);
-                const std::ptrdiff_t o = layout.observation[i * nw + w];
-                if (edge[i] || o < 0) continue;
+                const std::ptrdiff_t o = layout_.observation[i * nw_ + w];
+                if (edge_[i] || o < 0) continue;
                 guarded([&] {
-                    const std::size_t p = layout.used[i];
-                    double value = centre_value[p];
+                    const std::size_t p = layout_.used[i];
+                    double value = centre_value_[p];
                     if (w != 0) {
                         const auto [u, v] = centre_of(p);
                         double jacobian = 0.0;
                         const Vec3d wo = *image_direction(u, v, jacobian);
-                        value = model.eval(wi, wo, layout.wavelengths_nm[w]) * wo.z();
+                        value = model_.eval(wi, wo, layout_.wavelengths_nm[w]) * wo.z();
                     }
-                    out[static_cast<std::size_t>(o)] +=
-                        node_weight * layout.centre_weight[i] * value;
+                    out_[static_cast<std::size_t>(o)] +=
+                        node_weight * layout_.centre_weight[i] * value;
                 });
             }
-            if (error) std::rethrow_exception(error);
+            rethrow();
         }
-        ++directions;
     }
-    throw_if_interrupted("the end of the Huang 2022 model image");
+
+    const Huang2022Bsdf model_;
+    const Layout& layout_;
+    int threads_;
+    std::vector<double>& out_;
+    const std::function<void(std::size_t)>& working_;
+    int n_;
+    double pixel_;
+    std::size_t nw_;
+    double reference_;
+    std::vector<int> status_;
+    std::vector<double> centre_value_;
+    std::vector<bool> edge_;
+    std::exception_ptr error_;
+    std::size_t directions_ = 0;
+};
+
+void predict(const Huang2022Params& params, const Layout& layout, int threads,
+             std::vector<double>& out, const std::function<void(std::size_t)>& working = {}) {
+    ModelImage(params, layout, threads, out, working).run();
 }
 
 void validate_options(const HuangFitOptions& o) {
@@ -572,7 +658,8 @@ struct Problem {
     std::vector<double> inverse_sigma;  // per observation
 };
 
-Problem prepare(const gonio::Scatterogram& s, const HuangFitOptions& options) {
+// The record's shape and values, before anything is fitted to it.
+void validate_record(const gonio::Scatterogram& s) {
     const int n = s.config.image_size;
     const std::size_t nl = s.config.wavelengths_nm.size();
     if (n <= 0 || nl == 0 || s.intensity.empty()) {
@@ -609,8 +696,12 @@ Problem prepare(const gonio::Scatterogram& s, const HuangFitOptions& options) {
                              s.solid_angle_sr[p]));
         }
     }
+}
 
-    // Wavelengths: indices into the record.
+// The fitted wavelengths as indices into the record: all, or the options' list.
+std::vector<std::size_t> chosen_wavelengths(const gonio::Scatterogram& s,
+                                            const HuangFitOptions& options) {
+    const std::size_t nl = s.config.wavelengths_nm.size();
     std::vector<std::size_t> chosen;
     if (options.wavelengths_nm.empty()) {
         for (std::size_t k = 0; k < nl; ++k) chosen.push_back(k);
@@ -628,7 +719,14 @@ Problem prepare(const gonio::Scatterogram& s, const HuangFitOptions& options) {
             chosen.push_back(k);
         }
     }
+    return chosen;
+}
 
+Problem prepare(const gonio::Scatterogram& s, const HuangFitOptions& options) {
+    validate_record(s);
+    const int n = s.config.image_size;
+    const std::size_t nl = s.config.wavelengths_nm.size();
+    const std::vector<std::size_t> chosen = chosen_wavelengths(s, options);
     Problem problem;
     Layout& layout = problem.layout;
     for (std::size_t k : chosen) layout.wavelengths_nm.push_back(s.config.wavelengths_nm[k]);

@@ -5,6 +5,7 @@
 #include <algorithm>
 #include <cmath>
 #include <limits>
+#include <optional>
 #include <utility>
 #include <vector>
 
@@ -117,10 +118,59 @@ DampedStep damped_step(const Eigen::MatrixXd& a_hat, const Eigen::VectorXd& g_ha
     return result;
 }
 
-}  // namespace
+// Reductions relative to S, as MINPACK's lmder: actual, predicted by the linear model
+// (‖Jδ‖² + 2μ‖Dδ‖²), the directional derivative along δ, and actual/predicted.
+struct StepReduction {
+    double actual, predicted, directional, ratio;
+};
 
-LeastSquaresResult minimise_least_squares(ChunkedLeastSquares& problem, Eigen::VectorXd& u,
-                                          const LeastSquaresOptions& options) {
+StepReduction step_reduction(const Eigen::VectorXd& scaled_step, const Eigen::MatrixXd& a_hat,
+                             double damping, double s, double s_trial) {
+    const double step_norm = scaled_step.norm();
+    StepReduction r;
+    r.actual = std::isfinite(s_trial) && s_trial < 100.0 * s ? 1.0 - s_trial / s : -1.0;
+    const double model = scaled_step.dot(a_hat * scaled_step) / s;
+    const double damping_term = damping * step_norm * step_norm / s;
+    r.predicted = model + 2.0 * damping_term;
+    r.directional = -(model + damping_term);
+    r.ratio = r.predicted > 0.0 ? r.actual / r.predicted : 0.0;
+    return r;
+}
+
+// MINPACK's update of the radius Δ and the damping μ from a step's reductions: shrink after a
+// poor step (by the quadratic's estimate, at least 10×), double after a good one.
+void update_trust_region(const StepReduction& r, double s, double s_trial, double step_norm,
+                         double& radius, double& damping) {
+    if (r.ratio <= 0.25) {
+        double shrink =
+            r.actual >= 0.0 ? 0.5 : 0.5 * r.directional / (r.directional + 0.5 * r.actual);
+        if (!(s_trial < 100.0 * s) || !std::isfinite(s_trial) || !(shrink >= 0.1)) shrink = 0.1;
+        radius = shrink * std::min(radius, 10.0 * step_norm);
+        damping /= shrink;
+    } else if (damping == 0.0 || r.ratio >= 0.75) {
+        radius = 2.0 * step_norm;
+        damping *= 0.5;
+    }
+}
+
+// Whether to stop after a step: MINPACK's tests on S and on the parameters (‖D u‖ =
+// scaled_norm after the step), the evaluation budget, or a radius too small to move u.
+std::optional<LeastSquaresStop> stop_after_step(const StepReduction& r, double radius,
+                                                double scaled_norm, double tol,
+                                                bool out_of_evaluations) {
+    const bool sum_converged =
+        std::abs(r.actual) <= tol && r.predicted <= tol && 0.5 * r.ratio <= 1.0;
+    const bool parameters_converged = radius <= tol * scaled_norm;
+    if (sum_converged || parameters_converged)
+        return sum_converged ? LeastSquaresStop::kSumOfSquares : LeastSquaresStop::kParameters;
+    if (out_of_evaluations) return LeastSquaresStop::kMaxEvaluations;
+    if (radius <= std::numeric_limits<double>::epsilon() * scaled_norm)
+        return LeastSquaresStop::kNoProgress;
+    return std::nullopt;
+}
+
+void validate(const ChunkedLeastSquares& problem, const Eigen::VectorXd& u,
+              const LeastSquaresOptions& options) {
     const int n = problem.variables();
     if (u.size() != n || options.max_function_evaluations < 1 ||
         !(options.relative_tolerance > 0.0) || !(options.gradient_tolerance >= 0.0)) {
@@ -131,6 +181,14 @@ LeastSquaresResult minimise_least_squares(ChunkedLeastSquares& problem, Eigen::V
             u.size(), n, options.max_function_evaluations, options.relative_tolerance,
             options.gradient_tolerance));
     }
+}
+
+}  // namespace
+
+LeastSquaresResult minimise_least_squares(ChunkedLeastSquares& problem, Eigen::VectorXd& u,
+                                          const LeastSquaresOptions& options) {
+    validate(problem, u, options);
+    const int n = problem.variables();
     const double tol = options.relative_tolerance;
     LeastSquaresResult result;
     const auto started = std::chrono::steady_clock::now();
@@ -150,24 +208,19 @@ LeastSquaresResult minimise_least_squares(ChunkedLeastSquares& problem, Eigen::V
     report(at_u.sum_of_squares);
 
     // D: each column's norm, never decreasing (Moré's scaling); 1 for a column that is zero.
-    Eigen::VectorXd scale(n);
-    for (int j = 0; j < n; ++j) {
-        const double column = std::sqrt(at_u.jtj(j, j));
-        scale[j] = column > 0.0 ? column : 1.0;
-    }
+    Eigen::VectorXd scale = at_u.jtj.diagonal().cwiseSqrt().unaryExpr(
+        [](double column) { return column > 0.0 ? column : 1.0; });
     double radius = kInitialRadiusFactor * scale.cwiseProduct(u).norm();  // Δ
     if (!(radius > 0.0)) radius = kInitialRadiusFactor;
     double damping = 0.0;  // μ of the last step
     for (;;) {
         for (int j = 0; j < n; ++j) scale[j] = std::max(scale[j], std::sqrt(at_u.jtj(j, j)));
         const double s = at_u.sum_of_squares;
-        if (!(s > 0.0)) {
-            result.stop = LeastSquaresStop::kGradient;  // an exact fit: nothing left to reduce
-            return result;
-        }
         const Eigen::VectorXd inverse_scale = scale.cwiseInverse();
         const Eigen::VectorXd g_hat = inverse_scale.cwiseProduct(at_u.jtr);
-        if ((g_hat.array().abs() / std::sqrt(s)).maxCoeff() <= options.gradient_tolerance) {
+        // An exact fit leaves nothing to reduce; otherwise the scaled gradient's test.
+        if (!(s > 0.0) ||
+            (g_hat.array().abs() / std::sqrt(s)).maxCoeff() <= options.gradient_tolerance) {
             result.stop = LeastSquaresStop::kGradient;
             return result;
         }
@@ -191,47 +244,19 @@ LeastSquaresResult minimise_least_squares(ChunkedLeastSquares& problem, Eigen::V
             ++result.function_evaluations;
             report(s_trial);
 
-            // Reductions relative to S, as MINPACK's lmder: actual, predicted by the linear model
-            // (‖Jδ‖² + 2μ‖Dδ‖²), and the directional derivative along δ.
-            const double actual =
-                std::isfinite(s_trial) && s_trial < 100.0 * s ? 1.0 - s_trial / s : -1.0;
-            const double model = step.scaled.dot(a_hat * step.scaled) / s;
-            const double damping_term = damping * step_norm * step_norm / s;
-            const double predicted = model + 2.0 * damping_term;
-            const double directional = -(model + damping_term);
-            const double ratio = predicted > 0.0 ? actual / predicted : 0.0;
-
-            if (ratio <= 0.25) {
-                double shrink =
-                    actual >= 0.0 ? 0.5 : 0.5 * directional / (directional + 0.5 * actual);
-                if (!(s_trial < 100.0 * s) || !std::isfinite(s_trial) || !(shrink >= 0.1))
-                    shrink = 0.1;
-                radius = shrink * std::min(radius, 10.0 * step_norm);
-                damping /= shrink;
-            } else if (damping == 0.0 || ratio >= 0.75) {
-                radius = 2.0 * step_norm;
-                damping *= 0.5;
-            }
-            const bool accept = ratio >= kAcceptRatio;
+            const StepReduction reduction = step_reduction(step.scaled, a_hat, damping, s, s_trial);
+            update_trust_region(reduction, s, s_trial, step_norm, radius, damping);
+            const bool accept = reduction.ratio >= kAcceptRatio;
             if (accept) {
                 u = trial;
                 result.sum_of_squares = s_trial;
             }
-            const bool sum_converged =
-                std::abs(actual) <= tol && predicted <= tol && 0.5 * ratio <= 1.0;
-            const bool parameters_converged = radius <= tol * scale.cwiseProduct(u).norm();
-            if (sum_converged || parameters_converged) {
+            const std::optional<LeastSquaresStop> stop =
+                stop_after_step(reduction, radius, scale.cwiseProduct(u).norm(), tol,
+                                result.function_evaluations >= options.max_function_evaluations);
+            if (stop) {
                 problem.set_point(u);
-                result.stop =
-                    sum_converged ? LeastSquaresStop::kSumOfSquares : LeastSquaresStop::kParameters;
-                return result;
-            }
-            if (result.function_evaluations >= options.max_function_evaluations ||
-                radius <= std::numeric_limits<double>::epsilon() * scale.cwiseProduct(u).norm()) {
-                problem.set_point(u);
-                result.stop = result.function_evaluations >= options.max_function_evaluations
-                                  ? LeastSquaresStop::kMaxEvaluations
-                                  : LeastSquaresStop::kNoProgress;
+                result.stop = *stop;
                 return result;
             }
             if (accept) {

@@ -258,18 +258,69 @@ void line_arc(const Line& a, double uc, double tc, double s11, double s12, doubl
     }
 }
 
-}  // namespace
+// A shape image's upper hull as lines, for the copy moved by (du, dt) in (u, t).
+template <class Shape>
+std::vector<Line> upper_lines(const Shape& shape, double du, double dt) {
+    std::vector<Line> lines;
+    for (std::size_t j = 0; j + 1 < shape.hull.size(); ++j) {
+        const Eigen::Vector2d& a = shape.hull[j];
+        const Eigen::Vector2d& b = shape.hull[j + 1];
+        if (!(b.x() > a.x())) continue;
+        const double beta = (b.y() - a.y()) / (b.x() - a.x());
+        lines.push_back({a.x() + du, b.x() + du, a.y() + dt - beta * (a.x() + du), beta});
+    }
+    return lines;
+}
 
-std::vector<MaskingSegment> PadronGriffe2024Masking::partition(double theta,
-                                                               const RowTransmittance& rows) const {
+// What a ray meeting `met` (front first) shares out: a barb stops the ray; a barbule row stops
+// the fraction 1 − T of what reaches it and lets T through (the authors' Barbs::masking with
+// the rows' transparencies); what passes everything is the gap's.
+std::array<double, kMaskingComponentCount> shares_along(
+    const std::vector<std::pair<double, MaskingComponent>>& met, const RowTransmittance& rows) {
+    std::array<double, kMaskingComponentCount> share{};
+    double remaining = 1.0;
+    for (const auto& [t, component] : met) {
+        if (component == MaskingComponent::kBarb) {
+            share[0] += remaining;
+            remaining = 0.0;
+            break;
+        }
+        const double through =
+            component == MaskingComponent::kDistalBarbule ? rows.distal : rows.proximal;
+        share[static_cast<int>(component)] += remaining * (1.0 - through);
+        remaining *= through;
+    }
+    share[static_cast<int>(MaskingComponent::kGap)] += remaining;
+    return share;
+}
+
+// The segment, or the last one extended to its end when it continues it (same owner, shares).
+void append_segment(std::vector<MaskingSegment>& segments, const MaskingSegment& next) {
+    if (!segments.empty() && segments.back().component == next.component &&
+        segments.back().share == next.share && segments.back().u1_um == next.u0_um) {
+        segments.back().u1_um = next.u1_um;
+    } else {
+        segments.push_back(next);
+    }
+}
+
+void check_view_angle(double theta) {
     const double cs = std::cos(theta);
-    if (!std::isfinite(theta) || std::abs(cs) < kMinimumCosine * (1.0 - 1e-9)) {
+    if (!std::isfinite(theta) ||
+        std::abs(cs) < PadronGriffe2024Masking::kMinimumCosine * (1.0 - 1e-9)) {
         throw InputError(
             fmt::format("Padrón-Griffe 2024 masking: view angle = {} rad: expected a finite angle "
                         "at least 0.1 deg "
                         "away from the patch plane (|cos| >= {:.6g})",
-                        theta, kMinimumCosine));
+                        theta, PadronGriffe2024Masking::kMinimumCosine));
     }
+}
+
+}  // namespace
+
+std::vector<MaskingSegment> PadronGriffe2024Masking::partition(double theta,
+                                                               const RowTransmittance& rows) const {
+    check_view_angle(theta);
     const double p = period_um_;
     const double shift_t = p * std::sin(theta);  // a barb further along +y, seen in (u, t)
     const std::vector<ShapeImage> shapes = images(theta);
@@ -293,16 +344,7 @@ std::vector<MaskingSegment> PadronGriffe2024Masking::partition(double theta,
     }
     // Crossings of upper boundaries, for pairs that can overlap.
     auto lines_of = [&](const ShapeImage& shape, int k) {
-        std::vector<Line> lines;
-        const double du = k * p, dt = k * shift_t;
-        for (std::size_t j = 0; j + 1 < shape.hull.size(); ++j) {
-            const Eigen::Vector2d& a = shape.hull[j];
-            const Eigen::Vector2d& b = shape.hull[j + 1];
-            if (!(b.x() > a.x())) continue;
-            const double beta = (b.y() - a.y()) / (b.x() - a.x());
-            lines.push_back({a.x() + du, b.x() + du, a.y() + dt - beta * (a.x() + du), beta});
-        }
-        return lines;
+        return upper_lines(shape, k * p, k * shift_t);
     };
     for (const OverlappingPair& pair : overlapping_) {
         const ShapeImage& first = shapes[pair.first];
@@ -350,29 +392,9 @@ std::vector<MaskingSegment> PadronGriffe2024Masking::partition(double theta,
         }
         std::sort(met.begin(), met.end(),
                   [](const auto& a, const auto& b) { return a.first > b.first; });
-        // A barb stops the ray; a barbule row stops the fraction 1 − T of what reaches it and lets
-        // T through (the authors' Barbs::masking with the rows' transparencies).
-        std::array<double, kMaskingComponentCount> share{};
-        double remaining = 1.0;
-        for (const auto& [t, component] : met) {
-            if (component == MaskingComponent::kBarb) {
-                share[0] += remaining;
-                remaining = 0.0;
-                break;
-            }
-            const double through =
-                component == MaskingComponent::kDistalBarbule ? rows.distal : rows.proximal;
-            share[static_cast<int>(component)] += remaining * (1.0 - through);
-            remaining *= through;
-        }
-        share[static_cast<int>(MaskingComponent::kGap)] += remaining;
-        const MaskingComponent owner = met.empty() ? MaskingComponent::kGap : met.front().second;
-        if (!segments.empty() && segments.back().component == owner &&
-            segments.back().share == share && segments.back().u1_um == u0) {
-            segments.back().u1_um = u1;
-        } else {
-            segments.push_back({u0, u1, owner, share});
-        }
+        const std::array<double, kMaskingComponentCount> share = shares_along(met, rows);
+        append_segment(segments,
+                       {u0, u1, met.empty() ? MaskingComponent::kGap : met.front().second, share});
     }
     return segments;
 }

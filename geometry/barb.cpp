@@ -110,49 +110,84 @@ std::vector<Eigen::Vector2d> Barb::medulla_outline(const TessellationTolerance& 
 
 namespace {
 
-TriangleMesh sweep(const Outline& outline, double length_um, double axis_radius_um,
-                   const TessellationTolerance& tolerance) {
-    require(std::isfinite(length_um) && length_um > 0.0, kWhat, "length_um", length_um,
-            "a finite length > 0");
-    require(std::isfinite(axis_radius_um) && axis_radius_um >= 0.0, kWhat, "axis_radius_um",
-            axis_radius_um, "0 (straight) or a bend radius > 0 (um)");
-    double extent = 0.0;
-    for (const auto& p : outline.points) extent = std::max(extent, std::abs(p.y()));
-    std::vector<double> alphas;  // bend angle of each ring (or axial fraction when straight)
-    const bool bent = axis_radius_um > 0.0;
-    if (bent) {
-        require(axis_radius_um > extent, kWhat, "axis_radius_um", axis_radius_um,
+// The barb's axis: straight along x over length_um, or bent in the x–z plane about a centre
+// axis_radius_um below it. A ring of the sweep sits at alpha: the bend angle, or the axial
+// fraction in [-0.5, 0.5] when straight.
+struct SweepAxis {
+    double length_um, radius_um;
+    bool bent() const { return radius_um > 0.0; }
+    Vec3 place(double alpha, const Eigen::Vector2d& yz) const {
+        if (!bent()) return {alpha * length_um, yz.x(), yz.y()};
+        const double r = radius_um + yz.y();
+        return {r * std::sin(alpha), yz.x(), r * std::cos(alpha) - radius_um};
+    }
+    Vec3 place_normal(double alpha, const Eigen::Vector2d& n) const {
+        if (!bent()) return {0.0, n.x(), n.y()};
+        return {n.y() * std::sin(alpha), n.x(), n.y() * std::cos(alpha)};
+    }
+    Vec3 tangent(double alpha) const {
+        return bent() ? Vec3(std::cos(alpha), 0.0, -std::sin(alpha)) : Vec3(1.0, 0.0, 0.0);
+    }
+    // The rings: both ends when straight; bent, as many as keep each segment's chord within
+    // the tolerance at the outline's innermost reach.
+    std::vector<double> rings(const Outline& outline,
+                              const TessellationTolerance& tolerance) const {
+        require(std::isfinite(length_um) && length_um > 0.0, kWhat, "length_um", length_um,
+                "a finite length > 0");
+        require(std::isfinite(radius_um) && radius_um >= 0.0, kWhat, "axis_radius_um", radius_um,
+                "0 (straight) or a bend radius > 0 (um)");
+        if (!bent()) return {-0.5, 0.5};
+        double extent = 0.0;
+        for (const auto& p : outline.points) extent = std::max(extent, std::abs(p.y()));
+        require(radius_um > extent, kWhat, "axis_radius_um", radius_um,
                 fmt::format(
                     "a bend radius larger than the cross-section's reach {:.4g} um (else the tube "
                     "folds on its inner side)",
                     extent));
-        const double half = 0.5 * length_um / axis_radius_um;
+        const double half = 0.5 * length_um / radius_um;
         require(half < kPi, kWhat, "length_um", length_um, "a bent barb shorter than a full turn");
-        const double step = tolerance.max_angular_step(axis_radius_um - extent);
+        const double step = tolerance.max_angular_step(radius_um - extent);
         const int segments = std::max(1, static_cast<int>(std::ceil(2.0 * half / step)));
+        std::vector<double> alphas;
         for (int k = 0; k <= segments; ++k) alphas.push_back(-half + 2.0 * half * k / segments);
-    } else {
-        alphas = {-0.5, 0.5};
+        return alphas;
     }
-    auto place = [&](double alpha, const Eigen::Vector2d& yz) -> Vec3 {
-        if (!bent) return {alpha * length_um, yz.x(), yz.y()};
-        const double r = axis_radius_um + yz.y();
-        return {r * std::sin(alpha), yz.x(), r * std::cos(alpha) - axis_radius_um};
-    };
-    auto place_normal = [&](double alpha, const Eigen::Vector2d& n) -> Vec3 {
-        if (!bent) return {0.0, n.x(), n.y()};
-        return {n.y() * std::sin(alpha), n.x(), n.y() * std::cos(alpha)};
-    };
-    auto axis_tangent = [&](double alpha) -> Vec3 {
-        return bent ? Vec3(std::cos(alpha), 0.0, -std::sin(alpha)) : Vec3(1.0, 0.0, 0.0);
-    };
+};
 
+// End caps: fans around the outline's centroid, with their own flat-normal vertices.
+void add_end_caps(TriangleMesh& mesh, const Outline& outline, const SweepAxis& axis,
+                  const std::vector<double>& alphas) {
+    const auto m = static_cast<std::uint32_t>(outline.points.size());
+    Eigen::Vector2d centroid = Eigen::Vector2d::Zero();
+    for (const auto& p : outline.points) centroid += p;
+    centroid /= static_cast<double>(m);
+    for (int end = 0; end < 2; ++end) {
+        const double alpha = end == 0 ? alphas.front() : alphas.back();
+        const Vec3 normal = (end == 0 ? -1.0 : 1.0) * axis.tangent(alpha);
+        const auto base = static_cast<std::uint32_t>(mesh.positions.size());
+        mesh.positions.push_back(axis.place(alpha, centroid));
+        mesh.shading_normals.push_back(normal);
+        for (std::uint32_t i = 0; i < m; ++i) {
+            mesh.positions.push_back(axis.place(alpha, outline.points[i]));
+            mesh.shading_normals.push_back(normal);
+        }
+        for (std::uint32_t i = 0; i < m; ++i) {
+            const std::uint32_t a = base + 1 + i, b = base + 1 + (i + 1) % m;
+            mesh.triangles.push_back(end == 0 ? Triangle{base, a, b} : Triangle{base, b, a});
+        }
+    }
+}
+
+TriangleMesh sweep(const Outline& outline, double length_um, double axis_radius_um,
+                   const TessellationTolerance& tolerance) {
+    const SweepAxis axis{length_um, axis_radius_um};
+    const std::vector<double> alphas = axis.rings(outline, tolerance);
     TriangleMesh mesh;
     const auto m = static_cast<std::uint32_t>(outline.points.size());
     for (double alpha : alphas) {
         for (std::uint32_t i = 0; i < m; ++i) {
-            mesh.positions.push_back(place(alpha, outline.points[i]));
-            mesh.shading_normals.push_back(place_normal(alpha, outline.normals[i]));
+            mesh.positions.push_back(axis.place(alpha, outline.points[i]));
+            mesh.shading_normals.push_back(axis.place_normal(alpha, outline.normals[i]));
         }
     }
     for (std::uint32_t k = 0; k + 1 < alphas.size(); ++k) {
@@ -164,25 +199,7 @@ TriangleMesh sweep(const Outline& outline, double length_um, double axis_radius_
             mesh.triangles.push_back({a, d, c});
         }
     }
-    // End caps: fans around the outline's centroid, with their own flat-normal vertices.
-    Eigen::Vector2d centroid = Eigen::Vector2d::Zero();
-    for (const auto& p : outline.points) centroid += p;
-    centroid /= static_cast<double>(m);
-    for (int end = 0; end < 2; ++end) {
-        const double alpha = end == 0 ? alphas.front() : alphas.back();
-        const Vec3 normal = (end == 0 ? -1.0 : 1.0) * axis_tangent(alpha);
-        const auto base = static_cast<std::uint32_t>(mesh.positions.size());
-        mesh.positions.push_back(place(alpha, centroid));
-        mesh.shading_normals.push_back(normal);
-        for (std::uint32_t i = 0; i < m; ++i) {
-            mesh.positions.push_back(place(alpha, outline.points[i]));
-            mesh.shading_normals.push_back(normal);
-        }
-        for (std::uint32_t i = 0; i < m; ++i) {
-            const std::uint32_t a = base + 1 + i, b = base + 1 + (i + 1) % m;
-            mesh.triangles.push_back(end == 0 ? Triangle{base, a, b} : Triangle{base, b, a});
-        }
-    }
+    add_end_caps(mesh, outline, axis, alphas);
     // Make the winding outward: positive enclosed volume (divergence theorem).
     double volume = 0.0;
     for (const Triangle& t : mesh.triangles) {

@@ -180,9 +180,7 @@ std::int64_t sweep(Packing& packing, std::mt19937_64& rng, double sigma, double 
     return accepted;
 }
 
-}  // namespace
-
-HardSpherePacking make_hard_sphere_packing(const HardSpherePackingParams& params) {
+void validate(const HardSpherePackingParams& params) {
     const double phi = params.volume_fraction;
     const double box = params.box_um;
     if (!(params.count >= 2 && params.count <= kMaxCount)) {
@@ -202,6 +200,33 @@ HardSpherePacking make_hard_sphere_packing(const HardSpherePackingParams& params
         reject("max_compression_sweeps", static_cast<double>(params.max_compression_sweeps),
                "a number of sweeps in [1, 10^9]");
     }
+}
+
+// 1. Random sequential addition of n spheres of diameter sigma.
+void add_randomly(Packing& packing, const HardSpherePackingParams& params, std::size_t n,
+                  double sigma) {
+    const double box = params.box_um;
+    std::mt19937_64 rng = random_stream(params.seed, params.item, Stream::initial);
+    const std::int64_t max_attempts = 100'000 * static_cast<std::int64_t>(n);
+    std::int64_t attempts = 0;
+    while (packing.size() < n) {
+        PLUMAGE_CHECK(
+            ++attempts <= max_attempts,
+            fmt::format("random sequential addition at phi = {} placed only {} of "
+                        "{} spheres",
+                        std::min(params.volume_fraction, kStartFraction), packing.size(), n));
+        const Eigen::Vector3d x(box * uniform01(rng), box * uniform01(rng), box * uniform01(rng));
+        if (packing.min_distance2(x, n, sigma * sigma) < sigma * sigma) continue;
+        packing.add(x);
+    }
+}
+
+}  // namespace
+
+HardSpherePacking make_hard_sphere_packing(const HardSpherePackingParams& params) {
+    validate(params);
+    const double phi = params.volume_fraction;
+    const double box = params.box_um;
     const auto n = static_cast<std::size_t>(params.count);
     const double volume = box * box * box;
     const double target = std::cbrt(6.0 * phi * volume / (kPi * static_cast<double>(n)));
@@ -215,21 +240,7 @@ HardSpherePacking make_hard_sphere_packing(const HardSpherePackingParams& params
     // 1. Random sequential addition at φ₀ = min(φ, 0.25).
     double sigma = target * std::cbrt(std::min(phi, kStartFraction) / phi);
     Packing packing(box, target, n);
-    {
-        std::mt19937_64 rng = random_stream(params.seed, params.item, Stream::initial);
-        const std::int64_t max_attempts = 100'000 * static_cast<std::int64_t>(n);
-        std::int64_t attempts = 0;
-        while (packing.size() < n) {
-            PLUMAGE_CHECK(++attempts <= max_attempts,
-                          fmt::format("random sequential addition at phi = {} placed only {} of "
-                                      "{} spheres",
-                                      std::min(phi, kStartFraction), packing.size(), n));
-            const Eigen::Vector3d x(box * uniform01(rng), box * uniform01(rng),
-                                    box * uniform01(rng));
-            if (packing.min_distance2(x, n, sigma * sigma) < sigma * sigma) continue;
-            packing.add(x);
-        }
-    }
+    add_randomly(packing, params, n, sigma);
 
     // 2. Compression: sweeps alternating with growth to just below the minimum distance.
     std::mt19937_64 rng = random_stream(params.seed, params.item, Stream::moves);

@@ -214,18 +214,16 @@ struct Topology {
 
 constexpr std::uint32_t kNone = std::numeric_limits<std::uint32_t>::max();
 
-// 4–6. Edge incidence: borders, non-manifold edges and vertices, then a consistent winding
-// per edge-connected component (breadth-first, flipping the minority). Returns nullopt when
-// a blocking defect was found.
-std::optional<Topology> check_topology(Soup& soup, const Names& names, bool repair,
-                                       bool require_closed, Reporter& reporter,
-                                       const MeshReport& report) {
+// A triangle's edge from corner k to corner k + 1, keyed by its vertices in order.
+struct HalfEdge {
+    std::uint32_t lo, hi, face;
+    std::uint8_t k;  // the edge from corner k to corner k + 1
+    bool forward;    // lo → hi
+};
+
+// Every triangle's three edges, sorted so that the faces sharing an edge are adjacent.
+std::vector<HalfEdge> sorted_half_edges(const Soup& soup) {
     const std::size_t faces = soup.triangles.size();
-    struct HalfEdge {
-        std::uint32_t lo, hi, face;
-        std::uint8_t k;  // the edge from corner k to corner k + 1
-        bool forward;    // lo → hi
-    };
     std::vector<HalfEdge> half_edges;
     half_edges.reserve(3 * faces);
     for (std::size_t f = 0; f < faces; ++f) {
@@ -239,7 +237,29 @@ std::optional<Topology> check_topology(Soup& soup, const Names& names, bool repa
     std::sort(half_edges.begin(), half_edges.end(), [](const HalfEdge& x, const HalfEdge& y) {
         return std::tie(x.lo, x.hi, x.face, x.k) < std::tie(y.lo, y.hi, y.face, y.k);
     });
+    return half_edges;
+}
 
+// What the edges say: across each manifold edge (per face corner k) the neighbouring face and
+// whether it runs the edge the same way (which consistent winding forbids); the corners joined
+// through manifold edges (a vertex's fans); the vertices on non-manifold edges.
+struct EdgeIncidence {
+    explicit EdgeIncidence(const Soup& soup)
+        : corners(3 * soup.triangles.size()),
+          neighbour(3 * soup.triangles.size(), kNone),
+          same_direction(3 * soup.triangles.size(), 0),
+          on_bad_edge(soup.positions.size(), 0) {}
+    UnionFind corners;
+    std::vector<std::uint32_t> neighbour;
+    std::vector<char> same_direction;
+    std::vector<char> on_bad_edge;
+    bool closed = true;
+};
+
+// 4–5. Border and non-manifold edges reported; the manifold ones joined.
+EdgeIncidence edge_incidence(const Soup& soup, const Names& names, bool require_closed,
+                             Reporter& reporter) {
+    const std::vector<HalfEdge> half_edges = sorted_half_edges(soup);
     auto corner = [&](std::uint32_t f, std::uint32_t v) {
         const Triangle& t = soup.triangles[f];
         return 3 * std::size_t{f} + (t[0] == v ? 0 : t[1] == v ? 1 : 2);
@@ -248,13 +268,7 @@ std::optional<Topology> check_topology(Soup& soup, const Names& names, bool repa
         return fmt::format("edge between {} and {}", soup.vertex_name(names, h.lo),
                            soup.vertex_name(names, h.hi));
     };
-    UnionFind corners(3 * faces);
-    // Across each manifold edge: the neighbouring face, and whether it runs the edge the
-    // same way (which consistent winding forbids).
-    std::vector<std::uint32_t> neighbour(3 * faces, kNone);
-    std::vector<char> same_direction(3 * faces, 0);
-    std::vector<char> on_bad_edge(soup.positions.size(), 0);
-    Topology topology;
+    EdgeIncidence e(soup);
     for (std::size_t i = 0; i < half_edges.size();) {
         std::size_t j = i + 1;
         while (j < half_edges.size() && half_edges[j].lo == half_edges[i].lo &&
@@ -263,7 +277,7 @@ std::optional<Topology> check_topology(Soup& soup, const Names& names, bool repa
         }
         const HalfEdge& h = half_edges[i];
         if (j - i == 1) {
-            topology.closed = false;
+            e.closed = false;
             if (require_closed) {
                 reporter.add(MeshDefectKind::border_edge, soup.face_ordinal[h.face], 0,
                              soup.face_line[h.face], false, [&] {
@@ -275,13 +289,13 @@ std::optional<Topology> check_topology(Soup& soup, const Names& names, bool repa
                              });
             }
         } else if (j - i > 2) {
-            on_bad_edge[h.lo] = on_bad_edge[h.hi] = 1;
+            e.on_bad_edge[h.lo] = e.on_bad_edge[h.hi] = 1;
             reporter.add(
                 MeshDefectKind::non_manifold_edge, soup.face_ordinal[h.face],
                 soup.face_ordinal[half_edges[i + 1].face], soup.face_line[h.face], false, [&] {
                     std::string list;
-                    for (std::size_t e = i; e < j && e < i + 4; ++e) {
-                        list += (e > i ? ", " : "") + soup.face_name(names, half_edges[e].face);
+                    for (std::size_t k = i; k < j && k < i + 4; ++k) {
+                        list += (k > i ? ", " : "") + soup.face_name(names, half_edges[k].face);
                     }
                     if (j - i > 4) list += ", ...";
                     return fmt::format(
@@ -291,21 +305,27 @@ std::optional<Topology> check_topology(Soup& soup, const Names& names, bool repa
                 });
         } else {
             const HalfEdge& g = half_edges[i + 1];
-            corners.unite(corner(h.face, h.lo), corner(g.face, h.lo));
-            corners.unite(corner(h.face, h.hi), corner(g.face, h.hi));
+            e.corners.unite(corner(h.face, h.lo), corner(g.face, h.lo));
+            e.corners.unite(corner(h.face, h.hi), corner(g.face, h.hi));
             const bool same = h.forward == g.forward;
-            neighbour[3 * std::size_t{h.face} + h.k] = g.face;
-            neighbour[3 * std::size_t{g.face} + g.k] = h.face;
-            same_direction[3 * std::size_t{h.face} + h.k] = same;
-            same_direction[3 * std::size_t{g.face} + g.k] = same;
+            e.neighbour[3 * std::size_t{h.face} + h.k] = g.face;
+            e.neighbour[3 * std::size_t{g.face} + g.k] = h.face;
+            e.same_direction[3 * std::size_t{h.face} + h.k] = same;
+            e.same_direction[3 * std::size_t{g.face} + g.k] = same;
         }
         i = j;
     }
-    // A manifold vertex has one fan of faces around it, joined through its edges.
+    return e;
+}
+
+// 5. A manifold vertex has one fan of faces around it, joined through its edges.
+void report_non_manifold_vertices(const Soup& soup, const Names& names, EdgeIncidence& e,
+                                  Reporter& reporter) {
+    const std::size_t faces = soup.triangles.size();
     std::vector<std::pair<std::uint32_t, std::size_t>> vertex_fans;
     vertex_fans.reserve(3 * faces);
     for (std::size_t c = 0; c < 3 * faces; ++c) {
-        vertex_fans.emplace_back(soup.triangles[c / 3][c % 3], corners.find(c));
+        vertex_fans.emplace_back(soup.triangles[c / 3][c % 3], e.corners.find(c));
     }
     std::sort(vertex_fans.begin(), vertex_fans.end());
     vertex_fans.erase(std::unique(vertex_fans.begin(), vertex_fans.end()), vertex_fans.end());
@@ -314,7 +334,7 @@ std::optional<Topology> check_topology(Soup& soup, const Names& names, bool repa
         while (j < vertex_fans.size() && vertex_fans[j].first == vertex_fans[i].first) ++j;
         const std::uint32_t v = vertex_fans[i].first;
         // (A vertex on a non-manifold edge is already named by that edge.)
-        if (j - i > 1 && !on_bad_edge[v]) {
+        if (j - i > 1 && !e.on_bad_edge[v]) {
             reporter.add(MeshDefectKind::non_manifold_vertex, soup.vertex_ordinal[v], 0,
                          soup.vertex_line[v], false, [&] {
                              return fmt::format(
@@ -325,62 +345,81 @@ std::optional<Topology> check_topology(Soup& soup, const Names& names, bool repa
         }
         i = j;
     }
-    if (blocking_count(report, true) > 0) return std::nullopt;
+}
 
-    // Winding: parity[f] says whether f must flip to agree with its component's seed.
+// 6. One edge-connected component's winding from its seed face (breadth-first; parity[f] says
+// whether f must flip to agree with the seed), its minority flipped. False when it is
+// non-orientable (reported).
+bool orient_component(Soup& soup, const Names& names, bool repair, const EdgeIncidence& e,
+                      std::uint32_t seed, Topology& topology, std::vector<char>& parity,
+                      Reporter& reporter) {
+    const auto id = static_cast<std::uint32_t>(topology.components++);
+    std::vector<std::uint32_t> members{seed};
+    topology.component[seed] = id;
+    bool orientable = true;
+    for (std::size_t m = 0; m < members.size(); ++m) {
+        const std::uint32_t f = members[m];
+        for (std::size_t k = 0; k < 3; ++k) {
+            const std::uint32_t g = e.neighbour[3 * std::size_t{f} + k];
+            if (g == kNone) continue;
+            const char expected = parity[f] ^ e.same_direction[3 * std::size_t{f} + k];
+            if (topology.component[g] == kNone) {
+                topology.component[g] = id;
+                parity[g] = expected;
+                members.push_back(g);
+            } else if (parity[g] != expected) {
+                orientable = false;
+            }
+        }
+    }
+    if (!orientable) {
+        reporter.add(MeshDefectKind::non_orientable, soup.face_ordinal[seed], 0,
+                     soup.face_line[seed], false, [&] {
+                         return fmt::format(
+                             "non-orientable surface: the surface containing {} is one-sided, "
+                             "like a Möbius strip: expected a two-sided surface",
+                             soup.face_name(names, seed));
+                     });
+        return false;
+    }
+    std::size_t odd = 0;
+    for (const std::uint32_t f : members) odd += parity[f];
+    // Flip the smaller class: the faces that disagree with most of their surface.
+    const char flip = odd <= members.size() - odd ? 1 : 0;
+    for (const std::uint32_t f : members) {
+        if (parity[f] != flip) continue;
+        reporter.add(
+            MeshDefectKind::inconsistent_orientation, soup.face_ordinal[f], 0, soup.face_line[f],
+            repair, [&] {
+                return fmt::format(
+                    "{} winds against its neighbours (inconsistent orientation): {}",
+                    soup.face_name(names, f),
+                    repair ? "flipped" : "expected the winding of its neighbours (repair is off)");
+            });
+        std::swap(soup.triangles[f][1], soup.triangles[f][2]);
+    }
+    return true;
+}
+
+// 4–6. Edge incidence: borders, non-manifold edges and vertices, then a consistent winding
+// per edge-connected component (breadth-first, flipping the minority). Returns nullopt when
+// a blocking defect was found.
+std::optional<Topology> check_topology(Soup& soup, const Names& names, bool repair,
+                                       bool require_closed, Reporter& reporter,
+                                       const MeshReport& report) {
+    EdgeIncidence incidence = edge_incidence(soup, names, require_closed, reporter);
+    report_non_manifold_vertices(soup, names, incidence, reporter);
+    if (blocking_count(report, true) > 0) return std::nullopt;
+    const std::size_t faces = soup.triangles.size();
+    Topology topology;
+    topology.closed = incidence.closed;
     topology.component.assign(faces, kNone);
     std::vector<char> parity(faces, 0);
-    std::vector<std::uint32_t> members;
     bool orientable = true;
     for (std::uint32_t seed = 0; seed < faces; ++seed) {
         if (topology.component[seed] != kNone) continue;
-        const auto id = static_cast<std::uint32_t>(topology.components++);
-        members.clear();
-        members.push_back(seed);
-        topology.component[seed] = id;
-        bool this_orientable = true;
-        for (std::size_t m = 0; m < members.size(); ++m) {
-            const std::uint32_t f = members[m];
-            for (std::size_t k = 0; k < 3; ++k) {
-                const std::uint32_t g = neighbour[3 * std::size_t{f} + k];
-                if (g == kNone) continue;
-                const char expected = parity[f] ^ same_direction[3 * std::size_t{f} + k];
-                if (topology.component[g] == kNone) {
-                    topology.component[g] = id;
-                    parity[g] = expected;
-                    members.push_back(g);
-                } else if (parity[g] != expected) {
-                    this_orientable = false;
-                }
-            }
-        }
-        if (!this_orientable) {
+        if (!orient_component(soup, names, repair, incidence, seed, topology, parity, reporter))
             orientable = false;
-            reporter.add(MeshDefectKind::non_orientable, soup.face_ordinal[seed], 0,
-                         soup.face_line[seed], false, [&] {
-                             return fmt::format(
-                                 "non-orientable surface: the surface containing {} is one-sided, "
-                                 "like a Möbius strip: expected a two-sided surface",
-                                 soup.face_name(names, seed));
-                         });
-            continue;
-        }
-        std::size_t odd = 0;
-        for (const std::uint32_t f : members) odd += parity[f];
-        // Flip the smaller class: the faces that disagree with most of their surface.
-        const char flip = odd <= members.size() - odd ? 1 : 0;
-        for (const std::uint32_t f : members) {
-            if (parity[f] != flip) continue;
-            reporter.add(MeshDefectKind::inconsistent_orientation, soup.face_ordinal[f], 0,
-                         soup.face_line[f], repair, [&] {
-                             return fmt::format(
-                                 "{} winds against its neighbours (inconsistent orientation): {}",
-                                 soup.face_name(names, f),
-                                 repair ? "flipped"
-                                        : "expected the winding of its neighbours (repair is off)");
-                         });
-            std::swap(soup.triangles[f][1], soup.triangles[f][2]);
-        }
     }
     if (!orientable) return std::nullopt;
     return topology;

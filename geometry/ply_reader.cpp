@@ -128,6 +128,40 @@ struct PlyHeader {
     std::size_t body_first_line = 0;
 };
 
+// A 'property <type> <name>' or 'property list <count type> <item type> <name>' line (line n).
+PlyProperty parse_ply_property(const std::vector<std::string_view>& words, std::string_view line,
+                               std::size_t n, const Names& names) {
+    PlyProperty property;
+    const bool list = words.size() >= 2 && words[1] == "list";
+    if (words.size() != (list ? 5u : 3u)) {
+        throw InputError(
+            fmt::format("{}: line {}: '{}': expected 'property <type> <name>' or 'property list "
+                        "<count type> <item type> <name>'",
+                        names.file(), n, printable(line, 60)));
+    }
+    const std::size_t type_word = list ? 3 : 1;
+    const auto type = ply_type(words[type_word]);
+    const auto count_type = list ? ply_type(words[2]) : PlyType::uint8;
+    if (!type || !count_type) {
+        throw InputError(fmt::format(
+            "{}: line {}: unknown PLY type in '{}': expected char, uchar, short, ushort, "
+            "int, uint, float or double",
+            names.file(), n, printable(line, 60)));
+    }
+    if (list && ply_is_float(*count_type)) {
+        throw InputError(
+            fmt::format("{}: line {}: list count type {}: expected an "
+                        "integer type",
+                        names.file(), n, ply_type_name(*count_type)));
+    }
+    property.name = std::string(words[type_word + 1]);
+    property.type = *type;
+    property.is_list = list;
+    property.count_type = *count_type;
+    property.header_line = n;
+    return property;
+}
+
 PlyHeader parse_ply_header(std::string_view bytes, const Names& names) {
     LineReader lines(bytes);
     std::string_view line;
@@ -177,35 +211,7 @@ PlyHeader parse_ply_header(std::string_view bytes, const Names& names) {
                     "{}: line {}: property before any element: expected 'element' first",
                     names.file(), n));
             }
-            PlyProperty property;
-            const bool list = words.size() >= 2 && words[1] == "list";
-            if (words.size() != (list ? 5u : 3u)) {
-                throw InputError(fmt::format(
-                    "{}: line {}: '{}': expected 'property <type> <name>' or 'property list "
-                    "<count type> <item type> <name>'",
-                    names.file(), n, printable(line, 60)));
-            }
-            const std::size_t type_word = list ? 3 : 1;
-            const auto type = ply_type(words[type_word]);
-            const auto count_type = list ? ply_type(words[2]) : PlyType::uint8;
-            if (!type || !count_type) {
-                throw InputError(fmt::format(
-                    "{}: line {}: unknown PLY type in '{}': expected char, uchar, short, ushort, "
-                    "int, uint, float or double",
-                    names.file(), n, printable(line, 60)));
-            }
-            if (list && ply_is_float(*count_type)) {
-                throw InputError(
-                    fmt::format("{}: line {}: list count type {}: expected an "
-                                "integer type",
-                                names.file(), n, ply_type_name(*count_type)));
-            }
-            property.name = std::string(words[type_word + 1]);
-            property.type = *type;
-            property.is_list = list;
-            property.count_type = *count_type;
-            property.header_line = n;
-            header.elements.back().properties.push_back(std::move(property));
+            header.elements.back().properties.push_back(parse_ply_property(words, line, n, names));
         } else {
             throw InputError(fmt::format(
                 "{}: line {}: unknown PLY header line '{}': expected format, element, property, "
@@ -398,33 +404,22 @@ private:
     std::size_t index_ = 0;
 };
 
-template <typename Reader>
-Soup read_ply_body(Reader& reader, const PlyHeader& header, double scale, const Names& names) {
+// Where the mesh is in a PLY header: its vertex and face elements, which vertex property is x,
+// y, z, nx, ny, nz (slot, -1 when absent), and which face property holds the vertex indices.
+struct PlyLayout {
     const PlyElement* vertex = nullptr;
     const PlyElement* face = nullptr;
-    for (const PlyElement& e : header.elements) {
-        if (e.name == "vertex") vertex = &e;
-        if (e.name == "face") face = &e;
-    }
-    if (vertex == nullptr) {
-        throw InputError(fmt::format("{}: no 'vertex' element: expected vertices", names.file()));
-    }
-    if (face == nullptr) {
-        throw InputError(fmt::format(
-            "{}: no 'face' element: expected a surface mesh, not a point cloud", names.file()));
-    }
-    if (vertex->count > kMaxVertices) {
-        throw InputError(
-            fmt::format("{}: element 'vertex' (line {}) declares {} vertices: expected "
-                        "at most {}",
-                        names.file(), vertex->header_line, vertex->count, kMaxVertices));
-    }
-    // Which vertex property is x, y, z, nx, ny, nz.
+    std::array<int, 6> slot;
+    int normal_slots = 0;
+    int index_list = -1;
+};
+
+std::array<int, 6> vertex_slots(const PlyElement& vertex, const Names& names) {
     std::array<int, 6> slot;
     slot.fill(-1);
     static constexpr const char* kVertexNames[] = {"x", "y", "z", "nx", "ny", "nz"};
-    for (std::size_t i = 0; i < vertex->properties.size(); ++i) {
-        const PlyProperty& p = vertex->properties[i];
+    for (std::size_t i = 0; i < vertex.properties.size(); ++i) {
+        const PlyProperty& p = vertex.properties[i];
         for (std::size_t s = 0; s < 6; ++s) {
             if (p.name != kVertexNames[s]) continue;
             if (p.is_list || !ply_is_float(p.type)) {
@@ -440,18 +435,15 @@ Soup read_ply_body(Reader& reader, const PlyHeader& header, double scale, const 
         throw InputError(
             fmt::format("{}: element 'vertex' (line {}) lacks x, y or z: expected "
                         "all three",
-                        names.file(), vertex->header_line));
+                        names.file(), vertex.header_line));
     }
-    const int normal_slots = (slot[3] >= 0) + (slot[4] >= 0) + (slot[5] >= 0);
-    if (normal_slots != 0 && normal_slots != 3) {
-        throw InputError(
-            fmt::format("{}: element 'vertex' (line {}) has only some of nx, ny, "
-                        "nz: expected all three or none",
-                        names.file(), vertex->header_line));
-    }
+    return slot;
+}
+
+int face_index_list(const PlyElement& face, const Names& names) {
     int index_list = -1;
-    for (std::size_t i = 0; i < face->properties.size(); ++i) {
-        const PlyProperty& p = face->properties[i];
+    for (std::size_t i = 0; i < face.properties.size(); ++i) {
+        const PlyProperty& p = face.properties[i];
         if (p.name != "vertex_indices" && p.name != "vertex_index") continue;
         if (!p.is_list || ply_is_float(p.type)) {
             throw InputError(
@@ -465,103 +457,160 @@ Soup read_ply_body(Reader& reader, const PlyHeader& header, double scale, const 
         throw InputError(
             fmt::format("{}: element 'face' (line {}) has no 'vertex_indices' list: "
                         "expected 'property list uchar int vertex_indices'",
-                        names.file(), face->header_line));
+                        names.file(), face.header_line));
     }
+    return index_list;
+}
 
+PlyLayout ply_layout(const PlyHeader& header, const Names& names) {
+    PlyLayout layout;
+    for (const PlyElement& e : header.elements) {
+        if (e.name == "vertex") layout.vertex = &e;
+        if (e.name == "face") layout.face = &e;
+    }
+    if (layout.vertex == nullptr) {
+        throw InputError(fmt::format("{}: no 'vertex' element: expected vertices", names.file()));
+    }
+    if (layout.face == nullptr) {
+        throw InputError(fmt::format(
+            "{}: no 'face' element: expected a surface mesh, not a point cloud", names.file()));
+    }
+    if (layout.vertex->count > kMaxVertices) {
+        throw InputError(fmt::format(
+            "{}: element 'vertex' (line {}) declares {} vertices: expected "
+            "at most {}",
+            names.file(), layout.vertex->header_line, layout.vertex->count, kMaxVertices));
+    }
+    layout.slot = vertex_slots(*layout.vertex, names);
+    const std::array<int, 6>& slot = layout.slot;
+    layout.normal_slots = (slot[3] >= 0) + (slot[4] >= 0) + (slot[5] >= 0);
+    if (layout.normal_slots != 0 && layout.normal_slots != 3) {
+        throw InputError(
+            fmt::format("{}: element 'vertex' (line {}) has only some of nx, ny, "
+                        "nz: expected all three or none",
+                        names.file(), layout.vertex->header_line));
+    }
+    layout.index_list = face_index_list(*layout.face, names);
+    return layout;
+}
+
+// The faces' vertex indices as read, kept raw until all vertices are known (the header may
+// declare faces first): face f is indices[offsets[f] … offsets[f + 1]), from line lines[f].
+struct RawFaces {
+    std::vector<std::int64_t> indices;
+    std::vector<std::size_t> offsets{0};
+    std::vector<std::size_t> lines;
+};
+
+// Record i of an element: its scalar properties into values; the items of the face's index
+// list (keep_list, that property's index) into faces; other lists read past.
+template <typename Reader>
+void read_ply_record(Reader& reader, const PlyElement& element, const char* what, std::size_t i,
+                     int keep_list, const Names& names, std::vector<double>& values,
+                     RawFaces& faces) {
+    reader.begin(what, i);
+    values.assign(element.properties.size(), 0.0);
+    for (std::size_t pi = 0; pi < element.properties.size(); ++pi) {
+        const PlyProperty& p = element.properties[pi];
+        if (!p.is_list) {
+            values[pi] = reader.scalar(p.type, p);
+            continue;
+        }
+        const double count = reader.scalar(p.count_type, p);
+        if (count < 0) {
+            // Binary bodies have no lines: there the element index alone says where.
+            const std::string line =
+                reader.line() != 0 ? fmt::format(" (line {})", reader.line()) : std::string();
+            throw InputError(
+                fmt::format("{}: {} {}{}: list '{}' has {} items: expected a "
+                            "count >= 0",
+                            names.file(), what, i, line, p.name, count));
+        }
+        const auto items = static_cast<std::size_t>(count);
+        const bool keep = static_cast<int>(pi) == keep_list;
+        for (std::size_t j = 0; j < items; ++j) {
+            const double item = reader.scalar(p.type, p);
+            if (keep) faces.indices.push_back(static_cast<std::int64_t>(item));
+        }
+    }
+    reader.end();
+}
+
+// Vertex i from its record's values.
+void add_ply_vertex(Soup& soup, const PlyLayout& layout, const std::vector<double>& values,
+                    double scale, const Names& names, std::size_t i, std::size_t line) {
+    auto at = [&](std::size_t s) { return values[static_cast<std::size_t>(layout.slot[s])]; };
+    const Vec3 raw(at(0), at(1), at(2));
+    soup.positions.push_back(checked_position(raw, scale, names, i, line));
+    soup.vertex_ordinal.push_back(i);
+    soup.vertex_line.push_back(line);
+    if (layout.normal_slots == 3) {
+        soup.normals.push_back(
+            checked_normal(Vec3(at(3), at(4), at(5)), names, names.vertex(i, line)));
+    }
+}
+
+// The raw faces as polygons, once every vertex is known.
+void add_ply_faces(Soup& soup, const RawFaces& faces, const Names& names) {
+    const auto vertex_count = static_cast<std::int64_t>(soup.positions.size());
+    std::vector<std::uint32_t> polygon;
+    for (std::size_t f = 0; f + 1 < faces.offsets.size(); ++f) {
+        polygon.clear();
+        const std::size_t begin = faces.offsets[f], end = faces.offsets[f + 1];
+        if (end - begin < 3) {
+            throw InputError(fmt::format("{}: {} has {} vertices: expected at least 3",
+                                         names.file(), names.face(f, faces.lines[f]), end - begin));
+        }
+        for (std::size_t j = begin; j < end; ++j) {
+            if (faces.indices[j] < 0 || faces.indices[j] >= vertex_count) {
+                throw InputError(fmt::format(
+                    "{}: {}: vertex index {} is out of range: expected 0..{} ({} vertices)",
+                    names.file(), names.face(f, faces.lines[f]), faces.indices[j], vertex_count - 1,
+                    vertex_count));
+            }
+            polygon.push_back(static_cast<std::uint32_t>(faces.indices[j]));
+        }
+        add_polygon(soup, polygon, f, faces.lines[f], names);
+    }
+}
+
+template <typename Reader>
+Soup read_ply_body(Reader& reader, const PlyHeader& header, double scale, const Names& names) {
+    const PlyLayout layout = ply_layout(header, names);
     Soup soup;
-    // Faces are kept raw until all vertices are known: the header may declare faces first.
-    std::vector<std::int64_t> face_indices;
-    std::vector<std::size_t> face_offsets{0};
-    std::vector<std::size_t> face_lines;
+    RawFaces faces;
     std::vector<double> values;
     for (const PlyElement& element : header.elements) {
         reader.check_count(element);
-        const bool is_vertex = &element == vertex;
-        const bool is_face = &element == face;
+        const bool is_vertex = &element == layout.vertex;
+        const bool is_face = &element == layout.face;
         const char* what = is_vertex ? "vertex" : is_face ? "face" : element.name.c_str();
         // An element without properties has nothing to read (and its count bounds nothing).
         if (element.properties.empty()) continue;
         if (is_vertex) {
             const std::size_t expected = reader.reservable(element);
             soup.positions.reserve(expected);
-            if (normal_slots == 3) soup.normals.reserve(expected);
+            if (layout.normal_slots == 3) soup.normals.reserve(expected);
         }
         for (std::size_t i = 0; i < element.count; ++i) {
-            reader.begin(what, i);
-            values.assign(element.properties.size(), 0.0);
-            for (std::size_t pi = 0; pi < element.properties.size(); ++pi) {
-                const PlyProperty& p = element.properties[pi];
-                if (!p.is_list) {
-                    values[pi] = reader.scalar(p.type, p);
-                    continue;
-                }
-                const double count = reader.scalar(p.count_type, p);
-                if (count < 0) {
-                    // Binary bodies have no lines: there the element index alone says where.
-                    const std::string line = reader.line() != 0
-                                                 ? fmt::format(" (line {})", reader.line())
-                                                 : std::string();
-                    throw InputError(
-                        fmt::format("{}: {} {}{}: list '{}' has {} items: expected a "
-                                    "count >= 0",
-                                    names.file(), what, i, line, p.name, count));
-                }
-                const auto items = static_cast<std::size_t>(count);
-                const bool keep = is_face && static_cast<int>(pi) == index_list;
-                for (std::size_t j = 0; j < items; ++j) {
-                    const double item = reader.scalar(p.type, p);
-                    if (keep) face_indices.push_back(static_cast<std::int64_t>(item));
-                }
-            }
-            reader.end();
+            read_ply_record(reader, element, what, i, is_face ? layout.index_list : -1, names,
+                            values, faces);
             if (is_vertex) {
-                const Vec3 raw(values[static_cast<std::size_t>(slot[0])],
-                               values[static_cast<std::size_t>(slot[1])],
-                               values[static_cast<std::size_t>(slot[2])]);
-                soup.positions.push_back(checked_position(raw, scale, names, i, reader.line()));
-                soup.vertex_ordinal.push_back(i);
-                soup.vertex_line.push_back(reader.line());
-                if (normal_slots == 3) {
-                    const Vec3 normal(values[static_cast<std::size_t>(slot[3])],
-                                      values[static_cast<std::size_t>(slot[4])],
-                                      values[static_cast<std::size_t>(slot[5])]);
-                    soup.normals.push_back(
-                        checked_normal(normal, names, names.vertex(i, reader.line())));
-                }
+                add_ply_vertex(soup, layout, values, scale, names, i, reader.line());
             } else if (is_face) {
-                face_offsets.push_back(face_indices.size());
-                face_lines.push_back(reader.line());
+                faces.offsets.push_back(faces.indices.size());
+                faces.lines.push_back(reader.line());
             }
         }
     }
     reader.finish();
-    if (face->count == 0) {
+    if (layout.face->count == 0) {
         throw InputError(
             fmt::format("{}: element 'face' (line {}) is empty: expected a surface mesh, not a "
                         "point cloud",
-                        names.file(), face->header_line));
+                        names.file(), layout.face->header_line));
     }
-
-    const auto vertex_count = static_cast<std::int64_t>(soup.positions.size());
-    std::vector<std::uint32_t> polygon;
-    for (std::size_t f = 0; f + 1 < face_offsets.size(); ++f) {
-        polygon.clear();
-        const std::size_t begin = face_offsets[f], end = face_offsets[f + 1];
-        if (end - begin < 3) {
-            throw InputError(fmt::format("{}: {} has {} vertices: expected at least 3",
-                                         names.file(), names.face(f, face_lines[f]), end - begin));
-        }
-        for (std::size_t j = begin; j < end; ++j) {
-            if (face_indices[j] < 0 || face_indices[j] >= vertex_count) {
-                throw InputError(fmt::format(
-                    "{}: {}: vertex index {} is out of range: expected 0..{} ({} vertices)",
-                    names.file(), names.face(f, face_lines[f]), face_indices[j], vertex_count - 1,
-                    vertex_count));
-            }
-            polygon.push_back(static_cast<std::uint32_t>(face_indices[j]));
-        }
-        add_polygon(soup, polygon, f, face_lines[f], names);
-    }
+    add_ply_faces(soup, faces, names);
     return soup;
 }
 

@@ -430,8 +430,12 @@ Scene::Scene(SceneDescription description, std::shared_ptr<const EmbreeDevice> d
     PLUMAGE_CHECK(device_ != nullptr, "Scene needs an Embree device");
     description_.validate();
     bounds_ = description_.bounds();
-    const EmbreeDevice& dev = *device_;
+    build_units();
+    build_instances();
+}
 
+void Scene::build_units() {
+    const EmbreeDevice& dev = *device_;
     // Media: one Beer–Lambert medium per distinct material, unless a side names its own.
     std::map<const optics::Material*, std::shared_ptr<const Medium>> absorbing;
     auto medium_for = [&](const std::shared_ptr<const optics::Material>& material,
@@ -483,7 +487,10 @@ Scene::Scene(SceneDescription description, std::shared_ptr<const EmbreeDevice> d
         unit_scene.commit(dev);
         unit_scenes_.push_back(std::move(unit_scene));
     }
+}
 
+void Scene::build_instances() {
+    const EmbreeDevice& dev = *device_;
     top_.emplace(dev, RTC_SCENE_FLAG_ROBUST, RTC_BUILD_QUALITY_HIGH);
     instances_.reserve(description_.instances.size());
     // Distinct (unit, linear part), by the bits of the matrix entries.

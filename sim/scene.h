@@ -361,6 +361,10 @@ private:
     // diffuse and absorbing ones use the geometric normal (sim/interface_events.h), so their
     // shading normals are not gathered and a hit reports the geometric normal in both fields.
     static bool uses_shading_normal(const SurfaceMaterial& material);
+    // The constructor's two steps: one Embree scene per unit (its surfaces' geometries, facets
+    // and media), then the top scene's instances of them.
+    void build_units();
+    void build_instances();
     // What a hit needs of an instance's linear part. Instances share it (the rock-dove patch's
     // 4000 cells have one, the barb patch's 485 fibres two), so it is kept once per distinct
     // (unit, linear part) and the per-instance record stays small: a hit reads a random
