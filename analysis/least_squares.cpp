@@ -188,7 +188,6 @@ void validate(const ChunkedLeastSquares& problem, const Eigen::VectorXd& u,
 LeastSquaresResult minimise_least_squares(ChunkedLeastSquares& problem, Eigen::VectorXd& u,
                                           const LeastSquaresOptions& options) {
     validate(problem, u, options);
-    const int n = problem.variables();
     const double tol = options.relative_tolerance;
     LeastSquaresResult result;
     const auto started = std::chrono::steady_clock::now();
@@ -214,7 +213,7 @@ LeastSquaresResult minimise_least_squares(ChunkedLeastSquares& problem, Eigen::V
     if (!(radius > 0.0)) radius = kInitialRadiusFactor;
     double damping = 0.0;  // μ of the last step
     for (;;) {
-        for (int j = 0; j < n; ++j) scale[j] = std::max(scale[j], std::sqrt(at_u.jtj(j, j)));
+        scale = scale.cwiseMax(at_u.jtj.diagonal().cwiseSqrt());
         const double s = at_u.sum_of_squares;
         const Eigen::VectorXd inverse_scale = scale.cwiseInverse();
         const Eigen::VectorXd g_hat = inverse_scale.cwiseProduct(at_u.jtr);
