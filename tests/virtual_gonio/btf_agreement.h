@@ -13,15 +13,13 @@
 
 #include "analysis/statistics.h"
 #include "sim/scatterer.h"
+#include "tests/virtual_gonio/record_agreement.h"
 #include "virtual_gonio/btf.h"
 
 namespace plumage::gonio {
 
-struct Agreement {
-    std::vector<double> chi2;
-    std::vector<int> dof;
-    double max_z = 0.0;
-};
+// Per wavelength: χ², its count and the largest |z| (the goniometer records' struct).
+using Agreement = testing::RecordAgreement;
 
 // Pixels where the forward walk has at least min_relative_error precision on its own.
 inline Agreement compare(const BtfRecord& detector, const BtfRecord& forward,
