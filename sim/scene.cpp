@@ -11,6 +11,7 @@
 
 #include "common/error.h"
 #include "sim/optics/fresnel.h"
+#include "sim/optics/thin_film.h"
 
 namespace plumage::sim {
 namespace {
@@ -177,10 +178,7 @@ void SurfaceMaterial::validate(const std::string& where) const {
     require_material(inside, where, "inside");
     if (const auto* film = std::get_if<ThinFilmInterface>(&layer)) {
         require_material(film->film, where, "film");
-        if (!std::isfinite(film->thickness_um) || film->thickness_um < 0.0) {
-            throw InputError(fmt::format("{}: film thickness = {} um: expected a finite value >= 0",
-                                         where, film->thickness_um));
-        }
+        optics::require_thickness(film->thickness_um, where);
     }
     if (const auto* diffuse = std::get_if<DiffuseLayer>(&layer)) {
         if (!diffuse->albedo) {

@@ -18,10 +18,11 @@ void require_wavelength(double lambda_nm) {
     }
 }
 
-void require_thickness(double thickness_um) {
+void require_thickness(double thickness_um, std::string_view where) {
     if (!std::isfinite(thickness_um) || thickness_um < 0.0) {
-        throw InputError(fmt::format(
-            "film thickness = {} um: expected a finite value >= 0 (micrometres)", thickness_um));
+        throw InputError(
+            fmt::format("{}{}film thickness = {} um: expected a finite value >= 0 (micrometres)",
+                        where, where.empty() ? "" : ": ", thickness_um));
     }
 }
 

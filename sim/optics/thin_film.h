@@ -10,6 +10,8 @@
 // Units: thickness in micrometres, wavelength in nanometres.
 #pragma once
 
+#include <string_view>
+
 #include "sim/optics/fresnel.h"
 
 namespace plumage::optics {
@@ -52,6 +54,8 @@ FilmIntensities airy_film_intensities_complex(const FilmMedia& media, double thi
 
 // Shared precondition checks (InputError naming the value).
 void require_wavelength(double lambda_nm);
-void require_thickness(double thickness_um);
+// The one rule for a film's thickness everywhere (films, stacks, scenes, physical optics):
+// finite and >= 0 µm; `where` (e.g. the surface) prefixes the message when given.
+void require_thickness(double thickness_um, std::string_view where = {});
 
 }  // namespace plumage::optics

@@ -16,6 +16,7 @@
 #include "common/error.h"
 #include "common/seed.h"
 #include "sim/optics/multilayer.h"
+#include "sim/optics/thin_film.h"
 
 namespace plumage::sim::wave {
 namespace {
@@ -50,9 +51,7 @@ void validate_stack(const SurfaceStack2d& stack, std::size_t curve) {
     if (!stack.substrate) refuse(fmt::format("curve {} has no substrate material", curve));
     for (const FilmLayer2d& film : stack.films) {
         if (!film.material) refuse(fmt::format("curve {} has a film without a material", curve));
-        if (!std::isfinite(film.thickness_um) || film.thickness_um < 0.0)
-            refuse(fmt::format("curve {}: film thickness {:.4g} µm must be finite and >= 0", curve,
-                               film.thickness_um));
+        optics::require_thickness(film.thickness_um, fmt::format("{}: curve {}", kWhat, curve));
     }
 }
 

@@ -213,8 +213,8 @@ TEST(BtfDetector, DetectorWalkConservesEnergyInAWhiteFurnace) {
             sum_sq[k] += x * x;
         }
     }
-    const double bound =
-        analysis::two_sided_normal_quantile(analysis::sidak_significance(0.01, lambdas.size()));
+    const double bound = analysis::two_sided_normal_quantile(
+        analysis::sidak_significance(0.01, static_cast<int>(lambdas.size())));
     for (std::size_t k = 0; k < lambdas.size(); ++k) {
         const double mean = sum[k] / kQuanta;
         const double se = std::sqrt((sum_sq[k] / kQuanta - mean * mean) / (kQuanta - 1));
