@@ -169,6 +169,24 @@ std::optional<LeastSquaresStop> stop_after_step(const StepReduction& r, double r
     return std::nullopt;
 }
 
+// The caller's progress callback (LeastSquaresOptions::progress), with the seconds since the
+// minimisation started; nothing without one.
+class ProgressReport {
+public:
+    explicit ProgressReport(const LeastSquaresOptions& options)
+        : options_(options), started_(std::chrono::steady_clock::now()) {}
+    void operator()(int evaluations, double sum_of_squares) const {
+        if (!options_.progress) return;
+        options_.progress(
+            evaluations, sum_of_squares,
+            std::chrono::duration<double>(std::chrono::steady_clock::now() - started_).count());
+    }
+
+private:
+    const LeastSquaresOptions& options_;
+    std::chrono::steady_clock::time_point started_;
+};
+
 void validate(const ChunkedLeastSquares& problem, const Eigen::VectorXd& u,
               const LeastSquaresOptions& options) {
     const int n = problem.variables();
@@ -188,15 +206,8 @@ void validate(const ChunkedLeastSquares& problem, const Eigen::VectorXd& u,
 LeastSquaresResult minimise_least_squares(ChunkedLeastSquares& problem, Eigen::VectorXd& u,
                                           const LeastSquaresOptions& options) {
     validate(problem, u, options);
-    const double tol = options.relative_tolerance;
     LeastSquaresResult result;
-    const auto started = std::chrono::steady_clock::now();
-    const auto report = [&](double sum_of_squares) {
-        if (!options.progress) return;
-        options.progress(
-            result.function_evaluations, sum_of_squares,
-            std::chrono::duration<double>(std::chrono::steady_clock::now() - started).count());
-    };
+    const ProgressReport report(options);
 
     check_interrupt();
     problem.set_point(u);
@@ -204,7 +215,7 @@ LeastSquaresResult minimise_least_squares(ChunkedLeastSquares& problem, Eigen::V
     ++result.function_evaluations;
     ++result.jacobian_evaluations;
     result.sum_of_squares = at_u.sum_of_squares;
-    report(at_u.sum_of_squares);
+    report(result.function_evaluations, at_u.sum_of_squares);
 
     // D: each column's norm, never decreasing (Moré's scaling); 1 for a column that is zero.
     Eigen::VectorXd scale = at_u.jtj.diagonal().cwiseSqrt().unaryExpr(
@@ -241,7 +252,7 @@ LeastSquaresResult minimise_least_squares(ChunkedLeastSquares& problem, Eigen::V
             NormalEquations at_trial = total_normal_equations(problem);
             const double s_trial = at_trial.sum_of_squares;
             ++result.function_evaluations;
-            report(s_trial);
+            report(result.function_evaluations, s_trial);
 
             const StepReduction reduction = step_reduction(step.scaled, a_hat, damping, s, s_trial);
             update_trust_region(reduction, s, s_trial, step_norm, radius, damping);
@@ -250,9 +261,9 @@ LeastSquaresResult minimise_least_squares(ChunkedLeastSquares& problem, Eigen::V
                 u = trial;
                 result.sum_of_squares = s_trial;
             }
-            const std::optional<LeastSquaresStop> stop =
-                stop_after_step(reduction, radius, scale.cwiseProduct(u).norm(), tol,
-                                result.function_evaluations >= options.max_function_evaluations);
+            const std::optional<LeastSquaresStop> stop = stop_after_step(
+                reduction, radius, scale.cwiseProduct(u).norm(), options.relative_tolerance,
+                result.function_evaluations >= options.max_function_evaluations);
             if (stop) {
                 problem.set_point(u);
                 result.stop = *stop;
