@@ -19,9 +19,6 @@
 namespace plumage::analysis {
 namespace {
 
-// Relative eigenvalue below which JᵀJ (after unit-diagonal scaling) counts as singular.
-constexpr double kSingularRatio = 1e-12;
-
 bool periodic(int index) { return index == kFilipPhiA; }
 
 double wrap_half_turn(double phi) {
@@ -348,25 +345,15 @@ namespace {
 using Values = std::array<double, kFilip2024ParameterCount>;
 using Mask = std::array<bool, kFilip2024ParameterCount>;
 
-// covariance = s² (JᵀJ)⁻¹ over the free parameters, inverted after scaling JᵀJ to a unit
-// diagonal so that the singularity test does not depend on the parameters' units.
+// covariance = s² (JᵀJ)⁻¹ over the free parameters (least_squares_covariance).
 void set_covariance(Filip2024FitResult& result, const Eigen::MatrixXd& normal) {
     const int n_free = static_cast<int>(result.free_parameters.size());
-    const Eigen::VectorXd diagonal = normal.diagonal();
-    result.covariance =
-        Eigen::MatrixXd::Constant(n_free, n_free, std::numeric_limits<double>::quiet_NaN());
-    if (!(diagonal.array() > 0.0).all()) return;
-    const Eigen::VectorXd scale = diagonal.array().rsqrt();
-    const Eigen::MatrixXd scaled = scale.asDiagonal() * normal * scale.asDiagonal();
-    const Eigen::SelfAdjointEigenSolver<Eigen::MatrixXd> eigen(scaled);
-    const Eigen::VectorXd lambda = eigen.eigenvalues();
-    if (eigen.info() != Eigen::Success || !(lambda.minCoeff() > kSingularRatio * lambda.maxCoeff()))
-        return;
-    const Eigen::MatrixXd inverse = eigen.eigenvectors() * lambda.cwiseInverse().asDiagonal() *
-                                    eigen.eigenvectors().transpose();
-    result.covariance =
-        result.reduced_chi_square * scale.asDiagonal() * inverse * scale.asDiagonal();
-    result.covariance_available = true;
+    const std::optional<Eigen::MatrixXd> covariance =
+        least_squares_covariance(normal, result.reduced_chi_square);
+    result.covariance_available = covariance.has_value();
+    result.covariance = covariance.value_or(
+        Eigen::MatrixXd::Constant(n_free, n_free, std::numeric_limits<double>::quiet_NaN()));
+    if (!covariance) return;
     for (int j = 0; j < n_free; ++j)
         result.standard_errors[result.free_parameters[j]] = std::sqrt(result.covariance(j, j));
 }

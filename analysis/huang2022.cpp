@@ -16,9 +16,9 @@
 
 #include <fmt/format.h>
 
-#include "analysis/gauss_legendre_rules.h"
 #include "common/constants.h"
 #include "common/error.h"
+#include "common/gauss_legendre.h"
 #include "common/require.h"
 #include "sim/optics/material.h"
 #include "sim/optics/thin_film.h"

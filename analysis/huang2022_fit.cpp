@@ -15,9 +15,11 @@
 #include <unsupported/Eigen/NonLinearOptimization>
 
 #include "analysis/bounded_parameters.h"
+#include "analysis/least_squares.h"
 #include "analysis/levenberg_marquardt.h"
 #include "common/constants.h"
 #include "common/error.h"
+#include "common/gauss_legendre.h"
 #include "common/interrupt.h"
 #include "common/require.h"
 
@@ -28,8 +30,6 @@ namespace {
 // stay open in floating point.
 constexpr double kLogisticFloor = 1e-15;
 // H (no upper bound) is reported at_bound below kAtBoundFraction (bounded_parameters.h).
-// Relative eigenvalue below which JᵀJ (after unit-diagonal scaling) counts as singular.
-constexpr double kSingularRatio = 1e-12;
 // A requested wavelength matches the record's within this (nm).
 constexpr double kWavelengthMatch = 1e-6;
 
@@ -158,22 +158,6 @@ struct ParameterMap {
     }
 };
 
-// Gauss–Legendre nodes and weights on [0, 1] (Golub–Welsch: eigenvalues of the Jacobi matrix).
-std::vector<std::pair<double, double>> gauss_legendre_unit(int n) {
-    Eigen::MatrixXd jacobi = Eigen::MatrixXd::Zero(n, n);
-    for (int k = 1; k < n; ++k) {
-        const double beta = k / std::sqrt(4.0 * k * k - 1.0);
-        jacobi(k, k - 1) = jacobi(k - 1, k) = beta;
-    }
-    const Eigen::SelfAdjointEigenSolver<Eigen::MatrixXd> eigen(jacobi);
-    std::vector<std::pair<double, double>> nodes;
-    for (int k = 0; k < n; ++k) {
-        const double v0 = eigen.eigenvectors()(0, k);
-        nodes.emplace_back(0.5 * (eigen.eigenvalues()[k] + 1.0), v0 * v0);  // weights sum to 1
-    }
-    return nodes;
-}
-
 // Illumination directions and weights (summing to 1), see the header.
 std::vector<std::pair<Vec3d, double>> illumination_nodes(const gonio::ScatterometerConfig& config,
                                                          int radial, int azimuthal) {
@@ -185,7 +169,10 @@ std::vector<std::pair<Vec3d, double>> illumination_nodes(const gonio::Scatterome
         (std::abs(axis.z()) < 0.9 ? Vec3d::UnitZ() : Vec3d::UnitX()).cross(axis).normalized();
     const Vec3d e2 = axis.cross(e1);
     std::vector<std::pair<Vec3d, double>> nodes;
-    for (const auto& [fraction, weight] : gauss_legendre_unit(radial)) {
+    // Gauss–Legendre in the disc's area fraction, mapped from [−1, 1] to [0, 1], innermost first.
+    const GaussLegendreRule rule = gauss_legendre(radial);
+    for (std::size_t i = rule.nodes.size(); i-- > 0;) {
+        const double fraction = 0.5 * (rule.nodes[i] + 1.0), weight = 0.5 * rule.weights[i];
         const double r = radius * std::sqrt(fraction);
         const double along = std::sqrt(std::max(0.0, 1.0 - r * r));
         for (int j = 0; j < azimuthal; ++j) {
@@ -827,35 +814,21 @@ struct Residuals {
 };
 
 // The parameters' covariance and standard errors at the optimum u from the residuals'
-// Jacobian in u: covariance_u = s² (J_uᵀJ_u)⁻¹, inverted after scaling to a unit diagonal so that
-// the singularity test does not depend on the variables' scales; then M covariance_u Mᵀ.
+// Jacobian in u: covariance_u = s² (J_uᵀJ_u)⁻¹ (least_squares_covariance), then M covariance_u Mᵀ.
 void set_covariance(HuangFitResult& result, const Eigen::MatrixXd& jacobian,
                     const ParameterMap& map, const Eigen::VectorXd& u) {
     const int n_free = static_cast<int>(map.free.size());
-    const Eigen::MatrixXd normal = normal_matrix(jacobian);
-    const Eigen::VectorXd diagonal = normal.diagonal();
     result.covariance =
         Eigen::MatrixXd::Constant(n_free, n_free, std::numeric_limits<double>::quiet_NaN());
-    if ((diagonal.array() > 0.0).all() && jacobian.allFinite()) {
-        const Eigen::VectorXd scale = diagonal.array().rsqrt();
-        const Eigen::MatrixXd scaled = scale.asDiagonal() * normal * scale.asDiagonal();
-        const Eigen::SelfAdjointEigenSolver<Eigen::MatrixXd> eigen(scaled);
-        const Eigen::VectorXd lambda = eigen.eigenvalues();
-        if (eigen.info() == Eigen::Success &&
-            lambda.minCoeff() > kSingularRatio * lambda.maxCoeff()) {
-            const Eigen::MatrixXd inverse = eigen.eigenvectors() *
-                                            lambda.cwiseInverse().asDiagonal() *
-                                            eigen.eigenvectors().transpose();
-            const Eigen::MatrixXd covariance_u =
-                result.reduced_chi_square * scale.asDiagonal() * inverse * scale.asDiagonal();
-            const Eigen::MatrixXd m = map.derivative(u);
-            result.covariance = m * covariance_u * m.transpose();
-            result.covariance_available = true;
-            for (int j = 0; j < n_free; ++j) {
-                result.standard_errors[map.free[j]] = std::sqrt(result.covariance(j, j));
-            }
-        }
-    }
+    if (!jacobian.allFinite()) return;
+    const std::optional<Eigen::MatrixXd> covariance_u =
+        least_squares_covariance(normal_matrix(jacobian), result.reduced_chi_square);
+    if (!covariance_u) return;
+    const Eigen::MatrixXd m = map.derivative(u);
+    result.covariance = m * *covariance_u * m.transpose();
+    result.covariance_available = true;
+    for (int j = 0; j < n_free; ++j)
+        result.standard_errors[map.free[j]] = std::sqrt(result.covariance(j, j));
 }
 
 }  // namespace

@@ -4,15 +4,15 @@
 #include <array>
 #include <cmath>
 
-#include "analysis/gauss_legendre_rules.h"
 #include "common/constants.h"
+#include "common/gauss_legendre.h"
 #include "sim/optics/fresnel.h"
 #include "sim/optics/material.h"
 
 namespace plumage::analysis {
 namespace {
 
-// Gauss–Legendre (analysis/gauss_legendre_rules.h): 8 nodes in φ_m and 16 in θ_m.
+// Gauss–Legendre (common/gauss_legendre.h): 8 nodes in φ_m and 16 in θ_m.
 // φ_m pieces of at most this length (rad): 0.05 and 0.1 moved eval's TRT by < 1e-4 relative.
 constexpr double kPieceRad = 0.1;
 

@@ -11,6 +11,7 @@
 
 #include <fmt/format.h>
 #include <Eigen/Cholesky>
+#include <Eigen/Eigenvalues>
 
 #include "common/error.h"
 #include "common/interrupt.h"
@@ -276,6 +277,21 @@ LeastSquaresResult minimise_least_squares(ChunkedLeastSquares& problem, Eigen::V
             }
         }
     }
+}
+
+std::optional<Eigen::MatrixXd> least_squares_covariance(const Eigen::MatrixXd& normal,
+                                                        double reduced_chi_square) {
+    const Eigen::VectorXd diagonal = normal.diagonal();
+    if (!(diagonal.array() > 0.0).all() || !normal.allFinite()) return std::nullopt;
+    const Eigen::VectorXd scale = diagonal.array().rsqrt();
+    const Eigen::MatrixXd scaled = scale.asDiagonal() * normal * scale.asDiagonal();
+    const Eigen::SelfAdjointEigenSolver<Eigen::MatrixXd> eigen(scaled);
+    const Eigen::VectorXd lambda = eigen.eigenvalues();
+    if (eigen.info() != Eigen::Success || !(lambda.minCoeff() > kSingularRatio * lambda.maxCoeff()))
+        return std::nullopt;
+    const Eigen::MatrixXd inverse = eigen.eigenvectors() * lambda.cwiseInverse().asDiagonal() *
+                                    eigen.eigenvectors().transpose();
+    return Eigen::MatrixXd(reduced_chi_square * scale.asDiagonal() * inverse * scale.asDiagonal());
 }
 
 }  // namespace plumage::analysis

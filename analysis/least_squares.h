@@ -39,6 +39,7 @@
 
 #include <cstddef>
 #include <functional>
+#include <optional>
 #include <string>
 #include <vector>
 
@@ -118,5 +119,15 @@ struct LeastSquaresResult {
 // Ctrl-C, InputError for bad options.
 LeastSquaresResult minimise_least_squares(ChunkedLeastSquares& problem, Eigen::VectorXd& u,
                                           const LeastSquaresOptions& options);
+
+// The fits' one covariance rule: s² (JᵀJ)⁻¹ at the optimum from the normal matrix JᵀJ (in the
+// variables the caller wants the covariance in) and s² = χ²/dof, the usual linearisation.
+// Inverted after scaling JᵀJ to a unit diagonal, so that the singularity test does not depend
+// on the variables' units: nullopt when a diagonal entry is not > 0, an entry is not finite, or
+// the scaled matrix's smallest eigenvalue is at most kSingularRatio × its largest (some
+// combination of the parameters is not determined by the data).
+inline constexpr double kSingularRatio = 1e-12;
+std::optional<Eigen::MatrixXd> least_squares_covariance(const Eigen::MatrixXd& normal,
+                                                        double reduced_chi_square);
 
 }  // namespace plumage::analysis

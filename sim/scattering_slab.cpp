@@ -10,6 +10,7 @@
 #include <fmt/format.h>
 
 #include "common/error.h"
+#include "common/gauss_legendre.h"
 
 namespace plumage::sim {
 namespace {
@@ -57,14 +58,6 @@ void require_unit(const Vec3d& v, const char* what) {
                         what, v.x(), v.y(), v.z()));
     }
 }
-
-// 8-point Gauss–Legendre on [−1, 1].
-constexpr std::array<double, 8> kGaussNodes = {
-    -0.9602898564975363, -0.7966664774136267, -0.5255324099163290, -0.1834346424956498,
-    0.1834346424956498,  0.5255324099163290,  0.7966664774136267,  0.9602898564975363};
-constexpr std::array<double, 8> kGaussWeights = {
-    0.1012285362903763, 0.2223810344533745, 0.3137066458778873, 0.3626837833783620,
-    0.3626837833783620, 0.3137066458778873, 0.2223810344533745, 0.1012285362903763};
 
 }  // namespace
 
@@ -153,22 +146,22 @@ double slab_single_scattering(const ScatteringMedium& medium, double lambda_nm, 
 SlabSingleScattering slab_single_scattering_totals(const ScatteringMedium& medium, double lambda_nm,
                                                    double thickness_um, const Vec3d& wi) {
     // Composite Gauss–Legendre: 64 panels in μ_o per hemisphere, 64 in φ over [0, π]
-    // (the integrand is even in φ − φ_i), 8 nodes each.
+    // (the integrand is even in φ − φ_i), 8 Gauss–Legendre nodes each (common/gauss_legendre.h).
     constexpr int kPanels = 64;
     const double phi_i = std::atan2(wi.y(), wi.x());
     SlabSingleScattering out;
     for (double sign : {1.0, -1.0}) {
         double sum = 0.0;
         for (int pm = 0; pm < kPanels; ++pm) {
-            for (std::size_t a = 0; a < kGaussNodes.size(); ++a) {
-                const double mo = (pm + 0.5 + 0.5 * kGaussNodes[a]) / kPanels;
+            for (std::size_t a = 0; a < kGl8Nodes.size(); ++a) {
+                const double mo = (pm + 0.5 + 0.5 * kGl8Nodes[a]) / kPanels;
                 const double so = std::sqrt(std::max(0.0, 1.0 - mo * mo));
                 for (int pp = 0; pp < kPanels; ++pp) {
-                    for (std::size_t b = 0; b < kGaussNodes.size(); ++b) {
+                    for (std::size_t b = 0; b < kGl8Nodes.size(); ++b) {
                         const double phi =
-                            phi_i + std::numbers::pi * (pp + 0.5 + 0.5 * kGaussNodes[b]) / kPanels;
+                            phi_i + std::numbers::pi * (pp + 0.5 + 0.5 * kGl8Nodes[b]) / kPanels;
                         const Vec3d wo(so * std::cos(phi), so * std::sin(phi), sign * mo);
-                        sum += kGaussWeights[a] * kGaussWeights[b] *
+                        sum += kGl8Weights[a] * kGl8Weights[b] *
                                slab_single_scattering(medium, lambda_nm, thickness_um, wi, wo);
                     }
                 }

@@ -21,6 +21,7 @@
 #include "common/cpu_time.h"
 #include "common/distributed.h"
 #include "common/error.h"
+#include "common/gauss_legendre.h"
 #include "common/require.h"
 #include "common/seed.h"
 #include "common/version.h"
@@ -700,23 +701,10 @@ struct CubatureNode {
 std::vector<CubatureNode> product_rule(int rings) {
     std::vector<CubatureNode> rule;
     const int azimuths = 2 * rings;
-    // Gauss–Legendre nodes on [0, 1] by Newton iteration on P_n.
+    const GaussLegendreRule gl = gauss_legendre(rings);  // on [−1, 1], mapped to [0, 1]
     for (int i = 0; i < rings; ++i) {
-        double x = std::cos(kPi * (i + 0.75) / (rings + 0.5));
-        double dp = 0.0;
-        for (int it = 0; it < 100; ++it) {
-            double p0 = 1.0, p1 = x;
-            for (int k = 2; k <= rings; ++k) {
-                const double p2 = ((2.0 * k - 1.0) * x * p1 - (k - 1.0) * p0) / k;
-                p0 = p1;
-                p1 = p2;
-            }
-            dp = rings * (x * p1 - p0) / (x * x - 1.0);
-            const double dx = p1 / dp;
-            x -= dx;
-            if (std::abs(dx) < 1e-15) break;
-        }
-        const double weight = 2.0 / ((1.0 - x * x) * dp * dp);
+        const double x = gl.nodes[static_cast<std::size_t>(i)];
+        const double weight = gl.weights[static_cast<std::size_t>(i)];
         for (int k = 0; k < azimuths; ++k)
             rule.push_back(
                 {0.5 * (x + 1.0), 2.0 * kPi * (k + 0.5 * (i % 2)) / azimuths, 0.5 * weight});

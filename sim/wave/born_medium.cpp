@@ -21,6 +21,7 @@
 
 #include "common/constants.h"
 #include "common/error.h"
+#include "common/gauss_legendre.h"
 #include "sim/wave/effective_index.h"
 #include "sim/wave/index_field.h"
 #include "sim/wave/mie.h"
@@ -30,38 +31,9 @@ namespace {
 
 constexpr int kQuadratureNodes = 512;
 
-struct GaussLegendre {
-    std::vector<double> nodes, weights;
-};
-
-// Nodes and weights on [−1, 1] by Newton's method on P_n (Golub–Welsch accuracy is not
-// needed: Newton from the Chebyshev-like guess converges to round-off in a few steps).
-const GaussLegendre& gauss_legendre() {
-    static const GaussLegendre rule = [] {
-        GaussLegendre r;
-        const int n = kQuadratureNodes;
-        r.nodes.resize(n);
-        r.weights.resize(n);
-        for (int i = 0; i < n; ++i) {
-            double x = std::cos(kPi * (i + 0.75) / (n + 0.5));
-            double derivative = 1.0;
-            for (int it = 0; it < 100; ++it) {
-                double p0 = 1.0, p1 = x;
-                for (int k = 2; k <= n; ++k) {
-                    const double p2 = ((2.0 * k - 1.0) * x * p1 - (k - 1.0) * p0) / k;
-                    p0 = p1;
-                    p1 = p2;
-                }
-                derivative = n * (x * p1 - p0) / (x * x - 1.0);
-                const double dx = p1 / derivative;
-                x -= dx;
-                if (std::abs(dx) < 1e-15) break;
-            }
-            r.nodes[i] = x;
-            r.weights[i] = 2.0 / ((1.0 - x * x) * derivative * derivative);
-        }
-        return r;
-    }();
+// The 512-node rule, computed once.
+const GaussLegendreRule& angle_rule() {
+    static const GaussLegendreRule rule = gauss_legendre(kQuadratureNodes);
     return rule;
 }
 
@@ -85,7 +57,7 @@ ScatteringTable integrate_differential(const std::function<double(double)>& dsig
             "wave medium: table_points = {}: expected 2 to 100000 phase-function entries",
             table_points));
     }
-    const GaussLegendre& rule = gauss_legendre();
+    const GaussLegendreRule& rule = angle_rule();
     double total = 0.0, first_moment = 0.0;
     for (std::size_t i = 0; i < rule.nodes.size(); ++i) {
         const double value = dsigma_domega(rule.nodes[i]);

@@ -7,6 +7,7 @@
 #include <cmath>
 #include <cstdio>
 #include <cstring>
+#include <optional>
 #include <vector>
 
 #include <gtest/gtest.h>
@@ -75,6 +76,41 @@ TEST(LeastSquares, StopsAtTheEvaluationLimitAndSaysSo) {
     EXPECT_EQ(r.stop, LeastSquaresStop::kMaxEvaluations);
     EXPECT_EQ(r.function_evaluations, 3);
     EXPECT_EQ(r.termination(), "too many function evaluations");
+}
+
+// The covariance rule against the closed form of a straight-line fit y = a + b x with known
+// scatter: Var b = s² / Σ(x − x̄)², Var a = s² Σx² / (n Σ(x − x̄)²), Cov = −s² x̄ / Σ(x − x̄)²;
+// units of a column do not change the answer (the unit-diagonal scaling); a rank-deficient
+// normal matrix has none.
+TEST(LeastSquares, CovarianceIsTheLinearisedOneAndRefusesASingularFit) {
+    const int n = 40;
+    Eigen::MatrixXd jacobian(n, 2);
+    double mean = 0.0;
+    for (int k = 0; k < n; ++k) {
+        jacobian(k, 0) = 1.0;
+        jacobian(k, 1) = 1e4 * (0.1 * k);  // x in a unit 10⁴ times too small
+        mean += jacobian(k, 1) / n;
+    }
+    double sxx = 0.0, sum_sq = 0.0;
+    for (int k = 0; k < n; ++k) {
+        sxx += (jacobian(k, 1) - mean) * (jacobian(k, 1) - mean);
+        sum_sq += jacobian(k, 1) * jacobian(k, 1);
+    }
+    const double s2 = 0.37;
+    const std::optional<Eigen::MatrixXd> c =
+        least_squares_covariance(jacobian.transpose() * jacobian, s2);
+    ASSERT_TRUE(c.has_value());
+    EXPECT_NEAR((*c)(1, 1), s2 / sxx, 1e-12 * s2 / sxx);
+    EXPECT_NEAR((*c)(0, 0), s2 * sum_sq / (n * sxx), 1e-10 * s2 * sum_sq / (n * sxx));
+    EXPECT_NEAR((*c)(0, 1), -s2 * mean / sxx, 1e-10 * s2 * mean / sxx);
+    EXPECT_DOUBLE_EQ((*c)(0, 1), (*c)(1, 0));
+
+    Eigen::MatrixXd twice(n, 2);
+    twice << jacobian.col(1), 2.0 * jacobian.col(1);  // one parameter in two columns
+    EXPECT_FALSE(least_squares_covariance(twice.transpose() * twice, s2).has_value());
+    Eigen::MatrixXd unseen = jacobian;
+    unseen.col(1).setZero();  // a parameter the data never see
+    EXPECT_FALSE(least_squares_covariance(unseen.transpose() * unseen, s2).has_value());
 }
 
 // ---- The Filip 2024 fit against MINPACK on the same problem. --------------------------------

@@ -1,11 +1,28 @@
-// Gauss–Legendre rules on [−1, 1] with 8 and 16 nodes, to 16 digits: ∫₋₁¹ f ≈ Σ w_i f(x_i), exact
-// for polynomials of degree 2n − 1. One table for the Huang model's cubatures
-// (analysis/huang2022.cpp) and the ones that must use the same nodes (huang2022_trt_exit.cpp).
+// Gauss–Legendre quadrature, the suite's one rule for it: ∫₋₁¹ f(x) dx ≈ Σ w_i f(x_i), exact for
+// polynomials of degree 2n − 1. gauss_legendre(n) computes any n; the 8- and 16-node tables are
+// the same rule written out to 16 digits for the Huang model's inner cubatures, where the nodes
+// must be compile-time constants (a test checks them against gauss_legendre(8) and (16)).
+//
+// Users: the first-Born medium's integral over the scattering angle (512 nodes), the goniometer's
+// cone cubature (in the disc's area fraction), the Huang fit's illumination nodes, the scattering
+// slab's composite rule and the Huang model's cubatures (the tables).
 #pragma once
 
 #include <array>
+#include <vector>
 
-namespace plumage::analysis {
+namespace plumage {
+
+// Nodes in decreasing order (x_0 closest to +1), weights summing to 2.
+struct GaussLegendreRule {
+    std::vector<double> nodes, weights;
+};
+
+// The n-node rule on [−1, 1] by Newton's method on P_n from x = cos(π (i + 3/4) / (n + 1/2)),
+// converged to |Δx| < 1e-15: nodes to 1e-15, weights to 1e-13 relative (P_n'(x) by the
+// recurrence cancels near x = ±1; far below any cubature error the suite states). Throws
+// InputError for n outside [1, 4096].
+GaussLegendreRule gauss_legendre(int n);
 
 inline constexpr std::array<double, 8> kGl8Nodes = {
     -0.9602898564975363, -0.7966664774136267, -0.5255324099163290, -0.1834346424956498,
@@ -24,4 +41,4 @@ inline constexpr std::array<double, 16> kGl16Weights = {
     0.1894506104550685, 0.1826034150449236, 0.1691565193950025, 0.1495959888165767,
     0.1246289712555339, 0.0951585116824928, 0.0622535239386479, 0.0271524594117541};
 
-}  // namespace plumage::analysis
+}  // namespace plumage
