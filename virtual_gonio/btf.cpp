@@ -6,6 +6,7 @@
 #include <atomic>
 #include <chrono>
 #include <cmath>
+#include <functional>
 #include <iostream>
 #include <limits>
 #include <optional>
@@ -22,6 +23,7 @@
 #include "common/seed.h"
 #include "virtual_gonio/display_colour.h"
 #include "virtual_gonio/hdf5_file.h"
+#include "virtual_gonio/pass_loop.h"
 #include "virtual_gonio/record_provenance.h"
 
 namespace plumage::gonio {
@@ -363,8 +365,59 @@ void measure_forward(const Scatterer& scatterer, BtfRecord& r) {
     estimate_pixels(hits, r);
 }
 
-// The detector estimator: items write disjoint cells, so any order gives the same bits.
-void measure_from_detector(const Scatterer& scatterer, BtfRecord& r, bool progress) {
+// The detector estimator on the pass loop (virtual_gonio/pass_loop.h): items write disjoint
+// cells, so any order gives the same bits. value and standard_error hold Σx and Σx² over all
+// passes so far; each pass's estimate is finished on a copy, the last one kept.
+class BtfDetectorPasses final : public PassMeasurement {
+public:
+    BtfDetectorPasses(const Scatterer& scatterer, BtfRecord& r)
+        : r_(r), views_(pairs_by_view(r.config.pairs)), imaging_(scatterer, r, views_) {}
+
+    std::size_t start_pass(int pass) override {
+        imaging_.start_pass(pass);
+        return imaging_.items();
+    }
+    void run_item(std::size_t it) override { imaging_.image_item(it); }
+    void pack(std::size_t it, Bytes& out) const override {
+        std::vector<double> slice;
+        imaging_.for_each_cell(it, [&](std::size_t i) {
+            slice.push_back(r_.value[i]);
+            slice.push_back(r_.standard_error[i]);
+        });
+        out.put_vector(slice);
+    }
+    void unpack(std::size_t it, Bytes& in) override {
+        const std::vector<double> slice = in.get_vector<double>();
+        std::size_t at = 0;
+        imaging_.for_each_cell(it, [&](std::size_t i) {
+            r_.value[i] = slice[at++];
+            r_.standard_error[i] = slice[at++];
+        });
+    }
+    PassEstimate reduce(int passes) override {
+        PassEstimate e;
+        e.quanta = static_cast<std::uint64_t>(passes) * r_.config.quanta_per_pixel;
+        estimate_ = r_;
+        finish_detector_pixels(estimate_, static_cast<double>(e.quanta));
+        e.relative_error = power_weighted_error(estimate_);
+        e.pixel_error = median_lit_pixel_error(estimate_);
+        return e;
+    }
+    // The last pass's estimate into the record.
+    void finish() {
+        r_.value = std::move(estimate_.value);
+        r_.standard_error = std::move(estimate_.standard_error);
+    }
+
+private:
+    BtfRecord& r_;
+    const std::vector<std::vector<std::size_t>> views_;
+    BtfDetectorImaging imaging_;
+    BtfRecord estimate_;
+};
+
+void measure_from_detector(const Scatterer& scatterer, BtfRecord& r, bool progress,
+                           const std::function<double()>& elapsed_s) {
     if (!scatterer.can_trace_adjoint()) {
         throw InputError(fmt::format(
             "btf: estimator = \"detector\" needs a scatterer with a detector-side walk (the "
@@ -376,58 +429,22 @@ void measure_from_detector(const Scatterer& scatterer, BtfRecord& r, bool progre
         c.pairs.size() * static_cast<std::size_t>(c.pixels) * c.pixels * c.wavelengths_nm.size();
     r.value.assign(cells, 0.0);
     r.standard_error.assign(cells, 0.0);
-    const std::vector<std::vector<std::size_t>> views = pairs_by_view(c.pairs);
-    BtfDetectorImaging imaging(scatterer, r, views);
-    auto image_item = [&](std::size_t it) { imaging.image_item(it); };
-    distributed::ItemTransport transport;
-    transport.pack = [&](std::size_t it, Bytes& out) {
-        std::vector<double> slice;
-        imaging.for_each_cell(it, [&](std::size_t i) {
-            slice.push_back(r.value[i]);
-            slice.push_back(r.standard_error[i]);
-        });
-        out.put_vector(slice);
-    };
-    transport.unpack = [&](std::size_t it, Bytes& in) {
-        const std::vector<double> slice = in.get_vector<double>();
-        std::size_t at = 0;
-        imaging.for_each_cell(it, [&](std::size_t i) {
-            r.value[i] = slice[at++];
-            r.standard_error[i] = slice[at++];
-        });
-    };
-    // Passes until the stop rule (BtfConfig): value and standard_error hold Σx and Σx² over all
-    // passes so far; each pass's estimate is finished on a copy, the last one kept.
-    const auto start = std::chrono::steady_clock::now();
-    for (int pass = 0;; ++pass) {
-        imaging.start_pass(pass);
-        if (!distributed::run_items(imaging.items(), image_item, transport, &interrupt_flag()))
-            throw Interrupted(fmt::format("interrupted while imaging the BTF of {}", r.scatterer));
-        const double elapsed =
-            std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
-        const std::uint64_t quanta = static_cast<std::uint64_t>(pass + 1) * c.quanta_per_pixel;
-        BtfRecord estimate = r;
-        finish_detector_pixels(estimate, static_cast<double>(quanta));
-        r.convergence.push_back({pass + 1, elapsed, quanta, power_weighted_error(estimate)});
-        const double median = median_lit_pixel_error(estimate);
-        if (progress) {
-            std::cerr << fmt::format(
-                             "\r  {}: BTF pass {} of at most {}, {} quanta per pixel, median "
-                             "pixel error {:.3g} %, {:.1f} s   ",
-                             r.scatterer, pass + 1, c.max_passes, quanta, 100.0 * median, elapsed)
-                      << std::flush;
-        }
-        const bool last = pass + 1 == c.max_passes ||
-                          (c.target_pixel_error > 0.0 && median <= c.target_pixel_error) ||
-                          (c.max_time_s > 0.0 && elapsed * (pass + 2) / (pass + 1) > c.max_time_s);
-        // Every rank stops with rank 0 (their clocks differ; their estimates do not).
-        if (distributed::broadcast_flag(last)) {
-            if (progress) std::cerr << '\n';
-            r.value = std::move(estimate.value);
-            r.standard_error = std::move(estimate.standard_error);
-            return;
-        }
-    }
+    BtfDetectorPasses passes(scatterer, r);
+    StopRule rule;  // BtfConfig's: no target on the power-weighted error
+    rule.max_passes = c.max_passes;
+    rule.target_pixel_error = c.target_pixel_error;
+    if (c.max_time_s > 0.0) rule.time_budget_s = c.max_time_s;
+    rule.budget_holds_next_pass = true;
+    PassLoopControl loop;
+    loop.interrupt = &interrupt_flag();
+    if (progress) loop.progress = fmt::format("{}: BTF", r.scatterer);
+    loop.quanta_per = "pixel";
+    PassLoopState state;
+    run_passes(passes, rule, loop, elapsed_s, state);
+    if (state.interrupted)
+        throw Interrupted(fmt::format("interrupted while imaging the BTF of {}", r.scatterer));
+    passes.finish();
+    r.convergence = std::move(state.rows);
 }
 
 }  // namespace
@@ -441,7 +458,9 @@ BtfRecord measure_btf(const Scatterer& scatterer, const BtfConfig& config, bool 
     r.scatterer = scatterer.name();
     record_measurement_seed("btf", config.seed);  // common/seed.h: one root per measurement
     if (config.estimator == BtfEstimator::detector) {
-        measure_from_detector(scatterer, r, progress);
+        measure_from_detector(scatterer, r, progress, [&] {
+            return std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+        });
     } else {
         measure_forward(scatterer, r);
     }

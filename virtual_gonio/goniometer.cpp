@@ -917,14 +917,6 @@ ConvergenceRow finish_row(int pass, const PhotonRun& run, BrdfRecord& r) {
     return ConvergenceRow{pass, r.wall_time_s, n, relative_rms(r)};
 }
 
-// Whether the stop rule is met: the last pass reached the target error or the time budget.
-bool stop_rule_met(const BrdfRecord& r) {
-    if (r.convergence.empty()) return false;
-    const ConvergenceRow& last = r.convergence.back();
-    return last.estimated_relative_rms_error <= r.config.target_relative_error ||
-           last.wall_time_s >= r.config.time_budget_s;
-}
-
 // One pass's work items, (group, wavelength, chunk) in the order they are reduced.
 std::vector<PhotonItem> pass_items(const GoniometerConfig& config, std::size_t groups,
                                    std::size_t wavelength_items, int pass) {
@@ -941,43 +933,52 @@ std::vector<PhotonItem> pass_items(const GoniometerConfig& config, std::size_t g
     return items;
 }
 
-// Plays one pass's items and adds their sums into run.sums in item order; false when
-// interrupted (the unfinished pass then adds nothing). Alone every item runs here on every
-// thread; under MPI they are dealt over the ranks and every rank gets all of them back
-// (common/distributed.h, run_items).
-bool play_pass(const Scatterer& scatterer, const BrdfRecord& r, const std::vector<Group>& groups,
-               const std::vector<PhotonItem>& items, const RunControl& control, PhotonRun& run) {
-    const GoniometerConfig& config = r.config;
-    const std::size_t nl = config.wavelengths_nm.size(), nlobes = r.lobes.size();
-    const bool shared = r.wavelength_paths_shared;
-    const std::size_t item_wavelengths = shared ? nl : 1;
-    std::vector<std::vector<double>> partial(items.size());  // per item, in group pair order
-    auto play = [&](std::size_t it) {
-        play_item(scatterer, config, groups, items[it], nlobes, shared,
-                  r.paths_split || r.diffuse_guided, partial[it]);
-    };
-    distributed::ItemTransport transport;
-    transport.pack = [&](std::size_t it, Bytes& out) { out.put_vector(partial[it]); };
-    transport.unpack = [&](std::size_t it, Bytes& in) { partial[it] = in.get_vector<double>(); };
-    if (!distributed::run_items(items.size(), play, transport, control.interrupt, kBlocksPerRank))
-        return false;
-    for (std::size_t it = 0; it < items.size(); ++it)
-        add_item_sums(partial[it], groups[items[it].group], items[it].wavelength, item_wavelengths,
-                      nl, nlobes, run.sums);
-    return true;
-}
+// The photon estimator on the pass loop (virtual_gonio/pass_loop.h): a pass's items play their
+// quanta into per-item partial sums, added to run.sums in item order.
+class PhotonPasses final : public PassMeasurement {
+public:
+    PhotonPasses(const Scatterer& scatterer, BrdfRecord& r, PhotonRun& run)
+        : scatterer_(scatterer),
+          r_(r),
+          run_(run),
+          groups_(group_by_light(r.config.pairs)),
+          nl_(r.config.wavelengths_nm.size()),
+          nlobes_(r.lobes.size()),
+          // Spectral path sharing (goniometer.h): one item, one path per quantum for every λ.
+          item_wavelengths_(r.wavelength_paths_shared ? nl_ : 1) {}
 
-// The progress line of the pass just finished (stderr; the next pass overwrites it).
-void print_pass(const BrdfRecord& r) {
-    const auto& row = r.convergence.back();
-    std::cerr << fmt::format(
-                     "\r  {}: pass {} of at most {}, {} quanta per direction, est. error "
-                     "{:.3g} %, "
-                     "{:.1f} s   ",
-                     r.scatterer, row.pass, r.config.max_passes, row.quanta,
-                     100.0 * row.estimated_relative_rms_error, row.wall_time_s)
-              << std::flush;
-}
+    std::size_t start_pass(int pass) override {
+        items_ = pass_items(r_.config, groups_.size(), nl_ / item_wavelengths_, pass);
+        partial_.assign(items_.size(), {});
+        return items_.size();
+    }
+    void run_item(std::size_t it) override {
+        play_item(scatterer_, r_.config, groups_, items_[it], nlobes_, r_.wavelength_paths_shared,
+                  r_.paths_split || r_.diffuse_guided, partial_[it]);
+    }
+    void pack(std::size_t it, Bytes& out) const override { out.put_vector(partial_[it]); }
+    void unpack(std::size_t it, Bytes& in) override { partial_[it] = in.get_vector<double>(); }
+    PassEstimate reduce(int passes) override {
+        for (std::size_t it = 0; it < items_.size(); ++it)
+            add_item_sums(partial_[it], groups_[items_[it].group], items_[it].wavelength,
+                          item_wavelengths_, nl_, nlobes_, run_.sums);
+        r_.passes = passes;
+        const ConvergenceRow row = finish_row(passes, run_, r_);
+        PassEstimate e;
+        e.quanta = row.quanta;
+        e.relative_error = row.estimated_relative_rms_error;
+        return e;
+    }
+
+private:
+    const Scatterer& scatterer_;
+    BrdfRecord& r_;
+    PhotonRun& run_;
+    const std::vector<Group> groups_;
+    std::size_t nl_, nlobes_, item_wavelengths_;
+    std::vector<PhotonItem> items_;
+    std::vector<std::vector<double>> partial_;  // per item, in group pair order
+};
 
 // The photon estimator (goniometer.h): passes of quanta_per_pass quanta per light direction and
 // wavelength until the stop rule, each pass checkpointed and reported.
@@ -987,33 +988,44 @@ BrdfRecord measure_by_photons(const Scatterer& scatterer, const RunControl& cont
     record_measurement_seed("goniometer", config.seed);  // common/seed.h: one root per measurement
     const std::size_t nl = config.wavelengths_nm.size(), np = config.pairs.size(),
                       nlobes = r.lobes.size();
-    const std::vector<Group> groups = group_by_light(config.pairs);
-    // Spectral path sharing (goniometer.h): one item, one path per quantum for every λ.
-    const std::size_t item_wavelengths = r.wavelength_paths_shared ? nl : 1;
     if (!control.checkpoint.empty())
         run.identity = checkpoint_identity(config, r.scatterer, r.estimator_used, control);
     run.sums = Sums{std::vector<double>(np * nl, 0.0), std::vector<double>(np * nl, 0.0),
                     std::vector<double>(nlobes * np * nl, 0.0),
                     std::vector<double>(nlobes * np * nl, 0.0)};
-    if (resume_from_checkpoint(control, run, r) && r.passes > 0) finish_row(r.passes, run, r);
-    while (r.passes < config.max_passes) {
-        if (distributed::broadcast_flag(stop_rule_met(r))) break;  // rank 0's clock decides
-        const int pass = r.passes;  // 0-based index of the pass being run
-        if (!play_pass(scatterer, r, groups,
-                       pass_items(config, groups.size(), nl / item_wavelengths, pass), control,
-                       run)) {
-            r.interrupted = true;
-            break;  // the unfinished pass is discarded; the checkpoint holds the last one
-        }
-        r.passes = pass + 1;
-        r.convergence.push_back(finish_row(r.passes, run, r));
+    PassLoopState state;
+    if (resume_from_checkpoint(control, run, r) && r.passes > 0) {
+        const ConvergenceRow row = finish_row(r.passes, run, r);
+        state.passes = r.passes;
+        state.rows = r.convergence;
+        state.estimate.quanta = row.quanta;
+        state.estimate.relative_error = row.estimated_relative_rms_error;
+    }
+    PhotonPasses passes(scatterer, r, run);
+    StopRule rule;
+    rule.max_passes = config.max_passes;
+    rule.target_error = config.target_relative_error;
+    rule.time_budget_s = config.time_budget_s;
+    PassLoopControl loop;
+    loop.interrupt = control.interrupt;
+    if (control.progress) loop.progress = r.scatterer;
+    loop.quanta_per = "direction";
+    loop.blocks_per_rank = kBlocksPerRank;
+    loop.on_pass = control.on_pass;
+    loop.after_pass = [&] {
+        r.convergence = state.rows;
         if (!control.checkpoint.empty() && distributed::rank() == 0)
             write_checkpoint(control.checkpoint, run.sums, r, run.identity);
-        if (control.progress) print_pass(r);
-        if (control.on_pass) control.on_pass(r.convergence.back());
         if (control.on_pass_record) control.on_pass_record(r);
-    }
-    if (control.progress) std::cerr << '\n';
+    };
+    auto elapsed = [&] {
+        return run.previous_wall +
+               std::chrono::duration<double>(std::chrono::steady_clock::now() - run.start).count();
+    };
+    run_passes(passes, rule, loop, elapsed, state);
+    r.convergence = std::move(state.rows);
+    // An unfinished pass is discarded; the checkpoint holds the last one.
+    r.interrupted = state.interrupted;
     if (r.interrupted && control.checkpoint.empty()) {
         // Without a checkpoint nobody keeps the completed passes: a partial record must not
         // flow on into figures and comparisons as if it were the measurement.

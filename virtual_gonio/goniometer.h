@@ -68,6 +68,7 @@
 #include "common/interrupt.h"
 #include "sim/scatterer.h"
 #include "virtual_gonio/direction_sets.h"
+#include "virtual_gonio/pass_loop.h"
 #include "virtual_gonio/png_image.h"
 
 namespace plumage::gonio {
@@ -138,13 +139,6 @@ struct GoniometerConfig {
     std::string config_text;  // the study text, for provenance
 
     void validate() const;  // InputError naming the field
-};
-
-struct ConvergenceRow {
-    int pass;
-    double wall_time_s;
-    std::uint64_t quanta;  // per (light direction, wavelength)
-    double estimated_relative_rms_error;
 };
 
 struct BrdfRecord {

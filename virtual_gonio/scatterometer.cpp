@@ -7,6 +7,7 @@
 #include <chrono>
 #include <cmath>
 #include <iostream>
+#include <optional>
 #include <string_view>
 
 #include <fmt/format.h>
@@ -20,6 +21,7 @@
 #include "common/seed.h"
 #include "virtual_gonio/display_colour.h"
 #include "virtual_gonio/hdf5_file.h"
+#include "virtual_gonio/pass_loop.h"
 #include "virtual_gonio/record_provenance.h"
 
 namespace plumage::gonio {
@@ -466,40 +468,65 @@ double estimate(const Sums& t, const QuantumGroups& g, Scatterogram& s) {
     return power > 0.0 ? variance / power : 1.0;
 }
 
-// Runs the pass's work items into `items` (common/distributed.h's run_items: alone on every
-// thread; under MPI dealt over the ranks, every item's hits back on every rank); false if
-// interrupted.
-bool run_pass(const PassWork& work, const RunControl& control, PassItems& items) {
-    const std::size_t n = work.items(), stride = items.below.size() / n;  // below, per item
-    distributed::ItemTransport transport;
-    transport.pack = [&](std::size_t it, Bytes& out) {
-        out.put_vector(items.hits[it]);
-        out.put_vector(items.group_sums[it]);
-        out.put_vector(std::vector<double>(items.below.begin() + it * stride,
-                                           items.below.begin() + (it + 1) * stride));
-    };
-    transport.unpack = [&](std::size_t it, Bytes& in) {
-        items.hits[it] = in.get_vector<Hit>();
-        items.group_sums[it] = in.get_vector<GroupSum>();
-        const auto below = in.get_vector<double>();
-        std::copy(below.begin(), below.end(), items.below.begin() + it * stride);
-    };
-    return distributed::run_items(
-        n, [&](std::size_t it) { work.run(it, items); }, transport, control.interrupt,
-        kBlocksPerRank);
-}
+// The scatterometer on the pass loop (virtual_gonio/pass_loop.h): a pass's PassWork items, added
+// to the sums in item order, the image estimated from them after every pass.
+class ScatterometerPasses final : public PassMeasurement {
+public:
+    ScatterometerPasses(const Scatterer& scatterer, Scatterogram& s, bool one_path)
+        : scatterer_(scatterer),
+          s_(s),
+          groups_(s.config),
+          nl_(s.config.wavelengths_nm.size()),
+          nlobes_(s.lobes.size()),
+          one_path_(one_path) {
+        const std::size_t np = s.pixels();
+        sums_ = Sums{std::vector<double>(np * nl_, 0.0), std::vector<double>(np * nl_, 0.0),
+                     std::vector<double>(nlobes_ * np * nl_, 0.0), std::vector<double>(nl_, 0.0),
+                     std::vector<double>(nlobes_ * nl_, 0.0)};
+    }
 
-// Whether the image is good enough, or its time spent, before another pass.
-bool done(const Scatterogram& s, const ScatterometerConfig& config) {
-    if (s.passes >= config.max_passes) return true;
-    if (s.convergence.empty()) return false;
-    const auto& last = s.convergence.back();
-    if (last.estimated_relative_rms_error <= config.target_relative_error ||
-        last.wall_time_s >= config.time_budget_s)
-        return true;
-    return config.target_median_relative_error > 0.0 &&
-           median_relative_standard_error(s, 0.01) <= config.target_median_relative_error;
-}
+    std::size_t start_pass(int pass) override {
+        work_.emplace(scatterer_, s_.config, s_.solid_angle_sr, nlobes_, groups_,
+                      static_cast<std::uint64_t>(pass), one_path_, s_.paths_split);
+        items_ = work_->empty_items();
+        stride_ = items_.below.size() / work_->items();  // below, per item
+        return work_->items();
+    }
+    void run_item(std::size_t it) override { work_->run(it, items_); }
+    void pack(std::size_t it, Bytes& out) const override {
+        out.put_vector(items_.hits[it]);
+        out.put_vector(items_.group_sums[it]);
+        out.put_vector(std::vector<double>(items_.below.begin() + it * stride_,
+                                           items_.below.begin() + (it + 1) * stride_));
+    }
+    void unpack(std::size_t it, Bytes& in) override {
+        items_.hits[it] = in.get_vector<Hit>();
+        items_.group_sums[it] = in.get_vector<GroupSum>();
+        const auto below = in.get_vector<double>();
+        std::copy(below.begin(), below.end(), items_.below.begin() + it * stride_);
+    }
+    PassEstimate reduce(int passes) override {
+        add_pass(items_, s_.solid_angle_sr, nl_, nlobes_, sums_);
+        s_.passes = passes;
+        PassEstimate e;
+        e.relative_error = estimate(sums_, groups_, s_);
+        e.quanta = s_.quanta;
+        if (s_.config.target_median_relative_error > 0.0)  // the per-pixel rule (header)
+            e.pixel_error = median_relative_standard_error(s_, 0.01);
+        return e;
+    }
+
+private:
+    const Scatterer& scatterer_;
+    Scatterogram& s_;
+    const QuantumGroups groups_;
+    std::size_t nl_, nlobes_;
+    bool one_path_;
+    Sums sums_;
+    std::optional<PassWork> work_;
+    PassItems items_;
+    std::size_t stride_ = 0;
+};
 
 }  // namespace
 
@@ -514,46 +541,38 @@ Scatterogram measure_scatterogram(const Scatterer& scatterer, const Scatteromete
     s.lobes = scatterer.lobe_names();
     s.solid_angle_sr = pixel_solid_angles(config.image_size);
     record_measurement_seed("scatterometer", config.seed);  // common/seed.h: one root each
-    const std::size_t np = s.pixels(), nl = config.wavelengths_nm.size(), nlobes = s.lobes.size();
-    Sums sums{std::vector<double>(np * nl, 0.0), std::vector<double>(np * nl, 0.0),
-              std::vector<double>(nlobes * np * nl, 0.0), std::vector<double>(nl, 0.0),
-              std::vector<double>(nlobes * nl, 0.0)};
-    const QuantumGroups groups(config);
+    const std::size_t nl = config.wavelengths_nm.size();
     s.wavelength_paths_shared = config.share_wavelength_paths && scatterer.can_share_paths() &&
                                 nl <= Scatterer::kMaxSharedWavelengths;
     s.paths_split =
         config.split_paths && scatterer.can_split_paths() && (s.wavelength_paths_shared || nl == 1);
     // Splitting rides on the shared walk (one wavelength is a shared walk of one).
-    const bool one_path = s.wavelength_paths_shared || s.paths_split;
-    // Rank 0's clock decides for every rank when to stop (the passes are collective under MPI).
-    while (!distributed::broadcast_flag(done(s, config))) {
-        const PassWork work(scatterer, config, s.solid_angle_sr, nlobes, groups,
-                            static_cast<std::uint64_t>(s.passes), one_path, s.paths_split);
-        PassItems items = work.empty_items();
-        if (!run_pass(work, control, items)) {
-            // No checkpoint keeps a scatterogram's passes: a partial image must not flow on.
-            throw Interrupted(fmt::format(
-                "interrupted while measuring the scatterogram of {} (pass {} of at most {})",
-                s.scatterer, s.passes + 1, config.max_passes));
-        }
-        add_pass(items, s.solid_angle_sr, nl, nlobes, sums);
-        ++s.passes;
-        const double error = estimate(sums, groups, s);
-        s.wall_time_s =
-            std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
-        s.cpu_time_s = process_cpu_seconds() - cpu_start;
-        s.convergence.push_back({s.passes, s.wall_time_s, s.quanta, error});
-        if (control.progress) {
-            std::cerr << fmt::format(
-                             "\r  scatterogram of {}: pass {} of at most {}, est. error {:.3g} %, "
-                             "{:.1f} s   ",
-                             scatterer.name(), s.passes, config.max_passes, 100.0 * error,
-                             s.wall_time_s)
-                      << std::flush;
-        }
-        if (control.on_pass) control.on_pass(s.convergence.back());
+    ScatterometerPasses passes(scatterer, s, s.wavelength_paths_shared || s.paths_split);
+    StopRule rule;
+    rule.max_passes = config.max_passes;
+    rule.target_error = config.target_relative_error;
+    rule.target_pixel_error = config.target_median_relative_error;
+    rule.time_budget_s = config.time_budget_s;
+    PassLoopControl loop;
+    loop.interrupt = control.interrupt;
+    if (control.progress) loop.progress = fmt::format("scatterogram of {}", s.scatterer);
+    loop.quanta_per = "wavelength";
+    loop.blocks_per_rank = kBlocksPerRank;
+    loop.on_pass = control.on_pass;
+    auto elapsed = [&] {
+        return std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+    };
+    PassLoopState state;
+    run_passes(passes, rule, loop, elapsed, state);
+    if (state.interrupted) {
+        // No checkpoint keeps a scatterogram's passes: a partial image must not flow on.
+        throw Interrupted(fmt::format(
+            "interrupted while measuring the scatterogram of {} (pass {} of at most {})",
+            s.scatterer, s.passes + 1, config.max_passes));
     }
-    if (control.progress) std::cerr << '\n';
+    s.convergence = std::move(state.rows);
+    s.wall_time_s = elapsed();
+    s.cpu_time_s = process_cpu_seconds() - cpu_start;
     return s;
 }
 
