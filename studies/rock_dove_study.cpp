@@ -276,6 +276,7 @@ struct Run {
     bool progress;
     fs::path dir;                         // the staging folder
     std::vector<MeasurementCost>& costs;  // each measurement's error and time, in order
+    fs::path checkpoints;                 // the study's checkpoint folder (study_common.h)
 };
 
 // The explicit patch and the analytic model of the same parameters.
@@ -377,10 +378,16 @@ ScatterogramPair measure_scatterogram_pair(const Run& run, const Built& b, gonio
     model_c.seed =
         derive_seed(run.s.seed, "rock_dove/scatterogram/model", static_cast<std::uint64_t>(mode));
     ScatterogramPair p;
+    // Each image's passes are checkpointed: Ctrl-C keeps them, the same command resumes.
+    fs::create_directories(run.checkpoints);
+    gonio::RunControl control;
+    control.progress = run.progress;
     run.clock.say("scatterogram (" + label + "): simulation");
-    p.simulation = gonio::measure_scatterogram(*b.simulation, c);
+    control.checkpoint = run.checkpoints / ("scatterogram_" + label + "_simulation.checkpoint");
+    p.simulation = gonio::measure_scatterogram(*b.simulation, c, control);
     run.clock.say("scatterogram (" + label + "): Huang model");
-    p.model = gonio::measure_scatterogram(*b.model, model_c);
+    control.checkpoint = run.checkpoints / ("scatterogram_" + label + "_model.checkpoint");
+    p.model = gonio::measure_scatterogram(*b.model, model_c, control);
     return p;
 }
 
@@ -1835,7 +1842,8 @@ RockDoveResult run_rock_dove_study(const std::string& study_text, const fs::path
         fs::create_directories(out.path() / part);
     }
     std::vector<MeasurementCost> costs;
-    const Run run{s, study_text, clock, progress, out.path(), costs};
+    const Run run{
+        s, study_text, clock, progress, out.path(), costs, checkpoint_folder(results_root, name)};
     // Which level measures: full wave's certificate of this row, before any measurement.
     const LevelCertificate certificate = row_certificate(s, clock);
     const LevelDecision level = decide_level(s.level, certificate);
@@ -1846,7 +1854,7 @@ RockDoveResult run_rock_dove_study(const std::string& study_text, const fs::path
         fmt::print(stderr, "plumage: warning: {}\n", level.warning);
     const auto physical_optics =
         level.physical_optics ? build_physical_optics(s, *file, clock) : nullptr;
-    const fs::path checkpoints = checkpoint_folder(results_root, name);
+    const fs::path& checkpoints = run.checkpoints;
     const Scatterograms scattered = scatterograms(run, built, result);
     std::string md = scattered.markdown;  // measure and compare, section by section
     const Brdfs brdfs = measure_brdfs(run, built, checkpoints / "brdf_simulation.checkpoint");

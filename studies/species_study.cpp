@@ -1401,7 +1401,12 @@ void measure_species_btf(const Run& run, const Specimen& x, SpeciesOutcome& o) {
     run.clock.say(fmt::format("{}: BTF on {} pairs ({} x {} pixels, {} wavelengths, {} estimator)",
                               x.spec.name, bc.pairs.size(), bc.pixels, bc.pixels,
                               bc.wavelengths_nm.size(), gonio::to_string(bc.estimator)));
-    const gonio::BtfRecord btf = gonio::measure_btf(x.imaged, bc, run.progress);
+    gonio::RunControl control;  // the detector estimator's passes are checkpointed
+    control.progress = run.progress;
+    const fs::path checkpoints = checkpoint_folder(run.results_root, run.name);
+    fs::create_directories(checkpoints);
+    control.checkpoint = checkpoints / (x.spec.name + "_btf.checkpoint");
+    const gonio::BtfRecord btf = gonio::measure_btf(x.imaged, bc, control);
     o.btf_seconds = btf.wall_time_s;
     o.btf_passes = static_cast<int>(btf.convergence.size());
     const std::vector<std::size_t> figure9 = figure9_pairs(bc.pairs);

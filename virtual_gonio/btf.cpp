@@ -352,7 +352,7 @@ void finish_detector_pixels(BtfRecord& r, double n) {
 
 // The forward estimator over every item (alone on every thread; under MPI dealt over the ranks,
 // every item's hits back on every rank, common/distributed.h), summed in item order.
-void measure_forward(const Scatterer& scatterer, BtfRecord& r) {
+void measure_forward(const Scatterer& scatterer, BtfRecord& r, const std::atomic<bool>* interrupt) {
     const std::vector<std::vector<std::size_t>> lights = pairs_by_light(r.config.pairs);
     const BtfImaging imaging(scatterer, r, lights);
     std::vector<std::vector<Hit>> hits(imaging.items());
@@ -360,7 +360,7 @@ void measure_forward(const Scatterer& scatterer, BtfRecord& r) {
     distributed::ItemTransport transport;
     transport.pack = [&](std::size_t it, Bytes& out) { out.put_vector(hits[it]); };
     transport.unpack = [&](std::size_t it, Bytes& in) { hits[it] = in.get_vector<Hit>(); };
-    if (!distributed::run_items(hits.size(), image_item, transport, &interrupt_flag()))
+    if (!distributed::run_items(hits.size(), image_item, transport, interrupt))
         throw Interrupted(fmt::format("interrupted while imaging the BTF of {}", r.scatterer));
     estimate_pixels(hits, r);
 }
@@ -394,7 +394,8 @@ public:
             r_.standard_error[i] = slice[at++];
         });
     }
-    PassEstimate reduce(int passes) override {
+    void add_pass() override {}  // the items added into the record's cells themselves
+    PassEstimate estimate(int passes) override {
         PassEstimate e;
         e.quanta = static_cast<std::uint64_t>(passes) * r_.config.quanta_per_pixel;
         estimate_ = r_;
@@ -402,6 +403,9 @@ public:
         e.relative_error = power_weighted_error(estimate_);
         e.pixel_error = median_lit_pixel_error(estimate_);
         return e;
+    }
+    std::vector<CheckpointSum> checkpoint_sums() override {
+        return {{"sum", &r_.value}, {"sum_sq", &r_.standard_error}};
     }
     // The last pass's estimate into the record.
     void finish() {
@@ -416,7 +420,20 @@ private:
     BtfRecord estimate_;
 };
 
-void measure_from_detector(const Scatterer& scatterer, BtfRecord& r, bool progress,
+// Everything that decides the detector estimator's sums: what its checkpoint is made from.
+std::string canonical(const BtfConfig& c, const std::string& scatterer) {
+    std::string s =
+        fmt::format("{}|{:.17g}|{}|{:.17g}|{}|{}|{}|", scatterer, c.patch_size_um, c.pixels,
+                    c.detector_half_angle_rad, c.quanta_per_pixel, c.seed, to_string(c.aperture));
+    for (double l : c.wavelengths_nm) s += fmt::format("{:.17g},", l);
+    for (const auto& p : c.pairs) {
+        s += fmt::format("{:.17g},{:.17g},{:.17g},{:.17g},{:.17g},{:.17g};", p.wi.x(), p.wi.y(),
+                         p.wi.z(), p.wo.x(), p.wo.y(), p.wo.z());
+    }
+    return s;
+}
+
+void measure_from_detector(const Scatterer& scatterer, BtfRecord& r, const RunControl& control,
                            const std::function<double()>& elapsed_s) {
     if (!scatterer.can_trace_adjoint()) {
         throw InputError(fmt::format(
@@ -436,13 +453,25 @@ void measure_from_detector(const Scatterer& scatterer, BtfRecord& r, bool progre
     if (c.max_time_s > 0.0) rule.time_budget_s = c.max_time_s;
     rule.budget_holds_next_pass = true;
     PassLoopControl loop;
-    loop.interrupt = &interrupt_flag();
-    if (progress) loop.progress = fmt::format("{}: BTF", r.scatterer);
+    loop.interrupt = control.interrupt;
+    if (control.progress) loop.progress = fmt::format("{}: BTF", r.scatterer);
     loop.quanta_per = "pixel";
+    loop.on_pass = control.on_pass;
+    loop.checkpoint = control.checkpoint;
+    if (!control.checkpoint.empty()) {
+        loop.identity = checkpoint_identity(c.config_text, canonical(c, r.scatterer),
+                                            control.checkpoint_inputs);
+    }
     PassLoopState state;
     run_passes(passes, rule, loop, elapsed_s, state);
-    if (state.interrupted)
-        throw Interrupted(fmt::format("interrupted while imaging the BTF of {}", r.scatterer));
+    if (state.interrupted) {
+        throw Interrupted(fmt::format(
+            "interrupted while imaging the BTF of {} after {} completed passes{}", r.scatterer,
+            state.passes,
+            control.checkpoint.empty() ? ""
+                                       : fmt::format(" (kept in {}: the same command resumes)",
+                                                     control.checkpoint.string())));
+    }
     passes.finish();
     r.convergence = std::move(state.rows);
 }
@@ -450,6 +479,13 @@ void measure_from_detector(const Scatterer& scatterer, BtfRecord& r, bool progre
 }  // namespace
 
 BtfRecord measure_btf(const Scatterer& scatterer, const BtfConfig& config, bool progress) {
+    RunControl control;
+    control.progress = progress;
+    return measure_btf(scatterer, config, control);
+}
+
+BtfRecord measure_btf(const Scatterer& scatterer, const BtfConfig& config,
+                      const RunControl& control) {
     config.validate();
     const auto start = std::chrono::steady_clock::now();
     const double cpu_start = process_cpu_seconds();
@@ -458,11 +494,11 @@ BtfRecord measure_btf(const Scatterer& scatterer, const BtfConfig& config, bool 
     r.scatterer = scatterer.name();
     record_measurement_seed("btf", config.seed);  // common/seed.h: one root per measurement
     if (config.estimator == BtfEstimator::detector) {
-        measure_from_detector(scatterer, r, progress, [&] {
+        measure_from_detector(scatterer, r, control, [&] {
             return std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
         });
     } else {
-        measure_forward(scatterer, r);
+        measure_forward(scatterer, r, control.interrupt);
     }
     r.wall_time_s = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
     r.cpu_time_s = process_cpu_seconds() - cpu_start;

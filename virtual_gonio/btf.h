@@ -109,6 +109,12 @@ struct BtfRecord {
 // With progress, the detector estimator prints a line per pass on stderr (pass, quanta, median
 // per-pixel error, time; each overwriting the last).
 BtfRecord measure_btf(const Scatterer& scatterer, const BtfConfig& config, bool progress = false);
+// The same with a run control: Ctrl-C flag, progress and, for the detector estimator, a
+// checkpoint after every pass that a rerun of the same study resumes (pass_checkpoint.h; its
+// parts: the build, config_text, the camera's configuration, control.checkpoint_inputs).
+// Interrupted, it throws Interrupted; the checkpoint keeps the completed passes.
+BtfRecord measure_btf(const Scatterer& scatterer, const BtfConfig& config,
+                      const RunControl& control);
 // The per-pixel error rule: the median of σ/f over the lit pixels of the given pairs (all when
 // empty), every wavelength; a pixel is lit when its value exceeds lit_fraction of the brightest
 // pixel of its tile at that wavelength (shadowed and unseen pixels are not ground truth of

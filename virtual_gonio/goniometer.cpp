@@ -40,13 +40,6 @@ constexpr std::size_t kBlocksPerRank = 4;
 // The name that prefixes this file's input errors.
 constexpr std::string_view kWhat = "goniometer";
 
-// FNV-1a: a stable hash of a checkpoint's parts, to tell a different run's checkpoint.
-std::uint64_t fnv1a(const std::string& text) {
-    std::uint64_t h = 1469598103934665603ULL;
-    for (unsigned char c : text) h = (h ^ c) * 1099511628211ULL;
-    return h;
-}
-
 std::string canonical(const GoniometerConfig& c, const std::string& scatterer,
                       Estimator estimator) {
     std::string s = fmt::format("{}|{}|{:.17g}|{:.17g}|{}|{}|{}|", scatterer, c.direction_set,
@@ -385,214 +378,7 @@ double relative_rms(BrdfRecord& r) {
                  : std::numeric_limits<double>::infinity();
 }
 
-constexpr const char* kBuildPart = "the build";
-
-// What this run's checkpoint is made from (goniometer.h, "Checkpoints"). The study text
-// describes the scene the scatterer was built from (its name alone does not: a changed geometry
-// under the same instrument must not resume another run's sums); the input files' content, which
-// the text only names, comes from the caller.
-std::vector<CheckpointPart> checkpoint_identity(const GoniometerConfig& c,
-                                                const std::string& scatterer, Estimator estimator,
-                                                const RunControl& control) {
-    std::vector<CheckpointPart> parts = {
-        {kBuildPart, checkpoint_build()},
-        {"the study file", fmt::format("{:016x}", fnv1a(c.config_text))},
-        {"the measurement's configuration",
-         fmt::format("{:016x}", fnv1a(canonical(c, scatterer, estimator)))}};
-    parts.insert(parts.end(), control.checkpoint_inputs.begin(), control.checkpoint_inputs.end());
-    return parts;
-}
-
-// One part per line, "what<TAB>value" (tabs and line breaks inside either become spaces).
-std::string identity_text(const std::vector<CheckpointPart>& parts) {
-    auto flat = [](std::string text) {
-        std::replace_if(
-            text.begin(), text.end(), [](char c) { return c == '\t' || c == '\n' || c == '\r'; },
-            ' ');
-        return text;
-    };
-    std::string text;
-    for (const CheckpointPart& p : parts) text += flat(p.what) + '\t' + flat(p.value) + '\n';
-    return text;
-}
-
-std::vector<CheckpointPart> parse_identity(const std::string& text) {
-    std::vector<CheckpointPart> parts;
-    std::size_t start = 0;
-    while (start < text.size()) {
-        std::size_t end = text.find('\n', start);
-        if (end == std::string::npos) end = text.size();
-        const std::string line = text.substr(start, end - start);
-        const auto tab = line.find('\t');
-        if (tab != std::string::npos) parts.push_back({line.substr(0, tab), line.substr(tab + 1)});
-        start = end + 1;
-    }
-    return parts;
-}
-
-void write_checkpoint_file(const std::filesystem::path& path, const Sums& sums, const BrdfRecord& r,
-                           const std::vector<CheckpointPart>& identity) {
-    record::Hdf5Writer h5(path);
-    using Dims = std::vector<std::uint64_t>;
-    h5.write("sum", std::span<const double>(sums.sum), Dims{sums.sum.size()});
-    h5.write("sum_sq", std::span<const double>(sums.sum_sq), Dims{sums.sum_sq.size()});
-    h5.write("lobe_sum", std::span<const double>(sums.lobe_sum), Dims{sums.lobe_sum.size()});
-    h5.write("lobe_sum_sq", std::span<const double>(sums.lobe_sum_sq),
-             Dims{sums.lobe_sum_sq.size()});
-    write_convergence(h5, r.convergence);
-    h5.set_attribute("/", "checkpoint_identity", identity_text(identity));
-    h5.set_attribute("/", "passes", static_cast<double>(r.passes));
-    h5.set_attribute("/", "wall_time_s", r.wall_time_s);
-    h5.set_attribute("/", "cpu_time_s", r.cpu_time_s);
-    h5.commit();
-}
-
-// Written under a name of this process alone, then renamed over `path`. Another run of the same
-// study may share the checkpoint (runs of one identity write the same sums pass by pass, so
-// either's checkpoint is good for both), and in another PID namespace it may have our pid, which
-// is all the writer's own temporary name carries. A run of it that finished meanwhile may have
-// removed the folder.
-void write_checkpoint(const std::filesystem::path& path, const Sums& sums, const BrdfRecord& r,
-                      const std::vector<CheckpointPart>& identity) {
-    std::error_code error;
-    std::filesystem::create_directories(path.parent_path(), error);
-    static std::random_device random;
-    std::filesystem::path unique = path;
-    unique += fmt::format(".{:08x}{:08x}", random(), random());
-    write_checkpoint_file(unique, sums, r, identity);
-    std::filesystem::rename(unique, path, error);
-    if (error) {
-        std::filesystem::remove(unique, error);
-        throw IoError(fmt::format("cannot rename checkpoint {} into place", path.string()));
-    }
-}
-
-// The sums and passes of a checkpoint made from `identity`, into `sums` (sized for this run) and
-// `r`, each checked; "" when resumable, else why not (`sums` and `r` then untouched).
-std::string load_checkpoint(const std::filesystem::path& path, Sums& sums, BrdfRecord& r,
-                            const std::vector<CheckpointPart>& identity) {
-    const record::Hdf5Reader h5(path);
-    if (!h5.has_attribute("/", "checkpoint_identity")) {
-        return "it was written by an earlier plumage that did not record what it was made from";
-    }
-    std::string why = checkpoint_differences(
-        parse_identity(h5.string_attribute("/", "checkpoint_identity")), identity);
-    if (!why.empty()) return why;
-    Sums loaded;
-    for (auto [name, to, from] : {std::tuple{"sum", &loaded.sum, &sums.sum},
-                                  {"sum_sq", &loaded.sum_sq, &sums.sum_sq},
-                                  {"lobe_sum", &loaded.lobe_sum, &sums.lobe_sum},
-                                  {"lobe_sum_sq", &loaded.lobe_sum_sq, &sums.lobe_sum_sq}}) {
-        *to = h5.dataset(name, {1, std::max<std::uint64_t>(from->size(), 1)}).values;
-        if (to->size() != from->size() ||
-            !std::all_of(to->begin(), to->end(), [](double v) { return std::isfinite(v); })) {
-            return fmt::format(
-                "it is damaged (its '{}' has {} values, or values that are not "
-                "finite; this measurement has {})",
-                name, to->size(), from->size());
-        }
-    }
-    const std::vector<ConvergenceRow> convergence = read_convergence(path);
-    const double passes = h5.number_attribute("/", "passes");
-    const double wall = h5.number_attribute("/", "wall_time_s");
-    // Checkpoints written before CPU time was recorded lack it: their passes count as none.
-    const double cpu =
-        h5.has_attribute("/", "cpu_time_s") ? h5.number_attribute("/", "cpu_time_s") : 0.0;
-    if (!(passes >= 0.0 && passes <= 1e9 && passes == std::floor(passes)) ||
-        convergence.size() != static_cast<std::size_t>(passes) || !(wall >= 0.0) || !(cpu >= 0.0) ||
-        !std::isfinite(wall) || !std::isfinite(cpu)) {
-        return fmt::format(
-            "it is damaged ({} passes with {} convergence rows, wall {} s, CPU {} s)", passes,
-            convergence.size(), wall, cpu);
-    }
-    sums = std::move(loaded);
-    r.convergence = convergence;
-    r.passes = static_cast<int>(passes);
-    r.wall_time_s = wall;
-    r.cpu_time_s = cpu;
-    return {};
-}
-
-// Whether the run resumes from `path` (goniometer.h, "Checkpoints"): a checkpoint that is
-// missing, unreadable, damaged or made from anything else is not resumed, saying why on stderr,
-// and stays until this run's first pass replaces it.
-bool read_checkpoint(const std::filesystem::path& path, Sums& sums, BrdfRecord& r,
-                     const std::vector<CheckpointPart>& identity) {
-    std::error_code error;
-    if (path.empty() || !std::filesystem::exists(path, error)) return false;
-    std::string why;
-    try {
-        why = load_checkpoint(path, sums, r, identity);
-        if (why.empty()) return true;
-    } catch (const Interrupted&) {
-        throw;
-    } catch (const std::exception& e) {
-        why = fmt::format("it cannot be read ({})", e.what());
-    }
-    std::cerr << fmt::format(
-        "plumage: not resuming {}: {}; starting afresh (this run's first pass replaces it)\n",
-        path.string(), why);
-    return false;
-}
-
-// Under MPI only rank 0 reads the checkpoint: its resume state, sent to every rank, so that all
-// run the same passes. Returns whether there was one.
-bool share_resumed_state(bool resumed, Sums& sums, BrdfRecord& r) {
-    Bytes state;
-    if (distributed::rank() == 0) {
-        state.put(static_cast<char>(resumed));
-        for (const auto* v : {&sums.sum, &sums.sum_sq, &sums.lobe_sum, &sums.lobe_sum_sq})
-            state.put_vector(*v);
-        state.put_vector(r.convergence);
-        state.put(r.passes);
-        state.put(r.wall_time_s);
-        state.put(r.cpu_time_s);
-    }
-    state = distributed::broadcast_bytes(std::move(state));
-    if (distributed::rank() == 0) return resumed;
-    resumed = state.get<char>() != 0;
-    for (auto* v : {&sums.sum, &sums.sum_sq, &sums.lobe_sum, &sums.lobe_sum_sq})
-        *v = state.get_vector<double>();
-    r.convergence = state.get_vector<ConvergenceRow>();
-    r.passes = state.get<int>();
-    r.wall_time_s = state.get<double>();
-    r.cpu_time_s = state.get<double>();
-    return resumed;
-}
-
 }  // namespace
-
-std::string checkpoint_build() {
-    return fmt::format("plumage {}, git {}, {}", kVersion, git_commit(), compiler());
-}
-
-std::string checkpoint_differences(const std::vector<CheckpointPart>& stored,
-                                   const std::vector<CheckpointPart>& current) {
-    auto find = [](const std::vector<CheckpointPart>& parts, const std::string& what) {
-        return std::find_if(parts.begin(), parts.end(),
-                            [&](const CheckpointPart& p) { return p.what == what; });
-    };
-    std::vector<std::string> differences;
-    for (const CheckpointPart& now : current) {
-        const auto then = find(stored, now.what);
-        if (then == stored.end()) {
-            differences.push_back(fmt::format("{} is new", now.what));
-        } else if (then->value != now.value) {
-            // The build is said in words; the other parts are hashes, which would tell nothing.
-            differences.push_back(
-                now.what == kBuildPart
-                    ? fmt::format("the build changed (from {} to {})", then->value, now.value)
-                    : fmt::format("{} changed", now.what));
-        }
-    }
-    for (const CheckpointPart& then : stored) {
-        if (find(current, then.what) == current.end())
-            differences.push_back(fmt::format("{} is no longer an input", then.what));
-    }
-    std::string text;
-    for (const std::string& d : differences) text += (text.empty() ? "" : "; ") + d;
-    return text;
-}
 
 const char* to_string(Aperture aperture) {
     switch (aperture) {
@@ -881,41 +667,12 @@ BrdfRecord new_record(const Scatterer& scatterer, const GoniometerConfig& config
     return r;
 }
 
-// The photon estimator's state across passes: its sums, what its checkpoint is made from, and
-// the clocks (a resumed run adds the time of the passes before the resume).
+// The photon estimator's clocks since this run started (a resumed run adds the time of the
+// passes before the resume: PassLoopState::resumed_wall_s, resumed_cpu_s).
 struct PhotonRun {
-    Sums sums;
-    std::vector<CheckpointPart> identity;
     std::chrono::steady_clock::time_point start;
-    double cpu_start = 0.0, previous_wall = 0.0, previous_cpu = 0.0;
+    double cpu_start = 0.0;
 };
-
-// The sums of a checkpoint made by the same run, if there is one (rank 0 reads it, and under MPI
-// every rank gets it); r then holds its passes, convergence rows and times. True if resumed.
-bool resume_from_checkpoint(const RunControl& control, PhotonRun& run, BrdfRecord& r) {
-    bool resumed =
-        distributed::rank() == 0 && read_checkpoint(control.checkpoint, run.sums, r, run.identity);
-    if (distributed::active()) resumed = share_resumed_state(resumed, run.sums, r);
-    if (resumed && control.progress) {
-        std::cerr << fmt::format("  {}: resuming after {} completed passes from {}\n", r.scatterer,
-                                 r.passes, control.checkpoint.string());
-    }
-    run.previous_wall = resumed ? r.wall_time_s : 0.0;
-    run.previous_cpu = resumed ? r.cpu_time_s : 0.0;
-    return resumed;
-}
-
-// The record's values from the sums of `pass` passes, its clocks, and the convergence row.
-ConvergenceRow finish_row(int pass, const PhotonRun& run, BrdfRecord& r) {
-    const std::uint64_t n = static_cast<std::uint64_t>(pass) * r.config.quanta_per_pass;
-    estimate_from_sums(run.sums, n, r);
-    r.quanta = n;
-    r.wall_time_s =
-        run.previous_wall +
-        std::chrono::duration<double>(std::chrono::steady_clock::now() - run.start).count();
-    r.cpu_time_s = run.previous_cpu + (process_cpu_seconds() - run.cpu_start);
-    return ConvergenceRow{pass, r.wall_time_s, n, relative_rms(r)};
-}
 
 // One pass's work items, (group, wavelength, chunk) in the order they are reduced.
 std::vector<PhotonItem> pass_items(const GoniometerConfig& config, std::size_t groups,
@@ -934,18 +691,25 @@ std::vector<PhotonItem> pass_items(const GoniometerConfig& config, std::size_t g
 }
 
 // The photon estimator on the pass loop (virtual_gonio/pass_loop.h): a pass's items play their
-// quanta into per-item partial sums, added to run.sums in item order.
+// quanta into per-item partial sums, added to the sums in item order.
 class PhotonPasses final : public PassMeasurement {
 public:
-    PhotonPasses(const Scatterer& scatterer, BrdfRecord& r, PhotonRun& run)
+    PhotonPasses(const Scatterer& scatterer, BrdfRecord& r, const PhotonRun& run,
+                 const PassLoopState& state)
         : scatterer_(scatterer),
           r_(r),
           run_(run),
+          state_(state),
           groups_(group_by_light(r.config.pairs)),
           nl_(r.config.wavelengths_nm.size()),
           nlobes_(r.lobes.size()),
           // Spectral path sharing (goniometer.h): one item, one path per quantum for every λ.
-          item_wavelengths_(r.wavelength_paths_shared ? nl_ : 1) {}
+          item_wavelengths_(r.wavelength_paths_shared ? nl_ : 1) {
+        const std::size_t cells = r.config.pairs.size() * nl_;
+        sums_ = Sums{std::vector<double>(cells, 0.0), std::vector<double>(cells, 0.0),
+                     std::vector<double>(nlobes_ * cells, 0.0),
+                     std::vector<double>(nlobes_ * cells, 0.0)};
+    }
 
     std::size_t start_pass(int pass) override {
         items_ = pass_items(r_.config, groups_.size(), nl_ / item_wavelengths_, pass);
@@ -958,24 +722,41 @@ public:
     }
     void pack(std::size_t it, Bytes& out) const override { out.put_vector(partial_[it]); }
     void unpack(std::size_t it, Bytes& in) override { partial_[it] = in.get_vector<double>(); }
-    PassEstimate reduce(int passes) override {
+    void add_pass() override {
         for (std::size_t it = 0; it < items_.size(); ++it)
             add_item_sums(partial_[it], groups_[items_[it].group], items_[it].wavelength,
-                          item_wavelengths_, nl_, nlobes_, run_.sums);
+                          item_wavelengths_, nl_, nlobes_, sums_);
+    }
+    // The record's values from the sums of `passes` passes, and its clocks.
+    PassEstimate estimate(int passes) override {
+        const std::uint64_t n = static_cast<std::uint64_t>(passes) * r_.config.quanta_per_pass;
+        estimate_from_sums(sums_, n, r_);
         r_.passes = passes;
-        const ConvergenceRow row = finish_row(passes, run_, r_);
+        r_.quanta = n;
+        r_.wall_time_s =
+            state_.resumed_wall_s +
+            std::chrono::duration<double>(std::chrono::steady_clock::now() - run_.start).count();
+        r_.cpu_time_s = state_.resumed_cpu_s + (process_cpu_seconds() - run_.cpu_start);
         PassEstimate e;
-        e.quanta = row.quanta;
-        e.relative_error = row.estimated_relative_rms_error;
+        e.quanta = n;
+        e.relative_error = relative_rms(r_);
         return e;
+    }
+    std::vector<CheckpointSum> checkpoint_sums() override {
+        return {{"sum", &sums_.sum},
+                {"sum_sq", &sums_.sum_sq},
+                {"lobe_sum", &sums_.lobe_sum},
+                {"lobe_sum_sq", &sums_.lobe_sum_sq}};
     }
 
 private:
     const Scatterer& scatterer_;
     BrdfRecord& r_;
-    PhotonRun& run_;
+    const PhotonRun& run_;
+    const PassLoopState& state_;
     const std::vector<Group> groups_;
     std::size_t nl_, nlobes_, item_wavelengths_;
+    Sums sums_;
     std::vector<PhotonItem> items_;
     std::vector<std::vector<double>> partial_;  // per item, in group pair order
 };
@@ -983,25 +764,11 @@ private:
 // The photon estimator (goniometer.h): passes of quanta_per_pass quanta per light direction and
 // wavelength until the stop rule, each pass checkpointed and reported.
 BrdfRecord measure_by_photons(const Scatterer& scatterer, const RunControl& control, BrdfRecord r,
-                              PhotonRun run) {
+                              const PhotonRun& run) {
     const GoniometerConfig& config = r.config;
     record_measurement_seed("goniometer", config.seed);  // common/seed.h: one root per measurement
-    const std::size_t nl = config.wavelengths_nm.size(), np = config.pairs.size(),
-                      nlobes = r.lobes.size();
-    if (!control.checkpoint.empty())
-        run.identity = checkpoint_identity(config, r.scatterer, r.estimator_used, control);
-    run.sums = Sums{std::vector<double>(np * nl, 0.0), std::vector<double>(np * nl, 0.0),
-                    std::vector<double>(nlobes * np * nl, 0.0),
-                    std::vector<double>(nlobes * np * nl, 0.0)};
     PassLoopState state;
-    if (resume_from_checkpoint(control, run, r) && r.passes > 0) {
-        const ConvergenceRow row = finish_row(r.passes, run, r);
-        state.passes = r.passes;
-        state.rows = r.convergence;
-        state.estimate.quanta = row.quanta;
-        state.estimate.relative_error = row.estimated_relative_rms_error;
-    }
-    PhotonPasses passes(scatterer, r, run);
+    PhotonPasses passes(scatterer, r, run, state);
     StopRule rule;
     rule.max_passes = config.max_passes;
     rule.target_error = config.target_relative_error;
@@ -1011,21 +778,24 @@ BrdfRecord measure_by_photons(const Scatterer& scatterer, const RunControl& cont
     if (control.progress) loop.progress = r.scatterer;
     loop.quanta_per = "direction";
     loop.blocks_per_rank = kBlocksPerRank;
-    loop.on_pass = control.on_pass;
+    loop.checkpoint = control.checkpoint;
+    if (!control.checkpoint.empty()) {
+        loop.identity = checkpoint_identity(config.config_text,
+                                            canonical(config, r.scatterer, r.estimator_used),
+                                            control.checkpoint_inputs);
+    }
     loop.after_pass = [&] {
+        if (!control.on_pass_record) return;
         r.convergence = state.rows;
-        if (!control.checkpoint.empty() && distributed::rank() == 0)
-            write_checkpoint(control.checkpoint, run.sums, r, run.identity);
-        if (control.on_pass_record) control.on_pass_record(r);
+        control.on_pass_record(r);
     };
+    loop.on_pass = control.on_pass;
     auto elapsed = [&] {
-        return run.previous_wall +
-               std::chrono::duration<double>(std::chrono::steady_clock::now() - run.start).count();
+        return std::chrono::duration<double>(std::chrono::steady_clock::now() - run.start).count();
     };
     run_passes(passes, rule, loop, elapsed, state);
     r.convergence = std::move(state.rows);
-    // An unfinished pass is discarded; the checkpoint holds the last one.
-    r.interrupted = state.interrupted;
+    r.interrupted = state.interrupted;  // the checkpoint holds the last completed pass
     if (r.interrupted && control.checkpoint.empty()) {
         // Without a checkpoint nobody keeps the completed passes: a partial record must not
         // flow on into figures and comparisons as if it were the measurement.
@@ -1056,7 +826,7 @@ BrdfRecord measure_brdf(const Scatterer& scatterer, const GoniometerConfig& conf
         evaluated.cpu_time_s = process_cpu_seconds() - run.cpu_start;
         return evaluated;
     }
-    return measure_by_photons(scatterer, control, std::move(r), std::move(run));
+    return measure_by_photons(scatterer, control, std::move(r), run);
 }
 
 record::RgbImage brdf_fingerprint(const BrdfRecord& r, int lights, int views, int block,

@@ -68,6 +68,7 @@
 #include "common/interrupt.h"
 #include "sim/scatterer.h"
 #include "virtual_gonio/direction_sets.h"
+#include "virtual_gonio/pass_checkpoint.h"
 #include "virtual_gonio/pass_loop.h"
 #include "virtual_gonio/png_image.h"
 
@@ -171,27 +172,10 @@ struct BrdfRecord {
     }
 };
 
-// Checkpoints (RunControl::checkpoint). A checkpoint is resumed only when it was made from the
-// same things as this run, each recorded in it as one part: the build (plumage version, git
-// commit, compiler: checkpoint_build()), the study file (GoniometerConfig::config_text), the
-// instrument's configuration (directions, wavelengths, seed, quanta per pass, estimator and its
-// options) and whatever the caller adds in RunControl::checkpoint_inputs (the content hash of
-// every input file the scene was built from). When a part differs, or the checkpoint cannot be
-// read or is damaged, the run starts afresh and says so on stderr in one line naming the
-// checkpoint and what differs; it never stops the run. The old checkpoint is replaced when the
-// new run completes its first pass, not before: interrupted earlier, the new run keeps nothing
-// and the old checkpoint stays as it was.
-struct CheckpointPart {
-    std::string what;   // for the user, e.g. "the content of the sample file 'plate.obj'"
-    std::string value;  // compared as text: a content hash, a version
-};
-// "plumage <version>, git <commit>, <compiler>": the build part of every checkpoint.
-std::string checkpoint_build();
-// Why `stored` (a checkpoint's parts) does not describe `current`: "; "-separated differences
-// ("the study file changed", ...), or empty when they agree.
-std::string checkpoint_differences(const std::vector<CheckpointPart>& stored,
-                                   const std::vector<CheckpointPart>& current);
-
+// Checkpoints (RunControl::checkpoint): the pass loop's (virtual_gonio/pass_checkpoint.h). The
+// goniometer's parts: the build, the study file (GoniometerConfig::config_text), the instrument's
+// configuration (directions, wavelengths, seed, quanta per pass, estimator and its options) and
+// RunControl::checkpoint_inputs (the content hash of every input file the scene was built from).
 struct RunControl {
     // Polled between chunks of work; by default the process-wide flag that a
     // ScopedInterruptHandler sets on SIGINT/SIGTERM (never set while none is installed).

@@ -86,12 +86,14 @@ public:
     void pack(std::size_t it, Bytes& out) const override { out.put(items_[it]); }
     void unpack(std::size_t it, Bytes& in) override { items_[it] = in.get<Tally>(); }
 
-    PassEstimate reduce(int passes) override {
+    void add_pass() override {
         for (std::size_t it = 0; it < items_.size(); ++it) {
             Tally& total = totals_[it / chunks_];
             total.up += items_[it].up, total.up_sq += items_[it].up_sq;
             total.down += items_[it].down, total.down_sq += items_[it].down_sq;
         }
+    }
+    PassEstimate estimate(int passes) override {
         r_.passes = passes;
         r_.quanta = static_cast<std::uint64_t>(passes) * c_.quanta_per_pass;
         const double n = static_cast<double>(r_.quanta);

@@ -5,6 +5,9 @@
 
 #include <fmt/format.h>
 
+#include "common/cpu_time.h"
+#include "virtual_gonio/pass_checkpoint.h"
+
 namespace plumage::gonio {
 
 bool stop_rule_holds(const StopRule& rule, const PassLoopState& state) {
@@ -37,6 +40,26 @@ void print_progress(const PassLoopControl& control, const StopRule& rule,
 
 void run_passes(PassMeasurement& measurement, const StopRule& rule, const PassLoopControl& control,
                 const std::function<double()>& elapsed_s, PassLoopState& state) {
+    const double cpu_start = process_cpu_seconds();
+    const std::vector<CheckpointSum> sums =
+        control.checkpoint.empty() ? std::vector<CheckpointSum>{} : measurement.checkpoint_sums();
+    if (!sums.empty()) {
+        CheckpointClocks clocks;
+        if (resume_pass_checkpoint(control.checkpoint, control.identity, sums, clocks) &&
+            clocks.passes > 0) {
+            state.resumed = true;
+            state.passes = clocks.passes;
+            state.rows = std::move(clocks.rows);
+            state.resumed_wall_s = clocks.wall_time_s;
+            state.resumed_cpu_s = clocks.cpu_time_s;
+            state.estimate = measurement.estimate(state.passes);
+            if (!control.progress.empty()) {
+                std::cerr << fmt::format("  {}: resuming after {} completed passes from {}\n",
+                                         control.progress, state.passes,
+                                         control.checkpoint.string());
+            }
+        }
+    }
     distributed::ItemTransport transport;
     transport.pack = [&](std::size_t it, Bytes& out) { measurement.pack(it, out); };
     transport.unpack = [&](std::size_t it, Bytes& in) { measurement.unpack(it, in); };
@@ -46,18 +69,24 @@ void run_passes(PassMeasurement& measurement, const StopRule& rule, const PassLo
         const std::size_t items = measurement.start_pass(state.passes);
         if (!distributed::run_items(items, run, transport, control.interrupt,
                                     control.blocks_per_rank)) {
-            state.interrupted = true;
+            state.interrupted = true;  // the checkpoint, if any, holds the last completed pass
             break;
         }
+        measurement.add_pass();
         ++state.passes;
-        state.estimate = measurement.reduce(state.passes);
-        state.rows.push_back(
-            {state.passes, elapsed_s(), state.estimate.quanta, state.estimate.relative_error});
-        if (control.after_pass) control.after_pass();  // a checkpoint first: on_pass may stop
+        state.estimate = measurement.estimate(state.passes);
+        state.rows.push_back({state.passes, state.resumed_wall_s + elapsed_s(),
+                              state.estimate.quanta, state.estimate.relative_error});
+        if (!sums.empty() && distributed::rank() == 0) {
+            write_pass_checkpoint(control.checkpoint, control.identity, sums,
+                                  {state.passes, state.rows, state.rows.back().wall_time_s,
+                                   state.resumed_cpu_s + process_cpu_seconds() - cpu_start});
+        }
+        if (control.after_pass) control.after_pass();
         if (!control.progress.empty()) print_progress(control, rule, state);
         if (control.on_pass) control.on_pass(state.rows.back());
     }
-    if (!control.progress.empty() && !state.rows.empty()) std::cerr << '\n';
+    if (!control.progress.empty() && state.passes > 0) std::cerr << '\n';
 }
 
 }  // namespace plumage::gonio

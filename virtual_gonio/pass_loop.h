@@ -14,6 +14,7 @@
 #include <atomic>
 #include <cstddef>
 #include <cstdint>
+#include <filesystem>
 #include <functional>
 #include <limits>
 #include <string>
@@ -51,6 +52,13 @@ struct StopRule {
     bool budget_holds_next_pass = false;
 };
 
+// One named sum of a measurement's state across passes, for its checkpoint
+// (virtual_gonio/pass_checkpoint.h).
+struct CheckpointSum {
+    std::string name;
+    std::vector<double>* values;  // sized for this run before a resume
+};
+
 class PassMeasurement {
 public:
     virtual ~PassMeasurement() = default;
@@ -61,8 +69,18 @@ public:
     // Under MPI, an item's result to bytes on the rank that ran it and back on every rank.
     virtual void pack(std::size_t item, Bytes& out) const = 0;
     virtual void unpack(std::size_t item, Bytes& in) = 0;
-    // Adds the pass's items to the sums in item order; the estimate after `passes` passes.
-    virtual PassEstimate reduce(int passes) = 0;
+    // Adds the finished pass's items to the sums, in item order.
+    virtual void add_pass() = 0;
+    // The estimate from the sums of `passes` passes (also after a resume).
+    virtual PassEstimate estimate(int passes) = 0;
+    // The sums a checkpoint keeps; empty: the measurement cannot be checkpointed.
+    virtual std::vector<CheckpointSum> checkpoint_sums() { return {}; }
+};
+
+// What a checkpoint is made from (virtual_gonio/pass_checkpoint.h).
+struct CheckpointPart {
+    std::string what;   // for the user, e.g. "the content of the sample file 'plate.obj'"
+    std::string value;  // compared as text: a content hash, a version
 };
 
 struct PassLoopControl {
@@ -70,8 +88,12 @@ struct PassLoopControl {
     std::string progress;    // non-empty: a progress line on stderr, starting with this
     std::string quanta_per;  // the progress line's unit ("direction", "pixel")
     std::size_t blocks_per_rank = 4;
-    // After each pass, on every rank: first after_pass (e.g. the instrument's checkpoint), then
-    // the progress line, then on_pass with the pass's row.
+    // Non-empty (and the measurement has checkpoint_sums): resumed from at the start when made
+    // from `identity`, and written by rank 0 after every pass (pass_checkpoint.h).
+    std::filesystem::path checkpoint;
+    std::vector<CheckpointPart> identity;
+    // After each pass, on every rank: after the checkpoint is written, after_pass (e.g. a record
+    // of the pass so far), then the progress line, then on_pass with the pass's row.
     std::function<void()> after_pass;
     std::function<void(const ConvergenceRow&)> on_pass;
 };
@@ -81,10 +103,13 @@ struct PassLoopState {
     std::vector<ConvergenceRow> rows;  // one per completed pass
     PassEstimate estimate;             // after the last completed pass
     bool interrupted = false;          // stopped by Ctrl-C; the unfinished pass added nothing
+    bool resumed = false;              // from a checkpoint, whose clocks follow
+    double resumed_wall_s = 0.0, resumed_cpu_s = 0.0;
 };
 
-// Runs passes from `state` (a fresh one, or a resumed one with its passes, rows and estimate)
-// until the rule holds or Ctrl-C. `elapsed_s` gives the wall time since the measurement started.
+// Runs passes from a fresh `state`, or from the control's checkpoint when it resumes, until the
+// rule holds or Ctrl-C. `elapsed_s` gives the wall time since this run of the measurement
+// started; rows count from the first run's start (resumed_wall_s + elapsed_s()).
 void run_passes(PassMeasurement& measurement, const StopRule& rule, const PassLoopControl& control,
                 const std::function<double()>& elapsed_s, PassLoopState& state);
 

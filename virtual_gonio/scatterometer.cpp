@@ -408,8 +408,8 @@ private:
 };
 
 // The pass's items added to the sums, in item order.
-void add_pass(const PassItems& items, const std::vector<double>& solid_angle, std::size_t nl,
-              std::size_t nlobes, Sums& t) {
+void add_items(const PassItems& items, const std::vector<double>& solid_angle, std::size_t nl,
+               std::size_t nlobes, Sums& t) {
     const std::size_t np = solid_angle.size();
     for (std::size_t it = 0; it < items.hits.size(); ++it) {
         for (std::size_t k = 0; k < nl; ++k) {
@@ -505,15 +505,23 @@ public:
         const auto below = in.get_vector<double>();
         std::copy(below.begin(), below.end(), items_.below.begin() + it * stride_);
     }
-    PassEstimate reduce(int passes) override {
-        add_pass(items_, s_.solid_angle_sr, nl_, nlobes_, sums_);
+    void add_pass() override { add_items(items_, s_.solid_angle_sr, nl_, nlobes_, sums_); }
+    PassEstimate estimate(int passes) override {
         s_.passes = passes;
         PassEstimate e;
-        e.relative_error = estimate(sums_, groups_, s_);
+        e.relative_error = gonio::estimate(sums_, groups_, s_);
         e.quanta = s_.quanta;
         if (s_.config.target_median_relative_error > 0.0)  // the per-pixel rule (header)
             e.pixel_error = median_relative_standard_error(s_, 0.01);
         return e;
+    }
+
+    std::vector<CheckpointSum> checkpoint_sums() override {
+        return {{"sum", &sums_.sum},
+                {"sum_sq", &sums_.sum_sq},
+                {"lobe_sum", &sums_.lobe_sum},
+                {"below", &sums_.below},
+                {"below_lobes", &sums_.below_lobes}};
     }
 
 private:
@@ -527,6 +535,17 @@ private:
     PassItems items_;
     std::size_t stride_ = 0;
 };
+
+// Everything that decides the sums: what a checkpoint is made from.
+std::string canonical(const ScatterometerConfig& c, const std::string& scatterer) {
+    std::string s = fmt::format("{}|{}|{:.17g},{:.17g},{:.17g}|{:.17g}|{}|{:.17g}|{}|{}|{}|{}|{}|",
+                                scatterer, static_cast<int>(c.illumination), c.beam_direction.x(),
+                                c.beam_direction.y(), c.beam_direction.z(), c.cone_aperture_rad,
+                                c.image_size, c.beam_radius_um, c.seed, c.quanta_per_pass,
+                                c.illumination_strata, c.share_wavelength_paths, c.split_paths);
+    for (double l : c.wavelengths_nm) s += fmt::format("{:.17g},", l);
+    return s;
+}
 
 }  // namespace
 
@@ -559,20 +578,29 @@ Scatterogram measure_scatterogram(const Scatterer& scatterer, const Scatteromete
     loop.quanta_per = "wavelength";
     loop.blocks_per_rank = kBlocksPerRank;
     loop.on_pass = control.on_pass;
+    loop.checkpoint = control.checkpoint;
+    if (!control.checkpoint.empty()) {
+        loop.identity = checkpoint_identity(config.config_text, canonical(config, s.scatterer),
+                                            control.checkpoint_inputs);
+    }
     auto elapsed = [&] {
         return std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
     };
     PassLoopState state;
     run_passes(passes, rule, loop, elapsed, state);
     if (state.interrupted) {
-        // No checkpoint keeps a scatterogram's passes: a partial image must not flow on.
+        // A partial image must not flow on; a checkpoint keeps the completed passes.
         throw Interrupted(fmt::format(
-            "interrupted while measuring the scatterogram of {} (pass {} of at most {})",
-            s.scatterer, s.passes + 1, config.max_passes));
+            "interrupted while measuring the scatterogram of {} (pass {} of at most {}){}",
+            s.scatterer, state.passes + 1, config.max_passes,
+            control.checkpoint.empty()
+                ? ""
+                : fmt::format("; {} completed passes kept in {}: the same command resumes",
+                              state.passes, control.checkpoint.string())));
     }
     s.convergence = std::move(state.rows);
-    s.wall_time_s = elapsed();
-    s.cpu_time_s = process_cpu_seconds() - cpu_start;
+    s.wall_time_s = state.resumed_wall_s + elapsed();
+    s.cpu_time_s = state.resumed_cpu_s + process_cpu_seconds() - cpu_start;
     return s;
 }
 

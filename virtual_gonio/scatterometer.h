@@ -117,7 +117,10 @@ struct Scatterogram {
     std::optional<Vec3d> direction(int column, int row) const;
 };
 
-// Throws Interrupted (common/interrupt.h) when control.interrupt is set during a pass.
+// Throws Interrupted (common/interrupt.h) when control.interrupt is set during a pass. With
+// control.checkpoint, every pass is checkpointed and a rerun of the same study resumes from it
+// (virtual_gonio/pass_checkpoint.h; its parts: the build, config_text, the instrument's
+// configuration and control.checkpoint_inputs); the completed passes survive an interrupt.
 Scatterogram measure_scatterogram(const Scatterer& scatterer, const ScatterometerConfig& config,
                                   const RunControl& control = {});
 
