@@ -30,8 +30,10 @@
 //                  detector_half_angle_deg, beam_radius_um, quanta_per_pass, passes
 //   [scatterogram] beam_incidence_deg, beam_azimuth_deg, beam_radius_um, image_size,
 //                  quanta_per_pass, passes
-//   [btf]          mirror_angles_deg (pairs as [brdf]'s mirror set), patch_size_um, pixels,
-//                  detector_half_angle_deg, quanta_per_light
+//   [btf]          mirror_angles_deg (pairs as [brdf]'s mirror set), and the camera's keys
+//                  (studies/instrument_tables.h): pixels, patch_size_um, detector_half_angle_deg,
+//                  aperture, estimator, quanta_per_light, quanta_per_pixel, max_passes,
+//                  target_pixel_error, max_time_s
 // At least one instrument table. The beam and the BTF patch are centred on the origin of the
 // patch frame (+z the normal, light from above): place the sample there with offset_um.
 #include <algorithm>
@@ -54,6 +56,7 @@
 #include "sim/scene.h"
 #include "sim/tracer.h"
 #include "studies/figure_data.h"
+#include "studies/instrument_tables.h"
 #include "studies/plots.h"
 #include "studies/sections.h"
 #include "studies/staged_directory.h"
@@ -199,16 +202,13 @@ gonio::ScatterometerConfig read_scatterogram(ParameterTable t,
 
 gonio::BtfConfig read_btf(ParameterTable t, const std::vector<double>& wavelengths,
                           std::uint64_t seed) {
-    gonio::BtfConfig c;
+    gonio::BtfConfig c;  // the measure study's defaults; the keys: studies/instrument_tables.h
+    c.pixels = 16;
+    c.patch_size_um = 100.0;
+    c.quanta_per_light = 200000;
+    c = read_btf_camera(t, c);
     c.pairs = mirror_pairs(t);
     c.wavelengths_nm = wavelengths;
-    c.patch_size_um =
-        t.number("patch_size_um", 100.0, positive(), "side of the imaged square patch, um");
-    c.pixels = static_cast<int>(t.integer("pixels", 16, 1, 1024, "pixels per side"));
-    c.detector_half_angle_rad = t.angle_deg("detector_half_angle_deg", c.detector_half_angle_rad,
-                                            {0.0, 20.0, true, false}, "detector cone half-angle");
-    c.quanta_per_light = static_cast<std::uint64_t>(t.integer(
-        "quanta_per_light", 200000, 100, 1000000000, "quanta per light direction and wavelength"));
     c.seed = derive_seed(seed, "measure/btf");
     return c;
 }

@@ -31,6 +31,7 @@
 #include "sim/period_cell_entry.h"
 #include "sim/tracer.h"
 #include "studies/figure_data.h"
+#include "studies/instrument_tables.h"
 #include "studies/plots.h"
 #include "studies/sections.h"
 #include "studies/spongy_medium.h"
@@ -96,6 +97,17 @@ struct SpeciesSpec {
     MedullaSpec medulla;
 };
 
+// The BTF camera of Fig. 9's images: 16 × 16 px over 900 µm, 10° cones, 3 wavelengths.
+gonio::BtfConfig species_btf_defaults() {
+    gonio::BtfConfig c;
+    c.pixels = 16;
+    c.patch_size_um = 900.0;
+    c.quanta_per_light = 100000;
+    c.wavelengths_nm = {450.0, 550.0, 650.0};
+    c.detector_half_angle_rad = 10.0 * kDeg;
+    return c;
+}
+
 struct Settings {
     std::vector<double> wavelengths;
     std::uint64_t seed = kDefaultSeed;
@@ -108,19 +120,12 @@ struct Settings {
     double target_relative_error = 0.0;
     std::uint64_t in_plane_quanta = 50000;
     std::uint64_t albedo_quanta = 200000;
-    int btf_pixels = 16;
-    double btf_patch_um = 900.0;
-    std::uint64_t btf_quanta = 100000;
-    std::vector<double> btf_wavelengths = {450.0, 550.0, 650.0};
+    // [btf]: the camera (studies/instrument_tables.h) at the species defaults below; the pairs,
+    // seed and study text are set when it is measured.
+    gonio::BtfConfig btf = species_btf_defaults();
     // Every wavelength the study traces (spectrum: BRDF, in-plane sweep, albedo; BTF), sorted:
     // a spongy medulla's tables are computed at each of them.
     std::vector<double> traced_wavelengths;
-    double btf_detector_half_angle = 10.0 * kDeg;
-    gonio::Aperture btf_aperture = gonio::Aperture::view_cone;
-    gonio::BtfEstimator btf_estimator = gonio::BtfEstimator::forward;
-    std::uint64_t btf_quanta_per_pixel = 1000;
-    int btf_max_passes = 1;  // the detector estimator's stop rule (gonio::BtfConfig)
-    double btf_target_pixel_error = 0.0, btf_max_time_s = 0.0;
     bool btf_figure9_only = false;  // [btf] pairs = "figure9": Fig. 9's 12 pairs, not the 3660
     int fit_evaluations = 3000;
     std::vector<SpeciesSpec> species;
@@ -255,55 +260,12 @@ void read_instruments(ParameterTable& root, Settings& s) {
         go.integer("albedo_quanta", static_cast<long>(s.albedo_quanta), 100, 1000000000,
                    "albedo at normal incidence: quanta per wavelength"));
     ParameterTable btf = root.table("btf");
-    s.btf_pixels =
-        static_cast<int>(btf.integer("pixels", s.btf_pixels, 4, 1024, "BTF image pixels per side"));
-    s.btf_patch_um =
-        btf.number("patch_size_um", s.btf_patch_um, positive(), "BTF imaged square, um");
-    s.btf_quanta = static_cast<std::uint64_t>(
-        btf.integer("quanta_per_light", static_cast<long>(s.btf_quanta), 1000, 1000000000,
-                    "BTF quanta per light direction and wavelength"));
     // A few wavelengths: the BTF holds 3660 images, each pixels² × wavelengths values.
-    s.btf_wavelengths = read_wavelengths(btf, kFilipWavelengths);
-    s.btf_detector_half_angle =
-        btf.angle_deg("detector_half_angle_deg", s.btf_detector_half_angle,
-                      {0.0, 30.0, true, false}, "BTF detector cone half-angle");
-    s.btf_aperture = gonio::parse_aperture(
-        btf.string("aperture", gonio::to_string(s.btf_aperture), {"view_cone", "both_cones"},
-                   "what a BTF pixel averages: the detector cone alone (collimated light), or "
-                   "light and detector cones"),
-        btf.location("aperture"));
-    s.btf_estimator = gonio::parse_btf_estimator(btf.string(
-        "estimator", gonio::to_string(s.btf_estimator), {"forward", "detector"},
-        "BTF estimator: from the light, or from each pixel (needs aperture = \"both_cones\")"));
-    s.btf_quanta_per_pixel = static_cast<std::uint64_t>(
-        btf.integer("quanta_per_pixel", static_cast<long>(s.btf_quanta_per_pixel), 2, 1000000000,
-                    "BTF detector estimator: quanta per view direction, pixel and pass"));
-    s.btf_max_passes = static_cast<int>(btf.integer(
-        "max_passes", s.btf_max_passes, 1, 100000,
-        "BTF detector estimator: passes at most (stop rule: target_pixel_error, max_time_s)"));
-    s.btf_target_pixel_error =
-        btf.number("target_pixel_error", s.btf_target_pixel_error, {0.0, 1.0, false, true},
-                   "BTF detector estimator: stop at this median per-pixel error over the lit "
-                   "pixels (0: none)");
-    s.btf_max_time_s = btf.number("max_time_s", s.btf_max_time_s, non_negative(),
-                                  "BTF detector estimator: no pass that would end after this "
-                                  "(s; 0: no limit)");
-    if (s.btf_max_passes > 1 && s.btf_estimator != gonio::BtfEstimator::detector) {
-        throw InputError(fmt::format(
-            "{}: [btf] max_passes = {} needs estimator = \"detector\" (the forward estimator "
-            "is one pass)",
-            btf.location("max_passes"), s.btf_max_passes));
-    }
+    s.btf.wavelengths_nm = read_wavelengths(btf, kFilipWavelengths);
+    s.btf = read_btf_camera(btf, s.btf);
     s.btf_figure9_only =
         btf.string("pairs", "filip2024", {"filip2024", "figure9"},
                    "BTF pairs: the 61 x 60 set, or Fig. 9's 12 geometries") == "figure9";
-    if (s.btf_estimator == gonio::BtfEstimator::detector &&
-        s.btf_aperture != gonio::Aperture::both_cones) {
-        throw InputError(fmt::format(
-            "{}: [btf] estimator = \"detector\" needs aperture = \"both_cones\" (a walk from "
-            "the detector cannot reach a collimated light through mirror-like events)",
-            btf.location("estimator")));
-    }
     ParameterTable fit = root.table("fit");
     s.fit_evaluations =
         static_cast<int>(fit.integer("max_function_evaluations", s.fit_evaluations, 50, 1000000,
@@ -375,8 +337,8 @@ Settings read_settings(StudyFile& file, std::string& name, const fs::path& sourc
     s.tolerance = read_tolerance(root.table("tessellation"));
     read_instruments(root, s);
     s.traced_wavelengths = s.wavelengths;
-    s.traced_wavelengths.insert(s.traced_wavelengths.end(), s.btf_wavelengths.begin(),
-                                s.btf_wavelengths.end());
+    s.traced_wavelengths.insert(s.traced_wavelengths.end(), s.btf.wavelengths_nm.begin(),
+                                s.btf.wavelengths_nm.end());
     std::sort(s.traced_wavelengths.begin(), s.traced_wavelengths.end());
     s.traced_wavelengths.erase(
         std::unique(s.traced_wavelengths.begin(), s.traced_wavelengths.end()),
@@ -712,30 +674,30 @@ void write_species_h5_header(record::Hdf5Writer& h5, const SpeciesResult& result
 // The patch, the BTF images and the fingerprints.
 // The detector estimator's stop rule, as the report states it.
 std::string btf_stop_rule(const Settings& s) {
-    std::string rule = fmt::format("at most {} passes", s.btf_max_passes);
-    if (s.btf_target_pixel_error > 0.0)
+    std::string rule = fmt::format("at most {} passes", s.btf.max_passes);
+    if (s.btf.target_pixel_error > 0.0)
         rule += fmt::format(", until the median per-pixel error is at most {:.1f} %",
-                            100.0 * s.btf_target_pixel_error);
-    if (s.btf_max_time_s > 0.0)
-        rule += fmt::format(", no pass ending after {:.0f} s", s.btf_max_time_s);
+                            100.0 * s.btf.target_pixel_error);
+    if (s.btf.max_time_s > 0.0)
+        rule += fmt::format(", no pass ending after {:.0f} s", s.btf.max_time_s);
     return rule;
 }
 
 // The BTF paragraph: what was imaged, how, at what cost and per-pixel error.
 std::string section_btf_setup(const Settings& s, const SpeciesOutcome& o, const std::string& name) {
-    const bool detector = s.btf_estimator == gonio::BtfEstimator::detector;
+    const bool detector = s.btf.estimator == gonio::BtfEstimator::detector;
     const std::string pairs = s.btf_figure9_only ? "Fig. 9's 12 pairs (`btf.h5`: 12 images"
                                                  : "the 61 × 60 set (`btf.h5`: 3660 images";
-    const std::string light = s.btf_aperture == gonio::Aperture::both_cones
+    const std::string light = s.btf.aperture == gonio::Aperture::both_cones
                                   ? "light and detector cones of half-angle"
                                   : "collimated light, detector half-angle";
     const std::string estimator =
         detector ? fmt::format(
                        "detector-side estimator, {} quanta per view direction and pixel in each "
                        "of {} passes (all wavelengths on one path; {})",
-                       s.btf_quanta_per_pixel, o.btf_passes, btf_stop_rule(s))
+                       s.btf.quanta_per_pixel, o.btf_passes, btf_stop_rule(s))
                  : fmt::format("forward estimator, {} quanta per light direction and wavelength",
-                               s.btf_quanta);
+                               s.btf.quanta_per_light);
     return fmt::format(
         "Virtual BTF on {0} of {1} × {1} pixels over a {2:.0f} µm square, {3} wavelengths, {4} "
         "{5:.0f}°; {6}; virtual_gonio/btf.h), {7:.0f} s. Median per-pixel relative error over "
@@ -743,8 +705,8 @@ std::string section_btf_setup(const Settings& s, const SpeciesOutcome& o, const 
         "brightest pixel): {8:.1f} %. Fig. 9's geometries: light and view at 30°, view at azimuth "
         "0°; light azimuth 0°, 30°, …, 150° on the top row, 180° … 330° below; one exposure for "
         "all (the tiles' data: `btf_figure9.h5`):\n\n![btf]({9}/btf.png)\n\n",
-        pairs, s.btf_pixels, s.btf_patch_um, s.btf_wavelengths.size(), light,
-        s.btf_detector_half_angle / kDeg, estimator, o.btf_seconds,
+        pairs, s.btf.pixels, s.btf.patch_size_um, s.btf.wavelengths_nm.size(), light,
+        s.btf.detector_half_angle_rad / kDeg, estimator, o.btf_seconds,
         100.0 * o.btf_median_pixel_error, name);
 }
 
@@ -1056,8 +1018,8 @@ void check_patch_size(const SpeciesSpec& sp, const BuiltSpecies& b, const Settin
     const Eigen::AlignedBox3d box = b.scene.bounds();
     const double depth = box.max().z() - box.min().z();
     const double cell = 0.5 * std::max(b.period_um, sp.patch.barbule_pitch_um());
-    const double half =
-        std::max(cell, 0.5 * std::sqrt(2.0) * s.btf_patch_um) + depth * std::tan(kLargestPolarRad);
+    const double half = std::max(cell, 0.5 * std::sqrt(2.0) * s.btf.patch_size_um) +
+                        depth * std::tan(kLargestPolarRad);
     const double half_x = 0.5 * (box.max().x() - box.min().x()),
                  half_y = 0.5 * (box.max().y() - box.min().y());
     if (std::min(half_x, half_y) >= half) return;
@@ -1379,23 +1341,12 @@ std::vector<std::size_t> figure9_pairs(const std::vector<gonio::DirectionPair>& 
 // The virtual BTF on the 61 × 60 set (every pair an image of the patch), and Fig. 9 of it.
 void measure_species_btf(const Run& run, const Specimen& x, SpeciesOutcome& o) {
     const Settings& s = run.s;
-    gonio::BtfConfig bc;
+    gonio::BtfConfig bc = s.btf;  // the camera as read; its pairs, seed and study text here
     if (s.btf_figure9_only) {
         for (const std::size_t p : figure9_pairs(run.pairs)) bc.pairs.push_back(run.pairs[p]);
     } else {
         bc.pairs = run.pairs;
     }
-    bc.wavelengths_nm = s.btf_wavelengths;
-    bc.patch_size_um = s.btf_patch_um;
-    bc.pixels = s.btf_pixels;
-    bc.detector_half_angle_rad = s.btf_detector_half_angle;
-    bc.quanta_per_light = s.btf_quanta;
-    bc.aperture = s.btf_aperture;
-    bc.estimator = s.btf_estimator;
-    bc.quanta_per_pixel = s.btf_quanta_per_pixel;
-    bc.max_passes = s.btf_max_passes;
-    bc.target_pixel_error = s.btf_target_pixel_error;
-    bc.max_time_s = s.btf_max_time_s;
     bc.seed = derive_seed(s.seed, "species/btf", x.index);
     bc.config_text = run.study_text;
     run.clock.say(fmt::format("{}: BTF on {} pairs ({} x {} pixels, {} wavelengths, {} estimator)",

@@ -166,6 +166,43 @@ TEST(MeasureStudy, BadSamplesAreRefusedNamingTheKey) {
               std::string::npos);
 }
 
+// [btf] is read by the BTF camera's shared reader (studies/instrument_tables.h): the measure
+// study images with the detector-side estimator in passes, as the species study does, and
+// refuses the detector walk under collimated light naming the key.
+TEST(MeasureStudy, BtfTableTakesTheDetectorEstimatorAndItsPasses) {
+    const fs::path source = fs::path(PLUMAGE_SOURCE_DIR) / "studies" / "measure_test.toml";
+    const std::string base =
+        "study = \"measure\"\nname = \"btf_detector\"\n[spectrum]\nfirst_nm = 450\nlast_nm = "
+        "650\nstep_nm = 100\n[sample]\nfile = \"measure/plate.obj\"\nrequire_closed = false\n"
+        "material = \"lambertian\"\nalbedo = 0.6\n[btf]\nmirror_angles_deg = [30]\n"
+        "patch_size_um = 40\npixels = 4\nestimator = \"detector\"\nquanta_per_pixel = 400\n"
+        "max_passes = 3\n";
+    const std::string refused = testing::input_error_message([&] { check_study(base, source); });
+    EXPECT_NE(
+        refused.find("measure_test.toml:16:13: [btf] estimator = \"detector\" needs aperture"),
+        std::string::npos)
+        << refused;
+    const std::string text = base + "aperture = \"both_cones\"\n";
+    const fs::path root =
+        fs::temp_directory_path() / fmt::format("plumage_measure_btf_{}", ::getpid());
+    fs::remove_all(root);
+    study_of(text, source).run(text, source, root, {});
+    const fs::path h5 = root / "btf_detector" / "btf.h5";
+    EXPECT_EQ(record::read_string_attribute(h5, "/instrument", "estimator"), "detector");
+    EXPECT_EQ(record::read_dataset(h5, "convergence").dims.at(0), 3u);  // max_passes, no target
+    // A Lambertian plate images as ρ/π in every pixel, within the Monte Carlo error.
+    const record::Dataset value = record::read_dataset(h5, "btf/value");
+    const record::Dataset error = record::read_dataset(h5, "btf/standard_error");
+    double chi2 = 0.0;
+    for (std::size_t i = 0; i < value.values.size(); ++i) {
+        const double z = (value.values[i] - 0.6 / std::numbers::pi) / error.values[i];
+        chi2 += z * z;
+    }
+    EXPECT_GT(analysis::chi_square_p_value(chi2, static_cast<int>(value.values.size())),
+              kSignificance);
+    fs::remove_all(root);
+}
+
 TEST(MeasureStudy, ExampleRunsAndMeasuresEveryInstrumentItNames) {
     const fs::path study = fs::path(PLUMAGE_SOURCE_DIR) / "studies" / "measure_example.toml";
     const std::string text = testing::read_text_file(study);
