@@ -146,9 +146,10 @@ public:
         const std::size_t l = it / (nl_ * chunks_), k = (it / chunks_) % nl_;
         const std::uint64_t c = it % chunks_;
         const Vec3d& wi = c_.pairs[lights_[l].front()].wi;
+        const std::uint64_t seed = derive_seed(c_.seed, "btf/forward", l * nl_ + k);
         for (std::uint64_t q = c * kChunk; q < std::min(c_.quanta_per_light, (c + 1) * kChunk);
              ++q) {
-            Rng rng(c_.seed, (static_cast<std::uint64_t>(l * nl_ + k) << 40) + q);
+            Rng rng(seed, q);
             image_quantum(wi, l, k, rng, hits);
         }
     }

@@ -17,6 +17,8 @@
 //        f̂_p = Σ weight / (N · (A_p / A) · Π_o),
 //    N quanta per light direction and wavelength, each counted for every pair of that light
 //    whose cone it enters (a set of L lights and V views costs L × N quanta, not L × V × N).
+//    Quantum q of light l and wavelength k draws from Rng(derive_seed(seed, "btf/forward",
+//    l · nλ + k), q) (common/seed.h).
 //  - detector (adjoint, both_cones only): quanta start in pixel p (uniformly over its square on
 //    the top plane) in a direction drawn in C_o by projected solid angle and are traced back into
 //    the patch by the scatterer's detector-side walk (sim/scatterer.h, sim/tracer.h); a quantum

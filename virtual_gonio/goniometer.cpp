@@ -272,7 +272,7 @@ void sample_quantum(const Scatterer& scatterer, const GoniometerConfig& config,
 
 // Plays one work item's quanta (one light direction; one wavelength, or all of them when the
 // wavelengths share paths) into acc: per wavelength of the item, Σx, Σx², then Σx and Σx² per
-// lobe, in the group's pair order. Its streams: (seed, group × wavelength item, quantum).
+// lobe, in the group's pair order. Its streams: see item_seed below.
 // With branched (shared paths, split or guided) a quantum is the sum of its branches
 // (sim/scatterer.h): each cell's x is the sum of the branches that enter its cone, and per lobe the
 // sum of those of that lobe, before they are squared.
@@ -285,9 +285,11 @@ void play_item(const Scatterer& scatterer, const GoniometerConfig& config,
     acc.assign(item_wavelengths * detectors.stride, 0.0);
     Vec3d e1, e2;
     orthonormal_frame(group.wi, e1, e2);
-    // Shared paths draw from streams no per-wavelength item uses.
-    const std::uint64_t stream =
-        (shared ? groups.size() * nl + item.group : item.group * nl + item.wavelength) << 40;
+    // Quantum q of the item draws from Rng(item_seed, q) (common/seed.h): shared paths from
+    // their own purpose, per light direction; separate ones per (light direction, wavelength).
+    const std::uint64_t item_seed =
+        shared ? derive_seed(config.seed, "goniometer/shared-quantum", item.group)
+               : derive_seed(config.seed, "goniometer/quantum", item.group * nl + item.wavelength);
     BranchOptions options;
     options.split_first_film = config.split_paths;
     options.detector_axes = detectors.axes;
@@ -296,7 +298,7 @@ void play_item(const Scatterer& scatterer, const GoniometerConfig& config,
     options.guided_branches = config.guided_branches;
     QuantumEscape escape;
     for (std::uint64_t q = item.first; q < item.first + item.count; ++q) {
-        Rng rng(config.seed, stream + q);
+        Rng rng(item_seed, q);
         const Vec2 position = beam_position(config, group.wi, e1, e2, rng);
         const Vec3d wi = quantum_light(config, group.wi, rng);
         sample_quantum(scatterer, config, item, wi, position, rng, shared, branched, options,

@@ -36,13 +36,14 @@
 //    position's). Works for every scatterer (the tracer too).
 //    With share_wavelength_paths (and a scatterer that can_share_paths(), sim/scatterer.h)
 //    a quantum is one path for every wavelength, carrying a weight per λ (sim/tracer.h,
-//    spectral path sharing), its stream seeded from (seed, light direction, quantum index)
-//    in streams the per-wavelength quanta do not use; each cell's estimate and standard
+//    spectral path sharing), drawing from Rng(derive_seed(seed, "goniometer/shared-quantum",
+//    light direction), quantum index); each cell's estimate and standard
 //    error are as before (the quanta are independent; one quantum's λs are correlated).
 //    With split_paths as well, a quantum is the sum of its branches (sim/scatterer.h, path
 //    splitting): x per cell is the sum of the branches that enter its cone, then squared.
-//    Standard errors from the per-quantum variance. Streams are seeded from (seed, light
-//    direction, wavelength, quantum index), and partial sums are combined in a fixed
+//    Standard errors from the per-quantum variance. Quantum q (counted over all passes) of
+//    light direction g and wavelength k draws from Rng(derive_seed(seed, "goniometer/quantum",
+//    g · nλ + k), q) (common/seed.h), and partial sums are combined in a fixed
 //    order: results do not depend on thread count, and a resumed run equals an
 //    uninterrupted one bit for bit.
 //  - eval: for scatterers that can evaluate f, the cell's average by cubature; its error

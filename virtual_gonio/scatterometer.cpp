@@ -241,8 +241,10 @@ public:
           shared_seed_(derive_seed(config.seed, g.directional ? "scatterometer/shared-directional"
                                                               : "scatterometer/shared")) {
         orthonormal_frame(config.beam_direction, e1_, e2_);
-        for (std::size_t k = 0; k < nl_; ++k)
+        for (std::size_t k = 0; k < nl_; ++k) {
             quantum_seeds_.push_back(derive_seed(config.seed, "scatterometer/quantum", k));
+            beam_seeds_.push_back(derive_seed(config.seed, "scatterometer/beam-quantum", k));
+        }
     }
 
     std::size_t items() const {
@@ -332,7 +334,7 @@ private:
                 Rng rng(shared_seed_, q);
                 play_shared(wi, f1, f2, rng, it, items);
             } else {
-                Rng rng(config_.seed, (static_cast<std::uint64_t>(k) << 52) + q);
+                Rng rng(beam_seeds_[k], q);
                 play(wi, f1, f2, k, rng, it, items);
             }
             group_cells(items.hits[it], from, nl_, cells);
@@ -404,7 +406,7 @@ private:
     bool shared_, split_;
     std::uint64_t chunks_, block_, jitter_seed_, shared_seed_;
     Vec3d e1_, e2_;
-    std::vector<std::uint64_t> quantum_seeds_;
+    std::vector<std::uint64_t> quantum_seeds_, beam_seeds_;
 };
 
 // The pass's items added to the sums, in item order.

@@ -29,9 +29,9 @@
 // cells of the grid, see illumination_strata) form a pair whose difference estimates the
 // pair's variance (Cochran's collapsed strata: unbiased where neighbouring cells have
 // equal means, otherwise a slight overestimate; it keeps most of the stratification's gain, which
-// the spread over all groups would not). Deterministic streams: under the beam (seed,
-// wavelength, quantum); otherwise (seed, "scatterometer/quantum", wavelength) with the
-// quantum's index in the run;
+// the spread over all groups would not). Deterministic streams: under the beam
+// Rng(derive_seed(seed, "scatterometer/beam-quantum", wavelength), quantum); otherwise
+// (seed, "scatterometer/quantum", wavelength) with the quantum's index in the run;
 // reduced in a fixed order, so the image does not depend on the thread count. Under MPI
 // (common/distributed.h) a pass's work items are dealt in blocks over the ranks and their hit
 // lists come back to every rank, added in the same item order: nor on the rank count.
