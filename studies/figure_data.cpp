@@ -320,4 +320,29 @@ void write_btf_figure(const std::filesystem::path& path, const std::string& titl
     h5.commit();
 }
 
+void write_instrument_curves_figure(const std::filesystem::path& path,
+                                    const std::vector<double>& wavelengths,
+                                    const gonio::InstrumentResult& result) {
+    const Dims n{wavelengths.size()};
+    record::Hdf5Writer h5(path);
+    h5.write("wavelength_nm", std::span<const double>(wavelengths), n,
+             {{"units", "nm"}, {"description", "vacuum wavelength"}});
+    for (std::size_t k = 0; k < result.curves.size(); ++k) {
+        const auto& c = result.curves[k];
+        PLUMAGE_CHECK(
+            c.value.size() == wavelengths.size() && c.standard_error.size() == wavelengths.size(),
+            "a curve's length differs from the wavelengths'");
+        const std::string group = fmt::format("curves/{}", k);
+        h5.write(group + "/value", std::span<const double>(c.value), n,
+                 {{"units", "1"}, {"description", c.label}});
+        h5.write(group + "/standard_error", std::span<const double>(c.standard_error), n,
+                 {{"units", "1"}, {"description", "Monte Carlo standard error of " + c.label}});
+        h5.set_attribute("/" + group, "label", c.label);
+    }
+    h5.set_attribute("/", "title", result.curves_title);
+    h5.set_attribute("/", "quantity", result.curves_quantity);
+    h5.set_attribute("/", "curves", static_cast<double>(result.curves.size()));
+    h5.commit();
+}
+
 }  // namespace plumage::studies

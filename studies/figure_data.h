@@ -18,6 +18,7 @@
 #include "virtual_gonio/btf.h"
 #include "virtual_gonio/goniometer.h"
 #include "virtual_gonio/hdf5_file.h"
+#include "virtual_gonio/instrument_registry.h"
 #include "virtual_gonio/scatterometer.h"
 
 namespace plumage::studies {
@@ -59,5 +60,12 @@ void write_fingerprint_figure(const std::filesystem::path& path, const std::stri
 // size in µm. Written to its own file at `path`.
 void write_btf_figure(const std::filesystem::path& path, const std::string& title,
                       const gonio::BtfRecord& btf, const std::vector<std::size_t>& pairs);
+
+// A registered instrument's curves against wavelength (virtual_gonio/instrument_registry.h), each
+// with its standard error: `wavelength_nm`, `curves/<k>/value`, `curves/<k>/standard_error`, the
+// labels, the title and the y quantity as attributes. Written to its own file at `path`.
+void write_instrument_curves_figure(const std::filesystem::path& path,
+                                    const std::vector<double>& wavelengths_nm,
+                                    const gonio::InstrumentResult& result);
 
 }  // namespace plumage::studies

@@ -53,4 +53,26 @@ gonio::BtfConfig read_btf_camera(ParameterTable& t, gonio::BtfConfig c) {
     return c;
 }
 
+gonio::InstrumentValues read_instrument_table(ParameterTable& t, const gonio::InstrumentEntry& e,
+                                              const gonio::MeasurementSetting& setting) {
+    gonio::InstrumentValues values;
+    for (const gonio::InstrumentParameter& p : e.parameters) {
+        const std::string what = fmt::format("{} ({})", p.meaning, p.unit);
+        if (p.integer) {
+            values.set(p.key, static_cast<double>(t.integer(
+                                  p.key, static_cast<long>(p.default_value),
+                                  static_cast<long>(p.min), static_cast<long>(p.max), what)));
+        } else {
+            values.set(p.key, t.number(p.key, p.default_value,
+                                       {p.min, p.max, p.min_open, p.max_open}, what));
+        }
+    }
+    try {
+        e.check(values, setting);
+    } catch (const InputError& error) {
+        throw InputError(fmt::format("{}: [{}]: {}", t.location(), e.table, error.what()));
+    }
+    return values;
+}
+
 }  // namespace plumage::studies

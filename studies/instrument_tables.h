@@ -7,6 +7,7 @@
 
 #include "studies/study_file.h"
 #include "virtual_gonio/btf.h"
+#include "virtual_gonio/instrument_registry.h"
 
 namespace plumage::studies {
 
@@ -24,5 +25,13 @@ namespace plumage::studies {
 //  | target_pixel_error      | 1    | [0, 1)                  | median lit-pixel error; 0: none  |
 //  | max_time_s              | s    | >= 0                    | no pass ending after it; 0: none |
 gonio::BtfConfig read_btf_camera(ParameterTable& table, gonio::BtfConfig defaults);
+
+// [<entry.table>], a registered instrument's table (virtual_gonio/instrument_registry.h): every
+// key of its parameter table, range-checked, its default where absent; then the instrument's
+// own cross-key check, its InputError prefixed with the table's location. Unknown keys are left
+// to the study's reject_unused().
+gonio::InstrumentValues read_instrument_table(ParameterTable& table,
+                                              const gonio::InstrumentEntry& entry,
+                                              const gonio::MeasurementSetting& setting);
 
 }  // namespace plumage::studies

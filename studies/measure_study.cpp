@@ -1,7 +1,8 @@
 // The measure study (`study = "measure"`): the user's own sample — an imported PLY/OBJ mesh or
 // OpenVDB level set, validated as `plumage geometry` validates it — given a material and an
 // optional thin film, traced by the explicit tracer (sim/tracer.h) and measured by any of the
-// instruments: the goniometer (BRDF), the imaging scatterometer (scatterogram), the BTF camera.
+// instruments: the goniometer (BRDF), the imaging scatterometer (scatterogram), the BTF camera, and
+// every instrument of the registry (virtual_gonio/instrument_registry.h: the integrating sphere).
 //
 // read → build → measure → report, each a named step below. There is no model to compare with:
 // the report gives, per measurement, its estimated error and its wall time.
@@ -34,6 +35,10 @@
 //                  (studies/instrument_tables.h): pixels, patch_size_um, detector_half_angle_deg,
 //                  aperture, estimator, quanta_per_light, quanta_per_pixel, max_passes,
 //                  target_pixel_error, max_time_s
+//   [<instrument>] every instrument of virtual_gonio/instrument_registry.h by its table's name
+//                  and its own parameter table, e.g. [integrating_sphere] incidence_deg,
+//                  azimuth_deg, beam_radius_um, quanta_per_pass, max_passes,
+//                  target_relative_error
 // At least one instrument table. The beam and the BTF patch are centred on the origin of the
 // patch frame (+z the normal, light from above): place the sample there with offset_um.
 #include <algorithm>
@@ -87,12 +92,21 @@ struct Sample {
     int max_events = 1000;
 };
 
+// A registered instrument's table as read: its entry, its keys' values and the shared setting
+// (the output folder is set when the run has one).
+struct Registered {
+    const gonio::InstrumentEntry* entry = nullptr;
+    gonio::InstrumentValues values;
+    gonio::MeasurementSetting setting;
+};
+
 struct Settings {
     std::string name;
     Sample sample;
     std::optional<gonio::GoniometerConfig> brdf;
     std::optional<gonio::ScatterometerConfig> scatterogram;
     std::optional<gonio::BtfConfig> btf;
+    std::vector<Registered> registered;  // in the registry's order
 };
 
 std::shared_ptr<const optics::Material> material_named(const std::string& name) {
@@ -232,10 +246,25 @@ Settings read(const std::string& text, const fs::path& source) {
         s.scatterogram = read_scatterogram(root.table("scatterogram"), wavelengths, seed);
     }
     if (root.has("btf")) s.btf = read_btf(root.table("btf"), wavelengths, seed);
-    if (!s.brdf && !s.scatterogram && !s.btf) {
-        throw InputError(fmt::format(
-            "{}: expected at least one instrument table: [brdf], [scatterogram] or [btf]",
-            source.string()));
+    std::string tables = "[brdf], [scatterogram], [btf]";
+    for (const gonio::InstrumentEntry& entry : gonio::instrument_registry()) {
+        tables += fmt::format(", [{}]", entry.table);
+        if (!root.has(entry.table)) continue;
+        Registered r;
+        r.entry = &entry;
+        r.setting.wavelengths_nm = wavelengths;
+        r.setting.seed = derive_seed(seed, fmt::format("measure/{}", entry.table));
+        r.setting.config_text = text;
+        r.setting.time_budget_s = budget;
+        r.setting.target_relative_error = target;
+        r.setting.progress = true;
+        ParameterTable table = root.table(entry.table);
+        r.values = read_instrument_table(table, entry, r.setting);
+        s.registered.push_back(std::move(r));
+    }
+    if (!s.brdf && !s.scatterogram && !s.btf && s.registered.empty()) {
+        throw InputError(
+            fmt::format("{}: expected at least one instrument table: {}", source.string(), tables));
     }
     if (s.brdf) {
         s.brdf->time_budget_s = budget;
@@ -470,6 +499,35 @@ Measured measure_btf_record(const Built& b, const gonio::BtfConfig& c, const fs:
         figures};
 }
 
+// A registered instrument (virtual_gonio/instrument_registry.h): its records, its row, and its
+// curves drawn against wavelength.
+Measured measure_registered_record(const Built& b, Registered r, const fs::path& dir,
+                                   const StudyProgress& clock) {
+    std::string name(r.entry->table);
+    std::replace(name.begin(), name.end(), '_', ' ');
+    clock.say(name);
+    r.setting.folder = dir;
+    const gonio::InstrumentResult result = r.entry->measure(*b.scatterer, r.values, r.setting);
+    std::string files;
+    for (const std::string& f : result.files) files += (files.empty() ? "" : ", ") + f;
+    std::vector<Figure> figures;
+    if (!result.curves.empty()) {
+        const std::string stem = std::string(r.entry->table) + "_curves";
+        write_instrument_curves_figure(dir / (stem + ".h5"), r.setting.wavelengths_nm, result);
+        add_if_drawn(figures,
+                     run_plot("instrument_curves", dir / (stem + ".h5"), dir / (stem + ".png")),
+                     result.curves_title, stem + ".png");
+        files += fmt::format(", {0}.png (its data: {0}.h5)", stem);
+    }
+    return {fmt::format("{} ({})", name, r.entry->description),
+            result.cells,
+            files,
+            result.error,
+            result.error_meaning,
+            result.wall_time_s,
+            figures};
+}
+
 void write_report(const fs::path& path, const Settings& s, const Built& b,
                   const std::vector<Measured>& rows, const std::string& text,
                   const std::string& run_time) {
@@ -545,6 +603,12 @@ std::string run(const std::string& text, const fs::path& source, const fs::path&
     if (s.scatterogram)
         rows.push_back(measure_scatterogram_record(b, *s.scatterogram, out.path(), clock));
     if (s.btf) rows.push_back(measure_btf_record(b, *s.btf, out.path(), clock));
+    for (Registered& r : s.registered) {
+        if (limits.time_budget_s > 0.0) r.setting.time_budget_s = limits.time_budget_s;
+        if (limits.target_relative_error > 0.0)
+            r.setting.target_relative_error = limits.target_relative_error;
+        rows.push_back(measure_registered_record(b, r, out.path(), clock));
+    }
     clock.say("writing the report");  // report
     write_report(out.path() / "report.md", s, b, rows, text, run_time_by_stage(clock, out.path()));
     out.commit();
@@ -563,7 +627,7 @@ void check(const std::string& text, const fs::path& source) { read(text, source)
 StudyEntry measure_study_entry() {
     return {"measure",
             "an imported mesh or level set with a material and film, measured by the goniometer, "
-            "scatterometer and/or BTF camera",
+            "scatterometer, BTF camera and/or any registered instrument (integrating sphere)",
             check, run};
 }
 

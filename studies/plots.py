@@ -1161,6 +1161,33 @@ def build_level_spectra(h5_path):
     return fig
 
 
+def build_instrument_curves(h5_path):
+    """A registered instrument's spectra (virtual_gonio/instrument_registry.h), each with a band
+    of ± one standard error."""
+    import h5py
+    import numpy as np
+
+    with h5py.File(h5_path, "r") as f:
+        wl = np.asarray(f["wavelength_nm"])
+        curves = [(_text(f[f"curves/{k}"].attrs["label"]), np.asarray(f[f"curves/{k}/value"]),
+                   np.asarray(f[f"curves/{k}/standard_error"]))
+                  for k in range(int(f.attrs["curves"]))]
+        title = _text(f.attrs["title"])
+        quantity = _text(f.attrs["quantity"])
+    fig, ax = plt.subplots(figsize=(7, 4.2))
+    for label, value, error in curves:
+        line, = ax.plot(wl, value, "o-", ms=3, label=label)
+        ax.fill_between(wl, value - error, value + error, color=line.get_color(), alpha=0.25,
+                        linewidth=0)
+    ax.set_xlabel("wavelength (nm)")
+    ax.set_ylabel(quantity)
+    ax.set_title(f"{title}\n(bands: ± one Monte Carlo standard error)", fontsize=10)
+    ax.grid(alpha=0.3)
+    ax.legend(fontsize=8)
+    fig.tight_layout()
+    return fig
+
+
 KINDS = {  # kind -> (builder, dpi)
     "spectra": (build_spectra, 120),
     "chart": (build_chart, 120),
@@ -1184,6 +1211,7 @@ KINDS = {  # kind -> (builder, dpi)
     "wave_validity_map": (build_wave_validity_map, 110),
     "level_spectra": (build_level_spectra, 120),
     "fit_residuals": (build_fit_residuals, 110),
+    "instrument_curves": (build_instrument_curves, 120),
 }
 
 

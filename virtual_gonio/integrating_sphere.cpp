@@ -17,7 +17,9 @@
 #include "common/require.h"
 #include "common/seed.h"
 #include "sim/random.h"
+#include "virtual_gonio/direction_sets.h"
 #include "virtual_gonio/hdf5_file.h"
+#include "virtual_gonio/instrument_registry.h"
 #include "virtual_gonio/record_provenance.h"
 
 namespace plumage::gonio {
@@ -123,7 +125,98 @@ private:
     std::vector<Tally> items_, totals_;  // per item of the pass; per wavelength over all passes
 };
 
+// The study file's [integrating_sphere] table (virtual_gonio/instrument_registry.h).
+constexpr InstrumentParameter kParameters[] = {
+    {.key = "incidence_deg",
+     .unit = "deg",
+     .default_value = 0.0,
+     .min = 0.0,
+     .max = 85.0,
+     .meaning = "polar angle of the light from the patch normal"},
+    {.key = "azimuth_deg",
+     .unit = "deg",
+     .default_value = 90.0,
+     .min = -360.0,
+     .max = 360.0,
+     .meaning = "azimuth of the light from +x"},
+    {.key = "beam_radius_um",
+     .unit = "µm",
+     .default_value = 10.0,
+     .min = 0.0,
+     .max = 1e6,
+     .min_open = true,
+     .meaning = "radius of the beam's cross-section"},
+    {.key = "quanta_per_pass",
+     .unit = "1",
+     .default_value = 100000,
+     .min = 1,
+     .max = 1e9,
+     .integer = true,
+     .meaning = "quanta per wavelength and pass"},
+    {.key = "max_passes",
+     .unit = "1",
+     .default_value = 10,
+     .min = 1,
+     .max = 100000,
+     .integer = true,
+     .meaning = "passes at most"},
+    {.key = "target_relative_error",
+     .unit = "1",
+     .default_value = 0.01,
+     .min = 0.0,
+     .max = 1.0,
+     .max_open = true,
+     .meaning = "stop once Σσ(R)/ΣR is at most this (0: run max_passes; the study's "
+                "target_relative_error, when set, replaces it)"},
+};
+
+IntegratingSphereConfig config_of(const InstrumentValues& v, const MeasurementSetting& s) {
+    IntegratingSphereConfig c;
+    c.wavelengths_nm = s.wavelengths_nm;
+    c.light = direction_from_angles(v["incidence_deg"] * kDeg, v["azimuth_deg"] * kDeg);
+    c.beam_radius_um = v["beam_radius_um"];
+    c.quanta_per_pass = static_cast<std::uint64_t>(v["quanta_per_pass"]);
+    c.max_passes = static_cast<int>(v["max_passes"]);
+    c.target_relative_error =
+        s.target_relative_error > 0.0 ? s.target_relative_error : v["target_relative_error"];
+    c.time_budget_s = s.time_budget_s;
+    c.seed = s.seed;
+    c.config_text = s.config_text;
+    return c;
+}
+
+void check_entry(const InstrumentValues& v, const MeasurementSetting& s) {
+    config_of(v, s).validate();
+}
+
+InstrumentResult measure_entry(const Scatterer& scatterer, const InstrumentValues& v,
+                               const MeasurementSetting& s) {
+    const IntegratingSphereConfig c = config_of(v, s);
+    const IntegratingSphereRecord r = measure_integrating_sphere(scatterer, c, s.progress);
+    write_integrating_sphere_record(r, s.folder / "integrating_sphere.h5");
+    InstrumentResult out;
+    out.cells = fmt::format("{} λ × {} quanta per λ", c.wavelengths_nm.size(), r.quanta);
+    out.files = {"integrating_sphere.h5"};
+    out.error = r.convergence.empty() ? 0.0 : r.convergence.back().estimated_relative_rms_error;
+    out.error_meaning = "Σσ(R)/ΣR over the wavelengths";
+    out.wall_time_s = r.wall_time_s;
+    out.curves_title =
+        fmt::format("Integrating sphere: light at {:g}° incidence", v["incidence_deg"]);
+    out.curves_quantity = "directional-hemispherical fraction (1)";
+    out.curves = {{"reflectance R", r.reflectance, r.reflectance_error},
+                  {"transmittance T", r.transmittance, r.transmittance_error}};
+    return out;
+}
+
 }  // namespace
+
+InstrumentEntry integrating_sphere_instrument() {
+    return {.table = "integrating_sphere",
+            .description = "directional-hemispherical reflectance and transmittance",
+            .parameters = kParameters,
+            .check = check_entry,
+            .measure = measure_entry};
+}
 
 void IntegratingSphereConfig::validate() const {
     require(!wavelengths_nm.empty() && wavelengths_nm.size() <= 4701, kWhat,

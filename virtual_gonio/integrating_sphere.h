@@ -3,7 +3,8 @@
 // (+z, the patch frame of sim/scatterer.h) and below it, whatever its direction; the absorbed
 // part is 1 − R − T. What a lab's integrating sphere with a specular port closed measures, and
 // the simplest instrument on the pass loop (virtual_gonio/pass_loop.h): this file and its .cpp
-// are the whole instrument (docs/instruments.md, "Adding an instrument").
+// are the whole instrument, its registry entry included: a study file's [integrating_sphere]
+// table (virtual_gonio/instrument_registry.h; docs/instruments.md, "Adding an instrument").
 //
 // Estimator: quantum q of wavelength k enters uniformly over the beam's disc (radius
 // beam_radius_um in the beam's cross-section, projected on the patch) and escapes with weight w

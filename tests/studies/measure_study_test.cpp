@@ -203,6 +203,57 @@ TEST(MeasureStudy, BtfTableTakesTheDetectorEstimatorAndItsPasses) {
     fs::remove_all(root);
 }
 
+// The integrating sphere is a registered instrument (virtual_gonio/instrument_registry.h): the
+// measure study reads its table by its parameter table, and it measures a free-standing keratin
+// film's R as the Airy reflectance at the light's angle, with T = 1 − R (nothing absorbs).
+TEST(MeasureStudy, RegisteredInstrumentIsReadFromItsOwnTable) {
+    const fs::path source = fs::path(PLUMAGE_SOURCE_DIR) / "studies" / "measure_test.toml";
+    const std::string base =
+        "study = \"measure\"\nname = \"sphere\"\nseed = 3\n[spectrum]\nfirst_nm = 400\n"
+        "last_nm = 700\nstep_nm = 100\n[sample]\nfile = \"measure/plate.obj\"\n"
+        "require_closed = false\nmaterial = \"air\"\n[sample.film]\nmaterial = \"keratin\"\n"
+        "thickness_um = 0.5\n[integrating_sphere]\nquanta_per_pass = 20000\nmax_passes = 2\n"
+        "target_relative_error = 0\n";
+    const std::string refused =
+        testing::input_error_message([&] { check_study(base + "incidence_deg = 90\n", source); });
+    EXPECT_NE(refused.find("measure_test.toml:19:17: integrating_sphere.incidence_deg"),
+              std::string::npos)
+        << refused;
+    const std::string text = base + "incidence_deg = 40\n";
+    const fs::path root =
+        fs::temp_directory_path() / fmt::format("plumage_measure_sphere_{}", ::getpid());
+    fs::remove_all(root);
+    study_of(text, source).run(text, source, root, {});
+    const fs::path h5 = root / "sphere" / "integrating_sphere.h5";
+    const record::Dataset wl = record::read_dataset(h5, "wavelength_nm");
+    const record::Dataset r = record::read_dataset(h5, "reflectance");
+    const record::Dataset r_error = record::read_dataset(h5, "reflectance_standard_error");
+    const record::Dataset t = record::read_dataset(h5, "transmittance");
+    const record::Dataset t_error = record::read_dataset(h5, "transmittance_standard_error");
+    ASSERT_EQ(wl.values.size(), 4u);
+    double chi2 = 0.0;
+    for (std::size_t l = 0; l < wl.values.size(); ++l) {
+        const optics::FilmMedia media{1.0, optics::keratin()->index(wl.values[l]), 1.0};
+        const double airy = optics::airy_film_intensities_unpolarised(
+                                media, 0.5, wl.values[l], std::cos(40.0 * std::numbers::pi / 180.0))
+                                .reflectance;
+        const double z = (r.values[l] - airy) / r_error.values[l];
+        chi2 += z * z;
+        EXPECT_LT(std::abs(z), kMaxAbsZ)
+            << wl.values[l] << " nm: " << r.values[l] << " vs " << airy;
+        EXPECT_NEAR(r.values[l] + t.values[l], 1.0,
+                    1e-9 + kMaxAbsZ * (r_error.values[l] + t_error.values[l]));
+    }
+    EXPECT_GT(analysis::chi_square_p_value(chi2, static_cast<int>(wl.values.size())),
+              kSignificance);
+    const std::string report = testing::read_text_file(root / "sphere" / "report.md");
+    EXPECT_NE(report.find("| integrating sphere (directional-hemispherical"), std::string::npos)
+        << report;
+    EXPECT_TRUE(fs::exists(root / "sphere" / "integrating_sphere_curves.h5"));
+    EXPECT_TRUE(fs::exists(root / "sphere" / "integrating_sphere_curves.png"));
+    fs::remove_all(root);
+}
+
 TEST(MeasureStudy, ExampleRunsAndMeasuresEveryInstrumentItNames) {
     const fs::path study = fs::path(PLUMAGE_SOURCE_DIR) / "studies" / "measure_example.toml";
     const std::string text = testing::read_text_file(study);
@@ -210,12 +261,13 @@ TEST(MeasureStudy, ExampleRunsAndMeasuresEveryInstrumentItNames) {
         fs::temp_directory_path() / fmt::format("plumage_measure_example_{}", ::getpid());
     fs::remove_all(root);
     study_of(text, study).run(text, study, root, {});
-    for (const char* f :
-         {"brdf.h5", "brdf.png", "scatterogram.h5", "scatterogram.exr", "report.md"})
+    for (const char* f : {"brdf.h5", "brdf.png", "scatterogram.h5", "scatterogram.exr",
+                          "integrating_sphere.h5", "report.md"})
         EXPECT_TRUE(fs::exists(root / "measure_example" / f)) << f;
     // Issue 41: the report embeds the figures it drew, not only names them in the table.
     const std::string report = testing::read_text_file(root / "measure_example" / "report.md");
-    for (const char* png : {"](brdf.png)", "](scatterogram.png)"})
+    for (const char* png :
+         {"](brdf.png)", "](scatterogram.png)", "](integrating_sphere_curves.png)"})
         EXPECT_NE(report.find(png), std::string::npos) << png << " not embedded:\n" << report;
     EXPECT_FALSE(fs::exists(root / ".checkpoints"));
     fs::remove_all(root);

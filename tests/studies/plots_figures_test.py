@@ -318,6 +318,21 @@ def level_spectra(d):
     return path
 
 
+def instrument_curves(d):
+    path = os.path.join(d, "instrument_curves.h5")
+    wl = np.arange(400.0, 701.0, 50.0)
+    with h5py.File(path, "w") as f:
+        f["wavelength_nm"] = wl
+        for k, label in enumerate(("reflectance R", "transmittance T")):
+            f[f"curves/{k}/value"] = 0.3 + 0.1 * k + 0.0 * wl
+            f[f"curves/{k}/standard_error"] = 0.01 + 0.0 * wl
+            f[f"curves/{k}"].attrs["label"] = label
+        f.attrs["title"] = "Integrating sphere"
+        f.attrs["quantity"] = "fraction (1)"
+        f.attrs["curves"] = 2.0
+    return path
+
+
 def fit_residuals(d):
     """Four panels (one grid cell left empty) of residuals with gaps, as studies/fit_command.cpp
     writes them."""
@@ -363,6 +378,7 @@ CASES = {
     "wave_validity_map": ([wave_validity_map], "all", True),
     "level_spectra": ([level_spectra], "all", False),
     "fit_residuals": ([fit_residuals], "all", True),
+    "instrument_curves": ([instrument_curves], "all", False),
 }
 
 
