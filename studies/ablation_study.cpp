@@ -24,6 +24,7 @@
 #include "sim/optics/colour.h"
 #include "sim/optics/spectrum.h"
 #include "sim/tracer.h"
+#include "studies/instrument_tables.h"
 #include "studies/plots.h"
 #include "studies/sections.h"
 #include "studies/staged_directory.h"
@@ -94,14 +95,25 @@ struct Sweep {
     std::vector<double> values;
 };
 
+// The beam scatterogram of every swept value: 65 px, 50000 quanta in one pass, a 60 µm beam at
+// normal incidence.
+ScatterometerTable ablation_scatterometer_defaults() {
+    ScatterometerTable t;
+    t.config.illumination = gonio::Illumination::beam;
+    t.config.image_size = 65;
+    t.config.quanta_per_pass = 50000;
+    t.config.max_passes = 1;
+    t.config.beam_radius_um = 60.0;
+    t.config.beam_direction = polar(t.beam_incidence_rad, t.beam_azimuth_rad);
+    return t;
+}
+
 struct Settings {
     BarbuleRowParams row;
     geometry::TessellationTolerance tolerance;
     std::vector<double> wavelengths;
-    int image_size = 65;
-    std::uint64_t quanta = 50000;
-    int passes = 1;
-    double beam_incidence = 0.0, beam_azimuth = 0.0, beam_radius_um = 60.0;
+    // [scatterometer] (studies/instrument_tables.h) at the defaults above.
+    ScatterometerTable scatterometer = ablation_scatterometer_defaults();
     std::uint64_t seed = kDefaultSeed;
     std::vector<Sweep> sweeps;
 };
@@ -118,17 +130,9 @@ Settings read_settings(StudyFile& file, std::string& name, const fs::path& sourc
     ParameterTable spectrum = root.table("spectrum");
     s.wavelengths = read_wavelengths(spectrum, WavelengthRule{});
     ParameterTable sc = root.table("scatterometer");
-    s.image_size = static_cast<int>(
-        sc.integer("image_size", s.image_size, 17, 1025, "pixels across the scatterogram"));
-    s.quanta =
-        static_cast<std::uint64_t>(sc.integer("quanta_per_pass", static_cast<long>(s.quanta), 1000,
-                                              100000000, "quanta per wavelength and pass"));
-    s.passes = static_cast<int>(sc.integer("passes", s.passes, 1, 1000, "passes"));
-    s.beam_incidence = sc.angle_deg("beam_incidence_deg", s.beam_incidence, between(0.0, 80.0),
-                                    "beam polar angle");
-    s.beam_azimuth = sc.angle_deg("beam_azimuth_deg", s.beam_azimuth, between(-360.0, 360.0),
-                                  "beam azimuth from the barb axis");
-    s.beam_radius_um = sc.number("beam_radius_um", s.beam_radius_um, positive(), "beam radius, um");
+    ScatterometerKeys keys;
+    keys.azimuth_from = "the barb axis";
+    s.scatterometer = read_scatterometer_table(sc, s.scatterometer, keys);
     ParameterTable sweep = root.table("sweep");
     const long default_values =
         sweep.integer("values", 5, 0, 50, "values per parameter (0: no sweeps)");
@@ -226,17 +230,9 @@ struct Run {
 
 gonio::ScatterometerConfig scatterometer_config(const Settings& s, const std::string& study_text,
                                                 const RunLimits& limits) {
-    gonio::ScatterometerConfig config;
-    config.illumination = gonio::Illumination::beam;
-    config.beam_direction = {std::sin(s.beam_incidence) * std::cos(s.beam_azimuth),
-                             std::sin(s.beam_incidence) * std::sin(s.beam_azimuth),
-                             std::cos(s.beam_incidence)};
-    config.image_size = s.image_size;
+    gonio::ScatterometerConfig config = s.scatterometer.config;
     config.wavelengths_nm = s.wavelengths;
-    config.beam_radius_um = s.beam_radius_um;
     config.seed = s.seed;  // replaced per measurement (value_config)
-    config.quanta_per_pass = s.quanta;
-    config.max_passes = s.passes;
     config.config_text = study_text;
     if (limits.time_budget_s > 0.0) config.time_budget_s = limits.time_budget_s;
     if (limits.target_relative_error > 0.0)
@@ -272,7 +268,8 @@ Measured measure(const Run& run, const BarbuleRowParams& params, std::size_t job
     }
     // The beam's footprint must lie on the patch, or the simulation loses light off its edge.
     const Eigen::AlignedBox3d box = row.bounds();
-    const double footprint = s.beam_radius_um / std::cos(s.beam_incidence);
+    const double footprint =
+        s.scatterometer.config.beam_radius_um / std::cos(s.scatterometer.beam_incidence_rad);
     const double half_width = 0.5 * std::min(box.sizes().x(), box.sizes().y());
     if (footprint > 0.8 * half_width) {
         m.reason = fmt::format(
@@ -657,10 +654,12 @@ std::string report_introduction(const Settings& s, const AblationPoint& base_poi
                "wavelengths {}–{} nm, {} quanta per wavelength).\n\n",
                c.b, c.phi0 / kDeg, c.phi1 / kDeg, s.row.H, c.film_thickness_um, c.theta_d / kDeg,
                s.row.mu / kDeg, c.cell_length_um, c.semi_major_um, c.melanin_depth_um,
-               s.row.barbules, s.row.cells_per_barbule, s.beam_incidence / kDeg,
-               s.beam_azimuth / kDeg, s.beam_radius_um, s.image_size, s.image_size,
+               s.row.barbules, s.row.cells_per_barbule, s.scatterometer.beam_incidence_rad / kDeg,
+               s.scatterometer.beam_azimuth_rad / kDeg, s.scatterometer.config.beam_radius_um,
+               s.scatterometer.config.image_size, s.scatterometer.config.image_size,
                s.wavelengths.size(), s.wavelengths.front(), s.wavelengths.back(),
-               s.quanta * static_cast<std::uint64_t>(s.passes)) +
+               s.scatterometer.config.quanta_per_pass *
+                   static_cast<std::uint64_t>(s.scatterometer.config.max_passes)) +
            "**Model error** e = Σ|I_model − I_sim| Ω / Σ I_sim Ω over pixels and wavelengths: the "
            "power-weighted "
            "relative L1 difference of the two scatterograms with the simulation as reference (0: "

@@ -29,6 +29,7 @@
 #include "analysis/statistics.h"
 #include "common/version.h"
 #include "sim/random.h"
+#include "studies/instrument_tables.h"
 #include "studies/sections.h"
 #include "studies/staged_directory.h"
 #include "studies/study.h"
@@ -70,17 +71,15 @@ Settings read(const std::string& text, const fs::path& source) {
     s.albedo = standard.number("albedo", s.albedo, between(0.0, 1.0), "albedo of the standard");
     ParameterTable g = root.table("goniometer");
     gonio::GoniometerConfig& c = s.goniometer;
-    c.direction_set = g.string("direction_set", "filip2024_in_plane",
-                               {"filip2024_in_plane", "filip2024_btf"}, "direction pairs");
-    c.pairs = c.direction_set == "filip2024_btf" ? gonio::filip2024_btf_pairs()
-                                                 : gonio::filip2024_in_plane_pairs();
+    c.direction_set = "filip2024_in_plane";
+    c.detector_half_angle_rad = 2.5 * std::numbers::pi / 180.0;
+    c.quanta_per_pass = 20000;
+    c.max_passes = 4;
+    GoniometerKeys keys;
+    keys.direction_sets = {"filip2024_in_plane", "filip2024_btf"};
+    keys.max_detector_half_angle_deg = 10.0;
+    c = read_goniometer_table(g, c, keys);
     c.wavelengths_nm = read_wavelengths(spectrum, WavelengthRule{});
-    c.quanta_per_pass = static_cast<std::uint64_t>(
-        g.integer("quanta_per_pass", 20000, 100, 100000000, "quanta per light and wavelength"));
-    c.max_passes = static_cast<int>(g.integer("passes", 4, 1, 1000, "passes"));
-    c.detector_half_angle_rad =
-        g.angle_deg("detector_half_angle_deg", 2.5 * std::numbers::pi / 180.0,
-                    {0.0, 10.0, true, false}, "detector cone half-angle");
     s.significance = g.number("significance", s.significance, {0.0, 0.5, true, true},
                               "significance of the chi-square verdict");
     c.estimator = gonio::Estimator::photon;

@@ -4,8 +4,92 @@
 
 #include "common/constants.h"
 #include "common/error.h"
+#include "studies/study_common.h"
+#include "virtual_gonio/direction_sets.h"
 
 namespace plumage::studies {
+
+gonio::GoniometerConfig read_goniometer_table(ParameterTable& t, gonio::GoniometerConfig c,
+                                              const GoniometerKeys& keys) {
+    if (!keys.direction_sets.empty()) {
+        c.direction_set =
+            t.string("direction_set", c.direction_set, keys.direction_sets, "direction set");
+        if (c.direction_set == "filip2024_btf") c.pairs = gonio::filip2024_btf_pairs();
+        if (c.direction_set == "filip2024_in_plane") c.pairs = gonio::filip2024_in_plane_pairs();
+    }
+    c.detector_half_angle_rad = t.angle_deg("detector_half_angle_deg", c.detector_half_angle_rad,
+                                            {0.0, keys.max_detector_half_angle_deg, true, false},
+                                            "detector cone half-angle");
+    c.quanta_per_pass = static_cast<std::uint64_t>(
+        t.integer("quanta_per_pass", static_cast<long>(c.quanta_per_pass), 100, 100000000,
+                  "quanta per light direction, wavelength and pass"));
+    c.max_passes = static_cast<int>(t.integer("passes", c.max_passes, 1, 1000, "passes (at most)"));
+    if (keys.beam_radius)
+        c.beam_radius_um =
+            t.number("beam_radius_um", c.beam_radius_um, positive(), "beam radius, um");
+    if (keys.aperture) {
+        c.aperture = gonio::parse_aperture(
+            t.string("aperture", gonio::to_string(c.aperture), {"view_cone", "both_cones"},
+                     "what a BRDF cell averages: the detector cone alone, or light and detector "
+                     "cones (reciprocal)"),
+            t.location("aperture"));
+    }
+    if (!keys.path_options) return c;
+    c.share_wavelength_paths =
+        t.boolean("share_wavelength_paths", c.share_wavelength_paths,
+                  "trace one path per quantum for all wavelengths (true) or one per wavelength");
+    c.split_paths = t.boolean("split_paths", c.split_paths,
+                              "split each shared path at its first film into its reflected and "
+                              "transmitted branches (true) or choose one");
+    c.guided_fraction = t.number("guided_fraction", c.guided_fraction, {0.0, 1.0, false, true},
+                                 "share of the diffuse directions aimed at the detector cones");
+    c.guided_branches = static_cast<std::size_t>(
+        t.integer("guided_branches", static_cast<long>(c.guided_branches), 0, 3,
+                  "directions aimed at the detector cones beside the cosine one at each path's "
+                  "first diffuse event"));
+    if (c.guided_branches > 0 && c.guided_fraction > 0.0) {
+        throw InputError(fmt::format(
+            "{}: {}.guided_branches = {} with guided_fraction = {}: both guide the first diffuse "
+            "event; set one of them (the other 0)",
+            t.location("guided_branches"), t.path(), c.guided_branches, c.guided_fraction));
+    }
+    return c;
+}
+
+ScatterometerTable read_scatterometer_table(ParameterTable& t, ScatterometerTable s,
+                                            const ScatterometerKeys& keys) {
+    gonio::ScatterometerConfig& c = s.config;
+    c.image_size = static_cast<int>(
+        t.integer("image_size", c.image_size, 17, 1025, "pixels across the scatterogram"));
+    c.quanta_per_pass = static_cast<std::uint64_t>(
+        t.integer("quanta_per_pass", static_cast<long>(c.quanta_per_pass), 1000, 100000000,
+                  "quanta per wavelength and pass"));
+    c.max_passes = static_cast<int>(t.integer("passes", c.max_passes, 1, 1000, "passes (at most)"));
+    s.beam_incidence_rad = t.angle_deg("beam_incidence_deg", s.beam_incidence_rad,
+                                       between(0.0, 80.0), "beam polar angle");
+    s.beam_azimuth_rad = t.angle_deg("beam_azimuth_deg", s.beam_azimuth_rad, between(-360.0, 360.0),
+                                     fmt::format("beam azimuth from {}", keys.azimuth_from));
+    c.beam_direction = polar(s.beam_incidence_rad, s.beam_azimuth_rad);
+    c.beam_radius_um = t.number("beam_radius_um", c.beam_radius_um, positive(), "beam radius, um");
+    if (keys.illumination_strata) {
+        c.illumination_strata =
+            static_cast<int>(t.integer("illumination_strata", c.illumination_strata, 1, 65536,
+                                       "illumination directions per pass"));
+    }
+    if (keys.cone_aperture) {
+        c.cone_aperture_rad =
+            t.angle_deg("cone_aperture_deg", c.cone_aperture_rad, {0.0, 90.0, true, false},
+                        "full aperture of the illumination cone");
+    }
+    if (keys.path_options) {
+        c.share_wavelength_paths =
+            t.boolean("share_wavelength_paths", c.share_wavelength_paths,
+                      "one traced path per quantum for every wavelength (every scatterogram)");
+        c.split_paths = t.boolean("split_paths", c.split_paths,
+                                  "split each shared path at its first film event");
+    }
+    return s;
+}
 
 gonio::BtfConfig read_btf_camera(ParameterTable& t, gonio::BtfConfig c) {
     c.pixels = static_cast<int>(t.integer("pixels", c.pixels, 1, 1024, "BTF pixels per side"));

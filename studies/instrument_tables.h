@@ -7,9 +7,73 @@
 
 #include "studies/study_file.h"
 #include "virtual_gonio/btf.h"
+#include "virtual_gonio/goniometer.h"
 #include "virtual_gonio/instrument_registry.h"
+#include "virtual_gonio/scatterometer.h"
 
 namespace plumage::studies {
+
+// The goniometer's keys a study offers beyond the ones every goniometer table has
+// (detector_half_angle_deg, quanta_per_pass, passes).
+struct GoniometerKeys {
+    std::vector<std::string> direction_sets;  // `direction_set`'s values; empty: no such key
+    double max_detector_half_angle_deg = 20.0;
+    bool beam_radius = false;   // beam_radius_um
+    bool aperture = false;      // aperture
+    bool path_options = false;  // share_wavelength_paths, split_paths, guided_fraction,
+                                // guided_branches
+};
+
+// [goniometer] (the measure study: [brdf]), the goniometer (virtual_gonio/goniometer.h):
+//  | key                     | unit | range                    | meaning                         |
+//  |-------------------------|------|--------------------------|---------------------------------|
+//  | direction_set           |      | the study's              | filip2024_btf, _in_plane, ...;  |
+//  |                         |      |                          | the Filip sets fill the pairs   |
+//  | detector_half_angle_deg | deg  | (0, the study's max]     | every detector cone             |
+//  | quanta_per_pass         | 1    | [100, 10⁸]               | per light direction and λ       |
+//  | passes                  | 1    | [1, 1000]                | passes at most                  |
+//  | beam_radius_um          | µm   | > 0                      | the beam on the patch           |
+//  | aperture                |      | view_cone, both_cones    | collimated light or light cones |
+//  | share_wavelength_paths  |      | true, false              | one path per quantum for all λ  |
+//  | split_paths             |      | true, false              | split at the first film event   |
+//  | guided_fraction         | 1    | [0, 1)                   | diffuse directions aimed        |
+//  | guided_branches         | 1    | [0, 3]                   | aimed branches (or the above)   |
+gonio::GoniometerConfig read_goniometer_table(ParameterTable& table,
+                                              gonio::GoniometerConfig defaults,
+                                              const GoniometerKeys& keys);
+
+// The scatterometer's keys a study offers beyond the ones every scatterometer table has
+// (image_size, quanta_per_pass, passes, beam_incidence_deg, beam_azimuth_deg, beam_radius_um).
+struct ScatterometerKeys {
+    bool illumination_strata = false;  // illumination_strata (cone and hemisphere light)
+    bool cone_aperture = false;        // cone_aperture_deg
+    bool path_options = false;         // share_wavelength_paths, split_paths
+    std::string_view azimuth_from = "+x";
+};
+
+// What a [scatterometer] table sets: the configuration, its beam direction from the two angles,
+// and the angles as read (studies compare and report them as angles).
+struct ScatterometerTable {
+    gonio::ScatterometerConfig config;
+    double beam_incidence_rad = 0.0, beam_azimuth_rad = 0.0;
+};
+
+// [scatterometer] (the measure study: [scatterogram]), the imaging scatterometer
+// (virtual_gonio/scatterometer.h):
+//  | key                    | unit | range        | meaning                                  |
+//  |------------------------|------|--------------|------------------------------------------|
+//  | image_size             | px   | [17, 1025]   | pixels across the scatterogram           |
+//  | quanta_per_pass        | 1    | [1000, 10⁸]  | per wavelength and pass                  |
+//  | passes                 | 1    | [1, 1000]    | passes at most                           |
+//  | beam_incidence_deg     | deg  | [0, 80]      | beam polar angle                         |
+//  | beam_azimuth_deg       | deg  | [-360, 360]  | beam azimuth                             |
+//  | beam_radius_um         | µm   | > 0          | the beam on the patch                    |
+//  | illumination_strata    | 1    | [1, 65536]   | illumination directions per pass         |
+//  | cone_aperture_deg      | deg  | (0, 90]      | full aperture of the illumination cone   |
+//  | share_wavelength_paths |      | true, false  | one path per quantum for all λ           |
+//  | split_paths            |      | true, false  | split at the first film event            |
+ScatterometerTable read_scatterometer_table(ParameterTable& table, ScatterometerTable defaults,
+                                            const ScatterometerKeys& keys);
 
 // [btf], the BTF camera (virtual_gonio/btf.h):
 //  | key                     | unit | range                   | meaning                          |

@@ -176,19 +176,17 @@ std::vector<gonio::DirectionPair> mirror_pairs(ParameterTable& t) {
 
 gonio::GoniometerConfig read_brdf(ParameterTable t, const std::vector<double>& wavelengths,
                                   std::uint64_t seed) {
-    gonio::GoniometerConfig c;
-    c.direction_set = t.string("direction_set", "filip2024_in_plane",
-                               {"filip2024_in_plane", "filip2024_btf", "mirror"}, "direction set");
-    c.pairs = c.direction_set == "filip2024_btf"        ? gonio::filip2024_btf_pairs()
-              : c.direction_set == "filip2024_in_plane" ? gonio::filip2024_in_plane_pairs()
-                                                        : mirror_pairs(t);
+    gonio::GoniometerConfig c;  // the measure study's defaults; the keys: instrument_tables.h
+    c.direction_set = "filip2024_in_plane";
+    c.detector_half_angle_rad = 2.5 * kDeg;
+    c.quanta_per_pass = 20000;
+    c.max_passes = 4;
+    GoniometerKeys keys;
+    keys.direction_sets = {"filip2024_in_plane", "filip2024_btf", "mirror"};
+    keys.beam_radius = true;
+    c = read_goniometer_table(t, c, keys);
+    if (c.direction_set == "mirror") c.pairs = mirror_pairs(t);
     c.wavelengths_nm = wavelengths;
-    c.detector_half_angle_rad = t.angle_deg("detector_half_angle_deg", 2.5 * kDeg,
-                                            {0.0, 20.0, true, false}, "detector cone half-angle");
-    c.beam_radius_um = t.number("beam_radius_um", c.beam_radius_um, positive(), "beam radius, um");
-    c.quanta_per_pass = static_cast<std::uint64_t>(t.integer(
-        "quanta_per_pass", 20000, 100, 100000000, "quanta per light direction and wavelength"));
-    c.max_passes = static_cast<int>(t.integer("passes", 4, 1, 1000, "passes (at most)"));
     c.estimator = gonio::Estimator::photon;
     c.seed = derive_seed(seed, "measure/brdf");
     return c;
@@ -197,18 +195,13 @@ gonio::GoniometerConfig read_brdf(ParameterTable t, const std::vector<double>& w
 gonio::ScatterometerConfig read_scatterogram(ParameterTable t,
                                              const std::vector<double>& wavelengths,
                                              std::uint64_t seed) {
-    gonio::ScatterometerConfig c;
-    const double theta =
-        t.angle_deg("beam_incidence_deg", 30.0 * kDeg, between(0.0, 80.0), "beam polar angle");
-    const double phi = t.angle_deg("beam_azimuth_deg", 90.0 * kDeg, between(-360.0, 360.0),
-                                   "beam azimuth from +x");
-    c.beam_direction = polar(theta, phi);
-    c.beam_radius_um = t.number("beam_radius_um", c.beam_radius_um, positive(), "beam radius, um");
-    c.image_size =
-        static_cast<int>(t.integer("image_size", 65, 17, 1025, "pixels across the scatterogram"));
-    c.quanta_per_pass = static_cast<std::uint64_t>(
-        t.integer("quanta_per_pass", 200000, 1000, 100000000, "quanta per wavelength and pass"));
-    c.max_passes = static_cast<int>(t.integer("passes", 2, 1, 1000, "passes (at most)"));
+    ScatterometerTable d;  // the measure study's defaults; the keys: instrument_tables.h
+    d.beam_incidence_rad = 30.0 * kDeg;
+    d.beam_azimuth_rad = 90.0 * kDeg;
+    d.config.image_size = 65;
+    d.config.quanta_per_pass = 200000;
+    d.config.max_passes = 2;
+    gonio::ScatterometerConfig c = read_scatterometer_table(t, d, ScatterometerKeys{}).config;
     c.wavelengths_nm = wavelengths;
     c.seed = derive_seed(seed, "measure/scatterogram");
     return c;

@@ -31,6 +31,7 @@
 #include "sim/wave/ray_optics_validity.h"
 #include "studies/figure_data.h"
 #include "studies/fullwave_rock_dove.h"  // generated: the embedded full-wave reference
+#include "studies/instrument_tables.h"
 #include "studies/level_choice.h"
 #include "studies/plots.h"
 #include "studies/sections.h"
@@ -49,23 +50,40 @@ namespace {
 
 namespace fs = std::filesystem;
 
+// [scatterometer]'s defaults: 101 px, 100000 quanta in 2 passes, 64 illumination directions per
+// pass, a 40 µm beam at normal incidence, a 16° cone.
+ScatterometerTable scatterometer_defaults() {
+    ScatterometerTable t;
+    t.config.image_size = 101;
+    t.config.quanta_per_pass = 100000;
+    t.config.max_passes = 2;
+    t.config.illumination_strata = 64;
+    t.config.cone_aperture_rad = 16.0 * kDeg;
+    t.config.beam_radius_um = 40.0;
+    return t;
+}
+
+gonio::GoniometerConfig goniometer_defaults() {
+    gonio::GoniometerConfig g;
+    g.direction_set = "filip2024_btf";
+    g.detector_half_angle_rad = 5.0 * kDeg;
+    g.quanta_per_pass = 20000;
+    g.max_passes = 2;
+    g.estimator = gonio::Estimator::photon;
+    return g;
+}
+
 struct Settings {
     geometry::BarbuleRowParams row;
     geometry::TessellationTolerance tolerance;
     std::vector<double> wavelengths;
-    // scatterometer
-    int image_size = 101;
-    std::uint64_t scatter_quanta = 100000;
-    int scatter_passes = 2;
-    int strata = 64;
-    // One traced path per quantum for every wavelength, split at its first film (the simulated
-    // scatterograms; a model cannot share paths): ScatterometerConfig's options of these names.
-    bool scatter_shared_paths = false, scatter_split_paths = false;
+    // [scatterometer] (studies/instrument_tables.h) at the defaults above; its shared and split
+    // paths are the simulated scatterograms' (a model cannot share paths).
+    gonio::ScatterometerConfig scatterometer = scatterometer_defaults().config;
+    double beam_incidence = 0.0, beam_azimuth = 0.0;  // as read, radians
     // The Huang model's quanta per wavelength and pass (0: as the simulation's). A model cannot
     // share paths, so the simulation's shared quanta would cost it 1 path per wavelength each.
     std::uint64_t model_scatter_quanta = 0;
-    double beam_incidence = 0.0, beam_azimuth = 0.0, cone_aperture = 16.0 * kDeg;
-    double beam_radius_um = 40.0;
     // The hemisphere scatterogram ([scatterometer.hemisphere]; absent keys as above): broad
     // rings, so fewer pixels and more illumination directions, and passes until its median
     // per-pixel relative error is reached (0: all passes).
@@ -78,20 +96,10 @@ struct Settings {
         std::uint64_t model_quanta = 0;
         bool split_paths = false;
     } hemisphere;
-    // goniometer
-    std::string direction_set = "filip2024_btf";
-    double detector_half_angle = 5.0 * kDeg;
-    std::uint64_t gonio_quanta = 20000;
-    int gonio_passes = 2;
-    // One traced path per quantum for every wavelength (GoniometerConfig::share_wavelength_paths):
-    // the rock dove's film lies in air, so no path needs a hero wavelength.
-    bool share_wavelength_paths = false;
-    // With shared paths: split at the first film, the share of diffuse directions aimed at the
-    // detectors, and guided branches at the first diffuse event (GoniometerConfig::split_paths,
-    // guided_fraction, guided_branches; sim/tracer.h).
-    bool split_paths = false;
-    double guided_fraction = 0.0;
-    int guided_branches = 0;
+    // [goniometer] (studies/instrument_tables.h), its defaults: the Filip BTF set, 5° cones,
+    // 20000 quanta in 2 passes. The options of shared, split and guided paths are off unless the
+    // file sets them (the rock dove's film lies in air, so no path needs a hero wavelength).
+    gonio::GoniometerConfig goniometer = goniometer_defaults();
     double time_budget_s = std::numeric_limits<double>::infinity();  // per measurement
     double target_relative_error = 0.0;
     // validation and convergence
@@ -114,79 +122,38 @@ struct Settings {
 
 // [scatterometer] and [scatterometer.hemisphere]
 void read_scatterometer(ParameterTable sc, Settings& s) {
-    s.image_size = static_cast<int>(
-        sc.integer("image_size", s.image_size, 17, 1025, "pixels across the scatterogram"));
-    s.scatter_quanta = static_cast<std::uint64_t>(
-        sc.integer("quanta_per_pass", static_cast<long>(s.scatter_quanta), 1000, 100000000,
-                   "quanta per wavelength and pass"));
-    s.scatter_passes = static_cast<int>(sc.integer("passes", s.scatter_passes, 1, 1000, "passes"));
-    s.strata = static_cast<int>(
-        sc.integer("illumination_strata", s.strata, 1, 65536, "illumination directions per pass"));
-    s.beam_incidence = sc.angle_deg("beam_incidence_deg", s.beam_incidence, between(0.0, 80.0),
-                                    "beam polar angle");
-    s.beam_azimuth = sc.angle_deg("beam_azimuth_deg", s.beam_azimuth, between(-360.0, 360.0),
-                                  "beam azimuth from the barb axis");
-    s.cone_aperture = sc.angle_deg("cone_aperture_deg", s.cone_aperture, {0.0, 90.0, true, false},
-                                   "full aperture of the illumination cone");
-    s.beam_radius_um = sc.number("beam_radius_um", s.beam_radius_um, positive(), "beam radius, um");
-    s.scatter_shared_paths =
-        sc.boolean("share_wavelength_paths", s.scatter_shared_paths,
-                   "one traced path per quantum for every wavelength (every scatterogram)");
-    s.scatter_split_paths = sc.boolean("split_paths", s.scatter_split_paths,
-                                       "split each shared path at its first film event");
+    ScatterometerTable t{s.scatterometer, s.beam_incidence, s.beam_azimuth};
+    ScatterometerKeys keys;
+    keys.illumination_strata = keys.cone_aperture = keys.path_options = true;
+    keys.azimuth_from = "the barb axis";
+    t = read_scatterometer_table(sc, t, keys);
+    s.scatterometer = t.config;
+    s.beam_incidence = t.beam_incidence_rad;
+    s.beam_azimuth = t.beam_azimuth_rad;
     s.model_scatter_quanta = static_cast<std::uint64_t>(
-        sc.integer("model_quanta_per_pass", static_cast<long>(s.scatter_quanta), 1000, 100000000,
-                   "the Huang model's quanta per wavelength and pass"));
+        sc.integer("model_quanta_per_pass", static_cast<long>(s.scatterometer.quanta_per_pass),
+                   1000, 100000000, "the Huang model's quanta per wavelength and pass"));
     ParameterTable he = sc.table("hemisphere");
-    s.hemisphere.image_size = static_cast<int>(he.integer(
-        "image_size", s.image_size, 17, 1025, "pixels across the hemisphere scatterogram"));
+    s.hemisphere.image_size =
+        static_cast<int>(he.integer("image_size", s.scatterometer.image_size, 17, 1025,
+                                    "pixels across the hemisphere scatterogram"));
     s.hemisphere.quanta = static_cast<std::uint64_t>(
-        he.integer("quanta_per_pass", static_cast<long>(s.scatter_quanta), 1000, 100000000,
-                   "hemisphere light: quanta per wavelength and pass"));
-    s.hemisphere.passes = static_cast<int>(
-        he.integer("passes", s.scatter_passes, 1, 1000, "hemisphere light: passes (at most)"));
-    s.hemisphere.strata = static_cast<int>(he.integer("illumination_strata", s.strata, 1, 1000000,
-                                                      "hemisphere light: directions per pass"));
+        he.integer("quanta_per_pass", static_cast<long>(s.scatterometer.quanta_per_pass), 1000,
+                   100000000, "hemisphere light: quanta per wavelength and pass"));
+    s.hemisphere.passes = static_cast<int>(he.integer("passes", s.scatterometer.max_passes, 1, 1000,
+                                                      "hemisphere light: passes (at most)"));
+    s.hemisphere.strata =
+        static_cast<int>(he.integer("illumination_strata", s.scatterometer.illumination_strata, 1,
+                                    1000000, "hemisphere light: directions per pass"));
     s.hemisphere.model_quanta = static_cast<std::uint64_t>(
         he.integer("model_quanta_per_pass", static_cast<long>(s.hemisphere.quanta), 1000, 100000000,
                    "hemisphere light: the Huang model's quanta per wavelength and pass"));
     s.hemisphere.split_paths =
-        he.boolean("split_paths", s.scatter_split_paths,
+        he.boolean("split_paths", s.scatterometer.split_paths,
                    "hemisphere light: split each shared path at its first film event");
     s.hemisphere.target_median_error = he.number(
         "target_median_relative_error", 0.0, between(0.0, 1.0),
         "hemisphere light: stop the passes once the median per-pixel relative error is this");
-}
-
-// [goniometer]
-void read_goniometer(ParameterTable go, Settings& s) {
-    s.direction_set = go.string("direction_set", s.direction_set,
-                                {"filip2024_btf", "filip2024_in_plane"}, "direction set");
-    s.detector_half_angle = go.angle_deg("detector_half_angle_deg", s.detector_half_angle,
-                                         {0.0, 20.0, true, false}, "detector cone half-angle");
-    s.gonio_quanta = static_cast<std::uint64_t>(
-        go.integer("quanta_per_pass", static_cast<long>(s.gonio_quanta), 100, 100000000,
-                   "quanta per light direction, wavelength and pass"));
-    s.gonio_passes =
-        static_cast<int>(go.integer("passes", s.gonio_passes, 1, 1000, "passes (at most)"));
-    s.share_wavelength_paths =
-        go.boolean("share_wavelength_paths", s.share_wavelength_paths,
-                   "trace one path per quantum for all wavelengths (true) or one per wavelength");
-    s.split_paths = go.boolean("split_paths", s.split_paths,
-                               "split each shared path at its first film into its reflected and "
-                               "transmitted branches (true) or choose one");
-    s.guided_fraction = go.number("guided_fraction", s.guided_fraction, {0.0, 1.0, false, true},
-                                  "share of the diffuse directions aimed at the detector cones");
-    s.guided_branches = static_cast<int>(
-        go.integer("guided_branches", s.guided_branches, 0, 3,
-                   "directions aimed at the detector cones beside the cosine one at each path's "
-                   "first diffuse event"));
-    if (s.guided_branches > 0 && s.guided_fraction > 0.0) {
-        throw InputError(fmt::format(
-            "{}: goniometer.guided_branches = {} with guided_fraction = {}: both guide the first "
-            "diffuse event; set one of them (the other 0)",
-            go.location("guided_branches"), s.guided_branches, s.guided_fraction));
-    }
 }
 
 // [validation]
@@ -245,7 +212,11 @@ Settings read_settings(StudyFile& file, std::string& name, const fs::path& sourc
     ParameterTable spectrum = root.table("spectrum");
     s.wavelengths = read_wavelengths(spectrum, WavelengthRule{});
     read_scatterometer(root.table("scatterometer"), s);
-    read_goniometer(root.table("goniometer"), s);
+    ParameterTable go = root.table("goniometer");
+    GoniometerKeys keys;
+    keys.direction_sets = {"filip2024_btf", "filip2024_in_plane"};
+    keys.path_options = true;
+    s.goniometer = read_goniometer_table(go, s.goniometer, keys);
     s.time_budget_s = root.number(
         "time_budget_s", s.time_budget_s, positive(),
         "wall-time budget per measurement, s (progressive passes stop when it is spent)");
@@ -314,23 +285,14 @@ Built build(const Settings& s, StudyFile& file, const StudyProgress& clock,
 
 gonio::ScatterometerConfig scatterometer_config(const Run& run, gonio::Illumination mode) {
     const Settings& s = run.s;
-    gonio::ScatterometerConfig c;
+    gonio::ScatterometerConfig c = s.scatterometer;
     c.illumination = mode;
-    c.beam_direction = polar(s.beam_incidence, s.beam_azimuth);
-    c.cone_aperture_rad = s.cone_aperture;
-    c.image_size = s.image_size;
     c.wavelengths_nm = s.wavelengths;
-    c.beam_radius_um = s.beam_radius_um;
     // One stream root per measurement (common/seed.h); scatterogram_pair gives the model's its own.
     c.seed =
         derive_seed(s.seed, "rock_dove/scatterogram/simulation", static_cast<std::uint64_t>(mode));
-    c.quanta_per_pass = s.scatter_quanta;
-    c.max_passes = s.scatter_passes;
     c.time_budget_s = s.time_budget_s;
     c.target_relative_error = s.target_relative_error;
-    c.illumination_strata = s.strata;
-    c.share_wavelength_paths = s.scatter_shared_paths;
-    c.split_paths = s.scatter_split_paths;
     if (mode == gonio::Illumination::hemisphere) {
         c.image_size = s.hemisphere.image_size;
         c.quanta_per_pass = s.hemisphere.quanta;
@@ -501,24 +463,13 @@ Scatterograms scatterograms(const Run& run, const Built& b, RockDoveResult& resu
 
 gonio::GoniometerConfig goniometer_config(const Run& run) {
     const Settings& s = run.s;
-    gonio::GoniometerConfig g;
-    g.direction_set = s.direction_set;
-    g.pairs = s.direction_set == "filip2024_btf" ? gonio::filip2024_btf_pairs()
-                                                 : gonio::filip2024_in_plane_pairs();
+    gonio::GoniometerConfig g = s.goniometer;
     g.wavelengths_nm = s.wavelengths;
-    g.detector_half_angle_rad = s.detector_half_angle;
-    g.beam_radius_um = s.beam_radius_um;
+    g.beam_radius_um = s.scatterometer.beam_radius_um;
     g.seed = derive_seed(s.seed, "rock_dove/brdf");
-    g.quanta_per_pass = s.gonio_quanta;
-    g.max_passes = s.gonio_passes;
     g.time_budget_s = s.time_budget_s;
     g.target_relative_error = s.target_relative_error;
     g.config_text = run.study_text;
-    g.estimator = gonio::Estimator::photon;
-    g.share_wavelength_paths = s.share_wavelength_paths;
-    g.split_paths = s.split_paths;
-    g.guided_fraction = s.guided_fraction;
-    g.guided_branches = static_cast<std::size_t>(s.guided_branches);
     return g;
 }
 
@@ -558,11 +509,11 @@ std::string brdf_section(const Run& run, const Brdfs& m, RockDoveResult& result)
     result.brdf_relative_l1 = cmp.total.relative_l1;
     // The model's values come from its cone cubature: their error estimate is not noise.
     result.verdicts.push_back(
-        {"BRDF (" + run.s.direction_set + ")",
+        {"BRDF (" + run.s.goniometer.direction_set + ")",
          analysis::agreement(m.simulation.value, m.simulation.standard_error, m.model.value,
                              m.model.standard_error, m.simulation.signal_cells)});
     std::string md = "## BRDF (in-plane sweep)\n\n";
-    if (run.s.direction_set == "filip2024_btf") {
+    if (run.s.goniometer.direction_set == "filip2024_btf") {
         write_fingerprint_figure(
             run.dir / "brdf" / "fingerprints.h5", "Rock-dove barbules: BRDF fingerprints",
             {{"simulation", &m.simulation}, {"Huang 2022 model", &m.model}}, 61, 60);
@@ -585,7 +536,7 @@ std::string brdf_section(const Run& run, const Brdfs& m, RockDoveResult& result)
         "half-angle "
         "{:.1f}°, estimated relative RMS error {:.1f} % ({:.0f} s). Model: cone cubature of "
         "eval().\n\n",
-        m.simulation.quanta, run.s.detector_half_angle / kDeg,
+        m.simulation.quanta, run.s.goniometer.detector_half_angle_rad / kDeg,
         100.0 * m.simulation.convergence.back().estimated_relative_rms_error,
         m.simulation.wall_time_s);
     return md;
@@ -706,7 +657,7 @@ std::string in_plane_sweep(const Run& run, const Built& b) {
     ip.pairs = gonio::filip2024_in_plane_pairs();
     ip.wavelengths_nm = {s.wavelengths[s.wavelengths.size() / 2]};
     ip.estimator = gonio::Estimator::photon;
-    ip.quanta_per_pass = s.gonio_quanta * 4;
+    ip.quanta_per_pass = s.goniometer.quanta_per_pass * 4;
     ip.seed = derive_seed(s.seed, "rock_dove/in_plane_sweep");
     run.clock.say("in-plane sweep: simulation and model");
     const gonio::BrdfRecord a = gonio::measure_brdf(*b.simulation, ip);
@@ -812,7 +763,7 @@ gonio::BrdfRecord measure_physical_optics_brdf(const Run& run,
 // wavelength.
 std::string physical_optics_figure(const Run& run, const Brdfs& m, const gonio::BrdfRecord& po) {
     const fs::path dir = run.dir / "brdf";
-    if (run.s.direction_set == "filip2024_btf") {
+    if (run.s.goniometer.direction_set == "filip2024_btf") {
         write_fingerprint_figure(dir / "fingerprints_physical_optics.h5",
                                  "Rock-dove barbules: BRDF fingerprints by level",
                                  {{"physical optics (2.5D)", &po},
@@ -861,7 +812,8 @@ std::string physical_optics_section(const Run& run, const Brdfs& m, const gonio:
     const analysis::RecordComparison by_level = analysis::compare_records(po, m.simulation);
     const analysis::AgreementVerdict v = analysis::agreement(
         po.value, po.standard_error, m.model.value, m.model.standard_error, po.signal_cells);
-    result.verdicts.push_back({"BRDF (" + run.s.direction_set + "), physical optics", v});
+    result.verdicts.push_back(
+        {"BRDF (" + run.s.goniometer.direction_set + "), physical optics", v});
     result.physical_optics_measured = true;
     result.physical_optics_brdf_relative_l1 = cmp.total.relative_l1;
     result.physical_optics_brdf_relative_l1_noise_floor = cmp.total.relative_l1_noise_floor;
@@ -883,10 +835,11 @@ std::string physical_optics_section(const Run& run, const Brdfs& m, const gonio:
                "the ray-traced BRDF: {:.3f}. Estimated relative RMS error {:.1f} % ({} quanta "
                "per light direction and wavelength, {:.0f} s).\n\n{}",
                po.config.pairs.size(), po.config.wavelengths_nm.size(),
-               run.s.detector_half_angle / kDeg, row.count, 2.0 * run.s.row.cell.semi_major_um,
-               run.s.row.cell.b, run.s.row.cell.film_thickness_um, run.s.row.cell.melanin_depth_um,
-               row.spacing_um, row.tilt_rad, run.s.row.cell.theta_d, level.patch_width_um(),
-               cmp.total.relative_l1, cmp.total.relative_l1_noise_floor, result.brdf_relative_l1,
+               run.s.goniometer.detector_half_angle_rad / kDeg, row.count,
+               2.0 * run.s.row.cell.semi_major_um, run.s.row.cell.b,
+               run.s.row.cell.film_thickness_um, run.s.row.cell.melanin_depth_um, row.spacing_um,
+               row.tilt_rad, run.s.row.cell.theta_d, level.patch_width_um(), cmp.total.relative_l1,
+               cmp.total.relative_l1_noise_floor, result.brdf_relative_l1,
                by_level.total.relative_l1, 100.0 * result.physical_optics_brdf_error, po.quanta,
                po.wall_time_s, physical_optics_figure(run, m, po)) +
            analysis::comparison_markdown(cmp, po, "physical optics", "Huang model") + "\n" +
@@ -1014,8 +967,9 @@ geometry::BarbuleRowParams short_cell_row(const Settings& s) {
         s.validation_cell_coupling * rho_min / (1.0 - std::cos(short_row.cell.theta_d));
     short_row.cell.cell_length_um = 2.0 * r_theta * std::sin(short_row.cell.theta_d);
     short_row.cell.melanin_depth_um = std::min(short_row.cell.melanin_depth_um, 0.5 * rho_min);
-    const double length_y = std::max(
-        200.0, 4.0 * std::max(s.beam_radius_um, 5.0 * short_row.H * short_row.cell.semi_major_um));
+    const double length_y =
+        std::max(200.0, 4.0 * std::max(s.scatterometer.beam_radius_um,
+                                       5.0 * short_row.H * short_row.cell.semi_major_um));
     short_row.barbules = std::max(
         short_row.barbules,
         static_cast<int>(std::ceil(length_y / (short_row.H * short_row.cell.semi_major_um))));
@@ -1035,7 +989,8 @@ gonio::GoniometerConfig validation_config(const Settings& s,
                         s.wavelengths.back()};
     v.detector_half_angle_rad = s.validation_detector_half_angle;
     // The beam must span many barbule periods: the model averages over one.
-    v.beam_radius_um = std::max(s.beam_radius_um, 5.0 * short_row.H * short_row.cell.semi_major_um);
+    v.beam_radius_um =
+        std::max(s.scatterometer.beam_radius_um, 5.0 * short_row.H * short_row.cell.semi_major_um);
     v.seed = derive_seed(s.seed, "rock_dove/validation");
     v.quanta_per_pass = s.validation_quanta;
     v.max_passes = 1;
@@ -1194,7 +1149,7 @@ std::string huang_fit(const Run& run, const Built& b, RockDoveResult& result) {
     c.beam_direction = polar(s.fit_incidence, s.fit_azimuth);
     c.image_size = s.fit_image_size;
     c.wavelengths_nm = fit_wavelengths(s.wavelengths);
-    c.beam_radius_um = s.beam_radius_um;
+    c.beam_radius_um = s.scatterometer.beam_radius_um;
     c.seed = derive_seed(s.seed, "rock_dove/fit_scatterogram");
     c.quanta_per_pass = s.fit_quanta;
     c.max_passes = 1;
@@ -1858,9 +1813,10 @@ RockDoveResult run_rock_dove_study(const std::string& study_text, const fs::path
     const Scatterograms scattered = scatterograms(run, built, result);
     std::string md = scattered.markdown;  // measure and compare, section by section
     const Brdfs brdfs = measure_brdfs(run, built, checkpoints / "brdf_simulation.checkpoint");
-    costs.push_back(brdf_cost(fmt::format("BRDF on {} ({} pairs): simulation", s.direction_set,
-                                          brdfs.simulation.config.pairs.size()),
-                              brdfs.simulation));
+    costs.push_back(
+        brdf_cost(fmt::format("BRDF on {} ({} pairs): simulation", s.goniometer.direction_set,
+                              brdfs.simulation.config.pairs.size()),
+                  brdfs.simulation));
     costs.push_back(brdf_cost("BRDF: Huang model", brdfs.model));
     md += brdf_section(run, brdfs, result);
     md += colour_quadrature(run, built, brdfs, result);

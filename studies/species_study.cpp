@@ -108,14 +108,25 @@ gonio::BtfConfig species_btf_defaults() {
     return c;
 }
 
+// The goniometer of the 61 × 60 BRDF: 5° cones, 20000 quanta in one pass; the pairs, seed and
+// study text are set when it is measured.
+gonio::GoniometerConfig species_goniometer_defaults() {
+    gonio::GoniometerConfig g;
+    g.direction_set = "filip2024_btf";
+    g.detector_half_angle_rad = 5.0 * kDeg;
+    g.aperture = gonio::Aperture::view_cone;  // species*.toml: both_cones
+    g.quanta_per_pass = 20000;
+    g.max_passes = 1;
+    g.estimator = gonio::Estimator::photon;
+    return g;
+}
+
 struct Settings {
     std::vector<double> wavelengths;
     std::uint64_t seed = kDefaultSeed;
     geometry::TessellationTolerance tolerance;
-    double detector_half_angle = 5.0 * kDeg;
-    gonio::Aperture aperture = gonio::Aperture::view_cone;  // species*.toml: both_cones
-    std::uint64_t quanta = 20000;
-    int passes = 1;
+    // [goniometer]: the goniometer (studies/instrument_tables.h) at the defaults above.
+    gonio::GoniometerConfig goniometer = species_goniometer_defaults();
     double time_budget_s = std::numeric_limits<double>::infinity();
     double target_relative_error = 0.0;
     std::uint64_t in_plane_quanta = 50000;
@@ -242,17 +253,9 @@ SpeciesSpec read_species(ParameterTable table, const std::string& name,
 // [goniometer], [btf], [fit]: the instruments' settings.
 void read_instruments(ParameterTable& root, Settings& s) {
     ParameterTable go = root.table("goniometer");
-    s.detector_half_angle = go.angle_deg("detector_half_angle_deg", s.detector_half_angle,
-                                         {0.0, 20.0, true, false}, "detector cone half-angle");
-    s.aperture = gonio::parse_aperture(
-        go.string("aperture", gonio::to_string(s.aperture), {"view_cone", "both_cones"},
-                  "what a BRDF cell averages: the detector cone alone, or light and detector "
-                  "cones (reciprocal)"),
-        go.location("aperture"));
-    s.quanta = static_cast<std::uint64_t>(
-        go.integer("quanta_per_pass", static_cast<long>(s.quanta), 100, 100000000,
-                   "quanta per light direction, wavelength and pass"));
-    s.passes = static_cast<int>(go.integer("passes", s.passes, 1, 1000, "passes (at most)"));
+    GoniometerKeys keys;
+    keys.aperture = true;
+    s.goniometer = read_goniometer_table(go, s.goniometer, keys);
     s.in_plane_quanta = static_cast<std::uint64_t>(
         go.integer("in_plane_quanta", static_cast<long>(s.in_plane_quanta), 100, 100000000,
                    "in-plane sweep: quanta per light direction and wavelength"));
@@ -880,14 +883,14 @@ std::string section_albedo_reciprocity(const Run& run, const SpeciesOutcome& o) 
         o.reciprocity_dof, o.reciprocity_chi_square / dof, p_value_text(p), o.reciprocity_max_z,
         sidak, o.reciprocity_dof,
         holds ? "consistent with f(ω_i, ω_o) = f(ω_o, ω_i)" : "**not** consistent with it");
-    if (run.s.aperture == gonio::Aperture::both_cones) {
+    if (run.s.goniometer.aperture == gonio::Aperture::both_cones) {
         md += fmt::format(
             "The instrument is reciprocal by construction: the light comes from a cone of the "
             "detector's half-angle ({:.1f}°) around ω_i and the detector is the cone around "
             "ω_o, both weighted by projected solid angle (aperture = \"both_cones\", "
             "virtual_gonio/goniometer.h), so a cell is the same double-cone average of f "
             "whichever way the pair is lit. {}\n\n",
-            run.s.detector_half_angle / kDeg,
+            run.s.goniometer.detector_half_angle_rad / kDeg,
             holds ? "The simulated patch is reciprocal within its noise."
                   : "A significant excess is then the simulation's own. One source is known: "
                     "the tracer reflects and refracts about interpolated shading normals while "
@@ -1055,23 +1058,18 @@ std::vector<BuiltSpecies> build_all(const Settings& s, StudyFile& file,
 gonio::BrdfRecord measure_species_brdf(const Run& run, const Specimen& x, Measured& m) {
     const Settings& s = run.s;
     gonio::GoniometerConfig& g = m.brdf_config;
-    g.direction_set = "filip2024_btf";
+    g = s.goniometer;
     g.pairs = run.pairs;
     g.wavelengths_nm = s.wavelengths;
-    g.detector_half_angle_rad = s.detector_half_angle;
-    g.aperture = s.aperture;
     g.beam_radius_um = 0.5 * x.built.period_um;  // unused: PeriodCellEntry draws the entry
     g.seed = derive_seed(s.seed, "species/brdf", x.index);
-    g.quanta_per_pass = s.quanta;
-    g.max_passes = s.passes;
     g.time_budget_s = s.time_budget_s;
     g.target_relative_error = s.target_relative_error;
     g.config_text = run.study_text;
-    g.estimator = gonio::Estimator::photon;
-    run.clock.say(
-        fmt::format("{}: BRDF on the 61 x 60 set ({} quanta per light direction and "
-                    "wavelength, {} wavelengths)",
-                    x.spec.name, s.quanta * static_cast<std::uint64_t>(s.passes), run.nl()));
+    run.clock.say(fmt::format(
+        "{}: BRDF on the 61 x 60 set ({} quanta per light direction and "
+        "wavelength, {} wavelengths)",
+        x.spec.name, g.quanta_per_pass * static_cast<std::uint64_t>(g.max_passes), run.nl()));
     gonio::RunControl control;
     control.progress = run.progress;
     const fs::path checkpoints = checkpoint_folder(run.results_root, run.name);
@@ -1390,8 +1388,10 @@ void write_species_h5(record::Hdf5Writer& h5, const SpeciesOutcome& o, std::size
     const auto parameters = static_cast<std::uint64_t>(kFilip2024ParameterCount);
     // One unit per parameter, in the order of /@parameter_names.
     std::string units;
-    for (int p = 0; p < kFilip2024ParameterCount; ++p)
-        units += (units.empty() ? "" : ",") + std::string(kFilip2024ParameterTable[p].unit);
+    for (int p = 0; p < kFilip2024ParameterCount; ++p) {
+        if (!units.empty()) units += ',';
+        units += kFilip2024ParameterTable[p].unit;
+    }
     h5.write(g5 + "/fit/values", std::span<const double>(o.fitted), {parameters},
              {{"units", units},
               {"description",
