@@ -48,8 +48,8 @@ std::optional<ScatterEvent> MountedScatterer::sample(const Vec3d& wi, double lam
 std::optional<SpectralScatterEvent> MountedScatterer::sample_spectral(
     const Vec3d& wi, std::span<const double> lambdas_nm, const Vec2& position_um, Rng& rng,
     std::span<double> weights) const {
-    auto event =
-        inner_->sample_spectral(to_sample(wi), lambdas_nm, to_sample(position_um), rng, weights);
+    auto event = inner_paths().sample_spectral(to_sample(wi), lambdas_nm, to_sample(position_um),
+                                               rng, weights);
     if (event) to_instrument(event->wo, event->exit_position_um);
     return event;
 }
@@ -73,7 +73,7 @@ std::size_t MountedScatterer::sample_spectral_branches(const Vec3d& wi,
     for (std::size_t a = 0; a < axes; ++a) turned[a] = to_sample(options.detector_axes[a]);
     BranchOptions inner_options = options;
     inner_options.detector_axes = turned;
-    const std::size_t count = inner_->sample_spectral_branches(
+    const std::size_t count = inner_paths().sample_spectral_branches(
         to_sample(wi), lambdas_nm, to_sample(position_um), rng, inner_options, events, weights);
     for (std::size_t b = 0; b < count; ++b) to_instrument(events[b].wo, events[b].exit_position_um);
     return count;

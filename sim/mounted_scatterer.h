@@ -27,7 +27,7 @@
 
 namespace plumage {
 
-class MountedScatterer final : public Scatterer {
+class MountedScatterer final : public Scatterer, public PathTracing {
 public:
     // azimuth_rad: the angle from the instrument's +x to the sample's +x (barb axis), about
     // +z, counter-clockwise seen from above. InputError when not finite or `inner` is null.
@@ -37,18 +37,21 @@ public:
     const std::vector<std::string>& lobe_names() const override { return inner_->lobe_names(); }
     std::optional<ScatterEvent> sample(const Vec3d& wi, double lambda_nm, const Vec2& position_um,
                                        Rng& rng) const override;
-    bool can_share_paths() const override { return inner_->can_share_paths(); }
+    // Path tracing when the inner scatterer has it.
+    const PathTracing* path_tracing() const override {
+        return inner_->path_tracing() ? this : nullptr;
+    }
     std::optional<SpectralScatterEvent> sample_spectral(const Vec3d& wi,
                                                         std::span<const double> lambdas_nm,
                                                         const Vec2& position_um, Rng& rng,
                                                         std::span<double> weights) const override;
-    bool can_split_paths() const override { return inner_->can_split_paths(); }
+    bool can_split_paths() const override { return inner_paths().can_split_paths(); }
     std::size_t sample_spectral_branches(const Vec3d& wi, std::span<const double> lambdas_nm,
                                          const Vec2& position_um, Rng& rng,
                                          const BranchOptions& options,
                                          std::span<SpectralScatterEvent> events,
                                          std::span<double> weights) const override;
-    bool can_trace_adjoint() const override { return inner_->can_trace_adjoint(); }
+    bool can_trace_adjoint() const override { return inner_paths().can_trace_adjoint(); }
     bool can_evaluate() const override { return inner_->can_evaluate(); }
     double eval(const Vec3d& wi, const Vec3d& wo, double lambda_nm,
                 std::span<double> per_lobe = {}) const override;
@@ -61,6 +64,9 @@ public:
     const Scatterer& inner() const { return *inner_; }
 
 private:
+    // The inner scatterer's path tracing; InvariantError when it has none (path_tracing() then
+    // says so, and no instrument calls the path methods).
+    const PathTracing& inner_paths() const { return checked_path_tracing(*inner_); }
     Vec3d to_sample(const Vec3d& w) const;          // instrument → sample frame: R(−ψ)
     Vec3d to_instrument(const Vec3d& w) const;      // sample → instrument frame: R(+ψ)
     Vec2 to_sample(const Vec2& position_um) const;  // a beam position, R(−ψ)

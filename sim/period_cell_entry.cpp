@@ -26,7 +26,7 @@ std::optional<SpectralScatterEvent> PeriodCellEntry::sample_spectral(
     const Vec3d& wi, std::span<const double> lambdas_nm, const Vec2& /*beam position*/, Rng& rng,
     std::span<double> weights) const {
     const Vec2 entry = draw_entry(rng);
-    return inner_->sample_spectral(wi, lambdas_nm, entry, rng, weights);
+    return inner_paths().sample_spectral(wi, lambdas_nm, entry, rng, weights);
 }
 
 std::size_t PeriodCellEntry::sample_spectral_branches(const Vec3d& wi,
@@ -36,7 +36,8 @@ std::size_t PeriodCellEntry::sample_spectral_branches(const Vec3d& wi,
                                                       std::span<SpectralScatterEvent> events,
                                                       std::span<double> weights) const {
     const Vec2 entry = draw_entry(rng);
-    return inner_->sample_spectral_branches(wi, lambdas_nm, entry, rng, options, events, weights);
+    return inner_paths().sample_spectral_branches(wi, lambdas_nm, entry, rng, options, events,
+                                                  weights);
 }
 
 Vec2 PeriodCellEntry::draw_entry(Rng& rng) const {

@@ -23,7 +23,7 @@
 
 namespace plumage {
 
-class PeriodCellEntry final : public Scatterer {
+class PeriodCellEntry final : public Scatterer, public PathTracing {
 public:
     // pitch_x_um, period_y_um > 0: the cell's sides; y0_um: its centre across the barbs.
     PeriodCellEntry(std::shared_ptr<const Scatterer> inner, double pitch_x_um, double period_y_um,
@@ -32,12 +32,15 @@ public:
     const std::vector<std::string>& lobe_names() const override { return inner_->lobe_names(); }
     std::optional<ScatterEvent> sample(const Vec3d& wi, double lambda_nm,
                                        const Vec2& /*beam position*/, Rng& rng) const override;
-    bool can_share_paths() const override { return inner_->can_share_paths(); }
+    // Path tracing when the inner scatterer has it.
+    const PathTracing* path_tracing() const override {
+        return inner_->path_tracing() ? this : nullptr;
+    }
     std::optional<SpectralScatterEvent> sample_spectral(const Vec3d& wi,
                                                         std::span<const double> lambdas_nm,
                                                         const Vec2& /*beam position*/, Rng& rng,
                                                         std::span<double> weights) const override;
-    bool can_split_paths() const override { return inner_->can_split_paths(); }
+    bool can_split_paths() const override { return inner_paths().can_split_paths(); }
     std::size_t sample_spectral_branches(const Vec3d& wi, std::span<const double> lambdas_nm,
                                          const Vec2& /*beam position*/, Rng& rng,
                                          const BranchOptions& options,
@@ -47,6 +50,9 @@ public:
     Vec2 draw_entry(Rng& rng) const;
 
 private:
+    // The inner scatterer's path tracing; InvariantError when it has none (path_tracing() then
+    // says so, and no instrument calls the path methods).
+    const PathTracing& inner_paths() const { return checked_path_tracing(*inner_); }
     std::shared_ptr<const Scatterer> inner_;
     double pitch_x_, period_y_, y0_;
 };

@@ -10,18 +10,9 @@ double Scatterer::eval(const Vec3d&, const Vec3d&, double, std::span<double>) co
         " cannot evaluate f(wi, wo): it is a Monte Carlo scatterer (check can_evaluate())");
 }
 
-std::optional<SpectralScatterEvent> Scatterer::sample_spectral(const Vec3d&,
-                                                               std::span<const double>, const Vec2&,
-                                                               Rng&, std::span<double>) const {
-    throw InvariantError(
-        name() + " cannot trace one path for several wavelengths (check can_share_paths())");
-}
-
-std::size_t Scatterer::sample_spectral_branches(const Vec3d& wi, std::span<const double> lambdas_nm,
-                                                const Vec2& position_um, Rng& rng,
-                                                const BranchOptions&,
-                                                std::span<SpectralScatterEvent> events,
-                                                std::span<double> weights) const {
+std::size_t PathTracing::sample_spectral_branches(
+    const Vec3d& wi, std::span<const double> lambdas_nm, const Vec2& position_um, Rng& rng,
+    const BranchOptions&, std::span<SpectralScatterEvent> events, std::span<double> weights) const {
     const std::size_t n = lambdas_nm.size();
     PLUMAGE_CHECK(!events.empty() && weights.size() >= n,
                   "sample_spectral_branches: room for one branch at least");
@@ -29,6 +20,16 @@ std::size_t Scatterer::sample_spectral_branches(const Vec3d& wi, std::span<const
     if (!event) return 0;
     events[0] = *event;
     return 1;
+}
+
+const PathTracing& checked_path_tracing(const Scatterer& scatterer) {
+    const PathTracing* paths = scatterer.path_tracing();
+    if (paths == nullptr) {
+        throw InvariantError(scatterer.name() +
+                             " traces no paths: no shared wavelengths, branches or detector-side "
+                             "walks (check path_tracing())");
+    }
+    return *paths;
 }
 
 double Scatterer::pdf(const Vec3d&, const Vec3d&, double) const {

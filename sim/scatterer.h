@@ -17,26 +17,28 @@
 //    weight = f |cos θ_o| / pdf. No return value means the quantum was absorbed.
 //  - Lobes: each scatterer names its lobes (lobe_names()); a sample carries the index
 //    of the lobe that produced it, so records keep per-lobe values.
-//  - Spectral path sharing (optional, can_share_paths()): sample_spectral() plays one quantum
-//    for several wavelengths at once: one escape direction and one weight per wavelength,
-//    each meeting sample()'s contract for its own λ (the weights of one quantum are
-//    correlated across λ, those of different quanta independent).
-//  - Path splitting (optional, can_split_paths()): sample_spectral_branches() plays the
-//    quantum of sample_spectral() as up to kMaxBranches branches, each an escape with its own
-//    weights; the contract holds for their sum (a branch's weights already include the
-//    probability of the branch, so no weight is divided by a choice probability there). An
-//    instrument adds a quantum's branches before it squares (they are one quantum's parts).
-//    The same call takes the instrument's detector cones (BranchOptions): a scatterer may draw
-//    its directions towards them (importance sampling, unbiased for every direction).
-//  - Detector-side (adjoint) walks (optional, can_trace_adjoint()): with BranchOptions::adjoint
-//    the quantum of sample_spectral_branches() starts at a detector instead of at the light: wi
-//    is the direction towards the detector, position_um the point it sees, and each escape is a
-//    direction (and entry point) the light it sees came from. The weights then meet the contract
-//    above for the light paths run backwards: E[Σ_b w_b · 1{ω_b ∈ Ω}] is the fraction of the
-//    power entering at position_um from wi that the REVERSED scene would send into Ω. For a
-//    reciprocal scene this is the forward contract with light and detector exchanged; the
-//    tracer corrects its shading normals, which are not reciprocal (sim/tracer.h, "Detector-side
-//    walks"). The cones of BranchOptions are then the light's cones.
+//  - Path tracing (optional: path_tracing(), the PathTracing interface below; the tracer and
+//    its wrappers have it, analytic models do not):
+//    - spectral path sharing: sample_spectral() plays one quantum for several wavelengths at
+//      once: one escape direction and one weight per wavelength, each meeting sample()'s
+//      contract for its own λ (the weights of one quantum are correlated across λ, those of
+//      different quanta independent).
+//    - path splitting (can_split_paths()): sample_spectral_branches() plays the quantum of
+//      sample_spectral() as up to kMaxBranches branches, each an escape with its own weights;
+//      the contract holds for their sum (a branch's weights already include the probability of
+//      the branch, so no weight is divided by a choice probability there). An instrument adds
+//      a quantum's branches before it squares (they are one quantum's parts). The same call
+//      takes the instrument's detector cones (BranchOptions): a scatterer may draw its
+//      directions towards them (importance sampling, unbiased for every direction).
+//    - detector-side (adjoint) walks (can_trace_adjoint()): with BranchOptions::adjoint
+//      the quantum of sample_spectral_branches() starts at a detector instead of at the light: wi
+//      is the direction towards the detector, position_um the point it sees, and each escape is a
+//      direction (and entry point) the light it sees came from. The weights then meet the contract
+//      above for the light paths run backwards: E[Σ_b w_b · 1{ω_b ∈ Ω}] is the fraction of the
+//      power entering at position_um from wi that the REVERSED scene would send into Ω. For a
+//      reciprocal scene this is the forward contract with light and detector exchanged; the tracer
+//      corrects its shading normals, which are not reciprocal (sim/tracer.h, "Detector-side
+//      walks"). The cones of BranchOptions are then the light's cones.
 #pragma once
 
 #include <cmath>
@@ -99,33 +101,21 @@ inline void orthonormal_frame(const Vec3d& a, Vec3d& e1, Vec3d& e2) {
     e2 = a.cross(e1);
 }
 
-class Scatterer {
+// Path tracing, the optional interface of the scatterers that trace light paths (the explicit
+// tracer, and the wrappers of one): one path for several wavelengths, its branches, and walks
+// that start at a detector (the conventions above). Scatterer::path_tracing() gives it, or
+// nullptr: analytic models draw directions from their lobes and trace no path, so an
+// instrument's path options do not apply to them.
+class PathTracing {
 public:
-    virtual ~Scatterer() = default;
-    virtual std::string name() const = 0;
-    virtual const std::vector<std::string>& lobe_names() const = 0;
-
-    // One quantum of wavelength lambda_nm arriving from wi at position_um.
-    virtual std::optional<ScatterEvent> sample(const Vec3d& wi, double lambda_nm,
-                                               const Vec2& position_um, Rng& rng) const = 0;
-
-    // Whether eval() and pdf() are available (analytic models: yes; the tracer: no).
-    virtual bool can_evaluate() const { return false; }
-    // f(ωi, ωo, λ) in 1/sr, summed over lobes; per-lobe values into per_lobe when given
-    // (size lobe_names().size()).
-    virtual double eval(const Vec3d& wi, const Vec3d& wo, double lambda_nm,
-                        std::span<double> per_lobe = {}) const;
-    // Spectral path sharing: whether sample_spectral() is available.
-    virtual bool can_share_paths() const { return false; }
     static constexpr std::size_t kMaxSharedWavelengths = 64;
     // One quantum for every wavelength of lambdas_nm (1 … kMaxSharedWavelengths of them) at
     // once; weights (same size) receives one weight per wavelength with sample()'s contract:
     // E[weights[k] · 1{ω_o ∈ Ω}] = ∫_Ω f(ω_i, ω_o, λ_k) |cos θ_o| dω_o. No return value: no
     // light left at any wavelength (weights then all 0).
-    virtual std::optional<SpectralScatterEvent> sample_spectral(const Vec3d& wi,
-                                                                std::span<const double> lambdas_nm,
-                                                                const Vec2& position_um, Rng& rng,
-                                                                std::span<double> weights) const;
+    virtual std::optional<SpectralScatterEvent> sample_spectral(
+        const Vec3d& wi, std::span<const double> lambdas_nm, const Vec2& position_um, Rng& rng,
+        std::span<double> weights) const = 0;
 
     // Path splitting: whether sample_spectral_branches() can return more than one branch.
     virtual bool can_split_paths() const { return false; }
@@ -146,9 +136,37 @@ public:
     // Detector-side walks: whether sample_spectral_branches() honours BranchOptions::adjoint.
     virtual bool can_trace_adjoint() const { return false; }
 
+protected:
+    ~PathTracing() = default;  // owned as the Scatterer that implements it
+};
+
+class Scatterer {
+public:
+    virtual ~Scatterer() = default;
+    virtual std::string name() const = 0;
+    virtual const std::vector<std::string>& lobe_names() const = 0;
+
+    // One quantum of wavelength lambda_nm arriving from wi at position_um.
+    virtual std::optional<ScatterEvent> sample(const Vec3d& wi, double lambda_nm,
+                                               const Vec2& position_um, Rng& rng) const = 0;
+
+    // Whether eval() and pdf() are available (analytic models: yes; the tracer: no).
+    virtual bool can_evaluate() const { return false; }
+    // f(ωi, ωo, λ) in 1/sr, summed over lobes; per-lobe values into per_lobe when given
+    // (size lobe_names().size()).
+    virtual double eval(const Vec3d& wi, const Vec3d& wo, double lambda_nm,
+                        std::span<double> per_lobe = {}) const;
+
+    // The scatterer's path tracing (shared wavelengths, branches, detector-side walks), or
+    // nullptr when it traces no paths (above).
+    virtual const PathTracing* path_tracing() const { return nullptr; }
+
     // Solid-angle density of sample()'s ωo (including any discrete T lobe's share as a
     // separate mass, which pdf() does not report).
     virtual double pdf(const Vec3d& wi, const Vec3d& wo, double lambda_nm) const;
 };
+
+// scatterer.path_tracing(), or InvariantError naming the scatterer when it traces no paths.
+const PathTracing& checked_path_tracing(const Scatterer& scatterer);
 
 }  // namespace plumage

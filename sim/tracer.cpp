@@ -434,7 +434,7 @@ public:
         : at_(at), lambdas_nm_(lambdas_nm), surface_(surface) {}
     FilmResponse response(bool from_outside, double cos_theta) const override;
 
-    mutable std::array<double, Scatterer::kMaxSharedWavelengths> reflectance{}, transmittance{};
+    mutable std::array<double, PathTracing::kMaxSharedWavelengths> reflectance{}, transmittance{};
     mutable double mean_reflect_probability = 0.0;
 
 private:

@@ -203,7 +203,7 @@ struct PathResult {
     bool ended_by_roulette = false;
 };
 
-class ExplicitScatterer final : public Scatterer {
+class ExplicitScatterer final : public Scatterer, public PathTracing {
 public:
     enum Lobe : int { kR = 0, kTRT = 1, kT = 2, kMulti = 3, kVolume = 4 };
 
@@ -214,7 +214,7 @@ public:
     const std::vector<std::string>& lobe_names() const override;
     std::optional<ScatterEvent> sample(const Vec3d& wi, double lambda_nm, const Vec2& position_um,
                                        Rng& rng) const override;
-    bool can_share_paths() const override { return true; }
+    const PathTracing* path_tracing() const override { return this; }
     bool can_split_paths() const override { return true; }
     bool can_trace_adjoint() const override { return true; }
     std::size_t sample_spectral_branches(const Vec3d& wi, std::span<const double> lambdas_nm,

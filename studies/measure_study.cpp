@@ -502,7 +502,10 @@ Measured measure_registered_record(const Built& b, Registered r, const fs::path&
     r.setting.folder = dir;
     const gonio::InstrumentResult result = r.entry->measure(*b.scatterer, r.values, r.setting);
     std::string files;
-    for (const std::string& f : result.files) files += (files.empty() ? "" : ", ") + f;
+    for (const std::string& f : result.files) {
+        if (!files.empty()) files += ", ";
+        files += f;
+    }
     std::vector<Figure> figures;
     if (!result.curves.empty()) {
         const std::string stem = std::string(r.entry->table) + "_curves";

@@ -56,10 +56,10 @@ void BtfConfig::validate() const {
             "estimator = \"detector\" needs aperture = \"both_cones\": a walk from the detector "
             "cannot reach a collimated light through mirror-like events");
     require(estimator != BtfEstimator::detector ||
-                wavelengths_nm.size() <= Scatterer::kMaxSharedWavelengths,
+                wavelengths_nm.size() <= PathTracing::kMaxSharedWavelengths,
             kWhat,
             fmt::format("{} wavelengths: the detector estimator shares one path among at most {}",
-                        wavelengths_nm.size(), Scatterer::kMaxSharedWavelengths));
+                        wavelengths_nm.size(), PathTracing::kMaxSharedWavelengths));
     require(max_passes >= 1 && max_passes <= 100000, kWhat,
             fmt::format("max_passes = {}: expected 1..100000", max_passes));
     require(max_passes == 1 || estimator == BtfEstimator::detector, kWhat,
@@ -302,13 +302,15 @@ private:
                             half_ - (row + rng.uniform()) * pixel_);
         const Vec3d wo =
             draw_cone_direction_by_projected_area(view, c_.detector_half_angle_rad, rng);
-        std::array<SpectralScatterEvent, Scatterer::kMaxBranches> events;
+        std::array<SpectralScatterEvent, PathTracing::kMaxBranches> events;
         // Not zeroed: every returned branch's weights are written (sim/scatterer.h); 4 KB a
         // quantum.
-        std::array<double, Scatterer::kMaxBranches * Scatterer::kMaxSharedWavelengths> weights;
-        const std::size_t count = scatterer_.sample_spectral_branches(
-            wo, c_.wavelengths_nm, position, rng, options, events,
-            std::span<double>(weights.data(), Scatterer::kMaxBranches * nl_));
+        std::array<double, PathTracing::kMaxBranches * PathTracing::kMaxSharedWavelengths> weights;
+        const std::size_t count =
+            checked_path_tracing(scatterer_)
+                .sample_spectral_branches(
+                    wo, c_.wavelengths_nm, position, rng, options, events,
+                    std::span<double>(weights.data(), PathTracing::kMaxBranches * nl_));
         for (std::size_t b = 0; b < count; ++b) {
             const Vec2& entry = events[b].exit_position_um;
             if (std::abs(entry.x()) >= half_ || std::abs(entry.y()) >= half_) continue;
@@ -436,7 +438,8 @@ std::string canonical(const BtfConfig& c, const std::string& scatterer) {
 
 void measure_from_detector(const Scatterer& scatterer, BtfRecord& r, const RunControl& control,
                            const std::function<double()>& elapsed_s) {
-    if (!scatterer.can_trace_adjoint()) {
+    const PathTracing* paths = scatterer.path_tracing();
+    if (paths == nullptr || !paths->can_trace_adjoint()) {
         throw InputError(fmt::format(
             "btf: estimator = \"detector\" needs a scatterer with a detector-side walk (the "
             "ray tracer); {} has none: use estimator = \"forward\"",

@@ -123,8 +123,8 @@ struct PhotonItem {
 // One quantum's escape: its branches (one without splitting) and their weights, branch-major
 // with the item's wavelengths within a branch. Reused from quantum to quantum.
 struct QuantumEscape {
-    std::array<double, Scatterer::kMaxBranches * Scatterer::kMaxSharedWavelengths> weights{};
-    std::array<SpectralScatterEvent, Scatterer::kMaxBranches> branches{};
+    std::array<double, PathTracing::kMaxBranches * PathTracing::kMaxSharedWavelengths> weights{};
+    std::array<SpectralScatterEvent, PathTracing::kMaxBranches> branches{};
     std::size_t count = 0;
 };
 
@@ -169,7 +169,7 @@ struct GroupDetectors {
     void add_to_detector(const QuantumEscape& escape, std::size_t j,
                          std::vector<double>& acc) const {
         const Vec3d& wo = config.pairs[group.pairs[j]].wo;
-        std::array<std::size_t, Scatterer::kMaxBranches> in{};
+        std::array<std::size_t, PathTracing::kMaxBranches> in{};
         std::size_t hits = 0;
         for (std::size_t b = 0; b < escape.count; ++b)
             if (!(escape.branches[b].wo.dot(wo) < cos_alpha)) in[hits++] = b;
@@ -248,11 +248,11 @@ void sample_quantum(const Scatterer& scatterer, const GoniometerConfig& config,
     const std::size_t nl = config.wavelengths_nm.size();
     escape.count = 0;
     if (branched) {
-        escape.count = scatterer.sample_spectral_branches(wi, config.wavelengths_nm, position, rng,
-                                                          options, escape.branches, escape.weights);
+        escape.count = checked_path_tracing(scatterer).sample_spectral_branches(
+            wi, config.wavelengths_nm, position, rng, options, escape.branches, escape.weights);
     } else if (shared) {
-        const auto event = scatterer.sample_spectral(wi, config.wavelengths_nm, position, rng,
-                                                     std::span<double>(escape.weights.data(), nl));
+        const auto event = checked_path_tracing(scatterer).sample_spectral(
+            wi, config.wavelengths_nm, position, rng, std::span<double>(escape.weights.data(), nl));
         if (!event) return;
         escape.branches[0] = *event;
         escape.count = 1;
@@ -655,14 +655,16 @@ BrdfRecord new_record(const Scatterer& scatterer, const GoniometerConfig& config
     r.lobes = scatterer.lobe_names();
     r.threads = omp_get_max_threads();
     r.detector_solid_angle_sr = 2.0 * kPi * (1.0 - std::cos(config.detector_half_angle_rad));
-    r.wavelength_paths_shared = config.share_wavelength_paths && scatterer.can_share_paths() &&
+    const PathTracing* paths = scatterer.path_tracing();
+    const bool can_split = paths != nullptr && paths->can_split_paths();
+    r.wavelength_paths_shared = config.share_wavelength_paths && paths != nullptr &&
                                 config.wavelengths_nm.size() > 1 &&
-                                config.wavelengths_nm.size() <= Scatterer::kMaxSharedWavelengths;
+                                config.wavelengths_nm.size() <= PathTracing::kMaxSharedWavelengths;
     // Branches need one path for all the item's wavelengths: shared paths, or one wavelength.
     const bool one_path = r.wavelength_paths_shared || config.wavelengths_nm.size() == 1;
-    r.paths_split = one_path && config.split_paths && scatterer.can_split_paths();
-    r.diffuse_guided = one_path && (config.guided_fraction > 0.0 || config.guided_branches > 0) &&
-                       scatterer.can_split_paths();
+    r.paths_split = one_path && config.split_paths && can_split;
+    r.diffuse_guided =
+        one_path && (config.guided_fraction > 0.0 || config.guided_branches > 0) && can_split;
     r.estimator_used = config.estimator == Estimator::automatic
                            ? (scatterer.can_evaluate() ? Estimator::eval : Estimator::photon)
                            : config.estimator;

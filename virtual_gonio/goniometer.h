@@ -34,7 +34,7 @@
 //    average above; under both_cones each quantum first draws its own light direction ω'
 //    from C(ω_i) by projected solid angle (two uniforms from its stream after the beam
 //    position's). Works for every scatterer (the tracer too).
-//    With share_wavelength_paths (and a scatterer that can_share_paths(), sim/scatterer.h)
+//    With share_wavelength_paths (and a scatterer with path_tracing(), sim/scatterer.h)
 //    a quantum is one path for every wavelength, carrying a weight per λ (sim/tracer.h,
 //    spectral path sharing), drawing from Rng(derive_seed(seed, "goniometer/shared-quantum",
 //    light direction), quantum index); each cell's estimate and standard
@@ -101,18 +101,18 @@ struct GoniometerConfig {
     std::uint64_t seed = kDefaultSeed;
     Estimator estimator = Estimator::automatic;
     Aperture aperture = Aperture::view_cone;
-    // Photon estimator, scatterers that can_share_paths() (the tracer), 2 … 64 wavelengths:
+    // Photon estimator, scatterers with path_tracing() (the tracer), 2 … 64 wavelengths:
     // one path per quantum for all wavelengths (sim/tracer.h); otherwise ignored.
     bool share_wavelength_paths = false;
-    // With shared paths (or one wavelength) and a scatterer that can_split_paths() (the
+    // With shared paths (or one wavelength) and a scatterer that splits paths (the
     // tracer): each quantum split at its first film event into a reflected and a transmitted
     // branch (sim/tracer.h, "Splitting"); otherwise ignored.
     bool split_paths = false;
-    // With shared paths (or one wavelength) and a scatterer that can_split_paths(): this share
+    // With shared paths (or one wavelength) and a scatterer that splits paths: this share
     // of its paths' first diffuse directions aimed at the light direction's detector cones
     // (sim/tracer.h, "Guided diffuse reflection"), in [0, 1); 0: none.
     double guided_fraction = 0.0;
-    // With shared paths (or one wavelength) and a scatterer that can_split_paths(): at each
+    // With shared paths (or one wavelength) and a scatterer that splits paths: at each
     // path's first diffuse event one branch by the cosine law and this many aimed within the
     // light direction's detector cones (sim/tracer.h, "Guided diffuse branches"), in place of
     // guided_fraction (set one of the two). 0 … 3; 0: none.

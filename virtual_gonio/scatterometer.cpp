@@ -303,15 +303,17 @@ private:
     void play_shared(const Vec3d& wi, const Vec3d& f1, const Vec3d& f2, Rng& rng, std::size_t it,
                      PassItems& items) const {
         const Vec2 position = entry_point(wi, f1, f2, rng);
-        std::array<SpectralScatterEvent, Scatterer::kMaxBranches> events;
+        std::array<SpectralScatterEvent, PathTracing::kMaxBranches> events;
         // Not zeroed: every returned branch's weights are written (sim/scatterer.h); 4 KB a
         // quantum.
-        std::array<double, Scatterer::kMaxBranches * Scatterer::kMaxSharedWavelengths> weights;
+        std::array<double, PathTracing::kMaxBranches * PathTracing::kMaxSharedWavelengths> weights;
         BranchOptions options;
         options.split_first_film = split_;
-        const std::size_t count = scatterer_.sample_spectral_branches(
-            wi, config_.wavelengths_nm, position, rng, options, events,
-            std::span<double>(weights.data(), Scatterer::kMaxBranches * nl_));
+        const std::size_t count =
+            checked_path_tracing(scatterer_)
+                .sample_spectral_branches(
+                    wi, config_.wavelengths_nm, position, rng, options, events,
+                    std::span<double>(weights.data(), PathTracing::kMaxBranches * nl_));
         for (std::size_t b = 0; b < count; ++b)
             for (std::size_t k = 0; k < nl_; ++k)
                 count_escape(events[b].wo, events[b].lobe, weights[b * nl_ + k], k, it, items);
@@ -563,10 +565,11 @@ Scatterogram measure_scatterogram(const Scatterer& scatterer, const Scatteromete
     s.solid_angle_sr = pixel_solid_angles(config.image_size);
     record_measurement_seed("scatterometer", config.seed);  // common/seed.h: one root each
     const std::size_t nl = config.wavelengths_nm.size();
-    s.wavelength_paths_shared = config.share_wavelength_paths && scatterer.can_share_paths() &&
-                                nl <= Scatterer::kMaxSharedWavelengths;
-    s.paths_split =
-        config.split_paths && scatterer.can_split_paths() && (s.wavelength_paths_shared || nl == 1);
+    const PathTracing* paths = scatterer.path_tracing();
+    s.wavelength_paths_shared = config.share_wavelength_paths && paths != nullptr &&
+                                nl <= PathTracing::kMaxSharedWavelengths;
+    s.paths_split = config.split_paths && paths != nullptr && paths->can_split_paths() &&
+                    (s.wavelength_paths_shared || nl == 1);
     // Splitting rides on the shared walk (one wavelength is a shared walk of one).
     ScatterometerPasses passes(scatterer, s, s.wavelength_paths_shared || s.paths_split);
     StopRule rule;

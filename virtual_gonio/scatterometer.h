@@ -72,7 +72,7 @@ struct ScatterometerConfig {
     // prepares once per direction for all wavelengths. Many directions with few quanta
     // each give smooth images; few directions give spokes, one per direction.
     int illumination_strata = 256;
-    // One traced path per quantum for every wavelength (a scatterer that can_share_paths(),
+    // One traced path per quantum for every wavelength (a scatterer with path_tracing(),
     // sim/tracer.h: spectral path sharing), and with split_paths both branches of its first
     // film event (sim/scatterer.h): as the goniometer's options of the same names
     // (docs/estimators.md). A shared quantum is one sample of every wavelength, so the groups of

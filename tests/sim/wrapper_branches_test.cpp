@@ -127,7 +127,7 @@ void expect_features_agree_with_plain_walk(const Scatterer& wrapped, gonio::Aper
 TEST(WrapperBranches, MountedFeaturesAgreeWithThePlainWalk) {
     const Row row = small_row();
     const MountedScatterer mounted(row.tracer, kMountAzimuth);
-    EXPECT_TRUE(mounted.can_share_paths());
+    EXPECT_NE(mounted.path_tracing(), nullptr);
     EXPECT_TRUE(mounted.can_split_paths());
     expect_features_agree_with_plain_walk(mounted, gonio::Aperture::both_cones, "mounted");
 }
@@ -135,13 +135,13 @@ TEST(WrapperBranches, MountedFeaturesAgreeWithThePlainWalk) {
 TEST(WrapperBranches, PeriodCellFeaturesAgreeWithThePlainWalk) {
     const Row row = small_row();
     const PeriodCellEntry cell(row.tracer, row.pitch_x_um(), row.period_y_um(), 0.0);
-    EXPECT_TRUE(cell.can_share_paths());
+    EXPECT_NE(cell.path_tracing(), nullptr);
     EXPECT_TRUE(cell.can_split_paths());
     expect_features_agree_with_plain_walk(cell, gonio::Aperture::view_cone, "period_cell");
 }
 
-using Branches = std::array<SpectralScatterEvent, Scatterer::kMaxBranches>;
-using BranchWeights = std::array<double, Scatterer::kMaxBranches * 5>;
+using Branches = std::array<SpectralScatterEvent, PathTracing::kMaxBranches>;
+using BranchWeights = std::array<double, PathTracing::kMaxBranches * 5>;
 
 TEST(WrapperBranches, MountedBranchesAreTheInnerBranchesTurned) {
     const Row row = small_row();

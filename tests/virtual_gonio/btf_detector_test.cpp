@@ -199,8 +199,8 @@ TEST(BtfDetector, DetectorWalkConservesEnergyInAWhiteFurnace) {
     const Vec3d view = from_angles(20.0, 0.0);
     constexpr int kQuanta = 80000;
     std::array<double, 3> sum{}, sum_sq{};
-    std::array<SpectralScatterEvent, Scatterer::kMaxBranches> events;
-    std::vector<double> weights(Scatterer::kMaxBranches * lambdas.size());
+    std::array<SpectralScatterEvent, PathTracing::kMaxBranches> events;
+    std::vector<double> weights(PathTracing::kMaxBranches * lambdas.size());
     for (int q = 0; q < kQuanta; ++q) {
         Rng rng(11, static_cast<std::uint64_t>(q));
         const Vec2 position(-8.0 + 16.0 * rng.uniform(), -8.0 + 16.0 * rng.uniform());
