@@ -42,7 +42,7 @@ void BtfConfig::validate() const {
         require(pairs[i].wi.z() > 0.0 && pairs[i].wo.z() > std::sin(detector_half_angle_rad), kWhat,
                 fmt::format("pair {}: light and detector cone must be above the patch", i));
     }
-    require(!wavelengths_nm.empty(), kWhat, "no wavelengths");
+    require_wavelengths(wavelengths_nm, kWhat);
     require(std::isfinite(patch_size_um) && patch_size_um > 0.0, kWhat,
             "patch size must be > 0 um");
     require(pixels >= 1 && pixels <= 1024, kWhat,

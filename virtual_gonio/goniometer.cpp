@@ -440,9 +440,7 @@ void GoniometerConfig::validate() const {
                             i, std::acos(std::clamp(p.wi.z(), -1.0, 1.0)) * 180.0 / kPi,
                             detector_half_angle_rad * 180.0 / kPi));
     }
-    require(!wavelengths_nm.empty(), kWhat, "no wavelengths");
-    for (double l : wavelengths_nm)
-        require(std::isfinite(l) && l > 0.0, kWhat, fmt::format("wavelength {} nm", l));
+    require_wavelengths(wavelengths_nm, kWhat);
     require(std::isfinite(detector_half_angle_rad) && detector_half_angle_rad > 0.0 &&
                 detector_half_angle_rad < 0.5,
             kWhat,

@@ -219,11 +219,7 @@ InstrumentEntry integrating_sphere_instrument() {
 }
 
 void IntegratingSphereConfig::validate() const {
-    require(!wavelengths_nm.empty() && wavelengths_nm.size() <= 4701, kWhat,
-            fmt::format("{} wavelengths: expected 1 to 4701", wavelengths_nm.size()));
-    for (const double lambda : wavelengths_nm)
-        require(std::isfinite(lambda) && lambda > 0.0, kWhat,
-                fmt::format("wavelength {} nm: expected finite and > 0", lambda));
+    require_wavelengths(wavelengths_nm, kWhat);
     require(light.allFinite() && std::abs(light.norm() - 1.0) < 1e-9 && light.z() > 0.0, kWhat,
             fmt::format("light = ({}, {}, {}): expected a unit vector above the patch (z > 0)",
                         light.x(), light.y(), light.z()));

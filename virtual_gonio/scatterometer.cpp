@@ -95,9 +95,7 @@ void ScatterometerConfig::validate() const {
             kWhat, "the illumination cone must stay above the patch plane");
     require(image_size >= 9 && image_size <= 4096, kWhat,
             fmt::format("image_size {}: expected 9..4096", image_size));
-    require(!wavelengths_nm.empty(), kWhat, "no wavelengths");
-    for (double l : wavelengths_nm)
-        require(std::isfinite(l) && l > 0.0, kWhat, fmt::format("wavelength {} nm", l));
+    require_wavelengths(wavelengths_nm, kWhat);
     require(std::isfinite(beam_radius_um) && beam_radius_um >= 0.0, kWhat,
             "beam radius must be >= 0 um");
     require(quanta_per_pass >= 1 && max_passes >= 1, kWhat,

@@ -9,6 +9,8 @@
 #include <span>
 #include <vector>
 
+#include "common/require.h"
+
 namespace plumage::optics {
 
 class WavelengthGrid {
@@ -21,9 +23,10 @@ public:
     // number of steps, to within 1e-9 of a step). At most kMaxWavelengths entries: a step
     // too small for the range is an InputError naming the bound, before any allocation.
     static WavelengthGrid uniform(double first_nm, double last_nm, double step_nm);
-    // 0.1 nm across 360–830 nm; far beyond any spectral quadrature a study needs, and small
-    // enough that a mistyped step cannot exhaust memory.
-    static constexpr std::size_t kMaxWavelengths = 4701;
+    // 0.1 nm across 360–830 nm (common/require.h, every measurement's rule); far beyond any
+    // spectral quadrature a study needs, and small enough that a mistyped step cannot exhaust
+    // memory.
+    static constexpr std::size_t kMaxWavelengths = plumage::kMaxWavelengths;
     // The count uniform() would give, as a double (no overflow for any finite input).
     static double uniform_count(double first_nm, double last_nm, double step_nm);
 
