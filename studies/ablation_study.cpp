@@ -30,6 +30,7 @@
 #include "studies/staged_directory.h"
 #include "studies/study.h"
 #include "studies/study_common.h"
+#include "studies/study_context.h"
 #include "studies/study_file.h"
 #include "virtual_gonio/exr_image.h"
 #include "virtual_gonio/hdf5_file.h"
@@ -212,8 +213,8 @@ struct ValueJob {
 
 struct Run {
     const Settings& s;
+    const StudyContext& ctx;  // text, clock, streams (study_context.h)
     gonio::ScatterometerConfig config;
-    const StudyProgress& clock;
     fs::path dir;
     double exposure = 1.0;  // of every image: the base model's brightest pixel → white
     AblationPoint base_point;
@@ -245,7 +246,7 @@ gonio::ScatterometerConfig scatterometer_config(const Settings& s, const std::st
 // their noise.
 gonio::ScatterometerConfig value_config(const Run& run, std::string_view who, std::size_t job) {
     gonio::ScatterometerConfig c = run.config;
-    c.seed = derive_seed(run.s.seed, fmt::format("ablation/{}", who), job);
+    c.seed = run.ctx.stream(fmt::format("ablation/{}", who), job);
     return c;
 }
 
@@ -324,10 +325,10 @@ std::vector<Measured> measure_all(const Run& run, const fs::path& checkpoints,
                                   const std::string& key) {
     const std::vector<ValueJob>& jobs = run.jobs;
     // The rank count stays out of the stage's name: stages.csv is the same for any count.
-    run.clock.say(
+    run.ctx.clock().say(
         fmt::format("{} values (the base and the sweeps): simulation and model", jobs.size()));
     if (distributed::active())
-        run.clock.done(fmt::format("  dealt over {} MPI ranks", distributed::size()));
+        run.ctx.clock().done(fmt::format("  dealt over {} MPI ranks", distributed::size()));
     auto work = [&](std::size_t j) {
         BarbuleRowParams params = run.s.row;
         if (jobs[j].sweep != nullptr)
@@ -344,7 +345,7 @@ std::vector<Measured> measure_all(const Run& run, const fs::path& checkpoints,
     options.checkpoint_dir = checkpoints;
     options.checkpoint_key = key;
     options.on_chunk = [&](std::size_t done, std::size_t total) {
-        run.clock.done(fmt::format("  {} of {} values measured", done, total));
+        run.ctx.clock().done(fmt::format("  {} of {} values measured", done, total));
     };
     distributed::ChunkResults results = distributed::deal_chunks(jobs.size(), work, options);
     if (results.interrupted) {
@@ -354,11 +355,12 @@ std::vector<Measured> measure_all(const Run& run, const fs::path& checkpoints,
                         checkpoints.string()));
     }
     if (results.resumed > 0)
-        run.clock.done(
+        run.ctx.clock().done(
             fmt::format("  {} values resumed from {}", results.resumed, checkpoints.string()));
     for (const auto& [why, count] : results.not_resumed)
-        run.clock.done(fmt::format("  {} value checkpoint(s) in {} not resumed, measured again: {}",
-                                   count, checkpoints.string(), why));
+        run.ctx.clock().done(
+            fmt::format("  {} value checkpoint(s) in {} not resumed, measured again: {}", count,
+                        checkpoints.string(), why));
     std::vector<Measured> measured(jobs.size());
     for (std::size_t j = 0; j < jobs.size(); ++j) {
         Bytes& b = results.results[j];
@@ -444,7 +446,8 @@ SweptValue measure_value(const Run& run, const Sweep& sweep, std::size_t i, cons
         } else {
             out.point.skipped = true;
             out.point.reason = m.reason;
-            run.clock.done(fmt::format("{} = {}: skipped ({})", p.key, format_value(v), m.reason));
+            run.ctx.clock().done(
+                fmt::format("{} = {}: skipped ({})", p.key, format_value(v), m.reason));
         }
     }
     out.point.parameter = p.key;
@@ -728,21 +731,20 @@ const AblationPoint* AblationResult::base() const {
 AblationResult run_ablation_study(const std::string& study_text, const fs::path& source_name,
                                   const fs::path& results_root, bool progress,
                                   const RunLimits& limits) {
-    const StudyProgress clock(progress);
-    auto file = StudyFile::parse(study_text, source_name);
+    StudyContext ctx(study_text, source_name, results_root, limits, progress);
+    const StudyProgress& clock = ctx.clock();
     std::string name;
-    const Settings s = read_settings(*file, name, source_name);  // read
-    StagedDirectory::prepare(results_root / name);
-    StagedDirectory out(results_root / name);
-    Run run{s, scatterometer_config(s, study_text, limits), clock, out.path(), 1.0, {}, {}, {}};
+    const Settings s = read_settings(ctx.file(), name, source_name);  // read
+    ctx.begin(name);
+    Run run{s, ctx, scatterometer_config(s, study_text, limits), ctx.out(), 1.0, {}, {}, {}};
     run.jobs = value_jobs(s);  // build and measure, value by value
     // The values' checkpoints belong to this build, study text and limits (the study reads no
     // input file: its geometry is made from the text).
     run.measured =
-        measure_all(run, checkpoint_folder(results_root, name) / "values",
+        measure_all(run, ctx.checkpoints() / "values",
                     fmt::format("{}|{}|{:.17g}|{:.17g}", gonio::checkpoint_build(), study_text,
                                 limits.time_budget_s, limits.target_relative_error));
-    measure_base(run, file->root().table("geometry").location(), run.measured.front());
+    measure_base(run, ctx.root().table("geometry").location(), run.measured.front());
     const double measure_seconds = clock.elapsed_s();
 
     AblationResult result;
@@ -769,18 +771,15 @@ AblationResult run_ablation_study(const std::string& study_text, const fs::path&
     fs::remove(run.dir / "plots.csv");
     result.wall_seconds = clock.elapsed_s();
     write_report(run.dir / "report.md", s, run.base_point, parts, result.wall_seconds,
-                 measure_seconds, run_time_by_stage(clock, run.dir));
-    out.commit();
-    remove_checkpoints(results_root, name);
-    result.output_dir = out.final_path();
-    clock.done("done: " + (result.output_dir / "report.md").string());
+                 measure_seconds, ctx.run_time_by_stage());
+    result.output_dir = ctx.commit();
     return result;
 }
 
 void check_ablation_study(const std::string& study_text, const fs::path& source_name) {
-    auto file = StudyFile::parse(study_text, source_name);
+    StudyContext ctx(study_text, source_name);
     std::string name;
-    read_settings(*file, name, source_name);
+    read_settings(ctx.file(), name, source_name);
 }
 
 namespace {

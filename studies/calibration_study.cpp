@@ -34,6 +34,7 @@
 #include "studies/staged_directory.h"
 #include "studies/study.h"
 #include "studies/study_common.h"
+#include "studies/study_context.h"
 #include "virtual_gonio/direction_sets.h"
 #include "virtual_gonio/goniometer.h"
 #include "virtual_gonio/hdf5_file.h"
@@ -59,13 +60,11 @@ struct Comparison {
     bool agrees = true;
 };
 
-Settings read(const std::string& text, const fs::path& source) {
-    auto file = StudyFile::parse(text, source);
-    ParameterTable root = file->root();
+Settings read(StudyContext& ctx) {
+    ParameterTable root = ctx.root();
     root.string("study", "calibration", {"calibration"}, "which study this file describes");
     Settings s;
-    s.name = read_study_name(root, source);
-    const std::uint64_t seed = read_seed(root);
+    s.name = read_study_name(root, ctx.source());
     ParameterTable spectrum = root.table("spectrum");
     ParameterTable standard = root.table("standard");
     s.albedo = standard.number("albedo", s.albedo, between(0.0, 1.0), "albedo of the standard");
@@ -83,8 +82,8 @@ Settings read(const std::string& text, const fs::path& source) {
     s.significance = g.number("significance", s.significance, {0.0, 0.5, true, true},
                               "significance of the chi-square verdict");
     c.estimator = gonio::Estimator::photon;
-    c.seed = derive_seed(seed, "calibration/brdf");
-    c.config_text = text;
+    c.seed = ctx.stream("calibration/brdf");
+    c.config_text = ctx.text();
     root.reject_unused();
     return s;
 }
@@ -151,29 +150,30 @@ void write_report(const fs::path& path, const gonio::BrdfRecord& measured, const
 
 std::string run(const std::string& text, const fs::path& source, const fs::path& results_root,
                 const RunLimits& limits) {
-    const StudyProgress clock(true);
-    Settings s = read(text, source);  // read
-    StagedDirectory::prepare(results_root / s.name);
-    if (limits.time_budget_s > 0.0) s.goniometer.time_budget_s = limits.time_budget_s;
-    if (limits.target_relative_error > 0.0) {
-        s.goniometer.target_relative_error = limits.target_relative_error;
-    }
+    StudyContext ctx(text, source, results_root, limits, true);
+    const StudyProgress& clock = ctx.clock();
+    Settings s = read(ctx);  // read
+    ctx.begin(s.name);
+    s.goniometer.time_budget_s = ctx.time_budget_s(s.goniometer.time_budget_s);
+    s.goniometer.target_relative_error =
+        ctx.target_relative_error(s.goniometer.target_relative_error);
     const analysis::LambertianScatterer standard(s.albedo);  // build
     clock.say(fmt::format("measuring the standard on {} pairs", s.goniometer.pairs.size()));
     const gonio::BrdfRecord measured = gonio::measure_brdf(standard, s.goniometer);  // measure
     const Comparison c = compare(measured, s.albedo, s.significance);                // compare
-    StagedDirectory out(results_root / s.name);                                      // report
-    write_records(out.path(), measured, c, s);
-    write_report(out.path() / "report.md", measured, c, s, text,
-                 run_time_by_stage(clock, out.path()));
-    out.commit();
-    clock.done(fmt::format("done: {}", (out.final_path() / "report.md").string()));
+    const fs::path out = ctx.out();                                                  // report
+    write_records(out, measured, c, s);
+    write_report(out / "report.md", measured, c, s, text, ctx.run_time_by_stage());
+    const fs::path final_path = ctx.commit();
     return fmt::format("plumage: wrote {}: chi2/dof {:.3f} over {} cells, p = {:.3g}: {}\n",
-                       out.final_path().string(), c.dof > 0 ? c.chi_square / c.dof : 0.0, c.dof,
+                       final_path.string(), c.dof > 0 ? c.chi_square / c.dof : 0.0, c.dof,
                        c.p_value, c.agrees ? "agrees" : "DISAGREES");
 }
 
-void check(const std::string& text, const fs::path& source) { read(text, source); }
+void check(const std::string& text, const fs::path& source) {
+    StudyContext ctx(text, source);
+    read(ctx);
+}
 
 }  // namespace
 

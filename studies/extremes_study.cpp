@@ -28,6 +28,7 @@
 #include "studies/staged_directory.h"
 #include "studies/study.h"
 #include "studies/study_common.h"
+#include "studies/study_context.h"
 #include "studies/study_file.h"
 #include "virtual_gonio/hdf5_file.h"
 
@@ -557,8 +558,9 @@ std::vector<Case> make_cases(const Settings& s) {
 
 // Sampling, parallel over quanta inside play(): per item (direction, wavelength) the mean
 // weight and its standard error; the row keeps the largest and flags energy > 1.
-void sample_energy(const Built& built, const Case& c, const Settings& s, std::uint64_t& stream,
-                   ExtremesRow& row, std::vector<double>& item_mean, std::vector<double>& item_se) {
+void sample_energy(const StudyContext& ctx, const Built& built, const Case& c, const Settings& s,
+                   std::uint64_t& stream, ExtremesRow& row, std::vector<double>& item_mean,
+                   std::vector<double>& item_se) {
     const std::size_t items = c.incidence.size() * s.wavelengths.size();
     bool first_energy = true;
     item_mean.assign(items, 0.0);
@@ -568,7 +570,7 @@ void sample_energy(const Built& built, const Case& c, const Settings& s, std::ui
         const double lambda = s.wavelengths[it % s.wavelengths.size()];
         // Each item its own root (common/seed.h), numbered across the study's entries.
         const SampleTally t =
-            play(built, wi, lambda, derive_seed(s.seed, "extremes/energy", ++stream), 0, s.quanta);
+            play(built, wi, lambda, ctx.stream("extremes/energy", ++stream), 0, s.quanta);
         row.samples += s.quanta;
         row.nan += t.nan, row.inf += t.inf, row.negative += t.negative,
             row.malformed += t.malformed;
@@ -630,8 +632,9 @@ void evaluate_energy(const Scatterer& sc, const Case& c, const Settings& s,
 }
 
 // One (case, scatterer): built (or rejected by name), sampled, evaluated.
-ExtremesRow check_entry(const Case& c, const Entry& e, const Settings& s, std::uint64_t& stream,
-                        const StudyProgress& clock) {
+ExtremesRow check_entry(const StudyContext& ctx, const Case& c, const Entry& e, const Settings& s,
+                        std::uint64_t& stream) {
+    const StudyProgress& clock = ctx.clock();
     ExtremesRow row;
     row.case_name = c.name;
     row.scatterer = e.label;
@@ -645,7 +648,7 @@ ExtremesRow check_entry(const Case& c, const Entry& e, const Settings& s, std::u
         return row;
     }
     std::vector<double> item_mean, item_se;
-    sample_energy(built, c, s, stream, row, item_mean, item_se);
+    sample_energy(ctx, built, c, s, stream, row, item_mean, item_se);
     if (built.scatterer->can_evaluate())
         evaluate_energy(*built.scatterer, c, s, item_mean, item_se, row);
     row.by_construction = row.energy_excess && e.published_model;
@@ -828,16 +831,16 @@ void write_report(const fs::path& path, const Settings& s, const std::vector<Cas
 
 ExtremesResult run_extremes_study(const std::string& study_text, const fs::path& source_name,
                                   const fs::path& results_root, bool progress) {
-    const StudyProgress clock(progress);
-    auto file = StudyFile::parse(study_text, source_name);
+    StudyContext ctx(study_text, source_name, results_root, {}, progress);
+    const StudyProgress& clock = ctx.clock();
     std::string name;
-    const Settings s = read_settings(*file, name, source_name);  // read
-    StagedDirectory::prepare(results_root / name);
+    const Settings s = read_settings(ctx.file(), name, source_name);  // read
+    ctx.begin(name);
     const std::vector<Case> cases = make_cases(s);  // build (each scatterer on demand)
     ExtremesResult result;
     std::uint64_t stream = 0;
     for (const Case& c : cases) {  // measure and compare
-        for (const Entry& e : c.entries) result.rows.push_back(check_entry(c, e, s, stream, clock));
+        for (const Entry& e : c.entries) result.rows.push_back(check_entry(ctx, c, e, s, stream));
     }
     for (const auto& r : result.rows) {
         result.numerical_violations += r.numerical_violation() ? 1 : 0;
@@ -845,21 +848,19 @@ ExtremesResult run_extremes_study(const std::string& study_text, const fs::path&
         result.by_construction += r.energy_excess && r.by_construction ? 1 : 0;
         result.rejected += r.rejected ? 1 : 0;
     }
-    StagedDirectory out(results_root / name);  // report
-    write_records(out.path(), result);
-    run_plot("energy_bars", out.path() / "energy.csv", out.path() / "energy.png");
+    const fs::path out = ctx.out();  // report
+    write_records(out, result);
+    run_plot("energy_bars", out / "energy.csv", out / "energy.png");
     result.wall_seconds = clock.elapsed_s();
-    write_report(out.path() / "report.md", s, cases, result, run_time_by_stage(clock, out.path()));
-    out.commit();
-    result.output_dir = out.final_path();
-    clock.done("done: " + (result.output_dir / "report.md").string());
+    write_report(out / "report.md", s, cases, result, ctx.run_time_by_stage());
+    result.output_dir = ctx.commit();
     return result;
 }
 
 void check_extremes_study(const std::string& study_text, const fs::path& source_name) {
-    auto file = StudyFile::parse(study_text, source_name);
+    StudyContext ctx(study_text, source_name);
     std::string name;
-    read_settings(*file, name, source_name);
+    read_settings(ctx.file(), name, source_name);
 }
 
 namespace {

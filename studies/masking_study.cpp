@@ -30,6 +30,7 @@
 #include "studies/staged_directory.h"
 #include "studies/study.h"
 #include "studies/study_common.h"
+#include "studies/study_context.h"
 #include "studies/study_file.h"
 #include "virtual_gonio/hdf5_file.h"
 
@@ -72,9 +73,9 @@ bool plain_name(const std::string& name) {
     });
 }
 
-Settings read_settings(const std::string& text, const fs::path& source) {
-    auto file = StudyFile::parse(text, source);
-    ParameterTable root = file->root();
+Settings read_settings(StudyContext& ctx) {
+    const fs::path& source = ctx.source();
+    ParameterTable root = ctx.root();
     Settings s;
     s.name = read_study_name(root, source);
     root.string("study", "masking", {"masking"}, "which study this file describes");
@@ -241,11 +242,12 @@ void summarise_patch(double z_bound, MaskingConfigurationResult& r) {
 }
 
 // Runs the comparison of one configuration: the angles on the 2D section, each its own random
-// stream (seed, first_stream + angle), then the 3D directions on the explicit patch, each from
-// derive_seed(seed, "masking/patch", configuration × directions + direction): the same numbers
-// for any thread count.
-MaskingConfigurationResult compare(const Configuration& config, const Settings& s,
-                                   std::size_t index, std::uint64_t first_stream, double z_bound) {
+// stream (ctx.stream("masking/section"), first_stream + angle), then the 3D directions on the
+// explicit patch, each from ctx.stream("masking/patch", configuration × directions + direction):
+// the same numbers for any thread count.
+MaskingConfigurationResult compare(const StudyContext& ctx, const Configuration& config,
+                                   const Settings& s, std::size_t index, std::uint64_t first_stream,
+                                   double z_bound) {
     const auto start = std::chrono::steady_clock::now();
     MaskingConfigurationResult r;
     r.name = config.name;
@@ -273,11 +275,12 @@ MaskingConfigurationResult compare(const Configuration& config, const Settings& 
     for (auto* v : {&r.analytic, &r.mc, &r.mc_standard_error, &r.z}) v->resize(angles);
     r.stratified_bound.resize(angles);
     std::vector<std::exception_ptr> failures(angles);
+    const std::uint64_t section_seed = ctx.stream("masking/section");
 #pragma omp parallel for schedule(dynamic, 1)
     for (long item = 0; item < static_cast<long>(angles); ++item) {
         const auto i = static_cast<std::size_t>(item);
         try {
-            Rng rng(s.seed, first_stream + i);
+            Rng rng(section_seed, first_stream + i);
             measure_angle(*masking, section, s, i, rng, r);
         } catch (...) {
             failures[i] = std::current_exception();
@@ -295,8 +298,7 @@ MaskingConfigurationResult compare(const Configuration& config, const Settings& 
     for (std::size_t j = 0; j < directions; ++j) {
         throw_if_interrupted(fmt::format("configuration '{}', 3D direction {}", config.name, j));
         measure_direction(*masking, *patch, s, j,
-                          derive_seed(s.seed, "masking/patch", index * directions + j),
-                          r.directions[j]);
+                          ctx.stream("masking/patch", index * directions + j), r.directions[j]);
     }
     summarise_patch(z_bound, r);
     const auto end = std::chrono::steady_clock::now();
@@ -840,9 +842,10 @@ void write_report(const fs::path& path, const MaskingStudyResult& result, const 
 
 MaskingStudyResult run_masking_study(const std::string& study_text, const fs::path& source_name,
                                      const fs::path& results_root, bool progress) {
-    const StudyProgress clock(progress);
-    const Settings s = read_settings(study_text, source_name);
-    StagedDirectory::prepare(results_root / s.name);
+    StudyContext ctx(study_text, source_name, results_root, {}, progress);
+    const StudyProgress& clock = ctx.clock();
+    const Settings s = read_settings(ctx);  // read
+    ctx.begin(s.name);
 
     MaskingStudyResult result;
     result.seed = s.seed;
@@ -865,7 +868,7 @@ MaskingStudyResult run_masking_study(const std::string& study_text, const fs::pa
     for (std::size_t k = 0; k < s.configurations.size(); ++k) {
         throw_if_interrupted(fmt::format("configuration '{}'", s.configurations[k].name));
         result.configurations.push_back(
-            compare(s.configurations[k], s, k, k * s.angles_deg.size(), result.z_bound));
+            compare(ctx, s.configurations[k], s, k, k * s.angles_deg.size(), result.z_bound));
         const auto& c = result.configurations.back();
         clock.done(fmt::format(
             "{}: 2D max abs(analytic − MC) {:.2e}, max abs(z) {:.3f}; 3D max abs(term − MC) "
@@ -889,24 +892,22 @@ MaskingStudyResult run_masking_study(const std::string& study_text, const fs::pa
                     patch_beyond == 0;
     result.verdict = verdict_of(result, above_bound, chi_failures, patch_beyond);
 
-    StagedDirectory out(results_root / s.name);
-    const fs::path dir = out.path();
+    const fs::path dir = ctx.out();
     write_csv(dir / "masking.csv", result);
     write_patch_csv(dir / "masking_3d.csv", result);
     result.wall_seconds =
         clock.elapsed_s();  // the computation; writing and plotting take a second more
-    write_hdf5(dir / "masking.h5", result, study_text);
+    write_hdf5(dir / "masking.h5", result, ctx.text());
     clock.say("plot");
     run_plot("masking", dir / "masking.h5", dir / "masking.png");
-    write_report(dir / "report.md", result, s, study_text, run_time_by_stage(clock, dir));
-    out.commit();
-    result.output_dir = out.final_path();
-    clock.done("done: " + (result.output_dir / "report.md").string());
+    write_report(dir / "report.md", result, s, ctx.text(), ctx.run_time_by_stage());
+    result.output_dir = ctx.commit();
     return result;
 }
 
 void check_masking_study(const std::string& study_text, const fs::path& source_name) {
-    read_settings(study_text, source_name);
+    StudyContext ctx(study_text, source_name);
+    read_settings(ctx);
 }
 
 namespace {

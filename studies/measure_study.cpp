@@ -67,6 +67,7 @@
 #include "studies/staged_directory.h"
 #include "studies/study.h"
 #include "studies/study_common.h"
+#include "studies/study_context.h"
 #include "virtual_gonio/btf.h"
 #include "virtual_gonio/direction_sets.h"
 #include "virtual_gonio/exr_image.h"
@@ -175,7 +176,7 @@ std::vector<gonio::DirectionPair> mirror_pairs(ParameterTable& t) {
 }
 
 gonio::GoniometerConfig read_brdf(ParameterTable t, const std::vector<double>& wavelengths,
-                                  std::uint64_t seed) {
+                                  const StudyContext& ctx) {
     gonio::GoniometerConfig c;  // the measure study's defaults; the keys: instrument_tables.h
     c.direction_set = "filip2024_in_plane";
     c.detector_half_angle_rad = 2.5 * kDeg;
@@ -188,13 +189,13 @@ gonio::GoniometerConfig read_brdf(ParameterTable t, const std::vector<double>& w
     if (c.direction_set == "mirror") c.pairs = mirror_pairs(t);
     c.wavelengths_nm = wavelengths;
     c.estimator = gonio::Estimator::photon;
-    c.seed = derive_seed(seed, "measure/brdf");
+    c.seed = ctx.stream("measure/brdf");
     return c;
 }
 
 gonio::ScatterometerConfig read_scatterogram(ParameterTable t,
                                              const std::vector<double>& wavelengths,
-                                             std::uint64_t seed) {
+                                             const StudyContext& ctx) {
     ScatterometerTable d;  // the measure study's defaults; the keys: instrument_tables.h
     d.beam_incidence_rad = 30.0 * kDeg;
     d.beam_azimuth_rad = 90.0 * kDeg;
@@ -203,12 +204,12 @@ gonio::ScatterometerConfig read_scatterogram(ParameterTable t,
     d.config.max_passes = 2;
     gonio::ScatterometerConfig c = read_scatterometer_table(t, d, ScatterometerKeys{}).config;
     c.wavelengths_nm = wavelengths;
-    c.seed = derive_seed(seed, "measure/scatterogram");
+    c.seed = ctx.stream("measure/scatterogram");
     return c;
 }
 
 gonio::BtfConfig read_btf(ParameterTable t, const std::vector<double>& wavelengths,
-                          std::uint64_t seed) {
+                          const StudyContext& ctx) {
     gonio::BtfConfig c;  // the measure study's defaults; the keys: studies/instrument_tables.h
     c.pixels = 16;
     c.patch_size_um = 100.0;
@@ -216,29 +217,32 @@ gonio::BtfConfig read_btf(ParameterTable t, const std::vector<double>& wavelengt
     c = read_btf_camera(t, c);
     c.pairs = mirror_pairs(t);
     c.wavelengths_nm = wavelengths;
-    c.seed = derive_seed(seed, "measure/btf");
+    c.seed = ctx.stream("measure/btf");
     return c;
 }
 
-Settings read(const std::string& text, const fs::path& source) {
-    auto file = StudyFile::parse(text, source);
-    ParameterTable root = file->root();
+Settings read(StudyContext& ctx) {
+    const std::string& text = ctx.text();
+    const fs::path& source = ctx.source();
+    ParameterTable root = ctx.root();
     root.string("study", "measure", {"measure"}, "which study this file describes");
     Settings s;
     s.name = read_study_name(root, source);
-    const std::uint64_t seed = read_seed(root);
     ParameterTable spectrum = root.table("spectrum");
     const std::vector<double> wavelengths = read_wavelengths(spectrum, WavelengthRule{});
-    const double budget = root.number("time_budget_s", std::numeric_limits<double>::infinity(),
-                                      positive(), "wall-time budget per measurement, s");
-    const double target = root.number("target_relative_error", 0.0, between(0.0, 1.0),
-                                      "stop a measurement once its relative error is below this");
+    // --time-budget and --target-error replace the file's values (studies/study_context.h).
+    const double budget =
+        ctx.time_budget_s(root.number("time_budget_s", std::numeric_limits<double>::infinity(),
+                                      positive(), "wall-time budget per measurement, s"));
+    const double target = ctx.target_relative_error(
+        root.number("target_relative_error", 0.0, between(0.0, 1.0),
+                    "stop a measurement once its relative error is below this"));
     s.sample = read_sample(root.table("sample"), source);
-    if (root.has("brdf")) s.brdf = read_brdf(root.table("brdf"), wavelengths, seed);
+    if (root.has("brdf")) s.brdf = read_brdf(root.table("brdf"), wavelengths, ctx);
     if (root.has("scatterogram")) {
-        s.scatterogram = read_scatterogram(root.table("scatterogram"), wavelengths, seed);
+        s.scatterogram = read_scatterogram(root.table("scatterogram"), wavelengths, ctx);
     }
-    if (root.has("btf")) s.btf = read_btf(root.table("btf"), wavelengths, seed);
+    if (root.has("btf")) s.btf = read_btf(root.table("btf"), wavelengths, ctx);
     std::string tables = "[brdf], [scatterogram], [btf]";
     for (const gonio::InstrumentEntry& entry : gonio::instrument_registry()) {
         tables += fmt::format(", [{}]", entry.table);
@@ -246,7 +250,7 @@ Settings read(const std::string& text, const fs::path& source) {
         Registered r;
         r.entry = &entry;
         r.setting.wavelengths_nm = wavelengths;
-        r.setting.seed = derive_seed(seed, fmt::format("measure/{}", entry.table));
+        r.setting.seed = ctx.stream(fmt::format("measure/{}", entry.table));
         r.setting.config_text = text;
         r.setting.time_budget_s = budget;
         r.setting.target_relative_error = target;
@@ -558,16 +562,10 @@ void write_report(const fs::path& path, const Settings& s, const Built& b,
 
 std::string run(const std::string& text, const fs::path& source, const fs::path& results_root,
                 const RunLimits& limits) {
-    const StudyProgress clock(true);
-    Settings s = read(text, source);  // read
-    StagedDirectory::prepare(results_root / s.name);
-    if (s.brdf && limits.time_budget_s > 0.0) s.brdf->time_budget_s = limits.time_budget_s;
-    if (s.brdf && limits.target_relative_error > 0.0)
-        s.brdf->target_relative_error = limits.target_relative_error;
-    if (s.scatterogram && limits.time_budget_s > 0.0)
-        s.scatterogram->time_budget_s = limits.time_budget_s;
-    if (s.scatterogram && limits.target_relative_error > 0.0)
-        s.scatterogram->target_relative_error = limits.target_relative_error;
+    StudyContext ctx(text, source, results_root, limits, true);
+    const StudyProgress& clock = ctx.clock();
+    Settings s = read(ctx);  // read
+    ctx.begin(s.name);
     clock.say("importing the sample and building its scene");
     // The sample file's content keys the BRDF's checkpoint. Hashed before it is imported: a file
     // changed in between leaves a checkpoint keyed by content it was not made from, which no
@@ -589,34 +587,28 @@ std::string run(const std::string& text, const fs::path& source, const fs::path&
         check_footprint(b, s.scatterogram->beam_radius_um, {s.scatterogram->beam_direction},
                         "scatterogram", b.facts);
     }
-    StagedDirectory out(results_root / s.name);
+    const fs::path out = ctx.out();
     std::vector<Measured> rows;  // measure
     if (s.brdf) {
-        rows.push_back(measure_brdf_record(
-            b, *s.brdf, out.path(), checkpoint_folder(results_root, s.name) / "brdf.checkpoint",
-            inputs, clock));
+        rows.push_back(measure_brdf_record(b, *s.brdf, out, ctx.checkpoints() / "brdf.checkpoint",
+                                           inputs, clock));
     }
-    if (s.scatterogram)
-        rows.push_back(measure_scatterogram_record(b, *s.scatterogram, out.path(), clock));
-    if (s.btf) rows.push_back(measure_btf_record(b, *s.btf, out.path(), clock));
-    for (Registered& r : s.registered) {
-        if (limits.time_budget_s > 0.0) r.setting.time_budget_s = limits.time_budget_s;
-        if (limits.target_relative_error > 0.0)
-            r.setting.target_relative_error = limits.target_relative_error;
-        rows.push_back(measure_registered_record(b, r, out.path(), clock));
-    }
+    if (s.scatterogram) rows.push_back(measure_scatterogram_record(b, *s.scatterogram, out, clock));
+    if (s.btf) rows.push_back(measure_btf_record(b, *s.btf, out, clock));
+    for (Registered& r : s.registered) rows.push_back(measure_registered_record(b, r, out, clock));
     clock.say("writing the report");  // report
-    write_report(out.path() / "report.md", s, b, rows, text, run_time_by_stage(clock, out.path()));
-    out.commit();
-    remove_checkpoints(results_root, s.name);
-    clock.done(fmt::format("done: {}", (out.final_path() / "report.md").string()));
-    std::string summary = fmt::format("plumage: wrote {}:", out.final_path().string());
+    write_report(out / "report.md", s, b, rows, text, ctx.run_time_by_stage());
+    const fs::path final_path = ctx.commit();
+    std::string summary = fmt::format("plumage: wrote {}:", final_path.string());
     for (const auto& r : rows)
         summary += fmt::format(" {} {:.3g} in {:.1f} s;", r.instrument, r.error, r.wall_s);
     return summary + "\n";
 }
 
-void check(const std::string& text, const fs::path& source) { read(text, source); }
+void check(const std::string& text, const fs::path& source) {
+    StudyContext ctx(text, source);
+    read(ctx);
+}
 
 }  // namespace
 

@@ -38,6 +38,7 @@
 #include "studies/staged_directory.h"
 #include "studies/study.h"
 #include "studies/study_common.h"
+#include "studies/study_context.h"
 #include "studies/study_file.h"
 #include "virtual_gonio/direction_sets.h"
 #include "virtual_gonio/exr_image.h"
@@ -242,12 +243,9 @@ Settings read_settings(StudyFile& file, std::string& name, const fs::path& sourc
 
 struct Run {
     const Settings& s;
-    const std::string& study_text;
-    const StudyProgress& clock;
-    bool progress;
+    const StudyContext& ctx;              // text, clock, streams, checkpoints (study_context.h)
     fs::path dir;                         // the staging folder
     std::vector<MeasurementCost>& costs;  // each measurement's error and time, in order
-    fs::path checkpoints;                 // the study's checkpoint folder (study_common.h)
 };
 
 // The explicit patch and the analytic model of the same parameters.
@@ -289,8 +287,7 @@ gonio::ScatterometerConfig scatterometer_config(const Run& run, gonio::Illuminat
     c.illumination = mode;
     c.wavelengths_nm = s.wavelengths;
     // One stream root per measurement (common/seed.h); scatterogram_pair gives the model's its own.
-    c.seed =
-        derive_seed(s.seed, "rock_dove/scatterogram/simulation", static_cast<std::uint64_t>(mode));
+    c.seed = run.ctx.stream("rock_dove/scatterogram/simulation", static_cast<std::uint64_t>(mode));
     c.time_budget_s = s.time_budget_s;
     c.target_relative_error = s.target_relative_error;
     if (mode == gonio::Illumination::hemisphere) {
@@ -301,7 +298,7 @@ gonio::ScatterometerConfig scatterometer_config(const Run& run, gonio::Illuminat
         c.target_median_relative_error = s.hemisphere.target_median_error;
         c.split_paths = s.hemisphere.split_paths;
     }
-    c.config_text = run.study_text;
+    c.config_text = run.ctx.text();
     return c;
 }
 
@@ -337,18 +334,18 @@ ScatterogramPair measure_scatterogram_pair(const Run& run, const Built& b, gonio
     model_c.quanta_per_pass = mode == gonio::Illumination::hemisphere
                                   ? run.s.hemisphere.model_quanta
                                   : run.s.model_scatter_quanta;
-    model_c.seed =
-        derive_seed(run.s.seed, "rock_dove/scatterogram/model", static_cast<std::uint64_t>(mode));
+    model_c.seed = run.ctx.stream("rock_dove/scatterogram/model", static_cast<std::uint64_t>(mode));
     ScatterogramPair p;
     // Each image's passes are checkpointed: Ctrl-C keeps them, the same command resumes.
-    fs::create_directories(run.checkpoints);
+    fs::create_directories(run.ctx.checkpoints());
     gonio::RunControl control;
-    control.progress = run.progress;
-    run.clock.say("scatterogram (" + label + "): simulation");
-    control.checkpoint = run.checkpoints / ("scatterogram_" + label + "_simulation.checkpoint");
+    control.progress = run.ctx.progress();
+    run.ctx.clock().say("scatterogram (" + label + "): simulation");
+    control.checkpoint =
+        run.ctx.checkpoints() / ("scatterogram_" + label + "_simulation.checkpoint");
     p.simulation = gonio::measure_scatterogram(*b.simulation, c, control);
-    run.clock.say("scatterogram (" + label + "): Huang model");
-    control.checkpoint = run.checkpoints / ("scatterogram_" + label + "_model.checkpoint");
+    run.ctx.clock().say("scatterogram (" + label + "): Huang model");
+    control.checkpoint = run.ctx.checkpoints() / ("scatterogram_" + label + "_model.checkpoint");
     p.model = gonio::measure_scatterogram(*b.model, model_c, control);
     return p;
 }
@@ -466,10 +463,10 @@ gonio::GoniometerConfig goniometer_config(const Run& run) {
     gonio::GoniometerConfig g = s.goniometer;
     g.wavelengths_nm = s.wavelengths;
     g.beam_radius_um = s.scatterometer.beam_radius_um;
-    g.seed = derive_seed(s.seed, "rock_dove/brdf");
+    g.seed = run.ctx.stream("rock_dove/brdf");
     g.time_budget_s = s.time_budget_s;
     g.target_relative_error = s.target_relative_error;
-    g.config_text = run.study_text;
+    g.config_text = run.ctx.text();
     return g;
 }
 
@@ -481,19 +478,19 @@ struct Brdfs {
 // by cubature.
 Brdfs measure_brdfs(const Run& run, const Built& b, const fs::path& checkpoint) {
     gonio::GoniometerConfig g = goniometer_config(run);
-    run.clock.say(
+    run.ctx.clock().say(
         fmt::format("BRDF on {} ({} pairs): simulation", g.direction_set, g.pairs.size()));
     Brdfs m;
     fs::create_directories(checkpoint.parent_path());
     gonio::RunControl control;
-    control.progress = run.progress;
+    control.progress = run.ctx.progress();
     control.checkpoint = checkpoint;
     m.simulation = gonio::measure_brdf(*b.simulation, g, control);
     if (m.simulation.interrupted) {
         throw Interrupted(
             interrupted_with_checkpoint("the simulated BRDF", m.simulation.passes, checkpoint));
     }
-    run.clock.say("BRDF: Huang model");
+    run.ctx.clock().say("BRDF: Huang model");
     g.estimator = gonio::Estimator::eval;
     // The model's cubature converged to 1 % per cell: its error is not noise, so it must not
     // be what the comparison sees (issue 40).
@@ -550,7 +547,7 @@ std::string colour_quadrature(const Run& run, const Built& b, const Brdfs& m,
     if (!optics::carries_colour(wl)) {
         return {};
     }
-    run.clock.say("colour quadrature: Huang model on the study's wavelengths against 1 nm");
+    run.ctx.clock().say("colour quadrature: Huang model on the study's wavelengths against 1 nm");
     // An eval costs tens of µs: about 200 pairs (every 18th of the 3660) tell the grid's error
     // in a few seconds; smaller sets are taken whole.
     const auto& pairs = m.model.config.pairs;
@@ -608,7 +605,7 @@ std::string avian_quadrature(const Built& b, const Brdfs& m) {
 std::string avian_vision(const Run& run, const Built& b, const Brdfs& m, RockDoveResult& result) {
     const auto& wl = m.model.config.wavelengths_nm;
     if (wl.size() < 2 || wl.front() < 300.0) return {};
-    run.clock.say("avian vision: UVS and VS distances, simulation against model");
+    run.ctx.clock().say("avian vision: UVS and VS distances, simulation against model");
     std::vector<analysis::AvianRecordComparison> rows;
     for (const auto* system :
          {&analysis::ultraviolet_sensitive_system(), &analysis::violet_sensitive_system()}) {
@@ -658,8 +655,8 @@ std::string in_plane_sweep(const Run& run, const Built& b) {
     ip.wavelengths_nm = {s.wavelengths[s.wavelengths.size() / 2]};
     ip.estimator = gonio::Estimator::photon;
     ip.quanta_per_pass = s.goniometer.quanta_per_pass * 4;
-    ip.seed = derive_seed(s.seed, "rock_dove/in_plane_sweep");
-    run.clock.say("in-plane sweep: simulation and model");
+    ip.seed = run.ctx.stream("rock_dove/in_plane_sweep");
+    run.ctx.clock().say("in-plane sweep: simulation and model");
     const gonio::BrdfRecord a = gonio::measure_brdf(*b.simulation, ip);
     ip.estimator = gonio::Estimator::eval;
     const gonio::BrdfRecord m = gonio::measure_brdf(*b.model, ip);
@@ -691,7 +688,7 @@ std::string in_plane_sweep(const Run& run, const Built& b) {
 // as full wave's row certificate and the level-of-physics comparison have it
 // (sim::wave::barbule_row_2d); `count` barbules, at least 4 and 40 µm and at most the patch's;
 // the patch's rotation jitter over 8 realisations when it has one.
-sim::wave::Row2d study_wave_row(const Settings& s) {
+sim::wave::Row2d study_wave_row(const Settings& s, std::uint64_t jitter_seed) {
     const geometry::BarbuleRowParams& p = s.row;
     const double a = p.cell.semi_major_um;
     const int count =
@@ -701,7 +698,7 @@ sim::wave::Row2d study_wave_row(const Settings& s) {
                                   p.cell.melanin_depth_um, p.H, p.mu, count);
     row.jitter_rotation_rad = p.jitter_phi_rad;
     row.realisations = p.jitter_phi_rad > 0.0 ? 8 : 1;
-    row.seed = derive_seed(s.seed, "rock_dove/wave_row");  // its jitter (the closed row: the same)
+    row.seed = jitter_seed;  // ctx.stream("rock_dove/wave_row"); the closed row: the same
     return row;
 }
 
@@ -719,11 +716,12 @@ double physical_optics_step_um(const Settings& s) {
 
 // The 2.5D physical-optics scatterer of the study's row (sim/wave/physical_optics_25d.h): the
 // row above extruded along the barbules with the cells' tilt band θ_d.
-std::unique_ptr<const sim::wave::PhysicalOptics25d> build_physical_optics(
-    const Settings& s, StudyFile& file, const StudyProgress& clock) {
-    clock.say("building the physical-optics level: the study's barbule row in 2.5D");
+std::unique_ptr<const sim::wave::PhysicalOptics25d> build_physical_optics(const Settings& s,
+                                                                          StudyContext& ctx) {
+    StudyFile& file = ctx.file();
+    ctx.clock().say("building the physical-optics level: the study's barbule row in 2.5D");
     sim::wave::PhysicalOptics25dParams params;
-    params.row = study_wave_row(s);
+    params.row = study_wave_row(s, ctx.stream("rock_dove/wave_row"));
     params.theta_d = s.row.cell.theta_d;
     params.step_um = physical_optics_step_um(s);
     try {
@@ -740,12 +738,12 @@ gonio::BrdfRecord measure_physical_optics_brdf(const Run& run,
                                                const sim::wave::PhysicalOptics25d& po,
                                                const fs::path& checkpoint) {
     gonio::GoniometerConfig g = goniometer_config(run);
-    g.seed = derive_seed(run.s.seed, "rock_dove/brdf/physical_optics");
-    run.clock.say(fmt::format("BRDF on {} ({} pairs): physical optics (2.5D)", g.direction_set,
-                              g.pairs.size()));
+    g.seed = run.ctx.stream("rock_dove/brdf/physical_optics");
+    run.ctx.clock().say(fmt::format("BRDF on {} ({} pairs): physical optics (2.5D)",
+                                    g.direction_set, g.pairs.size()));
     fs::create_directories(checkpoint.parent_path());
     gonio::RunControl control;
-    control.progress = run.progress;
+    control.progress = run.ctx.progress();
     control.checkpoint = checkpoint;
     gonio::BrdfRecord r = gonio::measure_brdf(po, g, control);
     if (r.interrupted)
@@ -820,7 +818,7 @@ std::string physical_optics_section(const Run& run, const Brdfs& m, const gonio:
     result.physical_optics_against_ray_optics_l1 = by_level.total.relative_l1;
     result.physical_optics_brdf_error = po.convergence.back().estimated_relative_rms_error;
     result.physical_optics_brdf_seconds = po.wall_time_s;
-    const sim::wave::Row2d row = study_wave_row(run.s);
+    const sim::wave::Row2d row = study_wave_row(run.s, run.ctx.stream("rock_dove/wave_row"));
     return fmt::format(
                "## BRDF at the physical-optics level (2.5D)\n\n"
                "The same instrument (the {} pairs, {} wavelengths, {:.1f}° detectors, photon "
@@ -855,9 +853,9 @@ std::string physical_optics_section(const Run& run, const Brdfs& m, const gonio:
 gonio::Scatterogram measure_physical_optics_scatterogram(const Run& run,
                                                          const sim::wave::PhysicalOptics25d& po) {
     gonio::ScatterometerConfig c = scatterometer_config(run, gonio::Illumination::beam);
-    c.seed = derive_seed(run.s.seed, "rock_dove/scatterogram/beam/physical_optics");
+    c.seed = run.ctx.stream("rock_dove/scatterogram/beam/physical_optics");
     const std::string what = "scatterogram (beam): physical optics (2.5D)";
-    run.clock.say(what);
+    run.ctx.clock().say(what);
     gonio::Scatterogram r = gonio::measure_scatterogram(po, c);
     gonio::write_scatterogram_record(r, run.dir / "scatterograms" / "beam_physical_optics.h5");
     run.costs.push_back(scatterogram_cost(what, r, kSignalFraction));
@@ -979,7 +977,8 @@ geometry::BarbuleRowParams short_cell_row(const Settings& s) {
 }
 
 gonio::GoniometerConfig validation_config(const Settings& s,
-                                          const geometry::BarbuleRowParams& short_row) {
+                                          const geometry::BarbuleRowParams& short_row,
+                                          std::uint64_t seed) {
     gonio::GoniometerConfig v;
     v.direction_set = "custom: light in the transversal plane, views across it";
     const Vec3d light = polar(s.validation_light_theta, 0.0);
@@ -991,7 +990,7 @@ gonio::GoniometerConfig validation_config(const Settings& s,
     // The beam must span many barbule periods: the model averages over one.
     v.beam_radius_um =
         std::max(s.scatterometer.beam_radius_um, 5.0 * short_row.H * short_row.cell.semi_major_um);
-    v.seed = derive_seed(s.seed, "rock_dove/validation");
+    v.seed = seed;  // ctx.stream("rock_dove/validation")
     v.quanta_per_pass = s.validation_quanta;
     v.max_passes = 1;
     v.estimator = gonio::Estimator::photon;
@@ -1039,13 +1038,15 @@ void compare_r_lobes(const gonio::BrdfRecord& a, const gonio::BrdfRecord& b,
 std::string validation(const Run& run, const Built& b, RockDoveResult& result) {
     const Settings& s = run.s;
     const geometry::BarbuleRowParams short_row = short_cell_row(s);
-    run.clock.say(fmt::format("validation: {} short cells ({:.3f} um) per barbule, R lobe only",
-                              short_row.cells_per_barbule, short_row.cell.cell_length_um));
+    run.ctx.clock().say(
+        fmt::format("validation: {} short cells ({:.3f} um) per barbule, R lobe only",
+                    short_row.cells_per_barbule, short_row.cell.cell_length_um));
     const geometry::BarbuleRow vrow = geometry::build_barbule_row(short_row, s.tolerance);
     sim::TracerOptions single;
     single.max_events = 1;
     const sim::ExplicitScatterer vsim(sim::barbule_row_scene(vrow), single);
-    gonio::GoniometerConfig v = validation_config(s, short_row);
+    gonio::GoniometerConfig v =
+        validation_config(s, short_row, run.ctx.stream("rock_dove/validation"));
     const gonio::BrdfRecord a = gonio::measure_brdf(vsim, v);
     v.estimator = gonio::Estimator::eval;
     const gonio::BrdfRecord m = gonio::measure_brdf(*b.model, v);
@@ -1150,14 +1151,14 @@ std::string huang_fit(const Run& run, const Built& b, RockDoveResult& result) {
     c.image_size = s.fit_image_size;
     c.wavelengths_nm = fit_wavelengths(s.wavelengths);
     c.beam_radius_um = s.scatterometer.beam_radius_um;
-    c.seed = derive_seed(s.seed, "rock_dove/fit_scatterogram");
+    c.seed = run.ctx.stream("rock_dove/fit_scatterogram");
     c.quanta_per_pass = s.fit_quanta;
     c.max_passes = 1;
-    c.config_text = run.study_text;
-    run.clock.say("Huang fit: simulated beam scatterogram");
+    c.config_text = run.ctx.text();
+    run.ctx.clock().say("Huang fit: simulated beam scatterogram");
     const gonio::Scatterogram data = gonio::measure_scatterogram(*b.simulation, c);
     gonio::write_scatterogram_record(data, run.dir / "fit" / "simulation.h5");
-    run.clock.say("Huang fit: Levenberg-Marquardt");
+    run.ctx.clock().say("Huang fit: Levenberg-Marquardt");
     const analysis::Huang2022Params truth = huang_params_of(s.row);
     analysis::HuangFitOptions options;
     options.fixed = {"phi0", "phi1"};  // the arc's ends are hidden at these parameters
@@ -1282,7 +1283,7 @@ std::string convergence(const Run& run, const Built& b,
     c.eval_rings = s.convergence_reference_rings;
     const gonio::BrdfRecord truth = gonio::measure_brdf(*b.model, c);
     c.estimator = gonio::Estimator::photon;
-    c.seed = derive_seed(s.seed, "rock_dove/convergence");
+    c.seed = run.ctx.stream("rock_dove/convergence");
     c.quanta_per_pass = s.convergence_quanta;
     c.max_passes = s.convergence_passes;
     const std::size_t np = c.pairs.size();
@@ -1306,7 +1307,8 @@ std::string convergence(const Run& run, const Built& b,
         estimated.push_back(e.estimated);
         true_error.push_back(e.true_error);
     };
-    run.clock.say("error against run time: Huang R lobe, photon estimator against exact values");
+    run.ctx.clock().say(
+        "error against run time: Huang R lobe, photon estimator against exact values");
     gonio::measure_brdf(*b.model, c, rc);
     std::ofstream csv(run.dir / "convergence" / "error_vs_time.csv");
     csv << "label,wall_time_s,estimated_error,true_error,reference_floor,chi_square,cells,"
@@ -1445,7 +1447,8 @@ std::string full_wave_judgement(const Run& run, RockDoveResult& result) {
                "computes "
                "a reference for the default barbule; other cross-sections are not yet wired "
                "in.\n\n";
-    run.clock.say("level of physics: physical and ray optics against the full-wave reference");
+    run.ctx.clock().say(
+        "level of physics: physical and ray optics against the full-wave reference");
     const auto start = std::chrono::steady_clock::now();
     const std::vector<sim::wave::FullWaveCurves2d> curves = embedded_full_wave_curves();
     const StudyRow2d barbule = study_row_2d(p);
@@ -1609,11 +1612,12 @@ std::string full_wave_row_judgement(const Run& run, const LevelCertificate& c,
 // study's wavelengths and the beam's incidence taken in the cross-section's plane
 // (sim/wave/ray_optics_validity.h: the 5° goniometer window, unpolarised).
 std::string level_of_physics(const Run& run, RockDoveResult& result) {
-    run.clock.say("level of physics: physical against geometric optics on the 2D barbule row");
+    run.ctx.clock().say(
+        "level of physics: physical against geometric optics on the 2D barbule row");
     const auto start = std::chrono::steady_clock::now();
     const geometry::BarbuleRowParams& p = run.s.row;
     const double a = p.cell.semi_major_um;
-    const sim::wave::Row2d row = study_wave_row(run.s);
+    const sim::wave::Row2d row = study_wave_row(run.s, run.ctx.stream("rock_dove/wave_row"));
     const int count = row.count;
     sim::wave::RayOpticsValidityOptions options;
     options.max_step_um =
@@ -1681,15 +1685,15 @@ std::string level_of_physics(const Run& run, RockDoveResult& result) {
 // again with one thing changed at a time, and the TRT lobe against the model's exit law.
 void measure_departures(const Run& run, const Built& b, const Brdfs& m, RockDoveResult& result) {
     const Settings& s = run.s;
-    const auto say = [&](const std::string& what) { run.clock.say(what); };
+    const auto say = [&](const std::string& what) { run.ctx.clock().say(what); };
     gonio::GoniometerConfig g = goniometer_config(run);
-    g.seed = derive_seed(s.seed, "rock_dove/departures");
+    g.seed = run.ctx.stream("rock_dove/departures");
     g.time_budget_s = std::numeric_limits<double>::infinity();
     g.target_relative_error = 0.0;
     result.departures.grazing = measure_grazing_departures(
         {*b.model, b.row, s.tolerance, g, s.validation_cell_coupling}, say);
     result.departures.brdf = brdf_lobe_excess(m.simulation, m.model);
-    run.clock.say("departures: TRT exit law");
+    run.ctx.clock().say("departures: TRT exit law");
     result.departures.trt = trt_exit_departures(m.simulation, m.model, *b.model);
     measure_trt_variants({*b.model, b.row, s.tolerance, g, s.validation_cell_coupling},
                          m.simulation, m.model, result.departures.trt, say);
@@ -1782,23 +1786,22 @@ void write_report(const fs::path& path, const Settings& s, const std::string& md
 RockDoveResult run_rock_dove_study(const std::string& study_text, const fs::path& source_name,
                                    const fs::path& results_root, bool progress,
                                    const RunLimits& limits) {
-    const StudyProgress clock(progress);
-    auto file = StudyFile::parse(study_text, source_name);
+    StudyContext ctx(study_text, source_name, results_root, limits, progress);
+    const StudyProgress& clock = ctx.clock();
     std::string name;
-    Settings s = read_settings(*file, name, source_name);  // read
-    StagedDirectory::prepare(results_root / name);
-    if (limits.time_budget_s > 0.0) s.time_budget_s = limits.time_budget_s;
-    if (limits.target_relative_error > 0.0) s.target_relative_error = limits.target_relative_error;
+    Settings s = read_settings(ctx.file(), name, source_name);  // read
+    ctx.begin(name);
+    s.time_budget_s = ctx.time_budget_s(s.time_budget_s);
+    s.target_relative_error = ctx.target_relative_error(s.target_relative_error);
     RockDoveResult result;
-    const Built built = build(s, *file, clock, result);  // build
+    const Built built = build(s, ctx.file(), clock, result);  // build
 
-    StagedDirectory out(results_root / name);
+    const fs::path out = ctx.out();
     for (const char* part : {"scatterograms", "brdf", "validation", "convergence", "fit"}) {
-        fs::create_directories(out.path() / part);
+        fs::create_directories(out / part);
     }
     std::vector<MeasurementCost> costs;
-    const Run run{
-        s, study_text, clock, progress, out.path(), costs, checkpoint_folder(results_root, name)};
+    const Run run{s, ctx, out, costs};
     // Which level measures: full wave's certificate of this row, before any measurement.
     const LevelCertificate certificate = row_certificate(s, clock);
     const LevelDecision level = decide_level(s.level, certificate);
@@ -1807,9 +1810,8 @@ RockDoveResult run_rock_dove_study(const std::string& study_text, const fs::path
     result.level_warning = level.warning;
     if (!level.warning.empty() && progress)
         fmt::print(stderr, "plumage: warning: {}\n", level.warning);
-    const auto physical_optics =
-        level.physical_optics ? build_physical_optics(s, *file, clock) : nullptr;
-    const fs::path& checkpoints = run.checkpoints;
+    const auto physical_optics = level.physical_optics ? build_physical_optics(s, ctx) : nullptr;
+    const fs::path checkpoints = ctx.checkpoints();
     const Scatterograms scattered = scatterograms(run, built, result);
     std::string md = scattered.markdown;  // measure and compare, section by section
     const Brdfs brdfs = measure_brdfs(run, built, checkpoints / "brdf_simulation.checkpoint");
@@ -1837,20 +1839,16 @@ RockDoveResult run_rock_dove_study(const std::string& study_text, const fs::path
     md += departures(s, result);  // report
     result.wall_seconds = clock.elapsed_s();
     md += measurement_cost_section(costs);
-    md += run_time_by_stage(clock, out.path());
-    write_report(out.path() / "report.md", s, level.summary + "\n\n" + verdict_block(result) + md,
-                 result);
-    out.commit();
-    remove_checkpoints(results_root, name);  // the finished records supersede them
-    result.output_dir = out.final_path();
-    clock.done("done: " + (result.output_dir / "report.md").string());
+    md += ctx.run_time_by_stage();
+    write_report(out / "report.md", s, level.summary + "\n\n" + verdict_block(result) + md, result);
+    result.output_dir = ctx.commit();  // the finished records supersede the checkpoints
     return result;
 }
 
 void check_rock_dove_study(const std::string& study_text, const fs::path& source_name) {
-    auto file = StudyFile::parse(study_text, source_name);
+    StudyContext ctx(study_text, source_name);
     std::string name;
-    read_settings(*file, name, source_name);
+    read_settings(ctx.file(), name, source_name);
 }
 
 namespace {

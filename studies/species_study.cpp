@@ -38,6 +38,7 @@
 #include "studies/staged_directory.h"
 #include "studies/study.h"
 #include "studies/study_common.h"
+#include "studies/study_context.h"
 #include "studies/study_file.h"
 #include "virtual_gonio/btf.h"
 #include "virtual_gonio/direction_sets.h"
@@ -492,11 +493,7 @@ std::string parameter_cell(double value, double error, std::string_view unit) {
 
 struct Run {
     const Settings& s;
-    const std::string& study_text;
-    const fs::path& results_root;
-    const std::string& name;
-    const StudyProgress& clock;
-    bool progress;
+    StudyContext& ctx;  // text, clock, streams, output and checkpoints (study_context.h)
     const std::vector<gonio::DirectionPair>& pairs;  // the 61 × 60 set
     const Luminance& luminance;
     const std::vector<double>& in_plane_angles_deg;
@@ -1035,8 +1032,9 @@ void check_patch_size(const SpeciesSpec& sp, const BuiltSpecies& b, const Settin
 
 // Every scene first: a geometry the study file gets wrong stops the run before anything is
 // written.
-std::vector<BuiltSpecies> build_all(const Settings& s, StudyFile& file,
-                                    const StudyProgress& clock) {
+std::vector<BuiltSpecies> build_all(const Settings& s, StudyContext& ctx) {
+    StudyFile& file = ctx.file();
+    const StudyProgress& clock = ctx.clock();
     std::vector<BuiltSpecies> built;
     for (const SpeciesSpec& sp : s.species) {
         clock.say(fmt::format("building the {} patch", sp.name));
@@ -1044,7 +1042,7 @@ std::vector<BuiltSpecies> build_all(const Settings& s, StudyFile& file,
         const std::string where = fmt::format("{}: [species.{}]", table.location(), sp.name);
         built.push_back(build_species(
             sp, s.tolerance, where,
-            derive_seed(s.seed, "species/spongy_volume", static_cast<std::uint64_t>(built.size())),
+            ctx.stream("species/spongy_volume", static_cast<std::uint64_t>(built.size())),
             s.traced_wavelengths));
         check_patch_size(sp, built.back(), s,
                          table.has("patch") ? table.table("patch").location() : table.location());
@@ -1062,17 +1060,17 @@ gonio::BrdfRecord measure_species_brdf(const Run& run, const Specimen& x, Measur
     g.pairs = run.pairs;
     g.wavelengths_nm = s.wavelengths;
     g.beam_radius_um = 0.5 * x.built.period_um;  // unused: PeriodCellEntry draws the entry
-    g.seed = derive_seed(s.seed, "species/brdf", x.index);
+    g.seed = run.ctx.stream("species/brdf", x.index);
     g.time_budget_s = s.time_budget_s;
     g.target_relative_error = s.target_relative_error;
-    g.config_text = run.study_text;
-    run.clock.say(fmt::format(
+    g.config_text = run.ctx.text();
+    run.ctx.clock().say(fmt::format(
         "{}: BRDF on the 61 x 60 set ({} quanta per light direction and "
         "wavelength, {} wavelengths)",
         x.spec.name, g.quanta_per_pass * static_cast<std::uint64_t>(g.max_passes), run.nl()));
     gonio::RunControl control;
-    control.progress = run.progress;
-    const fs::path checkpoints = checkpoint_folder(run.results_root, run.name);
+    control.progress = run.ctx.progress();
+    const fs::path checkpoints = run.ctx.checkpoints();
     fs::create_directories(checkpoints);
     control.checkpoint = checkpoints / (x.spec.name + "_brdf.checkpoint");
     gonio::BrdfRecord brdf = gonio::measure_brdf(x.sample, g, control);
@@ -1204,7 +1202,7 @@ void fit_filip(const Run& run, const SpeciesSpec& sp, Measured& m, SpeciesOutcom
                                       run.s.wavelengths[k], m.brdf.at(p, k), std::nullopt});
         }
     }
-    run.clock.say(
+    run.ctx.clock().say(
         fmt::format("{}: fitting Filip 2024 to {} observations", sp.name, m.observations.size()));
     analysis::Filip2024FitOptions options;
     options.max_function_evaluations = run.s.fit_evaluations;
@@ -1283,8 +1281,8 @@ void in_plane_sweep(const Run& run, const Specimen& x, const Measured& m, Specie
     ip.pairs = gonio::filip2024_in_plane_pairs(x.spec.mount_rad + gonio::kPlaneAcrossBarbsRad);
     ip.quanta_per_pass = run.s.in_plane_quanta;
     ip.max_passes = 1;
-    ip.seed = derive_seed(run.s.seed, "species/in_plane", x.index);
-    run.clock.say(fmt::format("{}: in-plane sweep", x.spec.name));
+    ip.seed = run.ctx.stream("species/in_plane", x.index);
+    run.ctx.clock().say(fmt::format("{}: in-plane sweep", x.spec.name));
     const gonio::BrdfRecord a = gonio::measure_brdf(x.sample, ip);
     ip.estimator = gonio::Estimator::eval;
     const analysis::Filip2024Brdf fitted_model(m.fit.parameters, "filip2024 fit");
@@ -1305,14 +1303,14 @@ void in_plane_sweep(const Run& run, const Specimen& x, const Measured& m, Specie
 
 // Directional albedo at normal incidence over the period cell (sim/albedo.h).
 void albedo_at_normal_incidence(const Run& run, const Specimen& x, SpeciesOutcome& o) {
-    run.clock.say(fmt::format("{}: albedo at normal incidence", x.spec.name));
+    run.ctx.clock().say(fmt::format("{}: albedo at normal incidence", x.spec.name));
     const std::size_t nl = run.nl();
     o.albedo.assign(nl, 0.0);
     o.albedo_error.assign(nl, 0.0);
     for (std::size_t k = 0; k < nl; ++k) {
         const sim::AlbedoEstimate e = sim::measure_albedo(
             *x.tracer, *x.cell, Vec3d(0.0, 0.0, 1.0), run.s.wavelengths[k], run.s.albedo_quanta,
-            derive_seed(run.s.seed, "species/albedo", x.index * nl + k));
+            run.ctx.stream("species/albedo", x.index * nl + k));
         o.albedo[k] = e.albedo;
         o.albedo_error[k] = e.standard_error;
         o.mismatched_paths += e.mismatched_paths / static_cast<double>(nl);
@@ -1345,14 +1343,15 @@ void measure_species_btf(const Run& run, const Specimen& x, SpeciesOutcome& o) {
     } else {
         bc.pairs = run.pairs;
     }
-    bc.seed = derive_seed(s.seed, "species/btf", x.index);
-    bc.config_text = run.study_text;
-    run.clock.say(fmt::format("{}: BTF on {} pairs ({} x {} pixels, {} wavelengths, {} estimator)",
-                              x.spec.name, bc.pairs.size(), bc.pixels, bc.pixels,
-                              bc.wavelengths_nm.size(), gonio::to_string(bc.estimator)));
+    bc.seed = run.ctx.stream("species/btf", x.index);
+    bc.config_text = run.ctx.text();
+    run.ctx.clock().say(
+        fmt::format("{}: BTF on {} pairs ({} x {} pixels, {} wavelengths, {} estimator)",
+                    x.spec.name, bc.pairs.size(), bc.pixels, bc.pixels, bc.wavelengths_nm.size(),
+                    gonio::to_string(bc.estimator)));
     gonio::RunControl control;  // the detector estimator's passes are checkpointed
-    control.progress = run.progress;
-    const fs::path checkpoints = checkpoint_folder(run.results_root, run.name);
+    control.progress = run.ctx.progress();
+    const fs::path checkpoints = run.ctx.checkpoints();
     fs::create_directories(checkpoints);
     control.checkpoint = checkpoints / (x.spec.name + "_btf.checkpoint");
     const gonio::BtfRecord btf = gonio::measure_btf(x.imaged, bc, control);
@@ -1510,9 +1509,8 @@ std::string verdict_block(const SpeciesResult& result) {
 }
 
 // After the species: Table 1 beside the fits, Fig. 6a, the records' index; then commit.
-void finish(const Run& run, SpeciesResult& result, record::Hdf5Writer& h5, std::string& md,
-            StagedDirectory& out) {
-    const fs::path& dir = out.path();
+void finish(const Run& run, SpeciesResult& result, record::Hdf5Writer& h5, std::string& md) {
+    const fs::path dir = run.ctx.out();
     std::vector<PlotJob> plots;
     md += fits_section(dir, result);
     md += in_plane_section(dir, result, plots);
@@ -1525,22 +1523,20 @@ void finish(const Run& run, SpeciesResult& result, record::Hdf5Writer& h5, std::
         joined += kFilip2024ParameterTable[p].name;
     }
     h5.set_attribute("/", "parameter_names", joined);
-    h5.set_attribute("/", "study", std::string(run.study_text));
+    h5.set_attribute("/", "study", std::string(run.ctx.text()));
     h5.commit();
-    result.wall_seconds = run.clock.elapsed_s();
+    result.wall_seconds = run.ctx.clock().elapsed_s();
     md += fmt::format(
         "## Run\n\n{:.0f} s on {} threads. Records: `species.h5` (fits, albedo, in-plane L*), "
         "`fits.csv`, `in_plane_luminance.csv`, per species `brdf.h5` (simulation), `fit.h5` "
         "(fitted model), `in_plane.h5`, `btf.h5` (virtual_gonio/RECORD.md).\n",
         result.wall_seconds, omp_get_max_threads());
-    md += "\n" + run_time_by_stage(run.clock, dir);
+    md += "\n" + run.ctx.run_time_by_stage();
     // The verdicts open the report, under its title.
     const std::size_t title_end = md.find("\n\n") + 2;
     md.insert(title_end, verdict_block(result));
     write_text_file(dir / "report.md", md);
-    out.commit();
-    result.output_dir = out.final_path();
-    remove_checkpoints(run.results_root, run.name);
+    result.output_dir = run.ctx.commit();
 }
 
 }  // namespace
@@ -1548,16 +1544,15 @@ void finish(const Run& run, SpeciesResult& result, record::Hdf5Writer& h5, std::
 SpeciesResult run_species_study(const std::string& study_text, const fs::path& source_name,
                                 const fs::path& results_root, bool progress,
                                 const RunLimits& limits) {
-    const StudyProgress clock(progress);
-    auto file = StudyFile::parse(study_text, source_name);
+    StudyContext ctx(study_text, source_name, results_root, limits, progress);
     std::string name;
-    Settings s = read_settings(*file, name, source_name);  // read
-    StagedDirectory::prepare(results_root / name);
-    if (limits.time_budget_s > 0.0) s.time_budget_s = limits.time_budget_s;
-    if (limits.target_relative_error > 0.0) s.target_relative_error = limits.target_relative_error;
-    const std::vector<BuiltSpecies> built = build_all(s, *file, clock);  // build
+    Settings s = read_settings(ctx.file(), name, source_name);  // read
+    ctx.begin(name);
+    s.time_budget_s = ctx.time_budget_s(s.time_budget_s);
+    s.target_relative_error = ctx.target_relative_error(s.target_relative_error);
+    const std::vector<BuiltSpecies> built = build_all(s, ctx);  // build
 
-    StagedDirectory out(results_root / name);
+    const fs::path out = ctx.out();
     SpeciesResult result;
     result.wavelengths_nm = s.wavelengths;
     for (double a : gonio::filip2024_in_plane_light_angles())
@@ -1566,26 +1561,24 @@ SpeciesResult run_species_study(const std::string& study_text, const fs::path& s
     const optics::ReflectanceToXyz to_xyz(grid, optics::Illuminant::d65);
     const Luminance luminance(to_xyz, s.wavelengths.size());
     const std::vector<gonio::DirectionPair> pairs = gonio::filip2024_btf_pairs();
-    const Run run{s,     study_text, results_root,
-                  name,  clock,      progress,
-                  pairs, luminance,  result.in_plane_angles_deg};
+    const Run run{s, ctx, pairs, luminance, result.in_plane_angles_deg};
 
     std::string md = report_introduction(s, built, source_name);
-    record::Hdf5Writer h5(out.path() / "species.h5");
+    record::Hdf5Writer h5(out / "species.h5");
     write_species_h5_header(h5, result);
     for (std::size_t si = 0; si < s.species.size(); ++si) {  // measure, compare, report
-        fs::create_directories(out.path() / s.species[si].name);
-        const Specimen x(s.species[si], si, built[si], out.path() / s.species[si].name);
+        fs::create_directories(out / s.species[si].name);
+        const Specimen x(s.species[si], si, built[si], out / s.species[si].name);
         result.species.push_back(run_one_species(run, x, h5, md));
     }
-    finish(run, result, h5, md, out);
+    finish(run, result, h5, md);
     return result;
 }
 
 void check_species_study(const std::string& study_text, const fs::path& source_name) {
-    auto file = StudyFile::parse(study_text, source_name);
+    StudyContext ctx(study_text, source_name);
     std::string name;
-    read_settings(*file, name, source_name);
+    read_settings(ctx.file(), name, source_name);
 }
 
 SpeciesScene build_species_scene(const std::string& study_text, const fs::path& source_name,

@@ -58,13 +58,13 @@
 //              paths_per_wavelength                  per angle and wavelength; 4000
 //   [baseline] paths_per_wavelength                  geometric-optics baseline; 2000
 //
-// Random streams (common/seed.h): the volume of case c from derive_seed(seed, "spongy/volume",
-// c), the paths of case c from derive_seed(seed, "spongy/normal", c) (path index = wavelength
-// index × paths + i), the other route's from derive_seed(seed, "spongy/other-route", c) (its
-// peak's bootstrap "spongy/other-bootstrap"), those of angle a from derive_seed(seed,
-// "spongy/angle", a), the bootstrap of the peak from derive_seed(seed, "spongy/bootstrap", c), the
-// baseline's paths from derive_seed(seed, "spongy/baseline", 0). Results do not depend on the
-// thread count.
+// Random streams (studies/study_context.h): the volume of case c from
+// ctx.stream("spongy/volume", c), the paths of case c from ctx.stream("spongy/normal", c) (path
+// index = wavelength index × paths + i), the other route's from
+// ctx.stream("spongy/other-route", c) (its peak's bootstrap "spongy/other-bootstrap"), those of
+// angle a from ctx.stream("spongy/angle", a), the bootstrap of the peak from
+// ctx.stream("spongy/bootstrap", c), the baseline's paths from ctx.stream("spongy/baseline", 0).
+// Results do not depend on the thread count.
 #include <omp.h>
 
 #include <algorithm>
@@ -102,6 +102,7 @@
 #include "studies/staged_directory.h"
 #include "studies/study.h"
 #include "studies/study_common.h"
+#include "studies/study_context.h"
 #include "virtual_gonio/hdf5_file.h"
 
 namespace plumage::studies {
@@ -260,7 +261,10 @@ void read_volume(ParameterTable v, Settings& s) {
                   "of the box");
 }
 
-SpongyMediumParams medium_params(const Settings& s, double f, double scale, std::size_t index) {
+// The volume of keratin fraction f and scale `scale`, drawn from volume_seed (a case's stream;
+// the read-time checks of the sphere route do not depend on it).
+SpongyMediumParams medium_params(const Settings& s, double f, double scale,
+                                 std::uint64_t volume_seed) {
     SpongyMediumParams p;
     p.morphology = s.morphology;
     if (s.morphology == geometry::SpongyMorphology::sphere) {
@@ -273,7 +277,7 @@ SpongyMediumParams medium_params(const Settings& s, double f, double scale, std:
     p.shell_relative_width = s.shell_relative_width;
     p.box_um = s.box_um;
     p.voxel_um = s.voxel_um;
-    p.seed = derive_seed(s.seed, "spongy/volume", index);
+    p.seed = volume_seed;
     return p;
 }
 
@@ -327,12 +331,12 @@ void read_slab(ParameterTable t, Settings& s) {
         t.integer("paths_per_wavelength", 4000, 100, 100000000, "paths per slab and wavelength"));
 }
 
-Settings read(const std::string& text, const fs::path& source) {
-    auto file = StudyFile::parse(text, source);
-    ParameterTable root = file->root();
+Settings read(StudyContext& ctx) {
+    const fs::path& source = ctx.source();
+    ParameterTable root = ctx.root();
     root.string("study", "spongy", {"spongy"}, "which study this file describes");
     Settings s;
-    s.text = text;
+    s.text = ctx.text();
     s.name = read_study_name(root, source);
     s.seed = read_seed(root);
     ParameterTable spectrum = root.table("spectrum");
@@ -373,11 +377,13 @@ Settings read(const std::string& text, const fs::path& source) {
 // indicator → power spectrum → first-Born tables at every wavelength, and for a sphere packing
 // the sphere route's tables as well → ScatteringMedium. The study's route (medium.route) is
 // the case's medium; the other one, where there is one, goes beside it.
-Case build_case(const Settings& s, double f, double scale, std::size_t index) {
+Case build_case(const StudyContext& ctx, const Settings& s, double f, double scale,
+                std::size_t index) {
     Case c;
     c.fraction = f;
     c.scale_um = scale;
-    SpongyMedium m = build_spongy_medium(medium_params(s, f, scale, index), s.wavelengths_nm);
+    SpongyMedium m = build_spongy_medium(
+        medium_params(s, f, scale, ctx.stream("spongy/volume", index)), s.wavelengths_nm);
     c.measured_fraction = m.measured_fraction;
     c.measured_scale_um = m.measured_scale_um;
     c.isotropy = m.isotropy;
@@ -425,9 +431,10 @@ void require_transport_thickness(const Case& c, const Settings& s) {
 // cubes, at least one) on the same backing, 0.01 µm air gaps between cubes (a twentieth of
 // the box at most), laterally 10 × its thickness (at most 60 boxes) each way.
 // Fills the baseline's geometry numbers.
-sim::TiledVolumeSlab build_baseline(const Settings& s, Baseline& b) {
+sim::TiledVolumeSlab build_baseline(const StudyContext& ctx, const Settings& s, Baseline& b) {
     geometry::TriangleMesh mesh = geometry::level_set_to_mesh(
-        *make_spongy_volume(medium_params(s, s.fractions.front(), s.scales_um.front(), 0))
+        *make_spongy_volume(medium_params(s, s.fractions.front(), s.scales_um.front(),
+                                          ctx.stream("spongy/volume", 0)))
              .level_set);
     b.triangles = mesh.triangles.size();
     sim::TiledVolumeSlabParams p;
@@ -488,29 +495,28 @@ std::vector<double> single_scattering(const sim::ScatteringMedium& medium, const
     return r;
 }
 
-void measure_case(Case& c, const Settings& s, std::size_t index) {
+void measure_case(const StudyContext& ctx, Case& c, const Settings& s, std::size_t index) {
     const sim::ExplicitScatterer tracer(sim::scattering_slab_scene(c.medium, s.slab));
-    Reflectance r =
-        trace_reflectance(tracer, s, 0.0, derive_seed(s.seed, "spongy/normal", index), s.paths);
+    Reflectance r = trace_reflectance(tracer, s, 0.0, ctx.stream("spongy/normal", index), s.paths);
     c.r = std::move(r.r);
     c.r_se = std::move(r.r_se);
     c.r_single = single_scattering(*c.medium, s, 0.0);
     if (!c.other_medium) return;
     const sim::ExplicitScatterer other(sim::scattering_slab_scene(c.other_medium, s.slab));
     Reflectance o =
-        trace_reflectance(other, s, 0.0, derive_seed(s.seed, "spongy/other-route", index), s.paths);
+        trace_reflectance(other, s, 0.0, ctx.stream("spongy/other-route", index), s.paths);
     c.other_r = std::move(o.r);
     c.other_r_se = std::move(o.r_se);
 }
 
-std::vector<AngleRun> measure_angles(const Case& base, const Settings& s,
-                                     const StudyProgress& clock) {
+std::vector<AngleRun> measure_angles(const StudyContext& ctx, const Case& base, const Settings& s) {
+    const StudyProgress& clock = ctx.clock();
     const sim::ExplicitScatterer tracer(sim::scattering_slab_scene(base.medium, s.slab));
     std::vector<AngleRun> runs;
     for (std::size_t a = 0; a < s.angles_deg.size(); ++a) {
         clock.say(fmt::format("base slab at {} deg incidence", s.angles_deg[a]));
         Reflectance r = trace_reflectance(tracer, s, s.angles_deg[a] * kDeg,
-                                          derive_seed(s.seed, "spongy/angle", a), s.angle_paths);
+                                          ctx.stream("spongy/angle", a), s.angle_paths);
         runs.push_back({s.angles_deg[a], std::move(r.r), std::move(r.r_se),
                         single_scattering(*base.medium, s, s.angles_deg[a] * kDeg)});
     }
@@ -518,13 +524,14 @@ std::vector<AngleRun> measure_angles(const Case& base, const Settings& s,
 }
 
 // The baseline at normal incidence, the beam over the top face of the centre cube.
-Baseline measure_baseline(const Settings& s, const StudyProgress& clock) {
+Baseline measure_baseline(const StudyContext& ctx, const Settings& s) {
+    const StudyProgress& clock = ctx.clock();
     clock.say("geometric-optics baseline: the base volume's mesh, tiled");
     const double began = clock.elapsed_s();
     Baseline b;
-    const sim::ExplicitScatterer tracer(build_baseline(s, b).scene);
+    const sim::ExplicitScatterer tracer(build_baseline(ctx, s, b).scene);
     const double h = 0.5 * s.box_um;
-    Reflectance r = trace_reflectance(tracer, s, 0.0, derive_seed(s.seed, "spongy/baseline", 0),
+    Reflectance r = trace_reflectance(tracer, s, 0.0, ctx.stream("spongy/baseline", 0),
                                       s.baseline_paths, {{-h, -h}, {h, h}});
     b.r = std::move(r.r);
     b.r_se = std::move(r.r_se);
@@ -625,10 +632,11 @@ double bragg_wavelength(double fraction, double scale_um) {
     return lambda;
 }
 
-CaseResult compare_case(const Case& c, const Settings& s, std::size_t index) {
+CaseResult compare_case(const StudyContext& ctx, const Case& c, const Settings& s,
+                        std::size_t index) {
     CaseResult out;
-    out.peak = peak_with_sigma(s.wavelengths_nm, {c.r, c.r_se},
-                               derive_seed(s.seed, "spongy/bootstrap", index));
+    out.peak =
+        peak_with_sigma(s.wavelengths_nm, {c.r, c.r_se}, ctx.stream("spongy/bootstrap", index));
     out.single_peak = parabolic_peak(s.wavelengths_nm, c.r_single);
     out.bragg_nm = bragg_wavelength(c.measured_fraction, c.measured_scale_um);
     const double r_peak = c.r[out.peak.index];
@@ -636,7 +644,7 @@ CaseResult compare_case(const Case& c, const Settings& s, std::size_t index) {
     out.colour = colour_of(c.r, s);
     if (c.other_medium) {
         out.other_peak = peak_with_sigma(s.wavelengths_nm, {c.other_r, c.other_r_se},
-                                         derive_seed(s.seed, "spongy/other-bootstrap", index));
+                                         ctx.stream("spongy/other-bootstrap", index));
     }
     return out;
 }
@@ -1176,9 +1184,10 @@ void write_records(const fs::path& dir, const std::vector<Case>& cases,
 std::string run(const std::string& text, const fs::path& source, const fs::path& results_root,
                 const RunLimits& limits) {
     refuse_limits("spongy", limits, "its Monte Carlo runs a fixed number of paths");
-    const StudyProgress clock(true);
-    const Settings s = read(text, source);  // read
-    StagedDirectory::prepare(results_root / s.name);
+    StudyContext ctx(text, source, results_root, limits, true);
+    const StudyProgress& clock = ctx.clock();
+    const Settings s = read(ctx);  // read
+    ctx.begin(s.name);
     std::vector<Case> cases;
     std::vector<CaseResult> results;
     for (const double f : s.fractions) {
@@ -1187,29 +1196,28 @@ std::string run(const std::string& text, const fs::path& source, const fs::path&
             clock.say(fmt::format(
                 "volume, scattering tables and slab: f = {}, {} = {} um", f,
                 s.morphology == geometry::SpongyMorphology::sphere ? "a" : "Lambda", scale));
-            cases.push_back(build_case(s, f, scale, i));  // build
+            cases.push_back(build_case(ctx, s, f, scale, i));  // build
             require_transport_thickness(cases.back(), s);
-            measure_case(cases.back(), s, i);                     // measure
-            results.push_back(compare_case(cases.back(), s, i));  // compare
+            measure_case(ctx, cases.back(), s, i);                     // measure
+            results.push_back(compare_case(ctx, cases.back(), s, i));  // compare
         }
     }
-    const std::vector<AngleRun> runs = measure_angles(cases.front(), s, clock);
-    Baseline baseline = measure_baseline(s, clock);
+    const std::vector<AngleRun> runs = measure_angles(ctx, cases.front(), s);
+    Baseline baseline = measure_baseline(ctx, s);
     compare_baseline(baseline, s);
     std::vector<Peak> angle_peaks;
     for (std::size_t a = 0; a < runs.size(); ++a) {
         angle_peaks.push_back(peak_with_sigma(s.wavelengths_nm, {runs[a].r, runs[a].r_se},
-                                              derive_seed(s.seed, "spongy/angle-bootstrap", a)));
+                                              ctx.stream("spongy/angle-bootstrap", a)));
     }
-    StagedDirectory out(results_root / s.name);  // report
-    write_records(out.path(), cases, results, runs, angle_peaks, baseline, s);
+    const fs::path out = ctx.out();  // report
+    write_records(out, cases, results, runs, angle_peaks, baseline, s);
     clock.say("figures");
-    draw_figures(out.path());
-    write_report(out.path() / "report.md", cases, results, runs, angle_peaks, baseline, s,
-                 clock.elapsed_s(), run_time_by_stage(clock, out.path()));
-    out.commit();
-    clock.done(fmt::format("done: {}", (out.final_path() / "report.md").string()));
-    std::string summary = fmt::format("plumage: wrote {}:", out.final_path().string());
+    draw_figures(out);
+    write_report(out / "report.md", cases, results, runs, angle_peaks, baseline, s,
+                 clock.elapsed_s(), ctx.run_time_by_stage());
+    const fs::path final_path = ctx.commit();
+    std::string summary = fmt::format("plumage: wrote {}:", final_path.string());
     for (std::size_t i = 0; i < cases.size(); ++i) {
         summary += fmt::format(
             " f={} {}={}um peak {:.0f}+-{:.0f} nm (2 n_eff L {:.0f});", cases[i].fraction,
@@ -1220,7 +1228,10 @@ std::string run(const std::string& text, const fs::path& source, const fs::path&
                                  baseline.colour.chroma, 100.0 * baseline.relative_spread);
 }
 
-void check(const std::string& text, const fs::path& source) { read(text, source); }
+void check(const std::string& text, const fs::path& source) {
+    StudyContext ctx(text, source);
+    read(ctx);
+}
 
 }  // namespace
 

@@ -31,6 +31,7 @@
 #include "studies/staged_directory.h"
 #include "studies/study.h"
 #include "studies/study_common.h"
+#include "studies/study_context.h"
 #include "studies/study_file.h"
 #include "studies/wave_validity_live.h"
 #include "virtual_gonio/hdf5_file.h"
@@ -57,7 +58,8 @@ struct Axis {
 
 struct Settings {
     std::string name;
-    std::uint64_t seed = kDefaultSeed;
+    std::uint64_t seed = kDefaultSeed;  // the user's, for provenance
+    std::uint64_t row_jitter_seed = 0;  // ctx.stream("wave_validity/row_jitter"): every cell's
     Barbule base;
     double min_length_um = 40.0;
     int min_count = 4;
@@ -207,13 +209,14 @@ void read_full_wave(ParameterTable full_wave, const fs::path& source, Settings& 
 
 void check_row_samples(const Settings& s, const std::string& where);
 
-Settings read_settings(const std::string& text, const fs::path& source) {
-    auto file = StudyFile::parse(text, source);
-    ParameterTable root = file->root();
+Settings read_settings(StudyContext& ctx) {
+    const fs::path& source = ctx.source();
+    ParameterTable root = ctx.root();
     Settings s;
     s.name = read_study_name(root, source);
     root.string("study", "wave_validity", {"wave_validity"}, "which study this file describes");
-    s.seed = read_seed(root);
+    s.seed = ctx.seed();
+    s.row_jitter_seed = ctx.stream("wave_validity/row_jitter");
     s.base = read_barbule(root.table("barbule"));
 
     read_row(root.table("row"), s);
@@ -296,7 +299,7 @@ wave::Row2d build_row(const Settings& s, const Barbule& b, double a) {
     row.realisations = s.realisations;
     // One root for every cell (common/seed.h): the cells share their jitter realisations (common
     // random numbers), so a difference between cells is their size's, not the draw's.
-    row.seed = derive_seed(s.seed, "wave_validity/row_jitter");
+    row.seed = s.row_jitter_seed;
     return row;
 }
 
@@ -1051,11 +1054,11 @@ std::vector<LiveScene> live_scenes(const Settings& s, const WaveValidityResult& 
 }
 
 // Report: record, CSVs, figures and report.md, staged and committed together.
-fs::path write_outputs(const Settings& s, WaveValidityResult& r, const std::string& study_text,
-                       const fs::path& results_root, const StudyProgress& clock, double cpu0) {
+fs::path write_outputs(StudyContext& ctx, const Settings& s, WaveValidityResult& r, double cpu0) {
+    const StudyProgress& clock = ctx.clock();
+    const std::string& study_text = ctx.text();
     clock.say("report");  // report
-    StagedDirectory out(results_root / s.name);
-    const fs::path dir = out.path();
+    const fs::path dir = ctx.out();
     r.wall_seconds = clock.elapsed_s();
     write_record(dir / "wave_validity.h5", r, s, study_text, process_cpu_seconds() - cpu0);
     write_csv(dir / "wave_validity.csv", r);
@@ -1075,9 +1078,8 @@ fs::path write_outputs(const Settings& s, WaveValidityResult& r, const std::stri
     }
     clock.say("plots");
     run_plots(jobs, dir / "plots.csv");
-    write_report(dir / "report.md", r, s, study_text, run_time_by_stage(clock, dir), pngs);
-    out.commit();
-    return out.final_path();
+    write_report(dir / "report.md", r, s, study_text, ctx.run_time_by_stage(), pngs);
+    return ctx.commit();
 }
 
 }  // namespace
@@ -1085,10 +1087,11 @@ fs::path write_outputs(const Settings& s, WaveValidityResult& r, const std::stri
 WaveValidityResult run_wave_validity_study(const std::string& study_text,
                                            const fs::path& source_name,
                                            const fs::path& results_root, bool progress) {
-    const StudyProgress clock(progress);
+    StudyContext ctx(study_text, source_name, results_root, {}, progress);
+    const StudyProgress& clock = ctx.clock();
     const double cpu0 = process_cpu_seconds();
-    const Settings s = read_settings(study_text, source_name);  // read
-    StagedDirectory::prepare(results_root / s.name);
+    const Settings s = read_settings(ctx);  // read
+    ctx.begin(s.name);
     WaveValidityResult r;
     r.widths_um = s.widths_um;
     r.wavelengths_nm = s.wavelengths_nm;
@@ -1123,13 +1126,13 @@ WaveValidityResult run_wave_validity_study(const std::string& study_text,
         r.live_verdict = live_verdict(r);
     }
 
-    r.output_dir = write_outputs(s, r, study_text, results_root, clock, cpu0);
-    clock.done("done: " + (r.output_dir / "report.md").string());
+    r.output_dir = write_outputs(ctx, s, r, cpu0);
     return r;
 }
 
 void check_wave_validity_study(const std::string& study_text, const fs::path& source_name) {
-    read_settings(study_text, source_name);
+    StudyContext ctx(study_text, source_name);
+    read_settings(ctx);
 }
 
 namespace {
