@@ -114,6 +114,8 @@
 #include <string_view>
 #include <vector>
 
+#include "common/parameter_spec.h"
+
 #include "sim/scatterer.h"
 
 namespace plumage::analysis {
@@ -146,38 +148,53 @@ enum Filip2024ParameterIndex : int {
 };
 // clang-format on
 
-struct Filip2024ParameterInfo {
-    std::string_view name;  // as in messages: the paper's symbol in ASCII
-    std::string_view unit;
-    double default_value;
-    double min;  // inclusive
-    double max;  // inclusive
-};
+// The machine-readable table (common/parameter_spec.h): the fit's bounds, the constructor's
+// validation, the Python names.
+using Filip2024ParameterInfo = ParameterSpec;
+
+namespace filip2024_detail {
+constexpr ParameterSpec colour(std::string_view name, double value, std::string_view meaning) {
+    return {.name = name,
+            .unit = "1",
+            .default_value = value,
+            .min = 0.0,
+            .max = 10.0,
+            .meaning = meaning};
+}
+}  // namespace filip2024_detail
 
 // clang-format off
 inline constexpr std::array<Filip2024ParameterInfo, kFilip2024ParameterCount>
     kFilip2024ParameterTable = {{
-    //  name        unit    default                    min                      max
-    {"phi_a",     "rad",  std::numbers::pi / 2,      -std::numbers::pi,       std::numbers::pi},
-    {"C_b[R]",    "1",    0.155,                     0.0,                     10.0},
-    {"C_b[G]",    "1",    0.214,                     0.0,                     10.0},
-    {"C_b[B]",    "1",    0.290,                     0.0,                     10.0},
-    {"C_a[R]",    "1",    0.390,                     0.0,                     10.0},
-    {"C_a[G]",    "1",    0.384,                     0.0,                     10.0},
-    {"C_a[B]",    "1",    0.416,                     0.0,                     10.0},
-    {"C_s[R]",    "1",    0.206,                     0.0,                     10.0},
-    {"C_s[G]",    "1",    0.285,                     0.0,                     10.0},
-    {"C_s[B]",    "1",    0.387,                     0.0,                     10.0},
-    {"C_r[R]",    "1",    0.107,                     0.0,                     10.0},
-    {"C_r[G]",    "1",    0.277,                     0.0,                     10.0},
-    {"C_r[B]",    "1",    0.446,                     0.0,                     10.0},
-    {"alpha",     "1",    3.0,                       0.0,                     100.0},
-    {"beta",      "1",    12.0,                      0.0,                     50.0},
-    {"gamma",     "1",    4.0,                       0.0,                     50.0},
-    {"w",         "1",    0.95,                      0.0,                     2.0},
-    {"d_w",       "1",    0.40,                      0.001,                   1.0},
-    {"theta_max", "rad",  75.0 * std::numbers::pi / 180, std::numbers::pi / 180, std::numbers::pi / 2},
-    {"brdf_scale", "1/sr", 1.0 / std::numbers::pi,   1e-6,                    10.0},
+    {.name = "phi_a", .unit = "rad", .default_value = std::numbers::pi / 2,
+     .min = -std::numbers::pi, .max = std::numbers::pi, .meaning = "anisotropy direction U"},
+    filip2024_detail::colour("C_b[R]", 0.155, "background colour, red"),
+    filip2024_detail::colour("C_b[G]", 0.214, "background colour, green"),
+    filip2024_detail::colour("C_b[B]", 0.290, "background colour, blue"),
+    filip2024_detail::colour("C_a[R]", 0.390, "anisotropic highlight, red"),
+    filip2024_detail::colour("C_a[G]", 0.384, "anisotropic highlight, green"),
+    filip2024_detail::colour("C_a[B]", 0.416, "anisotropic highlight, blue"),
+    filip2024_detail::colour("C_s[R]", 0.206, "near-specular colour, red"),
+    filip2024_detail::colour("C_s[G]", 0.285, "near-specular colour, green"),
+    filip2024_detail::colour("C_s[B]", 0.387, "near-specular colour, blue"),
+    filip2024_detail::colour("C_r[R]", 0.107, "retro-reflective colour, red"),
+    filip2024_detail::colour("C_r[G]", 0.277, "retro-reflective colour, green"),
+    filip2024_detail::colour("C_r[B]", 0.446, "retro-reflective colour, blue"),
+    {.name = "alpha", .unit = "1", .default_value = 3.0, .min = 0.0, .max = 100.0,
+     .meaning = "specular highlight scale"},
+    {.name = "beta", .unit = "1", .default_value = 12.0, .min = 0.0, .max = 50.0,
+     .meaning = "the highlight's elevation exponent"},
+    {.name = "gamma", .unit = "1", .default_value = 4.0, .min = 0.0, .max = 50.0,
+     .meaning = "retro lobe sharpness"},
+    {.name = "w", .unit = "1", .default_value = 0.95, .min = 0.0, .max = 2.0,
+     .meaning = "mask centre, units of x"},
+    {.name = "d_w", .unit = "1", .default_value = 0.40, .min = 0.001, .max = 1.0,
+     .meaning = "mask half-width"},
+    {.name = "theta_max", .unit = "rad", .default_value = 75.0 * std::numbers::pi / 180,
+     .min = std::numbers::pi / 180, .max = std::numbers::pi / 2,
+     .meaning = "largest captured polar angle"},
+    {.name = "brdf_scale", .unit = "1/sr", .default_value = 1.0 / std::numbers::pi, .min = 1e-6,
+     .max = 10.0, .meaning = "Eq. 3 to BRDF"},
 }};
 // clang-format on
 

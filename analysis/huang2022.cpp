@@ -523,18 +523,12 @@ Huang2022Bsdf::Huang2022Bsdf(const Huang2022Params& p)
       sin_mu_(std::sin(p.mu)),
       keratin_(optics::keratin()),
       melanin_(optics::melanin()) {
-    require(std::isfinite(p.b) && p.b >= 1e-3 && p.b <= 1.0, kWhat, "b", p.b,
-            "a value in [1e-3, 1]");
-    require(std::isfinite(p.phi0) && std::isfinite(p.phi1) && p.phi1 > p.phi0 &&
-                p.phi1 - p.phi0 <= 2.0 * kPi,
-            kWhat, "phi1 - phi0", p.phi1 - p.phi0, "an arc with phi0 < phi1 <= phi0 + 2 pi (rad)");
-    require(std::isfinite(p.H) && p.H > 0.0, kWhat, "H", p.H, "a spacing > 0 (in semi-major axes)");
-    require(std::isfinite(p.d_um) && p.d_um >= 0.0 && p.d_um <= 50.0, kWhat, "d", p.d_um,
-            "a film thickness in [0, 50] um");
-    require(std::isfinite(p.theta_d) && p.theta_d > 0.0 && p.theta_d <= 0.25 * kPi, kWhat,
-            "theta_d", p.theta_d, "a half-opening in (0, pi/4] rad");
-    require(std::isfinite(p.mu) && std::abs(p.mu) < 0.5 * kPi, kWhat, "mu", p.mu,
-            "a tilt in (-pi/2, pi/2) rad");
+    // Each parameter's range is its table's (analysis/huang2022.h); the arc's is the pair's.
+    const double values[] = {p.b, p.phi0, p.phi1, p.H, p.d_um, p.theta_d, p.mu};
+    for (std::size_t i = 0; i < kHuang2022ParameterTable.size(); ++i)
+        kHuang2022ParameterTable[i].require(values[i], kWhat);
+    require(p.phi1 > p.phi0 && p.phi1 - p.phi0 <= 2.0 * kPi, kWhat, "phi1 - phi0", p.phi1 - p.phi0,
+            "an arc with phi0 < phi1 <= phi0 + 2 pi (rad)");
     static std::atomic<std::uint64_t> counter{0};
     generation_ = ++counter;
 }

@@ -84,21 +84,45 @@
 #include <cstdint>
 #include <functional>
 #include <memory>
+#include <numbers>
 #include <vector>
 
+#include "common/parameter_spec.h"
 #include "sim/optics/material.h"
 #include "sim/scatterer.h"
 
 namespace plumage::analysis {
 
+// The parameters' table (common/parameter_spec.h), in the order of Huang2022Params and of the
+// fit's vector (analysis/huang2022_fit.h, Huang2022ParameterIndex): the model's validation, the
+// fit's bounds, the ablation study's sweeps and the Python names take their ranges from here.
+// φ1 is further bound to φ0 < φ1 ≤ φ0 + 2π (an arc).
+// clang-format off
+inline constexpr std::array<ParameterSpec, 7> kHuang2022ParameterTable = {{
+    {.name = "b", .unit = "1", .default_value = 0.25, .min = 1e-3, .max = 1.0,
+     .meaning = "the cross-section's semi-minor over semi-major axis"},
+    {.name = "phi0", .unit = "rad", .default_value = -0.37, .meaning = "arc start, normal azimuth"},
+    {.name = "phi1", .unit = "rad", .default_value = 2.64, .meaning = "arc end, normal azimuth"},
+    {.name = "H", .unit = "1", .default_value = 1.25, .min = 0.0, .min_open = true,
+     .meaning = "a barbule spacing in semi-major axes"},
+    {.name = "d_um", .unit = "µm", .default_value = 0.59, .min = 0.0, .max = 50.0,
+     .meaning = "a keratin film thickness"},
+    {.name = "theta_d", .unit = "rad", .default_value = 0.0785, .min = 0.0,
+     .max = 0.25 * std::numbers::pi, .min_open = true, .meaning = "a longitudinal half-opening"},
+    {.name = "mu", .unit = "rad", .default_value = -0.35, .min = -0.5 * std::numbers::pi,
+     .max = 0.5 * std::numbers::pi, .min_open = true, .max_open = true,
+     .meaning = "a barb-plane tilt"},
+}};
+// clang-format on
+
 struct Huang2022Params {
-    double b = 0.25;
-    double phi0 = -0.37;
-    double phi1 = 2.64;
-    double H = 1.25;
-    double d_um = 0.59;
-    double theta_d = 0.0785;
-    double mu = -0.35;
+    double b = kHuang2022ParameterTable[0].default_value;
+    double phi0 = kHuang2022ParameterTable[1].default_value;
+    double phi1 = kHuang2022ParameterTable[2].default_value;
+    double H = kHuang2022ParameterTable[3].default_value;
+    double d_um = kHuang2022ParameterTable[4].default_value;
+    double theta_d = kHuang2022ParameterTable[5].default_value;
+    double mu = kHuang2022ParameterTable[6].default_value;
 };
 
 class Huang2022Bsdf final : public Scatterer {

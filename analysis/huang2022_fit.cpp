@@ -40,11 +40,15 @@ constexpr std::string_view kWhat = "Huang 2022 fit";
     throw InputError(std::string(kWhat) + ": " + what);
 }
 
-// Logistic ranges: b, d_um, θ_d, μ and the arc's width w = φ1 − φ0.
-constexpr BoundedRange kRangeB{1e-3, 1.0};
-constexpr BoundedRange kRangeD{0.0, 50.0};
-constexpr BoundedRange kRangeThetaD{0.0, 0.25 * kPi};
-constexpr BoundedRange kRangeMu{-0.5 * kPi, 0.5 * kPi};
+// Logistic ranges: b, d_um, θ_d, μ from the model's table (analysis/huang2022.h), and the arc's
+// width w = φ1 − φ0.
+constexpr BoundedRange range_of(int index) {
+    return {kHuang2022ParameterTable[index].min, kHuang2022ParameterTable[index].max};
+}
+constexpr BoundedRange kRangeB = range_of(kHuangB);
+constexpr BoundedRange kRangeD = range_of(kHuangD);
+constexpr BoundedRange kRangeThetaD = range_of(kHuangThetaD);
+constexpr BoundedRange kRangeMu = range_of(kHuangMu);
 constexpr BoundedRange kRangeWidth{0.0, 2.0 * kPi};
 
 // The logistic of bounded_parameters.h, kept kLogisticFloor from 0 and 1 (Filip's fit does

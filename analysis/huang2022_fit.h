@@ -119,8 +119,14 @@ enum Huang2022ParameterIndex : int {
 };
 inline constexpr int kHuang2022ParameterCount = 7;
 // Names as in Huang2022Params (and in HuangFitOptions::fixed), indexed by Huang2022ParameterIndex.
-inline constexpr std::array<std::string_view, kHuang2022ParameterCount> kHuang2022ParameterNames = {
-    "b", "phi0", "phi1", "H", "d_um", "theta_d", "mu"};
+inline constexpr std::array<std::string_view, kHuang2022ParameterCount> kHuang2022ParameterNames =
+    [] {
+        std::array<std::string_view, kHuang2022ParameterCount> names{};
+        for (int i = 0; i < kHuang2022ParameterCount; ++i)
+            names[i] = kHuang2022ParameterTable[i].name;  // analysis/huang2022.h
+        return names;
+    }();
+static_assert(kHuang2022ParameterTable.size() == kHuang2022ParameterCount);
 
 std::array<double, kHuang2022ParameterCount> huang2022_values(const Huang2022Params& p);
 Huang2022Params huang2022_params(const std::array<double, kHuang2022ParameterCount>& values);

@@ -160,10 +160,16 @@ py::object Model::eval(const Array& wi, const Array& wo, const Array& lambda_nm,
 
 const std::vector<Field<analysis::Huang2022Params>>& huang_fields() {
     using P = analysis::Huang2022Params;
-    static const std::vector<Field<P>> fields = {
-        scalar("b", &P::b),  scalar("phi0", &P::phi0), scalar("phi1", &P::phi1),
-        scalar("H", &P::H),  scalar("d_um", &P::d_um), scalar("theta_d", &P::theta_d),
-        scalar("mu", &P::mu)};
+    // The names are the model's table's (analysis/huang2022.h), in its order.
+    static const std::array<double P::*, 7> members = {&P::b,    &P::phi0,    &P::phi1, &P::H,
+                                                       &P::d_um, &P::theta_d, &P::mu};
+    static const std::vector<Field<P>> fields = [] {
+        std::vector<Field<P>> f;
+        for (std::size_t i = 0; i < members.size(); ++i)
+            f.push_back(
+                scalar(std::string(analysis::kHuang2022ParameterTable[i].name), members[i]));
+        return f;
+    }();
     return fields;
 }
 
@@ -265,6 +271,35 @@ Model make_lambertian(const py::dict& kwargs) {
 
 }  // namespace
 
+// A model's parameter table (common/parameter_spec.h) as a list of dicts, in the table's order:
+// the names the model's keyword arguments and the fits take, with unit, default and range.
+py::list parameter_table(const std::string& model) {
+    std::span<const ParameterSpec> table;
+    if (model == "huang2022") {
+        table = analysis::kHuang2022ParameterTable;
+    } else if (model == "filip2024") {
+        table = analysis::kFilip2024ParameterTable;
+    } else {
+        throw py::value_error(fmt::format(
+            "parameter_table: unknown model '{}': expected 'huang2022' or 'filip2024'", model));
+    }
+    py::list out;
+    for (const ParameterSpec& p : table) {
+        py::dict d;
+        d["name"] = std::string(p.name);
+        d["unit"] = std::string(p.unit);
+        d["default"] = p.default_value;
+        d["min"] = p.min;
+        d["max"] = p.max;
+        d["min_open"] = p.min_open;
+        d["max_open"] = p.max_open;
+        d["range"] = p.range_text();
+        d["meaning"] = std::string(p.meaning);
+        out.append(d);
+    }
+    return out;
+}
+
 void bind_models(py::module_& m) {
     py::class_<Model>(m, "Model")
         .def_property_readonly("name", &Model::name)
@@ -277,6 +312,7 @@ void bind_models(py::module_& m) {
     m.def("make_filip2024", &make_filip, py::arg("preset"), py::arg("kwargs"));
     m.def("make_padrongriffe2024", &make_padron);
     m.def("make_lambertian", &make_lambertian);
+    m.def("parameter_table", &parameter_table, py::arg("model"));
     m.def("filip2024_presets", [] {
         std::vector<std::string> names;
         for (const auto n : analysis::filip2024_preset_names()) names.emplace_back(n);

@@ -13,6 +13,7 @@
 #include <fmt/format.h>
 
 #include "analysis/huang2022.h"
+#include "analysis/huang2022_fit.h"
 #include "common/constants.h"
 #include "common/distributed.h"
 #include "common/error.h"
@@ -54,9 +55,21 @@ struct Parameter {
     std::function<void(BarbuleRowParams&, double)> set;
 };
 
+// A Huang parameter's range (analysis/huang2022.h's table), in the sweep's unit: `per_unit` of
+// the table's unit make one of the sweep's (kDeg for degrees), rounded to 1e-9 so that π/4
+// reads 45.
+Range huang_range(int index, double per_unit = 1.0) {
+    const ParameterSpec& p = analysis::kHuang2022ParameterTable[static_cast<std::size_t>(index)];
+    const auto in_unit = [&](double v) {
+        return std::isfinite(v) ? std::round(v / per_unit * 1e9) / 1e9 : v;
+    };
+    return {std::isfinite(p.min) ? in_unit(p.min) : -1e300,
+            std::isfinite(p.max) ? in_unit(p.max) : 1e300, p.min_open, p.max_open};
+}
+
 const std::vector<Parameter>& parameters() {
     static const std::vector<Parameter> list = {
-        {"b", "b", "semi-minor / semi-major axis", between(1e-3, 1.0), 0.19, 0.31,
+        {"b", "b", "semi-minor / semi-major axis", huang_range(analysis::kHuangB), 0.19, 0.31,
          [](const BarbuleRowParams& p) { return p.cell.b; },
          [](BarbuleRowParams& p, double v) { p.cell.b = v; }},
         {"phi0_deg", "φ0 (deg)", "arc start, normal azimuth, degrees", between(-360.0, 360.0),
@@ -65,27 +78,18 @@ const std::vector<Parameter>& parameters() {
         {"phi1_deg", "φ1 (deg)", "arc end, normal azimuth, degrees", between(-360.0, 360.0), 131.26,
          171.26, [](const BarbuleRowParams& p) { return p.cell.phi1 / kDeg; },
          [](BarbuleRowParams& p, double v) { p.cell.phi1 = v * kDeg; }},
-        {"H", "H", "barbule spacing, in semi-major axes", positive(), 0.95, 2.15,
-         [](const BarbuleRowParams& p) { return p.H; },
+        {"H", "H", "barbule spacing, in semi-major axes", huang_range(analysis::kHuangH), 0.95,
+         2.15, [](const BarbuleRowParams& p) { return p.H; },
          [](BarbuleRowParams& p, double v) { p.H = v; }},
         {"film_thickness_um", "d (µm)", "keratin film thickness, um", film_thickness_range(), 0.39,
          0.79, [](const BarbuleRowParams& p) { return p.cell.film_thickness_um; },
          [](BarbuleRowParams& p, double v) { p.cell.film_thickness_um = v; }},
-        {"theta_d_deg",
-         "θ_d (deg)",
-         "longitudinal half-opening, degrees (the model needs > 0)",
-         {0.0, 45.0, true, false},
-         0.5,
-         8.5,
+        {"theta_d_deg", "θ_d (deg)", "longitudinal half-opening, degrees (the model needs > 0)",
+         huang_range(analysis::kHuangThetaD, kDeg), 0.5, 8.5,
          [](const BarbuleRowParams& p) { return p.cell.theta_d / kDeg; },
          [](BarbuleRowParams& p, double v) { p.cell.theta_d = v * kDeg; }},
-        {"mu_deg",
-         "μ (deg)",
-         "barb-plane tilt, degrees",
-         {-90.0, 90.0, true, true},
-         -40.05,
-         -20.05,
-         [](const BarbuleRowParams& p) { return p.mu / kDeg; },
+        {"mu_deg", "μ (deg)", "barb-plane tilt, degrees", huang_range(analysis::kHuangMu, kDeg),
+         -40.05, -20.05, [](const BarbuleRowParams& p) { return p.mu / kDeg; },
          [](BarbuleRowParams& p, double v) { p.mu = v * kDeg; }},
     };
     return list;

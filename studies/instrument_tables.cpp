@@ -143,12 +143,12 @@ gonio::InstrumentValues read_instrument_table(ParameterTable& t, const gonio::In
     for (const gonio::InstrumentParameter& p : e.parameters) {
         const std::string what = fmt::format("{} ({})", p.meaning, p.unit);
         if (p.integer) {
-            values.set(p.key, static_cast<double>(t.integer(
-                                  p.key, static_cast<long>(p.default_value),
-                                  static_cast<long>(p.min), static_cast<long>(p.max), what)));
+            values.set(p.name, static_cast<double>(t.integer(
+                                   p.name, static_cast<long>(p.default_value),
+                                   static_cast<long>(p.min), static_cast<long>(p.max), what)));
         } else {
-            values.set(p.key, t.number(p.key, p.default_value,
-                                       {p.min, p.max, p.min_open, p.max_open}, what));
+            values.set(p.name, t.number(p.name, p.default_value,
+                                        {p.min, p.max, p.min_open, p.max_open}, what));
         }
     }
     try {

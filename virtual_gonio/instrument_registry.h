@@ -22,22 +22,13 @@
 #include <string_view>
 #include <vector>
 
+#include "common/parameter_spec.h"
 #include "sim/scatterer.h"
 
 namespace plumage::gonio {
 
-// One key of an instrument's table. Every key is a number with a default; `integer` keys take
-// whole numbers. The range is inclusive unless a bound is marked open.
-struct InstrumentParameter {
-    std::string_view key;
-    std::string_view unit;  // "1", "µm", "deg", "s"
-    double default_value = 0.0;
-    double min = -std::numeric_limits<double>::infinity();
-    double max = std::numeric_limits<double>::infinity();
-    bool min_open = false, max_open = false;
-    bool integer = false;
-    std::string_view meaning;
-};
+// One key of an instrument's table (common/parameter_spec.h): its name is the study file's key.
+using InstrumentParameter = ParameterSpec;
 
 // The values of an instrument's keys as read from a study file (defaults filled in), by key.
 class InstrumentValues {

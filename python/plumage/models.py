@@ -38,7 +38,7 @@ import numpy as np
 from . import _core
 
 __all__ = ["Huang2022", "Filip2024", "PadronGriffe2024", "Lambertian", "Model", "filip2024_presets",
-           "fit_huang2022", "huang2022_scatterogram", "fit_filip2024"]
+           "parameter_table", "fit_huang2022", "huang2022_scatterogram", "fit_filip2024"]
 
 # The part of every model's eval() docstring that does not depend on the model: {lobes} and
 # {below} are the model's own.
@@ -199,6 +199,13 @@ class Lambertian(Model):
 
     def __init__(self, **params):
         super().__init__(_core.make_lambertian(params))
+
+
+def parameter_table(model: str) -> list[dict]:
+    """The parameters of "huang2022" or "filip2024", in order: name (as the keyword arguments and
+    the fits take it), unit, default, min, max, min_open, max_open, range (as text) and meaning.
+    The C++ model validates against the same table, and the fits take their bounds from it."""
+    return _core.parameter_table(model)
 
 
 def filip2024_presets() -> list[str]:

@@ -197,7 +197,7 @@ def test_unknown_keyword_names_it_and_the_valid_ones():
 
 
 def test_invalid_values_raise_the_cpp_message():
-    with pytest.raises(ValueError, match=r"huang2022: b = 7: expected a value in \[1e-3, 1\]"):
+    with pytest.raises(ValueError, match=r"huang2022: b = 7: expected the cross-section.s semi-minor over semi-major axis in \[0.001, 1\]"):
         models.Huang2022(b=7)
     with pytest.raises(ValueError, match=r"lambertian: albedo = 1.5"):
         models.Lambertian(albedo=1.5)
@@ -231,3 +231,22 @@ def test_eval_releases_the_gil():
         time.sleep(0.005)
     worker.join()
     assert ticks >= 20  # eval takes ~1 s; with the GIL held this loop could not run at all
+
+
+def test_parameter_tables_are_the_models_own():
+    """The table the bindings list is the one the C++ model validates against: its names are
+    the model's parameters, its defaults the model's defaults, and a value outside its range is
+    refused naming that range."""
+    table = plumage.models.parameter_table("huang2022")
+    params = plumage.models.Huang2022().params
+    assert [p["name"] for p in table] == list(params)
+    for p in table:
+        assert p["default"] == pytest.approx(params[p["name"]], rel=0, abs=0)
+    mu = next(p for p in table if p["name"] == "mu")
+    assert mu["min_open"] and mu["max_open"] and mu["range"].startswith("(")
+    with pytest.raises(ValueError, match=r"huang2022: mu = 2 rad: expected a barb-plane tilt in \("):
+        plumage.models.Huang2022(mu=2.0)
+    filip = plumage.models.parameter_table("filip2024")
+    assert len(filip) == 20 and filip[0]["name"] == "phi_a"
+    with pytest.raises(ValueError, match="unknown model 'nope'"):
+        plumage.models.parameter_table("nope")

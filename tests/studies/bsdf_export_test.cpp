@@ -211,7 +211,7 @@ TEST(BsdfExport, RefusedFittedValuesNameTheFileAndDataset) {
     }
     const std::string huang_error = error(small((dir / "huang2022_fit.h5").string()));
     EXPECT_NE(huang_error.find("HDF5 file '" + (dir / "huang2022_fit.h5").string() +
-                               "': /fit/values: huang2022: d = 80"),
+                               "': /fit/values: huang2022: d_um = 80"),
               std::string::npos)
         << huang_error;
     analysis::Filip2024Parameters parrot = analysis::filip2024_preset("parrot");
