@@ -8,6 +8,7 @@
 
 #include <fmt/format.h>
 
+#include "analysis/colour_quadrature.h"
 #include "common/error.h"
 
 namespace plumage::analysis {
@@ -199,23 +200,18 @@ AvianQuadratureError avian_quadrature_error(
     const ConeCatches coarse_catches(system, grid), fine_catches(system, fine);
     const bool achromatic = coarse_catches.has_double_cone() && fine_catches.has_double_cone();
     std::vector<double> delta_s(spectra, -1.0), delta_l(spectra, 0.0);
-#pragma omp parallel
-    {
-        std::vector<double> coarse(grid.size()), dense(fine.size());
-#pragma omp for schedule(dynamic, 8)
-        for (std::size_t i = 0; i < spectra; ++i) {
-            for (std::size_t k = 0; k < grid.size(); ++k) coarse[k] = reflectance(i, grid[k]);
-            for (std::size_t k = 0; k < fine.size(); ++k) dense[k] = reflectance(i, fine[k]);
+    for_each_spectrum_on_two_grids(
+        spectra, grid, fine, reflectance,
+        [&](std::size_t i, std::span<const double> coarse, std::span<const double> dense) {
             const ConeVector qc = coarse_catches(coarse), qf = fine_catches(dense);
             bool positive = true;
             for (std::size_t c = 0; c < kAvianCones; ++c) positive &= qc[c] > 0.0 && qf[c] > 0.0;
             const double lc = achromatic ? coarse_catches.double_cone(coarse) : 1.0;
             const double lf = achromatic ? fine_catches.double_cone(dense) : 1.0;
-            if (!positive || !(lc > 0.0 && lf > 0.0)) continue;
+            if (!positive || !(lc > 0.0 && lf > 0.0)) return;
             delta_s[i] = rnl_delta_s(qc, qf, system);
             delta_l[i] = achromatic ? achromatic_contrast(lc, lf, system) : 0.0;
-        }
-    }
+        });
     AvianQuadratureError e;
     std::vector<double> s, l;
     for (std::size_t i = 0; i < spectra; ++i) {

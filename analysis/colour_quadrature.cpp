@@ -9,6 +9,23 @@
 
 namespace plumage::analysis {
 
+void for_each_spectrum_on_two_grids(std::size_t spectra, const optics::WavelengthGrid& grid,
+                                    const optics::WavelengthGrid& fine,
+                                    const std::function<double(std::size_t, double)>& reflectance,
+                                    const std::function<void(std::size_t, std::span<const double>,
+                                                             std::span<const double>)>& compare) {
+#pragma omp parallel
+    {
+        std::vector<double> coarse(grid.size()), dense(fine.size());
+#pragma omp for schedule(dynamic, 8)
+        for (std::size_t i = 0; i < spectra; ++i) {
+            for (std::size_t k = 0; k < grid.size(); ++k) coarse[k] = reflectance(i, grid[k]);
+            for (std::size_t k = 0; k < fine.size(); ++k) dense[k] = reflectance(i, fine[k]);
+            compare(i, coarse, dense);
+        }
+    }
+}
+
 ColourQuadratureError colour_quadrature_error(
     std::size_t spectra, const optics::WavelengthGrid& grid,
     const std::function<double(std::size_t, double)>& reflectance) {
@@ -23,18 +40,13 @@ ColourQuadratureError colour_quadrature_error(
     const optics::ReflectanceToXyz coarse_xyz(grid, optics::Illuminant::d65),
         fine_xyz(fine, optics::Illuminant::d65);
     std::vector<double> delta(spectra, 0.0);
-#pragma omp parallel
-    {
-        std::vector<double> coarse(grid.size()), dense(fine.size());
-#pragma omp for schedule(dynamic, 8)
-        for (std::size_t i = 0; i < spectra; ++i) {
-            for (std::size_t k = 0; k < grid.size(); ++k) coarse[k] = reflectance(i, grid[k]);
-            for (std::size_t k = 0; k < fine.size(); ++k) dense[k] = reflectance(i, fine[k]);
+    for_each_spectrum_on_two_grids(
+        spectra, grid, fine, reflectance,
+        [&](std::size_t i, std::span<const double> coarse, std::span<const double> dense) {
             delta[i] =
                 optics::ciede2000(optics::lab_from_xyz(fine_xyz(dense), fine_xyz.white()),
                                   optics::lab_from_xyz(coarse_xyz(coarse), coarse_xyz.white()));
-        }
-    }
+        });
     e.spectra = spectra;
     if (spectra == 0) return e;
     double total = 0.0;

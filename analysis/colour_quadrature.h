@@ -13,6 +13,7 @@
 
 #include <cstddef>
 #include <functional>
+#include <span>
 
 #include "sim/optics/spectrum.h"
 
@@ -23,6 +24,16 @@ struct ColourQuadratureError {
     std::size_t spectra = 0;
     double reference_step_nm = 1.0;
 };
+
+// The sampling both quadrature errors share (this one in colour, analysis/avian_compare.h's in a
+// bird's cone catches): for each spectrum i, in parallel over spectra (each thread its own
+// buffers), `compare(i, coarse, dense)` with reflectance(i, λ) on `grid` and on `fine`.
+// `compare` writes only what belongs to spectrum i.
+void for_each_spectrum_on_two_grids(std::size_t spectra, const optics::WavelengthGrid& grid,
+                                    const optics::WavelengthGrid& fine,
+                                    const std::function<double(std::size_t, double)>& reflectance,
+                                    const std::function<void(std::size_t, std::span<const double>,
+                                                             std::span<const double>)>& compare);
 
 // `reflectance(i, λ)` must be safe to call from several threads at once. Throws InputError
 // if the grid cannot carry colour (ReflectanceToXyz) or has fewer than two wavelengths.
