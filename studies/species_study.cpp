@@ -1032,6 +1032,11 @@ void check_patch_size(const SpeciesSpec& sp, const BuiltSpecies& b, const Settin
 
 // Every scene first: a geometry the study file gets wrong stops the run before anything is
 // written.
+// The stream of species i's spongy volume: the study's and the Python scene builder's the same.
+std::uint64_t spongy_volume_stream(const StudyContext& ctx, std::size_t species_index) {
+    return ctx.stream("species/spongy_volume", static_cast<std::uint64_t>(species_index));
+}
+
 std::vector<BuiltSpecies> build_all(const Settings& s, StudyContext& ctx) {
     StudyFile& file = ctx.file();
     const StudyProgress& clock = ctx.clock();
@@ -1041,9 +1046,7 @@ std::vector<BuiltSpecies> build_all(const Settings& s, StudyContext& ctx) {
         ParameterTable table = file.root().table("species").table(sp.name);
         const std::string where = fmt::format("{}: [species.{}]", table.location(), sp.name);
         built.push_back(build_species(
-            sp, s.tolerance, where,
-            ctx.stream("species/spongy_volume", static_cast<std::uint64_t>(built.size())),
-            s.traced_wavelengths));
+            sp, s.tolerance, where, spongy_volume_stream(ctx, built.size()), s.traced_wavelengths));
         check_patch_size(sp, built.back(), s,
                          table.has("patch") ? table.table("patch").location() : table.location());
     }
@@ -1584,9 +1587,10 @@ void check_species_study(const std::string& study_text, const fs::path& source_n
 SpeciesScene build_species_scene(const std::string& study_text, const fs::path& source_name,
                                  const std::string& species,
                                  const std::vector<double>& extra_wavelengths_nm) {
-    auto file = StudyFile::parse(study_text, source_name);
+    StudyContext ctx(study_text, source_name);  // nothing is written: no begin()
+    StudyFile* file = &ctx.file();
     std::string name;
-    Settings s = read_settings(*file, name, source_name);
+    Settings s = read_settings(ctx.file(), name, source_name);
     std::vector<double> wavelengths = s.traced_wavelengths;
     wavelengths.insert(wavelengths.end(), extra_wavelengths_nm.begin(), extra_wavelengths_nm.end());
     std::sort(wavelengths.begin(), wavelengths.end());
@@ -1600,10 +1604,8 @@ SpeciesScene build_species_scene(const std::string& study_text, const fs::path& 
             require_fine_voxels(m, "spongy_voxel_um", sp.medulla.structure.voxel_um, wavelengths);
         }
         const std::string where = fmt::format("{}: [species.{}]", source_name.string(), sp.name);
-        BuiltSpecies b = build_species(
-            sp, s.tolerance, where,
-            derive_seed(s.seed, "species/spongy_volume", static_cast<std::uint64_t>(i)),
-            wavelengths);
+        BuiltSpecies b =
+            build_species(sp, s.tolerance, where, spongy_volume_stream(ctx, i), wavelengths);
         SpeciesScene out;
         out.scene = std::move(b.scene);
         out.cell_x_um = sp.patch.barbule_pitch_um();
