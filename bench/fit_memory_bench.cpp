@@ -19,9 +19,9 @@
 #include <benchmark/benchmark.h>
 #include <fmt/format.h>
 
-#include "analysis/filip2024.h"
-#include "analysis/filip2024_fit.h"
-#include "analysis/user_data.h"
+#include "analysis/fits/filip2024_fit.h"
+#include "analysis/fits/user_data.h"
+#include "analysis/models/filip2024.h"
 #include "common/constants.h"
 #include "sim/random.h"
 #include "studies/fit_command.h"

@@ -14,8 +14,8 @@
 #include <benchmark/benchmark.h>
 #include <fmt/format.h>
 
-#include "analysis/huang2022.h"
-#include "analysis/lambertian.h"
+#include "analysis/models/huang2022.h"
+#include "analysis/models/lambertian.h"
 #include "common/constants.h"
 #include "geometry/barbule.h"
 #include "sim/tracer.h"

@@ -7,12 +7,12 @@
 
 #include <benchmark/benchmark.h>
 
-#include "analysis/huang2022.h"
-#include "analysis/huang2022_fit.h"
+#include "analysis/fits/huang2022_fit.h"
+#include "analysis/models/huang2022.h"
 
-#include "analysis/fibre_baseline.h"
-#include "analysis/filip2024.h"
-#include "analysis/padrongriffe2024.h"
+#include "analysis/models/fibre_baseline.h"
+#include "analysis/models/filip2024.h"
+#include "analysis/models/padrongriffe2024.h"
 #include "common/constants.h"
 #include "sim/random.h"
 

@@ -18,9 +18,9 @@
 #include <benchmark/benchmark.h>
 #include <omp.h>
 
-#include "analysis/filip2024.h"
-#include "analysis/filip2024_fit.h"
-#include "analysis/huang2022.h"
+#include "analysis/fits/filip2024_fit.h"
+#include "analysis/models/filip2024.h"
+#include "analysis/models/huang2022.h"
 #include "common/constants.h"
 #include "sim/random.h"
 #include "virtual_gonio/goniometer.h"

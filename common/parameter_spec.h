@@ -1,9 +1,9 @@
 // One parameter of a model or an instrument, as its table next to its type states it: the name
 // users write (study keys, fit names, Python), the unit, the default, the range and the meaning.
-// The tables (analysis/filip2024.h, analysis/huang2022.h, virtual_gonio/instrument_registry.h's
-// instruments) are arrays of these, and every rule that needs a parameter's range takes it from
-// there: the model's own validation, the fits' bounds, the studies' readers and sweeps, the
-// Python bindings. A quantity's range is then written once.
+// The tables (analysis/models/filip2024.h, analysis/models/huang2022.h,
+// virtual_gonio/instrument_registry.h's instruments) are arrays of these, and every rule that needs
+// a parameter's range takes it from there: the model's own validation, the fits' bounds, the
+// studies' readers and sweeps, the Python bindings. A quantity's range is then written once.
 #pragma once
 
 #include <limits>

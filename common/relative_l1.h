@@ -1,5 +1,5 @@
 // Relative L1, the one rule every comparison in the suite uses (studies' reports, the validity
-// map, the full-wave judge, the .bsdf interpolation check, analysis/compare.h):
+// map, the full-wave judge, the .bsdf interpolation check, analysis/metrics/compare.h):
 //     Σ w |a − b| / Σ w |b|      (b the reference, w >= 0 a weight: solid angle, cos θ, or 1)
 // accumulated term by term in the caller's order (so a sum is the same for any thread count when
 // the caller's order is). When the reference sums to zero: 0 if a equals it everywhere, else +∞

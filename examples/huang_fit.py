@@ -42,7 +42,7 @@ published = plumage.models.Huang2022()
 print("published:", published.params)
 model_image = plumage.models.huang2022_scatterogram(published, rec)
 
-# %% Fit Huang's parameters to the simulation (C++ Levenberg–Marquardt, analysis/huang2022_fit.h)
+# %% Fit Huang's parameters to the simulation (C++ Levenberg–Marquardt, analysis/fits/huang2022_fit.h)
 # Start from a film 7 % too thin; the arc's ends (phi0, phi1) are hidden under the neighbouring
 # barbules at these parameters, so they cannot be fitted and are held.
 start = dict(published.params, d_um=0.55)

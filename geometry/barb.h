@@ -3,7 +3,7 @@
 // Padrón-Griffe et al. 2024 meaning what the authors' code means (their public code,
 // juanraul8/PennaceousFeathersRendering: masking/feather-base.h FeatherBase, masking/barbs.h
 // Barbs::masking, masking/barbules.h Barbules::masking; the poster has no equations). Every
-// reading is listed in analysis/padrongriffe2024_masking.h; the mapping from this suite's
+// reading is listed in analysis/models/padrongriffe2024_masking.h; the mapping from this suite's
 // earlier meanings is in studies/README.md ("Padrón-Griffe parameters").
 //
 // Patch frame (sim/scatterer.h): patch normal +z, barb axis +x, barbs repeat along y. A barb's

@@ -1,4 +1,4 @@
-// plumage._core's Huang fit: analysis/huang2022_fit.h on a scatterogram given as numpy arrays
+// plumage._core's Huang fit: analysis/fits/huang2022_fit.h on a scatterogram given as numpy arrays
 // (python/plumage/models.py takes them from a record). The fit runs without the GIL, with its own
 // OpenMP loop over pixels (`threads`; its result does not depend on the count).
 #include <algorithm>
@@ -11,11 +11,11 @@
 #include <pybind11/eigen.h>
 #include <pybind11/stl.h>
 
-#include "analysis/filip2024.h"
-#include "analysis/filip2024_fit.h"
-#include "analysis/fit_summary.h"
-#include "analysis/huang2022_fit.h"
-#include "analysis/user_data.h"
+#include "analysis/fits/filip2024_fit.h"
+#include "analysis/fits/fit_summary.h"
+#include "analysis/fits/huang2022_fit.h"
+#include "analysis/fits/user_data.h"
+#include "analysis/models/filip2024.h"
 #include "common/error.h"
 #include "python/binding_util.h"
 
@@ -136,7 +136,7 @@ py::dict fit(const std::string& illumination, const Array& beam_direction, doubl
     d["iterations"] = r.iterations;
     d["function_evaluations"] = r.function_evaluations;
     d["wall_time_s"] = r.wall_time_s;
-    // The documented JSON of `plumage fit` (analysis/fit_summary.h, docs/user_data.md).
+    // The documented JSON of `plumage fit` (analysis/fits/fit_summary.h, docs/user_data.md).
     d["json"] = analysis::summarise_fit(r, options,
                                         {data_file.empty() ? "numpy arrays" : data_file,
                                          data_file.empty() ? "arrays" : "scatterogram_record",

@@ -13,10 +13,10 @@
 #include <fmt/format.h>
 #include <pybind11/stl.h>
 
-#include "analysis/filip2024.h"
-#include "analysis/huang2022.h"
-#include "analysis/lambertian.h"
-#include "analysis/padrongriffe2024.h"
+#include "analysis/models/filip2024.h"
+#include "analysis/models/huang2022.h"
+#include "analysis/models/lambertian.h"
+#include "analysis/models/padrongriffe2024.h"
 #include "common/error.h"
 #include "python/binding_util.h"
 
@@ -160,7 +160,7 @@ py::object Model::eval(const Array& wi, const Array& wo, const Array& lambda_nm,
 
 const std::vector<Field<analysis::Huang2022Params>>& huang_fields() {
     using P = analysis::Huang2022Params;
-    // The names are the model's table's (analysis/huang2022.h), in its order.
+    // The names are the model's table's (analysis/models/huang2022.h), in its order.
     static const std::array<double P::*, 7> members = {&P::b,    &P::phi0,    &P::phi1, &P::H,
                                                        &P::d_um, &P::theta_d, &P::mu};
     static const std::vector<Field<P>> fields = [] {

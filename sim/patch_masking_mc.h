@@ -2,9 +2,9 @@
 // (geometry::build_barbule_patch: barbs as tubes, barbules as separate instanced fibres with real
 // gaps between them), by exact first-hit ray casting with Embree (sim/scene.h Scene::intersect
 // on barbule_patch_scene). It is the reference for the analytic masking term of Padrón-Griffe et
-// al. 2024 (analysis/padrongriffe2024_masking.h, BarbuleStrips::kFibreThickness) in 3D: the term
-// treats each barbule row as a strip of the cross-section with a transmittance computed from the
-// 3D direction; here light passes (or not) between the actual fibres. Used by
+// al. 2024 (analysis/models/padrongriffe2024_masking.h, BarbuleStrips::kFibreThickness) in 3D: the
+// term treats each barbule row as a strip of the cross-section with a transmittance computed from
+// the 3D direction; here light passes (or not) between the actual fibres. Used by
 // tests/sim/patch_masking_mc_test.cpp and the masking study (studies/masking_study.h).
 //
 // Frame (the patch frame, sim/scatterer.h and geometry/barb.h): patch normal +z, barb axis +x,
@@ -28,8 +28,8 @@
 //
 // Errors: the binomial standard error sqrt(max(p̂ (1 − p̂), 1/N) / N) of N independent rays, an
 // upper bound for the stratified estimator (only cells holding a boundary vary), as
-// analysis/cross_section_masking_mc.h. It does not cover what is fixed by the built patch: the
-// barbule rows' phases along x (build_barbule_patch draws one per row from a fixed stream) — a
+// analysis/models/cross_section_masking_mc.h. It does not cover what is fixed by the built patch:
+// the barbule rows' phases along x (build_barbule_patch draws one per row from a fixed stream) — a
 // ray crossing two rows passes both with a probability that depends on their relative phase,
 // which the analytic term takes as independent — and the tessellation of barbs and fibres
 // (chord error, about 10⁻³ µm by default: relative effect ~10⁻⁵).
@@ -107,7 +107,7 @@ public:
     // along −direction (unit, ω_z ≠ 0).
     PatchFirstHit first_hit(double x_um, double y_um, const Vec3d& direction) const;
 
-    // What the analytic term's strip picture (analysis/padrongriffe2024_masking.h,
+    // What the analytic term's strip picture (analysis/models/padrongriffe2024_masking.h,
     // BarbuleStrips::kFibreThickness) may differ from this patch by, per component, beyond
     // sampling: [2h (0.25 + 0.4 |tan θ_p|) + (c + t) / 2] / P, 2h = barbule_axis_ratio ×
     // barbule_width (the fibre thickness), c = the roots' clearance from the cortex, t = how much

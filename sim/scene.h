@@ -24,7 +24,7 @@
 //  | DielectricInterface | bare interface outside|inside: Fresnel, refraction, TIR         |
 //  | DiffuseLayer        | Lambertian reflector with an albedo spectrum in [0, 1], either  |
 //  |                     | side (melanin granules: albedo = normal-incidence Fresnel       |
-//  |                     | reflectance air → melanin, as analysis/huang2022.h)             |
+//  |                     | reflectance air → melanin, as analysis/models/huang2022.h)             |
 //  | Absorber            | opaque black                                                    |
 //
 // Parameter ranges (InputError names the unit, the surface and the value): film thickness
@@ -105,7 +105,7 @@ namespace plumage::sim {
 using AlbedoSpectrum = std::function<double(double lambda_nm)>;
 AlbedoSpectrum constant_albedo(double albedo);  // InputError outside [0, 1]
 // Normal-incidence unpolarised Fresnel reflectance air → melanin (sim/optics/material.h),
-// ≈ 0.07 across the visible: Huang 2022's melanin layer as analysis/huang2022.h models it.
+// ≈ 0.07 across the visible: Huang 2022's melanin layer as analysis/models/huang2022.h models it.
 AlbedoSpectrum melanin_albedo();
 
 struct ThinFilmInterface {

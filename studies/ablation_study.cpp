@@ -12,8 +12,8 @@
 
 #include <fmt/format.h>
 
-#include "analysis/huang2022.h"
-#include "analysis/huang2022_fit.h"
+#include "analysis/fits/huang2022_fit.h"
+#include "analysis/models/huang2022.h"
 #include "common/constants.h"
 #include "common/distributed.h"
 #include "common/error.h"
@@ -55,8 +55,8 @@ struct Parameter {
     std::function<void(BarbuleRowParams&, double)> set;
 };
 
-// A Huang parameter's range (analysis/huang2022.h's table), in the sweep's unit: `per_unit` of
-// the table's unit make one of the sweep's (kDeg for degrees), rounded to 1e-9 so that π/4
+// A Huang parameter's range (analysis/models/huang2022.h's table), in the sweep's unit: `per_unit`
+// of the table's unit make one of the sweep's (kDeg for degrees), rounded to 1e-9 so that π/4
 // reads 45.
 Range huang_range(int index, double per_unit = 1.0) {
     const ParameterSpec& p = analysis::kHuang2022ParameterTable[static_cast<std::size_t>(index)];

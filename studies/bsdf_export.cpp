@@ -15,10 +15,10 @@
 #include <fmt/format.h>
 #include <fmt/ranges.h>
 
-#include "analysis/energy.h"
-#include "analysis/filip2024.h"
-#include "analysis/huang2022.h"
-#include "analysis/huang2022_fit.h"
+#include "analysis/fits/huang2022_fit.h"
+#include "analysis/metrics/energy.h"
+#include "analysis/models/filip2024.h"
+#include "analysis/models/huang2022.h"
 #include "common/constants.h"
 #include "common/error.h"
 #include "common/interrupt.h"
@@ -57,7 +57,7 @@ struct Export {
 std::function<double(const Vec3d&)> huang_ndf(const analysis::Huang2022Bsdf& model) {
     const double cos_mu = std::cos(model.params().mu), sin_mu = std::sin(model.params().mu);
     return [&model, cos_mu, sin_mu](const Vec3d& m) {
-        // patch = R_y(μ) · barbule (analysis/huang2022.h); barbule ω = (sin φ cos θ, sin θ,
+        // patch = R_y(μ) · barbule (analysis/models/huang2022.h); barbule ω = (sin φ cos θ, sin θ,
         // cos φ cos θ).
         const Vec3d b(m.x() * cos_mu - m.z() * sin_mu, m.y(), m.x() * sin_mu + m.z() * cos_mu);
         return model.ndf(std::atan2(b.x(), b.z()), std::asin(std::clamp(b.y(), -1.0, 1.0)));

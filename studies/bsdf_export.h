@@ -45,9 +45,9 @@ struct BsdfExportOptions {
     // Each file is read back and compared with its model at this many seeded random pairs
     // (θ ≤ 75°, kCheckSeed): median, 95th percentile and Σ f cos θ-weighted error printed.
     int check_pairs = 3000;
-    // The energy check: each model's directional albedo (analysis/energy.h) at 21 directions
-    // θ_i ≤ 75° and up to 3 of the wavelengths, by quadrature over this many polar cells per
-    // hemisphere (its cost: 2 × 2n² × 9 evaluations per direction and wavelength).
+    // The energy check: each model's directional albedo (analysis/metrics/energy.h) at 21
+    // directions θ_i ≤ 75° and up to 3 of the wavelengths, by quadrature over this many polar cells
+    // per hemisphere (its cost: 2 × 2n² × 9 evaluations per direction and wavelength).
     int albedo_polar_cells = 16;
     bool progress = true;  // progress lines on stderr, "plumage: [  12.3 s] what"
 };
@@ -75,7 +75,7 @@ struct BsdfFileReport {
     double tabulate_seconds = 0.0;
     std::uintmax_t bytes = 0;
     gonio::InterpolationError error;  // read back against the model
-    // Directional albedo (reflection and transmission, analysis/energy.h) at 21 directions
+    // Directional albedo (reflection and transmission, analysis/metrics/energy.h) at 21 directions
     // θ_i ≤ 75°, the largest over the checked wavelengths; directions above 1 beyond the
     // quadrature's error.
     double max_albedo = 0.0;

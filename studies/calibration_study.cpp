@@ -25,8 +25,8 @@
 
 #include <fmt/format.h>
 
-#include "analysis/lambertian.h"
-#include "analysis/statistics.h"
+#include "analysis/metrics/statistics.h"
+#include "analysis/models/lambertian.h"
 #include "common/version.h"
 #include "sim/random.h"
 #include "studies/instrument_tables.h"

@@ -12,10 +12,10 @@
 
 #include <fmt/format.h>
 
-#include "analysis/energy.h"
-#include "analysis/filip2024.h"
-#include "analysis/huang2022.h"
-#include "analysis/lambertian.h"
+#include "analysis/metrics/energy.h"
+#include "analysis/models/filip2024.h"
+#include "analysis/models/huang2022.h"
+#include "analysis/models/lambertian.h"
 #include "common/constants.h"
 #include "common/error.h"
 #include "common/seed.h"
@@ -82,7 +82,7 @@ Settings read_settings(StudyFile& file, std::string& name, const fs::path& sourc
                            "polar rings of the eval()/pdf() check grid per hemisphere"));
     s.albedo_polar_cells = static_cast<int>(
         evaluation.integer("albedo_polar_cells", s.albedo_polar_cells, 2, 256,
-                           "polar cells of the albedo quadrature (analysis/energy.h)"));
+                           "polar cells of the albedo quadrature (analysis/metrics/energy.h)"));
     ParameterTable tracer = root.table("tracer");
     s.barbules = static_cast<int>(
         tracer.integer("barbules", s.barbules, 1, 10000, "barbules in each explicit row"));
@@ -306,7 +306,8 @@ std::string method_section(const Settings& s) {
         "standard "
         "error σ. Scatterers that evaluate f: eval() per lobe and pdf() on {} × {} directions per "
         "hemisphere plus the mirror, retro, straight-through, normal and horizon directions, every "
-        "value checked; energy by quadrature = directional albedo (analysis/energy.h, {} polar "
+        "value checked; energy by quadrature = directional albedo (analysis/metrics/energy.h, {} "
+        "polar "
         "cells) "
         "plus the Huang model's discrete T lobe, ± the quadrature's error estimate (the change "
         "from "
@@ -780,7 +781,8 @@ std::string summary_section(const ExtremesResult& result) {
                numerical, energy) +
            "**Energy > 1 by construction of the published parameters** (the model's, not a "
            "numerical failure; "
-           "analysis/filip2024.h explains why: the Filip 2024 BRDF has no energy normalisation, "
+           "analysis/models/filip2024.h explains why: the Filip 2024 BRDF has no energy "
+           "normalisation, "
            "and the "
            "flamingo and stork presets add a retro-reflective term the size of the background, the "
            "rooster's "

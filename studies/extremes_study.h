@@ -19,10 +19,10 @@
 //  - evaluate (scatterers that can): eval() per lobe and pdf() on a direction grid over
 //    both hemispheres plus the mirror, retro, straight-through and horizon directions,
 //    every value checked (finite, >= 0); the directional albedo by quadrature
-//    (analysis/energy.h) plus any discrete lobe (Huang's T) as a second energy estimate.
+//    (analysis/metrics/energy.h) plus any discrete lobe (Huang's T) as a second energy estimate.
 // Energy > 1 counts when it exceeds 1 by more than 4 standard errors (sampling) or the
 // quadrature error estimate (evaluation). Filip 2024's published presets exceed 1 by
-// construction (analysis/filip2024.h: flamingo and stork at moderate incidence, rooster
+// construction (analysis/models/filip2024.h: flamingo and stork at moderate incidence, rooster
 // at grazing light): those are listed apart, as the model's, not as numerical failures.
 // A parameter set that a scatterer or the geometry refuses (InputError) is listed as
 // rejected, with the reason; any other exception is a numerical failure.

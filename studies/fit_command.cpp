@@ -10,10 +10,10 @@
 
 #include <fmt/format.h>
 
-#include "analysis/filip2024.h"
-#include "analysis/filip2024_fit.h"
-#include "analysis/huang2022_fit.h"
-#include "analysis/user_data.h"
+#include "analysis/fits/filip2024_fit.h"
+#include "analysis/fits/huang2022_fit.h"
+#include "analysis/fits/user_data.h"
+#include "analysis/models/filip2024.h"
 #include "common/constants.h"
 #include "common/error.h"
 #include "common/interrupt.h"
@@ -337,7 +337,7 @@ Fitted fit_huang(const FitCommand& c) {
         m.panel_titles.push_back(fmt::format("{:g} nm", lambda));
         for (std::size_t p = 0; p < data.pixels(); ++p) {
             const double d = data.intensity[p * nl + l], se = data.standard_error[p * nl + l];
-            // The fit's observations (analysis/huang2022_fit.h): signal, and σ with the floor.
+            // The fit's observations (analysis/fits/huang2022_fit.h): signal, and σ with the floor.
             const bool signal = d > 0.0 && se <= options.max_relative_error * d;
             const bool used = data.solid_angle_sr[p] > 0.0 &&
                               (signal || (options.every_pixel_with_sigma && se > 0.0));
@@ -382,7 +382,7 @@ void write_report(const fs::path& path, const FitCommand& c, const Fitted& f) {
         md << fmt::format("No warnings ({} Levenberg–Marquardt runs from different starts).\n\n",
                           s.local_fits);
     } else {
-        md << "**Warnings** (analysis/fit_summary.h):\n\n";
+        md << "**Warnings** (analysis/fits/fit_summary.h):\n\n";
         for (const std::string& w : s.warnings) md << "- **" << w << "**\n";
         md << "\n";
     }

@@ -1,8 +1,8 @@
 // `plumage fit --model huang2022|filip2024 DATA`: a model fitted to the user's measured data
-// (layouts: analysis/user_data.h, docs/user_data.md), written into <results root>/<name>/
+// (layouts: analysis/fits/user_data.h, docs/user_data.md), written into <results root>/<name>/
 // (staged, replaced atomically like a study's folder):
 //   parameters.json   the fitted parameters with σ, units, ranges; fit quality; provenance
-//                     (analysis/fit_summary.h; documented in docs/user_data.md)
+//                     (analysis/fits/fit_summary.h; documented in docs/user_data.md)
 //   residuals.h5      the residual map's data: (model − data)/σ per panel, with the axes
 //   residuals.png     the map (plots.py `fit_residuals`), one panel per wavelength
 //   residuals.csv     filip2024: every observation with its model value, σ and residual
@@ -13,9 +13,9 @@
 // no seed, nothing to measure or resume, so a study file would only restate the command line.
 //
 // huang2022 fits a scatterogram (an imaging-scatterometer record): its forward model is the
-// pixel's integral over the R band's hard edges (analysis/huang2022_fit.h); point BRDF samples of
-// Huang's R lobe are a box in the parameters and are refused with that reason. filip2024 fits BRDF
-// data: a CSV table or a goniometer record.
+// pixel's integral over the R band's hard edges (analysis/fits/huang2022_fit.h); point BRDF samples
+// of Huang's R lobe are a box in the parameters and are refused with that reason. filip2024 fits
+// BRDF data: a CSV table or a goniometer record.
 #pragma once
 
 #include <filesystem>
@@ -23,7 +23,7 @@
 #include <string>
 #include <vector>
 
-#include "analysis/fit_summary.h"
+#include "analysis/fits/fit_summary.h"
 
 namespace plumage::studies {
 

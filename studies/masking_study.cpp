@@ -15,9 +15,9 @@
 
 #include <fmt/format.h>
 
-#include "analysis/cross_section_masking_mc.h"
-#include "analysis/padrongriffe2024_masking.h"
-#include "analysis/statistics.h"
+#include "analysis/metrics/statistics.h"
+#include "analysis/models/cross_section_masking_mc.h"
+#include "analysis/models/padrongriffe2024_masking.h"
 #include "common/constants.h"
 #include "common/error.h"
 #include "common/interrupt.h"
@@ -660,7 +660,8 @@ std::string parameter_line(const geometry::BarbulePatchParams& q) {
 void write_changes_section(std::ofstream& md) {
     md << "## What changed in the parameters\n\n"
        << "The Padrón-Griffe parameters now mean what the authors' code means "
-          "(juanraul8/PennaceousFeathersRendering, masking/; analysis/padrongriffe2024_masking.h "
+          "(juanraul8/PennaceousFeathersRendering, masking/; "
+          "analysis/models/padrongriffe2024_masking.h "
           "lists each reading): `barb_axis_ratio` is the barb's height/width (their barb "
           "\"excentricity\"), `barbule_length` counts half barb widths and sets the period w (1 + "
           "L cos i), `barbule_separation` is the gap between barbule fibres in barbule widths, "
@@ -761,10 +762,11 @@ void write_method_section(std::ofstream& md, const MaskingStudyResult& result, c
               "as **barbule** (distal + proximal) and as **gap** (light passes between the "
               "structures). *Analytic*: PadronGriffe2024Masking(params, kFibreThickness)"
               ".fractions(θ, opaque rows) (the exact upper envelope of the shapes' images, "
-              "analysis/padrongriffe2024_masking.h; barbule strips as thick as the fibre and "
+              "analysis/models/padrongriffe2024_masking.h; barbule strips as thick as the fibre "
+              "and "
               "opaque, as the section's polygons). *MC*: {} "
               "stratified parallel rays over one period (one uniformly placed ray in each of {} "
-              "equal slices; analysis/cross_section_masking_mc.h) against the polygons of "
+              "equal slices; analysis/models/cross_section_masking_mc.h) against the polygons of "
               "geometry::build_patch_cross_section (tessellated to {} µm chord and {:.3g}° normal "
               "error), tiled with the period; each ray counts for the polygon it meets first. "
               "Angles: {} from {}° to {}°; seed {}, one random stream per configuration and "

@@ -1,9 +1,10 @@
 // The masking study (`study = "masking"`): the analytic barb/barbule masking term of
-// Padrón-Griffe et al. 2024 (analysis/padrongriffe2024_masking.h: which fraction of a vane's
+// Padrón-Griffe et al. 2024 (analysis/models/padrongriffe2024_masking.h: which fraction of a vane's
 // projected area a direction sees first as barb, as barbule, and as nothing) against Monte Carlo
 // ray casting on the explicit 2D cross-section polygons of the same patch
-// (geometry::build_patch_cross_section; analysis/cross_section_masking_mc.h) — the validation the
-// paper reports ("validated against Monte Carlo simulations on explicit 2D geometry").
+// (geometry::build_patch_cross_section; analysis/models/cross_section_masking_mc.h) — the
+// validation the paper reports ("validated against Monte Carlo simulations on explicit 2D
+// geometry").
 //
 // For every named patch configuration of the study file and every in-plane view angle θ (from +z
 // towards +y, in the y–z plane across the barbs): the analytic fractions, the Monte Carlo

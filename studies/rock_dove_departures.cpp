@@ -7,7 +7,7 @@
 
 #include <fmt/format.h>
 
-#include "analysis/huang2022_trt_exit.h"
+#include "analysis/models/huang2022_trt_exit.h"
 #include "common/constants.h"
 #include "common/seed.h"
 #include "sim/tracer.h"
@@ -372,7 +372,7 @@ std::string trt_markdown(const TrtDepartures& t) {
         "lit facet with the same radiance towards every view the facet faces; the "
         "simulated melanin is a Lambertian sheet under the curved film, whose facets a "
         "view sees foreshortened by ⟨ω_o, ω_m⟩/cos θ_o and hidden where a neighbouring "
-        "barbule stands in front (analysis/huang2022_trt_exit.h). Simulated TRT against "
+        "barbule stands in front (analysis/models/huang2022_trt_exit.h). Simulated TRT against "
         "the model with each exit law, summed over the BRDF's cells (step *departures: "
         "TRT exit law*, {:.1f} s; the law's ratio to the model's at each cell's central "
         "directions):\n\n"

@@ -6,8 +6,8 @@
 //    same pairs with the tracer stopped after two events (what two film reflections on
 //    neighbouring barbules give); and R alone on short cells, where Eq. 7 holds exactly.
 //  - TRT: the study's BRDF records against the model's TRT with the exit law of a Lambertian
-//    layer under a curved film (analysis/huang2022_trt_exit.h): foreshortened and masked by the
-//    neighbours, as the simulated melanin sheet lets its light out.
+//    layer under a curved film (analysis/models/huang2022_trt_exit.h): foreshortened and masked by
+//    the neighbours, as the simulated melanin sheet lets its light out.
 // The physics is in sim/ (the tracer and its event limit), geometry/ (the cells) and analysis/
 // (the model and its exit law); this file chooses the cells, runs them and writes the numbers.
 #pragma once
@@ -16,7 +16,7 @@
 #include <string>
 #include <vector>
 
-#include "analysis/huang2022.h"
+#include "analysis/models/huang2022.h"
 #include "common/interrupt.h"
 #include "geometry/barbule.h"
 #include "virtual_gonio/goniometer.h"

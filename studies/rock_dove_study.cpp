@@ -11,14 +11,14 @@
 #include <fmt/format.h>
 #include <fmt/ranges.h>
 
-#include "analysis/avian_compare.h"
-#include "analysis/colour_quadrature.h"
-#include "analysis/compare.h"
-#include "analysis/convergence.h"
-#include "analysis/fit_summary.h"
-#include "analysis/huang2022.h"
-#include "analysis/huang2022_fit.h"
-#include "analysis/statistics.h"
+#include "analysis/fits/fit_summary.h"
+#include "analysis/fits/huang2022_fit.h"
+#include "analysis/metrics/avian_compare.h"
+#include "analysis/metrics/colour_quadrature.h"
+#include "analysis/metrics/compare.h"
+#include "analysis/metrics/convergence.h"
+#include "analysis/metrics/statistics.h"
+#include "analysis/models/huang2022.h"
 #include "common/constants.h"
 #include "common/error.h"
 #include "common/seed.h"
@@ -111,7 +111,7 @@ struct Settings {
     int convergence_passes = 8;
     std::uint64_t convergence_quanta = 20000;
     int convergence_reference_rings = 48;
-    // Huang's parameters fitted to a simulated beam scatterogram (analysis/huang2022_fit.h)
+    // Huang's parameters fitted to a simulated beam scatterogram (analysis/fits/huang2022_fit.h)
     bool fit = true;
     double fit_incidence = 20.0 * kDeg, fit_azimuth = 180.0 * kDeg;
     int fit_image_size = 41;
@@ -581,7 +581,7 @@ std::string avian_quadrature(const Built& b, const Brdfs& m) {
     const analysis::Huang2022Bsdf& model = *b.model;
     std::string md = fmt::format(
         "\nThe grid's own error: the model's spectra at {} of the {} pairs on this grid against "
-        "1 nm (analysis/avian_compare.h), RMS and largest:",
+        "1 nm (analysis/metrics/avian_compare.h), RMS and largest:",
         count, pairs.size());
     for (const auto* system :
          {&analysis::ultraviolet_sensitive_system(), &analysis::violet_sensitive_system()}) {
@@ -600,7 +600,7 @@ std::string avian_quadrature(const Built& b, const Brdfs& m) {
     return md + "\n";
 }
 
-// The BRDFs as birds see them (analysis/avian_compare.h), and the spectra of a few pairs in
+// The BRDFs as birds see them (analysis/metrics/avian_compare.h), and the spectra of a few pairs in
 // pavo's layout (brdf/spectra_pavo.csv).
 std::string avian_vision(const Run& run, const Built& b, const Brdfs& m, RockDoveResult& result) {
     const auto& wl = m.model.config.wavelengths_nm;
@@ -630,7 +630,8 @@ std::string avian_vision(const Run& run, const Built& b, const Brdfs& m, RockDov
     return "## Avian vision\n\nColour differences as a bird sees them: receptor-noise-limited "
            "distance ΔS (Vorobyev & Osorio 1998; 1 = one just-noticeable difference) between the "
            "spectra of π·f under D65 at each direction pair, for an ultraviolet-sensitive (blue "
-           "tit) and a violet-sensitive (peafowl) tetrachromat (analysis/avian_vision.h), beside "
+           "tit) and a violet-sensitive (peafowl) tetrachromat (analysis/metrics/avian_vision.h), "
+           "beside "
            "the ΔS the Monte Carlo error alone gives:\n\n" +
            analysis::avian_comparison_markdown(rows, m.model, "simulation", "Huang model") +
            avian_quadrature(b, m) +
@@ -1163,8 +1164,8 @@ std::string huang_fit(const Run& run, const Built& b, RockDoveResult& result) {
     analysis::HuangFitOptions options;
     options.fixed = {"phi0", "phi1"};  // the arc's ends are hidden at these parameters
     options.pixel_stride = s.fit_pixel_stride;
-    // Blind: from the model's defaults and its global stage (analysis/huang2022_fit.h), not from
-    // the values the patch was built with; φ0 and φ1 are held at those (hidden, so unfitted).
+    // Blind: from the model's defaults and its global stage (analysis/fits/huang2022_fit.h), not
+    // from the values the patch was built with; φ0 and φ1 are held at those (hidden, so unfitted).
     analysis::Huang2022Params start;
     start.phi0 = truth.phi0;
     start.phi1 = truth.phi1;
@@ -1185,7 +1186,8 @@ std::string huang_fit(const Run& run, const Built& b, RockDoveResult& result) {
         "The explicit patch under a beam at θ = {:.0f}°, φ = {:.0f}° ({}×{} pixels, {} quanta at "
         "{} nm), fitted blind: from the model's defaults, through its global stage (a grid of "
         "film thickness, tilt and spacing, Levenberg–Marquardt from the best points, then scans "
-        "from the best optimum; analysis/huang2022_fit.h), not from the parameters the patch was "
+        "from the best optimum; analysis/fits/huang2022_fit.h), not from the parameters the patch "
+        "was "
         "built with; φ0 and φ1 "
         "held (the arc's ends are hidden). {} observations, reduced χ² {:.2f} ({}; σ² includes "
         "a 1 % model floor), {} runs, {} iterations in the best, {:.1f} s, {}. {}A parameter "
@@ -1196,9 +1198,9 @@ std::string huang_fit(const Run& run, const Built& b, RockDoveResult& result) {
         fmt::join(c.wavelengths_nm, ", "), fit.observations, fit.reduced_chi_square,
         p_value_text(p), fit.local_fits, fit.iterations, fit.wall_time_s,
         fit.converged ? "converged" : "not converged: " + fit.termination,
-        warnings.empty()
-            ? std::string()
-            : fmt::format("**Warnings** (analysis/fit_summary.h): {}. ", fmt::join(warnings, "; ")),
+        warnings.empty() ? std::string()
+                         : fmt::format("**Warnings** (analysis/fits/fit_summary.h): {}. ",
+                                       fmt::join(warnings, "; ")),
         table);
 }
 
@@ -1710,7 +1712,7 @@ std::string departures(const Settings& s, const RockDoveResult& result) {
                "at the barbule's sharp edges (geometry/barbule.h). Eq. 7 holds only for short "
                "cells (section above, coupling {:.3f}).\n"
                "- **Undersides.** Where barbules leave gaps, oblique light reaches the concave "
-               "underside of an arc, which no model lobe handles (analysis/huang2022.h, "
+               "underside of an arc, which no model lobe handles (analysis/models/huang2022.h, "
                "back_hit_fraction).\n\n",
                s.beam_incidence / kDeg,
                result.simulated_t == 0.0 && result.model_t == 0.0
@@ -1737,7 +1739,8 @@ std::string reference_error_text(const MeasurementVerdict& m) {
 std::string verdict_block(const RockDoveResult& r) {
     std::string md =
         "## Verdicts\n\nSimulation against the Huang model, per measurement, from the Monte Carlo "
-        "noise alone (analysis/verdict.h): z = (simulation − model)/σ per cell, χ² over the cells "
+        "noise alone (analysis/metrics/verdict.h): z = (simulation − model)/σ per cell, χ² over "
+        "the cells "
         "used, and the power difference against its σ; p is the smaller of the two tests' p, "
         "doubled; **differs** when p < 0.001, **agrees** when p >= 0.01, **undecided** between. "
         "Cells: scatterograms, where the model is above 1 % of its brightest pixel (σ: both "

@@ -28,7 +28,7 @@
 #include <string>
 #include <vector>
 
-#include "analysis/verdict.h"
+#include "analysis/metrics/verdict.h"
 #include "studies/rock_dove_departures.h"
 #include "studies/study.h"
 
@@ -79,7 +79,8 @@ struct RockDoveResult {
     // optics when it measured the BRDF as well; the level full wave says the row needs (""
     // uncertified); the warning.
     std::string level_measured_with, level_needed, level_warning;
-    // Simulation against model, per measurement, from Monte Carlo noise alone (analysis/verdict.h).
+    // Simulation against model, per measurement, from Monte Carlo noise alone
+    // (analysis/metrics/verdict.h).
     std::vector<MeasurementVerdict> verdicts;
     // The BRDF at the physical-optics level (2.5D), when [level] chose it: its relative L1
     // against the model (and that L1's noise floor) and against the ray-traced BRDF, its

@@ -15,9 +15,9 @@
 
 #include <fmt/format.h>
 
-#include "analysis/avian_compare.h"
-#include "analysis/filip2024_fit.h"
-#include "analysis/statistics.h"
+#include "analysis/fits/filip2024_fit.h"
+#include "analysis/metrics/avian_compare.h"
+#include "analysis/metrics/statistics.h"
 #include "common/constants.h"
 #include "common/error.h"
 #include "common/relative_l1.h"
@@ -875,7 +875,7 @@ std::string section_albedo_reciprocity(const Run& run, const SpeciesOutcome& o) 
         "{:.2f} ({}), largest |z| = {:.2f} against the Šidák bound {:.2f} (a 1 % family-wise "
         "error over {} cells): {}. Each couple's z is a score test, its variance estimated "
         "under f(ω_i, ω_o) = f(ω_o, ω_i) from both cells' hits (reciprocity_z, "
-        "analysis/statistics.h): a cell viewed near grazing has few hits of weight "
+        "analysis/metrics/statistics.h): a cell viewed near grazing has few hits of weight "
         "1/cos θ_v, and its own standard error would make z of unequal cells non-normal. ",
         o.reciprocity_dof, o.reciprocity_chi_square / dof, p_value_text(p), o.reciprocity_max_z,
         sidak, o.reciprocity_dof,
@@ -939,7 +939,7 @@ std::string fits_section(const fs::path& dir, const SpeciesResult& result) {
     csv << "\n";
     std::string md =
         "## Fitted parameters beside Table 1\n\nEach cell: fit ± standard error | Table 1. Angles "
-        "in degrees. θmax and the units scale are held fixed (analysis/filip2024_fit.h). The "
+        "in degrees. θmax and the units scale are held fixed (analysis/fits/filip2024_fit.h). The "
         "model's colours are camera-RGB bands (blue 380–490, green 490–580, red 580–780 nm); every "
         "simulated wavelength is an observation of its band.\n\n| parameter |";
     for (const auto& o : result.species) md += fmt::format(" {} |", o.species);
@@ -1210,7 +1210,7 @@ void fit_filip(const Run& run, const SpeciesSpec& sp, Measured& m, SpeciesOutcom
     analysis::Filip2024FitOptions options;
     options.max_function_evaluations = run.s.fit_evaluations;
     // The four φa starts below are this study's global stage, the one its records were made
-    // with; the fit's own grid (analysis/filip2024_fit.h) is not run on top of them.
+    // with; the fit's own grid (analysis/fits/filip2024_fit.h) is not run on top of them.
     options.global_starts = 0;
     const analysis::Filip2024FitResult first =
         best_of_four_starts(m.observations, m.table1, options, o);
@@ -1470,7 +1470,8 @@ std::string avian_section(const fs::path& dir, const Run& run, const SpeciesResu
         "## Avian vision\n\nThe simulated spectra π·f at the mirror pair (light 30° at azimuth "
         "180°, view 30° at 0°) under D65, told apart by an ultraviolet- and a violet-sensitive "
         "bird: receptor-noise-limited ΔS in just-noticeable differences (Vorobyev & Osorio 1998; "
-        "analysis/avian_vision.h), on the study's {}–{} nm grid (no light below it reaches the "
+        "analysis/metrics/avian_vision.h), on the study's {}–{} nm grid (no light below it reaches "
+        "the "
         "UV/violet cone). Spectra in pavo's layout: `spectra_pavo.csv` (`wl` in nm, one column "
         "per species, per cent); their quantum catches for pavo's four birds: `avian_catches.csv`. "
         "In brackets each ΔS's noise floor (the RMS ΔS the Monte Carlo "
@@ -1487,12 +1488,13 @@ std::string avian_section(const fs::path& dir, const Run& run, const SpeciesResu
 }
 
 // The report's opening: per species, the simulated BRDF against the fitted model and against
-// Table 1's, from the simulation's Monte Carlo noise alone (analysis/verdict.h).
+// Table 1's, from the simulation's Monte Carlo noise alone (analysis/metrics/verdict.h).
 std::string verdict_block(const SpeciesResult& result) {
     std::string md =
         "## Verdicts\n\nPer species, the simulated BRDF (61 × 60 set, its signal cells) against "
         "Filip's model with the fitted parameters and with Table 1's, from the simulation's Monte "
-        "Carlo noise alone (analysis/verdict.h): z = (simulation − model)/σ per cell, χ² over the "
+        "Carlo noise alone (analysis/metrics/verdict.h): z = (simulation − model)/σ per cell, χ² "
+        "over the "
         "cells and the power difference against its σ; p is the smaller of the two tests' p, "
         "doubled; **differs** when p < 0.001, **agrees** when p >= 0.01, **undecided** between. "
         "The fit was made to these cells (its parameters lower χ² by about their number, far "

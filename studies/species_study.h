@@ -21,7 +21,7 @@
 //    BTF on the same set (an image of the patch per pair; the 12 geometries of Fig. 9 shown:
 //    light and view at 30°, light azimuth in 30° steps), and the directional albedo at normal
 //    incidence;
-//  - the fit: Filip's model (analysis/filip2024_fit.h) fitted to the simulated 61 × 60 BRDF,
+//  - the fit: Filip's model (analysis/fits/filip2024_fit.h) fitted to the simulated 61 × 60 BRDF,
 //    starting from the species' Table 1 column; fitted parameters with standard errors beside
 //    Table 1; fingerprints of simulation | fit | Table 1;
 //  - checks: reciprocity of the simulated BRDF over the pairs the set holds both ways
@@ -43,9 +43,9 @@
 #include <string>
 #include <vector>
 
-#include "analysis/energy.h"
-#include "analysis/filip2024.h"
-#include "analysis/verdict.h"
+#include "analysis/metrics/energy.h"
+#include "analysis/metrics/verdict.h"
+#include "analysis/models/filip2024.h"
 #include "sim/scene.h"
 #include "studies/study.h"
 
@@ -54,7 +54,7 @@ namespace plumage::studies {
 struct SpeciesOutcome {
     std::string species;
     double mount_deg = 0.0;
-    // The fit (analysis/filip2024_fit.h), table order of kFilip2024ParameterTable.
+    // The fit (analysis/fits/filip2024_fit.h), table order of kFilip2024ParameterTable.
     std::array<double, analysis::kFilip2024ParameterCount> fitted{}, fitted_error{}, table1{};
     double reduced_chi_square = 0.0;
     double fit_relative_rms = 0.0;     // RMS(f_fit − f_sim) / mean f_sim over the 61 × 60 set
@@ -62,10 +62,11 @@ struct SpeciesOutcome {
     double fit_relative_l1 = 0.0;  // Σ|f_fit − f_sim| / Σ f_sim: robust to a few sharp peaks
     double table1_relative_l1 = 0.0;
     // The simulated BRDF against the fitted model and against Table 1's, from the simulation's
-    // Monte Carlo noise alone over its signal cells (analysis/verdict.h; the report's opening).
+    // Monte Carlo noise alone over its signal cells (analysis/metrics/verdict.h; the report's
+    // opening).
     analysis::AgreementVerdict fit_verdict, table1_verdict;
-    // Each model's directional albedo at 21 directions θ_i ≤ 75° (analysis/energy.h): Filip's
-    // published parameters need not conserve energy (the flamingo's and stork's do not).
+    // Each model's directional albedo at 21 directions θ_i ≤ 75° (analysis/metrics/energy.h):
+    // Filip's published parameters need not conserve energy (the flamingo's and stork's do not).
     analysis::EnergyCheck fit_energy, table1_energy;
     std::array<bool, analysis::kFilip2024ParameterCount>
         at_bound{};  // fitted value on its range's edge

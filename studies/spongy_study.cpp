@@ -80,7 +80,7 @@
 
 #include <fmt/format.h>
 
-#include "analysis/statistics.h"
+#include "analysis/metrics/statistics.h"
 #include "common/constants.h"
 #include "common/error.h"
 #include "common/interrupt.h"

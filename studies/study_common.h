@@ -10,7 +10,7 @@
 #include <string_view>
 #include <vector>
 
-#include "analysis/huang2022.h"
+#include "analysis/models/huang2022.h"
 #include "geometry/barbule.h"
 #include "virtual_gonio/goniometer.h"
 #include "virtual_gonio/png_image.h"

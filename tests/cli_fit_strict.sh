@@ -2,7 +2,7 @@
 # Issue 40: a fit that warns says so on stderr and in its report, and `plumage fit --strict`
 # exits 3 for it (its results written all the same); without --strict the exit is 0. The data: a
 # Lambertian 0.1/sr over 60 direction pairs and three wavelengths, without σ, which a fit cannot
-# judge (analysis/fit_summary.h's fit_warnings: "the data give no standard errors").
+# judge (analysis/fits/fit_summary.h's fit_warnings: "the data give no standard errors").
 #   cli_fit_strict.sh PLUMAGE
 set -u
 plumage=$1

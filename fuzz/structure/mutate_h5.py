@@ -10,7 +10,7 @@ length strings, chunked storage, ...) rather than a damage. The file may get a n
 extension change): the path is returned too.
 
 Sites: every group, dataset and attribute of the file (found through hard links; soft and
-external links are sites too); 60 % of the draws among those analysis/user_data.cpp reads
+external links are sites too); 60 % of the draws among those analysis/fits/user_data.cpp reads
 (seeds.py, FIT_READS).
 """
 
@@ -1141,7 +1141,7 @@ def mutate(path, rnd: random.Random, count, kind):
                 break
             read = [s for s in all_sites if s.key in FIT_READS.get(kind, [])]
             if read and rnd.random() < 0.6:
-                site = rnd.choice(read)  # what analysis/user_data.cpp reads
+                site = rnd.choice(read)  # what analysis/fits/user_data.cpp reads
             else:
                 site = rnd.choice(all_sites)
             op = weighted(rnd, OPS[site.kind])

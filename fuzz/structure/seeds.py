@@ -45,7 +45,7 @@ SEEDS = {
     "filip_iso.bsdf": ("bsdf", "filip2024"),
 }
 
-# Objects each reader of plumage reads (analysis/user_data.cpp): the mutation sites the fuzzer
+# Objects each reader of plumage reads (analysis/fits/user_data.cpp): the mutation sites the fuzzer
 # picks more often (the rest are read by plumage.read_record only).
 FIT_READS = {
     "imaging_scatterometer": ["/instrument", "/instrument@kind", "/instrument@illumination",

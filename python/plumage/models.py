@@ -12,22 +12,22 @@ OpenMP's); every element is computed on its own by the same eval() the instrumen
 result is the same for any thread count.
 
 Parameters are the C++ struct fields, with the C++ defaults (the published values):
-  Huang2022          analysis/huang2022.h  Huang2022Params: b, phi0, phi1, H, d_um, theta_d, mu
-  Filip2024          analysis/filip2024.h  Filip2024Parameters: phi_a_rad, c_b, c_a, c_s, c_r
+  Huang2022          analysis/models/huang2022.h  Huang2022Params: b, phi0, phi1, H, d_um, theta_d, mu
+  Filip2024          analysis/models/filip2024.h  Filip2024Parameters: phi_a_rad, c_b, c_a, c_s, c_r
                      (R, G, B triples), alpha, beta, gamma, w, d_w, theta_max_rad,
                      brdf_scale_per_sr; preset="parrot" | "rooster" | "flamingo" | "stork"
                      (Table 1) sets them all first (default: the parrot's)
-  PadronGriffe2024   analysis/padrongriffe2024.h  PadronGriffe2024Params' own fields and its
+  PadronGriffe2024   analysis/models/padrongriffe2024.h  PadronGriffe2024Params' own fields and its
                      geometry's (geometry/barb.h BarbulePatchParams and BarbParams) by their names
-  Lambertian         analysis/lambertian.h  albedo (f = albedo/π)
+  Lambertian         analysis/models/lambertian.h  albedo (f = albedo/π)
 An unknown keyword raises TypeError naming it and the valid ones; a value outside its range
 raises ValueError with the C++ message (InputError), as does a direction that is not a unit
 vector in eval(). `model.params` is every parameter's value; `model.lobe_names` the lobes' names.
 
 fit_huang2022(record, start, **options) fits Huang2022 to a scatterogram record with the C++
-fit (analysis/huang2022_fit.h); huang2022_scatterogram(params, record) is its forward model.
+fit (analysis/fits/huang2022_fit.h); huang2022_scatterogram(params, record) is its forward model.
 fit_filip2024(data, start, ...) fits Filip2024 to BRDF data (a CSV, a goniometer record or numpy
-arrays; analysis/filip2024_fit.h). Both return the parameters with their σ and, under "json", the
+arrays; analysis/fits/filip2024_fit.h). Both return the parameters with their σ and, under "json", the
 fitted-parameters JSON of `plumage fit` (docs/user_data.md).
 """
 
@@ -83,7 +83,7 @@ def _flat(a: np.ndarray, batch: tuple, shape: tuple, tail: tuple) -> np.ndarray:
 
 
 class Model:
-    """An analytic model of analysis/ (a C++ Scatterer): eval() over numpy arrays, its
+    """An analytic model of analysis/models/ (a C++ Scatterer): eval() over numpy arrays, its
     parameters (`params`) and its lobes' names (`lobe_names`)."""
 
     # Filled in by each model: its lobes, and what it returns below the patch.
@@ -152,7 +152,7 @@ Model.eval.__doc__ = _eval_docstring(Model._lobes_doc, Model._below_doc)
 
 @_eval_doc
 class Huang2022(Model):
-    """Huang et al. 2022, rock-dove barbules (analysis/huang2022.h): lobes R (thin-film
+    """Huang et al. 2022, rock-dove barbules (analysis/models/huang2022.h): lobes R (thin-film
     reflection), TRT (through the film, off the melanin and back) and T (light passing between
     the barbules, a Dirac at wo = -wi: 0 in eval). Keywords: b, phi0, phi1, H, d_um, theta_d, mu
     (the C++ Huang2022Params fields, published values by default)."""
@@ -168,7 +168,7 @@ class Huang2022(Model):
 
 @_eval_doc
 class Filip2024(Model):
-    """Filip et al. 2024's five-term BRDF (analysis/filip2024.h); preset="parrot" | "rooster" |
+    """Filip et al. 2024's five-term BRDF (analysis/models/filip2024.h); preset="parrot" | "rooster" |
     "flamingo" | "stork" (Table 1) sets every parameter first, keywords then override them."""
 
     _lobes_doc = '"background", "anisotropic_highlight", ... (model.lobe_names)'
@@ -181,7 +181,7 @@ class Filip2024(Model):
 @_eval_doc
 class PadronGriffe2024(Model):
     """Padrón-Griffe et al. 2024, barb and barbule fibres weighted by their masking
-    (analysis/padrongriffe2024.h)."""
+    (analysis/models/padrongriffe2024.h)."""
 
     _lobes_doc = "one entry per fibre lobe (model.lobe_names)"
     _below_doc = "Padrón-Griffe 2024's fibres transmit: light through the patch"
@@ -265,7 +265,7 @@ def _fit_options(options) -> "_core.HuangFitOptions":
 
 def fit_huang2022(record, start=None, **options) -> dict:
     """Fits Huang2022's parameters to a scatterogram record by Levenberg–Marquardt in C++
-    (analysis/huang2022_fit.h: its header states the objective, weights and cubature).
+    (analysis/fits/huang2022_fit.h: its header states the objective, weights and cubature).
 
     record: plumage.read_record(...) of an imaging_scatterometer record, or its path, or a dict
     of numpy arrays: intensity, standard_error [rows, rows, λ], solid_angle_sr [rows, rows],
@@ -297,7 +297,7 @@ def huang2022_scatterogram(params, record, **options):
 
 def fit_filip2024(data, start=None, *, fixed=(), free=(), preset=None, sigma=None) -> dict:
     """Fits Filip2024's parameters to BRDF data by Levenberg–Marquardt in C++
-    (analysis/filip2024_fit.h).
+    (analysis/fits/filip2024_fit.h).
 
     data: a path to a CSV table or a goniometer record (docs/user_data.md), or a dict of numpy
     arrays with keys theta_i_deg, phi_i_deg, theta_o_deg, phi_o_deg, wavelength_nm, value (1/sr)

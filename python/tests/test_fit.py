@@ -1,4 +1,4 @@
-"""plumage.models.fit_huang2022: the C++ Huang fit (analysis/huang2022_fit.h) from a record."""
+"""plumage.models.fit_huang2022: the C++ Huang fit (analysis/fits/huang2022_fit.h) from a record."""
 
 import numpy as np
 import pytest

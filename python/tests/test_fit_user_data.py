@@ -35,7 +35,7 @@ def _filip_data(seed):
 
 
 def _filip_truth():
-    """The parrot preset by the fit's parameter names (analysis/filip2024.h's table)."""
+    """The parrot preset by the fit's parameter names (analysis/models/filip2024.h's table)."""
     p = models.Filip2024("parrot").params
     rgb = {"C_b": p["c_b"], "C_a": p["c_a"], "C_s": p["c_s"], "C_r": p["c_r"]}
     truth = {"phi_a": p["phi_a_rad"], "alpha": p["alpha"], "beta": p["beta"],

@@ -24,7 +24,7 @@ def test_lambertian_is_albedo_over_pi():
 
 
 def filip_reference(p, wi, wo, lam):
-    """Filip et al. 2024, Eqs. 1–6 as analysis/filip2024.h reads them, written in numpy."""
+    """Filip et al. 2024, Eqs. 1–6 as analysis/models/filip2024.h reads them, written in numpy."""
     channel = np.where(lam < 490, 2, np.where(lam < 580, 1, 0))  # R, G, B = 0, 1, 2
     pick = lambda rgb: np.asarray(rgb)[channel]
     h = wi + wo

@@ -20,7 +20,8 @@
 //    of the mean of the paired difference d_m = W_PO,m − W_GO,m over the M realisations is
 //    s_θ = std_m(d_m)/√M, and a difference that is pure noise has mean |N(0, s_θ)| =
 //    sqrt(2/π) s_θ: floor = sqrt(2/π) Σ_θ s_θ / Σ_θ W_PO (the house's half-normal form, as
-//    analysis/compare.h's relative-L1 floor). A row without jitter is deterministic: floor 0.
+//    analysis/metrics/compare.h's relative-L1 floor). A row without jitter is deterministic: floor
+//    0.
 //  - total reflected power into the half-space |θ_s| < 90°: P_PO = Σ σ_j δ over grid points
 //    there, P_GO = Σ p over rays there; the error P_PO/P_GO − 1 with its standard error
 //    std_m(P_PO,m − P_GO,m)/(√M P_GO).

@@ -1,7 +1,7 @@
 // Records compared as a bird sees them: a record against itself (and scaled) is 0 JND, and a
 // record against a noisy copy of itself sits at the noise floor the comparison reports (the
 // floor's claim, checked by a Monte Carlo of the same noise). And pavo's layout.
-#include "analysis/avian_compare.h"
+#include "analysis/metrics/avian_compare.h"
 
 #include <gtest/gtest.h>
 

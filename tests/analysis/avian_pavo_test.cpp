@@ -21,7 +21,7 @@
 
 #include <fmt/format.h>
 
-#include "analysis/avian_vision.h"
+#include "analysis/metrics/avian_vision.h"
 #include "common/error.h"
 
 namespace plumage::analysis {

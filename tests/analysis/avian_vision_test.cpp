@@ -3,7 +3,7 @@
 // definitions of its parameters (T(λmid) = 1/2, slope B_mid), the RNL closed form against the
 // generalised-least-squares form it reduces to and a case derived by hand, the model's
 // invariances, and the first-order noise floor against a Monte Carlo of the same noise.
-#include "analysis/avian_vision.h"
+#include "analysis/metrics/avian_vision.h"
 
 #include <gtest/gtest.h>
 

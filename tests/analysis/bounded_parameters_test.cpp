@@ -1,6 +1,6 @@
-// The logistic map of bounded fit parameters (analysis/bounded_parameters.h): variable ↔
+// The logistic map of bounded fit parameters (analysis/fits/bounded_parameters.h): variable ↔
 // parameter round trips, the inset at the bounds, the slope, and the at-bound test.
-#include "analysis/bounded_parameters.h"
+#include "analysis/fits/bounded_parameters.h"
 
 #include <cmath>
 #include <limits>

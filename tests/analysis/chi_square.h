@@ -40,7 +40,7 @@
 #include <fmt/format.h>
 #include <gtest/gtest.h>
 
-#include "analysis/statistics.h"
+#include "analysis/metrics/statistics.h"
 #include "sim/random.h"
 #include "sim/scatterer.h"
 
@@ -54,7 +54,7 @@ inline constexpr int kChiSquarePhiBins = 40;            // over [0, 2π)
 inline constexpr std::int64_t kChiSquareSamples = 400'000;
 inline constexpr double kConsistencySigmas = 4.0;
 
-// The distribution functions live in analysis/statistics.h (the studies use them too).
+// The distribution functions live in analysis/metrics/statistics.h (the studies use them too).
 using analysis::chi_square_p_value;
 using analysis::regularized_gamma_q;
 using analysis::sidak_significance;

@@ -1,7 +1,7 @@
 // The colour error of a spectral grid, against spectra whose colour error is known: a flat
 // spectrum (none on any grid, the whites are normalised on the grid) and the rock-dove keratin
 // film of Huang 2022 (d = 0.59 µm), whose interference fringes a 50 nm grid cannot follow.
-#include "analysis/colour_quadrature.h"
+#include "analysis/metrics/colour_quadrature.h"
 
 #include <gtest/gtest.h>
 

@@ -1,12 +1,12 @@
 // Record comparison against closed forms: two Lambertian plates.
-#include "analysis/compare.h"
+#include "analysis/metrics/compare.h"
 
 #include <cmath>
 #include <numbers>
 
 #include <gtest/gtest.h>
 
-#include "analysis/lambertian.h"
+#include "analysis/models/lambertian.h"
 #include "common/error.h"
 #include "sim/optics/colour.h"
 #include "sim/random.h"

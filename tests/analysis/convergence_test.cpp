@@ -1,6 +1,6 @@
 // Error against run time: the power-law fit against exact power laws, and the χ² of an
 // estimate against its reference under the hypothesis it tests (normal errors of size σ).
-#include "analysis/convergence.h"
+#include "analysis/metrics/convergence.h"
 
 #include <gtest/gtest.h>
 

@@ -1,8 +1,8 @@
-// The Marschner-style fibre baseline (analysis/fibre_baseline.h) and its shared lobe machinery:
-// normal quantile, truncated longitudinal Gaussian, azimuthal tables against Marschner's closed
-// form, then the tests every sampled Scatterer gets (chi-square, eval/pdf consistency, energy,
-// reciprocity — which this model does not have, shown and explained).
-#include "analysis/fibre_baseline.h"
+// The Marschner-style fibre baseline (analysis/models/fibre_baseline.h) and its shared lobe
+// machinery: normal quantile, truncated longitudinal Gaussian, azimuthal tables against Marschner's
+// closed form, then the tests every sampled Scatterer gets (chi-square, eval/pdf consistency,
+// energy, reciprocity — which this model does not have, shown and explained).
+#include "analysis/models/fibre_baseline.h"
 
 #include <algorithm>
 #include <array>
@@ -14,7 +14,7 @@
 
 #include <gtest/gtest.h>
 
-#include "analysis/energy.h"
+#include "analysis/metrics/energy.h"
 #include "common/constants.h"
 #include "common/error.h"
 #include "sim/optics/fresnel.h"

@@ -1,7 +1,8 @@
-// Filip 2024 feather BRDF (analysis/filip2024.h), its fit (analysis/filip2024_fit.h), the
-// paper's direction sets (virtual_gonio/direction_sets.h), and the generic statistical helpers of
-// tests/analysis/chi_square.h (checked on toy scatterers with known answers, then used on Filip).
-#include "analysis/filip2024.h"
+// Filip 2024 feather BRDF (analysis/models/filip2024.h), its fit (analysis/fits/filip2024_fit.h),
+// the paper's direction sets (virtual_gonio/direction_sets.h), and the generic statistical helpers
+// of tests/analysis/chi_square.h (checked on toy scatterers with known answers, then used on
+// Filip).
+#include "analysis/models/filip2024.h"
 
 #include <algorithm>
 #include <array>
@@ -14,8 +15,8 @@
 
 #include <gtest/gtest.h>
 
-#include "analysis/energy.h"
-#include "analysis/filip2024_fit.h"
+#include "analysis/fits/filip2024_fit.h"
+#include "analysis/metrics/energy.h"
 #include "common/constants.h"
 #include "common/error.h"
 #include "tests/analysis/chi_square.h"
@@ -40,7 +41,7 @@ bool contains(const std::string& text, const std::string& part) {
 // ---------------------------------------------------------------------------------------------
 // The independent reference: Table 1 typed again from the paper, and Eqs. 1–6 written directly
 // in spherical angles (H·U from the angles, M by its cases, D with an explicit floor-based wrap).
-// No code is shared with analysis/filip2024.cpp.
+// No code is shared with analysis/models/filip2024.cpp.
 
 struct Table1Column {
     const char* name;

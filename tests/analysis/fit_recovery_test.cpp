@@ -1,4 +1,4 @@
-// Fits that find the truth or say they did not (analysis/filip2024_fit.h, huang2022_fit.h,
+// Fits that find the truth or say they did not (analysis/fits/filip2024_fit.h, huang2022_fit.h,
 // fit_summary.h's fit_warnings): data made from known parameters drawn at random over the
 // models' ranges, with Gaussian noise of known σ, fitted from a blind start (the model's
 // defaults, not the truth). A set is recovered when every free parameter lies within 3σ of its
@@ -18,11 +18,11 @@
 #include <fmt/format.h>
 #include <gtest/gtest.h>
 
-#include "analysis/filip2024.h"
-#include "analysis/filip2024_fit.h"
-#include "analysis/fit_summary.h"
-#include "analysis/huang2022.h"
-#include "analysis/huang2022_fit.h"
+#include "analysis/fits/filip2024_fit.h"
+#include "analysis/fits/fit_summary.h"
+#include "analysis/fits/huang2022_fit.h"
+#include "analysis/models/filip2024.h"
+#include "analysis/models/huang2022.h"
 #include "common/constants.h"
 #include "sim/random.h"
 #include "virtual_gonio/direction_sets.h"

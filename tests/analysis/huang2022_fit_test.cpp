@@ -1,8 +1,8 @@
-// Fitting Huang's parameters to scatterograms (analysis/huang2022_fit.h): the forward model's
+// Fitting Huang's parameters to scatterograms (analysis/fits/huang2022_fit.h): the forward model's
 // pixel cubature against brute force, the arc ends that the rock-dove geometry hides, recovery
 // from a photon-counted scatterogram of the model itself, noiseless recovery of all seven
 // parameters where they are all visible, and bad input.
-#include "analysis/huang2022_fit.h"
+#include "analysis/fits/huang2022_fit.h"
 
 #include <algorithm>
 #include <cmath>

@@ -1,7 +1,7 @@
 // The Huang 2022 barbule BSDF: hit fractions (closed form against quadrature), the
 // NDF normalisation trap, energy, reciprocity (R yes, TRT no), eval against an
 // independent brute-force computation of Eq. 14, eval/pdf consistency.
-#include "analysis/huang2022.h"
+#include "analysis/models/huang2022.h"
 
 #include <algorithm>
 #include <cmath>

@@ -1,8 +1,8 @@
 // Huang 2022's TRT exit law against a microfacet Lambertian layer's
-// (analysis/huang2022_trt_exit.h): the rule reproduces the model's own TRT with the model's law;
-// its geometry (T = 1) is the closed form of Eq. 15 as seen from the exit direction; and the
+// (analysis/models/huang2022_trt_exit.h): the rule reproduces the model's own TRT with the model's
+// law; its geometry (T = 1) is the closed form of Eq. 15 as seen from the exit direction; and the
 // Lambertian law is reciprocal while the model's is not.
-#include "analysis/huang2022_trt_exit.h"
+#include "analysis/models/huang2022_trt_exit.h"
 
 #include <cmath>
 #include <vector>

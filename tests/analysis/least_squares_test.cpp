@@ -1,7 +1,7 @@
-// The chunked Levenberg–Marquardt (analysis/least_squares.h) against closed forms, against
+// The chunked Levenberg–Marquardt (analysis/fits/least_squares.h) against closed forms, against
 // MINPACK's lmder (Eigen's LevenbergMarquardt, which the Filip fit used before) on the same
 // Filip 2024 problem, and for the same bits on 1, 2 and 3 threads.
-#include "analysis/least_squares.h"
+#include "analysis/fits/least_squares.h"
 
 #include <chrono>
 #include <cmath>
@@ -14,9 +14,9 @@
 #include <omp.h>
 #include <unsupported/Eigen/NonLinearOptimization>
 
-#include "analysis/bounded_parameters.h"
-#include "analysis/filip2024.h"
-#include "analysis/filip2024_fit.h"
+#include "analysis/fits/bounded_parameters.h"
+#include "analysis/fits/filip2024_fit.h"
+#include "analysis/models/filip2024.h"
 #include "common/constants.h"
 #include "sim/random.h"
 #include "virtual_gonio/direction_sets.h"

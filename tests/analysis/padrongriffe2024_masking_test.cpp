@@ -1,11 +1,11 @@
-// The Padrón-Griffe 2024 barb/barbule masking term (analysis/padrongriffe2024_masking.h): against
-// Monte Carlo ray casting on the explicit 2D cross-section that geometry/barb.h builds
+// The Padrón-Griffe 2024 barb/barbule masking term (analysis/models/padrongriffe2024_masking.h):
+// against Monte Carlo ray casting on the explicit 2D cross-section that geometry/barb.h builds
 // (build_patch_cross_section, tiled periodically, opaque strips as thick as the fibre); against an
 // independent exact first-hit ray caster of the authors' own configurations (the parameter sets
 // of their figure scripts, masking/scripts/generate-figures.sh and
 // generate-masking-paper-figures.sh in juanraul8/PennaceousFeathersRendering), opaque and
 // see-through; and its closed-form limits.
-#include "analysis/padrongriffe2024_masking.h"
+#include "analysis/models/padrongriffe2024_masking.h"
 
 #include <algorithm>
 #include <array>
@@ -17,7 +17,7 @@
 #include <fmt/format.h>
 #include <gtest/gtest.h>
 
-#include "analysis/cross_section_masking_mc.h"
+#include "analysis/models/cross_section_masking_mc.h"
 #include "common/constants.h"
 #include "common/error.h"
 #include "geometry/barb.h"
@@ -74,9 +74,9 @@ std::vector<Configuration> configurations() {
 // ---------------------------------------------------------------------------------------------
 // Monte Carlo: parallel rays against the polygons of build_patch_cross_section, tiled with the
 // period, one ray at a random position in each of N equal slices of the period
-// (analysis/cross_section_masking_mc.h, shared with the masking study: jittered stratification,
-// each fraction's variance is at most the binomial p(1 − p)/N, and a slice can only be
-// misclassified if a boundary of the partition falls inside it).
+// (analysis/models/cross_section_masking_mc.h, shared with the masking study: jittered
+// stratification, each fraction's variance is at most the binomial p(1 − p)/N, and a slice can only
+// be misclassified if a boundary of the partition falls inside it).
 
 TEST(PadronGriffe2024Masking, AgreesWithMonteCarloOnTheExplicitCrossSection) {
     // Rays per angle: binomial standard error <= 0.5/√N = 0.0025 per fraction.

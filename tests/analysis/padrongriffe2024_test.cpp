@@ -1,8 +1,8 @@
-// The Padrón-Griffe 2024 surface feather BSDF (analysis/padrongriffe2024.h): its elliptical
+// The Padrón-Griffe 2024 surface feather BSDF (analysis/models/padrongriffe2024.h): its elliptical
 // cross-section trace against closed forms, then the tests every sampled Scatterer gets
 // (chi-square, eval/pdf consistency, energy, reciprocity — which it does not have, shown lobe by
 // lobe), the masking weights, and parameter checks.
-#include "analysis/padrongriffe2024.h"
+#include "analysis/models/padrongriffe2024.h"
 
 #include <algorithm>
 #include <array>
@@ -13,7 +13,7 @@
 
 #include <gtest/gtest.h>
 
-#include "analysis/energy.h"
+#include "analysis/metrics/energy.h"
 #include "common/constants.h"
 #include "common/error.h"
 #include "sim/optics/fresnel.h"

@@ -1,9 +1,9 @@
-// The distribution functions of analysis/statistics.h (Boost.Math underneath) against values
-// from an independent source written down here: closed forms of the χ² tail for 1, 2 and 4
+// The distribution functions of analysis/metrics/statistics.h (Boost.Math underneath) against
+// values from an independent source written down here: closed forms of the χ² tail for 1, 2 and 4
 // degrees of freedom, published standard-normal critical values, and Šidák's formula as written.
 // Also what the wrappers add to Boost: underflow to 0 instead of an exception, NaN for data that
 // has no p-value, and InputError naming the argument for a bad significance level.
-#include "analysis/statistics.h"
+#include "analysis/metrics/statistics.h"
 
 #include <cmath>
 #include <limits>

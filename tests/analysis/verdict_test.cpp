@@ -1,7 +1,7 @@
-// The report's verdict (analysis/verdict.h): a test record 5 % above its reference at 10σ per
-// cell differs (and says by how much), one equal to it within its noise agrees, and the
+// The report's verdict (analysis/metrics/verdict.h): a test record 5 % above its reference at 10σ
+// per cell differs (and says by how much), one equal to it within its noise agrees, and the
 // reference's own error is stated beside the verdict without entering its floor.
-#include "analysis/verdict.h"
+#include "analysis/metrics/verdict.h"
 
 #include <cmath>
 #include <random>

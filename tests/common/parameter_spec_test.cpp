@@ -8,8 +8,8 @@
 
 #include <gtest/gtest.h>
 
-#include "analysis/filip2024.h"
-#include "analysis/huang2022.h"
+#include "analysis/models/filip2024.h"
+#include "analysis/models/huang2022.h"
 #include "tests/test_util.h"
 
 namespace plumage {

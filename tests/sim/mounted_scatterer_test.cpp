@@ -10,7 +10,7 @@
 
 #include <gtest/gtest.h>
 
-#include "analysis/filip2024.h"
+#include "analysis/models/filip2024.h"
 #include "common/error.h"
 #include "sim/random.h"
 

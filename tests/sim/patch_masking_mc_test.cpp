@@ -51,8 +51,8 @@
 #include <gtest/gtest.h>
 #include <omp.h>
 
-#include "analysis/padrongriffe2024_masking.h"
-#include "analysis/statistics.h"
+#include "analysis/metrics/statistics.h"
+#include "analysis/models/padrongriffe2024_masking.h"
 #include "common/constants.h"
 #include "common/error.h"
 #include "common/seed.h"

@@ -14,7 +14,7 @@
 
 #include <gtest/gtest.h>
 
-#include "analysis/statistics.h"
+#include "analysis/metrics/statistics.h"
 #include "common/error.h"
 #include "geometry/spongy_volume.h"
 #include "sim/scattering_slab.h"

@@ -13,7 +13,7 @@
 #include <fmt/format.h>
 #include <gtest/gtest.h>
 
-#include "analysis/huang2022.h"
+#include "analysis/models/huang2022.h"
 #include "common/error.h"
 #include "geometry/barb.h"
 #include "geometry/barbule.h"

@@ -20,7 +20,7 @@
 
 #include <gtest/gtest.h>
 
-#include "analysis/statistics.h"
+#include "analysis/metrics/statistics.h"
 #include "common/constants.h"
 #include "geometry/barbule.h"
 #include "sim/mounted_scatterer.h"

@@ -15,7 +15,7 @@
 
 #include <gtest/gtest.h>
 
-#include "analysis/huang2022.h"
+#include "analysis/models/huang2022.h"
 #include "geometry/barbule.h"
 #include "sim/random.h"
 #include "sim/tracer.h"

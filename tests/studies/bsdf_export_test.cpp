@@ -19,9 +19,9 @@
 
 #include <gtest/gtest.h>
 
-#include "analysis/filip2024.h"
-#include "analysis/huang2022.h"
-#include "analysis/huang2022_fit.h"
+#include "analysis/fits/huang2022_fit.h"
+#include "analysis/models/filip2024.h"
+#include "analysis/models/huang2022.h"
 #include "common/constants.h"
 #include "common/error.h"
 #include "common/interrupt.h"
@@ -381,7 +381,8 @@ TEST(BsdfExport, HuangFileIsCheckedAgainstTheModelBetweenNodes) {
 
 // The Filip 2024 flamingo preset reflects more than it receives (published parameters): the
 // export warns, says so in the file's description, and still writes the file; the parrot does
-// not. Albedo by analysis/energy.h's quadrature (16 cells here; 1.45 at 75° per filip2024.h).
+// not. Albedo by analysis/metrics/energy.h's quadrature (16 cells here; 1.45 at 75° per
+// filip2024.h).
 TEST(BsdfExport, FlamingoExportWarnsAboutItsAlbedo) {
     const fs::path dir = scratch_dir() / "albedo";
     fs::create_directories(dir);

@@ -72,7 +72,7 @@ void check_no_violations(const ExtremesResult& r) {
 // The published Filip parameters' known energy excesses, and only they, flagged "by
 // construction".
 void check_published_excesses(const ExtremesResult& r) {
-    // The known excesses of the published Filip parameters (analysis/filip2024.h):
+    // The known excesses of the published Filip parameters (analysis/models/filip2024.h):
     // flamingo and stork at moderate incidence, rooster only at grazing light; the
     // parrot never. They, and nothing else, are flagged "by construction".
     std::set<std::string> flagged;
@@ -90,7 +90,7 @@ void check_published_excesses(const ExtremesResult& r) {
     EXPECT_FALSE(flagged.contains("reference / Filip 2024 rooster"));
     EXPECT_TRUE(flagged.contains("grazing 89° / Filip 2024 rooster"));
     EXPECT_EQ(r.by_construction, static_cast<int>(flagged.size()));
-    // The rooster at 89°: 1.11 by quadrature (analysis/filip2024.h's figure).
+    // The rooster at 89°: 1.11 by quadrature (analysis/models/filip2024.h's figure).
     const ExtremesRow* rooster = find(r, "grazing 89°", "Filip 2024 rooster");
     ASSERT_NE(rooster, nullptr);
     EXPECT_NEAR(rooster->eval_energy, 1.11, 0.03);

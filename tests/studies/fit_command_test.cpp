@@ -19,9 +19,9 @@
 #include <fmt/format.h>
 #include <gtest/gtest.h>
 
-#include "analysis/filip2024.h"
-#include "analysis/huang2022_fit.h"
-#include "analysis/user_data.h"
+#include "analysis/fits/huang2022_fit.h"
+#include "analysis/fits/user_data.h"
+#include "analysis/models/filip2024.h"
 #include "common/constants.h"
 #include "common/seed.h"
 #include "sim/random.h"
@@ -104,7 +104,7 @@ TEST(FitCommand, FilipFromCsvRecoversKnownParametersWithHonestSigma) {
             const auto& p = r.summary.parameters[static_cast<std::size_t>(i)];
             if (p.fixed) continue;
             ASSERT_TRUE(std::isfinite(p.sigma)) << p.name;
-            // φa is periodic in π (analysis/filip2024_fit.h): the difference modulo π.
+            // φa is periodic in π (analysis/fits/filip2024_fit.h): the difference modulo π.
             double difference = p.value - expected[i];
             if (i == analysis::kFilipPhiA)
                 difference -= std::numbers::pi * std::round(difference / std::numbers::pi);

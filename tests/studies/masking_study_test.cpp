@@ -20,7 +20,7 @@
 #include <fmt/format.h>
 #include <gtest/gtest.h>
 
-#include "analysis/padrongriffe2024_masking.h"
+#include "analysis/models/padrongriffe2024_masking.h"
 #include "tests/test_util.h"
 #include "virtual_gonio/hdf5_file.h"
 

@@ -14,7 +14,7 @@
 #include <fmt/format.h>
 #include <gtest/gtest.h>
 
-#include "analysis/statistics.h"
+#include "analysis/metrics/statistics.h"
 #include "sim/optics/material.h"
 #include "sim/optics/thin_film.h"
 #include "studies/study.h"

@@ -162,7 +162,7 @@ void check_level_of_physics(const RockDoveResult& r, const std::string& report) 
     ASSERT_NE(level_line, std::string::npos);
     EXPECT_LT(level_line, report.find("## "));  // the report opens with it
     // ... then with the verdicts: each measurement against the model from its noise alone
-    // (analysis/verdict.h), the verdict following its p.
+    // (analysis/metrics/verdict.h), the verdict following its p.
     ASSERT_EQ(r.verdicts.size(), 4u);  // three scatterograms and the BRDF
     for (const MeasurementVerdict& m : r.verdicts) {
         const analysis::AgreementVerdict& v = m.verdict;

@@ -27,7 +27,7 @@
 #include <fmt/format.h>
 #include <gtest/gtest.h>
 
-#include "analysis/statistics.h"
+#include "analysis/metrics/statistics.h"
 #include "common/error.h"
 #include "sim/random.h"
 #include "tests/studies/measurement_streams.h"
@@ -184,7 +184,7 @@ void check_patch_exr(const std::filesystem::path& dir, const SpeciesOutcome& o) 
 }
 
 // The report's sections and the study's tables beside it.
-// The report opens with the verdicts (analysis/verdict.h): per species, against the fit and
+// The report opens with the verdicts (analysis/metrics/verdict.h): per species, against the fit and
 // against Table 1, each following its p.
 void check_verdicts(const SpeciesResult& r, const std::filesystem::path& dir) {
     const std::string report = read(dir / "report.md");

@@ -11,7 +11,7 @@
 
 #include <gtest/gtest.h>
 
-#include "analysis/statistics.h"
+#include "analysis/metrics/statistics.h"
 #include "sim/scatterer.h"
 #include "tests/virtual_gonio/record_agreement.h"
 #include "virtual_gonio/btf.h"

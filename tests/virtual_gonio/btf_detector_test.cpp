@@ -18,8 +18,8 @@
 
 #include <gtest/gtest.h>
 
-#include "analysis/lambertian.h"
-#include "analysis/statistics.h"
+#include "analysis/metrics/statistics.h"
+#include "analysis/models/lambertian.h"
 #include "common/constants.h"
 #include "common/error.h"
 #include "geometry/barbule.h"

@@ -7,7 +7,7 @@
 
 #include <gtest/gtest.h>
 
-#include "analysis/lambertian.h"
+#include "analysis/models/lambertian.h"
 #include "common/error.h"
 
 namespace plumage::gonio {

@@ -13,7 +13,7 @@
 #include <fmt/format.h>
 #include <gtest/gtest.h>
 
-#include "analysis/lambertian.h"
+#include "analysis/models/lambertian.h"
 #include "common/constants.h"
 #include "common/interrupt.h"
 #include "tests/test_util.h"

@@ -11,7 +11,7 @@
 
 #include <gtest/gtest.h>
 
-#include "analysis/statistics.h"
+#include "analysis/metrics/statistics.h"
 #include "common/constants.h"
 #include "common/error.h"
 #include "sim/interface_events.h"

@@ -14,7 +14,7 @@
 
 #include "tests/test_util.h"
 
-#include "analysis/lambertian.h"
+#include "analysis/models/lambertian.h"
 #include "common/error.h"
 #include "common/interrupt.h"
 #include "virtual_gonio/hdf5_file.h"

@@ -9,7 +9,7 @@
 #include <gtest/gtest.h>
 #include <omp.h>
 
-#include "analysis/lambertian.h"
+#include "analysis/models/lambertian.h"
 #include "common/error.h"
 
 namespace plumage::gonio {

@@ -11,7 +11,7 @@
 #include <fmt/format.h>
 #include <gtest/gtest.h>
 
-#include "analysis/lambertian.h"
+#include "analysis/models/lambertian.h"
 #include "common/constants.h"
 #include "common/interrupt.h"
 #include "sim/tracer.h"

@@ -17,7 +17,7 @@
 
 #include <gtest/gtest.h>
 
-#include "analysis/lambertian.h"
+#include "analysis/models/lambertian.h"
 #include "common/build_info.h"
 #include "common/constants.h"
 #include "virtual_gonio/btf.h"

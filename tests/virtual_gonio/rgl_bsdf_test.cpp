@@ -21,8 +21,8 @@
 
 #include <gtest/gtest.h>
 
-#include "analysis/huang2022.h"
-#include "analysis/lambertian.h"
+#include "analysis/models/huang2022.h"
+#include "analysis/models/lambertian.h"
 #include "common/constants.h"
 #include "common/error.h"
 #include "sim/random.h"

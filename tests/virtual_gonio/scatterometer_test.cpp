@@ -14,9 +14,9 @@
 
 #include <gtest/gtest.h>
 
-#include "analysis/huang2022.h"
-#include "analysis/lambertian.h"
-#include "analysis/statistics.h"
+#include "analysis/metrics/statistics.h"
+#include "analysis/models/huang2022.h"
+#include "analysis/models/lambertian.h"
 #include "common/error.h"
 #include "geometry/barbule.h"
 #include "sim/tracer.h"

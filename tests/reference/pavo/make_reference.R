@@ -12,7 +12,7 @@
 # through pavo's built-in birds; spanning less (400-700 nm, say), through the same birds' data
 # cut to the grid's span as user-defined systems, so no reflectance is invented either way.
 # OUT_DIR receives catches.csv, distances.csv and a copy of the spectra; DATA_CSV pavo's tables
-# (analysis/data/pavo_visual_systems.csv), or "-" for none.
+# (analysis/metrics/data/pavo_visual_systems.csv), or "-" for none.
 
 args <- commandArgs(trailingOnly = TRUE)
 if (length(args) != 4) {
@@ -36,7 +36,7 @@ for (f in list.files(file.path(pavo_dir, "R"), pattern = "[.]R$", full.names = T
 load(file.path(pavo_dir, "R", "sysdata.rda"), envir = pavo)
 
 # The four birds: pavo's name, the double cone for the achromatic channel and the relative cone
-# densities (UV/V : S : M : L; sources in analysis/data/README.md).
+# densities (UV/V : S : M : L; sources in analysis/metrics/data/README.md).
 birds <- data.frame(
   visual = c("bluetit", "avg.uv", "avg.v", "pfowl"),
   achromatic = c("bt.dc", "bt.dc", "ch.dc", "ch.dc"),
@@ -105,7 +105,7 @@ if (data_csv == "-") quit(save = "no")
 con <- file(data_csv, "w")
 writeLines(c(
   "# pavo 2.9.0's internal data (R/sysdata.rda: vissyst, bgandilum$D65), 1 nm, 300-700 nm,",
-  "# as tests/reference/pavo/make_reference.R writes it; sources per column: analysis/data/README.md."
+  "# as tests/reference/pavo/make_reference.R writes it; sources per column: analysis/metrics/data/README.md."
 ), con)
 write.csv(data, con, row.names = FALSE)
 close(con)

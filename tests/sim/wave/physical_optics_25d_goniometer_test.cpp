@@ -28,7 +28,7 @@
 #include <fmt/format.h>
 #include <gtest/gtest.h>
 
-#include "analysis/statistics.h"
+#include "analysis/metrics/statistics.h"
 #include "common/constants.h"
 #include "common/seed.h"
 #include "sim/wave/physical_optics_25d.h"

@@ -36,8 +36,8 @@
 #include <gtest/gtest.h>
 #include <omp.h>
 
-#include "analysis/compare.h"
-#include "analysis/convergence.h"
+#include "analysis/metrics/compare.h"
+#include "analysis/metrics/convergence.h"
 #include "common/constants.h"
 #include "geometry/barbule.h"
 #include "sim/optics/material.h"
