@@ -8,7 +8,7 @@
 //    n_eff = 1.3, Fresnel and TIR) by trace_many with 1 or 2 threads; "events/s" counts the
 //    paths' medium scattering events (every event also costs one Embree query).
 //  - BM_WaveTables256/threads: a channel volume of 256³ voxels (20 nm, box 5.12 µm; the
-//    volume itself is generated once, untimed) → indicator (sim/wave/index_field.h) →
+//    volume itself is generated once, untimed) → indicator (sim/wave/volume/index_field.h) →
 //    3D power spectrum (FFTW, one thread) → born_medium at 31 wavelengths 400–700 nm,
 //    the wavelengths spread over `threads` OpenMP threads.
 #include <chrono>
@@ -24,9 +24,9 @@
 #include "sim/scattering_medium.h"
 #include "sim/scattering_slab.h"
 #include "sim/tracer.h"
-#include "sim/wave/born_medium.h"
-#include "sim/wave/index_field.h"
-#include "sim/wave/power_spectrum.h"
+#include "sim/wave/volume/born_medium.h"
+#include "sim/wave/volume/index_field.h"
+#include "sim/wave/volume/power_spectrum.h"
 
 namespace plumage::sim {
 namespace {

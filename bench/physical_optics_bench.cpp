@@ -23,8 +23,8 @@
 #include <benchmark/benchmark.h>
 #include <omp.h>
 
-#include "sim/wave/physical_optics_2d.h"
-#include "sim/wave/physical_optics_hybrid_2d.h"
+#include "sim/wave/surface/physical_optics_2d.h"
+#include "sim/wave/surface/physical_optics_hybrid_2d.h"
 
 namespace plumage::sim::wave {
 namespace {

@@ -1,6 +1,6 @@
 // Equilibrium-like hard-sphere packings: N centres in a periodic cube at a prescribed
 // hard-sphere volume fraction φ, up to φ = 0.55, for structure-factor work (the
-// Percus–Yevick comparison of sim/wave/structure_factor.h) where random sequential
+// Percus–Yevick comparison of sim/wave/volume/structure_factor.h) where random sequential
 // addition (geometry/spongy_volume.h) cannot go.
 //
 // Conventions and units. The box is the periodic cube [0, L)³ in µm; every centre lies in

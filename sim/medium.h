@@ -4,8 +4,8 @@
 // Spongy keratin can be traced both ways: as its explicit keratin/air mesh (geometric optics,
 // the baseline: sim/scattering_slab.h's tiled_volume_slab_scene), or as the wave-optical
 // medium whose scattering coefficient and phase function come from the volume's power
-// spectrum (sim/wave/born_medium.h → sim/scattering_medium.h), which the spongy study's slabs
-// and the species study's parrot medulla use. The tracer is the same for both: it asks the
+// spectrum (sim/wave/volume/born_medium.h → sim/scattering_medium.h), which the spongy study's
+// slabs and the species study's parrot medulla use. The tracer is the same for both: it asks the
 // medium for a free flight on every segment and for a new direction at every scattering
 // event.
 //

@@ -2,10 +2,10 @@
 // docs/architecture.md): free flights with μ_t = μ_s + μ_a and scattering directions from a
 // tabulated phase function, per wavelength, for the tracer's Medium seam (sim/medium.h).
 //
-// Where the numbers come from: sim/wave/born_medium.h computes, per wavelength, the
+// Where the numbers come from: sim/wave/volume/born_medium.h computes, per wavelength, the
 // effective index, μ_s, μ_a and p(cos θ) of a spongy volume (first Born, or Mie × S(q)).
 // This file takes them as plain MediumTables, so that plumage_sim needs neither FFTW nor
-// plumage_wave (and plumage_wave stays free of the tracer and Embree); medium_table()
+// plumage_wave_volume (and plumage_wave_volume stays free of the tracer and Embree); medium_table()
 // below converts a wave::ScatteringTable (or any struct with the same fields) in code that
 // links both (studies, tests, benchmarks).
 //

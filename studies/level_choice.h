@@ -6,9 +6,9 @@
 // barbules). A study asks for:
 //  - measure = "auto": the cheapest level that full wave certifies for the study's own barbule
 //    row within `tolerance` (a row certificate: the endless periodic row's band-mean reflectance
-//    R by full wave against ray optics and physical optics, sim/wave/levels_against_full_wave.h);
-//    physical optics when the certificate puts ray optics beyond the tolerance and physical
-//    optics within it;
+//    R by full wave against ray optics and physical optics,
+//    sim/wave/compare/levels_against_full_wave.h); physical optics when the certificate puts ray
+//    optics beyond the tolerance and physical optics within it;
 //  - measure = "ray optics": ray optics + thin film, whatever full wave says;
 //  - measure = "physical optics": physical optics as well, whatever full wave says.
 // A study that measures at physical optics measures what that level can (the rock-dove study: its
@@ -40,7 +40,7 @@
 #include <string>
 #include <vector>
 
-#include "sim/wave/levels_against_full_wave.h"
+#include "sim/wave/compare/levels_against_full_wave.h"
 
 namespace plumage::studies {
 

@@ -26,9 +26,9 @@
 #include "geometry/barbule.h"
 #include "sim/optics/colour.h"
 #include "sim/tracer.h"
-#include "sim/wave/levels_against_full_wave.h"
-#include "sim/wave/physical_optics_25d.h"
-#include "sim/wave/ray_optics_validity.h"
+#include "sim/wave/compare/levels_against_full_wave.h"
+#include "sim/wave/compare/ray_optics_validity.h"
+#include "sim/wave/surface/physical_optics_25d.h"
 #include "studies/figure_data.h"
 #include "studies/fullwave_rock_dove.h"  // generated: the embedded full-wave reference
 #include "studies/instrument_tables.h"
@@ -715,8 +715,8 @@ double physical_optics_step_um(const Settings& s) {
     return rho >= 1e-4 * *longest ? 0.0 : std::min(rho, 1e-4 * *shortest);
 }
 
-// The 2.5D physical-optics scatterer of the study's row (sim/wave/physical_optics_25d.h): the
-// row above extruded along the barbules with the cells' tilt band θ_d.
+// The 2.5D physical-optics scatterer of the study's row (sim/wave/surface/physical_optics_25d.h):
+// the row above extruded along the barbules with the cells' tilt band θ_d.
 std::unique_ptr<const sim::wave::PhysicalOptics25d> build_physical_optics(const Settings& s,
                                                                           StudyContext& ctx) {
     StudyFile& file = ctx.file();
@@ -789,9 +789,11 @@ std::string physical_optics_figure(const Run& run, const Brdfs& m, const gonio::
     return "![in-plane by level](brdf/physical_optics_in_plane.png)\n\n";
 }
 
-// What the 2.5D level leaves out (sim/wave/physical_optics_2d.h and _25d.h), for the report.
+// What the 2.5D level leaves out (sim/wave/surface/physical_optics_2d.h and _25d.h), for the
+// report.
 std::string physical_optics_scope() {
-    return "What this level leaves out (sim/wave/physical_optics_2d.h, _25d.h): light reaches "
+    return "What this level leaves out (sim/wave/surface/physical_optics_2d.h, _25d.h): light "
+           "reaches "
            "the melanin only through the planar stack's r under each point of the film (keratin "
            "film / air gap / melanin, coherent): no light crosses the film to a melanin layer "
            "that does not follow it, nothing passes through the barbule, so it has no TRT, T or "
@@ -824,7 +826,8 @@ std::string physical_optics_section(const Run& run, const Brdfs& m, const gonio:
                "## BRDF at the physical-optics level (2.5D)\n\n"
                "The same instrument (the {} pairs, {} wavelengths, {:.1f}° detectors, photon "
                "estimator, passes and stop rule of the BRDF above, its own random streams) "
-               "measures the physical-optics level (sim/wave/physical_optics_25d.h): {} of this "
+               "measures the physical-optics level (sim/wave/surface/physical_optics_25d.h): {} of "
+               "this "
                "study's barbule cross-sections ({:g} µm wide, b = {}, film {:g} µm over a {:g} µm "
                "air gap over melanin), {:g} µm apart, tilted by μ = {:.2f} rad, coherent, "
                "extruded along the barbules with the cells' tilt band θ_d = {:.4f} rad "
@@ -1341,7 +1344,7 @@ std::string convergence(const Run& run, const Built& b,
 // ---- Level of physics judged by full wave ------------------------------------------------------
 
 // The study's barbule row in 2D (one cell, its spacing and tilt) and the sampling step its
-// sharpest curvature allows (sim/wave/ray_optics_validity.h), for the full-wave judgements.
+// sharpest curvature allows (sim/wave/compare/ray_optics_validity.h), for the full-wave judgements.
 struct StudyRow2d {
     sim::wave::Row2d row;
     double step_um = 0.0;
@@ -1577,7 +1580,7 @@ LevelCertificate row_certificate(const Settings& s, const StudyProgress& clock) 
 }
 
 // The row of this study's barbules, endless and periodic, judged by full wave through its
-// reflectance (the certificate above; sim/wave/levels_against_full_wave.h).
+// reflectance (the certificate above; sim/wave/compare/levels_against_full_wave.h).
 std::string full_wave_row_judgement(const Run& run, const LevelCertificate& c,
                                     RockDoveResult& result) {
     if (!c.present) return {};
@@ -1612,7 +1615,7 @@ std::string full_wave_row_judgement(const Run& run, const LevelCertificate& c,
 // The study's barbule row in 2D (its cross-section, spacing, tilt and rotation jitter; rows of
 // at least 4 barbules and 40 µm, fewer than the patch's when it is longer), PO against GO at the
 // study's wavelengths and the beam's incidence taken in the cross-section's plane
-// (sim/wave/ray_optics_validity.h: the 5° goniometer window, unpolarised).
+// (sim/wave/compare/ray_optics_validity.h: the 5° goniometer window, unpolarised).
 std::string level_of_physics(const Run& run, RockDoveResult& result) {
     run.ctx.clock().say(
         "level of physics: physical against geometric optics on the 2D barbule row");
@@ -1653,7 +1656,8 @@ std::string level_of_physics(const Run& run, RockDoveResult& result) {
         "Physical optics (diffraction, coherent over the row) against ray optics + thin film on "
         "this study's barbule cross-sections in 2D ({} barbules of width {:g} µm, H = {}, μ = "
         "{:.2f} rad{}), θ_i = {:.0f}° in the cross-section's plane, unpolarised, through a 5° "
-        "window (sim/wave/ray_optics_validity.h): relative L1 **{:.1f} %** (largest over the {} "
+        "window (sim/wave/compare/ray_optics_validity.h): relative L1 **{:.1f} %** (largest over "
+        "the {} "
         "wavelengths, at {:g} nm; noise floor {:.1f} %{}), total reflected power {:+.1f} %. "
         "**{}** ({:.2f} s; PO {:.2f} s, GO {:.3f} s wall).\n\n"
         "With the {:g} µm air gap under the film closed (keratin directly on melanin, the stack "

@@ -6,7 +6,7 @@
 //  2. The 61 × 60 Filip BRDF of both, BRDF fingerprints, the per-lobe error table with
 //     the worst cells, and the in-plane sweep as curves with error bars. When [level] chooses
 //     physical optics (studies/level_choice.h), the same BRDF of the 2.5D physical-optics level
-//     (sim/wave/physical_optics_25d.h) on the study's barbule row, against the model and
+//     (sim/wave/surface/physical_optics_25d.h) on the study's barbule row, against the model and
 //     beside the ray-traced one, and its beam scatterogram beside the ray-traced and model's.
 //  3. Where the assumptions of the model hold exactly (R lobe only, cells short enough
 //     that Eq. 7 is exact), simulation against model in standard errors.
@@ -63,8 +63,8 @@ struct RockDoveResult {
     // The hemisphere scatterograms' median per-pixel relative standard error
     // (gonio::median_relative_standard_error, cells above 1 % of the peak).
     double hemisphere_median_sigma_simulation = 0.0, hemisphere_median_sigma_model = 0.0;
-    // Level of physics (sim/wave/ray_optics_validity.h) on the study's barbule row in 2D: PO vs
-    // GO relative L1 (largest over the study's wavelengths) with its noise floor, the
+    // Level of physics (sim/wave/compare/ray_optics_validity.h) on the study's barbule row in 2D:
+    // PO vs GO relative L1 (largest over the study's wavelengths) with its noise floor, the
     // total-power error, whether ray optics + thin film suffices (L1 <= 5 %), and the wall time.
     double level_relative_l1 = 0.0, level_noise_floor = 0.0, level_power_error = 0.0;
     bool level_ray_optics_suffices = false;

@@ -9,9 +9,9 @@
 
 #include "common/error.h"
 #include "geometry/spongy_volume.h"
-#include "sim/wave/index_field.h"
-#include "sim/wave/power_spectrum.h"
-#include "sim/wave/structure_factor.h"
+#include "sim/wave/volume/index_field.h"
+#include "sim/wave/volume/power_spectrum.h"
+#include "sim/wave/volume/structure_factor.h"
 #include "studies/spongy_reference.h"  // generated: the routes against 3D full wave
 #include "studies/study_common.h"
 #include "studies/study_file.h"
@@ -197,7 +197,7 @@ void require_fine_voxels(ParameterTable& table, std::string_view key, double vox
             throw InputError(fmt::format(
                 "{}: {}.{} = {}: voxels coarser than lambda/(4 n_keratin) = {} nm / (4 x {:.4f}) "
                 "= {:.4f} um at the shortest wavelength traced; the grid would not resolve "
-                "backscattering (sim/wave/index_field.h)",
+                "backscattering (sim/wave/volume/index_field.h)",
                 table.location(key), table.path(), key, voxel_um, lambda, n, limit_um));
         }
     }

@@ -37,11 +37,11 @@
 // shell_relative_width are then unused. The Born route runs on it as on any volume. When the
 // spheres are disjoint (min_separation_diameters >= 1: a hard-sphere packing) the sphere route
 // runs as well: the structure factor S(q) of the centres measured in the periodic box
-// (sim/wave/structure_factor.h; linear in q between shells, held at the first shell below it,
-// as the Born route holds its spectrum), times Mie of one air sphere in the Bruggeman medium of
+// (sim/wave/volume/structure_factor.h; linear in q between shells, held at the first shell below
+// it, as the Born route holds its spectrum), times Mie of one air sphere in the Bruggeman medium of
 // air at the spheres' volume fraction φ = N (4π/3) a³ / L³ and keratin (sim::wave::sphere_medium;
 // the effective-medium convention of structcol: each sphere's contrast is to ε_eff). The two
-// routes differ by 1/(1 − φ)² in μ_s even at weak contrast (sim/wave/born_medium.h).
+// routes differ by 1/(1 − φ)² in μ_s even at weak contrast (sim/wave/volume/born_medium.h).
 //  | sphere_radius_um         | µm | 0.1 | (voxel_um, box_um / 4]: radius a of the air spheres |
 //  | min_separation_diameters | 1  | 1.0 | (0, 2]: s / 2a; >= 1 disjoint (the sphere route)   |
 // The sphere route's validity, refused by require_sphere_route: a sphere packing (morphology
@@ -62,7 +62,7 @@
 #include "geometry/spongy_volume.h"
 #include "sim/optics/material.h"
 #include "sim/scattering_medium.h"
-#include "sim/wave/born_medium.h"
+#include "sim/wave/volume/born_medium.h"
 
 namespace plumage::studies {
 

@@ -3,8 +3,8 @@
 // fraction f and length scale (channel Λ or sphere radius a): a generated volume
 // (geometry/spongy_volume.h), its scattering tables at every wavelength of the spectrum by the
 // study's route (first Born on the indicator power spectrum, or Mie × S(q) for sphere packings;
-// sim/wave/born_medium.h), a slab of that medium (sim/scattering_slab.h) traced by the tracer
-// at normal incidence; for the base case also at other incidence angles, and the
+// sim/wave/volume/born_medium.h), a slab of that medium (sim/scattering_slab.h) traced by the
+// tracer at normal incidence; for the base case also at other incidence angles, and the
 // geometric-optics baseline: the base volume's own keratin/air mesh, tiled into a slab of about
 // the same thickness on the same backing and traced as interfaces (sim/scattering_slab.h's
 // tiled_volume_slab_scene), which has no length scale and so no structural colour.
@@ -94,8 +94,8 @@
 #include "sim/scattering_medium.h"
 #include "sim/scattering_slab.h"
 #include "sim/tracer.h"
-#include "sim/wave/born_medium.h"
-#include "sim/wave/effective_index.h"
+#include "sim/wave/volume/born_medium.h"
+#include "sim/wave/volume/effective_index.h"
 #include "studies/plots.h"
 #include "studies/sections.h"
 #include "studies/spongy_medium.h"
@@ -702,7 +702,7 @@ void write_case_spectra(record::Hdf5Writer& h5, const std::vector<Case>& cases, 
     h5.write("mu_s_per_um", std::span<const double>(mu_s), dims,
              attrs("1/um",
                    "scattering coefficient of the study's route (root attribute medium_route: "
-                   "first Born or the sphere route, sim/wave/born_medium.h)"));
+                   "first Born or the sphere route, sim/wave/volume/born_medium.h)"));
     h5.write("asymmetry_g", std::span<const double>(g), dims,
              attrs("1", "mean cosine of the phase function of the study's route"));
     h5.write("n_eff", std::span<const double>(n_eff), dims,
@@ -933,9 +933,10 @@ std::string method_text(const Settings& s, const Case& base) {
     const std::string tables =
         s.route == MediumRoute::sphere
             ? "the sphere route's scattering tables (Mie of one air sphere in the Bruggeman "
-              "medium × the measured structure factor of the centres, sim/wave/born_medium.h)"
+              "medium × the measured structure factor of the centres, "
+              "sim/wave/volume/born_medium.h)"
             : "first-Born scattering tables from their indicator power spectrum "
-              "(sim/wave/born_medium.h)";
+              "(sim/wave/volume/born_medium.h)";
     return fmt::format(
         "{12} ({0}³ voxels of {1} µm, box {2} µm), one per (f, {3}), give {13} "
         "at every one of the {4} wavelengths ({5:.0f}–{6:.0f} nm), "
@@ -984,7 +985,7 @@ std::string routes_text(const std::vector<Case>& cases, const std::vector<CaseRe
         "two-phase contrast ε_keratin − ε_air on the volume's power spectrum, the sphere route "
         "each air sphere's contrast to the Bruggeman medium, ε_air − ε_eff (structcol's "
         "convention), on Mie × the measured S(q) of the centres. At weak contrast their μ_s "
-        "ratio is 1/(1 − φ)², φ the air-sphere fraction (sim/wave/born_medium.h).\n\n",
+        "ratio is 1/(1 − φ)², φ the air-sphere fraction (sim/wave/volume/born_medium.h).\n\n",
         route_name(s.route));
     if (s.morphology != geometry::SpongyMorphology::sphere) {
         return t +

@@ -15,8 +15,8 @@
 #include "common/error.h"
 #include "common/interrupt.h"
 #include "sim/fullwave/row_reference.h"
-#include "sim/wave/levels_against_full_wave.h"
-#include "sim/wave/ray_optics_validity.h"
+#include "sim/wave/compare/levels_against_full_wave.h"
+#include "sim/wave/compare/ray_optics_validity.h"
 #include "studies/study_common.h"
 #include "virtual_gonio/hdf5_file.h"
 

@@ -8,7 +8,7 @@
 //  - full wave: sim/fullwave/row_reference.h (fullwave::barbule_row's closed body: melanin core
 //    under a uniform air shell g and keratin shell d), TE and TM on two grids; its resolution
 //    error is the coarse band mean over the fine one's, minus 1;
-//  - physical optics and ray optics + film: sim/wave/levels_against_full_wave.h
+//  - physical optics and ray optics + film: sim/wave/compare/levels_against_full_wave.h
 //    (judge_row_against_full_wave: rows of 12 and 4 barbules, their ends cancelled);
 //  - errors: band mean over full wave's, minus 1, and the largest |R_level(λ)/R_FW(λ) − 1|.
 // Verdict: the cheapest level whose band-mean error is within the threshold, else "full wave";

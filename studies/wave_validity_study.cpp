@@ -24,8 +24,8 @@
 #include "geometry/barbule.h"
 #include "sim/fullwave/full_wave_2d.h"
 #include "sim/optics/material.h"
-#include "sim/wave/full_wave_reference.h"
-#include "sim/wave/ray_optics_validity.h"
+#include "sim/wave/compare/full_wave_reference.h"
+#include "sim/wave/compare/ray_optics_validity.h"
 #include "studies/plots.h"
 #include "studies/sections.h"
 #include "studies/staged_directory.h"
@@ -768,7 +768,7 @@ void write_record(const fs::path& path, const WaveValidityResult& r, const Setti
     if (s.live.on) write_live(h5, r, s.live);
     h5.set_attribute("/", "description",
                      "Physical optics (reflected part) against geometric optics (mirror rays) "
-                     "for 2D barbule rows: sim/wave/ray_optics_validity.h");
+                     "for 2D barbule rows: sim/wave/compare/ray_optics_validity.h");
     h5.set_attribute("/", "outgoing_visibility", s.options.outgoing_visibility ? "on" : "off");
     h5.set_attribute("/", "realisations", static_cast<double>(s.realisations));
     gonio::write_provenance(h5, {"physical_optics_2d vs geometric_optics_2d", s.seed,
@@ -913,9 +913,11 @@ void write_report(const fs::path& path, const WaveValidityResult& r, const Setti
     const Barbule& b = s.base;
     md << "# Where ray optics ends: physical optics against geometric optics for barbule rows\n\n"
        << fmt::format(
-              "Physical optics (PO, sim/wave/physical_optics_2d.h: the Kirchhoff far field of "
+              "Physical optics (PO, sim/wave/surface/physical_optics_2d.h: the Kirchhoff far field "
+              "of "
               "each lit element's thin-film reflection, coherent over the row) against geometric "
-              "optics (GO, sim/wave/geometric_optics_2d.h: the same elements' |r|² cos θ ds sent "
+              "optics (GO, sim/wave/surface/geometric_optics_2d.h: the same elements' |r|² cos θ "
+              "ds sent "
               "into their mirror directions). Both: single bounce, same samples, lit test and "
               "stack, outgoing visibility {}; PO − GO is diffraction alone. Rows of rock-dove "
               "barbule cross-sections (b = {}, φ0 = {:.2f}, φ1 = {:.2f} rad, d = {} µm over a {} "

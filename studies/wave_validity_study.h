@@ -3,9 +3,9 @@
 // needed, as maps over the barbule width 2A against film thickness d, cross-section aspect b
 // (curvature) and spacing H, the other parameters at the rock-dove values.
 //
-// Physics on the floor: sim/wave/ray_optics_validity.h (PO's reflected part against GO's mirror
-// rays on the same samples, lit test and stack, unpolarised, through the same detector window;
-// relative L1 with the jitter ensemble's half-normal noise floor, total-power error, each
+// Physics on the floor: sim/wave/compare/ray_optics_validity.h (PO's reflected part against GO's
+// mirror rays on the same samples, lit test and stack, unpolarised, through the same detector
+// window; relative L1 with the jitter ensemble's half-normal noise floor, total-power error, each
 // level's wall and CPU time). This file reads, builds the rows, measures, compares and reports.
 //
 // Per map point (axis value v, width 2A): a row of `count` = max(min_count, ⌈min_length/(H A)⌉)
@@ -22,10 +22,10 @@
 //
 // Full-wave check (optional, `[full_wave] reference = "<folder>"`, relative to the study file's
 // folder; the Meep reference of tests/reference/barbule_2d, read by
-// sim/wave/full_wave_reference.h): per reference curve (shape, θ_i, λ; unpolarised (TE + TM)/2
-// where both polarisations exist) the map's metric (the same detector window, the same centres
-// over the reflected half-space |θ_s| < 90°, relative L1) for GO vs Meep, PO vs Meep (PO's total
-// part: Meep's σ is the scattered field, shadow-forming wave included) and PO vs GO (PO's
+// sim/wave/compare/full_wave_reference.h): per reference curve (shape, θ_i, λ; unpolarised (TE +
+// TM)/2 where both polarisations exist) the map's metric (the same detector window, the same
+// centres over the reflected half-space |θ_s| < 90°, relative L1) for GO vs Meep, PO vs Meep (PO's
+// total part: Meep's σ is the scattered field, shadow-forming wave included) and PO vs GO (PO's
 // reflected part, the map's own number), beside Meep's floor 2 × its 40/60 px/µm RMS difference
 // (the larger of the polarisations; the 40 px/µm curves are not shipped, so not windowed) and
 // the share of PO's shadow part in the window over the half-space (GO has none). The verdict

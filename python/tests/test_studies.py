@@ -171,7 +171,7 @@ def test_spongy_medium_route_from_a_dict(tmp_path):
         assert f["other_route"].attrs["route"] == "born"
         sphere, born = f["mu_s_per_um"][()], f["other_route/mu_s_per_um"][()]
         phi = f["sphere_fraction"][()].item()
-    # μ_s(Born) / μ_s(sphere) near 1/(1 − φ)² (sim/wave/born_medium.h; tolerance as the C++
+    # μ_s(Born) / μ_s(sphere) near 1/(1 − φ)² (sim/wave/volume/born_medium.h; tolerance as the C++
     # test SpherePackingReportCarriesBothRoutes: the O(Δn) terms at keratin contrast).
     ratio = born[0, 0, born.shape[2] // 2] / sphere[0, 0, sphere.shape[2] // 2]
     assert ratio == pytest.approx(1.0 / (1.0 - phi) ** 2, rel=0.25)

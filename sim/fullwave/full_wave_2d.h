@@ -89,7 +89,7 @@
 
 #include "sim/fullwave/cross_section_2d.h"
 #include "sim/fullwave/lorentz_fit.h"
-#include "sim/wave/born_2d.h"  // Polarisation2d
+#include "sim/wave/volume/born_2d.h"  // Polarisation2d
 
 namespace plumage::sim::fullwave {
 

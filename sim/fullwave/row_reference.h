@@ -1,6 +1,6 @@
 // Full wave computed live as the judge of a periodic row: the reflectance R(λ) of one period's
 // bodies (full_wave_row, full_wave_2d.h), TE and TM, on two grids, in the form the cheaper
-// levels are judged by (wave::RowReflectanceFullWave, sim/wave/levels_against_full_wave.h).
+// levels are judged by (wave::RowReflectanceFullWave, sim/wave/compare/levels_against_full_wave.h).
 //
 //  - Grids: r and 1.5 r (subpixel smoothing on), each refined to a whole, even number of cells
 //    per period by full_wave_row. The resolution error is the coarse grid's band-mean R over
@@ -33,7 +33,7 @@
 #include <vector>
 
 #include "sim/fullwave/cross_section_2d.h"
-#include "sim/wave/levels_against_full_wave.h"
+#include "sim/wave/compare/levels_against_full_wave.h"
 
 namespace plumage::sim::fullwave {
 

@@ -1,5 +1,5 @@
-// Physical optics through transparent interfaces (sim/wave/physical_optics_hybrid_2d.h) against
-// the suite's full wave on the two cross-sections of tests/reference/po_transmission
+// Physical optics through transparent interfaces (sim/wave/surface/physical_optics_hybrid_2d.h)
+// against the suite's full wave on the two cross-sections of tests/reference/po_transmission
 // (structures.h; README.md there): a keratin arc over a separate melanin layer with a varying
 // gap, and a melanin ellipse 1 µm thick that transmits. At θ_i = 30°, 450/550/650 nm, TE and TM,
 // each quantity of issue 36's list is compared with the finer grid's value; its floor is the
@@ -21,7 +21,7 @@
 
 #include "common/constants.h"
 #include "sim/optics/material.h"
-#include "sim/wave/physical_optics_hybrid_2d.h"
+#include "sim/wave/surface/physical_optics_hybrid_2d.h"
 #include "tests/reference/po_transmission/structures.h"
 
 namespace plumage::sim::wave {

@@ -22,9 +22,9 @@
 #include "common/constants.h"
 #include "common/seed.h"
 #include "sim/optics/material.h"
-#include "sim/wave/born_2d.h"
-#include "sim/wave/flatland_slab.h"
-#include "sim/wave/power_spectrum.h"
+#include "sim/wave/volume/born_2d.h"
+#include "sim/wave/volume/flatland_slab.h"
+#include "sim/wave/volume/power_spectrum.h"
 
 namespace plumage::sim::wave {
 namespace {

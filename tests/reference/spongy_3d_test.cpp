@@ -31,9 +31,9 @@
 #include "sim/scattering_medium.h"
 #include "sim/scattering_slab.h"
 #include "sim/tracer.h"
-#include "sim/wave/born_medium.h"
-#include "sim/wave/power_spectrum.h"
-#include "sim/wave/structure_factor.h"
+#include "sim/wave/volume/born_medium.h"
+#include "sim/wave/volume/power_spectrum.h"
+#include "sim/wave/volume/structure_factor.h"
 #include "tests/reference/spongy_3d/structures.h"
 
 namespace plumage::reference::spongy3d {

@@ -19,9 +19,9 @@
 #include "geometry/spongy_volume.h"
 #include "sim/scattering_slab.h"
 #include "sim/tracer.h"
-#include "sim/wave/born_medium.h"
-#include "sim/wave/index_field.h"
-#include "sim/wave/power_spectrum.h"
+#include "sim/wave/volume/born_medium.h"
+#include "sim/wave/volume/index_field.h"
+#include "sim/wave/volume/power_spectrum.h"
 #include "tests/analysis/chi_square.h"
 #include "tests/test_util.h"
 

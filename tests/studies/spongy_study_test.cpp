@@ -180,9 +180,9 @@ std::string sphere_study(const std::string& route) {
 TEST(SpongyStudy, SpherePackingReportCarriesBothRoutes) {
     // Default route (born) on a hard-sphere packing: the report and the record carry the sphere
     // route beside it (μ_s, R, peak), and every reflectance is defined. μ_s(Born) / μ_s(sphere)
-    // is the weak-contrast 1/(1 − φ)² = 2.04 (sim/wave/born_medium.h) up to the O(Δn) terms at
-    // keratin/air contrast: Bruggeman's second-order term, |2φδ/(3ε_h)| = 0.12 at δ = −1.4,
-    // ε_h = 2.4, and Mie's departure from RGD; 25 % allows both.
+    // is the weak-contrast 1/(1 − φ)² = 2.04 (sim/wave/volume/born_medium.h) up to the O(Δn) terms
+    // at keratin/air contrast: Bruggeman's second-order term, |2φδ/(3ε_h)| = 0.12 at δ = −1.4, ε_h
+    // = 2.4, and Mie's departure from RGD; 25 % allows both.
     const std::string text = sphere_study("");
     const fs::path root = temp_root("spheres");
     study_of(text, kQuick).run(text, kQuick, root, {});

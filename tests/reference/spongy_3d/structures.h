@@ -28,7 +28,7 @@
 
 #include "geometry/hard_sphere_packing.h"
 #include "geometry/spongy_volume.h"
-#include "sim/wave/index_field.h"
+#include "sim/wave/volume/index_field.h"
 
 namespace plumage::reference::spongy3d {
 

@@ -1,6 +1,6 @@
-// The circular-cylinder series (sim/wave/cylinder_series.h) on its own: the checks the series
-// must pass before the full-wave level is judged by it.
-#include "sim/wave/cylinder_series.h"
+// The circular-cylinder series (sim/wave/volume/cylinder_series.h) on its own: the checks the
+// series must pass before the full-wave level is judged by it.
+#include "sim/wave/volume/cylinder_series.h"
 
 #include <cmath>
 #include <numbers>

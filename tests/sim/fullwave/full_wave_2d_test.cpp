@@ -19,7 +19,7 @@
 #include "common/error.h"
 #include "common/interrupt.h"
 #include "sim/optics/multilayer.h"
-#include "sim/wave/cylinder_series.h"
+#include "sim/wave/volume/cylinder_series.h"
 #include "tests/test_util.h"
 
 namespace plumage::sim::fullwave {

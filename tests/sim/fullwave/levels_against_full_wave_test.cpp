@@ -1,6 +1,6 @@
-// The judge of the cheaper 2D levels (sim/wave/levels_against_full_wave.h): its arithmetic on
-// curves whose answer is known.
-#include "sim/wave/levels_against_full_wave.h"
+// The judge of the cheaper 2D levels (sim/wave/compare/levels_against_full_wave.h): its arithmetic
+// on curves whose answer is known.
+#include "sim/wave/compare/levels_against_full_wave.h"
 
 #include <cmath>
 #include <numbers>
@@ -11,7 +11,7 @@
 #include "common/error.h"
 #include "sim/optics/material.h"
 #include "sim/optics/multilayer.h"
-#include "sim/wave/ray_optics_validity.h"
+#include "sim/wave/compare/ray_optics_validity.h"
 
 namespace plumage::sim::wave {
 namespace {

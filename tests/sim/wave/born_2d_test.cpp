@@ -1,7 +1,7 @@
-// Flatland first Born (sim/wave/born_2d.h) and rectangular 2D power spectra: Parseval on
+// Flatland first Born (sim/wave/volume/born_2d.h) and rectangular 2D power spectra: Parseval on
 // rectangles, the voxelised disc's form factor, the Rayleigh cylinder of van de Hulst, the
 // 2D effective permittivities, and the input checks.
-#include "sim/wave/born_2d.h"
+#include "sim/wave/volume/born_2d.h"
 
 #include <cmath>
 #include <random>
@@ -14,7 +14,7 @@
 #include "common/constants.h"
 #include "common/error.h"
 #include "sim/optics/material.h"
-#include "sim/wave/power_spectrum.h"
+#include "sim/wave/volume/power_spectrum.h"
 #include "tests/test_util.h"
 
 namespace plumage::sim::wave {

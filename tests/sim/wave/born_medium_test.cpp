@@ -1,6 +1,6 @@
 // First-Born scattering tables: Born (RGD) against Mie as the contrast vanishes, phase
 // function normalisation, the channel volume's medium, and the validity limits.
-#include "sim/wave/born_medium.h"
+#include "sim/wave/volume/born_medium.h"
 #include "common/constants.h"
 
 #include <unistd.h>
@@ -16,10 +16,10 @@
 
 #include "common/error.h"
 #include "geometry/spongy_volume.h"
-#include "sim/wave/effective_index.h"
-#include "sim/wave/index_field.h"
-#include "sim/wave/mie.h"
-#include "sim/wave/structure_factor.h"
+#include "sim/wave/volume/effective_index.h"
+#include "sim/wave/volume/index_field.h"
+#include "sim/wave/volume/mie.h"
+#include "sim/wave/volume/structure_factor.h"
 #include "tests/test_util.h"
 
 namespace plumage::sim::wave {

@@ -1,7 +1,7 @@
 // Bruggeman effective permittivity: end points, symmetry, agreement with Maxwell-Garnett to
 // second order in the contrast, lossless in → real out, passivity and continuity of the
 // chosen root.
-#include "sim/wave/effective_index.h"
+#include "sim/wave/volume/effective_index.h"
 
 #include <cmath>
 #include <complex>

@@ -1,8 +1,8 @@
-// Flatland slab Monte Carlo (sim/wave/flatland_slab.h): the white furnace (R + T = 1 per
+// Flatland slab Monte Carlo (sim/wave/volume/flatland_slab.h): the white furnace (R + T = 1 per
 // path), thread-count independence, the optically thin index-matched slab against the
 // single-scattering closed form, the clear slab against the incoherent two-interface
 // formula, and the input checks.
-#include "sim/wave/flatland_slab.h"
+#include "sim/wave/volume/flatland_slab.h"
 
 #include <cmath>
 #include <vector>

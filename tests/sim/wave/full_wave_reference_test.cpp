@@ -1,7 +1,7 @@
-// The full-wave reference reader (sim/wave/full_wave_reference.h): the shipped Meep folder reads
-// into its 24 curves with a convergence row each, and bad files fail with the file, the line and
-// what was expected.
-#include "sim/wave/full_wave_reference.h"
+// The full-wave reference reader (sim/wave/compare/full_wave_reference.h): the shipped Meep folder
+// reads into its 24 curves with a convergence row each, and bad files fail with the file, the line
+// and what was expected.
+#include "sim/wave/compare/full_wave_reference.h"
 
 #include <unistd.h>
 

@@ -1,8 +1,8 @@
-// Geometric optics in 2D (sim/wave/geometric_optics_2d.h) and its comparison with physical
-// optics (sim/wave/ray_optics_validity.h): the flat strip's mirror power, a convex shell's total
-// against an independent quadrature, the detector window, and the PO − GO metric with its noise
-// floor on cases whose answer is known.
-#include "sim/wave/geometric_optics_2d.h"
+// Geometric optics in 2D (sim/wave/surface/geometric_optics_2d.h) and its comparison with physical
+// optics (sim/wave/compare/ray_optics_validity.h): the flat strip's mirror power, a convex shell's
+// total against an independent quadrature, the detector window, and the PO − GO metric with its
+// noise floor on cases whose answer is known.
+#include "sim/wave/surface/geometric_optics_2d.h"
 
 #include <omp.h>
 
@@ -16,7 +16,7 @@
 #include "common/constants.h"
 #include "common/error.h"
 #include "sim/optics/multilayer.h"
-#include "sim/wave/ray_optics_validity.h"
+#include "sim/wave/compare/ray_optics_validity.h"
 
 namespace plumage::sim::wave {
 namespace {

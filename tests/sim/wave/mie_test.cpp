@@ -5,7 +5,7 @@
 // Sign conventions: Wiscombe writes m = n − ik (e^{+iωt}) where we write n + ik; cross-
 // sections and |S| do not depend on the convention, Im S flips sign, so only those are
 // compared.
-#include "sim/wave/mie.h"
+#include "sim/wave/volume/mie.h"
 #include "common/constants.h"
 
 #include <cmath>

@@ -1,9 +1,9 @@
-// The goniometer measures the 2.5D physical-optics level (sim/wave/physical_optics_25d.h) without
-// bias (issue 36, acceptance 3): its photon estimator, which plays quanta through the level's
-// importance sampler, against its eval estimator, a cubature of eval() over the same detector
-// cones, per wavelength. tests/sim/wave/physical_optics_25d_test.cpp checks the sampler alone
-// (tests/analysis/chi_square.h: directions against pdf(), weights against eval()); this checks
-// what a study reads from the instrument.
+// The goniometer measures the 2.5D physical-optics level (sim/wave/surface/physical_optics_25d.h)
+// without bias (issue 36, acceptance 3): its photon estimator, which plays quanta through the
+// level's importance sampler, against its eval estimator, a cubature of eval() over the same
+// detector cones, per wavelength. tests/sim/wave/physical_optics_25d_test.cpp checks the sampler
+// alone (tests/analysis/chi_square.h: directions against pdf(), weights against eval()); this
+// checks what a study reads from the instrument.
 //
 // Cells: three light directions (in the cross-section's plane, along the barbules, oblique),
 // each with views along its reflection cone ε_o = −ε_i and 6° off it (within the band of
@@ -31,7 +31,7 @@
 #include "analysis/metrics/statistics.h"
 #include "common/constants.h"
 #include "common/seed.h"
-#include "sim/wave/physical_optics_25d.h"
+#include "sim/wave/surface/physical_optics_25d.h"
 #include "tests/analysis/chi_square.h"
 #include "tests/sim/wave/physical_optics_25d_test_util.h"
 #include "virtual_gonio/goniometer.h"

@@ -1,6 +1,6 @@
-// Physical optics in 2.5D (sim/wave/physical_optics_25d.h): the BSDF's energy against the 2D
-// row's reflected power, the tilt band, and the uniform sampler's weights.
-#include "sim/wave/physical_optics_25d.h"
+// Physical optics in 2.5D (sim/wave/surface/physical_optics_25d.h): the BSDF's energy against the
+// 2D row's reflected power, the tilt band, and the uniform sampler's weights.
+#include "sim/wave/surface/physical_optics_25d.h"
 
 #include <algorithm>
 #include <cmath>

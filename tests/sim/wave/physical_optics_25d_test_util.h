@@ -4,7 +4,7 @@
 
 #include <cmath>
 
-#include "sim/wave/physical_optics_25d.h"
+#include "sim/wave/surface/physical_optics_25d.h"
 
 namespace plumage::sim::wave::po25d_test {
 

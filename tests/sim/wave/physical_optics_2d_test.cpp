@@ -1,7 +1,7 @@
-// Physical optics in 2D (sim/wave/physical_optics_2d.h): the flat strip's specular power and
-// closed form, reciprocity, convergence to geometric optics on the barbule arc, refused input,
+// Physical optics in 2D (sim/wave/surface/physical_optics_2d.h): the flat strip's specular power
+// and closed form, reciprocity, convergence to geometric optics on the barbule arc, refused input,
 // and thread-count independence of a jittered row.
-#include "sim/wave/physical_optics_2d.h"
+#include "sim/wave/surface/physical_optics_2d.h"
 
 #include <omp.h>
 
@@ -16,7 +16,7 @@
 #include "common/constants.h"
 #include "common/error.h"
 #include "sim/optics/multilayer.h"
-#include "sim/wave/geometric_optics_2d.h"
+#include "sim/wave/surface/geometric_optics_2d.h"
 
 namespace plumage::sim::wave {
 namespace {

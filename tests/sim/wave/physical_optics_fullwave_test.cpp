@@ -1,4 +1,4 @@
-// Physical optics (sim/wave/physical_optics_2d.h) against the full-wave Meep reference of
+// Physical optics (sim/wave/surface/physical_optics_2d.h) against the full-wave Meep reference of
 // tests/reference/barbule_2d (project issue 16, acceptance item 2): every σ(θ_s) curve of
 // far_field.csv (single, small, row3; TE/TM; 450/550/650 nm; θ_i 0° and 30° for single) against
 // PO's σ on the same 0.5° grid for the contract's shapes. Compared: the back hemisphere
@@ -24,10 +24,10 @@
 
 #include "common/constants.h"
 #include "sim/optics/material.h"
-#include "sim/wave/full_wave_reference.h"
-#include "sim/wave/geometric_optics_2d.h"
-#include "sim/wave/physical_optics_2d.h"
-#include "sim/wave/physical_optics_hybrid_2d.h"
+#include "sim/wave/compare/full_wave_reference.h"
+#include "sim/wave/surface/geometric_optics_2d.h"
+#include "sim/wave/surface/physical_optics_2d.h"
+#include "sim/wave/surface/physical_optics_hybrid_2d.h"
 
 namespace plumage::sim::wave {
 namespace {

@@ -1,7 +1,7 @@
 // Physical optics through transparent interfaces (physical_optics_hybrid_2d.h) against closed
 // forms: the transfer matrix of planar stacks (a free film, a film over an air gap over melanin,
 // a melanin slab that transmits), the optical theorem, and the power book.
-#include "sim/wave/physical_optics_hybrid_2d.h"
+#include "sim/wave/surface/physical_optics_hybrid_2d.h"
 
 #include <algorithm>
 #include <cmath>

@@ -1,5 +1,5 @@
-// Physical optics in 2.5D (sim/wave/physical_optics_25d.h) against the suite's 3D ray tracer
-// (sim/tracer.h) on the explicit barbule row (geometry/barbule.h), both measured by the
+// Physical optics in 2.5D (sim/wave/surface/physical_optics_25d.h) against the suite's 3D ray
+// tracer (sim/tracer.h) on the explicit barbule row (geometry/barbule.h), both measured by the
 // goniometer on the same direction pairs and detector cones (issue 16: "physical optics and the
 // ray tracer converge as the barbule grows").
 //
@@ -43,8 +43,8 @@
 #include "sim/optics/material.h"
 #include "sim/scene.h"
 #include "sim/tracer.h"
-#include "sim/wave/geometric_optics_2d.h"
-#include "sim/wave/physical_optics_25d.h"
+#include "sim/wave/surface/geometric_optics_2d.h"
+#include "sim/wave/surface/physical_optics_25d.h"
 #include "virtual_gonio/direction_sets.h"
 #include "virtual_gonio/goniometer.h"
 

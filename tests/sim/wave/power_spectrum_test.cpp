@@ -1,7 +1,7 @@
 // Power spectra: Parseval normalisation, agreement with geometry::measure_power_spectrum,
 // the voxelised sphere's (and disk's) form factor and its convergence with resolution, and
 // the isotropy measure.
-#include "sim/wave/power_spectrum.h"
+#include "sim/wave/volume/power_spectrum.h"
 #include "common/constants.h"
 
 #include <cmath>
@@ -16,7 +16,7 @@
 
 #include "common/error.h"
 #include "geometry/spongy_volume.h"
-#include "sim/wave/index_field.h"
+#include "sim/wave/volume/index_field.h"
 
 namespace plumage::sim::wave {
 namespace {

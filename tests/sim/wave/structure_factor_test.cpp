@@ -1,6 +1,6 @@
 // Structure factors: the Percus–Yevick closed form against its defining integral and its
 // limits, and the measured S(q) of generated sphere packings against PY.
-#include "sim/wave/structure_factor.h"
+#include "sim/wave/volume/structure_factor.h"
 #include "common/constants.h"
 
 #include <chrono>

@@ -1,4 +1,4 @@
-#include "sim/wave/cylinder_series.h"
+#include "sim/wave/volume/cylinder_series.h"
 
 #include <cmath>
 #include <numbers>

@@ -83,7 +83,7 @@
 #include <vector>
 
 #include "sim/scatterer.h"
-#include "sim/wave/physical_optics_2d.h"
+#include "sim/wave/surface/physical_optics_2d.h"
 
 namespace plumage::sim::wave {
 

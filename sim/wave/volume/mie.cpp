@@ -14,7 +14,7 @@
 //  - ψ_n(x), χ_n(x) by upward recurrence (real x: stable up to n_stop ≈ x, where the
 //    terms are already negligible beyond).
 //  - a_n, b_n from BH eq. 4.88; π_n, τ_n by upward recurrence (BH eq. 4.47).
-#include "sim/wave/mie.h"
+#include "sim/wave/volume/mie.h"
 
 #include <cmath>
 

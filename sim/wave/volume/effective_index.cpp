@@ -5,7 +5,7 @@
 //  |-------------|------|----------------------------------------------------|
 //  | eps1, eps2  | 1    | finite, Re > 0, Im >= 0 (passive dielectrics)       |
 //  | f           | 1    | [0, 1], volume fraction of component 1             |
-#include "sim/wave/effective_index.h"
+#include "sim/wave/volume/effective_index.h"
 
 #include <algorithm>
 #include <cmath>

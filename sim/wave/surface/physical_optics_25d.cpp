@@ -1,5 +1,5 @@
 // Physical optics in 2.5D (physical_optics_25d.h has the derivation).
-#include "sim/wave/physical_optics_25d.h"
+#include "sim/wave/surface/physical_optics_25d.h"
 
 #include <algorithm>
 #include <atomic>

@@ -1,6 +1,6 @@
 // Flatland slab Monte Carlo and its closed forms (conventions and parameter table in the
 // header).
-#include "sim/wave/flatland_slab.h"
+#include "sim/wave/volume/flatland_slab.h"
 
 #include <algorithm>
 #include <atomic>

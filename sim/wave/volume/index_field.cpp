@@ -8,7 +8,7 @@
 //  |            |      | plumage_voxel_um > 0 metadata (geometry/spongy_volume.h)   |
 //  | lambda_nm  | nm   | finite, > 0, in the materials' range                       |
 //  | voxel_um   | µm   | <= λ / (4 n_max) (λ converted to µm)                       |
-#include "sim/wave/index_field.h"
+#include "sim/wave/volume/index_field.h"
 
 #include <algorithm>
 #include <cmath>
@@ -16,7 +16,7 @@
 #include <fmt/format.h>
 
 #include "common/error.h"
-#include "sim/wave/effective_index.h"
+#include "sim/wave/volume/effective_index.h"
 
 namespace plumage::sim::wave {
 

@@ -118,7 +118,7 @@
 
 #include "sim/optics/fresnel.h"
 #include "sim/optics/multilayer.h"
-#include "sim/wave/physical_optics_2d.h"
+#include "sim/wave/surface/physical_optics_2d.h"
 
 namespace plumage::sim::wave {
 

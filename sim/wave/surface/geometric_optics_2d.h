@@ -38,7 +38,7 @@
 #include <span>
 #include <vector>
 
-#include "sim/wave/physical_optics_2d.h"
+#include "sim/wave/surface/physical_optics_2d.h"
 
 namespace plumage::sim::wave {
 

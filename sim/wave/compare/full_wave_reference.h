@@ -27,7 +27,7 @@
 #include <string>
 #include <vector>
 
-#include "sim/wave/physical_optics_2d.h"
+#include "sim/wave/surface/physical_optics_2d.h"
 
 namespace plumage::sim::wave {
 

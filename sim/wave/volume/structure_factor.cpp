@@ -9,7 +9,7 @@
 //  | centres_um  | µm    | in [0, L)³, at least 2                                    |
 //  | box_um (L)  | µm    | finite, > 0                                               |
 //  | q_max_per_um| µm⁻¹  | >= 2π/L (at least one shell)                              |
-#include "sim/wave/structure_factor.h"
+#include "sim/wave/volume/structure_factor.h"
 
 #include <algorithm>
 #include <cmath>

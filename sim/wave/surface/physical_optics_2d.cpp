@@ -1,5 +1,5 @@
 // Physical optics far field of 2D cross-sections (physical_optics_2d.h has the derivation).
-#include "sim/wave/physical_optics_2d.h"
+#include "sim/wave/surface/physical_optics_2d.h"
 
 #include <algorithm>
 #include <array>

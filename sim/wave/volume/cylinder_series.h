@@ -31,7 +31,7 @@
 #include <complex>
 #include <vector>
 
-#include "sim/wave/born_2d.h"  // Polarisation2d
+#include "sim/wave/volume/born_2d.h"  // Polarisation2d
 
 namespace plumage::sim::wave {
 

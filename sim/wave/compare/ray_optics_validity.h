@@ -46,8 +46,8 @@
 #include <span>
 #include <vector>
 
-#include "sim/wave/geometric_optics_2d.h"
-#include "sim/wave/physical_optics_2d.h"
+#include "sim/wave/surface/geometric_optics_2d.h"
+#include "sim/wave/surface/physical_optics_2d.h"
 
 namespace plumage::sim::wave {
 

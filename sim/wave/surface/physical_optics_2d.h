@@ -127,7 +127,7 @@
 #include "sim/optics/material.h"
 #include "sim/optics/multilayer.h"
 #include "sim/random.h"
-#include "sim/wave/born_2d.h"  // Polarisation2d
+#include "sim/wave/volume/born_2d.h"  // Polarisation2d
 
 namespace plumage::sim::wave {
 

@@ -67,7 +67,7 @@
 #include <cstdint>
 #include <vector>
 
-#include "sim/wave/born_2d.h"
+#include "sim/wave/volume/born_2d.h"
 
 namespace plumage::sim::wave {
 

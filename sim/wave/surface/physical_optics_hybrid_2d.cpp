@@ -1,6 +1,6 @@
 // Physical optics through transparent interfaces (physical_optics_hybrid_2d.h has the
 // derivation and the list of what is kept).
-#include "sim/wave/physical_optics_hybrid_2d.h"
+#include "sim/wave/surface/physical_optics_hybrid_2d.h"
 
 #include <algorithm>
 #include <array>

@@ -1,4 +1,4 @@
-#include "sim/wave/levels_against_full_wave.h"
+#include "sim/wave/compare/levels_against_full_wave.h"
 
 #include <cmath>
 #include <numbers>
@@ -8,7 +8,7 @@
 #include "common/constants.h"
 #include "common/relative_l1.h"
 #include "common/require.h"
-#include "sim/wave/ray_optics_validity.h"
+#include "sim/wave/compare/ray_optics_validity.h"
 
 namespace plumage::sim::wave {
 

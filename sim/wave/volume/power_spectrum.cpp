@@ -11,7 +11,7 @@
 // FFTW plan creation (fftw_plan_*) is not thread-safe, execution is: plans are made under
 // one process-wide mutex. FFTW_ESTIMATE keeps planning cheap and the result independent of
 // timing measurements, so the output is deterministic run to run.
-#include "sim/wave/power_spectrum.h"
+#include "sim/wave/volume/power_spectrum.h"
 
 #include <algorithm>
 #include <cmath>

@@ -83,7 +83,7 @@
 #include <vector>
 
 #include "sim/optics/material.h"
-#include "sim/wave/power_spectrum.h"
+#include "sim/wave/volume/power_spectrum.h"
 
 namespace plumage::sim::wave {
 

@@ -1,4 +1,4 @@
-#include "sim/wave/geometric_optics_2d.h"
+#include "sim/wave/surface/geometric_optics_2d.h"
 
 #include <algorithm>
 #include <cmath>

@@ -11,7 +11,7 @@
 //  | radius_um              | µm    | finite, > 0 (sphere route)                         |
 //  | number_density_per_um3 | µm⁻³  | > 0 with φ = ρ 4π a³/3 in (0, 1)                   |
 //  | structure_factor S(q)  | 1     | finite, >= 0                                       |
-#include "sim/wave/born_medium.h"
+#include "sim/wave/volume/born_medium.h"
 
 #include <algorithm>
 #include <cmath>
@@ -22,9 +22,9 @@
 #include "common/constants.h"
 #include "common/error.h"
 #include "common/gauss_legendre.h"
-#include "sim/wave/effective_index.h"
-#include "sim/wave/index_field.h"
-#include "sim/wave/mie.h"
+#include "sim/wave/volume/effective_index.h"
+#include "sim/wave/volume/index_field.h"
+#include "sim/wave/volume/mie.h"
 
 namespace plumage::sim::wave {
 namespace {

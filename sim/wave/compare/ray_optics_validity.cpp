@@ -1,4 +1,4 @@
-#include "sim/wave/ray_optics_validity.h"
+#include "sim/wave/compare/ray_optics_validity.h"
 
 #include <algorithm>
 #include <chrono>

@@ -1,4 +1,4 @@
-#include "sim/wave/full_wave_reference.h"
+#include "sim/wave/compare/full_wave_reference.h"
 
 #include <algorithm>
 #include <cmath>

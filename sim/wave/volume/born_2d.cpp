@@ -1,6 +1,6 @@
 // First-Born scattering in flatland (conventions, derivation and parameter table in the
 // header).
-#include "sim/wave/born_2d.h"
+#include "sim/wave/volume/born_2d.h"
 
 #include <algorithm>
 #include <cmath>
@@ -9,7 +9,7 @@
 
 #include "common/constants.h"
 #include "common/error.h"
-#include "sim/wave/index_field.h"
+#include "sim/wave/volume/index_field.h"
 
 namespace plumage::sim::wave {
 namespace {
