@@ -23,7 +23,7 @@
 #include "analysis/fits/user_data.h"
 #include "analysis/models/filip2024.h"
 #include "common/constants.h"
-#include "sim/random.h"
+#include "sim/scatterer/random.h"
 #include "studies/fit_command.h"
 
 namespace plumage::studies {

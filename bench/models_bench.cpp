@@ -14,7 +14,7 @@
 #include "analysis/models/filip2024.h"
 #include "analysis/models/padrongriffe2024.h"
 #include "common/constants.h"
-#include "sim/random.h"
+#include "sim/scatterer/random.h"
 
 namespace plumage::analysis {
 namespace {

@@ -1,4 +1,4 @@
-// HDF5 records as plumage reads them back (virtual_gonio/hdf5_file.h; the goniometer resumes
+// HDF5 records as plumage reads them back (virtual_gonio/record/hdf5_file.h; the goniometer resumes
 // from them): datasets of every record kind and their attributes (virtual_gonio/RECORD.md).
 #include <cstddef>
 #include <cstdint>
@@ -6,7 +6,7 @@
 #include <hdf5.h>
 
 #include "fuzz/fuzz_input.h"
-#include "virtual_gonio/hdf5_file.h"
+#include "virtual_gonio/record/hdf5_file.h"
 
 extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size) {
     // HDF5 prints its whole error stack for every rejected file: silence it (the readers turn

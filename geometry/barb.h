@@ -6,9 +6,9 @@
 // reading is listed in analysis/models/padrongriffe2024_masking.h; the mapping from this suite's
 // earlier meanings is in studies/README.md ("Padrón-Griffe parameters").
 //
-// Patch frame (sim/scatterer.h): patch normal +z, barb axis +x, barbs repeat along y. A barb's
-// cross-section lies in the y–z plane: an ellipse with horizontal semi-axis w/2 (w = barb width,
-// across the vane) and vertical semi-axis w/2 × barb_axis_ratio (the authors' barb
+// Patch frame (sim/scatterer/scatterer.h): patch normal +z, barb axis +x, barbs repeat along y. A
+// barb's cross-section lies in the y–z plane: an ellipse with horizontal semi-axis w/2 (w = barb
+// width, across the vane) and vertical semi-axis w/2 × barb_axis_ratio (the authors' barb
 // "excentricity": Barbs::excentricity_, "excentricity of barb (vertical axis)", used as
 // flatland::ellipse(c, 0, a, a·excentricity)), turned by barb_rotation (ours; 0 in the authors'
 // model) from +z towards +y. Barbules leave the barb's extreme points along ±y (distal towards

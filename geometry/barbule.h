@@ -7,8 +7,8 @@
 // cos θ cos(φ + μ) as in Huang Eq. 13) and barbules repeat along u = (cos μ, 0, sin μ)
 // with spacing H·A.
 //
-// Patch frame (sim/scatterer.h): patch normal +z, barb axis +x, barbules along +y. It is the
-// barbule frame rotated by μ about y: n ↦ +z, u ↦ +x.
+// Patch frame (sim/scatterer/scatterer.h): patch normal +z, barb axis +x, barbules along +y. It is
+// the barbule frame rotated by μ about y: n ↦ +z, u ↦ +x.
 //
 // The unit cell's outer surface is a canal surface: the elliptical arc E(φ) (semi-axes
 // A along x and b·A along z, normal azimuths [φ0, φ1]) with, at every φ, a circular

@@ -8,9 +8,9 @@
 // thread count. Errors: InputError → ValueError (the C++ message), IoError → OSError,
 // InvariantError → RuntimeError; an unknown keyword → TypeError naming it and the valid ones.
 //
-// Units and frames are the C++ ones (sim/scatterer.h): directions are unit vectors in the patch
-// frame (+z the patch normal, +x the barb axis) pointing away from the patch, wavelengths in nm,
-// f in 1/sr, lengths in µm, angles in radians.
+// Units and frames are the C++ ones (sim/scatterer/scatterer.h): directions are unit vectors in the
+// patch frame (+z the patch normal, +x the barb axis) pointing away from the patch, wavelengths in
+// nm, f in 1/sr, lengths in µm, angles in radians.
 #include <exception>
 #include <limits>
 #include <mutex>

@@ -6,7 +6,7 @@
 
 #include <cstdint>
 
-#include "sim/period_cell_entry.h"
+#include "sim/scatterer/period_cell_entry.h"
 #include "sim/tracer.h"
 
 namespace plumage::sim {

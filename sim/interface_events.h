@@ -45,7 +45,7 @@
 #include "sim/optics/fresnel.h"
 #include "sim/optics/multilayer.h"
 #include "sim/optics/thin_film.h"
-#include "sim/random.h"
+#include "sim/scatterer/random.h"
 
 namespace plumage::sim {
 

@@ -30,7 +30,7 @@
 #include <Eigen/Core>
 
 #include "sim/optics/material.h"
-#include "sim/random.h"
+#include "sim/scatterer/random.h"
 
 namespace plumage::sim {
 

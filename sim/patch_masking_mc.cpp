@@ -11,7 +11,7 @@
 
 #include "common/constants.h"
 #include "common/error.h"
-#include "sim/random.h"
+#include "sim/scatterer/random.h"
 #include "sim/scene.h"
 
 namespace plumage::sim {

@@ -7,10 +7,10 @@
 // the 3D direction; here light passes (or not) between the actual fibres. Used by
 // tests/sim/patch_masking_mc_test.cpp and the masking study (studies/masking_study.h).
 //
-// Frame (the patch frame, sim/scatterer.h and geometry/barb.h): patch normal +z, barb axis +x,
-// barbs repeat along y with period P; barbule fibres repeat along x with pitch
-// p = barbule width × (1 + separation). The direction ω points towards the viewer (or the light),
-// either hemisphere; rays travel along −ω.
+// Frame (the patch frame, sim/scatterer/scatterer.h and geometry/barb.h): patch normal +z, barb
+// axis +x, barbs repeat along y with period P; barbule fibres repeat along x with pitch p = barbule
+// width × (1 + separation). The direction ω points towards the viewer (or the light), either
+// hemisphere; rays travel along −ω.
 //
 // Estimator. A window of the patch interior, W_y = window_periods × P along y (so that every
 // barb period counts alike) by W_x = window_pitches × p along x (so that, for every ray line, each
@@ -57,7 +57,7 @@
 
 #include "geometry/barb.h"
 #include "geometry/tessellation.h"
-#include "sim/scatterer.h"
+#include "sim/scatterer/scatterer.h"
 
 namespace plumage::sim {
 

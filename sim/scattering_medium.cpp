@@ -9,7 +9,7 @@
 
 #include "common/constants.h"
 #include "common/error.h"
-#include "sim/scatterer.h"  // orthonormal_frame
+#include "sim/scatterer/scatterer.h"  // orthonormal_frame
 
 namespace plumage::sim {
 namespace {

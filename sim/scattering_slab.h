@@ -1,7 +1,7 @@
 // A slab of a scattering medium (sim/scattering_medium.h) for the tracer, and its closed-form
 // single-scattering reflectance and transmittance (the tests' reference and a fast path).
 //
-// Frame (patch frame of sim/scatterer.h): the slab fills |x|, |y| <= half_width_um and
+// Frame (patch frame of sim/scatterer/scatterer.h): the slab fills |x|, |y| <= half_width_um and
 // −thickness_um <= z <= 0, its top face at z = 0 facing +z (the light arrives from above).
 // The optional backing (melanin beneath a medulla) fills the same |x|, |y| range and
 // −thickness_um − backing thickness <= z <= −thickness_um, directly under the slab.
@@ -61,7 +61,7 @@ SceneDescription scattering_slab_scene(std::shared_ptr<const ScatteringMedium> m
 // thickness d, light arriving from ω_i (away from the slab, ω_i.z > 0, μ_i = ω_i.z) and
 // leaving towards ω_o (reflection ω_o.z > 0, transmission ω_o.z < 0; μ_o = |ω_o.z|): the
 // fraction of the incident power per steradian around ω_o (the Scatterer's sample()
-// convention, sim/scatterer.h: |cos θ_o| included; divide by μ_o for the BRDF/BTDF). With
+// convention, sim/scatterer/scatterer.h: |cos θ_o| included; divide by μ_o for the BRDF/BTDF). With
 // τ = μ_t d, ω = μ_s / μ_t and the phase function's cos Θ = (−ω_i) · ω_o:
 //     reflection:   ω p(cos Θ) μ_o / (μ_i + μ_o) · (1 − e^{−τ (1/μ_i + 1/μ_o)})
 //     transmission: ω p(cos Θ) μ_o / (μ_o − μ_i) · (e^{−τ/μ_o} − e^{−τ/μ_i})

@@ -1,4 +1,4 @@
-// The spectral path tracer over explicit microgeometry: a Scatterer (sim/scatterer.h)
+// The spectral path tracer over explicit microgeometry: a Scatterer (sim/scatterer/scatterer.h)
 // whose answers come from tracing light through a Scene (sim/scene.h).
 //
 // One path. sample(ω_i, λ, position, rng): the light enters on the plane just above the
@@ -33,8 +33,8 @@
 // so their records do not change.
 //
 // One wavelength per path (sample()), or one path for several (sample_spectral(), spectral
-// path sharing, sim/scatterer.h). A shared path is traced once for N wavelengths λ_1 … λ_N with
-// a weight w_k per wavelength, all 1 at the start; at each event:
+// path sharing, sim/scatterer/scatterer.h). A shared path is traced once for N wavelengths λ_1 …
+// λ_N with a weight w_k per wavelength, all 1 at the start; at each event:
 //  - film reflection or transmission (direction independent of λ when the indices on the two
 //    sides are the same at every λ, e.g. the rock dove's keratin film in air): the walk for
 //    λ_k alone chooses reflection with p_k = R_k/(R_k+T_k) and multiplies by R_k+T_k, so its
@@ -62,22 +62,21 @@
 // wavelengths; a film hit still evaluates N table entries. Per-λ records receive correlated
 // samples; each cell's standard error is still from independent quanta.
 
-// Splitting at the first film (sample_spectral_branches(), sim/scatterer.h): a shared path
-// whose first event is a film hit is played as two branches from there, the reflected one
-// with w_k ×= R_k and the transmitted one with w_k ×= T_k, both traced on (each then walks as
-// above). The sum of the branches has the expectation of the single walk, which takes
-// reflection with p̄ and weighs w_k ×= R_k/p̄ (T_k/(1 − p̄)): the same two terms, without the
-// coin. Why: on a keratin film p̄ is about 0.05–0.15, so a single walk sends only that share of
-// its quanta into the R lobe, each carrying R_k/p̄; the reflected branch sends every quantum
-// there with R_k, dividing the R lobe's variance by about 1/p̄ for one more ray per quantum.
-// A path whose first event is not a film (it passes between the barbules, or meets a diffuse
-// or bare surface first) is one branch, the transmitted branch's. The branches share the
-// hero and, after the split, the random numbers: correlated parts of one quantum, which the
-// instrument adds before it squares.
+// Splitting at the first film (sample_spectral_branches(), sim/scatterer/scatterer.h): a shared
+// path whose first event is a film hit is played as two branches from there, the reflected one with
+// w_k ×= R_k and the transmitted one with w_k ×= T_k, both traced on (each then walks as above).
+// The sum of the branches has the expectation of the single walk, which takes reflection with p̄ and
+// weighs w_k ×= R_k/p̄ (T_k/(1 − p̄)): the same two terms, without the coin. Why: on a keratin film p̄
+// is about 0.05–0.15, so a single walk sends only that share of its quanta into the R lobe, each
+// carrying R_k/p̄; the reflected branch sends every quantum there with R_k, dividing the R lobe's
+// variance by about 1/p̄ for one more ray per quantum. A path whose first event is not a film (it
+// passes between the barbules, or meets a diffuse or bare surface first) is one branch, the
+// transmitted branch's. The branches share the hero and, after the split, the random numbers:
+// correlated parts of one quantum, which the instrument adds before it squares.
 //
-// Guided diffuse reflection (BranchOptions::guided_fraction f, sim/scatterer.h): at a path's
-// first diffuse event the direction is drawn from a mixture of the cosine lobe (1 − f) and the
-// instrument's detector cones (f, one cone at random, uniform within it), and every λ's weight
+// Guided diffuse reflection (BranchOptions::guided_fraction f, sim/scatterer/scatterer.h): at a
+// path's first diffuse event the direction is drawn from a mixture of the cosine lobe (1 − f) and
+// the instrument's detector cones (f, one cone at random, uniform within it), and every λ's weight
 // takes albedo_k · (cos θ/π)/p_mixture (sim/interface_events.h, guided_diffuse_event): unbiased
 // for every direction. Why: on the rock dove the TRT lobe held 60 % of the BRDF's variance; a
 // cosine direction enters a given 5° detector about 0.3 % of the time, a guided one about f/m
@@ -108,8 +107,8 @@
 // sends k directions per event into the cones; the price is the rays of the k branches (about
 // 2.4 more per quantum on the rock dove, 1.45× the instructions at k = 1).
 //
-// Detector-side walks (BranchOptions::adjoint, sim/scatterer.h): the same walk started at a
-// detector, for instruments that image (virtual_gonio/btf.h). Every event of the tracer moves
+// Detector-side walks (BranchOptions::adjoint, sim/scatterer/scatterer.h): the same walk started at
+// a detector, for instruments that image (virtual_gonio/btf.h). Every event of the tracer moves
 // power symmetrically — Fresnel and film R and T are the same both ways, a Lambertian event
 // about the facet normal and a medium's phase function are symmetric, absorption along a segment
 // is — except a specular event about an interpolated shading normal on a flat facet: it maps a
@@ -167,7 +166,7 @@
 
 #include "sim/film_table.h"
 #include "sim/interface_events.h"
-#include "sim/scatterer.h"
+#include "sim/scatterer/scatterer.h"
 #include "sim/scene.h"
 
 namespace plumage::sim {

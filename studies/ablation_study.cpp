@@ -34,7 +34,7 @@
 #include "studies/study_context.h"
 #include "studies/study_file.h"
 #include "virtual_gonio/exr_image.h"
-#include "virtual_gonio/hdf5_file.h"
+#include "virtual_gonio/record/hdf5_file.h"
 #include "virtual_gonio/scatterometer.h"
 
 namespace plumage::studies {

@@ -27,7 +27,7 @@
 #include "common/version.h"
 #include "sim/optics/spectrum.h"
 #include "studies/study_common.h"
-#include "virtual_gonio/hdf5_file.h"
+#include "virtual_gonio/record/hdf5_file.h"
 #include "virtual_gonio/rgl_bsdf.h"
 
 namespace plumage::studies {

@@ -28,7 +28,7 @@
 #include "analysis/metrics/statistics.h"
 #include "analysis/models/lambertian.h"
 #include "common/version.h"
-#include "sim/random.h"
+#include "sim/scatterer/random.h"
 #include "studies/instrument_tables.h"
 #include "studies/sections.h"
 #include "studies/staged_directory.h"
@@ -37,7 +37,7 @@
 #include "studies/study_context.h"
 #include "virtual_gonio/direction_sets.h"
 #include "virtual_gonio/goniometer.h"
-#include "virtual_gonio/hdf5_file.h"
+#include "virtual_gonio/record/hdf5_file.h"
 
 namespace plumage::studies {
 namespace {

@@ -30,7 +30,7 @@
 #include "studies/study_common.h"
 #include "studies/study_context.h"
 #include "studies/study_file.h"
-#include "virtual_gonio/hdf5_file.h"
+#include "virtual_gonio/record/hdf5_file.h"
 
 namespace plumage::studies {
 namespace {

@@ -17,8 +17,8 @@
 #include "sim/optics/colour.h"
 #include "virtual_gonio/btf.h"
 #include "virtual_gonio/goniometer.h"
-#include "virtual_gonio/hdf5_file.h"
 #include "virtual_gonio/instrument_registry.h"
+#include "virtual_gonio/record/hdf5_file.h"
 #include "virtual_gonio/scatterometer.h"
 
 namespace plumage::studies {

@@ -22,7 +22,7 @@
 #include "studies/sections.h"
 #include "studies/staged_directory.h"
 #include "studies/study_common.h"
-#include "virtual_gonio/hdf5_file.h"
+#include "virtual_gonio/record/hdf5_file.h"
 
 namespace plumage::studies {
 namespace {

@@ -24,7 +24,7 @@
 #include "common/seed.h"
 #include "common/version.h"
 #include "sim/patch_masking_mc.h"
-#include "sim/random.h"
+#include "sim/scatterer/random.h"
 #include "studies/plots.h"
 #include "studies/sections.h"
 #include "studies/staged_directory.h"
@@ -32,7 +32,7 @@
 #include "studies/study_common.h"
 #include "studies/study_context.h"
 #include "studies/study_file.h"
-#include "virtual_gonio/hdf5_file.h"
+#include "virtual_gonio/record/hdf5_file.h"
 
 namespace plumage::studies {
 namespace {

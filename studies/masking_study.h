@@ -55,7 +55,7 @@
 #include <vector>
 
 #include "geometry/barb.h"
-#include "sim/scatterer.h"
+#include "sim/scatterer/scatterer.h"
 
 namespace plumage::studies {
 

@@ -43,7 +43,7 @@
 #include "virtual_gonio/direction_sets.h"
 #include "virtual_gonio/exr_image.h"
 #include "virtual_gonio/goniometer.h"
-#include "virtual_gonio/hdf5_file.h"
+#include "virtual_gonio/record/hdf5_file.h"
 #include "virtual_gonio/scatterometer.h"
 
 namespace plumage::studies {

@@ -6,7 +6,7 @@
 #include "geometry/barb.h"
 #include "geometry/barbule.h"
 #include "sim/optics/spectrum.h"
-#include "sim/random.h"
+#include "sim/scatterer/random.h"
 #include "studies/staged_directory.h"
 
 namespace plumage::studies {

@@ -24,11 +24,11 @@
 #include "common/version.h"
 #include "geometry/barb.h"
 #include "sim/albedo.h"
-#include "sim/mounted_scatterer.h"
 #include "sim/optics/colour.h"
 #include "sim/optics/material.h"
 #include "sim/optics/spectrum.h"
-#include "sim/period_cell_entry.h"
+#include "sim/scatterer/mounted_scatterer.h"
+#include "sim/scatterer/period_cell_entry.h"
 #include "sim/tracer.h"
 #include "studies/figure_data.h"
 #include "studies/instrument_tables.h"
@@ -45,8 +45,8 @@
 #include "virtual_gonio/display_colour.h"
 #include "virtual_gonio/exr_image.h"
 #include "virtual_gonio/goniometer.h"
-#include "virtual_gonio/hdf5_file.h"
-#include "virtual_gonio/png_image.h"
+#include "virtual_gonio/record/hdf5_file.h"
+#include "virtual_gonio/record/png_image.h"
 
 namespace plumage::studies {
 namespace {

@@ -118,8 +118,8 @@ void check_species_study(const std::string& study_text, const std::filesystem::p
 
 // One species' scene as run_species_study builds it (the same seeds), for tests and
 // diagnostics: its patch with all layers, and the period cell the goniometer and the albedo
-// light (sim/period_cell_entry.h: cell_x_um × cell_y_um centred on (0, cell_y0_um)). A spongy
-// medulla's medium is computed at the study's traced wavelengths plus `extra_wavelengths_nm`
+// light (sim/scatterer/period_cell_entry.h: cell_x_um × cell_y_um centred on (0, cell_y0_um)). A
+// spongy medulla's medium is computed at the study's traced wavelengths plus `extra_wavelengths_nm`
 // (the voxel limit checked over all of them). InputError as run_species_study, or when
 // species.run does not list `species`.
 struct SpeciesScene {

@@ -90,7 +90,7 @@
 #include "geometry/spongy_volume.h"
 #include "sim/optics/colour.h"
 #include "sim/optics/material.h"
-#include "sim/random.h"
+#include "sim/scatterer/random.h"
 #include "sim/scattering_medium.h"
 #include "sim/scattering_slab.h"
 #include "sim/tracer.h"
@@ -103,7 +103,7 @@
 #include "studies/study.h"
 #include "studies/study_common.h"
 #include "studies/study_context.h"
-#include "virtual_gonio/hdf5_file.h"
+#include "virtual_gonio/record/hdf5_file.h"
 
 namespace plumage::studies {
 namespace {

@@ -13,7 +13,7 @@
 #include "analysis/models/huang2022.h"
 #include "geometry/barbule.h"
 #include "virtual_gonio/goniometer.h"
-#include "virtual_gonio/png_image.h"
+#include "virtual_gonio/record/png_image.h"
 #include "virtual_gonio/scatterometer.h"
 
 namespace plumage::studies {

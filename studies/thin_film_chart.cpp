@@ -19,8 +19,8 @@
 #include "studies/plots.h"
 #include "studies/staged_directory.h"
 #include "virtual_gonio/exr_image.h"
-#include "virtual_gonio/hdf5_file.h"
-#include "virtual_gonio/png_image.h"
+#include "virtual_gonio/record/hdf5_file.h"
+#include "virtual_gonio/record/png_image.h"
 
 namespace plumage::studies {
 namespace {

@@ -18,7 +18,7 @@
 #include "sim/wave/compare/levels_against_full_wave.h"
 #include "sim/wave/compare/ray_optics_validity.h"
 #include "studies/study_common.h"
-#include "virtual_gonio/hdf5_file.h"
+#include "virtual_gonio/record/hdf5_file.h"
 
 namespace plumage::studies {
 namespace {

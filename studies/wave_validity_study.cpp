@@ -34,7 +34,7 @@
 #include "studies/study_context.h"
 #include "studies/study_file.h"
 #include "studies/wave_validity_live.h"
-#include "virtual_gonio/hdf5_file.h"
+#include "virtual_gonio/record/hdf5_file.h"
 #include "virtual_gonio/record_provenance.h"
 
 namespace plumage::studies {

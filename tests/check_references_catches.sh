@@ -15,5 +15,5 @@ fi
 echo "$out"
 grep -q '^sim/frame.h:2: ' <<<"$out" || { echo "expected sim/frame.h:2 in the report"; exit 1; }
 if grep -q 'ignored.sh' <<<"$out"; then echo "a build folder was scanned"; exit 1; fi
-printf '// Patch frame (sim/scatterer.h): +z normal.\n' > "$work/sim/frame.h"
+printf '// Patch frame (sim/scatterer/scatterer.h): +z normal.\n' > "$work/sim/frame.h"
 /usr/bin/python3 "$check" "$work" || { echo "check-references failed a clean tree"; exit 1; }

@@ -22,8 +22,8 @@
 #include "common/require.h"
 #include "common/seed.h"
 #include "virtual_gonio/display_colour.h"
-#include "virtual_gonio/hdf5_file.h"
 #include "virtual_gonio/pass_loop.h"
+#include "virtual_gonio/record/hdf5_file.h"
 #include "virtual_gonio/record_provenance.h"
 
 namespace plumage::gonio {
@@ -303,8 +303,8 @@ private:
         const Vec3d wo =
             draw_cone_direction_by_projected_area(view, c_.detector_half_angle_rad, rng);
         std::array<SpectralScatterEvent, PathTracing::kMaxBranches> events;
-        // Not zeroed: every returned branch's weights are written (sim/scatterer.h); 4 KB a
-        // quantum.
+        // Not zeroed: every returned branch's weights are written (sim/scatterer/scatterer.h); 4 KB
+        // a quantum.
         std::array<double, PathTracing::kMaxBranches * PathTracing::kMaxSharedWavelengths> weights;
         const std::size_t count =
             checked_path_tracing(scatterer_)

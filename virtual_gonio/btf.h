@@ -21,8 +21,9 @@
 //    l · nλ + k), q) (common/seed.h).
 //  - detector (adjoint, both_cones only): quanta start in pixel p (uniformly over its square on
 //    the top plane) in a direction drawn in C_o by projected solid angle and are traced back into
-//    the patch by the scatterer's detector-side walk (sim/scatterer.h, sim/tracer.h); a quantum
-//    counts for every light cone C_i of that view which its escape enters through the patch:
+//    the patch by the scatterer's detector-side walk (sim/scatterer/scatterer.h, sim/tracer.h); a
+//    quantum counts for every light cone C_i of that view which its escape enters through the
+//    patch:
 //        f̂_p = Σ weight / (N_p · Π_i),
 //    N_p quanta per view direction and pixel, all wavelengths on one shared path. Why it holds:
 //    reciprocity of the radiance kernel S(x_i, ω_i; x_o, ω_o) = S(x_o, ω_o; x_i, ω_i) makes the
@@ -46,10 +47,10 @@
 #include <string>
 #include <vector>
 
-#include "sim/scatterer.h"
+#include "sim/scatterer/scatterer.h"
 #include "virtual_gonio/direction_sets.h"
 #include "virtual_gonio/goniometer.h"  // ConvergenceRow
-#include "virtual_gonio/png_image.h"
+#include "virtual_gonio/record/png_image.h"
 
 namespace plumage::gonio {
 

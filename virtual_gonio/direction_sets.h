@@ -1,6 +1,6 @@
 // Direction sets of Filip, Maile and Vávra 2024 (filip2024_feathers_brdf.md, Sects. 4 and 5.2),
-// as unit vectors in the patch frame (sim/scatterer.h: +z normal, +x barb axis, azimuth φ from +x
-// towards +y, directions pointing away from the patch).
+// as unit vectors in the patch frame (sim/scatterer/scatterer.h: +z normal, +x barb axis, azimuth φ
+// from +x towards +y, directions pointing away from the patch).
 //
 // BTF / BRDF set (Sect. 5.2, Fig. 7): polar angles in 15° steps, 12 azimuths per polar angle in
 // 30° steps (0°, 30°, ..., 330°):
@@ -23,7 +23,7 @@
 #include <numbers>
 #include <vector>
 
-#include "sim/scatterer.h"
+#include "sim/scatterer/scatterer.h"
 
 namespace plumage::gonio {
 

@@ -26,7 +26,7 @@
 #include "common/seed.h"
 #include "common/version.h"
 #include "virtual_gonio/display_colour.h"
-#include "virtual_gonio/hdf5_file.h"
+#include "virtual_gonio/record/hdf5_file.h"
 #include "virtual_gonio/record_provenance.h"
 
 namespace plumage::gonio {
@@ -274,8 +274,8 @@ void sample_quantum(const Scatterer& scatterer, const GoniometerConfig& config,
 // wavelengths share paths) into acc: per wavelength of the item, Σx, Σx², then Σx and Σx² per
 // lobe, in the group's pair order. Its streams: see item_seed below.
 // With branched (shared paths, split or guided) a quantum is the sum of its branches
-// (sim/scatterer.h): each cell's x is the sum of the branches that enter its cone, and per lobe the
-// sum of those of that lobe, before they are squared.
+// (sim/scatterer/scatterer.h): each cell's x is the sum of the branches that enter its cone, and
+// per lobe the sum of those of that lobe, before they are squared.
 void play_item(const Scatterer& scatterer, const GoniometerConfig& config,
                const std::vector<Group>& groups, const PhotonItem& item, std::size_t nlobes,
                bool shared, bool branched, std::vector<double>& acc) {

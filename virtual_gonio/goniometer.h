@@ -3,7 +3,7 @@
 // with a convergence table of (wall time, samples, estimated error), resumable after
 // an interruption. The record layout is documented in virtual_gonio/RECORD.md.
 //
-// Geometry: the patch frame of sim/scatterer.h (+z normal). The light is a collimated
+// Geometry: the patch frame of sim/scatterer/scatterer.h (+z normal). The light is a collimated
 // beam of radius beam_radius_um (its footprint on the patch is the beam's cross-section
 // projected along ω_i); each view direction has a detector: a cone C(ω_o) of half-angle α
 // around it, solid angle Ω = 2π(1 − cos α), projected solid angle
@@ -34,13 +34,13 @@
 //    average above; under both_cones each quantum first draws its own light direction ω'
 //    from C(ω_i) by projected solid angle (two uniforms from its stream after the beam
 //    position's). Works for every scatterer (the tracer too).
-//    With share_wavelength_paths (and a scatterer with path_tracing(), sim/scatterer.h)
+//    With share_wavelength_paths (and a scatterer with path_tracing(), sim/scatterer/scatterer.h)
 //    a quantum is one path for every wavelength, carrying a weight per λ (sim/tracer.h,
 //    spectral path sharing), drawing from Rng(derive_seed(seed, "goniometer/shared-quantum",
 //    light direction), quantum index); each cell's estimate and standard
 //    error are as before (the quanta are independent; one quantum's λs are correlated).
-//    With split_paths as well, a quantum is the sum of its branches (sim/scatterer.h, path
-//    splitting): x per cell is the sum of the branches that enter its cone, then squared.
+//    With split_paths as well, a quantum is the sum of its branches (sim/scatterer/scatterer.h,
+//    path splitting): x per cell is the sum of the branches that enter its cone, then squared.
 //    Standard errors from the per-quantum variance. Quantum q (counted over all passes) of
 //    light direction g and wavelength k draws from Rng(derive_seed(seed, "goniometer/quantum",
 //    g · nλ + k), q) (common/seed.h), and partial sums are combined in a fixed
@@ -67,11 +67,11 @@
 #include <vector>
 
 #include "common/interrupt.h"
-#include "sim/scatterer.h"
+#include "sim/scatterer/scatterer.h"
 #include "virtual_gonio/direction_sets.h"
 #include "virtual_gonio/pass_checkpoint.h"
 #include "virtual_gonio/pass_loop.h"
-#include "virtual_gonio/png_image.h"
+#include "virtual_gonio/record/png_image.h"
 
 namespace plumage::gonio {
 

@@ -23,7 +23,7 @@
 #include <vector>
 
 #include "common/parameter_spec.h"
-#include "sim/scatterer.h"
+#include "sim/scatterer/scatterer.h"
 
 namespace plumage::gonio {
 

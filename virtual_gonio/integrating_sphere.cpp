@@ -16,10 +16,10 @@
 #include "common/error.h"
 #include "common/require.h"
 #include "common/seed.h"
-#include "sim/random.h"
+#include "sim/scatterer/random.h"
 #include "virtual_gonio/direction_sets.h"
-#include "virtual_gonio/hdf5_file.h"
 #include "virtual_gonio/instrument_registry.h"
+#include "virtual_gonio/record/hdf5_file.h"
 #include "virtual_gonio/record_provenance.h"
 
 namespace plumage::gonio {

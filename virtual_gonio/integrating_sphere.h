@@ -1,8 +1,8 @@
 // The integrating sphere: the directional–hemispherical reflectance R(λ) and transmittance T(λ)
 // of a Scatterer lit by a collimated beam, i.e. all the light that leaves the patch above it
-// (+z, the patch frame of sim/scatterer.h) and below it, whatever its direction; the absorbed
-// part is 1 − R − T. What a lab's integrating sphere with a specular port closed measures, and
-// the simplest instrument on the pass loop (virtual_gonio/pass_loop.h): this file and its .cpp
+// (+z, the patch frame of sim/scatterer/scatterer.h) and below it, whatever its direction; the
+// absorbed part is 1 − R − T. What a lab's integrating sphere with a specular port closed measures,
+// and the simplest instrument on the pass loop (virtual_gonio/pass_loop.h): this file and its .cpp
 // are the whole instrument, its registry entry included: a study file's [integrating_sphere]
 // table (virtual_gonio/instrument_registry.h; docs/instruments.md, "Adding an instrument").
 //
@@ -24,7 +24,7 @@
 #include <vector>
 
 #include "common/interrupt.h"
-#include "sim/scatterer.h"
+#include "sim/scatterer/scatterer.h"
 #include "virtual_gonio/pass_loop.h"
 
 namespace plumage::gonio {

@@ -12,7 +12,7 @@
 #include "common/error.h"
 #include "common/interrupt.h"
 #include "common/version.h"
-#include "virtual_gonio/hdf5_file.h"
+#include "virtual_gonio/record/hdf5_file.h"
 #include "virtual_gonio/record_provenance.h"
 
 namespace plumage::gonio {

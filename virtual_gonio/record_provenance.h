@@ -10,8 +10,8 @@
 #include <string>
 #include <vector>
 
-#include "virtual_gonio/hdf5_file.h"
 #include "virtual_gonio/pass_loop.h"  // ConvergenceRow
+#include "virtual_gonio/record/hdf5_file.h"
 
 namespace plumage::gonio {
 

@@ -36,7 +36,7 @@
 //   q(ω_v, ω_l, λ) = spectra(s; φ_v, θ_v, λ) · ndf(u_m) / (4 σ(u(ω_v)))   (jacobian = 1).
 // Mitsuba's eval returns q as f · cos θ of its `wo` (the light side; its `si.wi` is the
 // parameter direction, towards the viewer when tracing from the camera). In our convention
-// (sim/scatterer.h: ω_i towards the light, ω_o towards the detector, f without cosine):
+// (sim/scatterer/scatterer.h: ω_i towards the light, ω_o towards the detector, f without cosine):
 //   q(ω_v = ω_o, ω_l = ω_i, λ) = f(ω_i, ω_o, λ) · cos θ_i.
 // So the parameter grid runs over the VIEW direction ω_o, which keeps non-reciprocal models
 // (Huang's TRT lobe) right in a path tracer that starts at the camera. The vndf warp is the
@@ -129,7 +129,7 @@
 #include <string>
 #include <vector>
 
-#include "sim/scatterer.h"
+#include "sim/scatterer/scatterer.h"
 
 namespace plumage::gonio {
 
@@ -237,7 +237,8 @@ struct RglBsdfTables {
     static RglBsdfTables from_fields(const TensorFields& fields, const std::string& source);
 };
 
-// f(ω_i, ω_o, λ) in 1/sr, our convention (sim/scatterer.h); only ω_i.z, ω_o.z > 0 is asked.
+// f(ω_i, ω_o, λ) in 1/sr, our convention (sim/scatterer/scatterer.h); only ω_i.z, ω_o.z > 0 is
+// asked.
 using BrdfFunction = std::function<double(const Vec3d& wi, const Vec3d& wo, double lambda_nm)>;
 
 // Tabulates f (see "What we write"). Deterministic; parallel over slices (OpenMP); throws

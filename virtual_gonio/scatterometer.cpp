@@ -20,8 +20,8 @@
 #include "common/require.h"
 #include "common/seed.h"
 #include "virtual_gonio/display_colour.h"
-#include "virtual_gonio/hdf5_file.h"
 #include "virtual_gonio/pass_loop.h"
+#include "virtual_gonio/record/hdf5_file.h"
 #include "virtual_gonio/record_provenance.h"
 
 namespace plumage::gonio {
@@ -302,8 +302,8 @@ private:
                      PassItems& items) const {
         const Vec2 position = entry_point(wi, f1, f2, rng);
         std::array<SpectralScatterEvent, PathTracing::kMaxBranches> events;
-        // Not zeroed: every returned branch's weights are written (sim/scatterer.h); 4 KB a
-        // quantum.
+        // Not zeroed: every returned branch's weights are written (sim/scatterer/scatterer.h); 4 KB
+        // a quantum.
         std::array<double, PathTracing::kMaxBranches * PathTracing::kMaxSharedWavelengths> weights;
         BranchOptions options;
         options.split_first_film = split_;

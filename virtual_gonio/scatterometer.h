@@ -2,7 +2,7 @@
 // 2022, Fig. 6): a spot of light on the patch, the scattered light of the whole upper
 // hemisphere imaged at once as a disc, spectrally.
 //
-// Illumination (ω_i points towards the light, sim/scatterer.h):
+// Illumination (ω_i points towards the light, sim/scatterer/scatterer.h):
 //  - beam: a collimated beam from `beam_direction`;
 //  - cone: uniform radiance within a cone of full aperture `cone_aperture_rad` (16° in
 //    Huang's setup) around `beam_direction` (irradiance ∝ cos θ_i within it);
@@ -44,9 +44,9 @@
 #include <string>
 #include <vector>
 
-#include "sim/scatterer.h"
+#include "sim/scatterer/scatterer.h"
 #include "virtual_gonio/goniometer.h"  // ConvergenceRow, RunControl
-#include "virtual_gonio/png_image.h"
+#include "virtual_gonio/record/png_image.h"
 
 namespace plumage::gonio {
 
@@ -74,7 +74,7 @@ struct ScatterometerConfig {
     int illumination_strata = 256;
     // One traced path per quantum for every wavelength (a scatterer with path_tracing(),
     // sim/tracer.h: spectral path sharing), and with split_paths both branches of its first
-    // film event (sim/scatterer.h): as the goniometer's options of the same names
+    // film event (sim/scatterer/scatterer.h): as the goniometer's options of the same names
     // (docs/estimators.md). A shared quantum is one sample of every wavelength, so the groups of
     // the standard error stay those above (a quantum, or a direction's quanta) for each λ.
     // Streams: (seed, "scatterometer/shared", quantum) under the beam, (seed,

@@ -14,7 +14,7 @@
 #include "analysis/models/filip2024.h"
 #include "common/error.h"
 #include "sim/optics/spectrum.h"
-#include "virtual_gonio/hdf5_reader.h"
+#include "virtual_gonio/record/hdf5_reader.h"
 
 namespace plumage::analysis {
 namespace {

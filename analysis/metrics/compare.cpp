@@ -9,7 +9,7 @@
 #include "common/error.h"
 #include "common/relative_l1.h"
 #include "sim/optics/colour.h"
-#include "sim/random.h"
+#include "sim/scatterer/random.h"
 
 namespace plumage::analysis {
 namespace {

@@ -13,7 +13,7 @@
 #include <span>
 #include <vector>
 
-#include "sim/scatterer.h"
+#include "sim/scatterer/scatterer.h"
 
 namespace plumage::analysis {
 

@@ -23,7 +23,7 @@
 #include <cstdint>
 
 #include "geometry/barb.h"
-#include "sim/random.h"
+#include "sim/scatterer/random.h"
 
 namespace plumage::analysis {
 

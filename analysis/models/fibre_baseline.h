@@ -3,10 +3,10 @@
 // dielectric cross-section with Fresnel and absorption), as a baseline against which the
 // feather models are compared; and the lobe machinery the Padrón-Griffe 2024 fibres share.
 //
-// Frames. The patch frame of sim/scatterer.h (+z patch normal, +x barb axis, directions pointing
-// away from the patch). The fibre runs along +x; a direction ω has longitudinal angle
-// θ = asin(ω·axis) ∈ [−π/2, π/2] and azimuth ψ = atan2(ω·side, ω·up) around the fibre, measured
-// from `up` (+z) towards `side` (+y); ω = sin θ axis + cos θ (cos ψ up + sin ψ side).
+// Frames. The patch frame of sim/scatterer/scatterer.h (+z patch normal, +x barb axis, directions
+// pointing away from the patch). The fibre runs along +x; a direction ω has longitudinal angle θ =
+// asin(ω·axis) ∈ [−π/2, π/2] and azimuth ψ = atan2(ω·side, ω·up) around the fibre, measured from
+// `up` (+z) towards `side` (+y); ω = sin θ axis + cos θ (cos ψ up + sin ψ side).
 //
 // What the patch is. A layer of parallel fibres dense enough that every quantum meets one, at an
 // offset uniformly distributed across the fibre's projected width (what a surface renderer using
@@ -15,9 +15,9 @@
 //   f(ωi, ωo) = Σ_p M_p(θo | θi) N_p(ψo − ψi | θi) / (cos θo |ωo·z|),   p ∈ {R, TT, TRT},
 // where M_p is a density in θo and N_p a (sub-)density in ψo: the fibre sends the fraction
 // M_p dθo N_p dψ of the incident quanta into dω = cos θo dθo dψ, and |ωo·z| turns radiant
-// intensity per unit patch area into the BSDF of sim/scatterer.h. The directional albedo is
-// exactly Σ_p ∫ N_p = Σ_p Ā_p ≤ 1: energy is conserved by construction (paths with more than
-// two internal reflections are dropped, as in Marschner's model).
+// intensity per unit patch area into the BSDF of sim/scatterer/scatterer.h. The directional albedo
+// is exactly Σ_p ∫ N_p = Σ_p Ā_p ≤ 1: energy is conserved by construction (paths with more than two
+// internal reflections are dropped, as in Marschner's model).
 //
 // Longitudinal lobes. Marschner's M_p is a Gaussian in θh = (θi + θo)/2 with mean α_p and
 // standard deviation β_p: as a density of θo that is a Gaussian of mean 2α_p − θi and standard
@@ -73,7 +73,7 @@
 
 #include "analysis/metrics/statistics.h"  // normal_quantile, which the lobes sample with
 #include "common/constants.h"
-#include "sim/scatterer.h"
+#include "sim/scatterer/scatterer.h"
 
 namespace plumage::analysis {
 

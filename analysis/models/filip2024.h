@@ -47,7 +47,7 @@
 //    at 0 so that f ≥ 0 everywhere; inside the captured range nothing changes.
 //  - γ = 0 gives D(π)^0 = 1 everywhere (including D = 0, where pow(0, 0) = 1).
 //
-// Frame. Our patch frame (sim/scatterer.h): +z the patch normal, +x the barb axis, +y the
+// Frame. Our patch frame (sim/scatterer/scatterer.h): +z the patch normal, +x the barb axis, +y the
 // barbules' direction, directions pointing away from the patch. The paper's ωi = [θi, φi] and
 // ωv = [θv, φv] also point away from the surface (its half vector is (ωi + ωv)/|ωi + ωv|); we
 // identify its axes with ours: θ is the polar angle from +z, φ the azimuth from +x towards +y
@@ -116,7 +116,7 @@
 
 #include "common/parameter_spec.h"
 
-#include "sim/scatterer.h"
+#include "sim/scatterer/scatterer.h"
 
 namespace plumage::analysis {
 

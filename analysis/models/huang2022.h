@@ -89,7 +89,7 @@
 
 #include "common/parameter_spec.h"
 #include "sim/optics/material.h"
-#include "sim/scatterer.h"
+#include "sim/scatterer/scatterer.h"
 
 namespace plumage::analysis {
 

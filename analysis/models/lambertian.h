@@ -2,7 +2,7 @@
 // Spectralon) and the simplest Scatterer. Parameter: albedo ρ ∈ [0, 1] (default 0.8).
 #pragma once
 
-#include "sim/scatterer.h"
+#include "sim/scatterer/scatterer.h"
 
 namespace plumage::analysis {
 

@@ -10,8 +10,8 @@
 // projected visible area"; it ignores wave optics, multiple scattering between barbs and
 // barbules, and the shadowing term. What follows is our reading, at the level we can test.
 //
-// Frames. Patch frame of sim/scatterer.h (+z normal, +x barb axis, directions away from the
-// patch). Three fibres, each with a frame (axis, up, side) of analysis/models/fibre_baseline.h:
+// Frames. Patch frame of sim/scatterer/scatterer.h (+z normal, +x barb axis, directions away from
+// the patch). Three fibres, each with a frame (axis, up, side) of analysis/models/fibre_baseline.h:
 //   barb               axis +x,                         up +z,          side +y
 //   distal barbule     axis (cos i cos r,  cos i sin r, sin i), up = the row's normal, side =
 //   across proximal barbule   axis (cos i cos r, −cos i sin r, sin i), likewise
@@ -124,7 +124,7 @@
 #include "analysis/models/fibre_baseline.h"
 #include "analysis/models/padrongriffe2024_masking.h"
 #include "geometry/barb.h"
-#include "sim/scatterer.h"
+#include "sim/scatterer/scatterer.h"
 
 namespace plumage::analysis {
 

@@ -127,7 +127,7 @@
 #include <Eigen/Core>
 
 #include "geometry/barb.h"
-#include "sim/scatterer.h"
+#include "sim/scatterer/scatterer.h"
 
 namespace plumage::analysis {
 

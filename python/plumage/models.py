@@ -44,11 +44,11 @@ __all__ = ["Huang2022", "Filip2024", "PadronGriffe2024", "Lambertian", "Model", 
 # {below} are the model's own.
 _EVAL_DOC = """f(ωi, ωo, λ): the model's BRDF in 1/sr, evaluated in C++ over numpy arrays.
 
-Frame and units (sim/scatterer.h): directions are unit vectors in the patch's LOCAL frame, +z the
-patch (barb-plane) normal, +x the barb axis, +y along the barbules (azimuth from +x towards +y),
-and both point AWAY from the surface: wi towards the light, wo towards the viewer (pbrt's and
-Mitsuba's convention). wavelength_nm is the vacuum wavelength in nm. f is radiance out per
-irradiance on the patch plane, in 1/sr: the cosine <wo, z> is not included.
+Frame and units (sim/scatterer/scatterer.h): directions are unit vectors in the patch's
+LOCAL frame, +z the patch (barb-plane) normal, +x the barb axis, +y along the barbules (azimuth
+from +x towards +y), and both point AWAY from the surface: wi towards the light, wo towards the
+viewer (pbrt's and Mitsuba's convention). wavelength_nm is the vacuum wavelength in nm. f is
+radiance out per irradiance on the patch plane, in 1/sr: the cosine <wo, z> is not included.
 
 Shapes: wi and wo are arrays of shape (..., 3) (the last axis holds x, y, z), wavelength_nm a
 scalar or an array of shape (...); the leading axes broadcast together by numpy's rules, so one

@@ -19,7 +19,7 @@ Every array is read into memory (records are small: the largest, a 61 × 60 BTF,
 so the file is closed when read_record returns. Errors name the file and what is missing.
 
 Files made elsewhere (h5py, MATLAB) are read as the C++ reader reads them
-(virtual_gonio/hdf5_reader.h): every dataset's size is checked before it is read (at most
+(virtual_gonio/record/hdf5_reader.h): every dataset's size is checked before it is read (at most
 MAX_DATASET_VALUES values), links into other files and data stored outside the file are refused,
 the record's kind must be one string, and any other fault of the file (a type numpy cannot hold,
 a filter HDF5 lacks, damage) is a RecordError naming the file and the object.
@@ -38,7 +38,7 @@ class RecordError(ValueError):
     """A file that is not a Plumage record, or one that lacks a dataset its kind requires."""
 
 
-# The most values one dataset may hold (as the C++ reader, virtual_gonio/hdf5_reader.h).
+# The most values one dataset may hold (as the C++ reader, virtual_gonio/record/hdf5_reader.h).
 MAX_DATASET_VALUES = 1 << 25
 
 

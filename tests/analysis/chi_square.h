@@ -41,8 +41,8 @@
 #include <gtest/gtest.h>
 
 #include "analysis/metrics/statistics.h"
-#include "sim/random.h"
-#include "sim/scatterer.h"
+#include "sim/scatterer/random.h"
+#include "sim/scatterer/scatterer.h"
 
 namespace plumage::testing {
 

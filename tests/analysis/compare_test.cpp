@@ -9,7 +9,7 @@
 #include "analysis/models/lambertian.h"
 #include "common/error.h"
 #include "sim/optics/colour.h"
-#include "sim/random.h"
+#include "sim/scatterer/random.h"
 
 namespace plumage::analysis {
 namespace {

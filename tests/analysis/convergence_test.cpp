@@ -8,7 +8,7 @@
 #include <numbers>
 #include <vector>
 
-#include "sim/random.h"
+#include "sim/scatterer/random.h"
 
 namespace plumage::analysis {
 namespace {

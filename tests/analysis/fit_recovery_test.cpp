@@ -24,7 +24,7 @@
 #include "analysis/models/filip2024.h"
 #include "analysis/models/huang2022.h"
 #include "common/constants.h"
-#include "sim/random.h"
+#include "sim/scatterer/random.h"
 #include "virtual_gonio/direction_sets.h"
 #include "virtual_gonio/scatterometer.h"
 

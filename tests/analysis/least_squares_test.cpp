@@ -18,7 +18,7 @@
 #include "analysis/fits/filip2024_fit.h"
 #include "analysis/models/filip2024.h"
 #include "common/constants.h"
-#include "sim/random.h"
+#include "sim/scatterer/random.h"
 #include "virtual_gonio/direction_sets.h"
 
 namespace plumage::analysis {

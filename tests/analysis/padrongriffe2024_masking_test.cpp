@@ -21,7 +21,7 @@
 #include "common/constants.h"
 #include "common/error.h"
 #include "geometry/barb.h"
-#include "sim/random.h"
+#include "sim/scatterer/random.h"
 #include "tests/test_util.h"
 
 namespace plumage::analysis {

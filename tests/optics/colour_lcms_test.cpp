@@ -28,7 +28,7 @@
 
 #include "common/constants.h"
 #include "sim/optics/colour.h"
-#include "sim/random.h"
+#include "sim/scatterer/random.h"
 
 namespace plumage::optics {
 namespace {

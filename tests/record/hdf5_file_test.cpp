@@ -1,4 +1,4 @@
-#include "virtual_gonio/hdf5_file.h"
+#include "virtual_gonio/record/hdf5_file.h"
 
 #include <unistd.h>
 

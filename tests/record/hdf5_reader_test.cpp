@@ -1,8 +1,8 @@
-// The typed reader (virtual_gonio/hdf5_reader.h) on well-formed files whose objects have the
+// The typed reader (virtual_gonio/record/hdf5_reader.h) on well-formed files whose objects have the
 // wrong class, shape, string kind or size, written with the HDF5 C API as h5py or MATLAB would:
 // each is refused with an InputError naming the file, the object and what was found, and none is
 // read past its buffer (the sanitized suite runs these).
-#include "virtual_gonio/hdf5_reader.h"
+#include "virtual_gonio/record/hdf5_reader.h"
 
 #include <unistd.h>
 

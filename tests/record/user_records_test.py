@@ -1,6 +1,6 @@
 """Records made by users (h5py, MATLAB) through `plumage fit` and `plumage.read_record`: well-formed
 HDF5 with one field of the wrong type, shape or size is refused with exit 2, a message naming the
-object and nothing written (virtual_gonio/hdf5_reader.h); a valid cone record is fitted with
+object and nothing written (virtual_gonio/record/hdf5_reader.h); a valid cone record is fitted with
 progress and stops on Ctrl-C within 2 s.
 
 Run by ctest as record.user_records (PLUMAGE_BINARY: the plumage executable; PYTHONPATH: the

@@ -11,7 +11,7 @@
 
 #include "common/error.h"
 #include "sim/optics/material.h"
-#include "sim/period_cell_entry.h"
+#include "sim/scatterer/period_cell_entry.h"
 #include "tests/sim/sim_test_util.h"
 
 namespace plumage::sim {

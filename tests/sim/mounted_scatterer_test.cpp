@@ -1,7 +1,7 @@
-// MountedScatterer (sim/mounted_scatterer.h) against a closed form: Filip 2024's model depends
-// on the sample's azimuth only through U(φa) (its D terms use φi − φo), so turning a sample
+// MountedScatterer (sim/scatterer/mounted_scatterer.h) against a closed form: Filip 2024's model
+// depends on the sample's azimuth only through U(φa) (its D terms use φi − φo), so turning a sample
 // with anisotropy angle φa by ψ about the normal gives exactly the model with φa − ψ.
-#include "sim/mounted_scatterer.h"
+#include "sim/scatterer/mounted_scatterer.h"
 #include "common/constants.h"
 
 #include <cmath>
@@ -12,7 +12,7 @@
 
 #include "analysis/models/filip2024.h"
 #include "common/error.h"
-#include "sim/random.h"
+#include "sim/scatterer/random.h"
 
 namespace plumage {
 namespace {

@@ -1,8 +1,8 @@
-// Random streams (sim/random.h): a study's seeds derive from (seed, purpose, index) by hashing,
-// so nearby seeds, purposes and indices never share a stream. Before derive_seed the species
-// study offset the seed (seed + si, seed + 100 + si, ...): seed S's in-plane sweep of species
-// 0 reused seed S + 100's BRDF stream of species 0.
-#include "sim/random.h"
+// Random streams (sim/scatterer/random.h): a study's seeds derive from (seed, purpose, index) by
+// hashing, so nearby seeds, purposes and indices never share a stream. Before derive_seed the
+// species study offset the seed (seed + si, seed + 100 + si, ...): seed S's in-plane sweep of
+// species 0 reused seed S + 100's BRDF stream of species 0.
+#include "sim/scatterer/random.h"
 
 #include <cmath>
 #include <cstdint>

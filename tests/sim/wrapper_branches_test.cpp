@@ -1,6 +1,7 @@
-// Shared paths, splitting at the first film and guided diffuse reflection (sim/scatterer.h,
-// sim/tracer.h) through the two wrappers the species study puts around the tracer:
-// MountedScatterer (sim/mounted_scatterer.h) and PeriodCellEntry (sim/period_cell_entry.h).
+// Shared paths, splitting at the first film and guided diffuse reflection
+// (sim/scatterer/scatterer.h, sim/tracer.h) through the two wrappers the species study puts around
+// the tracer: MountedScatterer (sim/scatterer/mounted_scatterer.h) and PeriodCellEntry
+// (sim/scatterer/period_cell_entry.h).
 //  - Against the plain per-wavelength walk through the same wrapper (sample(), tested on its
 //    own): goniometer cells with every feature on read the same, by a χ² per wavelength and the
 //    Šidák bound on every |z|, and the record says the features took effect.
@@ -23,8 +24,8 @@
 #include "analysis/metrics/statistics.h"
 #include "common/constants.h"
 #include "geometry/barbule.h"
-#include "sim/mounted_scatterer.h"
-#include "sim/period_cell_entry.h"
+#include "sim/scatterer/mounted_scatterer.h"
+#include "sim/scatterer/period_cell_entry.h"
 #include "sim/tracer.h"
 #include "tests/virtual_gonio/record_agreement.h"
 #include "virtual_gonio/goniometer.h"

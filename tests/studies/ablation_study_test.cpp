@@ -17,12 +17,12 @@
 
 #include "analysis/models/huang2022.h"
 #include "geometry/barbule.h"
-#include "sim/random.h"
+#include "sim/scatterer/random.h"
 #include "sim/tracer.h"
 #include "tests/studies/measurement_streams.h"
 #include "tests/test_util.h"
 #include "tests/virtual_gonio/exr_test_util.h"
-#include "virtual_gonio/hdf5_file.h"
+#include "virtual_gonio/record/hdf5_file.h"
 #include "virtual_gonio/scatterometer.h"
 
 namespace plumage::studies {

@@ -26,7 +26,7 @@
 #include "common/error.h"
 #include "common/interrupt.h"
 #include "tests/test_util.h"
-#include "virtual_gonio/hdf5_file.h"
+#include "virtual_gonio/record/hdf5_file.h"
 #include "virtual_gonio/rgl_bsdf.h"
 
 namespace plumage::studies {

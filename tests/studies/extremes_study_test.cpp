@@ -16,7 +16,7 @@
 #include <gtest/gtest.h>
 
 #include "tests/test_util.h"
-#include "virtual_gonio/hdf5_file.h"
+#include "virtual_gonio/record/hdf5_file.h"
 
 namespace plumage::studies {
 namespace {

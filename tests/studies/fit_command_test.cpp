@@ -24,12 +24,12 @@
 #include "analysis/models/filip2024.h"
 #include "common/constants.h"
 #include "common/seed.h"
-#include "sim/random.h"
+#include "sim/scatterer/random.h"
 #include "studies/fit_command.h"
 #include "tests/test_util.h"
 #include "virtual_gonio/direction_sets.h"
 #include "virtual_gonio/goniometer.h"
-#include "virtual_gonio/hdf5_file.h"
+#include "virtual_gonio/record/hdf5_file.h"
 #include "virtual_gonio/scatterometer.h"
 
 namespace plumage::studies {

@@ -22,7 +22,7 @@
 
 #include "analysis/models/padrongriffe2024_masking.h"
 #include "tests/test_util.h"
-#include "virtual_gonio/hdf5_file.h"
+#include "virtual_gonio/record/hdf5_file.h"
 
 namespace plumage::studies {
 namespace {

@@ -19,7 +19,7 @@
 #include "sim/optics/thin_film.h"
 #include "studies/study.h"
 #include "tests/test_util.h"
-#include "virtual_gonio/hdf5_file.h"
+#include "virtual_gonio/record/hdf5_file.h"
 
 namespace plumage::studies {
 namespace {

@@ -29,11 +29,11 @@
 
 #include "analysis/metrics/statistics.h"
 #include "common/error.h"
-#include "sim/random.h"
+#include "sim/scatterer/random.h"
 #include "tests/studies/measurement_streams.h"
 #include "tests/test_util.h"
 #include "tests/virtual_gonio/exr_test_util.h"
-#include "virtual_gonio/hdf5_file.h"
+#include "virtual_gonio/record/hdf5_file.h"
 
 namespace plumage::studies {
 namespace {

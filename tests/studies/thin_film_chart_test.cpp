@@ -16,8 +16,8 @@
 
 #include "tests/test_util.h"
 #include "tests/virtual_gonio/exr_test_util.h"
-#include "virtual_gonio/hdf5_file.h"
-#include "virtual_gonio/hdf5_reader.h"
+#include "virtual_gonio/record/hdf5_file.h"
+#include "virtual_gonio/record/hdf5_reader.h"
 
 namespace plumage::studies {
 namespace {

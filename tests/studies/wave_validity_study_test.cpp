@@ -17,7 +17,7 @@
 
 #include "common/error.h"
 #include "tests/test_util.h"
-#include "virtual_gonio/hdf5_file.h"
+#include "virtual_gonio/record/hdf5_file.h"
 
 namespace plumage::studies {
 namespace {

@@ -12,7 +12,7 @@
 #include <gtest/gtest.h>
 
 #include "analysis/metrics/statistics.h"
-#include "sim/scatterer.h"
+#include "sim/scatterer/scatterer.h"
 #include "tests/virtual_gonio/record_agreement.h"
 #include "virtual_gonio/btf.h"
 

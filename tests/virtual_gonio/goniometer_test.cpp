@@ -17,7 +17,7 @@
 #include "analysis/models/lambertian.h"
 #include "common/error.h"
 #include "common/interrupt.h"
-#include "virtual_gonio/hdf5_file.h"
+#include "virtual_gonio/record/hdf5_file.h"
 
 namespace plumage::gonio {
 namespace {

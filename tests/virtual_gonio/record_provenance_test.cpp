@@ -22,7 +22,7 @@
 #include "common/constants.h"
 #include "virtual_gonio/btf.h"
 #include "virtual_gonio/goniometer.h"
-#include "virtual_gonio/hdf5_file.h"
+#include "virtual_gonio/record/hdf5_file.h"
 #include "virtual_gonio/scatterometer.h"
 
 namespace plumage::gonio {

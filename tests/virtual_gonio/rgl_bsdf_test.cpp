@@ -25,7 +25,7 @@
 #include "analysis/models/lambertian.h"
 #include "common/constants.h"
 #include "common/error.h"
-#include "sim/random.h"
+#include "sim/scatterer/random.h"
 #include "tests/test_util.h"
 
 namespace plumage::gonio {

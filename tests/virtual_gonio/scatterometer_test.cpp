@@ -20,7 +20,7 @@
 #include "common/error.h"
 #include "geometry/barbule.h"
 #include "sim/tracer.h"
-#include "virtual_gonio/hdf5_file.h"
+#include "virtual_gonio/record/hdf5_file.h"
 
 namespace plumage::gonio {
 namespace {

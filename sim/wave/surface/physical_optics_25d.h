@@ -82,7 +82,7 @@
 #include <string>
 #include <vector>
 
-#include "sim/scatterer.h"
+#include "sim/scatterer/scatterer.h"
 #include "sim/wave/surface/physical_optics_2d.h"
 
 namespace plumage::sim::wave {

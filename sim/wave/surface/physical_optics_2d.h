@@ -126,7 +126,7 @@
 #include "geometry/elliptical_arc.h"
 #include "sim/optics/material.h"
 #include "sim/optics/multilayer.h"
-#include "sim/random.h"
+#include "sim/scatterer/random.h"
 #include "sim/wave/volume/born_2d.h"  // Polarisation2d
 
 namespace plumage::sim::wave {

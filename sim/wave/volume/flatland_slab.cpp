@@ -14,7 +14,7 @@
 #include "common/error.h"
 #include "common/seed.h"
 #include "sim/optics/fresnel.h"
-#include "sim/random.h"
+#include "sim/scatterer/random.h"
 
 namespace plumage::sim::wave {
 namespace {

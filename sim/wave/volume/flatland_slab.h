@@ -33,7 +33,7 @@
 // or dependent scattering beyond what the power spectrum carries.
 //
 // Randomness and threads: path i draws from Rng(derive_seed(seed, "wave/flatland_slab"), i)
-// (sim/random.h, common/seed.h), and the tallies are integer counts, so the result is
+// (sim/scatterer/random.h, common/seed.h), and the tallies are integer counts, so the result is
 // bit-identical for any thread count and any scheduling.
 //
 // Closed forms for the tests (and for the thin and clear limits):

@@ -1,4 +1,4 @@
-#include "virtual_gonio/hdf5_file.h"
+#include "virtual_gonio/record/hdf5_file.h"
 
 #include <unistd.h>
 
@@ -12,7 +12,7 @@
 #include <hdf5.h>
 
 #include "common/error.h"
-#include "virtual_gonio/hdf5_handle.h"
+#include "virtual_gonio/record/hdf5_handle.h"
 
 namespace plumage::record {
 namespace {

@@ -1,4 +1,4 @@
-#include "virtual_gonio/hdf5_reader.h"
+#include "virtual_gonio/record/hdf5_reader.h"
 
 #include <cstring>
 #include <limits>
@@ -8,7 +8,7 @@
 #include <hdf5.h>
 
 #include "common/error.h"
-#include "virtual_gonio/hdf5_handle.h"
+#include "virtual_gonio/record/hdf5_handle.h"
 
 namespace plumage::record {
 namespace {

@@ -16,7 +16,7 @@
 #include <utility>
 #include <vector>
 
-#include "virtual_gonio/hdf5_reader.h"
+#include "virtual_gonio/record/hdf5_reader.h"
 
 namespace plumage::record {
 

@@ -1,4 +1,4 @@
-#include "sim/random.h"
+#include "sim/scatterer/random.h"
 
 namespace plumage {
 

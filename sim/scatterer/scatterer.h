@@ -50,7 +50,7 @@
 #include <Eigen/Core>
 #include <Eigen/Geometry>  // cross products are part of every direction computation
 
-#include "sim/random.h"
+#include "sim/scatterer/random.h"
 
 namespace plumage {
 

@@ -1,4 +1,4 @@
-#include "sim/scatterer.h"
+#include "sim/scatterer/scatterer.h"
 
 #include "common/error.h"
 

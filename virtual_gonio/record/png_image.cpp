@@ -1,4 +1,4 @@
-#include "virtual_gonio/png_image.h"
+#include "virtual_gonio/record/png_image.h"
 
 #include <unistd.h>
 

@@ -9,8 +9,8 @@
 // Exit points stay where the light leaves (every exit is collected by the detector's cone).
 // Directions are not touched: the wrapper goes inside MountedScatterer, in the sample's own
 // frame. The beam position passed to sample() is ignored.
-// Shared paths and branches (sim/scatterer.h) are forwarded when the inner scatterer has them,
-// each quantum's entry drawn exactly as in sample(): two uniforms from its stream, then the
+// Shared paths and branches (sim/scatterer/scatterer.h) are forwarded when the inner scatterer has
+// them, each quantum's entry drawn exactly as in sample(): two uniforms from its stream, then the
 // inner scatterer on the same stream.
 #pragma once
 
@@ -19,7 +19,7 @@
 #include <string>
 #include <vector>
 
-#include "sim/scatterer.h"
+#include "sim/scatterer/scatterer.h"
 
 namespace plumage {
 

@@ -1,6 +1,6 @@
 // A sample mounted on the goniometer turned about its normal: the Scatterer of another
-// Scatterer whose patch frame (sim/scatterer.h: +x the barb axis) is rotated by an azimuth ψ
-// about +z in the instrument's frame.
+// Scatterer whose patch frame (sim/scatterer/scatterer.h: +x the barb axis) is rotated by an
+// azimuth ψ about +z in the instrument's frame.
 //
 // Real captures place a feather at whatever azimuth it lies on the stage; Filip et al. 2024
 // report its orientation only through the fitted anisotropy direction φa. A measurement of a
@@ -11,7 +11,7 @@
 // double precision up to round-off; no resampling, so the wrapped scatterer's statistics carry
 // over unchanged (unbiased weights, same lobes).
 //
-// Shared paths and branches (sim/scatterer.h) are forwarded the same way, and so are the
+// Shared paths and branches (sim/scatterer/scatterer.h) are forwarded the same way, and so are the
 // instrument's detector cones of BranchOptions (instrument-frame axes, turned by −ψ like ω_i):
 // a guide aimed at the unturned axes would stay unbiased but miss the detectors. The turned axes
 // live on the stack for up to kStackAxes detectors (the 61 × 60 set has 60 per light
@@ -23,7 +23,7 @@
 #include <string>
 #include <vector>
 
-#include "sim/scatterer.h"
+#include "sim/scatterer/scatterer.h"
 
 namespace plumage {
 

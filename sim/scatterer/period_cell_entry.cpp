@@ -1,4 +1,4 @@
-#include "sim/period_cell_entry.h"
+#include "sim/scatterer/period_cell_entry.h"
 
 #include <fmt/format.h>
 

@@ -1,4 +1,4 @@
-#include "sim/mounted_scatterer.h"
+#include "sim/scatterer/mounted_scatterer.h"
 
 #include <algorithm>
 #include <array>
@@ -61,7 +61,8 @@ std::size_t MountedScatterer::sample_spectral_branches(const Vec3d& wi,
                                                        std::span<SpectralScatterEvent> events,
                                                        std::span<double> weights) const {
     // The detector axes in the sample's frame: on the stack for the instruments' sets, on the
-    // heap beyond (sim/mounted_scatterer.h); each call its own, so nested mounts do not share.
+    // heap beyond (sim/scatterer/mounted_scatterer.h); each call its own, so nested mounts do not
+    // share.
     const std::size_t axes = options.detector_axes.size();
     std::array<Vec3d, kStackAxes> on_stack;
     std::vector<Vec3d> on_heap;
