@@ -7,7 +7,7 @@ Runs every study file at every thread count (one after the other, never two at o
 prints, per study, the wall time at each count, the speed-up against the first count, and the
 stage with the lowest CPU/wall at the highest count among those taking at least 5 % of the
 run: the stage that will stop the study scaling on more cores. The figures come from each
-run's stages.csv (studies/study_common.h), so they are the report's own.
+run's stages.csv (studies/study_progress.h), so they are the report's own.
 """
 import argparse
 import csv

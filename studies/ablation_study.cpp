@@ -30,9 +30,11 @@
 #include "studies/sections.h"
 #include "studies/staged_directory.h"
 #include "studies/study.h"
-#include "studies/study_common.h"
 #include "studies/study_context.h"
 #include "studies/study_file.h"
+#include "studies/study_progress.h"
+#include "studies/text_files.h"
+#include "virtual_gonio/direction_sets.h"
 #include "virtual_gonio/exr_image.h"
 #include "virtual_gonio/record/hdf5_file.h"
 #include "virtual_gonio/scatterometer.h"
@@ -109,7 +111,8 @@ ScatterometerTable ablation_scatterometer_defaults() {
     t.config.quanta_per_pass = 50000;
     t.config.max_passes = 1;
     t.config.beam_radius_um = 60.0;
-    t.config.beam_direction = polar(t.beam_incidence_rad, t.beam_azimuth_rad);
+    t.config.beam_direction =
+        gonio::direction_from_angles(t.beam_incidence_rad, t.beam_azimuth_rad);
     return t;
 }
 
@@ -266,7 +269,7 @@ Measured measure(const Run& run, const BarbuleRowParams& params, std::size_t job
     }
     std::optional<analysis::Huang2022Bsdf> model;
     try {
-        model.emplace(huang_params_of(params));
+        model.emplace(analysis::huang_params_of(params));
     } catch (const InputError& e) {
         m.reason = fmt::format("the model rejects it: {}", e.what());
         return m;

@@ -26,7 +26,7 @@
 #include "common/require.h"
 #include "common/version.h"
 #include "sim/optics/spectrum.h"
-#include "studies/study_common.h"
+#include "studies/study_progress.h"
 #include "virtual_gonio/record/hdf5_file.h"
 #include "virtual_gonio/rgl_bsdf.h"
 

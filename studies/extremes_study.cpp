@@ -27,9 +27,11 @@
 #include "studies/sections.h"
 #include "studies/staged_directory.h"
 #include "studies/study.h"
-#include "studies/study_common.h"
 #include "studies/study_context.h"
 #include "studies/study_file.h"
+#include "studies/study_progress.h"
+#include "studies/text_files.h"
+#include "virtual_gonio/direction_sets.h"
 #include "virtual_gonio/record/hdf5_file.h"
 
 namespace plumage::studies {
@@ -217,7 +219,7 @@ std::vector<Vec3d> check_directions(const Vec3d& wi, int rings) {
         for (int r = 0; r < rings; ++r) {
             const double theta = (r + 0.5) / rings * 0.5 * kPi;
             for (int a = 0; a < 2 * rings; ++a) {
-                Vec3d w = polar(theta, (a + 0.25) * kPi / rings);
+                Vec3d w = gonio::direction_from_angles(theta, (a + 0.25) * kPi / rings);
                 w.z() *= sign;
                 out.push_back(w);
             }
@@ -346,9 +348,10 @@ struct Scatterers {
     const Settings& s;
 
     Entry huang(const BarbuleRowParams& p) const {
-        return Entry{
-            "Huang 2022",
-            [p] { return Built{std::make_shared<analysis::Huang2022Bsdf>(huang_params_of(p))}; }};
+        return Entry{"Huang 2022", [p] {
+                         return Built{std::make_shared<analysis::Huang2022Bsdf>(
+                             analysis::huang_params_of(p))};
+                     }};
     }
     Entry tracer(const BarbuleRowParams& p, sim::BarbuleRowMaterials materials = {},
                  std::string label = "explicit barbules") const {
@@ -410,7 +413,7 @@ void film_and_arc_cases(const Settings& s, const std::vector<Vec3d>& regular,
     auto grazing = [&](double theta_deg) {
         std::vector<Vec3d> out;
         for (double phi = 0.0; phi < 2.0 * kPi - 1e-9; phi += s.azimuth_step)
-            out.push_back(polar(theta_deg * kDeg, phi));
+            out.push_back(gonio::direction_from_angles(theta_deg * kDeg, phi));
         return out;
     };
     const BarbuleRowParams rock_dove = rock_dove_with(s);

@@ -18,8 +18,8 @@
 #include "studies/plots.h"
 #include "studies/sections.h"
 #include "studies/staged_directory.h"
-#include "studies/study_common.h"
 #include "studies/study_file.h"
+#include "studies/text_files.h"
 #include "virtual_gonio/record/hdf5_file.h"
 
 namespace plumage::studies {

@@ -4,7 +4,6 @@
 
 #include "common/constants.h"
 #include "common/error.h"
-#include "studies/study_common.h"
 #include "virtual_gonio/direction_sets.h"
 
 namespace plumage::studies {
@@ -69,7 +68,7 @@ ScatterometerTable read_scatterometer_table(ParameterTable& t, ScatterometerTabl
                                        between(0.0, 80.0), "beam polar angle");
     s.beam_azimuth_rad = t.angle_deg("beam_azimuth_deg", s.beam_azimuth_rad, between(-360.0, 360.0),
                                      fmt::format("beam azimuth from {}", keys.azimuth_from));
-    c.beam_direction = polar(s.beam_incidence_rad, s.beam_azimuth_rad);
+    c.beam_direction = gonio::direction_from_angles(s.beam_incidence_rad, s.beam_azimuth_rad);
     c.beam_radius_um = t.number("beam_radius_um", c.beam_radius_um, positive(), "beam radius, um");
     if (keys.illumination_strata) {
         c.illumination_strata =

@@ -12,8 +12,8 @@
 #include "common/interrupt.h"
 #include "sim/fullwave/full_wave_2d.h"
 #include "sim/fullwave/row_reference.h"
-#include "studies/study_common.h"
 #include "studies/study_file.h"
+#include "studies/study_progress.h"
 
 namespace plumage::studies {
 

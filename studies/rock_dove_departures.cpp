@@ -7,11 +7,12 @@
 
 #include <fmt/format.h>
 
+#include "analysis/metrics/compare.h"
 #include "analysis/models/huang2022_trt_exit.h"
 #include "common/constants.h"
 #include "common/seed.h"
 #include "sim/tracer.h"
-#include "studies/study_common.h"
+#include "virtual_gonio/direction_sets.h"
 
 namespace plumage::studies {
 namespace {
@@ -24,7 +25,7 @@ bool along_barbules(const gonio::DirectionPair& p) {
 }
 
 double lobe_at(const gonio::BrdfRecord& r, const char* lobe, std::size_t cell, bool error = false) {
-    const int l = lobe_index(r.lobes, lobe);
+    const int l = analysis::lobe_index(r.lobes, lobe);
     if (l < 0) return 0.0;
     const std::size_t n = r.value.size();
     return (error ? r.lobe_standard_error : r.lobe_values)[static_cast<std::size_t>(l) * n + cell];
@@ -113,7 +114,8 @@ std::vector<gonio::DirectionPair> grazing_specular_pairs() {
     std::vector<gonio::DirectionPair> pairs;
     for (int k = 0; k < 12; ++k) {
         const double phi = k * 30.0 * kDeg;
-        pairs.push_back({polar(kGrazingDeg * kDeg, phi), polar(kGrazingDeg * kDeg, phi + kPi)});
+        pairs.push_back({gonio::direction_from_angles(kGrazingDeg * kDeg, phi),
+                         gonio::direction_from_angles(kGrazingDeg * kDeg, phi + kPi)});
     }
     return pairs;
 }

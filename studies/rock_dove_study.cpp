@@ -33,13 +33,16 @@
 #include "studies/fullwave_rock_dove.h"  // generated: the embedded full-wave reference
 #include "studies/instrument_tables.h"
 #include "studies/level_choice.h"
+#include "studies/measurement_cost.h"
 #include "studies/plots.h"
 #include "studies/sections.h"
 #include "studies/staged_directory.h"
 #include "studies/study.h"
-#include "studies/study_common.h"
+#include "studies/study_checkpoints.h"
 #include "studies/study_context.h"
 #include "studies/study_file.h"
+#include "studies/study_progress.h"
+#include "studies/text_files.h"
 #include "virtual_gonio/direction_sets.h"
 #include "virtual_gonio/exr_image.h"
 #include "virtual_gonio/goniometer.h"
@@ -274,7 +277,7 @@ Built build(const Settings& s, StudyFile& file, const StudyProgress& clock,
     throw_if_interrupted("building the barbule patch");
     b.simulation = std::make_unique<const sim::ExplicitScatterer>(sim::barbule_row_scene(b.row));
     throw_if_interrupted("building the barbule patch");
-    b.model = std::make_unique<const analysis::Huang2022Bsdf>(huang_params_of(s.row));
+    b.model = std::make_unique<const analysis::Huang2022Bsdf>(analysis::huang_params_of(s.row));
     throw_if_interrupted("building the barbule patch");
     return b;
 }
@@ -358,17 +361,20 @@ std::string scatterogram_pair(const Run& run, const ScatterogramPair& pair,
     const fs::path dir = run.dir / "scatterograms";
     gonio::write_scatterogram_record(sim_s, dir / (label + "_simulation.h5"));
     gonio::write_scatterogram_record(mod_s, dir / (label + "_model.h5"));
-    const double l1 = image_relative_l1(sim_s, mod_s, -1, -1);
-    const double l1_floor = image_relative_l1_noise_floor(sim_s, mod_s);
+    const double l1 = analysis::image_relative_l1(sim_s, mod_s, -1, -1);
+    const double l1_floor = analysis::image_relative_l1_noise_floor(sim_s, mod_s);
     const double l1_r =
-        image_relative_l1(sim_s, mod_s, lobe_index(sim_s.lobes, "R"), lobe_index(mod_s.lobes, "R"));
-    const double l1_trt = image_relative_l1(sim_s, mod_s, lobe_index(sim_s.lobes, "TRT"),
-                                            lobe_index(mod_s.lobes, "TRT"));
+        analysis::image_relative_l1(sim_s, mod_s, analysis::lobe_index(sim_s.lobes, "R"),
+                                    analysis::lobe_index(mod_s.lobes, "R"));
+    const double l1_trt =
+        analysis::image_relative_l1(sim_s, mod_s, analysis::lobe_index(sim_s.lobes, "TRT"),
+                                    analysis::lobe_index(mod_s.lobes, "TRT"));
     result.scatterogram_relative_l1.push_back(l1);
     result.verdicts.push_back({"scatterogram (" + label + ")", scatterogram_verdict(sim_s, mod_s)});
-    const double t_sim = analysis::mean_transmitted(sim_s, lobe_index(sim_s.lobes, "T"));
-    const double t_mod = analysis::mean_transmitted(mod_s, lobe_index(mod_s.lobes, "T"));
-    const double multi_share = analysis::reflected_share(sim_s, lobe_index(sim_s.lobes, "multi"));
+    const double t_sim = analysis::mean_transmitted(sim_s, analysis::lobe_index(sim_s.lobes, "T"));
+    const double t_mod = analysis::mean_transmitted(mod_s, analysis::lobe_index(mod_s.lobes, "T"));
+    const double multi_share =
+        analysis::reflected_share(sim_s, analysis::lobe_index(sim_s.lobes, "multi"));
     if (mode == gonio::Illumination::hemisphere) result.simulated_multi_share = multi_share;
     if (mode == gonio::Illumination::beam) result.simulated_t = t_sim, result.model_t = t_mod;
     record::Hdf5Writer h5(dir / (label + "_comparison.h5"));
@@ -875,12 +881,12 @@ struct LevelScatterogramErrors {
 LevelScatterogramErrors level_scatterogram_errors(const ScatterogramPair& beam,
                                                   const gonio::Scatterogram& po) {
     LevelScatterogramErrors e;
-    e.l1 = image_relative_l1(po, beam.model, -1, -1);
-    e.floor = image_relative_l1_noise_floor(po, beam.model);
-    e.l1_r = image_relative_l1(po, beam.model, lobe_index(po.lobes, "R"),
-                               lobe_index(beam.model.lobes, "R"));
-    e.against_ray_optics = image_relative_l1(po, beam.simulation, -1, -1);
-    e.ray_optics_l1 = image_relative_l1(beam.simulation, beam.model, -1, -1);
+    e.l1 = analysis::image_relative_l1(po, beam.model, -1, -1);
+    e.floor = analysis::image_relative_l1_noise_floor(po, beam.model);
+    e.l1_r = analysis::image_relative_l1(po, beam.model, analysis::lobe_index(po.lobes, "R"),
+                                         analysis::lobe_index(beam.model.lobes, "R"));
+    e.against_ray_optics = analysis::image_relative_l1(po, beam.simulation, -1, -1);
+    e.ray_optics_l1 = analysis::image_relative_l1(beam.simulation, beam.model, -1, -1);
     return e;
 }
 
@@ -985,9 +991,10 @@ gonio::GoniometerConfig validation_config(const Settings& s,
                                           std::uint64_t seed) {
     gonio::GoniometerConfig v;
     v.direction_set = "custom: light in the transversal plane, views across it";
-    const Vec3d light = polar(s.validation_light_theta, 0.0);
+    const Vec3d light = gonio::direction_from_angles(s.validation_light_theta, 0.0);
     for (int k = -15; k <= 15; ++k)
-        v.pairs.push_back({light, polar(std::abs(k) * 5.0 * kDeg, k < 0 ? kPi : 0.0)});
+        v.pairs.push_back(
+            {light, gonio::direction_from_angles(std::abs(k) * 5.0 * kDeg, k < 0 ? kPi : 0.0)});
     v.wavelengths_nm = {s.wavelengths.front(), s.wavelengths[s.wavelengths.size() / 2],
                         s.wavelengths.back()};
     v.detector_half_angle_rad = s.validation_detector_half_angle;
@@ -1008,7 +1015,7 @@ gonio::GoniometerConfig validation_config(const Settings& s,
 void compare_r_lobes(const gonio::BrdfRecord& a, const gonio::BrdfRecord& b,
                      const fs::path& csv_path, RockDoveResult& result) {
     const gonio::GoniometerConfig& v = a.config;
-    const int ra = lobe_index(a.lobes, "R"), rb = lobe_index(b.lobes, "R");
+    const int ra = analysis::lobe_index(a.lobes, "R"), rb = analysis::lobe_index(b.lobes, "R");
     const std::size_t np = v.pairs.size(), nl = v.wavelengths_nm.size();
     std::ofstream csv(csv_path);
     csv << fmt::format(
@@ -1151,7 +1158,7 @@ std::string huang_fit(const Run& run, const Built& b, RockDoveResult& result) {
     if (!s.fit) return {};
     gonio::ScatterometerConfig c;
     c.illumination = gonio::Illumination::beam;
-    c.beam_direction = polar(s.fit_incidence, s.fit_azimuth);
+    c.beam_direction = gonio::direction_from_angles(s.fit_incidence, s.fit_azimuth);
     c.image_size = s.fit_image_size;
     c.wavelengths_nm = fit_wavelengths(s.wavelengths);
     c.beam_radius_um = s.scatterometer.beam_radius_um;
@@ -1163,7 +1170,7 @@ std::string huang_fit(const Run& run, const Built& b, RockDoveResult& result) {
     const gonio::Scatterogram data = gonio::measure_scatterogram(*b.simulation, c);
     gonio::write_scatterogram_record(data, run.dir / "fit" / "simulation.h5");
     run.ctx.clock().say("Huang fit: Levenberg-Marquardt");
-    const analysis::Huang2022Params truth = huang_params_of(s.row);
+    const analysis::Huang2022Params truth = analysis::huang_params_of(s.row);
     analysis::HuangFitOptions options;
     options.fixed = {"phi0", "phi1"};  // the arc's ends are hidden at these parameters
     options.pixel_stride = s.fit_pixel_stride;
@@ -1292,7 +1299,7 @@ std::string convergence(const Run& run, const Built& b,
     c.quanta_per_pass = s.convergence_quanta;
     c.max_passes = s.convergence_passes;
     const std::size_t np = c.pairs.size();
-    const int r_truth = lobe_index(truth.lobes, "R");
+    const int r_truth = analysis::lobe_index(truth.lobes, "R");
     const std::span<const double> reference(
         truth.lobe_values.data() + static_cast<std::size_t>(r_truth) * np, np);
     // The cubature's error estimate is for the total; the R lobe carries all of it here (TRT
@@ -1302,7 +1309,7 @@ std::string convergence(const Run& run, const Built& b,
     std::vector<analysis::ErrorAgainstReference> rows;
     gonio::RunControl rc;
     rc.on_pass_record = [&](const gonio::BrdfRecord& r) {
-        const std::size_t rl = static_cast<std::size_t>(lobe_index(r.lobes, "R"));
+        const std::size_t rl = static_cast<std::size_t>(analysis::lobe_index(r.lobes, "R"));
         const analysis::ErrorAgainstReference e = analysis::error_against_reference(
             std::span<const double>(r.lobe_values.data() + rl * np, np),
             std::span<const double>(r.lobe_standard_error.data() + rl * np, np), reference,

@@ -13,8 +13,8 @@
 #include "sim/wave/volume/power_spectrum.h"
 #include "sim/wave/volume/structure_factor.h"
 #include "studies/spongy_reference.h"  // generated: the routes against 3D full wave
-#include "studies/study_common.h"
 #include "studies/study_file.h"
+#include "studies/text_files.h"
 
 namespace plumage::studies {
 namespace {

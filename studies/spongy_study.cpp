@@ -101,8 +101,8 @@
 #include "studies/spongy_medium.h"
 #include "studies/staged_directory.h"
 #include "studies/study.h"
-#include "studies/study_common.h"
 #include "studies/study_context.h"
+#include "studies/study_progress.h"
 #include "virtual_gonio/record/hdf5_file.h"
 
 namespace plumage::studies {

@@ -27,8 +27,9 @@
 
 #include "studies/staged_directory.h"
 #include "studies/study.h"
-#include "studies/study_common.h"
+#include "studies/study_checkpoints.h"
 #include "studies/study_file.h"
+#include "studies/study_progress.h"
 
 namespace plumage::studies {
 

@@ -17,7 +17,8 @@
 #include "sim/fullwave/row_reference.h"
 #include "sim/wave/compare/levels_against_full_wave.h"
 #include "sim/wave/compare/ray_optics_validity.h"
-#include "studies/study_common.h"
+#include "studies/study_progress.h"
+#include "studies/text_files.h"
 #include "virtual_gonio/record/hdf5_file.h"
 
 namespace plumage::studies {

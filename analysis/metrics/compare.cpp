@@ -6,6 +6,7 @@
 
 #include <fmt/format.h>
 
+#include "common/constants.h"
 #include "common/error.h"
 #include "common/relative_l1.h"
 #include "sim/optics/colour.h"
@@ -204,6 +205,37 @@ double reflected_share(const gonio::Scatterogram& s, int lobe) {
                  s.solid_angle_sr[i / nl];
     }
     return reflected > 0.0 ? share / reflected : 0.0;
+}
+
+// Σ|a − b| Ω / Σ b Ω over pixels and wavelengths, for one lobe (or all when lobe < 0).
+double image_relative_l1(const gonio::Scatterogram& a, const gonio::Scatterogram& b, int lobe_a,
+                         int lobe_b) {
+    const std::size_t n = a.pixels() * a.config.wavelengths_nm.size();
+    const auto& va = lobe_a < 0 ? a.intensity : a.lobe_intensity;
+    const auto& vb = lobe_b < 0 ? b.intensity : b.lobe_intensity;
+    const std::size_t oa = lobe_a < 0 ? 0 : static_cast<std::size_t>(lobe_a) * n;
+    const std::size_t ob = lobe_b < 0 ? 0 : static_cast<std::size_t>(lobe_b) * n;
+    RelativeL1 l1;
+    const std::size_t nl = a.config.wavelengths_nm.size();
+    for (std::size_t i = 0; i < n; ++i) l1.add(va[oa + i], vb[ob + i], a.solid_angle_sr[i / nl]);
+    return l1.value();
+}
+
+double image_relative_l1_noise_floor(const gonio::Scatterogram& a, const gonio::Scatterogram& b) {
+    const std::size_t nl = a.config.wavelengths_nm.size();
+    double noise = 0.0, ref = 0.0;
+    for (std::size_t i = 0; i < a.pixels() * nl; ++i) {
+        const double omega = a.solid_angle_sr[i / nl];
+        noise += std::hypot(a.standard_error[i], b.standard_error[i]) * omega;
+        ref += b.intensity[i] * omega;
+    }
+    return ref > 0.0 ? std::sqrt(2.0 / kPi) * noise / ref : 0.0;
+}
+
+int lobe_index(const std::vector<std::string>& lobes, const std::string& name) {
+    for (std::size_t i = 0; i < lobes.size(); ++i)
+        if (lobes[i] == name) return static_cast<int>(i);
+    return -1;
 }
 
 }  // namespace plumage::analysis

@@ -60,4 +60,16 @@ std::string comparison_markdown(const RecordComparison& c, const gonio::BrdfReco
 double mean_transmitted(const gonio::Scatterogram& s, int lobe);
 double reflected_share(const gonio::Scatterogram& s, int lobe);
 
+// Σ|a − b| Ω / Σ b Ω over pixels and wavelengths, for one lobe of each (or all: −1).
+double image_relative_l1(const gonio::Scatterogram& a, const gonio::Scatterogram& b, int lobe_a,
+                         int lobe_b);
+
+// What image_relative_l1(a, b, −1, −1) would be if a and b were the same image measured with
+// their standard errors: sqrt(2/π) Σ sqrt(σ_a² + σ_b²) Ω / Σ b Ω (the mean |N(0, σ)|). Totals
+// only: the records carry no per-lobe standard errors.
+double image_relative_l1_noise_floor(const gonio::Scatterogram& a, const gonio::Scatterogram& b);
+
+// Index of a lobe name, or −1.
+int lobe_index(const std::vector<std::string>& lobes, const std::string& name);
+
 }  // namespace plumage::analysis

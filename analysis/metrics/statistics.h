@@ -19,7 +19,7 @@
 //    and this form is exact to rounding without the cancellation of 1 − (1 − α)^(1/m).
 //
 // Errors. Values far in a tail that underflow a double come back as 0 (Boost's underflow policy
-// set to "ignore"): callers print them as "p < 1e-15" (studies/study_common.cpp p_value_text).
+// set to "ignore"): callers print them as "p < 1e-15" (studies/measurement_cost.cpp p_value_text).
 // Out-of-domain arguments are checked here before Boost sees them: the data-driven ones (a χ²
 // statistic that came out NaN or negative) give NaN as before, the configuration ones
 // (a significance level outside its interval) throw InputError naming the argument and value.

@@ -1740,4 +1740,16 @@ double Huang2022Bsdf::pdf(const Vec3d& wi, const Vec3d& wo, double lambda_nm) co
     return pdf_r + pdf_trt;
 }
 
+Huang2022Params huang_params_of(const geometry::BarbuleRowParams& row) {
+    Huang2022Params p;
+    p.b = row.cell.b;
+    p.phi0 = row.cell.phi0;
+    p.phi1 = row.cell.phi1;
+    p.theta_d = row.cell.theta_d;
+    p.H = row.H;
+    p.mu = row.mu;
+    p.d_um = row.cell.film_thickness_um;
+    return p;
+}
+
 }  // namespace plumage::analysis

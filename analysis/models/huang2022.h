@@ -88,6 +88,7 @@
 #include <vector>
 
 #include "common/parameter_spec.h"
+#include "geometry/barbule.h"
 #include "sim/optics/material.h"
 #include "sim/scatterer/scatterer.h"
 
@@ -208,5 +209,8 @@ private:
     std::shared_ptr<const optics::Material> keratin_, melanin_;
     std::uint64_t generation_;  // distinguishes objects that reuse an address, for the cache
 };
+
+// The Huang model of the same barbules: b, φ0, φ1, θ_d, H, μ and the film thickness.
+Huang2022Params huang_params_of(const geometry::BarbuleRowParams& row);
 
 }  // namespace plumage::analysis

@@ -13,8 +13,8 @@
 #include <gtest/gtest.h>
 
 #include "common/error.h"
-#include "studies/study_common.h"
 #include "studies/study_file.h"
+#include "studies/study_progress.h"
 
 namespace plumage::studies {
 namespace {

@@ -31,7 +31,7 @@
 #include "studies/sections.h"
 #include "studies/staged_directory.h"
 #include "studies/study.h"
-#include "studies/study_common.h"
+#include "studies/study_checkpoints.h"
 #include "tests/test_util.h"
 
 namespace plumage::studies {

@@ -1,4 +1,4 @@
-// StudyProgress's stage accounting (studies/study_common.h): every say() closes the open stage
+// StudyProgress's stage accounting (studies/study_progress.h): every say() closes the open stage
 // and opens the next, with wall and process CPU time; a stage that keeps two threads busy shows
 // CPU/wall near 2; the report table and stages.csv render the same figures.
 #include <omp.h>
@@ -15,7 +15,7 @@
 #include <gtest/gtest.h>
 
 #include "common/cpu_time.h"
-#include "studies/study_common.h"
+#include "studies/study_progress.h"
 #include "tests/test_util.h"
 
 namespace plumage::studies {

@@ -99,4 +99,21 @@ void write_png(const std::filesystem::path& path, const RgbImage& image) {
     }
 }
 
+RgbImage side_by_side(const std::vector<const RgbImage*>& images) {
+    int width = 0, height = 0;
+    for (const auto* im : images) width += im->width + 6, height = std::max(height, im->height);
+    RgbImage out(width - 6, height);
+    out.fill(255, 255, 255);
+    int x0 = 0;
+    for (const auto* im : images) {
+        for (int y = 0; y < im->height; ++y)
+            for (int x = 0; x < im->width; ++x) {
+                const std::size_t i = (static_cast<std::size_t>(y) * im->width + x) * 3;
+                out.set(x0 + x, y, im->pixels[i], im->pixels[i + 1], im->pixels[i + 2]);
+            }
+        x0 += im->width + 6;
+    }
+    return out;
+}
+
 }  // namespace plumage::record

@@ -32,4 +32,7 @@ RgbImage upscaled(const RgbImage& image, int factor);
 // Written to a temporary name and renamed, like records; IoError on failure.
 void write_png(const std::filesystem::path& path, const RgbImage& image);
 
+// Images left to right on white, 6 px apart, top-aligned.
+RgbImage side_by_side(const std::vector<const RgbImage*>& images);
+
 }  // namespace plumage::record
