@@ -12,6 +12,7 @@
 #include <gtest/gtest.h>
 
 #include "studies/study.h"
+#include "tests/studies/measurement_streams.h"
 #include "tests/test_util.h"
 #include "virtual_gonio/record/hdf5_file.h"
 
@@ -30,7 +31,9 @@ TEST(CalibrationStudy, RegisteredByItsOneLineAndAgreesWithTheClosedForm) {
     const fs::path root =
         fs::temp_directory_path() / ("plumage_calibration_" + std::to_string(::getpid()));
     fs::remove_all(root);
+    clear_recorded_measurement_seeds();
     const std::string summary = entry.run(text, study, root, {});
+    test::expect_each_measurement_its_own_streams();
     EXPECT_NE(summary.find("agrees"), std::string::npos) << summary;
     // 165 cells: χ²/dof within 4 standard deviations (sqrt(2/dof)) of 1.
     const double chi2 =

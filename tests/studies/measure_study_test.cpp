@@ -18,6 +18,7 @@
 #include "sim/optics/material.h"
 #include "sim/optics/thin_film.h"
 #include "studies/study.h"
+#include "tests/studies/measurement_streams.h"
 #include "tests/test_util.h"
 #include "virtual_gonio/record/hdf5_file.h"
 
@@ -260,7 +261,10 @@ TEST(MeasureStudy, ExampleRunsAndMeasuresEveryInstrumentItNames) {
     const fs::path root =
         fs::temp_directory_path() / fmt::format("plumage_measure_example_{}", ::getpid());
     fs::remove_all(root);
+    clear_recorded_measurement_seeds();
     study_of(text, study).run(text, study, root, {});
+    // Measurements the report compares must not share their noise (issue 39).
+    test::expect_each_measurement_its_own_streams();
     for (const char* f : {"brdf.h5", "brdf.png", "scatterogram.h5", "scatterogram.exr",
                           "integrating_sphere.h5", "report.md"})
         EXPECT_TRUE(fs::exists(root / "measure_example" / f)) << f;
