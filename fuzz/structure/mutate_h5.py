@@ -224,26 +224,17 @@ def _fixed_string_attr(obj, name, text_bytes, size, pad, cset, shape=()):
     _write_attr_lowlevel(obj, name, tid, space, buf)
 
 
-def _retype(f, data, name, rnd, shape=None):
-    """(array, dtype) of `data` converted to the retype `name`."""
-    a = np.asarray(data)
-    shape = a.shape if shape is None else shape
-    x = _as_float(a)
-    x = np.broadcast_to(x, shape) if np.ndim(x) == 0 or np.shape(x) == shape else x
-    shape = np.shape(x)
-    fin = np.nan_to_num(np.asarray(x, dtype=np.float64), nan=0, posinf=1e300, neginf=-1e300)
-    if name == "float32":
-        return x.astype("<f4"), None
-    if name == "big-endian float64":
-        return x.astype(">f8"), None
-    if name == "big-endian float32":
-        return x.astype(">f4"), None
-    if name == "float16":
-        return x.astype("<f2"), None
-    if name == "long double":
-        return x.astype(np.longdouble), None
-    if name in ("int8", "uint8", "int16", "uint16", "int32", "uint32", "int64", "uint64",
-                "big-endian int32"):
+_FLOAT_RETYPES = {"float32": "<f4", "big-endian float64": ">f8", "big-endian float32": ">f4",
+                  "float16": "<f2", "long double": np.longdouble}
+_INT_RETYPES = ("int8", "uint8", "int16", "uint16", "int32", "uint32", "int64", "uint64",
+                "big-endian int32")
+
+
+def _retype_number(name, x, fin, shape):
+    """(array, dtype) for the numeric, compound, enum and opaque retypes; None for the others."""
+    if name in _FLOAT_RETYPES:
+        return x.astype(_FLOAT_RETYPES[name]), None
+    if name in _INT_RETYPES:
         dt = np.dtype(">i4" if name.startswith("big") else name)
         info = np.iinfo(dt)
         return np.clip(np.round(fin), info.min, info.max).astype(dt), None
@@ -267,6 +258,12 @@ def _retype(f, data, name, rnd, shape=None):
     if name == "opaque":
         raw = np.ascontiguousarray(x.astype("<f8")).tobytes()
         return np.frombuffer(raw, dtype="V8").reshape(shape), None
+    return None
+
+
+def _retype_reference(f, name, x, rnd, shape):
+    """(array, dtype) for the reference, variable-length and HDF5 array retypes; None for the
+    others."""
     if name == "object reference":
         out = np.empty(shape, dtype=h5py.ref_dtype)
         ref = f["/"].ref
@@ -292,14 +289,17 @@ def _retype(f, data, name, rnd, shape=None):
         if len(shape) >= 1 and shape[-1] > 0:
             return np.ascontiguousarray(x), np.dtype(("<f8", (shape[-1],)))
         return np.ascontiguousarray(x).reshape(shape + (1,)), np.dtype(("<f8", (1,)))
-    text = np.asarray(a) if _is_text(a) else None
+    return None
 
-    def strings():
-        if text is not None:
-            return [(_as_text(s) if not isinstance(s, str) else s) for s in np.ravel(text)] \
-                if text.ndim else [_as_text(text)]
-        return [repr(float(v)) for v in np.ravel(x)]
-    items = strings()
+
+def _retype_string(a, name, x, shape):
+    """(array, dtype) for the string retypes: text as it is, numbers as their repr."""
+    text = np.asarray(a) if _is_text(a) else None
+    if text is not None:
+        items = [(_as_text(s) if not isinstance(s, str) else s) for s in np.ravel(text)] \
+            if text.ndim else [_as_text(text)]
+    else:
+        items = [repr(float(v)) for v in np.ravel(x)]
     if name == "fixed-length ASCII string":
         n = max([len(s.encode()) for s in items] + [1])
         return np.array([s.encode() for s in items], dtype=f"S{n}").reshape(shape), None
@@ -313,6 +313,20 @@ def _retype(f, data, name, rnd, shape=None):
     if name == "variable-length UTF-8 string":
         return np.array(items, dtype=object).reshape(shape), h5py.string_dtype("utf-8")
     raise Skip(f"unknown retype {name}")
+
+
+def _retype(f, data, name, rnd, shape=None):
+    """(array, dtype) of `data` converted to the retype `name`."""
+    a = np.asarray(data)
+    shape = a.shape if shape is None else shape
+    x = _as_float(a)
+    x = np.broadcast_to(x, shape) if np.ndim(x) == 0 or np.shape(x) == shape else x
+    shape = np.shape(x)
+    fin = np.nan_to_num(np.asarray(x, dtype=np.float64), nan=0, posinf=1e300, neginf=-1e300)
+    converted = _retype_number(name, x, fin, shape)
+    if converted is None:
+        converted = _retype_reference(f, name, x, rnd, shape)
+    return converted if converted is not None else _retype_string(a, name, x, shape)
 
 
 def _exact(before, after):

@@ -158,15 +158,22 @@ struct ChiSquareResult {
     }
 };
 
-inline ChiSquareResult chi_square_test(const Scatterer& scatterer, const Vec3d& wi,
-                                       double lambda_nm, const ChiSquareOptions& options = {}) {
-    const int nz = options.cos_theta_bins;
-    const int nphi = options.phi_bins;
-    const double two_pi = 2.0 * std::numbers::pi;
-    const auto n = static_cast<double>(options.samples);
-    const std::size_t bins = static_cast<std::size_t>(nz) * nphi;
+namespace detail {
 
-    // Observed: bins, then the outside cell (absorbed or discrete quanta).
+// The (cos θ, φ) cell of a direction on a grid of nz × nphi cells.
+inline std::size_t sphere_cell(const Vec3d& wo, int nz, int nphi) {
+    const double two_pi = 2.0 * std::numbers::pi;
+    const int iz = std::clamp(static_cast<int>((wo.z() + 1.0) / 2.0 * nz), 0, nz - 1);
+    double phi = std::atan2(wo.y(), wo.x());
+    if (phi < 0.0) phi += two_pi;
+    const int ip = std::clamp(static_cast<int>(phi / two_pi * nphi), 0, nphi - 1);
+    return static_cast<std::size_t>(iz) * nphi + ip;
+}
+
+// Counts of sample()'s directions per cell, then the outside cell (absorbed or discrete quanta).
+inline std::vector<double> observed_counts(const Scatterer& scatterer, const Vec3d& wi,
+                                           double lambda_nm, const ChiSquareOptions& options) {
+    const std::size_t bins = static_cast<std::size_t>(options.cos_theta_bins) * options.phi_bins;
     std::vector<double> observed(bins + 1, 0.0);
     Rng rng(options.seed, options.stream);
     const Vec2 position(0.0, 0.0);
@@ -176,20 +183,25 @@ inline ChiSquareResult chi_square_test(const Scatterer& scatterer, const Vec3d& 
             observed[bins] += 1.0;
             continue;
         }
-        const Vec3d& wo = event->wo;
-        const int iz = std::clamp(static_cast<int>((wo.z() + 1.0) / 2.0 * nz), 0, nz - 1);
-        double phi = std::atan2(wo.y(), wo.x());
-        if (phi < 0.0) phi += two_pi;
-        const int ip = std::clamp(static_cast<int>(phi / two_pi * nphi), 0, nphi - 1);
-        observed[static_cast<std::size_t>(iz) * nphi + ip] += 1.0;
+        observed[sphere_cell(event->wo, options.cos_theta_bins, options.phi_bins)] += 1.0;
     }
+    return observed;
+}
 
+// pdf()'s expected counts per cell and outside; `mass` gets pdf()'s integral over the sphere.
+inline std::vector<double> expected_counts(const Scatterer& scatterer, const Vec3d& wi,
+                                           double lambda_nm, const ChiSquareOptions& options,
+                                           double& mass) {
+    const int nz = options.cos_theta_bins, nphi = options.phi_bins;
+    const double two_pi = 2.0 * std::numbers::pi;
+    const auto n = static_cast<double>(options.samples);
+    const std::size_t bins = static_cast<std::size_t>(nz) * nphi;
     std::vector<double> expected(bins + 1, 0.0);
-    double mass = 0.0;
+    mass = 0.0;
     auto density = [&](const Vec3d& wo) { return scatterer.pdf(wi, wo, lambda_nm); };
     for (int iz = 0; iz < nz; ++iz) {
         for (int ip = 0; ip < nphi; ++ip) {
-            const double cell_mass = detail::integrate_cell(
+            const double cell_mass = integrate_cell(
                 density, -1.0 + 2.0 * iz / nz, -1.0 + 2.0 * (iz + 1) / nz, two_pi * ip / nphi,
                 two_pi * (ip + 1) / nphi, options.quadrature_cells);
             expected[static_cast<std::size_t>(iz) * nphi + ip] = n * cell_mass;
@@ -197,17 +209,19 @@ inline ChiSquareResult chi_square_test(const Scatterer& scatterer, const Vec3d& 
         }
     }
     expected[bins] = n * std::max(0.0, 1.0 - mass);
+    return expected;
+}
 
-    ChiSquareResult result;
-    result.density_mass = mass;
-    result.threshold = sidak_significance(options.family_significance, options.tests_in_family);
-
-    // Pearson's statistic with pooling of the cells expected to hold fewer than kMinExpected.
+// Pearson's statistic with pooling of the cells expected to hold fewer than kMinExpected:
+// fills statistic, degrees of freedom and p-value, and a failure where quanta land where
+// pdf() is zero.
+inline void pooled_pearson(const std::vector<double>& observed, const std::vector<double>& expected,
+                           double n, ChiSquareResult& result) {
     struct Cell {
         double observed, expected;
     };
     std::vector<Cell> cells;
-    for (std::size_t i = 0; i <= bins; ++i) {
+    for (std::size_t i = 0; i < observed.size(); ++i) {
         if (expected[i] <= 0.0 && observed[i] > 0.0) {
             result.failure =
                 fmt::format("{} quanta in a cell where pdf() integrates to {} (cell {})",
@@ -247,29 +261,56 @@ inline ChiSquareResult chi_square_test(const Scatterer& scatterer, const Vec3d& 
     result.p_value = result.degrees_of_freedom > 0
                          ? chi_square_p_value(statistic, result.degrees_of_freedom)
                          : 1.0;
+}
+
+// Where a failed test's histograms go.
+inline std::filesystem::path histogram_file(const ChiSquareOptions& options) {
+    return options.dump_directory / fmt::format("chi2_{}_{}.tsv", options.name, options.stream);
+}
+
+// The histograms of a failed test, one row per cell, for a look at where they differ.
+inline void dump_histograms(const std::filesystem::path& dump, const Scatterer& scatterer,
+                            const Vec3d& wi, double lambda_nm, const ChiSquareOptions& options,
+                            const std::vector<double>& observed,
+                            const std::vector<double>& expected, const std::string& summary) {
+    const int nz = options.cos_theta_bins, nphi = options.phi_bins;
+    const double two_pi = 2.0 * std::numbers::pi;
+    const std::size_t bins = static_cast<std::size_t>(nz) * nphi;
+    std::error_code ignored;
+    std::filesystem::create_directories(options.dump_directory, ignored);
+    std::ofstream out(dump);
+    out << fmt::format("# {} wi = ({}, {}, {}) lambda = {} nm: {}\n", scatterer.name(), wi.x(),
+                       wi.y(), wi.z(), lambda_nm, summary);
+    out << "cos_theta_lo\tcos_theta_hi\tphi_lo\tphi_hi\tobserved\texpected\n";
+    for (int iz = 0; iz < nz; ++iz) {
+        for (int ip = 0; ip < nphi; ++ip) {
+            const std::size_t i = static_cast<std::size_t>(iz) * nphi + ip;
+            out << fmt::format("{}\t{}\t{}\t{}\t{}\t{}\n", -1.0 + 2.0 * iz / nz,
+                               -1.0 + 2.0 * (iz + 1) / nz, two_pi * ip / nphi,
+                               two_pi * (ip + 1) / nphi, observed[i], expected[i]);
+        }
+    }
+    out << fmt::format("outside\t-\t-\t-\t{}\t{}\n", observed[bins], expected[bins]);
+}
+
+}  // namespace detail
+
+inline ChiSquareResult chi_square_test(const Scatterer& scatterer, const Vec3d& wi,
+                                       double lambda_nm, const ChiSquareOptions& options = {}) {
+    const std::vector<double> observed = detail::observed_counts(scatterer, wi, lambda_nm, options);
+    ChiSquareResult result;
+    const std::vector<double> expected =
+        detail::expected_counts(scatterer, wi, lambda_nm, options, result.density_mass);
+    result.threshold = sidak_significance(options.family_significance, options.tests_in_family);
+    detail::pooled_pearson(observed, expected, static_cast<double>(options.samples), result);
     if (result.failure.empty() && result.p_value < result.threshold) {
         result.failure = "sample() does not follow pdf()";
     }
     result.passed = result.failure.empty();
-
     if (!result.passed) {
-        std::error_code ignored;
-        std::filesystem::create_directories(options.dump_directory, ignored);
-        result.dump =
-            options.dump_directory / fmt::format("chi2_{}_{}.tsv", options.name, options.stream);
-        std::ofstream out(result.dump);
-        out << fmt::format("# {} wi = ({}, {}, {}) lambda = {} nm: {}\n", scatterer.name(), wi.x(),
-                           wi.y(), wi.z(), lambda_nm, result.summary());
-        out << "cos_theta_lo\tcos_theta_hi\tphi_lo\tphi_hi\tobserved\texpected\n";
-        for (int iz = 0; iz < nz; ++iz) {
-            for (int ip = 0; ip < nphi; ++ip) {
-                const std::size_t i = static_cast<std::size_t>(iz) * nphi + ip;
-                out << fmt::format("{}\t{}\t{}\t{}\t{}\t{}\n", -1.0 + 2.0 * iz / nz,
-                                   -1.0 + 2.0 * (iz + 1) / nz, two_pi * ip / nphi,
-                                   two_pi * (ip + 1) / nphi, observed[i], expected[i]);
-            }
-        }
-        out << fmt::format("outside\t-\t-\t-\t{}\t{}\n", observed[bins], expected[bins]);
+        result.dump = detail::histogram_file(options);  // the summary names it
+        detail::dump_histograms(result.dump, scatterer, wi, lambda_nm, options, observed, expected,
+                                result.summary());
     }
     return result;
 }
@@ -303,13 +344,13 @@ struct ConsistencyResult {
     }
 };
 
-inline ConsistencyResult eval_pdf_consistency(const Scatterer& scatterer, const Vec3d& wi,
-                                              double lambda_nm,
-                                              const ConsistencyOptions& options = {}) {
-    const std::size_t lobes = scatterer.lobe_names().size();
-    ConsistencyResult result;
+namespace detail {
 
-    // Monte Carlo: mean and variance of the weights, in total and per reported lobe.
+// Monte Carlo: mean and standard error of sample()'s weights, in total and per reported lobe,
+// and every weight checked against f |cos θo| / pdf.
+inline void sample_weights(const Scatterer& scatterer, const Vec3d& wi, double lambda_nm,
+                           const ConsistencyOptions& options, ConsistencyResult& result) {
+    const std::size_t lobes = scatterer.lobe_names().size();
     std::vector<double> sum(lobes, 0.0), sum_sq(lobes, 0.0);
     double total = 0.0, total_sq = 0.0;
     Rng rng(options.seed, options.stream);
@@ -347,12 +388,17 @@ inline ConsistencyResult eval_pdf_consistency(const Scatterer& scatterer, const 
         result.lobe_mc_mean.push_back(m);
         result.lobe_mc_standard_error.push_back(e);
     }
+}
 
-    // Quadrature of eval() at two resolutions; the difference estimates the error.
-    auto integrate = [&](int polar_cells) {
+// ∫ f |cos θo| dωo by quadrature of eval() at two resolutions, in total and per lobe; the
+// difference estimates the error.
+inline void quadrature_of_eval(const Scatterer& scatterer, const Vec3d& wi, double lambda_nm,
+                               int polar_cells, ConsistencyResult& result) {
+    const std::size_t lobes = scatterer.lobe_names().size();
+    auto integrate = [&](int cells) {
         std::vector<double> acc(lobes + 1, 0.0);
         std::vector<double> per_lobe(lobes, 0.0);
-        detail::for_each_sphere_node(polar_cells, [&](const Vec3d& wo, double weight) {
+        for_each_sphere_node(cells, [&](const Vec3d& wo, double weight) {
             const double f = scatterer.eval(wi, wo, lambda_nm, per_lobe);
             const double w = weight * std::abs(wo.z());
             acc[lobes] += w * f;
@@ -360,41 +406,55 @@ inline ConsistencyResult eval_pdf_consistency(const Scatterer& scatterer, const 
         });
         return acc;
     };
-    const auto fine = integrate(options.polar_cells);
-    const auto coarse = integrate(options.polar_cells / 2);
+    const auto fine = integrate(polar_cells);
+    const auto coarse = integrate(polar_cells / 2);
     result.quadrature = fine[lobes];
     result.quadrature_error = std::abs(fine[lobes] - coarse[lobes]);
     for (std::size_t l = 0; l < lobes; ++l) {
         result.lobe_quadrature.push_back(fine[l]);
         result.lobe_quadrature_error.push_back(std::abs(fine[l] - coarse[l]));
     }
+}
 
+// The first disagreement, in the order weights, total, lobes; empty when all agree.
+inline std::string consistency_failure(const ConsistencyResult& result,
+                                       const std::vector<std::string>& lobe_names, double sigmas) {
     // Summing 10⁵ weights costs ~1e-12 relative even when every weight is equal (σ = 0).
     constexpr double kRoundoff = 1e-10;
     auto agree = [&](double mc, double se, double quad, double quad_error) {
-        return std::abs(mc - quad) <= options.sigmas * se + quad_error + kRoundoff * std::abs(quad);
+        return std::abs(mc - quad) <= sigmas * se + quad_error + kRoundoff * std::abs(quad);
     };
     if (result.weight_mismatches > 0) {
-        result.failure = fmt::format("weights differ from f |cos| / pdf (worst relative {:.3g})",
-                                     result.worst_weight_relative_error);
-    } else if (!agree(result.mc_mean, result.mc_standard_error, result.quadrature,
-                      result.quadrature_error)) {
-        result.failure = fmt::format("MC and quadrature differ by {:.3g} standard errors",
-                                     std::abs(result.mc_mean - result.quadrature) /
-                                         std::max(result.mc_standard_error, 1e-300));
-    } else {
-        for (std::size_t l = 0; l < lobes; ++l) {
-            if (!agree(result.lobe_mc_mean[l], result.lobe_mc_standard_error[l],
-                       result.lobe_quadrature[l], result.lobe_quadrature_error[l])) {
-                result.failure =
-                    fmt::format("lobe '{}': MC {:.6g} ± {:.2g} vs quadrature {:.6g} (±{:.2g})",
-                                scatterer.lobe_names()[l], result.lobe_mc_mean[l],
-                                result.lobe_mc_standard_error[l], result.lobe_quadrature[l],
-                                result.lobe_quadrature_error[l]);
-                break;
-            }
+        return fmt::format("weights differ from f |cos| / pdf (worst relative {:.3g})",
+                           result.worst_weight_relative_error);
+    }
+    if (!agree(result.mc_mean, result.mc_standard_error, result.quadrature,
+               result.quadrature_error)) {
+        return fmt::format("MC and quadrature differ by {:.3g} standard errors",
+                           std::abs(result.mc_mean - result.quadrature) /
+                               std::max(result.mc_standard_error, 1e-300));
+    }
+    for (std::size_t l = 0; l < lobe_names.size(); ++l) {
+        if (!agree(result.lobe_mc_mean[l], result.lobe_mc_standard_error[l],
+                   result.lobe_quadrature[l], result.lobe_quadrature_error[l])) {
+            return fmt::format("lobe '{}': MC {:.6g} ± {:.2g} vs quadrature {:.6g} (±{:.2g})",
+                               lobe_names[l], result.lobe_mc_mean[l],
+                               result.lobe_mc_standard_error[l], result.lobe_quadrature[l],
+                               result.lobe_quadrature_error[l]);
         }
     }
+    return {};
+}
+
+}  // namespace detail
+
+inline ConsistencyResult eval_pdf_consistency(const Scatterer& scatterer, const Vec3d& wi,
+                                              double lambda_nm,
+                                              const ConsistencyOptions& options = {}) {
+    ConsistencyResult result;
+    detail::sample_weights(scatterer, wi, lambda_nm, options, result);
+    detail::quadrature_of_eval(scatterer, wi, lambda_nm, options.polar_cells, result);
+    result.failure = detail::consistency_failure(result, scatterer.lobe_names(), options.sigmas);
     result.agrees = result.failure.empty();
     return result;
 }

@@ -78,12 +78,72 @@ std::vector<Configuration> configurations() {
 // stratification, each fraction's variance is at most the binomial p(1 − p)/N, and a slice can only
 // be misclassified if a boundary of the partition falls inside it).
 
+// Rays per angle: binomial standard error <= 0.5/√N = 0.0025 per fraction.
+constexpr int kMaskingRays = 40'000;
+// 8 configurations × 90 angles × 3 fractions = 2160 comparisons: 5 σ keeps the chance of a
+// false alarm below 2160 × 5.7e-7 ≈ 1e-3.
+constexpr double kMaskingSigmas = 5.0;
+
+// One configuration's largest disagreement with the Monte Carlo and where it is.
+struct MaskingAgreement {
+    double worst = 0.0, worst_angle = 0.0, worst_tolerance = 0.0;
+    int worst_component = 0;
+    double worst_ratio = 0.0, worst_strict_ratio = 0.0;
+    // Power of the comparison: the barb's shadow without any occlusion by barbules, min(1,
+    // shadow), must be caught out by the same Monte Carlo.
+    double naive_worst = 0.0;
+};
+
+// The analytic fractions against the Monte Carlo at every other degree of (−90°, 90°), each
+// within its binomial tolerance and the stratification's own bound (both plus the polygons'
+// geometric offset).
+MaskingAgreement compare_with_monte_carlo(const Configuration& config,
+                                          const PadronGriffe2024Masking& masking,
+                                          const PatchCrossSection& section, double offset,
+                                          Rng& rng) {
+    MaskingAgreement a;
+    for (int deg = -89; deg <= 89; deg += 2) {
+        const double theta = deg * kDeg;
+        const MaskingFractions analytic = masking.fractions(theta, RowTransmittance{});
+        const CrossSectionMaskingEstimate mc =
+            estimate_cross_section_masking(section, theta, kMaskingRays, rng);
+        // Geometry: each boundary of the partition can move by the polygons' offset from the
+        // analytic shapes measured across the rays, i.e. offset / |cos θ| along u.
+        const auto segments = masking.segments(theta);
+        const double boundaries = static_cast<double>(segments.size());
+        const double geometric =
+            boundaries * offset / (masking.period_um() * std::abs(std::cos(theta)));
+        const std::array<double, 3> expected = {analytic.barb, analytic.barbule(), analytic.gap};
+        a.naive_worst =
+            std::max(a.naive_worst,
+                     std::abs(std::min(1.0, masking.unoccluded(theta).barb) - mc.fraction[0]));
+        for (int c = 0; c < 3; ++c) {
+            const double f = expected[c];
+            const double sigma =
+                std::sqrt(std::max(f * (1.0 - f), 1.0 / kMaskingRays) / kMaskingRays);
+            // The tolerance the issue asks for: binomial ray-count error plus geometry.
+            const double tol = kMaskingSigmas * sigma + geometric;
+            // Stratification's own bound: only slices holding a boundary can be wrong, by 1/N
+            // each (plus one slice of round-off either side).
+            const double strict = (boundaries + 2.0) / kMaskingRays + geometric;
+            const double error = std::abs(mc.fraction[c] - f);
+            EXPECT_LE(error, tol) << config.name << " θ = " << deg << "° component " << c
+                                  << ": analytic " << f << ", Monte Carlo " << mc.fraction[c];
+            EXPECT_LE(error, strict) << config.name << " θ = " << deg << "° component " << c;
+            if (error > a.worst) {
+                a.worst = error;
+                a.worst_angle = deg;
+                a.worst_component = c;
+                a.worst_tolerance = tol;
+            }
+            a.worst_ratio = std::max(a.worst_ratio, error / tol);
+            a.worst_strict_ratio = std::max(a.worst_strict_ratio, error / strict);
+        }
+    }
+    return a;
+}
+
 TEST(PadronGriffe2024Masking, AgreesWithMonteCarloOnTheExplicitCrossSection) {
-    // Rays per angle: binomial standard error <= 0.5/√N = 0.0025 per fraction.
-    constexpr int kRays = 40'000;
-    // 8 configurations × 90 angles × 3 fractions = 2160 comparisons: 5 σ keeps the chance of a
-    // false alarm below 2160 × 5.7e-7 ≈ 1e-3.
-    constexpr double kSigmas = 5.0;
     // Fine enough that the barbule roots (a cortex vertex) sit within ~4 nm of the extreme point.
     const geometry::TessellationTolerance tolerance{1e-4, 2e-4};
     std::uint64_t stream = 0;
@@ -97,60 +157,17 @@ TEST(PadronGriffe2024Masking, AgreesWithMonteCarloOnTheExplicitCrossSection) {
             << config.name;
         const double offset = cross_section_offset_um(section, masking, tolerance.max_chord_um);
         Rng rng(kDefaultSeed, stream++);
-        double worst = 0.0, worst_ratio = 0.0, worst_angle = 0.0, worst_tolerance = 0.0;
-        double worst_strict_ratio = 0.0;
-        // Power of the comparison: the barb's shadow without any occlusion by barbules, min(1,
-        // shadow), must be caught out by the same Monte Carlo.
-        double naive_worst = 0.0;
-        int worst_component = 0;
-        for (int deg = -89; deg <= 89; deg += 2) {
-            const double theta = deg * kDeg;
-            const MaskingFractions analytic = masking.fractions(theta, RowTransmittance{});
-            const CrossSectionMaskingEstimate mc =
-                estimate_cross_section_masking(section, theta, kRays, rng);
-            // Geometry: each boundary of the partition can move by the polygons' offset from the
-            // analytic shapes measured across the rays, i.e. offset / |cos θ| along u.
-            const auto segments = masking.segments(theta);
-            const double boundaries = static_cast<double>(segments.size());
-            const double geometric =
-                boundaries * offset / (masking.period_um() * std::abs(std::cos(theta)));
-            const std::array<double, 3> expected = {analytic.barb, analytic.barbule(),
-                                                    analytic.gap};
-            naive_worst =
-                std::max(naive_worst,
-                         std::abs(std::min(1.0, masking.unoccluded(theta).barb) - mc.fraction[0]));
-            for (int c = 0; c < 3; ++c) {
-                const double f = expected[c];
-                const double sigma = std::sqrt(std::max(f * (1.0 - f), 1.0 / kRays) / kRays);
-                // The tolerance the issue asks for: binomial ray-count error plus geometry.
-                const double tol = kSigmas * sigma + geometric;
-                // Stratification's own bound: only slices holding a boundary can be wrong, by 1/N
-                // each (plus one slice of round-off either side).
-                const double strict = (boundaries + 2.0) / kRays + geometric;
-                const double error = std::abs(mc.fraction[c] - f);
-                EXPECT_LE(error, tol) << config.name << " θ = " << deg << "° component " << c
-                                      << ": analytic " << f << ", Monte Carlo " << mc.fraction[c];
-                EXPECT_LE(error, strict) << config.name << " θ = " << deg << "° component " << c;
-                if (error > worst) {
-                    worst = error;
-                    worst_angle = deg;
-                    worst_component = c;
-                    worst_tolerance = tol;
-                }
-                worst_ratio = std::max(worst_ratio, error / tol);
-                worst_strict_ratio = std::max(worst_strict_ratio, error / strict);
-            }
-        }
-        overall = std::max(overall, worst);
+        const MaskingAgreement a = compare_with_monte_carlo(config, masking, section, offset, rng);
+        overall = std::max(overall, a.worst);
         const char* names[] = {"barb", "barbule", "gap"};
         const std::string summary = fmt::format(
             "{:.2e} at {:+.0f} deg ({}), binomial+geometry tolerance there {:.2e}; largest "
             "error/tolerance {:.3f} (binomial) {:.2f} (stratified bound); geometric offset {:.2g} "
             "um; "
             "barb without occlusion misses by {:.3f}",
-            worst, worst_angle, names[worst_component], worst_tolerance, worst_ratio,
-            worst_strict_ratio, offset, naive_worst);
-        EXPECT_GT(naive_worst, 0.05)
+            a.worst, a.worst_angle, names[a.worst_component], a.worst_tolerance, a.worst_ratio,
+            a.worst_strict_ratio, offset, a.naive_worst);
+        EXPECT_GT(a.naive_worst, 0.05)
             << config.name << ": the comparison cannot tell occlusion from none";
         RecordProperty(std::string("max_abs_error_") + config.name, summary);
         std::printf("[ info ] masking vs MC %-34s max |error| %s\n", config.name, summary.c_str());
