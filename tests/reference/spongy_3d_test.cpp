@@ -33,6 +33,7 @@
 #include "sim/tracer.h"
 #include "sim/wave/volume/born_medium.h"
 #include "sim/wave/volume/power_spectrum.h"
+#include "sim/wave/volume/strong_contrast.h"
 #include "sim/wave/volume/structure_factor.h"
 #include "tests/reference/spongy_3d/structures.h"
 
@@ -140,7 +141,21 @@ Spectrum trace_slab(std::shared_ptr<const sim::ScatteringMedium> medium,
 
 struct RouteSpectra {
     Spectrum born, sphere;  // sphere: empty for the channel
+    // The strong-contrast expansion with each phase as host, and self-consistent.
+    Spectrum strong_keratin_host, strong_air_host, strong_self_consistent;
 };
+
+Spectrum strong_contrast_spectrum(const sim::wave::PowerSpectrum& spectrum,
+                                  const optics::Material& keratin, const optics::Material& air,
+                                  sim::wave::StrongContrastHost host,
+                                  const std::vector<double>& lambdas, std::uint64_t seed) {
+    std::vector<sim::MediumTable> tables;
+    for (const double l : lambdas)
+        tables.push_back(
+            sim::medium_table(sim::wave::strong_contrast_medium(spectrum, keratin, air, l, host)));
+    return trace_slab(std::make_shared<const sim::ScatteringMedium>(std::move(tables)), lambdas,
+                      seed);
+}
 
 RouteSpectra route_spectra(const std::string& kind_text, double n_keratin, std::uint64_t seed,
                            const std::vector<double>& lambdas) {
@@ -156,6 +171,15 @@ RouteSpectra route_spectra(const std::string& kind_text, double n_keratin, std::
     RouteSpectra out;
     out.born = trace_slab(std::make_shared<const sim::ScatteringMedium>(std::move(born)), lambdas,
                           derive_seed(seed, "spongy3d/born", static_cast<std::uint64_t>(kind)));
+    out.strong_keratin_host = strong_contrast_spectrum(
+        spectrum, keratin, *air, sim::wave::StrongContrastHost::keratin, lambdas,
+        derive_seed(seed, "spongy3d/strong_keratin_host", static_cast<std::uint64_t>(kind)));
+    out.strong_air_host = strong_contrast_spectrum(
+        spectrum, keratin, *air, sim::wave::StrongContrastHost::air, lambdas,
+        derive_seed(seed, "spongy3d/strong_air_host", static_cast<std::uint64_t>(kind)));
+    out.strong_self_consistent = strong_contrast_spectrum(
+        spectrum, keratin, *air, sim::wave::StrongContrastHost::bruggeman, lambdas,
+        derive_seed(seed, "spongy3d/strong_self_consistent", static_cast<std::uint64_t>(kind)));
     if (kind == Kind::channel) return out;
     const double q_max = 4.0 * std::numbers::pi * n_keratin / (lambdas.front() * 1e-3) +
                          2.0 * std::numbers::pi / kPeriodUm;
@@ -332,16 +356,23 @@ void print_check(const Key& key, std::size_t seeds, const RouteCheck& c,
 // Every route on one (structure, index), against the seeds' coarse grid (the grid every seed
 // was run on).
 std::vector<RouteCheck> compare(const Key& key, const FullWaveRuns& runs) {
-    std::vector<Spectrum> fw, born, sphere;
+    std::vector<Spectrum> fw, born, sphere, strong_keratin_host, strong_air_host,
+        strong_self_consistent;
     for (const auto& [seed, grids] : runs.seeds) {
         fw.push_back(grids.begin()->second);
         const RouteSpectra r = route_spectra(key.kind, key.n, seed, fw.back().lambda_nm);
         born.push_back(r.born);
         if (!r.sphere.r.empty()) sphere.push_back(r.sphere);
+        strong_keratin_host.push_back(r.strong_keratin_host);
+        strong_air_host.push_back(r.strong_air_host);
+        strong_self_consistent.push_back(r.strong_self_consistent);
     }
     const std::vector<double> grid = grid_differences(runs);
     std::vector<RouteCheck> out{check_route("born", key.n, fw, born, grid)};
     if (!sphere.empty()) out.push_back(check_route("sphere", key.n, fw, sphere, grid));
+    out.push_back(check_route("strong_keratin_host", key.n, fw, strong_keratin_host, grid));
+    out.push_back(check_route("strong_air_host", key.n, fw, strong_air_host, grid));
+    out.push_back(check_route("strong_self_consistent", key.n, fw, strong_self_consistent, grid));
     for (const RouteCheck& c : out) print_check(key, fw.size(), c, grid);
     return out;
 }
