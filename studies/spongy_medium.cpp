@@ -240,15 +240,15 @@ std::vector<RouteFullWaveCheck> routes_against_full_wave() {
     std::vector<RouteFullWaveCheck> out;
     for (std::size_t i = 1; i < rows.size(); ++i) {
         const auto& r = rows[i];
-        if (r.size() != 13)
+        if (r.size() != 14)
             throw InvariantError(
-                fmt::format("spongy route check: row {} has {} cells, not 13", i + 1, r.size()));
+                fmt::format("spongy route check: row {} has {} cells, not 14", i + 1, r.size()));
         auto it = std::find_if(out.begin(), out.end(), [&](const RouteFullWaveCheck& e) {
             return e.structure == r[0] && e.keratin_index == r[1] && e.route == r[2];
         });
         if (it == out.end()) {
             out.push_back({r[0], r[1], r[2], r[3], std::stod(r[4]), std::stod(r[5]), r[6] == "1",
-                           "", 0.0, 0.0});
+                           "", 0.0, 0.0, std::stod(r[13])});
             it = out.end() - 1;
         }
         const double d = std::stod(r[11]);
@@ -261,10 +261,7 @@ std::vector<RouteFullWaveCheck> routes_against_full_wave() {
     return out;
 }
 
-namespace {
-
-// route_check.csv's route names, as the report words them.
-std::string route_label(const std::string& route) {
+std::string spongy_route_label(const std::string& route) {
     if (route == "born") return "first Born";
     if (route == "sphere") return "sphere (Mie x S(q))";
     if (route == "strong_keratin_host") return "strong contrast, keratin host";
@@ -272,8 +269,6 @@ std::string route_label(const std::string& route) {
     if (route == "strong_self_consistent") return "strong contrast, self-consistent";
     return route;
 }
-
-}  // namespace
 
 std::string routes_against_full_wave_text(MediumRoute route, std::string_view structure) {
     const std::string mine = route == MediumRoute::sphere ? "sphere" : "born";
@@ -300,7 +295,7 @@ std::string routes_against_full_wave_text(MediumRoute route, std::string_view st
         t += fmt::format(
             "| {} | {} | {}{} | {} | {:.0f} / {:.0f} | {}: {:+.0f} % ({:.0f} %) | {} "
             "|\n",
-            e.structure, e.keratin_index, route_label(e.route),
+            e.structure, e.keratin_index, spongy_route_label(e.route),
             e.route == mine ? " (this study's)" : "", e.realisations, e.full_wave_peak_nm,
             e.route_peak_nm, e.worst_band, 100.0 * e.worst_difference, 100.0 * e.worst_floor,
             e.passes ? "**passes**" : "misses");

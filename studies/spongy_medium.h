@@ -136,15 +136,18 @@ SpongyMedium build_spongy_medium(const SpongyMediumParams& params,
 // comparison test computed it, embedded at build time), one entry per structure, keratin index
 // and route: full wave's and the route's diffuse-R peak, whether the route passes (peak within
 // 10 nm, every 50-nm band within 15 %, 10 % at n < 1.5, beyond the noise floor), and its worst
-// band.
+// band, and what one full-wave run of that structure cost.
 struct RouteFullWaveCheck {
     std::string structure, keratin_index, route, realisations;  // route: "born" or "sphere"
     double full_wave_peak_nm = 0.0, route_peak_nm = 0.0;
     bool passes = false;
     std::string worst_band;                            // "lo–hi" nm
     double worst_difference = 0.0, worst_floor = 0.0;  // relative
+    double full_wave_run_s = 0.0;  // full wave's mean wall time per run of the reference (s)
 };
 std::vector<RouteFullWaveCheck> routes_against_full_wave();
+// route_check.csv's route names as reports word them ("born" → "first Born", …).
+std::string spongy_route_label(const std::string& route);
 
 // The report section on them ("## The routes against 3D full wave"), `route` marked as the
 // study's; `structure` non-empty: that structure's rows alone.

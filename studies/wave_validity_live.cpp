@@ -273,7 +273,7 @@ std::string live_section(const WaveValidityResult& r, const LiveFullWaveSettings
     if (!why.str().empty()) md << "\nWhy some scenes have no full wave:\n\n" << why.str();
     md << "\n*Scope:* the endless row without jitter; the map's rows are finite and jittered, so "
           "the map's and full wave's verdicts answer neighbouring questions. Spongy volumes "
-          "(first Born, the sphere route) are not scenes of this map.\n\n";
+          "are judged in their own section below.\n\n";
     if (worst_physical_optics_scene(r) >= 0)
         md << "![R(λ) where physical optics misses most](live_spectra.png)\n\n";
     return md.str();

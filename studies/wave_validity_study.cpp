@@ -766,6 +766,7 @@ void write_record(const fs::path& path, const WaveValidityResult& r, const Setti
     for (const WaveValidityMap& m : r.maps) write_map(h5, "maps/" + m.axis, m, r);
     if (!r.full_wave.empty()) write_full_wave(h5, r, s);
     if (s.live.on) write_live(h5, r, s.live);
+    write_spongy(h5, r.spongy);
     h5.set_attribute("/", "description",
                      "Physical optics (reflected part) against geometric optics (mirror rays) "
                      "for 2D barbule rows: sim/wave/compare/ray_optics_validity.h");
@@ -951,6 +952,7 @@ void write_report(const fs::path& path, const WaveValidityResult& r, const Setti
           "its noise floor).\n\n";
     if (!r.full_wave.empty()) md << full_wave_section(r, s);
     if (s.live.on) md << live_section(r, s.live);
+    md << spongy_section(r.spongy);
     md << "## Cost of each level\n\nMean per map point (all wavelengths, incidences, both "
           "polarisations, every realisation), by width:\n\n"
        << cost_table(r)
@@ -1127,6 +1129,9 @@ WaveValidityResult run_wave_validity_study(const std::string& study_text,
                             r.live_seconds_per_cell_run);
         r.live_verdict = live_verdict(r);
     }
+
+    clock.say("spongy scenes: each medium level against 3D full wave");  // compare
+    r.spongy = judge_spongy_scenes(s.wavelengths_nm);
 
     r.output_dir = write_outputs(ctx, s, r, cpu0);
     return r;

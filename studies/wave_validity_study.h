@@ -32,6 +32,10 @@
 // says whether the map's PO − GO is a fair measure of ray optics' error (PO's own error against
 // Meep well below it) or PO's error dominates.
 //
+// Spongy scenes (always; studies/wave_validity_spongy.h): each spongy-medium level (the sphere
+// route, first Born, the strong-contrast forms) against the committed 3D full-wave reference,
+// its cost measured in the run, and per structure the cheapest level within the tolerance.
+//
 // Outputs in <results>/<name>/: wave_validity.h5 (every number, units and descriptions,
 // /provenance), wave_validity.csv, width_x_<axis>.png (via width_x_<axis>.h5, the figure's
 // data), report.md. Study files: studies/wave_validity.toml (full, a few minutes),
@@ -41,6 +45,8 @@
 #include <filesystem>
 #include <string>
 #include <vector>
+
+#include "studies/wave_validity_spongy.h"
 
 namespace plumage::studies {
 
@@ -115,6 +121,7 @@ struct WaveValidityResult {
     std::vector<WaveValidityLivePoint> live;         // empty unless [full_wave] live = true
     double live_seconds_per_cell_run = 0.0;          // the cost rate the budget used at the end
     std::string live_verdict;                        // the report's generated sentence(s)
+    std::vector<SpongyScene> spongy;                 // spongy volumes' levels against 3D full wave
 };
 
 // InputError on any bad key or value (file:line:col), before anything is written.

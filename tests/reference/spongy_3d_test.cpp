@@ -55,6 +55,7 @@ fs::path reference_csv() {
 // with the Monte Carlo variance of the total and diffuse R (zero for full wave).
 struct Spectrum {
     std::vector<double> lambda_nm, r, r_diffuse, t, r_var, r_diffuse_var;
+    double run_wall_s = 0.0;  // full wave: the run's wall time (reflectance.csv); else 0
 };
 
 struct Key {
@@ -88,6 +89,7 @@ std::map<Key, FullWaveRuns> read_reference(const fs::path& path) {
         Spectrum& s = out[{c[0], std::stod(c[1])}].seeds[std::stoull(c[2])][std::stod(c[3])];
         const double rs = std::stod(c[6]), rd = std::stod(c[7]);
         s.lambda_nm.push_back(std::stod(c[5]));
+        s.run_wall_s = std::stod(c[12]);
         s.r.push_back(rs + rd);
         s.r_diffuse.push_back(rd);
         s.t.push_back(std::stod(c[8]) + std::stod(c[9]));
@@ -281,6 +283,7 @@ double band_tolerance(double n) { return n >= 1.5 ? 0.15 : 0.10; }
 struct RouteCheck {
     std::string route;
     double fw_peak_nm = 0.0, peak_nm = 0.0;
+    double fw_run_wall_s = 0.0;  // full wave's mean wall time per run (the seeds' coarse grid)
     std::vector<double> fw_diffuse, diffuse, rel, floor_rel, fw_specular, specular;
     bool passes = false;
 };
@@ -308,6 +311,8 @@ RouteCheck check_route(const std::string& route, double n, const std::vector<Spe
     c.route = route;
     c.fw_peak_nm = peak_nm(fw, fw.r_diffuse);
     c.peak_nm = peak_nm(rm, rm.r_diffuse);
+    for (const Spectrum& f : fw_seeds)
+        c.fw_run_wall_s += f.run_wall_s / static_cast<double>(fw_seeds.size());
     c.fw_diffuse = band_means(fw, fw.r_diffuse);
     c.diffuse = band_means(rm, rm.r_diffuse);
     std::vector<double> fw_spec(fw.r.size()), spec(rm.r.size());
@@ -404,15 +409,15 @@ TEST(Spongy3dReference, FullWaveConservesPower) {
 // The spongy study embeds it (studies/spongy_reference.h.in) and states its route's verdict.
 constexpr const char* kRouteCheckHeader =
     "structure,n_keratin,route,seeds,fw_peak_nm,route_peak_nm,passes,band_lo_nm,band_hi_nm,"
-    "fw_diffuse_r,route_diffuse_r,difference,floor";
+    "fw_diffuse_r,route_diffuse_r,difference,floor,fw_run_wall_s";
 
 std::string route_check_rows(const Key& key, std::size_t seeds, const RouteCheck& c) {
     std::string out;
     for (int b = 0; b < kBands; ++b)
-        out += fmt::format("{},{:g},{},{},{:.1f},{:.1f},{},{},{},{:.4f},{:.4f},{:.3f},{:.3f}\n",
-                           key.kind, key.n, c.route, seeds, c.fw_peak_nm, c.peak_nm,
-                           c.passes ? 1 : 0, 400 + 50 * b, 450 + 50 * b, c.fw_diffuse[b],
-                           c.diffuse[b], c.rel[b], c.floor_rel[b]);
+        out += fmt::format(
+            "{},{:g},{},{},{:.1f},{:.1f},{},{},{},{:.4f},{:.4f},{:.3f},{:.3f},{:.0f}\n", key.kind,
+            key.n, c.route, seeds, c.fw_peak_nm, c.peak_nm, c.passes ? 1 : 0, 400 + 50 * b,
+            450 + 50 * b, c.fw_diffuse[b], c.diffuse[b], c.rel[b], c.floor_rel[b], c.fw_run_wall_s);
     return out;
 }
 

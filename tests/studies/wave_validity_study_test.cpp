@@ -166,6 +166,40 @@ void check_full_wave_records(const fs::path& dir, const WaveValidityResult& r,
     EXPECT_EQ(fw_lines, 13);
 }
 
+// The spongy scenes: every structure of the 3D reference, its levels cheapest first (the
+// strong-contrast forms after first Born), the cheapest level within the tolerance as the
+// reference's verdicts give it (first Born on the channel network; none on the packings, so full
+// wave), each level's cost measured (> 0) and the record's columns one per (structure, level).
+void check_spongy(const fs::path& dir, const WaveValidityResult& r, const std::string& report) {
+    ASSERT_EQ(r.spongy.size(), 3u);
+    std::size_t rows = 0;
+    for (const SpongyScene& s : r.spongy) {
+        ASSERT_FALSE(s.levels.empty()) << s.structure;
+        bool seen_strong = false;
+        for (const SpongyLevelJudgement& l : s.levels) {
+            EXPECT_GT(l.seconds, 0.0) << s.structure << " " << l.route;
+            const bool strong = l.route.starts_with("strong_");
+            EXPECT_TRUE(strong || !seen_strong)
+                << s.structure << ": " << l.route << " after a strong-contrast form";
+            seen_strong = seen_strong || strong;
+            ++rows;
+        }
+        EXPECT_GT(s.full_wave_seconds, 0.0) << s.structure;
+        EXPECT_EQ(s.cheapest, s.structure == "channel" ? "first Born" : "full wave") << s.structure;
+        EXPECT_NE(report.find(fmt::format("**{}** (keratin n = {}): cheapest level within the "
+                                          "tolerance: **{}**",
+                                          s.structure, s.keratin_index, s.cheapest)),
+                  std::string::npos)
+            << s.structure;
+    }
+    const record::Dataset seconds =
+        record::read_dataset(dir / "wave_validity.h5", "spongy/seconds");
+    EXPECT_EQ(seconds.dims, (std::vector<std::uint64_t>{rows}));
+    EXPECT_NE(record::read_string_attribute(dir / "wave_validity.h5", "spongy", "cheapest_level")
+                  .find("channel: first Born"),
+              std::string::npos);
+}
+
 // Runs the quick study once and checks each part of what it returned and wrote. A fatal
 // failure in a check stops the test, as when the checks were inline (later ones index
 // what the failed one asserted).
@@ -181,6 +215,7 @@ TEST(WaveValidityStudy, QuickStudyRecordsWhatItReturns) {
     check_map_csv_and_report(dir, r, report);
     ASSERT_NO_FATAL_FAILURE(check_full_wave_rows(r));
     check_full_wave_records(dir, r, report);
+    ASSERT_NO_FATAL_FAILURE(check_spongy(dir, r, report));
     fs::remove_all(root);
 }
 

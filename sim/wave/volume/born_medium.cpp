@@ -97,8 +97,8 @@ ScatteringTable born_scattering(const std::function<double(double)>& spectrum,
     return t;
 }
 
-ScatteringTable born_medium(const PowerSpectrum& spectrum, const optics::Material& keratin,
-                            const optics::Material& air, double lambda_nm, int table_points) {
+void require_born_inputs(const PowerSpectrum& spectrum, const optics::Material& keratin,
+                         const optics::Material& air, double lambda_nm) {
     require_wavelength(lambda_nm);
     const double f = spectrum.filling_fraction();
     if (!(f > 0.0 && f < 1.0)) {
@@ -115,7 +115,13 @@ ScatteringTable born_medium(const PowerSpectrum& spectrum, const optics::Materia
             keratin.name(), air.name(), n_k.real(), n_k.imag(), lambda_nm));
     }
     require_resolved(spectrum.voxel_um(), lambda_nm, std::max(n_k.real(), n_a.real()));
-    const std::complex<double> n_eff = bruggeman_index(n_k, n_a, f);
+}
+
+ScatteringTable born_medium(const PowerSpectrum& spectrum, const optics::Material& keratin,
+                            const optics::Material& air, double lambda_nm, int table_points) {
+    require_born_inputs(spectrum, keratin, air, lambda_nm);
+    const std::complex<double> n_k = keratin.index(lambda_nm), n_a = air.index(lambda_nm);
+    const std::complex<double> n_eff = bruggeman_index(n_k, n_a, spectrum.filling_fraction());
     const RadialSpectrum radial = spectrum.radial();
     auto interpolate = [&radial](double q) { return radial.at(q); };
     return born_scattering(interpolate, n_k * n_k - n_a * n_a, n_eff, lambda_nm, table_points);

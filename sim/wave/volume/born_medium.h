@@ -95,6 +95,10 @@ ScatteringTable born_scattering(const std::function<double(double)>& spectrum,
 // factor and the small solid angle make that choice matter little for μ_s).
 ScatteringTable born_medium(const PowerSpectrum& spectrum, const optics::Material& keratin,
                             const optics::Material& air, double lambda_nm, int table_points = 181);
+// born_medium's refusals alone (the wavelength, f, the contrast, the voxels), for the routes
+// that take the same inputs (strong_contrast.h).
+void require_born_inputs(const PowerSpectrum& spectrum, const optics::Material& keratin,
+                         const optics::Material& air, double lambda_nm);
 
 // Sphere route: spheres of index `sphere` and radius `radius_um` at number density
 // `number_density_per_um3` (volume fraction φ = ρ 4π a³/3 of sphere material; the rest is

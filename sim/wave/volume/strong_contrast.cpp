@@ -232,9 +232,7 @@ ScatteringTable strong_contrast_medium(const PowerSpectrum& spectrum,
                                        const optics::Material& keratin, const optics::Material& air,
                                        double lambda_nm, StrongContrastHost host,
                                        int table_points) {
-    // born_medium's refusals, word for word (f, contrast, resolution, wavelength); its table is
-    // not used.
-    (void)born_medium(spectrum, keratin, air, lambda_nm, table_points);
+    require_born_inputs(spectrum, keratin, air, lambda_nm);
     const RadialSpectrum radial = spectrum.radial();
     auto interpolate = [&radial](double q) { return radial.at(q); };
     const StrongContrastKernel kernel = StrongContrastKernel::of(radial);
