@@ -1138,7 +1138,8 @@ def build_wave_validity_map(h5_path):
 def build_level_spectra(h5_path):
     """One scene of the wave-validity study judged by full wave (studies/wave_validity_live.cpp):
     the reflectance of the endless row against wavelength by full wave (fine grid, the coarse one
-    dashed: their gap is the reference's resolution error), physical optics and ray optics."""
+    dashed: their gap is the reference's resolution error), physical optics, ray optics and, where
+    it accepted the row, the GO–PO hybrid."""
     import h5py
 
     with h5py.File(h5_path, "r") as f:
@@ -1146,7 +1147,9 @@ def build_level_spectra(h5_path):
         curves = [("full_wave", "full wave (fine grid)", "black", "-", "o"),
                   ("full_wave_coarse", "full wave (coarse grid)", "0.5", "--", None),
                   ("physical_optics", "physical optics", "tab:orange", "-", "s"),
-                  ("ray_optics", "ray optics + thin film", "tab:blue", "-", "^")]
+                  ("ray_optics", "ray optics + thin film", "tab:blue", "-", "^"),
+                  ("hybrid", "GO–PO hybrid (gap as separate curves)", "tab:green", "-", "D")]
+        curves = [c for c in curves if c[0] in f]
         data = {name: f[name][()] for name, *_ in curves}
         title = _text(f.attrs["title"])
     fig, ax = plt.subplots(figsize=(7.5, 4.5))

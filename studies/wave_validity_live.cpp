@@ -17,6 +17,7 @@
 #include "sim/fullwave/row_reference.h"
 #include "sim/wave/compare/levels_against_full_wave.h"
 #include "sim/wave/compare/ray_optics_validity.h"
+#include "sim/wave/surface/physical_optics_hybrid_2d.h"
 #include "studies/study_progress.h"
 #include "studies/text_files.h"
 #include "virtual_gonio/record/hdf5_file.h"
@@ -66,6 +67,33 @@ WaveValidityLivePoint plan(const LiveScene& c, const std::vector<double>& lambda
     return p;
 }
 
+// The cheaper levels on the row: ray optics and physical optics, and the GO–PO hybrid on the
+// barbule with its gap as separate curves (fullwave::barbule_row's body). The hybrid refuses
+// curves closer than its sampling step (neighbours of a tilted row can come within a few tens of
+// nm), so its step is halved up to twice (each halving about doubles its cost); where it still
+// refuses, the reason is kept and the other levels are judged without it.
+wave::RowVerdict2d judge_levels(const LiveScene& c, const wave::Row2d& row,
+                                std::span<const wave::RowReflectanceFullWave> reference,
+                                double threshold, double step_um, WaveValidityLivePoint& p) {
+    const double theta_i = c.theta_i_deg * kDeg;
+    wave::RowVerdict2d v =
+        wave::judge_row_against_full_wave(row, theta_i, reference, threshold, step_um);
+    double shortest_nm = v.lambda_nm.front();
+    double hybrid_step = std::min(step_um, 1e-4 * shortest_nm);
+    for (int halvings = 0; halvings <= 2; ++halvings, hybrid_step *= 0.5) {
+        try {
+            wave::add_hybrid(v, row, theta_i, wave::barbule_with_gap(c.a_um, c.b, c.d, c.g),
+                             hybrid_step);
+            p.hybrid_step_um = hybrid_step;
+            p.hybrid_reason.clear();
+            break;
+        } catch (const InputError& e) {
+            p.hybrid_reason = e.what();
+        }
+    }
+    return v;
+}
+
 // Full wave, then the cheaper levels on the same row, errors and verdict.
 void judge(const LiveScene& c, const std::vector<double>& lambdas_nm, const LiveFullWaveSettings& s,
            double threshold, const fw::CrossSection2d& period, WaveValidityLivePoint& p) {
@@ -75,17 +103,18 @@ void judge(const LiveScene& c, const std::vector<double>& lambdas_nm, const Live
     p.max_fit_index_error = ref.max_fit_index_error;
     wave::Row2d row = wave::barbule_row_2d(c.a_um, c.b, c.phi0, c.phi1, c.d, c.g, c.H, c.mu, 1);
     const double step_um = 0.95 * wave::barbule_row_min_radius_um(c.a_um, c.b, c.phi0, c.phi1);
-    const wave::RowVerdict2d v = wave::judge_row_against_full_wave(
-        row, c.theta_i_deg * kDeg, ref.reflectance, threshold, step_um);
+    const wave::RowVerdict2d v = judge_levels(c, row, ref.reflectance, threshold, step_um, p);
     p.lambda_nm = v.lambda_nm;
     p.full_wave = v.full_wave;
     p.full_wave_coarse = v.full_wave_coarse;
     p.physical_optics = v.physical_optics;
     p.ray_optics = v.ray_optics;
+    p.hybrid = v.hybrid;
     p.band_full_wave = v.band_full_wave;
     p.resolution_error = v.resolution_error;
     p.po_error = v.po_error;
     p.go_error = v.go_error;
+    p.hybrid_error = v.hybrid_error;
     for (std::size_t k = 0; k < v.lambda_nm.size(); ++k) {
         p.resolution_worst =
             std::max(p.resolution_worst, std::abs(v.full_wave_coarse[k] / v.full_wave[k] - 1.0));
@@ -93,6 +122,9 @@ void judge(const LiveScene& c, const std::vector<double>& lambdas_nm, const Live
         const double go = std::abs(v.ray_optics[k] / v.full_wave[k] - 1.0);
         if (po >= p.po_worst) p.po_worst = po, p.po_worst_lambda_nm = v.lambda_nm[k];
         if (go >= p.go_worst) p.go_worst = go, p.go_worst_lambda_nm = v.lambda_nm[k];
+        if (v.hybrid.empty()) continue;
+        const double hy = std::abs(v.hybrid[k] / v.full_wave[k] - 1.0);
+        if (hy >= p.hybrid_worst) p.hybrid_worst = hy, p.hybrid_worst_lambda_nm = v.lambda_nm[k];
     }
     if (std::abs(v.resolution_error) > s.tolerance) {
         p.status = "unconverged";
@@ -246,8 +278,9 @@ std::string live_section(const WaveValidityResult& r, const LiveFullWaveSettings
     md << "**Verdict.** " << r.live_verdict << "\n\n";
     md << "| scene | width (µm) | θ_i (°) | status | R full wave (band) | resolution error (worst) "
           "| ray "
-          "optics error (worst) | physical optics error (worst) | cheapest level | map | time "
-          "(s; predicted) |\n|---|---|---|---|---|---|---|---|---|---|---|\n";
+          "optics error (worst) | physical optics error (worst) | GO–PO hybrid error (worst) | "
+          "cheapest level | map | time "
+          "(s; predicted) |\n|---|---|---|---|---|---|---|---|---|---|---|---|\n";
     for (const WaveValidityLivePoint& p : r.live) {
         const bool ran = p.status == "judged" || p.status == "unconverged";
         md << fmt::format("| {} | {:g} | {:g} | {} |", p.scene, p.width_um, p.theta_i_deg,
@@ -255,13 +288,16 @@ std::string live_section(const WaveValidityResult& r, const LiveFullWaveSettings
         if (ran)
             md << fmt::format(
                 " {:.4f} | {} ({:.1f} %) | {} ({:.1f} % at {:g} nm) | {} ({:.1f} % at {:g} nm) | "
-                "{} | {} | {:.0f} ({:.0f}) |\n",
+                "{} | {} | {} | {:.0f} ({:.0f}) |\n",
                 p.band_full_wave, percent(p.resolution_error), 100.0 * p.resolution_worst,
                 percent(p.go_error), 100.0 * p.go_worst, p.go_worst_lambda_nm, percent(p.po_error),
-                100.0 * p.po_worst, p.po_worst_lambda_nm, p.status == "judged" ? p.level : "—",
-                p.map_verdict, p.seconds, p.predicted_s);
+                100.0 * p.po_worst, p.po_worst_lambda_nm,
+                p.hybrid.empty() ? std::string("refused")
+                                 : fmt::format("{} ({:.1f} % at {:g} nm)", percent(p.hybrid_error),
+                                               100.0 * p.hybrid_worst, p.hybrid_worst_lambda_nm),
+                p.status == "judged" ? p.level : "—", p.map_verdict, p.seconds, p.predicted_s);
         else
-            md << fmt::format(" — | — | — | — | — | {} | {} |\n", p.map_verdict,
+            md << fmt::format(" — | — | — | — | — | — | {} | {} |\n", p.map_verdict,
                               p.status == "not afforded" ? fmt::format("({:.0f})", p.predicted_s)
                                                          : std::string("—"));
     }
@@ -271,6 +307,13 @@ std::string live_section(const WaveValidityResult& r, const LiveFullWaveSettings
             why << fmt::format("- {}, width {:g} µm, θ_i = {:g}°: {}\n", p.scene, p.width_um,
                                p.theta_i_deg, p.reason);
     if (!why.str().empty()) md << "\nWhy some scenes have no full wave:\n\n" << why.str();
+    std::ostringstream hybrid_why;
+    for (const WaveValidityLivePoint& p : r.live)
+        if (!p.hybrid_reason.empty())
+            hybrid_why << fmt::format("- {}, width {:g} µm, θ_i = {:g}°: {}\n", p.scene, p.width_um,
+                                      p.theta_i_deg, p.hybrid_reason);
+    if (!hybrid_why.str().empty())
+        md << "\nWhere the GO–PO hybrid refused the row:\n\n" << hybrid_why.str();
     md << "\n*Scope:* the endless row without jitter; the map's rows are finite and jittered, so "
           "the map's and full wave's verdicts answer neighbouring questions. Spongy volumes "
           "are judged in their own section below.\n\n";
@@ -303,6 +346,9 @@ void write_live(record::Hdf5Writer& h5, const WaveValidityResult& r,
            "ray optics' band mean over full wave's, minus 1");
     column("physical_optics_error", &P::po_error, "1",
            "physical optics' band mean over full wave's, minus 1");
+    column("hybrid_error", &P::hybrid_error, "1",
+           "the GO–PO hybrid's band mean over full wave's, minus 1 (0 where it refused the row)");
+    column("hybrid_worst", &P::hybrid_worst, "1", "largest |R_hybrid(λ)/R_FW(λ) − 1|");
     column("ray_optics_worst", &P::go_worst, "1", "largest |R_GO(λ)/R_FW(λ) − 1|");
     column("physical_optics_worst", &P::po_worst, "1", "largest |R_PO(λ)/R_FW(λ) − 1|");
     column("seconds", &P::seconds, "s", "wall time of the full-wave runs");
@@ -332,17 +378,19 @@ void write_live(record::Hdf5Writer& h5, const WaveValidityResult& r,
 void write_live_csv(const std::filesystem::path& path, const WaveValidityResult& r) {
     std::ofstream csv(path);
     csv << "scene,width_um,theta_i_deg,status,lambda_nm,full_wave,full_wave_coarse,"
-           "physical_optics,ray_optics,level,map_verdict,seconds,predicted_s\n";
+           "physical_optics,ray_optics,hybrid,level,map_verdict,seconds,predicted_s\n";
     for (const WaveValidityLivePoint& p : r.live) {
         const std::string head =
             fmt::format("\"{}\",{:g},{:g},{}", p.scene, p.width_um, p.theta_i_deg, p.status);
         const std::string tail = fmt::format(",\"{}\",{},{:.4g},{:.4g}\n", p.level, p.map_verdict,
                                              p.seconds, p.predicted_s);
-        if (p.lambda_nm.empty()) csv << head << ",,,,,," << tail.substr(1);
+        if (p.lambda_nm.empty()) csv << head << ",,,,,,," << tail.substr(1);
         for (std::size_t k = 0; k < p.lambda_nm.size(); ++k)
             csv << head
-                << fmt::format(",{:g},{:.6g},{:.6g},{:.6g},{:.6g}", p.lambda_nm[k], p.full_wave[k],
-                               p.full_wave_coarse[k], p.physical_optics[k], p.ray_optics[k])
+                << fmt::format(
+                       ",{:g},{:.6g},{:.6g},{:.6g},{:.6g},{}", p.lambda_nm[k], p.full_wave[k],
+                       p.full_wave_coarse[k], p.physical_optics[k], p.ray_optics[k],
+                       p.hybrid.empty() ? std::string() : fmt::format("{:.6g}", p.hybrid[k]))
                 << tail;
     }
     close_written(csv, path);
@@ -363,6 +411,9 @@ void write_live_figure(const std::filesystem::path& path, const WaveValidityLive
     curve("full_wave_coarse", p.full_wave_coarse, "full wave's R, coarse grid");
     curve("physical_optics", p.physical_optics, "physical optics' R of the endless row");
     curve("ray_optics", p.ray_optics, "ray optics + thin film's R of the endless row");
+    if (!p.hybrid.empty())
+        curve("hybrid", p.hybrid,
+              "the GO–PO hybrid's R of the endless row (gap as separate curves)");
     h5.set_attribute("/", "title",
                      fmt::format("{}, width {:g} µm, θ_i = {:g}°: physical optics {} (band), ray "
                                  "optics {}; threshold {:g} %",

@@ -10,6 +10,9 @@
 //    error is the coarse band mean over the fine one's, minus 1;
 //  - physical optics and ray optics + film: sim/wave/compare/levels_against_full_wave.h
 //    (judge_row_against_full_wave: rows of 12 and 4 barbules, their ends cancelled);
+//  - the GO–PO hybrid (physical_optics_hybrid_2d.h) on the same rows of the barbule with its gap
+//    as separate curves (barbule_with_gap: full wave's body), after physical optics in cost;
+//    where it refuses the row (curves closer than its sampling step), the reason is reported;
 //  - errors: band mean over full wave's, minus 1, and the largest |R_level(λ)/R_FW(λ) − 1|.
 // Verdict: the cheapest level whose band-mean error is within the threshold, else "full wave";
 // no verdict when |resolution error| exceeds `tolerance` ("unconverged").

@@ -104,6 +104,12 @@ struct WaveValidityLivePoint {
     double po_error = 0.0, go_error = 0.0;  // band mean / full wave's − 1
     double po_worst = 0.0, go_worst = 0.0;  // largest |R_level(λ)/R_FW(λ) − 1| over λ
     double po_worst_lambda_nm = 0.0, go_worst_lambda_nm = 0.0;
+    // The GO–PO hybrid (sim/wave/surface/physical_optics_hybrid_2d.h) on the barbule with its
+    // gap as separate curves: empty and hybrid_reason set when it refused the row.
+    std::vector<double> hybrid;
+    double hybrid_error = 0.0, hybrid_worst = 0.0, hybrid_worst_lambda_nm = 0.0;
+    double hybrid_step_um = 0.0;  // its sampling step (λ/10 or the row's, halved where refused)
+    std::string hybrid_reason;
     std::string level;  // judged: the cheapest level within the threshold, or "full wave"
 };
 

@@ -1,5 +1,6 @@
 #include "sim/wave/compare/levels_against_full_wave.h"
 
+#include <algorithm>
 #include <cmath>
 #include <numbers>
 
@@ -9,6 +10,7 @@
 #include "common/relative_l1.h"
 #include "common/require.h"
 #include "sim/wave/compare/ray_optics_validity.h"
+#include "sim/wave/surface/physical_optics_hybrid_2d.h"
 
 namespace plumage::sim::wave {
 
@@ -107,11 +109,62 @@ double band_mean(const std::vector<double>& x, const std::vector<double>& y) {
     return sum / (x.back() - x.front());
 }
 
+// The hybrid's power into the upper half-space (µm) of `count` cells of `cell` on the row's
+// spacing and tilt, unpolarised: ∫ σ dθ by the midpoint rule (header).
+double hybrid_reflected_power(const Row2d& row, const CrossSection2d& cell, int count,
+                              double lambda_nm, double theta_i_rad, double step_um) {
+    Row2d finite = row;
+    finite.cell = cell;
+    finite.count = count;
+    const CrossSection2d section = row_cross_section(finite);
+    const double k = 2.0 * kPi / (1e-3 * lambda_nm);
+    const double r_max = 0.5 * count * row.spacing_um;
+    const double wanted = std::min(0.8 * kPi / (k * r_max), 0.25 * kDeg);
+    const auto n = static_cast<std::size_t>(std::ceil(kPi / wanted));
+    const double delta = kPi / static_cast<double>(n);
+    std::vector<double> theta(n);
+    for (std::size_t j = 0; j < n; ++j)
+        theta[j] = -0.5 * kPi + (static_cast<double>(j) + 0.5) * delta;
+    HybridOptions options;
+    options.step_um = step_um > 0.0 ? std::min(step_um, 1e-4 * lambda_nm) : 0.0;
+    options.circle_angles = 0;
+    const HybridFarFieldPair pair =
+        hybrid_far_field_pair(section, lambda_nm, theta_i_rad, theta, options);
+    double power = 0.0;
+    for (std::size_t j = 0; j < n; ++j)
+        power += 0.5 * (pair.te.sigma_um_per_rad[j] + pair.tm.sigma_um_per_rad[j]) * delta;
+    return power;
+}
+
 }  // namespace
+
+std::string cheapest_row_level(const RowVerdict2d& v) {
+    if (std::abs(v.go_error) <= v.threshold) return "ray optics + thin film";
+    if (std::abs(v.po_error) <= v.threshold) return "physical optics";
+    if (!v.hybrid.empty() && std::abs(v.hybrid_error) <= v.threshold) return "GO–PO hybrid";
+    return "full wave";
+}
+
+void add_hybrid(RowVerdict2d& v, const Row2d& row, double theta_i_rad,
+                const CrossSection2d& hybrid_cell, double step_um) {
+    constexpr int kShort = 4, kLong = 12;
+    const double per_period = (kLong - kShort) * row.spacing_um * std::cos(theta_i_rad);
+    std::vector<double> hybrid;
+    for (const double lambda : v.lambda_nm)
+        hybrid.push_back(
+            (hybrid_reflected_power(row, hybrid_cell, kLong, lambda, theta_i_rad, step_um) -
+             hybrid_reflected_power(row, hybrid_cell, kShort, lambda, theta_i_rad, step_um)) /
+            per_period);
+    v.hybrid = std::move(hybrid);
+    v.band_hybrid = band_mean(v.lambda_nm, v.hybrid);
+    v.hybrid_error = v.band_hybrid / v.band_full_wave - 1.0;
+    v.level = cheapest_row_level(v);
+}
 
 RowVerdict2d judge_row_against_full_wave(const Row2d& row, double theta_i_rad,
                                          std::span<const RowReflectanceFullWave> reference,
-                                         double threshold, double step_um) {
+                                         double threshold, double step_um,
+                                         const CrossSection2d* hybrid_cell) {
     require(!reference.empty(), "full-wave row judge", "no full-wave reflectances");
     for (std::size_t i = 1; i < reference.size(); ++i)
         require(reference[i].lambda_nm > reference[i - 1].lambda_nm, "full-wave row judge",
@@ -148,9 +201,8 @@ RowVerdict2d judge_row_against_full_wave(const Row2d& row, double theta_i_rad,
     v.po_error = v.band_physical_optics / v.band_full_wave - 1.0;
     v.go_error = v.band_ray_optics / v.band_full_wave - 1.0;
     v.resolution_error = v.band_full_wave_coarse / v.band_full_wave - 1.0;
-    v.level = std::abs(v.go_error) <= threshold   ? "ray optics + thin film"
-              : std::abs(v.po_error) <= threshold ? "physical optics"
-                                                  : "full wave";
+    v.level = cheapest_row_level(v);
+    if (hybrid_cell != nullptr) add_hybrid(v, row, theta_i_rad, *hybrid_cell, step_um);
     return v;
 }
 

@@ -80,6 +80,11 @@ FullWaveVerdict2d judge_against_full_wave(const Row2d& row,
 //    error is its coarse band mean over the fine one, minus 1 (a level's error below that is
 //    not resolved).
 // The verdict: the cheapest level within the threshold, otherwise "full wave".
+//  - Optionally the GO–PO hybrid too (physical_optics_hybrid_2d.h), on rows of `hybrid_cell`
+//    (the barbule with its gap as separate curves: barbule_with_gap, fullwave::barbule_row's
+//    body), its reflected power ∫ σ dθ over the upper half-space (a midpoint rule at the step
+//    ray_optics_validity.h's physical optics uses, 0.8π/(k r_max) and at most 0.25°), the ends
+//    cancelled the same way. In cost it comes after physical optics.
 struct RowReflectanceFullWave {
     double lambda_nm = 0.0;
     std::array<double, 2> fine{}, coarse{};  // R, [TE, TM]
@@ -89,17 +94,31 @@ struct RowVerdict2d {
     std::vector<double> lambda_nm;
     // unpolarised R per wavelength
     std::vector<double> full_wave, full_wave_coarse, physical_optics, ray_optics;
+    std::vector<double> hybrid;  // the GO–PO hybrid's R; empty when it was not asked
     double band_full_wave = 0.0, band_full_wave_coarse = 0.0;
-    double band_physical_optics = 0.0, band_ray_optics = 0.0;
+    double band_physical_optics = 0.0, band_ray_optics = 0.0, band_hybrid = 0.0;
     double po_error = 0.0, go_error = 0.0, resolution_error = 0.0;
+    double hybrid_error = 0.0;  // 0 when not asked
     double threshold = 0.05;
     std::string level;
 };
 
 // `row`: the cell, spacing and tilt (its count is ignored); θ_i the reference's. InputError on an
-// empty or unsorted reference.
+// empty or unsorted reference. `hybrid_cell`: judge the GO–PO hybrid on rows of it too (its
+// sampling step is min(step_um, λ/10)); nullptr: not.
 RowVerdict2d judge_row_against_full_wave(const Row2d& row, double theta_i_rad,
                                          std::span<const RowReflectanceFullWave> reference,
-                                         double threshold = 0.05, double step_um = 0.0);
+                                         double threshold = 0.05, double step_um = 0.0,
+                                         const CrossSection2d* hybrid_cell = nullptr);
+
+// The GO–PO hybrid added to a verdict of that judge (its R, band mean, error, and the level
+// re-chosen), on rows of `hybrid_cell` at sampling step min(step_um, λ/10). InputError (nothing
+// changed) where the hybrid refuses the row, e.g. curves closer than the step.
+void add_hybrid(RowVerdict2d& v, const Row2d& row, double theta_i_rad,
+                const CrossSection2d& hybrid_cell, double step_um);
+
+// The judge's rule: ray optics + thin film, physical optics, the GO–PO hybrid (where computed),
+// the first within v.threshold in that order (of cost), else "full wave".
+std::string cheapest_row_level(const RowVerdict2d& v);
 
 }  // namespace plumage::sim::wave
