@@ -141,6 +141,39 @@ double point_segment_distance(const Eigen::Vector2d& p, const Eigen::Vector2d& a
     return (a + t * ab - p).norm();
 }
 
+// A polygon's thinnest feature (header): the smallest distance from a vertex to a point of an edge
+// not touching it, over the pairs that the boundary joins only the long way round — more than
+// kDetour times the straight distance along the shorter way. Why: a smooth curve sampled every h
+// has each vertex within h of its neighbours' edge (the boundary joins them in about h), which
+// is no feature at all; across a body or a gap the boundary must go round (a disc's opposite
+// points: π/2 ≈ 1.57 times; a sliver's two sides: its length twice), and a corner's sides count
+// where it is sharper than 2·atan(1/kDetour) ≈ 67° (the boundary runs 1/tan(α/2) times the
+// distance there). A triangle keeps its heights, as a wedge of any angle.
+constexpr double kDetour = 1.5;
+
+double thinnest_feature(const std::vector<Eigen::Vector2d>& v) {
+    const std::size_t n = v.size();
+    std::vector<double> arc(n + 1, 0.0);  // boundary length from vertex 0 to vertex k
+    for (std::size_t k = 0; k < n; ++k) arc[k + 1] = arc[k] + (v[(k + 1) % n] - v[k]).norm();
+    const double perimeter = arc[n];
+    double thinnest = kInf;
+    for (std::size_t i = 0; i < n; ++i)
+        for (std::size_t j = 0; j < n; ++j) {
+            const std::size_t k = (j + 1) % n;
+            if (j == i || k == i) continue;  // edges touching vertex i
+            const Eigen::Vector2d ab = v[k] - v[j];
+            const double t = std::clamp((v[i] - v[j]).dot(ab) / ab.squaredNorm(), 0.0, 1.0);
+            const double d = (v[j] + t * ab - v[i]).norm();
+            const double along = std::abs(arc[j] + t * ab.norm() - arc[i]);
+            if (std::min(along, perimeter - along) > kDetour * d) thinnest = std::min(thinnest, d);
+        }
+    if (n == 3)  // a triangle's heights, whatever its angles
+        for (std::size_t i = 0; i < 3; ++i)
+            thinnest =
+                std::min(thinnest, point_segment_distance(v[i], v[(i + 1) % 3], v[(i + 2) % 3]));
+    return thinnest;
+}
+
 class Polygon final : public Shape2d {
 public:
     explicit Polygon(std::vector<Eigen::Vector2d> v) : v_(std::move(v)) {
@@ -149,19 +182,7 @@ public:
             box_.min = box_.min.cwiseMin(p);
             box_.max = box_.max.cwiseMax(p);
         }
-        const std::size_t n = v_.size();
-        thinnest_ = kInf;
-        for (std::size_t i = 0; i < n; ++i)
-            for (std::size_t j = 0; j < n; ++j) {
-                const std::size_t k = (j + 1) % n;
-                if (j == i || k == i) continue;  // edges touching vertex i
-                thinnest_ = std::min(thinnest_, point_segment_distance(v_[i], v_[j], v_[k]));
-            }
-        if (n == 3) {  // a triangle has no edge apart from its vertices': its smallest height
-            for (std::size_t i = 0; i < 3; ++i)
-                thinnest_ = std::min(
-                    thinnest_, point_segment_distance(v_[i], v_[(i + 1) % 3], v_[(i + 2) % 3]));
-        }
+        thinnest_ = thinnest_feature(v_);
     }
     bool contains(const Eigen::Vector2d& p) const override {
         if (p.x() < box_.min.x() || p.x() > box_.max.x() || p.y() < box_.min.y() ||

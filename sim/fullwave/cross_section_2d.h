@@ -19,8 +19,11 @@
 //    may be −∞ for a substrate). Only the periodic solver (full_wave_stack) takes layers.
 //
 // thinnest_um() is the narrowest part of a shape (an ellipse's minor diameter, a shell's
-// thickness, a layer's thickness, a polygon's smallest distance from a vertex to an edge not
-// touching it): the solver refuses a grid whose cells do not fit twice across it.
+// thickness, a layer's thickness; a polygon's smallest distance from a vertex to an edge across
+// the body or a gap: to a point that the boundary reaches only the long way round, more than 1.5
+// times the distance, so that a finely sampled smooth curve is not thin where its vertices are
+// close, while a sliver, a narrow gap and a corner sharper than about 67° are): the solver
+// refuses a grid whose cells do not fit twice across it.
 //
 // Parameter table:
 //  | name              | unit | range                          |

@@ -37,9 +37,9 @@ inline geometry::EllipticalArc outer_arc() {
 }
 
 // The keratin band between the outer surface and its inward offset, as a polygon with a vertex
-// every 0.064 µm in x on each side (100 intervals): the full-wave level takes a polygon's vertex
-// spacing as its thinnest feature, which must span two cells (0.05 µm at 40 px/µm); the
-// chords depart from the ellipse by less than 2e-4 µm (radius of curvature >= 4 µm).
+// every 0.064 µm in x on each side (100 intervals; its thinnest feature is the film across it, and
+// the vertex spacing was once taken for one, so the reference was drawn this coarse); the chords
+// depart from the ellipse by less than 2e-4 µm (radius of curvature >= 4 µm).
 inline std::shared_ptr<const sim::fullwave::Shape2d> keratin_arc_band() {
     const geometry::EllipticalArc arc = outer_arc();
     constexpr int kSteps = 100;

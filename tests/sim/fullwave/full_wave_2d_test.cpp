@@ -7,6 +7,7 @@
 // subpixel smoothing gives second order at dielectric boundaries, where the bound is 0.8×).
 #include "sim/fullwave/full_wave_2d.h"
 
+#include <array>
 #include <atomic>
 #include <chrono>
 #include <cmath>
@@ -403,6 +404,41 @@ TEST(FullWave2d, RefusesGridsTooCoarseForTheLightOrTheBodies) {
         EXPECT_NE(std::string(e.what()).find("under two grid cells"), std::string::npos)
             << e.what();
     }
+}
+
+// A polygon's thinnest feature is across the body or a gap, not along its boundary: a disc drawn
+// with 720 vertices (0.004 µm apart) is as thick as its diameter, a rectangle sampled every
+// 0.005 µm as its short side, a sliver 0.04 µm wide in it is found, and a triangle keeps its
+// smallest height. The old vertex-to-edge rule called the disc 0.004 µm thin.
+TEST(FullWave2d, PolygonThinnestIsAcrossTheBodyNotAlongItsBoundary) {
+    std::vector<Eigen::Vector2d> disc;
+    for (int m = 0; m < 720; ++m) {
+        const double a = 2.0 * std::numbers::pi * m / 720.0;
+        disc.emplace_back(0.5 * std::cos(a), 0.5 * std::sin(a));
+    }
+    // chords a little off the diameter count too (the boundary joins their ends 1.5 times their
+    // length from 171° apart): 0.3 % short of the diameter
+    EXPECT_NEAR(polygon(disc)->thinnest_um(), 1.0, 3e-3);
+    // a 2 × 0.3 µm rectangle, each side sampled every 0.005 µm
+    const auto rectangle = [](double width, double height) {
+        std::vector<Eigen::Vector2d> v;
+        const std::array<Eigen::Vector2d, 4> corner{
+            Eigen::Vector2d(0.0, 0.0), {width, 0.0}, {width, height}, {0.0, height}};
+        for (std::size_t c = 0; c < 4; ++c) {
+            const Eigen::Vector2d a = corner[c], b = corner[(c + 1) % 4];
+            const int steps = static_cast<int>(std::round((b - a).norm() / 0.005));
+            for (int m = 0; m < steps; ++m) v.push_back(a + (b - a) * m / steps);
+        }
+        return v;
+    };
+    EXPECT_NEAR(polygon(rectangle(2.0, 0.3))->thinnest_um(), 0.3, 1e-9);
+    EXPECT_NEAR(polygon(rectangle(2.0, 0.04))->thinnest_um(), 0.04, 1e-9);
+    EXPECT_NEAR(polygon({{0.0, 0.0}, {1.0, 0.0}, {0.5, 0.1}})->thinnest_um(), 0.1, 1e-12);
+    // the grid rule follows: the finely drawn disc needs the light's λ/(10 n), not 500 px/µm
+    const std::array<double, 1> lambdas{550.0};
+    CrossSection2d fine_disc;
+    fine_disc.bodies.push_back({polygon(disc), optics::keratin()});
+    EXPECT_LT(minimum_resolution_px_per_um(fine_disc, lambdas), 40.0);
 }
 
 TEST(FullWave2d, RefusesWhatItCannotDo) {
