@@ -78,8 +78,8 @@ wave::RowVerdict2d judge_levels(const LiveScene& c, const wave::Row2d& row,
     const double theta_i = c.theta_i_deg * kDeg;
     wave::RowVerdict2d v =
         wave::judge_row_against_full_wave(row, theta_i, reference, threshold, step_um);
-    double shortest_nm = v.lambda_nm.front();
-    double hybrid_step = std::min(step_um, 1e-4 * shortest_nm);
+    // the reference's wavelengths are increasing (the judge refuses others): λ/10 at the shortest
+    double hybrid_step = std::min(step_um, 1e-4 * v.lambda_nm.front());
     for (int halvings = 0; halvings <= 2; ++halvings, hybrid_step *= 0.5) {
         try {
             wave::add_hybrid(v, row, theta_i, wave::barbule_with_gap(c.a_um, c.b, c.d, c.g),
@@ -349,6 +349,8 @@ void write_live(record::Hdf5Writer& h5, const WaveValidityResult& r,
     column("hybrid_error", &P::hybrid_error, "1",
            "the GO–PO hybrid's band mean over full wave's, minus 1 (0 where it refused the row)");
     column("hybrid_worst", &P::hybrid_worst, "1", "largest |R_hybrid(λ)/R_FW(λ) − 1|");
+    column("hybrid_step_um", &P::hybrid_step_um, "µm",
+           "the hybrid's sampling step (λ/10 or the row's, halved where it refused a coarser)");
     column("ray_optics_worst", &P::go_worst, "1", "largest |R_GO(λ)/R_FW(λ) − 1|");
     column("physical_optics_worst", &P::po_worst, "1", "largest |R_PO(λ)/R_FW(λ) − 1|");
     column("seconds", &P::seconds, "s", "wall time of the full-wave runs");

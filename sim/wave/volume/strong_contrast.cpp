@@ -9,7 +9,7 @@
 //  | spectrum S̄(q)       | µm³   | finite, >= 0 on [0, q_cut]                            |
 //  | filling fraction f  | 1     | (0, 1)                                                |
 //  | table_points        | 1     | [2, 100000]                                           |
-//  | host                | —     | keratin or air                                        |
+//  | host                | —     | keratin, air or bruggeman (self-consistent)           |
 #include "sim/wave/volume/strong_contrast.h"
 
 #include <algorithm>
