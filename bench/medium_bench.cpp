@@ -11,6 +11,8 @@
 //    volume itself is generated once, untimed) → indicator (sim/wave/volume/index_field.h) →
 //    3D power spectrum (FFTW, one thread) → born_medium at 31 wavelengths 400–700 nm,
 //    the wavelengths spread over `threads` OpenMP threads.
+//  - BM_StrongContrastTables256/threads: the same with strong_contrast_medium (self-consistent)
+//    in place of born_medium (issue 37, acceptance 4: "whichever route").
 #include <chrono>
 #include <cmath>
 #include <memory>
@@ -27,6 +29,7 @@
 #include "sim/wave/volume/born_medium.h"
 #include "sim/wave/volume/index_field.h"
 #include "sim/wave/volume/power_spectrum.h"
+#include "sim/wave/volume/strong_contrast.h"
 
 namespace plumage::sim {
 namespace {
@@ -106,11 +109,12 @@ const geometry::SpongyVolume& volume256() {
     return v;
 }
 
-void BM_WaveTables256(benchmark::State& state) {
+// The 256³ volume's tables at 31 wavelengths by `route` (one wavelength's table), timed in
+// steps: indicator, spectrum, tables.
+template <class Route>
+void wave_tables_256(benchmark::State& state, Route route, const char* tables_counter) {
     const int threads = static_cast<int>(state.range(0));
     const geometry::SpongyVolume& v = volume256();
-    const auto keratin = optics::keratin();
-    const auto air = optics::air();
     using Clock = std::chrono::steady_clock;
     double indicator_s = 0.0, spectrum_s = 0.0, tables_s = 0.0;
     for (auto _ : state) {
@@ -122,10 +126,8 @@ void BM_WaveTables256(benchmark::State& state) {
         const auto t2 = Clock::now();
         std::vector<MediumTable> tables(31);
 #pragma omp parallel for num_threads(threads) schedule(dynamic, 1)
-        for (int i = 0; i < 31; ++i) {
-            tables[static_cast<std::size_t>(i)] =
-                medium_table(wave::born_medium(spectrum, *keratin, *air, 400.0 + 10.0 * i));
-        }
+        for (int i = 0; i < 31; ++i)
+            tables[static_cast<std::size_t>(i)] = medium_table(route(spectrum, 400.0 + 10.0 * i));
         const ScatteringMedium medium(std::move(tables));
         benchmark::DoNotOptimize(medium.scattering_coefficient_per_um(450.0));
         const auto t3 = Clock::now();
@@ -137,9 +139,40 @@ void BM_WaveTables256(benchmark::State& state) {
     state.counters["voxels_per_side"] = static_cast<double>(v.voxels_per_side);
     state.counters["indicator_s"] = indicator_s / n;
     state.counters["spectrum_s"] = spectrum_s / n;
-    state.counters["born31_s"] = tables_s / n;
+    state.counters[tables_counter] = tables_s / n;
+}
+
+void BM_WaveTables256(benchmark::State& state) {
+    const auto keratin = optics::keratin();
+    const auto air = optics::air();
+    wave_tables_256(
+        state,
+        [&](const wave::PowerSpectrum& s, double lambda) {
+            return wave::born_medium(s, *keratin, *air, lambda);
+        },
+        "born31_s");
 }
 BENCHMARK(BM_WaveTables256)->Arg(1)->Arg(2)->Iterations(1)->UseRealTime()->Unit(benchmark::kSecond);
+
+// The same volume through the strong-contrast medium, self-consistent (the form whose solve
+// iterates: sim/wave/volume/strong_contrast.h).
+void BM_StrongContrastTables256(benchmark::State& state) {
+    const auto keratin = optics::keratin();
+    const auto air = optics::air();
+    wave_tables_256(
+        state,
+        [&](const wave::PowerSpectrum& s, double lambda) {
+            return wave::strong_contrast_medium(s, *keratin, *air, lambda,
+                                                wave::StrongContrastHost::bruggeman);
+        },
+        "strong31_s");
+}
+BENCHMARK(BM_StrongContrastTables256)
+    ->Arg(1)
+    ->Arg(2)
+    ->Iterations(1)
+    ->UseRealTime()
+    ->Unit(benchmark::kSecond);
 
 }  // namespace
 }  // namespace plumage::sim
