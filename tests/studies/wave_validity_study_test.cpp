@@ -168,10 +168,11 @@ void check_full_wave_records(const fs::path& dir, const WaveValidityResult& r,
 
 // The spongy scenes: every structure of the 3D reference, its levels cheapest first (the
 // strong-contrast forms after first Born), the cheapest level within the tolerance as the
-// reference's verdicts give it (first Born on the channel network; none on the packings, so full
-// wave), each level's cost measured (> 0) and the record's columns one per (structure, level).
+// reference's verdicts give it (at keratin's n = 1.55: first Born on the channel network; none on
+// the packings, so full wave), each level's cost measured (> 0) and the record's columns one per
+// (structure, level).
 void check_spongy(const fs::path& dir, const WaveValidityResult& r, const std::string& report) {
-    ASSERT_EQ(r.spongy.size(), 3u);
+    ASSERT_GE(r.spongy.size(), 3u);  // the three structures at n = 1.55, and any other index run
     std::size_t rows = 0;
     for (const SpongyScene& s : r.spongy) {
         ASSERT_FALSE(s.levels.empty()) << s.structure;
@@ -185,7 +186,10 @@ void check_spongy(const fs::path& dir, const WaveValidityResult& r, const std::s
             ++rows;
         }
         EXPECT_GT(s.full_wave_seconds, 0.0) << s.structure;
-        EXPECT_EQ(s.cheapest, s.structure == "channel" ? "first Born" : "full wave") << s.structure;
+        if (s.keratin_index == "1.55") {
+            EXPECT_EQ(s.cheapest, s.structure == "channel" ? "first Born" : "full wave")
+                << s.structure;
+        }
         EXPECT_NE(report.find(fmt::format("**{}** (keratin n = {}): cheapest level within the "
                                           "tolerance: **{}**",
                                           s.structure, s.keratin_index, s.cheapest)),
