@@ -180,13 +180,14 @@ int filip_index(const std::string& name) {
 py::dict fit_filip_observations(const analysis::BrdfData& data, const py::dict& start,
                                 const std::vector<std::string>& fixed,
                                 const std::vector<std::string>& free, const std::string& preset,
-                                const std::string& data_file) {
+                                int global_starts, const std::string& data_file) {
     auto values =
         analysis::to_vector(analysis::filip2024_preset(preset.empty() ? "parrot" : preset));
     for (const auto& [key, value] : start) values[filip_index(py::str(key))] = value.cast<double>();
     analysis::Filip2024FitOptions options;
     for (const auto& name : fixed) options.fixed[filip_index(name)] = true;
     for (const auto& name : free) options.fixed[filip_index(name)] = false;
+    options.global_starts = global_starts;
     analysis::Filip2024FitResult r;
     std::vector<double> model;
     try {
@@ -289,6 +290,7 @@ void bind_fit(py::module_& m) {
         .def_readwrite("finite_difference_step", &O::finite_difference_step)
         .def_readwrite("max_function_evaluations", &O::max_function_evaluations)
         .def_readwrite("relative_tolerance", &O::relative_tolerance)
+        .def_readwrite("global_starts", &O::global_starts)
         .def_readwrite("threads", &O::threads);
     m.def("fit_huang2022", &fit, py::arg("illumination"), py::arg("beam_direction"),
           py::arg("cone_aperture_rad"), py::arg("wavelengths_nm"), py::arg("intensity"),
@@ -299,20 +301,22 @@ void bind_fit(py::module_& m) {
         [](const Array& angles_deg, const Array& wavelength_nm, const Array& value,
            const std::optional<Array>& sigma, const py::dict& start,
            const std::vector<std::string>& fixed, const std::vector<std::string>& free,
-           const std::string& preset) {
+           const std::string& preset, int global_starts) {
             return fit_filip_observations(observations_of(angles_deg, wavelength_nm, value, sigma),
-                                          start, fixed, free, preset, "");
+                                          start, fixed, free, preset, global_starts, "");
         },
         py::arg("angles_deg"), py::arg("wavelength_nm"), py::arg("value"), py::arg("sigma"),
-        py::arg("start"), py::arg("fixed"), py::arg("free"), py::arg("preset"));
+        py::arg("start"), py::arg("fixed"), py::arg("free"), py::arg("preset"),
+        py::arg("global_starts") = analysis::Filip2024FitOptions{}.global_starts);
     m.def(
         "fit_filip2024_file",
         [](const std::string& path, const py::dict& start, const std::vector<std::string>& fixed,
-           const std::vector<std::string>& free, const std::string& preset) {
+           const std::vector<std::string>& free, const std::string& preset, int global_starts) {
             return fit_filip_observations(analysis::read_brdf_data(path), start, fixed, free,
-                                          preset, path);
+                                          preset, global_starts, path);
         },
-        py::arg("path"), py::arg("start"), py::arg("fixed"), py::arg("free"), py::arg("preset"));
+        py::arg("path"), py::arg("start"), py::arg("fixed"), py::arg("free"), py::arg("preset"),
+        py::arg("global_starts") = analysis::Filip2024FitOptions{}.global_starts);
     m.def("huang2022_scatterogram", &predict);
 }
 

@@ -272,7 +272,8 @@ def fit_huang2022(record, start=None, **options) -> dict:
     wavelength_nm [λ], illumination ("beam"), beam_direction (3,), cone_aperture_rad.
     start: a Huang2022 model or a dict of its parameters (default: the published values).
     options: HuangFitOptions' fields, e.g. fixed=["phi0", "phi1"], pixel_stride=2,
-    wavelengths_nm=[550.0], max_function_evaluations=200, threads=2.
+    wavelengths_nm=[550.0], max_function_evaluations=200, global_starts=0 (a local fit from
+    start alone; default 3), threads=2.
     Returns a dict: params, standard_errors, at_bound, free_parameters, covariance (free
     parameters' order; None when singular), reduced_chi_square, residual_rms_per_sr,
     observations, pixels, converged, termination, wall_time_s, chi_square, json (the documented
@@ -295,7 +296,8 @@ def huang2022_scatterogram(params, record, **options):
                                         _fit_options(options))
 
 
-def fit_filip2024(data, start=None, *, fixed=(), free=(), preset=None, sigma=None) -> dict:
+def fit_filip2024(data, start=None, *, fixed=(), free=(), preset=None, sigma=None,
+                  global_starts=None) -> dict:
     """Fits Filip2024's parameters to BRDF data by Levenberg–Marquardt in C++
     (analysis/fits/filip2024_fit.h).
 
@@ -305,6 +307,9 @@ def fit_filip2024(data, start=None, *, fixed=(), free=(), preset=None, sigma=Non
     start: a Filip2024 model or a dict of parameter values by the table's names (phi_a, C_b[R],
     ..., alpha, beta, gamma, w, d_w, theta_max, brdf_scale), over preset (default "parrot").
     fixed / free: names to hold / to fit (theta_max and brdf_scale are held by default).
+    global_starts: Levenberg–Marquardt runs from the best points of the global stage's grid,
+    besides the one from start (0: a local fit from start alone; 0..192; None: the C++ default,
+    analysis/fits/filip2024_fit.h).
     Returns a dict: params, standard_errors, at_bound, free_parameters, covariance, chi_square,
     reduced_chi_square, degrees_of_freedom, observations, residual_rms_per_sr, converged,
     termination, model_per_sr and residuals ((model − value)/σ) per observation, json.
@@ -317,9 +322,10 @@ def fit_filip2024(data, start=None, *, fixed=(), free=(), preset=None, sigma=Non
         raise TypeError("fit_filip2024: give start as a dict of the table's names "
                         "(e.g. {'alpha': 3.0}) and preset= for a preset")
     start = dict(start or {})
+    starts = {} if global_starts is None else {"global_starts": int(global_starts)}
     if isinstance(data, (str, os.PathLike)):
         return _core.fit_filip2024_file(os.fspath(data), start, list(fixed), list(free),
-                                        preset or "")
+                                        preset or "", **starts)
     columns = ("theta_i_deg", "phi_i_deg", "theta_o_deg", "phi_o_deg")
     angles = np.stack([np.asarray(data[c], dtype=float) for c in columns], axis=1)
     if sigma is None and "sigma" in data:
@@ -327,4 +333,4 @@ def fit_filip2024(data, start=None, *, fixed=(), free=(), preset=None, sigma=Non
     return _core.fit_filip2024_arrays(angles, np.asarray(data["wavelength_nm"], dtype=float),
                                       np.asarray(data["value"], dtype=float),
                                       None if sigma is None else np.asarray(sigma, dtype=float),
-                                      start, list(fixed), list(free), preset or "")
+                                      start, list(fixed), list(free), preset or "", **starts)

@@ -105,6 +105,19 @@ def test_filip_bad_input():
         plumage.fit_filip2024(data)
 
 
+def test_filip_global_starts_reach_the_fit():
+    """global_starts reaches the C++ fit: 0 is a local fit from the truth (the same minimum on
+    noise-free data: χ² near 0 either way), and a count outside 0..192 is refused by name."""
+    data = _filip_data(2)
+    data["value"] = models.Filip2024("parrot").eval(
+        _directions(data["theta_i_deg"], data["phi_i_deg"]),
+        _directions(data["theta_o_deg"], data["phi_o_deg"]), data["wavelength_nm"])
+    local = plumage.fit_filip2024(data, start=_filip_truth(), global_starts=0)
+    assert local["reduced_chi_square"] < 1e-6
+    with pytest.raises(ValueError, match="global_starts = 193"):
+        plumage.fit_filip2024(data, global_starts=193)
+
+
 def test_filip_refusal_of_a_file_names_the_file(tmp_path):
     """The fit's own check (too few observations) knows no file: the binding adds it."""
     table = tmp_path / "two_rows.csv"
