@@ -210,6 +210,30 @@ InterfaceEvent dielectric_event(const Vec3d& direction, const SurfaceNormals& no
                   EventKind::refract, rng);
 }
 
+InterfaceEvent dielectric_event(const Vec3d& direction, const SurfaceNormals& normals,
+                                double outside, double inside, const FilmResponseSource& source,
+                                Rng& rng) {
+    const Incidence in = incidence(direction, normals);
+    const double n_in = in.from_outside ? outside : inside;
+    const double n_out = in.from_outside ? inside : outside;
+    const SpecularGeometry g = specular_geometry(direction, in.shading, in.facet, n_in / n_out);
+    if (!g.can_transmit) {
+        return {EventKind::total_internal_reflection, g.reflected, 1.0, in.from_outside,
+                g.geometric};
+    }
+    return choose(g, in.from_outside, source.response(in.from_outside, g.cos_i),
+                  EventKind::specular_reflect, EventKind::refract, rng);
+}
+
+SpecularRegime specular_regime(const Vec3d& direction, const SurfaceNormals& normals,
+                               double outside, double inside) {
+    const Incidence in = incidence(direction, normals);
+    const double n_in = in.from_outside ? outside : inside;
+    const double n_out = in.from_outside ? inside : outside;
+    const SpecularGeometry g = specular_geometry(direction, in.shading, in.facet, n_in / n_out);
+    return {g.geometric, g.can_transmit};
+}
+
 InterfaceEvent diffuse_event(const Vec3d& direction, const SurfaceNormals& normals, double albedo,
                              Rng& rng) {
     const Incidence in = incidence(direction, normals);

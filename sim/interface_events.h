@@ -132,6 +132,26 @@ InterfaceEvent thin_film_event(const Vec3d& direction, const SurfaceNormals& nor
 InterfaceEvent dielectric_event(const Vec3d& direction, const SurfaceNormals& normals,
                                 optics::Complex outside, optics::Complex inside, Rng& rng);
 
+// The same event with the reflection and transmission probabilities of `source` (its R and T
+// at the event's cos θ) and the indices' real parts for the geometry: a shared path's choice
+// over several wavelengths (sim/tracer.h, "Reflection stays shared"). Total internal reflection
+// as above, without a draw.
+InterfaceEvent dielectric_event(const Vec3d& direction, const SurfaceNormals& normals,
+                                double outside, double inside, const FilmResponseSource& source,
+                                Rng& rng);
+
+// What of a specular event's geometry the index ratio decides: whether light can be
+// transmitted (not beyond the critical angle) and, through the transmitted direction, whether the
+// shading normal is kept (see "Conventions"). Wavelengths whose regimes agree reflect about one
+// normal, at one cos θ, into one direction; only their transmitted directions differ.
+struct SpecularRegime {
+    bool geometric_normal;
+    bool can_transmit;
+    bool operator==(const SpecularRegime&) const = default;
+};
+SpecularRegime specular_regime(const Vec3d& direction, const SurfaceNormals& normals,
+                               double outside, double inside);
+
 // Lambertian reflection with the given albedo, on whichever side the light arrives.
 // Cosine-distributed about the geometric normal: a diffuse layer has no preferred
 // direction within a facet, and sampling about the facet normal keeps every sample on the

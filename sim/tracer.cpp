@@ -424,14 +424,17 @@ PathResult ExplicitScatterer::trace(const Vec3d& wi, double lambda_nm, const Vec
 
 namespace {
 
-// The film's responses at every wavelength of a shared path, at the cos θ the event asks
-// for; it answers the event with the mean choice probability p̄ (tracer.h), so the event
-// picks reflection with p̄ and the caller re-weights each λ from R_k, T_k.
-class SharedFilmResponse final : public FilmResponseSource {
+// The responses at every wavelength of a shared path, at the cos θ the event asks for: the
+// film's (Airy or its table), or a bare interface's Fresnel R and T. It answers the event with
+// the mean choice probability p̄ (tracer.h), so the event picks reflection with p̄ and the caller
+// re-weights each λ from R_k, T_k.
+class SharedResponse final : public FilmResponseSource {
 public:
     using Set = std::vector<std::shared_ptr<const ExplicitScatterer::Spectral>>;
-    SharedFilmResponse(const Set& at, std::span<const double> lambdas_nm, std::size_t surface)
-        : at_(at), lambdas_nm_(lambdas_nm), surface_(surface) {}
+    enum class Interface { film, bare };
+    SharedResponse(const Set& at, std::span<const double> lambdas_nm, std::size_t surface,
+                   Interface kind)
+        : at_(at), lambdas_nm_(lambdas_nm), surface_(surface), kind_(kind) {}
     FilmResponse response(bool from_outside, double cos_theta) const override;
 
     mutable std::array<double, PathTracing::kMaxSharedWavelengths> reflectance{}, transmittance{};
@@ -441,13 +444,28 @@ private:
     const Set& at_;
     std::span<const double> lambdas_nm_;
     std::size_t surface_;
+    Interface kind_;
 };
 
-FilmResponse SharedFilmResponse::response(bool from_outside, double cos_theta) const {
+// dielectric_event's unpolarised Fresnel R and T (sim/interface_events.cpp) for one wavelength.
+FilmResponse bare_interface_response(const ExplicitScatterer::Spectral::Surface& s,
+                                     bool from_outside, double cos_theta) {
+    const optics::Complex n_in = from_outside ? s.outside : s.inside;
+    const optics::Complex n_out = from_outside ? s.inside : s.outside;
+    const optics::FresnelIntensities f =
+        n_out.imag() == 0.0
+            ? lossless_fresnel_unpolarised(n_in.real(), n_out.real(), cos_theta)
+            : optics::fresnel_intensities_unpolarised(n_in.real(), n_out, cos_theta);
+    return {f.reflectance, f.transmittance};
+}
+
+FilmResponse SharedResponse::response(bool from_outside, double cos_theta) const {
     double p = 0.0;
     for (std::size_t k = 0; k < lambdas_nm_.size(); ++k) {
         const ExplicitScatterer::Spectral::Surface& s = at_[k]->surfaces[surface_];
-        const FilmResponse r = s.film_source->response(from_outside, cos_theta);
+        const FilmResponse r = kind_ == Interface::film
+                                   ? s.film_source->response(from_outside, cos_theta)
+                                   : bare_interface_response(s, from_outside, cos_theta);
         reflectance[k] = std::max(0.0, r.reflectance);
         transmittance[k] = std::max(0.0, r.transmittance);
         const double total = reflectance[k] + transmittance[k];
@@ -723,13 +741,8 @@ private:
         switch (surface.kind) {
             case Spectral::Kind::film:
                 return film_event(hit, forced);
-            case Spectral::Kind::dielectric: {
-                if (!set_.dielectric_shared[hit.surface]) collapse();
-                const InterfaceEvent e = dielectric_event(st_.direction, hit.normals,
-                                                          surface.outside, surface.inside, rng_);
-                scale(e.throughput);
-                return e;
-            }
+            case Spectral::Kind::dielectric:
+                return dielectric_surface_event(hit);
             case Spectral::Kind::diffuse:
                 return diffuse_surface_event(hit);
             case Spectral::Kind::absorber:
@@ -738,11 +751,67 @@ private:
         return absorber_event(st_.direction, hit.normals);
     }
 
+    // Whether every λ's event at this hit has the hero's regime (sim/interface_events.h): then
+    // they reflect alike, and only a transmission needs the hero (tracer.h, "Reflection stays
+    // shared").
+    bool regimes_agree(const SurfaceHit& hit, bool film) const {
+        auto regime = [&](const Spectral::Surface& s) {
+            return film ? specular_regime(st_.direction, hit.normals, s.film.outside.real(),
+                                          s.film.inside.real())
+                        : specular_regime(st_.direction, hit.normals, s.outside.real(),
+                                          s.inside.real());
+        };
+        const SpecularRegime hero = regime(hs_.surfaces[hit.surface]);
+        for (std::size_t k = 0; k < n_; ++k)
+            if (k != st_.hero && !(regime(set_.at[k]->surfaces[hit.surface]) == hero)) return false;
+        return true;
+    }
+
+    // A shared choice's weights: each λ R_k/p̄ on reflection, T_k/(1 − p̄) on transmission, times
+    // the event's throughput (tracer.h); a transmission through λ-dependent indices then goes on
+    // with the hero alone.
+    void weigh_shared_choice(const InterfaceEvent& e, const SharedResponse& source, bool reflected,
+                             bool transmitted, bool bends) {
+        const double p = source.mean_reflect_probability;
+        if (reflected) {
+            for (std::size_t k = 0; k < n_; ++k) w_[k] *= e.throughput * source.reflectance[k] / p;
+        } else if (transmitted) {
+            for (std::size_t k = 0; k < n_; ++k)
+                w_[k] *= e.throughput * source.transmittance[k] / (1.0 - p);
+            if (bends) collapse();
+        }
+    }
+
+    // A bare interface: one Fresnel factor where its indices are the same at every λ; where they
+    // differ, the shared choice with mean p̄ when every λ's regime agrees, else the hero's walk.
+    InterfaceEvent dielectric_surface_event(const SurfaceHit& hit) {
+        const Spectral::Surface& surface = hs_.surfaces[hit.surface];
+        if (!set_.dielectric_shared[hit.surface]) {
+            if (!st_.single && regimes_agree(hit, false)) {
+                const SharedResponse source(set_.at, lambdas_, hit.surface,
+                                            SharedResponse::Interface::bare);
+                const InterfaceEvent e =
+                    dielectric_event(st_.direction, hit.normals, surface.outside.real(),
+                                     surface.inside.real(), source, rng_);
+                weigh_shared_choice(e, source, e.kind == EventKind::specular_reflect,
+                                    e.kind == EventKind::refract, true);
+                return e;
+            }
+            collapse();
+        }
+        const InterfaceEvent e =
+            dielectric_event(st_.direction, hit.normals, surface.outside, surface.inside, rng_);
+        scale(e.throughput);
+        return e;
+    }
+
     // A film: the hero's own walk, or the shared choice with mean p̄ (tracer.h); a forced first
-    // film (splitting) takes the branch's side with its R_k or T_k.
+    // film (splitting) takes the branch's side with its R_k or T_k. Between λ-dependent indices
+    // the path stays shared through a reflection when every λ's regime agrees.
     InterfaceEvent film_event(const SurfaceHit& hit, bool forced) {
         const Spectral::Surface& surface = hs_.surfaces[hit.surface];
-        if (!set_.film_shared[hit.surface]) collapse();
+        const bool bends = !set_.film_shared[hit.surface];
+        if (bends && !st_.single && !regimes_agree(hit, true)) collapse();
         const bool reflect = first_film_ == FirstFilm::reflect;
         if (st_.single) {
             const TabulatedFilmResponse& source = *surface.film_source;
@@ -758,24 +827,21 @@ private:
             w_[st_.hero] *= e.throughput;
             return e;
         }
-        const SharedFilmResponse source(set_.at, lambdas_, hit.surface);
+        const SharedResponse source(set_.at, lambdas_, hit.surface,
+                                    SharedResponse::Interface::film);
         if (forced) {
             const ForcedFilmChoice choice(source, reflect);
             const InterfaceEvent e =
                 thin_film_event(st_.direction, hit.normals, surface.film, choice, rng_);
             for (std::size_t k = 0; k < n_; ++k)
                 w_[k] *= reflect ? source.reflectance[k] : source.transmittance[k];
+            if (bends && !reflect) collapse();
             return e;
         }
         const InterfaceEvent e =
             thin_film_event(st_.direction, hit.normals, surface.film, source, rng_);
-        const double p = source.mean_reflect_probability;
-        if (e.kind == EventKind::film_reflect) {
-            for (std::size_t k = 0; k < n_; ++k) w_[k] *= e.throughput * source.reflectance[k] / p;
-        } else if (e.kind == EventKind::film_transmit) {
-            for (std::size_t k = 0; k < n_; ++k)
-                w_[k] *= e.throughput * source.transmittance[k] / (1.0 - p);
-        }
+        weigh_shared_choice(e, source, e.kind == EventKind::film_reflect,
+                            e.kind == EventKind::film_transmit, bends);
         return e;
     }
 

@@ -45,9 +45,21 @@
 //  - diffuse reflection (cosine direction, independent of λ): w_k ×= albedo_k.
 //  - a bare dielectric interface whose indices are the same at every λ: the one Fresnel
 //    factor for all.
+//  - Reflection stays shared: a film or a bare interface whose indices differ with λ (keratin's
+//    n(λ), a film over melanin) reflects every λ into the same direction when their events have
+//    one regime (sim/interface_events.h, specular_regime: the same normal kept, light able to be
+//    transmitted at every λ or at none). The shared path then chooses the side as above, with
+//    p̄ = (1/N) Σ R_k/(R_k+T_k) (Fresnel's for a bare interface) and w_k ×= R_k/p̄ or
+//    T_k/(1 − p̄), and only a transmission goes on with the hero (below), whose own refraction
+//    it takes; where the regimes differ (near a λ's critical angle) the hero takes the event
+//    itself. Unbiased for each λ as both rules are. Why: the rooster's barbules are a film over
+//    melanin; the hero used to take every event there, so each reflected path served one λ of
+//    three. Its BTF's median per-pixel error at equal quanta fell from 23.8 % to 18.5 % (20 %
+//    more time per quantum for the other λs' film responses); the parrot's 23.2 % → 20.3 %.
 //  - an absorbing (non-scattering) medium along a segment: w_k ×= exp(−μ_k d).
 //  - where the geometry depends on λ — refraction into a dispersive medium (keratin's n(λ)
-//    at a bare dielectric or at a film between different media) and flights through a
+//    at a bare dielectric or at a film between different media: the transmitted side of the
+//    choice above, or the whole event where the regimes differ) and flights through a
 //    scattering medium (μ_s(λ) sets the free paths) — the path continues for one wavelength
 //    only, the hero h, drawn uniformly from {1 … N} by the quantum's own stream (one uniform
 //    at the start of every shared path): w_h ×= N, every other w_k = 0, then the walk of λ_h

@@ -163,6 +163,29 @@ TEST(TracerSpectral, HeroWavelengthKeepsADispersiveSphereUnbiased) {
     EXPECT_GT(collapsed, 10000u);  // most quanta meet the sphere: their hero carries them
 }
 
+// Reflection stays shared (sim/tracer.h): a keratin film over a melanin sphere (the rooster's
+// barbules: a coherent cortex over a melanin core) has λ-dependent indices inside, yet every λ
+// reflects off it into one direction. The shared path chooses the side with the mean p̄ and takes
+// the hero only when it enters the melanin, so the reflected paths, nearly all that escape,
+// keep every wavelength; the estimates match one path per wavelength.
+TEST(TracerSpectral, ReflectionStaysSharedAtAFilmOverMelanin) {
+    const ExplicitScatterer tracer(single_mesh_scene(
+        testing::sphere_mesh(10.0, 4),
+        thin_film_interface(optics::keratin(), 0.174, optics::air(), optics::melanin()),
+        "film over melanin"));
+    const Vec3d wi = from_angle(20.0, 30.0);
+    const double shift = tracer.top_z_um() * std::tan(20.0 * kDeg);
+    const Vec2 centre = shift * Vec2(std::cos(kPi / 6.0), std::sin(kPi / 6.0));
+    const BeamFootprint fp{centre - Vec2(11.0, 11.0), centre + Vec2(11.0, 11.0)};
+    std::size_t collapsed = 0;
+    const Cells shared = shared_paths(tracer, wi, fp, 30000, &collapsed);
+    expect_agreement(separate_paths(tracer, wi, fp, 30000), shared, "film_over_melanin");
+    // Melanin absorbs what enters it (k ≈ 0.3–0.6: gone within a micrometre), so an escaping
+    // path reflected off the film: none of them needs its hero.
+    RecordProperty("collapsed_escapes", std::to_string(collapsed));
+    EXPECT_LT(collapsed, 30u);
+}
+
 TEST(TracerSpectral, RefusesBadRequests) {
     const ExplicitScatterer tracer(barbule_row_scene(geometry::build_barbule_row({}, {0.1, 0.2})));
     Rng rng(1, 1);
