@@ -111,6 +111,10 @@ gonio::BtfConfig read_btf_camera(ParameterTable& t, gonio::BtfConfig c) {
     c.quanta_per_pixel = static_cast<std::uint64_t>(
         t.integer("quanta_per_pixel", static_cast<long>(c.quanta_per_pixel), 2, 1000000000,
                   "BTF detector estimator: quanta per view direction, pixel and pass"));
+    c.stratified_group = static_cast<std::uint64_t>(
+        t.integer("stratified_group", static_cast<long>(c.stratified_group), 1, 4096,
+                  "BTF detector estimator: quanta per stratified group (a power of two dividing "
+                  "quanta_per_pixel; 1: independent quanta)"));
     c.max_passes = static_cast<int>(t.integer(
         "max_passes", c.max_passes, 1, 100000,
         "BTF detector estimator: passes at most (stop rule: target_pixel_error, max_time_s)"));
@@ -126,6 +130,20 @@ gonio::BtfConfig read_btf_camera(ParameterTable& t, gonio::BtfConfig c) {
             "{}: [btf] max_passes = {} needs estimator = \"detector\" (the forward estimator "
             "is one pass)",
             t.location("max_passes"), c.max_passes));
+    }
+    const std::uint64_t group = c.stratified_group;
+    if ((group & (group - 1)) != 0 || c.quanta_per_pixel % group != 0 ||
+        c.quanta_per_pixel / group < 2) {
+        throw InputError(fmt::format(
+            "{}: [btf] stratified_group = {}: expected a power of two that divides "
+            "quanta_per_pixel ({}) at least twice (a pixel's error is the spread of its groups)",
+            t.location("stratified_group"), group, c.quanta_per_pixel));
+    }
+    if (group > 1 && c.estimator != gonio::BtfEstimator::detector) {
+        throw InputError(fmt::format(
+            "{}: [btf] stratified_group = {} needs estimator = \"detector\" (it stratifies each "
+            "pixel's quanta)",
+            t.location("stratified_group"), group));
     }
     if (c.estimator == gonio::BtfEstimator::detector && c.aperture != gonio::Aperture::both_cones) {
         throw InputError(fmt::format(

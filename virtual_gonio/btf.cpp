@@ -21,6 +21,7 @@
 #include "common/interrupt.h"
 #include "common/require.h"
 #include "common/seed.h"
+#include "sim/scatterer/stratified.h"
 #include "virtual_gonio/display_colour.h"
 #include "virtual_gonio/pass_loop.h"
 #include "virtual_gonio/record/hdf5_file.h"
@@ -52,6 +53,18 @@ void BtfConfig::validate() const {
     require(quanta_per_light >= 1, kWhat, "quanta_per_light must be >= 1");
     require(quanta_per_pixel >= 2, kWhat,
             "quanta_per_pixel must be >= 2 (a pixel's error is its quanta's sample variance)");
+    const bool power_of_two = stratified_group >= 1 && stratified_group <= 4096 &&
+                              (stratified_group & (stratified_group - 1)) == 0;
+    require(power_of_two && quanta_per_pixel % stratified_group == 0 &&
+                quanta_per_pixel / stratified_group >= 2,
+            kWhat,
+            fmt::format("stratified_group = {}: expected a power of two 1..4096 that divides "
+                        "quanta_per_pixel ({}) at least twice (a pixel's error is the spread of "
+                        "its groups)",
+                        stratified_group, quanta_per_pixel));
+    require(stratified_group == 1 || estimator == BtfEstimator::detector, kWhat,
+            "stratified_group > 1 needs estimator = \"detector\" (it stratifies the pixel's "
+            "quanta)");
     require(estimator != BtfEstimator::detector || aperture == Aperture::both_cones, kWhat,
             "estimator = \"detector\" needs aperture = \"both_cones\": a walk from the detector "
             "cannot reach a collimated light through mirror-like events");
@@ -239,9 +252,12 @@ public:
           pixel_(c_.patch_size_um / c_.pixels),
           cos_alpha_(std::cos(c_.detector_half_angle_rad)),
           projected_(kPi * std::pow(std::sin(c_.detector_half_angle_rad), 2)),
-          seeds_(views.size()) {
-        for (std::size_t v = 0; v < views.size(); ++v)
+          seeds_(views.size()),
+          strata_seeds_(views.size()) {
+        for (std::size_t v = 0; v < views.size(); ++v) {
             seeds_[v] = derive_seed(c_.seed, "btf/detector", v);
+            strata_seeds_[v] = derive_seed(c_.seed, "btf/detector-strata", v);
+        }
     }
 
     std::size_t items() const { return views_.size() * static_cast<std::size_t>(c_.pixels); }
@@ -260,18 +276,31 @@ public:
         options.detector_axes = lights;
         options.detector_half_angle_rad = c_.detector_half_angle_rad;
         options.guided_branches = 1;
-        std::vector<double> acc(pairs.size() * nl_);
+        std::vector<double> acc(pairs.size() * nl_), group_sum(pairs.size() * nl_);
+        const std::uint64_t group = c_.stratified_group, groups = c_.quanta_per_pixel / group;
         for (int column = 0; column < c_.pixels; ++column) {
             const auto side = static_cast<std::uint64_t>(c_.pixels);
             const std::uint64_t pixel = (pass_ * side + static_cast<std::uint64_t>(row)) * side +
                                         static_cast<std::uint64_t>(column);
-            for (std::uint64_t q = 0; q < c_.quanta_per_pixel; ++q) {
-                Rng rng(seeds_[v], pixel * c_.quanta_per_pixel + q);
-                std::fill(acc.begin(), acc.end(), 0.0);
-                trace_quantum(c_.pairs[pairs.front()].wo, row, column, options, rng, acc);
+            for (std::uint64_t g = 0; g < groups; ++g) {
+                std::fill(group_sum.begin(), group_sum.end(), 0.0);
+                std::optional<ScrambledSobolGroup> strata;
+                if (group > 1) {
+                    Rng strata_rng(strata_seeds_[v], pixel * groups + g);
+                    strata.emplace(strata_rng);
+                }
+                for (std::uint64_t i = 0; i < group; ++i) {
+                    Rng rng(seeds_[v], pixel * c_.quanta_per_pixel + g * group + i);
+                    std::fill(acc.begin(), acc.end(), 0.0);
+                    const Start start = strata ? stratified_start(row, column, *strata,
+                                                                  static_cast<std::uint32_t>(i))
+                                               : draw_start(row, column, rng);
+                    trace_quantum(c_.pairs[pairs.front()].wo, start, options, rng, acc);
+                    for (std::size_t x = 0; x < acc.size(); ++x) group_sum[x] += acc[x];
+                }
                 for (std::size_t j = 0; j < pairs.size(); ++j) {
                     for (std::size_t k = 0; k < nl_; ++k) {
-                        const double x = acc[j * nl_ + k];
+                        const double x = group_sum[j * nl_ + k];
                         if (x == 0.0) continue;
                         const std::size_t i = r_.index(pairs[j], row, column, k);
                         r_.value[i] += x;
@@ -294,14 +323,33 @@ public:
     }
 
 private:
-    // One quantum from the pixel (row, column) towards the view cone's direction: its branches'
+    // Where a quantum starts: a point of the pixel's square and four uniforms' worth of the view
+    // cone (a point of the unit disc, radius² and angle).
+    struct Start {
+        double x, y, radius_squared, turn;
+    };
+    static Start draw_start(int row, int column, Rng& rng) {
+        Start s{};
+        s.x = column + rng.uniform();
+        s.y = row + rng.uniform();
+        s.radius_squared = rng.uniform();
+        s.turn = rng.uniform();
+        return s;
+    }
+    static Start stratified_start(int row, int column, const ScrambledSobolGroup& strata,
+                                  std::uint32_t i) {
+        return {column + strata.uniform(i, 0), row + strata.uniform(i, 1), strata.uniform(i, 2),
+                strata.uniform(i, 3)};
+    }
+
+    // One quantum from its start in a pixel towards the view cone's direction: its branches'
     // weights over Π_i for every light cone they enter through the patch, into acc[light · nλ + k].
-    void trace_quantum(const Vec3d& view, int row, int column, const BranchOptions& options,
+    void trace_quantum(const Vec3d& view, const Start& start, const BranchOptions& options,
                        Rng& rng, std::vector<double>& acc) const {
-        const Vec2 position(-half_ + (column + rng.uniform()) * pixel_,
-                            half_ - (row + rng.uniform()) * pixel_);
-        const Vec3d wo =
-            draw_cone_direction_by_projected_area(view, c_.detector_half_angle_rad, rng);
+        const Vec2 position(-half_ + start.x * pixel_, half_ - start.y * pixel_);
+        const double disc_r = std::sqrt(start.radius_squared), disc_g = 2.0 * kPi * start.turn;
+        const Vec3d wo = cone_direction_by_projected_area(
+            view, c_.detector_half_angle_rad, disc_r * std::cos(disc_g), disc_r * std::sin(disc_g));
         std::array<SpectralScatterEvent, PathTracing::kMaxBranches> events;
         // Not zeroed: every returned branch's weights are written (sim/scatterer/scatterer.h); 4 KB
         // a quantum.
@@ -330,7 +378,7 @@ private:
     const std::vector<std::vector<std::size_t>>& views_;
     std::size_t nl_;
     double half_, pixel_, cos_alpha_, projected_;
-    std::vector<std::uint64_t> seeds_;
+    std::vector<std::uint64_t> seeds_, strata_seeds_;
     std::uint64_t pass_ = 0;
 };
 
@@ -342,14 +390,17 @@ double power_weighted_error(const BtfRecord& r) {
     return signal > 0.0 ? error / signal : std::numeric_limits<double>::infinity();
 }
 
-// Σx, Σx² per cell → mean and its standard error over the pixel's n quanta.
-void finish_detector_pixels(BtfRecord& r, double n) {
+// Σx, Σx² per cell over its groups' sums x (of `group` quanta each) → the mean per quantum and
+// its standard error from the spread of the pixel's n / group independent group means.
+void finish_detector_pixels(BtfRecord& r, double n, double group) {
+    const double groups = n / group;
     for (std::size_t i = 0; i < r.value.size(); ++i) {
         const double mean = r.value[i] / n;
+        const double group_mean_sq = r.standard_error[i] / (group * group * groups);
         const double variance =
-            std::max(0.0, r.standard_error[i] / n - mean * mean) * n / (n - 1.0);
+            std::max(0.0, group_mean_sq - mean * mean) * groups / (groups - 1.0);
         r.value[i] = mean;
-        r.standard_error[i] = std::sqrt(variance / n);
+        r.standard_error[i] = std::sqrt(variance / groups);
     }
 }
 
@@ -402,7 +453,8 @@ public:
         PassEstimate e;
         e.quanta = static_cast<std::uint64_t>(passes) * r_.config.quanta_per_pixel;
         estimate_ = r_;
-        finish_detector_pixels(estimate_, static_cast<double>(e.quanta));
+        finish_detector_pixels(estimate_, static_cast<double>(e.quanta),
+                               static_cast<double>(r_.config.stratified_group));
         e.relative_error = power_weighted_error(estimate_);
         e.pixel_error = median_lit_pixel_error(estimate_);
         return e;
@@ -428,6 +480,9 @@ std::string canonical(const BtfConfig& c, const std::string& scatterer) {
     std::string s =
         fmt::format("{}|{:.17g}|{}|{:.17g}|{}|{}|{}|", scatterer, c.patch_size_um, c.pixels,
                     c.detector_half_angle_rad, c.quanta_per_pixel, c.seed, to_string(c.aperture));
+    // Independent quanta keep the canonical text they had before groups existed, so that their
+    // checkpoints still resume.
+    if (c.stratified_group != 1) s += fmt::format("group {}|", c.stratified_group);
     for (double l : c.wavelengths_nm) s += fmt::format("{:.17g},", l);
     for (const auto& p : c.pairs) {
         s += fmt::format("{:.17g},{:.17g},{:.17g},{:.17g},{:.17g},{:.17g};", p.wi.x(), p.wi.y(),
@@ -592,6 +647,8 @@ void write_btf_record(const BtfRecord& r, const std::filesystem::path& path) {
         // Per pass; the passes taken are /convergence's rows.
         h5.set_attribute("/instrument", "quanta_per_view_and_pixel",
                          static_cast<double>(c.quanta_per_pixel));
+        h5.set_attribute("/instrument", "stratified_group",
+                         static_cast<double>(c.stratified_group));
         h5.set_attribute("/instrument", "max_passes", static_cast<double>(c.max_passes));
         h5.set_attribute("/instrument", "target_pixel_error", c.target_pixel_error);
         h5.set_attribute("/instrument", "max_time_s", c.max_time_s);

@@ -35,8 +35,18 @@
 //    connection of a bidirectional estimator. A collimated light (view_cone) cannot be reached
 //    by a walk from the detector through mirror-like events, so that aperture keeps the forward
 //    estimator.
+// Stratified groups (detector estimator, stratified_group = G > 1): a pixel's quanta come in
+// groups of G whose start points on the pixel's square and directions in C_o are the points of
+// one scrambled Sobol group (sim/scatterer/stratified.h: exactly uniform each, so unbiased, and
+// spread evenly over the square and the cone together). A pixel's edge of a highlight, a
+// barbule's rim and the light cone's rim then cost less noise than with independent starts; the
+// walk beyond the start draws from the quantum's own stream as before. Group g of pixel item
+// (as below) draws its scramble from Rng(derive_seed(seed, "btf/detector-strata", view),
+// item × groups + g).
 // Standard errors: forward, Σx² / per-pixel share (sparse hits); detector, the sample variance
-// over each pixel's N_p quanta (a quantum's branches added before squaring).
+// over each pixel's N_p quanta (a quantum's branches added before squaring), or with stratified
+// groups over its N_p / G group means (the groups are independent; the quanta within one are
+// not, and their spread would overstate the error).
 // Analytic models have no spatial structure (they return the entry point): their images
 // are flat, which is the comparison a BTF makes visible. They have no detector-side walk.
 #pragma once
@@ -72,6 +82,9 @@ struct BtfConfig {
     // Detector estimator: per view direction, pixel and pass (all wavelengths on one shared
     // path).
     std::uint64_t quanta_per_pixel = 1000;
+    // Detector estimator: quanta per stratified group (see "Stratified groups" above), a power of
+    // two 1 … 4096 that divides quanta_per_pixel; 1: independent quanta.
+    std::uint64_t stratified_group = 1;
     // The detector estimator's stop rule: passes of quanta_per_pixel each, every pass on its own
     // streams, until the median per-pixel error over the lit pixels (median_lit_pixel_error) is
     // at most target_pixel_error, or max_passes are done, or another pass would end after

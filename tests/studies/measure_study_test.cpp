@@ -168,8 +168,9 @@ TEST(MeasureStudy, BadSamplesAreRefusedNamingTheKey) {
 }
 
 // [btf] is read by the BTF camera's shared reader (studies/instrument_tables.h): the measure
-// study images with the detector-side estimator in passes, as the species study does, and
-// refuses the detector walk under collimated light naming the key.
+// study images with the detector-side estimator in passes and stratified groups, as the species
+// study does, and refuses the detector walk under collimated light or a group that does not
+// divide the quanta, naming the key.
 TEST(MeasureStudy, BtfTableTakesTheDetectorEstimatorAndItsPasses) {
     const fs::path source = fs::path(PLUMAGE_SOURCE_DIR) / "studies" / "measure_test.toml";
     const std::string base =
@@ -183,7 +184,13 @@ TEST(MeasureStudy, BtfTableTakesTheDetectorEstimatorAndItsPasses) {
         refused.find("measure_test.toml:16:13: [btf] estimator = \"detector\" needs aperture"),
         std::string::npos)
         << refused;
-    const std::string text = base + "aperture = \"both_cones\"\n";
+    const std::string odd_group = testing::input_error_message(
+        [&] { check_study(base + "aperture = \"both_cones\"\nstratified_group = 48\n", source); });
+    EXPECT_NE(odd_group.find("[btf] stratified_group = 48: expected a power of two that divides "
+                             "quanta_per_pixel (400)"),
+              std::string::npos)
+        << odd_group;
+    const std::string text = base + "aperture = \"both_cones\"\nstratified_group = 16\n";
     const fs::path root =
         fs::temp_directory_path() / fmt::format("plumage_measure_btf_{}", ::getpid());
     fs::remove_all(root);
@@ -191,6 +198,7 @@ TEST(MeasureStudy, BtfTableTakesTheDetectorEstimatorAndItsPasses) {
     const fs::path h5 = root / "btf_detector" / "btf.h5";
     EXPECT_EQ(record::read_string_attribute(h5, "/instrument", "estimator"), "detector");
     EXPECT_EQ(record::read_dataset(h5, "convergence").dims.at(0), 3u);  // max_passes, no target
+    EXPECT_EQ(record::read_number_attribute(h5, "/instrument", "stratified_group"), 16.0);
     // A Lambertian plate images as ρ/π in every pixel, within the Monte Carlo error.
     const record::Dataset value = record::read_dataset(h5, "btf/value");
     const record::Dataset error = record::read_dataset(h5, "btf/standard_error");

@@ -57,16 +57,18 @@ inline void expect_agreement(const Agreement& a, const std::string& what, int mi
     ::testing::Test::RecordProperty(what + "_max_z", std::to_string(a.max_z));
 }
 
-// The same configuration measured both ways.
+// The same configuration measured both ways (the detector's quanta in stratified groups of
+// `group`, virtual_gonio/btf.h).
 inline void expect_estimators_agree(const Scatterer& scatterer, BtfConfig c,
                                     std::uint64_t per_light, std::uint64_t per_pixel,
-                                    const std::string& what, int min_dof) {
+                                    const std::string& what, int min_dof, std::uint64_t group = 1) {
     c.quanta_per_light = per_light;
     c.quanta_per_pixel = per_pixel;
     c.seed = 7;
     c.estimator = BtfEstimator::forward;
     const BtfRecord forward = measure_btf(scatterer, c);
     c.estimator = BtfEstimator::detector;
+    c.stratified_group = group;
     const BtfRecord detector = measure_btf(scatterer, c);
     ::testing::Test::RecordProperty(what + "_forward_s", std::to_string(forward.wall_time_s));
     ::testing::Test::RecordProperty(what + "_detector_s", std::to_string(detector.wall_time_s));
