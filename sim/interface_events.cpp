@@ -225,13 +225,36 @@ InterfaceEvent dielectric_event(const Vec3d& direction, const SurfaceNormals& no
                   EventKind::specular_reflect, EventKind::refract, rng);
 }
 
-SpecularRegime specular_regime(const Vec3d& direction, const SurfaceNormals& normals,
-                               double outside, double inside) {
+bool specular_regimes_agree(const Vec3d& direction, const SurfaceNormals& normals,
+                            std::span<const double> outside, std::span<const double> inside) {
+    // specular_geometry()'s decisions, per index ratio η, without building the directions: the
+    // shading normal is kept when its reflection leaves above the facet (η plays no part) and
+    // its transmitted direction, where there is one, goes below it; the sign of
+    // t·f = η (d·f) + (η cos θ_s − cos θ_t)(n_s·f) is that of the normalised direction's.
     const Incidence in = incidence(direction, normals);
-    const double n_in = in.from_outside ? outside : inside;
-    const double n_out = in.from_outside ? inside : outside;
-    const SpecularGeometry g = specular_geometry(direction, in.shading, in.facet, n_in / n_out);
-    return {g.geometric, g.can_transmit};
+    const double d_f = direction.dot(in.facet), cos_g = -d_f;
+    const double cos_s = -direction.dot(in.shading), n_f = in.shading.dot(in.facet);
+    const bool shading_reflects = cos_s > 0.0 && reflect(direction, in.shading).dot(in.facet) > 0.0;
+    // Regime code: bit 0 the geometric normal, bit 1 transmission possible.
+    auto regime = [&](double eta) {
+        if (shading_reflects) {
+            if (eta == 1.0) return 2;  // straight on: below the facet
+            const double sin2_t = eta * eta * std::max(0.0, 1.0 - cos_s * cos_s);
+            if (sin2_t >= 1.0) return 0;
+            const double cos_t = std::sqrt(1.0 - sin2_t);
+            if (eta * d_f + (eta * cos_s - cos_t) * n_f < 0.0) return 2;
+        }
+        const double sin2_g = eta * eta * std::max(0.0, 1.0 - cos_g * cos_g);
+        return eta == 1.0 || sin2_g < 1.0 ? 3 : 1;
+    };
+    int first = -1;
+    for (std::size_t k = 0; k < outside.size(); ++k) {
+        const double eta = in.from_outside ? outside[k] / inside[k] : inside[k] / outside[k];
+        const int r = regime(eta);
+        if (first < 0) first = r;
+        if (r != first) return false;
+    }
+    return true;
 }
 
 InterfaceEvent diffuse_event(const Vec3d& direction, const SurfaceNormals& normals, double albedo,

@@ -140,17 +140,16 @@ InterfaceEvent dielectric_event(const Vec3d& direction, const SurfaceNormals& no
                                 double outside, double inside, const FilmResponseSource& source,
                                 Rng& rng);
 
-// What of a specular event's geometry the index ratio decides: whether light can be
-// transmitted (not beyond the critical angle) and, through the transmitted direction, whether the
-// shading normal is kept (see "Conventions"). Wavelengths whose regimes agree reflect about one
-// normal, at one cos θ, into one direction; only their transmitted directions differ.
-struct SpecularRegime {
-    bool geometric_normal;
-    bool can_transmit;
-    bool operator==(const SpecularRegime&) const = default;
-};
-SpecularRegime specular_regime(const Vec3d& direction, const SurfaceNormals& normals,
-                               double outside, double inside);
+// Whether every wavelength's specular event at this hit has one regime: the same normal kept (the
+// shading normal is rejected where a direction it gives leaves on the wrong side, see
+// "Conventions", and the transmitted direction depends on the index ratio) and light able to be
+// transmitted at all of them or at none (the critical angle). Wavelengths with one regime reflect
+// about one normal, at one cos θ, into one direction; only their transmitted directions differ.
+// outside[k], inside[k]: the real parts of the indices at wavelength k (geometry uses the real
+// parts, as the events do). A few multiplications and one square root per wavelength: it is
+// asked at every event of a shared path on a dispersive surface.
+bool specular_regimes_agree(const Vec3d& direction, const SurfaceNormals& normals,
+                            std::span<const double> outside, std::span<const double> inside);
 
 // Lambertian reflection with the given albedo, on whichever side the light arrives.
 // Cosine-distributed about the geometric normal: a diffuse layer has no preferred

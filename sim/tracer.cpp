@@ -755,16 +755,14 @@ private:
     // they reflect alike, and only a transmission needs the hero (tracer.h, "Reflection stays
     // shared").
     bool regimes_agree(const SurfaceHit& hit, bool film) const {
-        auto regime = [&](const Spectral::Surface& s) {
-            return film ? specular_regime(st_.direction, hit.normals, s.film.outside.real(),
-                                          s.film.inside.real())
-                        : specular_regime(st_.direction, hit.normals, s.outside.real(),
-                                          s.inside.real());
-        };
-        const SpecularRegime hero = regime(hs_.surfaces[hit.surface]);
-        for (std::size_t k = 0; k < n_; ++k)
-            if (k != st_.hero && !(regime(set_.at[k]->surfaces[hit.surface]) == hero)) return false;
-        return true;
+        std::array<double, kMaxSharedWavelengths> outside, inside;
+        for (std::size_t k = 0; k < n_; ++k) {
+            const Spectral::Surface& s = set_.at[k]->surfaces[hit.surface];
+            outside[k] = (film ? s.film.outside : s.outside).real();
+            inside[k] = (film ? s.film.inside : s.inside).real();
+        }
+        return specular_regimes_agree(st_.direction, hit.normals, std::span(outside.data(), n_),
+                                      std::span(inside.data(), n_));
     }
 
     // A shared choice's weights: each λ R_k/p̄ on reflection, T_k/(1 − p̄) on transmission, times

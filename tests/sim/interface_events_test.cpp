@@ -234,6 +234,41 @@ TEST(InterfaceEvents, ShadingNormalFallsBackWhenItWouldCrossTheFacet) {
     EXPECT_FALSE(e.used_geometric_normal);
 }
 
+// specular_regimes_agree (the tracer's test for keeping a reflection shared across wavelengths)
+// makes the same decisions as the events themselves: over random directions from both sides and
+// shading normals up to ~30° off the facet, two indices agree exactly when dielectric_event keeps
+// the same normal and reaches total internal reflection alike at both. The indices (1.45 and 1.65)
+// are far apart so that both answers are common.
+TEST(InterfaceEvents, RegimesAgreeExactlyWhenTheEventsDecideAlike) {
+    const std::array<double, 2> outside = {1.0, 1.0}, inside = {1.45, 1.65};
+    Rng rng(19, 0);
+    int agreeing = 0, differing = 0;
+    for (int i = 0; i < 200'000; ++i) {
+        const double z = 2.0 * rng.uniform() - 1.0, phi = 2.0 * kPi * rng.uniform();
+        if (std::abs(z) < 1e-6) continue;
+        const double r = std::sqrt(1.0 - z * z);
+        const Vec3d d(r * std::cos(phi), r * std::sin(phi), z);
+        const SurfaceNormals normals{
+            Vec3d(0.6 * (2.0 * rng.uniform() - 1.0), 0.6 * (2.0 * rng.uniform() - 1.0), 1.0)
+                .normalized(),
+            Vec3d::UnitZ()};
+        Rng event_rng(1, 1);
+        const InterfaceEvent a =
+            dielectric_event(d, normals, Complex(outside[0]), Complex(inside[0]), event_rng);
+        const InterfaceEvent b =
+            dielectric_event(d, normals, Complex(outside[1]), Complex(inside[1]), event_rng);
+        const bool alike = a.used_geometric_normal == b.used_geometric_normal &&
+                           (a.kind == EventKind::total_internal_reflection) ==
+                               (b.kind == EventKind::total_internal_reflection);
+        ASSERT_EQ(specular_regimes_agree(d, normals, outside, inside), alike)
+            << "direction " << d.transpose() << ", shading " << normals.shading.transpose();
+        (alike ? agreeing : differing) += 1;
+    }
+    EXPECT_GT(differing, 1000);
+    EXPECT_GT(agreeing, 100'000);
+    RecordProperty("differing", std::to_string(differing));
+}
+
 TEST(InterfaceEvents, DiffuseIsCosineDistributedOnTheIncidenceSide) {
     constexpr int kDraws = 200'000;
     for (bool from_above : {true, false}) {

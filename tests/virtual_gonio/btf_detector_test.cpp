@@ -6,7 +6,8 @@
 // Lambertian plate (closed form ρ/π, the guided branch towards the light cones), a coarsely
 // faceted keratin sphere (refraction and reflection about shading normals up to 20° from the
 // facets': without the walk's shading correction its pixels are off by tens of per cent), the
-// rock-dove barbule row (films in air over melanin) and a scattering slab (a medium's flights).
+// rock-dove barbule row (films in air over melanin), a dispersive keratin sphere at three
+// wavelengths and a scattering slab (a medium's flights).
 #include <omp.h>
 
 #include <array>
@@ -124,6 +125,21 @@ TEST(BtfDetector, AgreesWithTheForwardWalkOnAFacetedKeratinSphere) {
             c.pairs.push_back({from_angles(theta, phi), from_angles(20.0, 0.0)});
     c.wavelengths_nm = {550.0};
     expect_estimators_agree(sphere, c, 300000, 40000, "faceted_sphere", 15);
+}
+
+// A dispersive sphere: keratin's n(λ) at 450, 550 and 650 nm, smooth (shading normals), so the
+// shared path reflects for every λ and refracts for its hero alone (sim/tracer.h, "Reflection
+// stays shared"), on the detector's walk and the forward one alike; with stratified starts.
+TEST(BtfDetector, AgreesWithTheForwardWalkOnADispersiveSphere) {
+    const sim::ExplicitScatterer sphere(
+        sim::single_mesh_scene(testing::sphere_mesh(10.0, 4),
+                               sim::dielectric_interface(optics::keratin()), "keratin sphere"));
+    BtfConfig c = small_btf(24.0, 4);
+    c.pairs.clear();
+    for (double theta : {20.0, 45.0, 65.0})
+        for (double phi = 0.0; phi < 360.0; phi += 60.0)
+            c.pairs.push_back({from_angles(theta, phi), from_angles(20.0, 0.0)});
+    expect_estimators_agree(sphere, c, 300000, 40960, "dispersive_sphere", 15, 64);
 }
 
 TEST(BtfDetector, AgreesWithTheForwardWalkOnAFlatFilm) {
