@@ -47,14 +47,14 @@
 //    factor for all.
 //  - Reflection stays shared: a film or a bare interface whose indices differ with λ (keratin's
 //    n(λ), a film over melanin) reflects every λ into the same direction when their events have
-//    one regime (sim/interface_events.h, specular_regime: the same normal kept, light able to be
-//    transmitted at every λ or at none). The shared path then chooses the side as above, with
+//    one regime (specular_regimes_agree, sim/interface_events.h: the same normal kept, light
+//    able to pass at every λ or at none). The shared path then chooses the side as above, with
 //    p̄ = (1/N) Σ R_k/(R_k+T_k) (Fresnel's for a bare interface) and w_k ×= R_k/p̄ or
 //    T_k/(1 − p̄), and only a transmission goes on with the hero (below), whose own refraction
 //    it takes; where the regimes differ (near a λ's critical angle) the hero takes the event
 //    itself. Unbiased for each λ as both rules are. Why: the rooster's barbules are a film over
 //    melanin; the hero used to take every event there, so each reflected path served one λ of
-//    three. Its BTF's median per-pixel error at equal quanta fell from 23.8 % to 18.5 % (20 %
+//    three. Its BTF's median per-pixel error at equal quanta fell from 23.8 % to 18.5 % (10–20 %
 //    more time per quantum for the other λs' film responses); the parrot's 23.2 % → 20.3 %.
 //  - an absorbing (non-scattering) medium along a segment: w_k ×= exp(−μ_k d).
 //  - where the geometry depends on λ — refraction into a dispersive medium (keratin's n(λ)

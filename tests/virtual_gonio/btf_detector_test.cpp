@@ -111,35 +111,36 @@ TEST(BtfDetector, PassesStopOnTheMedianPixelRule) {
     EXPECT_EQ(measure_btf(plate, c).convergence.size(), 1u);
 }
 
-TEST(BtfDetector, AgreesWithTheForwardWalkOnAFacetedKeratinSphere) {
-    // 128 facets: shading normals up to ~20° from the facets' normals.
-    const sim::ExplicitScatterer sphere(
-        sim::single_mesh_scene(testing::sphere_mesh(10.0, 2),
+// A keratin sphere of radius 10 µm, subdivided `level` times, and one view with 18 lights round
+// it (θ 20°, 45°, 65° at every 60° of azimuth): a sphere sends each light into a view cone from
+// a small part of the patch only.
+sim::ExplicitScatterer keratin_sphere(int level) {
+    return sim::ExplicitScatterer(
+        sim::single_mesh_scene(testing::sphere_mesh(10.0, level),
                                sim::dielectric_interface(optics::keratin()), "keratin sphere"));
-    // One view, 18 lights round it (θ 20°, 45°, 65° at every 60° of azimuth), one wavelength:
-    // a sphere sends each light into a view cone from a small part of the patch only.
+}
+BtfConfig lights_round_one_view() {
     BtfConfig c = small_btf(24.0, 4);
     c.pairs.clear();
     for (double theta : {20.0, 45.0, 65.0})
         for (double phi = 0.0; phi < 360.0; phi += 60.0)
             c.pairs.push_back({from_angles(theta, phi), from_angles(20.0, 0.0)});
+    return c;
+}
+
+TEST(BtfDetector, AgreesWithTheForwardWalkOnAFacetedKeratinSphere) {
+    // 128 facets: shading normals up to ~20° from the facets' normals; one wavelength.
+    BtfConfig c = lights_round_one_view();
     c.wavelengths_nm = {550.0};
-    expect_estimators_agree(sphere, c, 300000, 40000, "faceted_sphere", 15);
+    expect_estimators_agree(keratin_sphere(2), c, 300000, 40000, "faceted_sphere", 15);
 }
 
 // A dispersive sphere: keratin's n(λ) at 450, 550 and 650 nm, smooth (shading normals), so the
 // shared path reflects for every λ and refracts for its hero alone (sim/tracer.h, "Reflection
 // stays shared"), on the detector's walk and the forward one alike; with stratified starts.
 TEST(BtfDetector, AgreesWithTheForwardWalkOnADispersiveSphere) {
-    const sim::ExplicitScatterer sphere(
-        sim::single_mesh_scene(testing::sphere_mesh(10.0, 4),
-                               sim::dielectric_interface(optics::keratin()), "keratin sphere"));
-    BtfConfig c = small_btf(24.0, 4);
-    c.pairs.clear();
-    for (double theta : {20.0, 45.0, 65.0})
-        for (double phi = 0.0; phi < 360.0; phi += 60.0)
-            c.pairs.push_back({from_angles(theta, phi), from_angles(20.0, 0.0)});
-    expect_estimators_agree(sphere, c, 300000, 40960, "dispersive_sphere", 15, 64);
+    expect_estimators_agree(keratin_sphere(4), lights_round_one_view(), 300000, 40960,
+                            "dispersive_sphere", 15, 64);
 }
 
 TEST(BtfDetector, AgreesWithTheForwardWalkOnAFlatFilm) {
