@@ -75,19 +75,21 @@ sim::ExplicitScatterer white_plate() {
         testing::square_mesh(200.0), sim::diffuse_layer(sim::constant_albedo(0.6)), "plate"));
 }
 
-TEST(BtfDetector, LambertianPlateImagesAsAlbedoOverPi) {
-    const sim::ExplicitScatterer plate = white_plate();
+// The plate imaged from each pixel: 8 × 8 px over 40 µm, `quanta` per pixel and pass.
+BtfConfig plate_from_each_pixel(std::uint64_t quanta) {
     BtfConfig c = small_btf(40.0, 8);
     c.estimator = BtfEstimator::detector;
-    c.quanta_per_pixel = 4000;
-    expect_plate_values(measure_btf(plate, c), "plate");
+    c.quanta_per_pixel = quanta;
+    return c;
+}
+
+TEST(BtfDetector, LambertianPlateImagesAsAlbedoOverPi) {
+    expect_plate_values(measure_btf(white_plate(), plate_from_each_pixel(4000)), "plate");
 }
 
 TEST(BtfDetector, PassesStopOnTheMedianPixelRule) {
     const sim::ExplicitScatterer plate = white_plate();
-    BtfConfig c = small_btf(40.0, 8);
-    c.estimator = BtfEstimator::detector;
-    c.quanta_per_pixel = 1000;
+    BtfConfig c = plate_from_each_pixel(1000);
     c.max_passes = 4;
     const BtfRecord four = measure_btf(plate, c);
     ASSERT_EQ(four.convergence.size(), 4u);
@@ -247,12 +249,9 @@ TEST(BtfDetector, DetectorWalkConservesEnergyInAWhiteFurnace) {
 // edges. The plate checks value and error against its closed form; the film and the rock-dove
 // row (highlights bounded by the cones' rims and the barbules' edges) against the forward walk.
 TEST(BtfDetector, StratifiedGroupsImageThePlateAsAlbedoOverPi) {
-    const sim::ExplicitScatterer plate = white_plate();
-    BtfConfig c = small_btf(40.0, 8);
-    c.estimator = BtfEstimator::detector;
-    c.quanta_per_pixel = 4096;
+    BtfConfig c = plate_from_each_pixel(4096);
     c.stratified_group = 64;
-    expect_plate_values(measure_btf(plate, c), "stratified_plate");
+    expect_plate_values(measure_btf(white_plate(), c), "stratified_plate");
 }
 
 TEST(BtfDetector, StratifiedGroupsAgreeWithTheForwardWalkOnAFlatFilm) {
