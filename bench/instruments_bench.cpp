@@ -110,8 +110,10 @@ BENCHMARK(BM_ProjectedTimeTo1PercentExplicitRockDove3660)->Iterations(1)->Unit(b
 // lobes), the 3660-pair set, detector 5° (view cone); one path per quantum and
 // wavelength (separate, arg 0) against one path per quantum for all seven (shared, arg 1),
 // shared and split at the first film (arg 2), split with guided diffuse reflection, f = 0.5
-// (arg 3) or 0.8 (arg 4), and split with 1 or 2 guided diffuse branches at the first diffuse
-// event (args 5, 6) (sim/tracer.h), on 1 or 2 threads (second arg). Each runs passes of 2000
+// (arg 3) or 0.8 (arg 4), split with 1 or 2 guided diffuse branches at the first diffuse
+// event (args 5, 6) (sim/tracer.h), and split with the lights connected to detector-side walks
+// (arg 7: GoniometerConfig::connect_lights, 320 walks per view a pass), on 1 or 2 threads (second
+// arg). Each runs passes of 2000
 // quanta per light direction for a budget of kBudgetS, then projects t(1 %) = t · (ε / 1 %)² from
 // the last pass. ε is the relative RMS standard error over the cells that carry signal: value ≥ 10
 // % of the mean of the cells at its wavelength (GoniometerConfig::signal_fraction; the record
@@ -121,8 +123,9 @@ void BM_RockDoveSpectral3660(benchmark::State& state) {
     constexpr double kBudgetS = 40.0;
     const bool shared = state.range(0) != 0, split = state.range(0) >= 2;
     const double guided = state.range(0) == 3 ? 0.5 : state.range(0) == 4 ? 0.8 : 0.0;
+    const bool connect = state.range(0) == 7;
     const std::size_t branches =
-        state.range(0) >= 5 ? static_cast<std::size_t>(state.range(0) - 4) : 0;
+        state.range(0) >= 5 && !connect ? static_cast<std::size_t>(state.range(0) - 4) : 0;
     const int threads = static_cast<int>(state.range(1));
     const sim::ExplicitScatterer patch = rock_dove_patch();
     GoniometerConfig c = rock_dove_config();
@@ -131,6 +134,10 @@ void BM_RockDoveSpectral3660(benchmark::State& state) {
     c.split_paths = split;
     c.guided_fraction = guided;
     c.guided_branches = branches;
+    c.connect_lights = connect;
+    // A tenth … a sixth of the walks per view: the split that minimises (Σ over the halves of
+    // √(variance per quantum × cost per quantum))², from a run with 2000 of each (bench/README.md).
+    c.connected_quanta_per_pass = 320;
     c.signal_fraction = 0.1;
     c.quanta_per_pass = 2000;
     c.max_passes = 100000;
@@ -141,7 +148,8 @@ void BM_RockDoveSpectral3660(benchmark::State& state) {
     for (auto _ : state) r = measure_brdf(patch, c);
     omp_set_num_threads(before);
     const double error = r.convergence.back().estimated_relative_rms_error;
-    const std::string kind = branches > 0   ? fmt::format("branches{}", branches)
+    const std::string kind = connect        ? std::string("connected")
+                             : branches > 0 ? fmt::format("branches{}", branches)
                              : guided > 0.0 ? fmt::format("guided{:.0f}", 100 * guided)
                              : split        ? std::string("split")
                              : shared       ? std::string("shared")
@@ -177,6 +185,7 @@ BENCHMARK(BM_RockDoveSpectral3660)
     ->Args({4, 2})
     ->Args({5, 2})
     ->Args({6, 2})
+    ->Args({7, 2})
     ->Iterations(1)
     ->Unit(benchmark::kSecond)
     ->UseRealTime();

@@ -167,6 +167,11 @@ InterfaceEvent thin_film_event(const Vec3d& direction, const SurfaceNormals& nor
     return choose(g, in.from_outside, r, EventKind::film_reflect, EventKind::film_transmit, rng);
 }
 
+FilmIncidence film_incidence(const Vec3d& direction, const SurfaceNormals& normals, double eta) {
+    const Incidence in = incidence(direction, normals);
+    return {in.from_outside, specular_geometry(direction, in.shading, in.facet, eta).cos_i};
+}
+
 InterfaceEvent thin_film_event(const Vec3d& direction, const SurfaceNormals& normals,
                                const FilmOptics& film, double lambda_nm, Rng& rng) {
     return thin_film_event(direction, normals, film, DirectFilmResponse(film, lambda_nm), rng);

@@ -127,6 +127,18 @@ InterfaceEvent thin_film_event(const Vec3d& direction, const SurfaceNormals& nor
 InterfaceEvent thin_film_event(const Vec3d& direction, const SurfaceNormals& normals,
                                const FilmOptics& film, double lambda_nm, Rng& rng);
 
+// Where thin_film_event evaluates a film for light along `direction`: the side it arrives from
+// and cos θ about the normal the event accepts ("Conventions": the shading normal, or the
+// geometric one where the shading normal is rejected); eta = n_incident / n_transmitted (the
+// film's outside and inside indices' real parts). A connection to a light through a film with one
+// medium on both sides (sim/tracer.h, "Connections to collimated lights") weighs by the film's T
+// there, which is the expectation of the event's factor on the transmitted side.
+struct FilmIncidence {
+    bool from_outside;
+    double cos_i;
+};
+FilmIncidence film_incidence(const Vec3d& direction, const SurfaceNormals& normals, double eta);
+
 // Bare dielectric interface between the outside and inside media: unpolarised Fresnel
 // reflection or refraction; total internal reflection when no refracted direction exists.
 InterfaceEvent dielectric_event(const Vec3d& direction, const SurfaceNormals& normals,

@@ -259,6 +259,11 @@ struct ExplicitScatterer::SpectralSet {
     std::vector<char> film_shared, dielectric_shared;
     // Per surface and side (0 outside, 1 inside): a medium that scatters at some λ.
     std::vector<std::array<char, 2>> scatters;
+    // Per surface and side: no medium at any λ (a flight there is straight and lossless).
+    std::vector<std::array<char, 2>> no_medium;
+    // Per surface: a film with one material on both sides and no medium at any λ, which light
+    // passes without turning ("Connections to collimated lights", tracer.h).
+    std::vector<char> film_straight;
 };
 
 const ExplicitScatterer::SpectralSet& ExplicitScatterer::spectral_set(
@@ -278,6 +283,8 @@ const ExplicitScatterer::SpectralSet& ExplicitScatterer::spectral_set(
     set.film_shared.assign(surfaces, 1);
     set.dielectric_shared.assign(surfaces, 1);
     set.scatters.assign(surfaces, {0, 0});
+    set.no_medium.assign(surfaces, {1, 1});
+    set.film_straight.assign(surfaces, 1);
     auto scatters = [](const Medium* m) {
         return m != nullptr && dynamic_cast<const HomogeneousAbsorbingMedium*>(m) == nullptr;
     };
@@ -293,7 +300,12 @@ const ExplicitScatterer::SpectralSet& ExplicitScatterer::spectral_set(
                 set.dielectric_shared[i] = 0;
             set.scatters[i][0] = set.scatters[i][0] || scatters(s.medium_outside);
             set.scatters[i][1] = set.scatters[i][1] || scatters(s.medium_inside);
+            if (s.medium_outside != nullptr) set.no_medium[i][0] = 0;
+            if (s.medium_inside != nullptr) set.no_medium[i][1] = 0;
+            if (s.kind != Spectral::Kind::film || s.film.outside != s.film.inside)
+                set.film_straight[i] = 0;
         }
+        if (!set.no_medium[i][0] || !set.no_medium[i][1]) set.film_straight[i] = 0;
     }
     last = {id_, std::move(set)};
     return last.set;
@@ -570,12 +582,18 @@ PathResult ExplicitScatterer::trace_spectral(const Vec3d& wi, std::span<const do
 // One shared walk of walk_spectral() (tracer.h: spectral path sharing, splitting, guided diffuse
 // branches, detector-side walks): the state it carries between events and one function per step,
 // called in the order the walk takes them.
+// A connected walk's lights and where its connections go (trace_connected()).
+struct ExplicitScatterer::Connections {
+    std::span<const Vec3d> lights;
+    LightConnectionSink* sink = nullptr;
+};
+
 class ExplicitScatterer::SpectralWalk {
 public:
     SpectralWalk(const ExplicitScatterer& tracer, const SpectralSet& set,
                  std::span<const double> lambdas_nm, std::span<double> weights, Rng& rng,
                  FirstFilm first_film, const BranchOptions* guide, PendingBranches* pending,
-                 WalkState& st)
+                 WalkState& st, const Connections* connections = nullptr)
         : t_(tracer),
           set_(set),
           hs_(*set.at[st.hero]),
@@ -598,7 +616,9 @@ public:
                          ? std::cos(guide->detector_half_angle_rad)
                          : 1.0),
           branch_diffuse_(pending != nullptr && guide != nullptr && guide->guided_branches > 0 &&
-                          !guide->detector_axes.empty()) {}
+                          !guide->detector_axes.empty()),
+          leave_lit_(guide != nullptr && guide->leave_lit_diffuse),
+          connections_(connections) {}
 
     // The walk from `first`'s entry hit when given, or from the state's origin, to its end.
     PathResult run(const FirstHit* first) {
@@ -638,7 +658,15 @@ public:
                 path_.reached_max_events = true;
                 return path_;
             }
+            if (surface.kind == Spectral::Kind::diffuse) {
+                const bool side_clear = set_.no_medium[hit->surface][from_outside ? 0 : 1] != 0;
+                // Lit straight from the source: the connections' part (tracer.h).
+                if (leave_lit_ && st_.lit_straight && side_clear) return path_;
+                if (connections_ != nullptr && side_clear) connect_lights(*hit, from_outside);
+            }
             const InterfaceEvent event = surface_event(*hit, forced);
+            st_.lit_straight = st_.lit_straight && event.kind == EventKind::film_transmit &&
+                               set_.film_straight[hit->surface] != 0;
             // A detector-side walk estimates the forward light paths, not their transpose.
             if (adjoint_) scale(adjoint_shading_factor(st_.direction, event, hit->normals));
             if (forked_ > 0) leave_guided_branches(*hit);
@@ -726,6 +754,7 @@ private:
         }
         record(path_, EventKind::medium_scatter);
         ++path_.medium_scatters;
+        st_.lit_straight = false;
         const MediumScatter scatter = medium->scatter(st_.direction, lambda, rng_);
         w_[st_.hero] *= scatter.weight;
         st_.origin += flight.distance_um * st_.direction;
@@ -904,6 +933,77 @@ private:
         return e;
     }
 
+    // Connections to the lights from a diffuse event the walk reached from the detector
+    // (tracer.h, "Connections to collimated lights"); the event itself follows as usual.
+    void connect_lights(const SurfaceHit& hit, bool from_outside) {
+        const Vec3d& g = hit.normals.geometric;
+        const Vec3d side = from_outside ? g : Vec3d(-g);
+        const Vec3d start = t_.scene_->spawn_point(hit, from_outside);
+        // The walk's weights times each λ's albedo / π (0 for the λs a hero walk has left).
+        std::array<double, kMaxSharedWavelengths> base{}, w{};
+        for (std::size_t k = 0; k < n_; ++k) {
+            if (st_.single && k != st_.hero) continue;
+            base[k] = w_[k] * std::clamp(set_.at[k]->surfaces[hit.surface].albedo, 0.0, 1.0) / kPi;
+        }
+        const std::span<const Vec3d> lights = connections_->lights;
+        for (std::size_t j = 0; j < lights.size(); ++j) {
+            const Vec3d& l = lights[j];
+            const double cos_l = l.dot(side);
+            if (!(cos_l > 0.0)) continue;
+            // The ray keeps its direction: where it enters is known before it is cast.
+            const Vec2 entry = exit_point(start, l, t_.top_z_, t_.bottom_z_);
+            if (!connections_->sink->accepts(j, entry)) continue;
+            for (std::size_t k = 0; k < n_; ++k) w[k] = base[k] * cos_l;
+            int films = 0;
+            bool open = false;
+            Vec3d origin = start;
+            PrimitiveRef skip = hit.primitive;
+            for (;;) {
+                const std::optional<SurfaceHit> h = t_.scene_->intersect(origin, l, skip);
+                if (!h) {
+                    open = true;
+                    break;
+                }
+                if (set_.film_straight[h->surface] == 0) break;
+                const double facing = l.dot(h->normals.geometric);
+                if (facing != 0.0) {
+                    // The film as light from the source meets it, travelling along −l.
+                    const FilmIncidence in = film_incidence(-l, h->normals, 1.0);
+                    for (std::size_t k = 0; k < n_; ++k) {
+                        if (!(w[k] > 0.0)) continue;
+                        const FilmResponse r =
+                            set_.at[k]->surfaces[h->surface].film_source->response(in.from_outside,
+                                                                                   in.cos_i);
+                        w[k] *= film_transmitted_factor(r);
+                    }
+                    ++films;
+                    origin = t_.scene_->spawn_point(*h, facing > 0.0);
+                }
+                skip = h->primitive;
+                if (path_.events + 1 + films > t_.options_.max_events) break;
+            }
+            if (!open || path_.events + 1 + films > t_.options_.max_events) continue;
+            int lobe = ExplicitScatterer::kMulti;
+            if (path_.medium_scatters > 0) {
+                lobe = ExplicitScatterer::kVolume;
+            } else if (films == 1 && path_.events == 1 &&
+                       path_.kinds[0] == EventKind::film_transmit) {
+                lobe = ExplicitScatterer::kTRT;
+            }
+            connections_->sink->connect({j, entry, lobe, std::span<const double>(w.data(), n_)});
+        }
+    }
+
+    // The expected factor of a film event's transmitted side: a shared path's T_k (its choice
+    // weighs T_k/(1 − p̄) with probability 1 − p̄), the hero's T_k · min(1, R_k + T_k)/(R_k + T_k)
+    // (interface_events.cpp, choose: it keeps at most all the light).
+    double film_transmitted_factor(const FilmResponse& r) const {
+        const double t = std::max(0.0, r.transmittance);
+        if (!st_.single) return t;
+        const double total = std::max(0.0, r.reflectance) + t;
+        return total > 0.0 ? t * std::min(total, 1.0) / total : 0.0;
+    }
+
     // The guided branches of the first diffuse event wait in pending_, each from this event with
     // its own direction and stream.
     void leave_guided_branches(const SurfaceHit& hit) {
@@ -944,6 +1044,8 @@ private:
     bool guided_, adjoint_;
     double cos_guide_;
     bool branch_diffuse_;
+    bool leave_lit_;                  // BranchOptions::leave_lit_diffuse
+    const Connections* connections_;  // a connected walk's lights, or none
     // The first diffuse event's guided directions (branch_diffuse_): fork_[1 … forked_ − 1].
     std::array<InterfaceEvent, 1 + BranchOptions::kMaxGuidedBranches> fork_;
     std::size_t forked_ = 0;
@@ -967,20 +1069,51 @@ PathResult ExplicitScatterer::walk_spectral(const Vec3d& wi, std::span<const dou
     const SpectralSet& set = spectral_set(lambdas_nm);
     std::fill(weights.begin(), weights.end(), 0.0);
 
-    WalkState st;
-    if (resume != nullptr) {
-        st = *resume;
-    } else {
-        // The hero: the one wavelength that goes on once the path's geometry depends on λ.
-        st.hero = std::min(n - 1, static_cast<std::size_t>(rng.uniform() * static_cast<double>(n)));
-        st.origin = entry_origin(position_um, wi);
-        st.direction = -wi;
-        st.expected = set.at[st.hero]->ambient;
-        std::fill(st.w.begin(), st.w.begin() + static_cast<std::ptrdiff_t>(n), 1.0);
-        st.single = n == 1;
-    }
+    WalkState st = resume != nullptr ? *resume : start_state(set, wi, position_um, n, rng);
     SpectralWalk walk(*this, set, lambdas_nm, weights, rng, first_film, guide, pending, st);
     return walk.run(first);
+}
+
+ExplicitScatterer::WalkState ExplicitScatterer::start_state(const SpectralSet& set, const Vec3d& wi,
+                                                            const Vec2& position_um, std::size_t n,
+                                                            Rng& rng) const {
+    WalkState st;
+    // The hero: the one wavelength that goes on once the path's geometry depends on λ.
+    st.hero = std::min(n - 1, static_cast<std::size_t>(rng.uniform() * static_cast<double>(n)));
+    st.origin = entry_origin(position_um, wi);
+    st.direction = -wi;
+    st.expected = set.at[st.hero]->ambient;
+    std::fill(st.w.begin(), st.w.begin() + static_cast<std::ptrdiff_t>(n), 1.0);
+    st.single = n == 1;
+    return st;
+}
+
+void ExplicitScatterer::trace_connected(const Vec3d& wo, std::span<const double> lambdas_nm,
+                                        const Vec2& position_um, Rng& rng,
+                                        std::span<const Vec3d> lights,
+                                        LightConnectionSink& sink) const {
+    const std::size_t n = lambdas_nm.size();
+    if (n < 1 || n > kMaxSharedWavelengths) {
+        throw InputError(
+            fmt::format("tracer: {} wavelengths for one connected walk: expected 1..{}", n,
+                        kMaxSharedWavelengths));
+    }
+    check_path_request(wo, position_um);
+    for (double l : lambdas_nm) optics::require_wavelength(l);
+    for (const Vec3d& l : lights) {
+        PLUMAGE_CHECK(l.allFinite() && std::abs(l.norm() - 1.0) < 1e-9,
+                      "trace_connected: light directions must be unit vectors");
+    }
+    const SpectralSet& set = spectral_set(lambdas_nm);
+    WalkState st = start_state(set, wo, position_um, n, rng);
+    std::array<double, kMaxSharedWavelengths>
+        escaped{};  // a connected walk's escape counts nothing
+    BranchOptions adjoint;
+    adjoint.adjoint = true;
+    const Connections connections{lights, &sink};
+    SpectralWalk walk(*this, set, lambdas_nm, std::span<double>(escaped.data(), n), rng,
+                      FirstFilm::sampled, &adjoint, nullptr, st, &connections);
+    walk.run(nullptr);
 }
 
 std::vector<std::optional<ScatterEvent>> trace_many(const Scatterer& scatterer, const Vec3d& wi,

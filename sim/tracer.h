@@ -133,6 +133,31 @@
 // radiance kernel; btf.h turns it into pixel values). Tested against the forward walk on faceted
 // spheres, films and media (tests/virtual_gonio/btf_detector_test.cpp).
 //
+// Connections to collimated lights (trace_connected(), BranchOptions::leave_lit_diffuse,
+// sim/scatterer/scatterer.h): next-event estimation at the diffuse events of a detector-side walk.
+// At a diffuse event v reached by the walk from the detector with weights w_k (the adjoint walk
+// above), for each light direction l with cos θ_l = l · n > 0 (n the facet normal on the walk's
+// side) a ray is cast from v towards the light. It may pass films whose outside and inside are the
+// same material with no medium on either side at every λ ("straight" films: the rock dove's
+// keratin sheets in air, which keep a direction), each weighing by its T_k at the cos θ and side
+// that thin_film_event would use for light travelling the other way (film_incidence()); any other
+// surface blocks it. Unblocked, it reports w_k · albedo_k · cos θ_l / π · Π T_k and the point where
+// it crosses the top plane. Why this is the light: a collimated beam of irradiance E⊥ along l
+// lights v through those films with E⊥ cos θ_l Π T_k (the films' T is the expected factor of their
+// transmitted side, both ways), v's Lambertian layer sends albedo/π of it per steradian, and the
+// adjoint weight w carries that radiance to the detector. The forward walk with leave_lit_diffuse
+// ends exactly the paths whose first event after straight films (with no medium on v's lit side)
+// is diffuse, the set these connections cover, so the two halves add to the whole without
+// counting a path twice: a partition of the path space by its first event, the limit of multiple
+// importance sampling whose weights are 0 and 1. It is the right choice here: a path that starts
+// with a diffuse event reaches a 5° detector from the light about 0.3 % of the time, while its
+// connection from the detector is deterministic; paths that start with a film reflection (R, and
+// the chains of specular events between barbules) have no diffuse event to connect at the light
+// and keep the forward walk. The whole path's lobe: TRT when the connection passed one film and
+// the walk one film transmission before v, "volume" after a medium scatter, "multi" otherwise.
+// The walk goes on from each diffuse event by the cosine law; a connection is not made when the
+// whole path would exceed max_events.
+//
 // Leaving out what the scene does not need: a scene without films never evaluates Airy;
 // surfaces whose media do not absorb at λ (k = 0) run no medium code; max_events = 1 (an
 // "R only" request) stops every path at its first event (a path that would meet a second
@@ -228,6 +253,10 @@ public:
     const PathTracing* path_tracing() const override { return this; }
     bool can_split_paths() const override { return true; }
     bool can_trace_adjoint() const override { return true; }
+    bool can_connect_lights() const override { return true; }
+    void trace_connected(const Vec3d& wo, std::span<const double> lambdas_nm,
+                         const Vec2& position_um, Rng& rng, std::span<const Vec3d> lights,
+                         LightConnectionSink& sink) const override;
     std::size_t sample_spectral_branches(const Vec3d& wi, std::span<const double> lambdas_nm,
                                          const Vec2& position_um, Rng& rng,
                                          const BranchOptions& options,
@@ -281,6 +310,9 @@ private:
         bool single = false;
         std::size_t hero = 0;
         bool diffuse_met = false;  // its path has had a diffuse event (guiding acts at the first)
+        // Every event so far a transmission through a straight film, every flight through no
+        // medium ("Connections to collimated lights").
+        bool lit_straight = true;
         PathResult path;
         std::uint64_t stream_seed = 0, stream_item = 0;  // a branch's own stream: Rng(seed, item)
     };
@@ -298,6 +330,10 @@ private:
                              const FirstHit* first, const WalkState* resume = nullptr,
                              PendingBranches* pending = nullptr) const;
     class SpectralWalk;  // walk_spectral()'s state and steps (tracer.cpp)
+    struct Connections;  // what a connected walk connects to (tracer.cpp)
+    // The shared walk's start state for light (or a detector) along −wi entering at position_um.
+    WalkState start_state(const SpectralSet& set, const Vec3d& wi, const Vec2& position_um,
+                          std::size_t n, Rng& rng) const;
     // trace()'s scattering inside a medium after a free flight of distance_um: the event, the
     // new direction and weight; false when the path ends there (max_events, or no weight left).
     bool scatter_in(const Medium& medium, double lambda_nm, double distance_um, Vec3d& origin,

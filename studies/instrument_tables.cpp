@@ -52,6 +52,13 @@ gonio::GoniometerConfig read_goniometer_table(ParameterTable& t, gonio::Goniomet
             "event; set one of them (the other 0)",
             t.location("guided_branches"), t.path(), c.guided_branches, c.guided_fraction));
     }
+    c.connect_lights =
+        t.boolean("connect_lights", c.connect_lights,
+                  "connect detector-side walks to the lights at their diffuse events "
+                  "(true), the quanta keeping the paths that start otherwise");
+    c.connected_quanta_per_pass = static_cast<std::uint64_t>(t.integer(
+        "connected_quanta_per_pass", static_cast<long>(c.connected_quanta_per_pass), 0, 100000000,
+        "detector-side walks per view direction and pass (0: quanta_per_pass)"));
     return c;
 }
 

@@ -21,7 +21,7 @@ struct GoniometerKeys {
     bool beam_radius = false;   // beam_radius_um
     bool aperture = false;      // aperture
     bool path_options = false;  // share_wavelength_paths, split_paths, guided_fraction,
-                                // guided_branches
+                                // guided_branches, connect_lights, connected_quanta_per_pass
 };
 
 // [goniometer] (the measure study: [brdf]), the goniometer (virtual_gonio/goniometer.h):
@@ -38,6 +38,8 @@ struct GoniometerKeys {
 //  | split_paths             |      | true, false              | split at the first film event   |
 //  | guided_fraction         | 1    | [0, 1)                   | diffuse directions aimed        |
 //  | guided_branches         | 1    | [0, 3]                   | aimed branches (or the above)   |
+//  | connect_lights          |      | true, false              | detector walks connect to light |
+//  | connected_quanta_per_pass | 1  | [0, 10⁸]                 | walks per view and pass         |
 gonio::GoniometerConfig read_goniometer_table(ParameterTable& table,
                                               gonio::GoniometerConfig defaults,
                                               const GoniometerKeys& keys);

@@ -38,16 +38,23 @@ std::string guided_description(const gonio::GoniometerConfig& c) {
     return text;
 }
 
+// The detector-side half of a connected measurement (GoniometerConfig::connect_lights).
+std::string connected_description(const gonio::BrdfRecord& r) {
+    return fmt::format(", lights connected to {} detector-side walks per view and pass",
+                       r.config.connected_walks_per_pass());
+}
+
 }  // namespace
 
 MeasurementCost brdf_cost(const std::string& measurement, const gonio::BrdfRecord& r) {
     const bool photon = r.estimator_used == gonio::Estimator::photon;
     const std::string samples =
-        photon ? fmt::format("photon estimator, {} quanta/λ per light × {} pass{}{}{}{}",
+        photon ? fmt::format("photon estimator, {} quanta/λ per light × {} pass{}{}{}{}{}",
                              r.config.quanta_per_pass, r.passes, r.passes == 1 ? "" : "es",
                              r.wavelength_paths_shared ? ", wavelengths sharing paths" : "",
                              r.paths_split ? ", split at the first film" : "",
-                             r.diffuse_guided ? guided_description(r.config) : "")
+                             r.diffuse_guided ? guided_description(r.config) : "",
+                             r.lights_connected ? connected_description(r) : "")
         : r.config.eval_tolerance > 0.0
             ? fmt::format("eval cubature, {}–{} rings per cone until within {:g} %",
                           r.config.eval_rings, r.config.eval_max_rings,

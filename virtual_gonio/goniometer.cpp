@@ -53,6 +53,7 @@ std::string canonical(const GoniometerConfig& c, const std::string& scatterer,
     if (c.split_paths) s += "split_paths|";
     if (c.guided_fraction > 0.0) s += fmt::format("guided={:.17g}|", c.guided_fraction);
     if (c.guided_branches > 0) s += fmt::format("guided_branches={}|", c.guided_branches);
+    if (c.connect_lights) s += fmt::format("connect_lights={}|", c.connected_walks_per_pass());
     for (const auto& p : c.pairs) {
         s += fmt::format("{:.17g},{:.17g},{:.17g},{:.17g},{:.17g},{:.17g};", p.wi.x(), p.wi.y(),
                          p.wi.z(), p.wo.x(), p.wo.y(), p.wo.z());
@@ -60,10 +61,22 @@ std::string canonical(const GoniometerConfig& c, const std::string& scatterer,
     return s;
 }
 
-struct Group {  // pairs sharing one light direction
+struct Group {  // pairs sharing one light direction (or one view direction: group_by_view)
     Vec3d wi;
     std::vector<std::size_t> pairs;
 };
+
+std::vector<Group> group_by_view(const std::vector<DirectionPair>& pairs) {
+    std::vector<Group> groups;
+    std::map<std::array<double, 3>, std::size_t> index;
+    for (std::size_t p = 0; p < pairs.size(); ++p) {
+        const std::array<double, 3> key{pairs[p].wo.x(), pairs[p].wo.y(), pairs[p].wo.z()};
+        auto [it, inserted] = index.emplace(key, groups.size());
+        if (inserted) groups.push_back({pairs[p].wo, {}});
+        groups[it->second].pairs.push_back(p);
+    }
+    return groups;
+}
 
 std::vector<Group> group_by_light(const std::vector<DirectionPair>& pairs) {
     std::vector<Group> groups;
@@ -116,8 +129,9 @@ struct Sums {
 // A work item of the photon estimator: quanta [first, first + count) of one light direction's
 // group and one wavelength (or every wavelength, shared).
 struct PhotonItem {
-    std::size_t group, wavelength;
+    std::size_t group, wavelength;  // connected: the view direction's group, wavelength 0
     std::uint64_t first, count;
+    bool connected = false;  // detector-side walks (connect_lights), not photon quanta
 };
 
 // One quantum's escape: its branches (one without splitting) and their weights, branch-major
@@ -296,6 +310,7 @@ void play_item(const Scatterer& scatterer, const GoniometerConfig& config,
     options.detector_half_angle_rad = config.detector_half_angle_rad;
     options.guided_fraction = config.guided_fraction;
     options.guided_branches = config.guided_branches;
+    options.leave_lit_diffuse = config.connect_lights;
     QuantumEscape escape;
     for (std::uint64_t q = item.first; q < item.first + item.count; ++q) {
         Rng rng(item_seed, q);
@@ -304,6 +319,167 @@ void play_item(const Scatterer& scatterer, const GoniometerConfig& config,
         sample_quantum(scatterer, config, item, wi, position, rng, shared, branched, options,
                        escape);
         detectors.add(escape, acc);
+    }
+}
+
+// Where a view's detector-side walks start (goniometer.h, "connect_lights"): the density p(x)
+// over the top plane, a mixture of the view's lights' widened footprint ellipses and a
+// heavy-tailed density over the whole plane, and draws from it.
+class ConnectedStarts {
+public:
+    static constexpr double kTail = 0.1;  // ε: the share of the heavy-tailed density
+
+    ConnectedStarts(const GoniometerConfig& c, const Group& view)
+        : tail_scale_(2.0 * c.beam_radius_um) {
+        const double r = c.beam_radius_um;
+        for (std::size_t p : view.pairs) {
+            const Vec3d& wi = c.pairs[p].wi;
+            const double across = std::hypot(wi.x(), wi.y());
+            Ellipse e;
+            e.along = across > 0.0 ? Vec2(wi.x() / across, wi.y() / across) : Vec2(1.0, 0.0);
+            e.a = r / wi.z() + r;  // the footprint's semi-axis along the light's azimuth, + d
+            e.b = 2.0 * r;         // across, + d
+            e.density = 1.0 / (kPi * e.a * e.b);
+            ellipses_.push_back(e);
+        }
+    }
+
+    // Three or four numbers from rng.
+    Vec2 draw(Rng& rng) const {
+        if (rng.uniform() < kTail) {
+            // Radius by inverting the tail's radial CDF 1 − s/√(s² + ρ²).
+            const double v = rng.uniform();
+            const double radius =
+                tail_scale_ * std::sqrt(std::max(0.0, 1.0 / ((1.0 - v) * (1.0 - v)) - 1.0));
+            const double angle = 2.0 * kPi * rng.uniform();
+            return {radius * std::cos(angle), radius * std::sin(angle)};
+        }
+        const auto m = static_cast<double>(ellipses_.size());
+        const Ellipse& e =
+            ellipses_[std::min(ellipses_.size() - 1, static_cast<std::size_t>(rng.uniform() * m))];
+        const double rho = std::sqrt(rng.uniform()), angle = 2.0 * kPi * rng.uniform();
+        const double u = e.a * rho * std::cos(angle), w = e.b * rho * std::sin(angle);
+        return {u * e.along.x() - w * e.along.y(), u * e.along.y() + w * e.along.x()};
+    }
+
+    double density(const Vec2& x) const {
+        double inside = 0.0;
+        for (const Ellipse& e : ellipses_) {
+            const double u = x.dot(e.along), w = e.along.x() * x.y() - e.along.y() * x.x();
+            if ((u / e.a) * (u / e.a) + (w / e.b) * (w / e.b) <= 1.0) inside += e.density;
+        }
+        const double s2 = tail_scale_ * tail_scale_;
+        const double tail = tail_scale_ / (2.0 * kPi * std::pow(s2 + x.squaredNorm(), 1.5));
+        return (1.0 - kTail) * inside / static_cast<double>(ellipses_.size()) + kTail * tail;
+    }
+
+private:
+    struct Ellipse {
+        Vec2 along;   // unit, the light's azimuth on the plane
+        double a, b;  // semi-axes along and across, µm
+        double density;
+    };
+    std::vector<Ellipse> ellipses_;
+    double tail_scale_;
+};
+
+// One detector-side walk's connections into the cells of its view (goniometer.h,
+// "connect_lights"): x_j = w / (π r² p(x)) for each connection that enters light j's footprint,
+// summed per light and wavelength (and per lobe) over the walk, then added to play_item's layout.
+class ConnectedCells final : public LightConnectionSink {
+public:
+    ConnectedCells(const GoniometerConfig& c, const Group& view, std::size_t lobes)
+        : config_(c),
+          view_(view),
+          m_(view.pairs.size()),
+          nl_(c.wavelengths_nm.size()),
+          nlobes_(lobes),
+          x_(m_ * nl_, 0.0),
+          lobe_x_(m_ * lobes * nl_, 0.0),
+          touched_(m_, 0) {}
+
+    void begin(double scale) { scale_ = scale; }
+
+    // In the beam: the entry point's offset from the beam's axis (through the origin) across ω_i
+    // at most the beam's radius.
+    bool accepts(std::size_t light, const Vec2& entry_position_um) const override {
+        const Vec3d& wi = config_.pairs[view_.pairs[light]].wi;
+        const Vec3d y(entry_position_um.x(), entry_position_um.y(), 0.0);
+        const double along = y.dot(wi);
+        const double r = config_.beam_radius_um;
+        return y.squaredNorm() - along * along <= r * r;
+    }
+
+    void connect(const LightConnection& c) override {
+        const std::size_t j = c.light;
+        if (touched_[j] == 0) {
+            touched_[j] = 1;
+            list_.push_back(j);
+        }
+        const bool lobe_known = c.lobe >= 0 && static_cast<std::size_t>(c.lobe) < nlobes_;
+        for (std::size_t k = 0; k < nl_; ++k) {
+            const double v = c.weights[k] * scale_;
+            x_[j * nl_ + k] += v;
+            if (lobe_known)
+                lobe_x_[(j * nlobes_ + static_cast<std::size_t>(c.lobe)) * nl_ + k] += v;
+        }
+    }
+
+    // The walk's values added (and squared) into acc, play_item's layout; then cleared.
+    void add_to(std::vector<double>& acc) {
+        const std::size_t stride = m_ * (2 + 2 * nlobes_);
+        for (std::size_t j : list_) {
+            for (std::size_t k = 0; k < nl_; ++k) {
+                double* a = acc.data() + k * stride;
+                double& x = x_[j * nl_ + k];
+                a[j] += x;
+                a[m_ + j] += x * x;
+                x = 0.0;
+                for (std::size_t l = 0; l < nlobes_; ++l) {
+                    double& xl = lobe_x_[(j * nlobes_ + l) * nl_ + k];
+                    a[(2 + l) * m_ + j] += xl;
+                    a[(2 + nlobes_ + l) * m_ + j] += xl * xl;
+                    xl = 0.0;
+                }
+            }
+            touched_[j] = 0;
+        }
+        list_.clear();
+    }
+
+private:
+    const GoniometerConfig& config_;
+    const Group& view_;
+    std::size_t m_, nl_, nlobes_;
+    std::vector<double> x_, lobe_x_;  // [light][wavelength], [light][lobe][wavelength]
+    std::vector<char> touched_;
+    std::vector<std::size_t> list_;
+    double scale_ = 0.0;
+};
+
+// Plays one connected item's detector-side walks (one view direction, every wavelength) into acc,
+// play_item's layout in the view's pair order.
+void play_connected_item(const Scatterer& scatterer, const GoniometerConfig& config,
+                         const std::vector<Group>& views, const PhotonItem& item,
+                         std::size_t nlobes, std::vector<double>& acc) {
+    const Group& view = views[item.group];
+    const std::size_t m = view.pairs.size(), nl = config.wavelengths_nm.size();
+    acc.assign(nl * m * (2 + 2 * nlobes), 0.0);
+    std::vector<Vec3d> lights;
+    for (std::size_t p : view.pairs) lights.push_back(config.pairs[p].wi);
+    const ConnectedStarts starts(config, view);
+    ConnectedCells cells(config, view, nlobes);
+    const PathTracing& paths = checked_path_tracing(scatterer);
+    const double beam_area = kPi * config.beam_radius_um * config.beam_radius_um;
+    const std::uint64_t seed = derive_seed(config.seed, "goniometer/connected-quantum", item.group);
+    for (std::uint64_t q = item.first; q < item.first + item.count; ++q) {
+        Rng rng(seed, q);
+        const Vec2 start = starts.draw(rng);
+        const Vec3d wo =
+            draw_cone_direction_by_projected_area(view.wi, config.detector_half_angle_rad, rng);
+        cells.begin(1.0 / (beam_area * starts.density(start)));
+        paths.trace_connected(wo, config.wavelengths_nm, start, rng, lights, cells);
+        cells.add_to(acc);
     }
 }
 
@@ -362,6 +538,34 @@ std::vector<std::uint8_t> signal_cells(const std::vector<double>& value, std::si
     for (std::size_t i = 0; i < value.size(); ++i)
         mask[i] = value[i] > 0.0 && value[i] >= fraction * mean[i % nl];
     return mask;
+}
+
+// The same from two independent halves (connect_lights): the light side's sums of n quanta per
+// light direction and the detector side's of n_connected walks per view direction; values add,
+// and so do the variances of the means.
+void estimate_from_halves(const Sums& light, std::uint64_t n, const Sums& detector,
+                          std::uint64_t n_connected, BrdfRecord& r) {
+    auto mean_and_variance = [](double sum, double sum_sq, double count) {
+        const double mean = sum / count;
+        return std::pair(mean,
+                         std::max(0.0, sum_sq / count - mean * mean) / std::max(1.0, count - 1.0));
+    };
+    const double dn = static_cast<double>(n), dc = static_cast<double>(n_connected);
+    auto combine = [&](const std::vector<double>& s1, const std::vector<double>& q1,
+                       const std::vector<double>& s2, const std::vector<double>& q2,
+                       std::vector<double>& value, std::vector<double>& error) {
+        value.assign(s1.size(), 0.0);
+        error.assign(s1.size(), 0.0);
+        for (std::size_t i = 0; i < s1.size(); ++i) {
+            const auto [m1, v1] = mean_and_variance(s1[i], q1[i], dn);
+            const auto [m2, v2] = mean_and_variance(s2[i], q2[i], dc);
+            value[i] = m1 + m2;
+            error[i] = std::sqrt(v1 + v2);
+        }
+    };
+    combine(light.sum, light.sum_sq, detector.sum, detector.sum_sq, r.value, r.standard_error);
+    combine(light.lobe_sum, light.lobe_sum_sq, detector.lobe_sum, detector.lobe_sum_sq,
+            r.lobe_values, r.lobe_standard_error);
 }
 
 // Relative RMS standard error over the signal cells (see signal_cells).
@@ -464,6 +668,11 @@ void GoniometerConfig::validate() const {
             fmt::format("guided_fraction = {} and guided_branches = {}: both guide the first "
                         "diffuse event; set one of them (the other 0)",
                         guided_fraction, guided_branches));
+    require(!connect_lights || (aperture == Aperture::view_cone && beam_radius_um > 0.0), kWhat,
+            fmt::format("connect_lights with aperture {} and beam radius {} um: the connections "
+                        "reach collimated lights (aperture view_cone) through a beam of some "
+                        "width (beam_radius_um > 0)",
+                        to_string(aperture), beam_radius_um));
     require(eval_rings >= 1 && eval_rings <= 64, kWhat,
             fmt::format("eval_rings = {}: expected 1..64", eval_rings));
     require(std::isfinite(eval_tolerance) && eval_tolerance >= 0.0 && eval_tolerance < 1.0, kWhat,
@@ -663,6 +872,19 @@ BrdfRecord new_record(const Scatterer& scatterer, const GoniometerConfig& config
     r.paths_split = one_path && config.split_paths && can_split;
     r.diffuse_guided =
         one_path && (config.guided_fraction > 0.0 || config.guided_branches > 0) && can_split;
+    if (config.connect_lights) {
+        const bool can_connect = paths != nullptr && paths->can_connect_lights() && can_split;
+        if (!can_connect || !one_path) {
+            throw InputError(fmt::format(
+                "goniometer: connect_lights needs a scatterer that connects detector-side walks to "
+                "the lights (the explicit tracer) and one path for all wavelengths "
+                "(share_wavelength_paths, or one wavelength); {} {}",
+                scatterer.name(),
+                can_connect ? "does not share its wavelengths' paths here"
+                            : "cannot connect to lights"));
+        }
+        r.lights_connected = true;
+    }
     r.estimator_used = config.estimator == Estimator::automatic
                            ? (scatterer.can_evaluate() ? Estimator::eval : Estimator::photon)
                            : config.estimator;
@@ -692,6 +914,17 @@ std::vector<PhotonItem> pass_items(const GoniometerConfig& config, std::size_t g
     return items;
 }
 
+// A pass's connected items (connect_lights), (view, chunk), after the photon items.
+void add_connected_items(const GoniometerConfig& config, std::size_t views, int pass,
+                         std::vector<PhotonItem>& items) {
+    const std::uint64_t n = config.connected_walks_per_pass(), chunks = (n + kChunk - 1) / kChunk;
+    for (std::size_t v = 0; v < views; ++v)
+        for (std::uint64_t c = 0; c < chunks; ++c) {
+            const std::uint64_t first = static_cast<std::uint64_t>(pass) * n + c * kChunk;
+            items.push_back({v, 0, first, std::min(kChunk, n - c * kChunk), true});
+        }
+}
+
 // The photon estimator on the pass loop (virtual_gonio/pass_loop.h): a pass's items play their
 // quanta into per-item partial sums, added to the sums in item order.
 class PhotonPasses final : public PassMeasurement {
@@ -711,28 +944,49 @@ public:
         sums_ = Sums{std::vector<double>(cells, 0.0), std::vector<double>(cells, 0.0),
                      std::vector<double>(nlobes_ * cells, 0.0),
                      std::vector<double>(nlobes_ * cells, 0.0)};
+        if (r.lights_connected) {
+            views_ = group_by_view(r.config.pairs);
+            connected_sums_ = sums_;
+        }
     }
 
     std::size_t start_pass(int pass) override {
         items_ = pass_items(r_.config, groups_.size(), nl_ / item_wavelengths_, pass);
+        if (r_.lights_connected) add_connected_items(r_.config, views_.size(), pass, items_);
         partial_.assign(items_.size(), {});
         return items_.size();
     }
     void run_item(std::size_t it) override {
+        if (items_[it].connected) {
+            play_connected_item(scatterer_, r_.config, views_, items_[it], nlobes_, partial_[it]);
+            return;
+        }
         play_item(scatterer_, r_.config, groups_, items_[it], nlobes_, r_.wavelength_paths_shared,
-                  r_.paths_split || r_.diffuse_guided, partial_[it]);
+                  r_.paths_split || r_.diffuse_guided || r_.lights_connected, partial_[it]);
     }
     void pack(std::size_t it, Bytes& out) const override { out.put_vector(partial_[it]); }
     void unpack(std::size_t it, Bytes& in) override { partial_[it] = in.get_vector<double>(); }
     void add_pass() override {
-        for (std::size_t it = 0; it < items_.size(); ++it)
-            add_item_sums(partial_[it], groups_[items_[it].group], items_[it].wavelength,
-                          item_wavelengths_, nl_, nlobes_, sums_);
+        for (std::size_t it = 0; it < items_.size(); ++it) {
+            if (items_[it].connected) {
+                add_item_sums(partial_[it], views_[items_[it].group], 0, nl_, nl_, nlobes_,
+                              connected_sums_);
+            } else {
+                add_item_sums(partial_[it], groups_[items_[it].group], items_[it].wavelength,
+                              item_wavelengths_, nl_, nlobes_, sums_);
+            }
+        }
     }
     // The record's values from the sums of `passes` passes, and its clocks.
     PassEstimate estimate(int passes) override {
         const std::uint64_t n = static_cast<std::uint64_t>(passes) * r_.config.quanta_per_pass;
-        estimate_from_sums(sums_, n, r_);
+        if (r_.lights_connected) {
+            estimate_from_halves(
+                sums_, n, connected_sums_,
+                static_cast<std::uint64_t>(passes) * r_.config.connected_walks_per_pass(), r_);
+        } else {
+            estimate_from_sums(sums_, n, r_);
+        }
         r_.passes = passes;
         r_.quanta = n;
         r_.wall_time_s =
@@ -745,10 +999,17 @@ public:
         return e;
     }
     std::vector<CheckpointSum> checkpoint_sums() override {
-        return {{"sum", &sums_.sum},
-                {"sum_sq", &sums_.sum_sq},
-                {"lobe_sum", &sums_.lobe_sum},
-                {"lobe_sum_sq", &sums_.lobe_sum_sq}};
+        std::vector<CheckpointSum> parts{{"sum", &sums_.sum},
+                                         {"sum_sq", &sums_.sum_sq},
+                                         {"lobe_sum", &sums_.lobe_sum},
+                                         {"lobe_sum_sq", &sums_.lobe_sum_sq}};
+        if (r_.lights_connected) {
+            parts.push_back({"connected_sum", &connected_sums_.sum});
+            parts.push_back({"connected_sum_sq", &connected_sums_.sum_sq});
+            parts.push_back({"connected_lobe_sum", &connected_sums_.lobe_sum});
+            parts.push_back({"connected_lobe_sum_sq", &connected_sums_.lobe_sum_sq});
+        }
+        return parts;
     }
 
 private:
@@ -759,6 +1020,8 @@ private:
     const std::vector<Group> groups_;
     std::size_t nl_, nlobes_, item_wavelengths_;
     Sums sums_;
+    std::vector<Group> views_;  // connect_lights: the pairs of each view direction
+    Sums connected_sums_;       // connect_lights: the detector side's
     std::vector<PhotonItem> items_;
     std::vector<std::vector<double>> partial_;  // per item, in group pair order
 };
@@ -908,6 +1171,14 @@ void write_instrument(record::Hdf5Writer& h5, const BrdfRecord& r) {
               "detector cone around the view, cosine-weighted (virtual_gonio/goniometer.h)");
     if (r.estimator_used == Estimator::photon) {
         write_path_options(h5, r.wavelength_paths_shared, r.paths_split);
+        if (r.lights_connected) {
+            h5.set_attribute("/instrument", "connected_lights",
+                             "detector-side walks connected to the lights at their diffuse events, "
+                             "added to the photon quanta that start with another event "
+                             "(virtual_gonio/goniometer.h, connect_lights)");
+            h5.set_attribute("/instrument", "connected_quanta_per_pass",
+                             static_cast<double>(c.connected_walks_per_pass()));
+        }
         if (r.diffuse_guided) {
             h5.set_attribute("/instrument", "diffuse_guided_fraction", c.guided_fraction);
             h5.set_attribute("/instrument", "diffuse_guided_branches",

@@ -46,6 +46,32 @@
 //    g · nλ + k), q) (common/seed.h), and partial sums are combined in a fixed
 //    order: results do not depend on thread count, and a resumed run equals an
 //    uninterrupted one bit for bit.
+//    With connect_lights (view_cone, shared paths or one wavelength, a scatterer that
+//    can_connect_lights(): the tracer) a cell is the sum of two independent estimates that
+//    partition the light paths by their first event (sim/tracer.h, "Connections to collimated
+//    lights"):
+//     - light side: the photon quanta above with BranchOptions::leave_lit_diffuse: a path ends
+//     where
+//       its first event after straight films is diffuse. What stays: the film reflections (R) and
+//       the specular chains between barbules, for which no diffuse event can aim at a detector.
+//     - detector side: per view direction v and pass, connected_quanta_per_pass walks start on the
+//       top plane at x with density p(x) (below), in a direction ω drawn over C(ω_o) by projected
+//       solid angle, and connect at every diffuse event to each light direction paired with v.
+//       A connection to light j that enters within the beam's footprint F_j (a point y of the top
+//       plane whose offset from the beam's axis through the origin, across ω_i, is at most the
+//       beam radius r) adds
+//           x_j = w / (π r² p(x)),   w the connection's LightConnection weight,
+//       to cell (ω_i,j, ω_o). Why: the detector sees radiance L(x, ω) = w E⊥ from the lit paths,
+//       so Φ(C) = ∫∫ L cos θ dω dx is estimated by L P(ω_o) / p(x), and f̄ = Φ(C) / (E⊥ π r²
+//       P(ω_o)) (the beam carries E⊥ π r²), which is w / (π r² p(x)).
+//       p(x) = (1 − ε) (1/m) Σ_j 1[x ∈ E_j] / |E_j| + ε s / (2π (s² + |x|²)^{3/2}): E_j the
+//       footprint ellipse of light j (semi-axes r/cos θ_i + d along the light's azimuth and r + d
+//       across, d = r: room for the light's lateral travel in the patch), and a heavy-tailed
+//       density over the whole plane (s = 2r, ε = 0.1) so that every start that could connect
+//       into a footprint has p > 0 (unbiased for any scene, whatever its extent).
+//       Walk q of view v draws from Rng(derive_seed(seed, "goniometer/connected-quantum", v), q).
+//    Each half's standard error is its own sample variance; the cell's is their quadrature sum
+//    (the halves are independent). Lobes likewise.
 //  - eval: for scatterers that can evaluate f, the cell's average by cubature; its error
 //    is estimated against the rule with half the rings. Deterministic. view_cone: a
 //    product rule over the detector cone (cosine-weighted; `eval_rings` Gauss rings in
@@ -117,6 +143,16 @@ struct GoniometerConfig {
     // light direction's detector cones (sim/tracer.h, "Guided diffuse branches"), in place of
     // guided_fraction (set one of the two). 0 … 3; 0: none.
     std::size_t guided_branches = 0;
+    // Connected lights ("Estimators" above): detector-side walks that connect to the lights at
+    // their diffuse events, the photon quanta keeping the paths that start with another event.
+    // Needs aperture view_cone, beam_radius_um > 0, shared paths (or one wavelength) and a
+    // scatterer that can_connect_lights() (InputError naming the key otherwise).
+    bool connect_lights = false;
+    // Detector-side walks per view direction and pass; 0: quanta_per_pass.
+    std::uint64_t connected_quanta_per_pass = 0;
+    std::uint64_t connected_walks_per_pass() const {
+        return connected_quanta_per_pass > 0 ? connected_quanta_per_pass : quanta_per_pass;
+    }
     std::uint64_t quanta_per_pass = 20000;  // per light direction and wavelength
     int max_passes = 100;
     double time_budget_s = std::numeric_limits<double>::infinity();
@@ -151,6 +187,7 @@ struct BrdfRecord {
     bool wavelength_paths_shared = false;  // share_wavelength_paths took effect
     bool paths_split = false;              // split_paths took effect
     bool diffuse_guided = false;           // guided_fraction or guided_branches took effect
+    bool lights_connected = false;         // connect_lights took effect
     // Row-major [pair][wavelength]; lobe_values [lobe][pair][wavelength], 1/sr.
     std::vector<double> value, standard_error, lobe_values, lobe_standard_error;
     std::vector<std::uint8_t> signal_cells;  // [pair][wavelength]: 1 if in the error's set

@@ -80,6 +80,51 @@ std::size_t MountedScatterer::sample_spectral_branches(const Vec3d& wi,
     return count;
 }
 
+namespace {
+
+// The inner scatterer's connections with their entry points turned back to the instrument.
+class TurnedSink final : public LightConnectionSink {
+public:
+    TurnedSink(LightConnectionSink& outer, double cos, double sin)
+        : outer_(outer), cos_(cos), sin_(sin) {}
+    bool accepts(std::size_t light, const Vec2& entry_position_um) const override {
+        return outer_.accepts(light, turn(entry_position_um));
+    }
+    void connect(const LightConnection& c) override {
+        LightConnection turned = c;
+        turned.entry_position_um = turn(c.entry_position_um);
+        outer_.connect(turned);
+    }
+
+private:
+    Vec2 turn(const Vec2& p) const {
+        return {cos_ * p.x() - sin_ * p.y(), sin_ * p.x() + cos_ * p.y()};
+    }
+
+    LightConnectionSink& outer_;
+    double cos_, sin_;
+};
+
+}  // namespace
+
+void MountedScatterer::trace_connected(const Vec3d& wo, std::span<const double> lambdas_nm,
+                                       const Vec2& position_um, Rng& rng,
+                                       std::span<const Vec3d> lights,
+                                       LightConnectionSink& sink) const {
+    // The lights in the sample's frame, as the detector axes of sample_spectral_branches().
+    std::array<Vec3d, kStackAxes> on_stack;
+    std::vector<Vec3d> on_heap;
+    std::span<Vec3d> turned(on_stack.data(), std::min(lights.size(), kStackAxes));
+    if (lights.size() > kStackAxes) {
+        on_heap.resize(lights.size());
+        turned = on_heap;
+    }
+    for (std::size_t j = 0; j < lights.size(); ++j) turned[j] = to_sample(lights[j]);
+    TurnedSink turned_sink(sink, cos_, sin_);
+    inner_paths().trace_connected(to_sample(wo), lambdas_nm, to_sample(position_um), rng, turned,
+                                  turned_sink);
+}
+
 double MountedScatterer::eval(const Vec3d& wi, const Vec3d& wo, double lambda_nm,
                               std::span<double> per_lobe) const {
     return inner_->eval(to_sample(wi), to_sample(wo), lambda_nm, per_lobe);

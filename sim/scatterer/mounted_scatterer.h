@@ -52,6 +52,11 @@ public:
                                          std::span<SpectralScatterEvent> events,
                                          std::span<double> weights) const override;
     bool can_trace_adjoint() const override { return inner_paths().can_trace_adjoint(); }
+    bool can_connect_lights() const override { return inner_paths().can_connect_lights(); }
+    // The lights turned by −ψ like ω_i; the connections' entry points turned back by +ψ.
+    void trace_connected(const Vec3d& wo, std::span<const double> lambdas_nm,
+                         const Vec2& position_um, Rng& rng, std::span<const Vec3d> lights,
+                         LightConnectionSink& sink) const override;
     bool can_evaluate() const override { return inner_->can_evaluate(); }
     double eval(const Vec3d& wi, const Vec3d& wo, double lambda_nm,
                 std::span<double> per_lobe = {}) const override;

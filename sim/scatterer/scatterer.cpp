@@ -22,6 +22,11 @@ std::size_t PathTracing::sample_spectral_branches(
     return 1;
 }
 
+void PathTracing::trace_connected(const Vec3d&, std::span<const double>, const Vec2&, Rng&,
+                                  std::span<const Vec3d>, LightConnectionSink&) const {
+    throw InvariantError("this scatterer cannot connect to lights (check can_connect_lights())");
+}
+
 const PathTracing& checked_path_tracing(const Scatterer& scatterer) {
     const PathTracing* paths = scatterer.path_tracing();
     if (paths == nullptr) {

@@ -93,6 +93,37 @@ struct BranchOptions {
     // The path starts at a detector (see the conventions above); only for scatterers that
     // can_trace_adjoint().
     bool adjoint = false;
+    // The light-side half of a connected measurement (PathTracing::trace_connected()): a path
+    // ends, with nothing returned, at a diffuse event that the light reached straight from the
+    // source (through films in one medium only: can_connect_lights()). Those paths are what the
+    // detector-side connections estimate; the two halves together are every path once. Only for
+    // scatterers that can_connect_lights().
+    bool leave_lit_diffuse = false;
+};
+
+// One connection of a detector-side walk to a collimated light (PathTracing::trace_connected()).
+struct LightConnection {
+    std::size_t light;  // index into the lights asked for
+    // Where the light that the connection carries enters: the top plane's point (bottom plane for
+    // light from below) on the ray from the diffuse event towards the light, patch frame, µm.
+    Vec2 entry_position_um;
+    int lobe;  // the whole path's lobe (index into lobe_names())
+    // Per wavelength: w · albedo · cos θ_l / π · T_films, where w is the detector-side walk's
+    // weight on arriving at the diffuse event, θ_l the angle between the light direction and the
+    // facet normal on the walk's side, T_films the films' transmittances along the connection.
+    std::span<const double> weights;
+};
+
+class LightConnectionSink {
+public:
+    // Whether a connection to `light` entering at entry_position_um counts at all (e.g. inside the
+    // beam): asked before the connection's ray is cast, so that no ray is cast for one that would
+    // not count. The entry point is exact: the connection's ray keeps its direction.
+    virtual bool accepts(std::size_t light, const Vec2& entry_position_um) const = 0;
+    virtual void connect(const LightConnection& connection) = 0;
+
+protected:
+    ~LightConnectionSink() = default;
 };
 
 // Two unit vectors completing the unit vector a to a right-handed orthonormal frame.
@@ -135,6 +166,24 @@ public:
 
     // Detector-side walks: whether sample_spectral_branches() honours BranchOptions::adjoint.
     virtual bool can_trace_adjoint() const { return false; }
+
+    // Connections to collimated lights (next-event estimation at diffuse events): a detector-side
+    // walk, as with BranchOptions::adjoint (wo the direction towards the detector, position_um the
+    // point on the top plane it starts from), that at every diffuse event connects to each light
+    // direction lights[j] (unit, away from the patch): a ray from the event towards the light
+    // that passes only films with one medium on both sides (each weighs by its T, the direction
+    // kept) and no other surface. Each connection that the sink accepts (asked before its ray is
+    // cast) and nothing blocks reaches the sink with the power factors of LightConnection. For a
+    // collimated beam of irradiance E⊥ (per area across the beam) along lights[j], entering at
+    // entry_position_um, w E⊥ is the radiance the detector sees at (position_um, wo) from the light
+    // paths whose first event from the light (after such films) is this diffuse one;
+    // BranchOptions::leave_lit_diffuse leaves exactly those to this walk. The walk goes on from
+    // every diffuse event by the cosine law and returns nothing when it escapes (a collimated light
+    // is never hit). Draws only from rng.
+    virtual bool can_connect_lights() const { return false; }
+    virtual void trace_connected(const Vec3d& wo, std::span<const double> lambdas_nm,
+                                 const Vec2& position_um, Rng& rng, std::span<const Vec3d> lights,
+                                 LightConnectionSink& sink) const;
 
 protected:
     ~PathTracing() = default;  // owned as the Scatterer that implements it

@@ -18,6 +18,7 @@
 #include "sim/optics/material.h"
 #include "sim/tracer.h"
 #include "tests/sim/sim_test_util.h"
+#include "tests/sim/small_barbule_row.h"
 #include "tests/virtual_gonio/record_agreement.h"
 #include "virtual_gonio/goniometer.h"
 
@@ -217,13 +218,7 @@ gonio::GoniometerConfig patch_config(bool share) {
     return c;
 }
 
-// A barbule row of 12 × 8 cells: small enough for a few seconds of goniometer cells.
-ExplicitScatterer small_barbule_row() {
-    geometry::BarbuleRowParams params;
-    params.barbules = 12;
-    params.cells_per_barbule = 8;
-    return ExplicitScatterer(barbule_row_scene(geometry::build_barbule_row(params, {0.01, 0.02})));
-}
+using testing::small_barbule_row;
 
 TEST(TracerSpectral, GoniometerCellsAgreeAndDoNotDependOnThreads) {
     const ExplicitScatterer patch = small_barbule_row();

@@ -427,5 +427,21 @@ TEST(RockDoveStudy, BadStudyTextWritesNothing) {
     EXPECT_FALSE(std::filesystem::exists(root / "bad"));
 }
 
+TEST(RockDoveStudy, ConnectedLightsKeysAreReadAndChecked) {
+    const auto root = std::filesystem::temp_directory_path() /
+                      ("plumage_rock_dove_connected_" + std::to_string(::getpid()));
+    const std::string message = plumage::testing::input_error_message([&] {
+        run_rock_dove_study(
+            "study = \"rock_dove\"\n[goniometer]\nconnect_lights = true\n"
+            "connected_quanta_per_pass = -5\n",
+            "bad.toml", root, false);
+    });
+    EXPECT_NE(message.find("bad.toml:4:29: goniometer.connected_quanta_per_pass = -5: expected an "
+                           "integer in [0, 100000000]"),
+              std::string::npos)
+        << message;
+    EXPECT_FALSE(std::filesystem::exists(root / "bad"));
+}
+
 }  // namespace
 }  // namespace plumage::studies

@@ -1,0 +1,230 @@
+// The goniometer's connected lights (virtual_gonio/goniometer.h, connect_lights; sim/tracer.h,
+// "Connections to collimated lights"): a white plate reads albedo/π from the connections alone
+// (its every path starts with a diffuse event, which the light side leaves to them), mounted or
+// not; on the rock-dove barbule row the two halves together agree with the plain forward walk
+// cell by cell and lobe by lobe (χ² per wavelength, largest |z| within the Šidák bound), with the
+// same bits on 1 and 2 threads and after a resumed interruption; bad combinations are refused by
+// name.
+#include <omp.h>
+#include <unistd.h>
+
+#include <atomic>
+#include <cmath>
+#include <filesystem>
+#include <memory>
+#include <string>
+#include <vector>
+
+#include <gtest/gtest.h>
+
+#include "analysis/metrics/statistics.h"
+#include "analysis/models/lambertian.h"
+#include "common/constants.h"
+#include "common/error.h"
+#include "sim/scatterer/mounted_scatterer.h"
+#include "sim/tracer.h"
+#include "tests/sim/sim_test_util.h"
+#include "tests/sim/small_barbule_row.h"
+#include "tests/virtual_gonio/record_agreement.h"
+#include "virtual_gonio/goniometer.h"
+
+namespace plumage::gonio {
+namespace {
+
+const std::vector<double> kSeven = {400.0, 450.0, 500.0, 550.0, 600.0, 650.0, 700.0};
+
+// One pair per light and per view of the Filip set (light i with view i, 60 pairs): each cell its
+// own quanta on both sides, so that cells are independent. (A view's walks serve all of its
+// lights at once, and a light's quanta all of its views, so cells that share either are
+// correlated, which a χ² over cells does not allow.)
+std::vector<DirectionPair> independent_pairs() {
+    const std::vector<DirectionPair> all = filip2024_btf_pairs();  // light-major, 61 × 60
+    std::vector<DirectionPair> pairs;
+    for (std::size_t i = 0; i < 60; ++i) pairs.push_back(all[i * 60 + i]);
+    return pairs;
+}
+
+GoniometerConfig connected_config(const std::vector<double>& wavelengths) {
+    GoniometerConfig c;
+    c.pairs = independent_pairs();
+    c.wavelengths_nm = wavelengths;
+    c.detector_half_angle_rad = 8.0 * kDeg;
+    c.beam_radius_um = 20.0;
+    c.estimator = Estimator::photon;
+    c.share_wavelength_paths = true;
+    c.split_paths = true;
+    c.connect_lights = true;
+    c.seed = 5;
+    c.quanta_per_pass = 6000;
+    c.max_passes = 1;
+    return c;
+}
+
+// Every cell's z against the truth: per wavelength (one walk serves them all) χ² at 0.1 %/nλ, and
+// the largest |z| within Šidák's 1 % bound.
+void expect_cells_read(const BrdfRecord& r, const std::vector<double>& truth,
+                       const std::string& what) {
+    const std::size_t nl = r.config.wavelengths_nm.size();
+    std::vector<double> chi2(nl, 0.0);
+    double max_z = 0.0;
+    for (std::size_t i = 0; i < r.value.size(); ++i) {
+        ASSERT_GT(r.standard_error[i], 0.0) << what << " cell " << i;
+        const double z = (r.value[i] - truth[i % nl]) / r.standard_error[i];
+        chi2[i % nl] += z * z;
+        max_z = std::max(max_z, std::abs(z));
+    }
+    const auto dof = static_cast<int>(r.value.size() / nl);
+    for (std::size_t k = 0; k < nl; ++k) {
+        EXPECT_GT(analysis::chi_square_p_value(chi2[k], dof), 1e-3 / static_cast<double>(nl))
+            << what << ' ' << r.config.wavelengths_nm[k] << " nm: chi2/dof " << chi2[k] / dof;
+        ::testing::Test::RecordProperty(what + "_chi2_per_dof_" + std::to_string(k),
+                                        std::to_string(chi2[k] / dof));
+    }
+    const auto cells = static_cast<int>(r.value.size());
+    EXPECT_LT(max_z, analysis::two_sided_normal_quantile(analysis::sidak_significance(0.01, cells)))
+        << what;
+}
+
+TEST(ConnectedGoniometer, WhitePlateReadsAlbedoOverPiFromTheConnectionsAlone) {
+    const std::vector<double> albedo = {0.3, 0.6, 0.9};
+    const std::vector<double> lambdas = {450.0, 550.0, 650.0};
+    const auto plate = std::make_shared<sim::ExplicitScatterer>(sim::single_mesh_scene(
+        testing::square_mesh(300.0), sim::diffuse_layer([](double lambda_nm) {
+            return lambda_nm < 500.0 ? 0.3 : lambda_nm < 600.0 ? 0.6 : 0.9;
+        }),
+        "plate"));
+    GoniometerConfig c = connected_config(lambdas);
+    c.quanta_per_pass = 2000;
+    c.connected_quanta_per_pass = 4000;
+    std::vector<double> truth;
+    for (double a : albedo) truth.push_back(a / kPi);
+    const BrdfRecord r = measure_brdf(*plate, c);
+    EXPECT_TRUE(r.lights_connected);
+    expect_cells_read(r, truth, "plate");
+    // The light side leaves every path to the connections: no lobe but "multi" (a lone diffuse
+    // event) carries anything, and the plate's errors are a few per cent of the value.
+    const std::size_t cells = r.value.size();
+    for (std::size_t i = 0; i < cells; ++i) {
+        EXPECT_EQ(r.lobe_values[sim::ExplicitScatterer::kMulti * cells + i], r.value[i]);
+        EXPECT_LT(r.standard_error[i], 0.05 * r.value[i]) << i;
+    }
+    // Mounted at 40°: the same plate, its connections turned back into the instrument's frame.
+    const MountedScatterer mounted(plate, 40.0 * kDeg);
+    expect_cells_read(measure_brdf(mounted, c), truth, "mounted_plate");
+}
+
+TEST(ConnectedGoniometer, AgreesWithTheForwardWalkOnTheBarbuleRow) {
+    const sim::ExplicitScatterer patch = testing::small_barbule_row();
+    const int before = omp_get_max_threads();
+    omp_set_num_threads(2);
+    // The plain shared walk with 5× the quanta (as TracerSpectral.SplitAndGuidedPaths… does: a
+    // cell with few hits reads low and precise at once, which a Wald z misreads).
+    GoniometerConfig plain_config = connected_config(kSeven);
+    plain_config.split_paths = false;
+    plain_config.connect_lights = false;
+    plain_config.seed = 4;
+    plain_config.quanta_per_pass = 30000;
+    const BrdfRecord plain = measure_brdf(patch, plain_config);
+    const GoniometerConfig c = connected_config(kSeven);
+    const BrdfRecord r = measure_brdf(patch, c);
+    ASSERT_TRUE(r.lights_connected);
+    const std::size_t nl = kSeven.size();
+    const testing::RecordAgreement agreement = testing::compare_per_wavelength(r, plain);
+    for (std::size_t k = 0; k < nl; ++k) {
+        const int dof = agreement.dof[k];
+        ASSERT_GT(dof, 40);
+        RecordProperty("chi2_per_dof_" + std::to_string(k),
+                       std::to_string(agreement.chi2[k] / dof));
+        EXPECT_GT(analysis::chi_square_p_value(agreement.chi2[k], dof),
+                  1e-3 / static_cast<double>(nl))
+            << kSeven[k] << " nm: chi2/dof " << agreement.chi2[k] / dof;
+    }
+    RecordProperty("max_z", std::to_string(agreement.max_z));
+    EXPECT_LT(agreement.max_z, analysis::two_sided_normal_quantile(
+                                   analysis::sidak_significance(0.01, agreement.cells)));
+    // The TRT lobe, which the connections carry whole here, the same way, per wavelength.
+    const std::size_t cells = r.value.size();
+    std::vector<double> trt_chi2(nl, 0.0);
+    std::vector<int> trt_dof(nl, 0);
+    for (std::size_t i = 0; i < cells; ++i) {
+        const std::size_t at = sim::ExplicitScatterer::kTRT * cells + i;
+        const double var =
+            std::pow(r.lobe_standard_error[at], 2) + std::pow(plain.lobe_standard_error[at], 2);
+        if (!(var > 0.0)) continue;
+        trt_chi2[i % nl] += std::pow(r.lobe_values[at] - plain.lobe_values[at], 2) / var;
+        ++trt_dof[i % nl];
+    }
+    for (std::size_t k = 0; k < nl; ++k) {
+        ASSERT_GT(trt_dof[k], 40);
+        RecordProperty("trt_chi2_per_dof_" + std::to_string(k),
+                       std::to_string(trt_chi2[k] / trt_dof[k]));
+        EXPECT_GT(analysis::chi_square_p_value(trt_chi2[k], trt_dof[k]),
+                  1e-3 / static_cast<double>(nl))
+            << kSeven[k] << " nm: TRT chi2/dof " << trt_chi2[k] / trt_dof[k];
+    }
+    // The same bits on one thread.
+    omp_set_num_threads(1);
+    const BrdfRecord one = measure_brdf(patch, c);
+    omp_set_num_threads(before);
+    EXPECT_EQ(one.value, r.value);
+    EXPECT_EQ(one.standard_error, r.standard_error);
+    EXPECT_EQ(one.lobe_values, r.lobe_values);
+}
+
+TEST(ConnectedGoniometer, AnInterruptedRunResumesToTheSameBits) {
+    const auto dir = std::filesystem::temp_directory_path() /
+                     ("plumage_connected_" + std::to_string(::getpid()));
+    std::filesystem::create_directories(dir);
+    const sim::ExplicitScatterer patch = testing::small_barbule_row();
+    GoniometerConfig c = connected_config({450.0, 650.0});
+    c.quanta_per_pass = 500;
+    c.connected_quanta_per_pass = 300;
+    c.max_passes = 3;
+    const BrdfRecord uninterrupted = measure_brdf(patch, c);
+    RunControl control;
+    control.checkpoint = dir / "brdf.h5.checkpoint";
+    std::atomic<bool> stop{false};
+    control.interrupt = &stop;
+    control.on_pass = [&](const ConvergenceRow& row) {
+        if (row.pass == 1) stop = true;
+    };
+    const BrdfRecord first = measure_brdf(patch, c, control);
+    EXPECT_TRUE(first.interrupted);
+    EXPECT_EQ(first.passes, 1);
+    stop = false;
+    control.on_pass = nullptr;
+    const BrdfRecord resumed = measure_brdf(patch, c, control);
+    EXPECT_EQ(resumed.passes, 3);
+    EXPECT_EQ(resumed.value, uninterrupted.value);
+    EXPECT_EQ(resumed.lobe_standard_error, uninterrupted.lobe_standard_error);
+    std::filesystem::remove_all(dir);
+}
+
+TEST(ConnectedGoniometer, RefusesWhatItCannotConnect) {
+    const sim::ExplicitScatterer patch = testing::small_barbule_row();
+    auto refused = [&](const Scatterer& scatterer, const GoniometerConfig& c) {
+        try {
+            measure_brdf(scatterer, c);
+        } catch (const InputError& e) {
+            return std::string(e.what());
+        }
+        return std::string("accepted");
+    };
+    GoniometerConfig cones = connected_config({550.0});
+    cones.aperture = Aperture::both_cones;
+    EXPECT_NE(refused(patch, cones).find("connect_lights with aperture both_cones"),
+              std::string::npos);
+    GoniometerConfig point = connected_config({550.0});
+    point.beam_radius_um = 0.0;
+    EXPECT_NE(refused(patch, point).find("beam radius 0 um"), std::string::npos);
+    GoniometerConfig separate = connected_config({450.0, 550.0});
+    separate.share_wavelength_paths = false;
+    EXPECT_NE(refused(patch, separate).find("does not share its wavelengths' paths"),
+              std::string::npos);
+    const analysis::LambertianScatterer model(0.5);
+    EXPECT_NE(refused(model, connected_config({550.0})).find("cannot connect to lights"),
+              std::string::npos);
+}
+
+}  // namespace
+}  // namespace plumage::gonio
