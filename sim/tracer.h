@@ -134,29 +134,36 @@
 // spheres, films and media (tests/virtual_gonio/btf_detector_test.cpp).
 //
 // Connections to collimated lights (trace_connected(), BranchOptions::leave_lit_diffuse,
-// sim/scatterer/scatterer.h): next-event estimation at the diffuse events of a detector-side walk.
-// At a diffuse event v reached by the walk from the detector with weights w_k (the adjoint walk
-// above), for each light direction l with cos θ_l = l · n > 0 (n the facet normal on the walk's
-// side) a ray is cast from v towards the light. It may pass films whose outside and inside are the
-// same material with no medium on either side at every λ ("straight" films: the rock dove's
-// keratin sheets in air, which keep a direction), each weighing by its T_k at the cos θ and side
-// that thin_film_event would use for light travelling the other way (film_incidence()); any other
-// surface blocks it. Unblocked, it reports w_k · albedo_k · cos θ_l / π · Π T_k and the point where
-// it crosses the top plane. Why this is the light: a collimated beam of irradiance E⊥ along l
+// sim/scatterer/scatterer.h): next-event estimation at the first diffuse event of a detector-side
+// walk. At the first diffuse event v that the walk from the detector reaches, with weights w_k
+// (the adjoint walk above), for each light direction l with cos θ_l = l · n > 0 (n the facet normal
+// on the walk's side) a ray is cast from v towards the light. It may pass films whose outside and
+// inside are the same material with no medium on either side at every λ ("straight" films: the rock
+// dove's keratin sheets in air, which keep a direction), each weighing by its T_k at the cos θ and
+// side that thin_film_event would use for light travelling the other way (film_incidence()); any
+// other surface blocks it. Unblocked, it reports w_k · albedo_k · cos θ_l / π · Π T_k and the point
+// where it crosses the top plane. Why this is the light: a collimated beam of irradiance E⊥ along l
 // lights v through those films with E⊥ cos θ_l Π T_k (the films' T is the expected factor of their
 // transmitted side, both ways), v's Lambertian layer sends albedo/π of it per steradian, and the
-// adjoint weight w carries that radiance to the detector. The forward walk with leave_lit_diffuse
-// ends exactly the paths whose first event after straight films (with no medium on v's lit side)
-// is diffuse, the set these connections cover, so the two halves add to the whole without
-// counting a path twice: a partition of the path space by its first event, the limit of multiple
+// adjoint weight w carries that radiance to the detector. The connections so cover the light paths
+// with exactly one diffuse event, lit straight from the source (its first event after straight
+// films, with no medium on v's lit side); the walk ends at v. The forward walk with
+// leave_lit_diffuse counts every other path and none of these: a path lit straight at its first
+// diffuse event counts only if a second diffuse event follows, and goes on from the first with
+// probability kGoOnLit = 0.25 (weights ÷ 0.25; tracer.cpp says why 0.25). So the two halves add to
+// the whole without counting a path twice: a partition of the path space, the limit of multiple
 // importance sampling whose weights are 0 and 1. It is the right choice here: a path that starts
 // with a diffuse event reaches a 5° detector from the light about 0.3 % of the time, while its
 // connection from the detector is deterministic; paths that start with a film reflection (R, and
 // the chains of specular events between barbules) have no diffuse event to connect at the light
-// and keep the forward walk. The whole path's lobe: TRT when the connection passed one film and
-// the walk one film transmission before v, "volume" after a medium scatter, "multi" otherwise.
-// The walk goes on from each diffuse event by the cosine law; a connection is not made when the
-// whole path would exceed max_events.
+// and keep the forward walk. Why one diffuse event only: a connection at the walk's k-th diffuse
+// event would reach the light's beam far from where the walk started once the light has crossed
+// the scene k times (a film 40 µm over a plate: 80 tan θ per bounce), and an instrument can place
+// the walks' starts only for the first (virtual_gonio/goniometer.h); connected there, such paths
+// gave heavy-tailed, low cells (χ²/dof 2.5–3.8 against the forward walk, growing with the quanta),
+// which the forward walk estimates plainly. The whole path's lobe: TRT when the connection passed
+// one film and the walk one film transmission before v, "volume" after a medium scatter, "multi"
+// otherwise. A connection is not made when the whole path would exceed max_events.
 //
 // Leaving out what the scene does not need: a scene without films never evaluates Airy;
 // surfaces whose media do not absorb at λ (k = 0) run no medium code; max_events = 1 (an
@@ -254,6 +261,7 @@ public:
     bool can_split_paths() const override { return true; }
     bool can_trace_adjoint() const override { return true; }
     bool can_connect_lights() const override { return true; }
+    double depth_um() const override { return top_z_ - bottom_z_; }
     void trace_connected(const Vec3d& wo, std::span<const double> lambdas_nm,
                          const Vec2& position_um, Rng& rng, std::span<const Vec3d> lights,
                          LightConnectionSink& sink) const override;
@@ -313,6 +321,9 @@ private:
         // Every event so far a transmission through a straight film, every flight through no
         // medium ("Connections to collimated lights").
         bool lit_straight = true;
+        // Its one diffuse event so far was lit straight: the connections' part unless another
+        // diffuse event follows (BranchOptions::leave_lit_diffuse).
+        bool left_to_connections = false;
         PathResult path;
         std::uint64_t stream_seed = 0, stream_item = 0;  // a branch's own stream: Rng(seed, item)
     };

@@ -329,22 +329,36 @@ class ConnectedStarts {
 public:
     static constexpr double kTail = 0.1;  // ε: the share of the heavy-tailed density
 
-    ConnectedStarts(const GoniometerConfig& c, const Group& view)
-        : tail_scale_(2.0 * c.beam_radius_um) {
-        const double r = c.beam_radius_um;
+    // depth_um: the scene's depth below the entry plane (PathTracing::depth_um()).
+    ConnectedStarts(const GoniometerConfig& c, const Group& view, double depth_um)
+        : depth_um_(depth_um), tail_scale_(2.0 * c.beam_radius_um + depth_um) {
+        const double r = c.beam_radius_um, d = r;  // d: room for the light's lateral travel
         for (std::size_t p : view.pairs) {
             const Vec3d& wi = c.pairs[p].wi;
             const double across = std::hypot(wi.x(), wi.y());
-            Ellipse e;
+            Capsule e;
             e.along = across > 0.0 ? Vec2(wi.x() / across, wi.y() / across) : Vec2(1.0, 0.0);
-            e.a = r / wi.z() + r;  // the footprint's semi-axis along the light's azimuth, + d
-            e.b = 2.0 * r;         // across, + d
-            e.density = 1.0 / (kPi * e.a * e.b);
-            ellipses_.push_back(e);
+            e.a = r / wi.z() + d;  // the footprint's semi-axis along the light's azimuth, + d
+            e.b = r + d;           // across, + d
+            e.light_slope = Vec2(wi.x(), wi.y()) / wi.z();
+            capsules_.push_back(e);
         }
     }
 
-    // Three or four numbers from rng.
+    // For walks in the direction wo: each capsule's segment, where the detector sees the light's
+    // footprint at the depths 0 … depth (shifted by h (t_o − t_i), t = ω_xy/ω_z).
+    void aim(const Vec3d& wo) {
+        const Vec2 view_slope = Vec2(wo.x(), wo.y()) / wo.z();
+        for (Capsule& e : capsules_) {
+            e.segment = to_unit(e, depth_um_ * (view_slope - e.light_slope));
+            const double length = e.segment.norm();
+            e.direction = length > 0.0 ? Vec2(e.segment / length) : Vec2(1.0, 0.0);
+            e.density = 1.0 / (e.a * e.b * (kPi + 2.0 * length));
+        }
+    }
+
+    // Numbers from rng: one, then two (the tail) or three and more (a capsule, by rejection from
+    // its bounding box, which it fills to π/4 at least).
     Vec2 draw(Rng& rng) const {
         if (rng.uniform() < kTail) {
             // Radius by inverting the tail's radial CDF 1 − s/√(s² + ρ²).
@@ -354,33 +368,52 @@ public:
             const double angle = 2.0 * kPi * rng.uniform();
             return {radius * std::cos(angle), radius * std::sin(angle)};
         }
-        const auto m = static_cast<double>(ellipses_.size());
-        const Ellipse& e =
-            ellipses_[std::min(ellipses_.size() - 1, static_cast<std::size_t>(rng.uniform() * m))];
-        const double rho = std::sqrt(rng.uniform()), angle = 2.0 * kPi * rng.uniform();
-        const double u = e.a * rho * std::cos(angle), w = e.b * rho * std::sin(angle);
-        return {u * e.along.x() - w * e.along.y(), u * e.along.y() + w * e.along.x()};
+        const auto m = static_cast<double>(capsules_.size());
+        const Capsule& e =
+            capsules_[std::min(capsules_.size() - 1, static_cast<std::size_t>(rng.uniform() * m))];
+        const double length = e.segment.norm();
+        for (;;) {
+            const double along = -1.0 + (length + 2.0) * rng.uniform();
+            const double side = -1.0 + 2.0 * rng.uniform();
+            const Vec2 q = along * e.direction + side * Vec2(-e.direction.y(), e.direction.x());
+            if (inside(e, q)) {
+                const double x = e.a * q.x(), y = e.b * q.y();
+                return {x * e.along.x() - y * e.along.y(), x * e.along.y() + y * e.along.x()};
+            }
+        }
     }
 
     double density(const Vec2& x) const {
-        double inside = 0.0;
-        for (const Ellipse& e : ellipses_) {
-            const double u = x.dot(e.along), w = e.along.x() * x.y() - e.along.y() * x.x();
-            if ((u / e.a) * (u / e.a) + (w / e.b) * (w / e.b) <= 1.0) inside += e.density;
-        }
+        double sum = 0.0;
+        for (const Capsule& e : capsules_)
+            if (inside(e, to_unit(e, x))) sum += e.density;
         const double s2 = tail_scale_ * tail_scale_;
         const double tail = tail_scale_ / (2.0 * kPi * std::pow(s2 + x.squaredNorm(), 1.5));
-        return (1.0 - kTail) * inside / static_cast<double>(ellipses_.size()) + kTail * tail;
+        return (1.0 - kTail) * sum / static_cast<double>(capsules_.size()) + kTail * tail;
     }
 
 private:
-    struct Ellipse {
+    // A light's footprint ellipse (widened by d) swept along the segment where the detector sees
+    // it at the depths 0 … depth: in the ellipse's unit coordinates (the ellipse the unit disc), a
+    // capsule of radius 1 around the segment from 0 to `segment`.
+    struct Capsule {
         Vec2 along;   // unit, the light's azimuth on the plane
         double a, b;  // semi-axes along and across, µm
-        double density;
+        Vec2 light_slope;
+        Vec2 segment = Vec2::Zero(), direction = Vec2::UnitX();  // aim()'s
+        double density = 0.0;                                    // 1 / area, µm⁻²
     };
-    std::vector<Ellipse> ellipses_;
-    double tail_scale_;
+    static Vec2 to_unit(const Capsule& e, const Vec2& x) {
+        return {x.dot(e.along) / e.a, (e.along.x() * x.y() - e.along.y() * x.x()) / e.b};
+    }
+    static bool inside(const Capsule& e, const Vec2& q) {
+        const double length2 = e.segment.squaredNorm();
+        const double t = length2 > 0.0 ? std::clamp(q.dot(e.segment) / length2, 0.0, 1.0) : 0.0;
+        return (q - t * e.segment).squaredNorm() <= 1.0;
+    }
+
+    std::vector<Capsule> capsules_;
+    double depth_um_, tail_scale_;
 };
 
 // One detector-side walk's connections into the cells of its view (goniometer.h,
@@ -467,16 +500,18 @@ void play_connected_item(const Scatterer& scatterer, const GoniometerConfig& con
     acc.assign(nl * m * (2 + 2 * nlobes), 0.0);
     std::vector<Vec3d> lights;
     for (std::size_t p : view.pairs) lights.push_back(config.pairs[p].wi);
-    const ConnectedStarts starts(config, view);
-    ConnectedCells cells(config, view, nlobes);
     const PathTracing& paths = checked_path_tracing(scatterer);
+    ConnectedStarts starts(config, view, paths.depth_um());
+    ConnectedCells cells(config, view, nlobes);
     const double beam_area = kPi * config.beam_radius_um * config.beam_radius_um;
     const std::uint64_t seed = derive_seed(config.seed, "goniometer/connected-quantum", item.group);
     for (std::uint64_t q = item.first; q < item.first + item.count; ++q) {
         Rng rng(seed, q);
-        const Vec2 start = starts.draw(rng);
+        // The direction first, then the start for it: f̂ = w / (π r² p(x | ω)) (goniometer.h).
         const Vec3d wo =
             draw_cone_direction_by_projected_area(view.wi, config.detector_half_angle_rad, rng);
+        starts.aim(wo);
+        const Vec2 start = starts.draw(rng);
         cells.begin(1.0 / (beam_area * starts.density(start)));
         paths.trace_connected(wo, config.wavelengths_nm, start, rng, lights, cells);
         cells.add_to(acc);

@@ -50,25 +50,28 @@
 //    can_connect_lights(): the tracer) a cell is the sum of two independent estimates that
 //    partition the light paths by their first event (sim/tracer.h, "Connections to collimated
 //    lights"):
-//     - light side: the photon quanta above with BranchOptions::leave_lit_diffuse: a path ends
-//     where
-//       its first event after straight films is diffuse. What stays: the film reflections (R) and
-//       the specular chains between barbules, for which no diffuse event can aim at a detector.
-//     - detector side: per view direction v and pass, connected_quanta_per_pass walks start on the
-//       top plane at x with density p(x) (below), in a direction ω drawn over C(ω_o) by projected
-//       solid angle, and connect at every diffuse event to each light direction paired with v.
-//       A connection to light j that enters within the beam's footprint F_j (a point y of the top
-//       plane whose offset from the beam's axis through the origin, across ω_i, is at most the
-//       beam radius r) adds
-//           x_j = w / (π r² p(x)),   w the connection's LightConnection weight,
+//     - light side: the photon quanta above with BranchOptions::leave_lit_diffuse: a path whose
+//       first event after straight films is diffuse counts only if a second diffuse event follows.
+//       What stays: the film reflections (R), the specular chains between barbules, for which no
+//       diffuse event can aim at a detector, and paths with two diffuse events or more.
+//     - detector side: per view direction v and pass, connected_quanta_per_pass walks, each in a
+//       direction ω drawn over C(ω_o) by projected solid angle, start on the top plane at x with
+//       density p(x | ω) (below) and connect at their first diffuse event to each light direction
+//       paired with v. A connection to light j that enters within the beam's footprint F_j (a
+//       point y of the top plane whose offset from the beam's axis through the origin, across ω_i,
+//       is at most the beam radius r) adds
+//           x_j = w / (π r² p(x | ω)),   w the connection's LightConnection weight,
 //       to cell (ω_i,j, ω_o). Why: the detector sees radiance L(x, ω) = w E⊥ from the lit paths,
-//       so Φ(C) = ∫∫ L cos θ dω dx is estimated by L P(ω_o) / p(x), and f̄ = Φ(C) / (E⊥ π r²
-//       P(ω_o)) (the beam carries E⊥ π r²), which is w / (π r² p(x)).
-//       p(x) = (1 − ε) (1/m) Σ_j 1[x ∈ E_j] / |E_j| + ε s / (2π (s² + |x|²)^{3/2}): E_j the
-//       footprint ellipse of light j (semi-axes r/cos θ_i + d along the light's azimuth and r + d
-//       across, d = r: room for the light's lateral travel in the patch), and a heavy-tailed
-//       density over the whole plane (s = 2r, ε = 0.1) so that every start that could connect
-//       into a footprint has p > 0 (unbiased for any scene, whatever its extent).
+//       so Φ(C) = ∫∫ L cos θ dω dx is estimated by L P(ω_o) / p(x | ω), and f̄ = Φ(C) / (E⊥ π
+//       r² P(ω_o)) (the beam carries E⊥ π r²), which is w / (π r² p(x | ω)).
+//       p(x | ω) = (1 − ε) (1/m) Σ_j 1[x ∈ E_j] / |E_j| + ε s / (2π (s² + |x|²)^{3/2}): E_j where
+//       the walk along −ω sees light j's beam at the depths 0 … D of the scene
+//       (PathTracing::depth_um()): the footprint ellipse (semi-axes r/cos θ_i + d along the light's
+//       azimuth and r + d across, d = r: room for the light's lateral travel in the patch) swept
+//       by h (t_ω − t_i), h ∈ [0, D], t = ω_xy/ω_z (a capsule in the ellipse's unit coordinates);
+//       and a heavy-tailed density over the whole plane (s = 2r + D, ε = 0.1) so that every start
+//       that could connect into a footprint has p > 0 (unbiased for any scene, whatever its
+//       extent).
 //       Walk q of view v draws from Rng(derive_seed(seed, "goniometer/connected-quantum", v), q).
 //    Each half's standard error is its own sample variance; the cell's is their quadrature sum
 //    (the halves are independent). Lobes likewise.

@@ -53,6 +53,7 @@ public:
                                          std::span<double> weights) const override;
     bool can_trace_adjoint() const override { return inner_paths().can_trace_adjoint(); }
     bool can_connect_lights() const override { return inner_paths().can_connect_lights(); }
+    double depth_um() const override { return inner_paths().depth_um(); }
     // The lights turned by −ψ like ω_i; the connections' entry points turned back by +ψ.
     void trace_connected(const Vec3d& wo, std::span<const double> lambdas_nm,
                          const Vec2& position_um, Rng& rng, std::span<const Vec3d> lights,

@@ -94,10 +94,10 @@ struct BranchOptions {
     // can_trace_adjoint().
     bool adjoint = false;
     // The light-side half of a connected measurement (PathTracing::trace_connected()): a path
-    // ends, with nothing returned, at a diffuse event that the light reached straight from the
-    // source (through films in one medium only: can_connect_lights()). Those paths are what the
-    // detector-side connections estimate; the two halves together are every path once. Only for
-    // scatterers that can_connect_lights().
+    // whose first diffuse event the light reached straight from the source (through films in one
+    // medium only) and which meets no second diffuse event returns nothing. Those paths are what
+    // the detector-side connections estimate; the two halves together are every path once. Only
+    // for scatterers that can_connect_lights().
     bool leave_lit_diffuse = false;
 };
 
@@ -167,20 +167,24 @@ public:
     // Detector-side walks: whether sample_spectral_branches() honours BranchOptions::adjoint.
     virtual bool can_trace_adjoint() const { return false; }
 
-    // Connections to collimated lights (next-event estimation at diffuse events): a detector-side
+    // Connections to collimated lights (next-event estimation at a diffuse event): a detector-side
     // walk, as with BranchOptions::adjoint (wo the direction towards the detector, position_um the
-    // point on the top plane it starts from), that at every diffuse event connects to each light
-    // direction lights[j] (unit, away from the patch): a ray from the event towards the light
-    // that passes only films with one medium on both sides (each weighs by its T, the direction
-    // kept) and no other surface. Each connection that the sink accepts (asked before its ray is
-    // cast) and nothing blocks reaches the sink with the power factors of LightConnection. For a
-    // collimated beam of irradiance E⊥ (per area across the beam) along lights[j], entering at
-    // entry_position_um, w E⊥ is the radiance the detector sees at (position_um, wo) from the light
-    // paths whose first event from the light (after such films) is this diffuse one;
-    // BranchOptions::leave_lit_diffuse leaves exactly those to this walk. The walk goes on from
-    // every diffuse event by the cosine law and returns nothing when it escapes (a collimated light
-    // is never hit). Draws only from rng.
+    // point on the top plane it starts from), that at its first diffuse event connects to each
+    // light direction lights[j] (unit, away from the patch): a ray from the event towards the
+    // light that passes only films with one medium on both sides (each weighs by its T, the
+    // direction kept) and no other surface. Each connection that the sink accepts (asked before
+    // its ray is cast) and nothing blocks reaches the sink with the power factors of
+    // LightConnection. For a collimated beam of irradiance E⊥ (per area across the beam) along
+    // lights[j], entering at entry_position_um, w E⊥ is the radiance the detector sees at
+    // (position_um, wo) from the light paths whose one diffuse event is this one, reached straight
+    // from the light (after such films); BranchOptions::leave_lit_diffuse leaves exactly those to
+    // this walk. The walk ends there, or escapes with nothing (a collimated light is never hit).
+    // Draws only from rng.
     virtual bool can_connect_lights() const { return false; }
+    // How deep the scene reaches below the plane where light enters (µm; 0 when unknown): where
+    // an instrument sees a beam's light at depth h is shifted by h (ω_o,xy/ω_o,z − ω_i,xy/ω_i,z),
+    // which is where it starts its detector-side walks.
+    virtual double depth_um() const { return 0.0; }
     virtual void trace_connected(const Vec3d& wo, std::span<const double> lambdas_nm,
                                  const Vec2& position_um, Rng& rng, std::span<const Vec3d> lights,
                                  LightConnectionSink& sink) const;
