@@ -62,32 +62,31 @@ std::string canonical(const GoniometerConfig& c, const std::string& scatterer,
 }
 
 struct Group {  // pairs sharing one light direction (or one view direction: group_by_view)
-    Vec3d wi;
+    Vec3d wi;   // the direction they share (the view's, for group_by_view)
     std::vector<std::size_t> pairs;
 };
 
-std::vector<Group> group_by_view(const std::vector<DirectionPair>& pairs) {
+// The pairs grouped by one of their directions (DirectionPair::wi or ::wo), in order of first use.
+std::vector<Group> group_by(const std::vector<DirectionPair>& pairs,
+                            Vec3d DirectionPair::*direction) {
     std::vector<Group> groups;
     std::map<std::array<double, 3>, std::size_t> index;
     for (std::size_t p = 0; p < pairs.size(); ++p) {
-        const std::array<double, 3> key{pairs[p].wo.x(), pairs[p].wo.y(), pairs[p].wo.z()};
-        auto [it, inserted] = index.emplace(key, groups.size());
-        if (inserted) groups.push_back({pairs[p].wo, {}});
+        const Vec3d& d = pairs[p].*direction;
+        auto [it, inserted] =
+            index.emplace(std::array<double, 3>{d.x(), d.y(), d.z()}, groups.size());
+        if (inserted) groups.push_back({d, {}});
         groups[it->second].pairs.push_back(p);
     }
     return groups;
 }
 
 std::vector<Group> group_by_light(const std::vector<DirectionPair>& pairs) {
-    std::vector<Group> groups;
-    std::map<std::array<double, 3>, std::size_t> index;
-    for (std::size_t p = 0; p < pairs.size(); ++p) {
-        const std::array<double, 3> key{pairs[p].wi.x(), pairs[p].wi.y(), pairs[p].wi.z()};
-        auto [it, inserted] = index.emplace(key, groups.size());
-        if (inserted) groups.push_back({pairs[p].wi, {}});
-        groups[it->second].pairs.push_back(p);
-    }
-    return groups;
+    return group_by(pairs, &DirectionPair::wi);
+}
+
+std::vector<Group> group_by_view(const std::vector<DirectionPair>& pairs) {
+    return group_by(pairs, &DirectionPair::wo);
 }
 
 // A light direction's detector axes ordered by cos θ, to find the cones that may hold a
