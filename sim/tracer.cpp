@@ -579,9 +579,6 @@ PathResult ExplicitScatterer::trace_spectral(const Vec3d& wi, std::span<const do
     return walk_spectral(wi, lambdas_nm, position_um, rng, weights, first_film, guide, nullptr);
 }
 
-// One shared walk of walk_spectral() (tracer.h: spectral path sharing, splitting, guided diffuse
-// branches, detector-side walks): the state it carries between events and one function per step,
-// called in the order the walk takes them.
 // The share of the light paths lit straight at their first diffuse event that the light side
 // walks on to find a second one (tracer.h, "Connections to collimated lights"): on the rock dove's
 // 3660-pair BRDF 0.25 and 0.1 take 90 s and 89 s to 1 %, walking every one 108 s (bench/README.md);
@@ -594,6 +591,9 @@ struct ExplicitScatterer::Connections {
     LightConnectionSink* sink = nullptr;
 };
 
+// One shared walk of walk_spectral() (tracer.h: spectral path sharing, splitting, guided diffuse
+// branches, detector-side walks, connections to the lights): the state it carries between events
+// and one function per step, called in the order the walk takes them.
 class ExplicitScatterer::SpectralWalk {
 public:
     SpectralWalk(const ExplicitScatterer& tracer, const SpectralSet& set,
@@ -952,8 +952,8 @@ private:
         return e;
     }
 
-    // Connections to the lights from a diffuse event the walk reached from the detector
-    // (tracer.h, "Connections to collimated lights"); the event itself follows as usual.
+    // Connections to the lights from the first diffuse event the walk reached from the detector
+    // (tracer.h, "Connections to collimated lights"); the walk ends there.
     void connect_lights(const SurfaceHit& hit, bool from_outside) {
         const Vec3d& g = hit.normals.geometric;
         const Vec3d side = from_outside ? g : Vec3d(-g);
@@ -1125,8 +1125,8 @@ void ExplicitScatterer::trace_connected(const Vec3d& wo, std::span<const double>
     }
     const SpectralSet& set = spectral_set(lambdas_nm);
     WalkState st = start_state(set, wo, position_um, n, rng);
-    std::array<double, kMaxSharedWavelengths>
-        escaped{};  // a connected walk's escape counts nothing
+    // A connected walk's escape counts nothing (a collimated light is never hit).
+    std::array<double, kMaxSharedWavelengths> escaped{};
     BranchOptions adjoint;
     adjoint.adjoint = true;
     const Connections connections{lights, &sink};

@@ -321,9 +321,10 @@ void play_item(const Scatterer& scatterer, const GoniometerConfig& config,
     }
 }
 
-// Where a view's detector-side walks start (goniometer.h, "connect_lights"): the density p(x)
-// over the top plane, a mixture of the view's lights' widened footprint ellipses and a
-// heavy-tailed density over the whole plane, and draws from it.
+// Where a view's detector-side walks start (goniometer.h, "connect_lights"): the density p(x | ω)
+// over the top plane, a mixture of the view's lights' widened footprint ellipses swept along the
+// walk's direction by the scene's depth, and a heavy-tailed density over the whole plane; and
+// draws from it.
 class ConnectedStarts {
 public:
     static constexpr double kTail = 0.1;  // ε: the share of the heavy-tailed density
@@ -416,7 +417,7 @@ private:
 };
 
 // One detector-side walk's connections into the cells of its view (goniometer.h,
-// "connect_lights"): x_j = w / (π r² p(x)) for each connection that enters light j's footprint,
+// "connect_lights"): x_j = w / (π r² p(x | ω)) for each connection that enters light j's footprint,
 // summed per light and wavelength (and per lobe) over the walk, then added to play_item's layout.
 class ConnectedCells final : public LightConnectionSink {
 public:
