@@ -135,8 +135,9 @@ void BM_RockDoveSpectral3660(benchmark::State& state) {
     c.guided_fraction = guided;
     c.guided_branches = branches;
     c.connect_lights = connect;
-    // A tenth … a sixth of the walks per view: the split that minimises (Σ over the halves of
-    // √(variance per quantum × cost per quantum))², from a run with 2000 of each (bench/README.md).
+    // A sixth as many walks per view as quanta per light: the split that minimises (Σ over the
+    // halves of √(variance per quantum × cost per quantum))², from a run with 2000 of each
+    // (bench/README.md).
     c.connected_quanta_per_pass = 320;
     c.signal_fraction = 0.1;
     c.quanta_per_pass = 2000;

@@ -684,8 +684,10 @@ public:
                 }
             }
             const InterfaceEvent event = surface_event(*hit, forced);
-            st_.lit_straight = st_.lit_straight && event.kind == EventKind::film_transmit &&
-                               set_.film_straight[hit->surface] != 0;
+            if (leave_lit_) {
+                st_.lit_straight = st_.lit_straight && event.kind == EventKind::film_transmit &&
+                                   set_.film_straight[hit->surface] != 0;
+            }
             // A detector-side walk estimates the forward light paths, not their transpose.
             if (adjoint_) scale(adjoint_shading_factor(st_.direction, event, hit->normals));
             if (forked_ > 0) leave_guided_branches(*hit);

@@ -54,8 +54,8 @@ gonio::GoniometerConfig read_goniometer_table(ParameterTable& t, gonio::Goniomet
     }
     c.connect_lights =
         t.boolean("connect_lights", c.connect_lights,
-                  "connect detector-side walks to the lights at their diffuse events "
-                  "(true), the quanta keeping the paths that start otherwise");
+                  "connect detector-side walks to the lights at their first diffuse event "
+                  "(true), the quanta keeping the paths those connections do not cover");
     c.connected_quanta_per_pass = static_cast<std::uint64_t>(t.integer(
         "connected_quanta_per_pass", static_cast<long>(c.connected_quanta_per_pass), 0, 100000000,
         "detector-side walks per view direction and pass (0: quanta_per_pass)"));

@@ -538,27 +538,28 @@ void add_item_sums(const std::vector<double>& partial, const Group& group, std::
     }
 }
 
+// A cell's mean over `count` samples and the variance of that mean, from Σx and Σx².
+std::pair<double, double> mean_and_variance(double sum, double sum_sq, double count) {
+    const double mean = sum / count;
+    return {mean, std::max(0.0, sum_sq / count - mean * mean) / std::max(1.0, count - 1.0)};
+}
+
 // The record's values and standard errors, total and per lobe, from the sums of n quanta per
 // light direction and wavelength: the mean and the standard error of the mean.
 void estimate_from_sums(const Sums& sums, std::uint64_t n, BrdfRecord& r) {
-    const std::size_t cells = sums.sum.size();
-    r.value.assign(cells, 0.0);
-    r.standard_error.assign(cells, 0.0);
-    r.lobe_values.assign(sums.lobe_sum.size(), 0.0);
     const double dn = static_cast<double>(n);
-    for (std::size_t i = 0; i < cells; ++i) {
-        const double mean = sums.sum[i] / dn;
-        r.value[i] = mean;
-        r.standard_error[i] =
-            std::sqrt(std::max(0.0, sums.sum_sq[i] / dn - mean * mean) / std::max(1.0, dn - 1.0));
-    }
-    r.lobe_standard_error.assign(sums.lobe_sum.size(), 0.0);
-    for (std::size_t i = 0; i < r.lobe_values.size(); ++i) {
-        r.lobe_values[i] = sums.lobe_sum[i] / dn;
-        r.lobe_standard_error[i] = std::sqrt(
-            std::max(0.0, sums.lobe_sum_sq[i] / dn - r.lobe_values[i] * r.lobe_values[i]) /
-            std::max(1.0, dn - 1.0));
-    }
+    auto estimate = [&](const std::vector<double>& sum, const std::vector<double>& sum_sq,
+                        std::vector<double>& value, std::vector<double>& error) {
+        value.assign(sum.size(), 0.0);
+        error.assign(sum.size(), 0.0);
+        for (std::size_t i = 0; i < sum.size(); ++i) {
+            const auto [mean, variance] = mean_and_variance(sum[i], sum_sq[i], dn);
+            value[i] = mean;
+            error[i] = std::sqrt(variance);
+        }
+    };
+    estimate(sums.sum, sums.sum_sq, r.value, r.standard_error);
+    estimate(sums.lobe_sum, sums.lobe_sum_sq, r.lobe_values, r.lobe_standard_error);
 }
 
 // The cells that carry signal (GoniometerConfig::signal_fraction): value >= fraction × the
@@ -580,11 +581,6 @@ std::vector<std::uint8_t> signal_cells(const std::vector<double>& value, std::si
 // and so do the variances of the means.
 void estimate_from_halves(const Sums& light, std::uint64_t n, const Sums& detector,
                           std::uint64_t n_connected, BrdfRecord& r) {
-    auto mean_and_variance = [](double sum, double sum_sq, double count) {
-        const double mean = sum / count;
-        return std::pair(mean,
-                         std::max(0.0, sum_sq / count - mean * mean) / std::max(1.0, count - 1.0));
-    };
     const double dn = static_cast<double>(n), dc = static_cast<double>(n_connected);
     auto combine = [&](const std::vector<double>& s1, const std::vector<double>& q1,
                        const std::vector<double>& s2, const std::vector<double>& q2,

@@ -54,26 +54,42 @@ std::optional<SpectralScatterEvent> MountedScatterer::sample_spectral(
     return event;
 }
 
+namespace {
+
+// Directions turned into the sample's frame (the instrument's detector axes or lights): on the
+// stack for the instruments' sets, on the heap beyond (sim/scatterer/mounted_scatterer.h); each
+// call its own, so nested mounts do not share.
+class TurnedDirections {
+public:
+    template <class Turn>
+    TurnedDirections(std::span<const Vec3d> directions, Turn turn)
+        : turned_(on_stack_.data(), std::min(directions.size(), MountedScatterer::kStackAxes)) {
+        if (directions.size() > MountedScatterer::kStackAxes) {
+            on_heap_.resize(directions.size());
+            turned_ = on_heap_;
+        }
+        for (std::size_t a = 0; a < directions.size(); ++a) turned_[a] = turn(directions[a]);
+    }
+    std::span<const Vec3d> span() const { return turned_; }
+
+private:
+    std::array<Vec3d, MountedScatterer::kStackAxes> on_stack_;
+    std::vector<Vec3d> on_heap_;
+    std::span<Vec3d> turned_;
+};
+
+}  // namespace
+
 std::size_t MountedScatterer::sample_spectral_branches(const Vec3d& wi,
                                                        std::span<const double> lambdas_nm,
                                                        const Vec2& position_um, Rng& rng,
                                                        const BranchOptions& options,
                                                        std::span<SpectralScatterEvent> events,
                                                        std::span<double> weights) const {
-    // The detector axes in the sample's frame: on the stack for the instruments' sets, on the
-    // heap beyond (sim/scatterer/mounted_scatterer.h); each call its own, so nested mounts do not
-    // share.
-    const std::size_t axes = options.detector_axes.size();
-    std::array<Vec3d, kStackAxes> on_stack;
-    std::vector<Vec3d> on_heap;
-    std::span<Vec3d> turned(on_stack.data(), std::min(axes, kStackAxes));
-    if (axes > kStackAxes) {
-        on_heap.resize(axes);
-        turned = on_heap;
-    }
-    for (std::size_t a = 0; a < axes; ++a) turned[a] = to_sample(options.detector_axes[a]);
+    const TurnedDirections turned(options.detector_axes,
+                                  [this](const Vec3d& a) { return to_sample(a); });
     BranchOptions inner_options = options;
-    inner_options.detector_axes = turned;
+    inner_options.detector_axes = turned.span();
     const std::size_t count = inner_paths().sample_spectral_branches(
         to_sample(wi), lambdas_nm, to_sample(position_um), rng, inner_options, events, weights);
     for (std::size_t b = 0; b < count; ++b) to_instrument(events[b].wo, events[b].exit_position_um);
@@ -112,17 +128,10 @@ void MountedScatterer::trace_connected(const Vec3d& wo, std::span<const double> 
                                        std::span<const Vec3d> lights,
                                        LightConnectionSink& sink) const {
     // The lights in the sample's frame, as the detector axes of sample_spectral_branches().
-    std::array<Vec3d, kStackAxes> on_stack;
-    std::vector<Vec3d> on_heap;
-    std::span<Vec3d> turned(on_stack.data(), std::min(lights.size(), kStackAxes));
-    if (lights.size() > kStackAxes) {
-        on_heap.resize(lights.size());
-        turned = on_heap;
-    }
-    for (std::size_t j = 0; j < lights.size(); ++j) turned[j] = to_sample(lights[j]);
+    const TurnedDirections turned(lights, [this](const Vec3d& l) { return to_sample(l); });
     TurnedSink turned_sink(sink, cos_, sin_);
-    inner_paths().trace_connected(to_sample(wo), lambdas_nm, to_sample(position_um), rng, turned,
-                                  turned_sink);
+    inner_paths().trace_connected(to_sample(wo), lambdas_nm, to_sample(position_um), rng,
+                                  turned.span(), turned_sink);
 }
 
 double MountedScatterer::eval(const Vec3d& wi, const Vec3d& wo, double lambda_nm,
