@@ -60,43 +60,6 @@ std::map<Key, std::vector<double>> read_rows(const fs::path& file, std::size_t k
     return out;
 }
 
-Curve2d straight(Vec from, Vec to, Vec normal, const SurfaceStack2d& stack) {
-    Curve2d c;
-    c.point = [from, to](double t) { return Vec(from + t * (to - from)); };
-    c.normal = [normal](double) { return normal; };
-    c.stack = stack;
-    return c;
-}
-
-// The physical-optics view of structures.h: the arc as a sheet (its films over air), the layer
-// as four straight faces of a melanin body; the ellipse as one closed curve.
-CrossSection2d film_over_melanin() {
-    const geometry::EllipticalArc arc = ref::outer_arc();
-    Curve2d sheet;
-    sheet.point = [arc](double phi) { return Vec(arc.point(phi) + Vec(0.0, ref::kArcCentreZUm)); };
-    sheet.normal = [arc](double phi) { return arc.normal(phi); };
-    sheet.t0 = arc.phi0();
-    sheet.t1 = arc.phi1();
-    sheet.stack = {{{optics::keratin(), ref::kFilmUm}}, optics::air()};
-    const SurfaceStack2d bare{{}, optics::melanin()};
-    const double w = ref::kLayerHalfWidthUm, d = ref::kLayerThicknessUm;
-    return {{sheet, straight({-w, 0.0}, {w, 0.0}, {0.0, 1.0}, bare),
-             straight({w, 0.0}, {w, -d}, {1.0, 0.0}, bare),
-             straight({w, -d}, {-w, -d}, {0.0, -1.0}, bare),
-             straight({-w, -d}, {-w, 0.0}, {-1.0, 0.0}, bare)}};
-}
-
-CrossSection2d semi_transparent_body() {
-    const geometry::EllipticalArc ellipse(ref::kBodySemiXUm, ref::kBodySemiZUm, -kPi, kPi);
-    Curve2d c;
-    c.point = [ellipse](double phi) { return ellipse.point(phi); };
-    c.normal = [ellipse](double phi) { return ellipse.normal(phi); };
-    c.t0 = -kPi;
-    c.t1 = kPi;
-    c.stack = {{}, optics::melanin()};
-    return {{c}};
-}
-
 // The quantities of issue 36's acceptance from σ on the reference's 0.5° grid and the widths.
 struct Quantities {
     double spike = 0.0;   // ∫σ within 2.5° of the specular direction (the 5° window)
@@ -143,9 +106,9 @@ std::vector<double> grid_deg() {
 }
 
 // far_field.csv holds one row per angle: σ per key, in the file's (grid_deg) order.
-std::map<Key, std::vector<double>> read_sigma() {
+std::map<Key, std::vector<double>> read_sigma(const fs::path& file) {
     std::map<Key, std::vector<double>> sigma;
-    std::ifstream in(reference_dir() / "far_field.csv");
+    std::ifstream in(file);
     EXPECT_TRUE(in);
     std::string line;
     std::getline(in, line);
@@ -154,6 +117,16 @@ std::map<Key, std::vector<double>> read_sigma() {
         sigma[Key{c[0], c[1], std::stod(c[3]), std::stod(c[4])}].push_back(std::stod(c[6]));
     }
     return sigma;
+}
+
+// Full wave's quantities of one run.
+Quantities full_wave_at(const std::map<Key, std::vector<double>>& totals,
+                        const std::map<Key, std::vector<double>>& sigma, const Key& key) {
+    Quantities q = from_sigma(grid_deg(), sigma.at(key));
+    q.scattering = totals.at(key)[1];
+    q.absorption = totals.at(key)[2];
+    q.extinction = totals.at(key)[3];
+    return q;
 }
 
 // Full wave's quantities on the two finest grids of (case, polarisation, λ) in the files.
@@ -167,15 +140,8 @@ std::pair<Quantities, Quantities> full_wave(const std::map<Key, std::vector<doub
             grids.push_back(std::get<3>(key));
     EXPECT_GE(grids.size(), 2u) << name << " " << pol << " " << lambda;
     std::sort(grids.rbegin(), grids.rend());
-    Quantities q[2];
-    for (int g = 0; g < 2; ++g) {
-        const Key key{name, pol, lambda, grids[static_cast<std::size_t>(g)]};
-        q[g] = from_sigma(grid_deg(), sigma.at(key));
-        q[g].scattering = totals.at(key)[1];
-        q[g].absorption = totals.at(key)[2];
-        q[g].extinction = totals.at(key)[3];
-    }
-    return {q[0], q[1]};
+    return {full_wave_at(totals, sigma, {name, pol, lambda, grids[0]}),
+            full_wave_at(totals, sigma, {name, pol, lambda, grids[1]})};
 }
 
 Quantities hybrid(const CrossSection2d& section, const std::string& pol, double lambda) {
@@ -207,10 +173,10 @@ struct CheckRow {
 const std::vector<CheckRow>& check_rows() {
     static const std::vector<CheckRow> rows = [] {
         const auto totals = read_rows(reference_dir() / "totals.csv", 5);
-        const auto sigma = read_sigma();
+        const auto sigma = read_sigma(reference_dir() / "far_field.csv");
         const std::map<std::string, CrossSection2d> sections{
-            {"film_over_melanin", film_over_melanin()},
-            {"semi_transparent_body", semi_transparent_body()}};
+            {"film_over_melanin", ref::film_over_melanin_hybrid()},
+            {"semi_transparent_body", ref::semi_transparent_body_hybrid()}};
         std::vector<CheckRow> out;
         for (const auto& [name, section] : sections)
             for (const std::string pol : {"TE", "TM"})
@@ -273,6 +239,80 @@ TEST(PoTransmissionReference, ABodyThatTransmitsBeatsTheOpaqueBody) {
         std::printf("%s %g nm: extinction %.3f, opaque %.3f, full wave %.3f µm\n", r.pol.c_str(),
                     r.lambda, r.po, opaque, r.fw);
         EXPECT_LT(std::abs(r.po - r.fw), std::abs(opaque - r.fw));
+    }
+}
+
+// The widths study (README.md, "Wider"): the arc over its layer, the arc alone and the arc
+// flattened into a free film, stretched along x (structures.h), at 550 nm against full wave on
+// its 60 px/µm grid (at 1×, 60 against 90 px/µm moves these quantities by at most 2.3 %). What
+// the structures' ends do (the thick film's end faces, light guided along the film, the gap's
+// shadow edges) is a fixed amount that the wider sections dilute; physical optics leaves it out.
+struct Widened {
+    std::string name;
+    double lateral;
+    CrossSection2d section;
+    std::string key() const {
+        return lateral == 1.0 ? name : fmt::format("{}_x{:g}", name, lateral);
+    }
+};
+
+std::vector<Widened> widened() {
+    std::vector<Widened> out;
+    for (const double s : {1.0, 2.0, 4.0})
+        out.push_back({"free_flat_film", s, ref::free_flat_film_hybrid(s)});
+    for (const double s : {1.0, 3.0}) out.push_back({"free_arc", s, ref::free_arc_hybrid(s)});
+    for (const double s : {1.0, 2.0, 3.0})
+        out.push_back({"film_over_melanin", s, ref::film_over_melanin_hybrid(s)});
+    return out;
+}
+
+double relative_error(const std::pair<Quantities, Quantities>& po_fw, double Quantities::*q) {
+    return po_fw.first.*q / (po_fw.second.*q) - 1.0;
+}
+
+// The arc over its layer: σ_scat's and σ_abs's misses at 1× are the ends'. They shrink as the
+// section widens, and at 3× the three widths are within issue 36's targets in both
+// polarisations; the free film's reflection and widths are within a few per cent once it is
+// 12.8 µm wide. The specular spike of the arc over its layer does not come in (README.md).
+TEST(PoTransmissionReference, WiderSectionsBringScatteringExtinctionAndAbsorptionWithinTarget) {
+    auto totals = read_rows(reference_dir() / "widths_totals.csv", 5);
+    auto sigma = read_sigma(reference_dir() / "widths_far_field.csv");
+    totals.merge(read_rows(reference_dir() / "totals.csv", 5));
+    sigma.merge(read_sigma(reference_dir() / "far_field.csv"));
+    constexpr double kLambda = 550.0, kGrid = 60.0;
+    std::map<std::tuple<std::string, std::string, double>, std::pair<Quantities, Quantities>> got;
+    for (const Widened& w : widened())
+        for (const std::string pol : {"TE", "TM"}) {
+            const Quantities fw = full_wave_at(totals, sigma, {w.key(), pol, kLambda, kGrid});
+            const Quantities po = hybrid(w.section, pol, kLambda);
+            got[{w.name, pol, w.lateral}] = {po, fw};
+            std::string line = fmt::format("{:<18} x{:g} {}", w.name, w.lateral, pol);
+            for (const Line& l : lines())
+                line += fmt::format("  {} {:+.1f} %", l.name,
+                                    100.0 * relative_error({po, fw}, l.member));
+            std::printf("%s  lobe %+.1f°\n", line.c_str(), po.lobe_deg - fw.lobe_deg);
+        }
+    for (const std::string pol : {"TE", "TM"}) {
+        const auto& arc1 = got.at({"film_over_melanin", pol, 1.0});
+        const auto& arc2 = got.at({"film_over_melanin", pol, 2.0});
+        const auto& arc3 = got.at({"film_over_melanin", pol, 3.0});
+        const double scat[] = {relative_error(arc1, &Quantities::scattering),
+                               relative_error(arc2, &Quantities::scattering),
+                               relative_error(arc3, &Quantities::scattering)};
+        EXPECT_GT(scat[0], 0.08) << pol << ": the 1× section misses σ_scat";
+        EXPECT_LT(std::abs(scat[1]), std::abs(scat[0])) << pol;
+        EXPECT_LT(std::abs(scat[2]), std::abs(scat[1])) << pol;
+        for (const Line& l : lines()) {
+            if (l.member == &Quantities::spike || l.member == &Quantities::back) continue;
+            EXPECT_LT(std::abs(relative_error(arc3, l.member)), l.tolerance)
+                << pol << " " << l.name;
+        }
+        for (const double s : {2.0, 4.0}) {
+            const auto& film = got.at({"free_flat_film", pol, s});
+            EXPECT_LT(std::abs(relative_error(film, &Quantities::scattering)), 0.015) << pol << s;
+            EXPECT_LT(std::abs(relative_error(film, &Quantities::extinction)), 0.015) << pol << s;
+            EXPECT_LT(std::abs(relative_error(film, &Quantities::spike)), 0.15) << pol << s;
+        }
     }
 }
 
