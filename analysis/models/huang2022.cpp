@@ -1558,7 +1558,7 @@ double trt_efficiency(const FrameT& f, const Vec3d& wo_b, double lambda_nm,
 template <typename Transmittance>
 double Huang2022Bsdf::eval_in_frame(const Frame& f, const Vec3d& wo, double lambda_nm, double r_m,
                                     bool steep, const Transmittance& transmittance,
-                                    std::span<double> per_lobe) const {
+                                    std::span<double> per_lobe, std::uint32_t wanted) const {
     const Vec3d wo_b = to_barbule(wo, f.cos_mu, f.sin_mu);
     const Ellipse e{params_.b};
     double f_r = 0.0, f_trt = 0.0;
@@ -1568,8 +1568,8 @@ double Huang2022Bsdf::eval_in_frame(const Frame& f, const Vec3d& wo, double lamb
         const Vec3d h = f.wi + wo_b;
         // |θ_m| ≤ θ_d needs |m_y| ≤ sin θ_d: most ω_o fail that before the atan2 and asin
         // (the margin keeps the exact test below the one that decides).
-        if (h.norm() > 1e-12 && std::abs(h.y()) <= f.sin_theta_d * (1.0 + 1e-9) * h.norm() &&
-            f.wi.dot(h) > 0.0) {
+        if (((wanted >> kR) & 1u) && h.norm() > 1e-12 &&
+            std::abs(h.y()) <= f.sin_theta_d * (1.0 + 1e-9) * h.norm() && f.wi.dot(h) > 0.0) {
             const Vec3d m = h.normalized();
             const double phi_m = wrap_into(std::atan2(m.x(), m.z()), params_.phi0);
             const double theta_m = std::asin(std::clamp(m.y(), -1.0, 1.0));
@@ -1591,7 +1591,7 @@ double Huang2022Bsdf::eval_in_frame(const Frame& f, const Vec3d& wo, double lamb
             }
         }
         // TRT: P_hit/π · R_m · E_q[T_i T_o 1(ω_o·ω_m > 0)], only above the barb plane.
-        if (wo.z() > 0.0) {
+        if (((wanted >> kTRT) & 1u) && wo.z() > 0.0) {
             f_trt = f.hit_fraction() * r_m *
                     trt_efficiency(f, wo_b, lambda_nm, transmittance, steep, params_.b,
                                    params_.theta_d) /
@@ -1609,13 +1609,18 @@ double Huang2022Bsdf::eval_in_frame(const Frame& f, const Vec3d& wo, double lamb
 
 double Huang2022Bsdf::eval(const Vec3d& wi, const Vec3d& wo, double lambda_nm,
                            std::span<double> per_lobe) const {
+    return eval_lobes(wi, wo, lambda_nm, ~0u, per_lobe);
+}
+
+double Huang2022Bsdf::eval_lobes(const Vec3d& wi, const Vec3d& wo, double lambda_nm,
+                                 std::uint32_t wanted, std::span<double> per_lobe) const {
     const Frame& f = frame_for(wi);
-    // A frame asked a second time (a sweep, an instrument's cone) stores its TRT nodes; one asked
-    // once (a new ω_i every call) builds only the pieces it needs, for the same values.
-    if (++f.evals >= 2 && !f.trt_stored) build_trt_nodes(f);
+    // A frame asked a second time for TRT (a sweep, an instrument's cone) stores its TRT nodes;
+    // one asked once (a new ω_i every call) builds only the pieces it needs, for the same values.
+    if (((wanted >> kTRT) & 1u) && ++f.evals >= 2 && !f.trt_stored) build_trt_nodes(f);
     const Spectral& terms = spectral(lambda_nm);
     return eval_in_frame(f, wo, lambda_nm, terms.melanin_reflectance, terms.steep,
-                         terms.transmittance, per_lobe);
+                         terms.transmittance, per_lobe, wanted);
 }
 
 double Huang2022Bsdf::eval_reference(const Vec3d& wi, const Vec3d& wo, double lambda_nm,

@@ -139,6 +139,11 @@ public:
     bool can_evaluate() const override { return true; }
     double eval(const Vec3d& wi, const Vec3d& wo, double lambda_nm,
                 std::span<double> per_lobe = {}) const override;
+    // R alone costs a few hundred instructions, TRT its quadrature (thousands): a cubature that
+    // refines R's edges past TRT's convergence asks for R alone.
+    bool evaluates_lobes_apart() const override { return true; }
+    double eval_lobes(const Vec3d& wi, const Vec3d& wo, double lambda_nm, std::uint32_t wanted,
+                      std::span<double> per_lobe) const override;
     // Density of sample()'s non-Dirac directions (R and TRT), including samples that
     // come back with weight 0 (blocked); the T lobe's mass is t_lobe_mass().
     double pdf(const Vec3d& wi, const Vec3d& wo, double lambda_nm) const override;
@@ -189,9 +194,11 @@ private:
     // eval() in a frame, with the melanin reflectance r_m and the film's T(c) given (tables in
     // eval(), direct evaluation in eval_reference()); its TRT term E_q[T(ω_i·ω_m) T(ω_o·ω_m)
     // 1(ω_o·ω_m > 0)] and that term's error are described at its definition.
+    // `wanted`: the lobes computed (eval_lobes(); the others are 0).
     template <typename Transmittance>
     double eval_in_frame(const Frame& f, const Vec3d& wo, double lambda_nm, double r_m, bool steep,
-                         const Transmittance& transmittance, std::span<double> per_lobe) const;
+                         const Transmittance& transmittance, std::span<double> per_lobe,
+                         std::uint32_t wanted = ~0u) const;
     double film_reflectance(double cos_theta, double lambda_nm) const;
     double film_transmittance(double cos_theta, double lambda_nm) const;
     double melanin_reflectance(double lambda_nm) const;

@@ -10,6 +10,15 @@ double Scatterer::eval(const Vec3d&, const Vec3d&, double, std::span<double>) co
         " cannot evaluate f(wi, wo): it is a Monte Carlo scatterer (check can_evaluate())");
 }
 
+double Scatterer::eval_lobes(const Vec3d& wi, const Vec3d& wo, double lambda_nm,
+                             std::uint32_t wanted, std::span<double> per_lobe) const {
+    eval(wi, wo, lambda_nm, per_lobe);
+    double sum = 0.0;
+    for (std::size_t k = 0; k < per_lobe.size(); ++k)
+        if ((wanted >> k) & 1u) sum += per_lobe[k];
+    return sum;
+}
+
 std::size_t PathTracing::sample_spectral_branches(
     const Vec3d& wi, std::span<const double> lambdas_nm, const Vec2& position_um, Rng& rng,
     const BranchOptions&, std::span<SpectralScatterEvent> events, std::span<double> weights) const {

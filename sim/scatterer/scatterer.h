@@ -209,6 +209,16 @@ public:
     // (size lobe_names().size()).
     virtual double eval(const Vec3d& wi, const Vec3d& wo, double lambda_nm,
                         std::span<double> per_lobe = {}) const;
+    // Whether eval() is the sum of its lobes, none of them negative, and eval_lobes() skips the
+    // work of the lobes not asked for: then an instrument may refine one lobe's cubature past
+    // another's (the goniometer's adaptive eval estimator: a narrow lobe's edges need many more
+    // directions than a smooth lobe, virtual_gonio/goniometer.h).
+    virtual bool evaluates_lobes_apart() const { return false; }
+    // The lobes whose bit is set in `wanted` (bit k: lobe_names()[k]) into per_lobe (size
+    // lobe_names().size(); the other entries unspecified), and their sum. By default eval() of
+    // every lobe.
+    virtual double eval_lobes(const Vec3d& wi, const Vec3d& wo, double lambda_nm,
+                              std::uint32_t wanted, std::span<double> per_lobe) const;
 
     // The scatterer's path tracing (shared wavelengths, branches, detector-side walks), or
     // nullptr when it traces no paths (above).
