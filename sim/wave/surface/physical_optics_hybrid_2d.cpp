@@ -801,6 +801,31 @@ StackResponse2d stack_response(std::complex<double> n_in,
     n.push_back(n_out);
     std::vector<Complex> q(n.size());
     for (std::size_t j = 0; j < n.size(); ++j) q[j] = decaying_sqrt(n[j] * n[j] - beta * beta);
+    StackResponse2d out;
+    out.q_in = q.front();
+    out.q_out = q.back();
+    if (q.front() == 0.0) {
+        // Exactly grazing in a lossless medium (a face sampled where its normal is square to the
+        // light, at a symmetric ellipse's side): the matrices below become 0/0. The limit is
+        // multilayer.cpp's: nothing enters the first medium of positive thickness that differs
+        // from the incidence one (r = −1, t = 0); with none, the stack is absent.
+        for (std::size_t j = 1; j < n.size(); ++j) {
+            const bool present = j + 1 == n.size() || layers[j - 1].thickness_um > 0.0;
+            if (present && n[j] != n.front()) {
+                out.r = -1.0;
+                out.reflectance = 1.0;
+                return out;
+            }
+        }
+        out.t = 1.0;
+        out.transmittance = 1.0;
+        return out;
+    }
+    // A lossless film at exactly its own critical angle (q = 0 inside the stack) has a finite
+    // limit that the matrices reach continuously; a q of 1e-9 stands in for it (its error is of
+    // that order) rather than dividing by the zero t of the film's lower interface.
+    for (std::size_t j = 1; j < n.size(); ++j)
+        if (q[j] == 0.0) q[j] = 1e-9;
     const double k0 = 2.0 * kPi / (1e-3 * lambda_nm);
     // Byrnes' transfer matrix (multilayer.h): M = Π (1/t_j)[[1, r_j], [r_j, 1]] diag(e^{−iδ},
     // e^{iδ}).
@@ -829,11 +854,8 @@ StackResponse2d stack_response(std::complex<double> n_in,
         const Complex a10 = (m10 + m11 * r) * inv_t, a11 = (m10 * r + m11) * inv_t;
         m00 = a00, m01 = a01, m10 = a10, m11 = a11;
     }
-    StackResponse2d out;
     out.r = m10 / m00;
     out.t = 1.0 / m00;
-    out.q_in = q.front();
-    out.q_out = q.back();
     out.reflectance = std::norm(out.r);
     const auto flux = [&](Complex index, Complex qq) {
         return pol == optics::Polarisation::s ? qq.real() : (index * std::conj(qq / index)).real();

@@ -100,6 +100,55 @@ TEST(PhysicalOpticsHybrid, StackResponseConservesPowerBothWaysThroughALosslessFi
     }
 }
 
+// At exactly grazing incidence from air the transfer matrix is 0/0; the limit is multilayer.h's
+// (r = −1, t = 0). A film at exactly its own critical angle inside the stack has a limit too: the
+// response there is continuous with its neighbours' in β.
+TEST(PhysicalOpticsHybrid, StackResponseHasItsLimitsAtGrazingAndCriticalAngles) {
+    const double lambda = 550.0;
+    const std::vector<optics::StackLayer> films{{optics::keratin()->index(lambda), 0.59},
+                                                {1.0, 0.3}};
+    const Complex melanin = optics::melanin()->index(lambda);
+    for (const auto pol : {optics::Polarisation::s, optics::Polarisation::p}) {
+        const StackResponse2d grazing = stack_response(1.0, films, melanin, 1.0, lambda, pol);
+        const optics::StackAmplitudes ref =
+            optics::transfer_matrix_amplitudes({1.0, films, melanin}, lambda, 0.0, pol);
+        EXPECT_EQ(grazing.r, ref.r);
+        EXPECT_EQ(grazing.t, ref.t);
+        EXPECT_EQ(grazing.reflectance, 1.0);
+        EXPECT_EQ(grazing.transmittance, 0.0);
+        // From keratin, β = 1 is the air gap's critical angle (q = 0 in the gap).
+        const Complex n = optics::keratin()->index(lambda);
+        const std::span<const optics::StackLayer> gap(films.data() + 1, 1);
+        const StackResponse2d at = stack_response(n, gap, melanin, 1.0, lambda, pol);
+        const StackResponse2d near = stack_response(n, gap, melanin, 1.0 - 1e-9, lambda, pol);
+        EXPECT_TRUE(std::isfinite(std::abs(at.r)) && std::isfinite(std::abs(at.t)));
+        EXPECT_LT(std::abs(at.r - near.r), 1e-6);
+        EXPECT_LT(std::abs(at.t - near.t), 1e-6);
+    }
+}
+
+// A symmetric barbule at normal incidence has surface samples whose normals are exactly square to
+// the light (the ellipse's sides): their stack is at β = 1, where the transfer matrix is 0/0 (it
+// gave NaN for every angle). The far field there is finite and the limit of its neighbours': 1e-8
+// rad off normal incidence σ and the extinction are the same to 1e-4.
+TEST(PhysicalOpticsHybrid, ABarbuleSampledExactlyAtGrazingIsTheLimitOfItsNeighbours) {
+    const CrossSection2d barbule = barbule_with_gap(40.0, 0.3, kFilm, 0.3);
+    const std::vector<double> theta{-0.3, 0.0, 0.3, kPi};
+    HybridOptions options;
+    options.circle_angles = 0;
+    const HybridFarField2d at =
+        hybrid_far_field(barbule, {550.0, 0.0, Polarisation2d::te}, theta, options);
+    const HybridFarField2d off =
+        hybrid_far_field(barbule, {550.0, 1e-8, Polarisation2d::te}, theta, options);
+    ASSERT_TRUE(std::isfinite(at.extinction_width_um));
+    for (std::size_t j = 0; j < theta.size(); ++j) {
+        ASSERT_TRUE(std::isfinite(at.sigma_um_per_rad[j])) << theta[j];
+        EXPECT_NEAR(at.sigma_um_per_rad[j], off.sigma_um_per_rad[j], 1e-4 * off.sigma_um_per_rad[j])
+            << theta[j];
+    }
+    EXPECT_NEAR(at.extinction_width_um, off.extinction_width_um, 1e-4 * off.extinction_width_um);
+}
+
 // A free keratin film W wide (air on both sides): its shadow is partial. Closed forms for a
 // wide planar aperture of reflection r and transmission t: scattering (R + |1 − t|²) W cos θ,
 // extinction 2 Re(1 − t) W cos θ, absorption 0.
