@@ -4,8 +4,9 @@
 // two main cases); the committed CSVs are what the tests read.
 //   plumage_po_transmission_reference --out DIR --case CASE [--resolution PX_PER_UM]
 //       [--lateral-scale S] [--lambda NM ...] [--single-grid]
-// CASE: film_over_melanin, semi_transparent_body, free_arc or free_flat_film (the last two and
-// any scale other than 1 are the widths study's; a scaled case is written as CASE_xS). By
+// CASE: film_over_melanin, semi_transparent_body, free_arc, free_flat_film or
+// flat_film_over_melanin (the last three and any scale other than 1 are the widths study's; a
+// scaled case is written as CASE_xS). By
 // default the run takes 450/550/650 nm on two grids, RESOLUTION and 1.5 × RESOLUTION;
 // --single-grid keeps RESOLUTION only. The files are written whole at the end.
 #include <cstdio>
@@ -35,8 +36,8 @@ int main(int argc, char** argv) {
     app.add_option("--out", out, "output folder")->required();
     app.add_option("--case", name, "cross-section")
         ->required()
-        ->check(CLI::IsMember(
-            {"film_over_melanin", "semi_transparent_body", "free_arc", "free_flat_film"}));
+        ->check(CLI::IsMember({"film_over_melanin", "semi_transparent_body", "free_arc",
+                               "free_flat_film", "flat_film_over_melanin"}));
     app.add_option("--resolution", coarse, "px/µm of the coarser grid")
         ->check(CLI::Range(10.0, 400.0));
     app.add_option("--lateral-scale", lateral, "stretch along x (structures.h)")
@@ -54,6 +55,7 @@ int main(int argc, char** argv) {
     if (name == "semi_transparent_body") section = ref::semi_transparent_body_fullwave();
     if (name == "free_arc") section = ref::free_arc_fullwave(lateral);
     if (name == "free_flat_film") section = ref::free_flat_film_fullwave(lateral);
+    if (name == "flat_film_over_melanin") section = ref::flat_film_over_melanin_fullwave(lateral);
     const std::string key = lateral == 1.0 ? name : fmt::format("{}_x{:g}", name, lateral);
 
     constexpr double kDeg = std::numbers::pi / 180.0;

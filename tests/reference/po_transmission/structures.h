@@ -15,7 +15,10 @@
 // along x by a lateral scale s (the ellipse's x semi-axis, the arc's and the layer's widths × s;
 // heights, the film and the gap's profile along the stretched x unchanged):
 //  - free_arc: the keratin arc alone;
-//  - free_flat_film: a flat keratin film 6.4 s µm wide, 0.59 µm thick (the arc flattened).
+//  - free_flat_film: a flat keratin film 6.4 s µm wide, 0.59 µm thick (the arc flattened);
+//  - flat_film_over_melanin: that flat film with its top at the arc's top (z = 1.34 µm) over the
+//    layer: the arc over its layer without the arc's curvature (a uniform gap of 0.75 µm, the
+//    arc's gap at its top).
 #pragma once
 
 #include <cmath>
@@ -89,6 +92,18 @@ inline sim::fullwave::CrossSection2d free_flat_film_fullwave(double lateral) {
     return {{{sim::fullwave::polygon(film), optics::keratin()}}};
 }
 
+// The flat film's top at the arc's top, over the layer.
+inline sim::fullwave::CrossSection2d flat_film_over_melanin_fullwave(double lateral) {
+    const double h = 3.2 * lateral, w = kLayerHalfWidthUm * lateral;
+    const double top = kArcCentreZUm + kArcSemiZUm;
+    const std::vector<Eigen::Vector2d> film{
+        {-h, top - kFilmUm}, {h, top - kFilmUm}, {h, top}, {-h, top}};
+    const std::vector<Eigen::Vector2d> layer{
+        {-w, -kLayerThicknessUm}, {w, -kLayerThicknessUm}, {w, 0.0}, {-w, 0.0}};
+    return {{{sim::fullwave::polygon(film), optics::keratin()},
+             {sim::fullwave::polygon(layer), optics::melanin()}}};
+}
+
 inline sim::fullwave::CrossSection2d semi_transparent_body_fullwave() {
     return {{{sim::fullwave::ellipse({0.0, 0.0}, kBodySemiXUm, kBodySemiZUm), optics::melanin()}}};
 }
@@ -137,6 +152,17 @@ inline sim::wave::CrossSection2d free_arc_hybrid(double lateral) { return {{arc_
 inline sim::wave::CrossSection2d free_flat_film_hybrid(double lateral) {
     const double h = 3.2 * lateral;
     return {{straight_curve({-h, 0.0}, {h, 0.0}, {0.0, 1.0}, keratin_sheet_stack())}};
+}
+
+inline sim::wave::CrossSection2d flat_film_over_melanin_hybrid(double lateral) {
+    const sim::wave::SurfaceStack2d bare{{}, optics::melanin()};
+    const double h = 3.2 * lateral, w = kLayerHalfWidthUm * lateral, d = kLayerThicknessUm;
+    const double top = kArcCentreZUm + kArcSemiZUm;
+    return {{straight_curve({-h, top}, {h, top}, {0.0, 1.0}, keratin_sheet_stack()),
+             straight_curve({-w, 0.0}, {w, 0.0}, {0.0, 1.0}, bare),
+             straight_curve({w, 0.0}, {w, -d}, {1.0, 0.0}, bare),
+             straight_curve({w, -d}, {-w, -d}, {0.0, -1.0}, bare),
+             straight_curve({-w, -d}, {-w, 0.0}, {-1.0, 0.0}, bare)}};
 }
 
 inline sim::wave::CrossSection2d semi_transparent_body_hybrid() {
