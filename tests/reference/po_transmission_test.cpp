@@ -251,8 +251,10 @@ struct Widened {
     std::string name;
     double lateral;
     CrossSection2d section;
+    double tilt_deg = 0.0;  // flat_film_over_melanin's film turned (structures.h)
     std::string key() const {
-        return lateral == 1.0 ? name : fmt::format("{}_x{:g}", name, lateral);
+        const std::string scaled = lateral == 1.0 ? name : fmt::format("{}_x{:g}", name, lateral);
+        return tilt_deg == 0.0 ? scaled : fmt::format("{}_tilt{:g}", scaled, tilt_deg);
     }
 };
 
@@ -265,6 +267,9 @@ std::vector<Widened> widened() {
         out.push_back({"film_over_melanin", s, ref::film_over_melanin_hybrid(s)});
     for (const double s : {1.0, 3.0})
         out.push_back({"flat_film_over_melanin", s, ref::flat_film_over_melanin_hybrid(s)});
+    for (const double tilt : {-12.0, -6.0, 6.0, 12.0})
+        out.push_back(
+            {"flat_film_over_melanin", 1.0, ref::flat_film_over_melanin_hybrid(1.0, tilt), tilt});
     return out;
 }
 
@@ -276,9 +281,10 @@ double relative_error(const std::pair<Quantities, Quantities>& po_fw, double Qua
 // section widens, and at 3× the three widths are within issue 36's targets in both
 // polarisations; the free film's reflection and widths are within a few per cent once it is
 // 12.8 µm wide. The specular spike of the arc over its layer does not come in (README.md). The
-// same film flat over the same layer is within every target at 3×, the spike included: what
-// physical optics misses on the arc over its layer is the film's curvature, not the film over a
-// separate layer (its multiple reflections, the lateral shift it leaves out, the gap).
+// same film flat over the same layer is within every target at 3×, the spike included, and its
+// spike within 10 % at 1×; turned by ±6° or ±12° against the layer (a gap that changes along the
+// film, as the arc's does, without its curvature) the spike misses in TM by 20–35 %: what
+// physical optics misses on the arc over its layer is the film's tilt against the layer.
 TEST(PoTransmissionReference, WiderSectionsBringScatteringExtinctionAndAbsorptionWithinTarget) {
     auto totals = read_rows(reference_dir() / "widths_totals.csv", 5);
     auto sigma = read_sigma(reference_dir() / "widths_far_field.csv");
@@ -290,8 +296,10 @@ TEST(PoTransmissionReference, WiderSectionsBringScatteringExtinctionAndAbsorptio
         for (const std::string pol : {"TE", "TM"}) {
             const Quantities fw = full_wave_at(totals, sigma, {w.key(), pol, kLambda, kGrid});
             const Quantities po = hybrid(w.section, pol, kLambda);
-            got[{w.name, pol, w.lateral}] = {po, fw};
-            std::string line = fmt::format("{:<18} x{:g} {}", w.name, w.lateral, pol);
+            got[{w.tilt_deg == 0.0 ? w.name : fmt::format("{}_tilt{:g}", w.name, w.tilt_deg), pol,
+                 w.lateral}] = {po, fw};
+            std::string line =
+                fmt::format("{:<18} x{:g} {:+3g}° {}", w.name, w.lateral, w.tilt_deg, pol);
             for (const Line& l : lines())
                 line += fmt::format("  {} {:+.1f} %", l.name,
                                     100.0 * relative_error({po, fw}, l.member));
@@ -317,6 +325,16 @@ TEST(PoTransmissionReference, WiderSectionsBringScatteringExtinctionAndAbsorptio
             EXPECT_LT(std::abs(relative_error(flat3, l.member)), l.tolerance)
                 << pol << " flat film over the layer, " << l.name;
         EXPECT_LE(std::abs(flat3.first.lobe_deg - flat3.second.lobe_deg), 2.0) << pol;
+        const auto& flat1 = got.at({"flat_film_over_melanin", pol, 1.0});
+        EXPECT_LT(std::abs(relative_error(flat1, &Quantities::spike)), 0.10) << pol;
+        double tilted_spike_miss = 0.0;
+        for (const double tilt : {-12.0, -6.0, 6.0, 12.0})
+            tilted_spike_miss = std::max(
+                tilted_spike_miss,
+                std::abs(relative_error(
+                    got.at({fmt::format("flat_film_over_melanin_tilt{:g}", tilt), pol, 1.0}),
+                    &Quantities::spike)));
+        if (pol == "TM") EXPECT_GT(tilted_spike_miss, 0.2) << "the tilted film's spike";
         for (const double s : {2.0, 4.0}) {
             const auto& film = got.at({"free_flat_film", pol, s});
             EXPECT_LT(std::abs(relative_error(film, &Quantities::scattering)), 0.015) << pol << s;

@@ -3,12 +3,13 @@
 // suite's own full-wave level (sim/fullwave). Not run in CI (about an hour on one core for the
 // two main cases); the committed CSVs are what the tests read.
 //   plumage_po_transmission_reference --out DIR --case CASE [--resolution PX_PER_UM]
-//       [--lateral-scale S] [--lambda NM ...] [--single-grid]
+//       [--lateral-scale S] [--tilt DEG] [--lambda NM ...] [--single-grid]
 // CASE: film_over_melanin, semi_transparent_body, free_arc, free_flat_film or
 // flat_film_over_melanin (the last three and any scale other than 1 are the widths study's; a
-// scaled case is written as CASE_xS). By
-// default the run takes 450/550/650 nm on two grids, RESOLUTION and 1.5 × RESOLUTION;
-// --single-grid keeps RESOLUTION only. The files are written whole at the end.
+// scaled case is written as CASE_xS; --tilt turns flat_film_over_melanin's film, written as
+// CASE_xS_tiltT or CASE_tiltT). By default the run takes 450/550/650 nm on two grids,
+// RESOLUTION and 1.5 × RESOLUTION; --single-grid keeps RESOLUTION only. The files are written whole
+// at the end.
 #include <cstdio>
 #include <filesystem>
 #include <fstream>
@@ -30,7 +31,7 @@ int main(int argc, char** argv) {
     CLI::App app{"Full-wave reference for physical optics through transparent interfaces"};
     std::filesystem::path out;
     std::string name;
-    double coarse = 40.0, lateral = 1.0;
+    double coarse = 40.0, lateral = 1.0, tilt = 0.0;
     std::vector<double> lambdas = ref::kLambdasNm;
     bool single_grid = false;
     app.add_option("--out", out, "output folder")->required();
@@ -42,6 +43,8 @@ int main(int argc, char** argv) {
         ->check(CLI::Range(10.0, 400.0));
     app.add_option("--lateral-scale", lateral, "stretch along x (structures.h)")
         ->check(CLI::Range(1.0, 10.0));
+    app.add_option("--tilt", tilt, "flat_film_over_melanin's film turned, degrees")
+        ->check(CLI::Range(-20.0, 20.0));
     app.add_option("--lambda", lambdas, "wavelengths, nm")->check(CLI::Range(380.0, 780.0));
     app.add_flag("--single-grid", single_grid, "one grid, --resolution");
     CLI11_PARSE(app, argc, argv);
@@ -55,8 +58,14 @@ int main(int argc, char** argv) {
     if (name == "semi_transparent_body") section = ref::semi_transparent_body_fullwave();
     if (name == "free_arc") section = ref::free_arc_fullwave(lateral);
     if (name == "free_flat_film") section = ref::free_flat_film_fullwave(lateral);
-    if (name == "flat_film_over_melanin") section = ref::flat_film_over_melanin_fullwave(lateral);
-    const std::string key = lateral == 1.0 ? name : fmt::format("{}_x{:g}", name, lateral);
+    if (tilt != 0.0 && name != "flat_film_over_melanin") {
+        std::fprintf(stderr, "--tilt applies to flat_film_over_melanin only\n");
+        return 2;
+    }
+    if (name == "flat_film_over_melanin")
+        section = ref::flat_film_over_melanin_fullwave(lateral, tilt);
+    std::string key = lateral == 1.0 ? name : fmt::format("{}_x{:g}", name, lateral);
+    if (tilt != 0.0) key += fmt::format("_tilt{:g}", tilt);
 
     constexpr double kDeg = std::numbers::pi / 180.0;
     std::vector<double> theta;

@@ -18,7 +18,8 @@
 //  - free_flat_film: a flat keratin film 6.4 s µm wide, 0.59 µm thick (the arc flattened);
 //  - flat_film_over_melanin: that flat film with its top at the arc's top (z = 1.34 µm) over the
 //    layer: the arc over its layer without the arc's curvature (a uniform gap of 0.75 µm, the
-//    arc's gap at its top).
+//    arc's gap at its top); turned by a tilt about its centre (flat_film_top), a gap that
+//    changes along the film as the arc's does, without the curvature.
 #pragma once
 
 #include <cmath>
@@ -92,12 +93,23 @@ inline sim::fullwave::CrossSection2d free_flat_film_fullwave(double lateral) {
     return {{{sim::fullwave::polygon(film), optics::keratin()}}};
 }
 
-// The flat film's top at the arc's top, over the layer.
-inline sim::fullwave::CrossSection2d flat_film_over_melanin_fullwave(double lateral) {
-    const double h = 3.2 * lateral, w = kLayerHalfWidthUm * lateral;
-    const double top = kArcCentreZUm + kArcSemiZUm;
-    const std::vector<Eigen::Vector2d> film{
-        {-h, top - kFilmUm}, {h, top - kFilmUm}, {h, top}, {-h, top}};
+// The flat film's top surface: 6.4 s µm long, centred at the arc's top (x = 0, z = 1.34 µm),
+// turned by `tilt_deg` (counter-clockwise) about that centre; its normal, and its two ends.
+struct FlatFilmTop {
+    Eigen::Vector2d normal, left, right;
+};
+inline FlatFilmTop flat_film_top(double lateral, double tilt_deg) {
+    const double h = 3.2 * lateral, t = tilt_deg * std::numbers::pi / 180.0;
+    const Eigen::Vector2d centre(0.0, kArcCentreZUm + kArcSemiZUm), along(std::cos(t), std::sin(t));
+    return {{-std::sin(t), std::cos(t)}, centre - h * along, centre + h * along};
+}
+
+inline sim::fullwave::CrossSection2d flat_film_over_melanin_fullwave(double lateral,
+                                                                     double tilt_deg = 0.0) {
+    const FlatFilmTop top = flat_film_top(lateral, tilt_deg);
+    const double w = kLayerHalfWidthUm * lateral;
+    const std::vector<Eigen::Vector2d> film{top.left - kFilmUm * top.normal,
+                                            top.right - kFilmUm * top.normal, top.right, top.left};
     const std::vector<Eigen::Vector2d> layer{
         {-w, -kLayerThicknessUm}, {w, -kLayerThicknessUm}, {w, 0.0}, {-w, 0.0}};
     return {{{sim::fullwave::polygon(film), optics::keratin()},
@@ -154,11 +166,12 @@ inline sim::wave::CrossSection2d free_flat_film_hybrid(double lateral) {
     return {{straight_curve({-h, 0.0}, {h, 0.0}, {0.0, 1.0}, keratin_sheet_stack())}};
 }
 
-inline sim::wave::CrossSection2d flat_film_over_melanin_hybrid(double lateral) {
+inline sim::wave::CrossSection2d flat_film_over_melanin_hybrid(double lateral,
+                                                               double tilt_deg = 0.0) {
+    const FlatFilmTop top = flat_film_top(lateral, tilt_deg);
     const sim::wave::SurfaceStack2d bare{{}, optics::melanin()};
-    const double h = 3.2 * lateral, w = kLayerHalfWidthUm * lateral, d = kLayerThicknessUm;
-    const double top = kArcCentreZUm + kArcSemiZUm;
-    return {{straight_curve({-h, top}, {h, top}, {0.0, 1.0}, keratin_sheet_stack()),
+    const double w = kLayerHalfWidthUm * lateral, d = kLayerThicknessUm;
+    return {{straight_curve(top.left, top.right, top.normal, keratin_sheet_stack()),
              straight_curve({-w, 0.0}, {w, 0.0}, {0.0, 1.0}, bare),
              straight_curve({w, 0.0}, {w, -d}, {1.0, 0.0}, bare),
              straight_curve({w, -d}, {-w, -d}, {0.0, -1.0}, bare),
