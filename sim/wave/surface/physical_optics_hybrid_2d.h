@@ -92,7 +92,7 @@
 // wave, where the planar stack is +5 %; docs/full_wave.md, "Physical optics through interfaces").
 // A film tilted against a separate layer under it (a gap that changes along the film) keeps the
 // powers but not the layer's specular spike seen through the film: 21–35 % low in TM at tilts
-// of 6–12°, where the same film parallel to the layer is within 4 % (the reference's README,
+// of 6–12°, where the same film parallel to the layer is within 8 % (the reference's README,
 // tests/reference/po_transmission, "Wider"); the arc over its layer misses it the same way.
 //
 // Refused (InputError naming the limit): two curves closer than the sampling step where one
