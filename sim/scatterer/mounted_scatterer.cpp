@@ -139,6 +139,11 @@ double MountedScatterer::eval(const Vec3d& wi, const Vec3d& wo, double lambda_nm
     return inner_->eval(to_sample(wi), to_sample(wo), lambda_nm, per_lobe);
 }
 
+double MountedScatterer::eval_lobes(const Vec3d& wi, const Vec3d& wo, double lambda_nm,
+                                    std::uint32_t wanted, std::span<double> per_lobe) const {
+    return inner_->eval_lobes(to_sample(wi), to_sample(wo), lambda_nm, wanted, per_lobe);
+}
+
 double MountedScatterer::pdf(const Vec3d& wi, const Vec3d& wo, double lambda_nm) const {
     return inner_->pdf(to_sample(wi), to_sample(wo), lambda_nm);
 }

@@ -61,6 +61,11 @@ public:
     bool can_evaluate() const override { return inner_->can_evaluate(); }
     double eval(const Vec3d& wi, const Vec3d& wo, double lambda_nm,
                 std::span<double> per_lobe = {}) const override;
+    // The inner scatterer's lobes, apart when it evaluates them apart (the goniometer's
+    // lobe-by-lobe cubature then refines a mounted model as it does the bare one).
+    bool evaluates_lobes_apart() const override { return inner_->evaluates_lobes_apart(); }
+    double eval_lobes(const Vec3d& wi, const Vec3d& wo, double lambda_nm, std::uint32_t wanted,
+                      std::span<double> per_lobe) const override;
     double pdf(const Vec3d& wi, const Vec3d& wo, double lambda_nm) const override;
 
     // Detector axes turned on the stack up to this many (see above).

@@ -29,7 +29,6 @@ namespace {
 
 namespace fs = std::filesystem;
 namespace ref = reference::po_transmission;
-using Vec = Eigen::Vector2d;
 
 fs::path reference_dir() {
     return fs::path(PLUMAGE_SOURCE_DIR) / "tests/reference/po_transmission";

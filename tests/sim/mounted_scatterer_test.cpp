@@ -4,6 +4,7 @@
 #include "sim/scatterer/mounted_scatterer.h"
 #include "common/constants.h"
 
+#include <array>
 #include <cmath>
 #include <memory>
 #include <numbers>
@@ -11,6 +12,7 @@
 #include <gtest/gtest.h>
 
 #include "analysis/models/filip2024.h"
+#include "analysis/models/huang2022.h"
 #include "common/error.h"
 #include "sim/scatterer/random.h"
 
@@ -65,6 +67,36 @@ TEST(MountedScatterer, SamplesAreConsistentWithEvalInTheInstrumentFrame) {
         ASSERT_NEAR((event->exit_position_um - position).norm(), 0.0, 1e-9);
     }
     EXPECT_GT(returned, 4000);
+}
+
+// A mounted model whose lobes are evaluated apart (Huang's) stays so, each lobe the one eval()
+// gives in the instrument frame, so the goniometer's lobe-by-lobe cubature applies to it; one
+// that does not (Filip's) does not claim it.
+TEST(MountedScatterer, ForwardsTheLobesOfAModelThatEvaluatesThemApart) {
+    const auto huang = std::make_shared<analysis::Huang2022Bsdf>(analysis::Huang2022Params{});
+    const MountedScatterer mounted(huang, 37.0 * kDeg);
+    ASSERT_TRUE(mounted.evaluates_lobes_apart());
+    EXPECT_FALSE(MountedScatterer(std::make_shared<analysis::Filip2024Brdf>(
+                                      analysis::filip2024_preset("parrot")),
+                                  37.0 * kDeg)
+                     .evaluates_lobes_apart());
+    Rng rng(13, 0);
+    int lit = 0;
+    for (int k = 0; k < 500; ++k) {
+        const Vec3d wi = random_upper(rng), wo = random_upper(rng);
+        const double lambda = 400.0 + 300.0 * rng.uniform();
+        std::array<double, 3> all{}, one{};
+        const double total = mounted.eval(wi, wo, lambda, all);
+        for (const int lobe : {analysis::Huang2022Bsdf::kR, analysis::Huang2022Bsdf::kTRT}) {
+            const auto l = static_cast<std::size_t>(lobe);
+            one.fill(-1.0);
+            EXPECT_EQ(mounted.eval_lobes(wi, wo, lambda, 1u << lobe, one), all[l]);
+            EXPECT_EQ(one[l], all[l]);
+        }
+        EXPECT_EQ(mounted.eval_lobes(wi, wo, lambda, ~0u, one), total);
+        lit += total > 0.0;
+    }
+    EXPECT_GT(lit, 100);
 }
 
 TEST(MountedScatterer, RejectsMissingScattererAndNonFiniteAzimuth) {
