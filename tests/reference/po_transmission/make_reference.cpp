@@ -5,11 +5,11 @@
 //   plumage_po_transmission_reference --out DIR --case CASE [--resolution PX_PER_UM]
 //       [--lateral-scale S] [--tilt DEG] [--lambda NM ...] [--single-grid]
 // CASE: film_over_melanin, semi_transparent_body, free_arc, free_flat_film or
-// flat_film_over_melanin (the last three and any scale other than 1 are the widths study's; a
-// scaled case is written as CASE_xS; --tilt turns flat_film_over_melanin's film, written as
-// CASE_xS_tiltT or CASE_tiltT). By default the run takes 450/550/650 nm on two grids,
-// RESOLUTION and 1.5 × RESOLUTION; --single-grid keeps RESOLUTION only. The files are written whole
-// at the end.
+// flat_film_over_melanin (the last three, any --lateral-scale other than 1, which stretches the
+// case along x, and --tilt, which turns flat_film_over_melanin's film, are the widths study's;
+// such a case is written as CASE_xS, CASE_tiltT or CASE_xS_tiltT). By default the run takes
+// 450/550/650 nm on two grids, RESOLUTION and 1.5 × RESOLUTION; --single-grid keeps RESOLUTION
+// only. The files are written whole at the end.
 #include <cstdio>
 #include <filesystem>
 #include <fstream>
@@ -48,14 +48,10 @@ int main(int argc, char** argv) {
     app.add_option("--lambda", lambdas, "wavelengths, nm")->check(CLI::Range(380.0, 780.0));
     app.add_flag("--single-grid", single_grid, "one grid, --resolution");
     CLI11_PARSE(app, argc, argv);
-    if (name == "semi_transparent_body" && lateral != 1.0) {
-        std::fprintf(stderr, "--lateral-scale applies to the arc's cases only\n");
-        return 2;
-    }
 
     fw::CrossSection2d section;
     if (name == "film_over_melanin") section = ref::film_over_melanin_fullwave(lateral);
-    if (name == "semi_transparent_body") section = ref::semi_transparent_body_fullwave();
+    if (name == "semi_transparent_body") section = ref::semi_transparent_body_fullwave(lateral);
     if (name == "free_arc") section = ref::free_arc_fullwave(lateral);
     if (name == "free_flat_film") section = ref::free_flat_film_fullwave(lateral);
     if (tilt != 0.0 && name != "flat_film_over_melanin") {

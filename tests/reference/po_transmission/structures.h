@@ -19,7 +19,8 @@
 //  - flat_film_over_melanin: that flat film with its top at the arc's top (z = 1.34 µm) over the
 //    layer: the arc over its layer without the arc's curvature (a uniform gap of 0.75 µm, the
 //    arc's gap at its top); turned by a tilt about its centre (flat_film_top), a gap that
-//    changes along the film as the arc's does, without the curvature.
+//    changes along the film as the arc's does, without the curvature;
+//  - semi_transparent_body: the melanin ellipse, its x semi-axis × s (still 1 µm thick).
 #pragma once
 
 #include <cmath>
@@ -116,8 +117,10 @@ inline sim::fullwave::CrossSection2d flat_film_over_melanin_fullwave(double late
              {sim::fullwave::polygon(layer), optics::melanin()}}};
 }
 
-inline sim::fullwave::CrossSection2d semi_transparent_body_fullwave() {
-    return {{{sim::fullwave::ellipse({0.0, 0.0}, kBodySemiXUm, kBodySemiZUm), optics::melanin()}}};
+// The ellipse, its x semi-axis stretched by `lateral` (the widths study; 1 µm thick throughout).
+inline sim::fullwave::CrossSection2d semi_transparent_body_fullwave(double lateral = 1.0) {
+    return {{{sim::fullwave::ellipse({0.0, 0.0}, kBodySemiXUm * lateral, kBodySemiZUm),
+              optics::melanin()}}};
 }
 
 // The physical-optics views (physical_optics_hybrid_2d.h) of the same cross-sections: a film as
@@ -178,8 +181,8 @@ inline sim::wave::CrossSection2d flat_film_over_melanin_hybrid(double lateral,
              straight_curve({-w, -d}, {-w, 0.0}, {-1.0, 0.0}, bare)}};
 }
 
-inline sim::wave::CrossSection2d semi_transparent_body_hybrid() {
-    const geometry::EllipticalArc ellipse(kBodySemiXUm, kBodySemiZUm, -std::numbers::pi,
+inline sim::wave::CrossSection2d semi_transparent_body_hybrid(double lateral = 1.0) {
+    const geometry::EllipticalArc ellipse(kBodySemiXUm * lateral, kBodySemiZUm, -std::numbers::pi,
                                           std::numbers::pi);
     sim::wave::Curve2d c;
     c.point = [ellipse](double phi) { return ellipse.point(phi); };
