@@ -282,7 +282,7 @@ std::vector<Widened> widened() {
                        s,
                        ref::semi_transparent_body_hybrid(s),
                        0.0,
-                       {550.0, 650.0},
+                       {450.0, 550.0, 650.0},
                        0.03});
     return out;
 }
@@ -354,16 +354,19 @@ TEST(PoTransmissionReference, WiderSectionsBringScatteringExtinctionAndAbsorptio
                     got.at({fmt::format("flat_film_over_melanin_tilt{:g}", tilt), pol, 1.0}),
                     &Quantities::spike)));
         if (pol == "TM") EXPECT_GT(tilted_spike_miss, 0.2) << "the tilted film's spike";
-        // The melanin ellipse 2× and 3× longer, still 1 µm thick: every quantity within target at
-        // 550 and 650 nm (at 1× σ_scat and σ_ext miss at 650 nm: its tips, 0.1 µm in radius).
+        // The melanin ellipse 2× and 3× longer, still 1 µm thick: every power within target at
+        // 450, 550 and 650 nm, and the lobe within 2° at 550 and 650 nm (at 450 nm TM 3× it lies
+        // 2.5° off); at 1× σ_scat and σ_ext miss at 650 nm: its tips, 0.1 µm in radius.
         for (const double s : {2.0, 3.0})
-            for (const std::string name : {"semi_transparent_body", "semi_transparent_body@650"}) {
+            for (const std::string name : {"semi_transparent_body@450", "semi_transparent_body",
+                                           "semi_transparent_body@650"}) {
                 const auto& body = got.at({name, pol, s});
                 for (const Line& l : lines())
                     EXPECT_LT(std::abs(relative_error(body, l.member)), l.tolerance)
                         << pol << " " << name << " x" << s << " " << l.name;
-                EXPECT_LE(std::abs(body.first.lobe_deg - body.second.lobe_deg), 2.0)
-                    << pol << " " << name << " x" << s;
+                if (name != "semi_transparent_body@450")
+                    EXPECT_LE(std::abs(body.first.lobe_deg - body.second.lobe_deg), 2.0)
+                        << pol << " " << name << " x" << s;
             }
         for (const double s : {2.0, 4.0}) {
             const auto& film = got.at({"free_flat_film", pol, s});
