@@ -300,9 +300,9 @@ double relative_error(const std::pair<Quantities, Quantities>& po_fw, double Qua
 // same film flat over the same layer is within every target at 3×, the spike included, and its
 // spike within 10 % at 1×; turned by ±6° or ±12° against the layer (a gap that changes along the
 // film, as the arc's does, without its curvature) the spike misses in TM by 20–35 %: what
-// physical optics misses on the arc over its layer is the film's tilt against the layer. The 1 µm
-// melanin ellipse stretched 2× and 3× is within every target at 550 and 650 nm: its misses at 1×
-// are its tips.
+// physical optics misses on the arc over its layer is the film's tilt against the layer (at
+// 450 nm the arc over its layer 3× wide is within every target). The 1 µm melanin ellipse
+// stretched 2× and 3× is within every power target at 450–650 nm: its misses at 1× are its tips.
 TEST(PoTransmissionReference, WiderSectionsBringScatteringExtinctionAndAbsorptionWithinTarget) {
     auto totals = read_rows(reference_dir() / "widths_totals.csv", 5);
     auto sigma = read_sigma(reference_dir() / "widths_far_field.csv");
