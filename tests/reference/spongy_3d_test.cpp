@@ -56,6 +56,9 @@ fs::path reference_csv() {
 // with the Monte Carlo variance of the total and diffuse R (zero for full wave).
 struct Spectrum {
     std::vector<double> lambda_nm, r, r_diffuse, t, r_var, r_diffuse_var;
+    // A route's slab: its thickness in the medium's transport lengths, L μ_s (1 − g); empty for
+    // full wave.
+    std::vector<double> transport_thickness;
     double run_wall_s = 0.0;  // full wave: the run's wall time (reflectance.csv); else 0
 };
 
@@ -100,15 +103,21 @@ std::map<Key, FullWaveRuns> read_reference(const fs::path& path) {
     return out;
 }
 
-// R, diffuse R and T of a 2 µm slab of `medium` in air at normal incidence, by the tracer. A
-// path leaving exactly along ±z was never scattered (the faces' specular paths): specular.
-Spectrum trace_slab(std::shared_ptr<const sim::ScatteringMedium> medium,
-                    const std::vector<double>& lambdas, std::uint64_t seed) {
+// R, diffuse R and T of a 2 µm slab of the medium of `tables` (one per wavelength) in air at
+// normal incidence, by the tracer. A path leaving exactly along ±z was never scattered (the
+// faces' specular paths): specular.
+Spectrum trace_slab(std::vector<sim::MediumTable> tables, const std::vector<double>& lambdas,
+                    std::uint64_t seed) {
+    Spectrum s;
+    for (const sim::MediumTable& t : tables) {
+        const sim::TabulatedPhaseFunction phase(t.cos_theta, t.phase_per_sr, "route table");
+        s.transport_thickness.push_back(kThicknessUm * t.mu_s_per_um * (1.0 - phase.mean_cosine()));
+    }
+    auto medium = std::make_shared<const sim::ScatteringMedium>(std::move(tables));
     sim::ScatteringSlabParams p;
     p.thickness_um = kThicknessUm;
     p.half_width_um = 1000.0;
     const sim::ExplicitScatterer tracer(sim::scattering_slab_scene(std::move(medium), p));
-    Spectrum s;
     for (std::size_t w = 0; w < lambdas.size(); ++w) {
         const auto events =
             sim::trace_many(tracer, Vec3d(0.0, 0.0, 1.0), lambdas[w], {{-1.0, -1.0}, {1.0, 1.0}},
@@ -156,8 +165,7 @@ Spectrum strong_contrast_spectrum(const sim::wave::PowerSpectrum& spectrum,
     for (const double l : lambdas)
         tables.push_back(
             sim::medium_table(sim::wave::strong_contrast_medium(spectrum, keratin, air, l, host)));
-    return trace_slab(std::make_shared<const sim::ScatteringMedium>(std::move(tables)), lambdas,
-                      seed);
+    return trace_slab(std::move(tables), lambdas, seed);
 }
 
 RouteSpectra route_spectra(const std::string& kind_text, double n_keratin, std::uint64_t seed,
@@ -172,7 +180,7 @@ RouteSpectra route_spectra(const std::string& kind_text, double n_keratin, std::
     for (const double l : lambdas)
         born.push_back(sim::medium_table(sim::wave::born_medium(spectrum, keratin, *air, l)));
     RouteSpectra out;
-    out.born = trace_slab(std::make_shared<const sim::ScatteringMedium>(std::move(born)), lambdas,
+    out.born = trace_slab(std::move(born), lambdas,
                           derive_seed(seed, "spongy3d/born", static_cast<std::uint64_t>(kind)));
     out.strong_keratin_host = strong_contrast_spectrum(
         spectrum, keratin, *air, sim::wave::StrongContrastHost::keratin, lambdas,
@@ -196,9 +204,8 @@ RouteSpectra route_spectra(const std::string& kind_text, double n_keratin, std::
         sphere.push_back(sim::medium_table(sim::wave::sphere_medium(
             s.sphere_radius_um, density, air_spheres ? *air : keratin, air_spheres ? keratin : *air,
             [&sq](double q) { return sq.at(q); }, l)));
-    out.sphere =
-        trace_slab(std::make_shared<const sim::ScatteringMedium>(std::move(sphere)), lambdas,
-                   derive_seed(seed, "spongy3d/sphere", static_cast<std::uint64_t>(kind)));
+    out.sphere = trace_slab(std::move(sphere), lambdas,
+                            derive_seed(seed, "spongy3d/sphere", static_cast<std::uint64_t>(kind)));
     return out;
 }
 
@@ -215,6 +222,10 @@ Spectrum seed_mean(const std::vector<Spectrum>& list) {
             m.r_var[i] += s.r_var[i] / (k * k);
             m.r_diffuse_var[i] += s.r_diffuse_var[i] / (k * k);
         }
+    }
+    for (std::size_t i = 0; i < m.transport_thickness.size(); ++i) {
+        m.transport_thickness[i] = 0.0;
+        for (const Spectrum& s : list) m.transport_thickness[i] += s.transport_thickness[i] / k;
     }
     return m;
 }
@@ -286,6 +297,7 @@ struct RouteCheck {
     double fw_peak_nm = 0.0, peak_nm = 0.0;
     double fw_run_wall_s = 0.0;  // full wave's mean wall time per run (the seeds' coarse grid)
     std::vector<double> fw_diffuse, diffuse, rel, floor_rel, fw_specular, specular;
+    std::vector<double> transport_thickness;  // the route's slab, L / ℓ*, band means
     bool passes = false;
 };
 
@@ -321,6 +333,7 @@ RouteCheck check_route(const std::string& route, double n, const std::vector<Spe
     for (std::size_t i = 0; i < rm.r.size(); ++i) spec[i] = rm.r[i] - rm.r_diffuse[i];
     c.fw_specular = band_means(fw, fw_spec);
     c.specular = band_means(rm, spec);
+    c.transport_thickness = band_means(rm, rm.transport_thickness);
     const auto seed_se = seed_errors(fw_seeds, &Spectrum::r_diffuse);
     const auto mc_se = band_errors(rm, rm.r_diffuse_var);
     // both at the short end of the range: both peak at or below it, which agrees
@@ -343,19 +356,20 @@ void print_check(const Key& key, std::size_t seeds, const RouteCheck& c,
                                   "wave {:.1f} nm, route {:.1f} nm: {}\n"
                                   "| band (nm) | full wave diffuse R | its grid diff. | route "
                                   "diffuse R | difference | floor | full wave specular R | "
-                                  "route specular R |\n|---|---|---|---|---|---|---|---|\n",
+                                  "route specular R | route's slab, L / ℓ* |\n"
+                                  "|---|---|---|---|---|---|---|---|---|\n",
                                   key.kind, key.n, seeds, c.route, c.fw_peak_nm, c.peak_nm,
                                   c.passes ? "PASSES" : "misses")
                           .c_str());
     for (int b = 0; b < kBands; ++b)
         std::printf("%s",
                     fmt::format("| {}–{} | {:.4f} | {} | {:.4f} | {:+.1f} % | {:.1f} % | "
-                                "{:.4f} | {:.4f} |\n",
+                                "{:.4f} | {:.4f} | {:.2f} |\n",
                                 400 + 50 * b, 450 + 50 * b, c.fw_diffuse[b],
                                 std::isnan(grid[b]) ? std::string("not run")
                                                     : fmt::format("{:+.1f} %", 100.0 * grid[b]),
                                 c.diffuse[b], 100.0 * c.rel[b], 100.0 * c.floor_rel[b],
-                                c.fw_specular[b], c.specular[b])
+                                c.fw_specular[b], c.specular[b], c.transport_thickness[b])
                         .c_str());
 }
 
