@@ -134,12 +134,13 @@ SpongyMedium build_spongy_medium(const SpongyMediumParams& params,
 
 // Each route against 3D full wave: the committed tests/reference/spongy_3d/route_check.csv (as its
 // comparison test computed it, embedded at build time), one entry per structure, keratin index
-// and route: full wave's and the route's diffuse-R peak, whether the route passes (peak within
-// 10 nm, every 50-nm band within 15 %, 10 % at n < 1.5, beyond the noise floor), and its worst
+// and route: full wave's and the route's diffuse-R peak and the peak difference's floor (three
+// jackknife standard errors over the realisations), whether the route passes (peak within 10 nm,
+// every 50-nm band within 15 %, 10 % at n < 1.5, each beyond its noise floor), and its worst
 // band, and what one full-wave run of that structure cost.
 struct RouteFullWaveCheck {
     std::string structure, keratin_index, route, realisations;  // route: "born" or "sphere"
-    double full_wave_peak_nm = 0.0, route_peak_nm = 0.0;
+    double full_wave_peak_nm = 0.0, route_peak_nm = 0.0, peak_floor_nm = 0.0;
     bool passes = false;
     std::string worst_band;                            // "lo–hi" nm
     double worst_difference = 0.0, worst_floor = 0.0;  // relative
@@ -148,9 +149,48 @@ struct RouteFullWaveCheck {
 std::vector<RouteFullWaveCheck> routes_against_full_wave();
 // route_check.csv's route names as reports word them ("born" → "first Born", …).
 std::string spongy_route_label(const std::string& route);
+// route_check.csv's structure names as reports word them ("air_spheres" → "air spheres in
+// keratin", …).
+std::string spongy_structure_label(std::string_view structure);
 
 // The report section on them ("## The routes against 3D full wave"), `route` marked as the
 // study's; `structure` non-empty: that structure's rows alone.
 std::string routes_against_full_wave_text(MediumRoute route, std::string_view structure = {});
+
+// The reference's structures (tests/reference/spongy_3d/structures.h; its test checks these
+// numbers against that header): the keratin volume fraction and the length that sets the size
+// parameter, the channel spacing Λ or the sphere radius a.
+struct SpongyReferenceStructure {
+    std::string_view name;  // route_check.csv's structure
+    double keratin_fraction = 0.0;
+    double length_um = 0.0;
+    std::string_view length_name;  // "Λ" or "a"
+};
+std::vector<SpongyReferenceStructure> spongy_reference_structures();
+
+// Where a route is validated: each (structure, keratin index) of the reference it passes on, the
+// structure's keratin fraction and length, and the size parameter x = k0 n_eff ℓ (n_eff
+// Bruggeman's at that index and fraction, ℓ the structure's length) over the reference's
+// wavelengths (x_lo at the longest, x_hi at the shortest).
+struct RouteValidatedCase {
+    std::string structure;
+    double keratin_index = 0.0, keratin_fraction = 0.0, length_um = 0.0;
+    std::string length_name;
+    double n_eff = 0.0;  // Bruggeman's, at that index and fraction
+    double size_parameter_lo = 0.0, size_parameter_hi = 0.0;
+};
+std::vector<RouteValidatedCase> route_validated_cases(const std::string& route);
+
+// Why a medium of `structure` (route_check.csv's name) with keratin fraction f and length ℓ, at a
+// wavelength λ where keratin's index is n, lies outside the validated cases: none of that
+// structure; f more than 0.02 or n more than 0.05 from the nearest one's (in n); or its size
+// parameter k0 n_eff ℓ, taken with that case's n_eff so that the index is judged by n alone,
+// outside that case's range. Empty when inside.
+std::string outside_validated_range(const std::vector<RouteValidatedCase>& validated,
+                                    std::string_view structure, double keratin_fraction,
+                                    double length_um, double lambda_nm, double keratin_index);
+
+// x = k0 n_eff ℓ = 2π n_eff ℓ / λ.
+double spongy_size_parameter(double lambda_nm, double n_eff, double length_um);
 
 }  // namespace plumage::studies

@@ -10,8 +10,8 @@
 // cost measured here, then the strong-contrast forms (sim/wave/volume/strong_contrast.h), which
 // do first Born's work and more, then full wave. A level's error and
 // verdict are the reference's (studies/spongy_medium.h, routes_against_full_wave: the diffuse-R
-// peak within 10 nm and every 50-nm band within 15 % beyond the noise floor); full wave is the
-// reference and is not run here: one run is 14–26 minutes of one core per realisation, and the
+// peak within 10 nm and every 50-nm band within 15 %, each beyond its noise floor); full wave is
+// the reference and is not run here: one run is 14–26 minutes of one core per realisation, and the
 // reference holds three. Costs:
 //  - a route: measured in this run, the wall time of its tables at the study's wavelengths from
 //    a volume of the reference's kind and size, its generation included (first Born and the
@@ -35,6 +35,7 @@ struct SpongyLevelJudgement {
     std::string label;          // as the report words it
     bool passes = false;        // within the reference's tolerance
     double peak_offset_nm = 0;  // the level's diffuse-R peak minus full wave's
+    double peak_floor_nm = 0;   // its floor: three jackknife standard errors over realisations
     std::string worst_band;     // "lo–hi" nm
     double worst_difference = 0.0, worst_floor = 0.0;  // relative
     double seconds = 0.0;                              // its cost, measured here

@@ -36,6 +36,7 @@
 #include "sim/wave/volume/power_spectrum.h"
 #include "sim/wave/volume/strong_contrast.h"
 #include "sim/wave/volume/structure_factor.h"
+#include "studies/spongy_medium.h"
 #include "tests/reference/spongy_3d/structures.h"
 
 namespace plumage::reference::spongy3d {
@@ -285,9 +286,13 @@ std::vector<double> seed_errors(const std::vector<Spectrum>& list,
 }
 
 // The criteria (issue 37): the peak within 10 nm and every 50-nm band mean within 15 % at
-// keratin's n = 1.55, within 10 % at low contrast (n < 1.5), beyond the floor of three standard
-// errors of the difference (full wave's realisation noise over seeds, the route's Monte Carlo)
-// and full wave's own grid difference where it was measured.
+// keratin's n = 1.55, within 10 % at low contrast (n < 1.5), each beyond its floor. A band's
+// floor: three standard errors of the difference (full wave's realisation noise over seeds, the
+// route's Monte Carlo) and full wave's own grid difference where it was measured. The peak's
+// floor: three jackknife standard errors (leave one seed out of both seed means) of the peak
+// difference. A single 1.2 µm period sees its own few diffraction orders, so each seed's diffuse
+// R jumps by tens of per cent from one wavelength to the next, and where a spectrum is flat
+// (the air spheres over 400–470 nm) the seed mean's largest sample wanders by tens of nm.
 constexpr double kPeakToleranceNm = 10.0;
 double band_tolerance(double n) { return n >= 1.5 ? 0.15 : 0.10; }
 
@@ -295,6 +300,7 @@ double band_tolerance(double n) { return n >= 1.5 ? 0.15 : 0.10; }
 struct RouteCheck {
     std::string route;
     double fw_peak_nm = 0.0, peak_nm = 0.0;
+    double peak_floor_nm = 0.0;  // three jackknife standard errors of peak_nm − fw_peak_nm
     double fw_run_wall_s = 0.0;  // full wave's mean wall time per run (the seeds' coarse grid)
     std::vector<double> fw_diffuse, diffuse, rel, floor_rel, fw_specular, specular;
     std::vector<double> transport_thickness;  // the route's slab, L / ℓ*, band means
@@ -315,6 +321,29 @@ std::vector<double> grid_differences(const FullWaveRuns& runs) {
     }
     for (double& v : sum) v = count > 0.0 ? v / count : NAN;
     return sum;
+}
+
+// The jackknife standard error of the diffuse-R peak difference, route − full wave, over the
+// seeds (paired: the same structures), each seed left out of both seed means in turn.
+double peak_difference_jackknife_se(const std::vector<Spectrum>& fw_seeds,
+                                    const std::vector<Spectrum>& route_seeds) {
+    const std::size_t k = fw_seeds.size();
+    if (k < 2) return 0.0;
+    std::vector<double> d;
+    for (std::size_t left_out = 0; left_out < k; ++left_out) {
+        std::vector<Spectrum> fw, rm;
+        for (std::size_t i = 0; i < k; ++i)
+            if (i != left_out) {
+                fw.push_back(fw_seeds[i]);
+                rm.push_back(route_seeds[i]);
+            }
+        const Spectrum f = seed_mean(fw), r = seed_mean(rm);
+        d.push_back(peak_nm(r, r.r_diffuse) - peak_nm(f, f.r_diffuse));
+    }
+    double mean = 0.0, ss = 0.0;
+    for (const double v : d) mean += v / static_cast<double>(k);
+    for (const double v : d) ss += (v - mean) * (v - mean);
+    return std::sqrt(static_cast<double>(k - 1) / static_cast<double>(k) * ss);
 }
 
 RouteCheck check_route(const std::string& route, double n, const std::vector<Spectrum>& fw_seeds,
@@ -339,7 +368,9 @@ RouteCheck check_route(const std::string& route, double n, const std::vector<Spe
     // both at the short end of the range: both peak at or below it, which agrees
     const bool both_at_edge =
         c.fw_peak_nm <= fw.lambda_nm.front() + 1e-9 && c.peak_nm <= rm.lambda_nm.front() + 1e-9;
-    c.passes = both_at_edge || std::abs(c.peak_nm - c.fw_peak_nm) <= kPeakToleranceNm;
+    c.peak_floor_nm = 3.0 * peak_difference_jackknife_se(fw_seeds, route_seeds);
+    c.passes =
+        both_at_edge || std::abs(c.peak_nm - c.fw_peak_nm) <= kPeakToleranceNm + c.peak_floor_nm;
     for (int b = 0; b < kBands; ++b) {
         const double g = std::isnan(grid[b]) ? 0.0 : grid[b] * c.fw_diffuse[b];
         c.rel.push_back(c.diffuse[b] / c.fw_diffuse[b] - 1.0);
@@ -353,13 +384,13 @@ RouteCheck check_route(const std::string& route, double n, const std::vector<Spe
 void print_check(const Key& key, std::size_t seeds, const RouteCheck& c,
                  const std::vector<double>& grid) {
     std::printf("%s", fmt::format("\n{}, n = {:.2f}, {} seed(s), route {}: diffuse-R peak full "
-                                  "wave {:.1f} nm, route {:.1f} nm: {}\n"
+                                  "wave {:.1f} nm, route {:.1f} nm (floor {:.1f} nm): {}\n"
                                   "| band (nm) | full wave diffuse R | its grid diff. | route "
                                   "diffuse R | difference | floor | full wave specular R | "
                                   "route specular R | route's slab, L / ℓ* |\n"
                                   "|---|---|---|---|---|---|---|---|---|\n",
                                   key.kind, key.n, seeds, c.route, c.fw_peak_nm, c.peak_nm,
-                                  c.passes ? "PASSES" : "misses")
+                                  c.peak_floor_nm, c.passes ? "PASSES" : "misses")
                           .c_str());
     for (int b = 0; b < kBands; ++b)
         std::printf("%s",
@@ -424,15 +455,16 @@ TEST(Spongy3dReference, FullWaveConservesPower) {
 // The spongy study embeds it (studies/spongy_reference.h.in) and states its route's verdict.
 constexpr const char* kRouteCheckHeader =
     "structure,n_keratin,route,seeds,fw_peak_nm,route_peak_nm,passes,band_lo_nm,band_hi_nm,"
-    "fw_diffuse_r,route_diffuse_r,difference,floor,fw_run_wall_s";
+    "fw_diffuse_r,route_diffuse_r,difference,floor,fw_run_wall_s,peak_floor_nm";
 
 std::string route_check_rows(const Key& key, std::size_t seeds, const RouteCheck& c) {
     std::string out;
     for (int b = 0; b < kBands; ++b)
         out += fmt::format(
-            "{},{:g},{},{},{:.1f},{:.1f},{},{},{},{:.4f},{:.4f},{:.3f},{:.3f},{:.0f}\n", key.kind,
-            key.n, c.route, seeds, c.fw_peak_nm, c.peak_nm, c.passes ? 1 : 0, 400 + 50 * b,
-            450 + 50 * b, c.fw_diffuse[b], c.diffuse[b], c.rel[b], c.floor_rel[b], c.fw_run_wall_s);
+            "{},{:g},{},{},{:.1f},{:.1f},{},{},{},{:.4f},{:.4f},{:.3f},{:.3f},{:.0f},{:.1f}\n",
+            key.kind, key.n, c.route, seeds, c.fw_peak_nm, c.peak_nm, c.passes ? 1 : 0,
+            400 + 50 * b, 450 + 50 * b, c.fw_diffuse[b], c.diffuse[b], c.rel[b], c.floor_rel[b],
+            c.fw_run_wall_s, c.peak_floor_nm);
     return out;
 }
 
@@ -495,7 +527,27 @@ TEST(Spongy3dReference, RoutesAgainstFullWave) {
                                << " is not what the reference gives now: rewrite it (above)";
 }
 
-// Why every route misses the air spheres' diffuse-R peak (README): full wave peaks where the
+// The studies state a route's validated range from their own copy of these structures' numbers
+// (studies/spongy_medium.h, spongy_reference_structures): it must be this header's.
+TEST(Spongy3dReference, StudiesKnowItsStructures) {
+    const auto known = studies::spongy_reference_structures();
+    ASSERT_EQ(known.size(), kKinds.size());
+    for (const Kind k : kKinds) {
+        const auto it = std::find_if(known.begin(), known.end(),
+                                     [k](const auto& s) { return s.name == kind_name(k); });
+        ASSERT_NE(it, known.end()) << kind_name(k);
+        if (k == Kind::channel) {
+            EXPECT_EQ(it->keratin_fraction, kChannelKeratinFraction);
+            EXPECT_EQ(it->length_um, kChannelLengthUm);
+        } else {
+            EXPECT_EQ(it->keratin_fraction,
+                      k == Kind::keratin_spheres ? kSphereFraction : 1.0 - kSphereFraction);
+            EXPECT_EQ(it->length_um, 0.5 * kSphereDiameterUm);
+        }
+    }
+}
+
+// Where full wave puts the air spheres' diffuse-R peak (README): it peaks where the
 // packing's structure factor meets back-scattering, 2 k n_eff = q* (q* the S(q) peak of each
 // seed's centres, n_eff Bruggeman's), while first Born's k⁴ rise and the sphere's form factor
 // carry the routes' peak to the range's short end. The Bragg wavelength 4π n_eff / q* of the

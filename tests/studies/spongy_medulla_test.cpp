@@ -107,6 +107,34 @@ TEST(SpongyMedium, BornMediumAtTheWavelengthsAskedAndNowhereElse) {
     EXPECT_THROW(build_spongy_medium(p, {}), InputError);
 }
 
+// Where first Born was validated against 3D full wave (route_check.csv): the channel network at
+// keratin n = 1.55, f = 0.5, Λ = 0.19 µm, 400–700 nm, among others. A medium of that structure
+// at 550 nm is inside; each departure is named, and a route with no passing structure (or a
+// structure it never passed on) is outside whatever the numbers.
+TEST(SpongyMedium, ValidatedRangeNamesEachDeparture) {
+    const auto born = route_validated_cases("born");
+    const auto channel = std::find_if(born.begin(), born.end(), [](const auto& v) {
+        return v.structure == "channel" && v.keratin_index == 1.55;
+    });
+    ASSERT_NE(channel, born.end());
+    // x = k0 n_eff Λ over 700…400 nm with Bruggeman's n_eff(1.55, air, f = 0.5)
+    const double n_eff = channel->n_eff;
+    EXPECT_NEAR(n_eff, 1.265, 0.005);
+    EXPECT_NEAR(channel->size_parameter_lo, 2.0 * std::numbers::pi * n_eff * 0.19 / 0.7, 1e-9);
+    EXPECT_NEAR(channel->size_parameter_hi, 2.0 * std::numbers::pi * n_eff * 0.19 / 0.4, 1e-9);
+    EXPECT_EQ(outside_validated_range(born, "channel", 0.5, 0.19, 550.0, 1.56), "");
+    EXPECT_EQ(outside_validated_range(born, "channel", 0.5, 0.19, 400.0, 1.55), "");  // its end
+    const std::string fraction = outside_validated_range(born, "channel", 0.4, 0.19, 550.0, 1.55);
+    EXPECT_NE(fraction.find("keratin fraction 0.40"), std::string::npos) << fraction;
+    const std::string index = outside_validated_range(born, "channel", 0.5, 0.19, 550.0, 1.33);
+    EXPECT_NE(index.find("keratin n 1.330"), std::string::npos) << index;
+    const std::string size = outside_validated_range(born, "channel", 0.5, 0.19, 380.0, 1.55);
+    EXPECT_NE(size.find("size parameter"), std::string::npos) << size;
+    EXPECT_EQ(fraction.find("size parameter"), std::string::npos) << fraction;
+    const std::string none = outside_validated_range({}, "channel", 0.5, 0.19, 550.0, 1.55);
+    EXPECT_NE(none.find("not validated on channel networks"), std::string::npos) << none;
+}
+
 TEST(SpeciesSpongyMedulla, StudyFilesGiveStructureOnlyAndRefuseColourKeys) {
     for (const fs::path& path : {kQuick, kFull}) {
         SCOPED_TRACE(path.string());

@@ -95,6 +95,16 @@ TEST(SpongyStudy, QuickStudyIsBlueFromTheVolume) {
                 wl.values[0], baseline.values[0], flat_p, chroma, medium_chroma);
     EXPECT_GT(flat_p, 1e-3);
     EXPECT_LT(chroma, 0.1 * medium_chroma);
+    // The report opens with its verdicts: the colour, the baseline's flatness test, and where
+    // the route is trusted, with each case inside or outside that range.
+    const std::string report = read(dir / "report.md");
+    const auto verdicts = report.find("## Verdicts");
+    EXPECT_LT(verdicts, report.find("Channel-type volumes"));
+    EXPECT_NE(report.find("**Colour from the volume**", verdicts), std::string::npos);
+    EXPECT_NE(report.find("p = ", verdicts), std::string::npos);
+    EXPECT_NE(report.find("**Where the route is trusted**: this study's route, first Born"),
+              std::string::npos);
+    EXPECT_NE(report.find("  - f = 0.5, Λ = 0.19 µm: "), std::string::npos);
     for (const char* png : {"spectra.png", "peak_map.png", "angles.png"}) {
         if (!fs::exists(dir / png)) std::printf("note: %s not drawn (no matplotlib?)\n", png);
     }

@@ -32,9 +32,11 @@
 
 namespace plumage::reference::spongy3d {
 
-inline constexpr double kPeriodUm = 1.2;     // lateral period and cube side, µm
-inline constexpr double kVoxelUm = 0.025;    // the indicator's voxels (48 per side)
-inline constexpr double kThicknessUm = 2.0;  // the full-wave slab: 0 <= z <= 2 µm
+inline constexpr double kPeriodUm = 1.2;          // lateral period and cube side, µm
+inline constexpr double kVoxelUm = 0.025;         // the indicator's voxels (48 per side)
+inline constexpr double kThicknessUm = 2.0;       // the full-wave slab: 0 <= z <= 2 µm
+inline constexpr double kChannelLengthUm = 0.19;  // the channel network's spacing Λ
+inline constexpr double kChannelKeratinFraction = 0.5;
 inline constexpr double kSphereDiameterUm = 0.2;
 inline constexpr double kSphereFraction = 0.5;
 inline constexpr std::int64_t kSphereCount = 206;  // φ L³ / (π σ³ / 6) = 206.3
@@ -129,9 +131,9 @@ inline Structure make_structure(Kind kind, std::uint64_t seed) {
     s.voxels_per_side = static_cast<int>(std::lround(kPeriodUm / kVoxelUm));
     if (kind == Kind::channel) {
         geometry::ChannelVolumeParams p;
-        p.length_scale_um = 0.19;
+        p.length_scale_um = kChannelLengthUm;
         p.shell_relative_width = 0.15;
-        p.keratin_fraction = 0.5;
+        p.keratin_fraction = kChannelKeratinFraction;
         p.box_um = kPeriodUm;
         p.voxel_um = kVoxelUm;
         p.seed = seed;
