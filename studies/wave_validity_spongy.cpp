@@ -181,8 +181,8 @@ std::string spongy_section(const std::vector<SpongyScene>& scenes) {
     md +=
         "\n*What the routes leave out* (docs/spongy_media.md): first Born and the "
         "strong-contrast forms scatter with first Born's angular shape, S̄(2k sin θ/2) with its "
-        "k⁴ prefactor, which hides a packing's S(q) peak (the air spheres' diffuse-R peak: "
-        "the table's peak column); the sphere route scatters "
+        "k⁴ prefactor, which can hide a packing's S(q) peak (the air spheres' diffuse-R peak: "
+        "the table's peak column, against its floor); the sphere route scatters "
         "from each sphere's contrast to the Bruggeman medium, about (1 − φ)² of the two-phase "
         "contrast's power.\n\n";
     return md;

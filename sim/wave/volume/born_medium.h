@@ -21,8 +21,10 @@
 // for k0 |Δε| ℓ / n_eff ≪ 1 over the correlation length ℓ — for keratin/air (Δε ≈ 1.4)
 // at ℓ ≈ 0.1–0.2 µm this is marginal. Against 3D full wave (tests/reference/spongy_3d, keratin
 // n = 1.55, 2 µm slabs): every 50-nm band of the diffuse reflectance within 15 % beyond the noise
-// on channel networks and on air spheres in keratin, but the packing's Bragg peak (458 nm) is
-// missed (the route's at 400 nm); keratin spheres in air 20–72 % high.
+// on channel networks and on air spheres in keratin; the packings' diffuse-R peak, full wave's
+// at 458 nm near their Bragg condition and the route's at 400 nm, differ within that peak's noise
+// floor (79 nm over three realisations), which the reference cannot narrow; keratin spheres in
+// air 20–72 % high.
 //
 // Sphere route. N spheres of radius a per volume V (number density ρ = N/V), index n_s, in
 // the effective medium n_eff (lossless part): with Mie amplitudes S1, S2 at m = n_s/n_eff,
