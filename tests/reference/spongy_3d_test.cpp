@@ -10,6 +10,7 @@
 // picked up.
 #include <algorithm>
 #include <cmath>
+#include <complex>
 #include <cstdio>
 #include <cstdlib>
 #include <filesystem>
@@ -155,8 +156,143 @@ Spectrum trace_slab(std::vector<sim::MediumTable> tables, const std::vector<doub
     return s;
 }
 
+// First Born of the reference's own periodic slab, order by order: the exact weak-contrast limit
+// of what full wave computes, with none of the routes' steps between (no orientation average,
+// no radial spectrum, no transport). The slab (0 <= z <= 2 µm, the cube repeated along z) is a
+// uniform medium ε̄ (its volume mean) perturbed by δε(r) = ε(r) − ε̄. Under E_x incident along
+// −z, e^{−i k̄ z} with k̄ = k0 √ε̄, the scalar periodic Green's function of (∇² + k̄²) gives the
+// amplitude of each reflected order G (lateral wavevector, k_z = √(k̄² − |G|²)):
+//     a_G = k0² / (2 A k_z) ∫ δε(r) e^{−i q·r} dr,  q = (G, k_z + k̄),  A = P² (P the period),
+// its power fraction |a_G|² k_z / k̄, times 1 − k̂_x² (the transverse part of the x dipole's
+// field along k̂ = (G, k_z) / k̄). Orders with |G| >= k0 cannot leave into air and are left out.
+// Left out too: the faces' reflections (|r|² = 6e-4 at n = 1.10) and every second-order term
+// (scattering of the scattered field, the field inside the keratin differing from the
+// incident one). The integral is a sum over a 96³ sampling of the cube (160 layers in z), each
+// sample weighted by its cell's Fourier transform (sinc per axis).
+std::vector<double> periodic_first_born_diffuse_r(const Structure& st, double n_keratin,
+                                                  const std::vector<double>& lambdas) {
+    constexpr int kSamples = 96;  // per period
+    const double h = kPeriodUm / kSamples;
+    const int layers = static_cast<int>(std::lround(kThicknessUm / h));
+    // the keratin indicator on the samples: one period in z, the slab's layers wrap onto it
+    std::vector<double> chi(static_cast<std::size_t>(kSamples) * kSamples * kSamples);
+    double fraction = 0.0;
+    for (int k = 0; k < kSamples; ++k)
+        for (int j = 0; j < kSamples; ++j)
+            for (int i = 0; i < kSamples; ++i) {
+                const double v =
+                    st.keratin(Eigen::Vector3d((i + 0.5) * h, (j + 0.5) * h, (k + 0.5) * h)) ? 1.0
+                                                                                             : 0.0;
+                chi[(static_cast<std::size_t>(k) * kSamples + j) * kSamples + i] = v;
+            }
+    for (int k = 0; k < layers; ++k)
+        for (int p = 0; p < kSamples * kSamples; ++p)
+            fraction += chi[static_cast<std::size_t>(k % kSamples) * kSamples * kSamples + p];
+    fraction /= static_cast<double>(layers) * kSamples * kSamples;
+    const double d_eps = n_keratin * n_keratin - 1.0;
+    const double eps_mean = 1.0 + d_eps * fraction;
+    // each layer's lateral Fourier sums of δε at the orders that can leave into air
+    const double k0_max = 2.0 * std::numbers::pi / (lambdas.front() * 1e-3);
+    const double g_step = 2.0 * std::numbers::pi / kPeriodUm;
+    const int m_max = static_cast<int>(std::floor(k0_max / g_step));
+    const int side = 2 * m_max + 1;
+    using C = std::complex<double>;
+    std::vector<C> layer_sum(static_cast<std::size_t>(kSamples) * side * side);
+    std::vector<C> phase(static_cast<std::size_t>(side) * kSamples);  // e^{−i G_m x_i}
+    for (int m = -m_max; m <= m_max; ++m)
+        for (int i = 0; i < kSamples; ++i)
+            phase[static_cast<std::size_t>(m + m_max) * kSamples + i] =
+                std::polar(1.0, -g_step * m * (i + 0.5) * h);
+    for (int k = 0; k < kSamples; ++k)
+        for (int mx = 0; mx < side; ++mx) {
+            std::vector<C> row(kSamples);  // Σ_i over x, per y
+            for (int j = 0; j < kSamples; ++j)
+                for (int i = 0; i < kSamples; ++i)
+                    row[j] +=
+                        (d_eps * chi[(static_cast<std::size_t>(k) * kSamples + j) * kSamples + i] -
+                         (eps_mean - 1.0)) *
+                        phase[static_cast<std::size_t>(mx) * kSamples + i];
+            for (int my = 0; my < side; ++my) {
+                C sum = 0.0;
+                for (int j = 0; j < kSamples; ++j)
+                    sum += row[j] * phase[static_cast<std::size_t>(my) * kSamples + j];
+                layer_sum[(static_cast<std::size_t>(k) * side + mx) * side + my] = sum;
+            }
+        }
+    const auto sinc = [](double x) { return std::abs(x) < 1e-12 ? 1.0 : std::sin(x) / x; };
+    const double area = kPeriodUm * kPeriodUm;
+    std::vector<double> out;
+    for (const double lambda : lambdas) {
+        const double k0 = 2.0 * std::numbers::pi / (lambda * 1e-3);
+        const double kbar = k0 * std::sqrt(eps_mean);
+        double r = 0.0;
+        for (int mx = 0; mx < side; ++mx)
+            for (int my = 0; my < side; ++my) {
+                const double gx = g_step * (mx - m_max), gy = g_step * (my - m_max);
+                const double g2 = gx * gx + gy * gy;
+                if ((mx == m_max && my == m_max) || g2 >= k0 * k0) continue;
+                const double kz = std::sqrt(kbar * kbar - g2);
+                const double qz = kz + kbar;
+                C integral = 0.0;
+                for (int k = 0; k < layers; ++k)
+                    integral +=
+                        layer_sum[(static_cast<std::size_t>(k % kSamples) * side + mx) * side +
+                                  my] *
+                        std::polar(1.0, -qz * (k + 0.5) * h);
+                integral *=
+                    h * h * h * sinc(0.5 * gx * h) * sinc(0.5 * gy * h) * sinc(0.5 * qz * h);
+                const double a2 = std::norm(integral) * std::pow(k0 * k0 / (2.0 * area * kz), 2);
+                r += a2 * kz / kbar * (1.0 - gx * gx / (kbar * kbar));
+            }
+        out.push_back(r);
+    }
+    return out;
+}
+
+// The same first Born for the statistically isotropic medium the routes describe: the sample's
+// orientation-averaged spectrum S̄(q) (E|∫ δε e^{−i q·r}|² = Δε² V S̄(|q|)) over every direction
+// that leaves into air, as the sum above over a lattice of directions fine enough to be its
+// integral (spacing 0.1/µm against the period's 5.2/µm):
+//     Σ k0⁴ L Δε² S̄(|q|) / (4 A k_z k̄) (1 − G_x²/k̄²),  L the thickness, A = (2π / spacing)².
+// Its ratio to periodic_first_born_diffuse_r is how far what the reference probes departs from
+// that medium at first order: one normal incidence on one 1.2 µm period reflects into a few
+// dozen orders, which see the sample's own |χ̂(q)|² near the z axis, not the average over
+// directions and realisations; the (0, 0) order, which takes the back-scattering cone, counts as
+// specular.
+std::vector<double> isotropic_first_born_diffuse_r(const sim::wave::RadialSpectrum& radial,
+                                                   double n_keratin, double fraction,
+                                                   const std::vector<double>& lambdas) {
+    constexpr double kSpacingPerUm = 0.1;
+    const double d_eps = n_keratin * n_keratin - 1.0;
+    const double eps_mean = 1.0 + d_eps * fraction;
+    const double area = std::pow(2.0 * std::numbers::pi / kSpacingPerUm, 2);
+    std::vector<double> out;
+    for (const double lambda : lambdas) {
+        const double k0 = 2.0 * std::numbers::pi / (lambda * 1e-3);
+        const double kbar = k0 * std::sqrt(eps_mean);
+        const int m_max = static_cast<int>(std::floor(k0 / kSpacingPerUm));
+        double r = 0.0;
+        for (int mx = -m_max; mx <= m_max; ++mx)
+            for (int my = -m_max; my <= m_max; ++my) {
+                const double gx = kSpacingPerUm * mx, gy = kSpacingPerUm * my;
+                const double g2 = gx * gx + gy * gy;
+                if (g2 >= k0 * k0) continue;
+                const double kz = std::sqrt(kbar * kbar - g2);
+                const double q = std::sqrt(g2 + (kz + kbar) * (kz + kbar));
+                r += std::pow(k0, 4) * kThicknessUm * d_eps * d_eps * radial.at(q) /
+                     (4.0 * area * kz * kbar) * (1.0 - gx * gx / (kbar * kbar));
+            }
+        out.push_back(r);
+    }
+    return out;
+}
+
 struct RouteSpectra {
     Spectrum born, sphere;  // sphere: empty for the channel
+    // Single-scattering first Born of the sample's periodic slab and of the isotropic medium of
+    // its spectrum (periodic_first_born_diffuse_r, isotropic_first_born_diffuse_r): diffuse R
+    // per wavelength.
+    std::vector<double> sample_first_born, isotropic_first_born;
     // The strong-contrast expansion with each phase as host, and self-consistent.
     Spectrum strong_keratin_host, strong_air_host, strong_self_consistent;
 };
@@ -185,6 +321,9 @@ RouteSpectra route_spectra(const std::string& kind_text, double n_keratin, std::
     for (const double l : lambdas)
         born.push_back(sim::medium_table(sim::wave::born_medium(spectrum, keratin, *air, l)));
     RouteSpectra out;
+    out.sample_first_born = periodic_first_born_diffuse_r(s, n_keratin, lambdas);
+    out.isotropic_first_born =
+        isotropic_first_born_diffuse_r(spectrum.radial(), n_keratin, s.keratin_fraction, lambdas);
     const std::size_t paths = paths_for(n_keratin);
     out.born = trace_slab(std::move(born), lambdas, paths,
                           derive_seed(seed, "spongy3d/born", static_cast<std::uint64_t>(kind)));
@@ -309,6 +448,9 @@ struct RouteCheck {
     double fw_run_wall_s = 0.0;  // full wave's mean wall time per run (the seeds' coarse grid)
     std::vector<double> fw_diffuse, diffuse, rel, floor_rel, fw_specular, specular;
     std::vector<double> transport_thickness;  // the route's slab, L / ℓ*, band means
+    // The reference's sampling bias per band at first Born: the seeds' periodic slabs over the
+    // isotropic medium of their spectra (single scattering; the same for every route).
+    std::vector<double> sampling_bias;
     bool passes = false;
 };
 
@@ -392,21 +534,24 @@ void print_check(const Key& key, std::size_t seeds, const RouteCheck& c,
                                   "wave {:.1f} nm, route {:.1f} nm (floor {:.1f} nm): {}\n"
                                   "| band (nm) | full wave diffuse R | its grid diff. | route "
                                   "diffuse R | difference | floor | full wave specular R | "
-                                  "route specular R | route's slab, L / ℓ* |\n"
-                                  "|---|---|---|---|---|---|---|---|---|\n",
+                                  "route specular R | route's slab, L / ℓ* | sampling bias | "
+                                  "difference, bias removed |\n"
+                                  "|---|---|---|---|---|---|---|---|---|---|---|\n",
                                   key.kind, key.n, seeds, c.route, c.fw_peak_nm, c.peak_nm,
                                   c.peak_floor_nm, c.passes ? "PASSES" : "misses")
                           .c_str());
     for (int b = 0; b < kBands; ++b)
-        std::printf("%s",
-                    fmt::format("| {}–{} | {:.4f} | {} | {:.4f} | {:+.1f} % | {:.1f} % | "
-                                "{:.4f} | {:.4f} | {:.2f} |\n",
-                                400 + 50 * b, 450 + 50 * b, c.fw_diffuse[b],
-                                std::isnan(grid[b]) ? std::string("not run")
-                                                    : fmt::format("{:+.1f} %", 100.0 * grid[b]),
-                                c.diffuse[b], 100.0 * c.rel[b], 100.0 * c.floor_rel[b],
-                                c.fw_specular[b], c.specular[b], c.transport_thickness[b])
-                        .c_str());
+        std::printf(
+            "%s",
+            fmt::format("| {}–{} | {:.4f} | {} | {:.4f} | {:+.1f} % | {:.1f} % | "
+                        "{:.4f} | {:.4f} | {:.2f} | {:+.1f} % | {:+.1f} % |\n",
+                        400 + 50 * b, 450 + 50 * b, c.fw_diffuse[b],
+                        std::isnan(grid[b]) ? std::string("not run")
+                                            : fmt::format("{:+.1f} %", 100.0 * grid[b]),
+                        c.diffuse[b], 100.0 * c.rel[b], 100.0 * c.floor_rel[b], c.fw_specular[b],
+                        c.specular[b], c.transport_thickness[b], 100.0 * (c.sampling_bias[b] - 1.0),
+                        100.0 * (c.diffuse[b] * c.sampling_bias[b] / c.fw_diffuse[b] - 1.0))
+                .c_str());
 }
 
 // Every route on one (structure, index), against the seeds' coarse grid (the grid every seed
@@ -414,9 +559,16 @@ void print_check(const Key& key, std::size_t seeds, const RouteCheck& c,
 std::vector<RouteCheck> compare(const Key& key, const FullWaveRuns& runs) {
     std::vector<Spectrum> fw, born, sphere, strong_keratin_host, strong_air_host,
         strong_self_consistent;
+    std::vector<double> sample_sum, isotropic_sum;  // first Born, summed over the seeds
     for (const auto& [seed, grids] : runs.seeds) {
         fw.push_back(grids.begin()->second);
         const RouteSpectra r = route_spectra(key.kind, key.n, seed, fw.back().lambda_nm);
+        sample_sum.resize(r.sample_first_born.size());
+        isotropic_sum.resize(r.isotropic_first_born.size());
+        for (std::size_t i = 0; i < sample_sum.size(); ++i) {
+            sample_sum[i] += r.sample_first_born[i];
+            isotropic_sum[i] += r.isotropic_first_born[i];
+        }
         born.push_back(r.born);
         if (!r.sphere.r.empty()) sphere.push_back(r.sphere);
         strong_keratin_host.push_back(r.strong_keratin_host);
@@ -429,6 +581,10 @@ std::vector<RouteCheck> compare(const Key& key, const FullWaveRuns& runs) {
     out.push_back(check_route("strong_keratin_host", key.n, fw, strong_keratin_host, grid));
     out.push_back(check_route("strong_air_host", key.n, fw, strong_air_host, grid));
     out.push_back(check_route("strong_self_consistent", key.n, fw, strong_self_consistent, grid));
+    const auto sample = band_means(fw.front(), sample_sum);
+    const auto isotropic = band_means(fw.front(), isotropic_sum);
+    for (RouteCheck& c : out)
+        for (int b = 0; b < kBands; ++b) c.sampling_bias.push_back(sample[b] / isotropic[b]);
     for (const RouteCheck& c : out) print_check(key, fw.size(), c, grid);
     return out;
 }
@@ -530,6 +686,40 @@ TEST(Spongy3dReference, RoutesAgainstFullWave) {
                                 std::istreambuf_iterator<char>());
     EXPECT_EQ(committed, rows) << route_check_csv()
                                << " is not what the reference gives now: rewrite it (above)";
+}
+
+// At low contrast full wave must be first Born of the same periodic slab: seed by seed, every
+// 50-nm band where the diffuse R is at least 1e-3 (below it, full wave's flux error, R + T − 1 up
+// to 2e-3 at single wavelengths, is not negligible) within 10 %: first Born leaves out terms of
+// relative size δε/ε̄ ≈ ±0.1 at n = 1.10 (the field inside the keratin differs from the incident
+// one by its depolarisation, ±3 % in amplitude), and full wave's band means conserve power to 1.5
+// %. An independent check of the full-wave level in 3D, and of what the routes are compared with.
+// At n = 1.55 the same numbers are printed: there single-scattering first Born of the sample is
+// not the physics (the slab is up to 1.6 transport lengths thick).
+TEST(Spongy3dReference, LowContrastFullWaveIsPeriodicFirstBorn) {
+    const auto reference = read_reference(reference_csv());
+    std::size_t checked = 0;
+    for (const auto& [key, runs] : reference) {
+        for (const auto& [seed, grids] : runs.seeds) {
+            const Spectrum& fw = grids.begin()->second;
+            const Structure st = make_structure(kind_from(key.kind), seed);
+            const auto fb = band_means(fw, fw.r_diffuse);
+            const auto bb = band_means(fw, periodic_first_born_diffuse_r(st, key.n, fw.lambda_nm));
+            std::string line;
+            for (int b = 0; b < kBands; ++b) {
+                line += fmt::format(" {:+.1f}", 100.0 * (bb[b] / fb[b] - 1.0));
+                if (key.n < 1.5 && fb[b] >= 1e-3) {
+                    EXPECT_NEAR(bb[b] / fb[b], 1.0, 0.10)
+                        << key.kind << " n " << key.n << " seed " << seed << " band " << b;
+                    ++checked;
+                }
+            }
+            std::printf(
+                "%s n %.2f seed %llu: periodic first Born / full wave - 1 per band (%%):%s\n",
+                key.kind.c_str(), key.n, static_cast<unsigned long long>(seed), line.c_str());
+        }
+    }
+    std::printf("%zu low-contrast bands checked\n", checked);
 }
 
 // The studies state a route's validated range from their own copy of these structures' numbers
