@@ -184,7 +184,10 @@ std::string spongy_section(const std::vector<SpongyScene>& scenes) {
         "k⁴ prefactor, which can hide a packing's S(q) peak (the air spheres' diffuse-R peak: "
         "the table's peak column, against its floor); the sphere route scatters "
         "from each sphere's contrast to the Bruggeman medium, about (1 − φ)² of the two-phase "
-        "contrast's power.\n\n";
+        "contrast's power. *What the reference leaves out*: one normal incidence on one 1.2 µm "
+        "period sees the sample's spectrum at a few dozen diffraction orders, not the isotropic "
+        "medium the levels describe; that sampling bias, computed at first Born, is as large as "
+        "the differences judged (tests/reference/spongy_3d/README.md).\n\n";
     return md;
 }
 
