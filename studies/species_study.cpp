@@ -11,6 +11,7 @@
 #include <limits>
 #include <memory>
 #include <optional>
+#include <sstream>
 #include <string_view>
 
 #include <fmt/format.h>
@@ -613,13 +614,20 @@ std::string spongy_medulla_range_sentence(const std::vector<SpeciesSpec>& specie
         if (!species[i].medulla.spongy || !built[i].spongy) continue;
         const SpongyMediumParams& q = species[i].medulla.structure;
         const SpongyMedium& m = *built[i].spongy;
-        std::string outside;
+        // each reason once: a fraction or index off the validated one is off at every wavelength
+        std::vector<std::string> reasons;
         for (const double lambda : m.wavelengths_nm) {
-            const std::string why =
-                outside_validated_range(validated, "channel", m.measured_fraction,
-                                        q.length_scale_um, lambda, q.keratin->index(lambda).real());
-            if (!why.empty()) outside += (outside.empty() ? "" : "; ") + why;
+            std::stringstream why(outside_validated_range(validated, "channel", m.measured_fraction,
+                                                          q.length_scale_um, lambda,
+                                                          q.keratin->index(lambda).real()));
+            for (std::string reason; std::getline(why, reason, ';');) {
+                if (reason.starts_with(" ")) reason.erase(0, 1);
+                if (std::find(reasons.begin(), reasons.end(), reason) == reasons.end())
+                    reasons.push_back(reason);
+            }
         }
+        std::string outside;
+        for (const std::string& r : reasons) outside += (outside.empty() ? "" : "; ") + r;
         t += fmt::format(
             " The {}'s medulla (channel-type, f {:.3f} measured, Λ = {} µm) is {} the range where "
             "first Born passed ({:.0f}–{:.0f} nm){}.",
