@@ -112,6 +112,9 @@ struct FullWave2dOptions {
     // convergence (above, "Stop"; docs/full_wave.md, "Cost"): the band sums of the widths stay
     // within this fraction over one round trip of light around the bodies.
     double far_field_tolerance = 0.0;
+    // > 0: a run under the probe's rule also ends this many time units (µm/c) after its source
+    // has, whatever the probe says (a field that never decays: full_wave_slab.h, "Stop").
+    double max_time = 0.0;
     bool subpixel_smoothing = true;           // Meep's anisotropic averaging at boundaries
     const std::atomic<bool>* stop = nullptr;  // polled between time steps
     // Runs at once (the runs of the wavelengths are independent; each is serial):

@@ -19,6 +19,19 @@
 // the powers add). Reflectance and transmittance are over the incident wave's power.
 // R + T = 1 for lossless bodies (tested), and a uniform slab against the transfer matrix.
 //
+// Stop: when |E|² at a probe under the slab has fallen to `decay` of its peak, or max_time
+// after the source has ended (if > 0). Measured (the spongy reference's channel network at
+// n = 1.10, 1.2 µm period, 400–700 nm): the planes' 50-nm band sums of diffuse power hold within
+// ±4 % from 15 to about 85 time units after the source, then drift by about −1 % per 10 time
+// units at 400–550 nm, fastest near 540 nm (the (2, 1) order's grazing wavelength,
+// period/√5 = 537 nm), where the diffuse power turns negative, which no physical field does: a
+// field that does not decay (its source is not identified; near-grazing orders, which the PML
+// absorbs slowly, are the suspects), holds the probe above 1e-4, and shows only beside weak
+// scattering (at n = 1.55, with 25–70 times the diffuse light, the same band sums hold within
+// 0.2 % in the blue from 100 to 500 time units, while the 650–700 nm sum, the cell's slow
+// resonances, rises by half until about 400).
+// Such runs take max_time.
+//
 // Smoothing: Kottke's anisotropic average over every pixel that a 3 × 3 × 3 test finds cut, on
 // a 5 × 5 × 5 lattice of samples, the boundary normal being the direction of ε's first moment
 // (full_wave_2d.h's rule in 3D). Dispersion: per wavelength (one run each, a D conductivity for

@@ -113,6 +113,7 @@ double step_until_decayed(meep::fields& f, meep::component c, const meep::vec& p
         const double u2 = std::norm(f.get_field(c, probe));
         peak = std::max(peak, u2);
         window = std::max(window, u2);
+        if (o.max_time > 0.0 && f.time() >= source_end + o.max_time) return steps;
         if (f.time() >= next_check) {
             if (window <= o.decay * peak) return steps;
             window = 0.0;
@@ -185,6 +186,8 @@ void check_options(const CrossSection2d& section, std::span<const double> lambda
             fmt::format("a gap of at least four grid cells ({} µm)", 4.0 * h));
     require(std::isfinite(o.decay) && o.decay > 0.0 && o.decay <= 1e-2, "full wave", "decay",
             o.decay, "a decay in (0, 1e-2]");
+    require(std::isfinite(o.max_time) && o.max_time >= 0.0, "full wave", "max_time", o.max_time,
+            "0 (no cap) or a time > 0 µm/c");
     require(o.far_field_tolerance == 0.0 ||
                 (o.far_field_tolerance >= 1e-6 && o.far_field_tolerance <= 1e-2),
             "full wave", "far_field_tolerance", o.far_field_tolerance,

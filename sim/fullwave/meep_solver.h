@@ -250,9 +250,10 @@ void grid_ticks(meep::fields& f, const meep::volume& where, std::vector<double>&
                 std::vector<double>& ys);
 
 // Steps until the largest |u|² at the probe over the last 20 time units is below decay × its
-// peak (Meep's stop_when_fields_decayed), polling the stop flag (under MPI, agreed by the ranks
-// every kStopAgreementSteps steps); returns the steps taken. The probe's field is summed over
-// the ranks (Meep's get_field), so every rank ends the run at the same step.
+// peak (Meep's stop_when_fields_decayed), or until max_time (if > 0) after source_end, polling
+// the stop flag (under MPI, agreed by the ranks every kStopAgreementSteps steps); returns the
+// steps taken. The probe's field is summed over the ranks (Meep's get_field), so every rank ends
+// the run at the same step.
 double step_until_decayed(meep::fields& f, meep::component c, const meep::vec& probe,
                           double source_end, const FullWave2dOptions& o);
 

@@ -3,13 +3,15 @@
 // structure (structures.h), periodic laterally, in air, at two resolutions, from the suite's own
 // full-wave level (sim/fullwave/full_wave_slab.h, Meep's C++ library). Not run in CI (minutes to
 // tens of minutes per structure on one core); the committed CSV is what the test reads.
-//   plumage_spongy3d_reference OUT_CSV KIND N_KERATIN SEED COARSE_PX_PER_UM DECAY [GRIDS]
+//   plumage_spongy3d_reference OUT_CSV KIND N_KERATIN SEED COARSE_PX_PER_UM STOP [GRIDS]
 // KIND: channel | air_spheres | keratin_spheres; keratin a constant index N_KERATIN (no
 // dispersion, no loss), so that the media routes compare on the structure alone; E_x only
 // (Slab3d::e_x_only: the mean over seeds is the unpolarised mean); 400–700 nm every 10 nm in one
 // run per grid; grids COARSE and 1.5 × COARSE px/µm, or (GRIDS = coarse) COARSE alone, or
-// (GRIDS = only=R) R px/µm alone; DECAY:
-// stop when the field under the slab has fallen to DECAY of its peak.
+// (GRIDS = only=R) R px/µm alone; STOP: decay=D, stop when the field under the slab has fallen
+// to D of its peak, or decay=D,max_time=T, also stop T time units (µm/c) after the source has
+// ended (full_wave_slab.h, "Stop").
+#include <algorithm>
 #include <atomic>
 #include <csignal>
 #include <cstdio>
@@ -36,7 +38,7 @@ int main(int argc, char** argv) {
     if (argc != 7 && argc != 8) {
         std::fprintf(stderr,
                      "usage: %s OUT_CSV channel|air_spheres|keratin_spheres N_KERATIN SEED "
-                     "COARSE_PX_PER_UM decay=D [coarse|only=R]\n",
+                     "COARSE_PX_PER_UM decay=D[,max_time=T] [coarse|only=R]\n",
                      argv[0]);
         return 2;
     }
@@ -48,11 +50,18 @@ int main(int argc, char** argv) {
     const auto seed = static_cast<std::uint64_t>(std::stoull(argv[4]));
     const double coarse = std::stod(argv[5]);
     const std::string stop = argv[6];
+    // STOP: decay=D or decay=D,max_time=T
+    const std::size_t comma = stop.find(",max_time=");
     if (stop.rfind("decay=", 0) != 0) {
-        std::fprintf(stderr, "DECAY: expected decay=D, got %s\n", stop.c_str());
+        std::fprintf(stderr, "STOP: expected decay=D or decay=D,max_time=T, got %s\n",
+                     stop.c_str());
         return 2;
     }
-    const double decay = std::stod(stop.substr(6));
+    const double decay =
+        std::stod(stop.substr(6, comma == std::string::npos ? std::string::npos : comma - 6));
+    const double max_time = comma == std::string::npos ? 0.0 : std::stod(stop.substr(comma + 10));
+    std::string rule = stop;  // the CSV's stop_rule cell: no comma
+    std::replace(rule.begin(), rule.end(), ',', ' ');
     const std::string grids_arg = argc == 8 ? argv[7] : "";
     const s3::Structure structure = s3::make_structure(kind, seed);
 
@@ -80,6 +89,7 @@ int main(int argc, char** argv) {
         o.pml_um = 0.6;
         o.gap_um = 0.25;
         o.decay = decay;
+        o.max_time = max_time;
         o.threads = 1;
         o.dispersion = fw::Dispersion::fitted;
         o.stop = &g_stop;
@@ -96,7 +106,7 @@ int main(int argc, char** argv) {
                 "{:.0f},{}\n",
                 s3::kind_name(kind), n_keratin, seed, res, structure.keratin_fraction, w.lambda_nm,
                 w.specular_reflectance, w.diffuse_reflectance, w.specular_transmittance,
-                w.diffuse_transmittance, r.grid_cells, r.time_steps, r.seconds, stop);
+                w.diffuse_transmittance, r.grid_cells, r.time_steps, r.seconds, rule);
         std::fprintf(stderr, "%s n=%g seed %llu at %g px/um: %zu cells, %.0f steps, %.0f s\n",
                      std::string(s3::kind_name(kind)).c_str(), n_keratin,
                      static_cast<unsigned long long>(seed), res, r.grid_cells, r.time_steps,

@@ -130,6 +130,25 @@ TEST(FullWaveSlab, ExAloneGivesTheUnpolarisedAnswerOfASymmetricBody) {
     EXPECT_NEAR(x.diffuse_transmittance, a.diffuse_transmittance, 1e-4);
 }
 
+// max_time ends a run whose probe has not decayed (decay 1e-12 here, far below what the lattice
+// reaches in that time): the run stops max_time after the source has ended, within one check of
+// the source's length (a Gaussian pulse over 600 nm alone lasts under 20 time units).
+TEST(FullWaveSlab, MaxTimeEndsARunThatHasNotDecayed) {
+    Slab3d slab = sphere_lattice();
+    slab.e_x_only = true;
+    const std::array<double, 1> lambdas{600.0};
+    FullWave2dOptions o = small_cell(25.0);
+    o.decay = 1e-12;
+    o.max_time = 15.0;
+    const FullWaveSlabResult r = full_wave_slab(slab, lambdas, o);
+    const double run_time = r.time_steps * 0.5 / r.resolution_px_per_um;  // Courant 0.5
+    fmt::print("{:.0f} steps: {:.2f} time units\n", r.time_steps, run_time);
+    EXPECT_GE(run_time, o.max_time);
+    EXPECT_LE(run_time, o.max_time + 20.0);
+    o.max_time = -1.0;
+    EXPECT_THROW(full_wave_slab(slab, lambdas, o), InputError);
+}
+
 TEST(FullWaveSlab, RefusesWhatItCannotDo) {
     Slab3d slab;
     slab.period_um = 1.0;
