@@ -236,6 +236,13 @@ SpongyMedium build_spongy_medium(const SpongyMediumParams& params,
     return out;
 }
 
+double spongy_band_tolerance(double keratin_index) { return keratin_index >= 1.5 ? 0.15 : 0.10; }
+
+std::string RouteFullWaveCheck::verdict() const {
+    if (!passes) return "misses";
+    return validated() ? "passes" : "within its floors only";
+}
+
 std::vector<RouteFullWaveCheck> routes_against_full_wave() {
     const auto rows = embedded_csv_rows(kSpongyRouteCheck);
     std::vector<RouteFullWaveCheck> out;
@@ -249,10 +256,11 @@ std::vector<RouteFullWaveCheck> routes_against_full_wave() {
         });
         if (it == out.end()) {
             out.push_back({r[0], r[1], r[2], r[3], std::stod(r[4]), std::stod(r[5]),
-                           std::stod(r[14]), r[6] == "1", "", 0.0, 0.0, std::stod(r[13])});
+                           std::stod(r[14]), r[6] == "1", 0, "", 0.0, 0.0, std::stod(r[13])});
             it = out.end() - 1;
         }
-        const double d = std::stod(r[11]);
+        const double d = std::stod(r[11]), floor = std::stod(r[12]);
+        if (floor <= spongy_band_tolerance(std::stod(r[1]))) ++it->decided_bands;
         if (it->worst_band.empty() || std::abs(d) > std::abs(it->worst_difference)) {
             it->worst_difference = d;
             it->worst_floor = std::stod(r[12]);
@@ -282,7 +290,7 @@ std::vector<RouteValidatedCase> route_validated_cases(const std::string& route) 
     }
     std::vector<RouteValidatedCase> out;
     for (const RouteFullWaveCheck& c : routes_against_full_wave()) {
-        if (c.route != route || !c.passes) continue;
+        if (c.route != route || !c.validated()) continue;
         for (const SpongyReferenceStructure& r : spongy_reference_structures()) {
             if (r.name != c.structure) continue;
             const double n = std::stod(c.keratin_index);
@@ -354,8 +362,10 @@ std::string routes_against_full_wave_text(MediumRoute route, std::string_view st
         "realisations each; full wave by the suite's Meep level). Compared: the diffuse "
         "(non-specular) reflectance at normal incidence, the part the medium decides; passes = "
         "its peak within 10 nm and every 50-nm band mean within 15 % (10 % at n < 1.5), each "
-        "beyond its floor: for a band, three standard errors of realisation and Monte Carlo "
-        "noise and full wave's grid difference; for the peak, three jackknife standard errors "
+        "beyond its floor, and at least one band's floor within that tolerance (else: within "
+        "its floors only, a comparison that could not have seen a miss): for a band, three "
+        "standard errors of realisation and Monte Carlo noise, full wave's grid difference and "
+        "the power its run left unaccounted for; for the peak, three jackknife standard errors "
         "over the realisations (a single 1.2 µm period's spectrum jumps from one wavelength to "
         "the next, so a flat spectrum's peak is poorly fixed). The specular part is the slab's "
         "faces (coherent fringes in full wave, "
@@ -369,8 +379,11 @@ std::string routes_against_full_wave_text(MediumRoute route, std::string_view st
         "incidence on one 1.2 µm period reflects into a few dozen diffraction orders, which see "
         "the sample's spectrum near the z axis rather than the isotropic medium the routes "
         "describe; computed at first Born this sampling bias is as large as the differences "
-        "judged, and at keratin n = 1.10 it is the whole of first Born's miss "
-        "(tests/reference/spongy_3d/README.md). The verdicts are the raw comparison.\n\n"
+        "judged, and at keratin n = 1.10 it is the whole of first Born's miss on the channel "
+        "network (tests/reference/spongy_3d/README.md). At n = 1.10 the floors are 63–330 % "
+        "(three realisations scatter, and runs whose field never decays leave power "
+        "unaccounted for), so no route's pass there can be told from a miss. The verdicts are "
+        "the raw comparison.\n\n"
         "| structure | keratin n | route | realisations | diffuse-R peak nm, full wave / route "
         "(floor) | worst band nm: difference (floor) | verdict |\n|---|---|---|---|---|---|---|\n";
     for (const RouteFullWaveCheck& e : routes_against_full_wave()) {
@@ -381,7 +394,7 @@ std::string routes_against_full_wave_text(MediumRoute route, std::string_view st
             e.structure, e.keratin_index, spongy_route_label(e.route),
             e.route == mine ? " (this study's)" : "", e.realisations, e.full_wave_peak_nm,
             e.route_peak_nm, e.peak_floor_nm, e.worst_band, 100.0 * e.worst_difference,
-            100.0 * e.worst_floor, e.passes ? "**passes**" : "misses");
+            100.0 * e.worst_floor, e.validated() ? "**passes**" : e.verdict());
     }
     return t + "\n";
 }

@@ -115,7 +115,7 @@ std::vector<SpongyScene> judge_spongy_scenes(const std::vector<double>& waveleng
             it = scenes.end() - 1;
         }
         const auto route_cost = cost.find(c.route);
-        it->levels.push_back({c.route, spongy_route_label(c.route), c.passes,
+        it->levels.push_back({c.route, spongy_route_label(c.route), c.validated(), c.verdict(),
                               c.route_peak_nm - c.full_wave_peak_nm, c.peak_floor_nm, c.worst_band,
                               c.worst_difference, c.worst_floor,
                               route_cost == cost.end() ? 0.0 : route_cost->second});
@@ -172,7 +172,7 @@ std::string spongy_section(const std::vector<SpongyScene>& scenes) {
                 "| {} | {} | {:.3g} | {:+.0f} ({:.0f}) | {}: {:+.0f} % ({:.0f} %) | {} |\n",
                 s.structure, l.label, l.seconds, l.peak_offset_nm, l.peak_floor_nm, l.worst_band,
                 100.0 * l.worst_difference, 100.0 * l.worst_floor,
-                l.passes ? "**within**" : "misses");
+                l.passes ? "**within**" : l.verdict);
         md += fmt::format(
             "| {} | full wave ({} realisations) | {:.0f} | peak at {:.0f} nm | "
             "reference | — |\n",

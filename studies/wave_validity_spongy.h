@@ -33,7 +33,8 @@ namespace plumage::studies {
 struct SpongyLevelJudgement {
     std::string route;          // route_check.csv's name: born, sphere, strong_…
     std::string label;          // as the report words it
-    bool passes = false;        // within the reference's tolerance
+    bool passes = false;        // validated: within tolerance where the reference can decide
+    std::string verdict;        // RouteFullWaveCheck::verdict()
     double peak_offset_nm = 0;  // the level's diffuse-R peak minus full wave's
     double peak_floor_nm = 0;   // its floor: three jackknife standard errors over realisations
     std::string worst_band;     // "lo–hi" nm

@@ -66,6 +66,7 @@ struct Spectrum {
     // full wave.
     std::vector<double> transport_thickness;
     double run_wall_s = 0.0;  // full wave: the run's wall time (reflectance.csv); else 0
+    bool capped = false;      // full wave: stopped at max_time, not by the probe's decay
 };
 
 struct Key {
@@ -100,6 +101,7 @@ std::map<Key, FullWaveRuns> read_reference(const fs::path& path) {
         const double rs = std::stod(c[6]), rd = std::stod(c[7]);
         s.lambda_nm.push_back(std::stod(c[5]));
         s.run_wall_s = std::stod(c[12]);
+        s.capped = c[13].find("max_time") != std::string::npos;
         s.r.push_back(rs + rd);
         s.r_diffuse.push_back(rd);
         s.t.push_back(std::stod(c[8]) + std::stod(c[9]));
@@ -430,15 +432,16 @@ std::vector<double> seed_errors(const std::vector<Spectrum>& list,
 }
 
 // The criteria (issue 37): the peak within 10 nm and every 50-nm band mean within 15 % at
-// keratin's n = 1.55, within 10 % at low contrast (n < 1.5), each beyond its floor. A band's
-// floor: three standard errors of the difference (full wave's realisation noise over seeds, the
-// route's Monte Carlo) and full wave's own grid difference where it was measured. The peak's
+// keratin's n = 1.55, within 10 % at low contrast (n < 1.5), each beyond its floor; a pass
+// counts (the studies' validated range) only where at least one band's floor is within the
+// tolerance, else it lies within its floors only. A band's floor: three standard errors of the
+// difference (full wave's realisation noise over seeds, the route's Monte Carlo), full wave's own
+// grid difference where it was measured, and the power its runs left unaccounted for. The peak's
 // floor: three jackknife standard errors (leave one seed out of both seed means) of the peak
 // difference. A single 1.2 µm period sees its own few diffraction orders, so each seed's diffuse
 // R jumps by tens of per cent from one wavelength to the next, and where a spectrum is flat
 // (the air spheres over 400–470 nm) the seed mean's largest sample wanders by tens of nm.
 constexpr double kPeakToleranceNm = 10.0;
-double band_tolerance(double n) { return n >= 1.5 ? 0.15 : 0.10; }
 
 // One route on one (structure, index): what the README's tables print.
 struct RouteCheck {
@@ -452,6 +455,7 @@ struct RouteCheck {
     // isotropic medium of their spectra (single scattering; the same for every route).
     std::vector<double> sampling_bias;
     bool passes = false;
+    int decided_bands = 0;  // bands whose floor is within the tolerance (a miss was visible)
 };
 
 // Full wave's grid difference of the diffuse R per band: (fine − coarse) / coarse, averaged over
@@ -493,6 +497,20 @@ double peak_difference_jackknife_se(const std::vector<Spectrum>& fw_seeds,
     return std::sqrt(static_cast<double>(k - 1) / static_cast<double>(k) * ss);
 }
 
+// Full wave's power not accounted for per band, |1 − (R + T)|, averaged over the seeds: its flux
+// error, and in runs stopped at max_time the power still in the cell, some of which could yet
+// leave as diffuse reflection. Part of every band's floor.
+std::vector<double> flux_deficits(const std::vector<Spectrum>& fw_seeds) {
+    std::vector<double> out(kBands, 0.0);
+    for (const Spectrum& s : fw_seeds) {
+        std::vector<double> lost(s.r.size());
+        for (std::size_t i = 0; i < s.r.size(); ++i) lost[i] = std::abs(1.0 - s.r[i] - s.t[i]);
+        const auto bands = band_means(s, lost);
+        for (int b = 0; b < kBands; ++b) out[b] += bands[b] / static_cast<double>(fw_seeds.size());
+    }
+    return out;
+}
+
 RouteCheck check_route(const std::string& route, double n, const std::vector<Spectrum>& fw_seeds,
                        const std::vector<Spectrum>& route_seeds, const std::vector<double>& grid) {
     const Spectrum fw = seed_mean(fw_seeds), rm = seed_mean(route_seeds);
@@ -512,6 +530,7 @@ RouteCheck check_route(const std::string& route, double n, const std::vector<Spe
     c.transport_thickness = band_means(rm, rm.transport_thickness);
     const auto seed_se = seed_errors(fw_seeds, &Spectrum::r_diffuse);
     const auto mc_se = band_errors(rm, rm.r_diffuse_var);
+    const auto lost = flux_deficits(fw_seeds);
     // both at the short end of the range: both peak at or below it, which agrees
     const bool both_at_edge =
         c.fw_peak_nm <= fw.lambda_nm.front() + 1e-9 && c.peak_nm <= rm.lambda_nm.front() + 1e-9;
@@ -522,24 +541,29 @@ RouteCheck check_route(const std::string& route, double n, const std::vector<Spe
         const double g = std::isnan(grid[b]) ? 0.0 : grid[b] * c.fw_diffuse[b];
         c.rel.push_back(c.diffuse[b] / c.fw_diffuse[b] - 1.0);
         c.floor_rel.push_back(3.0 * std::hypot(seed_se[b], mc_se[b]) / c.fw_diffuse[b] +
-                              std::abs(g) / c.fw_diffuse[b]);
-        if (std::abs(c.rel[b]) > band_tolerance(n) + c.floor_rel[b]) c.passes = false;
+                              (std::abs(g) + lost[b]) / c.fw_diffuse[b]);
+        const double tolerance = studies::spongy_band_tolerance(n);
+        if (std::abs(c.rel[b]) > tolerance + c.floor_rel[b]) c.passes = false;
+        if (c.floor_rel[b] <= tolerance) ++c.decided_bands;
     }
     return c;
 }
 
 void print_check(const Key& key, std::size_t seeds, const RouteCheck& c,
                  const std::vector<double>& grid) {
-    std::printf("%s", fmt::format("\n{}, n = {:.2f}, {} seed(s), route {}: diffuse-R peak full "
-                                  "wave {:.1f} nm, route {:.1f} nm (floor {:.1f} nm): {}\n"
-                                  "| band (nm) | full wave diffuse R | its grid diff. | route "
-                                  "diffuse R | difference | floor | full wave specular R | "
-                                  "route specular R | route's slab, L / ℓ* | sampling bias | "
-                                  "difference, bias removed |\n"
-                                  "|---|---|---|---|---|---|---|---|---|---|---|\n",
-                                  key.kind, key.n, seeds, c.route, c.fw_peak_nm, c.peak_nm,
-                                  c.peak_floor_nm, c.passes ? "PASSES" : "misses")
-                          .c_str());
+    std::printf(
+        "%s", fmt::format("\n{}, n = {:.2f}, {} seed(s), route {}: diffuse-R peak full "
+                          "wave {:.1f} nm, route {:.1f} nm (floor {:.1f} nm): {}\n"
+                          "| band (nm) | full wave diffuse R | its grid diff. | route "
+                          "diffuse R | difference | floor | full wave specular R | "
+                          "route specular R | route's slab, L / ℓ* | sampling bias | "
+                          "difference, bias removed |\n"
+                          "|---|---|---|---|---|---|---|---|---|---|---|\n",
+                          key.kind, key.n, seeds, c.route, c.fw_peak_nm, c.peak_nm, c.peak_floor_nm,
+                          !c.passes              ? "misses"
+                          : c.decided_bands == 0 ? "within its floors only"
+                                                 : "PASSES")
+                  .c_str());
     for (int b = 0; b < kBands; ++b)
         std::printf(
             "%s",
@@ -592,7 +616,9 @@ std::vector<RouteCheck> compare(const Key& key, const FullWaveRuns& runs) {
 // Lossless keratin: R + T = 1 within the runs' flux accuracy. Meep stops at a field decay of
 // 1e-6 under the slab; a periodic cell's quasi-guided resonances ring longer, and single
 // wavelengths near them (660–670 nm here) are off by up to 0.042 (README); 50-nm band means
-// within 0.01.
+// within 0.01. A run stopped at max_time (n = 1.10: its probe never decays, README) may leave
+// power in the cell, up to 0.020 of a band's (measured), never create it: R + T at most 1 within
+// the same accuracy; what it leaves is part of full wave's floor (flux_deficits).
 TEST(Spongy3dReference, FullWaveConservesPower) {
     const auto reference = read_reference(reference_csv());
     ASSERT_FALSE(reference.empty());
@@ -602,13 +628,25 @@ TEST(Spongy3dReference, FullWaveConservesPower) {
                 std::vector<double> sum(s.r.size());
                 for (std::size_t i = 0; i < s.r.size(); ++i) {
                     sum[i] = s.r[i] + s.t[i];
-                    EXPECT_NEAR(sum[i], 1.0, 0.05)
-                        << key.kind << " n " << key.n << " seed " << seed << " at " << res
-                        << " px/um, " << s.lambda_nm[i] << " nm";
+                    if (s.capped)
+                        EXPECT_LE(sum[i], 1.05);
+                    else
+                        EXPECT_NEAR(sum[i], 1.0, 0.05)
+                            << key.kind << " n " << key.n << " seed " << seed << " at " << res
+                            << " px/um, " << s.lambda_nm[i] << " nm";
                 }
-                for (const double band : band_means(s, sum))
-                    EXPECT_NEAR(band, 1.0, 0.01)
-                        << key.kind << " n " << key.n << " seed " << seed << " at " << res;
+                std::string line;
+                for (const double band : band_means(s, sum)) {
+                    line += fmt::format(" {:+.4f}", 1.0 - band);
+                    if (s.capped)
+                        EXPECT_LE(band, 1.01);
+                    else
+                        EXPECT_NEAR(band, 1.0, 0.01)
+                            << key.kind << " n " << key.n << " seed " << seed << " at " << res;
+                }
+                std::printf("%s n %.2f seed %llu at %g px/um%s: 1 - (R + T) per band:%s\n",
+                            key.kind.c_str(), key.n, static_cast<unsigned long long>(seed), res,
+                            s.capped ? " (max_time)" : "", line.c_str());
             }
 }
 
@@ -710,10 +748,12 @@ TEST(Spongy3dReference, RoutesAgainstFullWave) {
 
 // At low contrast full wave must be first Born of the same periodic slab: seed by seed, every
 // 50-nm band where the diffuse R is at least 1e-3 (below it, full wave's flux error, R + T − 1 up
-// to 2e-3 at single wavelengths, is not negligible) within 10 %: first Born leaves out terms of
-// relative size δε/ε̄ ≈ ±0.1 at n = 1.10 (the field inside the keratin differs from the incident
-// one by its depolarisation, ±3 % in amplitude), and full wave's band means conserve power to 1.5
-// %. An independent check of the full-wave level in 3D, and of what the routes are compared with.
+// to 2e-3 at single wavelengths, is not negligible) within 10 % plus the band's power that full
+// wave has not accounted for, over its diffuse R (flux_deficits: runs stopped at max_time leave
+// up to 0.020 of the power in the cell at 400–450 nm, as much as the diffuse R there): first Born
+// leaves out terms of relative size δε/ε̄ ≈ ±0.1 at n = 1.10 (the field inside the keratin
+// differs from the incident one by its depolarisation, ±3 % in amplitude). An independent check
+// of the full-wave level in 3D, and of what the routes are compared with.
 // At n = 1.55 the same numbers are printed: there single-scattering first Born of the sample is
 // not the physics (the slab is up to 1.6 transport lengths thick).
 TEST(Spongy3dReference, LowContrastFullWaveIsPeriodicFirstBorn) {
@@ -725,17 +765,20 @@ TEST(Spongy3dReference, LowContrastFullWaveIsPeriodicFirstBorn) {
             const Structure st = make_structure(kind_from(key.kind), seed);
             const auto fb = band_means(fw, fw.r_diffuse);
             const auto bb = band_means(fw, periodic_first_born_diffuse_r(st, key.n, fw.lambda_nm));
+            const auto lost = flux_deficits({fw});
             std::string line;
             for (int b = 0; b < kBands; ++b) {
-                line += fmt::format(" {:+.1f}", 100.0 * (bb[b] / fb[b] - 1.0));
+                line += fmt::format(" {:+.1f} ({:.0f})", 100.0 * (bb[b] / fb[b] - 1.0),
+                                    100.0 * lost[b] / fb[b]);
                 if (key.n < 1.5 && fb[b] >= 1e-3) {
-                    EXPECT_NEAR(bb[b] / fb[b], 1.0, 0.10)
+                    EXPECT_NEAR(bb[b] / fb[b], 1.0, 0.10 + lost[b] / fb[b])
                         << key.kind << " n " << key.n << " seed " << seed << " band " << b;
                     ++checked;
                 }
             }
             std::printf(
-                "%s n %.2f seed %llu: periodic first Born / full wave - 1 per band (%%):%s\n",
+                "%s n %.2f seed %llu: periodic first Born / full wave - 1 per band (%%; full "
+                "wave's unaccounted power over its diffuse R):%s\n",
                 key.kind.c_str(), key.n, static_cast<unsigned long long>(seed), line.c_str());
         }
     }

@@ -168,9 +168,10 @@ void check_full_wave_records(const fs::path& dir, const WaveValidityResult& r,
 
 // The spongy scenes: every structure of the 3D reference, its levels cheapest first (the
 // strong-contrast forms after first Born), the cheapest level within the tolerance as the
-// reference's verdicts give it (at keratin's n = 1.55: first Born on the channel network and on
-// air spheres in keratin, within the floors; on keratin spheres in air only the strong-contrast
-// form with keratin as host), each level's cost measured (> 0) and the record's columns one per
+// reference's verdicts give it (at keratin's n = 1.55: first Born on the channel network; on
+// keratin spheres in air only the strong-contrast form with keratin as host; on air spheres in
+// keratin none, every level there lies within floors (18–41 %) wider than the 15 % asked, so only
+// full wave is validated), each level's cost measured (> 0) and the record's columns one per
 // (structure, level).
 void check_spongy(const fs::path& dir, const WaveValidityResult& r, const std::string& report) {
     ASSERT_GE(r.spongy.size(), 3u);  // the three structures at n = 1.55, and any other index run
@@ -188,9 +189,11 @@ void check_spongy(const fs::path& dir, const WaveValidityResult& r, const std::s
         }
         EXPECT_GT(s.full_wave_seconds, 0.0) << s.structure;
         if (s.keratin_index == "1.55") {
-            EXPECT_EQ(s.cheapest, s.structure == "keratin_spheres" ? "strong contrast, keratin host"
-                                                                   : "first Born")
-                << s.structure;
+            const std::string expected = s.structure == "keratin_spheres"
+                                             ? "strong contrast, keratin host"
+                                         : s.structure == "air_spheres" ? "full wave"
+                                                                        : "first Born";
+            EXPECT_EQ(s.cheapest, expected) << s.structure;
         }
         EXPECT_NE(report.find(fmt::format("**{}** (keratin n = {}): cheapest level within the "
                                           "tolerance: **{}**",
