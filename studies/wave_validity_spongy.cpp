@@ -211,7 +211,9 @@ void write_spongy(record::Hdf5Writer& h5, const std::vector<SpongyScene>& scenes
                  {{"units", units}, {"description", description + ", [structure/level]"}});
     };
     column("seconds", seconds, "s", "the level's cost, measured in this run");
-    column("within_tolerance", passes, "1", "1 where the level is within the reference's terms");
+    column("within_tolerance", passes, "1",
+           "1 where the level is within the reference's terms and at least one band's floor is "
+           "within the tolerance (validated); 0 where it misses or lies within its floors only");
     column("peak_offset_nm", offset, "nm", "its diffuse-R peak minus full wave's");
     column("peak_floor_nm", offset_floor, "nm",
            "that offset's noise floor, three jackknife standard errors over realisations");
