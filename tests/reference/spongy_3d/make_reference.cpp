@@ -18,6 +18,7 @@
 #include <filesystem>
 #include <fstream>
 #include <memory>
+#include <optional>
 #include <string>
 #include <vector>
 
@@ -32,6 +33,23 @@ namespace s3 = plumage::reference::spongy3d;
 namespace {
 std::atomic<bool> g_stop{false};
 extern "C" void on_signal(int) { g_stop = true; }
+
+// STOP: decay=D or decay=D,max_time=T; the CSV's stop_rule cell is the same text without a comma.
+struct StopRule {
+    double decay = 0.0, max_time = 0.0;
+    std::string csv_cell;
+};
+
+std::optional<StopRule> parse_stop(const std::string& stop) {
+    if (stop.rfind("decay=", 0) != 0) return std::nullopt;
+    const std::size_t comma = stop.find(",max_time=");
+    StopRule r;
+    r.decay = std::stod(stop.substr(6, comma == std::string::npos ? std::string::npos : comma - 6));
+    r.max_time = comma == std::string::npos ? 0.0 : std::stod(stop.substr(comma + 10));
+    r.csv_cell = stop;
+    std::replace(r.csv_cell.begin(), r.csv_cell.end(), ',', ' ');
+    return r;
+}
 }  // namespace
 
 int main(int argc, char** argv) {
@@ -50,18 +68,12 @@ int main(int argc, char** argv) {
     const auto seed = static_cast<std::uint64_t>(std::stoull(argv[4]));
     const double coarse = std::stod(argv[5]);
     const std::string stop = argv[6];
-    // STOP: decay=D or decay=D,max_time=T
-    const std::size_t comma = stop.find(",max_time=");
-    if (stop.rfind("decay=", 0) != 0) {
+    const std::optional<StopRule> rule = parse_stop(stop);
+    if (!rule) {
         std::fprintf(stderr, "STOP: expected decay=D or decay=D,max_time=T, got %s\n",
                      stop.c_str());
         return 2;
     }
-    const double decay =
-        std::stod(stop.substr(6, comma == std::string::npos ? std::string::npos : comma - 6));
-    const double max_time = comma == std::string::npos ? 0.0 : std::stod(stop.substr(comma + 10));
-    std::string rule = stop;  // the CSV's stop_rule cell: no comma
-    std::replace(rule.begin(), rule.end(), ',', ' ');
     const std::string grids_arg = argc == 8 ? argv[7] : "";
     const s3::Structure structure = s3::make_structure(kind, seed);
 
@@ -88,8 +100,8 @@ int main(int argc, char** argv) {
         o.resolution_px_per_um = res;
         o.pml_um = 0.6;
         o.gap_um = 0.25;
-        o.decay = decay;
-        o.max_time = max_time;
+        o.decay = rule->decay;
+        o.max_time = rule->max_time;
         o.threads = 1;
         o.dispersion = fw::Dispersion::fitted;
         o.stop = &g_stop;
@@ -106,7 +118,7 @@ int main(int argc, char** argv) {
                 "{:.0f},{}\n",
                 s3::kind_name(kind), n_keratin, seed, res, structure.keratin_fraction, w.lambda_nm,
                 w.specular_reflectance, w.diffuse_reflectance, w.specular_transmittance,
-                w.diffuse_transmittance, r.grid_cells, r.time_steps, r.seconds, rule);
+                w.diffuse_transmittance, r.grid_cells, r.time_steps, r.seconds, rule->csv_cell);
         std::fprintf(stderr, "%s n=%g seed %llu at %g px/um: %zu cells, %.0f steps, %.0f s\n",
                      std::string(s3::kind_name(kind)).c_str(), n_keratin,
                      static_cast<unsigned long long>(seed), res, r.grid_cells, r.time_steps,
