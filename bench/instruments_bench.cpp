@@ -112,18 +112,19 @@ BENCHMARK(BM_ProjectedTimeTo1PercentExplicitRockDove3660)->Iterations(1)->Unit(b
 // shared and split at the first film (arg 2), split with guided diffuse reflection, f = 0.5
 // (arg 3) or 0.8 (arg 4), split with 1 or 2 guided diffuse branches at the first diffuse
 // event (args 5, 6) (sim/tracer.h), and split with the lights connected to detector-side walks
-// (arg 7: GoniometerConfig::connect_lights, 320 walks per view a pass), on 1 or 2 threads (second
-// arg). Each runs passes of 2000
-// quanta per light direction for a budget of kBudgetS, then projects t(1 %) = t · (ε / 1 %)² from
-// the last pass. ε is the relative RMS standard error over the cells that carry signal: value ≥ 10
-// % of the mean of the cells at its wavelength (GoniometerConfig::signal_fraction; the record
+// (arg 7: GoniometerConfig::connect_lights, 320 walks per view a pass, weighed against the quanta
+// by the balance heuristic), and those with the reflected branch split again at its next film
+// (arg 8: GoniometerConfig::split_reflections), on 1 or 2 threads (second arg). Each runs passes of
+// 2000 quanta per light direction for a budget of kBudgetS, then projects t(1 %) = t · (ε / 1 %)²
+// from the last pass. ε is the relative RMS standard error over the cells that carry signal: value
+// ≥ 10 % of the mean of the cells at its wavelength (GoniometerConfig::signal_fraction; the record
 // stores the set). With PLUMAGE_BENCH_CSV set, every pass's (wall time, error) is appended to that
 // file for the error-against-time figure (bench/plot_error_vs_time.py).
 void BM_RockDoveSpectral3660(benchmark::State& state) {
     constexpr double kBudgetS = 40.0;
     const bool shared = state.range(0) != 0, split = state.range(0) >= 2;
     const double guided = state.range(0) == 3 ? 0.5 : state.range(0) == 4 ? 0.8 : 0.0;
-    const bool connect = state.range(0) == 7;
+    const bool connect = state.range(0) >= 7;
     const std::size_t branches =
         state.range(0) >= 5 && !connect ? static_cast<std::size_t>(state.range(0) - 4) : 0;
     const int threads = static_cast<int>(state.range(1));
@@ -135,6 +136,7 @@ void BM_RockDoveSpectral3660(benchmark::State& state) {
     c.guided_fraction = guided;
     c.guided_branches = branches;
     c.connect_lights = connect;
+    c.split_reflections = state.range(0) == 8;
     // A sixth as many walks per view as quanta per light: the split that minimises (Σ over the
     // halves of √(variance per quantum × cost per quantum))², from a run with 2000 of each
     // (bench/README.md).
@@ -149,12 +151,13 @@ void BM_RockDoveSpectral3660(benchmark::State& state) {
     for (auto _ : state) r = measure_brdf(patch, c);
     omp_set_num_threads(before);
     const double error = r.convergence.back().estimated_relative_rms_error;
-    const std::string kind = connect        ? std::string("connected")
-                             : branches > 0 ? fmt::format("branches{}", branches)
-                             : guided > 0.0 ? fmt::format("guided{:.0f}", 100 * guided)
-                             : split        ? std::string("split")
-                             : shared       ? std::string("shared")
-                                            : std::string("separate");
+    const std::string kind = c.split_reflections ? std::string("connected_split_reflections")
+                             : connect           ? std::string("connected")
+                             : branches > 0      ? fmt::format("branches{}", branches)
+                             : guided > 0.0      ? fmt::format("guided{:.0f}", 100 * guided)
+                             : split             ? std::string("split")
+                             : shared            ? std::string("shared")
+                                                 : std::string("separate");
     std::size_t signal = 0;
     for (std::uint8_t m : r.signal_cells) signal += m;
     state.counters["wall_s"] = r.wall_time_s;
@@ -189,6 +192,8 @@ BENCHMARK(BM_RockDoveSpectral3660)
     ->Args({6, 2})
     ->Args({7, 1})
     ->Args({7, 2})
+    ->Args({8, 1})
+    ->Args({8, 2})
     ->Iterations(1)
     ->Unit(benchmark::kSecond)
     ->UseRealTime();

@@ -62,6 +62,12 @@ int lobe_of(const PathResult& path) {
     return ExplicitScatterer::kMulti;
 }
 
+// An escaped path's event for the instruments (sim/scatterer/scatterer.h).
+SpectralScatterEvent spectral_event(const PathResult& path) {
+    const ScatterEvent& e = *path.event;
+    return {e.wo, e.lobe, e.exit_position_um, path.lit_diffuse_density, e.exit_position_um};
+}
+
 void record(PathResult& path, EventKind kind) {
     if (path.events < PathResult::kRecordedEvents) path.kinds[path.events] = kind;
     ++path.events;
@@ -527,13 +533,13 @@ std::size_t ExplicitScatterer::sample_spectral_branches(const Vec3d& wi,
             (options.guided_branches == 0 || (guide_valid && !options.detector_axes.empty())),
         "sample_spectral_branches: guided_branches in [0, 3], with cones of 0 … 90°");
     const bool diffuse_branches = options.guided_branches > 0;
+    const bool split_reflections = options.split_first_film && options.split_reflections;
     std::size_t count = 0;
     auto keep = [&](const PathResult& path) {
-        if (path.event)
-            events[count++] = {path.event->wo, path.event->lobe, path.event->exit_position_um};
+        if (path.event) events[count++] = spectral_event(path);
     };
     auto play = [&](Rng& stream, FirstFilm branch, const FirstHit* first) {
-        if (!diffuse_branches) {
+        if (!diffuse_branches && !(split_reflections && branch == FirstFilm::reflect)) {
             keep(walk_spectral(wi, lambdas_nm, position_um, stream, weights.subspan(count * n, n),
                                branch, &options, first));
             return;
@@ -541,7 +547,8 @@ std::size_t ExplicitScatterer::sample_spectral_branches(const Vec3d& wi,
         PendingBranches pending;
         keep(walk_spectral(wi, lambdas_nm, position_um, stream, weights.subspan(count * n, n),
                            branch, &options, first, nullptr, &pending));
-        // The guided branches of its first diffuse event, each on its own stream.
+        // The branches it left (the guided ones of its first diffuse event, the transmitted one
+        // of a reflected branch's second film), each on its own stream.
         for (std::size_t b = 0; b < pending.count; ++b) {
             Rng branch_rng(pending.at[b].stream_seed, pending.at[b].stream_item);
             keep(walk_spectral(wi, lambdas_nm, position_um, branch_rng,
@@ -569,7 +576,7 @@ std::optional<SpectralScatterEvent> ExplicitScatterer::sample_spectral(
     std::span<double> weights) const {
     const PathResult path = trace_spectral(wi, lambdas_nm, position_um, rng, weights);
     if (!path.event) return std::nullopt;
-    return SpectralScatterEvent{path.event->wo, path.event->lobe, path.event->exit_position_um};
+    return spectral_event(path);
 }
 
 PathResult ExplicitScatterer::trace_spectral(const Vec3d& wi, std::span<const double> lambdas_nm,
@@ -580,9 +587,10 @@ PathResult ExplicitScatterer::trace_spectral(const Vec3d& wi, std::span<const do
 }
 
 // The share of the light paths lit straight at their first diffuse event that the light side
-// walks on to find a second one (tracer.h, "Connections to collimated lights"): on the rock dove's
-// 3660-pair BRDF 0.25 and 0.1 take 90 s and 89 s to 1 %, walking every one 108 s (bench/README.md);
-// 0.25 keeps the weights of the few that count within 4×.
+// walks on (tracer.h, "Connections to collimated lights"): on the rock dove's 3660-pair BRDF, with
+// the two sides partitioning the paths, 0.25 and 0.1 took 90 s and 89 s to 1 %, walking every one
+// 108 s; with the balance heuristic and split reflections 75 s and 77 s (bench/README.md). 0.25
+// keeps the weights of the paths only the light side makes (a second diffuse event) within 4×.
 constexpr double kGoOnLit = 0.25;
 
 // A connected walk's lights and where its connections go (trace_connected()).
@@ -623,7 +631,9 @@ public:
                          : 1.0),
           branch_diffuse_(pending != nullptr && guide != nullptr && guide->guided_branches > 0 &&
                           !guide->detector_axes.empty()),
-          leave_lit_(guide != nullptr && guide->leave_lit_diffuse),
+          leave_lit_(guide != nullptr && guide->connected_light_side),
+          split_reflections_(guide != nullptr && guide->split_reflections && pending != nullptr &&
+                             first_film == FirstFilm::reflect),
           connections_(connections) {}
 
     // The walk from `first`'s entry hit when given, or from the state's origin, to its end.
@@ -642,7 +652,7 @@ public:
             const bool first_event = path_.events == 0;
             const bool reflected_branch = first_event && first_film_ == FirstFilm::reflect;
             if (!hit) {
-                if (!reflected_branch && !st_.left_to_connections) escape();
+                if (!reflected_branch && connections_ == nullptr) escape();
                 return path_;
             }
             const Spectral::Surface& surface = hs_.surfaces[hit->surface];
@@ -654,8 +664,8 @@ public:
             const bool from_outside = facing < 0.0;
             if ((from_outside ? surface.outside : surface.inside) != st_.expected)
                 ++path_.medium_mismatches;
-            const bool forced = first_event && first_film_ != FirstFilm::sampled &&
-                                surface.kind == Spectral::Kind::film;
+            const bool film = surface.kind == Spectral::Kind::film;
+            const bool forced = first_event && first_film_ != FirstFilm::sampled && film;
             if (reflected_branch && !forced) return path_;
             const Flight flight = fly(*hit, from_outside, reflected_branch);
             if (flight == Flight::ended) return path_;
@@ -664,26 +674,33 @@ public:
                 path_.reached_max_events = true;
                 return path_;
             }
+            // (Only after a flight through no medium: the branch left casts its ray again.)
+            if (st_.split_next_film) {
+                st_.split_next_film = false;
+                if (film && set_.no_medium[hit->surface][from_outside ? 0 : 1] != 0)
+                    leave_transmitted_branch();
+            }
             if (surface.kind == Spectral::Kind::diffuse) {
                 const bool side_clear = set_.no_medium[hit->surface][from_outside ? 0 : 1] != 0;
-                // A connected walk connects at its first diffuse event and ends there; a light
-                // path lit straight from the source whose only diffuse event this stays is the
-                // connections' part (tracer.h, "Connections to collimated lights").
+                // A connected walk connects at its first diffuse event and ends there. A light
+                // path lit straight from the source at its first one goes on with probability
+                // kGoOnLit, its weights divided by it, and carries its density factor for the
+                // instrument's weights as long as this stays its only diffuse event (tracer.h,
+                // "Connections to collimated lights").
                 if (connections_ != nullptr) {
                     if (side_clear) connect_lights(*hit, from_outside);
                     return path_;
                 }
-                if (leave_lit_) {
-                    st_.left_to_connections = !st_.diffuse_met && st_.lit_straight && side_clear;
-                    // Such a path counts only if it meets a second diffuse event: it goes on
-                    // with probability kGoOnLit, its weights divided by it (unbiased).
-                    if (st_.left_to_connections) {
-                        if (!(rng_.uniform() < kGoOnLit)) return path_;
-                        scale(1.0 / kGoOnLit);
-                    }
+                st_.lit_diffuse_density = 0.0;
+                if (leave_lit_ && !st_.diffuse_met && st_.lit_straight && side_clear) {
+                    if (!(rng_.uniform() < kGoOnLit)) return path_;
+                    scale(1.0 / kGoOnLit);
+                    st_.lit_diffuse_density =
+                        kGoOnLit * std::abs(st_.direction.dot(hit->normals.geometric));
                 }
             }
-            const InterfaceEvent event = surface_event(*hit, forced);
+            const InterfaceEvent event = surface_event(*hit, forced || st_.forced_film >= 0);
+            st_.forced_film = -1;
             if (leave_lit_) {
                 st_.lit_straight = st_.lit_straight && event.kind == EventKind::film_transmit &&
                                    set_.film_straight[hit->surface] != 0;
@@ -692,6 +709,8 @@ public:
             if (adjoint_) scale(adjoint_shading_factor(st_.direction, event, hit->normals));
             if (forked_ > 0) leave_guided_branches(*hit);
             record(path_, event.kind);
+            // A reflected branch splits again at its next event if that is a film.
+            if (split_reflections_ && path_.events == 1) st_.split_next_film = true;
             if (event.kind == EventKind::absorb || !(largest() > 0.0)) return path_;
             st_.expected = event.to_outside ? surface.outside : surface.inside;
             st_.origin = t_.scene_->spawn_point(*hit, event.to_outside);
@@ -733,6 +752,7 @@ private:
             weights_[k] = w_[k];
         }
         path_.event = ScatterEvent{st_.direction.normalized(), largest(), lobe_of(path_), exit};
+        path_.lit_diffuse_density = st_.lit_diffuse_density;
     }
     // As in trace(), on the largest weight; every λ is scaled alike.
     bool survives_roulette() {
@@ -860,7 +880,9 @@ private:
         const Spectral::Surface& surface = hs_.surfaces[hit.surface];
         const bool bends = !set_.film_shared[hit.surface];
         if (bends && !st_.single && !regimes_agree(hit, true)) collapse();
-        const bool reflect = first_film_ == FirstFilm::reflect;
+        // The forced side: a split second film's, else the first film's branch.
+        const bool reflect =
+            st_.forced_film >= 0 ? st_.forced_film == 1 : first_film_ == FirstFilm::reflect;
         if (st_.single) {
             const TabulatedFilmResponse& source = *surface.film_source;
             if (forced) {
@@ -1011,7 +1033,8 @@ private:
                        path_.kinds[0] == EventKind::film_transmit) {
                 lobe = ExplicitScatterer::kTRT;
             }
-            connections_->sink->connect({j, entry, lobe, std::span<const double>(w.data(), n_)});
+            connections_->sink->connect(
+                {j, entry, lobe, std::span<const double>(w.data(), n_), kGoOnLit * cos_l});
         }
     }
 
@@ -1023,6 +1046,21 @@ private:
         if (!st_.single) return t;
         const double total = std::max(0.0, r.reflectance) + t;
         return total > 0.0 ? t * std::min(total, 1.0) / total : 0.0;
+    }
+
+    // BranchOptions::split_reflections at a film: this walk takes the reflected side; the
+    // transmitted one waits in pending_ with the state before this event (its ray is cast again)
+    // and its own stream.
+    void leave_transmitted_branch() {
+        // Two draws, in this order (the operands of one expression would be unsequenced).
+        const std::uint64_t high = rng_.next_u32();
+        const std::uint64_t fork_seed = (high << 32) | rng_.next_u32();
+        WalkState& branch = pending_->at[pending_->count++];
+        branch = st_;
+        branch.forced_film = 0;
+        branch.stream_seed = fork_seed;
+        branch.stream_item = 0;
+        st_.forced_film = 1;
     }
 
     // The guided branches of the first diffuse event wait in pending_, each from this event with
@@ -1065,7 +1103,8 @@ private:
     bool guided_, adjoint_;
     double cos_guide_;
     bool branch_diffuse_;
-    bool leave_lit_;                  // BranchOptions::leave_lit_diffuse
+    bool leave_lit_;                  // BranchOptions::connected_light_side
+    bool split_reflections_;          // BranchOptions::split_reflections, on a reflected branch
     const Connections* connections_;  // a connected walk's lights, or none
     // The first diffuse event's guided directions (branch_diffuse_): fork_[1 … forked_ − 1].
     std::array<InterfaceEvent, 1 + BranchOptions::kMaxGuidedBranches> fork_;

@@ -85,6 +85,16 @@
 // passes between the barbules, or meets a diffuse or bare surface first) is one branch, the
 // transmitted branch's. The branches share the hero and, after the split, the random numbers:
 // correlated parts of one quantum, which the instrument adds before it squares.
+// With BranchOptions::split_reflections the reflected branch splits once more, at its next event
+// if that is a film reached through no medium: it takes the reflected side (w_k ×= R_k) and
+// leaves the transmitted side (w_k ×= T_k) as a third branch, which casts that ray again from
+// the state before the event and walks on its own stream (two draws of the path's stream). Why:
+// on the rock dove the chains of two film reflections between barbules ("RR", a barbule's
+// reflection caught by its neighbour) carried 83 % of the multi lobe's second moment with the
+// first film split (2026-12-01); a sampled choice makes them with probability p̄, the split from
+// every reflected branch whose reflection meets a film. Measured: the multi lobe's ε² × t halves,
+// not more, because p̄ is large at those grazing second reflections and the rest of the variance
+// is which 5° cone the chain ends in (bench/README.md).
 //
 // Guided diffuse reflection (BranchOptions::guided_fraction f, sim/scatterer/scatterer.h): at a
 // path's first diffuse event the direction is drawn from a mixture of the cosine lobe (1 − f) and
@@ -133,37 +143,49 @@
 // radiance kernel; btf.h turns it into pixel values). Tested against the forward walk on faceted
 // spheres, films and media (tests/virtual_gonio/btf_detector_test.cpp).
 //
-// Connections to collimated lights (trace_connected(), BranchOptions::leave_lit_diffuse,
+// Connections to collimated lights (trace_connected(), BranchOptions::connected_light_side,
 // sim/scatterer/scatterer.h): next-event estimation at the first diffuse event of a detector-side
-// walk. At the first diffuse event v that the walk from the detector reaches, with weights w_k
-// (the adjoint walk above), for each light direction l with cos θ_l = l · n > 0 (n the facet normal
-// on the walk's side) a ray is cast from v towards the light. It may pass films whose outside and
-// inside are the same material with no medium on either side at every λ ("straight" films: the rock
-// dove's keratin sheets in air, which keep a direction), each weighing by its T_k at the cos θ and
-// side that thin_film_event would use for light travelling the other way (film_incidence()); any
-// other surface blocks it. Unblocked, it reports w_k · albedo_k · cos θ_l / π · Π T_k and the point
-// where it crosses the top plane. Why this is the light: a collimated beam of irradiance E⊥ along l
-// lights v through those films with E⊥ cos θ_l Π T_k (the films' T is the expected factor of their
-// transmitted side, both ways), v's Lambertian layer sends albedo/π of it per steradian, and the
-// adjoint weight w carries that radiance to the detector. The connections so cover the light paths
-// with exactly one diffuse event, lit straight from the source (its first event after straight
-// films, with no medium on v's lit side); the walk ends at v. The forward walk with
-// leave_lit_diffuse counts every other path and none of these: a path lit straight at its first
-// diffuse event counts only if a second diffuse event follows, and goes on from the first with
-// probability kGoOnLit = 0.25 (weights ÷ 0.25; tracer.cpp says why 0.25). So the two halves add to
-// the whole without counting a path twice: a partition of the path space, the limit of multiple
-// importance sampling whose weights are 0 and 1. It is the right choice here: a path that starts
-// with a diffuse event reaches a 5° detector from the light about 0.3 % of the time, while its
-// connection from the detector is deterministic; paths that start with a film reflection (R, and
-// the chains of specular events between barbules) have no diffuse event to connect at the light
-// and keep the forward walk. Why one diffuse event only: a connection at the walk's k-th diffuse
-// event would reach the light's beam far from where the walk started once the light has crossed
-// the scene k times (a film 40 µm over a plate: 80 tan θ per bounce), and an instrument can place
-// the walks' starts only for the first (virtual_gonio/goniometer.h); connected there, such paths
-// gave heavy-tailed, low cells (χ²/dof 2.5–3.8 against the forward walk, growing with the quanta),
-// which the forward walk estimates plainly. The whole path's lobe: TRT when the connection passed
-// one film and the walk one film transmission before v, "volume" after a medium scatter, "multi"
-// otherwise. A connection is not made when the whole path would exceed max_events.
+// walk, weighed against the light side by multiple importance sampling. At the first diffuse
+// event v that the walk from the detector reaches, with weights w_k (the adjoint walk above), for
+// each light direction l with cos θ_l = l · n > 0 (n the facet normal on the walk's side) a ray is
+// cast from v towards the light. It may pass films whose outside and inside are the same material
+// with no medium on either side at every λ ("straight" films: the rock dove's keratin sheets in
+// air, which keep a direction), each weighing by its T_k at the cos θ and side that
+// thin_film_event would use for light travelling the other way (film_incidence()); any other
+// surface blocks it. Unblocked, it reports w_k · albedo_k · cos θ_l / π · Π T_k, the point where
+// it crosses the top plane, and g cos θ_l (below). Why this is the light: a collimated beam of
+// irradiance E⊥ along l lights v through those films with E⊥ cos θ_l Π T_k (the films' T is the
+// expected factor of their transmitted side, both ways), v's Lambertian layer sends albedo/π of it
+// per steradian, and the adjoint weight w carries that radiance to the detector. The connections
+// so make the light paths with exactly one diffuse event, lit straight from the source (after
+// straight films, with no medium on v's lit side); the walk ends at v.
+// The light side makes the same paths: with connected_light_side a path lit straight at its first
+// diffuse event goes on from it with probability g = kGoOnLit = 0.25 (weights ÷ g; tracer.cpp says
+// why 0.25) and, as long as that stays its only diffuse event, escapes with
+// SpectralScatterEvent::lit_diffuse_density = g cos θ_l. The instrument weighs the two by the
+// balance heuristic, which needs only the ratio of the two densities of one path, and that ratio
+// is the same number on both sides: measured over the diffuse point and the direction leaving it,
+// the light side's density is (cos θ_l / π r²) · g · (cos θ_o / π) (a uniform beam of radius r,
+// the cosine lobe), the detector side's p(x | ω) cos θ_o / (π sin²α cos θ_v) (the start density
+// times the cone's projected-solid-angle density, carried through the specular events in between
+// by the conservation of étendue), so ρ = p_L/p_D = g cos θ_l sin²α cos θ_v / (π r² p(x | ω))
+// (virtual_gonio/goniometer.h). The film choices on the lit segment (T ≥ 0.9 on films in air) and
+// the diffuse albedo are left out of both densities alike: weights that add to 1 for every path
+// keep the sum unbiased whatever they are; the balance heuristic's are the near-optimal ones.
+// Paths that only one side makes (those whose first event is a film reflection, the chains of
+// specular events between barbules, paths with two diffuse events or more) keep that side's
+// weight 1. Why the light side walks the lit paths at all (g > 0): its paths with a second diffuse
+// event have no other estimator, and for the others it is the balance heuristic's second sample.
+// Why one diffuse event only: a connection at the walk's k-th diffuse event would reach the light's
+// beam far from where the walk started once the light has crossed the scene k times (a film 40 µm
+// over a plate: 80 tan θ per bounce), where the walks rarely start; with the partition of the
+// paths used before the balance heuristic, those connections gave heavy-tailed, low cells
+// (χ²/dof 2.5–3.8 against the forward walk, growing with the quanta). The balance heuristic would
+// tame them, but on the rock dove connecting at every diffuse event gained nothing (the light
+// side's paths with two diffuse events hold 0.1 % of its second moment) and cost 15 % more per
+// pass (2026-12-01). The whole path's lobe: TRT when the connection passed one film and the walk
+// one film transmission before v, "volume" after a medium scatter, "multi" otherwise. A connection
+// is not made when the whole path would exceed max_events.
 //
 // Leaving out what the scene does not need: a scene without films never evaluates Airy;
 // surfaces whose media do not absorb at λ (k = 0) run no medium code; max_events = 1 (an
@@ -244,6 +266,7 @@ struct PathResult {
     int medium_scatters = 0;     // scattering events inside media (all, not only the first 8)
     bool reached_max_events = false;
     bool ended_by_roulette = false;
+    double lit_diffuse_density = 0.0;  // SpectralScatterEvent's, when it escaped
 };
 
 class ExplicitScatterer final : public Scatterer, public PathTracing {
@@ -321,15 +344,19 @@ private:
         // Every event so far a transmission through a straight film, every flight through no
         // medium ("Connections to collimated lights").
         bool lit_straight = true;
-        // Its one diffuse event so far was lit straight: the connections' part unless another
-        // diffuse event follows (BranchOptions::leave_lit_diffuse).
-        bool left_to_connections = false;
+        // g · cos θ_l at its first diffuse event when that was lit straight, else 0
+        // (BranchOptions::connected_light_side).
+        double lit_diffuse_density = 0.0;
+        // BranchOptions::split_reflections: the next event splits if it is a film; a branch
+        // left there takes that film's forced side (1 reflect, 0 transmit; −1 none).
+        bool split_next_film = false;
+        int forced_film = -1;
         PathResult path;
         std::uint64_t stream_seed = 0, stream_item = 0;  // a branch's own stream: Rng(seed, item)
     };
     // The guided branches a walk left at its first diffuse event, to be walked on.
     struct PendingBranches {
-        std::array<WalkState, BranchOptions::kMaxGuidedBranches> at;
+        std::array<WalkState, BranchOptions::kMaxGuidedBranches + 1> at;
         std::size_t count = 0;
     };
     // trace_spectral(), from `first`'s entry hit when given (it must be the entry ray's), or

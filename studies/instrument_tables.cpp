@@ -40,6 +40,9 @@ gonio::GoniometerConfig read_goniometer_table(ParameterTable& t, gonio::Goniomet
     c.split_paths = t.boolean("split_paths", c.split_paths,
                               "split each shared path at its first film into its reflected and "
                               "transmitted branches (true) or choose one");
+    c.split_reflections =
+        t.boolean("split_reflections", c.split_reflections,
+                  "with split_paths: split the reflected branch again at its next film (true)");
     c.guided_fraction = t.number("guided_fraction", c.guided_fraction, {0.0, 1.0, false, true},
                                  "share of the diffuse directions aimed at the detector cones");
     c.guided_branches = static_cast<std::size_t>(
@@ -55,7 +58,7 @@ gonio::GoniometerConfig read_goniometer_table(ParameterTable& t, gonio::Goniomet
     c.connect_lights =
         t.boolean("connect_lights", c.connect_lights,
                   "connect detector-side walks to the lights at their first diffuse event "
-                  "(true), the quanta keeping the paths those connections do not cover");
+                  "(true), weighed against the quanta by the balance heuristic");
     c.connected_quanta_per_pass = static_cast<std::uint64_t>(t.integer(
         "connected_quanta_per_pass", static_cast<long>(c.connected_quanta_per_pass), 0, 100000000,
         "detector-side walks per view direction and pass (0: quanta_per_pass)"));

@@ -20,8 +20,9 @@ struct GoniometerKeys {
     double max_detector_half_angle_deg = 20.0;
     bool beam_radius = false;   // beam_radius_um
     bool aperture = false;      // aperture
-    bool path_options = false;  // share_wavelength_paths, split_paths, guided_fraction,
-                                // guided_branches, connect_lights, connected_quanta_per_pass
+    bool path_options = false;  // share_wavelength_paths, split_paths, split_reflections,
+                                // guided_fraction, guided_branches, connect_lights,
+                                // connected_quanta_per_pass
 };
 
 // [goniometer] (the measure study: [brdf]), the goniometer (virtual_gonio/goniometer.h):
@@ -36,6 +37,7 @@ struct GoniometerKeys {
 //  | aperture                |      | view_cone, both_cones    | collimated light or light cones |
 //  | share_wavelength_paths  |      | true, false              | one path per quantum for all λ  |
 //  | split_paths             |      | true, false              | split at the first film event   |
+//  | split_reflections       |      | true, false              | and the reflected one's next    |
 //  | guided_fraction         | 1    | [0, 1)                   | diffuse directions aimed        |
 //  | guided_branches         | 1    | [0, 3]                   | aimed branches (or the above)   |
 //  | connect_lights          |      | true, false              | detector walks connect to light |

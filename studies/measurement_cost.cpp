@@ -52,7 +52,10 @@ MeasurementCost brdf_cost(const std::string& measurement, const gonio::BrdfRecor
         photon ? fmt::format("photon estimator, {} quanta/λ per light × {} pass{}{}{}{}{}",
                              r.config.quanta_per_pass, r.passes, r.passes == 1 ? "" : "es",
                              r.wavelength_paths_shared ? ", wavelengths sharing paths" : "",
-                             r.paths_split ? ", split at the first film" : "",
+                             r.reflections_split ? ", split at the first film and the reflected "
+                                                   "branch's next"
+                             : r.paths_split     ? ", split at the first film"
+                                                 : "",
                              r.diffuse_guided ? guided_description(r.config) : "",
                              r.lights_connected ? connected_description(r) : "")
         : r.config.eval_tolerance > 0.0

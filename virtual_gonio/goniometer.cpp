@@ -9,6 +9,7 @@
 #include <iostream>
 #include <map>
 #include <numeric>
+#include <optional>
 #include <random>
 #include <span>
 #include <string_view>
@@ -51,9 +52,13 @@ std::string canonical(const GoniometerConfig& c, const std::string& scatterer,
     if (c.aperture != Aperture::view_cone) s += fmt::format("aperture={}|", to_string(c.aperture));
     if (c.share_wavelength_paths) s += "shared_paths|";
     if (c.split_paths) s += "split_paths|";
+    if (c.split_paths && c.split_reflections) s += "split_reflections|";
     if (c.guided_fraction > 0.0) s += fmt::format("guided={:.17g}|", c.guided_fraction);
     if (c.guided_branches > 0) s += fmt::format("guided_branches={}|", c.guided_branches);
-    if (c.connect_lights) s += fmt::format("connect_lights={}|", c.connected_walks_per_pass());
+    // The balance heuristic's weights replaced the partition of the paths (2026-12-01): the
+    // partition's checkpoints do not resume into it.
+    if (c.connect_lights)
+        s += fmt::format("connect_lights={},balance|", c.connected_walks_per_pass());
     for (const auto& p : c.pairs) {
         s += fmt::format("{:.17g},{:.17g},{:.17g},{:.17g},{:.17g},{:.17g};", p.wi.x(), p.wi.y(),
                          p.wi.z(), p.wo.x(), p.wo.y(), p.wo.z());
@@ -141,12 +146,177 @@ struct QuantumEscape {
     std::size_t count = 0;
 };
 
+// Where a view's detector-side walks start (goniometer.h, "connect_lights"): the density p(x | ω)
+// over the top plane, a mixture of the view's lights' widened footprint ellipses swept along the
+// walk's direction by the scene's depth, and a heavy-tailed density over the whole plane; and
+// draws from it.
+class ConnectedStarts {
+public:
+    static constexpr double kTail = 0.1;  // ε: the share of the heavy-tailed density
+
+    // depth_um: the scene's depth below the entry plane (PathTracing::depth_um()).
+    ConnectedStarts(const GoniometerConfig& c, const Group& view, double depth_um)
+        : depth_um_(depth_um), tail_scale_(2.0 * c.beam_radius_um + depth_um) {
+        const double r = c.beam_radius_um, d = r;  // d: room for the light's lateral travel
+        for (std::size_t p : view.pairs) {
+            const Vec3d& wi = c.pairs[p].wi;
+            const double across = std::hypot(wi.x(), wi.y());
+            Capsule e;
+            e.along = across > 0.0 ? Vec2(wi.x() / across, wi.y() / across) : Vec2(1.0, 0.0);
+            e.a = r / wi.z() + d;  // the footprint's semi-axis along the light's azimuth, + d
+            e.b = r + d;           // across, + d
+            e.light_slope = Vec2(wi.x(), wi.y()) / wi.z();
+            capsules_.push_back(e);
+        }
+    }
+
+    // For walks in the direction wo: each capsule's segment, where the detector sees the light's
+    // footprint at the depths 0 … depth (shifted by h (t_o − t_i), t = ω_xy/ω_z).
+    void aim(const Vec3d& wo) {
+        const Vec2 view_slope = Vec2(wo.x(), wo.y()) / wo.z();
+        for (Capsule& e : capsules_) {
+            e.segment = to_unit(e, depth_um_ * (view_slope - e.light_slope));
+            const double length = e.segment.norm();
+            e.direction = length > 0.0 ? Vec2(e.segment / length) : Vec2(1.0, 0.0);
+            e.density = 1.0 / (e.a * e.b * (kPi + 2.0 * length));
+        }
+    }
+
+    // Numbers from rng: one, then two (the tail) or three and more (a capsule, by rejection from
+    // its bounding box, which it fills to π/4 at least).
+    Vec2 draw(Rng& rng) const {
+        if (rng.uniform() < kTail) {
+            // Radius by inverting the tail's radial CDF 1 − s/√(s² + ρ²).
+            const double v = rng.uniform();
+            const double radius =
+                tail_scale_ * std::sqrt(std::max(0.0, 1.0 / ((1.0 - v) * (1.0 - v)) - 1.0));
+            const double angle = 2.0 * kPi * rng.uniform();
+            return {radius * std::cos(angle), radius * std::sin(angle)};
+        }
+        const auto m = static_cast<double>(capsules_.size());
+        const Capsule& e =
+            capsules_[std::min(capsules_.size() - 1, static_cast<std::size_t>(rng.uniform() * m))];
+        const double length = e.segment.norm();
+        for (;;) {
+            const double along = -1.0 + (length + 2.0) * rng.uniform();
+            const double side = -1.0 + 2.0 * rng.uniform();
+            const Vec2 q = along * e.direction + side * Vec2(-e.direction.y(), e.direction.x());
+            if (inside(e.segment, q)) {
+                const double x = e.a * q.x(), y = e.b * q.y();
+                return {x * e.along.x() - y * e.along.y(), x * e.along.y() + y * e.along.x()};
+            }
+        }
+    }
+
+    // p(x | ω) for the direction aim() was given.
+    double density(const Vec2& x) const {
+        double sum = 0.0;
+        for (const Capsule& e : capsules_)
+            if (inside(e.segment, to_unit(e, x))) sum += e.density;
+        return mixture(sum, x);
+    }
+
+    // p(x | wo) without aim(): for a light-side path's weight (ConnectionWeights), the same
+    // numbers.
+    double density(const Vec2& x, const Vec3d& wo) const {
+        const Vec2 view_slope = Vec2(wo.x(), wo.y()) / wo.z();
+        double sum = 0.0;
+        for (const Capsule& e : capsules_) {
+            const Vec2 segment = to_unit(e, depth_um_ * (view_slope - e.light_slope));
+            if (inside(segment, to_unit(e, x)))
+                sum += 1.0 / (e.a * e.b * (kPi + 2.0 * segment.norm()));
+        }
+        return mixture(sum, x);
+    }
+
+private:
+    // A light's footprint ellipse (widened by d) swept along the segment where the detector sees
+    // it at the depths 0 … depth: in the ellipse's unit coordinates (the ellipse the unit disc), a
+    // capsule of radius 1 around the segment from 0 to `segment`.
+    struct Capsule {
+        Vec2 along;   // unit, the light's azimuth on the plane
+        double a, b;  // semi-axes along and across, µm
+        Vec2 light_slope;
+        Vec2 segment = Vec2::Zero(), direction = Vec2::UnitX();  // aim()'s
+        double density = 0.0;                                    // 1 / area, µm⁻²
+    };
+    static Vec2 to_unit(const Capsule& e, const Vec2& x) {
+        return {x.dot(e.along) / e.a, (e.along.x() * x.y() - e.along.y() * x.x()) / e.b};
+    }
+    // Whether q (unit coordinates) lies within 1 of the segment from 0 to `segment`.
+    static bool inside(const Vec2& segment, const Vec2& q) {
+        const double length2 = segment.squaredNorm();
+        const double t = length2 > 0.0 ? std::clamp(q.dot(segment) / length2, 0.0, 1.0) : 0.0;
+        return (q - t * segment).squaredNorm() <= 1.0;
+    }
+    // The capsules' density sum mixed with the heavy tail.
+    double mixture(double capsule_sum, const Vec2& x) const {
+        const double s2 = tail_scale_ * tail_scale_;
+        const double tail = tail_scale_ / (2.0 * kPi * std::pow(s2 + x.squaredNorm(), 1.5));
+        return (1.0 - kTail) * capsule_sum / static_cast<double>(capsules_.size()) + kTail * tail;
+    }
+
+    std::vector<Capsule> capsules_;
+    double depth_um_, tail_scale_;
+};
+
+// The two strategies' weights (goniometer.h, "connect_lights"): the balance heuristic between
+// the light side's quanta (n_L per light direction and pass) and the detector side's walks (n_D
+// per view direction and pass) for a path whose one diffuse event the light reaches straight.
+// Both make it; with ρ = p_L / p_D, the ratio of their densities for the same path,
+//     w_L = n_L ρ / (n_L ρ + n_D),   w_D = n_D / (n_L ρ + n_D),
+//     ρ = g cos θ_l · sin²α cos θ_v / (π r² p(x | ω)),
+// the light side's g cos θ_l (SpectralScatterEvent::lit_diffuse_density) at the diffuse event,
+// x and ω where the detector side's walk for the same path starts.
+class ConnectionWeights {
+public:
+    ConnectionWeights(const GoniometerConfig& c, const std::vector<Group>& views, double depth_um)
+        : view_of_pair_(c.pairs.size(), 0),
+          per_density_(std::pow(std::sin(c.detector_half_angle_rad), 2) /
+                       (kPi * c.beam_radius_um * c.beam_radius_um)),
+          walks_per_quantum_(static_cast<double>(c.connected_walks_per_pass()) /
+                             static_cast<double>(c.quanta_per_pass)) {
+        for (std::size_t v = 0; v < views.size(); ++v) {
+            starts_.emplace_back(c, views[v], depth_um);
+            view_axis_z_.push_back(views[v].wi.z());
+            for (std::size_t p : views[v].pairs) view_of_pair_[p] = v;
+        }
+    }
+
+    const ConnectedStarts& starts(std::size_t view) const { return starts_[view]; }
+
+    // ρ for a path with the light side's factor `lit` whose detector-side walk of `view` starts
+    // at x with density p(x | ω).
+    double ratio(double lit, std::size_t view, double start_density) const {
+        return lit * per_density_ * view_axis_z_[view] / start_density;
+    }
+    // w_D for a connection with ρ.
+    double detector_side(double rho) const {
+        return walks_per_quantum_ / (rho + walks_per_quantum_);
+    }
+    // w_L for a light-side path entering the cone of `pair` (1 where only the light side makes it).
+    double light_side(std::size_t pair, const SpectralScatterEvent& e) const {
+        if (!(e.lit_diffuse_density > 0.0)) return 1.0;
+        const std::size_t v = view_of_pair_[pair];
+        const double rho =
+            ratio(e.lit_diffuse_density, v, starts_[v].density(e.detector_start_um, e.wo));
+        return rho / (rho + walks_per_quantum_);
+    }
+
+private:
+    std::vector<ConnectedStarts> starts_;
+    std::vector<double> view_axis_z_;
+    std::vector<std::size_t> view_of_pair_;
+    double per_density_;        // sin²α / (π r²)
+    double walks_per_quantum_;  // n_D / n_L
+};
+
 // The detectors of one light direction's group and the sums a quantum adds to, in play_item's
 // layout: per wavelength of the item, Σx, Σx², then Σx and Σx² per lobe, in the group's pair
 // order.
 struct GroupDetectors {
     GroupDetectors(const GoniometerConfig& c, const Group& g, std::size_t lobes,
-                   std::size_t wavelengths)
+                   std::size_t wavelengths, const ConnectionWeights* connection_weights = nullptr)
         : config(c),
           group(g),
           m(g.pairs.size()),
@@ -156,7 +326,8 @@ struct GroupDetectors {
           cos_alpha(std::cos(c.detector_half_angle_rad)),
           projected(kPi * std::pow(std::sin(c.detector_half_angle_rad), 2)),
           axes(axes_of(c, g)),
-          cones(axes, c.detector_half_angle_rad) {}
+          cones(axes, c.detector_half_angle_rad),
+          weights(connection_weights) {}
 
     static std::vector<Vec3d> axes_of(const GoniometerConfig& c, const Group& g) {
         std::vector<Vec3d> result;
@@ -187,6 +358,10 @@ struct GroupDetectors {
         for (std::size_t b = 0; b < escape.count; ++b)
             if (!(escape.branches[b].wo.dot(wo) < cos_alpha)) in[hits++] = b;
         if (hits == 0) return;
+        // Each branch's weight against the detector side's connections (connect_lights).
+        std::array<double, PathTracing::kMaxBranches> mis;
+        for (std::size_t h = 0; h < hits; ++h)
+            mis[h] = weights ? weights->light_side(group.pairs[j], escape.branches[in[h]]) : 1.0;
         // Divided, not multiplied by a reciprocal: the same bits as before
         // spectral paths for the per-wavelength estimator.
         const double projected_wo = projected * wo.z();
@@ -195,18 +370,20 @@ struct GroupDetectors {
             double x = 0.0;
             for (std::size_t h = 0; h < hits; ++h) {
                 const double wk = escape.weights[in[h] * item_wavelengths + k];
-                if (wk > 0.0) x += wk / projected_wo;
+                if (wk > 0.0) x += mis[h] * wk / projected_wo;
             }
             if (!(x > 0.0)) continue;
             a[j] += x;
             a[m + j] += x * x;
-            add_lobes(escape, std::span(in.data(), hits), k, j, projected_wo, a);
+            add_lobes(escape, std::span(in.data(), hits), std::span(mis.data(), hits), k, j,
+                      projected_wo, a);
         }
     }
 
     // Per lobe: the sum of the quantum's branches of each lobe among the hits.
-    void add_lobes(const QuantumEscape& escape, std::span<const std::size_t> in, std::size_t k,
-                   std::size_t j, double projected_wo, double* a) const {
+    void add_lobes(const QuantumEscape& escape, std::span<const std::size_t> in,
+                   std::span<const double> mis, std::size_t k, std::size_t j, double projected_wo,
+                   double* a) const {
         const std::size_t hits = in.size();
         for (std::size_t h = 0; h < hits; ++h) {
             const int lobe = escape.branches[in[h]].lobe;
@@ -218,7 +395,8 @@ struct GroupDetectors {
             double xl = 0.0;
             for (std::size_t g = h; g < hits; ++g) {
                 const double wk = escape.weights[in[g] * item_wavelengths + k];
-                if (escape.branches[in[g]].lobe == lobe && wk > 0.0) xl += wk / projected_wo;
+                if (escape.branches[in[g]].lobe == lobe && wk > 0.0)
+                    xl += mis[g] * wk / projected_wo;
             }
             const auto l = static_cast<std::size_t>(lobe);
             a[(2 + l) * m + j] += xl;
@@ -232,6 +410,7 @@ struct GroupDetectors {
     double cos_alpha, projected;  // projected: π sin²α, × cos θ_v per pair
     std::vector<Vec3d> axes;      // the detectors' axes, in the group's pair order
     ConesByElevation cones;
+    const ConnectionWeights* weights;  // connect_lights: the light side's weights; else none
 };
 
 // A quantum's entry point: uniform over the beam's cross-section (e1, e2 span it), projected
@@ -291,10 +470,11 @@ void sample_quantum(const Scatterer& scatterer, const GoniometerConfig& config,
 // per lobe the sum of those of that lobe, before they are squared.
 void play_item(const Scatterer& scatterer, const GoniometerConfig& config,
                const std::vector<Group>& groups, const PhotonItem& item, std::size_t nlobes,
-               bool shared, bool branched, std::vector<double>& acc) {
+               bool shared, bool branched, const ConnectionWeights* connection_weights,
+               std::vector<double>& acc) {
     const std::size_t nl = config.wavelengths_nm.size(), item_wavelengths = shared ? nl : 1;
     const Group& group = groups[item.group];
-    const GroupDetectors detectors(config, group, nlobes, item_wavelengths);
+    const GroupDetectors detectors(config, group, nlobes, item_wavelengths, connection_weights);
     acc.assign(item_wavelengths * detectors.stride, 0.0);
     Vec3d e1, e2;
     orthonormal_frame(group.wi, e1, e2);
@@ -305,11 +485,12 @@ void play_item(const Scatterer& scatterer, const GoniometerConfig& config,
                : derive_seed(config.seed, "goniometer/quantum", item.group * nl + item.wavelength);
     BranchOptions options;
     options.split_first_film = config.split_paths;
+    options.split_reflections = config.split_reflections;
     options.detector_axes = detectors.axes;
     options.detector_half_angle_rad = config.detector_half_angle_rad;
     options.guided_fraction = config.guided_fraction;
     options.guided_branches = config.guided_branches;
-    options.leave_lit_diffuse = config.connect_lights;
+    options.connected_light_side = config.connect_lights;
     QuantumEscape escape;
     for (std::uint64_t q = item.first; q < item.first + item.count; ++q) {
         Rng rng(item_seed, q);
@@ -320,101 +501,6 @@ void play_item(const Scatterer& scatterer, const GoniometerConfig& config,
         detectors.add(escape, acc);
     }
 }
-
-// Where a view's detector-side walks start (goniometer.h, "connect_lights"): the density p(x | ω)
-// over the top plane, a mixture of the view's lights' widened footprint ellipses swept along the
-// walk's direction by the scene's depth, and a heavy-tailed density over the whole plane; and
-// draws from it.
-class ConnectedStarts {
-public:
-    static constexpr double kTail = 0.1;  // ε: the share of the heavy-tailed density
-
-    // depth_um: the scene's depth below the entry plane (PathTracing::depth_um()).
-    ConnectedStarts(const GoniometerConfig& c, const Group& view, double depth_um)
-        : depth_um_(depth_um), tail_scale_(2.0 * c.beam_radius_um + depth_um) {
-        const double r = c.beam_radius_um, d = r;  // d: room for the light's lateral travel
-        for (std::size_t p : view.pairs) {
-            const Vec3d& wi = c.pairs[p].wi;
-            const double across = std::hypot(wi.x(), wi.y());
-            Capsule e;
-            e.along = across > 0.0 ? Vec2(wi.x() / across, wi.y() / across) : Vec2(1.0, 0.0);
-            e.a = r / wi.z() + d;  // the footprint's semi-axis along the light's azimuth, + d
-            e.b = r + d;           // across, + d
-            e.light_slope = Vec2(wi.x(), wi.y()) / wi.z();
-            capsules_.push_back(e);
-        }
-    }
-
-    // For walks in the direction wo: each capsule's segment, where the detector sees the light's
-    // footprint at the depths 0 … depth (shifted by h (t_o − t_i), t = ω_xy/ω_z).
-    void aim(const Vec3d& wo) {
-        const Vec2 view_slope = Vec2(wo.x(), wo.y()) / wo.z();
-        for (Capsule& e : capsules_) {
-            e.segment = to_unit(e, depth_um_ * (view_slope - e.light_slope));
-            const double length = e.segment.norm();
-            e.direction = length > 0.0 ? Vec2(e.segment / length) : Vec2(1.0, 0.0);
-            e.density = 1.0 / (e.a * e.b * (kPi + 2.0 * length));
-        }
-    }
-
-    // Numbers from rng: one, then two (the tail) or three and more (a capsule, by rejection from
-    // its bounding box, which it fills to π/4 at least).
-    Vec2 draw(Rng& rng) const {
-        if (rng.uniform() < kTail) {
-            // Radius by inverting the tail's radial CDF 1 − s/√(s² + ρ²).
-            const double v = rng.uniform();
-            const double radius =
-                tail_scale_ * std::sqrt(std::max(0.0, 1.0 / ((1.0 - v) * (1.0 - v)) - 1.0));
-            const double angle = 2.0 * kPi * rng.uniform();
-            return {radius * std::cos(angle), radius * std::sin(angle)};
-        }
-        const auto m = static_cast<double>(capsules_.size());
-        const Capsule& e =
-            capsules_[std::min(capsules_.size() - 1, static_cast<std::size_t>(rng.uniform() * m))];
-        const double length = e.segment.norm();
-        for (;;) {
-            const double along = -1.0 + (length + 2.0) * rng.uniform();
-            const double side = -1.0 + 2.0 * rng.uniform();
-            const Vec2 q = along * e.direction + side * Vec2(-e.direction.y(), e.direction.x());
-            if (inside(e, q)) {
-                const double x = e.a * q.x(), y = e.b * q.y();
-                return {x * e.along.x() - y * e.along.y(), x * e.along.y() + y * e.along.x()};
-            }
-        }
-    }
-
-    double density(const Vec2& x) const {
-        double sum = 0.0;
-        for (const Capsule& e : capsules_)
-            if (inside(e, to_unit(e, x))) sum += e.density;
-        const double s2 = tail_scale_ * tail_scale_;
-        const double tail = tail_scale_ / (2.0 * kPi * std::pow(s2 + x.squaredNorm(), 1.5));
-        return (1.0 - kTail) * sum / static_cast<double>(capsules_.size()) + kTail * tail;
-    }
-
-private:
-    // A light's footprint ellipse (widened by d) swept along the segment where the detector sees
-    // it at the depths 0 … depth: in the ellipse's unit coordinates (the ellipse the unit disc), a
-    // capsule of radius 1 around the segment from 0 to `segment`.
-    struct Capsule {
-        Vec2 along;   // unit, the light's azimuth on the plane
-        double a, b;  // semi-axes along and across, µm
-        Vec2 light_slope;
-        Vec2 segment = Vec2::Zero(), direction = Vec2::UnitX();  // aim()'s
-        double density = 0.0;                                    // 1 / area, µm⁻²
-    };
-    static Vec2 to_unit(const Capsule& e, const Vec2& x) {
-        return {x.dot(e.along) / e.a, (e.along.x() * x.y() - e.along.y() * x.x()) / e.b};
-    }
-    static bool inside(const Capsule& e, const Vec2& q) {
-        const double length2 = e.segment.squaredNorm();
-        const double t = length2 > 0.0 ? std::clamp(q.dot(e.segment) / length2, 0.0, 1.0) : 0.0;
-        return (q - t * e.segment).squaredNorm() <= 1.0;
-    }
-
-    std::vector<Capsule> capsules_;
-    double depth_um_, tail_scale_;
-};
 
 // One detector-side walk's connections into the cells of its view (goniometer.h,
 // "connect_lights"): x_j = w / (π r² p(x | ω)) for each connection that enters light j's footprint,
@@ -431,7 +517,13 @@ public:
           lobe_x_(m_ * lobes * nl_, 0.0),
           touched_(m_, 0) {}
 
-    void begin(double scale) { scale_ = scale; }
+    // A walk whose x_j are w / (π r² p(x | ω)) · scale, weighed against the light side by
+    // `weights` with ρ = lit_diffuse_density · rho_per_lit.
+    void begin(double scale, const ConnectionWeights& weights, double rho_per_lit) {
+        scale_ = scale;
+        weights_ = &weights;
+        rho_per_lit_ = rho_per_lit;
+    }
 
     // In the beam: the entry point's offset from the beam's axis (through the origin) across ω_i
     // at most the beam's radius.
@@ -450,8 +542,9 @@ public:
             list_.push_back(j);
         }
         const bool lobe_known = c.lobe >= 0 && static_cast<std::size_t>(c.lobe) < nlobes_;
+        const double scale = scale_ * weights_->detector_side(c.lit_diffuse_density * rho_per_lit_);
         for (std::size_t k = 0; k < nl_; ++k) {
-            const double v = c.weights[k] * scale_;
+            const double v = c.weights[k] * scale;
             x_[j * nl_ + k] += v;
             if (lobe_known)
                 lobe_x_[(j * nlobes_ + static_cast<std::size_t>(c.lobe)) * nl_ + k] += v;
@@ -488,20 +581,22 @@ private:
     std::vector<char> touched_;
     std::vector<std::size_t> list_;
     double scale_ = 0.0;
+    const ConnectionWeights* weights_ = nullptr;
+    double rho_per_lit_ = 0.0;
 };
 
 // Plays one connected item's detector-side walks (one view direction, every wavelength) into acc,
 // play_item's layout in the view's pair order.
 void play_connected_item(const Scatterer& scatterer, const GoniometerConfig& config,
-                         const std::vector<Group>& views, const PhotonItem& item,
-                         std::size_t nlobes, std::vector<double>& acc) {
+                         const std::vector<Group>& views, const ConnectionWeights& weights,
+                         const PhotonItem& item, std::size_t nlobes, std::vector<double>& acc) {
     const Group& view = views[item.group];
     const std::size_t m = view.pairs.size(), nl = config.wavelengths_nm.size();
     acc.assign(nl * m * (2 + 2 * nlobes), 0.0);
     std::vector<Vec3d> lights;
     for (std::size_t p : view.pairs) lights.push_back(config.pairs[p].wi);
     const PathTracing& paths = checked_path_tracing(scatterer);
-    ConnectedStarts starts(config, view, paths.depth_um());
+    ConnectedStarts starts = weights.starts(item.group);
     ConnectedCells cells(config, view, nlobes);
     const double beam_area = kPi * config.beam_radius_um * config.beam_radius_um;
     const std::uint64_t seed = derive_seed(config.seed, "goniometer/connected-quantum", item.group);
@@ -512,7 +607,8 @@ void play_connected_item(const Scatterer& scatterer, const GoniometerConfig& con
             draw_cone_direction_by_projected_area(view.wi, config.detector_half_angle_rad, rng);
         starts.aim(wo);
         const Vec2 start = starts.draw(rng);
-        cells.begin(1.0 / (beam_area * starts.density(start)));
+        const double density = starts.density(start);
+        cells.begin(1.0 / (beam_area * density), weights, weights.ratio(1.0, item.group, density));
         paths.trace_connected(wo, config.wavelengths_nm, start, rng, lights, cells);
         cells.add_to(acc);
     }
@@ -958,6 +1054,7 @@ BrdfRecord new_record(const Scatterer& scatterer, const GoniometerConfig& config
     // Branches need one path for all the item's wavelengths: shared paths, or one wavelength.
     const bool one_path = r.wavelength_paths_shared || config.wavelengths_nm.size() == 1;
     r.paths_split = one_path && config.split_paths && can_split;
+    r.reflections_split = r.paths_split && config.split_reflections;
     r.diffuse_guided =
         one_path && (config.guided_fraction > 0.0 || config.guided_branches > 0) && can_split;
     if (config.connect_lights) {
@@ -1034,6 +1131,8 @@ public:
                      std::vector<double>(nlobes_ * cells, 0.0)};
         if (r.lights_connected) {
             views_ = group_by_view(r.config.pairs);
+            connection_weights_.emplace(r.config, views_,
+                                        checked_path_tracing(scatterer).depth_um());
             connected_sums_ = sums_;
         }
     }
@@ -1046,11 +1145,13 @@ public:
     }
     void run_item(std::size_t it) override {
         if (items_[it].connected) {
-            play_connected_item(scatterer_, r_.config, views_, items_[it], nlobes_, partial_[it]);
+            play_connected_item(scatterer_, r_.config, views_, *connection_weights_, items_[it],
+                                nlobes_, partial_[it]);
             return;
         }
         play_item(scatterer_, r_.config, groups_, items_[it], nlobes_, r_.wavelength_paths_shared,
-                  r_.paths_split || r_.diffuse_guided || r_.lights_connected, partial_[it]);
+                  r_.paths_split || r_.diffuse_guided || r_.lights_connected,
+                  connection_weights_ ? &*connection_weights_ : nullptr, partial_[it]);
     }
     void pack(std::size_t it, Bytes& out) const override { out.put_vector(partial_[it]); }
     void unpack(std::size_t it, Bytes& in) override { partial_[it] = in.get_vector<double>(); }
@@ -1109,7 +1210,8 @@ private:
     std::size_t nl_, nlobes_, item_wavelengths_;
     Sums sums_;
     std::vector<Group> views_;  // connect_lights: the pairs of each view direction
-    Sums connected_sums_;       // connect_lights: the detector side's
+    std::optional<ConnectionWeights> connection_weights_;  // connect_lights: the two sides'
+    Sums connected_sums_;                                  // connect_lights: the detector side's
     std::vector<PhotonItem> items_;
     std::vector<std::vector<double>> partial_;  // per item, in group pair order
 };
@@ -1258,12 +1360,12 @@ void write_instrument(record::Hdf5Writer& h5, const BrdfRecord& r) {
             : "view_cone: the light exactly along the light direction, f averaged over the "
               "detector cone around the view, cosine-weighted (virtual_gonio/goniometer.h)");
     if (r.estimator_used == Estimator::photon) {
-        write_path_options(h5, r.wavelength_paths_shared, r.paths_split);
+        write_path_options(h5, r.wavelength_paths_shared, r.paths_split, r.reflections_split);
         if (r.lights_connected) {
             h5.set_attribute("/instrument", "connected_lights",
-                             "detector-side walks connected to the lights at their diffuse events, "
-                             "added to the photon quanta that start with another event "
-                             "(virtual_gonio/goniometer.h, connect_lights)");
+                             "detector-side walks connected to the lights at their first diffuse "
+                             "event, weighed against the photon quanta that make the same paths by "
+                             "the balance heuristic (virtual_gonio/goniometer.h, connect_lights)");
             h5.set_attribute("/instrument", "connected_quanta_per_pass",
                              static_cast<double>(c.connected_walks_per_pass()));
         }

@@ -58,15 +58,20 @@ void write_polarisation(record::Hdf5Writer& h5) {
                      "the mean of the s and p Fresnel intensities)");
 }
 
-void write_path_options(record::Hdf5Writer& h5, bool shared, bool split) {
+void write_path_options(record::Hdf5Writer& h5, bool shared, bool split, bool split_reflections) {
     h5.set_attribute("/instrument", "wavelength_paths",
                      shared ? "shared: one path per quantum for every wavelength, re-weighted per "
                               "wavelength (sim/tracer.h, spectral path sharing)"
                             : "separate: one path per quantum and wavelength");
     h5.set_attribute("/instrument", "path_splitting",
-                     split ? "first film: each quantum's path split at its first film event into "
-                             "a reflected and a transmitted branch (sim/tracer.h)"
-                           : "none");
+                     split_reflections
+                         ? "first film and the reflected branch's next film: each quantum's path "
+                           "split at its first film event into a reflected and a transmitted "
+                           "branch, the reflected one again at its next event if that is a film "
+                           "(sim/tracer.h)"
+                     : split ? "first film: each quantum's path split at its first film event into "
+                               "a reflected and a transmitted branch (sim/tracer.h)"
+                             : "none");
 }
 
 record::Attributes convergence_attributes(const std::string& columns) {

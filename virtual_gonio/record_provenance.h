@@ -36,7 +36,8 @@ void write_polarisation(record::Hdf5Writer& h5);
 
 // /instrument @wavelength_paths and @path_splitting: how the photon estimator traced its quanta
 // (shared paths and splitting, sim/tracer.h), for the goniometer and the scatterometer alike.
-void write_path_options(record::Hdf5Writer& h5, bool shared, bool split);
+void write_path_options(record::Hdf5Writer& h5, bool shared, bool split,
+                        bool split_reflections = false);
 
 // Attributes of /convergence's table (units per column and a description) with `columns`, the
 // column names, which differ per instrument.

@@ -70,12 +70,27 @@ struct SpectralScatterEvent {
     Vec3d wo;               // unit, away from the patch
     int lobe;               // index into lobe_names()
     Vec2 exit_position_um;  // as ScatterEvent
+    // The light side of a connected measurement (BranchOptions::connected_light_side): for a path
+    // whose first diffuse event the light reached straight, g · cos θ_l there (g the share that
+    // goes on from it, θ_l between the light and the facet normal), the light side's factor in
+    // the two strategies' density ratio (PathTracing::trace_connected()); 0 for every other path,
+    // which only the light side can make.
+    double lit_diffuse_density = 0.0;
+    // Where a detector-side walk retracing this path back from the detector starts: the exit
+    // point on the plane the instrument starts its walks from (exit_position_um unless the sample
+    // is turned: sim/scatterer/mounted_scatterer.h).
+    Vec2 detector_start_um = Vec2::Zero();
 };
 
 // What an instrument asks of sample_spectral_branches().
 struct BranchOptions {
     // Split the path at its first film event into a reflected and a transmitted branch.
     bool split_first_film = false;
+    // With split_first_film: the reflected branch splits again at its next event when that is a
+    // film, into a reflected and a transmitted branch (each λ's weight × its R or T there), so
+    // that the chains of two film reflections between barbules, which a sampled choice makes
+    // with probability R, come from every such quantum.
+    bool split_reflections = false;
     // The detectors the instrument reads (unit axes, away from the patch; cones of
     // detector_half_angle_rad). With guided_fraction f in (0, 1), a scatterer may draw a path's
     // first diffuse direction from a mixture: with 1 − f from its own density, with f uniformly
@@ -95,10 +110,11 @@ struct BranchOptions {
     bool adjoint = false;
     // The light-side half of a connected measurement (PathTracing::trace_connected()): a path
     // whose first diffuse event the light reached straight from the source (through films in one
-    // medium only) and which meets no second diffuse event returns nothing. Those paths are what
-    // the detector-side connections estimate; the two halves together are every path once. Only
-    // for scatterers that can_connect_lights().
-    bool leave_lit_diffuse = false;
+    // medium only) goes on from it with probability g (its weights ÷ g) and reports
+    // SpectralScatterEvent::lit_diffuse_density, with which the instrument weighs it against the
+    // detector-side connections that make the same path (multiple importance sampling). Only for
+    // scatterers that can_connect_lights().
+    bool connected_light_side = false;
 };
 
 // One connection of a detector-side walk to a collimated light (PathTracing::trace_connected()).
@@ -112,6 +128,9 @@ struct LightConnection {
     // weight on arriving at the diffuse event, θ_l the angle between the light direction and the
     // facet normal on the walk's side, T_films the films' transmittances along the connection.
     std::span<const double> weights;
+    // g · cos θ_l: what the light side reports for the same path
+    // (SpectralScatterEvent::lit_diffuse_density), for the instrument's weights.
+    double lit_diffuse_density;
 };
 
 class LightConnectionSink {
@@ -150,8 +169,9 @@ public:
 
     // Path splitting: whether sample_spectral_branches() can return more than one branch.
     virtual bool can_split_paths() const { return false; }
-    // Two film branches, each with up to 1 + BranchOptions::kMaxGuidedBranches diffuse ones.
-    static constexpr std::size_t kMaxBranches = 2 * (1 + BranchOptions::kMaxGuidedBranches);
+    // Two film branches, each with up to 1 + BranchOptions::kMaxGuidedBranches diffuse ones, and
+    // the reflected one's split at its next film (BranchOptions::split_reflections).
+    static constexpr std::size_t kMaxBranches = 2 * (1 + BranchOptions::kMaxGuidedBranches) + 1;
     // The quantum of sample_spectral() as branches b = 0 … count−1 (count returned, at most
     // kMaxBranches): events[b] its escape, weights[b·n + k] its weight at lambdas_nm[k]
     // (n = lambdas_nm.size(); events.size() >= kMaxBranches, weights.size() >= kMaxBranches·n),
@@ -167,19 +187,20 @@ public:
     // Detector-side walks: whether sample_spectral_branches() honours BranchOptions::adjoint.
     virtual bool can_trace_adjoint() const { return false; }
 
-    // Connections to collimated lights (next-event estimation at a diffuse event): a detector-side
+    // Connections to collimated lights (next-event estimation at diffuse events): a detector-side
     // walk, as with BranchOptions::adjoint (wo the direction towards the detector, position_um the
-    // point on the top plane it starts from), that at its first diffuse event connects to each
-    // light direction lights[j] (unit, away from the patch): a ray from the event towards the
-    // light that passes only films with one medium on both sides (each weighs by its T, the
-    // direction kept) and no other surface. Each connection that the sink accepts (asked before
-    // its ray is cast) and nothing blocks reaches the sink with the power factors of
-    // LightConnection. For a collimated beam of irradiance E⊥ (per area across the beam) along
-    // lights[j], entering at entry_position_um, w E⊥ is the radiance the detector sees at
-    // (position_um, wo) from the light paths whose one diffuse event is this one, reached straight
-    // from the light (after such films); BranchOptions::leave_lit_diffuse leaves exactly those to
-    // this walk. The walk ends there, or escapes with nothing (a collimated light is never hit).
-    // Draws only from rng.
+    // point on the top plane it starts from), that at every diffuse event connects to each light
+    // direction lights[j] (unit, away from the patch): a ray from the event towards the light
+    // that passes only films with one medium on both sides (each weighs by its T, the direction
+    // kept) and no other surface. Each connection that the sink accepts (asked before its ray is
+    // cast) and nothing blocks reaches the sink with the power factors of LightConnection. For a
+    // collimated beam of irradiance E⊥ (per area across the beam) along lights[j], entering at
+    // entry_position_um, w E⊥ is the radiance the detector sees at (position_um, wo) from the
+    // light paths whose first diffuse event (from the light) is this one, reached straight from
+    // the light (after such films). The light side (BranchOptions::connected_light_side) makes
+    // the same paths too; the instrument weighs the two (sim/tracer.h, "Connections to collimated
+    // lights"). The walk goes on past each diffuse event and escapes with nothing (a collimated
+    // light is never hit). Draws only from rng.
     virtual bool can_connect_lights() const { return false; }
     // How deep the scene reaches below the plane where light enters (µm; 0 when unknown): where
     // an instrument sees a beam's light at depth h is shifted by h (ω_o,xy/ω_o,z − ω_i,xy/ω_i,z),

@@ -441,6 +441,14 @@ TEST(RockDoveStudy, ConnectedLightsKeysAreReadAndChecked) {
               std::string::npos)
         << message;
     EXPECT_FALSE(std::filesystem::exists(root / "bad"));
+    // split_reflections is a boolean, named with its line when it is not.
+    const std::string split = plumage::testing::input_error_message([&] {
+        run_rock_dove_study("study = \"rock_dove\"\n[goniometer]\nsplit_reflections = 2\n",
+                            "bad.toml", root, false);
+    });
+    EXPECT_NE(split.find("bad.toml:3"), std::string::npos) << split;
+    EXPECT_NE(split.find("split_reflections"), std::string::npos) << split;
+    EXPECT_FALSE(std::filesystem::exists(root / "bad"));
 }
 
 }  // namespace
