@@ -25,9 +25,8 @@
 #include "common/error.h"
 #include "geometry/barbule.h"
 #include "sim/optics/material.h"
-#include "sim/scattering_medium.h"
-#include "sim/scattering_slab.h"
 #include "sim/tracer.h"
+#include "tests/sim/scattering_slab_example.h"
 #include "tests/sim/sim_test_util.h"
 #include "tests/virtual_gonio/btf_agreement.h"
 #include "virtual_gonio/btf.h"
@@ -159,29 +158,8 @@ TEST(BtfDetector, AgreesWithTheForwardWalkOnTheRockDoveRow) {
 }
 
 TEST(BtfDetector, AgreesWithTheForwardWalkOnAScatteringSlab) {
-    // Henyey–Greenstein g = 0.6, μ_s = 0.5/µm, μ_a = 0.02/µm, n_eff = 1.3 at every wavelength.
-    std::vector<sim::MediumTable> tables;
-    for (double lambda : {450.0, 550.0, 650.0}) {
-        sim::MediumTable t;
-        t.lambda_nm = lambda;
-        t.n_eff = 1.3;
-        t.mu_s_per_um = 0.5;
-        t.mu_a_per_um = 0.02;
-        const double g = 0.6;
-        for (int i = 0; i < 181; ++i) {
-            const double mu = std::cos(kPi * i / 180.0);
-            t.cos_theta.push_back(mu);
-            t.phase_per_sr.push_back((1.0 - g * g) /
-                                     (4.0 * kPi * std::pow(1.0 + g * g - 2.0 * g * mu, 1.5)));
-        }
-        tables.push_back(t);
-    }
-    auto medium = std::make_shared<const sim::ScatteringMedium>(tables);
-    sim::ScatteringSlabParams params;
-    params.thickness_um = 4.0;
-    params.half_width_um = 200.0;
-    const sim::ExplicitScatterer slab(sim::scattering_slab_scene(medium, params));
-    expect_estimators_agree(slab, small_btf(16.0, 4), 200000, 5000, "scattering_slab", 20);
+    expect_estimators_agree(testing::henyey_greenstein_slab(), small_btf(16.0, 4), 200000, 5000,
+                            "scattering_slab", 20);
 }
 
 // A white furnace: a lossless keratin ball round a white (albedo 1) Lambertian core, with flat
