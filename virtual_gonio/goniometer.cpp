@@ -173,12 +173,11 @@ public:
     // For walks in the direction wo: each capsule's segment, where the detector sees the light's
     // footprint at the depths 0 … depth (shifted by h (t_o − t_i), t = ω_xy/ω_z).
     void aim(const Vec3d& wo) {
-        const Vec2 view_slope = Vec2(wo.x(), wo.y()) / wo.z();
         for (Capsule& e : capsules_) {
-            e.segment = to_unit(e, depth_um_ * (view_slope - e.light_slope));
+            e.segment = segment(e, wo);
             const double length = e.segment.norm();
             e.direction = length > 0.0 ? Vec2(e.segment / length) : Vec2(1.0, 0.0);
-            e.density = 1.0 / (e.a * e.b * (kPi + 2.0 * length));
+            e.density = area_density(e, length);
         }
     }
 
@@ -219,12 +218,10 @@ public:
     // p(x | wo) without aim(): for a light-side path's weight (ConnectionWeights), the same
     // numbers.
     double density(const Vec2& x, const Vec3d& wo) const {
-        const Vec2 view_slope = Vec2(wo.x(), wo.y()) / wo.z();
         double sum = 0.0;
         for (const Capsule& e : capsules_) {
-            const Vec2 segment = to_unit(e, depth_um_ * (view_slope - e.light_slope));
-            if (inside(segment, to_unit(e, x)))
-                sum += 1.0 / (e.a * e.b * (kPi + 2.0 * segment.norm()));
+            const Vec2 s = segment(e, wo);
+            if (inside(s, to_unit(e, x))) sum += area_density(e, s.norm());
         }
         return mixture(sum, x);
     }
@@ -240,6 +237,13 @@ private:
         Vec2 segment = Vec2::Zero(), direction = Vec2::UnitX();  // aim()'s
         double density = 0.0;                                    // 1 / area, µm⁻²
     };
+    // The capsule's segment for walks in the direction wo (unit coordinates) and its density.
+    Vec2 segment(const Capsule& e, const Vec3d& wo) const {
+        return to_unit(e, depth_um_ * (Vec2(wo.x(), wo.y()) / wo.z() - e.light_slope));
+    }
+    static double area_density(const Capsule& e, double segment_length) {
+        return 1.0 / (e.a * e.b * (kPi + 2.0 * segment_length));
+    }
     static Vec2 to_unit(const Capsule& e, const Vec2& x) {
         return {x.dot(e.along) / e.a, (e.along.x() * x.y() - e.along.y() * x.x()) / e.b};
     }
