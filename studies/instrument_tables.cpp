@@ -125,6 +125,10 @@ gonio::BtfConfig read_btf_camera(ParameterTable& t, gonio::BtfConfig c) {
         t.integer("stratified_group", static_cast<long>(c.stratified_group), 1, 4096,
                   "BTF detector estimator: quanta per stratified group (a power of two dividing "
                   "quanta_per_pixel; 1: independent quanta)"));
+    c.split_reflections =
+        t.boolean("split_reflections", c.split_reflections,
+                  "BTF detector estimator: split each walk's reflected branch again at its next "
+                  "film (true)");
     c.max_passes = static_cast<int>(t.integer(
         "max_passes", c.max_passes, 1, 100000,
         "BTF detector estimator: passes at most (stop rule: target_pixel_error, max_time_s)"));

@@ -733,17 +733,21 @@ std::string section_btf_setup(const Settings& s, const SpeciesOutcome& o, const 
                                   ? "light and detector cones of half-angle"
                                   : "collimated light, detector half-angle";
     const std::string estimator =
-        detector
-            ? fmt::format(
-                  "detector-side estimator, {} quanta per view direction and pixel in each "
-                  "of {} passes (all wavelengths on one path{}; {})",
-                  s.btf.quanta_per_pixel, o.btf_passes,
-                  s.btf.stratified_group > 1
-                      ? fmt::format(", starts stratified in groups of {}", s.btf.stratified_group)
-                      : std::string(),
-                  btf_stop_rule(s))
-            : fmt::format("forward estimator, {} quanta per light direction and wavelength",
-                          s.btf.quanta_per_light);
+        detector ? fmt::format(
+                       "detector-side estimator, {} quanta per view direction and pixel in each "
+                       "of {} passes (all wavelengths on one path{}; {})",
+                       s.btf.quanta_per_pixel, o.btf_passes,
+                       fmt::format("{}{}",
+                                   s.btf.stratified_group > 1
+                                       ? fmt::format(", starts stratified in groups of {}",
+                                                     s.btf.stratified_group)
+                                       : std::string(),
+                                   s.btf.split_reflections
+                                       ? ", reflected branches split again at their next film"
+                                       : ""),
+                       btf_stop_rule(s))
+                 : fmt::format("forward estimator, {} quanta per light direction and wavelength",
+                               s.btf.quanta_per_light);
     return fmt::format(
         "Virtual BTF on {0} of {1} × {1} pixels over a {2:.0f} µm square, {3} wavelengths, {4} "
         "{5:.0f}°; {6}; virtual_gonio/btf.h), {7:.0f} s. Median per-pixel relative error over "

@@ -62,6 +62,9 @@ void BtfConfig::validate() const {
                         "quanta_per_pixel ({}) at least twice (a pixel's error is the spread of "
                         "its groups)",
                         stratified_group, quanta_per_pixel));
+    require(!split_reflections || estimator == BtfEstimator::detector, kWhat,
+            "split_reflections needs estimator = \"detector\" (it splits the detector-side "
+            "walks)");
     require(stratified_group == 1 || estimator == BtfEstimator::detector, kWhat,
             "stratified_group > 1 needs estimator = \"detector\" (it stratifies the pixel's "
             "quanta)");
@@ -276,6 +279,7 @@ public:
         options.detector_axes = lights;
         options.detector_half_angle_rad = c_.detector_half_angle_rad;
         options.guided_branches = 1;
+        options.split_reflections = c_.split_reflections;
         std::vector<double> acc(pairs.size() * nl_), group_sum(pairs.size() * nl_);
         const std::uint64_t group = c_.stratified_group, groups = c_.quanta_per_pixel / group;
         for (int column = 0; column < c_.pixels; ++column) {
@@ -483,6 +487,7 @@ std::string canonical(const BtfConfig& c, const std::string& scatterer) {
     // Independent quanta keep the canonical text they had before groups existed, so that their
     // checkpoints still resume.
     if (c.stratified_group != 1) s += fmt::format("group {}|", c.stratified_group);
+    if (c.split_reflections) s += "split_reflections|";
     for (double l : c.wavelengths_nm) s += fmt::format("{:.17g},", l);
     for (const auto& p : c.pairs) {
         s += fmt::format("{:.17g},{:.17g},{:.17g},{:.17g},{:.17g},{:.17g};", p.wi.x(), p.wi.y(),
@@ -649,6 +654,12 @@ void write_btf_record(const BtfRecord& r, const std::filesystem::path& path) {
                          static_cast<double>(c.quanta_per_pixel));
         h5.set_attribute("/instrument", "stratified_group",
                          static_cast<double>(c.stratified_group));
+        if (c.split_reflections) {
+            h5.set_attribute("/instrument", "path_splitting",
+                             "first film and the reflected branch's next film: each walk split at "
+                             "its first film event, the reflected branch again at its next event "
+                             "if that is a film (sim/tracer.h)");
+        }
         h5.set_attribute("/instrument", "max_passes", static_cast<double>(c.max_passes));
         h5.set_attribute("/instrument", "target_pixel_error", c.target_pixel_error);
         h5.set_attribute("/instrument", "max_time_s", c.max_time_s);

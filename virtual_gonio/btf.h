@@ -85,6 +85,10 @@ struct BtfConfig {
     // Detector estimator: quanta per stratified group (see "Stratified groups" above), a power of
     // two 1 … 4096 that divides quanta_per_pixel; 1: independent quanta.
     std::uint64_t stratified_group = 1;
+    // Detector estimator: each walk's reflected branch splits again at its next event if that
+    // is a film (BranchOptions::split_reflections, sim/tracer.h): the chains of two film
+    // reflections between barbules then come from every walk whose first reflection meets a film.
+    bool split_reflections = false;
     // The detector estimator's stop rule: passes of quanta_per_pixel each, every pass on its own
     // streams, until the median per-pixel error over the lit pixels (median_lit_pixel_error) is
     // at most target_pixel_error, or max_passes are done, or another pass would end after

@@ -246,6 +246,16 @@ TEST(BtfDetector, StratifiedGroupsAgreeWithTheForwardWalkOnTheRockDoveRow) {
                             20, 64);
 }
 
+// BtfConfig::split_reflections: the walks' reflected branches split again at their next film
+// (the row's chains of reflections between barbules), stratified as the species study's.
+TEST(BtfDetector, SplitReflectionsAgreeWithTheForwardWalkOnTheRockDoveRow) {
+    const geometry::BarbuleRow row = geometry::build_barbule_row({}, {0.01, 0.02});
+    const sim::ExplicitScatterer tracer(sim::barbule_row_scene(row));
+    BtfConfig c = small_btf(20.0, 4);
+    c.split_reflections = true;
+    expect_estimators_agree(tracer, c, 400000, 20480, "split_reflections_rock_dove_row", 20, 64);
+}
+
 // Two seeds of the stratified estimator differ by their stated errors (χ² per wavelength, Šidák
 // on |z|: the group means' spread is the error, not an under- or overstatement), and on the
 // rock-dove row its power-weighted error Σσ / Σf, which the bright pixels rule, is below
