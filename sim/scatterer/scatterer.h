@@ -71,10 +71,10 @@ struct SpectralScatterEvent {
     int lobe;               // index into lobe_names()
     Vec2 exit_position_um;  // as ScatterEvent
     // The light side of a connected measurement (BranchOptions::connected_light_side): for a path
-    // whose first diffuse event the light reached straight, g · cos θ_l there (g the share that
-    // goes on from it, θ_l between the light and the facet normal), the light side's factor in
-    // the two strategies' density ratio (PathTracing::trace_connected()); 0 for every other path,
-    // which only the light side can make.
+    // whose one diffuse event the light reached straight, g · cos θ_l there (g the share that goes
+    // on from it, θ_l between the light and the facet normal), the light side's factor in the two
+    // strategies' density ratio (PathTracing::trace_connected()); 0 for every other path, which
+    // only the light side can make.
     double lit_diffuse_density = 0.0;
     // Where a detector-side walk retracing this path back from the detector starts: the exit
     // point on the plane the instrument starts its walks from (exit_position_um unless the sample
@@ -110,10 +110,10 @@ struct BranchOptions {
     bool adjoint = false;
     // The light-side half of a connected measurement (PathTracing::trace_connected()): a path
     // whose first diffuse event the light reached straight from the source (through films in one
-    // medium only) goes on from it with probability g (its weights ÷ g) and reports
-    // SpectralScatterEvent::lit_diffuse_density, with which the instrument weighs it against the
-    // detector-side connections that make the same path (multiple importance sampling). Only for
-    // scatterers that can_connect_lights().
+    // medium only) goes on from it with probability g (its weights ÷ g) and, if no second diffuse
+    // event follows, reports SpectralScatterEvent::lit_diffuse_density, with which the instrument
+    // weighs it against the detector-side connections that make the same path (multiple
+    // importance sampling). Only for scatterers that can_connect_lights().
     bool connected_light_side = false;
 };
 
@@ -187,20 +187,19 @@ public:
     // Detector-side walks: whether sample_spectral_branches() honours BranchOptions::adjoint.
     virtual bool can_trace_adjoint() const { return false; }
 
-    // Connections to collimated lights (next-event estimation at diffuse events): a detector-side
+    // Connections to collimated lights (next-event estimation at a diffuse event): a detector-side
     // walk, as with BranchOptions::adjoint (wo the direction towards the detector, position_um the
-    // point on the top plane it starts from), that at every diffuse event connects to each light
-    // direction lights[j] (unit, away from the patch): a ray from the event towards the light
+    // point on the top plane it starts from), that at its first diffuse event connects to each
+    // light direction lights[j] (unit, away from the patch): a ray from the event towards the light
     // that passes only films with one medium on both sides (each weighs by its T, the direction
     // kept) and no other surface. Each connection that the sink accepts (asked before its ray is
     // cast) and nothing blocks reaches the sink with the power factors of LightConnection. For a
     // collimated beam of irradiance E⊥ (per area across the beam) along lights[j], entering at
     // entry_position_um, w E⊥ is the radiance the detector sees at (position_um, wo) from the
-    // light paths whose first diffuse event (from the light) is this one, reached straight from
-    // the light (after such films). The light side (BranchOptions::connected_light_side) makes
-    // the same paths too; the instrument weighs the two (sim/tracer.h, "Connections to collimated
-    // lights"). The walk goes on past each diffuse event and escapes with nothing (a collimated
-    // light is never hit). Draws only from rng.
+    // light paths whose one diffuse event is this one, reached straight from the light (after such
+    // films). The light side (BranchOptions::connected_light_side) makes the same paths too; the
+    // instrument weighs the two (sim/tracer.h, "Connections to collimated lights"). The walk ends
+    // there, or escapes with nothing (a collimated light is never hit). Draws only from rng.
     virtual bool can_connect_lights() const { return false; }
     // How deep the scene reaches below the plane where light enters (µm; 0 when unknown): where
     // an instrument sees a beam's light at depth h is shifted by h (ω_o,xy/ω_o,z − ω_i,xy/ω_i,z),
