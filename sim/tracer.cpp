@@ -680,25 +680,8 @@ public:
                 if (film && set_.no_medium[hit->surface][from_outside ? 0 : 1] != 0)
                     leave_transmitted_branch();
             }
-            if (surface.kind == Spectral::Kind::diffuse) {
-                const bool side_clear = set_.no_medium[hit->surface][from_outside ? 0 : 1] != 0;
-                // A connected walk connects at its first diffuse event and ends there. A light
-                // path lit straight from the source at its first one goes on with probability
-                // kGoOnLit, its weights divided by it, and carries its density factor for the
-                // instrument's weights as long as this stays its only diffuse event (tracer.h,
-                // "Connections to collimated lights").
-                if (connections_ != nullptr) {
-                    if (side_clear) connect_lights(*hit, from_outside);
-                    return path_;
-                }
-                st_.lit_diffuse_density = 0.0;
-                if (leave_lit_ && !st_.diffuse_met && st_.lit_straight && side_clear) {
-                    if (!(rng_.uniform() < kGoOnLit)) return path_;
-                    scale(1.0 / kGoOnLit);
-                    st_.lit_diffuse_density =
-                        kGoOnLit * std::abs(st_.direction.dot(hit->normals.geometric));
-                }
-            }
+            if (surface.kind == Spectral::Kind::diffuse && !goes_on_at_diffuse(*hit, from_outside))
+                return path_;
             const InterfaceEvent event = surface_event(*hit, forced || st_.forced_film >= 0);
             st_.forced_film = -1;
             if (leave_lit_) {
@@ -803,6 +786,26 @@ private:
         st_.skip = {};
         if (!(w_[st_.hero] > 0.0) || !survives_roulette()) return Flight::ended;
         return Flight::scattered;
+    }
+
+    // Before a diffuse event: a connected walk connects at its first diffuse event and ends there.
+    // A light path lit straight from the source at its first one goes on with probability
+    // kGoOnLit, its weights divided by it, and carries its density factor for the instrument's
+    // weights as long as this stays its only diffuse event (tracer.h, "Connections to collimated
+    // lights"). False: the walk ends here.
+    bool goes_on_at_diffuse(const SurfaceHit& hit, bool from_outside) {
+        const bool side_clear = set_.no_medium[hit.surface][from_outside ? 0 : 1] != 0;
+        if (connections_ != nullptr) {
+            if (side_clear) connect_lights(hit, from_outside);
+            return false;
+        }
+        st_.lit_diffuse_density = 0.0;
+        if (leave_lit_ && !st_.diffuse_met && st_.lit_straight && side_clear) {
+            if (!(rng_.uniform() < kGoOnLit)) return false;
+            scale(1.0 / kGoOnLit);
+            st_.lit_diffuse_density = kGoOnLit * std::abs(st_.direction.dot(hit.normals.geometric));
+        }
+        return true;
     }
 
     // The event for the path's direction at the surface hit; each λ's weight takes its factor.
