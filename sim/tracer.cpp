@@ -65,7 +65,7 @@ int lobe_of(const PathResult& path) {
 // An escaped path's event for the instruments (sim/scatterer/scatterer.h).
 SpectralScatterEvent spectral_event(const PathResult& path) {
     const ScatterEvent& e = *path.event;
-    return {e.wo, e.lobe, e.exit_position_um, path.lit_diffuse_density, e.exit_position_um};
+    return {e.wo, e.lobe, e.exit_position_um, path.lit_diffuse_density};
 }
 
 void record(PathResult& path, EventKind kind) {

@@ -271,7 +271,8 @@ private:
 //     w_L = n_L ρ / (n_L ρ + n_D),   w_D = n_D / (n_L ρ + n_D),
 //     ρ = g cos θ_l · sin²α cos θ_v / (π r² p(x | ω)),
 // the light side's g cos θ_l (SpectralScatterEvent::lit_diffuse_density) at the diffuse event,
-// x and ω where the detector side's walk for the same path starts.
+// x and ω where the detector side's walk for the same path starts: for a light-side path its exit
+// point and direction (a mounted sample turns both back into the instrument's frame alike).
 class ConnectionWeights {
 public:
     ConnectionWeights(const GoniometerConfig& c, const std::vector<Group>& views, double depth_um)
@@ -303,7 +304,7 @@ public:
         if (!(e.lit_diffuse_density > 0.0)) return 1.0;
         const std::size_t v = view_of_pair_[pair];
         const double rho =
-            ratio(e.lit_diffuse_density, v, starts_[v].density(e.detector_start_um, e.wo));
+            ratio(e.lit_diffuse_density, v, starts_[v].density(e.exit_position_um, e.wo));
         return rho / (rho + walks_per_quantum_);
     }
 

@@ -71,7 +71,7 @@
 //       ρ = p_L / p_D = g cos θ_l sin²α cos θ_v / (π r² p(x | ω)), with g cos θ_l the light
 //       side's factor at the diffuse event (LightConnection::lit_diffuse_density, the same as
 //       SpectralScatterEvent's) and (x, ω) where the detector side's walk for that path starts
-//       (for a light-side path: SpectralScatterEvent::detector_start_um and its ω_o). w_L + w_D =
+//       (for a light-side path: its exit point and ω_o). w_L + w_D =
 //       1 for every path both sides make, so the sum is unbiased. On the rock dove's bench (α = 5°,
 //       r = 60 µm, 2000 quanta and 320 walks, g = 0.25) ρ is about 0.005 where the widened
 //       footprints overlap (π r² p ≈ 0.2), so w_L is about 3 %: the connections carry those paths.

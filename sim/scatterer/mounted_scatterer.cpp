@@ -50,15 +50,8 @@ std::optional<SpectralScatterEvent> MountedScatterer::sample_spectral(
     std::span<double> weights) const {
     auto event = inner_paths().sample_spectral(to_sample(wi), lambdas_nm, to_sample(position_um),
                                                rng, weights);
-    if (event) to_instrument(*event);
+    if (event) to_instrument(event->wo, event->exit_position_um);
     return event;
-}
-
-void MountedScatterer::to_instrument(SpectralScatterEvent& event) const {
-    to_instrument(event.wo, event.exit_position_um);
-    const Vec3d start =
-        to_instrument(Vec3d(event.detector_start_um.x(), event.detector_start_um.y(), 0.0));
-    event.detector_start_um = Vec2(start.x(), start.y());
 }
 
 namespace {
@@ -99,7 +92,7 @@ std::size_t MountedScatterer::sample_spectral_branches(const Vec3d& wi,
     inner_options.detector_axes = turned.span();
     const std::size_t count = inner_paths().sample_spectral_branches(
         to_sample(wi), lambdas_nm, to_sample(position_um), rng, inner_options, events, weights);
-    for (std::size_t b = 0; b < count; ++b) to_instrument(events[b]);
+    for (std::size_t b = 0; b < count; ++b) to_instrument(events[b].wo, events[b].exit_position_um);
     return count;
 }
 

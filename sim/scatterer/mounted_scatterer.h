@@ -82,7 +82,6 @@ private:
     Vec3d to_instrument(const Vec3d& w) const;      // sample → instrument frame: R(+ψ)
     Vec2 to_sample(const Vec2& position_um) const;  // a beam position, R(−ψ)
     void to_instrument(Vec3d& wo, Vec2& exit_position_um) const;  // an event's, in place
-    void to_instrument(SpectralScatterEvent& event) const;        // and its walk start
 
     std::shared_ptr<const Scatterer> inner_;
     double azimuth_rad_;

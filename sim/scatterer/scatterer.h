@@ -76,10 +76,6 @@ struct SpectralScatterEvent {
     // strategies' density ratio (PathTracing::trace_connected()); 0 for every other path, which
     // only the light side can make.
     double lit_diffuse_density = 0.0;
-    // Where a detector-side walk retracing this path back from the detector starts: the exit
-    // point on the plane the instrument starts its walks from (exit_position_um unless the sample
-    // is turned: sim/scatterer/mounted_scatterer.h).
-    Vec2 detector_start_um = Vec2::Zero();
 };
 
 // What an instrument asks of sample_spectral_branches().
