@@ -351,9 +351,8 @@ private:
     void trace_quantum(const Vec3d& view, const Start& start, const BranchOptions& options,
                        Rng& rng, std::vector<double>& acc) const {
         const Vec2 position(-half_ + start.x * pixel_, half_ - start.y * pixel_);
-        const double disc_r = std::sqrt(start.radius_squared), disc_g = 2.0 * kPi * start.turn;
-        const Vec3d wo = cone_direction_by_projected_area(
-            view, c_.detector_half_angle_rad, disc_r * std::cos(disc_g), disc_r * std::sin(disc_g));
+        const Vec3d wo = cone_direction_from_square(view, c_.detector_half_angle_rad,
+                                                    start.radius_squared, start.turn);
         std::array<SpectralScatterEvent, PathTracing::kMaxBranches> events;
         // Not zeroed: every returned branch's weights are written (sim/scatterer/scatterer.h); 4 KB
         // a quantum.

@@ -26,6 +26,7 @@
 #include "common/require.h"
 #include "common/seed.h"
 #include "common/version.h"
+#include "sim/scatterer/stratified.h"
 #include "virtual_gonio/display_colour.h"
 #include "virtual_gonio/record/hdf5_file.h"
 #include "virtual_gonio/record_provenance.h"
@@ -34,6 +35,8 @@ namespace plumage::gonio {
 namespace {
 
 constexpr std::uint64_t kChunk = 2048;  // quanta per work item: the unit of reduction order
+// Detector-side walks per stratified block (play_connected_item); kChunk is a multiple of it.
+constexpr std::uint64_t kConnectedBlock = 64;
 // Under MPI a pass's items are dealt in this many blocks per rank (common/distributed.h): enough
 // for a slow block not to hold up the pass, few enough that a block keeps a rank's threads busy.
 constexpr std::size_t kBlocksPerRank = 4;
@@ -58,7 +61,7 @@ std::string canonical(const GoniometerConfig& c, const std::string& scatterer,
     // The balance heuristic's weights replaced the partition of the paths (2026-12-01): the
     // partition's checkpoints do not resume into it.
     if (c.connect_lights)
-        s += fmt::format("connect_lights={},balance|", c.connected_walks_per_pass());
+        s += fmt::format("connect_lights={},balance,stratified|", c.connected_walks_per_pass());
     for (const auto& p : c.pairs) {
         s += fmt::format("{:.17g},{:.17g},{:.17g},{:.17g},{:.17g},{:.17g};", p.wi.x(), p.wi.y(),
                          p.wi.z(), p.wo.x(), p.wo.y(), p.wo.z());
@@ -146,18 +149,25 @@ struct QuantumEscape {
     std::size_t count = 0;
 };
 
-// Where a view's detector-side walks start (goniometer.h, "connect_lights"): the density p(x | ω)
-// over the top plane, a mixture of the view's lights' widened footprint ellipses swept along the
-// walk's direction by the scene's depth, and a heavy-tailed density over the whole plane; and
-// draws from it.
+// Where a view's detector-side walks start (goniometer.h, "connect_lights"): p(x) over the top
+// plane, a piecewise-constant density on a grid mixed with a heavy-tailed density over the whole
+// plane. The grid covers where the view's walks can see its lights' beams: each light's footprint
+// ellipse widened by d and swept along the walk direction by the scene's depth (a capsule), for
+// the view's axis and four directions on its cone's rim; a cell's density is the capsules' mean
+// density at its centre. The grid part is drawn by inverting its CDF (rows, then the column within
+// the row) from a point of the unit square, so that a block's stratified points
+// (ScrambledSobolGroup) give stratified starts.
 class ConnectedStarts {
 public:
-    static constexpr double kTail = 0.1;  // ε: the share of the heavy-tailed density
+    static constexpr double kTail = 0.1;          // ε: the share of the heavy-tailed density
+    static constexpr double kCellsPerRadius = 8;  // grid cells per beam radius
 
     // depth_um: the scene's depth below the entry plane (PathTracing::depth_um()).
     ConnectedStarts(const GoniometerConfig& c, const Group& view, double depth_um)
-        : depth_um_(depth_um), tail_scale_(2.0 * c.beam_radius_um + depth_um) {
+        : cell_um_(c.beam_radius_um / kCellsPerRadius),
+          tail_scale_(2.0 * c.beam_radius_um + depth_um) {
         const double r = c.beam_radius_um, d = r;  // d: room for the light's lateral travel
+        std::vector<Capsule> capsules;
         for (std::size_t p : view.pairs) {
             const Vec3d& wi = c.pairs[p].wi;
             const double across = std::hypot(wi.x(), wi.y());
@@ -166,24 +176,79 @@ public:
             e.a = r / wi.z() + d;  // the footprint's semi-axis along the light's azimuth, + d
             e.b = r + d;           // across, + d
             e.light_slope = Vec2(wi.x(), wi.y()) / wi.z();
-            capsules_.push_back(e);
+            capsules.push_back(e);
         }
+        // The view's axis and four directions on its cone's rim.
+        std::vector<Vec3d> directions{view.wi};
+        for (const auto& [d1, d2] : {std::pair{1.0, 0.0}, {-1.0, 0.0}, {0.0, 1.0}, {0.0, -1.0}})
+            directions.push_back(
+                cone_direction_by_projected_area(view.wi, c.detector_half_angle_rad, d1, d2));
+        // Each swept capsule (capsule, segment per direction) with its bounding box; the grid's
+        // extent is theirs.
+        struct Swept {
+            const Capsule* capsule;
+            Vec2 segment, lo, hi;
+        };
+        std::vector<Swept> swept;
+        Vec2 lo = Vec2::Constant(std::numeric_limits<double>::infinity()), hi = -lo;
+        for (const Capsule& e : capsules) {
+            const Vec2 half(std::hypot(e.a * e.along.x(), e.b * e.along.y()),
+                            std::hypot(e.a * e.along.y(), e.b * e.along.x()));
+            for (const Vec3d& wo : directions) {
+                const Vec2 shift = depth_um * (Vec2(wo.x(), wo.y()) / wo.z() - e.light_slope);
+                swept.push_back({&e, to_unit(e, shift), shift.cwiseMin(Vec2::Zero()) - half,
+                                 shift.cwiseMax(Vec2::Zero()) + half});
+                lo = lo.cwiseMin(swept.back().lo);
+                hi = hi.cwiseMax(swept.back().hi);
+            }
+        }
+        origin_ = lo;
+        nx_ = std::max<std::size_t>(
+            1, static_cast<std::size_t>(std::ceil((hi.x() - lo.x()) / cell_um_)));
+        ny_ = std::max<std::size_t>(
+            1, static_cast<std::size_t>(std::ceil((hi.y() - lo.y()) / cell_um_)));
+        cell_density_.assign(nx_ * ny_, 0.0);
+        // Each capsule's density added at the centres of the cells in its box.
+        auto cell_of = [&](double x, std::size_t n) {
+            return std::min(n - 1, static_cast<std::size_t>(std::max(0.0, x / cell_um_)));
+        };
+        double total = 0.0;
+        for (const Swept& w : swept) {
+            const Capsule& e = *w.capsule;
+            const double density = 1.0 / (e.a * e.b * (kPi + 2.0 * w.segment.norm()));
+            const Vec2 from = w.lo - origin_, to = w.hi - origin_;
+            for (std::size_t iy = cell_of(from.y(), ny_); iy <= cell_of(to.y(), ny_); ++iy)
+                for (std::size_t ix = cell_of(from.x(), nx_); ix <= cell_of(to.x(), nx_); ++ix) {
+                    const Vec2 x = origin_ + cell_um_ * Vec2(static_cast<double>(ix) + 0.5,
+                                                             static_cast<double>(iy) + 0.5);
+                    if (inside(w.segment, to_unit(e, x))) {
+                        cell_density_[iy * nx_ + ix] += density;
+                        total += density;
+                    }
+                }
+        }
+        // Normalised to a density (µm⁻²); the CDFs of the rows and of the columns within each row.
+        row_cdf_.assign(ny_ + 1, 0.0);
+        column_cdf_.assign(ny_ * (nx_ + 1), 0.0);
+        for (std::size_t iy = 0; iy < ny_; ++iy) {
+            double row = 0.0;
+            for (std::size_t ix = 0; ix < nx_; ++ix) {
+                double& density = cell_density_[iy * nx_ + ix];
+                density /= total * cell_um_ * cell_um_;
+                row += density;
+                column_cdf_[iy * (nx_ + 1) + ix + 1] = row;
+            }
+            for (std::size_t ix = 1; ix <= nx_; ++ix)
+                if (row > 0.0) column_cdf_[iy * (nx_ + 1) + ix] /= row;
+            row_cdf_[iy + 1] = row_cdf_[iy] + row;
+        }
+        const double rows = row_cdf_.back();  // 1 / h² up to round-off: made exactly 1
+        for (double& v : row_cdf_) v /= rows;
     }
 
-    // For walks in the direction wo: each capsule's segment, where the detector sees the light's
-    // footprint at the depths 0 … depth (shifted by h (t_o − t_i), t = ω_xy/ω_z).
-    void aim(const Vec3d& wo) {
-        for (Capsule& e : capsules_) {
-            e.segment = segment(e, wo);
-            const double length = e.segment.norm();
-            e.direction = length > 0.0 ? Vec2(e.segment / length) : Vec2(1.0, 0.0);
-            e.density = area_density(e, length);
-        }
-    }
-
-    // Numbers from rng: one, then two (the tail) or three and more (a capsule, by rejection from
-    // its bounding box, which it fills to π/4 at least).
-    Vec2 draw(Rng& rng) const {
+    // A start from one number of rng (the tail's share) and either the grid's point u of the
+    // unit square or, for the tail, two more numbers of rng.
+    Vec2 draw(const Vec2& u, Rng& rng) const {
         if (rng.uniform() < kTail) {
             // Radius by inverting the tail's radial CDF 1 − s/√(s² + ρ²).
             const double v = rng.uniform();
@@ -192,58 +257,34 @@ public:
             const double angle = 2.0 * kPi * rng.uniform();
             return {radius * std::cos(angle), radius * std::sin(angle)};
         }
-        const auto m = static_cast<double>(capsules_.size());
-        const Capsule& e =
-            capsules_[std::min(capsules_.size() - 1, static_cast<std::size_t>(rng.uniform() * m))];
-        const double length = e.segment.norm();
-        for (;;) {
-            const double along = -1.0 + (length + 2.0) * rng.uniform();
-            const double side = -1.0 + 2.0 * rng.uniform();
-            const Vec2 q = along * e.direction + side * Vec2(-e.direction.y(), e.direction.x());
-            if (inside(e.segment, q)) {
-                const double x = e.a * q.x(), y = e.b * q.y();
-                return {x * e.along.x() - y * e.along.y(), x * e.along.y() + y * e.along.x()};
-            }
-        }
+        const auto [iy, fy] = invert(std::span(row_cdf_), u.y());
+        const auto [ix, fx] =
+            invert(std::span(column_cdf_).subspan(iy * (nx_ + 1), nx_ + 1), u.x());
+        return origin_ +
+               cell_um_ * Vec2(static_cast<double>(ix) + fx, static_cast<double>(iy) + fy);
     }
 
-    // p(x | ω) for the direction aim() was given.
+    // p(x): the same for every direction of the view's cone.
     double density(const Vec2& x) const {
-        double sum = 0.0;
-        for (const Capsule& e : capsules_)
-            if (inside(e.segment, to_unit(e, x))) sum += e.density;
-        return mixture(sum, x);
-    }
-
-    // p(x | wo) without aim(): for a light-side path's weight (ConnectionWeights), the same
-    // numbers.
-    double density(const Vec2& x, const Vec3d& wo) const {
-        double sum = 0.0;
-        for (const Capsule& e : capsules_) {
-            const Vec2 s = segment(e, wo);
-            if (inside(s, to_unit(e, x))) sum += area_density(e, s.norm());
-        }
-        return mixture(sum, x);
+        double grid = 0.0;
+        const Vec2 g = (x - origin_) / cell_um_;
+        if (g.x() >= 0.0 && g.y() >= 0.0 && g.x() < static_cast<double>(nx_) &&
+            g.y() < static_cast<double>(ny_))
+            grid = cell_density_[static_cast<std::size_t>(g.y()) * nx_ +
+                                 static_cast<std::size_t>(g.x())];
+        const double s2 = tail_scale_ * tail_scale_;
+        const double tail = tail_scale_ / (2.0 * kPi * std::pow(s2 + x.squaredNorm(), 1.5));
+        return (1.0 - kTail) * grid + kTail * tail;
     }
 
 private:
-    // A light's footprint ellipse (widened by d) swept along the segment where the detector sees
-    // it at the depths 0 … depth: in the ellipse's unit coordinates (the ellipse the unit disc), a
-    // capsule of radius 1 around the segment from 0 to `segment`.
+    // A light's footprint ellipse (widened by d) swept along a segment: in the ellipse's unit
+    // coordinates (the ellipse the unit disc), a capsule of radius 1 around the segment.
     struct Capsule {
         Vec2 along;   // unit, the light's azimuth on the plane
         double a, b;  // semi-axes along and across, µm
         Vec2 light_slope;
-        Vec2 segment = Vec2::Zero(), direction = Vec2::UnitX();  // aim()'s
-        double density = 0.0;                                    // 1 / area, µm⁻²
     };
-    // The capsule's segment for walks in the direction wo (unit coordinates) and its density.
-    Vec2 segment(const Capsule& e, const Vec3d& wo) const {
-        return to_unit(e, depth_um_ * (Vec2(wo.x(), wo.y()) / wo.z() - e.light_slope));
-    }
-    static double area_density(const Capsule& e, double segment_length) {
-        return 1.0 / (e.a * e.b * (kPi + 2.0 * segment_length));
-    }
     static Vec2 to_unit(const Capsule& e, const Vec2& x) {
         return {x.dot(e.along) / e.a, (e.along.x() * x.y() - e.along.y() * x.x()) / e.b};
     }
@@ -253,15 +294,24 @@ private:
         const double t = length2 > 0.0 ? std::clamp(q.dot(segment) / length2, 0.0, 1.0) : 0.0;
         return (q - t * segment).squaredNorm() <= 1.0;
     }
-    // The capsules' density sum mixed with the heavy tail.
-    double mixture(double capsule_sum, const Vec2& x) const {
-        const double s2 = tail_scale_ * tail_scale_;
-        const double tail = tail_scale_ / (2.0 * kPi * std::pow(s2 + x.squaredNorm(), 1.5));
-        return (1.0 - kTail) * capsule_sum / static_cast<double>(capsules_.size()) + kTail * tail;
+    // The bin of a CDF (cdf[0] = 0, cdf.back() = 1) that holds u, and u's fraction within it.
+    static std::pair<std::size_t, double> invert(std::span<const double> cdf, double u) {
+        const std::size_t bins = cdf.size() - 1;
+        std::size_t i =
+            static_cast<std::size_t>(std::upper_bound(cdf.begin(), cdf.end(), u) - cdf.begin());
+        i = std::clamp<std::size_t>(i, 1, bins) - 1;
+        while (i + 1 < bins && !(cdf[i + 1] > cdf[i])) ++i;  // past empty bins
+        const double width = cdf[i + 1] - cdf[i];
+        return {i, width > 0.0 ? std::clamp((u - cdf[i]) / width, 0.0, 1.0) : 0.5};
     }
 
-    std::vector<Capsule> capsules_;
-    double depth_um_, tail_scale_;
+    Vec2 origin_;  // the grid's lower corner, µm
+    double cell_um_;
+    std::size_t nx_ = 0, ny_ = 0;
+    std::vector<double> cell_density_;  // µm⁻², [iy · nx + ix]
+    std::vector<double> row_cdf_;       // ny + 1
+    std::vector<double> column_cdf_;    // per row, nx + 1
+    double tail_scale_;
 };
 
 // The two strategies' weights (goniometer.h, "connect_lights"): the balance heuristic between
@@ -281,8 +331,15 @@ public:
                        (kPi * c.beam_radius_um * c.beam_radius_um)),
           walks_per_quantum_(static_cast<double>(c.connected_walks_per_pass()) /
                              static_cast<double>(c.quanta_per_pass)) {
+        // The views' grids in parallel (0.4 s for the rock dove's 61 views on one core).
+        std::vector<std::optional<ConnectedStarts>> built(views.size());
+        const auto n = static_cast<std::ptrdiff_t>(views.size());
+#pragma omp parallel for schedule(dynamic)
+        for (std::ptrdiff_t v = 0; v < n; ++v)
+            built[static_cast<std::size_t>(v)].emplace(c, views[static_cast<std::size_t>(v)],
+                                                       depth_um);
         for (std::size_t v = 0; v < views.size(); ++v) {
-            starts_.emplace_back(c, views[v], depth_um);
+            starts_.push_back(std::move(*built[v]));
             view_axis_z_.push_back(views[v].wi.z());
             for (std::size_t p : views[v].pairs) view_of_pair_[p] = v;
         }
@@ -303,8 +360,7 @@ public:
     double light_side(std::size_t pair, const SpectralScatterEvent& e) const {
         if (!(e.lit_diffuse_density > 0.0)) return 1.0;
         const std::size_t v = view_of_pair_[pair];
-        const double rho =
-            ratio(e.lit_diffuse_density, v, starts_[v].density(e.exit_position_um, e.wo));
+        const double rho = ratio(e.lit_diffuse_density, v, starts_[v].density(e.exit_position_um));
         return rho / (rho + walks_per_quantum_);
     }
 
@@ -556,20 +612,21 @@ public:
         }
     }
 
-    // The walk's values added (and squared) into acc, play_item's layout; then cleared.
-    void add_to(std::vector<double>& acc) {
+    // A block of n walks' sums S added into acc, play_item's layout, as S and S² / n (so that the
+    // blocks' spread gives the variance, estimate_from_halves); then cleared.
+    void add_block_to(std::vector<double>& acc, double n) {
         const std::size_t stride = m_ * (2 + 2 * nlobes_);
         for (std::size_t j : list_) {
             for (std::size_t k = 0; k < nl_; ++k) {
                 double* a = acc.data() + k * stride;
                 double& x = x_[j * nl_ + k];
                 a[j] += x;
-                a[m_ + j] += x * x;
+                a[m_ + j] += x * x / n;
                 x = 0.0;
                 for (std::size_t l = 0; l < nlobes_; ++l) {
                     double& xl = lobe_x_[(j * nlobes_ + l) * nl_ + k];
                     a[(2 + l) * m_ + j] += xl;
-                    a[(2 + nlobes_ + l) * m_ + j] += xl * xl;
+                    a[(2 + nlobes_ + l) * m_ + j] += xl * xl / n;
                     xl = 0.0;
                 }
             }
@@ -601,21 +658,32 @@ void play_connected_item(const Scatterer& scatterer, const GoniometerConfig& con
     std::vector<Vec3d> lights;
     for (std::size_t p : view.pairs) lights.push_back(config.pairs[p].wi);
     const PathTracing& paths = checked_path_tracing(scatterer);
-    ConnectedStarts starts = weights.starts(item.group);
+    const ConnectedStarts& starts = weights.starts(item.group);
     ConnectedCells cells(config, view, nlobes);
     const double beam_area = kPi * config.beam_radius_um * config.beam_radius_um;
     const std::uint64_t seed = derive_seed(config.seed, "goniometer/connected-quantum", item.group);
-    for (std::uint64_t q = item.first; q < item.first + item.count; ++q) {
-        Rng rng(seed, q);
-        // The direction first, then the start for it: f̂ = w / (π r² p(x | ω)) (goniometer.h).
-        const Vec3d wo =
-            draw_cone_direction_by_projected_area(view.wi, config.detector_half_angle_rad, rng);
-        starts.aim(wo);
-        const Vec2 start = starts.draw(rng);
-        const double density = starts.density(start);
-        cells.begin(1.0 / (beam_area * density), weights, weights.ratio(1.0, item.group, density));
-        paths.trace_connected(wo, config.wavelengths_nm, start, rng, lights, cells);
-        cells.add_to(acc);
+    const std::uint64_t block_seed =
+        derive_seed(config.seed, "goniometer/connected-block", item.group);
+    for (std::uint64_t first = item.first; first < item.first + item.count;
+         first += kConnectedBlock) {
+        const std::uint64_t end = std::min(first + kConnectedBlock, item.first + item.count);
+        // The block's stratified points (sim/scatterer/stratified.h): dimensions 0 and 1 the
+        // grid's point, 2 and 3 the direction in the cone.
+        Rng block_rng(block_seed, first);
+        const ScrambledSobolGroup block(block_rng);
+        for (std::uint64_t q = first; q < end; ++q) {
+            Rng rng(seed, q);
+            const auto i = static_cast<std::uint32_t>(q - first);
+            // The direction by projected solid angle, then the start: f̂ = w / (π r² p(x)).
+            const Vec3d wo = cone_direction_from_square(view.wi, config.detector_half_angle_rad,
+                                                        block.uniform(i, 2), block.uniform(i, 3));
+            const Vec2 start = starts.draw(Vec2(block.uniform(i, 0), block.uniform(i, 1)), rng);
+            const double density = starts.density(start);
+            cells.begin(1.0 / (beam_area * density), weights,
+                        weights.ratio(1.0, item.group, density));
+            paths.trace_connected(wo, config.wavelengths_nm, start, rng, lights, cells);
+        }
+        cells.add_block_to(acc, static_cast<double>(end - first));
     }
 }
 
@@ -678,11 +746,14 @@ std::vector<std::uint8_t> signal_cells(const std::vector<double>& value, std::si
 }
 
 // The same from two independent halves (connect_lights): the light side's sums of n quanta per
-// light direction and the detector side's of n_connected walks per view direction; values add,
-// and so do the variances of the means.
+// light direction and the detector side's of n_connected walks in `blocks` stratified blocks per
+// view direction (its Σx² holds Σ S_b² / n_b over the blocks' sums S_b of n_b walks); values add,
+// and so do the variances of the means. The detector side's variance is the blocks' spread:
+// Var(S_b) ≈ n_b σ², σ² estimated by Σ (S_b − n_b m)² / n_b / (B − 1), and the mean's is σ² / N.
 void estimate_from_halves(const Sums& light, std::uint64_t n, const Sums& detector,
-                          std::uint64_t n_connected, BrdfRecord& r) {
+                          std::uint64_t n_connected, std::uint64_t blocks, BrdfRecord& r) {
     const double dn = static_cast<double>(n), dc = static_cast<double>(n_connected);
+    const double spread_dof = static_cast<double>(blocks) - 1.0;
     auto combine = [&](const std::vector<double>& s1, const std::vector<double>& q1,
                        const std::vector<double>& s2, const std::vector<double>& q2,
                        std::vector<double>& value, std::vector<double>& error) {
@@ -690,7 +761,11 @@ void estimate_from_halves(const Sums& light, std::uint64_t n, const Sums& detect
         error.assign(s1.size(), 0.0);
         for (std::size_t i = 0; i < s1.size(); ++i) {
             const auto [m1, v1] = mean_and_variance(s1[i], q1[i], dn);
-            const auto [m2, v2] = mean_and_variance(s2[i], q2[i], dc);
+            const double m2 = s2[i] / dc;
+            // One block alone says nothing of the spread.
+            const double v2 = spread_dof > 0.0
+                                  ? std::max(0.0, q2[i] - dc * m2 * m2) / (spread_dof * dc)
+                                  : std::numeric_limits<double>::infinity();
             value[i] = m1 + m2;
             error[i] = std::sqrt(v1 + v2);
         }
@@ -749,10 +824,15 @@ Vec3d cone_direction_by_projected_area(const Vec3d& axis, double half_angle_rad,
     return Vec3d(p.x(), p.y(), std::sqrt(std::max(0.0, 1.0 - p.squaredNorm())));
 }
 
-Vec3d draw_cone_direction_by_projected_area(const Vec3d& axis, double half_angle_rad, Rng& rng) {
-    const double disc_r = std::sqrt(rng.uniform()), disc_g = 2.0 * kPi * rng.uniform();
+Vec3d cone_direction_from_square(const Vec3d& axis, double half_angle_rad, double u, double v) {
+    const double disc_r = std::sqrt(u), disc_g = 2.0 * kPi * v;
     return cone_direction_by_projected_area(axis, half_angle_rad, disc_r * std::cos(disc_g),
                                             disc_r * std::sin(disc_g));
+}
+
+Vec3d draw_cone_direction_by_projected_area(const Vec3d& axis, double half_angle_rad, Rng& rng) {
+    const double u = rng.uniform();
+    return cone_direction_from_square(axis, half_angle_rad, u, rng.uniform());
 }
 
 void GoniometerConfig::validate() const {
@@ -1175,9 +1255,11 @@ public:
     PassEstimate estimate(int passes) override {
         const std::uint64_t n = static_cast<std::uint64_t>(passes) * r_.config.quanta_per_pass;
         if (r_.lights_connected) {
-            estimate_from_halves(
-                sums_, n, connected_sums_,
-                static_cast<std::uint64_t>(passes) * r_.config.connected_walks_per_pass(), r_);
+            const std::uint64_t walks = r_.config.connected_walks_per_pass();
+            const auto p = static_cast<std::uint64_t>(passes);
+            // kChunk is a multiple of the block, so a pass's blocks are ⌈walks / block⌉.
+            estimate_from_halves(sums_, n, connected_sums_, p * walks,
+                                 p * ((walks + kConnectedBlock - 1) / kConnectedBlock), r_);
         } else {
             estimate_from_sums(sums_, n, r_);
         }
@@ -1367,10 +1449,13 @@ void write_instrument(record::Hdf5Writer& h5, const BrdfRecord& r) {
     if (r.estimator_used == Estimator::photon) {
         write_path_options(h5, r.wavelength_paths_shared, r.paths_split, r.reflections_split);
         if (r.lights_connected) {
-            h5.set_attribute("/instrument", "connected_lights",
-                             "detector-side walks connected to the lights at their first diffuse "
-                             "event, weighed against the photon quanta that make the same paths by "
-                             "the balance heuristic (virtual_gonio/goniometer.h, connect_lights)");
+            h5.set_attribute(
+                "/instrument", "connected_lights",
+                "detector-side walks connected to the lights at their first diffuse "
+                "event, weighed against the photon quanta that make the same paths by "
+                "the balance heuristic; their starts stratified in blocks of 64, whose "
+                "spread gives the standard error (virtual_gonio/goniometer.h, "
+                "connect_lights)");
             h5.set_attribute("/instrument", "connected_quanta_per_pass",
                              static_cast<double>(c.connected_walks_per_pass()));
         }

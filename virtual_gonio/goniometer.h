@@ -75,18 +75,32 @@
 //       1 for every path both sides make, so the sum is unbiased. On the rock dove's bench (α = 5°,
 //       r = 60 µm, 2000 quanta and 320 walks, g = 0.25) ρ is about 0.005 where the widened
 //       footprints overlap (π r² p ≈ 0.2), so w_L is about 3 %: the connections carry those paths.
-//       p(x | ω) = (1 − ε) (1/m) Σ_j 1[x ∈ E_j] / |E_j| + ε s / (2π (s² + |x|²)^{3/2}): E_j where
-//       the walk along −ω sees light j's beam at the depths 0 … D of the scene
-//       (PathTracing::depth_um()): the footprint ellipse (semi-axes r/cos θ_i + d along the light's
-//       azimuth and r + d across, d = r: room for the light's lateral travel in the patch) swept
-//       by h (t_ω − t_i), h ∈ [0, D], t = ω_xy/ω_z (a capsule in the ellipse's unit coordinates);
-//       and a heavy-tailed density over the whole plane (s = 2r + D, ε = 0.1) so that every start
-//       that could connect into a footprint has p > 0 (unbiased for any scene, whatever its
-//       extent).
-//       Walk q of view v draws from Rng(derive_seed(seed, "goniometer/connected-quantum", v), q).
-//    Each half's standard error is its own sample variance; the cell's is their quadrature sum
-//    (the halves are independent). Lobes likewise. (Until 2026-12-01 the halves partitioned the
-//    paths, w_L ∈ {0, 1}; its checkpoints do not resume into the weighted estimator.)
+//       p(x | ω) = p(x) = (1 − ε) g(x) + ε s / (2π (s² + |x|²)^{3/2}), the same for every ω of the
+//       cone: g piecewise constant on a grid of r/8 cells, each cell the mean over the m lights of
+//       1[c ∈ E_j] / |E_j| at its centre c, averaged over the cone's axis and four directions on
+//       its rim, normalised. E_j: where a walk along −ω sees light j's beam at the depths 0 … D of
+//       the scene (PathTracing::depth_um()): the footprint ellipse (semi-axes r/cos θ_i + d along
+//       the light's azimuth and r + d across, d = r: room for the light's lateral travel in the
+//       patch) swept by h (t_ω − t_i), h ∈ [0, D], t = ω_xy/ω_z (a capsule in the ellipse's unit
+//       coordinates). The heavy-tailed density over the whole plane (s = 2r + D, ε = 0.1) gives
+//       every start that could connect into a footprint p > 0 (unbiased for any scene, whatever
+//       its extent).
+//       Stratified starts: a view's walks come in blocks of 64 (of a pass's walks, in order).
+//       Walk i of a block takes point i of the block's Owen-scrambled Sobol' group
+//       (sim/scatterer/stratified.h): dimensions 0 and 1 through g's inverse CDF (rows, then the
+//       column within the row) for its start on the grid, 2 and 3 for its direction in the cone.
+//       Each walk alone has the densities above, and the block's starts cover the grid evenly, so
+//       how many of them see a light's footprint hardly varies (on the rock dove that count was
+//       most of the connections' variance). Walk q of view v
+//       draws from Rng(derive_seed(seed, "goniometer/connected-quantum", v), q), the block that
+//       starts at walk b from Rng(derive_seed(seed, "goniometer/connected-block", v), b).
+//    The light side's standard error is its per-quantum sample variance; the detector side's is
+//    the spread of its independent blocks' sums (the walks within a block are not independent):
+//    σ² = Σ_b (S_b − n_b m)² / n_b / (B − 1) over B blocks of n_b walks, the mean's variance σ²/N
+//    (infinite with one block). The cell's is their quadrature sum (the halves are independent).
+//    Lobes likewise. (Until 2026-12-01 the halves partitioned the paths, w_L ∈ {0, 1}; later that
+//    day the starts, drawn until then one by one from a mixture of the capsules aimed at each ω,
+//    became the stratified blocks. Checkpoints of the earlier runs do not resume into this one.)
 //  - eval: for scatterers that can evaluate f, the cell's average by cubature; its error
 //    is estimated against the rule with half the rings. Deterministic. view_cone: a
 //    product rule over the detector cone (cosine-weighted; `eval_rings` Gauss rings in
@@ -130,6 +144,8 @@ Aperture parse_aperture(std::string_view text, std::string_view key);
 // angle, density cos θ / (π sin²α cos θ_axis). See "Aperture" above.
 Vec3d cone_direction_by_projected_area(const Vec3d& axis, double half_angle_rad, double d1,
                                        double d2);
+// The same from two numbers of [0, 1): the disc's point at radius √u and angle 2πv.
+Vec3d cone_direction_from_square(const Vec3d& axis, double half_angle_rad, double u, double v);
 // The same with a point uniform in the disc from two uniforms of rng (radius first).
 Vec3d draw_cone_direction_by_projected_area(const Vec3d& axis, double half_angle_rad, Rng& rng);
 
