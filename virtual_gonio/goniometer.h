@@ -91,9 +91,9 @@
 //       column within the row) for its start on the grid, 2 and 3 for its direction in the cone.
 //       Each walk alone has the densities above, and the block's starts cover the grid evenly, so
 //       how many of them see a light's footprint hardly varies (on the rock dove that count was
-//       most of the connections' variance). Walk q of view v
-//       draws from Rng(derive_seed(seed, "goniometer/connected-quantum", v), q), the block that
-//       starts at walk b from Rng(derive_seed(seed, "goniometer/connected-block", v), b).
+//       most of the connections' variance). Walk q of view v draws from
+//       Rng(derive_seed(seed, "goniometer/connected-quantum", v), q), the block that starts at
+//       walk b from Rng(derive_seed(seed, "goniometer/connected-block", v), b).
 //    The light side's standard error is its per-quantum sample variance; the detector side's is
 //    the spread of its independent blocks' sums (the walks within a block are not independent):
 //    σ² = Σ_b (S_b − n_b m)² / n_b / (B − 1) over B blocks of n_b walks, the mean's variance σ²/N
