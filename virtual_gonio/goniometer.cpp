@@ -166,84 +166,10 @@ public:
     ConnectedStarts(const GoniometerConfig& c, const Group& view, double depth_um)
         : cell_um_(c.beam_radius_um / kCellsPerRadius),
           tail_scale_(2.0 * c.beam_radius_um + depth_um) {
-        const double r = c.beam_radius_um, d = r;  // d: room for the light's lateral travel
-        std::vector<Capsule> capsules;
-        for (std::size_t p : view.pairs) {
-            const Vec3d& wi = c.pairs[p].wi;
-            const double across = std::hypot(wi.x(), wi.y());
-            Capsule e;
-            e.along = across > 0.0 ? Vec2(wi.x() / across, wi.y() / across) : Vec2(1.0, 0.0);
-            e.a = r / wi.z() + d;  // the footprint's semi-axis along the light's azimuth, + d
-            e.b = r + d;           // across, + d
-            e.light_slope = Vec2(wi.x(), wi.y()) / wi.z();
-            capsules.push_back(e);
-        }
-        // The view's axis and four directions on its cone's rim.
-        std::vector<Vec3d> directions{view.wi};
-        for (const auto& [d1, d2] : {std::pair{1.0, 0.0}, {-1.0, 0.0}, {0.0, 1.0}, {0.0, -1.0}})
-            directions.push_back(
-                cone_direction_by_projected_area(view.wi, c.detector_half_angle_rad, d1, d2));
-        // Each swept capsule (capsule, segment per direction) with its bounding box; the grid's
-        // extent is theirs.
-        struct Swept {
-            const Capsule* capsule;
-            Vec2 segment, lo, hi;
-        };
-        std::vector<Swept> swept;
-        Vec2 lo = Vec2::Constant(std::numeric_limits<double>::infinity()), hi = -lo;
-        for (const Capsule& e : capsules) {
-            const Vec2 half(std::hypot(e.a * e.along.x(), e.b * e.along.y()),
-                            std::hypot(e.a * e.along.y(), e.b * e.along.x()));
-            for (const Vec3d& wo : directions) {
-                const Vec2 shift = depth_um * (Vec2(wo.x(), wo.y()) / wo.z() - e.light_slope);
-                swept.push_back({&e, to_unit(e, shift), shift.cwiseMin(Vec2::Zero()) - half,
-                                 shift.cwiseMax(Vec2::Zero()) + half});
-                lo = lo.cwiseMin(swept.back().lo);
-                hi = hi.cwiseMax(swept.back().hi);
-            }
-        }
-        origin_ = lo;
-        nx_ = std::max<std::size_t>(
-            1, static_cast<std::size_t>(std::ceil((hi.x() - lo.x()) / cell_um_)));
-        ny_ = std::max<std::size_t>(
-            1, static_cast<std::size_t>(std::ceil((hi.y() - lo.y()) / cell_um_)));
-        cell_density_.assign(nx_ * ny_, 0.0);
-        // Each capsule's density added at the centres of the cells in its box.
-        auto cell_of = [&](double x, std::size_t n) {
-            return std::min(n - 1, static_cast<std::size_t>(std::max(0.0, x / cell_um_)));
-        };
-        double total = 0.0;
-        for (const Swept& w : swept) {
-            const Capsule& e = *w.capsule;
-            const double density = 1.0 / (e.a * e.b * (kPi + 2.0 * w.segment.norm()));
-            const Vec2 from = w.lo - origin_, to = w.hi - origin_;
-            for (std::size_t iy = cell_of(from.y(), ny_); iy <= cell_of(to.y(), ny_); ++iy)
-                for (std::size_t ix = cell_of(from.x(), nx_); ix <= cell_of(to.x(), nx_); ++ix) {
-                    const Vec2 x = origin_ + cell_um_ * Vec2(static_cast<double>(ix) + 0.5,
-                                                             static_cast<double>(iy) + 0.5);
-                    if (inside(w.segment, to_unit(e, x))) {
-                        cell_density_[iy * nx_ + ix] += density;
-                        total += density;
-                    }
-                }
-        }
-        // Normalised to a density (µm⁻²); the CDFs of the rows and of the columns within each row.
-        row_cdf_.assign(ny_ + 1, 0.0);
-        column_cdf_.assign(ny_ * (nx_ + 1), 0.0);
-        for (std::size_t iy = 0; iy < ny_; ++iy) {
-            double row = 0.0;
-            for (std::size_t ix = 0; ix < nx_; ++ix) {
-                double& density = cell_density_[iy * nx_ + ix];
-                density /= total * cell_um_ * cell_um_;
-                row += density;
-                column_cdf_[iy * (nx_ + 1) + ix + 1] = row;
-            }
-            for (std::size_t ix = 1; ix <= nx_; ++ix)
-                if (row > 0.0) column_cdf_[iy * (nx_ + 1) + ix] /= row;
-            row_cdf_[iy + 1] = row_cdf_[iy] + row;
-        }
-        const double rows = row_cdf_.back();  // 1 / h² up to round-off: made exactly 1
-        for (double& v : row_cdf_) v /= rows;
+        const std::vector<Swept> swept = swept_capsules(c, view, depth_um);
+        place_grid(swept);
+        const double total = rasterise(swept);
+        build_cdfs(total);
     }
 
     // A start from one number of rng (the tail's share) and either the grid's point u of the
@@ -285,6 +211,98 @@ private:
         double a, b;  // semi-axes along and across, µm
         Vec2 light_slope;
     };
+    // A capsule swept for one direction: its segment (unit coordinates) and bounding box (µm).
+    struct Swept {
+        Capsule capsule;
+        Vec2 segment, lo, hi;
+    };
+
+    // Each light's capsule swept for the view's axis and four directions on its cone's rim.
+    static std::vector<Swept> swept_capsules(const GoniometerConfig& c, const Group& view,
+                                             double depth_um) {
+        const double r = c.beam_radius_um, d = r;  // d: room for the light's lateral travel
+        std::vector<Vec3d> directions{view.wi};
+        for (const auto& [d1, d2] : {std::pair{1.0, 0.0}, {-1.0, 0.0}, {0.0, 1.0}, {0.0, -1.0}})
+            directions.push_back(
+                cone_direction_by_projected_area(view.wi, c.detector_half_angle_rad, d1, d2));
+        std::vector<Swept> swept;
+        for (std::size_t p : view.pairs) {
+            const Vec3d& wi = c.pairs[p].wi;
+            const double across = std::hypot(wi.x(), wi.y());
+            Capsule e;
+            e.along = across > 0.0 ? Vec2(wi.x() / across, wi.y() / across) : Vec2(1.0, 0.0);
+            e.a = r / wi.z() + d;  // the footprint's semi-axis along the light's azimuth, + d
+            e.b = r + d;           // across, + d
+            e.light_slope = Vec2(wi.x(), wi.y()) / wi.z();
+            const Vec2 half(std::hypot(e.a * e.along.x(), e.b * e.along.y()),
+                            std::hypot(e.a * e.along.y(), e.b * e.along.x()));
+            for (const Vec3d& wo : directions) {
+                const Vec2 shift = depth_um * (Vec2(wo.x(), wo.y()) / wo.z() - e.light_slope);
+                swept.push_back({e, to_unit(e, shift), shift.cwiseMin(Vec2::Zero()) - half,
+                                 shift.cwiseMax(Vec2::Zero()) + half});
+            }
+        }
+        return swept;
+    }
+
+    // The grid over every swept capsule's box.
+    void place_grid(const std::vector<Swept>& swept) {
+        Vec2 lo = Vec2::Constant(std::numeric_limits<double>::infinity()), hi = -lo;
+        for (const Swept& w : swept) {
+            lo = lo.cwiseMin(w.lo);
+            hi = hi.cwiseMax(w.hi);
+        }
+        origin_ = lo;
+        nx_ = std::max<std::size_t>(
+            1, static_cast<std::size_t>(std::ceil((hi.x() - lo.x()) / cell_um_)));
+        ny_ = std::max<std::size_t>(
+            1, static_cast<std::size_t>(std::ceil((hi.y() - lo.y()) / cell_um_)));
+    }
+
+    // Each swept capsule's density added at the centres of the cells in its box; the sum of all.
+    double rasterise(const std::vector<Swept>& swept) {
+        cell_density_.assign(nx_ * ny_, 0.0);
+        auto cell_of = [&](double x, std::size_t n) {
+            return std::min(n - 1, static_cast<std::size_t>(std::max(0.0, x / cell_um_)));
+        };
+        double total = 0.0;
+        for (const Swept& w : swept) {
+            const Capsule& e = w.capsule;
+            const double density = 1.0 / (e.a * e.b * (kPi + 2.0 * w.segment.norm()));
+            const Vec2 from = w.lo - origin_, to = w.hi - origin_;
+            for (std::size_t iy = cell_of(from.y(), ny_); iy <= cell_of(to.y(), ny_); ++iy)
+                for (std::size_t ix = cell_of(from.x(), nx_); ix <= cell_of(to.x(), nx_); ++ix) {
+                    const Vec2 x = origin_ + cell_um_ * Vec2(static_cast<double>(ix) + 0.5,
+                                                             static_cast<double>(iy) + 0.5);
+                    if (inside(w.segment, to_unit(e, x))) {
+                        cell_density_[iy * nx_ + ix] += density;
+                        total += density;
+                    }
+                }
+        }
+        return total;
+    }
+
+    // The cells normalised to a density (µm⁻²); the CDFs of the rows and of the columns within
+    // each row.
+    void build_cdfs(double total) {
+        row_cdf_.assign(ny_ + 1, 0.0);
+        column_cdf_.assign(ny_ * (nx_ + 1), 0.0);
+        for (std::size_t iy = 0; iy < ny_; ++iy) {
+            double row = 0.0;
+            for (std::size_t ix = 0; ix < nx_; ++ix) {
+                double& density = cell_density_[iy * nx_ + ix];
+                density /= total * cell_um_ * cell_um_;
+                row += density;
+                column_cdf_[iy * (nx_ + 1) + ix + 1] = row;
+            }
+            for (std::size_t ix = 1; ix <= nx_; ++ix)
+                if (row > 0.0) column_cdf_[iy * (nx_ + 1) + ix] /= row;
+            row_cdf_[iy + 1] = row_cdf_[iy] + row;
+        }
+        const double rows = row_cdf_.back();  // 1 / h² up to round-off: made exactly 1
+        for (double& v : row_cdf_) v /= rows;
+    }
     static Vec2 to_unit(const Capsule& e, const Vec2& x) {
         return {x.dot(e.along) / e.a, (e.along.x() * x.y() - e.along.y() * x.x()) / e.b};
     }
