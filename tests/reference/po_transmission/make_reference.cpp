@@ -3,11 +3,12 @@
 // suite's own full-wave level (sim/fullwave). Not run in CI (about an hour on one core for the
 // two main cases); the committed CSVs are what the tests read.
 //   plumage_po_transmission_reference --out DIR --case CASE [--resolution PX_PER_UM]
-//       [--lateral-scale S] [--tilt DEG] [--lambda NM ...] [--single-grid]
+//       [--lateral-scale S] [--tilt DEG] [--raise UM] [--lambda NM ...] [--single-grid]
 // CASE: film_over_melanin, semi_transparent_body, free_arc, free_flat_film or
 // flat_film_over_melanin (the last three, any --lateral-scale other than 1, which stretches the
-// case along x, and --tilt, which turns flat_film_over_melanin's film, are the widths study's;
-// such a case is written as CASE_xS, CASE_tiltT or CASE_xS_tiltT). By default the run takes
+// case along x, --tilt, which turns flat_film_over_melanin's film, and --raise, which lifts it,
+// are the widths study's; such a case is written as CASE_xS, CASE_tiltT, CASE_raiseR or their
+// combination, in that order). By default the run takes
 // 450/550/650 nm on two grids, RESOLUTION and 1.5 × RESOLUTION; --single-grid keeps RESOLUTION
 // only. The files are written whole at the end.
 #include <cstdio>
@@ -31,7 +32,7 @@ int main(int argc, char** argv) {
     CLI::App app{"Full-wave reference for physical optics through transparent interfaces"};
     std::filesystem::path out;
     std::string name;
-    double coarse = 40.0, lateral = 1.0, tilt = 0.0;
+    double coarse = 40.0, lateral = 1.0, tilt = 0.0, raise = 0.0;
     std::vector<double> lambdas = ref::kLambdasNm;
     bool single_grid = false;
     app.add_option("--out", out, "output folder")->required();
@@ -45,6 +46,8 @@ int main(int argc, char** argv) {
         ->check(CLI::Range(1.0, 10.0));
     app.add_option("--tilt", tilt, "flat_film_over_melanin's film turned, degrees")
         ->check(CLI::Range(-20.0, 20.0));
+    app.add_option("--raise", raise, "flat_film_over_melanin's film lifted, µm")
+        ->check(CLI::Range(0.0, 5.0));
     app.add_option("--lambda", lambdas, "wavelengths, nm")->check(CLI::Range(380.0, 780.0));
     app.add_flag("--single-grid", single_grid, "one grid, --resolution");
     CLI11_PARSE(app, argc, argv);
@@ -54,14 +57,15 @@ int main(int argc, char** argv) {
     if (name == "semi_transparent_body") section = ref::semi_transparent_body_fullwave(lateral);
     if (name == "free_arc") section = ref::free_arc_fullwave(lateral);
     if (name == "free_flat_film") section = ref::free_flat_film_fullwave(lateral);
-    if (tilt != 0.0 && name != "flat_film_over_melanin") {
-        std::fprintf(stderr, "--tilt applies to flat_film_over_melanin only\n");
+    if ((tilt != 0.0 || raise != 0.0) && name != "flat_film_over_melanin") {
+        std::fprintf(stderr, "--tilt and --raise apply to flat_film_over_melanin only\n");
         return 2;
     }
     if (name == "flat_film_over_melanin")
-        section = ref::flat_film_over_melanin_fullwave(lateral, tilt);
+        section = ref::flat_film_over_melanin_fullwave(lateral, tilt, raise);
     std::string key = lateral == 1.0 ? name : fmt::format("{}_x{:g}", name, lateral);
     if (tilt != 0.0) key += fmt::format("_tilt{:g}", tilt);
+    if (raise != 0.0) key += fmt::format("_raise{:g}", raise);
 
     constexpr double kDeg = std::numbers::pi / 180.0;
     std::vector<double> theta;

@@ -94,20 +94,23 @@ inline sim::fullwave::CrossSection2d free_flat_film_fullwave(double lateral) {
     return {{{sim::fullwave::polygon(film), optics::keratin()}}};
 }
 
-// The flat film's top surface: 6.4 s µm long, centred at the arc's top (x = 0, z = 1.34 µm),
-// turned by `tilt_deg` (counter-clockwise) about that centre; its normal, and its two ends.
+// The flat film's top surface: 6.4 s µm long, centred at the arc's top (x = 0, z = 1.34 µm)
+// lifted by `raise_um`, turned by `tilt_deg` (counter-clockwise) about that centre; its normal,
+// and its two ends. (Lifted, a long film can be turned further without meeting the layer.)
 struct FlatFilmTop {
     Eigen::Vector2d normal, left, right;
 };
-inline FlatFilmTop flat_film_top(double lateral, double tilt_deg) {
+inline FlatFilmTop flat_film_top(double lateral, double tilt_deg, double raise_um = 0.0) {
     const double h = 3.2 * lateral, t = tilt_deg * std::numbers::pi / 180.0;
-    const Eigen::Vector2d centre(0.0, kArcCentreZUm + kArcSemiZUm), along(std::cos(t), std::sin(t));
+    const Eigen::Vector2d centre(0.0, kArcCentreZUm + kArcSemiZUm + raise_um),
+        along(std::cos(t), std::sin(t));
     return {{-std::sin(t), std::cos(t)}, centre - h * along, centre + h * along};
 }
 
 inline sim::fullwave::CrossSection2d flat_film_over_melanin_fullwave(double lateral,
-                                                                     double tilt_deg = 0.0) {
-    const FlatFilmTop top = flat_film_top(lateral, tilt_deg);
+                                                                     double tilt_deg = 0.0,
+                                                                     double raise_um = 0.0) {
+    const FlatFilmTop top = flat_film_top(lateral, tilt_deg, raise_um);
     const double w = kLayerHalfWidthUm * lateral;
     const std::vector<Eigen::Vector2d> film{top.left - kFilmUm * top.normal,
                                             top.right - kFilmUm * top.normal, top.right, top.left};
@@ -170,8 +173,9 @@ inline sim::wave::CrossSection2d free_flat_film_hybrid(double lateral) {
 }
 
 inline sim::wave::CrossSection2d flat_film_over_melanin_hybrid(double lateral,
-                                                               double tilt_deg = 0.0) {
-    const FlatFilmTop top = flat_film_top(lateral, tilt_deg);
+                                                               double tilt_deg = 0.0,
+                                                               double raise_um = 0.0) {
+    const FlatFilmTop top = flat_film_top(lateral, tilt_deg, raise_um);
     const sim::wave::SurfaceStack2d bare{{}, optics::melanin()};
     const double w = kLayerHalfWidthUm * lateral, d = kLayerThicknessUm;
     return {{straight_curve(top.left, top.right, top.normal, keratin_sheet_stack()),
