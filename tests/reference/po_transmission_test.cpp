@@ -323,10 +323,11 @@ double relative_error(const std::pair<Quantities, Quantities>& po_fw, double Qua
 // spike within 10 % at 1×; turned by ±3° … ±12° against the layer the spike misses in TM by
 // 20–37 % at 1×, and 3× long, turned by ±3° (or lifted by 1 µm and turned by ±6°, the 3× arc's
 // steepest slope), it is within target again: the tilted film's miss is its ends, and the 3×
-// arc's spike miss at 550 nm is its curvature (at 450 nm the 3× arc is within every target). The 1
-// µm melanin ellipse stretched 2× and 3× is within every power target at 450–650 nm: its misses at
-// 1× are its tips. Physical optics against full wave per (section, polarisation, lateral scale):
-// the section's name, with _tiltT for a turned film and @λ for a wavelength other than 550 nm.
+// arc's spike miss at 550 nm is its curvature (at 450 nm the 3× arc is within every target).
+// The 1 µm melanin ellipse stretched 2× and 3× is within every power target at 450–650 nm: its
+// misses at 1× are its tips. Physical optics against full wave per (section, polarisation,
+// lateral scale): the section's name, with _tiltT for a turned film, _raiseR for a lifted one and
+// @λ for a wavelength other than 550 nm.
 using Compared =
     std::map<std::tuple<std::string, std::string, double>, std::pair<Quantities, Quantities>>;
 

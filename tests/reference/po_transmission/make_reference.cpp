@@ -8,9 +8,9 @@
 // flat_film_over_melanin (the last three, any --lateral-scale other than 1, which stretches the
 // case along x, --tilt, which turns flat_film_over_melanin's film, and --raise, which lifts it,
 // are the widths study's; such a case is written as CASE_xS, CASE_tiltT, CASE_raiseR or their
-// combination, in that order). By default the run takes
-// 450/550/650 nm on two grids, RESOLUTION and 1.5 × RESOLUTION; --single-grid keeps RESOLUTION
-// only. The files are written whole at the end.
+// combination, in that order). By default the run takes 450/550/650 nm on two grids, RESOLUTION
+// and 1.5 × RESOLUTION; --single-grid keeps RESOLUTION only. The files are written whole at the
+// end.
 #include <cstdio>
 #include <filesystem>
 #include <fstream>
