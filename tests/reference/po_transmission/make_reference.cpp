@@ -6,11 +6,11 @@
 //       [--lateral-scale S] [--tilt DEG] [--raise UM] [--lambda NM ...] [--single-grid]
 // CASE: film_over_melanin, semi_transparent_body, free_arc, free_flat_film or
 // flat_film_over_melanin (the last three, any --lateral-scale other than 1, which stretches the
-// case along x, --tilt, which turns flat_film_over_melanin's film, and --raise, which lifts it,
-// are the widths study's; such a case is written as CASE_xS, CASE_tiltT, CASE_raiseR or their
-// combination, in that order). By default the run takes 450/550/650 nm on two grids, RESOLUTION
-// and 1.5 × RESOLUTION; --single-grid keeps RESOLUTION only. The files are written whole at the
-// end.
+// case along x, --tilt, which turns flat_film_over_melanin's film, and --raise, which lifts that
+// film or film_over_melanin's arc, are the widths study's; such a case is written as CASE_xS,
+// CASE_tiltT, CASE_raiseR or their combination, in that order). By default the run takes
+// 450/550/650 nm on two grids, RESOLUTION and 1.5 × RESOLUTION; --single-grid keeps RESOLUTION
+// only. The files are written whole at the end.
 #include <cstdio>
 #include <filesystem>
 #include <fstream>
@@ -46,19 +46,22 @@ int main(int argc, char** argv) {
         ->check(CLI::Range(1.0, 10.0));
     app.add_option("--tilt", tilt, "flat_film_over_melanin's film turned, degrees")
         ->check(CLI::Range(-20.0, 20.0));
-    app.add_option("--raise", raise, "flat_film_over_melanin's film lifted, µm")
+    app.add_option("--raise", raise, "the film (or film_over_melanin's arc) lifted, µm")
         ->check(CLI::Range(0.0, 5.0));
     app.add_option("--lambda", lambdas, "wavelengths, nm")->check(CLI::Range(380.0, 780.0));
     app.add_flag("--single-grid", single_grid, "one grid, --resolution");
     CLI11_PARSE(app, argc, argv);
 
     fw::CrossSection2d section;
-    if (name == "film_over_melanin") section = ref::film_over_melanin_fullwave(lateral);
+    if (name == "film_over_melanin") section = ref::film_over_melanin_fullwave(lateral, raise);
     if (name == "semi_transparent_body") section = ref::semi_transparent_body_fullwave(lateral);
     if (name == "free_arc") section = ref::free_arc_fullwave(lateral);
     if (name == "free_flat_film") section = ref::free_flat_film_fullwave(lateral);
-    if ((tilt != 0.0 || raise != 0.0) && name != "flat_film_over_melanin") {
-        std::fprintf(stderr, "--tilt and --raise apply to flat_film_over_melanin only\n");
+    if ((tilt != 0.0 && name != "flat_film_over_melanin") ||
+        (raise != 0.0 && name != "flat_film_over_melanin" && name != "film_over_melanin")) {
+        std::fprintf(stderr,
+                     "--tilt applies to flat_film_over_melanin only, --raise also to "
+                     "film_over_melanin\n");
         return 2;
     }
     if (name == "flat_film_over_melanin")

@@ -55,7 +55,8 @@ inline geometry::EllipticalArc outer_arc(double lateral = 1.0) {
 // every 0.064 µm in x on each side (100 intervals; its thinnest feature is the film across it, and
 // the vertex spacing was once taken for one, so the reference was drawn this coarse); the chords
 // depart from the ellipse by less than 2e-4 µm (radius of curvature >= 4 µm).
-inline std::shared_ptr<const sim::fullwave::Shape2d> keratin_arc_band(double lateral = 1.0) {
+inline std::shared_ptr<const sim::fullwave::Shape2d> keratin_arc_band(double lateral = 1.0,
+                                                                      double raise_um = 0.0) {
     const geometry::EllipticalArc arc = outer_arc(lateral);
     const double a = kArcSemiXUm * lateral, b = kArcSemiZUm, phi_end = arc.phi1();
     const int steps = static_cast<int>(std::lround(100 * lateral));  // 0.064 µm apart in x
@@ -66,7 +67,7 @@ inline std::shared_ptr<const sim::fullwave::Shape2d> keratin_arc_band(double lat
         const double x = -x_end + 2.0 * x_end * m / steps;
         const double z = b * std::sqrt(1.0 - x * x / (a * a));
         const double phi = std::atan2(x / (a * a), z / (b * b));
-        const Eigen::Vector2d p = arc.point(phi) + Eigen::Vector2d(0.0, kArcCentreZUm);
+        const Eigen::Vector2d p = arc.point(phi) + Eigen::Vector2d(0.0, kArcCentreZUm + raise_um);
         outer.push_back(p);
         inner.push_back(p - kFilmUm * arc.normal(phi));
     }
@@ -75,11 +76,12 @@ inline std::shared_ptr<const sim::fullwave::Shape2d> keratin_arc_band(double lat
     return sim::fullwave::polygon(vertices);
 }
 
-inline sim::fullwave::CrossSection2d film_over_melanin_fullwave(double lateral = 1.0) {
+inline sim::fullwave::CrossSection2d film_over_melanin_fullwave(double lateral = 1.0,
+                                                                double raise_um = 0.0) {
     const double w = kLayerHalfWidthUm * lateral;
     const std::vector<Eigen::Vector2d> layer{
         {-w, -kLayerThicknessUm}, {w, -kLayerThicknessUm}, {w, 0.0}, {-w, 0.0}};
-    return {{{keratin_arc_band(lateral), optics::keratin()},
+    return {{{keratin_arc_band(lateral, raise_um), optics::keratin()},
              {sim::fullwave::polygon(layer), optics::melanin()}}};
 }
 
@@ -143,11 +145,11 @@ inline sim::wave::SurfaceStack2d keratin_sheet_stack() {
     return {{{optics::keratin(), kFilmUm}}, optics::air()};
 }
 
-inline sim::wave::Curve2d arc_sheet(double lateral) {
+inline sim::wave::Curve2d arc_sheet(double lateral, double raise_um = 0.0) {
     const geometry::EllipticalArc arc = outer_arc(lateral);
     sim::wave::Curve2d sheet;
-    sheet.point = [arc](double phi) {
-        return Eigen::Vector2d(arc.point(phi) + Eigen::Vector2d(0.0, kArcCentreZUm));
+    sheet.point = [arc, raise_um](double phi) {
+        return Eigen::Vector2d(arc.point(phi) + Eigen::Vector2d(0.0, kArcCentreZUm + raise_um));
     };
     sheet.normal = [arc](double phi) { return arc.normal(phi); };
     sheet.t0 = arc.phi0();
@@ -156,10 +158,11 @@ inline sim::wave::Curve2d arc_sheet(double lateral) {
     return sheet;
 }
 
-inline sim::wave::CrossSection2d film_over_melanin_hybrid(double lateral = 1.0) {
+inline sim::wave::CrossSection2d film_over_melanin_hybrid(double lateral = 1.0,
+                                                          double raise_um = 0.0) {
     const sim::wave::SurfaceStack2d bare{{}, optics::melanin()};
     const double w = kLayerHalfWidthUm * lateral, d = kLayerThicknessUm;
-    return {{arc_sheet(lateral), straight_curve({-w, 0.0}, {w, 0.0}, {0.0, 1.0}, bare),
+    return {{arc_sheet(lateral, raise_um), straight_curve({-w, 0.0}, {w, 0.0}, {0.0, 1.0}, bare),
              straight_curve({w, 0.0}, {w, -d}, {1.0, 0.0}, bare),
              straight_curve({w, -d}, {-w, -d}, {0.0, -1.0}, bare),
              straight_curve({-w, -d}, {-w, 0.0}, {-1.0, 0.0}, bare)}};
