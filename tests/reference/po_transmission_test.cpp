@@ -273,6 +273,8 @@ struct Widened {
 // 550 nm (README.md).
 constexpr double kArcLiftsUm[] = {0.04, 0.08, 0.16, 0.20, 0.24, 0.28};
 constexpr double kNarrowArcLiftsUm[] = {0.04, 0.08, 0.16, 0.24};
+// The 3× arc at 650 nm, a quarter and a half fringe (0.375 µm) up.
+constexpr double kArcLiftsAt650Um[] = {0.1, 0.19};
 
 std::vector<Widened> widened() {
     std::vector<Widened> out;
@@ -312,6 +314,14 @@ std::vector<Widened> widened() {
                        ref::film_over_melanin_hybrid(3.0, lift),
                        0.0,
                        {550.0},
+                       0.0,
+                       lift});
+    for (const double lift : kArcLiftsAt650Um)
+        out.push_back({"film_over_melanin",
+                       3.0,
+                       ref::film_over_melanin_hybrid(3.0, lift),
+                       0.0,
+                       {650.0},
                        0.0,
                        lift});
     for (const double lift : kNarrowArcLiftsUm)
@@ -356,29 +366,34 @@ double relative_error(const std::pair<Quantities, Quantities>& po_fw, double Qua
 using Compared =
     std::map<std::tuple<std::string, std::string, double>, std::pair<Quantities, Quantities>>;
 
-// Every widened section against its full-wave run (60 px/µm), each printed as a line.
-Compared compare_widened() {
-    auto totals = read_rows(reference_dir() / "widths_totals.csv", 5);
-    auto sigma = read_sigma(reference_dir() / "widths_far_field.csv");
-    totals.merge(read_rows(reference_dir() / "totals.csv", 5));
-    sigma.merge(read_sigma(reference_dir() / "far_field.csv"));
-    constexpr double kLambda = 550.0, kGrid = 60.0;
-    Compared got;
-    for (const Widened& w : widened())
-        for (const double lambda : w.lambdas_nm)
-            for (const std::string pol : {"TE", "TM"}) {
-                const Quantities fw = full_wave_at(totals, sigma, {w.key(), pol, lambda, kGrid});
-                const Quantities po = hybrid(w.section, pol, lambda, w.step_um);
-                std::string name = w.label(w.name);
-                if (lambda != kLambda) name += fmt::format("@{:g}", lambda);
-                got[{name, pol, w.lateral}] = {po, fw};
-                std::string line = fmt::format("{:<18} x{:g} {:+3g}° +{:g} µm {:g} nm {}", w.name,
-                                               w.lateral, w.tilt_deg, w.raise_um, lambda, pol);
-                for (const Line& l : lines())
-                    line += fmt::format("  {} {:+.1f} %", l.name,
-                                        100.0 * relative_error({po, fw}, l.member));
-                std::printf("%s  lobe %+.1f°\n", line.c_str(), po.lobe_deg - fw.lobe_deg);
-            }
+// Every widened section against its full-wave run (60 px/µm), each printed as a line (once).
+const Compared& compare_widened() {
+    static const Compared got = [] {
+        auto totals = read_rows(reference_dir() / "widths_totals.csv", 5);
+        auto sigma = read_sigma(reference_dir() / "widths_far_field.csv");
+        totals.merge(read_rows(reference_dir() / "totals.csv", 5));
+        sigma.merge(read_sigma(reference_dir() / "far_field.csv"));
+        constexpr double kLambda = 550.0, kGrid = 60.0;
+        Compared got;
+        for (const Widened& w : widened())
+            for (const double lambda : w.lambdas_nm)
+                for (const std::string pol : {"TE", "TM"}) {
+                    const Quantities fw =
+                        full_wave_at(totals, sigma, {w.key(), pol, lambda, kGrid});
+                    const Quantities po = hybrid(w.section, pol, lambda, w.step_um);
+                    std::string name = w.label(w.name);
+                    if (lambda != kLambda) name += fmt::format("@{:g}", lambda);
+                    got[{name, pol, w.lateral}] = {po, fw};
+                    std::string line =
+                        fmt::format("{:<18} x{:g} {:+3g}° +{:g} µm {:g} nm {}", w.name, w.lateral,
+                                    w.tilt_deg, w.raise_um, lambda, pol);
+                    for (const Line& l : lines())
+                        line += fmt::format("  {} {:+.1f} %", l.name,
+                                            100.0 * relative_error({po, fw}, l.member));
+                    std::printf("%s  lobe %+.1f°\n", line.c_str(), po.lobe_deg - fw.lobe_deg);
+                }
+        return got;
+    }();
     return got;
 }
 
@@ -517,7 +532,7 @@ void expect_free_film_holds_once_wide(const Compared& got, const std::string& po
 }
 
 TEST(PoTransmissionReference, WiderSectionsBringScatteringExtinctionAndAbsorptionWithinTarget) {
-    const Compared got = compare_widened();
+    const Compared& got = compare_widened();
     for (const std::string pol : {"TE", "TM"}) {
         expect_arc_misses_are_its_ends(got, pol);
         expect_the_tilted_film_misses_the_spike_by_its_ends(got, pol);
@@ -526,6 +541,92 @@ TEST(PoTransmissionReference, WiderSectionsBringScatteringExtinctionAndAbsorptio
         expect_ellipse_misses_are_its_tips(got, pol);
         expect_free_film_holds_once_wide(got, pol);
     }
+}
+
+// Issue 36's acceptance 1 on sections wide enough for the level (README.md, "Issue 36's targets
+// on the wide sections"): the arc over its layer 3× wide (19.2 µm over a layer 21 µm wide) and the
+// melanin ellipse 2× long (10 × 1 µm), at 450, 550 and 650 nm in both polarisations. A quantity is
+// within its target, or, on the arc only, in a "dim window": full wave's spike is below half the
+// brightest of the arc lifted through the fringe of its specular window at that wavelength, and
+// physical optics' spike and back-scattered power are then within 15 % and 12 % of that fringe's
+// brightest values (its error has a fixed size, which a dim window makes large).
+struct WideRow {
+    std::string name, pol;
+    double lambda;
+    std::string quantity;
+    double po, fw, target, window;  // window: full wave's spike / the fringe's brightest (or 1)
+    std::string verdict;            // "yes", "dim window" or "no"
+};
+
+std::vector<WideRow> wide_rows() {
+    const Compared& got = compare_widened();
+    struct Wide {
+        std::string name;
+        double lateral;
+    };
+    const std::map<double, std::vector<double>> lifts{
+        {550.0, {std::begin(kArcLiftsUm), std::end(kArcLiftsUm)}},
+        {650.0, {std::begin(kArcLiftsAt650Um), std::end(kArcLiftsAt650Um)}}};
+    std::vector<WideRow> out;
+    for (const Wide& c : {Wide{"film_over_melanin", 3.0}, Wide{"semi_transparent_body", 2.0}})
+        for (const std::string pol : {"TE", "TM"})
+            for (const double lambda : ref::kLambdasNm) {
+                const std::string at = lambda == 550.0 ? "" : fmt::format("@{:g}", lambda);
+                const auto& po_fw = got.at({c.name + at, pol, c.lateral});
+                const auto& [po, fw] = po_fw;
+                double spike_max = fw.spike, back_max = fw.back;
+                if (c.name == "film_over_melanin" && lifts.contains(lambda))
+                    for (const double lift : lifts.at(lambda)) {
+                        const auto& lifted = got.at(
+                            {fmt::format("{}_raise{:g}{}", c.name, lift, at), pol, c.lateral});
+                        spike_max = std::max(spike_max, lifted.second.spike);
+                        back_max = std::max(back_max, lifted.second.back);
+                    }
+                const double window = fw.spike / spike_max;
+                const bool dim = window < 0.5;
+                if (dim) {
+                    EXPECT_LT(std::abs(po.spike - fw.spike), 0.15 * spike_max) << pol << lambda;
+                    EXPECT_LT(std::abs(po.back - fw.back), 0.12 * back_max) << pol << lambda;
+                }
+                const auto verdict = [dim](bool within) {
+                    return within ? "yes" : dim ? "dim window" : "no";
+                };
+                const std::string name = fmt::format("{}_x{:g}", c.name, c.lateral);
+                out.push_back({name, pol, lambda, "lobe_deg", po.lobe_deg, fw.lobe_deg, 2.0, window,
+                               verdict(std::abs(po.lobe_deg - fw.lobe_deg) <= 2.0)});
+                for (const Line& l : lines()) {
+                    const bool within = std::abs(relative_error(po_fw, l.member)) <= l.tolerance;
+                    out.push_back({name, pol, lambda, l.name, po.*l.member, fw.*l.member,
+                                   l.tolerance, window, verdict(within)});
+                }
+            }
+    return out;
+}
+
+TEST(PoTransmissionReference, TheWideSectionsMeetTheTargetsOutsideDimWindows) {
+    const std::vector<WideRow> rows = wide_rows();
+    std::string csv =
+        "case,polarisation,lambda_nm,quantity,physical_optics,full_wave,target,window,"
+        "verdict\n";
+    int within = 0, dim = 0;
+    for (const WideRow& r : rows) {
+        csv += fmt::format("{},{},{:g},{},{:.4g},{:.4g},{:g},{:.2f},{}\n", r.name, r.pol, r.lambda,
+                           r.quantity, r.po, r.fw, r.target, r.window, r.verdict);
+        within += r.verdict == "yes" ? 1 : 0;
+        dim += r.verdict == "dim window" ? 1 : 0;
+        EXPECT_NE(r.verdict, "no") << r.name << " " << r.pol << " " << r.lambda << " " << r.quantity
+                                   << ": physical optics " << r.po << ", full wave " << r.fw;
+    }
+    std::printf("%d of %zu within issue 36's targets; %d in a dim window\n", within, rows.size(),
+                dim);
+    const fs::path committed = reference_dir() / "check_wide.csv";
+    if (std::getenv("PLUMAGE_WRITE_PO_CHECK")) std::ofstream(committed) << csv;
+    std::ifstream in(committed);
+    ASSERT_TRUE(in) << committed;
+    std::stringstream text;
+    text << in.rdbuf();
+    EXPECT_EQ(text.str(), csv) << "physical optics moved against full wave: rerun with "
+                                  "PLUMAGE_WRITE_PO_CHECK=1 and explain it";
 }
 
 }  // namespace
