@@ -368,7 +368,7 @@ using Compared =
 
 // Every widened section against its full-wave run (60 px/µm), each printed as a line (once).
 const Compared& compare_widened() {
-    static const Compared got = [] {
+    static const Compared compared = [] {
         auto totals = read_rows(reference_dir() / "widths_totals.csv", 5);
         auto sigma = read_sigma(reference_dir() / "widths_far_field.csv");
         totals.merge(read_rows(reference_dir() / "totals.csv", 5));
@@ -394,7 +394,7 @@ const Compared& compare_widened() {
                 }
         return got;
     }();
-    return got;
+    return compared;
 }
 
 // Every quantity of issue 36's list within its target; the lobe within 2° when `lobe`.
