@@ -307,31 +307,15 @@ std::vector<Widened> widened() {
                            1.0});
         }
     // The 3× arc lifted through one fringe of its specular window (the gap at its top 0.75 µm +
-    // the lift; the window's fringe repeats every λ / (2 cos θ_i) = 0.32 µm of lift).
-    for (const double lift : kArcLiftsUm)
-        out.push_back({"film_over_melanin",
-                       3.0,
-                       ref::film_over_melanin_hybrid(3.0, lift),
-                       0.0,
-                       {550.0},
-                       0.0,
-                       lift});
-    for (const double lift : kArcLiftsAt650Um)
-        out.push_back({"film_over_melanin",
-                       3.0,
-                       ref::film_over_melanin_hybrid(3.0, lift),
-                       0.0,
-                       {650.0},
-                       0.0,
-                       lift});
-    for (const double lift : kNarrowArcLiftsUm)
-        out.push_back({"film_over_melanin",
-                       1.0,
-                       ref::film_over_melanin_hybrid(1.0, lift),
-                       0.0,
-                       {450.0, 550.0, 650.0},
-                       0.0,
-                       lift});
+    // the lift; the window's fringe repeats every λ / (2 cos θ_i) = 0.32 µm of lift at 550 nm),
+    // two points of it at 650 nm, and the 1× arc lifted.
+    const auto lifted_arc = [&out](double lateral, double lift, std::vector<double> lambdas) {
+        out.push_back({"film_over_melanin", lateral, ref::film_over_melanin_hybrid(lateral, lift),
+                       0.0, std::move(lambdas), 0.0, lift});
+    };
+    for (const double lift : kArcLiftsUm) lifted_arc(3.0, lift, {550.0});
+    for (const double lift : kArcLiftsAt650Um) lifted_arc(3.0, lift, {650.0});
+    for (const double lift : kNarrowArcLiftsUm) lifted_arc(1.0, lift, {450.0, 550.0, 650.0});
     // The stretched ellipse's tips (radius 0.25/(2.5 s) µm) are sharper than λ/10, which the
     // level refuses: all three at a 0.03 µm step.
     for (const double s : {1.0, 2.0, 3.0})
