@@ -187,10 +187,10 @@ SampledCrossSection2d sample_cross_section(const CrossSection2d& section, double
 double physical_optics_step(double lambda_nm, double step_um);
 
 // Ray casts against the chords of a sampled cross-section (the lit test's, above): chords grouped
-// 32 at a time under bounding boxes, the boxes in a binary tree (split at the median of their
+// 16 at a time under bounding boxes, the boxes in a binary tree (split at the median of their
 // centres; a cast descends nearer child first and skips boxes beyond its nearest hit, so it costs
-// about the logarithm of the boxes plus the chords near the hit). Keeps a pointer to `sampled`,
-// which must outlive it.
+// about the logarithm of the boxes plus the chords near the hit). Keeps its own copy of the
+// chords: `sampled` may go after construction.
 class ChordIndex2d final {
 public:
     explicit ChordIndex2d(const SampledCrossSection2d& sampled);
@@ -215,9 +215,9 @@ private:
         std::size_t block = kNoBlock;  // a leaf's block, else kNoBlock
     };
     std::size_t build(std::vector<std::size_t>& order, std::size_t from, std::size_t to);
-    const SampledCrossSection2d* sampled_;
-    std::vector<Eigen::Vector2d> lo_, hi_;  // a box per block of chords
-    std::vector<Node> nodes_;               // a tree of the boxes, root first
+    std::vector<Eigen::Vector2d> lo_, hi_;   // a box per block of chords
+    std::vector<double> ax_, az_, ex_, ez_;  // chord j from (ax, az) along (ex, ez); whole blocks
+    std::vector<Node> nodes_;                // a tree of the boxes, root first
 };
 
 // Per sample: 1 when lit from omega_i (see the header), else 0.

@@ -7,11 +7,13 @@
 #include <cmath>
 #include <cstdint>
 #include <limits>
+#include <memory>
 #include <string>
 #include <unordered_map>
 #include <utility>
 
 #include <fmt/format.h>
+#include <parallel/algorithm>
 
 #include "common/constants.h"
 #include "common/error.h"
@@ -68,7 +70,6 @@ struct Ray {
 // Where a wave meets an ambient face: the term a ω_s·n_f + b (the wave's amplitude u included)
 // before the footprint is known.
 struct Hit {
-    std::size_t launch;
     std::uint64_t code;
     Vec p, n_f, t_f;
     double cos_in;  // |d·n_f| of the arriving ray, for its width on the face
@@ -90,6 +91,121 @@ struct Tally {
     Powers absorbed{}, truncated{};
 };
 
+// A planar stack's media at one Snell invariant β, what both polarisations' responses share:
+// the indices, q = √(n² − β²) on the decaying branch, and each film's phase factors e^{∓iδ}.
+// Held inline (a tracer asks for one at every interface a ray meets); a stack of more than
+// kInlineMedia media goes to the heap.
+class StackMedia {
+public:
+    StackMedia(Complex n_in, std::span<const optics::StackLayer> layers, Complex n_out, double beta,
+               double lambda_nm)
+        : size_(layers.size() + 2) {
+        if (size_ > kInlineMedia) heap_.resize(4 * size_);
+        Complex* buffer = size_ > kInlineMedia ? heap_.data() : inline_.data();
+        n_ = buffer;
+        q_ = buffer + size_;
+        down_ = buffer + 2 * size_;
+        up_ = buffer + 3 * size_;
+        n_[0] = n_in;
+        for (std::size_t j = 0; j < layers.size(); ++j) n_[j + 1] = layers[j].n;
+        n_[size_ - 1] = n_out;
+        for (std::size_t j = 0; j < size_; ++j) q_[j] = decaying_sqrt(n_[j] * n_[j] - beta * beta);
+        q_in_ = q_[0];
+        q_out_ = q_[size_ - 1];
+        // Exactly grazing in a lossless medium (a face sampled where its normal is square to
+        // the light, at a symmetric ellipse's side): the matrices become 0/0. The limit is
+        // multilayer.cpp's: nothing enters the first medium of positive thickness that differs
+        // from the incidence one (r = −1, t = 0); with none, the stack is absent.
+        if (q_in_ == 0.0) {
+            grazing_ = Grazing::absent;
+            for (std::size_t j = 1; j < size_; ++j) {
+                const bool present = j + 1 == size_ || layers[j - 1].thickness_um > 0.0;
+                if (present && n_[j] != n_[0]) {
+                    grazing_ = Grazing::reflected;
+                    break;
+                }
+            }
+            return;
+        }
+        // A lossless film at exactly its own critical angle (q = 0 inside the stack) has a
+        // finite limit that the matrices reach continuously; a q of 1e-9 stands in for it (its
+        // error is of that order) rather than dividing by the zero t of the film's lower
+        // interface.
+        for (std::size_t j = 1; j < size_; ++j)
+            if (q_[j] == 0.0) q_[j] = 1e-9;
+        const double k0 = 2.0 * kPi / (1e-3 * lambda_nm);
+        for (std::size_t j = 1; j + 1 < size_; ++j) {
+            const Complex delta = k0 * q_[j] * layers[j - 1].thickness_um;
+            down_[j] = std::exp(Complex(0.0, -1.0) * delta);
+            up_[j] = std::exp(Complex(0.0, 1.0) * delta);
+        }
+    }
+    StackMedia(const StackMedia&) = delete;
+    StackMedia& operator=(const StackMedia&) = delete;
+
+    // r and t for one polarisation (header: stack_response).
+    StackResponse2d respond(optics::Polarisation pol) const {
+        StackResponse2d out;
+        out.q_in = q_in_;
+        out.q_out = q_out_;
+        if (grazing_ == Grazing::reflected) {
+            out.r = -1.0;
+            out.reflectance = 1.0;
+            return out;
+        }
+        if (grazing_ == Grazing::absent) {
+            out.t = 1.0;
+            out.transmittance = 1.0;
+            return out;
+        }
+        // Byrnes' transfer matrix (multilayer.h): M = Π (1/t_j)[[1, r_j], [r_j, 1]]
+        // diag(e^{−iδ}, e^{iδ}).
+        Complex m00 = 1.0, m01 = 0.0, m10 = 0.0, m11 = 1.0;
+        for (std::size_t j = 0; j + 1 < size_; ++j) {
+            if (j > 0) {
+                m00 *= down_[j];
+                m10 *= down_[j];
+                m01 *= up_[j];
+                m11 *= up_[j];
+            }
+            Complex r, t;
+            if (pol == optics::Polarisation::s) {
+                r = (q_[j] - q_[j + 1]) / (q_[j] + q_[j + 1]);
+                t = 2.0 * q_[j] / (q_[j] + q_[j + 1]);
+            } else {
+                const Complex den = n_[j + 1] * n_[j + 1] * q_[j] + n_[j] * n_[j] * q_[j + 1];
+                r = (n_[j + 1] * n_[j + 1] * q_[j] - n_[j] * n_[j] * q_[j + 1]) / den;
+                t = 2.0 * n_[j] * n_[j + 1] * q_[j] / den;
+            }
+            const Complex inv_t = 1.0 / t;  // one complex division instead of four
+            const Complex a00 = (m00 + m01 * r) * inv_t, a01 = (m00 * r + m01) * inv_t;
+            const Complex a10 = (m10 + m11 * r) * inv_t, a11 = (m10 * r + m11) * inv_t;
+            m00 = a00, m01 = a01, m10 = a10, m11 = a11;
+        }
+        out.r = m10 / m00;
+        out.t = 1.0 / m00;
+        out.reflectance = std::norm(out.r);
+        const auto flux = [pol](Complex index, Complex qq) {
+            return pol == optics::Polarisation::s ? qq.real()
+                                                  : (index * std::conj(qq / index)).real();
+        };
+        const double in = flux(n_[0], q_[0]);
+        out.transmittance =
+            in > 0.0 ? std::norm(out.t) * flux(n_[size_ - 1], q_[size_ - 1]) / in : 0.0;
+        return out;
+    }
+
+private:
+    static constexpr std::size_t kInlineMedia = 8;
+    enum class Grazing { no, reflected, absent };
+    std::size_t size_;
+    std::array<Complex, 4 * kInlineMedia> inline_;
+    std::vector<Complex> heap_;
+    Complex *n_, *q_, *down_, *up_;
+    Complex q_in_, q_out_;
+    Grazing grazing_ = Grazing::no;
+};
+
 class Tracer {
 public:
     Tracer(const SampledCrossSection2d& sampled, const std::vector<CurveOptics>& optics,
@@ -103,11 +219,26 @@ public:
           pols_(pols.begin(), pols.end()),
           options_(options) {}
 
-    // Follows every path of one launched ray; appends its hits on ambient faces. A path ends
-    // when the power of every polarisation traced is below the floor.
-    void trace(const Ray& launch, std::size_t launch_index, std::vector<Hit>& hits,
-               Tally& tally) const {
-        std::vector<Ray> stack{launch};
+    // Buffers one thread reuses from ray to ray (a ray's paths are a few dozen legs and hits;
+    // growing fresh vectors for each was a tenth of the tracing's time).
+    struct Scratch {
+        std::vector<Ray> stack;
+        std::vector<Hit> hits;
+    };
+
+    // Follows every path of one launched ray; its hits on ambient faces, in the order met, go
+    // into `hits` (sized to fit). A path ends when the power of every polarisation traced is
+    // below the floor.
+    void trace(const Ray& launch, std::vector<Hit>& hits, Tally& tally, Scratch& scratch) const {
+        scratch.hits.clear();
+        follow(launch, scratch.stack, scratch.hits, tally);
+        hits.assign(scratch.hits.begin(), scratch.hits.end());
+    }
+
+private:
+    void follow(const Ray& launch, std::vector<Ray>& stack, std::vector<Hit>& hits,
+                Tally& tally) const {
+        stack.assign(1, launch);
         const double floor = options_.min_power * launch.power[0];
         while (!stack.empty()) {
             Ray ray = stack.back();
@@ -133,17 +264,16 @@ public:
             next.events = ray.events + 1;
             next.primary = false;
             if (ray.inside < 0 && (from_plus || c.sheet)) {
-                from_ambient(ray, next, s, launch_index, from_plus, c, stack, hits, tally);
+                from_ambient(ray, next, s, from_plus, c, stack, hits, tally);
             } else if (ray.inside >= 0 && !from_plus &&
                        optics_[static_cast<std::size_t>(ray.inside)].substrate == c.substrate) {
-                from_inside(ray, next, s, launch_index, c, stack, hits, tally);
+                from_inside(ray, next, s, c, stack, hits, tally);
             } else {
                 add(tally.truncated, ray.power);  // a nested body or an open one (header)
             }
         }
     }
 
-private:
     static double strongest(const Powers& p) { return std::max(p[0], p[1]); }
     static void add(Powers& to, const Powers& p) {
         for (std::size_t i = 0; i < kPols; ++i) to[i] += p[i];
@@ -153,9 +283,9 @@ private:
     std::array<StackResponse2d, kPols> responses(Complex n_in,
                                                  std::span<const optics::StackLayer> layers,
                                                  Complex n_out, double beta) const {
+        const StackMedia media(n_in, layers, n_out, beta, lambda_nm_);
         std::array<StackResponse2d, kPols> m{};
-        for (std::size_t i = 0; i < pols_.size(); ++i)
-            m[i] = stack_response(n_in, layers, n_out, beta, lambda_nm_, pols_[i]);
+        for (std::size_t i = 0; i < pols_.size(); ++i) m[i] = media.respond(pols_[i]);
         return m;
     }
 
@@ -175,9 +305,9 @@ private:
     }
 
     // A ray in the ambient meets a face: a sheet from either side or a body from outside.
-    void from_ambient(const Ray& ray, const Ray& next, const SurfaceSample2d& s, std::size_t launch,
-                      bool from_plus, const CurveOptics& c, std::vector<Ray>& stack,
-                      std::vector<Hit>& hits, Tally& tally) const {
+    void from_ambient(const Ray& ray, const Ray& next, const SurfaceSample2d& s, bool from_plus,
+                      const CurveOptics& c, std::vector<Ray>& stack, std::vector<Hit>& hits,
+                      Tally& tally) const {
         const Vec n_f = from_plus ? s.normal : Vec(-s.normal);
         const double cos_i = std::min(1.0, -ray.d.dot(n_f));
         const double beta = ray.d.dot(s.tangent);
@@ -192,11 +322,15 @@ private:
         const double gain = from_plus ? std::norm(shift) : 1.0;
         const int side = from_plus ? 0 : 1;
         const auto curve = static_cast<std::size_t>(s.curve);
-        Hit hit{launch,    extend_code(ray.code, curve, side, 2),
-                next.o,    n_f,
-                s.tangent, cos_i,
-                ray.width, {},
-                {},        beta};
+        Hit hit{extend_code(ray.code, curve, side, 2),
+                next.o,
+                n_f,
+                s.tangent,
+                cos_i,
+                ray.width,
+                {},
+                {},
+                beta};
         Ray reflected = next;
         reflected.d = ray.d + 2.0 * cos_i * n_f;
         reflected.code = extend_code(ray.code, curve, side, 0);
@@ -232,7 +366,7 @@ private:
     }
 
     // A ray inside a body meets the body's boundary: internal reflection and the exit wave.
-    void from_inside(const Ray& ray, const Ray& next, const SurfaceSample2d& s, std::size_t launch,
+    void from_inside(const Ray& ray, const Ray& next, const SurfaceSample2d& s,
                      const CurveOptics& c, std::vector<Ray>& stack, std::vector<Hit>& hits,
                      Tally& tally) const {
         const double cos_in = std::min(1.0, ray.d.dot(s.normal));
@@ -262,11 +396,15 @@ private:
         out.nu = 1.0;
         out.kappa = 1.0;
         out.code = extend_code(ray.code, curve, 1, 1);
-        Hit hit{launch,    extend_code(ray.code, curve, 1, 2),
-                next.o,    s.normal,
-                s.tangent, cos_in,
-                ray.width, {},
-                {},        beta};
+        Hit hit{extend_code(ray.code, curve, 1, 2),
+                next.o,
+                s.normal,
+                s.tangent,
+                cos_in,
+                ray.width,
+                {},
+                {},
+                beta};
         for (std::size_t i = 0; i < pols_.size(); ++i) {
             const Complex r = m[i].r * r_shift, t = m[i].t * shift;
             const double real = ray.power[i] * gain;
@@ -361,37 +499,65 @@ std::vector<CurveOptics> curve_optics(const CrossSection2d& section, double lamb
     return out;
 }
 
+// The hits of every launched ray, each ray's in its own vector as its thread wrote them (not
+// copied into one: at tens of MB a wavelength, the copy was a third of the tracing's time and
+// serial). Hit j of ray l is the (offset[l] + j)-th in launch order.
+struct BeamHits {
+    std::vector<std::vector<Hit>> of_ray;
+    std::vector<std::size_t> offset;  // hits of the rays before each; back(): all of them
+
+    std::size_t size() const { return offset.back(); }
+    // Calls f(global index, hit) for every hit of ray l.
+    template <class F>
+    void for_ray(std::size_t l, F&& f) const {
+        for (std::size_t j = 0; j < of_ray[l].size(); ++j) f(offset[l] + j, of_ray[l][j]);
+    }
+};
+
 // An element's footprint on its face: half the distance between the hits of its neighbours on
 // the same path, one-sided at a path's edge, the planar width where it has none (header).
-std::vector<double> footprints(const std::vector<Hit>& hits) {
+std::vector<double> footprints(const BeamHits& hits) {
     struct Key {
         std::uint64_t code;
-        std::size_t launch, index;
+        std::uint32_t launch, index;  // the ray, the hit among its own (rays < 2^32: refused
+                                      // scenes reach no further than kSinCosLimit)
     };
     std::vector<Key> keys(hits.size());
-    for (std::size_t m = 0; m < hits.size(); ++m) keys[m] = {hits[m].code, hits[m].launch, m};
-    std::sort(keys.begin(), keys.end(), [](const Key& x, const Key& y) {
+#pragma omp parallel for schedule(static)
+    for (std::ptrdiff_t ls = 0; ls < static_cast<std::ptrdiff_t>(hits.of_ray.size()); ++ls) {
+        const auto l = static_cast<std::size_t>(ls);
+        for (std::size_t j = 0; j < hits.of_ray[l].size(); ++j)
+            keys[hits.offset[l] + j] = {hits.of_ray[l][j].code, static_cast<std::uint32_t>(l),
+                                        static_cast<std::uint32_t>(j)};
+    }
+    // No two keys are equal (a ray's path meets each of its faces once), so the order is
+    // total and the parallel sort's result does not depend on the thread count.
+    __gnu_parallel::sort(keys.begin(), keys.end(), [](const Key& x, const Key& y) {
         return x.code != y.code ? x.code < y.code : x.launch < y.launch;
     });
+    const auto hit = [&hits](const Key& key) -> const Hit& {
+        return hits.of_ray[key.launch][key.index];
+    };
     std::vector<double> out(hits.size());
 #pragma omp parallel for schedule(static)
     for (std::ptrdiff_t ms = 0; ms < static_cast<std::ptrdiff_t>(keys.size()); ++ms) {
         const auto m = static_cast<std::size_t>(ms);
         const Key& key = keys[m];
-        const Hit& h = hits[key.index];
+        const Hit& h = hit(key);
         const Hit* prev = nullptr;
         const Hit* next = nullptr;
         if (m > 0 && keys[m - 1].code == key.code && keys[m - 1].launch + 1 == key.launch)
-            prev = &hits[keys[m - 1].index];
+            prev = &hit(keys[m - 1]);
         if (m + 1 < keys.size() && keys[m + 1].code == key.code &&
             keys[m + 1].launch == key.launch + 1)
-            next = &hits[keys[m + 1].index];
+            next = &hit(keys[m + 1]);
+        double& fp = out[hits.offset[key.launch] + key.index];
         if (prev && next) {
-            out[key.index] = 0.5 * (next->p - prev->p).norm();
+            fp = 0.5 * (next->p - prev->p).norm();
         } else if (prev || next) {
-            out[key.index] = ((prev ? prev : next)->p - h.p).norm();
+            fp = ((prev ? prev : next)->p - h.p).norm();
         } else {
-            out[key.index] = h.width / std::max(h.cos_in, 1e-6);
+            fp = h.width / std::max(h.cos_in, 1e-6);
         }
     }
     return out;
@@ -404,16 +570,25 @@ std::vector<double> footprints(const std::vector<Hit>& hits) {
 // obliquely) takes a sin/cos more.
 constexpr double kShortSinc = 3.0;
 struct Elements {
-    std::vector<double> px, pz, nx, nz, tx, tz, fp, g;
-    std::array<std::vector<double>, kPols> ar, ai, br, bi;
-    std::size_t short_count = 0;
+    // The arrays in one allocation, not zeroed: radiating_elements writes every element once,
+    // in parallel, so the pages (tens of MB a wavelength) are first touched by both threads
+    // rather than cleared by one.
+    static constexpr std::size_t kArrays = 8 + 4 * kPols;
+    std::unique_ptr<double[]> store;
+    double *px, *pz, *nx, *nz, *tx, *tz, *fp, *g;
+    std::array<double*, kPols> ar, ai, br, bi;
+    std::size_t count = 0, short_count = 0;
 
-    explicit Elements(std::size_t n) : px(n), pz(n), nx(n), nz(n), tx(n), tz(n), fp(n), g(n) {
+    explicit Elements(std::size_t n)
+        : store(std::make_unique_for_overwrite<double[]>(kArrays * n)), count(n) {
+        double* next = store.get();
+        const auto take = [&next, n] { return std::exchange(next, next + n); };
+        for (double** array : {&px, &pz, &nx, &nz, &tx, &tz, &fp, &g}) *array = take();
         for (std::size_t i = 0; i < kPols; ++i) {
-            ar[i].resize(n);
-            ai[i].resize(n);
-            br[i].resize(n);
-            bi[i].resize(n);
+            ar[i] = take();
+            ai[i] = take();
+            br[i] = take();
+            bi[i] = take();
         }
     }
     void set(std::size_t m, const Vec& p, const Vec& n, const Vec& t, double footprint,
@@ -433,7 +608,7 @@ struct Elements {
             bi[i][m] = b[i].imag();
         }
     }
-    std::size_t size() const { return px.size(); }
+    std::size_t size() const { return count; }
 };
 
 // The elements of the direct term and of the hits, short ones first. The direct term
@@ -442,8 +617,8 @@ struct Elements {
 // b, and its sinc of (ω_i + ω_s)·t is the element's with g = −ω_i·t. A hit's element is its
 // footprint on the face, the amplitude scaled by GO's intensity law √(planar width / actual
 // width). Filled in parallel, each element at a place fixed beforehand.
-Elements radiating_elements(const std::vector<FarFieldKernel2d>& kernels,
-                            const std::vector<Hit>& hits, double k) {
+Elements radiating_elements(const std::vector<FarFieldKernel2d>& kernels, const BeamHits& hits,
+                            double k) {
     const FarFieldKernel2d& first = kernels.front();
     const std::size_t direct = first.px.size();
     const std::vector<double> fp = footprints(hits);
@@ -452,12 +627,16 @@ Elements radiating_elements(const std::vector<FarFieldKernel2d>& kernels,
     constexpr std::size_t kNone = static_cast<std::size_t>(-1);
     std::vector<std::size_t> place(hits.size(), kNone);
     std::size_t shorts = 0, longs = 0;
-    for (std::size_t m = 0; m < hits.size(); ++m)
-        if (fp[m] * hits[m].cos_in > 0.0) (k * fp[m] <= kShortSinc ? shorts : longs) += 1;
+    for (std::size_t l = 0; l < hits.of_ray.size(); ++l)
+        hits.for_ray(l, [&](std::size_t m, const Hit& h) {
+            if (fp[m] * h.cos_in > 0.0) (k * fp[m] <= kShortSinc ? shorts : longs) += 1;
+        });
     std::size_t next_short = direct, next_long = direct + shorts;
-    for (std::size_t m = 0; m < hits.size(); ++m)
-        if (fp[m] * hits[m].cos_in > 0.0)
-            place[m] = k * fp[m] <= kShortSinc ? next_short++ : next_long++;
+    for (std::size_t l = 0; l < hits.of_ray.size(); ++l)
+        hits.for_ray(l, [&](std::size_t m, const Hit& h) {
+            if (fp[m] * h.cos_in > 0.0)
+                place[m] = k * fp[m] <= kShortSinc ? next_short++ : next_long++;
+        });
     Elements e(direct + shorts + longs);
     e.short_count = direct + shorts;
 #pragma omp parallel for schedule(static)
@@ -473,18 +652,17 @@ Elements radiating_elements(const std::vector<FarFieldKernel2d>& kernels,
         e.set(m, p, Vec(first.nx[m], first.nz[m]), t, first.ds[m], -first.wi.dot(t), a, b);
     }
 #pragma omp parallel for schedule(static)
-    for (std::ptrdiff_t ms = 0; ms < static_cast<std::ptrdiff_t>(hits.size()); ++ms) {
-        const auto m = static_cast<std::size_t>(ms);
-        if (place[m] == kNone) continue;
-        const Hit& h = hits[m];
-        const double scale = std::sqrt(h.width / (fp[m] * h.cos_in)) * fp[m];
-        Amplitudes a{}, b{};
-        for (std::size_t i = 0; i < kPols; ++i) {
-            a[i] = h.a[i] * scale;
-            b[i] = h.b[i] * scale;
-        }
-        e.set(place[m], h.p, h.n_f, h.t_f, fp[m], h.g, a, b);
-    }
+    for (std::ptrdiff_t ls = 0; ls < static_cast<std::ptrdiff_t>(hits.of_ray.size()); ++ls)
+        hits.for_ray(static_cast<std::size_t>(ls), [&](std::size_t m, const Hit& h) {
+            if (place[m] == kNone) return;
+            const double scale = std::sqrt(h.width / (fp[m] * h.cos_in)) * fp[m];
+            Amplitudes a{}, b{};
+            for (std::size_t i = 0; i < kPols; ++i) {
+                a[i] = h.a[i] * scale;
+                b[i] = h.b[i] * scale;
+            }
+            e.set(place[m], h.p, h.n_f, h.t_f, fp[m], h.g, a, b);
+        });
     return e;
 }
 
@@ -517,12 +695,10 @@ template <bool kShort>
 [[gnu::always_inline]] inline void sum_range(const Elements& e, std::size_t from, std::size_t to,
                                              double k, double wx, double wz,
                                              double (&acc)[2 * kPols]) {
-    const double *px = e.px.data(), *pz = e.pz.data(), *nx = e.nx.data(), *nz = e.nz.data();
-    const double *tx = e.tx.data(), *tz = e.tz.data(), *fp = e.fp.data(), *g = e.g.data();
-    const double *ar0 = e.ar[0].data(), *ai0 = e.ai[0].data(), *br0 = e.br[0].data(),
-                 *bi0 = e.bi[0].data();
-    const double *ar1 = e.ar[1].data(), *ai1 = e.ai[1].data(), *br1 = e.br[1].data(),
-                 *bi1 = e.bi[1].data();
+    const double *px = e.px, *pz = e.pz, *nx = e.nx, *nz = e.nz;
+    const double *tx = e.tx, *tz = e.tz, *fp = e.fp, *g = e.g;
+    const double *ar0 = e.ar[0], *ai0 = e.ai[0], *br0 = e.br[0], *bi0 = e.bi[0];
+    const double *ar1 = e.ar[1], *ai1 = e.ai[1], *br1 = e.br[1], *bi1 = e.bi[1];
     double re0 = 0.0, im0 = 0.0, re1 = 0.0, im1 = 0.0;
 #pragma omp simd reduction(+ : re0, im0, re1, im1)
     for (std::size_t m = from; m < to; ++m) {
@@ -612,7 +788,7 @@ FarFieldKernel2d direct_kernel(const CrossSection2d& section, const SampledCross
 // The incident beam cut into rays across the scene's shadow, a launch step apart, each traced
 // from beyond the scene; the hits of all rays in launch order (the same for any thread count).
 struct Beam {
-    std::vector<Hit> hits;
+    BeamHits hits;
     Tally tally;
     std::size_t rays = 0;
     double width_um = 0.0;
@@ -636,25 +812,31 @@ Beam trace_beam(const SampledCrossSection2d& sampled, const std::vector<CurveOpt
     const double h = (hi - lo) / static_cast<double>(beam.rays - 2);
     beam.width_um = h * static_cast<double>(beam.rays);
     const Tracer tracer(sampled, optics, lambda_nm, pols, options);
-    std::vector<std::vector<Hit>> hits(beam.rays);
+    std::vector<std::vector<Hit>>& hits = beam.hits.of_ray;
+    hits.resize(beam.rays);
     std::vector<Tally> tallies(beam.rays);
-#pragma omp parallel for schedule(dynamic, 16)
-    for (std::ptrdiff_t ms = 0; ms < static_cast<std::ptrdiff_t>(beam.rays); ++ms) {
-        const auto m = static_cast<std::size_t>(ms);
-        Ray ray;
-        ray.o = (lo + (static_cast<double>(m) - 0.5) * h) * across + (top + 1.0) * wi;
-        ray.d = -wi;
-        for (std::size_t i = 0; i < pols.size(); ++i) {
-            ray.u[i] = std::polar(1.0, -k * wi.dot(ray.o));
-            ray.power[i] = h;
+#pragma omp parallel
+    {
+        Tracer::Scratch scratch;
+#pragma omp for schedule(dynamic, 16)
+        for (std::ptrdiff_t ms = 0; ms < static_cast<std::ptrdiff_t>(beam.rays); ++ms) {
+            const auto m = static_cast<std::size_t>(ms);
+            Ray ray;
+            ray.o = (lo + (static_cast<double>(m) - 0.5) * h) * across + (top + 1.0) * wi;
+            ray.d = -wi;
+            for (std::size_t i = 0; i < pols.size(); ++i) {
+                ray.u[i] = std::polar(1.0, -k * wi.dot(ray.o));
+                ray.power[i] = h;
+            }
+            ray.width = h;
+            ray.code = 0x2545F4914F6CDD1DULL;
+            ray.skip = std::numeric_limits<std::size_t>::max();
+            tracer.trace(ray, hits[m], tallies[m], scratch);
         }
-        ray.width = h;
-        ray.code = 0x2545F4914F6CDD1DULL;
-        ray.skip = std::numeric_limits<std::size_t>::max();
-        tracer.trace(ray, m, hits[m], tallies[m]);
     }
+    beam.hits.offset.assign(beam.rays + 1, 0);
     for (std::size_t m = 0; m < beam.rays; ++m) {
-        beam.hits.insert(beam.hits.end(), hits[m].begin(), hits[m].end());
+        beam.hits.offset[m + 1] = beam.hits.offset[m] + hits[m].size();
         for (std::size_t i = 0; i < kPols; ++i) {
             beam.tally.absorbed[i] += tallies[m].absorbed[i];
             beam.tally.truncated[i] += tallies[m].truncated[i];
@@ -796,73 +978,7 @@ StackResponse2d stack_response(std::complex<double> n_in,
                                std::span<const optics::StackLayer> layers,
                                std::complex<double> n_out, double beta, double lambda_nm,
                                optics::Polarisation pol) {
-    std::vector<Complex> n{n_in};
-    for (const optics::StackLayer& layer : layers) n.push_back(layer.n);
-    n.push_back(n_out);
-    std::vector<Complex> q(n.size());
-    for (std::size_t j = 0; j < n.size(); ++j) q[j] = decaying_sqrt(n[j] * n[j] - beta * beta);
-    StackResponse2d out;
-    out.q_in = q.front();
-    out.q_out = q.back();
-    if (q.front() == 0.0) {
-        // Exactly grazing in a lossless medium (a face sampled where its normal is square to the
-        // light, at a symmetric ellipse's side): the matrices below become 0/0. The limit is
-        // multilayer.cpp's: nothing enters the first medium of positive thickness that differs
-        // from the incidence one (r = −1, t = 0); with none, the stack is absent.
-        for (std::size_t j = 1; j < n.size(); ++j) {
-            const bool present = j + 1 == n.size() || layers[j - 1].thickness_um > 0.0;
-            if (present && n[j] != n.front()) {
-                out.r = -1.0;
-                out.reflectance = 1.0;
-                return out;
-            }
-        }
-        out.t = 1.0;
-        out.transmittance = 1.0;
-        return out;
-    }
-    // A lossless film at exactly its own critical angle (q = 0 inside the stack) has a finite
-    // limit that the matrices reach continuously; a q of 1e-9 stands in for it (its error is of
-    // that order) rather than dividing by the zero t of the film's lower interface.
-    for (std::size_t j = 1; j < n.size(); ++j)
-        if (q[j] == 0.0) q[j] = 1e-9;
-    const double k0 = 2.0 * kPi / (1e-3 * lambda_nm);
-    // Byrnes' transfer matrix (multilayer.h): M = Π (1/t_j)[[1, r_j], [r_j, 1]] diag(e^{−iδ},
-    // e^{iδ}).
-    Complex m00 = 1.0, m01 = 0.0, m10 = 0.0, m11 = 1.0;
-    for (std::size_t j = 0; j + 1 < n.size(); ++j) {
-        if (j > 0) {
-            const Complex delta = k0 * q[j] * layers[j - 1].thickness_um;
-            const Complex em = std::exp(Complex(0.0, -1.0) * delta);
-            const Complex ep = std::exp(Complex(0.0, 1.0) * delta);
-            m00 *= em;
-            m10 *= em;
-            m01 *= ep;
-            m11 *= ep;
-        }
-        Complex r, t;
-        if (pol == optics::Polarisation::s) {
-            r = (q[j] - q[j + 1]) / (q[j] + q[j + 1]);
-            t = 2.0 * q[j] / (q[j] + q[j + 1]);
-        } else {
-            const Complex den = n[j + 1] * n[j + 1] * q[j] + n[j] * n[j] * q[j + 1];
-            r = (n[j + 1] * n[j + 1] * q[j] - n[j] * n[j] * q[j + 1]) / den;
-            t = 2.0 * n[j] * n[j + 1] * q[j] / den;
-        }
-        const Complex inv_t = 1.0 / t;  // one complex division instead of four
-        const Complex a00 = (m00 + m01 * r) * inv_t, a01 = (m00 * r + m01) * inv_t;
-        const Complex a10 = (m10 + m11 * r) * inv_t, a11 = (m10 * r + m11) * inv_t;
-        m00 = a00, m01 = a01, m10 = a10, m11 = a11;
-    }
-    out.r = m10 / m00;
-    out.t = 1.0 / m00;
-    out.reflectance = std::norm(out.r);
-    const auto flux = [&](Complex index, Complex qq) {
-        return pol == optics::Polarisation::s ? qq.real() : (index * std::conj(qq / index)).real();
-    };
-    const double in = flux(n.front(), q.front());
-    out.transmittance = in > 0.0 ? std::norm(out.t) * flux(n.back(), q.back()) / in : 0.0;
-    return out;
+    return StackMedia(n_in, layers, n_out, beta, lambda_nm).respond(pol);
 }
 
 HybridFarField2d hybrid_far_field(const CrossSection2d& section, const Incidence2d& incidence,

@@ -73,21 +73,29 @@ double lobe_power(const CrossSection2d& section, const Incidence2d& incidence, d
 
 TEST(PhysicalOpticsHybrid, StackResponseIsTheTransferMatrixFromALosslessSide) {
     const double lambda = 550.0;
-    const std::vector<optics::StackLayer> films{{optics::keratin()->index(lambda), 0.59},
-                                                {1.0, 0.3}};
+    const Complex keratin = optics::keratin()->index(lambda);
     const Complex melanin = optics::melanin()->index(lambda);
-    for (const auto pol : {optics::Polarisation::s, optics::Polarisation::p})
-        for (const double cos_i : {1.0, 0.8, 0.3}) {
-            const optics::StackAmplitudes ref =
-                optics::transfer_matrix_amplitudes({1.0, films, melanin}, lambda, cos_i, pol);
-            const optics::StackIntensities power =
-                optics::transfer_matrix_intensities({1.0, films, melanin}, lambda, cos_i, pol);
-            const StackResponse2d got =
-                stack_response(1.0, films, melanin, std::sqrt(1.0 - cos_i * cos_i), lambda, pol);
-            EXPECT_LT(std::abs(got.r - ref.r), 1e-12);
-            EXPECT_LT(std::abs(got.t - ref.t), 1e-12);
-            EXPECT_NEAR(got.transmittance, power.transmittance, 1e-12);
-        }
+    // A film over a gap, and a stack of twelve films (more media than stack_response keeps
+    // inline: its heap path).
+    std::vector<optics::StackLayer> many;
+    for (int m = 0; m < 6; ++m) {
+        many.push_back({keratin, 0.11 + 0.01 * m});
+        many.push_back({melanin, 0.02});
+    }
+    for (const std::vector<optics::StackLayer>& films :
+         {std::vector<optics::StackLayer>{{keratin, 0.59}, {1.0, 0.3}}, many})
+        for (const auto pol : {optics::Polarisation::s, optics::Polarisation::p})
+            for (const double cos_i : {1.0, 0.8, 0.3}) {
+                const optics::StackAmplitudes ref =
+                    optics::transfer_matrix_amplitudes({1.0, films, melanin}, lambda, cos_i, pol);
+                const optics::StackIntensities power =
+                    optics::transfer_matrix_intensities({1.0, films, melanin}, lambda, cos_i, pol);
+                const StackResponse2d got = stack_response(
+                    1.0, films, melanin, std::sqrt(1.0 - cos_i * cos_i), lambda, pol);
+                EXPECT_LT(std::abs(got.r - ref.r), 1e-12);
+                EXPECT_LT(std::abs(got.t - ref.t), 1e-12);
+                EXPECT_NEAR(got.transmittance, power.transmittance, 1e-12);
+            }
 }
 
 TEST(PhysicalOpticsHybrid, StackResponseConservesPowerBothWaysThroughALosslessFilm) {
