@@ -519,8 +519,8 @@ struct BeamHits {
 std::vector<double> footprints(const BeamHits& hits) {
     struct Key {
         std::uint64_t code;
-        std::uint32_t launch, index;  // the ray, the hit among its own (rays < 2^32: refused
-                                      // scenes reach no further than kSinCosLimit)
+        // The ray (trace_beam refuses 2^32 rays or more) and the hit among its own.
+        std::uint32_t launch, index;
     };
     std::vector<Key> keys(hits.size());
 #pragma omp parallel for schedule(static)
@@ -530,8 +530,8 @@ std::vector<double> footprints(const BeamHits& hits) {
             keys[hits.offset[l] + j] = {hits.of_ray[l][j].code, static_cast<std::uint32_t>(l),
                                         static_cast<std::uint32_t>(j)};
     }
-    // No two keys are equal (a ray's path meets each of its faces once), so the order is
-    // total and the parallel sort's result does not depend on the thread count.
+    // No two keys are equal (the hits of one ray end different paths, whose codes differ), so
+    // the order is total and the parallel sort's result does not depend on the thread count.
     __gnu_parallel::sort(keys.begin(), keys.end(), [](const Key& x, const Key& y) {
         return x.code != y.code ? x.code < y.code : x.launch < y.launch;
     });
@@ -808,7 +808,13 @@ Beam trace_beam(const SampledCrossSection2d& sampled, const std::vector<CurveOpt
         }
     const double launch_step = options.launch_step_um > 0.0 ? options.launch_step_um : step;
     Beam beam;
-    beam.rays = static_cast<std::size_t>(std::ceil((hi - lo) / launch_step)) + 2;
+    const double rays = std::ceil((hi - lo) / launch_step) + 2.0;
+    if (rays > static_cast<double>(std::numeric_limits<std::uint32_t>::max()))
+        refuse(
+            fmt::format("launch_step_um = {:.4g} cuts the {:.4g} µm beam into {:.4g} rays, more "
+                        "than 2^32: raise it",
+                        launch_step, hi - lo, rays));
+    beam.rays = static_cast<std::size_t>(rays);
     const double h = (hi - lo) / static_cast<double>(beam.rays - 2);
     beam.width_um = h * static_cast<double>(beam.rays);
     const Tracer tracer(sampled, optics, lambda_nm, pols, options);

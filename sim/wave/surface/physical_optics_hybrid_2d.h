@@ -107,7 +107,8 @@
 // Refused (InputError naming the limit): two curves closer than the sampling step where one
 // faces the other (an inner interface the surface sampling cannot separate), anything
 // physical_optics_2d.h refuses, a scene reaching more than kSinCosLimit/(2π) ≈ 2.5·10⁵
-// wavelengths from the origin (common/fast_trig.h's range), and the options outside the table.
+// wavelengths from the origin (common/fast_trig.h's range), a launch step that would cut the
+// beam into 2^32 rays or more, and the options outside the table.
 //
 // Cost: the rays (a cast per leg through ChordIndex2d) and the far-field sum, O(elements ×
 // angles), each term a branch-free sin/cos (common/fast_trig.h) so that the sum runs in SIMD

@@ -373,6 +373,21 @@ TEST(PhysicalOpticsHybrid, RefusesASceneBeyondTheSumsRange) {
     }
 }
 
+// A launch step that would cut a 2 µm sheet's beam into 2·10¹⁰ rays is refused before any is
+// allocated (the footprints index rays in 32 bits).
+TEST(PhysicalOpticsHybrid, RefusesMoreRaysThanItCanIndex) {
+    const CrossSection2d section{{keratin_sheet(2.0, 0.5)}};
+    HybridOptions options;
+    options.launch_step_um = 1e-10;
+    try {
+        hybrid_far_field(section, {550.0, 0.0, Polarisation2d::te}, {}, options);
+        FAIL() << "a launch step of 1e-10 µm was accepted";
+    } catch (const InputError& e) {
+        EXPECT_NE(std::string(e.what()).find("launch_step_um"), std::string::npos) << e.what();
+        EXPECT_NE(std::string(e.what()).find("2^32"), std::string::npos) << e.what();
+    }
+}
+
 TEST(PhysicalOpticsHybrid, RefusesInterfacesCloserThanTheStep) {
     CrossSection2d section{melanin_rectangle(8.0, 1.0)};
     section.curves.push_back(keratin_sheet(6.0, kFilm + 0.1));  // its film 0.1 µm above
