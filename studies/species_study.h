@@ -93,8 +93,11 @@ struct SpeciesOutcome {
     double brdf_seconds = 0.0;  // wall time of the 61 × 60 measurement
     double btf_seconds = 0.0;   // wall time of the BTF
     int btf_passes = 0;         // the detector estimator's passes (BtfConfig's stop rule)
-    // Median σ/f over the lit pixels of Fig. 9's tiles (gonio::median_lit_pixel_error).
+    // Median σ/f over the lit pixels of Fig. 9's tiles (gonio::median_lit_pixel_error), and
+    // the same per tile in Fig. 9's order (light azimuth 0°, 30°, …, 330°; infinity where a
+    // tile has no lit pixel).
     double btf_median_pixel_error = 0.0;
+    std::vector<double> btf_tile_pixel_errors;
     // π f at the mirror pair (light 30° at 180°, view 30° at 0°) per wavelength: the spectrum
     // the avian-vision section compares across species.
     std::vector<double> mirror_reflectance, mirror_reflectance_error;

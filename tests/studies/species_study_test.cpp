@@ -204,6 +204,21 @@ void check_verdicts(const SpeciesResult& r, const std::filesystem::path& dir) {
                       std::string::npos)
                 << o.species;
         }
+    // The BTF's noise against its target, per tile: the quick study sets no target, and the
+    // median over all tiles' lit pixels lies between the tiles' own medians.
+    EXPECT_NE(report.find("| species | median σ/f | target | passes, time | per tile (%) |"),
+              std::string::npos);
+    for (const auto& o : r.species) {
+        ASSERT_EQ(o.btf_tile_pixel_errors.size(), 12u) << o.species;
+        EXPECT_NE(report.find(fmt::format("| {} | {:.1f} % | none set | {}, ", o.species,
+                                          100.0 * o.btf_median_pixel_error, o.btf_passes)),
+                  std::string::npos)
+            << o.species;
+        const auto [low, high] =
+            std::minmax_element(o.btf_tile_pixel_errors.begin(), o.btf_tile_pixel_errors.end());
+        EXPECT_LE(*low, o.btf_median_pixel_error) << o.species;
+        EXPECT_GE(*high, o.btf_median_pixel_error) << o.species;
+    }
 }
 
 void check_report_and_tables(const std::filesystem::path& dir) {
