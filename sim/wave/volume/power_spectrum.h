@@ -84,7 +84,9 @@ public:
     const std::vector<double>& half_complex() const { return power_; }
     // Σ_q S(q) / L^d over the full lattice (each half-complex mode with its multiplicity).
     double variance() const;
-    RadialSpectrum radial() const;
+    // The shells' average, computed once when the spectrum is measured (the Born and
+    // strong-contrast routes read it at every wavelength).
+    const RadialSpectrum& radial() const { return radial_; }
 
     // Measured on a field of 0/1 values (or any real field: the mean is subtracted).
     // values.size() must be N³ (3D) or N² (2D); throws InputError otherwise, for N < 4 or
@@ -101,11 +103,13 @@ private:
     // shape = {n0, n1, n2}: pixels per axis, slowest first (2D: {1, ny, nx}).
     static PowerSpectrum measure(const std::vector<double>& values, int dimension,
                                  std::array<int, 3> shape, double voxel_um);
+    RadialSpectrum radial_average() const;
     int dimension_ = 3;
     std::array<int, 3> shape_{0, 0, 0};
     double voxel_um_ = 0.0;
     double fraction_ = 0.0;
     std::vector<double> power_;  // half-complex, last axis n2/2 + 1
+    RadialSpectrum radial_;
 };
 
 }  // namespace plumage::sim::wave
