@@ -281,6 +281,115 @@ def interrupted_run(cmd, out, p, sig=signal.SIGINT, group=False):
     return run
 
 
+def startup_time(plumage):
+    """How long the process takes to reach main: the dynamic loader and the libraries'
+    initialisers run before main can install a handler, as long as `plumage --version` takes."""
+    startup = 0.0
+    for _ in range(3):
+        t = time.monotonic()
+        subprocess.run([plumage, "--version"], stdout=subprocess.DEVNULL, check=True)
+        startup = max(startup, time.monotonic() - t)
+    return startup
+
+
+def interrupt_every_stage(plumage, source, study, work, startup, table, summary, verbose):
+    """One study's reference run, then a run signalled at each of its stages. Returns the
+    reference's (folder, result name, stderr lines), or None when the reference failed."""
+    ref_out = work / study / "reference"
+    ref = Run(command(plumage, source, study, ref_out))
+    duration = ref.exited_at - ref.start
+    name = result_name(ref_out) if ref_out.exists() else None
+    if ref.code != 0 or name is None:
+        table.failures.append(f"{study}: reference run exited {ref.code}: "
+                              f"{ref.lines[-1][1] if ref.lines else ''}")
+        return None
+    plans = plan(ref.lines, duration, startup)
+    kinds = len({kind(l) for _, l in progress(ref.lines)[0]})
+    summary.append(f"{study}: reference {duration:.1f} s, {len(progress(ref.lines)[0])} progress "
+                   f"lines of {kinds} kinds, {len(plans)} interrupted runs")
+    for i, p in enumerate(plans):
+        out = work / study / f"run{i}"
+        run = interrupted_run(command(plumage, source, study, out), out, p)
+        table.check(study, p[0], run, name, 130, p[4])
+        if verbose:
+            print(f"--- {study}, {p[0]}: exit {run.code}, {run.latency}")
+            for when, line in run.lines:
+                if when >= (run.sent_at or 1e9) - run.start - 0.5:
+                    print(f"    {when:7.3f} {line[:150]}")
+        shutil.rmtree(out, ignore_errors=True)
+    return ref_out, name, ref.lines
+
+
+def sigterm_and_earlier_result(plumage, source, work, reference, table):
+    """rock_dove_quick: SIGTERM at the in-plane sweep exits 143; a rerun over an earlier
+    complete result, interrupted late (its last stage), leaves that result byte-identical."""
+    ref_out, name, ref_lines = reference
+    stages = [masked(l) for _, l in progress(ref_lines)[0][:-1]]
+    sweep = next((s for s in stages if s.startswith("in-plane sweep")), stages[len(stages) // 2])
+    out = work / "sigterm"
+    p = (f"SIGTERM at '{sweep[:40]}'", sweep, 0, 0.0, False)
+    run = interrupted_run(command(plumage, source, "rock_dove_quick", out), out, p, signal.SIGTERM)
+    table.check("rock_dove_quick", p[0], run, name, 143, False)
+    out = work / "over_previous"
+    shutil.copytree(ref_out, out, symlinks=True)
+    before = digest(out / name)
+    p = (f"over an earlier result, at '{stages[-1][:30]}'", stages[-1], stages.count(stages[-1]) - 1, 0.0, False)
+    run = interrupted_run(command(plumage, source, "rock_dove_quick", out), out, p)
+    table.check("rock_dove_quick", p[0], run, name, 130, False)
+    same = (out / name).is_dir() and digest(out / name) == before
+    table.rows[-1] = table.rows[-1][:5] + (("earlier result byte-identical" if same else
+                                            "earlier result CHANGED OR GONE") +
+                                           ("; " + table.rows[-1][5] if table.rows[-1][5] else ""),)
+    if not same:
+        table.failures.append(f"rock_dove_quick, {p[0]}: the earlier result {name} changed or is gone")
+
+
+def ctrl_c_at_plots(plumage, source, work, references, table):
+    """Ctrl-C in a terminal signals the whole process group, the plot interpreter too: once at
+    every study's first plot stage."""
+    for study, (ref_out, name, ref_lines) in references.items():
+        for _, line in progress(ref_lines)[0][:-1]:
+            if kind(line).startswith("plot"):
+                out = work / study / "group"
+                p = (f"Ctrl-C (group SIGINT) at '{masked(line)[:30]}'", masked(line), 0, 0.0, False)
+                run = interrupted_run(command(plumage, source, study, out), out, p, group=True)
+                table.check(study, p[0], run, name, 130, False)
+                break
+
+
+def signal_during_startup(plumage, source, work, references, startup, table):
+    """A signal before main has installed its handler ends the process by the signal itself (a
+    shell shows 130 all the same) with nothing written; reported, not failed, since no handler
+    can exist before main's."""
+    study = next(iter(references))
+    ref_out, name, _ = references[study]
+    out = work / "startup"
+    run = interrupted_run(command(plumage, source, study, out), out,
+                          (None, None, None, startup / 4, False))
+    label = f"during start-up ({startup / 4 * 1000:.0f} ms after exec)"
+    if run.code == -signal.SIGINT and not leftovers(out, name) and not (out / name).exists():
+        table.rows.append((study, label, f"{run.latency:.3f}", run.code, "none",
+                           "killed by SIGINT before main (shell: 130); nothing written"))
+    else:
+        table.check(study, label, run, name, 130, False)
+
+
+def report(summary, table, began):
+    """The summary, the table and one FAIL line per broken promise; the exit code."""
+    for line in summary:
+        print(line)
+    if table.rows:
+        table.print()
+    latencies = [float(r[2]) for r in table.rows if r[2] != "-"]
+    print(f"{len(table.rows)} interrupted runs, largest signal->exit "
+          f"{max(latencies) if latencies else 0:.3f} s (limit {LIMIT_S} s), "
+          f"{time.monotonic() - began:.0f} s in all")
+    for f in table.failures:
+        print("FAIL:", f)
+    print("PASS" if not table.failures else f"{len(table.failures)} failures")
+    return 1 if table.failures else 0
+
+
 def main():
     parser = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     parser.add_argument("--plumage", required=True)
@@ -296,107 +405,24 @@ def main():
     table, summary = Table(), []
     references = {}
     try:
-        # Start-up: the dynamic loader and the libraries' initialisers run before main can
-        # install a handler; how long that takes is how long `plumage --version` takes.
-        startup = 0.0
-        for _ in range(3):
-            t = time.monotonic()
-            subprocess.run([plumage, "--version"], stdout=subprocess.DEVNULL, check=True)
-            startup = max(startup, time.monotonic() - t)
+        startup = startup_time(plumage)
         summary.append(f"start-up (plumage --version): {startup * 1000:.0f} ms")
         for study in args.studies:
-            ref_out = work / study / "reference"
-            ref = Run(command(plumage, source, study, ref_out))
-            duration = ref.exited_at - ref.start
-            name = result_name(ref_out) if ref_out.exists() else None
-            if ref.code != 0 or name is None:
-                table.failures.append(f"{study}: reference run exited {ref.code}: "
-                                      f"{ref.lines[-1][1] if ref.lines else ''}")
-                continue
-            references[study] = (ref_out, name, ref.lines)
-            plans = plan(ref.lines, duration, startup)
-            kinds = len({kind(l) for _, l in progress(ref.lines)[0]})
-            summary.append(f"{study}: reference {duration:.1f} s, {len(progress(ref.lines)[0])} progress "
-                           f"lines of {kinds} kinds, {len(plans)} interrupted runs")
-            for i, p in enumerate(plans):
-                out = work / study / f"run{i}"
-                run = interrupted_run(command(plumage, source, study, out), out, p)
-                table.check(study, p[0], run, name, 130, p[4])
-                if args.verbose:
-                    print(f"--- {study}, {p[0]}: exit {run.code}, {run.latency}")
-                    for when, line in run.lines:
-                        if when >= (run.sent_at or 1e9) - run.start - 0.5:
-                            print(f"    {when:7.3f} {line[:150]}")
-                shutil.rmtree(out, ignore_errors=True)
-
+            reference = interrupt_every_stage(plumage, source, study, work, startup, table,
+                                              summary, args.verbose)
+            if reference is not None:
+                references[study] = reference
         if "rock_dove_quick" in references:
-            ref_out, name, ref_lines = references["rock_dove_quick"]
-            stages = [masked(l) for _, l in progress(ref_lines)[0][:-1]]
-            sweep = next((s for s in stages if s.startswith("in-plane sweep")), stages[len(stages) // 2])
-            # SIGTERM at the in-plane sweep: exit 143.
-            out = work / "sigterm"
-            p = (f"SIGTERM at '{sweep[:40]}'", sweep, 0, 0.0, False)
-            run = interrupted_run(command(plumage, source, "rock_dove_quick", out), out, p, signal.SIGTERM)
-            table.check("rock_dove_quick", p[0], run, name, 143, False)
-            # An earlier complete result, and a rerun interrupted late (its last stage): the
-            # earlier result must be byte-identical afterwards.
-            out = work / "over_previous"
-            shutil.copytree(ref_out, out, symlinks=True)
-            before = digest(out / name)
-            p = (f"over an earlier result, at '{stages[-1][:30]}'", stages[-1], stages.count(stages[-1]) - 1, 0.0, False)
-            run = interrupted_run(command(plumage, source, "rock_dove_quick", out), out, p)
-            table.check("rock_dove_quick", p[0], run, name, 130, False)
-            same = (out / name).is_dir() and digest(out / name) == before
-            table.rows[-1] = table.rows[-1][:5] + (("earlier result byte-identical" if same else
-                                                    "earlier result CHANGED OR GONE") +
-                                                   ("; " + table.rows[-1][5] if table.rows[-1][5] else ""),)
-            if not same:
-                table.failures.append(f"rock_dove_quick, {p[0]}: the earlier result {name} changed or is gone")
-
-        # Ctrl-C in a terminal signals the whole process group, the plot interpreter too:
-        # once at every plot stage.
-        for study, (ref_out, name, ref_lines) in references.items():
-            for _, line in progress(ref_lines)[0][:-1]:
-                if kind(line).startswith("plot"):
-                    out = work / study / "group"
-                    p = (f"Ctrl-C (group SIGINT) at '{masked(line)[:30]}'", masked(line), 0, 0.0, False)
-                    run = interrupted_run(command(plumage, source, study, out), out, p, group=True)
-                    table.check(study, p[0], run, name, 130, False)
-                    break
-
-        # Start-up: a signal before main has installed its handler ends the process by the
-        # signal itself (a shell shows 130 all the same) with nothing written; reported, not
-        # failed, since no handler can exist before main's.
+            sigterm_and_earlier_result(plumage, source, work, references["rock_dove_quick"], table)
+        ctrl_c_at_plots(plumage, source, work, references, table)
         if references:
-            study = next(iter(references))
-            ref_out, name, _ = references[study]
-            out = work / "startup"
-            run = interrupted_run(command(plumage, source, study, out), out,
-                                  (None, None, None, startup / 4, False))
-            label = f"during start-up ({startup / 4 * 1000:.0f} ms after exec)"
-            if run.code == -signal.SIGINT and not leftovers(out, name) and not (out / name).exists():
-                table.rows.append((study, label, f"{run.latency:.3f}", run.code, "none",
-                                   "killed by SIGINT before main (shell: 130); nothing written"))
-            else:
-                table.check(study, label, run, name, 130, False)
+            signal_during_startup(plumage, source, work, references, startup, table)
     finally:
         if args.keep:
             print(f"kept {work}")
         else:
             shutil.rmtree(work, ignore_errors=True)
-
-    for line in summary:
-        print(line)
-    if table.rows:
-        table.print()
-    latencies = [float(r[2]) for r in table.rows if r[2] != "-"]
-    print(f"{len(table.rows)} interrupted runs, largest signal->exit "
-          f"{max(latencies) if latencies else 0:.3f} s (limit {LIMIT_S} s), "
-          f"{time.monotonic() - began:.0f} s in all")
-    for f in table.failures:
-        print("FAIL:", f)
-    print("PASS" if not table.failures else f"{len(table.failures)} failures")
-    return 1 if table.failures else 0
+    return report(summary, table, began)
 
 
 if __name__ == "__main__":
