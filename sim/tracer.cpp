@@ -493,6 +493,22 @@ FilmResponse SharedResponse::response(bool from_outside, double cos_theta) const
     return {mean_reflect_probability, 1.0 - mean_reflect_probability};
 }
 
+// A bare interface's Fresnel R and T at one wavelength (dielectric_event's), kept for the caller
+// once the event has asked for them.
+class OneBareResponse final : public FilmResponseSource {
+public:
+    explicit OneBareResponse(const ExplicitScatterer::Spectral::Surface& surface)
+        : surface_(surface) {}
+    FilmResponse response(bool from_outside, double cos_theta) const override {
+        last = bare_interface_response(surface_, from_outside, cos_theta);
+        return last;
+    }
+    mutable FilmResponse last{0.0, 0.0};
+
+private:
+    const ExplicitScatterer::Spectral::Surface& surface_;
+};
+
 // A film's response with the choice made in advance: the event takes the given side with
 // probability 1 and throughput 1 (interface_events.cpp's choose()); `inner`'s R and T stay
 // available to weigh the branch.
@@ -539,7 +555,8 @@ std::size_t ExplicitScatterer::sample_spectral_branches(const Vec3d& wi,
         if (path.event) events[count++] = spectral_event(path);
     };
     auto play = [&](Rng& stream, FirstFilm branch, const FirstHit* first) {
-        if (!diffuse_branches && !(split_reflections && branch == FirstFilm::reflect)) {
+        if (!diffuse_branches && !(split_reflections && branch == FirstFilm::reflect) &&
+            !options.split_aimed_reflections) {
             keep(walk_spectral(wi, lambdas_nm, position_um, stream, weights.subspan(count * n, n),
                                branch, &options, first));
             return;
@@ -634,6 +651,9 @@ public:
           leave_lit_(guide != nullptr && guide->connected_light_side),
           split_reflections_(guide != nullptr && guide->split_reflections && pending != nullptr &&
                              first_film == FirstFilm::reflect),
+          split_aimed_(guide != nullptr && guide->split_aimed_reflections && pending != nullptr &&
+                       !guide->detector_axes.empty()),
+          cos_aim_(guide != nullptr ? std::cos(guide->detector_half_angle_rad) : 1.0),
           connections_(connections) {}
 
     // The walk from `first`'s entry hit when given, or from the state's origin, to its end.
@@ -857,6 +877,9 @@ private:
     // differ, the shared choice with mean p̄ when every λ's regime agrees, else the hero's walk.
     InterfaceEvent dielectric_surface_event(const SurfaceHit& hit) {
         const Spectral::Surface& surface = hs_.surfaces[hit.surface];
+        if (split_aimed_ && room_for_aimed_branch() && aimed(hit)) {
+            if (std::optional<InterfaceEvent> e = split_aimed_reflection(hit)) return *e;
+        }
         if (!set_.dielectric_shared[hit.surface]) {
             if (!st_.single && regimes_agree(hit, false)) {
                 const SharedResponse source(set_.at, lambdas_, hit.surface,
@@ -874,6 +897,72 @@ private:
             dielectric_event(st_.direction, hit.normals, surface.outside, surface.inside, rng_);
         scale(e.throughput);
         return e;
+    }
+
+    // Whether an aimed reflection's branch fits in pending_ beside the branches the walk may still
+    // leave: its first diffuse event's guided ones and a reflected branch's split at its next film.
+    bool room_for_aimed_branch() const {
+        const std::size_t reserve = guide_->guided_branches + (split_reflections_ ? 1 : 0);
+        return pending_->count + reserve < pending_->at.size();
+    }
+
+    // Whether the walk's mirror direction about the shading normal lies within a detector cone
+    // (inside a dielectric too: tracer.h says why).
+    bool aimed(const SurfaceHit& hit) const {
+        const Vec3d mirror = reflect(st_.direction, hit.normals.shading);
+        for (const Vec3d& axis : guide_->detector_axes)
+            if (mirror.dot(axis) >= cos_aim_) return true;
+        return false;
+    }
+
+    // Reflections aimed at the detectors (tracer.h), at an aimed interface: the reflected side
+    // goes on as a branch in pending_ (each λ × R_k) and the walk takes the transmitted side
+    // (× T_k; through λ-dependent indices with the hero alone). No value at total internal
+    // reflection, which is no choice: the event is then the usual one.
+    std::optional<InterfaceEvent> split_aimed_reflection(const SurfaceHit& hit) {
+        const Spectral::Surface& surface = hs_.surfaces[hit.surface];
+        const bool bends = !set_.dielectric_shared[hit.surface];
+        if (bends && !st_.single && !regimes_agree(hit, false)) collapse();
+        const double n_out = surface.outside.real(), n_in = surface.inside.real();
+        const SharedResponse shared(set_.at, lambdas_, hit.surface,
+                                    SharedResponse::Interface::bare);
+        const OneBareResponse hero(surface);
+        const FilmResponseSource& inner =
+            st_.single ? static_cast<const FilmResponseSource&>(hero) : shared;
+        const InterfaceEvent reflected = dielectric_event(st_.direction, hit.normals, n_out, n_in,
+                                                          ForcedFilmChoice(inner, true), rng_);
+        if (reflected.kind != EventKind::specular_reflect) return std::nullopt;
+        // The reflected branch, from this event on its own stream (two draws, in this order).
+        const std::uint64_t high = rng_.next_u32();
+        const std::uint64_t fork_seed = (high << 32) | rng_.next_u32();
+        WalkState& branch = pending_->at[pending_->count++];
+        branch = st_;
+        const double shading =
+            adjoint_ ? adjoint_shading_factor(st_.direction, reflected, hit.normals) : 1.0;
+        for (std::size_t k = 0; k < n_; ++k) {
+            const double r =
+                st_.single ? (k == st_.hero ? hero.last.reflectance : 0.0) : shared.reflectance[k];
+            branch.w[k] *= std::max(0.0, r) * shading;
+        }
+        record(branch.path, reflected.kind);
+        branch.lit_straight = false;
+        branch.forced_film = -1;
+        branch.expected = reflected.to_outside ? surface.outside : surface.inside;
+        branch.origin = t_.scene_->spawn_point(hit, reflected.to_outside);
+        branch.direction = reflected.direction;
+        branch.skip = hit.primitive;
+        branch.stream_seed = fork_seed;
+        branch.stream_item = 0;
+        // The walk goes on through the interface.
+        const InterfaceEvent transmitted = dielectric_event(st_.direction, hit.normals, n_out, n_in,
+                                                            ForcedFilmChoice(inner, false), rng_);
+        if (st_.single) {
+            w_[st_.hero] *= std::max(0.0, hero.last.transmittance);
+        } else {
+            for (std::size_t k = 0; k < n_; ++k) w_[k] *= std::max(0.0, shared.transmittance[k]);
+            if (bends) collapse();
+        }
+        return transmitted;
     }
 
     // A film: the hero's own walk, or the shared choice with mean p̄ (tracer.h); a forced first
@@ -1108,6 +1197,8 @@ private:
     bool branch_diffuse_;
     bool leave_lit_;                  // BranchOptions::connected_light_side
     bool split_reflections_;          // BranchOptions::split_reflections, on a reflected branch
+    bool split_aimed_;                // BranchOptions::split_aimed_reflections, with room to leave
+    double cos_aim_;                  // cos of the detector cones' half-angle
     const Connections* connections_;  // a connected walk's lights, or none
     // The first diffuse event's guided directions (branch_diffuse_): fork_[1 … forked_ − 1].
     std::array<InterfaceEvent, 1 + BranchOptions::kMaxGuidedBranches> fork_;

@@ -129,6 +129,10 @@ gonio::BtfConfig read_btf_camera(ParameterTable& t, gonio::BtfConfig c) {
         t.boolean("split_reflections", c.split_reflections,
                   "BTF detector estimator: split each walk's reflected branch again at its next "
                   "film (true)");
+    c.split_aimed_reflections = t.boolean(
+        "split_aimed_reflections", c.split_aimed_reflections,
+        "BTF detector estimator: trace both sides of a bare interface whose mirror direction lies "
+        "within a light's cone (true)");
     c.max_passes = static_cast<int>(t.integer(
         "max_passes", c.max_passes, 1, 100000,
         "BTF detector estimator: passes at most (stop rule: target_pixel_error, max_time_s)"));

@@ -91,6 +91,7 @@ ScatterometerTable read_scatterometer_table(ParameterTable& table, Scatterometer
 //  | quanta_per_pixel        | 1    | [2, 10⁹]                | detector: per view, pixel, pass  |
 //  | stratified_group        | 1    | 2^k in [1, 4096]        | detector: quanta per group       |
 //  | split_reflections       |      | true, false             | detector: reflected branch split |
+//  | split_aimed_reflections |      | true, false             | detector: aimed reflection split |
 //  | max_passes              | 1    | [1, 100000]             | detector only                    |
 //  | target_pixel_error      | 1    | [0, 1)                  | median lit-pixel error; 0: none  |
 //  | max_time_s              | s    | >= 0                    | no pass ending after it; 0: none |

@@ -65,6 +65,9 @@ void BtfConfig::validate() const {
     require(!split_reflections || estimator == BtfEstimator::detector, kWhat,
             "split_reflections needs estimator = \"detector\" (it splits the detector-side "
             "walks)");
+    require(!split_aimed_reflections || estimator == BtfEstimator::detector, kWhat,
+            "split_aimed_reflections needs estimator = \"detector\" (it splits the "
+            "detector-side walks)");
     require(stratified_group == 1 || estimator == BtfEstimator::detector, kWhat,
             "stratified_group > 1 needs estimator = \"detector\" (it stratifies the pixel's "
             "quanta)");
@@ -280,6 +283,7 @@ public:
         options.detector_half_angle_rad = c_.detector_half_angle_rad;
         options.guided_branches = 1;
         options.split_reflections = c_.split_reflections;
+        options.split_aimed_reflections = c_.split_aimed_reflections;
         std::vector<double> acc(pairs.size() * nl_), group_sum(pairs.size() * nl_);
         const std::uint64_t group = c_.stratified_group, groups = c_.quanta_per_pixel / group;
         for (int column = 0; column < c_.pixels; ++column) {
@@ -487,6 +491,7 @@ std::string canonical(const BtfConfig& c, const std::string& scatterer) {
     // checkpoints still resume.
     if (c.stratified_group != 1) s += fmt::format("group {}|", c.stratified_group);
     if (c.split_reflections) s += "split_reflections|";
+    if (c.split_aimed_reflections) s += "split_aimed_reflections|";
     for (double l : c.wavelengths_nm) s += fmt::format("{:.17g},", l);
     for (const auto& p : c.pairs) {
         s += fmt::format("{:.17g},{:.17g},{:.17g},{:.17g},{:.17g},{:.17g};", p.wi.x(), p.wi.y(),
@@ -658,6 +663,12 @@ void write_btf_record(const BtfRecord& r, const std::filesystem::path& path) {
                              "first film and the reflected branch's next film: each walk split at "
                              "its first film event, the reflected branch again at its next event "
                              "if that is a film (sim/tracer.h)");
+        }
+        if (c.split_aimed_reflections) {
+            h5.set_attribute(
+                "/instrument", "aimed_reflection_splitting",
+                "at a bare interface whose mirror direction lies within a light's "
+                "cone, both sides traced: the reflected one as a branch (sim/tracer.h)");
         }
         h5.set_attribute("/instrument", "max_passes", static_cast<double>(c.max_passes));
         h5.set_attribute("/instrument", "target_pixel_error", c.target_pixel_error);

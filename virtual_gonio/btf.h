@@ -89,6 +89,11 @@ struct BtfConfig {
     // is a film (BranchOptions::split_reflections, sim/tracer.h): the chains of two film
     // reflections between barbules then come from every walk whose first reflection meets a film.
     bool split_reflections = false;
+    // Detector estimator: at a bare dielectric interface whose mirror direction lies within a
+    // light's cone, each walk takes both sides, the reflection as a branch of its own
+    // (BranchOptions::split_aimed_reflections, sim/tracer.h): the partial reflections that head
+    // for a light (R ≈ 0.04 on keratin) come from every walk that meets one.
+    bool split_aimed_reflections = false;
     // The detector estimator's stop rule: passes of quanta_per_pixel each, every pass on its own
     // streams, until the median per-pixel error over the lit pixels (median_lit_pixel_error) is
     // at most target_pixel_error, or max_passes are done, or another pass would end after

@@ -101,6 +101,11 @@ struct BranchOptions {
     // branches"); it then takes precedence over guided_fraction. 0: no such branches.
     std::size_t guided_branches = 0;
     static constexpr std::size_t kMaxGuidedBranches = 3;
+    // Reflections aimed at the detectors (sim/tracer.h, "Reflections aimed at the detectors"):
+    // at a bare dielectric interface whose mirror direction lies within a detector cone, a
+    // scatterer may take both sides: the reflected one as a branch of its own (each λ × R_k),
+    // the transmitted one as the walk (× T_k).
+    bool split_aimed_reflections = false;
     // The path starts at a detector (see the conventions above); only for scatterers that
     // can_trace_adjoint().
     bool adjoint = false;
@@ -165,9 +170,11 @@ public:
 
     // Path splitting: whether sample_spectral_branches() can return more than one branch.
     virtual bool can_split_paths() const { return false; }
-    // Two film branches, each with up to 1 + BranchOptions::kMaxGuidedBranches diffuse ones, and
-    // the reflected one's split at its next film (BranchOptions::split_reflections).
-    static constexpr std::size_t kMaxBranches = 2 * (1 + BranchOptions::kMaxGuidedBranches) + 1;
+    // Two film branches, each with up to 1 + kMaxGuidedBranches more: a path's branches wait in a
+    // list of that many (sim/tracer.h): the diffuse ones (BranchOptions::guided_branches), the
+    // reflected branch's split at its next film (split_reflections) and the aimed reflections
+    // (split_aimed_reflections) while there is room.
+    static constexpr std::size_t kMaxBranches = 2 * (2 + BranchOptions::kMaxGuidedBranches);
     // The quantum of sample_spectral() as branches b = 0 … count−1 (count returned, at most
     // kMaxBranches): events[b] its escape, weights[b·n + k] its weight at lambdas_nm[k]
     // (n = lambdas_nm.size(); events.size() >= kMaxBranches, weights.size() >= kMaxBranches·n),

@@ -318,6 +318,71 @@ TEST(TracerSpectral, SplitAndGuidedPathsAgreeWithThePlainWalk) {
     omp_set_num_threads(before);
 }
 
+// BranchOptions::split_aimed_reflections on a lossless keratin slab, from the detector: where the
+// top face's mirror direction lies within the light's cone, every walk leaves the reflection as a
+// branch of its own, towards the mirror direction with each λ's Fresnel R_λ (keratin's n(λ): the
+// shared response), and goes on into the slab with T_λ, refracted for its hero h alone (× N, the
+// others 0). The slab absorbs nothing, so whatever the transmitted walk does after, a quantum's
+// branches add up to R_λ + N T_λ at λ = h and to R_λ at the others. With the light elsewhere, no
+// walk splits: one branch per quantum.
+TEST(TracerSpectral, AnAimedReflectionSplitsOffWithItsFresnelWeight) {
+    const ExplicitScatterer slab(
+        single_mesh_scene(testing::box_mesh({-500, -500, -20}, {500, 500, 0}),
+                          dielectric_interface(optics::keratin()), "keratin slab"));
+    const std::vector<double> lambdas = {450.0, 550.0, 650.0};
+    const std::size_t n = lambdas.size();
+    const Vec3d view = from_angle(30.0), mirror = from_angle(30.0, 180.0);
+    std::vector<double> fresnel;
+    for (double lambda : lambdas) {
+        const double index = optics::keratin()->index(lambda).real();
+        fresnel.push_back(
+            lossless_fresnel_unpolarised(1.0, index, std::cos(30.0 * kDeg)).reflectance);
+    }
+    std::array<SpectralScatterEvent, PathTracing::kMaxBranches> events;
+    std::vector<double> weights(PathTracing::kMaxBranches * n);
+    for (const double light_phi : {180.0, 0.0}) {  // the mirror direction's cone, and another
+        const Vec3d light = from_angle(30.0, light_phi);
+        BranchOptions options;
+        options.adjoint = true;
+        options.detector_axes = std::span<const Vec3d>(&light, 1);
+        options.detector_half_angle_rad = 10.0 * kDeg;
+        options.split_aimed_reflections = true;
+        std::size_t split = 0;
+        for (std::uint64_t q = 0; q < 2000; ++q) {
+            Rng rng(23, q);
+            const std::size_t count = slab.sample_spectral_branches(view, lambdas, Vec2(0.0, 0.0),
+                                                                    rng, options, events, weights);
+            if (light_phi != 180.0) {
+                EXPECT_EQ(count, 1u);  // one walk, which chose its side at the top face
+                continue;
+            }
+            std::vector<double> total(n, 0.0);
+            for (std::size_t b = 0; b < count; ++b) {
+                for (std::size_t k = 0; k < n; ++k) total[k] += weights[b * n + k];
+                // The reflection leaves where the walk entered (within the top plane's margin);
+                // light that the bottom face sends back leaves parallel to it, further on.
+                if ((events[b].wo - mirror).norm() > 1e-9 ||
+                    events[b].exit_position_um.norm() > 5.0)
+                    continue;
+                ++split;
+                for (std::size_t k = 0; k < n; ++k)
+                    EXPECT_NEAR(weights[b * n + k], fresnel[k], 1e-12) << lambdas[k] << " nm";
+            }
+            std::size_t heroes = 0;
+            for (std::size_t k = 0; k < n; ++k) {
+                const double hero = fresnel[k] + static_cast<double>(n) * (1.0 - fresnel[k]);
+                if (std::abs(total[k] - hero) < 1e-12) {
+                    ++heroes;
+                } else {
+                    EXPECT_NEAR(total[k], fresnel[k], 1e-12) << lambdas[k] << " nm";
+                }
+            }
+            EXPECT_EQ(heroes, 1u);
+        }
+        if (light_phi == 180.0) EXPECT_EQ(split, 2000u);
+    }
+}
+
 // BranchOptions::split_reflections: a reflected branch whose next event is a film leaves its
 // transmitted side as a third branch, so that some quanta escape with three branches (never more
 // without guided branches). That the branches' weights are right is the χ² test above.

@@ -65,14 +65,18 @@ inline void expect_estimators_agree(const Scatterer& scatterer, BtfConfig c,
     c.quanta_per_light = per_light;
     c.quanta_per_pixel = per_pixel;
     c.seed = 7;
-    // The detector estimator's own options (c.split_reflections) stay off for the forward one.
+    // The detector estimator's own options (split_reflections, split_aimed_reflections) stay off
+    // for the forward one.
     const bool split_reflections = c.split_reflections;
+    const bool split_aimed_reflections = c.split_aimed_reflections;
     c.split_reflections = false;
+    c.split_aimed_reflections = false;
     c.estimator = BtfEstimator::forward;
     const BtfRecord forward = measure_btf(scatterer, c);
     c.estimator = BtfEstimator::detector;
     c.stratified_group = group;
     c.split_reflections = split_reflections;
+    c.split_aimed_reflections = split_aimed_reflections;
     const BtfRecord detector = measure_btf(scatterer, c);
     ::testing::Test::RecordProperty(what + "_forward_s", std::to_string(forward.wall_time_s));
     ::testing::Test::RecordProperty(what + "_detector_s", std::to_string(detector.wall_time_s));

@@ -144,6 +144,18 @@ TEST(BtfDetector, AgreesWithTheForwardWalkOnADispersiveSphere) {
                             "dispersive_sphere", 15, 64);
 }
 
+// Reflections aimed at the lights split off (BtfConfig::split_aimed_reflections, sim/tracer.h): on
+// the faceted sphere at one wavelength (one Fresnel response for the path) and on the dispersive
+// one (the shared response outside, the hero's inside).
+TEST(BtfDetector, AimedReflectionsAgreeWithTheForwardWalkOnKeratinSpheres) {
+    BtfConfig c = lights_round_one_view();
+    c.split_aimed_reflections = true;
+    c.wavelengths_nm = {550.0};
+    expect_estimators_agree(keratin_sphere(2), c, 300000, 40000, "aimed_faceted_sphere", 15);
+    c.wavelengths_nm = BtfConfig{}.wavelengths_nm;
+    expect_estimators_agree(keratin_sphere(4), c, 300000, 40960, "aimed_dispersive_sphere", 15, 64);
+}
+
 TEST(BtfDetector, AgreesWithTheForwardWalkOnAFlatFilm) {
     // One film reflection: the near-specular pairs see the two cones' overlap, the others nothing.
     const sim::ExplicitScatterer film(sim::single_mesh_scene(
@@ -345,6 +357,10 @@ TEST(BtfDetector, RefusesWhatItCannotMeasure) {
     c.quanta_per_pixel = 960;
     c.stratified_group = 48;
     EXPECT_THROW(measure_btf(plate, c), InputError);  // not a power of two
+    c.stratified_group = 1;
+    c.split_aimed_reflections = true;
+    c.estimator = BtfEstimator::forward;  // it splits the detector-side walks
+    EXPECT_THROW(measure_btf(plate, c), InputError);
 }
 
 }  // namespace
