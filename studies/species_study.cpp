@@ -737,13 +737,16 @@ std::string section_btf_setup(const Settings& s, const SpeciesOutcome& o, const 
                        "detector-side estimator, {} quanta per view direction and pixel in each "
                        "of {} passes (all wavelengths on one path{}; {})",
                        s.btf.quanta_per_pixel, o.btf_passes,
-                       fmt::format("{}{}",
+                       fmt::format("{}{}{}",
                                    s.btf.stratified_group > 1
                                        ? fmt::format(", starts stratified in groups of {}",
                                                      s.btf.stratified_group)
                                        : std::string(),
                                    s.btf.split_reflections
                                        ? ", reflected branches split again at their next film"
+                                       : "",
+                                   s.btf.split_aimed_reflections
+                                       ? ", reflections aimed at a light's cone split off"
                                        : ""),
                        btf_stop_rule(s))
                  : fmt::format("forward estimator, {} quanta per light direction and wavelength",
