@@ -379,7 +379,9 @@ TEST(TracerSpectral, AnAimedReflectionSplitsOffWithItsFresnelWeight) {
             }
             EXPECT_EQ(heroes, 1u);
         }
-        if (light_phi == 180.0) EXPECT_EQ(split, 2000u);
+        if (light_phi == 180.0) {
+            EXPECT_EQ(split, 2000u);
+        }
     }
 }
 
