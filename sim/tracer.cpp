@@ -932,11 +932,8 @@ private:
         const InterfaceEvent reflected = dielectric_event(st_.direction, hit.normals, n_out, n_in,
                                                           ForcedFilmChoice(inner, true), rng_);
         if (reflected.kind != EventKind::specular_reflect) return std::nullopt;
-        // The reflected branch, from this event on its own stream (two draws, in this order).
-        const std::uint64_t high = rng_.next_u32();
-        const std::uint64_t fork_seed = (high << 32) | rng_.next_u32();
-        WalkState& branch = pending_->at[pending_->count++];
-        branch = st_;
+        // The reflected branch, from this event on its own stream.
+        WalkState& branch = leave_branch(fork_seed(), 0);
         const double shading =
             adjoint_ ? adjoint_shading_factor(st_.direction, reflected, hit.normals) : 1.0;
         for (std::size_t k = 0; k < n_; ++k) {
@@ -944,15 +941,9 @@ private:
                 st_.single ? (k == st_.hero ? hero.last.reflectance : 0.0) : shared.reflectance[k];
             branch.w[k] *= std::max(0.0, r) * shading;
         }
-        record(branch.path, reflected.kind);
+        go_on(branch, hit, reflected);
         branch.lit_straight = false;
         branch.forced_film = -1;
-        branch.expected = reflected.to_outside ? surface.outside : surface.inside;
-        branch.origin = t_.scene_->spawn_point(hit, reflected.to_outside);
-        branch.direction = reflected.direction;
-        branch.skip = hit.primitive;
-        branch.stream_seed = fork_seed;
-        branch.stream_item = 0;
         // The walk goes on through the interface.
         const InterfaceEvent transmitted = dielectric_event(st_.direction, hit.normals, n_out, n_in,
                                                             ForcedFilmChoice(inner, false), rng_);
@@ -1144,37 +1135,44 @@ private:
     // transmitted one waits in pending_ with the state before this event (its ray is cast again)
     // and its own stream.
     void leave_transmitted_branch() {
-        // Two draws, in this order (the operands of one expression would be unsequenced).
+        leave_branch(fork_seed(), 0).forced_film = 0;
+        st_.forced_film = 1;
+    }
+
+    // A branch's stream seed: two draws of the walk's stream, in this order (the operands of one
+    // expression would be unsequenced).
+    std::uint64_t fork_seed() {
         const std::uint64_t high = rng_.next_u32();
-        const std::uint64_t fork_seed = (high << 32) | rng_.next_u32();
+        return (high << 32) | rng_.next_u32();
+    }
+    // A new branch in pending_: the walk's state as it is, on the stream Rng(seed, item).
+    WalkState& leave_branch(std::uint64_t seed, std::uint64_t item) {
         WalkState& branch = pending_->at[pending_->count++];
         branch = st_;
-        branch.forced_film = 0;
-        branch.stream_seed = fork_seed;
-        branch.stream_item = 0;
-        st_.forced_film = 1;
+        branch.stream_seed = seed;
+        branch.stream_item = item;
+        return branch;
+    }
+    // A branch goes on from `hit` after `event` (its record, side, origin and direction).
+    void go_on(WalkState& branch, const SurfaceHit& hit, const InterfaceEvent& event) const {
+        record(branch.path, event.kind);
+        const Spectral::Surface& surface = hs_.surfaces[hit.surface];
+        branch.expected = event.to_outside ? surface.outside : surface.inside;
+        branch.origin = t_.scene_->spawn_point(hit, event.to_outside);
+        branch.direction = event.direction;
+        branch.skip = hit.primitive;
     }
 
     // The guided branches of the first diffuse event wait in pending_, each from this event with
     // its own direction and stream.
     void leave_guided_branches(const SurfaceHit& hit) {
-        const Spectral::Surface& surface = hs_.surfaces[hit.surface];
-        // Two draws, in this order (the operands of one expression would be unsequenced).
-        const std::uint64_t high = rng_.next_u32();
-        const std::uint64_t fork_seed = (high << 32) | rng_.next_u32();
+        const std::uint64_t seed = fork_seed();
         for (std::size_t b = 1; b < forked_; ++b) {
             if (fork_[b].kind != EventKind::diffuse_reflect) continue;
-            WalkState& branch = pending_->at[pending_->count++];
-            branch = st_;
+            WalkState& branch = leave_branch(seed, b);
             branch.w = before_fork_;
             diffuse_weights(branch.w, hit.surface, fork_[b].throughput);
-            record(branch.path, fork_[b].kind);
-            branch.expected = fork_[b].to_outside ? surface.outside : surface.inside;
-            branch.origin = t_.scene_->spawn_point(hit, fork_[b].to_outside);
-            branch.direction = fork_[b].direction;
-            branch.skip = hit.primitive;
-            branch.stream_seed = fork_seed;
-            branch.stream_item = b;
+            go_on(branch, hit, fork_[b]);
         }
         forked_ = 0;
     }
